@@ -1,0 +1,21 @@
+//! cubetrace: accurate mirror reflections on curved surfaces by cubemap tracing.
+//!
+//! Module map (everything outside [`vk`] forbids `unsafe`):
+//! - [`scene`]: scene files (TOML + OBJ/MTL/PNG), built-in scenes, mesh hygiene.
+//! - [`camera`]: the camera and its pixel convention (Vulkan's, pixel centres at +0.5).
+//! - [`shading`]: the view-independent shading shared by the capture and the reference.
+//! - [`reference`]: the exact CPU ray tracer that every accuracy figure is measured against.
+//! - [`output`]: PNG and EXR writers (atomic: temporary file, then rename).
+//! - [`cubemap`]: cube face mapping and distance hierarchies (pure data, no GPU).
+//! - [`cpu`]: CPU twins of the GPU passes, with the shaders' names and loop structure.
+//! - [`vk`]: the Vulkan backend (ash); the only module tree that may use `unsafe`.
+#![deny(unsafe_op_in_unsafe_fn)]
+
+pub mod camera;
+pub mod cpu;
+pub mod cubemap;
+pub mod output;
+pub mod reference;
+pub mod scene;
+pub mod shading;
+pub mod vk;
