@@ -1,1 +1,158 @@
 #![forbid(unsafe_code)]
+//! Image output: 8-bit sRGB PNG and 32-bit float EXR, always written atomically (a temporary
+//! file in the destination folder, then a rename), so that an error never leaves a half-written
+//! file behind.
+//!
+//! EXR channels of a [`Frame`]: `R`, `G`, `B` (linear colour, f32), `mask` (f32, 1 on reflector
+//! pixels), `hit.X`, `hit.Y`, `hit.Z` (world position of the first reflected hit, f32, NaN where
+//! none), `object_id`, `primitive_id` (u32, 4294967295 where none) and `bounces` (u32).
+
+use std::io::Write;
+use std::path::Path;
+
+use anyhow::{Context, Result, bail};
+use exr::prelude::{AnyChannel, AnyChannels, FlatSamples, Image, WritableImage};
+use glam::Vec3;
+
+use crate::reference::Frame;
+use crate::shading::linear_to_srgb;
+
+/// Writes `bytes` to `path` through a temporary file in the same folder and a rename.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    write_atomic_with(path, |w| {
+        w.write_all(bytes)?;
+        Ok(())
+    })
+}
+
+/// Like [`write_atomic`], with a writer callback. The temporary file is removed if `write`
+/// fails.
+pub fn write_atomic_with(
+    path: &Path,
+    write: impl FnOnce(&mut std::io::BufWriter<&std::fs::File>) -> Result<()>,
+) -> Result<()> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let tmp = tempfile::Builder::new()
+        .prefix(".cubetrace-")
+        .suffix(".tmp")
+        .tempfile_in(dir)
+        .with_context(|| format!("cannot create a temporary file in {}", dir.display()))?;
+    {
+        let mut w = std::io::BufWriter::new(tmp.as_file());
+        write(&mut w).with_context(|| format!("cannot write {}", path.display()))?;
+        w.flush()
+            .with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    tmp.persist(path)
+        .with_context(|| format!("cannot move the finished file to {}", path.display()))?;
+    Ok(())
+}
+
+/// The image formats the CLI writes, chosen by file extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    Png,
+    Exr,
+}
+
+impl Format {
+    pub fn from_path(path: &Path) -> Result<Self> {
+        match path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(|e| e.to_ascii_lowercase())
+            .as_deref()
+        {
+            Some("png") => Ok(Format::Png),
+            Some("exr") => Ok(Format::Exr),
+            _ => bail!(
+                "output {}: unsupported extension (use .png or .exr)",
+                path.display()
+            ),
+        }
+    }
+}
+
+/// Encodes linear colours as an 8-bit sRGB PNG.
+pub fn png_bytes(width: u32, height: u32, colour: &[Vec3]) -> Result<Vec<u8>> {
+    let rgb: Vec<u8> = colour
+        .iter()
+        .flat_map(|c| c.to_array().map(linear_to_srgb))
+        .collect();
+    let mut png = Vec::new();
+    image::write_buffer_with_format(
+        &mut std::io::Cursor::new(&mut png),
+        &rgb,
+        width,
+        height,
+        image::ExtendedColorType::Rgb8,
+        image::ImageFormat::Png,
+    )?;
+    Ok(png)
+}
+
+/// One named EXR channel.
+pub enum Channel {
+    F32(Vec<f32>),
+    U32(Vec<u32>),
+}
+
+/// Writes a multi-channel 32-bit EXR atomically.
+pub fn write_exr(
+    path: &Path,
+    width: u32,
+    height: u32,
+    channels: Vec<(&str, Channel)>,
+) -> Result<()> {
+    let list = channels
+        .into_iter()
+        .map(|(name, c)| {
+            let samples = match c {
+                Channel::F32(v) => FlatSamples::F32(v),
+                Channel::U32(v) => FlatSamples::U32(v),
+            };
+            AnyChannel::new(name, samples)
+        })
+        .collect();
+    let image = Image::from_channels((width as usize, height as usize), AnyChannels::sort(list));
+    // The encoder needs `Write + Seek`; encode into memory, then write atomically.
+    let mut buf = std::io::Cursor::new(Vec::new());
+    image
+        .write()
+        .non_parallel()
+        .to_buffered(&mut buf)
+        .with_context(|| format!("cannot encode {}", path.display()))?;
+    write_atomic(path, buf.get_ref())
+}
+
+/// The EXR channels of a reference frame (see the module docs).
+pub fn frame_channels(frame: &Frame) -> Vec<(&'static str, Channel)> {
+    let f = |g: &dyn Fn(usize) -> f32| Channel::F32((0..frame.colour.len()).map(g).collect());
+    vec![
+        ("R", f(&|k| frame.colour[k].x)),
+        ("G", f(&|k| frame.colour[k].y)),
+        ("B", f(&|k| frame.colour[k].z)),
+        ("mask", f(&|k| frame.mask[k] as f32)),
+        ("hit.X", f(&|k| frame.hit_position[k].x)),
+        ("hit.Y", f(&|k| frame.hit_position[k].y)),
+        ("hit.Z", f(&|k| frame.hit_position[k].z)),
+        ("object_id", Channel::U32(frame.object_id.clone())),
+        ("primitive_id", Channel::U32(frame.primitive_id.clone())),
+        (
+            "bounces",
+            Channel::U32(frame.bounces.iter().map(|&b| b as u32).collect()),
+        ),
+    ]
+}
+
+/// Writes a frame as PNG or EXR, chosen by the extension of `path`.
+pub fn write_frame(path: &Path, frame: &Frame) -> Result<()> {
+    match Format::from_path(path)? {
+        Format::Png => write_atomic(path, &png_bytes(frame.width, frame.height, &frame.colour)?),
+        Format::Exr => write_exr(path, frame.width, frame.height, frame_channels(frame)),
+    }
+}

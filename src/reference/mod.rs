@@ -1,1 +1,332 @@
 #![forbid(unsafe_code)]
+//! The exact CPU reference renderer: the ground truth every accuracy figure is measured against.
+//!
+//! Per pixel, one primary ray through the pixel centre ([`Camera::ray`], Vulkan's convention).
+//! On a reflector, the ray reflects about the interpolated vertex normal (normalised, not
+//! flipped: exactly what the rasteriser interpolates) and is traced again, up to `bounces`
+//! reflections. Reflectors count as hits, so self-reflections are included. The first
+//! non-reflector hit is shaded ([`crate::shading`]), a ray that leaves the scene takes the
+//! background, and a reflector met after the last bounce is shaded with its own material.
+//!
+//! Nearest hits come from a BVH built by the `obvhs` crate: it builds with glam types directly
+//! (no conversion to nalgebra, which `bvh` and `parry3d` would need), is deterministic when
+//! built single-threaded (as here), and lets us supply the triangle test, so the test runs in
+//! f64 (Möller–Trumbore) and ties are broken by the lower triangle index. A reflected ray
+//! ignores the triangle it starts on (instead of a distance bias), plus hits closer than
+//! [`SELF_HIT_EPSILON`] times the scene's extent, which only neighbouring triangles sharing the
+//! start point's edge can produce.
+//!
+//! Rendering is parallel over rows with `rayon`; every pixel is computed independently, so the
+//! output is the same bits for the same scene whatever the thread count.
+
+use glam::{DVec3, Vec2, Vec3, Vec3A};
+use obvhs::aabb::Aabb;
+use obvhs::bvh2::Bvh2;
+use obvhs::ray::{Ray, RayHit};
+use rayon::prelude::*;
+
+use crate::camera::Camera;
+use crate::scene::{Scene, WorldGeometry};
+use crate::shading::albedo;
+
+/// Hits nearer than this fraction of the scene's extent are ignored on reflected rays.
+pub const SELF_HIT_EPSILON: f32 = 1e-6;
+
+/// "No object / no primitive" in [`Frame`] ids.
+pub const NO_ID: u32 = u32::MAX;
+
+/// The per-pixel result of a render, row-major, row 0 at the top.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Frame {
+    pub width: u32,
+    pub height: u32,
+    /// Linear RGB.
+    pub colour: Vec<Vec3>,
+    /// 1 where the primary ray hits a reflector.
+    pub mask: Vec<u8>,
+    /// World-space point hit by the first reflected ray (NaN where there is none).
+    pub hit_position: Vec<Vec3>,
+    /// Object hit by the first reflected ray ([`NO_ID`] where none).
+    pub object_id: Vec<u32>,
+    /// Triangle (within its object) hit by the first reflected ray ([`NO_ID`] where none).
+    pub primitive_id: Vec<u32>,
+    /// Number of reflections the pixel's path took.
+    pub bounces: Vec<u8>,
+}
+
+impl Frame {
+    pub fn new(width: u32, height: u32) -> Self {
+        let n = (width * height) as usize;
+        Frame {
+            width,
+            height,
+            colour: vec![Vec3::ZERO; n],
+            mask: vec![0; n],
+            hit_position: vec![Vec3::NAN; n],
+            object_id: vec![NO_ID; n],
+            primitive_id: vec![NO_ID; n],
+            bounces: vec![0; n],
+        }
+    }
+
+    pub fn index(&self, i: u32, j: u32) -> usize {
+        (j * self.width + i) as usize
+    }
+
+    pub fn mirror_pixels(&self) -> usize {
+        self.mask.iter().filter(|&&m| m != 0).count()
+    }
+}
+
+/// A nearest hit.
+#[derive(Clone, Copy, Debug)]
+pub struct Hit {
+    pub t: f32,
+    pub position: Vec3,
+    /// Global triangle index in [`WorldGeometry::triangles`].
+    pub triangle: u32,
+    /// Barycentric weights of vertices 1 and 2.
+    pub bary: Vec2,
+}
+
+/// A scene prepared for ray queries.
+pub struct Tracer {
+    pub world: WorldGeometry,
+    bvh: Bvh2,
+    /// Triangles in BVH order.
+    tris: Vec<[Vec3; 3]>,
+    /// BVH order -> global triangle index.
+    order: Vec<u32>,
+    self_hit: f32,
+}
+
+struct Tri<'a>(&'a [Vec3; 3]);
+
+impl obvhs::Boundable for Tri<'_> {
+    fn aabb(&self) -> Aabb {
+        let [a, b, c] = *self.0;
+        Aabb::new(Vec3A::from(a.min(b).min(c)), Vec3A::from(a.max(b).max(c)))
+    }
+}
+
+/// f64 Möller–Trumbore; returns `(t, b1, b2)` with edges included.
+fn intersect(o: DVec3, d: DVec3, tri: &[Vec3; 3]) -> Option<(f64, f64, f64)> {
+    let [a, b, c] = tri.map(|v| v.as_dvec3());
+    let e1 = b - a;
+    let e2 = c - a;
+    let p = d.cross(e2);
+    let det = e1.dot(p);
+    if det == 0.0 || !det.is_finite() {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let s = o - a;
+    let u = s.dot(p) * inv;
+    if !(0.0..=1.0).contains(&u) {
+        return None;
+    }
+    let q = s.cross(e1);
+    let v = d.dot(q) * inv;
+    if v < 0.0 || u + v > 1.0 {
+        return None;
+    }
+    Some((e2.dot(q) * inv, u, v))
+}
+
+impl Tracer {
+    pub fn new(scene: &Scene) -> Self {
+        Self::from_world(scene.world())
+    }
+
+    pub fn from_world(world: WorldGeometry) -> Self {
+        let tris_in: Vec<[Vec3; 3]> = world
+            .triangles
+            .iter()
+            .map(|t| t.map(|i| world.positions[i as usize]))
+            .collect();
+        let prims: Vec<Tri> = tris_in.iter().map(Tri).collect();
+        let bvh = if prims.is_empty() {
+            Bvh2::default()
+        } else {
+            let mut t = std::time::Duration::ZERO;
+            obvhs::bvh2::builder::build_bvh2(&prims, obvhs::BvhBuildParams::medium_build(), &mut t)
+        };
+        let order = bvh.primitive_indices.clone();
+        let tris = order.iter().map(|&i| tris_in[i as usize]).collect();
+        let self_hit = SELF_HIT_EPSILON * world.extent();
+        Tracer {
+            world,
+            bvh,
+            tris,
+            order,
+            self_hit,
+        }
+    }
+
+    /// The nearest hit along `origin + t dir`, `t > 0`, ignoring triangle `skip` (and, when
+    /// `skip` is set, hits closer than the self-hit distance).
+    pub fn nearest(&self, origin: Vec3, dir: Vec3, skip: Option<u32>) -> Option<Hit> {
+        if self.tris.is_empty() {
+            return None;
+        }
+        let (o, d) = (origin.as_dvec3(), dir.as_dvec3());
+        let t_min = if skip.is_some() {
+            self.self_hit as f64
+        } else {
+            0.0
+        };
+        let mut best: Option<(f64, u32, f64, f64)> = None;
+        let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, f32::INFINITY);
+        let mut hit = RayHit::none();
+        self.bvh.ray_traverse(ray, &mut hit, |_, k| {
+            let global = self.order[k];
+            if Some(global) == skip {
+                return f32::INFINITY;
+            }
+            match intersect(o, d, &self.tris[k]) {
+                Some((t, u, v)) if t > t_min => {
+                    let better = match best {
+                        None => true,
+                        Some((bt, bg, _, _)) => t < bt || (t == bt && global < bg),
+                    };
+                    if better {
+                        best = Some((t, global, u, v));
+                    }
+                    // Round up so that node culling never drops an equally near triangle.
+                    let tf = t as f32;
+                    if (tf as f64) < t { tf.next_up() } else { tf }
+                }
+                _ => f32::INFINITY,
+            }
+        });
+        best.map(|(t, triangle, u, v)| Hit {
+            t: t as f32,
+            position: (o + d * t).as_vec3(),
+            triangle,
+            bary: Vec2::new(u as f32, v as f32),
+        })
+    }
+
+    /// Interpolated, normalised vertex normal at a hit (the rasteriser's shading normal).
+    pub fn normal(&self, hit: &Hit) -> Vec3 {
+        let [a, b, c] =
+            self.world.triangles[hit.triangle as usize].map(|i| self.world.normals[i as usize]);
+        let (u, v) = (hit.bary.x, hit.bary.y);
+        (a * (1.0 - u - v) + b * u + c * v).normalize_or_zero()
+    }
+
+    pub fn uv(&self, hit: &Hit) -> Vec2 {
+        let [a, b, c] =
+            self.world.triangles[hit.triangle as usize].map(|i| self.world.uvs[i as usize]);
+        let (u, v) = (hit.bary.x, hit.bary.y);
+        a * (1.0 - u - v) + b * u + c * v
+    }
+
+    /// Object id and primitive id (within the object) of a global triangle index.
+    pub fn ids(&self, triangle: u32) -> (u32, u32) {
+        let o = self.world.triangle_object[triangle as usize];
+        (o, triangle - self.world.objects[o as usize].first_triangle)
+    }
+
+    pub fn is_reflector(&self, triangle: u32) -> bool {
+        self.world.objects[self.world.triangle_object[triangle as usize] as usize].reflector
+    }
+
+    /// The view-independent shaded colour at a hit.
+    pub fn shade(&self, scene: &Scene, hit: &Hit) -> Vec3 {
+        let object =
+            &self.world.objects[self.world.triangle_object[hit.triangle as usize] as usize];
+        let material = &scene.materials[object.material as usize];
+        scene.shading.shade(
+            albedo(material, &scene.textures, self.uv(hit)),
+            self.normal(hit),
+        )
+    }
+}
+
+/// The mirror direction of `d` about the unit normal `n`.
+pub fn reflect(d: Vec3, n: Vec3) -> Vec3 {
+    d - 2.0 * d.dot(n) * n
+}
+
+/// One pixel's path.
+#[derive(Clone, Copy, Debug)]
+pub struct PathResult {
+    pub colour: Vec3,
+    pub mirror: bool,
+    pub first_reflected: Option<Hit>,
+    pub bounces: u8,
+}
+
+/// Traces one path from `origin` along `dir` with up to `max_bounces` reflections.
+pub fn trace_path(
+    scene: &Scene,
+    tracer: &Tracer,
+    origin: Vec3,
+    dir: Vec3,
+    max_bounces: u32,
+) -> PathResult {
+    let mut out = PathResult {
+        colour: scene.background,
+        mirror: false,
+        first_reflected: None,
+        bounces: 0,
+    };
+    let (mut o, mut d, mut skip) = (origin, dir, None);
+    let mut bounce = 0u32;
+    loop {
+        let Some(hit) = tracer.nearest(o, d, skip) else {
+            out.colour = scene.background;
+            return out;
+        };
+        if bounce == 1 {
+            out.first_reflected = Some(hit);
+        }
+        let reflector = tracer.is_reflector(hit.triangle);
+        if bounce == 0 && reflector {
+            out.mirror = true;
+        }
+        if reflector && bounce < max_bounces {
+            d = reflect(d, tracer.normal(&hit)).normalize();
+            o = hit.position;
+            skip = Some(hit.triangle);
+            bounce += 1;
+            out.bounces = bounce as u8;
+            continue;
+        }
+        out.colour = tracer.shade(scene, &hit);
+        return out;
+    }
+}
+
+/// Renders `camera`'s view of `scene` with up to `bounces` reflections per path.
+pub fn render(scene: &Scene, tracer: &Tracer, camera: &Camera, bounces: u32) -> Frame {
+    let mut frame = Frame::new(camera.width, camera.height);
+    let w = camera.width as usize;
+    let rows: Vec<Vec<PathResult>> = (0..camera.height)
+        .into_par_iter()
+        .map(|j| {
+            (0..camera.width)
+                .map(|i| {
+                    let (o, d) = camera.ray(i, j);
+                    trace_path(scene, tracer, o, d, bounces)
+                })
+                .collect()
+        })
+        .collect();
+    for (j, row) in rows.into_iter().enumerate() {
+        for (i, p) in row.into_iter().enumerate() {
+            let k = j * w + i;
+            frame.colour[k] = p.colour;
+            frame.mask[k] = p.mirror as u8;
+            frame.bounces[k] = p.bounces;
+            if let Some(h) = p.first_reflected {
+                frame.hit_position[k] = h.position;
+                let (o, prim) = tracer.ids(h.triangle);
+                frame.object_id[k] = o;
+                frame.primitive_id[k] = prim;
+            }
+        }
+    }
+    frame
+}

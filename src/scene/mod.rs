@@ -1,1 +1,317 @@
 #![forbid(unsafe_code)]
+//! Scenes: what surrounds a reflector, how it is shaded, and where it is seen from.
+//!
+//! Conventions (every other module relies on them):
+//! - World space is right-handed, y up, units are arbitrary but consistent (the built-ins use
+//!   metres).
+//! - A [`Scene`] keeps meshes in *object space* with a [`Transform`] each, exactly as a scene
+//!   file states them; [`Scene::world`] flattens them into world-space triangles.
+//! - Colours are linear RGB. MTL `Kd` values are read as linear; `map_Kd` textures are sRGB
+//!   encoded 8-bit images, decoded to linear before filtering (as an `*_SRGB` Vulkan format does).
+//! - Texture coordinates follow OBJ: `u` to the right, `v` up. Image row 0 is the top, so a
+//!   texel is looked up at `(u, 1 - v)`.
+//! - Normals are never flipped towards the viewer: a mirror reflects about its interpolated vertex
+//!   normal as stored, which is what the rasteriser will interpolate too.
+
+pub mod builtin;
+mod error;
+pub mod export;
+mod file;
+mod obj;
+pub mod shapes;
+mod world;
+
+pub use error::SceneError;
+pub use file::{check_resolution, load_scene_file};
+pub use world::{ObjectInfo, WorldGeometry};
+
+use glam::{EulerRot, Mat3, Mat4, Quat, Vec2, Vec3};
+use std::path::Path;
+
+use crate::camera::Camera;
+use crate::shading::Shading;
+
+/// Largest accepted image side, in pixels. Larger requests are rejected as absurd: a single
+/// 16384² frame already needs several GiB for the per-pixel outputs.
+pub const MAX_IMAGE_SIDE: u32 = 16384;
+
+/// Largest accepted cubemap face size (texels per side).
+pub const MAX_CUBE_SIZE: u32 = 4096;
+
+/// A complete scene.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scene {
+    pub name: String,
+    pub meshes: Vec<MeshInstance>,
+    pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
+    pub cameras: Vec<Camera>,
+    pub cmo: CmoSpec,
+    /// Colour of rays that leave the scene (linear RGB).
+    pub background: Vec3,
+    pub shading: Shading,
+    /// Whether reflectors see themselves. When off, the cubemap capture leaves reflectors out and
+    /// allocates no mirror mask or normal cubemaps.
+    pub self_reflections: bool,
+}
+
+/// One mesh of a scene file: an OBJ file placed by a transform.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshInstance {
+    pub name: String,
+    /// One part per OBJ object/material group, in object space.
+    pub parts: Vec<MeshPart>,
+    pub transform: Transform,
+    pub reflector: bool,
+}
+
+/// An indexed triangle list with one material, in object space.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct MeshPart {
+    pub name: String,
+    pub positions: Vec<Vec3>,
+    /// One unit normal per position.
+    pub normals: Vec<Vec3>,
+    /// Empty, or one texture coordinate per position.
+    pub uvs: Vec<Vec2>,
+    pub triangles: Vec<[u32; 3]>,
+    /// Index into [`Scene::materials`].
+    pub material: u32,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    /// Linear RGB diffuse colour (`Kd`).
+    pub diffuse: Vec3,
+    /// Index into [`Scene::textures`] (`map_Kd`), multiplied with `diffuse`.
+    pub texture: Option<u32>,
+}
+
+/// An sRGB-encoded RGBA8 image, row 0 at the top.
+#[derive(Clone, PartialEq)]
+pub struct Texture {
+    /// File name used when the scene is exported (`NAME.png`).
+    pub name: String,
+    pub width: u32,
+    pub height: u32,
+    pub rgba8: Vec<u8>,
+}
+
+impl std::fmt::Debug for Texture {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Texture({} {}x{})", self.name, self.width, self.height)
+    }
+}
+
+/// Object-to-world placement: scale, then rotate (Euler X, then Y, then Z, in degrees), then
+/// translate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Transform {
+    pub translate: Vec3,
+    pub rotate_deg: Vec3,
+    pub scale: Vec3,
+}
+
+impl Default for Transform {
+    fn default() -> Self {
+        Self {
+            translate: Vec3::ZERO,
+            rotate_deg: Vec3::ZERO,
+            scale: Vec3::ONE,
+        }
+    }
+}
+
+impl Transform {
+    pub fn translation(t: Vec3) -> Self {
+        Self {
+            translate: t,
+            ..Self::default()
+        }
+    }
+
+    pub fn matrix(&self) -> Mat4 {
+        let r = self.rotate_deg * (std::f32::consts::PI / 180.0);
+        // Intrinsic order as documented: rotate about X first, then Y, then Z (R = Rz Ry Rx).
+        let rot = Quat::from_euler(EulerRot::ZYX, r.z, r.y, r.x);
+        Mat4::from_scale_rotation_translation(self.scale, rot, self.translate)
+    }
+
+    /// The matrix that maps object-space normals to world space (inverse transpose).
+    pub fn normal_matrix(&self) -> Mat3 {
+        Mat3::from_mat4(self.matrix()).inverse().transpose()
+    }
+}
+
+/// Where the cubemap objects (CMOs) go, and their face size.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CmoSpec {
+    pub placement: CmoPlacement,
+    /// Texels per cube face side.
+    pub resolution: u32,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum CmoPlacement {
+    /// Centres given in world space.
+    Explicit(Vec<Vec3>),
+    /// `count` centres spread along the longest axis of the reflectors' bounding box.
+    Auto { count: u32 },
+}
+
+impl Scene {
+    /// Flattens all meshes into world space (see [`WorldGeometry`]).
+    pub fn world(&self) -> WorldGeometry {
+        WorldGeometry::build(self)
+    }
+
+    /// The CMO centres in world space, resolving automatic placement.
+    pub fn cmo_centres(&self) -> Vec<Vec3> {
+        match &self.cmo.placement {
+            CmoPlacement::Explicit(c) => c.clone(),
+            CmoPlacement::Auto { count } => {
+                let world = self.world();
+                let (lo, hi) = world.bounds(|o| o.reflector);
+                let (lo, hi) = if lo.x > hi.x {
+                    world.bounds(|_| true)
+                } else {
+                    (lo, hi)
+                };
+                let ext = hi - lo;
+                let axis = if ext.x >= ext.y && ext.x >= ext.z {
+                    Vec3::X
+                } else if ext.y >= ext.z {
+                    Vec3::Y
+                } else {
+                    Vec3::Z
+                };
+                let n = (*count).max(1);
+                let centre = 0.5 * (lo + hi);
+                (0..n)
+                    .map(|i| {
+                        let f = (i as f32 + 0.5) / n as f32 - 0.5;
+                        centre + axis * (ext.dot(axis) * f)
+                    })
+                    .collect()
+            }
+        }
+    }
+
+    /// Picks a camera by name or index (`None`: the first).
+    pub fn camera(&self, which: Option<&str>) -> Result<&Camera, SceneError> {
+        let Some(which) = which else {
+            return self.cameras.first().ok_or_else(|| SceneError::Invalid {
+                file: self.name.clone(),
+                field: "camera".into(),
+                reason: "the scene has no camera".into(),
+            });
+        };
+        if let Ok(i) = which.parse::<usize>()
+            && let Some(c) = self.cameras.get(i) {
+                return Ok(c);
+            }
+        self.cameras
+            .iter()
+            .find(|c| c.name == which)
+            .ok_or_else(|| SceneError::Invalid {
+                file: self.name.clone(),
+                field: "camera".into(),
+                reason: format!(
+                    "no camera named or numbered '{which}' (cameras: {})",
+                    self.cameras
+                        .iter()
+                        .enumerate()
+                        .map(|(i, c)| format!("{i}: {}", c.name))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            })
+    }
+
+    /// Compares two scenes by content: geometry, resolved materials and textures, cameras, CMOs,
+    /// background and shading. Material and texture *order* and names of files do not matter.
+    /// Returns the first difference found.
+    pub fn compare_content(&self, other: &Scene) -> Result<(), String> {
+        macro_rules! same {
+            ($a:expr, $b:expr, $what:expr) => {
+                if $a != $b {
+                    return Err(format!("{}: {:?} != {:?}", $what, $a, $b));
+                }
+            };
+        }
+        same!(self.meshes.len(), other.meshes.len(), "mesh count");
+        for (i, (a, b)) in self.meshes.iter().zip(&other.meshes).enumerate() {
+            same!(a.transform, b.transform, format!("mesh[{i}].transform"));
+            same!(a.reflector, b.reflector, format!("mesh[{i}].reflector"));
+            same!(
+                a.parts.len(),
+                b.parts.len(),
+                format!("mesh[{i}] part count")
+            );
+            for (j, (p, q)) in a.parts.iter().zip(&b.parts).enumerate() {
+                let w = format!("mesh[{i}].part[{j}]");
+                // Compare the triangle soup: vertex order and unused vertices do not matter.
+                same!(
+                    p.triangles.len(),
+                    q.triangles.len(),
+                    format!("{w} triangle count")
+                );
+                for (k, (s, t)) in p.triangles.iter().zip(&q.triangles).enumerate() {
+                    for c in 0..3 {
+                        let (i, j) = (s[c] as usize, t[c] as usize);
+                        let w = format!("{w}.triangle[{k}] corner {c}");
+                        same!(p.positions[i], q.positions[j], format!("{w} position"));
+                        same!(p.normals[i], q.normals[j], format!("{w} normal"));
+                        same!(p.uvs.get(i), q.uvs.get(j), format!("{w} uv"));
+                    }
+                }
+                let (ma, mb) = (
+                    &self.materials[p.material as usize],
+                    &other.materials[q.material as usize],
+                );
+                same!(ma.diffuse, mb.diffuse, format!("{w} material diffuse"));
+                let ta = ma.texture.map(|t| &self.textures[t as usize]);
+                let tb = mb.texture.map(|t| &other.textures[t as usize]);
+                match (ta, tb) {
+                    (None, None) => {}
+                    (Some(x), Some(y)) => {
+                        same!(
+                            (x.width, x.height),
+                            (y.width, y.height),
+                            format!("{w} texture size")
+                        );
+                        if x.rgba8 != y.rgba8 {
+                            return Err(format!("{w} texture pixels differ"));
+                        }
+                    }
+                    _ => return Err(format!("{w}: texture present on one side only")),
+                }
+            }
+        }
+        same!(self.cameras, other.cameras, "cameras");
+        same!(self.cmo, other.cmo, "cmo");
+        same!(self.background, other.background, "background");
+        same!(self.shading, other.shading, "shading");
+        same!(
+            self.self_reflections,
+            other.self_reflections,
+            "self_reflections"
+        );
+        Ok(())
+    }
+}
+
+/// Loads a scene given a built-in name or a path to a `.toml` scene file.
+pub fn load(name_or_path: &str) -> Result<Scene, SceneError> {
+    let looks_like_path = name_or_path.ends_with(".toml")
+        || name_or_path.contains('/')
+        || name_or_path.contains(std::path::MAIN_SEPARATOR);
+    if looks_like_path {
+        return load_scene_file(Path::new(name_or_path));
+    }
+    builtin::by_name(name_or_path).ok_or_else(|| SceneError::UnknownScene {
+        name: name_or_path.to_string(),
+        known: builtin::NAMES.iter().map(|(n, _)| n.to_string()).collect(),
+    })
+}

@@ -1,0 +1,48 @@
+use std::path::PathBuf;
+
+/// Everything that can be wrong with a scene. Each message names the file and, where known, the
+/// line and the field.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    #[error("cannot read {}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// Malformed TOML or an unknown field; `message` is the parser's, with line and column.
+    #[error("{}: {message}", path.display())]
+    Toml { path: PathBuf, message: String },
+    #[error("{file}: {field}: {reason}")]
+    Invalid {
+        file: String,
+        field: String,
+        reason: String,
+    },
+    #[error("{}:{line}: {reason}", path.display())]
+    Obj {
+        path: PathBuf,
+        line: usize,
+        reason: String,
+    },
+    #[error("{}: {reason}", path.display())]
+    Mtl { path: PathBuf, reason: String },
+    #[error("{}: material '{material}': texture {} cannot be loaded: {reason}", mtl.display(), texture.display())]
+    Texture {
+        mtl: PathBuf,
+        material: String,
+        texture: PathBuf,
+        reason: String,
+    },
+    #[error("unknown scene '{name}'; built-in scenes: {} (or give a path to a .toml scene file)", known.join(", "))]
+    UnknownScene { name: String, known: Vec<String> },
+}
+
+impl SceneError {
+    pub(crate) fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        SceneError::Io {
+            path: path.into(),
+            source,
+        }
+    }
+}

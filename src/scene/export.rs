@@ -1,0 +1,186 @@
+//! Writes a scene out as `scene.toml` plus one OBJ per mesh, one MTL and PNG textures. Floats
+//! are written in Rust's shortest round-trip form, so loading the export gives back the same
+//! numbers bit for bit.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use toml::Spanned;
+
+use super::file::{
+    CameraFile, CmoFile, MeshFile, ScaleFile, SceneFile, ShadingFile, ShadingModel, TransformFile,
+};
+use super::{CmoPlacement, Scene};
+use crate::output::write_atomic;
+use crate::shading::Shading;
+
+fn sp<T>(v: T) -> Spanned<T> {
+    Spanned::new(0..0, v)
+}
+
+/// A file-name-safe version of `name`.
+fn safe(name: &str) -> String {
+    let s: String = name
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    if s.is_empty() { "unnamed".into() } else { s }
+}
+
+/// Unique, file-safe names for a list.
+fn unique(names: impl Iterator<Item = String>) -> Vec<String> {
+    let mut out: Vec<String> = Vec::new();
+    for n in names {
+        let base = safe(&n);
+        let mut name = base.clone();
+        let mut k = 2;
+        while out.contains(&name) {
+            name = format!("{base}-{k}");
+            k += 1;
+        }
+        out.push(name);
+    }
+    out
+}
+
+/// Exports `scene` into `dir` (created if needed). Returns the path of the TOML file.
+pub fn export(scene: &Scene, dir: &Path) -> anyhow::Result<PathBuf> {
+    std::fs::create_dir_all(dir)
+        .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", dir.display()))?;
+
+    let tex_names = unique(scene.textures.iter().map(|t| t.name.clone()));
+    for (t, name) in scene.textures.iter().zip(&tex_names) {
+        let mut png = Vec::new();
+        image::write_buffer_with_format(
+            &mut std::io::Cursor::new(&mut png),
+            &t.rgba8,
+            t.width,
+            t.height,
+            image::ExtendedColorType::Rgba8,
+            image::ImageFormat::Png,
+        )?;
+        write_atomic(&dir.join(format!("{name}.png")), &png)?;
+    }
+
+    let mat_names = unique(scene.materials.iter().map(|m| m.name.clone()));
+    let mut mtl = String::from("# Written by cubetrace scene export. Kd is linear RGB.\n");
+    for (m, name) in scene.materials.iter().zip(&mat_names) {
+        let d = m.diffuse;
+        writeln!(mtl, "\nnewmtl {name}\nKd {} {} {}", d.x, d.y, d.z)?;
+        if let Some(t) = m.texture {
+            writeln!(mtl, "map_Kd {}.png", tex_names[t as usize])?;
+        }
+    }
+    write_atomic(&dir.join("materials.mtl"), mtl.as_bytes())?;
+
+    let mesh_names = unique(scene.meshes.iter().map(|m| m.name.clone()));
+    let mut meshes = Vec::new();
+    for (mesh, name) in scene.meshes.iter().zip(&mesh_names) {
+        let mut obj = String::from(
+            "# Written by cubetrace scene export (object space).\nmtllib materials.mtl\n",
+        );
+        let mut base = 1;
+        for part in &mesh.parts {
+            writeln!(obj, "o {}", safe(&part.name))?;
+            writeln!(obj, "usemtl {}", mat_names[part.material as usize])?;
+            for p in &part.positions {
+                writeln!(obj, "v {} {} {}", p.x, p.y, p.z)?;
+            }
+            for n in &part.normals {
+                writeln!(obj, "vn {} {} {}", n.x, n.y, n.z)?;
+            }
+            for t in &part.uvs {
+                writeln!(obj, "vt {} {}", t.x, t.y)?;
+            }
+            for tri in &part.triangles {
+                obj.push('f');
+                for &i in tri {
+                    let i = i as usize + base;
+                    if part.uvs.is_empty() {
+                        write!(obj, " {i}//{i}")?;
+                    } else {
+                        write!(obj, " {i}/{i}/{i}")?;
+                    }
+                }
+                obj.push('\n');
+            }
+            base += part.positions.len();
+        }
+        let file = format!("{name}.obj");
+        write_atomic(&dir.join(&file), obj.as_bytes())?;
+        let t = &mesh.transform;
+        meshes.push(MeshFile {
+            name: Some(mesh.name.clone()),
+            obj: sp(PathBuf::from(file)),
+            reflector: mesh.reflector,
+            transform: TransformFile {
+                translate: sp(t.translate.to_array()),
+                rotate_deg: sp(t.rotate_deg.to_array()),
+                scale: sp(if t.scale.x == t.scale.y && t.scale.y == t.scale.z {
+                    ScaleFile::Uniform(t.scale.x)
+                } else {
+                    ScaleFile::PerAxis(t.scale.to_array())
+                }),
+            },
+        });
+    }
+
+    let shading = match scene.shading {
+        Shading::Unlit => ShadingFile {
+            model: ShadingModel::Unlit,
+            ..ShadingFile::default()
+        },
+        Shading::Lambert {
+            ambient,
+            light_direction,
+            light_intensity,
+        } => ShadingFile {
+            model: ShadingModel::Lambert,
+            ambient: Some(sp(ambient)),
+            light_direction: Some(sp(light_direction.to_array())),
+            light_intensity: Some(sp(light_intensity)),
+        },
+    };
+    let (centres, count) = match &scene.cmo.placement {
+        CmoPlacement::Explicit(c) => (Some(sp(c.iter().map(|v| v.to_array()).collect())), None),
+        CmoPlacement::Auto { count } => (None, Some(sp(*count))),
+    };
+    let file = SceneFile {
+        name: Some(scene.name.clone()),
+        background: sp(scene.background.to_array()),
+        self_reflections: scene.self_reflections,
+        shading,
+        meshes,
+        cameras: scene
+            .cameras
+            .iter()
+            .map(|c| CameraFile {
+                name: Some(c.name.clone()),
+                eye: sp(c.eye.to_array()),
+                target: sp(c.target.to_array()),
+                up: sp(c.up.to_array()),
+                fov_y_deg: sp(c.fov_y_deg),
+                resolution: sp([c.width, c.height]),
+            })
+            .collect(),
+        cmo: Some(CmoFile {
+            centres,
+            count,
+            resolution: sp(scene.cmo.resolution),
+        }),
+    };
+    let toml_text = format!(
+        "# cubetrace scene '{}', written by `cubetrace scene export`.\n{}",
+        scene.name,
+        toml::to_string_pretty(&file)?
+    );
+    let path = dir.join("scene.toml");
+    write_atomic(&path, toml_text.as_bytes())?;
+    Ok(path)
+}

@@ -1,0 +1,460 @@
+//! The TOML scene file.
+//!
+//! ```toml
+//! name = "my-scene"
+//! background = [0.05, 0.05, 0.08]   # linear RGB of rays that leave the scene
+//! self_reflections = false          # reflectors see themselves (costs mask + normal cubemaps)
+//!
+//! [shading]
+//! model = "lambert"                 # or "unlit"
+//! ambient = 0.35
+//! light_direction = [0.3, 0.9, 0.4] # towards the light; normalised on load
+//! light_intensity = 0.65
+//!
+//! [[mesh]]
+//! name = "sphere"
+//! obj = "sphere.obj"                # relative to this file
+//! reflector = true
+//! transform = { translate = [0, 1.2, 0], rotate_deg = [0, 0, 0], scale = 1.0 }  # or scale = [x, y, z]
+//!
+//! [[camera]]
+//! name = "main"
+//! eye = [0, 1.8, 3.6]
+//! target = [0, 1.1, 0]
+//! up = [0, 1, 0]
+//! fov_y_deg = 50
+//! resolution = [640, 480]
+//!
+//! [cmo]
+//! centres = [[0, 1.2, 0]]           # or: count = 2 (placed along the reflectors' longest axis)
+//! resolution = 256                  # texels per cube face side
+//! ```
+//!
+//! Unknown fields are errors. Every value is checked (finite numbers, sane sizes) and an error
+//! names the file, the line and the field.
+
+use std::path::{Path, PathBuf};
+
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+use toml::Spanned;
+
+use super::obj::load_obj_file;
+use super::{
+    CmoPlacement, CmoSpec, MAX_CUBE_SIZE, MAX_IMAGE_SIDE, MeshInstance, Scene, SceneError,
+    Transform,
+};
+use crate::camera::Camera;
+use crate::shading::Shading;
+
+#[derive(Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct SceneFile {
+    pub name: Option<String>,
+    #[serde(default = "default_background")]
+    pub background: Spanned<[f32; 3]>,
+    #[serde(default)]
+    pub self_reflections: bool,
+    #[serde(default)]
+    pub shading: ShadingFile,
+    #[serde(rename = "mesh", default)]
+    pub meshes: Vec<MeshFile>,
+    #[serde(rename = "camera", default)]
+    pub cameras: Vec<CameraFile>,
+    pub cmo: Option<CmoFile>,
+}
+
+fn default_background() -> Spanned<[f32; 3]> {
+    Spanned::new(0..0, [0.0; 3])
+}
+
+#[derive(Debug, Deserialize, Serialize, Clone, Copy, PartialEq, Eq, Default)]
+#[serde(rename_all = "lowercase")]
+pub(crate) enum ShadingModel {
+    Unlit,
+    #[default]
+    Lambert,
+}
+
+#[derive(Debug, Deserialize, Serialize, Default)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct ShadingFile {
+    #[serde(default)]
+    pub model: ShadingModel,
+    pub ambient: Option<Spanned<f32>>,
+    pub light_direction: Option<Spanned<[f32; 3]>>,
+    pub light_intensity: Option<Spanned<f32>>,
+}
+
+#[derive(Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct MeshFile {
+    pub name: Option<String>,
+    pub obj: Spanned<PathBuf>,
+    #[serde(default)]
+    pub reflector: bool,
+    #[serde(default)]
+    pub transform: TransformFile,
+}
+
+#[derive(Debug, Deserialize, Serialize, Clone, Copy)]
+#[serde(untagged)]
+pub(crate) enum ScaleFile {
+    Uniform(f32),
+    PerAxis([f32; 3]),
+}
+
+#[derive(Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct TransformFile {
+    #[serde(default = "zero3")]
+    pub translate: Spanned<[f32; 3]>,
+    #[serde(default = "zero3")]
+    pub rotate_deg: Spanned<[f32; 3]>,
+    #[serde(default = "one")]
+    pub scale: Spanned<ScaleFile>,
+}
+
+fn zero3() -> Spanned<[f32; 3]> {
+    Spanned::new(0..0, [0.0; 3])
+}
+fn one() -> Spanned<ScaleFile> {
+    Spanned::new(0..0, ScaleFile::Uniform(1.0))
+}
+
+impl Default for TransformFile {
+    fn default() -> Self {
+        Self {
+            translate: zero3(),
+            rotate_deg: zero3(),
+            scale: one(),
+        }
+    }
+}
+
+#[derive(Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct CameraFile {
+    pub name: Option<String>,
+    pub eye: Spanned<[f32; 3]>,
+    pub target: Spanned<[f32; 3]>,
+    #[serde(default = "up")]
+    pub up: Spanned<[f32; 3]>,
+    #[serde(default = "fov")]
+    pub fov_y_deg: Spanned<f32>,
+    pub resolution: Spanned<[u32; 2]>,
+}
+
+fn up() -> Spanned<[f32; 3]> {
+    Spanned::new(0..0, [0.0, 1.0, 0.0])
+}
+fn fov() -> Spanned<f32> {
+    Spanned::new(0..0, 50.0)
+}
+
+#[derive(Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct CmoFile {
+    pub centres: Option<Spanned<Vec<[f32; 3]>>>,
+    pub count: Option<Spanned<u32>>,
+    #[serde(default = "cube_res")]
+    pub resolution: Spanned<u32>,
+}
+
+fn cube_res() -> Spanned<u32> {
+    Spanned::new(0..0, 256)
+}
+
+/// Resolves byte spans to `file:line` for messages.
+struct Source<'a> {
+    path: &'a Path,
+    text: &'a str,
+}
+
+impl Source<'_> {
+    fn at<T>(&self, value: &Spanned<T>) -> String {
+        let span = value.span();
+        if span.end == 0 {
+            return self.path.display().to_string();
+        }
+        let line = self.text[..span.start.min(self.text.len())]
+            .matches('\n')
+            .count()
+            + 1;
+        format!("{}:{line}", self.path.display())
+    }
+
+    fn invalid<T>(&self, value: &Spanned<T>, field: &str, reason: impl Into<String>) -> SceneError {
+        SceneError::Invalid {
+            file: self.at(value),
+            field: field.to_string(),
+            reason: reason.into(),
+        }
+    }
+
+    fn finite<const N: usize>(
+        &self,
+        value: &Spanned<[f32; N]>,
+        field: &str,
+    ) -> Result<Vec3, SceneError> {
+        if let Some(c) = value.get_ref().iter().position(|v| !v.is_finite()) {
+            return Err(self.invalid(
+                value,
+                field,
+                format!(
+                    "component {c} is {} (numbers must be finite)",
+                    value.get_ref()[c]
+                ),
+            ));
+        }
+        let v = value.get_ref();
+        Ok(Vec3::new(v[0], v[1], *v.get(2).unwrap_or(&0.0)))
+    }
+
+    fn scalar(&self, value: &Spanned<f32>, field: &str) -> Result<f32, SceneError> {
+        let v = *value.get_ref();
+        if !v.is_finite() {
+            return Err(self.invalid(value, field, format!("{v} is not a finite number")));
+        }
+        Ok(v)
+    }
+}
+
+/// Checks an image size: both sides in `1..=MAX_IMAGE_SIDE`.
+pub fn check_resolution(width: u32, height: u32) -> Result<(), String> {
+    for (what, v) in [("width", width), ("height", height)] {
+        if v == 0 || v > MAX_IMAGE_SIDE {
+            return Err(format!(
+                "{what} {v} is out of range (1 to {MAX_IMAGE_SIDE} pixels)"
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Loads a scene file and everything it refers to.
+pub fn load_scene_file(path: &Path) -> Result<Scene, SceneError> {
+    let text = std::fs::read_to_string(path).map_err(|e| SceneError::io(path, e))?;
+    let file: SceneFile = toml::from_str(&text).map_err(|e| SceneError::Toml {
+        path: path.to_path_buf(),
+        message: e.to_string().trim_end().to_string(),
+    })?;
+    let src = Source { path, text: &text };
+    let dir = path.parent().unwrap_or(Path::new("."));
+
+    let mut scene = Scene {
+        name: file.name.clone().unwrap_or_else(|| {
+            path.file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_else(|| "scene".into())
+        }),
+        meshes: Vec::new(),
+        materials: Vec::new(),
+        textures: Vec::new(),
+        cameras: Vec::new(),
+        cmo: CmoSpec {
+            placement: CmoPlacement::Auto { count: 1 },
+            resolution: 256,
+        },
+        background: src.finite(&file.background, "background")?,
+        shading: shading(&src, &file.shading)?,
+        self_reflections: file.self_reflections,
+    };
+
+    for (i, m) in file.meshes.iter().enumerate() {
+        let t = &m.transform;
+        let scale = match *t.scale.get_ref() {
+            ScaleFile::Uniform(s) => Vec3::splat(s),
+            ScaleFile::PerAxis(s) => Vec3::from_array(s),
+        };
+        let field = format!("mesh[{i}].transform.scale");
+        if !scale.is_finite() || scale.cmpeq(Vec3::ZERO).any() {
+            return Err(src.invalid(&t.scale, &field, "scale must be finite and non-zero"));
+        }
+        let transform = Transform {
+            translate: src.finite(&t.translate, &format!("mesh[{i}].transform.translate"))?,
+            rotate_deg: src.finite(&t.rotate_deg, &format!("mesh[{i}].transform.rotate_deg"))?,
+            scale,
+        };
+        let obj_path = dir.join(m.obj.get_ref());
+        let loaded = load_obj_file(&obj_path)?;
+        let name = m.name.clone().unwrap_or_else(|| {
+            obj_path
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_else(|| format!("mesh{i}"))
+        });
+        merge(&mut scene, name, loaded, transform, m.reflector);
+    }
+    if scene.meshes.is_empty() {
+        log::warn!("{}: the scene has no meshes", path.display());
+    }
+
+    for (i, c) in file.cameras.iter().enumerate() {
+        let f = |s: &str| format!("camera[{i}].{s}");
+        let eye = src.finite(&c.eye, &f("eye"))?;
+        let target = src.finite(&c.target, &f("target"))?;
+        let up = src.finite(&c.up, &f("up"))?;
+        let fov_y_deg = src.scalar(&c.fov_y_deg, &f("fov_y_deg"))?;
+        if !(fov_y_deg > 0.0 && fov_y_deg < 180.0) {
+            return Err(src.invalid(&c.fov_y_deg, &f("fov_y_deg"), "must be in (0, 180) degrees"));
+        }
+        if (target - eye).length_squared() == 0.0
+            || (target - eye).cross(up).length_squared() == 0.0
+        {
+            return Err(src.invalid(
+                &c.eye,
+                &f("eye"),
+                "eye, target and up must span a view (eye != target, up not along the view)",
+            ));
+        }
+        let [width, height] = *c.resolution.get_ref();
+        check_resolution(width, height)
+            .map_err(|reason| src.invalid(&c.resolution, &f("resolution"), reason))?;
+        scene.cameras.push(Camera {
+            name: c.name.clone().unwrap_or_else(|| format!("camera{i}")),
+            eye,
+            target,
+            up,
+            fov_y_deg,
+            width,
+            height,
+        });
+    }
+    if scene.cameras.is_empty() {
+        return Err(SceneError::Invalid {
+            file: path.display().to_string(),
+            field: "camera".into(),
+            reason: "at least one [[camera]] is required".into(),
+        });
+    }
+
+    if let Some(cmo) = &file.cmo {
+        let res = *cmo.resolution.get_ref();
+        if res == 0 || res > MAX_CUBE_SIZE {
+            return Err(src.invalid(
+                &cmo.resolution,
+                "cmo.resolution",
+                format!("{res} is out of range (1 to {MAX_CUBE_SIZE} texels)"),
+            ));
+        }
+        scene.cmo.resolution = res;
+        scene.cmo.placement = match (&cmo.centres, &cmo.count) {
+            (Some(_), Some(c)) => {
+                return Err(src.invalid(c, "cmo", "give either centres or count, not both"));
+            }
+            (Some(centres), None) => {
+                let mut out = Vec::new();
+                for (k, c) in centres.get_ref().iter().enumerate() {
+                    let v = Vec3::from_array(*c);
+                    if !v.is_finite() {
+                        return Err(src.invalid(
+                            centres,
+                            &format!("cmo.centres[{k}]"),
+                            "numbers must be finite",
+                        ));
+                    }
+                    out.push(v);
+                }
+                if out.is_empty() {
+                    return Err(src.invalid(centres, "cmo.centres", "needs at least one centre"));
+                }
+                CmoPlacement::Explicit(out)
+            }
+            (None, Some(count)) => {
+                let n = *count.get_ref();
+                if n == 0 || n > 64 {
+                    return Err(src.invalid(count, "cmo.count", "must be 1 to 64"));
+                }
+                CmoPlacement::Auto { count: n }
+            }
+            (None, None) => CmoPlacement::Auto { count: 1 },
+        };
+    }
+    Ok(scene)
+}
+
+fn shading(src: &Source, s: &ShadingFile) -> Result<Shading, SceneError> {
+    Ok(match s.model {
+        ShadingModel::Unlit => Shading::Unlit,
+        ShadingModel::Lambert => {
+            let Shading::Lambert {
+                ambient,
+                light_direction,
+                light_intensity,
+            } = Shading::default()
+            else {
+                unreachable!("the default shading is Lambert")
+            };
+            let ambient = match &s.ambient {
+                Some(a) => src.scalar(a, "shading.ambient")?,
+                None => ambient,
+            };
+            let light_intensity = match &s.light_intensity {
+                Some(a) => src.scalar(a, "shading.light_intensity")?,
+                None => light_intensity,
+            };
+            let light_direction = match &s.light_direction {
+                Some(d) => src
+                    .finite(d, "shading.light_direction")?
+                    .try_normalize()
+                    .ok_or_else(|| src.invalid(d, "shading.light_direction", "must not be zero"))?,
+                None => light_direction,
+            };
+            Shading::Lambert {
+                ambient,
+                light_direction,
+                light_intensity,
+            }
+        }
+    })
+}
+
+/// Appends an OBJ's parts to the scene, reusing identical materials and textures already there.
+fn merge(
+    scene: &mut Scene,
+    name: String,
+    loaded: super::obj::LoadedObj,
+    transform: Transform,
+    reflector: bool,
+) {
+    let texture_map: Vec<u32> = loaded
+        .textures
+        .into_iter()
+        .map(|t| match scene.textures.iter().position(|x| *x == t) {
+            Some(i) => i as u32,
+            None => {
+                scene.textures.push(t);
+                (scene.textures.len() - 1) as u32
+            }
+        })
+        .collect();
+    let material_map: Vec<u32> = loaded
+        .materials
+        .into_iter()
+        .map(|mut m| {
+            m.texture = m.texture.map(|t| texture_map[t as usize]);
+            match scene.materials.iter().position(|x| *x == m) {
+                Some(i) => i as u32,
+                None => {
+                    scene.materials.push(m);
+                    (scene.materials.len() - 1) as u32
+                }
+            }
+        })
+        .collect();
+    let parts = loaded
+        .parts
+        .into_iter()
+        .map(|mut p| {
+            p.material = material_map[p.material as usize];
+            p
+        })
+        .collect();
+    scene.meshes.push(MeshInstance {
+        name,
+        parts,
+        transform,
+        reflector,
+    });
+}
