@@ -156,3 +156,51 @@ pub fn write_frame(path: &Path, frame: &Frame) -> Result<()> {
         Format::Exr => write_exr(path, frame.width, frame.height, frame_channels(frame)),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn entries(dir: &Path) -> Vec<String> {
+        std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect()
+    }
+
+    #[test]
+    fn failed_write_leaves_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("x.png");
+        let r = write_atomic_with(&path, |w| {
+            w.write_all(b"half")?;
+            anyhow::bail!("disk on fire")
+        });
+        assert!(r.is_err());
+        assert!(entries(dir.path()).is_empty(), "{:?}", entries(dir.path()));
+        // Negative: the same call without the failure does leave the file.
+        write_atomic(&path, b"whole").unwrap();
+        assert_eq!(entries(dir.path()), vec!["x.png".to_string()]);
+        assert_eq!(std::fs::read(&path).unwrap(), b"whole");
+    }
+
+    #[test]
+    fn exr_round_trip() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("f.exr");
+        let mut f = Frame::new(3, 2);
+        f.colour[4] = Vec3::new(0.25, 2.5, -1.0);
+        f.object_id[1] = 7;
+        write_frame(&path, &f).unwrap();
+        let img = exr::prelude::read_all_flat_layers_from_file(&path).unwrap();
+        let ch = &img.layer_data[0].channel_data.list;
+        let g = ch.iter().find(|c| c.name.to_string() == "G").unwrap();
+        assert_eq!(g.sample_data.value_by_flat_index(4).to_f32(), 2.5);
+        let o = ch
+            .iter()
+            .find(|c| c.name.to_string() == "object_id")
+            .unwrap();
+        assert_eq!(o.sample_data.value_by_flat_index(1).to_u32(), 7);
+        assert_eq!(o.sample_data.value_by_flat_index(0).to_u32(), u32::MAX);
+    }
+}

@@ -178,7 +178,7 @@ pub fn export(scene: &Scene, dir: &Path) -> anyhow::Result<PathBuf> {
     let toml_text = format!(
         "# cubetrace scene '{}', written by `cubetrace scene export`.\n{}",
         scene.name,
-        toml::to_string_pretty(&file)?
+        toml::to_string(&file)?
     );
     let path = dir.join("scene.toml");
     write_atomic(&path, toml_text.as_bytes())?;

@@ -208,9 +208,10 @@ impl Scene {
             });
         };
         if let Ok(i) = which.parse::<usize>()
-            && let Some(c) = self.cameras.get(i) {
-                return Ok(c);
-            }
+            && let Some(c) = self.cameras.get(i)
+        {
+            return Ok(c);
+        }
         self.cameras
             .iter()
             .find(|c| c.name == which)

@@ -345,6 +345,14 @@ fn part_from_model(model: &tobj::Model, material: u32) -> (MeshPart, usize) {
     } else {
         Vec::new()
     };
+    // Normals already of unit length (to f32 precision) are kept bit for bit.
+    let unit = |n: Vec3| {
+        if (n.length_squared() - 1.0).abs() < 1e-6 {
+            n
+        } else {
+            n.normalize()
+        }
+    };
     let normals = if given.is_empty() {
         smooth_normals(&positions, &triangles)
     } else if given.iter().any(|n| n.length_squared() == 0.0) {
@@ -356,12 +364,12 @@ fn part_from_model(model: &tobj::Model, material: u32) -> (MeshPart, usize) {
                 if n.length_squared() == 0.0 {
                     s
                 } else {
-                    n.normalize()
+                    unit(n)
                 }
             })
             .collect()
     } else {
-        given.iter().map(|n| n.normalize()).collect()
+        given.iter().map(|&n| unit(n)).collect()
     };
     (
         MeshPart {
@@ -433,5 +441,27 @@ mod tests {
             .to_string();
         assert!(e.contains("x.obj:4"), "{e}");
         assert!(scan("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -1\n", p).is_ok());
+    }
+
+    #[test]
+    fn hygiene_drops_degenerates_and_fills_normals() {
+        // A quad split in two, plus a triangle with a repeated index and one of zero area.
+        let text = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 0 0\n\
+                    f 1 2 3\nf 1 3 4\nf 1 1 2\nf 1 2 5\n";
+        let (parts, dropped) = parse_obj_str(text, Path::new("q.obj")).unwrap();
+        assert_eq!(dropped, 2);
+        assert_eq!(parts[0].triangles.len(), 2);
+        for n in &parts[0].normals[..4] {
+            assert!((*n - Vec3::Z).length() < 1e-6, "{n}");
+        }
+        // Zero-length normals in the file are replaced, valid ones kept.
+        let text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 0\nvn 0 0 1\nvn 0 0 2\nf 1//1 2//2 3//3\n";
+        let (parts, _) = parse_obj_str(text, Path::new("n.obj")).unwrap();
+        assert!(
+            parts[0]
+                .normals
+                .iter()
+                .all(|n| (*n - Vec3::Z).length() < 1e-6)
+        );
     }
 }
