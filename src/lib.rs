@@ -5,6 +5,7 @@
 //! - [`camera`]: the camera and its pixel convention (Vulkan's, pixel centres at +0.5).
 //! - [`shading`]: the view-independent shading shared by the capture and the reference.
 //! - [`reference`]: the exact CPU ray tracer that every accuracy figure is measured against.
+//! - [`metrics`]: error of a traced reflection against the reference.
 //! - [`output`]: PNG and EXR writers (atomic: temporary file, then rename).
 //! - [`cubemap`]: cube face mapping and distance hierarchies (pure data, no GPU).
 //! - [`cpu`]: CPU twins of the GPU passes, with the shaders' names and loop structure.
@@ -14,6 +15,7 @@
 pub mod camera;
 pub mod cpu;
 pub mod cubemap;
+pub mod metrics;
 pub mod output;
 pub mod reference;
 pub mod scene;

@@ -4,7 +4,7 @@
 //! file behind.
 //!
 //! EXR channels of a [`Frame`]: `R`, `G`, `B` (linear colour, f32), `mask` (f32, 1 on reflector
-//! pixels), `hit.X`, `hit.Y`, `hit.Z` (world position of the first reflected hit, f32, NaN where
+//! pixels), `P.X`, `P.Y`, `P.Z` (world position seen by the primary ray), `hit.X`, `hit.Y`, `hit.Z` (world position of the first reflected hit, f32, NaN where
 //! none), `object_id`, `primitive_id` (u32, 4294967295 where none) and `bounces` (u32).
 
 use std::io::Write;
@@ -137,6 +137,9 @@ pub fn frame_channels(frame: &Frame) -> Vec<(&'static str, Channel)> {
         ("G", f(&|k| frame.colour[k].y)),
         ("B", f(&|k| frame.colour[k].z)),
         ("mask", f(&|k| frame.mask[k] as f32)),
+        ("P.X", f(&|k| frame.surface_position[k].x)),
+        ("P.Y", f(&|k| frame.surface_position[k].y)),
+        ("P.Z", f(&|k| frame.surface_position[k].z)),
         ("hit.X", f(&|k| frame.hit_position[k].x)),
         ("hit.Y", f(&|k| frame.hit_position[k].y)),
         ("hit.Z", f(&|k| frame.hit_position[k].z)),

@@ -44,6 +44,8 @@ pub struct Frame {
     pub colour: Vec<Vec3>,
     /// 1 where the primary ray hits a reflector.
     pub mask: Vec<u8>,
+    /// World-space point hit by the primary ray (NaN where it leaves the scene).
+    pub surface_position: Vec<Vec3>,
     /// World-space point hit by the first reflected ray (NaN where there is none).
     pub hit_position: Vec<Vec3>,
     /// Object hit by the first reflected ray ([`NO_ID`] where none).
@@ -62,6 +64,7 @@ impl Frame {
             height,
             colour: vec![Vec3::ZERO; n],
             mask: vec![0; n],
+            surface_position: vec![Vec3::NAN; n],
             hit_position: vec![Vec3::NAN; n],
             object_id: vec![NO_ID; n],
             primitive_id: vec![NO_ID; n],
@@ -253,6 +256,7 @@ pub fn reflect(d: Vec3, n: Vec3) -> Vec3 {
 #[derive(Clone, Copy, Debug)]
 pub struct PathResult {
     pub colour: Vec3,
+    pub surface: Option<Vec3>,
     pub mirror: bool,
     pub first_reflected: Option<Hit>,
     pub bounces: u8,
@@ -268,6 +272,7 @@ pub fn trace_path(
 ) -> PathResult {
     let mut out = PathResult {
         colour: scene.background,
+        surface: None,
         mirror: false,
         first_reflected: None,
         bounces: 0,
@@ -279,7 +284,9 @@ pub fn trace_path(
             out.colour = scene.background;
             return out;
         };
-        if bounce == 1 {
+        if bounce == 0 {
+            out.surface = Some(hit.position);
+        } else if bounce == 1 {
             out.first_reflected = Some(hit);
         }
         let reflector = tracer.is_reflector(hit.triangle);
@@ -319,6 +326,7 @@ pub fn render(scene: &Scene, tracer: &Tracer, camera: &Camera, bounces: u32) -> 
             let k = j * w + i;
             frame.colour[k] = p.colour;
             frame.mask[k] = p.mirror as u8;
+            frame.surface_position[k] = p.surface.unwrap_or(Vec3::NAN);
             frame.bounces[k] = p.bounces;
             if let Some(h) = p.first_reflected {
                 frame.hit_position[k] = h.position;
