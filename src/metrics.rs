@@ -50,6 +50,7 @@ pub struct ErrorReport {
 /// Compares `traced` with `reference` over the reference's mirror pixels. `mirror_point` gives
 /// the primary hit on the mirror per pixel, `cmo_centres` and `cube_size` define the texel
 /// footprint.
+#[allow(clippy::needless_range_loop)] // one index across six parallel arrays reads best
 pub fn compare(
     reference: &Frame,
     traced: &Traced,
