@@ -109,7 +109,17 @@ fn render(args: RenderArgs) -> Result<()> {
                 tracer.world.triangles.len(),
                 start.elapsed()
             );
-            reference::render(&scene, &tracer, &camera, args.bounces)
+            let bar = indicatif::ProgressBar::new(0).with_style(
+                indicatif::ProgressStyle::with_template(
+                    "reference {bar:40} {pos}/{len} rows {elapsed}",
+                )
+                .expect("the template is valid"),
+            );
+            // Small frames finish before a bar would help; indicatif hides it off a terminal.
+            if camera.width as u64 * camera.height as u64 * (args.bounces as u64 + 1) < 2_000_000 {
+                bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+            }
+            reference::render_with_progress(&scene, &tracer, &camera, args.bounces, &bar)
         }
     };
     let render_time = start.elapsed();

@@ -308,19 +308,40 @@ pub fn trace_path(
 
 /// Renders `camera`'s view of `scene` with up to `bounces` reflections per path.
 pub fn render(scene: &Scene, tracer: &Tracer, camera: &Camera, bounces: u32) -> Frame {
+    render_with_progress(
+        scene,
+        tracer,
+        camera,
+        bounces,
+        &indicatif::ProgressBar::hidden(),
+    )
+}
+
+/// [`render`], advancing `progress` by one per finished row.
+pub fn render_with_progress(
+    scene: &Scene,
+    tracer: &Tracer,
+    camera: &Camera,
+    bounces: u32,
+    progress: &indicatif::ProgressBar,
+) -> Frame {
     let mut frame = Frame::new(camera.width, camera.height);
     let w = camera.width as usize;
+    progress.set_length(camera.height as u64);
     let rows: Vec<Vec<PathResult>> = (0..camera.height)
         .into_par_iter()
         .map(|j| {
-            (0..camera.width)
+            let row = (0..camera.width)
                 .map(|i| {
                     let (o, d) = camera.ray(i, j);
                     trace_path(scene, tracer, o, d, bounces)
                 })
-                .collect()
+                .collect();
+            progress.inc(1);
+            row
         })
         .collect();
+    progress.finish_and_clear();
     for (j, row) in rows.into_iter().enumerate() {
         for (i, p) in row.into_iter().enumerate() {
             let k = j * w + i;
