@@ -1,1 +1,2 @@
 //! Vulkan backend.
+pub mod shaders;
