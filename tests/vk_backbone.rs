@@ -27,6 +27,9 @@ fn context() -> GpuContext {
 /// at device destruction).
 fn finish(ctx: GpuContext) {
     let log = ctx.validation_log();
+    for w in log.warnings() {
+        eprintln!("validation warning: {w}");
+    }
     assert_eq!(
         ctx.validation_errors(),
         Vec::<String>::new(),
@@ -227,5 +230,54 @@ fn cube_image_roundtrip_through_staging() {
             "{format:?}"
         );
     }
+    finish(ctx);
+}
+
+/// Every pass's SPIR-V passes `spirv-val` for Vulkan 1.3 (skipped with a note when spirv-tools is
+/// not installed; the validation layer checks modules at pipeline creation anyway).
+#[test]
+fn every_pass_passes_spirv_val() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    for pass in PASSES {
+        let path = dir.path().join(format!("{}.spv", pass.name));
+        std::fs::write(&path, bytemuck::cast_slice::<u32, u8>(pass.spirv)).expect("write .spv");
+        let out = match std::process::Command::new("spirv-val")
+            .arg("--target-env")
+            .arg("vulkan1.3")
+            .arg(&path)
+            .output()
+        {
+            Ok(o) => o,
+            Err(e) => {
+                return eprintln!(
+                    "skipped: spirv-val not runnable ({e}); apt-get install spirv-tools"
+                );
+            }
+        };
+        assert!(
+            out.status.success(),
+            "{}: {}",
+            pass.source_file,
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+}
+
+/// Requiring the device's native subgroup size builds a pipeline without validation errors.
+#[test]
+fn compute_pipeline_with_required_subgroup_size() {
+    use cubetrace::vk::{ComputeOptions, ComputePipeline};
+    let ctx = context();
+    let size = ctx.report().subgroup_size;
+    let options = ComputeOptions {
+        required_subgroup_size: Some(size),
+    };
+    let pipeline =
+        ComputePipeline::new(&ctx, &SELFTEST, "main", options).unwrap_or_else(|e| panic!("{e}"));
+    assert!(ComputePipeline::new(&ctx, &SELFTEST, "nope", ComputeOptions::default()).is_err());
+    // A bind group missing a reflected binding is refused, naming the WGSL variable.
+    let err = pipeline.bind_group(0, &[]).err().expect("bindings missing");
+    assert!(err.to_string().contains("params"), "{err}");
+    drop(pipeline);
     finish(ctx);
 }
