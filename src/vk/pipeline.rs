@@ -204,7 +204,8 @@ impl ComputePipeline {
         BindGroup::new(&self.device, self.pass, &self.layout, group, resources)
     }
 
-    /// Records bind + dispatch of `groups` workgroups.
+    /// Records bind + dispatch of `groups` workgroups. `sets` must be consecutive groups, starting
+    /// at `sets[0]`'s group.
     pub fn dispatch(&self, rec: &Recorder<'_>, sets: &[&BindGroup], groups: [u32; 3]) {
         let raw_sets: Vec<vk::DescriptorSet> = sets.iter().map(|s| s.set).collect();
         // SAFETY: `rec` is recording; the pipeline is alive for the submission.
