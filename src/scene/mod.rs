@@ -17,6 +17,7 @@ pub mod builtin;
 mod error;
 pub mod export;
 mod file;
+pub mod gpu_data;
 mod obj;
 pub mod shapes;
 mod world;

@@ -1,0 +1,220 @@
+//! The scene flattened into plain `#[repr(C)]` arrays for GPU buffers.
+//!
+//! The layouts mirror `spirv/shared/scene.wgsl`; a test checks them against naga's layout of
+//! the WGSL structs. Textures are one `u32` array of packed sRGB RGBA8 texels (little-endian:
+//! red in the low byte) plus a table of (offset, width, height), so that the shader can do the
+//! same bilinear filter as [`crate::shading`] with `textureLoad`-style fetches, and decode
+//! sRGB through the same 256-entry table the CPU uses. The capture and the reference then shade
+//! a point with the same arithmetic.
+
+use bytemuck::{Pod, Zeroable};
+
+use super::Scene;
+use crate::shading::{Shading, srgb_to_linear};
+
+/// One vertex: world position, object id, world normal, texture coordinate.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuVertex {
+    pub position: [f32; 3],
+    pub object: u32,
+    pub normal: [f32; 3],
+    pub _pad: u32,
+    pub uv: [f32; 2],
+    pub _pad2: [u32; 2],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuObject {
+    pub material: u32,
+    /// 1 for a reflector.
+    pub reflector: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuMaterial {
+    pub diffuse: [f32; 3],
+    /// Index into the texture table, or -1.
+    pub texture: i32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuTexture {
+    /// First texel in the texel array.
+    pub offset: u32,
+    pub width: u32,
+    pub height: u32,
+    pub _pad: u32,
+}
+
+/// The shading model as a uniform block.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuShading {
+    /// 0: unlit, 1: Lambert.
+    pub model: u32,
+    pub ambient: f32,
+    pub light_intensity: f32,
+    pub _pad: u32,
+    /// Towards the light.
+    pub light_direction: [f32; 3],
+    pub _pad2: u32,
+    pub background: [f32; 3],
+    pub _pad3: u32,
+}
+
+/// Everything the capture and G-buffer passes read about the scene.
+#[derive(Clone, Debug, Default)]
+pub struct GpuSceneData {
+    pub vertices: Vec<GpuVertex>,
+    /// Triangle list; with self-reflections off, [`Self::capture_index_count`] leaves out the
+    /// reflectors' triangles, which come last.
+    pub indices: Vec<u32>,
+    /// Indices of non-reflector triangles (they come first in `indices`).
+    pub capture_index_count: u32,
+    pub objects: Vec<GpuObject>,
+    pub materials: Vec<GpuMaterial>,
+    pub textures: Vec<GpuTexture>,
+    pub texels: Vec<u32>,
+    pub srgb_to_linear: Vec<f32>,
+    pub shading: GpuShading,
+}
+
+impl GpuSceneData {
+    pub fn new(scene: &Scene) -> Self {
+        let world = scene.world();
+        // Each object has its own vertices in `WorldGeometry`, so a vertex has one object.
+        let mut vertex_object = vec![0u32; world.positions.len()];
+        for (t, &o) in world.triangles.iter().zip(&world.triangle_object) {
+            for &i in t {
+                vertex_object[i as usize] = o;
+            }
+        }
+        let vertices = (0..world.positions.len())
+            .map(|i| GpuVertex {
+                position: world.positions[i].to_array(),
+                object: vertex_object[i],
+                normal: world.normals[i].to_array(),
+                uv: world.uvs[i].to_array(),
+                ..GpuVertex::default()
+            })
+            .collect();
+        let reflector = |t: usize| world.objects[world.triangle_object[t] as usize].reflector;
+        let mut indices: Vec<u32> = Vec::with_capacity(world.triangles.len() * 3);
+        for pass in [false, true] {
+            for (t, tri) in world.triangles.iter().enumerate() {
+                if reflector(t) == pass {
+                    indices.extend_from_slice(tri);
+                }
+            }
+        }
+        let capture_index_count = 3
+            * (0..world.triangles.len())
+                .filter(|&t| !reflector(t))
+                .count() as u32;
+        let mut textures = Vec::new();
+        let mut texels = Vec::new();
+        for t in &scene.textures {
+            textures.push(GpuTexture {
+                offset: texels.len() as u32,
+                width: t.width,
+                height: t.height,
+                _pad: 0,
+            });
+            texels.extend(
+                t.rgba8
+                    .chunks_exact(4)
+                    .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])),
+            );
+        }
+        if texels.is_empty() {
+            // Storage buffers cannot be empty.
+            texels.push(0);
+            textures.push(GpuTexture::default());
+        }
+        let shading = match scene.shading {
+            Shading::Unlit => GpuShading {
+                model: 0,
+                ..GpuShading::default()
+            },
+            Shading::Lambert {
+                ambient,
+                light_direction,
+                light_intensity,
+            } => GpuShading {
+                model: 1,
+                ambient,
+                light_intensity,
+                light_direction: light_direction.to_array(),
+                ..GpuShading::default()
+            },
+        };
+        GpuSceneData {
+            vertices,
+            indices,
+            capture_index_count,
+            objects: world
+                .objects
+                .iter()
+                .map(|o| GpuObject {
+                    material: o.material,
+                    reflector: o.reflector as u32,
+                })
+                .collect(),
+            materials: scene
+                .materials
+                .iter()
+                .map(|m| GpuMaterial {
+                    diffuse: m.diffuse.to_array(),
+                    texture: m.texture.map_or(-1, |t| t as i32),
+                })
+                .collect(),
+            textures,
+            texels,
+            srgb_to_linear: (0..=255u8).map(srgb_to_linear).collect(),
+            shading: GpuShading {
+                background: scene.background.to_array(),
+                ..shading
+            },
+        }
+    }
+
+    /// Triangles the cubemap capture draws: reflectors only with self-reflections on.
+    pub fn capture_triangles(&self, self_reflections: bool) -> u32 {
+        if self_reflections {
+            self.indices.len() as u32 / 3
+        } else {
+            self.capture_index_count / 3
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reflectors_come_last_and_are_counted() {
+        let s = crate::scene::builtin::sphere_room();
+        let g = GpuSceneData::new(&s);
+        let n = g.capture_index_count as usize;
+        assert!(n > 0 && n < g.indices.len());
+        assert!(
+            g.indices[..n]
+                .iter()
+                .all(|&i| g.objects[g.vertices[i as usize].object as usize].reflector == 0)
+        );
+        assert!(
+            g.indices[n..]
+                .iter()
+                .all(|&i| g.objects[g.vertices[i as usize].object as usize].reflector == 1)
+        );
+        assert_eq!(g.srgb_to_linear[255], 1.0);
+        // Texels: red in the low byte.
+        let t = &s.textures[0];
+        assert_eq!(g.texels[0] & 0xff, t.rgba8[0] as u32);
+    }
+}
