@@ -140,7 +140,11 @@ pub struct Hier32 {
 /// Block shape used to build level `l >= 1` of a [`Hier32`] from level `l - 1`: 4 wide x 8 high
 /// for odd `l`, 8 x 4 for even `l`.
 pub fn hier32_group(level: usize) -> (u32, u32) {
-    if level % 2 == 1 { (4, 8) } else { (8, 4) }
+    if !level.is_multiple_of(2) {
+        (4, 8)
+    } else {
+        (8, 4)
+    }
 }
 
 /// `(width, height)` per level of the [`Hier32`] of a face of size `size`, texels first.
@@ -196,7 +200,7 @@ mod tests {
                 .wrapping_add(1442695040888963407);
             let v = (s >> 40) as f32 / 1024.0;
             (
-                if (s >> 20) % 13 == 0 {
+                if (s >> 20).is_multiple_of(13) {
                     f32::INFINITY
                 } else {
                     v

@@ -1,0 +1,1 @@
+//! The thesis's approximate criteria (fragment path options); see [`super`] for the exact one.
