@@ -3,6 +3,7 @@
 //! Every comparison has a negative twin that perturbs one input and must see the comparison fail.
 
 use cubetrace::cpu::alg3::{SUBGROUP_SIZES, trace_alg3};
+use cubetrace::cpu::approx::{Criterion, Sampling, trace_sampled};
 use cubetrace::cpu::mip::trace_mip;
 use cubetrace::cpu::multi::{MultiStatus, Traversal, trace_cmos};
 use cubetrace::cpu::walk::{trace_brute, trace_walk};
@@ -415,4 +416,73 @@ fn several_cmos_hand_off_behind_the_occluder() {
     eprintln!("A behind {a_behind}, resolved by B {resolved_by_b}, unresolved {unresolved}");
     assert!(a_behind > 20);
     assert!(resolved_by_b as f32 > 0.8 * a_behind as f32);
+}
+
+/// (hits, hits within 3 footprints, hits on points hidden from the CMO) for an approximate
+/// criterion.
+fn approx_stats(
+    tr: &CmoTracer,
+    rays: &[(Vec3, Vec3)],
+    trace: impl Fn(&Segment) -> TraceResult,
+) -> (usize, usize, usize) {
+    let n = tr.cube.size as f32;
+    let c = tr.cube.centre;
+    let (mut hits, mut good, mut hidden) = (0, 0, 0);
+    for &(o, d) in rays {
+        let r = trace(&segment(tr, o, d));
+        if r.status != Status::Hit {
+            continue;
+        }
+        hits += 1;
+        let p = r.point + c;
+        let p_true = o + scene_hit(o, d, true) * d;
+        if (p - p_true).length() <= 3.0 * (p_true - c).length() * 2.0 / n {
+            good += 1;
+        }
+        // Hidden: the reported point's own surface point is not what the CMO sees there.
+        if visible_from(c, p_true, 4.0 / n) == Some(false) && (p - p_true).length() > 0.05 {
+            hidden += 1;
+        }
+    }
+    (hits, good, hidden)
+}
+
+#[test]
+fn approximate_criteria() {
+    let tr = CmoTracer::new(capture(64, CENTRE, true), TraceParams::default());
+    let rs = rays(123, 1500);
+    let mut table = Vec::new();
+    for (name, crit, sampling) in [
+        ("sign/texel", Criterion::SignChange, Sampling::PerTexel),
+        (
+            "sign/step",
+            Criterion::SignChange,
+            Sampling::ConstantStep(400),
+        ),
+        (
+            "sign/angle",
+            Criterion::SignChange,
+            Sampling::ConstantAngle(400),
+        ),
+        ("eps/texel", Criterion::Threshold(0.1), Sampling::PerTexel),
+        (
+            "eps/step",
+            Criterion::Threshold(0.1),
+            Sampling::ConstantStep(400),
+        ),
+    ] {
+        let s = approx_stats(&tr, &rs, |seg| trace_sampled(&tr, seg, crit, sampling));
+        eprintln!("{name}: hits {} good {} hidden {}", s.0, s.1, s.2);
+        table.push(s);
+    }
+    // Measured (N = 64, 1500 rays): sign change hits 1500, 1270 within 3 footprints, 93 on
+    // points hidden from the CMO, for all three samplings; threshold 0.1 misses 7-17% of rays.
+    // Sign change per texel finds the surface where the CMO sees it...
+    let (hits, good, hidden) = table[0];
+    assert!(hits > 1300 && good as f32 > 0.8 * hits as f32);
+    // ...but also "hits" where the ray only passes behind the occluder (thesis fig. 3.2, C),
+    // which the exact criterion reports as behind (tested above with zero such hits).
+    assert!(hidden > 0);
+    // The same metric on the exact model finds none.
+    assert_eq!(approx_stats(&tr, &rs, |seg| trace_walk(&tr, seg)).2, 0);
 }
