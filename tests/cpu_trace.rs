@@ -486,3 +486,22 @@ fn approximate_criteria() {
     // The same metric on the exact model finds none.
     assert_eq!(approx_stats(&tr, &rs, |seg| trace_walk(&tr, seg)).2, 0);
 }
+
+#[test]
+fn special_rays_cover_four_faces_and_pieces_cross_at_most_four() {
+    use cubetrace::cpu::{faces_crossed, split_near_centre};
+    let tr = CmoTracer::new(capture(32, CENTRE, true), TraceParams::default());
+    let mut most = 0;
+    for (o, d) in special_rays(CENTRE).into_iter().chain(rays(3, 500)) {
+        let s = segment(&tr, o, d);
+        let p = split_near_centre(&s, tr.cut_radius);
+        let mut total = 0;
+        for k in 0..p.count as usize {
+            let n = faces_crossed(&s, p.range[k][0], p.range[k][1], 32).count;
+            assert!(n <= 4, "thesis th. 3.3: at most 4 faces per piece");
+            total += n;
+        }
+        most = most.max(total);
+    }
+    assert_eq!(most, 4, "no test ray crosses four faces");
+}
