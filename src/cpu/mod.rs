@@ -1,1 +1,436 @@
 #![forbid(unsafe_code)]
+//! CPU twins of the tracing passes, written loop-for-loop as the WGSL shaders will read: f32
+//! math, fixed-size arrays, no recursion, no allocation per ray.
+//!
+//! # Surface model: exact per texel, sphere patches
+//! Texel `i` (distance `D_i`) is the piece of the sphere `|x| = D_i` (CMO-local) inside the
+//! texel's frustum ([`crate::cubemap::frustum`]). Along the ray the texels it crosses (positive
+//! length, half-open tie rule) are taken in order of `t`; the first texel whose interval
+//! `[t0, t1]` is **not entirely in front** (`rmax >= D_i`, `rmax = max(r(t0), r(t1))`) decides:
+//! - `r(t0) <= D_i`: the ray meets the patch inside the texel: **hit** at the first root of
+//!   `|a + t d| = D_i` after `t0` ([`Outcome::Hit`]).
+//! - `r(t0) > D_i` and `t0` is the segment start: the ray starts behind the profile: **behind**
+//!   at `t_lo`.
+//! - `r(t0) > D_i` otherwise: the ray entered through side `s` (the constraint that set `t0`)
+//!   from the neighbour texel `p` across `s` ([`crate::cubemap::face::neighbour_across`]), where
+//!   it was in front, so `D_p > r(t0) > D_i`: a step down. It is a **hit on the riser** joining
+//!   the patches (at `t0`, reported on texel `i`) iff the two patches are one continuous
+//!   surface by the [continuity rule](continuous); otherwise the ray went **behind** an occluder
+//!   at `t_b = t0`. A silhouette never becomes a hit.
+//! - No such texel up to `t_hi`: **escaped**.
+//!
+//! # Near-centre rays
+//! Where the ray comes within `cut_radius = min(D) / 2` of the centre it is in front of every
+//! texel, and the projection onto faces degenerates (at the centre every face is crossed at
+//! once). That stretch is removed: the segment is split into at most two pieces with
+//! `r >= cut_radius` ([`split_near_centre`]), traced in order. Rays through the centre, or
+//! starting at it, are thus handled exactly.
+//!
+//! # Traversals (same classification and hit texel by construction of the order)
+//! - [`walk`]: per-texel walk across the faces (faces in order of entry `t`).
+//! - [`mip`]: thesis alg. 2 over the 2x2 [`crate::cubemap::pyramid::MipPyramid`], with cell
+//!   boundaries from the frustum inequalities (alg. 4) and the skip test `rmax < min` (fact 3).
+//! - [`alg3`]: depth-first traversal of the [`crate::cubemap::pyramid::Hier32`] with an emulated
+//!   subgroup ballot, for subgroup sizes 4..64.
+//! - [`walk::trace_brute`]: every texel tested, the first along `t` kept (the definition).
+//! - [`multi`]: several CMOs with the occlusion handoff.
+
+pub mod alg3;
+pub mod approx;
+pub mod mip;
+pub mod multi;
+pub mod walk;
+
+use glam::Vec3;
+
+use crate::cubemap::CubeMap;
+use crate::cubemap::face::{
+    FACE_COUNT, Texel, neighbour_across, st_to_texel_coord, texel_centre_dir, to_face_local,
+};
+use crate::cubemap::frustum::{
+    CellRect, Interval, SIDE_SEGMENT, SIDE_X0, SIDE_Y1, cell_interval, r_at,
+};
+use crate::cubemap::pyramid::{Hier32, MipPyramid};
+
+/// A ray segment in CMO-local coordinates: `a + t d`, `t in [t_lo, t_hi]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Segment {
+    /// Start point minus the CMO centre.
+    pub a: Vec3,
+    /// Direction (any non-zero length; `t` is in its units).
+    pub d: Vec3,
+    /// First parameter.
+    pub t_lo: f32,
+    /// Last parameter.
+    pub t_hi: f32,
+}
+
+impl Segment {
+    /// `a + t d`.
+    pub fn at(&self, t: f32) -> Vec3 {
+        Vec3::new(
+            self.a.x + t * self.d.x,
+            self.a.y + t * self.d.y,
+            self.a.z + t * self.d.z,
+        )
+    }
+}
+
+/// Result class of one ray against one CMO.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Status {
+    /// The ray met the surface.
+    Hit,
+    /// The ray went behind the profile at `t` (this CMO can't see the rest).
+    Behind,
+    /// The ray stayed in front of the profile up to `t_hi`.
+    #[default]
+    Escaped,
+}
+
+/// Work done for one ray.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Counters {
+    /// Texels whose interval and distance were tested.
+    pub texels: u32,
+    /// Hierarchy cells tested (interval + range test).
+    pub cells: u32,
+    /// Descents into a child cell.
+    pub descents: u32,
+    /// Returns to a parent cell after its child held nothing.
+    pub backtracks: u32,
+}
+
+/// What one ray found in one CMO.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct TraceResult {
+    /// Hit, behind or escaped.
+    pub status: Status,
+    /// Hit parameter, the `t_b` of behind, or `t_hi` when escaped.
+    pub t: f32,
+    /// The deciding texel (hit texel, or the occluding texel for behind); default if escaped.
+    pub texel: Texel,
+    /// Hit on the riser between two patches (rather than inside a patch).
+    pub riser: bool,
+    /// `a + t d` (CMO-local).
+    pub point: Vec3,
+    /// Work done.
+    pub counters: Counters,
+}
+
+/// Tracer options.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TraceParams {
+    /// `k` of the continuity rule: `tan` of the steepest surface slope (angle between the
+    /// surface normal and the direction from the CMO centre) still treated as continuous.
+    /// Default `tan(80 deg) = 5.671`.
+    pub continuity_k: f32,
+}
+
+impl Default for TraceParams {
+    fn default() -> Self {
+        TraceParams {
+            continuity_k: 5.671_282,
+        }
+    }
+}
+
+/// A CMO prepared for tracing: the capture, its two hierarchies and the near-centre radius.
+#[derive(Debug, Clone)]
+pub struct CmoTracer {
+    /// The capture.
+    pub cube: CubeMap,
+    /// 2x2 pyramid (fragment path).
+    pub mip: MipPyramid,
+    /// 8x4/4x8 hierarchy (compute path).
+    pub hier: Hier32,
+    /// Half the smallest stored distance: the ray is in front of everything inside it.
+    pub cut_radius: f32,
+    /// Options.
+    pub params: TraceParams,
+}
+
+impl CmoTracer {
+    /// Builds both hierarchies.
+    pub fn new(cube: CubeMap, params: TraceParams) -> CmoTracer {
+        let mip = MipPyramid::build(&cube);
+        let hier = Hier32::build(&cube);
+        let m = cube.min_distance();
+        let cut_radius = if m.is_finite() && m > 0.0 {
+            0.5 * m
+        } else {
+            0.0
+        };
+        CmoTracer {
+            cube,
+            mip,
+            hier,
+            cut_radius,
+            params,
+        }
+    }
+}
+
+/// Up to two `[lo, hi]` pieces of a segment, in order.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Pieces {
+    /// Number of valid pieces (0..=2).
+    pub count: u32,
+    /// The pieces.
+    pub range: [[f32; 2]; 2],
+}
+
+/// Removes the stretch where `r < radius` (see module docs). Pieces have positive length.
+pub fn split_near_centre(seg: &Segment, radius: f32) -> Pieces {
+    let mut out = Pieces::default();
+    let mut push = |lo: f32, hi: f32| {
+        if lo < hi {
+            out.range[out.count as usize] = [lo, hi];
+            out.count += 1;
+        }
+    };
+    let dd = seg.d.x * seg.d.x + seg.d.y * seg.d.y + seg.d.z * seg.d.z;
+    let ts = -(seg.a.x * seg.d.x + seg.a.y * seg.d.y + seg.a.z * seg.d.z) / dd;
+    let q = seg.at(ts);
+    let q2 = q.x * q.x + q.y * q.y + q.z * q.z;
+    let r2 = radius * radius;
+    if q2 < r2 {
+        let h = ((r2 - q2) / dd).sqrt();
+        push(seg.t_lo, seg.t_hi.min(ts - h));
+        push(seg.t_lo.max(ts + h), seg.t_hi);
+    } else {
+        push(seg.t_lo, seg.t_hi);
+    }
+    out
+}
+
+/// The faces a piece crosses, in order of entry `t` (ties: lower face index first).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FaceList {
+    /// Number of faces (0..=6; at most 4 for a piece that avoids the centre).
+    pub count: u32,
+    /// Face indices.
+    pub face: [u32; 6],
+    /// The piece's interval in each face.
+    pub iv: [Interval; 6],
+}
+
+/// Faces crossed by `seg` over `[lo, hi]`, sorted (insertion sort, as a shader would).
+pub fn faces_crossed(seg: &Segment, lo: f32, hi: f32, size: u32) -> FaceList {
+    let mut fl = FaceList {
+        count: 0,
+        face: [0; 6],
+        iv: [Interval::EMPTY; 6],
+    };
+    for f in 0..FACE_COUNT {
+        let iv = cell_interval(
+            to_face_local(f, seg.a),
+            to_face_local(f, seg.d),
+            &CellRect::face(f, size),
+            lo,
+            hi,
+        );
+        if iv.crosses() {
+            let mut k = fl.count as usize;
+            while k > 0 && fl.iv[k - 1].t0 > iv.t0 {
+                fl.face[k] = fl.face[k - 1];
+                fl.iv[k] = fl.iv[k - 1];
+                k -= 1;
+            }
+            fl.face[k] = f;
+            fl.iv[k] = iv;
+            fl.count += 1;
+        }
+    }
+    fl
+}
+
+/// The texel interval every traversal uses (bit-identical across them).
+pub fn texel_interval(seg: &Segment, texel: Texel, size: u32, lo: f32, hi: f32) -> Interval {
+    cell_interval(
+        to_face_local(texel.face, seg.a),
+        to_face_local(texel.face, seg.d),
+        &CellRect::texel(texel.face, texel.x, texel.y, size),
+        lo,
+        hi,
+    )
+}
+
+/// Whether a texel crossed over `iv` is not entirely in front (`rmax >= D`): a candidate.
+pub fn texel_not_in_front(seg: &Segment, iv: &Interval, d: f32) -> bool {
+    iv.crosses() && r_at(seg.a, seg.d, iv.t0).max(r_at(seg.a, seg.d, iv.t1)) >= d
+}
+
+/// Continuity rule: patches at `d_prev` and `d` whose texel centres are a chord `chord` apart
+/// (unit directions; the chord is within 0.5% of the angle for texels under 10 degrees) are one
+/// surface iff `|d_prev - d| <= k * max(d_prev, d) * chord`. A surface whose normal makes an
+/// angle `psi` with the direction from the centre changes its distance by `D tan(psi)` per
+/// radian, so `k = tan(psi_max)`; steeper steps are silhouettes (and an infinite `d_prev`,
+/// the background, is always one).
+pub fn continuous(d_prev: f32, d: f32, chord: f32, k: f32) -> bool {
+    d_prev.is_finite() && d.is_finite() && (d_prev - d).abs() <= k * d_prev.max(d) * chord
+}
+
+/// Outcome of classifying the first not-in-front texel.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Outcome {
+    /// Hit at `t` (riser: on the step joining two patches).
+    Hit {
+        /// Ray parameter.
+        t: f32,
+        /// On a riser.
+        riser: bool,
+    },
+    /// Behind the profile from `t` on.
+    Behind {
+        /// Ray parameter.
+        t: f32,
+    },
+}
+
+/// Classifies texel `texel` crossed over `iv` (see module docs); `None` if it is entirely in
+/// front, or not crossed.
+pub fn classify(tr: &CmoTracer, seg: &Segment, texel: Texel, iv: &Interval) -> Option<Outcome> {
+    let d = tr.cube.distance_at(texel);
+    if !texel_not_in_front(seg, iv, d) {
+        return None;
+    }
+    let r0 = r_at(seg.a, seg.d, iv.t0);
+    if r0 <= d {
+        // First root after t0 of |a + t d| = D: the larger root, since r(t0) <= D and r is convex.
+        let dd = seg.d.x * seg.d.x + seg.d.y * seg.d.y + seg.d.z * seg.d.z;
+        let ts = -(seg.a.x * seg.d.x + seg.a.y * seg.d.y + seg.a.z * seg.d.z) / dd;
+        let q = seg.at(ts);
+        let q2 = q.x * q.x + q.y * q.y + q.z * q.z;
+        let t = ts + ((d * d - q2).max(0.0) / dd).sqrt();
+        return Some(Outcome::Hit {
+            t: t.clamp(iv.t0, iv.t1),
+            riser: false,
+        });
+    }
+    if iv.entry == SIDE_SEGMENT || iv.entry > SIDE_Y1 {
+        return Some(Outcome::Behind { t: iv.t0 });
+    }
+    let prev = neighbour_across(texel, iv.entry - SIDE_X0, tr.cube.size);
+    let chord = (texel_centre_dir(texel, tr.cube.size).normalize()
+        - texel_centre_dir(prev, tr.cube.size).normalize())
+    .length();
+    if continuous(tr.cube.distance_at(prev), d, chord, tr.params.continuity_k) {
+        Some(Outcome::Hit {
+            t: iv.t0,
+            riser: true,
+        })
+    } else {
+        Some(Outcome::Behind { t: iv.t0 })
+    }
+}
+
+/// Builds the result for an outcome.
+pub fn finish(seg: &Segment, texel: Texel, o: Outcome, counters: Counters) -> TraceResult {
+    let (status, t, riser) = match o {
+        Outcome::Hit { t, riser } => (Status::Hit, t, riser),
+        Outcome::Behind { t } => (Status::Behind, t, false),
+    };
+    TraceResult {
+        status,
+        t,
+        texel,
+        riser,
+        point: seg.at(t),
+        counters,
+    }
+}
+
+/// The escaped result.
+pub fn escaped(seg: &Segment, counters: Counters) -> TraceResult {
+    TraceResult {
+        status: Status::Escaped,
+        t: seg.t_hi,
+        texel: Texel::default(),
+        riser: false,
+        point: seg.at(seg.t_hi),
+        counters,
+    }
+}
+
+/// The texel of `face` whose interval contains or follows `t` (a boundary the ray is on): the
+/// lookup of `p(t)` and its 3x3 neighbourhood, keeping crossed texels with `t1 > t`, smallest
+/// `t0` first (ties: row-major order). `None` when the ray has left the face there.
+pub fn locate(
+    seg: &Segment,
+    face: u32,
+    t: f32,
+    size: u32,
+    lo: f32,
+    hi: f32,
+) -> Option<(Texel, Interval)> {
+    let l = to_face_local(face, seg.at(t));
+    let (cx, cy) = if l.z > 0.0 {
+        (
+            st_to_texel_coord(0.5 * (l.x / l.z + 1.0), size),
+            st_to_texel_coord(0.5 * (l.y / l.z + 1.0), size),
+        )
+    } else {
+        (size / 2, size / 2)
+    };
+    let mut best: Option<(Texel, Interval)> = None;
+    for dy in -1i32..=1 {
+        for dx in -1i32..=1 {
+            let x = cx as i32 + dx;
+            let y = cy as i32 + dy;
+            if x < 0 || y < 0 || x >= size as i32 || y >= size as i32 {
+                continue;
+            }
+            let tex = Texel {
+                face,
+                x: x as u32,
+                y: y as u32,
+            };
+            let iv = texel_interval(seg, tex, size, lo, hi);
+            if iv.crosses() && iv.t1 > t && best.is_none_or(|(_, b)| iv.t0 < b.t0) {
+                best = Some((tex, iv));
+            }
+        }
+    }
+    best
+}
+
+/// The next texel after `cur` (crossed over `iv`) within its face: among the neighbours in the
+/// projected direction of motion (`du/dt`, `dv/dt` have a constant sign on a face), the crossed
+/// one with `t1 > iv.t1` and the smallest `t0`. `None` at the end of the face or segment.
+pub fn next_texel(
+    seg: &Segment,
+    cur: Texel,
+    iv: &Interval,
+    size: u32,
+    lo: f32,
+    hi: f32,
+) -> Option<(Texel, Interval)> {
+    let la = to_face_local(cur.face, seg.a);
+    let ld = to_face_local(cur.face, seg.d);
+    let mx = ld.x * la.z - la.x * ld.z;
+    let my = ld.y * la.z - la.y * ld.z;
+    let mut best: Option<(Texel, Interval)> = None;
+    for dy in -1i32..=1 {
+        for dx in -1i32..=1 {
+            if (dx == 0 && dy == 0) || (dx as f32) * mx < 0.0 || (dy as f32) * my < 0.0 {
+                continue;
+            }
+            let x = cur.x as i32 + dx;
+            let y = cur.y as i32 + dy;
+            if x < 0 || y < 0 || x >= size as i32 || y >= size as i32 {
+                continue;
+            }
+            let tex = Texel {
+                face: cur.face,
+                x: x as u32,
+                y: y as u32,
+            };
+            let niv = texel_interval(seg, tex, size, lo, hi);
+            if niv.crosses() && niv.t1 > iv.t1 && best.is_none_or(|(_, b)| niv.t0 < b.t0) {
+                best = Some((tex, niv));
+            }
+        }
+    }
+    best
+}

@@ -1,0 +1,72 @@
+//! Thesis alg. 2 (fragment path): the per-texel walk accelerated by the 2x2 `[min, max]`
+//! pyramid. At each texel, levels are checked coarsest first; a cell entered for the first time
+//! is tested over its (conservatively widened) interval, and skipped when the ray is entirely in
+//! front of it there (`rmax < min`, ALGORITHM.md fact 3; the thesis's endpoint test is not
+//! used). After a skip the walk resumes at the texel following the cell's exit (alg. 4's
+//! boundary, from the frustum inequalities). A cell found not skippable is remembered per level
+//! (`checked`) until the walk leaves it, like alg. 2's `B(i)`.
+
+use super::{
+    CmoTracer, Counters, Segment, TraceResult, classify, escaped, faces_crossed, finish, locate,
+    next_texel, split_near_centre,
+};
+use crate::cubemap::face::to_face_local;
+use crate::cubemap::frustum::{cell_interval, r_bounds};
+
+/// Most pyramid levels (N = 2048 has 12).
+pub const MIP_MAX_LEVELS: usize = 16;
+
+/// Traces one segment with the 2x2 pyramid.
+pub fn trace_mip(tr: &CmoTracer, seg: &Segment) -> TraceResult {
+    let n = tr.cube.size;
+    let top = tr.mip.levels.len() - 1;
+    let mut c = Counters::default();
+    let pieces = split_near_centre(seg, tr.cut_radius);
+    for p in 0..pieces.count as usize {
+        let [lo, hi] = pieces.range[p];
+        let faces = faces_crossed(seg, lo, hi, n);
+        for f in 0..faces.count as usize {
+            let face = faces.face[f];
+            let la = to_face_local(face, seg.a);
+            let ld = to_face_local(face, seg.d);
+            // checked[l]: the level-l cell last found not skippable (u32::MAX: none).
+            let mut checked = [(u32::MAX, u32::MAX); MIP_MAX_LEVELS];
+            // The cell skipped last, which the located texel may still touch by rounding.
+            let mut last_skip = (usize::MAX, u32::MAX, u32::MAX);
+            let mut cur = locate(seg, face, faces.iv[f].t0, n, lo, hi);
+            'walk: while let Some((tex, iv)) = cur {
+                let mut l = top;
+                while l >= 1 {
+                    let lev = &tr.mip.levels[l];
+                    let cx = tex.x / lev.span.0;
+                    let cy = tex.y / lev.span.1;
+                    if checked[l] != (cx, cy) {
+                        c.cells += 1;
+                        let civ = cell_interval(la, ld, &lev.rect(face, cx, cy, n), lo, hi);
+                        let skip = match civ.inflated(lo, hi) {
+                            Some((a, b)) => {
+                                (last_skip != (l, cx, cy))
+                                    && r_bounds(seg.a, seg.d, a, b).1 < lev.get(face, cx, cy)[0]
+                            }
+                            None => false,
+                        };
+                        if skip {
+                            last_skip = (l, cx, cy);
+                            let t_exit = if civ.crosses() { civ.t1 } else { iv.t1 };
+                            cur = locate(seg, face, t_exit.max(iv.t1), n, lo, hi);
+                            continue 'walk;
+                        }
+                        checked[l] = (cx, cy);
+                    }
+                    l -= 1;
+                }
+                c.texels += 1;
+                if let Some(o) = classify(tr, seg, tex, &iv) {
+                    return finish(seg, tex, o, c);
+                }
+                cur = next_texel(seg, tex, &iv, n, lo, hi);
+            }
+        }
+    }
+    escaped(seg, c)
+}

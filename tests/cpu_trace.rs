@@ -1,0 +1,507 @@
+//! CPU tracer tests on analytic cube maps: a box room with a floating box occluder.
+//!
+//! Every comparison has a negative twin that perturbs one input and must see the comparison fail.
+
+use cubetrace::cpu::alg3::{SUBGROUP_SIZES, trace_alg3};
+use cubetrace::cpu::approx::{Criterion, Sampling, trace_sampled};
+use cubetrace::cpu::mip::trace_mip;
+use cubetrace::cpu::multi::{MultiStatus, Traversal, trace_cmos};
+use cubetrace::cpu::walk::{trace_brute, trace_walk};
+use cubetrace::cpu::{CmoTracer, Segment, Status, TraceParams, TraceResult};
+use cubetrace::cubemap::CubeMap;
+use glam::Vec3;
+
+/// Axis-aligned box.
+#[derive(Clone, Copy)]
+struct Aabb {
+    lo: Vec3,
+    hi: Vec3,
+}
+
+const ROOM: Aabb = Aabb {
+    lo: Vec3::new(-3.0, -2.0, -4.0),
+    hi: Vec3::new(3.0, 2.5, 4.0),
+};
+const OCCLUDER: Aabb = Aabb {
+    lo: Vec3::new(0.6, -0.7, 1.2),
+    hi: Vec3::new(1.8, 0.5, 2.2),
+};
+const CENTRE: Vec3 = Vec3::new(0.3, -0.2, 0.4);
+
+/// Distance from `o` (inside) to the room's walls along `d`.
+fn exit_room(o: Vec3, d: Vec3) -> f32 {
+    let mut t = f32::INFINITY;
+    for k in 0..3 {
+        if d[k] > 0.0 {
+            t = t.min((ROOM.hi[k] - o[k]) / d[k]);
+        } else if d[k] < 0.0 {
+            t = t.min((ROOM.lo[k] - o[k]) / d[k]);
+        }
+    }
+    t
+}
+
+/// Entry distance into a box along `o + t d`, `t > 0` (slab test), or infinity.
+fn enter_box(b: Aabb, o: Vec3, d: Vec3) -> f32 {
+    let mut t0 = 0.0f32;
+    let mut t1 = f32::INFINITY;
+    for k in 0..3 {
+        if d[k] == 0.0 {
+            if o[k] < b.lo[k] || o[k] > b.hi[k] {
+                return f32::INFINITY;
+            }
+        } else {
+            let a = (b.lo[k] - o[k]) / d[k];
+            let c = (b.hi[k] - o[k]) / d[k];
+            t0 = t0.max(a.min(c));
+            t1 = t1.min(a.max(c));
+        }
+    }
+    if t0 <= t1 { t0 } else { f32::INFINITY }
+}
+
+/// First scene hit along `o + t d` (unit `d`), `t > 0`.
+fn scene_hit(o: Vec3, d: Vec3, with_occluder: bool) -> f32 {
+    let t = exit_room(o, d);
+    if with_occluder {
+        t.min(enter_box(OCCLUDER, o, d))
+    } else {
+        t
+    }
+}
+
+fn capture(size: u32, centre: Vec3, with_occluder: bool) -> CubeMap {
+    let mut c = CubeMap::new(size, centre);
+    c.fill(|t, dir| {
+        let d = scene_hit(centre, dir, with_occluder);
+        (d, [t.face as f32, t.x as f32, t.y as f32, 1.0])
+    });
+    c
+}
+
+/// splitmix64, fixed seeds only.
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> f32 {
+        self.0 = self.0.wrapping_add(0x9E3779B97F4A7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58476D1CE4E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D049BB133111EB);
+        z ^= z >> 31;
+        (z >> 40) as f32 / (1u64 << 24) as f32
+    }
+    fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * self.next()
+    }
+    fn unit(&mut self) -> Vec3 {
+        loop {
+            let v = Vec3::new(
+                self.range(-1.0, 1.0),
+                self.range(-1.0, 1.0),
+                self.range(-1.0, 1.0),
+            );
+            let l = v.length();
+            if l > 0.1 && l <= 1.0 {
+                return v / l;
+            }
+        }
+    }
+}
+
+/// World rays `(origin, unit dir)` from inside the room, outside the occluder.
+fn rays(seed: u64, count: usize) -> Vec<(Vec3, Vec3)> {
+    let mut rng = Rng(seed);
+    let mut out = Vec::with_capacity(count);
+    while out.len() < count {
+        let o = Vec3::new(
+            rng.range(-2.7, 2.7),
+            rng.range(-1.7, 2.2),
+            rng.range(-3.7, 3.7),
+        );
+        if o.cmpge(OCCLUDER.lo - 0.1).all() && o.cmple(OCCLUDER.hi + 0.1).all() {
+            continue;
+        }
+        out.push((o, rng.unit()));
+    }
+    out
+}
+
+const T_HI: f32 = 20.0;
+
+fn segment(tr: &CmoTracer, o: Vec3, d: Vec3) -> Segment {
+    Segment {
+        a: o - tr.cube.centre,
+        d,
+        t_lo: 0.0,
+        t_hi: T_HI,
+    }
+}
+
+/// Special rays: through the centre, starting at it, along cube edges and corners (as seen
+/// from the centre), parallel to face planes, and long diagonals crossing 4 faces.
+fn special_rays(c: Vec3) -> Vec<(Vec3, Vec3)> {
+    let mut v = Vec::new();
+    for d in [
+        Vec3::X,
+        Vec3::NEG_Y,
+        Vec3::Z,
+        Vec3::new(1.0, 1.0, 0.0),
+        Vec3::ONE,
+        Vec3::new(-1.0, 1.0, -1.0),
+    ] {
+        let d = d.normalize();
+        v.push((c, d)); // starts at the centre
+        v.push((c - 1.5 * d, d)); // through the centre
+        v.push((c - 1.5 * d + Vec3::new(1e-7, -1e-7, 0.0), d)); // within 1e-6 of it
+    }
+    // Rays lying in face edge planes and texel boundary planes (x = z, y = 0 through c).
+    v.push((
+        c + Vec3::new(0.5, 0.0, 0.5),
+        Vec3::new(0.3, 0.4, 0.3).normalize(),
+    ));
+    v.push((
+        c + Vec3::new(-0.5, 0.0, 0.2),
+        Vec3::new(0.2, 0.0, 1.0).normalize(),
+    ));
+    v.push((
+        c + Vec3::new(0.0, 0.2, -0.5),
+        Vec3::new(0.0, 0.3, 1.0).normalize(),
+    ));
+    // Parallel to face planes: along x at a fixed offset in y and z.
+    v.push((c + Vec3::new(-2.5, 0.5, 0.5), Vec3::X));
+    v.push((c + Vec3::new(0.7, -1.0, 0.3), Vec3::Y));
+    // Crossing four faces: a long ray passing near (not through) the centre, diagonally.
+    v.push((
+        c + Vec3::new(-2.0, -1.2, -0.2),
+        Vec3::new(1.0, 0.6, 0.9).normalize(),
+    ));
+    v.push((
+        c + Vec3::new(2.5, 0.3, -3.0),
+        Vec3::new(-1.0, 0.2, 1.2).normalize(),
+    ));
+    v
+}
+
+fn same(a: &TraceResult, b: &TraceResult) -> bool {
+    a.status == b.status
+        && (a.status == Status::Escaped || (a.texel == b.texel && a.t.to_bits() == b.t.to_bits()))
+}
+
+/// Counts rays on which the traversals disagree with the per-texel walk.
+fn disagreements(tr: &CmoTracer, other: &CmoTracer, rays: &[(Vec3, Vec3)], brute: bool) -> usize {
+    let segs: Vec<Segment> = rays.iter().map(|&(o, d)| segment(tr, o, d)).collect();
+    let walk: Vec<TraceResult> = segs.iter().map(|s| trace_walk(tr, s)).collect();
+    let mut bad = 0;
+    let mut alg3: Vec<Vec<TraceResult>> = Vec::new();
+    for &sg in &SUBGROUP_SIZES {
+        alg3.push(trace_alg3(other, &segs, sg));
+    }
+    for (i, s) in segs.iter().enumerate() {
+        let mut ok = same(&walk[i], &trace_mip(other, s));
+        for r in &alg3 {
+            ok &= same(&walk[i], &r[i]);
+        }
+        if brute {
+            ok &= same(&walk[i], &trace_brute(other, s));
+        }
+        if !ok {
+            bad += 1;
+        }
+    }
+    bad
+}
+
+#[test]
+fn traversals_and_subgroup_sizes_agree() {
+    for (size, count) in [(1u32, 400usize), (2, 400), (3, 400), (16, 1500), (32, 1500)] {
+        let tr = CmoTracer::new(capture(size, CENTRE, true), TraceParams::default());
+        let mut rs = rays(size as u64, count);
+        rs.extend(special_rays(CENTRE));
+        assert_eq!(disagreements(&tr, &tr, &rs, size <= 16), 0, "size {size}");
+    }
+}
+
+#[test]
+fn agreement_check_detects_a_perturbed_input() {
+    let tr = CmoTracer::new(capture(16, CENTRE, true), TraceParams::default());
+    let mut cube = tr.cube.clone();
+    // Push one face's walls out: the other traversals now see another profile.
+    for d in cube.distance[..(16 * 16)].iter_mut() {
+        *d *= 1.05;
+    }
+    let other = CmoTracer::new(cube, TraceParams::default());
+    assert!(disagreements(&tr, &other, &rays(5, 300), false) > 0);
+    // Corrupting the hierarchy alone (a cell claims min > its texels) is also caught.
+    let mut broken = tr.clone();
+    for c in broken.hier.levels[1].cells.iter_mut() {
+        c[0] = 1e9;
+    }
+    for l in broken.mip.levels.iter_mut().skip(1) {
+        for c in l.cells.iter_mut() {
+            c[0] = 1e9;
+        }
+    }
+    assert!(disagreements(&tr, &broken, &rays(6, 300), false) > 0);
+}
+
+/// Whether `q` (on a scene surface) is hidden from `c` by something nearer.
+fn hidden_from(c: Vec3, q: Vec3) -> bool {
+    let v = q - c;
+    let dist = v.length();
+    scene_hit(c, v / dist, true) < dist - 1e-3
+}
+
+/// Whether the scene point `p` is seen from `c`, or `None` when points of the same surface
+/// within `margin * |p - c|` disagree (a silhouette crosses the texel there).
+fn visible_from(c: Vec3, p: Vec3, margin: f32) -> Option<bool> {
+    let on = |k: usize| {
+        [ROOM.lo[k], ROOM.hi[k], OCCLUDER.lo[k], OCCLUDER.hi[k]]
+            .iter()
+            .any(|b| (p[k] - b).abs() < 1e-3)
+    };
+    let normal = (0..3).find(|&k| on(k)).unwrap_or(0);
+    let (e1, e2) = (Vec3::AXES[(normal + 1) % 3], Vec3::AXES[(normal + 2) % 3]);
+    let delta = margin * (p - c).length();
+    let hidden = hidden_from(c, p);
+    for (i, j) in [
+        (1.0, 0.0),
+        (-1.0, 0.0),
+        (0.0, 1.0),
+        (0.0, -1.0),
+        (1.0, 1.0),
+        (-1.0, -1.0),
+        (1.0, -1.0),
+        (-1.0, 1.0),
+    ] {
+        if hidden_from(c, p + delta * (i * e1 + j * e2)) != hidden {
+            return None;
+        }
+    }
+    Some(!hidden)
+}
+
+/// Accuracy of exact hits against the analytic scene, in texel footprints at the hit
+/// (`|p_hit - p_true| / (|p_true - c| * 2 / N)`), and silhouette safety.
+/// Returns (hits, hits within `k_fp` footprints, behind, hits on points hidden from c).
+fn accuracy(tr: &CmoTracer, rays: &[(Vec3, Vec3)], k_fp: f32) -> (usize, usize, usize, usize) {
+    let n = tr.cube.size as f32;
+    let c = tr.cube.centre;
+    let (mut hits, mut good, mut behind, mut hidden_hits) = (0, 0, 0, 0);
+    for &(o, d) in rays {
+        let s = segment(tr, o, d);
+        let r = trace_walk(tr, &s);
+        let t_true = scene_hit(o, d, true);
+        let p_true = o + t_true * d;
+        let vis = visible_from(c, p_true, 4.0 / n);
+        match r.status {
+            Status::Hit => {
+                hits += 1;
+                let p = r.point + c;
+                let fp = (p_true - c).length() * 2.0 / n;
+                if (p - p_true).length() <= k_fp * fp {
+                    good += 1;
+                }
+                if vis == Some(false) {
+                    eprintln!(
+                        "hidden hit: o {o:?} d {d:?} r {r:?} p_true {p_true:?} t_true {t_true}"
+                    );
+                    hidden_hits += 1;
+                }
+            }
+            Status::Behind => behind += 1,
+            Status::Escaped => {}
+        }
+    }
+    (hits, good, behind, hidden_hits)
+}
+
+#[test]
+fn hits_match_the_analytic_scene() {
+    // Measured at N = 64 over 3000 rays: 99.5% of hits within 3 footprints; the rest are
+    // grazing walls seen at > 75 degrees from the centre, where a sphere patch is a poor plane.
+    let tr = CmoTracer::new(capture(64, CENTRE, true), TraceParams::default());
+    let rs = rays(42, 3000);
+    let (hits, good, behind, hidden) = accuracy(&tr, &rs, 3.0);
+    eprintln!("hits {hits} good {good} behind {behind} hidden {hidden}");
+    assert!(hits > 2000);
+    assert!(good as f32 >= 0.98 * hits as f32, "{good}/{hits}");
+    assert_eq!(hidden, 0, "a ray passing behind the occluder became a hit");
+    assert!(
+        behind > 0,
+        "no ray went behind the occluder: the test lost its point"
+    );
+}
+
+#[test]
+fn accuracy_check_detects_wrong_distances() {
+    let mut cube = capture(64, CENTRE, true);
+    for d in cube.distance.iter_mut() {
+        *d *= 1.1;
+    }
+    let tr = CmoTracer::new(cube, TraceParams::default());
+    let (hits, good, _, _) = accuracy(&tr, &rays(42, 1000), 3.0);
+    assert!((good as f32) < 0.98 * hits as f32);
+}
+
+#[test]
+fn silhouettes_are_not_hits_without_the_continuity_rule_they_are() {
+    let rs = rays(9, 3000);
+    let tr = CmoTracer::new(capture(64, CENTRE, true), TraceParams::default());
+    assert_eq!(accuracy(&tr, &rs, 3.0).3, 0);
+    // Negative: treat every step as continuous and silhouettes become (wrong) hits.
+    let loose = CmoTracer::new(capture(64, CENTRE, true), TraceParams { continuity_k: 1e9 });
+    assert!(accuracy(&loose, &rs, 3.0).3 > 0);
+}
+
+#[test]
+fn empty_room_from_the_centre() {
+    // Rays from the centre along the axes and diagonals hit the wall at the analytic distance
+    // (the texel centre direction is exact for axes; corners within a footprint).
+    for size in [1u32, 2, 3, 32] {
+        let tr = CmoTracer::new(capture(size, CENTRE, false), TraceParams::default());
+        for (o, d) in special_rays(CENTRE) {
+            let s = segment(&tr, o, d);
+            let r = trace_walk(&tr, &s);
+            assert_eq!(r.status, Status::Hit, "size {size} {o:?} {d:?}");
+            let t_true = scene_hit(o, d, false);
+            let p_true = o + t_true * d;
+            // Sphere patches in a box room: within the patch's radial spread.
+            let spread = (p_true - CENTRE).length() * 2.0;
+            assert!(
+                (r.point + CENTRE - p_true).length() <= spread,
+                "{size} {d:?}"
+            );
+        }
+        // Axis rays from the centre: exact wall distance for odd N (texel centre on the axis).
+        if size % 2 == 1 {
+            let r = trace_walk(&tr, &segment(&tr, CENTRE, Vec3::X));
+            assert!((r.t - (ROOM.hi.x - CENTRE.x)).abs() < 1e-4, "{}", r.t);
+        }
+    }
+}
+
+#[test]
+fn several_cmos_hand_off_behind_the_occluder() {
+    // CMO A sees the room but not behind the occluder; CMO B, on the other side, does.
+    let a = CmoTracer::new(capture(64, CENTRE, true), TraceParams::default());
+    let b_centre = Vec3::new(1.2, -0.1, 3.4);
+    let b = CmoTracer::new(capture(64, b_centre, true), TraceParams::default());
+    let rs = rays(77, 2000);
+    let mut a_behind = 0;
+    let mut resolved_by_b = 0;
+    let mut unresolved = 0;
+    for &(o, d) in &rs {
+        let one = trace_cmos(std::slice::from_ref(&a), o, d, 0.0, T_HI, Traversal::Walk);
+        let two = trace_cmos(&[a.clone(), b.clone()], o, d, 0.0, T_HI, Traversal::Alg3(8));
+        let walk2 = trace_cmos(&[a.clone(), b.clone()], o, d, 0.0, T_HI, Traversal::Walk);
+        assert_eq!(two.status, walk2.status);
+        assert_eq!(two.cmo, walk2.cmo);
+        if one.status == MultiStatus::Unresolved {
+            a_behind += 1;
+            match two.status {
+                MultiStatus::Hit => {
+                    resolved_by_b += 1;
+                    let p_true = o + scene_hit(o, d, true) * d;
+                    let fp = (p_true - b_centre).length() * 2.0 / 64.0;
+                    assert!((two.point - p_true).length() < 8.0 * fp, "{o:?} {d:?}");
+                }
+                MultiStatus::Unresolved => unresolved += 1,
+                MultiStatus::Escaped => panic!("escaped a closed room"),
+            }
+        }
+        if two.status == MultiStatus::Hit {
+            assert!(two.t_done <= two.result.t);
+        }
+    }
+    eprintln!("A behind {a_behind}, resolved by B {resolved_by_b}, unresolved {unresolved}");
+    assert!(a_behind > 20);
+    assert!(resolved_by_b as f32 > 0.8 * a_behind as f32);
+}
+
+/// (hits, hits within 3 footprints, hits on points hidden from the CMO) for an approximate
+/// criterion.
+fn approx_stats(
+    tr: &CmoTracer,
+    rays: &[(Vec3, Vec3)],
+    trace: impl Fn(&Segment) -> TraceResult,
+) -> (usize, usize, usize) {
+    let n = tr.cube.size as f32;
+    let c = tr.cube.centre;
+    let (mut hits, mut good, mut hidden) = (0, 0, 0);
+    for &(o, d) in rays {
+        let r = trace(&segment(tr, o, d));
+        if r.status != Status::Hit {
+            continue;
+        }
+        hits += 1;
+        let p = r.point + c;
+        let p_true = o + scene_hit(o, d, true) * d;
+        if (p - p_true).length() <= 3.0 * (p_true - c).length() * 2.0 / n {
+            good += 1;
+        }
+        // Hidden: the reported point's own surface point is not what the CMO sees there.
+        if visible_from(c, p_true, 4.0 / n) == Some(false) && (p - p_true).length() > 0.05 {
+            hidden += 1;
+        }
+    }
+    (hits, good, hidden)
+}
+
+#[test]
+fn approximate_criteria() {
+    let tr = CmoTracer::new(capture(64, CENTRE, true), TraceParams::default());
+    let rs = rays(123, 1500);
+    let mut table = Vec::new();
+    for (name, crit, sampling) in [
+        ("sign/texel", Criterion::SignChange, Sampling::PerTexel),
+        (
+            "sign/step",
+            Criterion::SignChange,
+            Sampling::ConstantStep(400),
+        ),
+        (
+            "sign/angle",
+            Criterion::SignChange,
+            Sampling::ConstantAngle(400),
+        ),
+        ("eps/texel", Criterion::Threshold(0.1), Sampling::PerTexel),
+        (
+            "eps/step",
+            Criterion::Threshold(0.1),
+            Sampling::ConstantStep(400),
+        ),
+    ] {
+        let s = approx_stats(&tr, &rs, |seg| trace_sampled(&tr, seg, crit, sampling));
+        eprintln!("{name}: hits {} good {} hidden {}", s.0, s.1, s.2);
+        table.push(s);
+    }
+    // Measured (N = 64, 1500 rays): sign change hits 1500, 1270 within 3 footprints, 93 on
+    // points hidden from the CMO, for all three samplings; threshold 0.1 misses 7-17% of rays.
+    // Sign change per texel finds the surface where the CMO sees it...
+    let (hits, good, hidden) = table[0];
+    assert!(hits > 1300 && good as f32 > 0.8 * hits as f32);
+    // ...but also "hits" where the ray only passes behind the occluder (thesis fig. 3.2, C),
+    // which the exact criterion reports as behind (tested above with zero such hits).
+    assert!(hidden > 0);
+    // The same metric on the exact model finds none.
+    assert_eq!(approx_stats(&tr, &rs, |seg| trace_walk(&tr, seg)).2, 0);
+}
+
+#[test]
+fn special_rays_cover_four_faces_and_pieces_cross_at_most_four() {
+    use cubetrace::cpu::{faces_crossed, split_near_centre};
+    let tr = CmoTracer::new(capture(32, CENTRE, true), TraceParams::default());
+    let mut most = 0;
+    for (o, d) in special_rays(CENTRE).into_iter().chain(rays(3, 500)) {
+        let s = segment(&tr, o, d);
+        let p = split_near_centre(&s, tr.cut_radius);
+        let mut total = 0;
+        for k in 0..p.count as usize {
+            let n = faces_crossed(&s, p.range[k][0], p.range[k][1], 32).count;
+            assert!(n <= 4, "thesis th. 3.3: at most 4 faces per piece");
+            total += n;
+        }
+        most = most.max(total);
+    }
+    assert_eq!(most, 4, "no test ray crosses four faces");
+}
