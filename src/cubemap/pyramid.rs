@@ -125,6 +125,47 @@ impl MipPyramid {
     }
 }
 
+/// Where one level of a flattened hierarchy lives in a GPU buffer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FlatLevel {
+    /// First cell of the level (in cells, not bytes).
+    pub offset: u32,
+    /// Cells per row.
+    pub width: u32,
+    /// Cells per column.
+    pub height: u32,
+}
+
+/// The GPU buffer layout of a 2x2 mip pyramid for face size `size`: levels 1.. (level 0, the
+/// texels, is the distance buffer itself), each `6 * width * height` cells `[min, max]`,
+/// face-major and row-major, concatenated finest first. Level `l` is `ceil(N / 2^l)` wide.
+pub fn mip_flat_layout(size: u32) -> Vec<FlatLevel> {
+    let mut out = Vec::new();
+    let (mut w, mut h, mut offset) = (size, size, 0u32);
+    while w > 1 || h > 1 {
+        w = w.div_ceil(2);
+        h = h.div_ceil(2);
+        out.push(FlatLevel {
+            offset,
+            width: w,
+            height: h,
+        });
+        offset += FACE_COUNT * w * h;
+    }
+    out
+}
+
+impl MipPyramid {
+    /// Levels 1.. concatenated in the [`mip_flat_layout`] order: what the GPU pyramid pass
+    /// writes and the fragment tracer reads.
+    pub fn flatten(&self) -> Vec<[f32; 2]> {
+        self.levels[1..]
+            .iter()
+            .flat_map(|l| l.cells.iter().copied())
+            .collect()
+    }
+}
+
 /// Maximum number of levels of a [`Hier32`] (N = 2048 needs 5; texels included).
 pub const HIER_MAX_LEVELS: usize = 8;
 
@@ -280,5 +321,35 @@ mod tests {
             m.levels.iter().map(|l| l.width).collect::<Vec<_>>(),
             vec![3, 2, 1]
         );
+    }
+}
+
+#[cfg(test)]
+mod flat_tests {
+    use super::*;
+    use glam::Vec3;
+
+    #[test]
+    fn flat_layout_matches_levels() {
+        for size in [1u32, 2, 3, 5, 16, 33] {
+            let mut cube = CubeMap::new(size, Vec3::ZERO);
+            cube.fill(|t, _| ((t.index(size) % 7) as f32 + 1.0, [0.0; 4]));
+            let p = MipPyramid::build(&cube);
+            let layout = mip_flat_layout(size);
+            assert_eq!(layout.len(), p.levels.len() - 1);
+            let flat = p.flatten();
+            for (l, fl) in layout.iter().enumerate() {
+                let level = &p.levels[l + 1];
+                assert_eq!((fl.width, fl.height), (level.width, level.height));
+                for face in 0..FACE_COUNT {
+                    for y in 0..fl.height {
+                        for x in 0..fl.width {
+                            let i = fl.offset + (face * fl.height + y) * fl.width + x;
+                            assert_eq!(flat[i as usize], level.get(face, x, y));
+                        }
+                    }
+                }
+            }
+        }
     }
 }

@@ -169,6 +169,17 @@ impl Tracer {
     /// The nearest hit along `origin + t dir`, `t > 0`, ignoring triangle `skip` (and, when
     /// `skip` is set, hits closer than the self-hit distance).
     pub fn nearest(&self, origin: Vec3, dir: Vec3, skip: Option<u32>) -> Option<Hit> {
+        self.nearest_where(origin, dir, skip, |_| true)
+    }
+
+    /// [`Tracer::nearest`] among the triangles (global indices) that `accept` keeps.
+    pub fn nearest_where(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        skip: Option<u32>,
+        accept: impl Fn(u32) -> bool,
+    ) -> Option<Hit> {
         if self.tris.is_empty() {
             return None;
         }
@@ -183,7 +194,7 @@ impl Tracer {
         let mut hit = RayHit::none();
         self.bvh.ray_traverse(ray, &mut hit, |_, k| {
             let global = self.order[k];
-            if Some(global) == skip {
+            if Some(global) == skip || !accept(global) {
                 return f32::INFINITY;
             }
             match intersect(o, d, &self.tris[k]) {
@@ -358,4 +369,39 @@ pub fn render_with_progress(
         }
     }
     frame
+}
+
+/// The CPU capture of one cubemap object: for every texel, a ray from `centre` through the
+/// texel centre ([`crate::cubemap::face::texel_centre_dir`]); the distance to the nearest surface
+/// (`+inf` where none) and its shaded colour (alpha 1; the background with alpha 0 where none).
+/// Reflectors are left out unless the scene has self-reflections on, as in the GPU capture.
+/// This is what a rasterised capture computes at texel centres, so it checks the GPU capture.
+pub fn capture(scene: &Scene, tracer: &Tracer, centre: Vec3, size: u32) -> crate::cubemap::CubeMap {
+    let mut cube = crate::cubemap::CubeMap::new(size, centre);
+    let n = cube.distance.len();
+    let texels: Vec<(f32, [f32; 4])> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let t = crate::cubemap::Texel::from_index(i, size);
+            let dir = crate::cubemap::face::texel_centre_dir(t, size).normalize();
+            let hit = tracer.nearest_where(centre, dir, None, |tri| {
+                scene.self_reflections || !tracer.is_reflector(tri)
+            });
+            match hit {
+                Some(h) => {
+                    let c = tracer.shade(scene, &h);
+                    ((h.position - centre).length(), [c.x, c.y, c.z, 1.0])
+                }
+                None => {
+                    let b = scene.background;
+                    (f32::INFINITY, [b.x, b.y, b.z, 0.0])
+                }
+            }
+        })
+        .collect();
+    for (i, (d, c)) in texels.into_iter().enumerate() {
+        cube.distance[i] = d;
+        cube.colour[i] = c;
+    }
+    cube
 }
