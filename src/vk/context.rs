@@ -19,6 +19,7 @@ use super::error::{VkError, VkResult, call_err};
 use super::image::Image;
 use super::info::{DeviceReport, probe_all};
 use super::instance::{Instance, Validation, ValidationLog};
+use super::sync::{ALL, TRANSFER_READ, TRANSFER_WRITE};
 
 /// How to create a [`GpuContext`]. `Default` is: no validation (unless `CUBETRACE_VALIDATION=1`),
 /// automatic device choice.
@@ -127,21 +128,37 @@ impl Recorder<'_> {
     }
 }
 
-/// Access and stage masks used by transfers.
-const TRANSFER_WRITE: (vk::PipelineStageFlags2, vk::AccessFlags2) = (
-    vk::PipelineStageFlags2::ALL_TRANSFER,
-    vk::AccessFlags2::TRANSFER_WRITE,
-);
-const TRANSFER_READ: (vk::PipelineStageFlags2, vk::AccessFlags2) = (
-    vk::PipelineStageFlags2::ALL_TRANSFER,
-    vk::AccessFlags2::TRANSFER_READ,
-);
-const ALL: (vk::PipelineStageFlags2, vk::AccessFlags2) = (
-    vk::PipelineStageFlags2::ALL_COMMANDS,
-    vk::AccessFlags2::from_raw(
-        vk::AccessFlags2::MEMORY_READ.as_raw() | vk::AccessFlags2::MEMORY_WRITE.as_raw(),
-    ),
-);
+impl Recorder<'_> {
+    /// Copies every layer of `image` (in `TRANSFER_SRC_OPTIMAL`) into `buffer` from its start,
+    /// tightly packed, layer-major, row-major.
+    pub fn copy_image_to_buffer(&self, image: &Image, buffer: &Buffer) -> VkResult<()> {
+        let desc = image.desc();
+        let bytes = desc.layer_bytes()? * u64::from(desc.layers);
+        if buffer.size() < bytes {
+            return Err(VkError::Usage {
+                what: buffer.name().into(),
+                detail: format!(
+                    "{} bytes, image `{}` holds {bytes}",
+                    buffer.size(),
+                    desc.name
+                ),
+            });
+        }
+        let region = [copy_region(image)];
+        // SAFETY: the image is in TRANSFER_SRC_OPTIMAL (caller's contract); the buffer fits every
+        // layer (checked above); both are alive for the submission.
+        unsafe {
+            self.device.raw.cmd_copy_image_to_buffer(
+                self.cmd,
+                image.raw(),
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                buffer.raw(),
+                &region,
+            )
+        };
+        Ok(())
+    }
+}
 
 /// The Vulkan context: everything a pass needs to create resources and submit work.
 pub struct GpuContext {

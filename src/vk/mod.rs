@@ -13,22 +13,28 @@
 //! - Coordinates are Vulkan's native ones: naga is told not to flip y.
 //! - Every pass has one name: its WGSL file stem, its debug label and its timestamp key.
 pub mod buffer;
+pub mod capture;
 pub mod context;
 pub mod conv;
 pub mod device;
 pub mod error;
+pub mod gbuffer;
+pub mod graphics;
 pub mod image;
 pub mod info;
 pub mod instance;
 pub mod pipeline;
+pub mod scene_buffers;
 pub mod selftest;
 pub mod shaders;
+pub mod sync;
 pub mod timestamps;
 
 pub use buffer::Buffer;
 pub use context::{ContextOptions, GpuContext, Recorder};
 pub use device::{Device, EnabledFeatures};
 pub use error::{VkError, VkResult};
+pub use graphics::{ColourTarget, DepthTest, GraphicsDesc, GraphicsPipeline, RenderTarget};
 pub use image::{Image, ImageDesc};
 pub use info::DeviceReport;
 pub use instance::{Validation, ValidationLog};

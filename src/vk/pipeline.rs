@@ -7,8 +7,8 @@
 //! - A [`BindGroup`] must supply every reflected binding of its group with a resource of the
 //!   matching kind (and a buffer at least `min_size` bytes); otherwise creation fails, naming the
 //!   pass and the WGSL variable.
-//! - Graphics pipelines (later) will use the same layout builder with vertex + fragment entry
-//!   points, and dynamic rendering (no render pass objects).
+//! - Graphics pipelines ([`super::graphics`]) use the same layout builder with vertex + fragment
+//!   entry points, and dynamic rendering (no render pass objects).
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
@@ -267,7 +267,7 @@ pub struct BindGroup {
 }
 
 impl BindGroup {
-    fn new(
+    pub(crate) fn new(
         device: &Arc<Device>,
         pass: &Pass,
         layout: &PipelineLayout,
@@ -410,6 +410,18 @@ impl BindGroup {
         // SAFETY: every write targets a binding of this set with its reflected type; resources are alive.
         unsafe { device.raw.update_descriptor_sets(&writes, &[]) };
         Ok(bg)
+    }
+}
+
+impl BindGroup {
+    /// The Vulkan descriptor set.
+    pub(crate) fn raw(&self) -> vk::DescriptorSet {
+        self.set
+    }
+
+    /// The `@group` index this set is for.
+    pub(crate) fn group(&self) -> u32 {
+        self.group
     }
 }
 

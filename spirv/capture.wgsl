@@ -1,0 +1,95 @@
+// capture: rasterises the scene into one face of one cubemap object (CMO) per draw.
+//
+// Draw `instance_index = k` renders view `capture_views[k]` (CMO k / 6, face k % 6) into layer k
+// of the colour and distance images. The projection is the cube face itself: the vertex's
+// CMO-local position in the face's local frame `l = (sc, tc, |ma|)` (src/cubemap/face.rs, the
+// Vulkan cube map face selection) goes to clip space as `(l.x, l.y, z, l.z)`, so that pixel
+// (x, y) of the face, centre at ((x + 0.5) / N, (y + 0.5) / N) in (s, t), sees exactly the
+// direction of texel (x, y) (framebuffer row 0 is t = 0; naga does not flip y here).
+//
+// Stored per texel: the shaded colour (alpha 1) and the world distance from the CMO centre to the
+// surface point, `length(world - centre)` of the perspective-correctly interpolated world
+// position: the distance to where the texel's centre ray meets the triangle. Depth only picks the
+// nearest surface: reversed depth `z / w = near / l.z` (test GREATER, no far plane), which falls
+// with l.z and so, along one texel ray, with the distance; f32 keeps its relative precision at
+// every distance. Geometry nearer than `near` along the face axis is clipped.
+// `fs_self` also writes the unit normal and the mirror flag: only when the scene has
+// self-reflections on (model only what the scene needs).
+//! import shared/scene.wgsl
+
+struct CaptureView {
+    centre: vec3<f32>,
+    face: u32,
+    near: f32,
+    _pad: u32,
+    _pad2: vec2<u32>,
+}
+
+@group(1) @binding(0) var<storage, read> capture_views: array<CaptureView>;
+
+struct CaptureVarying {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) world: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) uv: vec2<f32>,
+    @location(3) @interpolate(flat) object: u32,
+    @location(4) @interpolate(flat) view: u32,
+}
+
+// `to_face_local` of src/cubemap/face.rs: a signed permutation, exact.
+fn capture_face_local(face: u32, r: vec3<f32>) -> vec3<f32> {
+    switch face {
+        case 0u: { return vec3<f32>(-r.z, -r.y, r.x); }
+        case 1u: { return vec3<f32>(r.z, -r.y, -r.x); }
+        case 2u: { return vec3<f32>(r.x, r.z, r.y); }
+        case 3u: { return vec3<f32>(r.x, -r.z, -r.y); }
+        case 4u: { return vec3<f32>(r.x, -r.y, r.z); }
+        default: { return vec3<f32>(-r.x, -r.y, -r.z); }
+    }
+}
+
+@vertex
+fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) view: u32) -> CaptureVarying {
+    let v = scene_vertices[scene_indices[vertex]];
+    let cv = capture_views[view];
+    let l = capture_face_local(cv.face, v.position - cv.centre);
+    var out: CaptureVarying;
+    out.clip = vec4<f32>(l.x, l.y, cv.near, l.z);
+    out.world = v.position;
+    out.normal = v.normal;
+    out.uv = v.uv;
+    out.object = v.object;
+    out.view = view;
+    return out;
+}
+
+struct CaptureOut {
+    @location(0) colour: vec4<f32>,
+    @location(1) distance: f32,
+}
+
+struct CaptureSelfOut {
+    @location(0) colour: vec4<f32>,
+    @location(1) distance: f32,
+    // Unit normal, w = 1 on a reflector.
+    @location(2) normal_mirror: vec4<f32>,
+}
+
+fn capture_distance(in: CaptureVarying) -> f32 {
+    return length(in.world - capture_views[in.view].centre);
+}
+
+@fragment
+fn fs_main(in: CaptureVarying) -> CaptureOut {
+    return CaptureOut(vec4<f32>(scene_shade(in.object, in.uv, in.normal), 1.0), capture_distance(in));
+}
+
+@fragment
+fn fs_self(in: CaptureVarying) -> CaptureSelfOut {
+    let mirror = select(0.0, 1.0, scene_is_reflector(in.object));
+    return CaptureSelfOut(
+        vec4<f32>(scene_shade(in.object, in.uv, in.normal), 1.0),
+        capture_distance(in),
+        vec4<f32>(scene_normalize(in.normal), mirror),
+    );
+}

@@ -1,0 +1,315 @@
+//! The `capture` pass: rasterises each cubemap object's six faces (colour and distance, plus
+//! normals and the mirror mask when the scene has self-reflections on) and copies them into the
+//! flat buffers the tracers read.
+//!
+//! Invariants:
+//! - Buffer layouts are [`crate::cubemap::CubeMap`]'s: CMO-major, then `(face * N + y) * N + x`,
+//!   faces in Vulkan's order. A layer of the capture images is one face (`layer = 6 k + face`),
+//!   and an image-to-buffer copy of all layers is exactly that layout.
+//! - Distance is the f32 world distance to the CMO centre, `+inf` where nothing was drawn (the
+//!   clear value); colour is linear RGBA with alpha 1 on surfaces and the background with alpha 0
+//!   elsewhere, as [`crate::reference::capture`] (the CPU check of this pass) produces.
+//! - Reflectors are drawn only with self-reflections on, and only then are the normal/mirror
+//!   image and buffer allocated.
+use ash::vk;
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+use gpu_allocator::MemoryLocation;
+
+use super::buffer::Buffer;
+use super::context::{GpuContext, Recorder};
+use super::error::{VkError, VkResult};
+use super::graphics::{ColourTarget, DepthTest, GraphicsDesc, GraphicsPipeline, RenderTarget};
+use super::image::{Image, ImageDesc};
+use super::pipeline::{BindGroup, Resource};
+use super::scene_buffers::SceneBuffers;
+use super::shaders::CAPTURE;
+use super::sync::{ALL_READS, COLOUR_WRITE, DEPTH_WRITE, TRANSFER_READ, TRANSFER_WRITE};
+use crate::cubemap::CubeMap;
+
+/// One face of one CMO, as `capture_views[k]` in `spirv/capture.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct CaptureView {
+    pub centre: [f32; 3],
+    pub face: u32,
+    /// Near plane along the face axis (world units): nearer geometry is clipped.
+    pub near: f32,
+    pub _pad: u32,
+    pub _pad2: [u32; 2],
+}
+
+/// The captured CMOs on the GPU: the input of every tracing pass.
+pub struct CmoBuffers {
+    /// Number of CMOs.
+    pub count: u32,
+    /// Face size N.
+    pub size: u32,
+    /// Centres, in CMO order.
+    pub centres: Vec<Vec3>,
+    /// `6 N N` f32 per CMO.
+    pub distance: Buffer,
+    /// `6 N N` linear RGBA f32 per CMO.
+    pub colour: Buffer,
+    /// `6 N N` (unit normal, mirror flag) per CMO; only with self-reflections on.
+    pub normal: Option<Buffer>,
+}
+
+impl CmoBuffers {
+    /// Bytes of GPU memory the captured data takes.
+    pub fn bytes(&self) -> u64 {
+        self.distance.size() + self.colour.size() + self.normal.as_ref().map_or(0, |b| b.size())
+    }
+
+    /// Reads the captures back as CPU cube maps (for the CPU twins and the tests).
+    pub fn read_back(&self, ctx: &GpuContext) -> VkResult<Vec<CubeMap>> {
+        let distance: Vec<f32> = ctx.read_buffer(&self.distance)?;
+        let colour: Vec<[f32; 4]> = ctx.read_buffer(&self.colour)?;
+        let per = 6 * self.size as usize * self.size as usize;
+        Ok(self
+            .centres
+            .iter()
+            .enumerate()
+            .map(|(k, c)| {
+                let mut cube = CubeMap::new(self.size, *c);
+                cube.distance
+                    .copy_from_slice(&distance[k * per..(k + 1) * per]);
+                cube.colour.copy_from_slice(&colour[k * per..(k + 1) * per]);
+                cube
+            })
+            .collect())
+    }
+}
+
+/// The capture pass for one scene: pipeline, targets and output buffers.
+pub struct Capture {
+    pipeline: GraphicsPipeline,
+    scene_set: BindGroup,
+    view_set: BindGroup,
+    _views: Buffer,
+    colour: Image,
+    distance: Image,
+    normal: Option<Image>,
+    depth: Image,
+    draw_indices: u32,
+    /// The captured data.
+    pub out: CmoBuffers,
+}
+
+const DISTANCE_FORMAT: vk::Format = vk::Format::R32_SFLOAT;
+const COLOUR_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
+
+impl Capture {
+    /// Prepares the capture of CMOs at `centres` with faces of `size` texels. Geometry nearer
+    /// than `near` to a centre (along a face axis) is clipped.
+    pub fn new(
+        ctx: &GpuContext,
+        scene: &SceneBuffers,
+        centres: &[Vec3],
+        size: u32,
+        self_reflections: bool,
+        near: f32,
+    ) -> VkResult<Self> {
+        if centres.is_empty() || size == 0 {
+            return Err(VkError::Usage {
+                what: "capture".into(),
+                detail: format!(
+                    "{} CMOs of size {size}: need at least one CMO of size >= 1",
+                    centres.len()
+                ),
+            });
+        }
+        let mut formats = vec![COLOUR_FORMAT, DISTANCE_FORMAT];
+        if self_reflections {
+            formats.push(COLOUR_FORMAT);
+        }
+        let pipeline = GraphicsPipeline::new(
+            ctx,
+            &CAPTURE,
+            &GraphicsDesc {
+                vertex: "vs_main",
+                fragment: if self_reflections {
+                    "fs_self"
+                } else {
+                    "fs_main"
+                },
+                colour_formats: formats,
+                depth: Some((vk::Format::D32_SFLOAT, DepthTest::Reversed)),
+            },
+        )?;
+        let views: Vec<CaptureView> = centres
+            .iter()
+            .flat_map(|c| {
+                (0..6).map(move |face| CaptureView {
+                    centre: c.to_array(),
+                    face,
+                    near,
+                    ..CaptureView::default()
+                })
+            })
+            .collect();
+        let views_buf = ctx.create_buffer_init(
+            "capture views",
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            &views,
+        )?;
+        let scene_set = pipeline.bind_group(0, &scene.resources())?;
+        let view_set = pipeline.bind_group(1, &[(0, Resource::Buffer(&views_buf))])?;
+        let layers = 6 * centres.len() as u32;
+        let target_usage =
+            vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC;
+        let layered = |name: &str, format| ImageDesc {
+            name: name.into(),
+            format,
+            width: size,
+            height: size,
+            layers,
+            cube: false,
+            usage: target_usage,
+        };
+        let dev = ctx.device();
+        let colour = Image::new(dev, layered("capture colour", COLOUR_FORMAT))?;
+        let distance = Image::new(dev, layered("capture distance", DISTANCE_FORMAT))?;
+        let normal = if self_reflections {
+            Some(Image::new(dev, layered("capture normal", COLOUR_FORMAT))?)
+        } else {
+            None
+        };
+        let depth = Image::new(
+            dev,
+            ImageDesc::d2(
+                "capture depth",
+                vk::Format::D32_SFLOAT,
+                size,
+                size,
+                vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+            ),
+        )?;
+        let texels = u64::from(layers) * u64::from(size) * u64::from(size);
+        let buffer = |name: &str, bytes: u64| {
+            Buffer::new(
+                dev,
+                name,
+                texels * bytes,
+                vk::BufferUsageFlags::STORAGE_BUFFER
+                    | vk::BufferUsageFlags::TRANSFER_DST
+                    | vk::BufferUsageFlags::TRANSFER_SRC,
+                MemoryLocation::GpuOnly,
+            )
+        };
+        let out = CmoBuffers {
+            count: centres.len() as u32,
+            size,
+            centres: centres.to_vec(),
+            distance: buffer("cmo distance", 4)?,
+            colour: buffer("cmo colour", 16)?,
+            normal: if self_reflections {
+                Some(buffer("cmo normal", 16)?)
+            } else {
+                None
+            },
+        };
+        Ok(Capture {
+            pipeline,
+            scene_set,
+            view_set,
+            _views: views_buf,
+            colour,
+            distance,
+            normal,
+            depth,
+            draw_indices: if self_reflections {
+                scene.index_count
+            } else {
+                scene.non_reflector_index_count
+            },
+            out,
+        })
+    }
+
+    /// Records the capture of every face of every CMO and the copies into [`Capture::out`],
+    /// followed by a barrier that makes the buffers readable by any later pass. `background`
+    /// fills the colour of empty texels (alpha 0).
+    pub fn record(&self, rec: &Recorder<'_>, background: Vec3) -> VkResult<()> {
+        let images: Vec<&Image> = [&self.colour, &self.distance]
+            .into_iter()
+            .chain(self.normal.as_ref())
+            .collect();
+        for img in &images {
+            rec.image_barrier(
+                img,
+                vk::ImageLayout::UNDEFINED,
+                vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+                TRANSFER_READ,
+                COLOUR_WRITE,
+            );
+        }
+        rec.image_barrier(
+            &self.depth,
+            vk::ImageLayout::UNDEFINED,
+            vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
+            DEPTH_WRITE,
+            DEPTH_WRITE,
+        );
+        let bg = background.to_array();
+        let clears = [
+            vk::ClearColorValue {
+                float32: [bg[0], bg[1], bg[2], 0.0],
+            },
+            vk::ClearColorValue {
+                float32: [f32::INFINITY, 0.0, 0.0, 0.0],
+            },
+            vk::ClearColorValue { float32: [0.0; 4] },
+        ];
+        let sets = [&self.scene_set, &self.view_set];
+        for layer in 0..self.colour.desc().layers {
+            let view = |img: &Image| {
+                img.layer_view(layer).ok_or_else(|| VkError::Usage {
+                    what: img.desc().name.clone(),
+                    detail: format!("no layer {layer}"),
+                })
+            };
+            let mut colour = Vec::with_capacity(images.len());
+            for (img, clear) in images.iter().zip(clears) {
+                colour.push(ColourTarget {
+                    view: view(img)?,
+                    clear,
+                });
+            }
+            let target = RenderTarget {
+                width: self.out.size,
+                height: self.out.size,
+                colour,
+                depth: Some(self.depth.view()),
+            };
+            if layer > 0 {
+                // The depth image is cleared again for every face: order that after the last
+                // face's depth writes.
+                rec.memory_barrier(DEPTH_WRITE, DEPTH_WRITE);
+            }
+            if self.draw_indices > 0 {
+                self.pipeline
+                    .draw(rec, &target, &sets, self.draw_indices, layer)?;
+            } else {
+                // Nothing to draw: still clear the face (an empty draw).
+                self.pipeline.draw(rec, &target, &sets, 0, layer)?;
+            }
+        }
+        let buffers: Vec<&Buffer> = [&self.out.colour, &self.out.distance]
+            .into_iter()
+            .chain(self.out.normal.as_ref())
+            .collect();
+        for (img, buf) in images.iter().zip(buffers) {
+            rec.image_barrier(
+                img,
+                vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                COLOUR_WRITE,
+                TRANSFER_READ,
+            );
+            rec.copy_image_to_buffer(img, buf)?;
+        }
+        rec.memory_barrier(TRANSFER_WRITE, ALL_READS);
+        Ok(())
+    }
+}

@@ -1,0 +1,168 @@
+//! The `gbuffer` pass: the camera's view of the scene (colour, world position with the mirror
+//! mask, normal), the input of every tracing pass.
+//!
+//! Invariants:
+//! - Pixel convention and projection are [`crate::camera::Camera`]'s (`view_proj`), so pixel
+//!   `(i, j)` of the G-buffer is the CPU reference's pixel `(i, j)`.
+//! - Images are left in `SHADER_READ_ONLY_OPTIMAL` after [`Gbuffer::record`]: `colour` (rgb
+//!   shaded, a = 1 where covered), `position` (xyz world, w = 1 on a reflector), `normal` (xyz the
+//!   interpolated vertex normal, unnormalised; w = 1 where covered). Uncovered pixels hold the
+//!   background with alpha 0, and zero.
+use ash::vk;
+use bytemuck::{Pod, Zeroable};
+use glam::{Vec3, Vec4};
+
+use super::buffer::Buffer;
+use super::context::{GpuContext, Recorder};
+use super::error::VkResult;
+use super::graphics::{ColourTarget, DepthTest, GraphicsDesc, GraphicsPipeline, RenderTarget};
+use super::image::{Image, ImageDesc};
+use super::pipeline::{BindGroup, Resource};
+use super::scene_buffers::SceneBuffers;
+use super::shaders::GBUFFER;
+use super::sync::{COLOUR_WRITE, DEPTH_WRITE, SHADER_READ};
+use crate::camera::Camera;
+
+/// `GbufferCamera` in `spirv/gbuffer.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GbufferCamera {
+    pub view_proj: [[f32; 4]; 4],
+}
+
+const FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
+
+/// The G-buffer pass for one camera.
+pub struct Gbuffer {
+    pipeline: GraphicsPipeline,
+    scene_set: BindGroup,
+    camera_set: BindGroup,
+    _camera: Buffer,
+    depth: Image,
+    index_count: u32,
+    /// Shaded colour (a = 1 where covered).
+    pub colour: Image,
+    /// World position, w = mirror mask.
+    pub position: Image,
+    /// Interpolated normal, w = 1 where covered.
+    pub normal: Image,
+}
+
+impl Gbuffer {
+    /// Prepares the pass. `near` and `far` bound the camera's depth range (world units).
+    pub fn new(
+        ctx: &GpuContext,
+        scene: &SceneBuffers,
+        camera: &Camera,
+        near: f32,
+        far: f32,
+    ) -> VkResult<Self> {
+        let pipeline = GraphicsPipeline::new(
+            ctx,
+            &GBUFFER,
+            &GraphicsDesc {
+                vertex: "vs_main",
+                fragment: "fs_main",
+                colour_formats: vec![FORMAT; 3],
+                depth: Some((vk::Format::D32_SFLOAT, DepthTest::Less)),
+            },
+        )?;
+        let uniform = GbufferCamera {
+            view_proj: camera.view_proj(near, far).to_cols_array_2d(),
+        };
+        let camera_buf = ctx.create_buffer_init(
+            "gbuffer camera",
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            std::slice::from_ref(&uniform),
+        )?;
+        let scene_set = pipeline.bind_group(0, &scene.resources())?;
+        let camera_set = pipeline.bind_group(1, &[(0, Resource::Buffer(&camera_buf))])?;
+        let (w, h) = (camera.width, camera.height);
+        let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT
+            | vk::ImageUsageFlags::SAMPLED
+            | vk::ImageUsageFlags::TRANSFER_SRC;
+        let dev = ctx.device();
+        let image = |name: &str| Image::new(dev, ImageDesc::d2(name, FORMAT, w, h, usage));
+        Ok(Gbuffer {
+            colour: image("gbuffer colour")?,
+            position: image("gbuffer position")?,
+            normal: image("gbuffer normal")?,
+            depth: Image::new(
+                dev,
+                ImageDesc::d2(
+                    "gbuffer depth",
+                    vk::Format::D32_SFLOAT,
+                    w,
+                    h,
+                    vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+                ),
+            )?,
+            pipeline,
+            scene_set,
+            camera_set,
+            _camera: camera_buf,
+            index_count: scene.index_count,
+        })
+    }
+
+    /// Image size `(width, height)`.
+    pub fn extent(&self) -> (u32, u32) {
+        (self.colour.desc().width, self.colour.desc().height)
+    }
+
+    /// Records the draw and leaves the images readable by shaders.
+    pub fn record(&self, rec: &Recorder<'_>, background: Vec3) -> VkResult<()> {
+        let images = [&self.colour, &self.position, &self.normal];
+        for img in images {
+            rec.image_barrier(
+                img,
+                vk::ImageLayout::UNDEFINED,
+                vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+                SHADER_READ,
+                COLOUR_WRITE,
+            );
+        }
+        rec.image_barrier(
+            &self.depth,
+            vk::ImageLayout::UNDEFINED,
+            vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
+            DEPTH_WRITE,
+            DEPTH_WRITE,
+        );
+        let clear = |v: Vec4| vk::ClearColorValue {
+            float32: v.to_array(),
+        };
+        let clears = [background.extend(0.0), Vec4::ZERO, Vec4::ZERO];
+        let (width, height) = self.extent();
+        let target = RenderTarget {
+            width,
+            height,
+            colour: images
+                .iter()
+                .zip(clears)
+                .map(|(img, c)| ColourTarget {
+                    view: img.view(),
+                    clear: clear(c),
+                })
+                .collect(),
+            depth: Some(self.depth.view()),
+        };
+        self.pipeline.draw(
+            rec,
+            &target,
+            &[&self.scene_set, &self.camera_set],
+            self.index_count,
+            0,
+        )?;
+        for img in images {
+            rec.image_barrier(
+                img,
+                vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+                vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+                COLOUR_WRITE,
+                SHADER_READ,
+            );
+        }
+        Ok(())
+    }
+}
