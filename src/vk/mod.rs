@@ -21,6 +21,7 @@ pub mod image;
 pub mod info;
 pub mod instance;
 pub mod pipeline;
+pub mod pyramid;
 pub mod selftest;
 pub mod shaders;
 pub mod timestamps;
