@@ -7,6 +7,8 @@
 // fold starts from child (0, 0), which always exists (dst x < ceil(w / 2) implies 2x < w), and
 // visits the children in the CPU's order (row-major), so the result is bit-identical to the CPU's
 // for every non-NaN input, +inf texels and whole +inf faces included, without an inf literal.
+// (Distances are >= 0 by definition; should +0.0 and -0.0 meet in one cell, which of the two is
+// the min is left to the implementation, on the CPU as here.)
 //
 // Layouts (COMMON.md): `cmo_distance` holds K blocks of 6*N*N texels; `cmo_mip` holds K blocks
 // of `mip_len(N)` cells, each the `mip_flat_layout(N)` levels concatenated, face-major,

@@ -6,7 +6,9 @@ use cubetrace::check_layout;
 use cubetrace::cubemap::CubeMap;
 use cubetrace::cubemap::face::FACE_COUNT;
 use cubetrace::cubemap::pyramid::{MipPyramid, mip_flat_layout};
-use cubetrace::vk::pyramid::{PyramidParams, WORKGROUP, build_mip_gpu, level_params, mip_len};
+use cubetrace::vk::pyramid::{
+    MAX_GROUPS_X, PyramidParams, WORKGROUP, build_mip_gpu, level_params, mip_len,
+};
 use cubetrace::vk::shaders::PYRAMID;
 use cubetrace::vk::{ContextOptions, GpuContext};
 use glam::Vec3;
@@ -114,7 +116,7 @@ fn params_struct_matches_naga_layout() {
 fn level_params_chain_levels_and_cover_every_cell() {
     for size in SIZES {
         let layout = mip_flat_layout(size);
-        let levels = level_params(2, size);
+        let levels = level_params(2, size, MAX_GROUPS_X);
         assert_eq!(levels.len(), layout.len());
         for (l, (p, groups)) in levels.iter().enumerate() {
             assert_eq!(p.from_texels, u32::from(l == 0));
@@ -300,5 +302,54 @@ fn record_with_timestamps_and_refuse_small_buffers() {
         assert!(times[0].1.is_finite() && times[0].1 >= 0.0);
     }
     drop((bindings, mip, small, distance, pyramid, timestamps));
+    pyramid_finish(ctx);
+}
+
+/// Dispatches spread over several rows of workgroups (forced by a row limit of 3 workgroups)
+/// produce the same pyramid: the shader's `(x, y)` linearisation and bounds guard are right.
+#[test]
+fn multi_row_dispatch_equals_cpu() {
+    use ash::vk;
+    use cubetrace::vk::pyramid::Pyramid;
+
+    let ctx = pyramid_context();
+    let size = 17u32;
+    let cubes = [pyramid_cube(size, 5, None), pyramid_cube(size, 6, Some(4))];
+    // Level 1: 2 * 6 * 9 * 9 = 972 cells = 16 workgroups of 64 -> 3 x 6 (two idle workgroups).
+    let (_, groups) = level_params(2, size, 3)[0];
+    assert_eq!(groups, [3, 6, 1]);
+    let distances: Vec<f32> = cubes.iter().flat_map(|c| c.distance.clone()).collect();
+    let distance = ctx
+        .create_buffer_init(
+            "cmo_distance",
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            &distances,
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+    let len = mip_len(size);
+    let mip = ctx
+        .create_buffer_init(
+            "cmo_mip",
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+            &vec![[f32::NAN; 2]; 2 * len],
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+    let pyramid = Pyramid::new(&ctx).unwrap_or_else(|e| panic!("{e}"));
+    let bindings = pyramid
+        .bind_with_row_limit(&ctx, &distance, &mip, 2, size, 3)
+        .unwrap_or_else(|e| panic!("{e}"));
+    ctx.submit_and_wait("multi-row pyramid", |rec| {
+        pyramid.record(rec, &bindings, None)
+    })
+    .unwrap_or_else(|e| panic!("{e}"));
+    let gpu: Vec<[f32; 2]> = ctx.read_buffer(&mip).unwrap_or_else(|e| panic!("{e}"));
+    for (k, cube) in cubes.iter().enumerate() {
+        compare_bits(
+            &gpu[k * len..(k + 1) * len],
+            &MipPyramid::build(cube).flatten(),
+        )
+        .unwrap_or_else(|e| panic!("CMO {k}: {e}"));
+    }
+    drop((bindings, mip, distance, pyramid));
     pyramid_finish(ctx);
 }

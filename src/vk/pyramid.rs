@@ -54,11 +54,17 @@ pub struct PyramidParams {
 /// Workgroup size of the pass (fixed by the WGSL; checked against reflection in the tests).
 pub const WORKGROUP: u32 = 64;
 
-/// Workgroups per dispatch row: the smallest `maxComputeWorkGroupCount[0]` Vulkan guarantees.
-const MAX_GROUPS_X: u32 = 65_535;
+/// Workgroups per dispatch row by default: the smallest `maxComputeWorkGroupCount[0]` Vulkan
+/// guarantees. Larger levels spill into more rows (the shader linearises `(x, y)`).
+pub const MAX_GROUPS_X: u32 = 65_535;
 
-/// `(params, groups)` of every level of the pyramid of K CMOs of face size `size`, finest first.
-pub fn level_params(cmo_count: u32, size: u32) -> Vec<(PyramidParams, [u32; 3])> {
+/// `(params, groups)` of every level of the pyramid of K CMOs of face size `size`, finest first,
+/// with at most `max_groups_x` (>= 1) workgroups per dispatch row.
+pub fn level_params(
+    cmo_count: u32,
+    size: u32,
+    max_groups_x: u32,
+) -> Vec<(PyramidParams, [u32; 3])> {
     let mip_len = mip_len(size) as u32;
     let mut src = (size, 0u32, true);
     mip_flat_layout(size)
@@ -77,7 +83,7 @@ pub fn level_params(cmo_count: u32, size: u32) -> Vec<(PyramidParams, [u32; 3])>
             src = (level.width, level.offset, false);
             let cells = cmo_count * FACE_COUNT * level.width * level.height;
             let groups = cells.div_ceil(WORKGROUP).max(1);
-            let x = groups.min(MAX_GROUPS_X);
+            let x = groups.min(max_groups_x.max(1));
             (params, [x, groups.div_ceil(x), 1])
         })
         .collect()
@@ -135,6 +141,20 @@ impl Pyramid {
         cmo_count: u32,
         size: u32,
     ) -> VkResult<PyramidBindings> {
+        self.bind_with_row_limit(ctx, distance, mip, cmo_count, size, MAX_GROUPS_X)
+    }
+
+    /// [`Pyramid::bind`] with at most `max_groups_x` workgroups per dispatch row; the tests use a
+    /// small limit to exercise multi-row dispatches without gigabyte buffers.
+    pub fn bind_with_row_limit(
+        &self,
+        ctx: &GpuContext,
+        distance: &Buffer,
+        mip: &Buffer,
+        cmo_count: u32,
+        size: u32,
+        max_groups_x: u32,
+    ) -> VkResult<PyramidBindings> {
         let usage = |detail: String| VkError::Usage {
             what: PYRAMID.name.into(),
             detail,
@@ -167,7 +187,10 @@ impl Pyramid {
             cmo_count,
             size,
         };
-        for (l, (params, groups)) in level_params(cmo_count, size).into_iter().enumerate() {
+        for (l, (params, groups)) in level_params(cmo_count, size, max_groups_x)
+            .into_iter()
+            .enumerate()
+        {
             // Host-visible uniform: written once here, no staging submission per level.
             let mut buf = Buffer::new(
                 ctx.device(),
