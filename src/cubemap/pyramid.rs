@@ -155,6 +155,15 @@ pub fn mip_flat_layout(size: u32) -> Vec<FlatLevel> {
     out
 }
 
+/// Cells per CMO in the flattened 2x2 pyramid of face size `size`: the length of
+/// [`MipPyramid::flatten`] and the stride of CMO blocks in the GPU buffer `cmo_mip`
+/// (0 for `size == 1`, whose only level is the texels).
+pub fn mip_len(size: u32) -> usize {
+    mip_flat_layout(size)
+        .last()
+        .map_or(0, |l| (l.offset + FACE_COUNT * l.width * l.height) as usize)
+}
+
 impl MipPyramid {
     /// Levels 1.. concatenated in the [`mip_flat_layout`] order: what the GPU pyramid pass
     /// writes and the fragment tracer reads.
@@ -338,6 +347,7 @@ mod flat_tests {
             let layout = mip_flat_layout(size);
             assert_eq!(layout.len(), p.levels.len() - 1);
             let flat = p.flatten();
+            assert_eq!(flat.len(), mip_len(size));
             for (l, fl) in layout.iter().enumerate() {
                 let level = &p.levels[l + 1];
                 assert_eq!((fl.width, fl.height), (level.width, level.height));

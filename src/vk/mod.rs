@@ -24,6 +24,7 @@ pub mod image;
 pub mod info;
 pub mod instance;
 pub mod pipeline;
+pub mod pyramid;
 pub mod scene_buffers;
 pub mod selftest;
 pub mod shaders;

@@ -1,0 +1,91 @@
+// The `pyramid` pass: one level of the 2x2 [min, max] distance pyramid per dispatch.
+//
+// CPU twin: `cubetrace::cubemap::pyramid::MipPyramid::build` (+ `flatten`). Each invocation
+// writes one destination cell: the min and max over the (up to) 2x2 source cells below it. A
+// source child outside the source level is skipped, which is what the CPU does by padding with
+// empty cells `[+inf, -inf]` (min(+inf, x) = x and max(-inf, x) = x for every non-NaN x). The
+// fold starts from child (0, 0), which always exists (dst x < ceil(w / 2) implies 2x < w), and
+// visits the children in the CPU's order (row-major), so the result is bit-identical to the CPU's
+// for every non-NaN input, +inf texels and whole +inf faces included, without an inf literal.
+// (Distances are >= 0 by definition; should +0.0 and -0.0 meet in one cell, which of the two is
+// the min is left to the implementation, on the CPU as here.)
+//
+// Layouts (COMMON.md): `cmo_distance` holds K blocks of 6*N*N texels; `cmo_mip` holds K blocks
+// of `mip_len(N)` cells, each the `mip_flat_layout(N)` levels concatenated, face-major,
+// row-major. Level 1 reads the texels (a texel d is the cell [d, d]); level l > 1 reads level
+// l - 1 of the same block. Levels are square (ceil(N / 2^l) on both sides).
+
+// Shared with Rust as `vk::pyramid::PyramidParams`; layout checked by tests/gpu_pyramid.rs.
+struct PyramidParams {
+    // Number of CMOs K.
+    cmo_count: u32,
+    // Cells per side of the source level (N for level 1).
+    src_width: u32,
+    // First cell of the source level within a CMO's mip block (unused when from_texels != 0).
+    src_offset: u32,
+    // Cells per side of the destination level: ceil(src_width / 2).
+    dst_width: u32,
+    // First cell of the destination level within a CMO's mip block.
+    dst_offset: u32,
+    // Cells per CMO in `cmo_mip`: mip_len(N).
+    mip_len: u32,
+    // 1 when the source is the texel level (`cmo_distance`), else 0.
+    from_texels: u32,
+    // Texels per CMO in `cmo_distance`: 6 * N * N.
+    texels_per_cmo: u32,
+}
+
+@group(0) @binding(0) var<uniform> params: PyramidParams;
+@group(0) @binding(1) var<storage, read> cmo_distance: array<f32>;
+@group(0) @binding(2) var<storage, read_write> cmo_mip: array<vec2<f32>>;
+
+// Workgroup size; the dispatch is 2-D only to stay under maxComputeWorkGroupCount[0].
+const WG: u32 = 64u;
+
+// Source cell `(x, y)` of `face` in CMO `k` as [min, max].
+fn source_cell(k: u32, face: u32, x: u32, y: u32) -> vec2<f32> {
+    let local = (face * params.src_width + y) * params.src_width + x;
+    if params.from_texels != 0u {
+        let d = cmo_distance[k * params.texels_per_cmo + local];
+        return vec2<f32>(d, d);
+    }
+    return cmo_mip[k * params.mip_len + params.src_offset + local];
+}
+
+@compute @workgroup_size(64)
+fn main(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
+    let index = gid.y * (groups.x * WG) + gid.x;
+    let w = params.dst_width;
+    let per_face = w * w;
+    let per_cmo = 6u * per_face;
+    // No barrier in this shader, so an early return is uniform-safe.
+    if index >= params.cmo_count * per_cmo {
+        return;
+    }
+    let k = index / per_cmo;
+    let in_cmo = index % per_cmo;
+    let face = in_cmo / per_face;
+    let x = in_cmo % w;
+    let y = (in_cmo % per_face) / w;
+
+    let sx = 2u * x;
+    let sy = 2u * y;
+    let sw = params.src_width;
+    var mm = source_cell(k, face, sx, sy);
+    if sx + 1u < sw {
+        let c = source_cell(k, face, sx + 1u, sy);
+        mm = vec2<f32>(min(mm.x, c.x), max(mm.y, c.y));
+    }
+    if sy + 1u < sw {
+        let c = source_cell(k, face, sx, sy + 1u);
+        mm = vec2<f32>(min(mm.x, c.x), max(mm.y, c.y));
+        if sx + 1u < sw {
+            let d = source_cell(k, face, sx + 1u, sy + 1u);
+            mm = vec2<f32>(min(mm.x, d.x), max(mm.y, d.y));
+        }
+    }
+    cmo_mip[k * params.mip_len + params.dst_offset + in_cmo] = mm;
+}
