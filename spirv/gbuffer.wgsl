@@ -1,7 +1,8 @@
 // gbuffer: the camera's view of the scene, deferred: what the tracing passes start from.
 //
 // Per pixel: the shaded colour (alpha 1 where a surface is seen), the world position of the
-// surface (w = 1 where it is a reflector: the mirror mask), and the interpolated vertex normal as
+// surface (w = 1 where it is a reflector: the mirror mask; 0 on other surfaces; -1, the clear value,
+// where nothing is drawn), and the interpolated vertex normal as
 // stored (w = 1 where covered). The mirror's normal is left unnormalised here; tracers normalise
 // it exactly as the CPU reference does (`normalize_or_zero` of the interpolated normal).
 //! import shared/scene.wgsl

@@ -3,7 +3,7 @@
 //! flat buffers the tracers read.
 //!
 //! Invariants:
-//! - Buffer layouts are [`crate::cubemap::CubeMap`]'s: CMO-major, then `(face * N + y) * N + x`,
+//! - The outputs are [`CmoData`]'s buffers, in [`crate::cubemap::CubeMap`]'s layout: CMO-major, then `(face * N + y) * N + x`,
 //!   faces in Vulkan's order. A layer of the capture images is one face (`layer = 6 k + face`),
 //!   and an image-to-buffer copy of all layers is exactly that layout.
 //! - Distance is the f32 world distance to the CMO centre, `+inf` where nothing was drawn (the
@@ -14,9 +14,9 @@
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
-use gpu_allocator::MemoryLocation;
 
 use super::buffer::Buffer;
+use super::cmo::CmoData;
 use super::context::{GpuContext, Recorder};
 use super::error::{VkError, VkResult};
 use super::graphics::{ColourTarget, DepthTest, GraphicsDesc, GraphicsPipeline, RenderTarget};
@@ -25,7 +25,6 @@ use super::pipeline::{BindGroup, Resource};
 use super::scene_buffers::SceneBuffers;
 use super::shaders::CAPTURE;
 use super::sync::{ALL_READS, COLOUR_WRITE, DEPTH_WRITE, TRANSFER_READ, TRANSFER_WRITE};
-use crate::cubemap::CubeMap;
 
 /// One face of one CMO, as `capture_views[k]` in `spirv/capture.wgsl`.
 #[repr(C)]
@@ -39,49 +38,7 @@ pub struct CaptureView {
     pub _pad2: [u32; 2],
 }
 
-/// The captured CMOs on the GPU: the input of every tracing pass.
-pub struct CmoBuffers {
-    /// Number of CMOs.
-    pub count: u32,
-    /// Face size N.
-    pub size: u32,
-    /// Centres, in CMO order.
-    pub centres: Vec<Vec3>,
-    /// `6 N N` f32 per CMO.
-    pub distance: Buffer,
-    /// `6 N N` linear RGBA f32 per CMO.
-    pub colour: Buffer,
-    /// `6 N N` (unit normal, mirror flag) per CMO; only with self-reflections on.
-    pub normal: Option<Buffer>,
-}
-
-impl CmoBuffers {
-    /// Bytes of GPU memory the captured data takes.
-    pub fn bytes(&self) -> u64 {
-        self.distance.size() + self.colour.size() + self.normal.as_ref().map_or(0, |b| b.size())
-    }
-
-    /// Reads the captures back as CPU cube maps (for the CPU twins and the tests).
-    pub fn read_back(&self, ctx: &GpuContext) -> VkResult<Vec<CubeMap>> {
-        let distance: Vec<f32> = ctx.read_buffer(&self.distance)?;
-        let colour: Vec<[f32; 4]> = ctx.read_buffer(&self.colour)?;
-        let per = 6 * self.size as usize * self.size as usize;
-        Ok(self
-            .centres
-            .iter()
-            .enumerate()
-            .map(|(k, c)| {
-                let mut cube = CubeMap::new(self.size, *c);
-                cube.distance
-                    .copy_from_slice(&distance[k * per..(k + 1) * per]);
-                cube.colour.copy_from_slice(&colour[k * per..(k + 1) * per]);
-                cube
-            })
-            .collect())
-    }
-}
-
-/// The capture pass for one scene: pipeline, targets and output buffers.
+/// The capture pass for one scene: pipeline and targets.
 pub struct Capture {
     pipeline: GraphicsPipeline,
     scene_set: BindGroup,
@@ -92,8 +49,7 @@ pub struct Capture {
     normal: Option<Image>,
     depth: Image,
     draw_indices: u32,
-    /// The captured data.
-    pub out: CmoBuffers,
+    size: u32,
 }
 
 const DISTANCE_FORMAT: vk::Format = vk::Format::R32_SFLOAT;
@@ -185,30 +141,6 @@ impl Capture {
                 vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
             ),
         )?;
-        let texels = u64::from(layers) * u64::from(size) * u64::from(size);
-        let buffer = |name: &str, bytes: u64| {
-            Buffer::new(
-                dev,
-                name,
-                texels * bytes,
-                vk::BufferUsageFlags::STORAGE_BUFFER
-                    | vk::BufferUsageFlags::TRANSFER_DST
-                    | vk::BufferUsageFlags::TRANSFER_SRC,
-                MemoryLocation::GpuOnly,
-            )
-        };
-        let out = CmoBuffers {
-            count: centres.len() as u32,
-            size,
-            centres: centres.to_vec(),
-            distance: buffer("cmo distance", 4)?,
-            colour: buffer("cmo colour", 16)?,
-            normal: if self_reflections {
-                Some(buffer("cmo normal", 16)?)
-            } else {
-                None
-            },
-        };
         Ok(Capture {
             pipeline,
             scene_set,
@@ -223,14 +155,24 @@ impl Capture {
             } else {
                 scene.non_reflector_index_count
             },
-            out,
+            size,
         })
     }
 
-    /// Records the capture of every face of every CMO and the copies into [`Capture::out`],
-    /// followed by a barrier that makes the buffers readable by any later pass. `background`
-    /// fills the colour of empty texels (alpha 0).
-    pub fn record(&self, rec: &Recorder<'_>, background: Vec3) -> VkResult<()> {
+    /// Records the capture of every face of every CMO and the copies into `cmo`'s buffers,
+    /// followed by a barrier that makes them readable by any later pass. `background` fills
+    /// the colour of empty texels (alpha 0).
+    pub fn record(&self, rec: &Recorder<'_>, cmo: &CmoData, background: Vec3) -> VkResult<()> {
+        let normal = match (&self.normal, cmo.normal()) {
+            (None, _) => None,
+            (Some(_), Some(b)) => Some(b),
+            (Some(_), None) => {
+                return Err(VkError::Usage {
+                    what: "capture".into(),
+                    detail: "self-reflections on, but the CMO data has no normal buffer".into(),
+                });
+            }
+        };
         let images: Vec<&Image> = [&self.colour, &self.distance]
             .into_iter()
             .chain(self.normal.as_ref())
@@ -277,8 +219,8 @@ impl Capture {
                 });
             }
             let target = RenderTarget {
-                width: self.out.size,
-                height: self.out.size,
+                width: self.size,
+                height: self.size,
                 colour,
                 depth: Some(self.depth.view()),
             };
@@ -295,9 +237,9 @@ impl Capture {
                 self.pipeline.draw(rec, &target, &sets, 0, layer)?;
             }
         }
-        let buffers: Vec<&Buffer> = [&self.out.colour, &self.out.distance]
+        let buffers: Vec<&Buffer> = [cmo.colour(), cmo.distance()]
             .into_iter()
-            .chain(self.out.normal.as_ref())
+            .chain(normal)
             .collect();
         for (img, buf) in images.iter().zip(buffers) {
             rec.image_barrier(

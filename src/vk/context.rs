@@ -355,6 +355,31 @@ impl GpuContext {
         Ok(buffer)
     }
 
+    /// Writes `data` to the start of `buffer` (created with `TRANSFER_DST`) via a staging buffer.
+    pub fn write_buffer<T: bytemuck::Pod>(&self, buffer: &Buffer, data: &[T]) -> VkResult<()> {
+        let bytes = size_of_val(data) as u64;
+        if bytes > buffer.size() {
+            return Err(VkError::Usage {
+                what: buffer.name().into(),
+                detail: format!("write of {bytes} bytes into {} bytes", buffer.size()),
+            });
+        }
+        let mut staging = Buffer::new(
+            &self.device,
+            &format!("{} (staging)", buffer.name()),
+            bytes,
+            vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::CpuToGpu,
+        )?;
+        staging.write(0, data)?;
+        self.submit_and_wait(&format!("write {}", buffer.name()), |rec| {
+            rec.memory_barrier(ALL, TRANSFER_WRITE);
+            rec.copy_buffer(&staging, buffer, bytes);
+            rec.memory_barrier(TRANSFER_WRITE, ALL);
+            Ok(())
+        })
+    }
+
     /// Reads a buffer (created with `TRANSFER_SRC`) back as `T`s via a staging buffer.
     pub fn read_buffer<T: bytemuck::Pod>(&self, buffer: &Buffer) -> VkResult<Vec<T>> {
         let staging = Buffer::new(

@@ -5,9 +5,9 @@
 //! - Pixel convention and projection are [`crate::camera::Camera`]'s (`view_proj`), so pixel
 //!   `(i, j)` of the G-buffer is the CPU reference's pixel `(i, j)`.
 //! - Images are left in `SHADER_READ_ONLY_OPTIMAL` after [`Gbuffer::record`]: `colour` (rgb
-//!   shaded, a = 1 where covered), `position` (xyz world, w = 1 on a reflector), `normal` (xyz the
-//!   interpolated vertex normal, unnormalised; w = 1 where covered). Uncovered pixels hold the
-//!   background with alpha 0, and zero.
+//!   shaded, a = 1 where covered), `position` (xyz world; w = 1 on a reflector, 0 elsewhere, -1
+//!   where nothing is drawn), `normal` (xyz the interpolated vertex normal, unnormalised; w = 1
+//!   where covered). Uncovered pixels hold the background with alpha 0, `(0, 0, 0, -1)` and zero.
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
@@ -132,7 +132,7 @@ impl Gbuffer {
         let clear = |v: Vec4| vk::ClearColorValue {
             float32: v.to_array(),
         };
-        let clears = [background.extend(0.0), Vec4::ZERO, Vec4::ZERO];
+        let clears = [background.extend(0.0), Vec4::new(0.0, 0.0, 0.0, -1.0), Vec4::ZERO];
         let (width, height) = self.extent();
         let target = RenderTarget {
             width,

@@ -14,10 +14,12 @@
 //! - Every pass has one name: its WGSL file stem, its debug label and its timestamp key.
 pub mod buffer;
 pub mod capture;
+pub mod cmo;
 pub mod context;
 pub mod conv;
 pub mod device;
 pub mod error;
+pub mod frame;
 pub mod gbuffer;
 pub mod graphics;
 pub mod image;

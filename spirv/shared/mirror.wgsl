@@ -1,0 +1,116 @@
+// What every reflection method shares: the mirror pixels' rays from the G-buffer, the per-pixel
+// record a method writes, the captured colours, and the full-screen triangle.
+//
+// Conventions:
+// - The reflected ray of a mirror pixel starts at the G-buffer's world position `p` and goes
+//   along `reflect(d, n)`, `d = normalize(p - eye)`, `n` the normalised interpolated vertex
+//   normal, as the CPU reference reflects (`reference::reflect`, then normalised). `t` runs over
+//   [0, frame.t_hi] in world units (the direction is unit length); `t_hi` reaches past the scene.
+// - `records[j * width + i]` is pixel (i, j), row 0 at the top. Only mirror pixels are written;
+//   composite reads the mask from the G-buffer before it reads a record.
+// - Status: 0 hit, 1 escaped (the ray left the scene: background), 2 unresolved (no CMO saw
+//   the surface; composite fills it with the fallback).
+//! import shared/trace.wgsl
+
+struct FrameParams {
+    eye: vec3<f32>,
+    // Length of every reflected ray (world units).
+    t_hi: f32,
+    background: vec3<f32>,
+    width: u32,
+    // Colour of unresolved pixels with the flag fallback.
+    flag_colour: vec3<f32>,
+    height: u32,
+    // 0 flag colour, 1 environment map, 2 background.
+    fallback: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
+}
+
+struct PixelRecord {
+    origin: vec3<f32>,
+    status: u32,
+    dir: vec3<f32>,
+    // CMO that decided (0xffffffff when unresolved).
+    cmo: u32,
+    // World hit point (the escape point when escaped, the end of the proven-empty part when
+    // unresolved).
+    point: vec3<f32>,
+    riser: u32,
+    // Linear colour of the hit (or the background).
+    colour: vec3<f32>,
+    face: u32,
+    x: u32,
+    y: u32,
+    texels: u32,
+    cells: u32,
+    traces: u32,
+    t: f32,
+    t_done: f32,
+    pad0: u32,
+}
+
+const RECORD_HIT: u32 = 0u;
+const RECORD_ESCAPED: u32 = 1u;
+const RECORD_UNRESOLVED: u32 = 2u;
+
+@group(0) @binding(0) var gbuffer_position: texture_2d<f32>;
+@group(0) @binding(1) var gbuffer_normal: texture_2d<f32>;
+@group(0) @binding(2) var<uniform> frame: FrameParams;
+@group(0) @binding(3) var<storage, read_write> records: array<PixelRecord>;
+@group(1) @binding(4) var<storage, read> cmo_colour: array<vec4<f32>>;
+
+struct MirrorRay {
+    mirror: bool,
+    origin: vec3<f32>,
+    dir: vec3<f32>,
+}
+
+fn mirror_ray(pixel: vec2<u32>) -> MirrorRay {
+    let p = textureLoad(gbuffer_position, vec2<i32>(pixel), 0);
+    if p.w != 1.0 {
+        return MirrorRay(false, vec3<f32>(0.0), vec3<f32>(0.0));
+    }
+    let n = normalize_glam(textureLoad(gbuffer_normal, vec2<i32>(pixel), 0).xyz);
+    let d = normalize_glam(p.xyz - frame.eye);
+    let dn = d.x * n.x + d.y * n.y + d.z * n.z;
+    let r = normalize_glam(d - n * (2.0 * dn));
+    return MirrorRay(true, p.xyz, r);
+}
+
+// Captured colour of texel `t` of CMO `k`.
+fn cmo_texel_colour(k: u32, t: Texel) -> vec4<f32> {
+    let n = trace_config.size;
+    return cmo_colour[k * 6u * n * n + texel_index(t, n)];
+}
+
+// The CMO whose centre is nearest to `p` (the first on ties).
+fn nearest_cmo(p: vec3<f32>) -> u32 {
+    var best = 0u;
+    var best_d = f32_inf();
+    for (var k = 0u; k < trace_config.cmo_count; k++) {
+        let v = p - cmo_centres[k].xyz;
+        let d = dot(v, v);
+        if d < best_d {
+            best_d = d;
+            best = k;
+        }
+    }
+    return best;
+}
+
+// Environment-map lookup: the colour CMO `k` stores in direction `dir` (no parallax), or the
+// background where it captured nothing.
+fn envmap_colour(k: u32, dir: vec3<f32>) -> vec3<f32> {
+    let c = cmo_texel_colour(k, dir_to_texel(dir, trace_config.size));
+    return select(frame.background, c.xyz, c.w > 0.0);
+}
+
+// A triangle that covers the whole target.
+@vertex
+fn vs_fullscreen(@builtin(vertex_index) vertex: u32) -> @builtin(position) vec4<f32> {
+    let x = f32((vertex << 1u) & 2u) * 2.0 - 1.0;
+    let y = f32(vertex & 2u) * 2.0 - 1.0;
+    return vec4<f32>(x, y, 0.0, 1.0);
+}

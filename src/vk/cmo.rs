@@ -1,0 +1,234 @@
+//! The cubemap objects (CMOs) on the GPU: `@group(1)` of every tracing pass.
+//!
+//! | binding | WGSL name | contents | allocated |
+//! |---|---|---|---|
+//! | 0 | `trace_config` | [`TraceConfig`] (uniform) | always |
+//! | 1 | `cmo_centres` | `vec4` per CMO (xyz centre) | always |
+//! | 2 | `cmo_distance` | `6 N N` f32 per CMO, [`CubeMap`]'s layout, `+inf` where empty | always |
+//! | 3 | `cmo_mip` | `mip_len(N)` `[min, max]` per CMO, `MipPyramid::flatten` | with a pyramid |
+//! | 4 | `cmo_colour` | `6 N N` linear RGBA per CMO (alpha 0 where empty) | always |
+//! | (none yet) | normal + mirror flag | `6 N N` RGBA per CMO | with self-reflections |
+//!
+//! The capture pass writes distance, colour and normals; the pyramid pass writes `cmo_mip`.
+//! Without a pyramid `cmo_mip` is a one-cell placeholder (a binding cannot be empty), and the
+//! config says so: `mip_top = 0` makes the tracer read texels only.
+use ash::vk;
+use glam::Vec3;
+use gpu_allocator::MemoryLocation;
+
+use super::buffer::Buffer;
+use super::context::GpuContext;
+use super::error::{VkError, VkResult};
+use super::pipeline::Resource;
+use super::shaders::Pass;
+use super::trace_probe::TraceConfig;
+use crate::cpu::options::TraceOptions;
+use crate::cubemap::CubeMap;
+use crate::cubemap::pyramid::{EMPTY_CELL, MipPyramid};
+
+/// The GPU buffers of a scene's CMOs.
+pub struct CmoData {
+    count: u32,
+    size: u32,
+    centres: Vec<Vec3>,
+    config: TraceConfig,
+    config_buf: Buffer,
+    centres_buf: Buffer,
+    distance: Buffer,
+    mip: Buffer,
+    colour: Buffer,
+    normal: Option<Buffer>,
+}
+
+fn storage(ctx: &GpuContext, name: &str, bytes: u64) -> VkResult<Buffer> {
+    Buffer::new(
+        ctx.device(),
+        name,
+        bytes,
+        vk::BufferUsageFlags::STORAGE_BUFFER
+            | vk::BufferUsageFlags::TRANSFER_DST
+            | vk::BufferUsageFlags::TRANSFER_SRC,
+        MemoryLocation::GpuOnly,
+    )
+}
+
+impl CmoData {
+    /// Allocates (uninitialised) buffers for CMOs at `centres` with faces of `size` texels; the
+    /// capture and pyramid passes fill them.
+    pub fn new(
+        ctx: &GpuContext,
+        centres: &[Vec3],
+        size: u32,
+        self_reflections: bool,
+        pyramid: bool,
+        opts: &TraceOptions,
+    ) -> VkResult<Self> {
+        if centres.is_empty() || size == 0 {
+            return Err(VkError::Usage {
+                what: "CMO data".into(),
+                detail: format!(
+                    "{} CMOs of size {size}: need at least one CMO of size >= 1",
+                    centres.len()
+                ),
+            });
+        }
+        let count = centres.len() as u32;
+        let mut config = TraceConfig::new(count, size, opts)?;
+        let texels = u64::from(count) * 6 * u64::from(size) * u64::from(size);
+        let mip_cells = if pyramid {
+            u64::from(count) * u64::from(config.mip_len)
+        } else {
+            config.mip_top = 0;
+            1
+        };
+        let centres4: Vec<[f32; 4]> = centres.iter().map(|c| c.extend(0.0).to_array()).collect();
+        let config_buf = ctx.create_buffer_init(
+            "trace_config",
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            std::slice::from_ref(&config),
+        )?;
+        Ok(CmoData {
+            count,
+            size,
+            centres: centres.to_vec(),
+            config,
+            config_buf,
+            centres_buf: ctx.create_buffer_init(
+                "cmo_centres",
+                vk::BufferUsageFlags::STORAGE_BUFFER,
+                &centres4,
+            )?,
+            distance: storage(ctx, "cmo_distance", texels * 4)?,
+            mip: storage(ctx, "cmo_mip", mip_cells.max(1) * 8)?,
+            colour: storage(ctx, "cmo_colour", texels * 16)?,
+            normal: if self_reflections {
+                Some(storage(ctx, "cmo_normal", texels * 16)?)
+            } else {
+                None
+            },
+        })
+    }
+
+    /// Uploads CPU captures (all of one face size), with their pyramids built on the CPU.
+    pub fn upload(ctx: &GpuContext, cubes: &[CubeMap], opts: &TraceOptions) -> VkResult<Self> {
+        let size = cubes.first().map_or(0, |c| c.size);
+        if let Some(c) = cubes.iter().find(|c| c.size != size) {
+            return Err(VkError::Usage {
+                what: "CMO data".into(),
+                detail: format!("CMOs of face sizes {size} and {} (all must match)", c.size),
+            });
+        }
+        let centres: Vec<Vec3> = cubes.iter().map(|c| c.centre).collect();
+        let data = CmoData::new(ctx, &centres, size, false, true, opts)?;
+        let distance: Vec<f32> = cubes.iter().flat_map(|c| c.distance.iter().copied()).collect();
+        let colour: Vec<[f32; 4]> = cubes.iter().flat_map(|c| c.colour.iter().copied()).collect();
+        let mut mip: Vec<[f32; 2]> = cubes.iter().flat_map(|c| MipPyramid::build(c).flatten()).collect();
+        if mip.is_empty() {
+            mip.push(EMPTY_CELL);
+        }
+        ctx.write_buffer(&data.distance, &distance)?;
+        ctx.write_buffer(&data.colour, &colour)?;
+        ctx.write_buffer(&data.mip, &mip)?;
+        Ok(data)
+    }
+
+    /// Replaces the tracer options (a new config uniform).
+    pub fn set_options(&mut self, ctx: &GpuContext, opts: &TraceOptions) -> VkResult<()> {
+        let mut config = TraceConfig::new(self.count, self.size, opts)?;
+        config.mip_top = self.config.mip_top.min(config.mip_top);
+        self.config_buf = ctx.create_buffer_init(
+            "trace_config",
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            std::slice::from_ref(&config),
+        )?;
+        self.config = config;
+        Ok(())
+    }
+
+    /// Number of CMOs.
+    pub fn count(&self) -> u32 {
+        self.count
+    }
+    /// Face size N.
+    pub fn size(&self) -> u32 {
+        self.size
+    }
+    /// The config in use.
+    pub fn config(&self) -> &TraceConfig {
+        &self.config
+    }
+    /// Distances (binding 2).
+    pub fn distance(&self) -> &Buffer {
+        &self.distance
+    }
+    /// Pyramid (binding 3).
+    pub fn mip(&self) -> &Buffer {
+        &self.mip
+    }
+    /// Colours (binding 4).
+    pub fn colour(&self) -> &Buffer {
+        &self.colour
+    }
+    /// Normals and mirror flags (self-reflections only).
+    pub fn normal(&self) -> Option<&Buffer> {
+        self.normal.as_ref()
+    }
+
+    /// Bytes of GPU memory the CMO data takes.
+    pub fn bytes(&self) -> u64 {
+        [&self.config_buf, &self.centres_buf, &self.distance, &self.mip, &self.colour]
+            .iter()
+            .map(|b| b.size())
+            .sum::<u64>()
+            + self.normal.as_ref().map_or(0, |b| b.size())
+    }
+
+    /// Every `@group(1)` resource by binding number.
+    pub fn resources(&self) -> [(u32, Resource<'_>); 5] {
+        [
+            (0, Resource::Buffer(&self.config_buf)),
+            (1, Resource::Buffer(&self.centres_buf)),
+            (2, Resource::Buffer(&self.distance)),
+            (3, Resource::Buffer(&self.mip)),
+            (4, Resource::Buffer(&self.colour)),
+        ]
+    }
+
+    /// The `@group(1)` resources that entry point `entry` of `pass` uses (a bind group may not
+    /// supply a binding its shader does not use).
+    pub fn resources_for(&self, pass: &Pass, entry: &str) -> Vec<(u32, Resource<'_>)> {
+        let used = pass.entry_point(entry).map_or(&[][..], |e| e.bindings);
+        self.resources()
+            .into_iter()
+            .filter(|(b, _)| used.iter().any(|u| u.group == 1 && u.binding == *b))
+            .collect()
+    }
+
+    /// Reads the captures back as CPU cube maps (for the CPU twins and the tests).
+    pub fn read_back(&self, ctx: &GpuContext) -> VkResult<Vec<CubeMap>> {
+        let distance: Vec<f32> = ctx.read_buffer(&self.distance)?;
+        let colour: Vec<[f32; 4]> = ctx.read_buffer(&self.colour)?;
+        let per = 6 * self.size as usize * self.size as usize;
+        Ok(self
+            .centres
+            .iter()
+            .enumerate()
+            .map(|(k, c)| {
+                let mut cube = CubeMap::new(self.size, *c);
+                cube.distance.copy_from_slice(&distance[k * per..(k + 1) * per]);
+                cube.colour.copy_from_slice(&colour[k * per..(k + 1) * per]);
+                cube
+            })
+            .collect())
+    }
+
+    /// The pyramid as the GPU built it (`mip_len(N)` cells per CMO; empty without a pyramid).
+    pub fn read_mip(&self, ctx: &GpuContext) -> VkResult<Vec<[f32; 2]>> {
+        if self.config.mip_top == 0 {
+            return Ok(Vec::new());
+        }
+        let mut mip: Vec<[f32; 2]> = ctx.read_buffer(&self.mip)?;
+        mip.truncate(self.count as usize * self.config.mip_len as usize);
+        Ok(mip)
+    }
+}

@@ -1,0 +1,482 @@
+//! One frame on the GPU, recorded as a short list of named passes into one command buffer:
+//!
+//! | pass | reads | writes |
+//! |---|---|---|
+//! | `capture` | scene | CMO distance, colour (+ normal/mirror with self-reflections) |
+//! | `pyramid` | CMO distance | CMO 2x2 min/max pyramid (fragment path only) |
+//! | `gbuffer` | scene | G-buffer colour, position + mirror mask, normal |
+//! | `fragment_trace` or `envmap` | G-buffer, CMO data | one record per mirror pixel |
+//! | `composite` | G-buffer, records, CMO colour | final colour |
+//!
+//! Each pass name is its WGSL file, its debug label and its timestamp scope, so
+//! [`GpuFrame::pass_times`] lines up with the benchmark tables. Everything a frame needs is
+//! allocated once in [`GpuRenderer::new`]; [`GpuRenderer::render`] only records, submits and
+//! reads back, so repeated renders (the harness) measure the passes, not allocation.
+//!
+//! Only what the options use is allocated: no pyramid for the environment map, no normal/mirror
+//! capture without self-reflections.
+use ash::vk;
+use bytemuck::{Pod, Zeroable};
+use glam::{Vec3, Vec4};
+use gpu_allocator::MemoryLocation;
+
+use super::buffer::Buffer;
+use super::capture::Capture;
+use super::cmo::CmoData;
+use super::context::GpuContext;
+use super::error::{VkError, VkResult};
+use super::gbuffer::Gbuffer;
+use super::graphics::{GraphicsDesc, GraphicsPipeline, RenderTarget};
+use super::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
+use super::pyramid::{Pyramid, PyramidBindings};
+use super::scene_buffers::SceneBuffers;
+use super::shaders::{COMPOSITE, ENVMAP, FRAGMENT_TRACE, Pass};
+use super::sync::{SHADER_READ, SHADER_WRITE};
+use super::timestamps::{PassTime, Timestamps};
+use crate::camera::Camera;
+use crate::cpu::options::TraceOptions;
+use crate::metrics::Traced;
+use crate::scene::Scene;
+use crate::scene::gpu_data::GpuSceneData;
+
+/// How the GPU computes reflections.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GpuMethod {
+    /// Cubemap tracing in a deferred fragment pass (thesis alg. 1, 2, 4).
+    Fragment,
+    /// One cubemap lookup per pixel, no parallax (the baseline).
+    Envmap,
+}
+
+impl GpuMethod {
+    /// The tracing pass's name.
+    pub fn pass_name(self) -> &'static str {
+        self.pass().name
+    }
+
+    fn pass(self) -> &'static Pass {
+        match self {
+            GpuMethod::Fragment => &FRAGMENT_TRACE,
+            GpuMethod::Envmap => &ENVMAP,
+        }
+    }
+}
+
+/// What fills a mirror pixel whose ray no CMO could resolve.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Fallback {
+    /// A flag colour (magenta), to see where tracing gave up.
+    Flag,
+    /// The environment-map lookup of the nearest CMO.
+    #[default]
+    Envmap,
+    /// The scene's background.
+    Background,
+}
+
+/// Options of a GPU render.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RenderOptions {
+    pub method: GpuMethod,
+    /// Tracer options (criterion, sampling, acceleration, steps); used by `Fragment`.
+    pub trace: TraceOptions,
+    pub fallback: Fallback,
+}
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        RenderOptions {
+            method: GpuMethod::Fragment,
+            trace: TraceOptions::default(),
+            fallback: Fallback::default(),
+        }
+    }
+}
+
+/// The flag colour of [`Fallback::Flag`] (linear magenta).
+pub const FLAG_COLOUR: Vec3 = Vec3::new(1.0, 0.0, 1.0);
+
+/// `FrameParams` in `spirv/shared/mirror.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct FrameParams {
+    pub eye: [f32; 3],
+    pub t_hi: f32,
+    pub background: [f32; 3],
+    pub width: u32,
+    pub flag_colour: [f32; 3],
+    pub height: u32,
+    pub fallback: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+    pub pad2: u32,
+}
+
+/// `PixelRecord` in `spirv/shared/mirror.wgsl`: what a method found for one mirror pixel.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct PixelRecord {
+    pub origin: [f32; 3],
+    /// [`RECORD_HIT`], [`RECORD_ESCAPED`] or [`RECORD_UNRESOLVED`].
+    pub status: u32,
+    pub dir: [f32; 3],
+    pub cmo: u32,
+    pub point: [f32; 3],
+    pub riser: u32,
+    pub colour: [f32; 3],
+    pub face: u32,
+    pub x: u32,
+    pub y: u32,
+    pub texels: u32,
+    pub cells: u32,
+    pub traces: u32,
+    pub t: f32,
+    pub t_done: f32,
+    pub pad0: u32,
+}
+
+/// Record status: the ray hit a captured surface.
+pub const RECORD_HIT: u32 = 0;
+/// Record status: the ray left the scene (background).
+pub const RECORD_ESCAPED: u32 = 1;
+/// Record status: no CMO could decide; the fallback fills the pixel.
+pub const RECORD_UNRESOLVED: u32 = 2;
+
+/// A rendered frame read back from the GPU, row-major, row 0 at the top.
+#[derive(Clone, Debug)]
+pub struct GpuFrame {
+    pub width: u32,
+    pub height: u32,
+    /// Final linear colour.
+    pub colour: Vec<Vec3>,
+    /// 1 on mirror pixels.
+    pub mask: Vec<u8>,
+    /// The point the camera sees (NaN where nothing).
+    pub surface_position: Vec<Vec3>,
+    /// Per pixel; meaningful where `mask` is 1.
+    pub records: Vec<PixelRecord>,
+    /// GPU time per pass, in recording order.
+    pub pass_times: Vec<PassTime>,
+}
+
+impl GpuFrame {
+    /// The frame as the error metrics read it: hit points where the method hit something,
+    /// resolved where it hit or escaped.
+    pub fn traced(&self) -> Traced {
+        let mirror = |k: usize| self.mask[k] != 0;
+        Traced {
+            width: self.width,
+            height: self.height,
+            colour: self.colour.clone(),
+            mask: self.mask.clone(),
+            hit_position: (0..self.records.len())
+                .map(|k| {
+                    let r = &self.records[k];
+                    if mirror(k) && r.status == RECORD_HIT {
+                        Vec3::from_array(r.point)
+                    } else {
+                        Vec3::NAN
+                    }
+                })
+                .collect(),
+            resolved: (0..self.records.len())
+                .map(|k| u8::from(mirror(k) && self.records[k].status != RECORD_UNRESOLVED))
+                .collect(),
+        }
+    }
+
+    /// Mirror pixels.
+    pub fn mirror_pixels(&self) -> usize {
+        self.mask.iter().filter(|&&m| m != 0).count()
+    }
+
+    /// GPU nanoseconds of the pass `name` (0 if it did not run).
+    pub fn pass_ns(&self, name: &str) -> f64 {
+        self.pass_times
+            .iter()
+            .filter(|(n, _)| n == name)
+            .map(|(_, t)| t)
+            .sum()
+    }
+}
+
+/// Depth range and ray length for a scene seen by a camera: `(near, far, t_hi)`. The ray length
+/// is the scene's bounding-box diagonal (a ray starting inside the box has left it by then), and
+/// the camera's far plane the farthest box corner from the eye, both with 1% to spare.
+pub fn scene_ranges(scene: &Scene, camera: &Camera) -> (f32, f32, f32) {
+    let world = scene.world();
+    let (lo, hi) = world.bounds(|_| true);
+    let diagonal = (hi - lo).length().max(f32::MIN_POSITIVE);
+    let mut far = 0.0f32;
+    for i in 0..8 {
+        let c = Vec3::new(
+            if i & 1 == 0 { lo.x } else { hi.x },
+            if i & 2 == 0 { lo.y } else { hi.y },
+            if i & 4 == 0 { lo.z } else { hi.z },
+        );
+        far = far.max((c - camera.eye).length());
+    }
+    let far = 1.01 * far.max(diagonal);
+    (1e-4 * far, far, 1.01 * diagonal)
+}
+
+/// Everything one scene + camera + options needs on the GPU, allocated once.
+pub struct GpuRenderer {
+    options: RenderOptions,
+    background: Vec3,
+    width: u32,
+    height: u32,
+    _scene: SceneBuffers,
+    cmo: CmoData,
+    capture: Capture,
+    pyramid: Option<(Pyramid, PyramidBindings)>,
+    gbuffer: Gbuffer,
+    trace: GraphicsPipeline,
+    trace_sets: [BindGroup; 2],
+    composite: ComputePipeline,
+    composite_sets: [BindGroup; 2],
+    _params: Buffer,
+    records: Buffer,
+    frame_colour: Buffer,
+    timestamps: Option<Timestamps>,
+}
+
+impl GpuRenderer {
+    /// Uploads the scene and creates every pass for `camera` (its width and height are the
+    /// frame's).
+    pub fn new(
+        ctx: &GpuContext,
+        scene: &Scene,
+        camera: &Camera,
+        options: RenderOptions,
+    ) -> VkResult<Self> {
+        let usage = |what: &str, detail: String| VkError::Usage {
+            what: what.into(),
+            detail,
+        };
+        let centres = scene.cmo_centres();
+        if centres.is_empty() {
+            return Err(usage("scene", "no CMO centres".into()));
+        }
+        let size = scene.cmo.resolution;
+        let (near, far, t_hi) = scene_ranges(scene, camera);
+        let data = GpuSceneData::new(scene);
+        let scene_buffers = SceneBuffers::new(ctx, &data)?;
+        let needs_pyramid = options.method == GpuMethod::Fragment;
+        let cmo = CmoData::new(
+            ctx,
+            &centres,
+            size,
+            scene.self_reflections,
+            needs_pyramid,
+            &options.trace,
+        )?;
+        let capture = Capture::new(
+            ctx,
+            &scene_buffers,
+            &centres,
+            size,
+            scene.self_reflections,
+            1e-6 * far,
+        )?;
+        let pyramid = if needs_pyramid {
+            let p = Pyramid::new(ctx)?;
+            let b = p.bind(ctx, cmo.distance(), cmo.mip(), centres.len() as u32, size)?;
+            Some((p, b))
+        } else {
+            None
+        };
+        let gbuffer = Gbuffer::new(ctx, &scene_buffers, camera, near, far)?;
+        let (width, height) = (camera.width, camera.height);
+        let params = FrameParams {
+            eye: camera.eye.to_array(),
+            t_hi,
+            background: scene.background.to_array(),
+            width,
+            flag_colour: FLAG_COLOUR.to_array(),
+            height,
+            fallback: match options.fallback {
+                Fallback::Flag => 0,
+                Fallback::Envmap => 1,
+                Fallback::Background => 2,
+            },
+            ..FrameParams::default()
+        };
+        let params_buf = ctx.create_buffer_init(
+            "frame params",
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            std::slice::from_ref(&params),
+        )?;
+        let pixels = u64::from(width) * u64::from(height);
+        let storage = |name: &str, bytes: u64| {
+            Buffer::new(
+                ctx.device(),
+                name,
+                bytes,
+                vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+                MemoryLocation::GpuOnly,
+            )
+        };
+        let records = storage(
+            "pixel records",
+            pixels * size_of::<PixelRecord>() as u64,
+        )?;
+        let frame_colour = storage("frame colour", pixels * 16)?;
+        let sampled = |img: &super::image::Image| Resource::Texture {
+            view: img.view(),
+            layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+        };
+        let trace = GraphicsPipeline::new(
+            ctx,
+            options.method.pass(),
+            &GraphicsDesc {
+                vertex: "vs_fullscreen",
+                fragment: "fs_main",
+                colour_formats: Vec::new(),
+                depth: None,
+            },
+        )?;
+        let trace_sets = [
+            trace.bind_group(
+                0,
+                &[
+                    (0, sampled(&gbuffer.position)),
+                    (1, sampled(&gbuffer.normal)),
+                    (2, Resource::Buffer(&params_buf)),
+                    (3, Resource::Buffer(&records)),
+                ],
+            )?,
+            trace.bind_group(1, &cmo.resources_for(options.method.pass(), "fs_main"))?,
+        ];
+        let composite = ComputePipeline::new(ctx, &COMPOSITE, "main", ComputeOptions::default())?;
+        let composite_sets = [
+            composite.bind_group(
+                0,
+                &[
+                    (0, sampled(&gbuffer.position)),
+                    (2, Resource::Buffer(&params_buf)),
+                    (3, Resource::Buffer(&records)),
+                    (4, sampled(&gbuffer.colour)),
+                    (5, Resource::Buffer(&frame_colour)),
+                ],
+            )?,
+            composite.bind_group(1, &cmo.resources_for(&COMPOSITE, "main"))?,
+        ];
+        let timestamps = if ctx.report().timestamps_supported() {
+            Some(Timestamps::new(ctx, 8)?)
+        } else {
+            log::info!("no timestamp queries on this device: pass times are not measured");
+            None
+        };
+        Ok(GpuRenderer {
+            options,
+            background: scene.background,
+            width,
+            height,
+            _scene: scene_buffers,
+            cmo,
+            capture,
+            pyramid,
+            gbuffer,
+            trace,
+            trace_sets,
+            composite,
+            composite_sets,
+            _params: params_buf,
+            records,
+            frame_colour,
+            timestamps,
+        })
+    }
+
+    /// The CMO data (for reading the captures back).
+    pub fn cmo(&self) -> &CmoData {
+        &self.cmo
+    }
+
+    /// The options this renderer was built with.
+    pub fn options(&self) -> &RenderOptions {
+        &self.options
+    }
+
+    /// Records every pass, runs them and reads the frame back.
+    pub fn render(&mut self, ctx: &GpuContext) -> VkResult<GpuFrame> {
+        let mut ts = self.timestamps.take();
+        let recorded = ctx.submit_and_wait("frame", |rec| {
+            if let Some(t) = ts.as_mut() {
+                t.reset(rec);
+            }
+            let mut scoped = |name: &str, f: &mut dyn FnMut() -> VkResult<()>| -> VkResult<()> {
+                match ts.as_mut() {
+                    Some(t) => {
+                        let s = t.begin(rec, name)?;
+                        let r = f();
+                        t.end(rec, s);
+                        r
+                    }
+                    None => {
+                        rec.begin_label(name);
+                        let r = f();
+                        rec.end_label();
+                        r
+                    }
+                }
+            };
+            scoped("capture", &mut || {
+                self.capture.record(rec, &self.cmo, self.background)
+            })?;
+            if let Some((p, b)) = &self.pyramid {
+                scoped("pyramid", &mut || p.record(rec, b, None))?;
+                rec.memory_barrier(SHADER_WRITE, SHADER_READ);
+            }
+            scoped("gbuffer", &mut || self.gbuffer.record(rec, self.background))?;
+            scoped(self.options.method.pass_name(), &mut || {
+                let target = RenderTarget {
+                    width: self.width,
+                    height: self.height,
+                    colour: Vec::new(),
+                    depth: None,
+                };
+                let sets = [&self.trace_sets[0], &self.trace_sets[1]];
+                self.trace.draw(rec, &target, &sets, 3, 0)
+            })?;
+            rec.memory_barrier(SHADER_WRITE, SHADER_READ);
+            scoped("composite", &mut || {
+                let groups = (self.width * self.height).div_ceil(64);
+                let sets = [&self.composite_sets[0], &self.composite_sets[1]];
+                self.composite.dispatch(rec, &sets, [groups, 1, 1]);
+                Ok(())
+            })?;
+            Ok(())
+        });
+        let pass_times = match (&ts, &recorded) {
+            (Some(t), Ok(())) => t.results()?,
+            _ => Vec::new(),
+        };
+        self.timestamps = ts;
+        recorded?;
+        let colour: Vec<[f32; 4]> = ctx.read_buffer(&self.frame_colour)?;
+        let records: Vec<PixelRecord> = ctx.read_buffer(&self.records)?;
+        let position = ctx.read_image(
+            &self.gbuffer.position,
+            vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+        )?;
+        let position: &[[f32; 4]] = bytemuck::cast_slice(&position);
+        let n = (self.width * self.height) as usize;
+        Ok(GpuFrame {
+            width: self.width,
+            height: self.height,
+            colour: colour[..n].iter().map(|c| Vec4::from_array(*c).truncate()).collect(),
+            mask: colour[..n].iter().map(|c| u8::from(c[3] == 1.0)).collect(),
+            surface_position: position[..n]
+                .iter()
+                .map(|p| {
+                    let p = Vec4::from_array(*p);
+                    if p.w < 0.0 { Vec3::NAN } else { p.truncate() }
+                })
+                .collect(),
+            records: records[..n].to_vec(),
+            pass_times,
+        })
+    }
+}
