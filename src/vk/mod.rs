@@ -24,6 +24,7 @@ pub mod pipeline;
 pub mod selftest;
 pub mod shaders;
 pub mod timestamps;
+pub mod trace_probe;
 
 pub use buffer::Buffer;
 pub use context::{ContextOptions, GpuContext, Recorder};
