@@ -34,11 +34,13 @@
 //!   subgroup ballot, for subgroup sizes 4..64.
 //! - [`walk::trace_brute`]: every texel tested, the first along `t` kept (the definition).
 //! - [`multi`]: several CMOs with the occlusion handoff.
+//! - [`options`]: the method options ([`options::TraceOptions`]) shared with the GPU tracer.
 
 pub mod alg3;
 pub mod approx;
 pub mod mip;
 pub mod multi;
+pub mod options;
 pub mod walk;
 
 use glam::Vec3;

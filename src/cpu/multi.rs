@@ -73,6 +73,21 @@ pub fn trace_cmos(
     t_hi: f32,
     how: Traversal,
 ) -> MultiResult {
+    trace_cmos_by(cmos, origin, dir, t_lo, t_hi, |tr, seg| {
+        trace_one(tr, seg, how)
+    })
+}
+
+/// [`trace_cmos`] with any single-CMO trace (e.g. an approximate criterion, which never reports
+/// behind, so the first CMO decides).
+pub fn trace_cmos_by(
+    cmos: &[CmoTracer],
+    origin: Vec3,
+    dir: Vec3,
+    t_lo: f32,
+    t_hi: f32,
+    trace: impl Fn(&CmoTracer, &Segment) -> TraceResult,
+) -> MultiResult {
     let mut t_done = t_lo;
     let mut traces = 0;
     let mut last = TraceResult::default();
@@ -85,7 +100,7 @@ pub fn trace_cmos(
                 t_lo: t_done,
                 t_hi,
             };
-            let r = trace_one(tr, &seg, how);
+            let r = trace(tr, &seg);
             traces += 1;
             last = r;
             match r.status {

@@ -32,6 +32,7 @@ pub mod selftest;
 pub mod shaders;
 pub mod sync;
 pub mod timestamps;
+pub mod trace_probe;
 
 pub use buffer::Buffer;
 pub use context::{ContextOptions, GpuContext, Recorder};

@@ -1,0 +1,177 @@
+// Where a ray segment crosses a cell's frustum, and the convexity bounds of r(t) = |a + t d|:
+// the WGSL twin of `src/cubemap/frustum.rs` (read its module docs: face-local vectors, cells as
+// texel rectangles [x0, x1) x [y0, y1), the half-open rule, `t0 < t1` for texels and the
+// inflated superset for hierarchy cells).
+//
+// Bit-exactness with the CPU: every expression keeps the Rust twin's f32 operation order.
+// Products that feed a sum go through `prod`, see there.
+//! import shared/cube.wgsl
+
+const SIDE_X0: u32 = 0u;
+const SIDE_X1: u32 = 1u;
+const SIDE_Y0: u32 = 2u;
+const SIDE_Y1: u32 = 3u;
+const SIDE_Z: u32 = 4u;
+const SIDE_SEGMENT: u32 = 5u;
+
+// Relative widening of hierarchy cell intervals (`CELL_INFLATE` = 2^-12).
+const CELL_INFLATE: f32 = 0.000244140625;
+
+// +inf and -inf from bits (WGSL has no infinity literal; naga folds these to the same bits).
+const F32_INF_BITS: u32 = 0x7f800000u;
+const F32_MAX: f32 = 3.40282347e+38;
+
+fn f32_inf() -> f32 {
+    return bitcast<f32>(F32_INF_BITS);
+}
+
+// Rust's `f32::is_finite`, on the bits (a compiler may assume `x == x`).
+fn is_finite_f32(x: f32) -> bool {
+    return (bitcast<u32>(x) & 0x7f800000u) != 0x7f800000u;
+}
+
+// Rust's `f32::is_nan`, on the bits.
+fn is_nan_f32(x: f32) -> bool {
+    let b = bitcast<u32>(x);
+    return (b & 0x7f800000u) == 0x7f800000u && (b & 0x007fffffu) != 0u;
+}
+
+// A product that is then added to something, rounded on its own as the CPU does (Rust never
+// contracts `a * b + c` into a fused multiply-add). WGSL allows a compiler to fuse; see
+// `tests/gpu_twin.rs` for what lavapipe does.
+fn prod(a: f32, b: f32) -> f32 {
+    return a * b;
+}
+
+// A rectangle of texels [x0, x1) x [y0, y1) of one face of size `size`.
+struct CellRect {
+    face: u32,
+    x0: u32,
+    x1: u32,
+    y0: u32,
+    y1: u32,
+    size: u32,
+}
+
+fn cell_rect_face(face: u32, size: u32) -> CellRect {
+    return CellRect(face, 0u, size, 0u, size, size);
+}
+
+fn cell_rect_texel(face: u32, x: u32, y: u32, size: u32) -> CellRect {
+    return CellRect(face, x, x + 1u, y, y + 1u, size);
+}
+
+// The t range of a segment inside a frustum; `entry`/`exit`: the constraint that set t0/t1.
+struct Interval {
+    t0: f32,
+    t1: f32,
+    entry: u32,
+    exit: u32,
+}
+
+fn interval_empty() -> Interval {
+    return Interval(f32_inf(), -f32_inf(), SIDE_SEGMENT, SIDE_SEGMENT);
+}
+
+// Texel rule: crossed over a positive length.
+fn crosses(iv: Interval) -> bool {
+    return iv.t0 < iv.t1;
+}
+
+// `Interval::inflated`: `ok` false where the CPU returns `None`.
+struct Inflated {
+    ok: bool,
+    lo: f32,
+    hi: f32,
+}
+
+fn inflated(iv: Interval, t_lo: f32, t_hi: f32) -> Inflated {
+    if !(iv.t0 <= F32_MAX && iv.t1 >= -F32_MAX) {
+        return Inflated(false, 0.0, 0.0);
+    }
+    let e = CELL_INFLATE * ((t_hi - t_lo) + abs(t_lo) + abs(t_hi));
+    let lo = max(iv.t0 - e, t_lo);
+    let hi = min(iv.t1 + e, t_hi);
+    return Inflated(lo <= hi, lo, hi);
+}
+
+// [t0, t1] of `la + t ld`, t in [t_lo, t_hi] (face-local), inside the frustum of `cell`.
+fn cell_interval(la: vec3<f32>, ld: vec3<f32>, cell: CellRect, t_lo: f32, t_hi: f32) -> Interval {
+    let n = cell.size;
+    let fx0 = face_coord(cell.x0, n);
+    let fx1 = face_coord(cell.x1, n);
+    let fy0 = face_coord(cell.y0, n);
+    let fy1 = face_coord(cell.y1, n);
+    let edge = edge_inclusive_bits(cell.face);
+    // Owned sides: interior lower sides yes, interior upper sides no, face edges by the tie rule.
+    var inc = array<bool, 5>(
+        select(true, (edge & 1u) != 0u, cell.x0 == 0u),
+        select(false, (edge & 2u) != 0u, cell.x1 == n),
+        select(true, (edge & 4u) != 0u, cell.y0 == 0u),
+        select(false, (edge & 8u) != 0u, cell.y1 == n),
+        false,
+    );
+    var alpha = array<f32, 5>(
+        la.x - prod(fx0, la.z),
+        prod(fx1, la.z) - la.x,
+        la.y - prod(fy0, la.z),
+        prod(fy1, la.z) - la.y,
+        la.z,
+    );
+    var beta = array<f32, 5>(
+        ld.x - prod(fx0, ld.z),
+        prod(fx1, ld.z) - ld.x,
+        ld.y - prod(fy0, ld.z),
+        prod(fy1, ld.z) - ld.y,
+        ld.z,
+    );
+    var iv = Interval(t_lo, t_hi, SIDE_SEGMENT, SIDE_SEGMENT);
+    var keep = true;
+    for (var k = 0u; k < 5u; k++) {
+        let al = alpha[k];
+        let be = beta[k];
+        if be > 0.0 {
+            let b = -al / be;
+            if b > iv.t0 {
+                iv.t0 = b;
+                iv.entry = k;
+            }
+        } else if be < 0.0 {
+            let b = -al / be;
+            if b < iv.t1 {
+                iv.t1 = b;
+                iv.exit = k;
+            }
+        } else if al < 0.0 || (al == 0.0 && !inc[k]) || is_nan_f32(al) {
+            keep = false;
+        }
+    }
+    if keep {
+        return iv;
+    }
+    return interval_empty();
+}
+
+// r(t) = |a + t d| on CMO-local vectors, summed in x, y, z order.
+fn r_at(a: vec3<f32>, d: vec3<f32>, t: f32) -> f32 {
+    let p = vec3<f32>(a.x + prod(t, d.x), a.y + prod(t, d.y), a.z + prod(t, d.z));
+    return sqrt(prod(p.x, p.x) + prod(p.y, p.y) + prod(p.z, p.z));
+}
+
+// Closest approach of the line to the centre: t* = -(a.d)/(d.d).
+fn closest_t(a: vec3<f32>, d: vec3<f32>) -> f32 {
+    return -(prod(a.x, d.x) + prod(a.y, d.y) + prod(a.z, d.z))
+        / (prod(d.x, d.x) + prod(d.y, d.y) + prod(d.z, d.z));
+}
+
+// (rmin, rmax) of r over [t0, t1] (max at an endpoint; min at an endpoint or at t* inside).
+fn r_bounds(a: vec3<f32>, d: vec3<f32>, t0: f32, t1: f32) -> vec2<f32> {
+    let r0 = r_at(a, d, t0);
+    let r1 = r_at(a, d, t1);
+    let ts = closest_t(a, d);
+    var rmin = min(r0, r1);
+    if ts > t0 && ts < t1 {
+        rmin = min(min(r_at(a, d, ts), r0), r1);
+    }
+    return vec2<f32>(rmin, max(r0, r1));
+}

@@ -1,0 +1,613 @@
+// The cubemap tracer: the WGSL twin of `src/cpu/` (mod.rs, walk.rs, mip.rs, approx.rs,
+// multi.rs), loop for loop. Surface model, near-centre split, traversals and the occlusion
+// handoff are documented in `src/cpu/mod.rs` and `src/cpu/multi.rs`; the options in
+// `src/cpu/options.rs` (`TraceOptions`), whose GPU form is `TraceConfig` below.
+//
+// Entry: `trace_ray(origin, dir, t_lo, t_hi)` on a world-space ray, over the `cmo_count` CMOs.
+//
+// Data (all passes that import this file bind the same @group(1)):
+// - binding 0 `trace_config`: `TraceConfig` (Rust `cubetrace::vk::trace_probe::TraceConfig`).
+// - binding 1 `cmo_centres`: CMO k's centre in `.xyz` (w unused).
+// - binding 2 `cmo_distance`: CMO k's texels at `k * 6 * N * N`, index `(face * N + y) * N + x`.
+// - binding 3 `cmo_mip`: CMO k's 2x2 pyramid (levels 1..) at `k * mip_len`, `[min, max]`.
+// The near-centre radius `0.5 * min D` is computed here from the data (min over the top mip
+// level, or over the texels when N = 1), as `CmoTracer::new` does on the CPU.
+//
+// Invariants: no recursion; every loop has an explicit cap (`MAX_ROUNDS`, `MAX_FACE_STEPS`,
+// `MAX_TEXEL_SAMPLES`, `MAX_SAMPLE_STEPS`); the caps are never reached for N <= 2048 (a piece
+// crosses at most 2N texels of a face, and each step strictly advances t1).
+//! import shared/frustum.wgsl
+
+const TRACE_MIP_MAX_LEVELS: u32 = 16u;
+// Rounds over the CMOs (`cpu::multi::MAX_ROUNDS`).
+const MAX_ROUNDS: u32 = 16u;
+// Samples of per-texel sampling (`cpu::approx::MAX_TEXEL_SAMPLES`).
+const MAX_TEXEL_SAMPLES: u32 = 16384u;
+// Texels (or skips) of one face walk: above the 2N + 2 texels a piece can cross on a face of
+// N <= 2048, so never reached.
+const MAX_FACE_STEPS: u32 = 16384u;
+// Cap on `steps` of constant-step/constant-angle sampling.
+const MAX_SAMPLE_STEPS: u32 = 65536u;
+
+const CRITERION_EXACT: u32 = 0u;
+const CRITERION_THRESHOLD: u32 = 1u;
+const CRITERION_SIGN_CHANGE: u32 = 2u;
+const SAMPLING_CONSTANT_STEP: u32 = 0u;
+const SAMPLING_CONSTANT_ANGLE: u32 = 1u;
+const SAMPLING_PER_TEXEL: u32 = 2u;
+
+const STATUS_HIT: u32 = 0u;
+const STATUS_ESCAPED: u32 = 1u;
+const STATUS_UNRESOLVED: u32 = 2u;
+// Single-CMO status (CPU `Status`): hit, escaped, behind.
+const ONE_HIT: u32 = 0u;
+const ONE_ESCAPED: u32 = 1u;
+const ONE_BEHIND: u32 = 2u;
+
+// The tracer's options and the scene's CMO layout (Rust `TraceConfig`, layout checked there).
+struct TraceConfig {
+    // Number of CMOs K.
+    cmo_count: u32,
+    // Face size N (same for every CMO).
+    size: u32,
+    // 0 exact, 1 threshold, 2 sign change.
+    criterion: u32,
+    // Approximate criteria only: 0 constant step, 1 constant angle, 2 per texel.
+    sampling: u32,
+    // Exact criterion only: 0 per-texel walk, 1 2x2 mip march.
+    accel: u32,
+    // Sample intervals of constant-step/constant-angle sampling (steps + 1 samples).
+    steps: u32,
+    // Threshold criterion's eps (world units).
+    eps: f32,
+    // k of the continuity rule.
+    continuity_k: f32,
+    // Pyramid levels above the texels (the top level's index; 0 when N = 1).
+    mip_top: u32,
+    // Cells per CMO in `cmo_mip` (`mip_len(N)`).
+    mip_len: u32,
+    pad0: u32,
+    pad1: u32,
+    // Level l (1..=mip_top): (offset in cells, width, height, span in texels).
+    mip_levels: array<vec4<u32>, 16>,
+}
+
+@group(1) @binding(0) var<uniform> trace_config: TraceConfig;
+@group(1) @binding(1) var<storage, read> cmo_centres: array<vec4<f32>>;
+@group(1) @binding(2) var<storage, read> cmo_distance: array<f32>;
+@group(1) @binding(3) var<storage, read> cmo_mip: array<vec2<f32>>;
+
+// What one world ray found over the CMOs (Rust `ProbeResult` has the same layout).
+struct TraceOut {
+    // 0 hit, 1 escaped, 2 unresolved.
+    status: u32,
+    // CMO that decided; 0xffffffff when unresolved.
+    cmo: u32,
+    // The deciding texel of the last single-CMO trace (0, 0, 0 when escaped).
+    face: u32,
+    x: u32,
+    y: u32,
+    // 1 for a hit on the riser between two patches.
+    riser: u32,
+    // Counters of the last single-CMO trace.
+    texels: u32,
+    cells: u32,
+    // Single-CMO traces run.
+    traces: u32,
+    // The last single-CMO trace's t (hit t, t_hi when escaped, t_b when behind).
+    t: f32,
+    // Proven-empty prefix [t_lo, t_done].
+    t_done: f32,
+    pad0: u32,
+    // World point: the hit (or escape) point, `origin + t_done dir` when unresolved.
+    point: vec3<f32>,
+    pad1: u32,
+}
+
+// A CMO-local ray segment a + t d, t in [t_lo, t_hi].
+struct Segment {
+    a: vec3<f32>,
+    d: vec3<f32>,
+    t_lo: f32,
+    t_hi: f32,
+}
+
+fn seg_at(seg: Segment, t: f32) -> vec3<f32> {
+    return vec3<f32>(seg.a.x + prod(t, seg.d.x), seg.a.y + prod(t, seg.d.y), seg.a.z + prod(t, seg.d.z));
+}
+
+struct Counters {
+    texels: u32,
+    cells: u32,
+}
+
+// One ray against one CMO (CPU `TraceResult`).
+struct TraceResult {
+    status: u32,
+    t: f32,
+    texel: Texel,
+    riser: bool,
+    point: vec3<f32>,
+    counters: Counters,
+}
+
+fn distance_at(k: u32, t: Texel) -> f32 {
+    let n = trace_config.size;
+    return cmo_distance[k * 6u * n * n + texel_index(t, n)];
+}
+
+// 0.5 * min D of CMO k (0 when no finite positive minimum), as `CmoTracer::new`.
+fn cut_radius(k: u32) -> f32 {
+    let n = trace_config.size;
+    var m = f32_inf();
+    let top = trace_config.mip_top;
+    if top == 0u {
+        for (var i = 0u; i < 6u * n * n; i++) {
+            m = min(m, cmo_distance[k * 6u * n * n + i]);
+        }
+    } else {
+        let lev = trace_config.mip_levels[top];
+        for (var i = 0u; i < 6u * lev.y * lev.z; i++) {
+            m = min(m, cmo_mip[k * trace_config.mip_len + lev.x + i].x);
+        }
+    }
+    if is_finite_f32(m) && m > 0.0 {
+        return 0.5 * m;
+    }
+    return 0.0;
+}
+
+// Up to two [lo, hi] pieces of a segment with r >= radius, in order.
+struct Pieces {
+    count: u32,
+    range: array<vec2<f32>, 2>,
+}
+
+fn split_near_centre(seg: Segment, radius: f32) -> Pieces {
+    var out = Pieces(0u, array<vec2<f32>, 2>(vec2<f32>(0.0), vec2<f32>(0.0)));
+    let dd = prod(seg.d.x, seg.d.x) + prod(seg.d.y, seg.d.y) + prod(seg.d.z, seg.d.z);
+    let ts = -(prod(seg.a.x, seg.d.x) + prod(seg.a.y, seg.d.y) + prod(seg.a.z, seg.d.z)) / dd;
+    let q = seg_at(seg, ts);
+    let q2 = prod(q.x, q.x) + prod(q.y, q.y) + prod(q.z, q.z);
+    let r2 = radius * radius;
+    var lo = array<f32, 2>(seg.t_lo, 0.0);
+    var hi = array<f32, 2>(seg.t_hi, 0.0);
+    var n = 1u;
+    if q2 < r2 {
+        let h = sqrt((r2 - q2) / dd);
+        lo = array<f32, 2>(seg.t_lo, max(seg.t_lo, ts + h));
+        hi = array<f32, 2>(min(seg.t_hi, ts - h), seg.t_hi);
+        n = 2u;
+    }
+    for (var i = 0u; i < n; i++) {
+        if lo[i] < hi[i] {
+            out.range[out.count] = vec2<f32>(lo[i], hi[i]);
+            out.count += 1u;
+        }
+    }
+    return out;
+}
+
+// The faces a piece crosses, in order of entry t (ties: lower face index first).
+struct FaceList {
+    count: u32,
+    face: array<u32, 6>,
+    iv: array<Interval, 6>,
+}
+
+fn faces_crossed(seg: Segment, lo: f32, hi: f32, size: u32) -> FaceList {
+    var fl: FaceList;
+    fl.count = 0u;
+    for (var f = 0u; f < FACE_COUNT; f++) {
+        let iv = cell_interval(to_face_local(f, seg.a), to_face_local(f, seg.d), cell_rect_face(f, size), lo, hi);
+        if crosses(iv) {
+            var k = fl.count;
+            loop {
+                if k == 0u || !(fl.iv[k - 1u].t0 > iv.t0) {
+                    break;
+                }
+                fl.face[k] = fl.face[k - 1u];
+                fl.iv[k] = fl.iv[k - 1u];
+                k -= 1u;
+            }
+            fl.face[k] = f;
+            fl.iv[k] = iv;
+            fl.count += 1u;
+        }
+    }
+    return fl;
+}
+
+fn texel_interval(seg: Segment, t: Texel, size: u32, lo: f32, hi: f32) -> Interval {
+    return cell_interval(to_face_local(t.face, seg.a), to_face_local(t.face, seg.d), cell_rect_texel(t.face, t.x, t.y, size), lo, hi);
+}
+
+// Crossed and not entirely in front (rmax >= D): a candidate.
+fn texel_not_in_front(seg: Segment, iv: Interval, d: f32) -> bool {
+    return crosses(iv) && max(r_at(seg.a, seg.d, iv.t0), r_at(seg.a, seg.d, iv.t1)) >= d;
+}
+
+// The continuity rule (`cpu::continuous`).
+fn continuous(d_prev: f32, d: f32, chord: f32, k: f32) -> bool {
+    return is_finite_f32(d_prev) && is_finite_f32(d) && abs(d_prev - d) <= k * max(d_prev, d) * chord;
+}
+
+// glam's `Vec3::normalize`: v * (1 / sqrt(v.v)).
+fn normalize_glam(v: vec3<f32>) -> vec3<f32> {
+    let rcp = 1.0 / sqrt(prod(v.x, v.x) + prod(v.y, v.y) + prod(v.z, v.z));
+    return v * rcp;
+}
+
+// glam's `Vec3::length`.
+fn length_glam(v: vec3<f32>) -> f32 {
+    return sqrt(prod(v.x, v.x) + prod(v.y, v.y) + prod(v.z, v.z));
+}
+
+// Outcome of classifying a texel: kind 0 none (in front or not crossed), 1 hit, 2 behind.
+struct Outcome {
+    kind: u32,
+    t: f32,
+    riser: bool,
+}
+
+fn classify(k: u32, seg: Segment, texel: Texel, iv: Interval) -> Outcome {
+    let n = trace_config.size;
+    let d = distance_at(k, texel);
+    if !texel_not_in_front(seg, iv, d) {
+        return Outcome(0u, 0.0, false);
+    }
+    let r0 = r_at(seg.a, seg.d, iv.t0);
+    if r0 <= d {
+        // First root after t0 of |a + t d| = D: the larger root (r(t0) <= D, r convex).
+        let dd = prod(seg.d.x, seg.d.x) + prod(seg.d.y, seg.d.y) + prod(seg.d.z, seg.d.z);
+        let ts = -(prod(seg.a.x, seg.d.x) + prod(seg.a.y, seg.d.y) + prod(seg.a.z, seg.d.z)) / dd;
+        let q = seg_at(seg, ts);
+        let q2 = prod(q.x, q.x) + prod(q.y, q.y) + prod(q.z, q.z);
+        let t = ts + sqrt(max(prod(d, d) - q2, 0.0) / dd);
+        return Outcome(1u, clamp_rust(t, iv.t0, iv.t1), false);
+    }
+    if iv.entry == SIDE_SEGMENT || iv.entry > SIDE_Y1 {
+        return Outcome(2u, iv.t0, false);
+    }
+    let prev = neighbour_across(texel, iv.entry - SIDE_X0, n);
+    let chord = length_glam(normalize_glam(texel_centre_dir(texel, n)) - normalize_glam(texel_centre_dir(prev, n)));
+    if continuous(distance_at(k, prev), d, chord, trace_config.continuity_k) {
+        return Outcome(1u, iv.t0, true);
+    }
+    return Outcome(2u, iv.t0, false);
+}
+
+fn finish(seg: Segment, texel: Texel, o: Outcome, c: Counters) -> TraceResult {
+    var status = ONE_HIT;
+    if o.kind == 2u {
+        status = ONE_BEHIND;
+    }
+    return TraceResult(status, o.t, texel, o.riser, seg_at(seg, o.t), c);
+}
+
+fn escaped(seg: Segment, c: Counters) -> TraceResult {
+    return TraceResult(ONE_ESCAPED, seg.t_hi, Texel(0u, 0u, 0u), false, seg_at(seg, seg.t_hi), c);
+}
+
+// A texel and its interval, or none (`found` false).
+struct Located {
+    found: bool,
+    tex: Texel,
+    iv: Interval,
+}
+
+// The texel of `face` whose interval contains or follows t (`cpu::locate`).
+fn locate(seg: Segment, face: u32, t: f32, size: u32, lo: f32, hi: f32) -> Located {
+    let l = to_face_local(face, seg_at(seg, t));
+    var cx = size / 2u;
+    var cy = size / 2u;
+    if l.z > 0.0 {
+        cx = st_to_texel_coord(0.5 * (l.x / l.z + 1.0), size);
+        cy = st_to_texel_coord(0.5 * (l.y / l.z + 1.0), size);
+    }
+    var best = Located(false, Texel(0u, 0u, 0u), interval_empty());
+    for (var dy = -1; dy <= 1; dy++) {
+        for (var dx = -1; dx <= 1; dx++) {
+            let x = i32(cx) + dx;
+            let y = i32(cy) + dy;
+            if x < 0 || y < 0 || x >= i32(size) || y >= i32(size) {
+                continue;
+            }
+            let tex = Texel(face, u32(x), u32(y));
+            let iv = texel_interval(seg, tex, size, lo, hi);
+            if crosses(iv) && iv.t1 > t && (!best.found || iv.t0 < best.iv.t0) {
+                best = Located(true, tex, iv);
+            }
+        }
+    }
+    return best;
+}
+
+// The next texel after `cur` within its face (`cpu::next_texel`).
+fn next_texel(seg: Segment, cur: Texel, iv: Interval, size: u32, lo: f32, hi: f32) -> Located {
+    let la = to_face_local(cur.face, seg.a);
+    let ld = to_face_local(cur.face, seg.d);
+    let mx = prod(ld.x, la.z) - prod(la.x, ld.z);
+    let my = prod(ld.y, la.z) - prod(la.y, ld.z);
+    var best = Located(false, Texel(0u, 0u, 0u), interval_empty());
+    for (var dy = -1; dy <= 1; dy++) {
+        for (var dx = -1; dx <= 1; dx++) {
+            if (dx == 0 && dy == 0) || f32(dx) * mx < 0.0 || f32(dy) * my < 0.0 {
+                continue;
+            }
+            let x = i32(cur.x) + dx;
+            let y = i32(cur.y) + dy;
+            if x < 0 || y < 0 || x >= i32(size) || y >= i32(size) {
+                continue;
+            }
+            let tex = Texel(cur.face, u32(x), u32(y));
+            let niv = texel_interval(seg, tex, size, lo, hi);
+            if crosses(niv) && niv.t1 > iv.t1 && (!best.found || niv.t0 < best.iv.t0) {
+                best = Located(true, tex, niv);
+            }
+        }
+    }
+    return best;
+}
+
+// Per-texel walk (`cpu::walk::trace_walk`).
+fn trace_walk(k: u32, seg: Segment, cut: f32) -> TraceResult {
+    let n = trace_config.size;
+    var c = Counters(0u, 0u);
+    let pieces = split_near_centre(seg, cut);
+    for (var p = 0u; p < pieces.count; p++) {
+        let lo = pieces.range[p].x;
+        let hi = pieces.range[p].y;
+        let faces = faces_crossed(seg, lo, hi, n);
+        for (var f = 0u; f < faces.count; f++) {
+            var cur = locate(seg, faces.face[f], faces.iv[f].t0, n, lo, hi);
+            for (var step = 0u; step < MAX_FACE_STEPS && cur.found; step++) {
+                c.texels += 1u;
+                let o = classify(k, seg, cur.tex, cur.iv);
+                if o.kind != 0u {
+                    return finish(seg, cur.tex, o, c);
+                }
+                cur = next_texel(seg, cur.tex, cur.iv, n, lo, hi);
+            }
+        }
+    }
+    return escaped(seg, c);
+}
+
+// [min, max] of cell (x, y) of pyramid level l (>= 1) on `face`, CMO k.
+fn mip_get(k: u32, l: u32, face: u32, x: u32, y: u32) -> vec2<f32> {
+    let lev = trace_config.mip_levels[l];
+    return cmo_mip[k * trace_config.mip_len + lev.x + (face * lev.z + y) * lev.y + x];
+}
+
+// Thesis alg. 2 over the 2x2 pyramid (`cpu::mip::trace_mip`).
+fn trace_mip(k: u32, seg: Segment, cut: f32) -> TraceResult {
+    let n = trace_config.size;
+    let top = trace_config.mip_top;
+    let none = 0xffffffffu;
+    var c = Counters(0u, 0u);
+    let pieces = split_near_centre(seg, cut);
+    for (var p = 0u; p < pieces.count; p++) {
+        let lo = pieces.range[p].x;
+        let hi = pieces.range[p].y;
+        let faces = faces_crossed(seg, lo, hi, n);
+        for (var f = 0u; f < faces.count; f++) {
+            let face = faces.face[f];
+            let la = to_face_local(face, seg.a);
+            let ld = to_face_local(face, seg.d);
+            // checked[l]: the level-l cell last found not skippable (none: 0xffffffff).
+            var checked: array<vec2<u32>, TRACE_MIP_MAX_LEVELS>;
+            for (var i = 0u; i < TRACE_MIP_MAX_LEVELS; i++) {
+                checked[i] = vec2<u32>(none, none);
+            }
+            // The cell skipped last (level, x, y), which the located texel may still touch.
+            var last_skip = vec3<u32>(none, none, none);
+            var cur = locate(seg, face, faces.iv[f].t0, n, lo, hi);
+            for (var step = 0u; step < MAX_FACE_STEPS && cur.found; step++) {
+                let tex = cur.tex;
+                let iv = cur.iv;
+                var skipped = false;
+                for (var l = top; l >= 1u; l--) {
+                    let span = trace_config.mip_levels[l].w;
+                    let cx = tex.x / span;
+                    let cy = tex.y / span;
+                    if any(checked[l] != vec2<u32>(cx, cy)) {
+                        c.cells += 1u;
+                        let rect = CellRect(face, min(cx * span, n), min((cx + 1u) * span, n), min(cy * span, n), min((cy + 1u) * span, n), n);
+                        let civ = cell_interval(la, ld, rect, lo, hi);
+                        let inf = inflated(civ, lo, hi);
+                        var skip = false;
+                        if inf.ok {
+                            skip = any(last_skip != vec3<u32>(l, cx, cy)) && r_bounds(seg.a, seg.d, inf.lo, inf.hi).y < mip_get(k, l, face, cx, cy).x;
+                        }
+                        if skip {
+                            last_skip = vec3<u32>(l, cx, cy);
+                            var t_exit = iv.t1;
+                            if crosses(civ) {
+                                t_exit = civ.t1;
+                            }
+                            cur = locate(seg, face, max(t_exit, iv.t1), n, lo, hi);
+                            skipped = true;
+                            break;
+                        }
+                        checked[l] = vec2<u32>(cx, cy);
+                    }
+                }
+                if skipped {
+                    continue;
+                }
+                c.texels += 1u;
+                let o = classify(k, seg, tex, iv);
+                if o.kind != 0u {
+                    return finish(seg, tex, o, c);
+                }
+                cur = next_texel(seg, tex, iv, n, lo, hi);
+            }
+        }
+    }
+    return escaped(seg, c);
+}
+
+// One sample of an approximate criterion (`cpu::approx::sample`); `hit` set on a hit.
+struct SampleState {
+    prev: f32,
+    c: Counters,
+    hit: bool,
+    result: TraceResult,
+}
+
+fn sample(k: u32, seg: Segment, t: f32, cut: f32, st: ptr<function, SampleState>) {
+    let p = seg_at(seg, t);
+    let r = r_at(seg.a, seg.d, t);
+    if r < cut || r == 0.0 || is_nan_f32(r) {
+        return;
+    }
+    let tex = dir_to_texel(p, trace_config.size);
+    (*st).c.texels += 1u;
+    let delta = r - distance_at(k, tex);
+    var hit = false;
+    if trace_config.criterion == CRITERION_THRESHOLD {
+        hit = abs(delta) < trace_config.eps;
+    } else {
+        hit = (*st).prev < 0.0 && delta >= 0.0;
+    }
+    (*st).prev = delta;
+    if hit {
+        (*st).hit = true;
+        (*st).result = TraceResult(ONE_HIT, t, tex, false, p, (*st).c);
+    }
+}
+
+// glam's `Vec3::normalize_or_zero`.
+fn normalize_or_zero_glam(v: vec3<f32>) -> vec3<f32> {
+    let rcp = 1.0 / sqrt(prod(v.x, v.x) + prod(v.y, v.y) + prod(v.z, v.z));
+    if is_finite_f32(rcp) && rcp > 0.0 {
+        return v * rcp;
+    }
+    return vec3<f32>(0.0);
+}
+
+// glam's `Vec3::cross`.
+fn cross_glam(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(
+        prod(a.y, b.z) - prod(b.y, a.z),
+        prod(a.z, b.x) - prod(b.z, a.x),
+        prod(a.x, b.y) - prod(b.x, a.y),
+    );
+}
+
+fn dot_glam(a: vec3<f32>, b: vec3<f32>) -> f32 {
+    return prod(a.x, b.x) + prod(a.y, b.y) + prod(a.z, b.z);
+}
+
+// Approximate criteria (`cpu::approx::trace_sampled`).
+fn trace_sampled(k: u32, seg: Segment, cut: f32) -> TraceResult {
+    var st: SampleState;
+    st.prev = -f32_inf();
+    st.c = Counters(0u, 0u);
+    st.hit = false;
+    let sampling = trace_config.sampling;
+    let steps = min(trace_config.steps, MAX_SAMPLE_STEPS);
+    if sampling == SAMPLING_CONSTANT_STEP {
+        for (var i = 0u; i <= steps; i++) {
+            let t = seg.t_lo + prod(seg.t_hi - seg.t_lo, f32(i) / f32(max(steps, 1u)));
+            sample(k, seg, t, cut, &st);
+            if st.hit {
+                return st.result;
+            }
+        }
+    } else if sampling == SAMPLING_CONSTANT_ANGLE {
+        let w0 = normalize_or_zero_glam(seg_at(seg, seg.t_lo));
+        let w1 = normalize_or_zero_glam(seg_at(seg, seg.t_hi));
+        for (var i = 0u; i <= steps; i++) {
+            let s = f32(i) / f32(max(steps, 1u));
+            let dw1 = w1 - w0;
+            let w = vec3<f32>(w0.x + prod(s, dw1.x), w0.y + prod(s, dw1.y), w0.z + prod(s, dw1.z));
+            // The ray point seen in direction w: a + t d parallel to w.
+            let dw = cross_glam(seg.d, w);
+            let den = dot_glam(dw, dw);
+            if den == 0.0 {
+                continue;
+            }
+            let t = clamp_rust(-dot_glam(cross_glam(seg.a, w), dw) / den, seg.t_lo, seg.t_hi);
+            sample(k, seg, t, cut, &st);
+            if st.hit {
+                return st.result;
+            }
+        }
+    } else {
+        let n = trace_config.size;
+        let pieces = split_near_centre(seg, cut);
+        var budget = MAX_TEXEL_SAMPLES;
+        for (var p = 0u; p < pieces.count; p++) {
+            let lo = pieces.range[p].x;
+            let hi = pieces.range[p].y;
+            let faces = faces_crossed(seg, lo, hi, n);
+            for (var f = 0u; f < faces.count; f++) {
+                var cur = locate(seg, faces.face[f], faces.iv[f].t0, n, lo, hi);
+                while cur.found {
+                    if budget == 0u {
+                        return escaped(seg, st.c);
+                    }
+                    budget -= 1u;
+                    let t = 0.5 * (cur.iv.t0 + cur.iv.t1);
+                    sample(k, seg, t, cut, &st);
+                    if st.hit {
+                        return st.result;
+                    }
+                    cur = next_texel(seg, cur.tex, cur.iv, n, lo, hi);
+                }
+            }
+        }
+    }
+    return escaped(seg, st.c);
+}
+
+// One CMO-local segment with the configured method (`cpu::options::trace_one_with`).
+fn trace_one(k: u32, seg: Segment) -> TraceResult {
+    let cut = cut_radius(k);
+    if trace_config.criterion != CRITERION_EXACT {
+        return trace_sampled(k, seg, cut);
+    } else if trace_config.accel != 0u {
+        return trace_mip(k, seg, cut);
+    }
+    return trace_walk(k, seg, cut);
+}
+
+fn trace_out(status: u32, cmo: u32, r: TraceResult, point: vec3<f32>, t_done: f32, traces: u32) -> TraceOut {
+    return TraceOut(status, cmo, r.texel.face, r.texel.x, r.texel.y, select(0u, 1u, r.riser), r.counters.texels, r.counters.cells, traces, r.t, t_done, 0u, point, 0u);
+}
+
+// The world ray origin + t dir, t in [t_lo, t_hi], over the CMOs with the occlusion handoff
+// (`cpu::multi::trace_cmos`).
+fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, t_lo: f32, t_hi: f32) -> TraceOut {
+    var t_done = t_lo;
+    var traces = 0u;
+    var last = TraceResult(ONE_ESCAPED, 0.0, Texel(0u, 0u, 0u), false, vec3<f32>(0.0), Counters(0u, 0u));
+    for (var round = 0u; round < MAX_ROUNDS; round++) {
+        var progress = false;
+        for (var k = 0u; k < trace_config.cmo_count; k++) {
+            let centre = cmo_centres[k].xyz;
+            let seg = Segment(origin - centre, dir, t_done, t_hi);
+            let r = trace_one(k, seg);
+            traces += 1u;
+            last = r;
+            if r.status == ONE_HIT || r.status == ONE_ESCAPED {
+                var status = STATUS_ESCAPED;
+                if r.status == ONE_HIT {
+                    status = STATUS_HIT;
+                }
+                return trace_out(status, k, r, r.point + centre, t_done, traces);
+            }
+            if r.t > t_done {
+                t_done = r.t;
+                progress = true;
+            }
+        }
+        if !progress {
+            break;
+        }
+    }
+    let p = vec3<f32>(origin.x + prod(t_done, dir.x), origin.y + prod(t_done, dir.y), origin.z + prod(t_done, dir.z));
+    return trace_out(STATUS_UNRESOLVED, 0xffffffffu, last, p, t_done, traces);
+}

@@ -1,0 +1,34 @@
+// Trace probe pass: traces a list of world rays with the shared tracer (`shared/trace.wgsl`) and
+// writes one `TraceOut` per ray. It exists to compare the GPU tracer with its CPU twin
+// (`tests/gpu_twin.rs`); the frame's fragment trace pass calls the same `trace_ray`.
+// Group 0: the rays and results; group 1: the CMO data declared by `shared/trace.wgsl`.
+//! import shared/trace.wgsl
+
+// One ray (Rust `vk::trace_probe::ProbeRay`): origin + t dir, t in [t_lo, t_hi].
+struct ProbeRay {
+    origin: vec3<f32>,
+    t_lo: f32,
+    dir: vec3<f32>,
+    t_hi: f32,
+}
+
+struct ProbeParams {
+    count: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
+}
+
+@group(0) @binding(0) var<uniform> probe_params: ProbeParams;
+@group(0) @binding(1) var<storage, read> probe_rays: array<ProbeRay>;
+@group(0) @binding(2) var<storage, read_write> probe_out: array<TraceOut>;
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if i >= probe_params.count {
+        return;
+    }
+    let ray = probe_rays[i];
+    probe_out[i] = trace_ray(ray.origin, ray.dir, ray.t_lo, ray.t_hi);
+}

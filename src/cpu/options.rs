@@ -1,0 +1,122 @@
+//! The tracer's method options, as the CLI exposes them and as both tracers read them: the CPU
+//! twins here, the GPU tracer (`spirv/shared/trace.wgsl`) through
+//! [`crate::vk::trace_probe::TraceConfig`], built from the same [`TraceOptions`].
+//!
+//! Invariant: [`trace_ray`] is the CPU twin of the WGSL `trace_ray`: for the same CMOs (built
+//! with [`TraceOptions::params`]) and the same options, the GPU must give the same status, CMO,
+//! texel and riser flag, and (see `tests/gpu_twin.rs`) the same `t` and point bits.
+
+use glam::Vec3;
+
+use super::approx::{Criterion, Sampling, trace_sampled};
+use super::multi::{MultiResult, Traversal, trace_cmos, trace_cmos_by};
+use super::{CmoTracer, TraceParams};
+
+/// Which intersection criterion decides a hit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum TraceCriterion {
+    /// The exact per-texel sphere-patch model with the continuity rule ([`super`]); the only
+    /// one with a "behind" outcome and hence the several-CMO handoff.
+    #[default]
+    Exact,
+    /// `|r - D| < eps` at samples ([`Criterion::Threshold`]).
+    Threshold,
+    /// `r - D` changes sign between samples ([`Criterion::SignChange`]).
+    SignChange,
+}
+
+/// Sample placement of the approximate criteria (ignored by [`TraceCriterion::Exact`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum TraceSampling {
+    /// `steps + 1` samples evenly spaced in `t`.
+    ConstantStep,
+    /// `steps + 1` samples evenly spaced between the endpoint directions.
+    ConstantAngle,
+    /// One sample per crossed texel.
+    #[default]
+    PerTexel,
+}
+
+/// Method options of the tracer (CPU and GPU).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TraceOptions {
+    /// Intersection criterion. Default: [`TraceCriterion::Exact`].
+    pub criterion: TraceCriterion,
+    /// Sampling of the approximate criteria. Default: [`TraceSampling::PerTexel`].
+    pub sampling: TraceSampling,
+    /// Exact criterion: march the 2x2 min/max pyramid ([`super::mip`]) instead of walking every
+    /// texel ([`super::walk`]). Same results either way; default `true` (faster).
+    pub accel: bool,
+    /// Sample intervals of constant-step / constant-angle sampling (`steps + 1` samples;
+    /// the GPU caps it at 65536). Default 400.
+    pub steps: u32,
+    /// Threshold of [`TraceCriterion::Threshold`], world units. Default 0.05.
+    pub eps: f32,
+    /// `k` of the continuity rule ([`super::continuous`]). Default `tan(80 deg)`.
+    pub continuity_k: f32,
+}
+
+impl Default for TraceOptions {
+    fn default() -> Self {
+        TraceOptions {
+            criterion: TraceCriterion::Exact,
+            sampling: TraceSampling::PerTexel,
+            accel: true,
+            steps: 400,
+            eps: 0.05,
+            continuity_k: TraceParams::default().continuity_k,
+        }
+    }
+}
+
+impl TraceOptions {
+    /// The per-CMO parameters to build [`CmoTracer`]s with.
+    pub fn params(&self) -> TraceParams {
+        TraceParams {
+            continuity_k: self.continuity_k,
+        }
+    }
+
+    /// The CPU traversal of the exact criterion.
+    pub fn traversal(&self) -> Traversal {
+        if self.accel {
+            Traversal::Mip
+        } else {
+            Traversal::Walk
+        }
+    }
+
+    /// The approximate criterion and sampling, or `None` for the exact criterion.
+    pub fn approx(&self) -> Option<(Criterion, Sampling)> {
+        let criterion = match self.criterion {
+            TraceCriterion::Exact => return None,
+            TraceCriterion::Threshold => Criterion::Threshold(self.eps),
+            TraceCriterion::SignChange => Criterion::SignChange,
+        };
+        let sampling = match self.sampling {
+            TraceSampling::ConstantStep => Sampling::ConstantStep(self.steps),
+            TraceSampling::ConstantAngle => Sampling::ConstantAngle(self.steps),
+            TraceSampling::PerTexel => Sampling::PerTexel,
+        };
+        Some((criterion, sampling))
+    }
+}
+
+/// Traces the world ray `origin + t dir`, `t in [t_lo, t_hi]`, over the CMOs with the options:
+/// the CPU twin of the WGSL `trace_ray`. The CMOs' own [`TraceParams`] are used (build them
+/// with [`TraceOptions::params`]).
+pub fn trace_ray(
+    cmos: &[CmoTracer],
+    origin: Vec3,
+    dir: Vec3,
+    t_lo: f32,
+    t_hi: f32,
+    opts: &TraceOptions,
+) -> MultiResult {
+    match opts.approx() {
+        None => trace_cmos(cmos, origin, dir, t_lo, t_hi, opts.traversal()),
+        Some((crit, sampling)) => trace_cmos_by(cmos, origin, dir, t_lo, t_hi, |tr, seg| {
+            trace_sampled(tr, seg, crit, sampling)
+        }),
+    }
+}

@@ -1,0 +1,363 @@
+//! The GPU tracer's data and the `trace_probe` pass.
+//!
+//! `spirv/shared/trace.wgsl` is the GPU twin of [`crate::cpu::options::trace_ray`]. It reads its
+//! options and the CMO data from `@group(1)`, which every pass importing it binds the same way,
+//! from a [`CmoData`]:
+//!
+//! | binding | WGSL                   | content                                                   |
+//! |---------|------------------------|-----------------------------------------------------------|
+//! | 0       | `trace_config`         | [`TraceConfig`] (uniform)                                 |
+//! | 1       | `cmo_centres`          | `vec4<f32>` per CMO, centre in `xyz`                      |
+//! | 2       | `cmo_distance`         | CMO k's texels at `k * 6 N N` (`CubeMap::distance` layout) |
+//! | 3       | `cmo_mip`              | CMO k's `MipPyramid::flatten()` at `k * mip_len(N)`       |
+//!
+//! The near-centre cut radius is computed on the GPU from the data, never passed in.
+//!
+//! The `trace_probe` pass (`spirv/trace_probe.wgsl`) traces a list of [`ProbeRay`]s and returns
+//! one [`ProbeResult`] per ray: it is how the tests compare the GPU with the CPU twin.
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+
+use super::buffer::Buffer;
+use super::context::GpuContext;
+use super::error::{VkError, VkResult};
+use super::pipeline::{ComputeOptions, ComputePipeline, Resource};
+use super::shaders::TRACE_PROBE;
+use crate::cpu::options::{TraceCriterion, TraceOptions, TraceSampling};
+use crate::cubemap::CubeMap;
+use crate::cubemap::pyramid::{EMPTY_CELL, MipPyramid, mip_flat_layout};
+
+/// Entries of [`TraceConfig::mip_levels`] (index 0 unused: level 0 is the texels).
+pub const TRACE_MIP_MAX_LEVELS: usize = 16;
+
+/// WGSL `TraceConfig` (uniform, `@group(1) @binding(0)`). Layout checked against naga's in
+/// `tests/gpu_twin.rs`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct TraceConfig {
+    /// Number of CMOs K.
+    pub cmo_count: u32,
+    /// Face size N.
+    pub size: u32,
+    /// 0 exact, 1 threshold, 2 sign change.
+    pub criterion: u32,
+    /// 0 constant step, 1 constant angle, 2 per texel.
+    pub sampling: u32,
+    /// 0 per-texel walk, 1 mip march (exact criterion).
+    pub accel: u32,
+    /// Sample intervals of constant-step / constant-angle sampling.
+    pub steps: u32,
+    /// Threshold (world units).
+    pub eps: f32,
+    /// `k` of the continuity rule.
+    pub continuity_k: f32,
+    /// Pyramid levels above the texels (0 for N = 1).
+    pub mip_top: u32,
+    /// Cells per CMO in the mip buffer.
+    pub mip_len: u32,
+    /// Padding (WGSL alignment of the array).
+    pub pad0: u32,
+    /// Padding.
+    pub pad1: u32,
+    /// Level `l` in `1..=mip_top`: `[offset, width, height, span]` (offset in cells within a
+    /// CMO's block, span in texels).
+    pub mip_levels: [[u32; 4]; TRACE_MIP_MAX_LEVELS],
+}
+
+/// Total cells of one CMO's flattened 2x2 pyramid for face size `size` (`mip_len(N)`).
+pub fn mip_len(size: u32) -> u32 {
+    mip_flat_layout(size)
+        .iter()
+        .map(|l| 6 * l.width * l.height)
+        .sum()
+}
+
+impl TraceConfig {
+    /// The config for `cmo_count` CMOs of face size `size` traced with `opts`. Fails when the
+    /// pyramid has more levels than [`TRACE_MIP_MAX_LEVELS`] - 1 (N > 32768).
+    pub fn new(cmo_count: u32, size: u32, opts: &TraceOptions) -> VkResult<TraceConfig> {
+        let layout = mip_flat_layout(size);
+        if size == 0 || layout.len() >= TRACE_MIP_MAX_LEVELS {
+            return Err(VkError::Usage {
+                what: "trace config".into(),
+                detail: format!("face size {size} is not in 1..=32768"),
+            });
+        }
+        let mut mip_levels = [[0u32; 4]; TRACE_MIP_MAX_LEVELS];
+        for (i, l) in layout.iter().enumerate() {
+            mip_levels[i + 1] = [l.offset, l.width, l.height, 1 << (i + 1)];
+        }
+        Ok(TraceConfig {
+            cmo_count,
+            size,
+            criterion: match opts.criterion {
+                TraceCriterion::Exact => 0,
+                TraceCriterion::Threshold => 1,
+                TraceCriterion::SignChange => 2,
+            },
+            sampling: match opts.sampling {
+                TraceSampling::ConstantStep => 0,
+                TraceSampling::ConstantAngle => 1,
+                TraceSampling::PerTexel => 2,
+            },
+            accel: u32::from(opts.accel),
+            steps: opts.steps,
+            eps: opts.eps,
+            continuity_k: opts.continuity_k,
+            mip_top: layout.len() as u32,
+            mip_len: mip_len(size),
+            pad0: 0,
+            pad1: 0,
+            mip_levels,
+        })
+    }
+}
+
+/// The `@group(1)` buffers of the GPU tracer.
+pub struct CmoData {
+    /// The config currently in `config_buf`.
+    config: TraceConfig,
+    config_buf: Buffer,
+    centres: Buffer,
+    distance: Buffer,
+    mip: Buffer,
+}
+
+impl CmoData {
+    /// Uploads CPU captures (all of the same face size) with options `opts`.
+    pub fn upload(ctx: &GpuContext, cubes: &[CubeMap], opts: &TraceOptions) -> VkResult<CmoData> {
+        let usage_err = |detail: String| VkError::Usage {
+            what: "CMO data".into(),
+            detail,
+        };
+        let size = cubes
+            .first()
+            .ok_or_else(|| usage_err("no CMOs".into()))?
+            .size;
+        if let Some(c) = cubes.iter().find(|c| c.size != size) {
+            return Err(usage_err(format!(
+                "CMOs of face sizes {size} and {} (all must match)",
+                c.size
+            )));
+        }
+        let centres: Vec<[f32; 4]> = cubes
+            .iter()
+            .map(|c| [c.centre.x, c.centre.y, c.centre.z, 0.0])
+            .collect();
+        let distance: Vec<f32> = cubes
+            .iter()
+            .flat_map(|c| c.distance.iter().copied())
+            .collect();
+        let mut mip: Vec<[f32; 2]> = cubes
+            .iter()
+            .flat_map(|c| MipPyramid::build(c).flatten())
+            .collect();
+        // N = 1 has no pyramid levels; Vulkan buffers cannot be empty.
+        if mip.is_empty() {
+            mip.push(EMPTY_CELL);
+        }
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let centres = ctx.create_buffer_init("cmo_centres", usage, &centres)?;
+        let distance = ctx.create_buffer_init("cmo_distance", usage, &distance)?;
+        let mip = ctx.create_buffer_init("cmo_mip", usage, &mip)?;
+        CmoData::from_buffers(ctx, cubes.len() as u32, size, centres, distance, mip, opts)
+    }
+
+    /// Wraps existing buffers (e.g. captured on the GPU) in the layouts of the module docs,
+    /// checking their sizes, and creates the config uniform.
+    pub fn from_buffers(
+        ctx: &GpuContext,
+        cmo_count: u32,
+        size: u32,
+        centres: Buffer,
+        distance: Buffer,
+        mip: Buffer,
+        opts: &TraceOptions,
+    ) -> VkResult<CmoData> {
+        let config = TraceConfig::new(cmo_count, size, opts)?;
+        let k = u64::from(cmo_count);
+        let n = u64::from(size);
+        let needs = [
+            (&centres, k * 16),
+            (&distance, k * 6 * n * n * 4),
+            (&mip, k * u64::from(config.mip_len) * 8),
+        ];
+        for (buf, bytes) in needs {
+            if buf.size() < bytes {
+                return Err(VkError::Usage {
+                    what: buf.name().into(),
+                    detail: format!(
+                        "{} bytes, but {cmo_count} CMO(s) of size {size} need {bytes}",
+                        buf.size()
+                    ),
+                });
+            }
+        }
+        let config_buf = ctx.create_buffer_init(
+            "trace_config",
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            &[config],
+        )?;
+        Ok(CmoData {
+            config,
+            config_buf,
+            centres,
+            distance,
+            mip,
+        })
+    }
+
+    /// Replaces the options (a new config uniform).
+    pub fn set_options(&mut self, ctx: &GpuContext, opts: &TraceOptions) -> VkResult<()> {
+        let config = TraceConfig::new(self.config.cmo_count, self.config.size, opts)?;
+        self.config_buf = ctx.create_buffer_init(
+            "trace_config",
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            &[config],
+        )?;
+        self.config = config;
+        Ok(())
+    }
+
+    /// The config in use.
+    pub fn config(&self) -> &TraceConfig {
+        &self.config
+    }
+
+    /// The `@group(1)` resources, by binding number, for `bind_group(1, ...)`.
+    pub fn resources(&self) -> [(u32, Resource<'_>); 4] {
+        [
+            (0, Resource::Buffer(&self.config_buf)),
+            (1, Resource::Buffer(&self.centres)),
+            (2, Resource::Buffer(&self.distance)),
+            (3, Resource::Buffer(&self.mip)),
+        ]
+    }
+}
+
+/// WGSL `ProbeRay`: the world ray `origin + t dir`, `t in [t_lo, t_hi]`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ProbeRay {
+    /// Ray origin (world).
+    pub origin: [f32; 3],
+    /// First parameter.
+    pub t_lo: f32,
+    /// Direction (world; `t` is in its units).
+    pub dir: [f32; 3],
+    /// Last parameter.
+    pub t_hi: f32,
+}
+
+/// WGSL `ProbeParams`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ProbeParams {
+    /// Number of rays.
+    pub count: u32,
+    /// Padding to 16 bytes.
+    pub pad0: u32,
+    /// Padding.
+    pub pad1: u32,
+    /// Padding.
+    pub pad2: u32,
+}
+
+/// WGSL `TraceOut`: what one ray found (see `spirv/shared/trace.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ProbeResult {
+    /// 0 hit, 1 escaped, 2 unresolved.
+    pub status: u32,
+    /// CMO that decided, `u32::MAX` when unresolved.
+    pub cmo: u32,
+    /// Face of the deciding texel (of the last single-CMO trace).
+    pub face: u32,
+    /// Its column.
+    pub x: u32,
+    /// Its row.
+    pub y: u32,
+    /// 1 for a hit on a riser.
+    pub riser: u32,
+    /// Texels tested by the last single-CMO trace.
+    pub texels: u32,
+    /// Pyramid cells tested by the last single-CMO trace.
+    pub cells: u32,
+    /// Single-CMO traces run.
+    pub traces: u32,
+    /// The last single-CMO trace's `t`.
+    pub t: f32,
+    /// Proven-empty prefix end.
+    pub t_done: f32,
+    /// Padding.
+    pub pad0: u32,
+    /// World point (hit, escape, or `origin + t_done dir` when unresolved).
+    pub point: [f32; 3],
+    /// Padding.
+    pub pad1: u32,
+}
+
+/// Workgroup size of `trace_probe` (fixed by the WGSL, checked against reflection).
+pub const PROBE_WORKGROUP: u32 = 64;
+
+/// Traces `rays` on the GPU with the tracer of `spirv/shared/trace.wgsl` over `data`.
+pub fn trace_probe(
+    ctx: &GpuContext,
+    data: &CmoData,
+    rays: &[ProbeRay],
+) -> VkResult<Vec<ProbeResult>> {
+    if rays.is_empty() {
+        return Ok(Vec::new());
+    }
+    let pipeline = ComputePipeline::new(ctx, &TRACE_PROBE, "main", ComputeOptions::default())?;
+    if pipeline.entry.workgroup_size[0] != PROBE_WORKGROUP {
+        return Err(VkError::Shader {
+            pass: TRACE_PROBE.name.into(),
+            detail: format!(
+                "workgroup size {:?}, expected {PROBE_WORKGROUP}",
+                pipeline.entry.workgroup_size
+            ),
+        });
+    }
+    let count = rays.len() as u32;
+    let params = ProbeParams {
+        count,
+        ..ProbeParams::default()
+    };
+    let params_buf = ctx.create_buffer_init(
+        "trace_probe params",
+        vk::BufferUsageFlags::UNIFORM_BUFFER,
+        &[params],
+    )?;
+    let rays_buf = ctx.create_buffer_init(
+        "trace_probe rays",
+        vk::BufferUsageFlags::STORAGE_BUFFER,
+        rays,
+    )?;
+    let out_buf = Buffer::new(
+        ctx.device(),
+        "trace_probe results",
+        u64::from(count) * size_of::<ProbeResult>() as u64,
+        vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+        MemoryLocation::GpuOnly,
+    )?;
+    let set0 = pipeline.bind_group(
+        0,
+        &[
+            (0, Resource::Buffer(&params_buf)),
+            (1, Resource::Buffer(&rays_buf)),
+            (2, Resource::Buffer(&out_buf)),
+        ],
+    )?;
+    let set1 = pipeline.bind_group(1, &data.resources())?;
+    let groups = count.div_ceil(PROBE_WORKGROUP);
+    ctx.submit_and_wait(TRACE_PROBE.name, |rec| {
+        rec.begin_label(TRACE_PROBE.name);
+        pipeline.dispatch(rec, &[&set0, &set1], [groups, 1, 1]);
+        rec.end_label();
+        Ok(())
+    })?;
+    let mut out: Vec<ProbeResult> = ctx.read_buffer(&out_buf)?;
+    out.truncate(rays.len());
+    Ok(out)
+}
