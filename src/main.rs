@@ -8,7 +8,11 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand, ValueEnum};
 
-use cubetrace::{output, reference, scene};
+use cubetrace::cpu::options::{TraceCriterion, TraceOptions, TraceSampling};
+use cubetrace::scene::{CmoPlacement, Scene};
+use cubetrace::vk::frame::{Fallback, GpuMethod, GpuRenderer, RenderOptions};
+use cubetrace::vk::{ContextOptions, GpuContext, Validation};
+use cubetrace::{metrics, output, reference, scene};
 
 /// Accurate mirror reflections on curved surfaces by cubemap tracing.
 ///
@@ -30,6 +34,8 @@ enum Command {
     Render(RenderArgs),
     /// List the built-in scenes, one line each.
     Scenes,
+    /// List the Vulkan devices: name, driver, subgroup size and operations, limits, timestamps.
+    Info(GpuArgs),
     /// Work with scene files.
     Scene {
         #[command(subcommand)]
@@ -51,8 +57,139 @@ enum SceneCommand {
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 enum Method {
+    /// Cubemap tracing in a deferred fragment pass on the GPU (thesis alg. 1, 2, 4).
+    Fragment,
+    /// One cube map lookup per pixel on the GPU, no parallax (the baseline).
+    Envmap,
     /// Exact CPU ray tracing against the scene's triangles: the ground truth.
     Reference,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum CriterionArg {
+    /// Exact per-texel surface (sphere patches, continuity rule): a silhouette is never a hit.
+    Exact,
+    /// The thesis's `|r - D| < eps` at samples.
+    Threshold,
+    /// The thesis's sign change of `r - D` between samples (fires at silhouettes too).
+    SignChange,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum SamplingArg {
+    /// `--steps` + 1 samples evenly spaced along the ray.
+    ConstantStep,
+    /// `--steps` + 1 samples evenly spaced in angle (between the endpoint directions).
+    ConstantAngle,
+    /// One sample per crossed texel.
+    PerTexel,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum FallbackArg {
+    /// Magenta: shows where tracing gave up.
+    Flag,
+    /// The environment-map lookup of the nearest CMO.
+    Envmap,
+    /// The scene's background colour.
+    Background,
+}
+
+/// Vulkan device choice and validation.
+#[derive(clap::Args, Clone, Copy)]
+struct GpuArgs {
+    /// Vulkan device index (see `cubetrace info`); default: a discrete GPU if any, else the first.
+    #[arg(long)]
+    device: Option<usize>,
+    /// Run under the Khronos validation layer (also: CUBETRACE_VALIDATION=1); fails if it is not
+    /// installed (Debian: vulkan-validationlayers).
+    #[arg(long)]
+    validate: bool,
+}
+
+impl GpuArgs {
+    fn context(&self) -> Result<GpuContext> {
+        Ok(GpuContext::new(ContextOptions {
+            validation: if self.validate {
+                Validation::Required
+            } else {
+                Validation::default()
+            },
+            device_index: self.device,
+        })?)
+    }
+}
+
+/// Options of the cubemap tracer (`--method fragment`).
+#[derive(clap::Args)]
+struct TraceArgs {
+    /// Intersection criterion.
+    #[arg(long, value_enum, default_value_t = CriterionArg::Exact)]
+    criterion: CriterionArg,
+    /// Sample placement of the threshold and sign-change criteria.
+    #[arg(long, value_enum, default_value_t = SamplingArg::PerTexel)]
+    sampling: SamplingArg,
+    /// Turn off the min/max pyramid (exact criterion: walk every texel instead; same result).
+    #[arg(long)]
+    no_accel: bool,
+    /// Sample intervals along the ray for constant-step and constant-angle sampling.
+    #[arg(long, default_value_t = 400, value_parser = clap::value_parser!(u32).range(1..=65536))]
+    steps: u32,
+    /// Threshold of the threshold criterion, world units.
+    #[arg(long, default_value_t = 0.05)]
+    eps: f32,
+    /// Number of CMOs, placed automatically along the reflectors' longest axis (overrides the
+    /// scene's CMO centres).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16))]
+    cmos: Option<u32>,
+    /// Texels per cube face side (overrides the scene's; 1 to 4096).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    cube_size: Option<u32>,
+    /// What fills mirror pixels that no CMO could resolve.
+    #[arg(long, value_enum, default_value_t = FallbackArg::Envmap)]
+    fallback: FallbackArg,
+}
+
+impl TraceArgs {
+    fn options(&self, method: GpuMethod) -> Result<RenderOptions> {
+        if !(self.eps.is_finite() && self.eps > 0.0) {
+            anyhow::bail!("--eps: {} is not a positive finite number", self.eps);
+        }
+        Ok(RenderOptions {
+            method,
+            trace: TraceOptions {
+                criterion: match self.criterion {
+                    CriterionArg::Exact => TraceCriterion::Exact,
+                    CriterionArg::Threshold => TraceCriterion::Threshold,
+                    CriterionArg::SignChange => TraceCriterion::SignChange,
+                },
+                sampling: match self.sampling {
+                    SamplingArg::ConstantStep => TraceSampling::ConstantStep,
+                    SamplingArg::ConstantAngle => TraceSampling::ConstantAngle,
+                    SamplingArg::PerTexel => TraceSampling::PerTexel,
+                },
+                accel: !self.no_accel,
+                steps: self.steps,
+                eps: self.eps,
+                ..TraceOptions::default()
+            },
+            fallback: match self.fallback {
+                FallbackArg::Flag => Fallback::Flag,
+                FallbackArg::Envmap => Fallback::Envmap,
+                FallbackArg::Background => Fallback::Background,
+            },
+        })
+    }
+
+    /// Applies the CMO overrides to the scene.
+    fn apply(&self, scene: &mut Scene) {
+        if let Some(count) = self.cmos {
+            scene.cmo.placement = CmoPlacement::Auto { count };
+        }
+        if let Some(size) = self.cube_size {
+            scene.cmo.resolution = size;
+        }
+    }
 }
 
 #[derive(clap::Args)]
@@ -79,11 +216,20 @@ struct RenderArgs {
     /// Output file, .png or .exr [default: out/SCENE-METHOD.png].
     #[arg(short, long)]
     output: Option<PathBuf>,
+    /// Also render the reference and print the error of the method against it (mirror
+    /// pixels: unresolved, wrong surface, angular error, PSNR).
+    #[arg(long)]
+    compare: bool,
+    #[command(flatten)]
+    trace: TraceArgs,
+    #[command(flatten)]
+    gpu: GpuArgs,
 }
 
 fn render(args: RenderArgs) -> Result<()> {
     let start = Instant::now();
-    let scene = scene::load(&args.scene)?;
+    let mut scene = scene::load(&args.scene)?;
+    args.trace.apply(&mut scene);
     let mut camera = scene.camera(args.camera.as_deref())?.clone();
     camera.width = args.width.unwrap_or(camera.width);
     camera.height = args.height.unwrap_or(camera.height);
@@ -100,7 +246,77 @@ fn render(args: RenderArgs) -> Result<()> {
     // Check the extension before spending time on the render.
     output::Format::from_path(&out)?;
 
+    let gpu_method = match args.method {
+        Method::Fragment => Some(GpuMethod::Fragment),
+        Method::Envmap => Some(GpuMethod::Envmap),
+        Method::Reference => None,
+    };
+    if let Some(m) = gpu_method {
+        if args.bounces != 1 {
+            anyhow::bail!(
+                "--bounces {}: the GPU methods trace one reflection (use --method reference)",
+                args.bounces
+            );
+        }
+        let options = args.trace.options(m)?;
+        let ctx = args.gpu.context()?;
+        let mut renderer = GpuRenderer::new(&ctx, &scene, &camera, options)?;
+        let frame = renderer.render(&ctx)?;
+        let render_time = start.elapsed();
+        let traced = frame.traced();
+        output::write_traced(&out, &traced, &frame.surface_position)?;
+        let gpu_ms: f64 = frame.pass_times.iter().map(|(_, t)| t).sum::<f64>() * 1e-6;
+        for (pass, ns) in &frame.pass_times {
+            log::info!("{pass:>16}: {:9.3} ms", ns * 1e-6);
+        }
+        let unresolved = traced
+            .mask
+            .iter()
+            .zip(&traced.resolved)
+            .filter(|(m, r)| **m != 0 && **r == 0)
+            .count();
+        println!(
+            "wrote {} ({}x{}, scene '{}', method {method}, {} mirror pixels, {} unresolved) in {:.2?} ({gpu_ms:.2} ms GPU on {})",
+            out.display(),
+            frame.width,
+            frame.height,
+            scene.name,
+            frame.mirror_pixels(),
+            unresolved,
+            render_time,
+            ctx.report().name,
+        );
+        let errors = ctx.validation_errors();
+        if !errors.is_empty() {
+            anyhow::bail!(
+                "the validation layer reported errors:\n{}",
+                errors.join("\n")
+            );
+        }
+        if args.compare {
+            let tracer = reference::Tracer::new(&scene);
+            let refr = reference::render(&scene, &tracer, &camera, 1);
+            let r = metrics::compare(
+                &refr,
+                &traced,
+                &frame.surface_position,
+                &scene.cmo_centres(),
+                scene.cmo.resolution,
+            );
+            println!(
+                "against the reference: {} mirror pixels, unresolved {:.2}%, wrong surface {:.2}%, angular error mean {:.3} deg / p95 {:.3} deg, PSNR {:.2} dB",
+                r.mirror_pixels,
+                100.0 * r.unresolved,
+                100.0 * r.wrong_surface,
+                r.angular_mean_deg,
+                r.angular_p95_deg,
+                r.psnr_db
+            );
+        }
+        return Ok(());
+    }
     let frame = match args.method {
+        Method::Fragment | Method::Envmap => unreachable!("GPU methods returned above"),
         Method::Reference => {
             let tracer = reference::Tracer::new(&scene);
             log::info!(
@@ -139,6 +355,17 @@ fn render(args: RenderArgs) -> Result<()> {
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Render(args) => render(args),
+        Command::Info(gpu) => {
+            let validation = if gpu.validate {
+                Validation::Required
+            } else {
+                Validation::default()
+            };
+            for (i, d) in GpuContext::list_devices(validation)?.iter().enumerate() {
+                println!("device {i}:\n{d}");
+            }
+            Ok(())
+        }
         Command::Scenes => {
             for (name, about) in scene::builtin::NAMES {
                 println!("{name:<12} {about}");

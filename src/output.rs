@@ -14,6 +14,7 @@ use anyhow::{Context, Result, bail};
 use exr::prelude::{AnyChannel, AnyChannels, FlatSamples, Image, WritableImage};
 use glam::Vec3;
 
+use crate::metrics::Traced;
 use crate::reference::Frame;
 use crate::shading::linear_to_srgb;
 
@@ -150,6 +151,39 @@ pub fn frame_channels(frame: &Frame) -> Vec<(&'static str, Channel)> {
             Channel::U32(frame.bounces.iter().map(|&b| b as u32).collect()),
         ),
     ]
+}
+
+/// Writes a traced (GPU) frame as PNG or EXR, chosen by the extension of `path`. EXR channels:
+/// `R`, `G`, `B`, `mask`, `P.X/Y/Z` (`surface_position`), `hit.X/Y/Z` (NaN where the ray left
+/// the scene or was unresolved) and `unresolved` (1 on mirror pixels no CMO could decide).
+pub fn write_traced(path: &Path, traced: &Traced, surface_position: &[Vec3]) -> Result<()> {
+    match Format::from_path(path)? {
+        Format::Png => write_atomic(
+            path,
+            &png_bytes(traced.width, traced.height, &traced.colour)?,
+        ),
+        Format::Exr => {
+            let n = traced.colour.len();
+            let f = |g: &dyn Fn(usize) -> f32| Channel::F32((0..n).map(g).collect());
+            let channels = vec![
+                ("R", f(&|k| traced.colour[k].x)),
+                ("G", f(&|k| traced.colour[k].y)),
+                ("B", f(&|k| traced.colour[k].z)),
+                ("mask", f(&|k| traced.mask[k] as f32)),
+                ("P.X", f(&|k| surface_position[k].x)),
+                ("P.Y", f(&|k| surface_position[k].y)),
+                ("P.Z", f(&|k| surface_position[k].z)),
+                ("hit.X", f(&|k| traced.hit_position[k].x)),
+                ("hit.Y", f(&|k| traced.hit_position[k].y)),
+                ("hit.Z", f(&|k| traced.hit_position[k].z)),
+                (
+                    "unresolved",
+                    f(&|k| u8::from(traced.mask[k] != 0 && traced.resolved[k] == 0) as f32),
+                ),
+            ];
+            write_exr(path, traced.width, traced.height, channels)
+        }
+    }
 }
 
 /// Writes a frame as PNG or EXR, chosen by the extension of `path`.

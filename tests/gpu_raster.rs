@@ -3,6 +3,7 @@
 //! (CI: lavapipe); runs under the validation layer when installed and fails on any error.
 use ash::vk;
 use cubetrace::check_layout;
+use cubetrace::cpu::options::TraceOptions;
 use cubetrace::cubemap::CubeMap;
 use cubetrace::reference::{self, Tracer};
 use cubetrace::scene::gpu_data::{
@@ -10,6 +11,7 @@ use cubetrace::scene::gpu_data::{
 };
 use cubetrace::scene::{Scene, builtin};
 use cubetrace::vk::capture::{Capture, CaptureView};
+use cubetrace::vk::cmo::CmoData;
 use cubetrace::vk::gbuffer::{Gbuffer, GbufferCamera};
 use cubetrace::vk::scene_buffers::SceneBuffers;
 use cubetrace::vk::shaders::{CAPTURE, GBUFFER};
@@ -51,9 +53,18 @@ fn gpu_capture(ctx: &GpuContext, scene: &Scene, centres: &[Vec3], size: u32) -> 
     let buffers = SceneBuffers::new(ctx, &data).unwrap();
     let near = 1e-5 * scene.world().extent();
     let cap = Capture::new(ctx, &buffers, centres, size, scene.self_reflections, near).unwrap();
-    ctx.submit_and_wait("capture", |rec| cap.record(rec, scene.background))
+    let cmo = CmoData::new(
+        ctx,
+        centres,
+        size,
+        scene.self_reflections,
+        false,
+        &TraceOptions::default(),
+    )
+    .unwrap();
+    ctx.submit_and_wait("capture", |rec| cap.record(rec, &cmo, scene.background))
         .unwrap();
-    cap.out.read_back(ctx).unwrap()
+    cmo.read_back(ctx).unwrap()
 }
 
 /// Texels where GPU and CPU captures disagree: distance off by more than `rel` relative, or

@@ -12,10 +12,9 @@ use cubetrace::cpu::multi::{MultiResult, MultiStatus};
 use cubetrace::cpu::options::{TraceCriterion, TraceOptions, TraceSampling, trace_ray};
 use cubetrace::cpu::{CmoTracer, Status};
 use cubetrace::cubemap::CubeMap;
+use cubetrace::vk::cmo::CmoData;
 use cubetrace::vk::shaders::TRACE_PROBE;
-use cubetrace::vk::trace_probe::{
-    CmoData, ProbeParams, ProbeRay, ProbeResult, TraceConfig, trace_probe,
-};
+use cubetrace::vk::trace_probe::{ProbeParams, ProbeRay, ProbeResult, TraceConfig, trace_probe};
 use cubetrace::vk::{ContextOptions, GpuContext};
 use glam::Vec3;
 
@@ -484,22 +483,10 @@ fn upload_with_mip(
     mip: &[[f32; 2]],
     opts: &TraceOptions,
 ) -> CmoData {
-    let usage = ash::vk::BufferUsageFlags::STORAGE_BUFFER;
-    let centres: Vec<[f32; 4]> = cubes
-        .iter()
-        .map(|c| [c.centre.x, c.centre.y, c.centre.z, 0.0])
-        .collect();
-    let distance: Vec<f32> = cubes.iter().flat_map(|c| c.distance.clone()).collect();
     let make = || -> cubetrace::vk::VkResult<CmoData> {
-        CmoData::from_buffers(
-            ctx,
-            cubes.len() as u32,
-            cubes[0].size,
-            ctx.create_buffer_init("centres", usage, &centres)?,
-            ctx.create_buffer_init("distance", usage, &distance)?,
-            ctx.create_buffer_init("mip", usage, mip)?,
-            opts,
-        )
+        let data = CmoData::upload(ctx, cubes, opts)?;
+        ctx.write_buffer(data.mip(), mip)?;
+        Ok(data)
     };
     make().unwrap_or_else(|e| panic!("{e}"))
 }

@@ -120,9 +120,18 @@ impl CmoData {
         }
         let centres: Vec<Vec3> = cubes.iter().map(|c| c.centre).collect();
         let data = CmoData::new(ctx, &centres, size, false, true, opts)?;
-        let distance: Vec<f32> = cubes.iter().flat_map(|c| c.distance.iter().copied()).collect();
-        let colour: Vec<[f32; 4]> = cubes.iter().flat_map(|c| c.colour.iter().copied()).collect();
-        let mut mip: Vec<[f32; 2]> = cubes.iter().flat_map(|c| MipPyramid::build(c).flatten()).collect();
+        let distance: Vec<f32> = cubes
+            .iter()
+            .flat_map(|c| c.distance.iter().copied())
+            .collect();
+        let colour: Vec<[f32; 4]> = cubes
+            .iter()
+            .flat_map(|c| c.colour.iter().copied())
+            .collect();
+        let mut mip: Vec<[f32; 2]> = cubes
+            .iter()
+            .flat_map(|c| MipPyramid::build(c).flatten())
+            .collect();
         if mip.is_empty() {
             mip.push(EMPTY_CELL);
         }
@@ -176,10 +185,16 @@ impl CmoData {
 
     /// Bytes of GPU memory the CMO data takes.
     pub fn bytes(&self) -> u64 {
-        [&self.config_buf, &self.centres_buf, &self.distance, &self.mip, &self.colour]
-            .iter()
-            .map(|b| b.size())
-            .sum::<u64>()
+        [
+            &self.config_buf,
+            &self.centres_buf,
+            &self.distance,
+            &self.mip,
+            &self.colour,
+        ]
+        .iter()
+        .map(|b| b.size())
+        .sum::<u64>()
             + self.normal.as_ref().map_or(0, |b| b.size())
     }
 
@@ -215,7 +230,8 @@ impl CmoData {
             .enumerate()
             .map(|(k, c)| {
                 let mut cube = CubeMap::new(self.size, *c);
-                cube.distance.copy_from_slice(&distance[k * per..(k + 1) * per]);
+                cube.distance
+                    .copy_from_slice(&distance[k * per..(k + 1) * per]);
                 cube.colour.copy_from_slice(&colour[k * per..(k + 1) * per]);
                 cube
             })

@@ -317,10 +317,7 @@ impl GpuRenderer {
                 MemoryLocation::GpuOnly,
             )
         };
-        let records = storage(
-            "pixel records",
-            pixels * size_of::<PixelRecord>() as u64,
-        )?;
+        let records = storage("pixel records", pixels * size_of::<PixelRecord>() as u64)?;
         let frame_colour = storage("frame colour", pixels * 16)?;
         let sampled = |img: &super::image::Image| Resource::Texture {
             view: img.view(),
@@ -466,7 +463,10 @@ impl GpuRenderer {
         Ok(GpuFrame {
             width: self.width,
             height: self.height,
-            colour: colour[..n].iter().map(|c| Vec4::from_array(*c).truncate()).collect(),
+            colour: colour[..n]
+                .iter()
+                .map(|c| Vec4::from_array(*c).truncate())
+                .collect(),
             mask: colour[..n].iter().map(|c| u8::from(c[3] == 1.0)).collect(),
             surface_position: position[..n]
                 .iter()

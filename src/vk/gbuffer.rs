@@ -132,7 +132,11 @@ impl Gbuffer {
         let clear = |v: Vec4| vk::ClearColorValue {
             float32: v.to_array(),
         };
-        let clears = [background.extend(0.0), Vec4::new(0.0, 0.0, 0.0, -1.0), Vec4::ZERO];
+        let clears = [
+            background.extend(0.0),
+            Vec4::new(0.0, 0.0, 0.0, -1.0),
+            Vec4::ZERO,
+        ];
         let (width, height) = self.extent();
         let target = RenderTarget {
             width,

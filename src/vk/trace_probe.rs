@@ -2,14 +2,7 @@
 //!
 //! `spirv/shared/trace.wgsl` is the GPU twin of [`crate::cpu::options::trace_ray`]. It reads its
 //! options and the CMO data from `@group(1)`, which every pass importing it binds the same way,
-//! from a [`CmoData`]:
-//!
-//! | binding | WGSL                   | content                                                   |
-//! |---------|------------------------|-----------------------------------------------------------|
-//! | 0       | `trace_config`         | [`TraceConfig`] (uniform)                                 |
-//! | 1       | `cmo_centres`          | `vec4<f32>` per CMO, centre in `xyz`                      |
-//! | 2       | `cmo_distance`         | CMO k's texels at `k * 6 N N` (`CubeMap::distance` layout) |
-//! | 3       | `cmo_mip`              | CMO k's `MipPyramid::flatten()` at `k * mip_len(N)`       |
+//! from a [`CmoData`] (its module docs list the bindings).
 //!
 //! The near-centre cut radius is computed on the GPU from the data, never passed in.
 //!
@@ -19,13 +12,13 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 
 use super::buffer::Buffer;
+use super::cmo::CmoData;
 use super::context::GpuContext;
 use super::error::{VkError, VkResult};
 use super::pipeline::{ComputeOptions, ComputePipeline, Resource};
 use super::shaders::TRACE_PROBE;
 use crate::cpu::options::{TraceCriterion, TraceOptions, TraceSampling};
-use crate::cubemap::CubeMap;
-use crate::cubemap::pyramid::{EMPTY_CELL, MipPyramid, mip_flat_layout};
+use crate::cubemap::pyramid::mip_flat_layout;
 
 /// Entries of [`TraceConfig::mip_levels`] (index 0 unused: level 0 is the texels).
 pub const TRACE_MIP_MAX_LEVELS: usize = 16;
@@ -110,128 +103,6 @@ impl TraceConfig {
             pad1: 0,
             mip_levels,
         })
-    }
-}
-
-/// The `@group(1)` buffers of the GPU tracer.
-pub struct CmoData {
-    /// The config currently in `config_buf`.
-    config: TraceConfig,
-    config_buf: Buffer,
-    centres: Buffer,
-    distance: Buffer,
-    mip: Buffer,
-}
-
-impl CmoData {
-    /// Uploads CPU captures (all of the same face size) with options `opts`.
-    pub fn upload(ctx: &GpuContext, cubes: &[CubeMap], opts: &TraceOptions) -> VkResult<CmoData> {
-        let usage_err = |detail: String| VkError::Usage {
-            what: "CMO data".into(),
-            detail,
-        };
-        let size = cubes
-            .first()
-            .ok_or_else(|| usage_err("no CMOs".into()))?
-            .size;
-        if let Some(c) = cubes.iter().find(|c| c.size != size) {
-            return Err(usage_err(format!(
-                "CMOs of face sizes {size} and {} (all must match)",
-                c.size
-            )));
-        }
-        let centres: Vec<[f32; 4]> = cubes
-            .iter()
-            .map(|c| [c.centre.x, c.centre.y, c.centre.z, 0.0])
-            .collect();
-        let distance: Vec<f32> = cubes
-            .iter()
-            .flat_map(|c| c.distance.iter().copied())
-            .collect();
-        let mut mip: Vec<[f32; 2]> = cubes
-            .iter()
-            .flat_map(|c| MipPyramid::build(c).flatten())
-            .collect();
-        // N = 1 has no pyramid levels; Vulkan buffers cannot be empty.
-        if mip.is_empty() {
-            mip.push(EMPTY_CELL);
-        }
-        let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
-        let centres = ctx.create_buffer_init("cmo_centres", usage, &centres)?;
-        let distance = ctx.create_buffer_init("cmo_distance", usage, &distance)?;
-        let mip = ctx.create_buffer_init("cmo_mip", usage, &mip)?;
-        CmoData::from_buffers(ctx, cubes.len() as u32, size, centres, distance, mip, opts)
-    }
-
-    /// Wraps existing buffers (e.g. captured on the GPU) in the layouts of the module docs,
-    /// checking their sizes, and creates the config uniform.
-    pub fn from_buffers(
-        ctx: &GpuContext,
-        cmo_count: u32,
-        size: u32,
-        centres: Buffer,
-        distance: Buffer,
-        mip: Buffer,
-        opts: &TraceOptions,
-    ) -> VkResult<CmoData> {
-        let config = TraceConfig::new(cmo_count, size, opts)?;
-        let k = u64::from(cmo_count);
-        let n = u64::from(size);
-        let needs = [
-            (&centres, k * 16),
-            (&distance, k * 6 * n * n * 4),
-            (&mip, k * u64::from(config.mip_len) * 8),
-        ];
-        for (buf, bytes) in needs {
-            if buf.size() < bytes {
-                return Err(VkError::Usage {
-                    what: buf.name().into(),
-                    detail: format!(
-                        "{} bytes, but {cmo_count} CMO(s) of size {size} need {bytes}",
-                        buf.size()
-                    ),
-                });
-            }
-        }
-        let config_buf = ctx.create_buffer_init(
-            "trace_config",
-            vk::BufferUsageFlags::UNIFORM_BUFFER,
-            &[config],
-        )?;
-        Ok(CmoData {
-            config,
-            config_buf,
-            centres,
-            distance,
-            mip,
-        })
-    }
-
-    /// Replaces the options (a new config uniform).
-    pub fn set_options(&mut self, ctx: &GpuContext, opts: &TraceOptions) -> VkResult<()> {
-        let config = TraceConfig::new(self.config.cmo_count, self.config.size, opts)?;
-        self.config_buf = ctx.create_buffer_init(
-            "trace_config",
-            vk::BufferUsageFlags::UNIFORM_BUFFER,
-            &[config],
-        )?;
-        self.config = config;
-        Ok(())
-    }
-
-    /// The config in use.
-    pub fn config(&self) -> &TraceConfig {
-        &self.config
-    }
-
-    /// The `@group(1)` resources, by binding number, for `bind_group(1, ...)`.
-    pub fn resources(&self) -> [(u32, Resource<'_>); 4] {
-        [
-            (0, Resource::Buffer(&self.config_buf)),
-            (1, Resource::Buffer(&self.centres)),
-            (2, Resource::Buffer(&self.distance)),
-            (3, Resource::Buffer(&self.mip)),
-        ]
     }
 }
 
@@ -349,7 +220,7 @@ pub fn trace_probe(
             (2, Resource::Buffer(&out_buf)),
         ],
     )?;
-    let set1 = pipeline.bind_group(1, &data.resources())?;
+    let set1 = pipeline.bind_group(1, &data.resources_for(&TRACE_PROBE, "main"))?;
     let groups = count.div_ceil(PROBE_WORKGROUP);
     ctx.submit_and_wait(TRACE_PROBE.name, |rec| {
         rec.begin_label(TRACE_PROBE.name);
