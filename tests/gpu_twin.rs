@@ -67,6 +67,8 @@ enum Scene {
     SphereRoom,
     /// Two spheres in the void (most directions see nothing: `+inf` distances).
     Void,
+    /// Nothing captured: every distance `+inf` (cut radius 0, every ray escapes).
+    Nothing,
 }
 
 const ROOM: Aabb = Aabb {
@@ -139,6 +141,7 @@ fn scene_hit(scene: Scene, o: Vec3, d: Vec3) -> f32 {
             let (_, far) = sphere_roots(SPHERE_ROOM.0, SPHERE_ROOM.1, o, d);
             far.min(enter_sphere(SPHERE_OCC.0, SPHERE_OCC.1, o, d))
         }
+        Scene::Nothing => f32::INFINITY,
         Scene::Void => enter_sphere(SPHERE_OCC.0, SPHERE_OCC.1, o, d).min(enter_sphere(
             SPHERE_FAR.0,
             SPHERE_FAR.1,
@@ -153,6 +156,7 @@ fn scene_name(scene: Scene) -> &'static str {
         Scene::BoxRoom => "box room",
         Scene::SphereRoom => "sphere room",
         Scene::Void => "void",
+        Scene::Nothing => "nothing",
     }
 }
 
@@ -446,6 +450,7 @@ fn exact_criterion_matches_the_cpu_bit_for_bit() {
         (Scene::SphereRoom, 3, 400),
         (Scene::SphereRoom, 32, 1000),
         (Scene::Void, 16, 600),
+        (Scene::Nothing, 3, 200),
     ] {
         let cubes = vec![twin_capture(scene, size, CENTRE)];
         let rays = twin_rays(u64::from(size) * 31 + count as u64, count, &[CENTRE]);
@@ -472,9 +477,64 @@ fn exact_criterion_matches_the_cpu_bit_for_bit() {
             bad += d.total();
         }
     }
+    // A strict continuity rule (k = 0.2): more steps are silhouettes, so more rays go behind.
+    let strict = TraceOptions {
+        continuity_k: 0.2,
+        ..exact(true)
+    };
+    let cubes = vec![twin_capture(Scene::SphereRoom, 32, CENTRE)];
+    let rays = twin_rays(555, 1000, &[CENTRE]);
+    let data = CmoData::upload(&ctx, &cubes, &strict).unwrap_or_else(|e| panic!("{e}"));
+    let cpu = cpu_trace(&tracers(&cubes, &strict), &rays, &strict);
+    let gpu = gpu_trace(&ctx, &data, &rays);
+    let d = compare(&cpu, &gpu, 0, "k = 0.2");
+    // Negative: the CPU with the default k sees other risers and silhouettes.
+    let loose = cpu_trace(&tracers(&cubes, &exact(true)), &rays, &exact(true));
+    let d_loose = compare(&loose, &gpu, 0, "k = 0.2 vs default k");
+    assert!(d_loose.class > 0, "{d_loose:?}");
+    let risers = cpu.iter().filter(|m| m.result.riser).count();
+    eprintln!(
+        "sphere room size 32, k = 0.2: {} rays ({risers} riser hits): {d:?}",
+        rays.len()
+    );
+    total_rays += rays.len();
+    bad += d.total();
+
     eprintln!("exact, one CMO: {total_rays} rays, {bad} disagreements");
     assert_eq!(bad, 0);
     twin_finish(ctx);
+}
+
+/// The bit-for-bit comparison would see a driver that contracts `a + t * d` into a fused
+/// multiply-add (lavapipe does not: Mesa's gallivm lowers even an explicit WGSL `fma` to a
+/// multiply and an add, so this cannot be shown on the GPU here): recomputing the CPU's hit
+/// points with `mul_add` changes the bits of most of them.
+#[test]
+fn fused_multiply_add_would_be_caught() {
+    let opts = exact(true);
+    let cubes = vec![twin_capture(Scene::BoxRoom, 32, CENTRE)];
+    let rays = twin_rays(31, 500, &[]);
+    let cpu = cpu_trace(&tracers(&cubes, &opts), &rays, &opts);
+    let mut hits = 0;
+    let mut differ = 0;
+    for (m, &(o, d)) in cpu.iter().zip(&rays) {
+        if m.status != MultiStatus::Hit {
+            continue;
+        }
+        hits += 1;
+        let a = o - CENTRE;
+        let t = m.result.t;
+        let fused = Vec3::new(
+            t.mul_add(d.x, a.x),
+            t.mul_add(d.y, a.y),
+            t.mul_add(d.z, a.z),
+        );
+        if fused.to_array().map(f32::to_bits) != m.result.point.to_array().map(f32::to_bits) {
+            differ += 1;
+        }
+    }
+    eprintln!("{differ} of {hits} hit points change bits when fused");
+    assert!(differ * 4 > hits, "{differ} of {hits}");
 }
 
 /// Uploads `cubes` through the public buffer constructor, with the mip pyramid given by `mip`.
