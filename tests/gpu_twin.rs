@@ -234,9 +234,20 @@ fn special_rays(c: Vec3) -> Vec<(Vec3, Vec3)> {
     v
 }
 
+/// A world ray `o + t d`, `t in [t_lo, t_hi]`.
+#[derive(Clone, Copy, Debug)]
+struct TwinRay {
+    o: Vec3,
+    d: Vec3,
+    t_lo: f32,
+    t_hi: f32,
+}
+
 /// `count` random rays from inside the room (outside the occluders) plus the special rays of
-/// every centre in `centres`.
-fn twin_rays(seed: u64, count: usize, centres: &[Vec3]) -> Vec<(Vec3, Vec3)> {
+/// every centre in `centres` (those with `t in [0, T_HI]`, unit directions). Among the random
+/// ones, by index: every 5th ends at `t_hi = 2` (escapes are possible in a closed room), every
+/// 7th starts at `t_lo = 0.4`, every 3rd has a direction of length 2.5 and every 11th of 0.3.
+fn twin_rays(seed: u64, count: usize, centres: &[Vec3]) -> Vec<TwinRay> {
     let mut rng = TwinRng(seed);
     let mut out = Vec::with_capacity(count);
     while out.len() < count {
@@ -251,21 +262,35 @@ fn twin_rays(seed: u64, count: usize, centres: &[Vec3]) -> Vec<(Vec3, Vec3)> {
         if (o - SPHERE_OCC.0).length() < SPHERE_OCC.1 + 0.1 {
             continue;
         }
-        out.push((o, rng.unit()));
+        let i = out.len();
+        let mut d = rng.unit();
+        if i % 3 == 1 {
+            d *= 2.5;
+        } else if i % 11 == 6 {
+            d *= 0.3;
+        }
+        let t_lo = if i % 7 == 4 { 0.4 } else { 0.0 };
+        let t_hi = if i % 5 == 3 { 2.0 } else { T_HI };
+        out.push(TwinRay { o, d, t_lo, t_hi });
     }
     for &c in centres {
-        out.extend(special_rays(c));
+        out.extend(special_rays(c).into_iter().map(|(o, d)| TwinRay {
+            o,
+            d,
+            t_lo: 0.0,
+            t_hi: T_HI,
+        }));
     }
     out
 }
 
-fn probe_rays(rays: &[(Vec3, Vec3)]) -> Vec<ProbeRay> {
+fn probe_rays(rays: &[TwinRay]) -> Vec<ProbeRay> {
     rays.iter()
-        .map(|&(o, d)| ProbeRay {
-            origin: o.to_array(),
-            t_lo: 0.0,
-            dir: d.to_array(),
-            t_hi: T_HI,
+        .map(|r| ProbeRay {
+            origin: r.o.to_array(),
+            t_lo: r.t_lo,
+            dir: r.d.to_array(),
+            t_hi: r.t_hi,
         })
         .collect()
 }
@@ -354,13 +379,13 @@ fn compare(cpu: &[MultiResult], gpu: &[ProbeResult], max_ulps: u32, label: &str)
     d
 }
 
-fn cpu_trace(cmos: &[CmoTracer], rays: &[(Vec3, Vec3)], opts: &TraceOptions) -> Vec<MultiResult> {
+fn cpu_trace(cmos: &[CmoTracer], rays: &[TwinRay], opts: &TraceOptions) -> Vec<MultiResult> {
     rays.iter()
-        .map(|&(o, d)| trace_ray(cmos, o, d, 0.0, T_HI, opts))
+        .map(|r| trace_ray(cmos, r.o, r.d, r.t_lo, r.t_hi, opts))
         .collect()
 }
 
-fn gpu_trace(ctx: &GpuContext, data: &CmoData, rays: &[(Vec3, Vec3)]) -> Vec<ProbeResult> {
+fn gpu_trace(ctx: &GpuContext, data: &CmoData, rays: &[TwinRay]) -> Vec<ProbeResult> {
     trace_probe(ctx, data, &probe_rays(rays)).unwrap_or_else(|e| panic!("{e}"))
 }
 
@@ -517,12 +542,12 @@ fn fused_multiply_add_would_be_caught() {
     let cpu = cpu_trace(&tracers(&cubes, &opts), &rays, &opts);
     let mut hits = 0;
     let mut differ = 0;
-    for (m, &(o, d)) in cpu.iter().zip(&rays) {
+    for (m, r) in cpu.iter().zip(&rays) {
         if m.status != MultiStatus::Hit {
             continue;
         }
         hits += 1;
-        let a = o - CENTRE;
+        let (a, d) = (r.o - CENTRE, r.d);
         let t = m.result.t;
         let fused = Vec3::new(
             t.mul_add(d.x, a.x),
