@@ -752,3 +752,20 @@ fn approximate_criteria_match_the_cpu() {
     assert_eq!(bad, 0);
     twin_finish(ctx);
 }
+
+#[test]
+fn trace_config_refuses_what_the_shader_caps_would_cut() {
+    let ok = TraceConfig::new(2, 4096, &TraceOptions::default()).expect("4096 is accepted");
+    assert_eq!(ok.mip_top, 12);
+    assert_eq!(ok.mip_levels[12][1..], [1, 1, 4096]);
+    assert!(TraceConfig::new(1, 4097, &TraceOptions::default()).is_err());
+    assert!(TraceConfig::new(1, 0, &TraceOptions::default()).is_err());
+    let many = TraceOptions {
+        steps: 65537,
+        ..TraceOptions::default()
+    };
+    assert!(TraceConfig::new(1, 16, &many).is_err());
+    // N = 1: no pyramid; the cut radius comes from the texels.
+    let one = TraceConfig::new(1, 1, &TraceOptions::default()).expect("1 is accepted");
+    assert_eq!((one.mip_top, one.mip_len), (0, 0));
+}

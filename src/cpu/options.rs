@@ -48,7 +48,7 @@ pub struct TraceOptions {
     /// texel ([`super::walk`]). Same results either way; default `true` (faster).
     pub accel: bool,
     /// Sample intervals of constant-step / constant-angle sampling (`steps + 1` samples;
-    /// the GPU caps it at 65536). Default 400.
+    /// the GPU accepts at most 65536). Default 400.
     pub steps: u32,
     /// Threshold of [`TraceCriterion::Threshold`], world units. Default 0.05.
     pub eps: f32,
