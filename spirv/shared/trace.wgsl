@@ -10,7 +10,9 @@
 // - binding 1 `cmo_centres`: CMO k's centre in `.xyz` (w unused).
 // - binding 2 `cmo_distance`: CMO k's texels at `k * 6 * N * N`, index `(face * N + y) * N + x`.
 // - binding 3 `cmo_mip`: CMO k's 2x2 pyramid (levels 1..) at `k * mip_len`, `[min, max]`.
-// The near-centre radius `0.5 * min D` is computed here from the data (min over the top mip
+// Distances are `+inf` where nothing was captured and never NaN (WGSL's min/max leave NaN
+// implementation-defined where Rust's ignore it). The near-centre radius `0.5 * min D` is
+// computed here from the data (min over the top mip
 // level, or over the texels when N = 1), as `CmoTracer::new` does on the CPU.
 //
 // Invariants: no recursion; every loop has an explicit cap (`MAX_ROUNDS`, `MAX_FACE_STEPS`,

@@ -120,3 +120,42 @@ pub fn trace_ray(
         }),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_exact_with_the_pyramid() {
+        let o = TraceOptions::default();
+        assert_eq!(o.approx(), None);
+        assert_eq!(o.traversal(), Traversal::Mip);
+        assert_eq!(o.params(), TraceParams::default());
+        let walk = TraceOptions { accel: false, ..o };
+        assert_eq!(walk.traversal(), Traversal::Walk);
+    }
+
+    #[test]
+    fn approximate_options_map_to_the_cpu_criteria() {
+        let o = TraceOptions {
+            criterion: TraceCriterion::Threshold,
+            sampling: TraceSampling::ConstantAngle,
+            steps: 7,
+            eps: 0.25,
+            ..TraceOptions::default()
+        };
+        assert_eq!(
+            o.approx(),
+            Some((Criterion::Threshold(0.25), Sampling::ConstantAngle(7)))
+        );
+        let s = TraceOptions {
+            criterion: TraceCriterion::SignChange,
+            sampling: TraceSampling::ConstantStep,
+            ..o
+        };
+        assert_eq!(
+            s.approx(),
+            Some((Criterion::SignChange, Sampling::ConstantStep(7)))
+        );
+    }
+}
