@@ -66,6 +66,8 @@ enum Scene {
     SphereRoom,
     /// Two spheres in the void (most directions see nothing: `+inf` distances).
     Void,
+    /// Nothing captured: every distance `+inf` (cut radius 0, every ray escapes).
+    Nothing,
 }
 
 const ROOM: Aabb = Aabb {
@@ -138,6 +140,7 @@ fn scene_hit(scene: Scene, o: Vec3, d: Vec3) -> f32 {
             let (_, far) = sphere_roots(SPHERE_ROOM.0, SPHERE_ROOM.1, o, d);
             far.min(enter_sphere(SPHERE_OCC.0, SPHERE_OCC.1, o, d))
         }
+        Scene::Nothing => f32::INFINITY,
         Scene::Void => enter_sphere(SPHERE_OCC.0, SPHERE_OCC.1, o, d).min(enter_sphere(
             SPHERE_FAR.0,
             SPHERE_FAR.1,
@@ -152,6 +155,7 @@ fn scene_name(scene: Scene) -> &'static str {
         Scene::BoxRoom => "box room",
         Scene::SphereRoom => "sphere room",
         Scene::Void => "void",
+        Scene::Nothing => "nothing",
     }
 }
 
@@ -229,9 +233,20 @@ fn special_rays(c: Vec3) -> Vec<(Vec3, Vec3)> {
     v
 }
 
+/// A world ray `o + t d`, `t in [t_lo, t_hi]`.
+#[derive(Clone, Copy, Debug)]
+struct TwinRay {
+    o: Vec3,
+    d: Vec3,
+    t_lo: f32,
+    t_hi: f32,
+}
+
 /// `count` random rays from inside the room (outside the occluders) plus the special rays of
-/// every centre in `centres`.
-fn twin_rays(seed: u64, count: usize, centres: &[Vec3]) -> Vec<(Vec3, Vec3)> {
+/// every centre in `centres` (those with `t in [0, T_HI]`, unit directions). Among the random
+/// ones, by index: every 5th ends at `t_hi = 2` (escapes are possible in a closed room), every
+/// 7th starts at `t_lo = 0.4`, every 3rd has a direction of length 2.5 and every 11th of 0.3.
+fn twin_rays(seed: u64, count: usize, centres: &[Vec3]) -> Vec<TwinRay> {
     let mut rng = TwinRng(seed);
     let mut out = Vec::with_capacity(count);
     while out.len() < count {
@@ -246,21 +261,35 @@ fn twin_rays(seed: u64, count: usize, centres: &[Vec3]) -> Vec<(Vec3, Vec3)> {
         if (o - SPHERE_OCC.0).length() < SPHERE_OCC.1 + 0.1 {
             continue;
         }
-        out.push((o, rng.unit()));
+        let i = out.len();
+        let mut d = rng.unit();
+        if i % 3 == 1 {
+            d *= 2.5;
+        } else if i % 11 == 6 {
+            d *= 0.3;
+        }
+        let t_lo = if i % 7 == 4 { 0.4 } else { 0.0 };
+        let t_hi = if i % 5 == 3 { 2.0 } else { T_HI };
+        out.push(TwinRay { o, d, t_lo, t_hi });
     }
     for &c in centres {
-        out.extend(special_rays(c));
+        out.extend(special_rays(c).into_iter().map(|(o, d)| TwinRay {
+            o,
+            d,
+            t_lo: 0.0,
+            t_hi: T_HI,
+        }));
     }
     out
 }
 
-fn probe_rays(rays: &[(Vec3, Vec3)]) -> Vec<ProbeRay> {
+fn probe_rays(rays: &[TwinRay]) -> Vec<ProbeRay> {
     rays.iter()
-        .map(|&(o, d)| ProbeRay {
-            origin: o.to_array(),
-            t_lo: 0.0,
-            dir: d.to_array(),
-            t_hi: T_HI,
+        .map(|r| ProbeRay {
+            origin: r.o.to_array(),
+            t_lo: r.t_lo,
+            dir: r.d.to_array(),
+            t_hi: r.t_hi,
         })
         .collect()
 }
@@ -349,13 +378,13 @@ fn compare(cpu: &[MultiResult], gpu: &[ProbeResult], max_ulps: u32, label: &str)
     d
 }
 
-fn cpu_trace(cmos: &[CmoTracer], rays: &[(Vec3, Vec3)], opts: &TraceOptions) -> Vec<MultiResult> {
+fn cpu_trace(cmos: &[CmoTracer], rays: &[TwinRay], opts: &TraceOptions) -> Vec<MultiResult> {
     rays.iter()
-        .map(|&(o, d)| trace_ray(cmos, o, d, 0.0, T_HI, opts))
+        .map(|r| trace_ray(cmos, r.o, r.d, r.t_lo, r.t_hi, opts))
         .collect()
 }
 
-fn gpu_trace(ctx: &GpuContext, data: &CmoData, rays: &[(Vec3, Vec3)]) -> Vec<ProbeResult> {
+fn gpu_trace(ctx: &GpuContext, data: &CmoData, rays: &[TwinRay]) -> Vec<ProbeResult> {
     trace_probe(ctx, data, &probe_rays(rays)).unwrap_or_else(|e| panic!("{e}"))
 }
 
@@ -445,6 +474,7 @@ fn exact_criterion_matches_the_cpu_bit_for_bit() {
         (Scene::SphereRoom, 3, 400),
         (Scene::SphereRoom, 32, 1000),
         (Scene::Void, 16, 600),
+        (Scene::Nothing, 3, 200),
     ] {
         let cubes = vec![twin_capture(scene, size, CENTRE)];
         let rays = twin_rays(u64::from(size) * 31 + count as u64, count, &[CENTRE]);
@@ -471,9 +501,64 @@ fn exact_criterion_matches_the_cpu_bit_for_bit() {
             bad += d.total();
         }
     }
+    // A strict continuity rule (k = 0.2): more steps are silhouettes, so more rays go behind.
+    let strict = TraceOptions {
+        continuity_k: 0.2,
+        ..exact(true)
+    };
+    let cubes = vec![twin_capture(Scene::SphereRoom, 32, CENTRE)];
+    let rays = twin_rays(555, 1000, &[CENTRE]);
+    let data = CmoData::upload(&ctx, &cubes, &strict).unwrap_or_else(|e| panic!("{e}"));
+    let cpu = cpu_trace(&tracers(&cubes, &strict), &rays, &strict);
+    let gpu = gpu_trace(&ctx, &data, &rays);
+    let d = compare(&cpu, &gpu, 0, "k = 0.2");
+    // Negative: the CPU with the default k sees other risers and silhouettes.
+    let loose = cpu_trace(&tracers(&cubes, &exact(true)), &rays, &exact(true));
+    let d_loose = compare(&loose, &gpu, 0, "k = 0.2 vs default k");
+    assert!(d_loose.class > 0, "{d_loose:?}");
+    let risers = cpu.iter().filter(|m| m.result.riser).count();
+    eprintln!(
+        "sphere room size 32, k = 0.2: {} rays ({risers} riser hits): {d:?}",
+        rays.len()
+    );
+    total_rays += rays.len();
+    bad += d.total();
+
     eprintln!("exact, one CMO: {total_rays} rays, {bad} disagreements");
     assert_eq!(bad, 0);
     twin_finish(ctx);
+}
+
+/// The bit-for-bit comparison would see a driver that contracts `a + t * d` into a fused
+/// multiply-add (lavapipe does not: Mesa's gallivm lowers even an explicit WGSL `fma` to a
+/// multiply and an add, so this cannot be shown on the GPU here): recomputing the CPU's hit
+/// points with `mul_add` changes the bits of most of them.
+#[test]
+fn fused_multiply_add_would_be_caught() {
+    let opts = exact(true);
+    let cubes = vec![twin_capture(Scene::BoxRoom, 32, CENTRE)];
+    let rays = twin_rays(31, 500, &[]);
+    let cpu = cpu_trace(&tracers(&cubes, &opts), &rays, &opts);
+    let mut hits = 0;
+    let mut differ = 0;
+    for (m, r) in cpu.iter().zip(&rays) {
+        if m.status != MultiStatus::Hit {
+            continue;
+        }
+        hits += 1;
+        let (a, d) = (r.o - CENTRE, r.d);
+        let t = m.result.t;
+        let fused = Vec3::new(
+            t.mul_add(d.x, a.x),
+            t.mul_add(d.y, a.y),
+            t.mul_add(d.z, a.z),
+        );
+        if fused.to_array().map(f32::to_bits) != m.result.point.to_array().map(f32::to_bits) {
+            differ += 1;
+        }
+    }
+    eprintln!("{differ} of {hits} hit points change bits when fused");
+    assert!(differ * 4 > hits, "{differ} of {hits}");
 }
 
 /// Uploads `cubes` through the public buffer constructor, with the mip pyramid given by `mip`.
@@ -653,4 +738,21 @@ fn approximate_criteria_match_the_cpu() {
     eprintln!("approximate criteria: {total} ray traces, {bad} disagreements");
     assert_eq!(bad, 0);
     twin_finish(ctx);
+}
+
+#[test]
+fn trace_config_refuses_what_the_shader_caps_would_cut() {
+    let ok = TraceConfig::new(2, 4096, &TraceOptions::default()).expect("4096 is accepted");
+    assert_eq!(ok.mip_top, 12);
+    assert_eq!(ok.mip_levels[12][1..], [1, 1, 4096]);
+    assert!(TraceConfig::new(1, 4097, &TraceOptions::default()).is_err());
+    assert!(TraceConfig::new(1, 0, &TraceOptions::default()).is_err());
+    let many = TraceOptions {
+        steps: 65537,
+        ..TraceOptions::default()
+    };
+    assert!(TraceConfig::new(1, 16, &many).is_err());
+    // N = 1: no pyramid; the cut radius comes from the texels.
+    let one = TraceConfig::new(1, 1, &TraceOptions::default()).expect("1 is accepted");
+    assert_eq!((one.mip_top, one.mip_len), (0, 0));
 }

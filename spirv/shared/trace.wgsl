@@ -10,12 +10,15 @@
 // - binding 1 `cmo_centres`: CMO k's centre in `.xyz` (w unused).
 // - binding 2 `cmo_distance`: CMO k's texels at `k * 6 * N * N`, index `(face * N + y) * N + x`.
 // - binding 3 `cmo_mip`: CMO k's 2x2 pyramid (levels 1..) at `k * mip_len`, `[min, max]`.
-// The near-centre radius `0.5 * min D` is computed here from the data (min over the top mip
+// Distances are `+inf` where nothing was captured and never NaN (WGSL's min/max leave NaN
+// implementation-defined where Rust's ignore it). The near-centre radius `0.5 * min D` is
+// computed here from the data (min over the top mip
 // level, or over the texels when N = 1), as `CmoTracer::new` does on the CPU.
 //
 // Invariants: no recursion; every loop has an explicit cap (`MAX_ROUNDS`, `MAX_FACE_STEPS`,
-// `MAX_TEXEL_SAMPLES`, `MAX_SAMPLE_STEPS`); the caps are never reached for N <= 2048 (a piece
-// crosses at most 2N texels of a face, and each step strictly advances t1).
+// `MAX_TEXEL_SAMPLES`, `MAX_SAMPLE_STEPS`). `MAX_ROUNDS` and `MAX_TEXEL_SAMPLES` are the CPU's
+// own caps; the other two are never reached for the sizes and step counts `TraceConfig::new`
+// accepts (N <= 4096, steps <= 65536), so the CPU twin needs none.
 //! import shared/frustum.wgsl
 
 const TRACE_MIP_MAX_LEVELS: u32 = 16u;
@@ -23,10 +26,11 @@ const TRACE_MIP_MAX_LEVELS: u32 = 16u;
 const MAX_ROUNDS: u32 = 16u;
 // Samples of per-texel sampling (`cpu::approx::MAX_TEXEL_SAMPLES`).
 const MAX_TEXEL_SAMPLES: u32 = 16384u;
-// Texels (or skips) of one face walk: above the 2N + 2 texels a piece can cross on a face of
-// N <= 2048, so never reached.
-const MAX_FACE_STEPS: u32 = 16384u;
-// Cap on `steps` of constant-step/constant-angle sampling.
+// Steps (texels or skips) of one face walk. A piece crosses at most 2N + 2 texels of a face and
+// each skip passes at least one, so at most 4N + 4 steps: never reached for N <= 4096, the
+// largest size `TraceConfig::new` accepts.
+const MAX_FACE_STEPS: u32 = 65536u;
+// Cap on `steps` of constant-step/constant-angle sampling (`TraceConfig::new` refuses more).
 const MAX_SAMPLE_STEPS: u32 = 65536u;
 
 const CRITERION_EXACT: u32 = 0u;

@@ -48,7 +48,7 @@ pub struct TraceOptions {
     /// texel ([`super::walk`]). Same results either way; default `true` (faster).
     pub accel: bool,
     /// Sample intervals of constant-step / constant-angle sampling (`steps + 1` samples;
-    /// the GPU caps it at 65536). Default 400.
+    /// the GPU accepts at most 65536). Default 400.
     pub steps: u32,
     /// Threshold of [`TraceCriterion::Threshold`], world units. Default 0.05.
     pub eps: f32,
@@ -118,5 +118,44 @@ pub fn trace_ray(
         Some((crit, sampling)) => trace_cmos_by(cmos, origin, dir, t_lo, t_hi, |tr, seg| {
             trace_sampled(tr, seg, crit, sampling)
         }),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_exact_with_the_pyramid() {
+        let o = TraceOptions::default();
+        assert_eq!(o.approx(), None);
+        assert_eq!(o.traversal(), Traversal::Mip);
+        assert_eq!(o.params(), TraceParams::default());
+        let walk = TraceOptions { accel: false, ..o };
+        assert_eq!(walk.traversal(), Traversal::Walk);
+    }
+
+    #[test]
+    fn approximate_options_map_to_the_cpu_criteria() {
+        let o = TraceOptions {
+            criterion: TraceCriterion::Threshold,
+            sampling: TraceSampling::ConstantAngle,
+            steps: 7,
+            eps: 0.25,
+            ..TraceOptions::default()
+        };
+        assert_eq!(
+            o.approx(),
+            Some((Criterion::Threshold(0.25), Sampling::ConstantAngle(7)))
+        );
+        let s = TraceOptions {
+            criterion: TraceCriterion::SignChange,
+            sampling: TraceSampling::ConstantStep,
+            ..o
+        };
+        assert_eq!(
+            s.approx(),
+            Some((Criterion::SignChange, Sampling::ConstantStep(7)))
+        );
     }
 }

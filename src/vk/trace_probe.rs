@@ -23,6 +23,13 @@ use crate::cubemap::pyramid::mip_flat_layout;
 /// Entries of [`TraceConfig::mip_levels`] (index 0 unused: level 0 is the texels).
 pub const TRACE_MIP_MAX_LEVELS: usize = 16;
 
+/// Largest face size the GPU tracer accepts (its per-face step cap, `MAX_FACE_STEPS` in
+/// `spirv/shared/trace.wgsl`, is provably not reached up to here).
+pub const TRACE_MAX_SIZE: u32 = 4096;
+
+/// Most sample steps of constant-step / constant-angle sampling (`MAX_SAMPLE_STEPS`).
+pub const TRACE_MAX_STEPS: u32 = 65536;
+
 /// WGSL `TraceConfig` (uniform, `@group(1) @binding(0)`). Layout checked against naga's in
 /// `tests/gpu_twin.rs`.
 #[repr(C)]
@@ -66,16 +73,27 @@ pub fn mip_len(size: u32) -> u32 {
 }
 
 impl TraceConfig {
-    /// The config for `cmo_count` CMOs of face size `size` traced with `opts`. Fails when the
-    /// pyramid has more levels than [`TRACE_MIP_MAX_LEVELS`] - 1 (N > 32768).
+    /// The config for `cmo_count` CMOs of face size `size` traced with `opts`. Fails outside
+    /// the ranges where the shader's loop caps are provably never reached (so that it gives the
+    /// CPU twin's results): `size` in `1..=`[`TRACE_MAX_SIZE`], `opts.steps` at most
+    /// [`TRACE_MAX_STEPS`].
     pub fn new(cmo_count: u32, size: u32, opts: &TraceOptions) -> VkResult<TraceConfig> {
-        let layout = mip_flat_layout(size);
-        if size == 0 || layout.len() >= TRACE_MIP_MAX_LEVELS {
-            return Err(VkError::Usage {
-                what: "trace config".into(),
-                detail: format!("face size {size} is not in 1..=32768"),
-            });
+        let err = |detail: String| VkError::Usage {
+            what: "trace config".into(),
+            detail,
+        };
+        if size == 0 || size > TRACE_MAX_SIZE {
+            return Err(err(format!(
+                "face size {size} is not in 1..={TRACE_MAX_SIZE}"
+            )));
         }
+        if opts.steps > TRACE_MAX_STEPS {
+            return Err(err(format!(
+                "{} sample steps, at most {TRACE_MAX_STEPS}",
+                opts.steps
+            )));
+        }
+        let layout = mip_flat_layout(size);
         let mut mip_levels = [[0u32; 4]; TRACE_MIP_MAX_LEVELS];
         for (i, l) in layout.iter().enumerate() {
             mip_levels[i + 1] = [l.offset, l.width, l.height, 1 << (i + 1)];
