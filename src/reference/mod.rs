@@ -180,6 +180,18 @@ impl Tracer {
         skip: Option<u32>,
         accept: impl Fn(u32) -> bool,
     ) -> Option<Hit> {
+        self.nearest_accepting(origin, dir, skip, |h| accept(h.triangle))
+    }
+
+    /// [`Tracer::nearest`] among the hits that `accept` keeps: a rejected hit is passed through,
+    /// as a discarded fragment lets the next surface show.
+    pub fn nearest_accepting(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        skip: Option<u32>,
+        accept: impl Fn(&Hit) -> bool,
+    ) -> Option<Hit> {
         if self.tris.is_empty() {
             return None;
         }
@@ -192,13 +204,19 @@ impl Tracer {
         let mut best: Option<(f64, u32, f64, f64)> = None;
         let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, f32::INFINITY);
         let mut hit = RayHit::none();
+        let candidate = |t: f64, triangle: u32, u: f64, v: f64| Hit {
+            t: t as f32,
+            position: (o + d * t).as_vec3(),
+            triangle,
+            bary: Vec2::new(u as f32, v as f32),
+        };
         self.bvh.ray_traverse(ray, &mut hit, |_, k| {
             let global = self.order[k];
-            if Some(global) == skip || !accept(global) {
+            if Some(global) == skip {
                 return f32::INFINITY;
             }
             match intersect(o, d, &self.tris[k]) {
-                Some((t, u, v)) if t > t_min => {
+                Some((t, u, v)) if t > t_min && accept(&candidate(t, global, u, v)) => {
                     let better = match best {
                         None => true,
                         Some((bt, bg, _, _)) => t < bt || (t == bt && global < bg),
@@ -213,12 +231,7 @@ impl Tracer {
                 _ => f32::INFINITY,
             }
         });
-        best.map(|(t, triangle, u, v)| Hit {
-            t: t as f32,
-            position: (o + d * t).as_vec3(),
-            triangle,
-            bary: Vec2::new(u as f32, v as f32),
-        })
+        best.map(|(t, triangle, u, v)| candidate(t, triangle, u, v))
     }
 
     /// Interpolated, normalised vertex normal at a hit (the rasteriser's shading normal).
@@ -374,7 +387,8 @@ pub fn render_with_progress(
 /// The CPU capture of one cubemap object: for every texel, a ray from `centre` through the
 /// texel centre ([`crate::cubemap::face::texel_centre_dir`]); the distance to the nearest surface
 /// (`+inf` where none) and its shaded colour (alpha 1; the background with alpha 0 where none).
-/// Reflectors are left out unless the scene has self-reflections on, as in the GPU capture.
+/// Reflectors are left out unless the scene has self-reflections on, and then kept only where
+/// they face the centre (normal towards it), as in the GPU capture (`spirv/capture.wgsl`).
 /// This is what a rasterised capture computes at texel centres, so it checks the GPU capture.
 pub fn capture(scene: &Scene, tracer: &Tracer, centre: Vec3, size: u32) -> crate::cubemap::CubeMap {
     let mut cube = crate::cubemap::CubeMap::new(size, centre);
@@ -384,8 +398,9 @@ pub fn capture(scene: &Scene, tracer: &Tracer, centre: Vec3, size: u32) -> crate
         .map(|i| {
             let t = crate::cubemap::Texel::from_index(i, size);
             let dir = crate::cubemap::face::texel_centre_dir(t, size).normalize();
-            let hit = tracer.nearest_where(centre, dir, None, |tri| {
-                scene.self_reflections || !tracer.is_reflector(tri)
+            let hit = tracer.nearest_accepting(centre, dir, None, |h| {
+                !tracer.is_reflector(h.triangle)
+                    || (scene.self_reflections && tracer.normal(h).dot(h.position - centre) <= 0.0)
             });
             match hit {
                 Some(h) => {
