@@ -34,10 +34,12 @@
 //!   subgroup ballot, for subgroup sizes 4..64.
 //! - [`walk::trace_brute`]: every texel tested, the first along `t` kept (the definition).
 //! - [`multi`]: several CMOs with the occlusion handoff.
+//! - [`fragment_trace`]: the per-pixel twins of the `fragment_trace` and `envmap` passes.
 //! - [`options`]: the method options ([`options::TraceOptions`]) shared with the GPU tracer.
 
 pub mod alg3;
 pub mod approx;
+pub mod fragment_trace;
 pub mod mip;
 pub mod multi;
 pub mod options;

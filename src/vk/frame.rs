@@ -135,12 +135,7 @@ pub struct PixelRecord {
     pub pad0: u32,
 }
 
-/// Record status: the ray hit a captured surface.
-pub const RECORD_HIT: u32 = 0;
-/// Record status: the ray left the scene (background).
-pub const RECORD_ESCAPED: u32 = 1;
-/// Record status: no CMO could decide; the fallback fills the pixel.
-pub const RECORD_UNRESOLVED: u32 = 2;
+pub use crate::cpu::fragment_trace::{RECORD_ESCAPED, RECORD_HIT, RECORD_UNRESOLVED};
 
 /// A rendered frame read back from the GPU, row-major, row 0 at the top.
 #[derive(Clone, Debug)]

@@ -1,0 +1,111 @@
+//! CPU twins of the per-pixel passes `fragment_trace` and `envmap` (`spirv/fragment_trace.wgsl`,
+//! `spirv/envmap.wgsl`): what one mirror pixel's record holds, given its reflected ray.
+//!
+//! Both read the same data as the shaders: the captured cube maps (read back from the GPU) and
+//! the ray a pixel traces (`origin + t dir`, `t` in `[0, t_hi]`, `dir` unit length). A record's
+//! status is [`RECORD_HIT`], [`RECORD_ESCAPED`] or [`RECORD_UNRESOLVED`], as in
+//! `spirv/shared/mirror.wgsl`.
+
+use glam::Vec3;
+
+use super::CmoTracer;
+use super::multi::MultiStatus;
+use super::options::{TraceOptions, trace_ray};
+use crate::cubemap::Texel;
+use crate::cubemap::face::dir_to_texel;
+
+/// The ray hit a captured surface.
+pub const RECORD_HIT: u32 = 0;
+/// The ray left the scene (background).
+pub const RECORD_ESCAPED: u32 = 1;
+/// No CMO could decide; the composite pass fills the pixel with the fallback.
+pub const RECORD_UNRESOLVED: u32 = 2;
+
+/// What a method found for one mirror pixel (the comparable part of a GPU record).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PixelResult {
+    /// [`RECORD_HIT`], [`RECORD_ESCAPED`] or [`RECORD_UNRESOLVED`].
+    pub status: u32,
+    /// The deciding CMO (`u32::MAX` when unresolved).
+    pub cmo: u32,
+    /// The deciding texel.
+    pub texel: Texel,
+    /// A hit on the riser between two texel patches.
+    pub riser: bool,
+    /// World hit point (see the shaders for escaped and unresolved rays).
+    pub point: Vec3,
+    /// Linear colour: the deciding texel's captured colour on a hit, else the background.
+    pub colour: Vec3,
+}
+
+/// `fragment_trace` for one pixel: [`trace_ray`] over the CMOs, coloured by the hit texel.
+pub fn trace_pixel(
+    cmos: &[CmoTracer],
+    origin: Vec3,
+    dir: Vec3,
+    t_hi: f32,
+    opts: &TraceOptions,
+    background: Vec3,
+) -> PixelResult {
+    let r = trace_ray(cmos, origin, dir, 0.0, t_hi, opts);
+    let status = match r.status {
+        MultiStatus::Hit => RECORD_HIT,
+        MultiStatus::Escaped => RECORD_ESCAPED,
+        MultiStatus::Unresolved => RECORD_UNRESOLVED,
+    };
+    let texel = r.result.texel;
+    let colour = if status == RECORD_HIT {
+        let c = cmos[r.cmo as usize].cube.colour[texel.index(cmos[r.cmo as usize].cube.size)];
+        Vec3::new(c[0], c[1], c[2])
+    } else {
+        background
+    };
+    PixelResult {
+        status,
+        cmo: r.cmo,
+        texel,
+        riser: r.result.riser,
+        point: r.point,
+        colour,
+    }
+}
+
+/// The CMO whose centre is nearest to `p` (the first on ties), as `nearest_cmo` in WGSL.
+pub fn nearest_cmo(cmos: &[CmoTracer], p: Vec3) -> usize {
+    let mut best = (0, f32::INFINITY);
+    for (k, c) in cmos.iter().enumerate() {
+        let v = p - c.cube.centre;
+        let d = v.dot(v);
+        if d < best.1 {
+            best = (k, d);
+        }
+    }
+    best.0
+}
+
+/// `envmap` for one pixel: the texel of the nearest CMO in the ray's direction, no parallax.
+/// A texel that captured nothing is escaped (the background).
+pub fn envmap_pixel(cmos: &[CmoTracer], origin: Vec3, dir: Vec3, background: Vec3) -> PixelResult {
+    let k = nearest_cmo(cmos, origin);
+    let cube = &cmos[k].cube;
+    let texel = dir_to_texel(dir, cube.size);
+    let d = cube.distance_at(texel);
+    let c = cube.colour[texel.index(cube.size)];
+    let hit = d.is_finite();
+    PixelResult {
+        status: if hit { RECORD_HIT } else { RECORD_ESCAPED },
+        cmo: k as u32,
+        texel,
+        riser: false,
+        point: if hit {
+            cube.centre + dir * d
+        } else {
+            Vec3::NAN
+        },
+        colour: if hit {
+            Vec3::new(c[0], c[1], c[2])
+        } else {
+            background
+        },
+    }
+}

@@ -1,0 +1,399 @@
+//! Whole frames on the GPU (`GpuRenderer`): the fragment tracer against its CPU twin over the
+//! same captured data, and the fragment tracer and the environment map against the exact
+//! reference, on every built-in scene. Needs a Vulkan driver (CI: lavapipe); runs under the
+//! validation layer when installed and fails on any error it reports.
+use cubetrace::camera::Camera;
+use cubetrace::check_layout;
+use cubetrace::cpu::CmoTracer;
+use cubetrace::cpu::fragment_trace::{PixelResult, envmap_pixel, trace_pixel};
+use cubetrace::cpu::options::TraceOptions;
+use cubetrace::cubemap::pyramid::MipPyramid;
+use cubetrace::metrics::{self, ErrorReport};
+use cubetrace::reference::{self, Tracer};
+use cubetrace::scene::{Scene, builtin};
+use cubetrace::vk::frame::{
+    FrameParams, GpuFrame, GpuMethod, GpuRenderer, PixelRecord, RECORD_HIT, RenderOptions,
+    scene_ranges,
+};
+use cubetrace::vk::shaders::{COMPOSITE, FRAGMENT_TRACE};
+use cubetrace::vk::{ContextOptions, GpuContext};
+use glam::Vec3;
+
+fn context() -> GpuContext {
+    let ctx = GpuContext::new(ContextOptions::for_tests()).unwrap_or_else(|e| panic!("{e}"));
+    eprintln!(
+        "device: {}; validation layer: {}",
+        ctx.report().name,
+        if ctx.validation_enabled() {
+            "on"
+        } else {
+            "not installed, off"
+        }
+    );
+    ctx
+}
+
+fn finish(ctx: GpuContext) {
+    let log = ctx.validation_log();
+    assert_eq!(
+        ctx.validation_errors(),
+        Vec::<String>::new(),
+        "validation errors"
+    );
+    drop(ctx);
+    assert_eq!(
+        log.errors(),
+        Vec::<String>::new(),
+        "validation errors at destruction"
+    );
+}
+
+/// Frame size of these tests: big enough for about a thousand mirror pixels per scene, small
+/// enough that the five scenes and their references take seconds on lavapipe.
+const WIDTH: u32 = 96;
+const HEIGHT: u32 = 72;
+
+fn camera(scene: &Scene) -> Camera {
+    let mut c = scene.camera(None).unwrap().clone();
+    c.width = WIDTH;
+    c.height = HEIGHT;
+    c
+}
+
+fn render(ctx: &GpuContext, scene: &Scene, options: RenderOptions) -> (GpuFrame, GpuRenderer) {
+    let mut r = GpuRenderer::new(ctx, scene, &camera(scene), options)
+        .unwrap_or_else(|e| panic!("{}: {e}", scene.name));
+    let f = r
+        .render(ctx)
+        .unwrap_or_else(|e| panic!("{}: {e}", scene.name));
+    (f, r)
+}
+
+fn options(method: GpuMethod, trace: TraceOptions) -> RenderOptions {
+    RenderOptions {
+        method,
+        trace,
+        ..RenderOptions::default()
+    }
+}
+
+#[test]
+fn shared_structs_match_naga_layout() {
+    let l = |name| FRAGMENT_TRACE.struct_layout(name).unwrap();
+    check_layout!(
+        FrameParams,
+        l("FrameParams"),
+        [
+            eye,
+            t_hi,
+            background,
+            width,
+            flag_colour,
+            height,
+            fallback,
+            pad0,
+            pad1,
+            pad2
+        ]
+    )
+    .unwrap();
+    check_layout!(
+        PixelRecord,
+        l("PixelRecord"),
+        [
+            origin, status, dir, cmo, point, riser, colour, face, x, y, texels, cells, traces, t,
+            t_done, pad0
+        ]
+    )
+    .unwrap();
+    assert_eq!(
+        COMPOSITE.struct_layout("PixelRecord"),
+        Some(l("PixelRecord"))
+    );
+}
+
+/// Per-pixel disagreements between the GPU records and a CPU twin given each record's ray:
+/// status, deciding CMO, texel, riser flag and colour bits. Returns `(compared, disagreements)`.
+fn twin_disagreements(
+    frame: &GpuFrame,
+    twin: impl Fn(Vec3, Vec3) -> PixelResult,
+) -> (usize, usize) {
+    let (mut compared, mut bad) = (0, 0);
+    for (k, rec) in frame.records.iter().enumerate() {
+        if frame.mask[k] == 0 {
+            continue;
+        }
+        compared += 1;
+        let r = twin(Vec3::from_array(rec.origin), Vec3::from_array(rec.dir));
+        let t = r.texel;
+        let same = r.status == rec.status
+            && r.cmo == rec.cmo
+            && (t.face, t.x, t.y) == (rec.face, rec.x, rec.y)
+            && u32::from(r.riser) == rec.riser
+            && r.colour.to_array().map(f32::to_bits) == rec.colour.map(f32::to_bits);
+        if !same {
+            bad += 1;
+            if bad <= 3 {
+                eprintln!("pixel {k}: GPU {rec:?}; CPU {r:?}");
+            }
+        }
+    }
+    (compared, bad)
+}
+
+/// The CPU twin over the data the GPU captured: tracers built from the read-back captures.
+fn twins(ctx: &GpuContext, r: &GpuRenderer, opts: &TraceOptions) -> Vec<CmoTracer> {
+    r.cmo()
+        .read_back(ctx)
+        .unwrap()
+        .into_iter()
+        .map(|c| CmoTracer::new(c, opts.params()))
+        .collect()
+}
+
+/// The exact criterion on the GPU and on the CPU twin, over the same captured cube maps and
+/// the same rays, agree on every mirror pixel of every built-in scene: status, deciding CMO,
+/// texel and riser flag. (tests/gpu_twin.rs shows the tracers bit-identical on synthetic data;
+/// this checks the frame around them: the captured data, the pyramid the GPU built, the ray
+/// each pixel traces, and the ray length.) The bound is zero disagreements: lavapipe does not
+/// contract multiply-adds, so the f32 arithmetic is the same.
+#[test]
+fn fragment_matches_cpu_twin_on_every_scene() {
+    let ctx = context();
+    for (name, _) in builtin::NAMES {
+        let scene = builtin::by_name(name).unwrap();
+        let (_, _, t_hi) = scene_ranges(&scene, &camera(&scene));
+        for accel in [true, false] {
+            if !accel && *name != "sphere-room" {
+                continue; // the walk gives the same answers more slowly: one scene suffices
+            }
+            let opts = TraceOptions {
+                accel,
+                ..TraceOptions::default()
+            };
+            let (frame, r) = render(&ctx, &scene, options(GpuMethod::Fragment, opts));
+            let cmos = twins(&ctx, &r, &opts);
+            if accel {
+                // The pyramid the GPU built is the CPU's, bit for bit.
+                let gpu_mip = r.cmo().read_mip(&ctx).unwrap();
+                let cpu_mip: Vec<[f32; 2]> = cmos
+                    .iter()
+                    .flat_map(|c| MipPyramid::build(&c.cube).flatten())
+                    .collect();
+                assert!(
+                    gpu_mip
+                        .iter()
+                        .map(|c| c.map(f32::to_bits))
+                        .eq(cpu_mip.iter().map(|c| c.map(f32::to_bits))),
+                    "{name}: GPU pyramid differs from the CPU's"
+                );
+            }
+            let bg = scene.background;
+            let (compared, bad) =
+                twin_disagreements(&frame, |o, d| trace_pixel(&cmos, o, d, t_hi, &opts, bg));
+            eprintln!(
+                "{name} (accel {accel}): {bad} of {compared} mirror pixels differ from the CPU twin"
+            );
+            assert!(compared > 500, "{name}: only {compared} mirror pixels");
+            assert_eq!(bad, 0, "{name}: GPU and CPU twin disagree");
+        }
+    }
+    finish(ctx);
+}
+
+/// The environment map's twin: the same status, CMO, texel and colour bits on every mirror
+/// pixel (the lookup is a face selection and two floors: no rounding to disagree on).
+#[test]
+fn envmap_matches_cpu_twin() {
+    let ctx = context();
+    for name in ["default", "bowl"] {
+        let scene = builtin::by_name(name).unwrap();
+        let opts = TraceOptions::default();
+        let (frame, r) = render(&ctx, &scene, options(GpuMethod::Envmap, opts));
+        let cmos = twins(&ctx, &r, &opts);
+        let bg = scene.background;
+        let (compared, bad) = twin_disagreements(&frame, |o, d| envmap_pixel(&cmos, o, d, bg));
+        eprintln!("{name} envmap: {bad} of {compared} mirror pixels differ from the CPU twin");
+        assert!(compared > 500);
+        assert_eq!(bad, 0, "{name}: envmap GPU and CPU twin disagree");
+        // Negative: a twin looking up the other CMO (default has two) must disagree.
+        if cmos.len() > 1 {
+            let swapped: Vec<CmoTracer> = cmos.iter().rev().cloned().collect();
+            let (_, bad) = twin_disagreements(&frame, |o, d| envmap_pixel(&swapped, o, d, bg));
+            assert!(bad > compared / 10, "swapped CMOs: only {bad} differ");
+        }
+    }
+    finish(ctx);
+}
+
+/// Negative: the same comparison with the twin given slightly different data (the CMO centre
+/// moved by 1 mm, or a different continuity rule) must find disagreements.
+#[test]
+fn twin_comparison_detects_perturbed_data() {
+    let ctx = context();
+    let scene = builtin::sphere_room();
+    let (_, _, t_hi) = scene_ranges(&scene, &camera(&scene));
+    let opts = TraceOptions::default();
+    let (frame, r) = render(&ctx, &scene, options(GpuMethod::Fragment, opts));
+    let bg = scene.background;
+    let mut moved = twins(&ctx, &r, &opts);
+    moved[0].cube.centre += Vec3::splat(1e-3);
+    let (compared, bad) =
+        twin_disagreements(&frame, |o, d| trace_pixel(&moved, o, d, t_hi, &opts, bg));
+    eprintln!("moved centre: {bad} of {compared} differ");
+    assert!(
+        bad > compared / 10,
+        "moved centre: only {bad} of {compared}"
+    );
+    let strict = TraceOptions {
+        continuity_k: 0.05,
+        ..opts
+    };
+    let strict_cmos = twins(&ctx, &r, &strict);
+    let (_, bad) = twin_disagreements(&frame, |o, d| {
+        trace_pixel(&strict_cmos, o, d, t_hi, &opts, bg)
+    });
+    eprintln!("strict continuity rule: {bad} of {compared} differ");
+    assert!(bad > 0, "a different continuity rule changed nothing");
+    finish(ctx);
+}
+
+/// Accuracy bounds per scene for the fragment tracer (exact criterion, acceleration on) at
+/// 96x72 with the scene's own CMOs and cube size: `(max unresolved, max wrong surface, min PSNR
+/// dB)`. Measured on lavapipe (Mesa 22.3.6):
+///
+/// | scene | unresolved | wrong surface | PSNR |
+/// |---|---|---|---|
+/// | default | 0.40% | 0.13% | 23.7 |
+/// | sphere-room | 2.17% | 0.00% | 23.5 |
+/// | teapot | 31.5% | 4.17% | 17.3 |
+/// | torus | 0.48% | 5.62% | 21.3 |
+/// | bowl | 0.19% | 0.00% | 24.8 |
+///
+/// Why these are not zero, and the bounds (measured value plus about a third, so that a
+/// regression of a few pixels is caught but a driver's rounding is not):
+/// - Unresolved: rays that pass behind an object as seen from every CMO (one CMO in
+///   sphere-room: the space behind the box and the ball). The teapot has self-reflections on
+///   and one CMO inside its body: its spout, handle and lid hide each other from that centre,
+///   so a third of its rays start behind a part of the teapot the CMO sees (ALGORITHM.md; more
+///   CMOs halve it, `--cmos 3`).
+/// - Wrong surface: the torus and the teapot reflect themselves. The torus has
+///   self-reflections off, so its inner ring is not captured and the reference's self-hits
+///   cannot be found; the teapot captures only the parts facing its CMO.
+/// - PSNR: the capture stores one colour per texel (256 per face side) where the reference
+///   shades the exact hit point, and the curved mirrors minify the checkered and striped
+///   textures, so texel-rate sampling aliases; the unresolved pixels' fallback adds to it.
+fn fragment_bounds(name: &str) -> (f64, f64, f64) {
+    match name {
+        "default" => (0.006, 0.003, 22.0),
+        "sphere-room" => (0.03, 0.003, 22.0),
+        "teapot" => (0.40, 0.06, 16.0),
+        "torus" => (0.008, 0.075, 20.0),
+        "bowl" => (0.003, 0.003, 23.0),
+        other => panic!("no bounds for scene {other}"),
+    }
+}
+
+fn error_report(scene: &Scene, frame: &GpuFrame, reference: &reference::Frame) -> ErrorReport {
+    metrics::compare(
+        reference,
+        &frame.traced(),
+        &frame.surface_position,
+        &scene.cmo_centres(),
+        scene.cmo.resolution,
+    )
+}
+
+fn within(r: &ErrorReport, (unresolved, wrong, psnr): (f64, f64, f64)) -> bool {
+    r.unresolved <= unresolved && r.wrong_surface <= wrong && r.psnr_db >= psnr
+}
+
+#[test]
+fn fragment_accuracy_against_reference_with_envmap_for_contrast() {
+    let ctx = context();
+    for (name, _) in builtin::NAMES {
+        let scene = builtin::by_name(name).unwrap();
+        let reference = reference::render(&scene, &Tracer::new(&scene), &camera(&scene), 1);
+        let (frag, _) = render(
+            &ctx,
+            &scene,
+            options(GpuMethod::Fragment, TraceOptions::default()),
+        );
+        let (env, _) = render(
+            &ctx,
+            &scene,
+            options(GpuMethod::Envmap, TraceOptions::default()),
+        );
+        let f = error_report(&scene, &frag, &reference);
+        let e = error_report(&scene, &env, &reference);
+        for (m, r) in [("fragment", &f), ("envmap", &e)] {
+            eprintln!(
+                "{name:12} {m:9} mirror {:5}  unresolved {:6.2}%  wrong surface {:6.2}%  angle mean {:7.3} p95 {:7.3} deg  PSNR {:5.2} dB  mask mismatch {}",
+                r.mirror_pixels,
+                100.0 * r.unresolved,
+                100.0 * r.wrong_surface,
+                r.angular_mean_deg,
+                r.angular_p95_deg,
+                r.psnr_db,
+                r.mask_mismatch
+            );
+        }
+        // The rasterised mirror mask is the reference's (pixel centres, same projection) up to
+        // pixels whose centre ray grazes the silhouette.
+        assert!(f.mask_mismatch <= f.mirror_pixels / 100, "{name}: mask");
+        assert!(
+            within(&f, fragment_bounds(name)),
+            "{name}: fragment {f:?} outside {:?}",
+            fragment_bounds(name)
+        );
+        // Contrast: without parallax the environment map hits the wrong surface almost
+        // everywhere (the concave bowl, whose surroundings are far, least: 92%).
+        assert!(
+            e.wrong_surface > 0.8 && e.wrong_surface > 10.0 * f.wrong_surface,
+            "{name}: envmap {e:?}"
+        );
+    }
+    finish(ctx);
+}
+
+/// Negative tests of the accuracy bounds: a frame that is wrong in a known way must fail them.
+/// - Hit points moved by 3 texel footprints (more than the 2 of the wrong-surface rule).
+/// - A coarse capture (8 texels per face side instead of the scene's 256).
+#[test]
+fn accuracy_bounds_reject_perturbed_frames() {
+    let ctx = context();
+    let scene = builtin::sphere_room();
+    let bounds = fragment_bounds("sphere-room");
+    let reference = reference::render(&scene, &Tracer::new(&scene), &camera(&scene), 1);
+    let (mut frame, _) = render(
+        &ctx,
+        &scene,
+        options(GpuMethod::Fragment, TraceOptions::default()),
+    );
+    assert!(within(&error_report(&scene, &frame, &reference), bounds));
+    let centre = scene.cmo_centres()[0];
+    let texel_angle = 2.0 / scene.cmo.resolution as f32;
+    for rec in &mut frame.records {
+        if rec.status == RECORD_HIT {
+            let p = Vec3::from_array(rec.point);
+            let shift = 3.0 * texel_angle * (p - centre).length();
+            rec.point = (p + Vec3::new(shift, 0.0, 0.0)).to_array();
+        }
+    }
+    let moved = error_report(&scene, &frame, &reference);
+    eprintln!("hit points moved: {moved:?}");
+    assert!(!within(&moved, bounds));
+
+    let mut coarse_scene = scene.clone();
+    coarse_scene.cmo.resolution = 8;
+    let (coarse, _) = render(
+        &ctx,
+        &coarse_scene,
+        options(GpuMethod::Fragment, TraceOptions::default()),
+    );
+    // Measured against the fine footprint, as the bounds are.
+    let coarse = error_report(&scene, &coarse, &reference);
+    eprintln!("8-texel capture: {coarse:?}");
+    assert!(!within(&coarse, bounds));
+    finish(ctx);
+}
