@@ -198,7 +198,7 @@ struct RenderArgs {
     #[arg(default_value = "default")]
     scene: String,
     /// How reflections are computed.
-    #[arg(long, value_enum, default_value_t = Method::Reference)]
+    #[arg(long, value_enum, default_value_t = Method::Fragment)]
     method: Method,
     /// Camera of the scene, by name or index (default: the first).
     #[arg(long)]
@@ -361,8 +361,8 @@ fn run(cli: Cli) -> Result<()> {
             } else {
                 Validation::default()
             };
-            for (i, d) in GpuContext::list_devices(validation)?.iter().enumerate() {
-                println!("device {i}:\n{d}");
+            for d in GpuContext::list_devices(validation)? {
+                println!("{d}");
             }
             Ok(())
         }

@@ -328,13 +328,22 @@ fn cli_render_exr_and_default_path() {
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let stdout = String::from_utf8_lossy(&o.stdout);
-    assert!(stdout.contains("out/default-reference.png"), "{stdout}");
-    let img = image::open(dir.path().join("out/default-reference.png")).unwrap();
+    assert!(stdout.contains("out/default-fragment.png"), "{stdout}");
+    let img = image::open(dir.path().join("out/default-fragment.png")).unwrap();
     assert_eq!((img.width(), img.height()), (64, 48));
 
     let o = run(
         &[
-            "render", "torus", "--width", "32", "--height", "24", "-o", "t.exr",
+            "render",
+            "torus",
+            "--method",
+            "reference",
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "-o",
+            "t.exr",
         ],
         dir.path(),
     );
@@ -360,4 +369,48 @@ fn cli_render_exr_and_default_path() {
     ] {
         assert!(names.iter().any(|x| x == n), "{n} missing from {names:?}");
     }
+}
+
+/// The GPU methods' EXR carries the traced hit position and the unresolved mask.
+#[test]
+fn cli_render_fragment_exr_channels() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = run(
+        &[
+            "render", "bowl", "--method", "fragment", "--width", "32", "--height", "24", "-o",
+            "b.exr",
+        ],
+        dir.path(),
+    );
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+    let exr = exr::prelude::read_all_flat_layers_from_file(dir.path().join("b.exr")).unwrap();
+    let list = &exr.layer_data[0].channel_data.list;
+    let channel = |n: &str| {
+        list.iter()
+            .find(|c| c.name.to_string() == n)
+            .unwrap_or_else(|| panic!("{n} missing"))
+    };
+    for n in [
+        "R",
+        "G",
+        "B",
+        "mask",
+        "P.X",
+        "hit.X",
+        "hit.Y",
+        "hit.Z",
+        "unresolved",
+    ] {
+        channel(n);
+    }
+    // Some mirror pixels have a finite traced hit.
+    let mask = channel("mask");
+    let hit = channel("hit.X");
+    let hits = (0..32 * 24)
+        .filter(|&i| {
+            mask.sample_data.value_by_flat_index(i).to_f32() == 1.0
+                && hit.sample_data.value_by_flat_index(i).to_f32().is_finite()
+        })
+        .count();
+    assert!(hits > 10, "{hits} traced hits");
 }
