@@ -16,6 +16,7 @@
 // `fs_self` also writes the unit normal and the mirror flag: only when the scene has
 // self-reflections on (model only what the scene needs).
 //! import shared/scene.wgsl
+//! import shared/cube.wgsl
 
 struct CaptureView {
     centre: vec3<f32>,
@@ -36,23 +37,11 @@ struct CaptureVarying {
     @location(4) @interpolate(flat) view: u32,
 }
 
-// `to_face_local` of src/cubemap/face.rs: a signed permutation, exact.
-fn capture_face_local(face: u32, r: vec3<f32>) -> vec3<f32> {
-    switch face {
-        case 0u: { return vec3<f32>(-r.z, -r.y, r.x); }
-        case 1u: { return vec3<f32>(r.z, -r.y, -r.x); }
-        case 2u: { return vec3<f32>(r.x, r.z, r.y); }
-        case 3u: { return vec3<f32>(r.x, -r.z, -r.y); }
-        case 4u: { return vec3<f32>(r.x, -r.y, r.z); }
-        default: { return vec3<f32>(-r.x, -r.y, -r.z); }
-    }
-}
-
 @vertex
 fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) view: u32) -> CaptureVarying {
     let v = scene_vertices[scene_indices[vertex]];
     let cv = capture_views[view];
-    let l = capture_face_local(cv.face, v.position - cv.centre);
+    let l = to_face_local(cv.face, v.position - cv.centre);
     var out: CaptureVarying;
     out.clip = vec4<f32>(l.x, l.y, cv.near, l.z);
     out.world = v.position;

@@ -2,6 +2,9 @@
 //! same captured data, and the fragment tracer and the environment map against the exact
 //! reference, on every built-in scene. Needs a Vulkan driver (CI: lavapipe); runs under the
 //! validation layer when installed and fails on any error it reports.
+mod common;
+use common::{finish_gpu, gpu_context};
+
 use cubetrace::camera::Camera;
 use cubetrace::check_layout;
 use cubetrace::cpu::CmoTracer;
@@ -11,42 +14,13 @@ use cubetrace::cubemap::pyramid::MipPyramid;
 use cubetrace::metrics::{self, ErrorReport};
 use cubetrace::reference::{self, Tracer};
 use cubetrace::scene::{Scene, builtin};
+use cubetrace::vk::GpuContext;
 use cubetrace::vk::frame::{
     FrameParams, GpuFrame, GpuMethod, GpuRenderer, PixelRecord, RECORD_HIT, RenderOptions,
     scene_ranges,
 };
 use cubetrace::vk::shaders::{COMPOSITE, FRAGMENT_TRACE};
-use cubetrace::vk::{ContextOptions, GpuContext};
 use glam::Vec3;
-
-fn context() -> GpuContext {
-    let ctx = GpuContext::new(ContextOptions::for_tests()).unwrap_or_else(|e| panic!("{e}"));
-    eprintln!(
-        "device: {}; validation layer: {}",
-        ctx.report().name,
-        if ctx.validation_enabled() {
-            "on"
-        } else {
-            "not installed, off"
-        }
-    );
-    ctx
-}
-
-fn finish(ctx: GpuContext) {
-    let log = ctx.validation_log();
-    assert_eq!(
-        ctx.validation_errors(),
-        Vec::<String>::new(),
-        "validation errors"
-    );
-    drop(ctx);
-    assert_eq!(
-        log.errors(),
-        Vec::<String>::new(),
-        "validation errors at destruction"
-    );
-}
 
 /// Frame size of these tests: big enough for about a thousand mirror pixels per scene, small
 /// enough that the five scenes and their references take seconds on lavapipe.
@@ -159,7 +133,7 @@ fn twins(ctx: &GpuContext, r: &GpuRenderer, opts: &TraceOptions) -> Vec<CmoTrace
 /// contract multiply-adds, so the f32 arithmetic is the same.
 #[test]
 fn fragment_matches_cpu_twin_on_every_scene() {
-    let ctx = context();
+    let ctx = gpu_context();
     for (name, _) in builtin::NAMES {
         let scene = builtin::by_name(name).unwrap();
         let (_, _, t_hi) = scene_ranges(&scene, &camera(&scene));
@@ -198,14 +172,14 @@ fn fragment_matches_cpu_twin_on_every_scene() {
             assert_eq!(bad, 0, "{name}: GPU and CPU twin disagree");
         }
     }
-    finish(ctx);
+    finish_gpu(ctx);
 }
 
 /// The environment map's twin: the same status, CMO, texel and colour bits on every mirror
 /// pixel (the lookup is a face selection and two floors: no rounding to disagree on).
 #[test]
 fn envmap_matches_cpu_twin() {
-    let ctx = context();
+    let ctx = gpu_context();
     for name in ["default", "bowl"] {
         let scene = builtin::by_name(name).unwrap();
         let opts = TraceOptions::default();
@@ -223,14 +197,14 @@ fn envmap_matches_cpu_twin() {
             assert!(bad > compared / 10, "swapped CMOs: only {bad} differ");
         }
     }
-    finish(ctx);
+    finish_gpu(ctx);
 }
 
 /// Negative: the same comparison with the twin given slightly different data (the CMO centre
 /// moved by 1 mm, or a different continuity rule) must find disagreements.
 #[test]
 fn twin_comparison_detects_perturbed_data() {
-    let ctx = context();
+    let ctx = gpu_context();
     let scene = builtin::sphere_room();
     let (_, _, t_hi) = scene_ranges(&scene, &camera(&scene));
     let opts = TraceOptions::default();
@@ -255,7 +229,7 @@ fn twin_comparison_detects_perturbed_data() {
     });
     eprintln!("strict continuity rule: {bad} of {compared} differ");
     assert!(bad > 0, "a different continuity rule changed nothing");
-    finish(ctx);
+    finish_gpu(ctx);
 }
 
 /// Accuracy bounds per scene for the fragment tracer (exact criterion, acceleration on) at
@@ -310,7 +284,7 @@ fn within(r: &ErrorReport, (unresolved, wrong, psnr): (f64, f64, f64)) -> bool {
 
 #[test]
 fn fragment_accuracy_against_reference_with_envmap_for_contrast() {
-    let ctx = context();
+    let ctx = gpu_context();
     for (name, _) in builtin::NAMES {
         let scene = builtin::by_name(name).unwrap();
         let reference = reference::render(&scene, &Tracer::new(&scene), &camera(&scene), 1);
@@ -353,7 +327,7 @@ fn fragment_accuracy_against_reference_with_envmap_for_contrast() {
             "{name}: envmap {e:?}"
         );
     }
-    finish(ctx);
+    finish_gpu(ctx);
 }
 
 /// Negative tests of the accuracy bounds: a frame that is wrong in a known way must fail them.
@@ -361,7 +335,7 @@ fn fragment_accuracy_against_reference_with_envmap_for_contrast() {
 /// - A coarse capture (8 texels per face side instead of the scene's 256).
 #[test]
 fn accuracy_bounds_reject_perturbed_frames() {
-    let ctx = context();
+    let ctx = gpu_context();
     let scene = builtin::sphere_room();
     let bounds = fragment_bounds("sphere-room");
     let reference = reference::render(&scene, &Tracer::new(&scene), &camera(&scene), 1);
@@ -395,5 +369,5 @@ fn accuracy_bounds_reject_perturbed_frames() {
     let coarse = error_report(&scene, &coarse, &reference);
     eprintln!("8-texel capture: {coarse:?}");
     assert!(!within(&coarse, bounds));
-    finish(ctx);
+    finish_gpu(ctx);
 }

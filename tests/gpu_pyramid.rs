@@ -2,6 +2,9 @@
 //! for odd and even sizes, one and two CMOs, +inf texels and whole +inf faces; plus a brute-force
 //! conservativeness check of the GPU cells. Needs a Vulkan driver (lavapipe is enough); runs
 //! under the validation layer when installed and fails on any validation error.
+mod common;
+use common::{finish_gpu, gpu_context};
+
 use cubetrace::check_layout;
 use cubetrace::cubemap::CubeMap;
 use cubetrace::cubemap::face::FACE_COUNT;
@@ -10,40 +13,9 @@ use cubetrace::vk::pyramid::{
     MAX_GROUPS_X, PyramidParams, WORKGROUP, build_mip_gpu, level_params, mip_len,
 };
 use cubetrace::vk::shaders::PYRAMID;
-use cubetrace::vk::{ContextOptions, GpuContext};
 use glam::Vec3;
 
 const SIZES: [u32; 8] = [1, 2, 3, 5, 16, 32, 33, 64];
-
-fn pyramid_context() -> GpuContext {
-    let ctx = GpuContext::new(ContextOptions::for_tests()).unwrap_or_else(|e| panic!("{e}"));
-    eprintln!(
-        "device: {}; validation layer: {}",
-        ctx.report().name,
-        if ctx.validation_enabled() {
-            "on"
-        } else {
-            "not installed, off"
-        }
-    );
-    ctx
-}
-
-/// Asserts no validation errors, also after the device is destroyed.
-fn pyramid_finish(ctx: GpuContext) {
-    let log = ctx.validation_log();
-    assert_eq!(
-        ctx.validation_errors(),
-        Vec::<String>::new(),
-        "validation errors"
-    );
-    drop(ctx);
-    assert_eq!(
-        log.errors(),
-        Vec::<String>::new(),
-        "validation errors at destruction"
-    );
-}
 
 /// Deterministic distances in [0.5, 64.5): about 1 texel in 11 is +inf, and face `inf_face`
 /// (if any) is +inf entirely.
@@ -132,7 +104,7 @@ fn level_params_chain_levels_and_cover_every_cell() {
 
 #[test]
 fn gpu_pyramid_equals_cpu_bit_for_bit() {
-    let ctx = pyramid_context();
+    let ctx = gpu_context();
     for size in SIZES {
         for cubes in scenes(size) {
             let gpu = build_mip_gpu(&ctx, &cubes).unwrap_or_else(|e| panic!("{e}"));
@@ -144,14 +116,14 @@ fn gpu_pyramid_equals_cpu_bit_for_bit() {
             }
         }
     }
-    pyramid_finish(ctx);
+    finish_gpu(ctx);
 }
 
 /// Negative test: the bitwise comparison must notice one texel perturbed after the GPU build, in
 /// the last CMO, at a texel that is the unique minimum of its top cell.
 #[test]
 fn comparison_detects_one_perturbed_texel() {
-    let ctx = pyramid_context();
+    let ctx = gpu_context();
     for size in [2u32, 5, 33] {
         let cubes = scenes(size).pop().expect("K = 2 scene");
         let gpu = build_mip_gpu(&ctx, &cubes).unwrap_or_else(|e| panic!("{e}"));
@@ -170,14 +142,14 @@ fn comparison_detects_one_perturbed_texel() {
         compare_bits(&gpu[0], &MipPyramid::build(&cubes[0]).flatten())
             .unwrap_or_else(|e| panic!("{e}"));
     }
-    pyramid_finish(ctx);
+    finish_gpu(ctx);
 }
 
 /// Brute force on the GPU cells: each `[min, max]` is exactly the min and max of the texels under
 /// it, so it contains every one of them (conservative) and is attained (tight).
 #[test]
 fn gpu_cells_bound_the_texels_below_them() {
-    let ctx = pyramid_context();
+    let ctx = gpu_context();
     for size in [2u32, 3, 5, 16] {
         let cubes = scenes(size).pop().expect("K = 2 scene");
         let gpu = build_mip_gpu(&ctx, &cubes).unwrap_or_else(|e| panic!("{e}"));
@@ -189,7 +161,7 @@ fn gpu_cells_bound_the_texels_below_them() {
         wrong[0][0] += 1.0;
         assert!(check_cells_against_texels(&cubes[0], &wrong).is_err());
     }
-    pyramid_finish(ctx);
+    finish_gpu(ctx);
 }
 
 fn check_cells_against_texels(cube: &CubeMap, flat: &[[f32; 2]]) -> Result<(), String> {
@@ -231,12 +203,12 @@ fn check_cells_against_texels(cube: &CubeMap, flat: &[[f32; 2]]) -> Result<(), S
 
 #[test]
 fn mismatched_sizes_and_empty_input_are_refused() {
-    let ctx = pyramid_context();
+    let ctx = gpu_context();
     let cubes = [pyramid_cube(4, 1, None), pyramid_cube(5, 2, None)];
     let err = build_mip_gpu(&ctx, &cubes).expect_err("sizes differ");
     assert!(err.to_string().contains("face size"), "{err}");
     assert!(build_mip_gpu(&ctx, &[]).is_err());
-    pyramid_finish(ctx);
+    finish_gpu(ctx);
 }
 
 /// The recording API as a frame uses it: bindings made up front, the pass recorded into a
@@ -248,7 +220,7 @@ fn record_with_timestamps_and_refuse_small_buffers() {
     use cubetrace::vk::{Buffer, Timestamps};
     use gpu_allocator::MemoryLocation;
 
-    let ctx = pyramid_context();
+    let ctx = gpu_context();
     let cube = pyramid_cube(9, 7, Some(2));
     let distance = ctx
         .create_buffer_init(
@@ -302,7 +274,7 @@ fn record_with_timestamps_and_refuse_small_buffers() {
         assert!(times[0].1.is_finite() && times[0].1 >= 0.0);
     }
     drop((bindings, mip, small, distance, pyramid, timestamps));
-    pyramid_finish(ctx);
+    finish_gpu(ctx);
 }
 
 /// Dispatches spread over several rows of workgroups (forced by a row limit of 3 workgroups)
@@ -312,7 +284,7 @@ fn multi_row_dispatch_equals_cpu() {
     use ash::vk;
     use cubetrace::vk::pyramid::Pyramid;
 
-    let ctx = pyramid_context();
+    let ctx = gpu_context();
     let size = 17u32;
     let cubes = [pyramid_cube(size, 5, None), pyramid_cube(size, 6, Some(4))];
     // Level 1: 2 * 6 * 9 * 9 = 972 cells = 16 workgroups of 64 -> 3 x 6 (two idle workgroups).
@@ -351,5 +323,5 @@ fn multi_row_dispatch_equals_cpu() {
         .unwrap_or_else(|e| panic!("CMO {k}: {e}"));
     }
     drop((bindings, mip, distance, pyramid));
-    pyramid_finish(ctx);
+    finish_gpu(ctx);
 }

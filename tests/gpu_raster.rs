@@ -1,6 +1,9 @@
 //! The rasterising passes against the CPU: `capture` against the CPU ray-cast capture
 //! (`reference::capture`), `gbuffer` against the reference's primary hits. Needs a Vulkan driver
 //! (CI: lavapipe); runs under the validation layer when installed and fails on any error.
+mod common;
+use common::{finish_gpu, gpu_context};
+
 use ash::vk;
 use cubetrace::check_layout;
 use cubetrace::cpu::options::TraceOptions;
@@ -10,42 +13,13 @@ use cubetrace::scene::gpu_data::{
     GpuMaterial, GpuObject, GpuSceneData, GpuShading, GpuTexture, GpuVertex,
 };
 use cubetrace::scene::{Scene, builtin};
+use cubetrace::vk::GpuContext;
 use cubetrace::vk::capture::{Capture, CaptureView};
 use cubetrace::vk::cmo::CmoData;
 use cubetrace::vk::gbuffer::{Gbuffer, GbufferCamera};
 use cubetrace::vk::scene_buffers::SceneBuffers;
 use cubetrace::vk::shaders::{CAPTURE, GBUFFER};
-use cubetrace::vk::{ContextOptions, GpuContext};
 use glam::{Vec3, Vec4};
-
-fn context() -> GpuContext {
-    let ctx = GpuContext::new(ContextOptions::for_tests()).unwrap_or_else(|e| panic!("{e}"));
-    eprintln!(
-        "device: {}; validation layer: {}",
-        ctx.report().name,
-        if ctx.validation_enabled() {
-            "on"
-        } else {
-            "not installed, off"
-        }
-    );
-    ctx
-}
-
-fn finish(ctx: GpuContext) {
-    let log = ctx.validation_log();
-    assert_eq!(
-        ctx.validation_errors(),
-        Vec::<String>::new(),
-        "validation errors"
-    );
-    drop(ctx);
-    assert_eq!(
-        log.errors(),
-        Vec::<String>::new(),
-        "validation errors at destruction"
-    );
-}
 
 /// Captures the scene's CMOs on the GPU and reads them back.
 fn gpu_capture(ctx: &GpuContext, scene: &Scene, centres: &[Vec3], size: u32) -> Vec<CubeMap> {
@@ -144,7 +118,7 @@ fn shared_structs_match_naga_layout() {
 
 #[test]
 fn capture_matches_cpu_ray_cast_capture() {
-    let ctx = context();
+    let ctx = gpu_context();
     for (name, size) in [("sphere-room", 16u32), ("sphere-room", 32), ("teapot", 16)] {
         let scene = builtin::by_name(name).unwrap();
         let centres = scene.cmo_centres();
@@ -167,12 +141,12 @@ fn capture_matches_cpu_ray_cast_capture() {
             assert!(g.distance.iter().filter(|d| d.is_finite()).count() > cpu.distance.len() / 2);
         }
     }
-    finish(ctx);
+    finish_gpu(ctx);
 }
 
 #[test]
 fn capture_comparison_fails_for_a_moved_centre_or_face_swap() {
-    let ctx = context();
+    let ctx = gpu_context();
     let scene = builtin::sphere_room();
     let size = 16;
     let centre = scene.cmo_centres()[0];
@@ -199,7 +173,7 @@ fn capture_comparison_fails_for_a_moved_centre_or_face_swap() {
         bad as f64 / total > 0.1,
         "swapped faces: only {bad} texels differ"
     );
-    finish(ctx);
+    finish_gpu(ctx);
 }
 
 fn read_rgba32f(ctx: &GpuContext, img: &cubetrace::vk::Image) -> Vec<Vec4> {
@@ -214,7 +188,7 @@ fn read_rgba32f(ctx: &GpuContext, img: &cubetrace::vk::Image) -> Vec<Vec4> {
 
 #[test]
 fn gbuffer_matches_reference_primary_hits() {
-    let ctx = context();
+    let ctx = gpu_context();
     for name in ["sphere-room", "torus"] {
         let scene = builtin::by_name(name).unwrap();
         let mut camera = scene.camera(None).unwrap().clone();
@@ -264,5 +238,5 @@ fn gbuffer_matches_reference_primary_hits() {
         assert!(mask_diff <= bound && pos_bad <= bound && col_bad <= bound);
         assert!(covered > n / 2);
     }
-    finish(ctx);
+    finish_gpu(ctx);
 }

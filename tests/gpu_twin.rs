@@ -7,47 +7,19 @@
 //! within the bound stated at `approximate_criteria_match_the_cpu`. Every comparison has a
 //! negative twin that perturbs the GPU's input and must see disagreements.
 
+mod common;
+use common::{finish_gpu, gpu_context};
+
 use cubetrace::check_layout;
 use cubetrace::cpu::multi::{MultiResult, MultiStatus};
 use cubetrace::cpu::options::{TraceCriterion, TraceOptions, TraceSampling, trace_ray};
 use cubetrace::cpu::{CmoTracer, Status};
 use cubetrace::cubemap::CubeMap;
+use cubetrace::vk::GpuContext;
 use cubetrace::vk::cmo::CmoData;
 use cubetrace::vk::shaders::TRACE_PROBE;
 use cubetrace::vk::trace_probe::{ProbeParams, ProbeRay, ProbeResult, TraceConfig, trace_probe};
-use cubetrace::vk::{ContextOptions, GpuContext};
 use glam::Vec3;
-
-/// Creates a context with validation when installed.
-fn twin_context() -> GpuContext {
-    let ctx = GpuContext::new(ContextOptions::for_tests()).unwrap_or_else(|e| panic!("{e}"));
-    eprintln!(
-        "device: {}; validation layer: {}",
-        ctx.report().name,
-        if ctx.validation_enabled() {
-            "on"
-        } else {
-            "not installed, off"
-        }
-    );
-    ctx
-}
-
-/// Asserts no validation errors, before and after dropping the context.
-fn twin_finish(ctx: GpuContext) {
-    let log = ctx.validation_log();
-    assert_eq!(
-        ctx.validation_errors(),
-        Vec::<String>::new(),
-        "validation errors"
-    );
-    drop(ctx);
-    assert_eq!(
-        log.errors(),
-        Vec::<String>::new(),
-        "validation errors at destruction"
-    );
-}
 
 // ---------------------------------------------------------------------------------------------
 // Analytic scenes.
@@ -462,7 +434,7 @@ fn trace_structs_match_naga_layout() {
 
 #[test]
 fn exact_criterion_matches_the_cpu_bit_for_bit() {
-    let ctx = twin_context();
+    let ctx = gpu_context();
     let mut total_rays = 0;
     let mut bad = 0;
     for (scene, size, count) in [
@@ -526,7 +498,7 @@ fn exact_criterion_matches_the_cpu_bit_for_bit() {
 
     eprintln!("exact, one CMO: {total_rays} rays, {bad} disagreements");
     assert_eq!(bad, 0);
-    twin_finish(ctx);
+    finish_gpu(ctx);
 }
 
 /// The bit-for-bit comparison would see a driver that contracts `a + t * d` into a fused
@@ -578,7 +550,7 @@ fn upload_with_mip(
 
 #[test]
 fn exact_comparison_detects_perturbed_gpu_input() {
-    let ctx = twin_context();
+    let ctx = gpu_context();
     let size = 16;
     let cube = twin_capture(Scene::BoxRoom, size, CENTRE);
     let rays = twin_rays(99, 800, &[CENTRE]);
@@ -636,12 +608,12 @@ fn exact_comparison_detects_perturbed_gpu_input() {
             assert_eq!(d.total(), 0);
         }
     }
-    twin_finish(ctx);
+    finish_gpu(ctx);
 }
 
 #[test]
 fn two_cmos_hand_off_like_the_cpu() {
-    let ctx = twin_context();
+    let ctx = gpu_context();
     let mut total_rays = 0;
     let mut bad = 0;
     for size in [16u32, 32] {
@@ -682,12 +654,12 @@ fn two_cmos_hand_off_like_the_cpu() {
     }
     eprintln!("exact, two CMOs: {total_rays} rays, {bad} disagreements");
     assert_eq!(bad, 0);
-    twin_finish(ctx);
+    finish_gpu(ctx);
 }
 
 #[test]
 fn approximate_criteria_match_the_cpu() {
-    let ctx = twin_context();
+    let ctx = gpu_context();
     let cubes = vec![twin_capture(Scene::BoxRoom, 32, CENTRE)];
     let rays = twin_rays(4242, 800, &[CENTRE]);
     let mut data =
@@ -737,7 +709,7 @@ fn approximate_criteria_match_the_cpu() {
     }
     eprintln!("approximate criteria: {total} ray traces, {bad} disagreements");
     assert_eq!(bad, 0);
-    twin_finish(ctx);
+    finish_gpu(ctx);
 }
 
 #[test]

@@ -1,47 +1,14 @@
 //! Integration tests of the Vulkan backbone. They need a Vulkan driver (CI installs lavapipe) and
 //! fail with the driver's install hint when none is present; they run under the Khronos
 //! validation layer when it is installed and fail on any validation error.
+mod common;
+use common::{finish_gpu, gpu_context};
+
 use ash::vk;
 use cubetrace::check_layout;
 use cubetrace::vk::selftest::{SelftestOut, SelftestParams, selftest_cpu, selftest_gpu};
 use cubetrace::vk::shaders::{BindingKind, PASSES, SELFTEST, Stage, StructLayout};
 use cubetrace::vk::{ContextOptions, GpuContext, Image, ImageDesc, Validation};
-
-/// Creates a context with validation when installed; a missing driver fails with its message.
-fn context() -> GpuContext {
-    let ctx = GpuContext::new(ContextOptions::for_tests()).unwrap_or_else(|e| panic!("{e}"));
-    eprintln!(
-        "device: {}; validation layer: {}; debug utils: {}",
-        ctx.report().name,
-        if ctx.validation_enabled() {
-            "on"
-        } else {
-            "not installed, off"
-        },
-        ctx.debug_utils_enabled()
-    );
-    ctx
-}
-
-/// Asserts no validation errors, then drops the context and asserts again (leak reports arrive
-/// at device destruction).
-fn finish(ctx: GpuContext) {
-    let log = ctx.validation_log();
-    for w in log.warnings() {
-        eprintln!("validation warning: {w}");
-    }
-    assert_eq!(
-        ctx.validation_errors(),
-        Vec::<String>::new(),
-        "validation errors"
-    );
-    drop(ctx);
-    assert_eq!(
-        log.errors(),
-        Vec::<String>::new(),
-        "validation errors at destruction"
-    );
-}
 
 /// Deterministic input (no RNG): a simple LCG.
 fn input(n: usize) -> Vec<u32> {
@@ -56,7 +23,7 @@ fn input(n: usize) -> Vec<u32> {
 
 #[test]
 fn selftest_matches_cpu_and_validation_is_clean() {
-    let ctx = context();
+    let ctx = gpu_context();
     let report = ctx.report().clone();
     assert!(report.subgroup_size >= 1, "{report}");
     // 1000 items: three full workgroups and a partial one, so the `count` guard is exercised.
@@ -97,7 +64,7 @@ fn selftest_matches_cpu_and_validation_is_clean() {
         assert_eq!(name, "selftest");
         assert!(ns >= 0.0 && ns.is_finite(), "{ns}");
     }
-    finish(ctx);
+    finish_gpu(ctx);
 }
 
 #[test]
@@ -196,7 +163,7 @@ fn layout_checker_catches_wrong_offsets_and_sizes() {
 
 #[test]
 fn cube_image_roundtrip_through_staging() {
-    let ctx = context();
+    let ctx = gpu_context();
     let size = 4u32;
     let usage = vk::ImageUsageFlags::SAMPLED
         | vk::ImageUsageFlags::STORAGE
@@ -230,7 +197,7 @@ fn cube_image_roundtrip_through_staging() {
             "{format:?}"
         );
     }
-    finish(ctx);
+    finish_gpu(ctx);
 }
 
 /// Every pass's SPIR-V passes `spirv-val` for Vulkan 1.3 (skipped with a note when spirv-tools is
@@ -267,7 +234,7 @@ fn every_pass_passes_spirv_val() {
 #[test]
 fn compute_pipeline_with_required_subgroup_size() {
     use cubetrace::vk::{ComputeOptions, ComputePipeline};
-    let ctx = context();
+    let ctx = gpu_context();
     let size = ctx.report().subgroup_size;
     let options = ComputeOptions {
         required_subgroup_size: Some(size),
@@ -279,5 +246,5 @@ fn compute_pipeline_with_required_subgroup_size() {
     let err = pipeline.bind_group(0, &[]).err().expect("bindings missing");
     assert!(err.to_string().contains("params"), "{err}");
     drop(pipeline);
-    finish(ctx);
+    finish_gpu(ctx);
 }

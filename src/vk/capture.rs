@@ -177,22 +177,7 @@ impl Capture {
             .into_iter()
             .chain(self.normal.as_ref())
             .collect();
-        for img in &images {
-            rec.image_barrier(
-                img,
-                vk::ImageLayout::UNDEFINED,
-                vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
-                TRANSFER_READ,
-                COLOUR_WRITE,
-            );
-        }
-        rec.image_barrier(
-            &self.depth,
-            vk::ImageLayout::UNDEFINED,
-            vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
-            DEPTH_WRITE,
-            DEPTH_WRITE,
-        );
+        rec.prepare_render_targets(&images, Some(&self.depth), TRANSFER_READ);
         let bg = background.to_array();
         let clears = [
             vk::ClearColorValue {

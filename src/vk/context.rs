@@ -19,7 +19,7 @@ use super::error::{VkError, VkResult, call_err};
 use super::image::Image;
 use super::info::{DeviceReport, probe_all};
 use super::instance::{Instance, Validation, ValidationLog};
-use super::sync::{ALL, TRANSFER_READ, TRANSFER_WRITE};
+use super::sync::{ALL, Access, COLOUR_WRITE, DEPTH_WRITE, TRANSFER_READ, TRANSFER_WRITE};
 
 /// How to create a [`GpuContext`]. `Default` is: no validation (unless `CUBETRACE_VALIDATION=1`),
 /// automatic device choice.
@@ -113,6 +113,34 @@ impl Recorder<'_> {
         let dep = vk::DependencyInfo::default().image_memory_barriers(&barrier);
         // SAFETY: `cmd` is recording; the image is alive for the submission.
         unsafe { self.device.raw.cmd_pipeline_barrier2(self.cmd, &dep) };
+    }
+
+    /// Makes `colour` images and an optional `depth` image writable as attachments, discarding
+    /// their contents (the draw clears them), after `previous` (the accesses of the last use).
+    pub fn prepare_render_targets(
+        &self,
+        colour: &[&Image],
+        depth: Option<&Image>,
+        previous: Access,
+    ) {
+        for img in colour {
+            self.image_barrier(
+                img,
+                vk::ImageLayout::UNDEFINED,
+                vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+                previous,
+                COLOUR_WRITE,
+            );
+        }
+        if let Some(d) = depth {
+            self.image_barrier(
+                d,
+                vk::ImageLayout::UNDEFINED,
+                vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
+                DEPTH_WRITE,
+                DEPTH_WRITE,
+            );
+        }
     }
 
     /// Copies `size` bytes from the start of `src` to the start of `dst`.

@@ -20,7 +20,7 @@ use super::image::{Image, ImageDesc};
 use super::pipeline::{BindGroup, Resource};
 use super::scene_buffers::SceneBuffers;
 use super::shaders::GBUFFER;
-use super::sync::{COLOUR_WRITE, DEPTH_WRITE, SHADER_READ};
+use super::sync::{COLOUR_WRITE, SHADER_READ};
 use crate::camera::Camera;
 
 /// `GbufferCamera` in `spirv/gbuffer.wgsl`.
@@ -113,22 +113,7 @@ impl Gbuffer {
     /// Records the draw and leaves the images readable by shaders.
     pub fn record(&self, rec: &Recorder<'_>, background: Vec3) -> VkResult<()> {
         let images = [&self.colour, &self.position, &self.normal];
-        for img in images {
-            rec.image_barrier(
-                img,
-                vk::ImageLayout::UNDEFINED,
-                vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
-                SHADER_READ,
-                COLOUR_WRITE,
-            );
-        }
-        rec.image_barrier(
-            &self.depth,
-            vk::ImageLayout::UNDEFINED,
-            vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
-            DEPTH_WRITE,
-            DEPTH_WRITE,
-        );
+        rec.prepare_render_targets(&images, Some(&self.depth), SHADER_READ);
         let clear = |v: Vec4| vk::ClearColorValue {
             float32: v.to_array(),
         };
