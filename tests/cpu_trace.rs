@@ -2,6 +2,9 @@
 //!
 //! Every comparison has a negative twin that perturbs one input and must see the comparison fail.
 
+mod common;
+use common::analytic::{Aabb, enter_box, exit_box};
+
 use cubetrace::cpu::alg3::{SUBGROUP_SIZES, trace_alg3};
 use cubetrace::cpu::approx::{Criterion, Sampling, trace_sampled};
 use cubetrace::cpu::mip::trace_mip;
@@ -10,13 +13,6 @@ use cubetrace::cpu::walk::{trace_brute, trace_walk};
 use cubetrace::cpu::{CmoTracer, Segment, Status, TraceParams, TraceResult};
 use cubetrace::cubemap::CubeMap;
 use glam::Vec3;
-
-/// Axis-aligned box.
-#[derive(Clone, Copy)]
-struct Aabb {
-    lo: Vec3,
-    hi: Vec3,
-}
 
 const ROOM: Aabb = Aabb {
     lo: Vec3::new(-3.0, -2.0, -4.0),
@@ -28,41 +24,9 @@ const OCCLUDER: Aabb = Aabb {
 };
 const CENTRE: Vec3 = Vec3::new(0.3, -0.2, 0.4);
 
-/// Distance from `o` (inside) to the room's walls along `d`.
-fn exit_room(o: Vec3, d: Vec3) -> f32 {
-    let mut t = f32::INFINITY;
-    for k in 0..3 {
-        if d[k] > 0.0 {
-            t = t.min((ROOM.hi[k] - o[k]) / d[k]);
-        } else if d[k] < 0.0 {
-            t = t.min((ROOM.lo[k] - o[k]) / d[k]);
-        }
-    }
-    t
-}
-
-/// Entry distance into a box along `o + t d`, `t > 0` (slab test), or infinity.
-fn enter_box(b: Aabb, o: Vec3, d: Vec3) -> f32 {
-    let mut t0 = 0.0f32;
-    let mut t1 = f32::INFINITY;
-    for k in 0..3 {
-        if d[k] == 0.0 {
-            if o[k] < b.lo[k] || o[k] > b.hi[k] {
-                return f32::INFINITY;
-            }
-        } else {
-            let a = (b.lo[k] - o[k]) / d[k];
-            let c = (b.hi[k] - o[k]) / d[k];
-            t0 = t0.max(a.min(c));
-            t1 = t1.min(a.max(c));
-        }
-    }
-    if t0 <= t1 { t0 } else { f32::INFINITY }
-}
-
 /// First scene hit along `o + t d` (unit `d`), `t > 0`.
 fn scene_hit(o: Vec3, d: Vec3, with_occluder: bool) -> f32 {
-    let t = exit_room(o, d);
+    let t = exit_box(ROOM, o, d);
     if with_occluder {
         t.min(enter_box(OCCLUDER, o, d))
     } else {

@@ -8,6 +8,7 @@
 //! negative twin that perturbs the GPU's input and must see disagreements.
 
 mod common;
+use common::analytic::{Aabb, enter_box, enter_sphere, exit_box, sphere_roots};
 use common::{finish_gpu, gpu_context};
 
 use cubetrace::check_layout;
@@ -23,12 +24,6 @@ use glam::Vec3;
 
 // ---------------------------------------------------------------------------------------------
 // Analytic scenes.
-
-#[derive(Clone, Copy)]
-struct Aabb {
-    lo: Vec3,
-    hi: Vec3,
-}
 
 #[derive(Clone, Copy)]
 enum Scene {
@@ -56,53 +51,6 @@ const SPHERE_ROOM: (Vec3, f32) = (Vec3::new(0.1, 0.2, -0.1), 4.5);
 const SPHERE_OCC: (Vec3, f32) = (Vec3::new(1.4, 0.3, 1.1), 0.7);
 const SPHERE_FAR: (Vec3, f32) = (Vec3::new(-2.0, -1.0, -2.5), 1.2);
 const T_HI: f32 = 20.0;
-
-fn exit_box(b: Aabb, o: Vec3, d: Vec3) -> f32 {
-    let mut t = f32::INFINITY;
-    for k in 0..3 {
-        if d[k] > 0.0 {
-            t = t.min((b.hi[k] - o[k]) / d[k]);
-        } else if d[k] < 0.0 {
-            t = t.min((b.lo[k] - o[k]) / d[k]);
-        }
-    }
-    t
-}
-
-fn enter_box(b: Aabb, o: Vec3, d: Vec3) -> f32 {
-    let mut t0 = 0.0f32;
-    let mut t1 = f32::INFINITY;
-    for k in 0..3 {
-        if d[k] == 0.0 {
-            if o[k] < b.lo[k] || o[k] > b.hi[k] {
-                return f32::INFINITY;
-            }
-        } else {
-            let a = (b.lo[k] - o[k]) / d[k];
-            let c = (b.hi[k] - o[k]) / d[k];
-            t0 = t0.max(a.min(c));
-            t1 = t1.min(a.max(c));
-        }
-    }
-    if t0 <= t1 { t0 } else { f32::INFINITY }
-}
-
-/// Roots of `|o + t d - c| = r` (unit `d`): `(near, far)`, NaN when missed.
-fn sphere_roots(c: Vec3, r: f32, o: Vec3, d: Vec3) -> (f32, f32) {
-    let oc = o - c;
-    let b = oc.dot(d);
-    let disc = b * b - (oc.length_squared() - r * r);
-    if disc < 0.0 {
-        return (f32::NAN, f32::NAN);
-    }
-    let s = disc.sqrt();
-    (-b - s, -b + s)
-}
-
-fn enter_sphere(c: Vec3, r: f32, o: Vec3, d: Vec3) -> f32 {
-    let (t0, _) = sphere_roots(c, r, o, d);
-    if t0 > 0.0 { t0 } else { f32::INFINITY }
-}
 
 /// First hit along `o + t d` (unit `d`), `t > 0`; `+inf` when nothing.
 fn scene_hit(scene: Scene, o: Vec3, d: Vec3) -> f32 {

@@ -1,5 +1,9 @@
-//! Shared by the GPU test suites: a context under the validation layer, and the check that it
-//! reported nothing.
+//! Shared by the test suites: a GPU context under the validation layer and the check that it
+//! reported nothing; closed-form intersections for synthetic scenes ([`analytic`]).
+// Each test crate compiles this module and uses only part of it.
+#![allow(dead_code)]
+
+pub mod analytic;
 
 use cubetrace::vk::{ContextOptions, GpuContext};
 
