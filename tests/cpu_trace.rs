@@ -3,6 +3,7 @@
 //! Every comparison has a negative twin that perturbs one input and must see the comparison fail.
 
 mod common;
+use common::Rng;
 use common::analytic::{Aabb, enter_box, exit_box};
 
 use cubetrace::cpu::alg3::{SUBGROUP_SIZES, trace_alg3};
@@ -41,35 +42,6 @@ fn capture(size: u32, centre: Vec3, with_occluder: bool) -> CubeMap {
         (d, [t.face as f32, t.x as f32, t.y as f32, 1.0])
     });
     c
-}
-
-/// splitmix64, fixed seeds only.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 = self.0.wrapping_add(0x9E3779B97F4A7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58476D1CE4E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D049BB133111EB);
-        z ^= z >> 31;
-        (z >> 40) as f32 / (1u64 << 24) as f32
-    }
-    fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.next()
-    }
-    fn unit(&mut self) -> Vec3 {
-        loop {
-            let v = Vec3::new(
-                self.range(-1.0, 1.0),
-                self.range(-1.0, 1.0),
-                self.range(-1.0, 1.0),
-            );
-            let l = v.length();
-            if l > 0.1 && l <= 1.0 {
-                return v / l;
-            }
-        }
-    }
 }
 
 /// World rays `(origin, unit dir)` from inside the room, outside the occluder.

@@ -9,7 +9,7 @@
 
 mod common;
 use common::analytic::{Aabb, enter_box, enter_sphere, exit_box, sphere_roots};
-use common::{finish_gpu, gpu_context};
+use common::{Rng, finish_gpu, gpu_context};
 
 use cubetrace::check_layout;
 use cubetrace::cpu::multi::{MultiResult, MultiStatus};
@@ -88,35 +88,6 @@ fn twin_capture(scene: Scene, size: u32, centre: Vec3) -> CubeMap {
 // ---------------------------------------------------------------------------------------------
 // Rays.
 
-/// splitmix64, fixed seeds only.
-struct TwinRng(u64);
-impl TwinRng {
-    fn next(&mut self) -> f32 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        (z >> 40) as f32 / (1u64 << 24) as f32
-    }
-    fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.next()
-    }
-    fn unit(&mut self) -> Vec3 {
-        loop {
-            let v = Vec3::new(
-                self.range(-1.0, 1.0),
-                self.range(-1.0, 1.0),
-                self.range(-1.0, 1.0),
-            );
-            let l = v.length();
-            if l > 0.1 && l <= 1.0 {
-                return v / l;
-            }
-        }
-    }
-}
-
 /// Rays through or near a CMO centre `c`, along its cube's edge and diagonal planes, parallel
 /// to face planes, and crossing four faces.
 fn special_rays(c: Vec3) -> Vec<(Vec3, Vec3)> {
@@ -167,7 +138,7 @@ struct TwinRay {
 /// ones, by index: every 5th ends at `t_hi = 2` (escapes are possible in a closed room), every
 /// 7th starts at `t_lo = 0.4`, every 3rd has a direction of length 2.5 and every 11th of 0.3.
 fn twin_rays(seed: u64, count: usize, centres: &[Vec3]) -> Vec<TwinRay> {
-    let mut rng = TwinRng(seed);
+    let mut rng = Rng(seed);
     let mut out = Vec::with_capacity(count);
     while out.len() < count {
         let o = Vec3::new(

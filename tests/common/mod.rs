@@ -6,6 +6,7 @@
 pub mod analytic;
 
 use cubetrace::vk::{ContextOptions, GpuContext};
+use glam::Vec3;
 
 /// A context with the Khronos validation layer when it is installed; a missing driver fails the
 /// test with the driver's install hint.
@@ -42,4 +43,33 @@ pub fn finish_gpu(ctx: GpuContext) {
         Vec::<String>::new(),
         "validation errors at destruction"
     );
+}
+
+/// splitmix64 with a fixed seed: deterministic test inputs (no entropy).
+pub struct Rng(pub u64);
+impl Rng {
+    pub fn next(&mut self) -> f32 {
+        self.0 = self.0.wrapping_add(0x9E3779B97F4A7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58476D1CE4E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D049BB133111EB);
+        z ^= z >> 31;
+        (z >> 40) as f32 / (1u64 << 24) as f32
+    }
+    pub fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * self.next()
+    }
+    pub fn unit(&mut self) -> Vec3 {
+        loop {
+            let v = Vec3::new(
+                self.range(-1.0, 1.0),
+                self.range(-1.0, 1.0),
+                self.range(-1.0, 1.0),
+            );
+            let l = v.length();
+            if l > 0.1 && l <= 1.0 {
+                return v / l;
+            }
+        }
+    }
 }
