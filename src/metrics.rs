@@ -70,7 +70,7 @@ pub enum PixelClass {
 pub struct PixelError {
     pub class: PixelClass,
     /// Angle between the traced and reference hit points seen from the mirror point, degrees;
-    /// `None` unless both hit something.
+    /// `None` unless both hit something away from the mirror point.
     pub angle_deg: Option<f64>,
 }
 
@@ -115,18 +115,19 @@ pub fn classify(
             match (rh.is_nan(), th.is_nan()) {
                 (true, true) => verdict(PixelClass::Correct),
                 (false, false) => {
+                    // A hit on the mirror point itself (an approximate criterion firing at
+                    // the ray's start) has no direction: no angle, the distance still counts.
                     let p = mirror_point[k];
-                    let cos = (rh - p)
-                        .normalize()
-                        .dot((th - p).normalize())
-                        .clamp(-1.0, 1.0);
+                    let (a, b) = ((rh - p).normalize_or_zero(), (th - p).normalize_or_zero());
+                    let angle_deg = (a != Vec3::ZERO && b != Vec3::ZERO)
+                        .then(|| (a.dot(b).clamp(-1.0, 1.0) as f64).acos().to_degrees());
                     PixelError {
                         class: if (rh - th).length() > WRONG_SURFACE_FOOTPRINTS * footprint(rh) {
                             PixelClass::WrongSurface
                         } else {
                             PixelClass::Correct
                         },
-                        angle_deg: Some((cos as f64).acos().to_degrees()),
+                        angle_deg,
                     }
                 }
                 _ => verdict(PixelClass::WrongSurface),
@@ -258,6 +259,11 @@ mod tests {
         let classes: Vec<_> = bad.iter().map(|p| p.class).collect();
         assert_eq!(classes, [WrongSurface, Unresolved, WrongSurface, NotMirror]);
         assert!(bad[0].angle_deg.is_some_and(|a| a > 5.0));
+        // A hit on the mirror point: wrong, and no angle (not NaN).
+        let mut t = pair().1;
+        t.hit_position[1] = m[1];
+        let e = classify(&f, &t, &m, &[Vec3::ZERO], 64)[1];
+        assert_eq!((e.class, e.angle_deg), (WrongSurface, None));
         let mut t = pair().1;
         t.mask[0] = 0;
         assert_eq!(classify(&f, &t, &m, &[Vec3::ZERO], 64)[0].class, MaskMissed);

@@ -29,7 +29,6 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
-use glam::Vec3;
 use serde::Serialize;
 
 use crate::camera::Camera;
@@ -195,7 +194,7 @@ pub struct BenchConfig {
     pub cube_size: Option<u32>,
     /// Overrides the scenes' CMO placement with this many automatic CMOs.
     pub cmos: Option<u32>,
-    /// Compute FLIP (nv-flip) over mirror pixels.
+    /// Compute FLIP (nv-flip) over mirror pixels (needs the `flip` feature, on by default).
     pub flip: bool,
     /// Write per-run error heat maps.
     pub heatmaps: bool,
@@ -522,9 +521,18 @@ pub fn pass_stats(pass_ns: &[Vec<PassTime>]) -> Vec<PassStats> {
         .collect()
 }
 
-/// FLIP mean (LDR) over the reference's mirror pixels, on 8-bit sRGB images of the whole frame.
-pub fn flip_mean(reference: &Frame, traced: &Traced) -> f64 {
-    let srgb = |c: &[Vec3]| -> Vec<u8> {
+/// FLIP mean (LDR) over the reference's mirror pixels, on 8-bit sRGB images of the whole frame;
+/// `None` when built without the `flip` feature.
+#[cfg(not(feature = "flip"))]
+pub fn flip_mean(_reference: &Frame, _traced: &Traced) -> Option<f64> {
+    None
+}
+
+/// FLIP mean (LDR) over the reference's mirror pixels, on 8-bit sRGB images of the whole frame;
+/// `None` when built without the `flip` feature.
+#[cfg(feature = "flip")]
+pub fn flip_mean(reference: &Frame, traced: &Traced) -> Option<f64> {
+    let srgb = |c: &[glam::Vec3]| -> Vec<u8> {
         c.iter()
             .flat_map(|c| c.to_array().map(crate::shading::linear_to_srgb))
             .collect()
@@ -538,7 +546,7 @@ pub fn flip_mean(reference: &Frame, traced: &Traced) -> f64 {
         .zip(&reference.mask)
         .filter(|(_, m)| **m != 0)
         .fold((0f64, 0usize), |(s, n), (e, _)| (s + f64::from(*e), n + 1));
-    if n == 0 { 0.0 } else { sum / n as f64 }
+    Some(if n == 0 { 0.0 } else { sum / n as f64 })
 }
 
 /// Runs the grid, advancing `bar` by one per reference and per GPU run (indicatif hides it
@@ -652,7 +660,11 @@ pub fn run(
                 counters: Counters::of(&g.frame),
                 cmo_bytes: g.cmo_bytes,
                 error,
-                flip_mean: cfg.flip.then(|| flip_mean(&refr.frame, &traced)),
+                flip_mean: if cfg.flip {
+                    flip_mean(&refr.frame, &traced)
+                } else {
+                    None
+                },
                 heatmap,
                 ..base(spec)
             });

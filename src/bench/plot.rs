@@ -118,6 +118,7 @@ pub fn scatter(
             .map_err(err)?;
         chart
             .configure_series_labels()
+            .position(SeriesLabelPosition::LowerLeft)
             .border_style(BLACK)
             .background_style(WHITE.mix(0.8))
             .draw()
