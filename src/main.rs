@@ -399,9 +399,9 @@ struct BenchArgs {
     /// count (fragment, exact criterion with the pyramid).
     #[arg(long)]
     scaling: bool,
-    /// Scaling: the largest cube face size (powers of two from 32). The default stays at 512
-    /// because larger captures take long on lavapipe.
-    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(32..=4096))]
+    /// Scaling: the largest cube face size (powers of two from 32). The default stops at 1024:
+    /// at 2048 one CMO's colour buffer (384 MiB) exceeds lavapipe's maxStorageBufferRange.
+    #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(32..=4096))]
     max_cube: u32,
     /// Output folder.
     #[arg(short, long, default_value = "out/bench")]

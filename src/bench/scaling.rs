@@ -4,7 +4,7 @@
 //!
 //! | axis | scene | values (default) |
 //! |---|---|---|
-//! | cube face size | `sphere-room` | 32, 64, 128, 256, 512 (`--max-cube` up to 2048) |
+//! | cube face size | `sphere-room` | 32, 64, ..., 1024 (`--max-cube`, up to 4096) |
 //! | screen size | `sphere-room` | 80x60, 160x120, 320x240, 640x480 |
 //! | number of CMOs | `default` | 1, 2, 4, 8 (automatic placement) |
 //! | scene triangles | `sphere-room` plus one extra UV sphere beside the mirror | 8, 32, 128, 512 segments |
