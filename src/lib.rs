@@ -5,6 +5,7 @@
 //! - [`camera`]: the camera and its pixel convention (Vulkan's, pixel centres at +0.5).
 //! - [`shading`]: the view-independent shading shared by the capture and the reference.
 //! - [`reference`]: the exact CPU ray tracer that every accuracy figure is measured against.
+//! - [`bench`]: the speed-against-error harness (`cubetrace bench`) and scaling curves.
 //! - [`metrics`]: error of a traced reflection against the reference.
 //! - [`output`]: PNG and EXR writers (atomic: temporary file, then rename).
 //! - [`cubemap`]: cube face mapping and distance hierarchies (pure data, no GPU).
@@ -12,6 +13,7 @@
 //! - [`vk`]: the Vulkan backend (ash); the only module tree that may use `unsafe`.
 #![deny(unsafe_op_in_unsafe_fn)]
 
+pub mod bench;
 pub mod camera;
 pub mod cpu;
 pub mod cubemap;

@@ -36,6 +36,9 @@ enum Command {
     Scenes,
     /// List the Vulkan devices: name, driver, subgroup size and operations, limits, timestamps.
     Info(GpuArgs),
+    /// Speed against error: scenes x methods x parameters on the GPU, against the CPU reference
+    /// (JSON, Markdown, SVG plot, heat maps); `--scaling` for the cost curves.
+    Bench(BenchArgs),
     /// Work with scene files.
     Scene {
         #[command(subcommand)]
@@ -352,9 +355,133 @@ fn render(args: RenderArgs) -> Result<()> {
     Ok(())
 }
 
+#[derive(clap::Args)]
+struct BenchArgs {
+    /// Scenes: built-in names or .toml paths, comma-separated [default: every built-in scene].
+    #[arg(long, value_delimiter = ',')]
+    scenes: Vec<String>,
+    /// Methods: reference, envmap, fragment (comma-separated); tracing methods run their
+    /// parameter grid (criteria x sampling x acceleration x steps) unless --quick.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "reference,envmap,fragment"
+    )]
+    methods: Vec<String>,
+    /// Tracing methods: only the default options (exact criterion, pyramid) instead of the grid.
+    #[arg(long)]
+    quick: bool,
+    /// Frame width in pixels.
+    #[arg(long, default_value_t = 160)]
+    width: u32,
+    /// Frame height in pixels.
+    #[arg(long, default_value_t = 120)]
+    height: u32,
+    /// Timed frames per run.
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    frames: u32,
+    /// Frames rendered and discarded before timing.
+    #[arg(long, default_value_t = 1)]
+    warmup: u32,
+    /// Texels per cube face side (overrides the scenes').
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    cube_size: Option<u32>,
+    /// Number of automatically placed CMOs (overrides the scenes').
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16))]
+    cmos: Option<u32>,
+    /// Skip the FLIP metric.
+    #[arg(long)]
+    no_flip: bool,
+    /// Skip the error heat maps.
+    #[arg(long)]
+    no_heatmaps: bool,
+    /// Cost curves instead of the grid: against cube size, screen size, CMO count and triangle
+    /// count (fragment, exact criterion with the pyramid).
+    #[arg(long)]
+    scaling: bool,
+    /// Scaling: the largest cube face size (powers of two from 32). The default stops at 1024:
+    /// at 2048 one CMO's colour buffer (384 MiB) exceeds lavapipe's maxStorageBufferRange.
+    #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(32..=4096))]
+    max_cube: u32,
+    /// Output folder.
+    #[arg(short, long, default_value = "out/bench")]
+    out: PathBuf,
+    #[command(flatten)]
+    gpu: GpuArgs,
+}
+
+fn bench(args: BenchArgs) -> Result<()> {
+    use cubetrace::bench::{self, MethodKind};
+    let kinds = args
+        .methods
+        .iter()
+        .map(|m| {
+            MethodKind::from_name(m).ok_or_else(|| {
+                let known: Vec<&str> = MethodKind::ALL.iter().map(|k| k.name()).collect();
+                anyhow::anyhow!(
+                    "--methods: unknown method '{m}' (known: {})",
+                    known.join(", ")
+                )
+            })
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let ctx = args.gpu.context()?;
+    let bar = indicatif::ProgressBar::new(0).with_style(
+        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} runs {elapsed} {msg}")
+            .expect("the template is valid"),
+    );
+    let paths = if args.scaling {
+        let cfg = bench::scaling::ScalingConfig {
+            method: bench::MethodSpec::plain(MethodKind::Fragment),
+            axes: bench::scaling::Axis::ALL.to_vec(),
+            max_cube: args.max_cube,
+            width: args.width,
+            height: args.height,
+            frames: args.frames,
+            warmup: args.warmup,
+            out: args.out.clone(),
+        };
+        let report = bench::scaling::run(&ctx, &cfg, &bar)?;
+        bar.finish_and_clear();
+        println!("{}", bench::scaling::table(&report));
+        bench::scaling::write(&report, &args.out)?
+    } else {
+        let defaults = bench::BenchConfig::default();
+        let cfg = bench::BenchConfig {
+            scenes: if args.scenes.is_empty() {
+                defaults.scenes
+            } else {
+                args.scenes.clone()
+            },
+            methods: bench::method_grid(&kinds, args.quick),
+            width: args.width,
+            height: args.height,
+            frames: args.frames,
+            warmup: args.warmup,
+            cube_size: args.cube_size,
+            cmos: args.cmos,
+            flip: !args.no_flip,
+            heatmaps: !args.no_heatmaps,
+            out: args.out.clone(),
+        };
+        let report = bench::run(&ctx, &cfg, &bar)?;
+        bar.finish_and_clear();
+        println!("{}", bench::report::header(&report));
+        println!("{}", bench::report::summary_table(&report));
+        bench::report::write(&report, &args.out)?
+    };
+    bench::check_validation(&ctx)?;
+    for p in paths {
+        println!("wrote {}", p.display());
+    }
+    println!("heat maps (if any) in {}", args.out.join("heat").display());
+    Ok(())
+}
+
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Render(args) => render(args),
+        Command::Bench(args) => bench(args),
         Command::Info(gpu) => {
             let validation = if gpu.validate {
                 Validation::Required

@@ -35,7 +35,7 @@ pub struct Traced {
     pub resolved: Vec<u8>,
 }
 
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct ErrorReport {
     pub mirror_pixels: usize,
     pub unresolved: f64,
@@ -47,17 +47,42 @@ pub struct ErrorReport {
     pub mask_mismatch: usize,
 }
 
-/// Compares `traced` with `reference` over the reference's mirror pixels. `mirror_point` gives
-/// the primary hit on the mirror per pixel, `cmo_centres` and `cube_size` define the texel
-/// footprint.
-#[allow(clippy::needless_range_loop)] // one index across six parallel arrays reads best
-pub fn compare(
+/// What one pixel of a traced frame is, against the reference ([`classify`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PixelClass {
+    /// Not a mirror pixel of the reference: not counted.
+    NotMirror,
+    /// A mirror pixel of the reference that the traced frame's rasterisation missed: counted as
+    /// a mirror pixel (its colour enters the PSNR) but neither unresolved nor wrong.
+    MaskMissed,
+    /// The tracer could not decide; a fallback filled the pixel.
+    Unresolved,
+    /// Resolved, and (within [`WRONG_SURFACE_FOOTPRINTS`] footprints) the reference's surface,
+    /// or both left the scene.
+    Correct,
+    /// Resolved, but another surface than the reference's, or a hit where the reference left
+    /// the scene, or the reverse.
+    WrongSurface,
+}
+
+/// The per-pixel verdict behind [`ErrorReport`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PixelError {
+    pub class: PixelClass,
+    /// Angle between the traced and reference hit points seen from the mirror point, degrees;
+    /// `None` unless both hit something away from the mirror point.
+    pub angle_deg: Option<f64>,
+}
+
+/// Classifies every pixel of `traced` against `reference` (same arguments as [`compare`]),
+/// row-major. [`compare`] is this, summed up.
+pub fn classify(
     reference: &Frame,
     traced: &Traced,
     mirror_point: &[Vec3],
     cmo_centres: &[Vec3],
     cube_size: u32,
-) -> ErrorReport {
+) -> Vec<PixelError> {
     assert_eq!(
         (reference.width, reference.height),
         (traced.width, traced.height),
@@ -71,14 +96,65 @@ pub fn compare(
             .fold(f32::INFINITY, f32::min)
             * texel_angle
     };
+    let verdict = |class| PixelError {
+        class,
+        angle_deg: None,
+    };
+    (0..reference.mask.len())
+        .map(|k| {
+            if reference.mask[k] == 0 {
+                return verdict(PixelClass::NotMirror);
+            }
+            if traced.mask[k] == 0 {
+                return verdict(PixelClass::MaskMissed);
+            }
+            if traced.resolved[k] == 0 {
+                return verdict(PixelClass::Unresolved);
+            }
+            let (rh, th) = (reference.hit_position[k], traced.hit_position[k]);
+            match (rh.is_nan(), th.is_nan()) {
+                (true, true) => verdict(PixelClass::Correct),
+                (false, false) => {
+                    // A hit on the mirror point itself (an approximate criterion firing at
+                    // the ray's start) has no direction: no angle, the distance still counts.
+                    let p = mirror_point[k];
+                    let (a, b) = ((rh - p).normalize_or_zero(), (th - p).normalize_or_zero());
+                    let angle_deg = (a != Vec3::ZERO && b != Vec3::ZERO)
+                        .then(|| (a.dot(b).clamp(-1.0, 1.0) as f64).acos().to_degrees());
+                    PixelError {
+                        class: if (rh - th).length() > WRONG_SURFACE_FOOTPRINTS * footprint(rh) {
+                            PixelClass::WrongSurface
+                        } else {
+                            PixelClass::Correct
+                        },
+                        angle_deg,
+                    }
+                }
+                _ => verdict(PixelClass::WrongSurface),
+            }
+        })
+        .collect()
+}
+
+/// Compares `traced` with `reference` over the reference's mirror pixels. `mirror_point` gives
+/// the primary hit on the mirror per pixel, `cmo_centres` and `cube_size` define the texel
+/// footprint.
+pub fn compare(
+    reference: &Frame,
+    traced: &Traced,
+    mirror_point: &[Vec3],
+    cmo_centres: &[Vec3],
+    cube_size: u32,
+) -> ErrorReport {
+    let pixels = classify(reference, traced, mirror_point, cmo_centres, cube_size);
     let mut r = ErrorReport::default();
     let (mut unresolved, mut wrong, mut se) = (0usize, 0usize, 0f64);
     let mut angles = Vec::new();
-    for k in 0..reference.mask.len() {
+    for (k, p) in pixels.iter().enumerate() {
         if reference.mask[k] != traced.mask[k] {
             r.mask_mismatch += 1;
         }
-        if reference.mask[k] == 0 {
+        if p.class == PixelClass::NotMirror {
             continue;
         }
         r.mirror_pixels += 1;
@@ -86,29 +162,12 @@ pub fn compare(
             - traced.colour[k].clamp(Vec3::ZERO, Vec3::ONE))
         .as_dvec3();
         se += d.length_squared();
-        if traced.mask[k] == 0 {
-            continue;
+        match p.class {
+            PixelClass::Unresolved => unresolved += 1,
+            PixelClass::WrongSurface => wrong += 1,
+            _ => {}
         }
-        if traced.resolved[k] == 0 {
-            unresolved += 1;
-            continue;
-        }
-        let (rh, th) = (reference.hit_position[k], traced.hit_position[k]);
-        match (rh.is_nan(), th.is_nan()) {
-            (true, true) => {}
-            (false, false) => {
-                if (rh - th).length() > WRONG_SURFACE_FOOTPRINTS * footprint(rh) {
-                    wrong += 1;
-                }
-                let p = mirror_point[k];
-                let cos = (rh - p)
-                    .normalize()
-                    .dot((th - p).normalize())
-                    .clamp(-1.0, 1.0);
-                angles.push((cos as f64).acos().to_degrees());
-            }
-            _ => wrong += 1,
-        }
+        angles.extend(p.angle_deg);
     }
     let n = r.mirror_pixels.max(1) as f64;
     r.unresolved = unresolved as f64 / n;
@@ -181,5 +240,32 @@ mod tests {
         t.hit_position[0].x += 0.5;
         let r = compare(&f, &t, &m, &[Vec3::ZERO], 64);
         assert_eq!(r.wrong_surface, 0.0);
+    }
+
+    #[test]
+    fn classify_names_each_pixel() {
+        let (f, mut t, m) = pair();
+        let ok = classify(&f, &t, &m, &[Vec3::ZERO], 64);
+        let classes: Vec<_> = ok.iter().map(|p| p.class).collect();
+        use PixelClass::*;
+        assert_eq!(classes, [Correct, Correct, Correct, NotMirror]);
+        assert_eq!(ok[0].angle_deg, Some(0.0));
+        assert_eq!(ok[2].angle_deg, None);
+        t.hit_position[0].x += 1.0;
+        t.resolved[1] = 0;
+        t.hit_position[2] = Vec3::ONE;
+        t.mask[3] = 1;
+        let bad = classify(&f, &t, &m, &[Vec3::ZERO], 64);
+        let classes: Vec<_> = bad.iter().map(|p| p.class).collect();
+        assert_eq!(classes, [WrongSurface, Unresolved, WrongSurface, NotMirror]);
+        assert!(bad[0].angle_deg.is_some_and(|a| a > 5.0));
+        // A hit on the mirror point: wrong, and no angle (not NaN).
+        let mut t = pair().1;
+        t.hit_position[1] = m[1];
+        let e = classify(&f, &t, &m, &[Vec3::ZERO], 64)[1];
+        assert_eq!((e.class, e.angle_deg), (WrongSurface, None));
+        let mut t = pair().1;
+        t.mask[0] = 0;
+        assert_eq!(classify(&f, &t, &m, &[Vec3::ZERO], 64)[0].class, MaskMissed);
     }
 }

@@ -1,0 +1,755 @@
+#![forbid(unsafe_code)]
+//! The speed-against-error harness behind `cubetrace bench` (and `cargo bench --bench paths`).
+//!
+//! A run is one scene x one [`MethodSpec`]. Each GPU run builds one
+//! [`GpuRenderer`] (everything allocated once), renders `warmup` frames that are thrown away,
+//! then `frames` timed frames. It reports, per pass, the median, min and max of the GPU
+//! timestamps; the tracing pass's median per mirror pixel; the mean `cells`, `texels` and
+//! `traces` counters of the pixel records over mirror pixels; the CMO memory; and the error of
+//! the **last** frame against the exact CPU reference ([`metrics::compare`], plus the FLIP mean
+//! over mirror pixels). `reference` runs on the CPU: its time is wall-clock, its error zero by
+//! definition (it is the yardstick), and it appears in the table but not in the plot.
+//!
+//! Invariants:
+//! - Every figure comes from the frames of this run; nothing is extrapolated. Frames are
+//!   deterministic, so the last frame's error is every frame's error.
+//! - A method is a [`MethodKind`] plus tracer options; the grid ([`fragment_grid`]) sweeps the
+//!   options of every kind for which [`MethodKind::traces`] holds, so a new GPU method (compute)
+//!   is one enum variant here plus its [`GpuMethod`].
+//! - "Cost" in the plot and in `ns/mirror px` is the tracing pass alone (`fragment_trace`,
+//!   `envmap`): capture, pyramid and G-buffer are listed per pass but are the same for every
+//!   tracing method of a scene and are not what the methods trade against error.
+
+pub mod heatmap;
+pub mod plot;
+pub mod report;
+pub mod scaling;
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use serde::Serialize;
+
+use crate::camera::Camera;
+use crate::cpu::options::{TraceCriterion, TraceOptions, TraceSampling};
+use crate::metrics::{self, ErrorReport, PixelError, Traced};
+use crate::reference::{self, Frame};
+use crate::scene::{self, CmoPlacement, Scene};
+use crate::vk::frame::{Fallback, GpuFrame, GpuMethod, GpuRenderer, RenderOptions};
+use crate::vk::{GpuContext, PassTime};
+
+/// The ways of computing reflections the harness knows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum MethodKind {
+    /// The exact CPU ray tracer (ground truth).
+    Reference,
+    /// One cube-map lookup per pixel on the GPU.
+    Envmap,
+    /// Cubemap tracing in a deferred fragment pass.
+    Fragment,
+}
+
+impl MethodKind {
+    pub const ALL: [MethodKind; 3] = [
+        MethodKind::Reference,
+        MethodKind::Envmap,
+        MethodKind::Fragment,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            MethodKind::Reference => "reference",
+            MethodKind::Envmap => "envmap",
+            MethodKind::Fragment => "fragment",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|m| m.name() == name)
+    }
+
+    /// The GPU method, or `None` for the CPU reference.
+    pub fn gpu(self) -> Option<GpuMethod> {
+        match self {
+            MethodKind::Reference => None,
+            MethodKind::Envmap => Some(GpuMethod::Envmap),
+            MethodKind::Fragment => Some(GpuMethod::Fragment),
+        }
+    }
+
+    /// Whether the method runs the cubemap tracer, so that the tracer options matter.
+    pub fn traces(self) -> bool {
+        matches!(self, MethodKind::Fragment)
+    }
+}
+
+/// One method with its parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MethodSpec {
+    pub kind: MethodKind,
+    /// Used when [`MethodKind::traces`].
+    pub trace: TraceOptions,
+}
+
+impl MethodSpec {
+    pub fn plain(kind: MethodKind) -> Self {
+        MethodSpec {
+            kind,
+            trace: TraceOptions::default(),
+        }
+    }
+
+    /// A short unique name, also used in file names: `fragment-exact-mip`,
+    /// `fragment-threshold-step64`, `envmap`, ...
+    pub fn label(&self) -> String {
+        if !self.kind.traces() {
+            return self.kind.name().into();
+        }
+        let t = &self.trace;
+        let sampling = match t.sampling {
+            TraceSampling::PerTexel => "texel".to_string(),
+            TraceSampling::ConstantStep => format!("step{}", t.steps),
+            TraceSampling::ConstantAngle => format!("angle{}", t.steps),
+        };
+        match t.criterion {
+            TraceCriterion::Exact => format!(
+                "{}-exact-{}",
+                self.kind.name(),
+                if t.accel { "mip" } else { "walk" }
+            ),
+            TraceCriterion::Threshold => format!("{}-threshold-{sampling}", self.kind.name()),
+            TraceCriterion::SignChange => format!("{}-sign-{sampling}", self.kind.name()),
+        }
+    }
+}
+
+/// The default parameter grid of a tracing method: the exact criterion with and without the
+/// min/max pyramid, and the threshold and sign-change criteria with per-texel, 64 and 256
+/// constant steps, and 256 constant-angle steps (`eps` stays at its default, 0.05 world units:
+/// the built-in scenes are a few metres across).
+pub fn fragment_grid(kind: MethodKind) -> Vec<MethodSpec> {
+    let base = TraceOptions::default();
+    let mut out = vec![
+        TraceOptions {
+            accel: true,
+            ..base
+        },
+        TraceOptions {
+            accel: false,
+            ..base
+        },
+    ];
+    for criterion in [TraceCriterion::Threshold, TraceCriterion::SignChange] {
+        for (sampling, steps) in [
+            (TraceSampling::PerTexel, base.steps),
+            (TraceSampling::ConstantStep, 64),
+            (TraceSampling::ConstantStep, 256),
+            (TraceSampling::ConstantAngle, 256),
+        ] {
+            out.push(TraceOptions {
+                criterion,
+                sampling,
+                steps,
+                ..base
+            });
+        }
+    }
+    out.into_iter()
+        .map(|trace| MethodSpec { kind, trace })
+        .collect()
+}
+
+/// The full method list for the chosen kinds, in table order.
+pub fn method_grid(kinds: &[MethodKind], quick: bool) -> Vec<MethodSpec> {
+    let mut out = Vec::new();
+    for &kind in kinds {
+        if kind.traces() {
+            if quick {
+                out.push(MethodSpec::plain(kind));
+            } else {
+                out.extend(fragment_grid(kind));
+            }
+        } else {
+            out.push(MethodSpec::plain(kind));
+        }
+    }
+    out
+}
+
+/// What to run.
+#[derive(Clone, Debug)]
+pub struct BenchConfig {
+    /// Built-in scene names or scene file paths.
+    pub scenes: Vec<String>,
+    pub methods: Vec<MethodSpec>,
+    pub width: u32,
+    pub height: u32,
+    /// Timed frames per run (at least 1).
+    pub frames: u32,
+    /// Frames rendered and thrown away before timing.
+    pub warmup: u32,
+    /// Overrides the scenes' cube face size.
+    pub cube_size: Option<u32>,
+    /// Overrides the scenes' CMO placement with this many automatic CMOs.
+    pub cmos: Option<u32>,
+    /// Compute FLIP (nv-flip) over mirror pixels (needs the `flip` feature, on by default).
+    pub flip: bool,
+    /// Write per-run error heat maps.
+    pub heatmaps: bool,
+    pub out: PathBuf,
+}
+
+impl Default for BenchConfig {
+    /// Every built-in scene, reference + envmap + the fragment grid, 160x120, 1 + 5 frames:
+    /// about two minutes on lavapipe (2 cores).
+    fn default() -> Self {
+        BenchConfig {
+            scenes: scene::builtin::NAMES
+                .iter()
+                .map(|(n, _)| n.to_string())
+                .collect(),
+            methods: method_grid(&MethodKind::ALL, false),
+            width: 160,
+            height: 120,
+            frames: 5,
+            warmup: 1,
+            cube_size: None,
+            cmos: None,
+            flip: true,
+            heatmaps: true,
+            out: PathBuf::from("out/bench"),
+        }
+    }
+}
+
+/// Median, min and max of a sample.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct Stats {
+    pub median: f64,
+    pub min: f64,
+    pub max: f64,
+}
+
+impl Stats {
+    /// `None` for an empty sample. NaNs sort last (`total_cmp`).
+    pub fn of(values: &[f64]) -> Option<Stats> {
+        if values.is_empty() {
+            return None;
+        }
+        let mut v = values.to_vec();
+        v.sort_by(f64::total_cmp);
+        let n = v.len();
+        let median = if n % 2 == 1 {
+            v[n / 2]
+        } else {
+            0.5 * (v[n / 2 - 1] + v[n / 2])
+        };
+        Some(Stats {
+            median,
+            min: v[0],
+            max: v[n - 1],
+        })
+    }
+}
+
+/// GPU time of one pass over the timed frames, nanoseconds.
+#[derive(Clone, Debug, Serialize)]
+pub struct PassStats {
+    pub pass: String,
+    pub ns: Stats,
+}
+
+/// Mean per-ray counters of the pixel records, over mirror pixels.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct Counters {
+    pub cells: f64,
+    pub texels: f64,
+    /// CMO traces per ray (1 + handoffs to further CMOs).
+    pub traces: f64,
+}
+
+impl Counters {
+    /// Means over mirror pixels of `frame`.
+    pub fn of(frame: &GpuFrame) -> Counters {
+        let (mut c, mut n) = (Counters::default(), 0usize);
+        for (r, _) in frame
+            .records
+            .iter()
+            .zip(&frame.mask)
+            .filter(|(_, m)| **m != 0)
+        {
+            c.cells += f64::from(r.cells);
+            c.texels += f64::from(r.texels);
+            c.traces += f64::from(r.traces);
+            n += 1;
+        }
+        let n = n.max(1) as f64;
+        Counters {
+            cells: c.cells / n,
+            texels: c.texels / n,
+            traces: c.traces / n,
+        }
+    }
+}
+
+/// The result of one scene x method.
+#[derive(Clone, Debug, Serialize)]
+pub struct RunResult {
+    pub scene: String,
+    pub method: String,
+    pub kind: MethodKind,
+    /// Tracer options as text (criterion, sampling, accel, steps, eps); empty for non-tracers.
+    pub params: String,
+    pub width: u32,
+    pub height: u32,
+    pub cube_size: u32,
+    pub cmos: u32,
+    pub triangles: usize,
+    pub mirror_pixels: usize,
+    pub frames: u32,
+    /// Per pass, in recording order (GPU methods).
+    pub passes: Vec<PassStats>,
+    /// The method's own pass (GPU), or the whole frame's wall time (reference), ns.
+    pub trace_ns: Stats,
+    /// Sum of all passes per frame (GPU) or wall time (reference), ns.
+    pub total_ns: Stats,
+    /// Median of `trace_ns` per mirror pixel.
+    pub trace_ns_per_mirror_px: f64,
+    pub counters: Counters,
+    /// Bytes of GPU memory of the CMO data (0 for the reference).
+    pub cmo_bytes: u64,
+    pub error: ErrorReport,
+    /// FLIP mean over mirror pixels (LDR, sRGB 8-bit, 67 pixels per degree), if computed.
+    pub flip_mean: Option<f64>,
+    /// The error heat map, relative to the output folder.
+    pub heatmap: Option<String>,
+}
+
+/// The device a run was measured on.
+#[derive(Clone, Debug, Serialize)]
+pub struct DeviceInfo {
+    pub name: String,
+    pub driver_name: Option<String>,
+    pub driver_info: Option<String>,
+    pub api_version: String,
+    pub subgroup_size: u32,
+    pub timestamps: bool,
+}
+
+impl DeviceInfo {
+    pub fn of(ctx: &GpuContext) -> Self {
+        let r = ctx.report();
+        DeviceInfo {
+            name: r.name.clone(),
+            driver_name: r.driver_name.clone(),
+            driver_info: r.driver_info.clone(),
+            api_version: format!(
+                "{}.{}.{}",
+                r.api_version.0, r.api_version.1, r.api_version.2
+            ),
+            subgroup_size: r.subgroup_size,
+            timestamps: r.timestamps_supported(),
+        }
+    }
+
+    /// `name (driver_name driver_info)`.
+    pub fn describe(&self) -> String {
+        let driver = [self.driver_name.as_deref(), self.driver_info.as_deref()]
+            .into_iter()
+            .flatten()
+            .collect::<Vec<_>>()
+            .join(" ");
+        format!(
+            "{} ({driver}, Vulkan {}, subgroup size {})",
+            self.name, self.api_version, self.subgroup_size
+        )
+    }
+}
+
+/// Everything a bench run produced.
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchReport {
+    pub device: DeviceInfo,
+    /// `git rev-parse HEAD` at run time, else the build-time `CUBETRACE_GIT_COMMIT`, else null.
+    pub git_commit: Option<String>,
+    pub cubetrace_version: &'static str,
+    pub cpu_threads: usize,
+    pub warmup: u32,
+    pub runs: Vec<RunResult>,
+}
+
+/// The commit being measured: `git rev-parse HEAD` in the current folder, else the build-time
+/// environment variable `CUBETRACE_GIT_COMMIT`; `None` when neither is available (no failure).
+pub fn git_commit() -> Option<String> {
+    let run = std::process::Command::new("git")
+        .args(["rev-parse", "HEAD"])
+        .stderr(std::process::Stdio::null())
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .and_then(|o| String::from_utf8(o.stdout).ok())
+        .map(|s| s.trim().to_string())
+        .filter(|s| !s.is_empty());
+    run.or_else(|| option_env!("CUBETRACE_GIT_COMMIT").map(str::to_string))
+}
+
+/// Loads a scene by name or path and applies the overrides of `cfg` and its frame size to its
+/// first camera.
+pub fn prepare_scene(
+    name: &str,
+    width: u32,
+    height: u32,
+    cube_size: Option<u32>,
+    cmos: Option<u32>,
+) -> Result<(Scene, Camera)> {
+    let mut scene = scene::load(name)?;
+    if let Some(c) = cmos {
+        scene.cmo.placement = CmoPlacement::Auto { count: c };
+    }
+    if let Some(n) = cube_size {
+        scene.cmo.resolution = n;
+    }
+    let mut camera = scene
+        .cameras
+        .first()
+        .with_context(|| format!("scene '{name}' has no camera"))?
+        .clone();
+    camera.width = width;
+    camera.height = height;
+    scene::check_resolution(width, height).map_err(|e| anyhow::anyhow!("frame size: {e}"))?;
+    Ok((scene, camera))
+}
+
+/// The reference frame of one scene, with its wall times per frame (ns).
+pub struct ReferenceRun {
+    pub frame: Frame,
+    pub wall_ns: Vec<f64>,
+}
+
+/// Renders the CPU reference `warmup + frames` times (one bounce) and keeps the last frame.
+pub fn run_reference(scene: &Scene, camera: &Camera, warmup: u32, frames: u32) -> ReferenceRun {
+    let tracer = reference::Tracer::new(scene);
+    let mut frame = reference::render(scene, &tracer, camera, 1);
+    for _ in 1..warmup {
+        frame = reference::render(scene, &tracer, camera, 1);
+    }
+    let mut wall_ns = Vec::new();
+    for _ in 0..frames.max(1) {
+        let start = Instant::now();
+        frame = reference::render(scene, &tracer, camera, 1);
+        wall_ns.push(start.elapsed().as_secs_f64() * 1e9);
+    }
+    ReferenceRun { frame, wall_ns }
+}
+
+/// A GPU method's timed frames: the last frame, pass times per frame, CMO bytes.
+pub struct GpuRun {
+    pub frame: GpuFrame,
+    pub pass_ns: Vec<Vec<PassTime>>,
+    pub cmo_bytes: u64,
+}
+
+/// Renders `warmup` + `frames` frames of one GPU method, keeping the last frame.
+pub fn run_gpu(
+    ctx: &GpuContext,
+    scene: &Scene,
+    camera: &Camera,
+    method: GpuMethod,
+    trace: TraceOptions,
+    warmup: u32,
+    frames: u32,
+) -> Result<GpuRun> {
+    let options = RenderOptions {
+        method,
+        trace,
+        // The CLI's default: PSNR and FLIP measure the image a user would see; unresolved pixels
+        // are counted separately, whatever fills them.
+        fallback: Fallback::Envmap,
+    };
+    let mut renderer = GpuRenderer::new(ctx, scene, camera, options)?;
+    for _ in 0..warmup {
+        renderer.render(ctx)?;
+    }
+    let mut pass_ns = Vec::new();
+    let mut last = None;
+    for _ in 0..frames.max(1) {
+        let f = renderer.render(ctx)?;
+        pass_ns.push(f.pass_times.clone());
+        last = Some(f);
+    }
+    let frame = last.context("no frame rendered")?;
+    Ok(GpuRun {
+        frame,
+        pass_ns,
+        cmo_bytes: renderer.cmo().bytes(),
+    })
+}
+
+/// Statistics over frames of one pass's time (`Some(name)`) or of the sum of all passes.
+pub fn frame_stats(pass_ns: &[Vec<PassTime>], pass: Option<&str>) -> Stats {
+    let per_frame: Vec<f64> = pass_ns
+        .iter()
+        .map(|f| {
+            f.iter()
+                .filter(|(n, _)| pass.is_none_or(|p| p == n))
+                .map(|(_, t)| t)
+                .sum()
+        })
+        .collect();
+    Stats::of(&per_frame).unwrap_or_default()
+}
+
+/// Per-pass statistics over frames, in the first frame's pass order.
+pub fn pass_stats(pass_ns: &[Vec<PassTime>]) -> Vec<PassStats> {
+    let Some(first) = pass_ns.first() else {
+        return Vec::new();
+    };
+    first
+        .iter()
+        .filter_map(|(name, _)| {
+            let v: Vec<f64> = pass_ns
+                .iter()
+                .map(|f| f.iter().filter(|(n, _)| n == name).map(|(_, t)| t).sum())
+                .collect();
+            Some(PassStats {
+                pass: name.clone(),
+                ns: Stats::of(&v)?,
+            })
+        })
+        .collect()
+}
+
+/// FLIP mean (LDR) over the reference's mirror pixels, on 8-bit sRGB images of the whole frame;
+/// `None` when built without the `flip` feature.
+#[cfg(not(feature = "flip"))]
+pub fn flip_mean(_reference: &Frame, _traced: &Traced) -> Option<f64> {
+    None
+}
+
+/// FLIP mean (LDR) over the reference's mirror pixels, on 8-bit sRGB images of the whole frame;
+/// `None` when built without the `flip` feature.
+#[cfg(feature = "flip")]
+pub fn flip_mean(reference: &Frame, traced: &Traced) -> Option<f64> {
+    let srgb = |c: &[glam::Vec3]| -> Vec<u8> {
+        c.iter()
+            .flat_map(|c| c.to_array().map(crate::shading::linear_to_srgb))
+            .collect()
+    };
+    let (w, h) = (reference.width, reference.height);
+    let r = nv_flip::FlipImageRgb8::with_data(w, h, &srgb(&reference.colour));
+    let t = nv_flip::FlipImageRgb8::with_data(w, h, &srgb(&traced.colour));
+    let err = nv_flip::flip(r, t, nv_flip::DEFAULT_PIXELS_PER_DEGREE).to_vec();
+    let (sum, n) = err
+        .iter()
+        .zip(&reference.mask)
+        .filter(|(_, m)| **m != 0)
+        .fold((0f64, 0usize), |(s, n), (e, _)| (s + f64::from(*e), n + 1));
+    Some(if n == 0 { 0.0 } else { sum / n as f64 })
+}
+
+/// Runs the grid, advancing `bar` by one per reference and per GPU run (indicatif hides it
+/// off a terminal).
+pub fn run(
+    ctx: &GpuContext,
+    cfg: &BenchConfig,
+    bar: &indicatif::ProgressBar,
+) -> Result<BenchReport> {
+    if cfg.methods.is_empty() || cfg.scenes.is_empty() {
+        bail!("nothing to run: no scenes or no methods chosen");
+    }
+    let gpu_methods = cfg
+        .methods
+        .iter()
+        .filter(|m| m.kind.gpu().is_some())
+        .count();
+    bar.set_length((cfg.scenes.len() * (1 + gpu_methods)) as u64);
+    let mut runs = Vec::new();
+    for name in &cfg.scenes {
+        let (scene, camera) = prepare_scene(name, cfg.width, cfg.height, cfg.cube_size, cfg.cmos)?;
+        bar.set_message(format!("{name}: reference"));
+        // The reference is needed for every error figure, even when it is not a listed method.
+        let refr = run_reference(&scene, &camera, cfg.warmup, cfg.frames);
+        bar.inc(1);
+        let centres = scene.cmo_centres();
+        let triangles = scene.world().triangles.len();
+        let mirror = refr.frame.mirror_pixels();
+        let base = |spec: &MethodSpec| RunResult {
+            scene: scene.name.clone(),
+            method: spec.label(),
+            kind: spec.kind,
+            params: if spec.kind.traces() {
+                let t = &spec.trace;
+                format!(
+                    "criterion={:?} sampling={:?} accel={} steps={} eps={}",
+                    t.criterion, t.sampling, t.accel, t.steps, t.eps
+                )
+            } else {
+                String::new()
+            },
+            width: cfg.width,
+            height: cfg.height,
+            cube_size: scene.cmo.resolution,
+            cmos: centres.len() as u32,
+            triangles,
+            mirror_pixels: mirror,
+            frames: cfg.frames.max(1),
+            passes: Vec::new(),
+            trace_ns: Stats::default(),
+            total_ns: Stats::default(),
+            trace_ns_per_mirror_px: 0.0,
+            counters: Counters::default(),
+            cmo_bytes: 0,
+            error: ErrorReport::default(),
+            flip_mean: None,
+            heatmap: None,
+        };
+        for spec in &cfg.methods {
+            let Some(gpu) = spec.kind.gpu() else {
+                let wall = Stats::of(&refr.wall_ns).unwrap_or_default();
+                runs.push(RunResult {
+                    trace_ns: wall,
+                    total_ns: wall,
+                    trace_ns_per_mirror_px: wall.median / mirror.max(1) as f64,
+                    error: ErrorReport {
+                        mirror_pixels: mirror,
+                        psnr_db: f64::INFINITY,
+                        ..ErrorReport::default()
+                    },
+                    ..base(spec)
+                });
+                continue;
+            };
+            let label = spec.label();
+            bar.set_message(format!("{name}: {label}"));
+            let g = run_gpu(
+                ctx, &scene, &camera, gpu, spec.trace, cfg.warmup, cfg.frames,
+            )
+            .with_context(|| format!("scene '{name}', method {label}"))?;
+            let traced = g.frame.traced();
+            let pixels = metrics::classify(
+                &refr.frame,
+                &traced,
+                &g.frame.surface_position,
+                &centres,
+                scene.cmo.resolution,
+            );
+            let error = metrics::compare(
+                &refr.frame,
+                &traced,
+                &g.frame.surface_position,
+                &centres,
+                scene.cmo.resolution,
+            );
+            let passes = pass_stats(&g.pass_ns);
+            let trace_ns = frame_stats(&g.pass_ns, Some(gpu.pass_name()));
+            let total_ns = frame_stats(&g.pass_ns, None);
+            let heatmap = if cfg.heatmaps {
+                let rel = format!("heat/{}-{label}.png", scene.name);
+                heatmap::write(&cfg.out.join(&rel), &refr.frame, &pixels)?;
+                Some(rel)
+            } else {
+                None
+            };
+            runs.push(RunResult {
+                passes,
+                trace_ns,
+                total_ns,
+                trace_ns_per_mirror_px: trace_ns.median / mirror.max(1) as f64,
+                counters: Counters::of(&g.frame),
+                cmo_bytes: g.cmo_bytes,
+                error,
+                flip_mean: if cfg.flip {
+                    flip_mean(&refr.frame, &traced)
+                } else {
+                    None
+                },
+                heatmap,
+                ..base(spec)
+            });
+            bar.inc(1);
+            check_validation(ctx)?;
+        }
+    }
+    Ok(BenchReport {
+        device: DeviceInfo::of(ctx),
+        git_commit: git_commit(),
+        cubetrace_version: env!("CARGO_PKG_VERSION"),
+        cpu_threads: rayon::current_num_threads(),
+        warmup: cfg.warmup,
+        runs,
+    })
+}
+
+/// Fails if the validation layer (when on) reported errors.
+pub fn check_validation(ctx: &GpuContext) -> Result<()> {
+    let errors = ctx.validation_errors();
+    if !errors.is_empty() {
+        bail!(
+            "the validation layer reported errors:\n{}",
+            errors.join("\n")
+        );
+    }
+    Ok(())
+}
+
+/// The per-pixel verdicts, for callers that want them without the harness (tests).
+pub fn pixel_errors(reference: &Frame, frame: &GpuFrame, scene: &Scene) -> Vec<PixelError> {
+    metrics::classify(
+        reference,
+        &frame.traced(),
+        &frame.surface_position,
+        &scene.cmo_centres(),
+        scene.cmo.resolution,
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stats_median_min_max() {
+        let s = Stats::of(&[3.0, 1.0, 2.0]).unwrap();
+        assert_eq!((s.median, s.min, s.max), (2.0, 1.0, 3.0));
+        let s = Stats::of(&[4.0, 1.0, 2.0, 3.0]).unwrap();
+        assert_eq!(s.median, 2.5);
+        assert!(Stats::of(&[]).is_none());
+    }
+
+    #[test]
+    fn labels_are_unique_across_the_grid() {
+        let grid = method_grid(&MethodKind::ALL, false);
+        let mut labels: Vec<String> = grid.iter().map(MethodSpec::label).collect();
+        let n = labels.len();
+        labels.sort();
+        labels.dedup();
+        assert_eq!(labels.len(), n, "{labels:?}");
+        assert!(labels.contains(&"fragment-exact-mip".to_string()));
+        assert!(labels.contains(&"fragment-sign-angle256".to_string()));
+        // Negative: two specs differing only in steps must get different labels.
+        let a = fragment_grid(MethodKind::Fragment)[3];
+        let mut b = a;
+        b.trace.steps += 1;
+        assert_ne!(a.label(), b.label());
+    }
+
+    #[test]
+    fn method_names_round_trip() {
+        for m in MethodKind::ALL {
+            assert_eq!(MethodKind::from_name(m.name()), Some(m));
+        }
+        assert_eq!(MethodKind::from_name("raytrace"), None);
+    }
+
+    #[test]
+    fn pass_stats_per_pass() {
+        let f = |a: f64, b: f64| vec![("capture".to_string(), a), ("envmap".to_string(), b)];
+        let s = pass_stats(&[f(1.0, 10.0), f(3.0, 30.0), f(2.0, 20.0)]);
+        assert_eq!(s.len(), 2);
+        assert_eq!(s[0].pass, "capture");
+        assert_eq!((s[0].ns.median, s[0].ns.min, s[0].ns.max), (2.0, 1.0, 3.0));
+        assert_eq!(s[1].ns.median, 20.0);
+    }
+}

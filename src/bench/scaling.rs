@@ -1,0 +1,334 @@
+#![forbid(unsafe_code)]
+//! `cubetrace bench --scaling`: cost of one GPU method (default: `fragment`, exact criterion with
+//! the pyramid) against one quantity at a time, everything else at its default:
+//!
+//! | axis | scene | values (default) |
+//! |---|---|---|
+//! | cube face size | `sphere-room` | 32, 64, ..., 1024 (`--max-cube`, up to 4096) |
+//! | screen size | `sphere-room` | 80x60, 160x120, 320x240, 640x480 |
+//! | number of CMOs | `default` | 1, 2, 4, 8 (automatic placement) |
+//! | scene triangles | `sphere-room` plus one extra UV sphere beside the mirror | 8, 32, 128, 512 segments |
+//!
+//! Output: `scaling.json`, `scaling.md` and one `scaling-AXIS.svg` per axis (GPU ms per pass
+//! against the quantity, log-log). No error figures: this measures cost only.
+//!
+//! Invariant: the tracing pass reads only the CMO data, so its cost can depend on the cube size,
+//! the screen and the CMO count, but not on the triangle count; the capture pass rasterises the
+//! scene and does depend on it. The triangle axis shows whether that holds.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Result;
+use glam::Vec3;
+use serde::Serialize;
+
+use super::plot;
+use super::{
+    Counters, DeviceInfo, MethodSpec, PassStats, Stats, frame_stats, git_commit, pass_stats,
+    prepare_scene, run_gpu,
+};
+use crate::output::write_atomic;
+use crate::scene::shapes::uv_sphere;
+use crate::scene::{Material, MeshInstance, Scene, Transform};
+use crate::vk::GpuContext;
+
+/// Which quantity a point varies.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Axis {
+    CubeSize,
+    Screen,
+    Cmos,
+    Triangles,
+}
+
+impl Axis {
+    pub const ALL: [Axis; 4] = [Axis::CubeSize, Axis::Screen, Axis::Cmos, Axis::Triangles];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Axis::CubeSize => "cube-size",
+            Axis::Screen => "screen",
+            Axis::Cmos => "cmos",
+            Axis::Triangles => "triangles",
+        }
+    }
+
+    fn x_desc(self) -> &'static str {
+        match self {
+            Axis::CubeSize => "texels per cube face side",
+            Axis::Screen => "pixels in the frame",
+            Axis::Cmos => "number of CMOs",
+            Axis::Triangles => "triangles in the scene",
+        }
+    }
+}
+
+/// Options of the scaling run.
+#[derive(Clone, Debug)]
+pub struct ScalingConfig {
+    pub method: MethodSpec,
+    pub axes: Vec<Axis>,
+    /// Largest cube face size on the cube axis (powers of two from 32).
+    pub max_cube: u32,
+    /// Frame size on the axes other than the screen.
+    pub width: u32,
+    pub height: u32,
+    pub frames: u32,
+    pub warmup: u32,
+    pub out: PathBuf,
+}
+
+/// One measured point.
+#[derive(Clone, Debug, Serialize)]
+pub struct ScalingPoint {
+    pub axis: Axis,
+    /// The quantity varied (texels, pixels, CMOs or triangles).
+    pub x: f64,
+    pub scene: String,
+    pub width: u32,
+    pub height: u32,
+    pub cube_size: u32,
+    pub cmos: u32,
+    pub triangles: usize,
+    pub mirror_pixels: usize,
+    pub passes: Vec<PassStats>,
+    pub trace_ns: Stats,
+    pub trace_ns_per_mirror_px: f64,
+    pub counters: Counters,
+    pub cmo_bytes: u64,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct ScalingReport {
+    pub device: DeviceInfo,
+    pub git_commit: Option<String>,
+    pub method: String,
+    pub frames: u32,
+    pub warmup: u32,
+    pub points: Vec<ScalingPoint>,
+}
+
+/// `sphere-room` with one extra diffuse UV sphere of `segments` x `segments / 2` quads beside
+/// the mirror, in its view: a scene whose triangle count is set by one number.
+pub fn tessellated_scene(segments: u32) -> Result<Scene> {
+    let mut scene = crate::scene::builtin::by_name("sphere-room")
+        .ok_or_else(|| anyhow::anyhow!("built-in scene sphere-room is missing"))?;
+    let material = scene.materials.len() as u32;
+    scene.materials.push(Material {
+        name: "tessellated".into(),
+        diffuse: Vec3::new(0.3, 0.7, 0.9),
+        texture: None,
+    });
+    scene.meshes.push(MeshInstance {
+        name: "tessellated-ball".into(),
+        parts: vec![uv_sphere(0.45, segments, (segments / 2).max(2), material)],
+        transform: Transform::translation(Vec3::new(1.6, 1.6, -0.6)),
+        reflector: false,
+    });
+    scene.name = format!("sphere-room+ball{segments}");
+    Ok(scene)
+}
+
+/// One point to measure: `(x, scene, width, height)`.
+type PlanPoint = (f64, Scene, u32, u32);
+
+/// The points of one axis.
+fn plan(axis: Axis, cfg: &ScalingConfig) -> Result<Vec<PlanPoint>> {
+    let (w, h) = (cfg.width, cfg.height);
+    let mut out = Vec::new();
+    match axis {
+        Axis::CubeSize => {
+            let mut n = 32;
+            while n <= cfg.max_cube {
+                let (s, _) = prepare_scene("sphere-room", w, h, Some(n), None)?;
+                out.push((f64::from(n), s, w, h));
+                n *= 2;
+            }
+        }
+        Axis::Screen => {
+            for (sw, sh) in [(80, 60), (160, 120), (320, 240), (640, 480)] {
+                let (s, _) = prepare_scene("sphere-room", sw, sh, None, None)?;
+                out.push((f64::from(sw * sh), s, sw, sh));
+            }
+        }
+        Axis::Cmos => {
+            for k in [1, 2, 4, 8] {
+                let (s, _) = prepare_scene("default", w, h, None, Some(k))?;
+                out.push((f64::from(k), s, w, h));
+            }
+        }
+        Axis::Triangles => {
+            for seg in [8, 32, 128, 512] {
+                let s = tessellated_scene(seg)?;
+                let t = s.world().triangles.len();
+                out.push((t as f64, s, w, h));
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Runs the chosen axes.
+pub fn run(
+    ctx: &GpuContext,
+    cfg: &ScalingConfig,
+    bar: &indicatif::ProgressBar,
+) -> Result<ScalingReport> {
+    let gpu = cfg
+        .method
+        .kind
+        .gpu()
+        .ok_or_else(|| anyhow::anyhow!("--scaling measures a GPU method, not the reference"))?;
+    let plans: Vec<(Axis, Vec<PlanPoint>)> = cfg
+        .axes
+        .iter()
+        .map(|&a| Ok((a, plan(a, cfg)?)))
+        .collect::<Result<_>>()?;
+    bar.set_length(plans.iter().map(|(_, p)| p.len() as u64).sum());
+    let mut points = Vec::new();
+    for (axis, plan) in plans {
+        for (x, scene, width, height) in plan {
+            bar.set_message(format!("{}: {x}", axis.name()));
+            let mut camera = scene.cameras[0].clone();
+            camera.width = width;
+            camera.height = height;
+            let g = run_gpu(
+                ctx,
+                &scene,
+                &camera,
+                gpu,
+                cfg.method.trace,
+                cfg.warmup,
+                cfg.frames,
+            )?;
+            let mirror = g.frame.mirror_pixels();
+            let trace_ns = frame_stats(&g.pass_ns, Some(gpu.pass_name()));
+            points.push(ScalingPoint {
+                axis,
+                x,
+                scene: scene.name.clone(),
+                width,
+                height,
+                cube_size: scene.cmo.resolution,
+                cmos: scene.cmo_centres().len() as u32,
+                triangles: scene.world().triangles.len(),
+                mirror_pixels: mirror,
+                passes: pass_stats(&g.pass_ns),
+                trace_ns,
+                trace_ns_per_mirror_px: trace_ns.median / mirror.max(1) as f64,
+                counters: Counters::of(&g.frame),
+                cmo_bytes: g.cmo_bytes,
+            });
+            bar.inc(1);
+            super::check_validation(ctx)?;
+        }
+    }
+    Ok(ScalingReport {
+        device: DeviceInfo::of(ctx),
+        git_commit: git_commit(),
+        method: cfg.method.label(),
+        frames: cfg.frames,
+        warmup: cfg.warmup,
+        points,
+    })
+}
+
+/// The Markdown table of a scaling report.
+pub fn table(report: &ScalingReport) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::from(
+        "| axis | x | scene | frame | cube | CMOs | triangles | mirror px | capture ms | pyramid ms | trace ms | ns/mirror px | cells/ray | texels/ray | CMO MiB |\n\
+         |---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+    );
+    for p in &report.points {
+        let pass = |name: &str| {
+            p.passes
+                .iter()
+                .find(|q| q.pass == name)
+                .map_or("-".into(), |q| format!("{:.3}", q.ns.median * 1e-6))
+        };
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {}x{} | {} | {} | {} | {} | {} | {} | {:.3} | {:.0} | {:.1} | {:.1} | {:.2} |",
+            p.axis.name(),
+            p.x,
+            p.scene,
+            p.width,
+            p.height,
+            p.cube_size,
+            p.cmos,
+            p.triangles,
+            p.mirror_pixels,
+            pass("capture"),
+            pass("pyramid"),
+            p.trace_ns.median * 1e-6,
+            p.trace_ns_per_mirror_px,
+            p.counters.cells,
+            p.counters.texels,
+            p.cmo_bytes as f64 / (1024.0 * 1024.0),
+        );
+    }
+    s
+}
+
+/// Writes `scaling.json`, `scaling.md` and one SVG per axis into `dir`; returns the paths.
+pub fn write(report: &ScalingReport, dir: &Path) -> Result<Vec<PathBuf>> {
+    let mut paths = Vec::new();
+    let json = dir.join("scaling.json");
+    write_atomic(&json, serde_json::to_string_pretty(report)?.as_bytes())?;
+    paths.push(json);
+    let md = dir.join("scaling.md");
+    let doc = format!(
+        "# cubetrace bench --scaling\n\nDevice: {}; commit {}; method {}; {} timed frames after {} warm-up.\n\n{}",
+        report.device.describe(),
+        report.git_commit.as_deref().unwrap_or("unknown"),
+        report.method,
+        report.frames,
+        report.warmup,
+        table(report)
+    );
+    write_atomic(&md, doc.as_bytes())?;
+    paths.push(md);
+    for axis in Axis::ALL {
+        let pts: Vec<&ScalingPoint> = report.points.iter().filter(|p| p.axis == axis).collect();
+        if pts.is_empty() {
+            continue;
+        }
+        let mut names: Vec<String> = Vec::new();
+        for p in &pts {
+            for q in &p.passes {
+                if !names.contains(&q.pass) {
+                    names.push(q.pass.clone());
+                }
+            }
+        }
+        let series: Vec<(String, Vec<(f64, f64)>)> = names
+            .into_iter()
+            .map(|n| {
+                let v = pts
+                    .iter()
+                    .filter_map(|p| {
+                        let q = p.passes.iter().find(|q| q.pass == n)?;
+                        Some((p.x, q.ns.median * 1e-6))
+                    })
+                    .collect();
+                (format!("{n} (ms)"), v)
+            })
+            .collect();
+        let svg = plot::lines(
+            &format!(
+                "{}: GPU time per pass against {}",
+                report.method,
+                axis.name()
+            ),
+            axis.x_desc(),
+            "GPU ms per frame (median)",
+            &series,
+        )?;
+        let path = dir.join(format!("scaling-{}.svg", axis.name()));
+        write_atomic(&path, svg.as_bytes())?;
+        paths.push(path);
+    }
+    Ok(paths)
+}
