@@ -57,6 +57,9 @@ enum SceneCommand {
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 enum Method {
+    /// Cubemap tracing in a compute pass on the GPU over the 8x4/4x8 hierarchy with subgroup
+    /// ballots (thesis alg. 3; exact criterion).
+    Compute,
     /// Cubemap tracing in a deferred fragment pass on the GPU (thesis alg. 1, 2, 4).
     Fragment,
     /// One cube map lookup per pixel on the GPU, no parallax (the baseline).
@@ -249,6 +252,7 @@ fn render(args: RenderArgs) -> Result<()> {
     let gpu_method = match args.method {
         Method::Fragment => Some(GpuMethod::Fragment),
         Method::Envmap => Some(GpuMethod::Envmap),
+        Method::Compute => Some(GpuMethod::Compute),
         Method::Reference => None,
     };
     if let Some(m) = gpu_method {
@@ -268,6 +272,23 @@ fn render(args: RenderArgs) -> Result<()> {
         let gpu_ms: f64 = frame.pass_times.iter().map(|(_, t)| t).sum::<f64>() * 1e-6;
         for (pass, ns) in &frame.pass_times {
             log::info!("{pass:>16}: {:9.3} ms", ns * 1e-6);
+        }
+        if let Some(c) = &frame.compute {
+            let [texels, cells, descents, backtracks] = c.summary(&frame.mask);
+            log::info!(
+                "compute: {} rays, subgroup size {} (min {}), per ray mean/max: texels {:.1}/{}, cells {:.1}/{}, descents {:.1}/{}, backtracks {:.1}/{}",
+                c.rays,
+                c.subgroup_size.1,
+                c.subgroup_size.0,
+                texels.0,
+                texels.1,
+                cells.0,
+                cells.1,
+                descents.0,
+                descents.1,
+                backtracks.0,
+                backtracks.1
+            );
         }
         let unresolved = traced
             .mask
@@ -316,7 +337,9 @@ fn render(args: RenderArgs) -> Result<()> {
         return Ok(());
     }
     let frame = match args.method {
-        Method::Fragment | Method::Envmap => unreachable!("GPU methods returned above"),
+        Method::Fragment | Method::Envmap | Method::Compute => {
+            unreachable!("GPU methods returned above")
+        }
         Method::Reference => {
             let tracer = reference::Tracer::new(&scene);
             log::info!(
