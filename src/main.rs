@@ -123,7 +123,7 @@ impl GpuArgs {
     }
 }
 
-/// Options of the cubemap tracer (`--method fragment`).
+/// Options of the cubemap tracer (`--method compute|fragment`; compute: exact criterion only).
 #[derive(clap::Args)]
 struct TraceArgs {
     /// Intersection criterion.
@@ -200,8 +200,8 @@ struct RenderArgs {
     /// Built-in scene name or path to a .toml scene file.
     #[arg(default_value = "default")]
     scene: String,
-    /// How reflections are computed.
-    #[arg(long, value_enum, default_value_t = Method::Reference)]
+    /// How reflections are computed (default: the compute path, thesis alg. 3).
+    #[arg(long, value_enum, default_value_t = Method::Compute)]
     method: Method,
     /// Camera of the scene, by name or index (default: the first).
     #[arg(long)]
