@@ -195,7 +195,7 @@ fn cell_bits(cells: &[[f32; 2]]) -> Vec<[u32; 2]> {
 #[test]
 fn hier32_gpu_matches_cpu_bit_for_bit() {
     let ctx = compute_context();
-    for size in [1u32, 3, 4, 5, 32, 33, 48, 64, 100, 128] {
+    for size in [1u32, 3, 4, 5, 32, 33, 48, 64, 100, 128, 256, 1000] {
         let a = hier_cube(size, u64::from(size), None);
         let b = hier_cube(size, u64::from(size) + 77, Some(size % 6));
         let cubes = vec![a, b];
