@@ -44,8 +44,9 @@ const MAX_CELLS: u32 = 8u;
 // ray runs at most MAX_ROUNDS * 16 CMOs = 256 traces: 2^29 < 2^31. Never reached for the sizes
 // `TraceConfig::new` accepts; a ray that reached it would be reported unresolved.
 const MAX_STEPS: u32 = 0x80000000u;
-// Batches of the grid-stride loop over the queue (the dispatch is capped at 65535 groups of at
-// least 8 rays; 2^16 batches cover 2^35 rays, more than a 32-bit count can hold).
+// Batches of the grid-stride loop over the queue. `dispatch_args` launches ceil(n / h) groups
+// with h = `rays_per_group` <= 64, and a group takes at least 8 rays per batch, so at most 8
+// batches are needed below the 65535-group cap, and at most 2^32 / (65535 * 8) < 2^14 above it.
 const MAX_BATCHES: u32 = 65536u;
 
 // The hierarchy layout (Rust `cubetrace::vk::compute::HierConfig`).

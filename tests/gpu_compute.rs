@@ -26,7 +26,7 @@ use cubetrace::cubemap::pyramid::Hier32;
 use cubetrace::metrics::{self, ErrorReport};
 use cubetrace::reference;
 use cubetrace::scene::{self, Scene};
-use cubetrace::vk::compute::{AppendedRay, DispatchArgs, HierConfig, RayCounter};
+use cubetrace::vk::compute::{AppendedRay, DispatchArgs, DispatchParams, HierConfig, RayCounter};
 use cubetrace::vk::frame::{
     Fallback, GpuFrame, GpuMethod, GpuRenderer, PixelRecord, RenderOptions, scene_ranges,
 };
@@ -150,6 +150,12 @@ fn compute_struct_layouts_match_naga() {
     )
     .unwrap();
     check_layout!(
+        DispatchParams,
+        DISPATCH_ARGS.struct_layout("DispatchParams").unwrap(),
+        [rays_per_group, pad0, pad1, pad2]
+    )
+    .unwrap();
+    check_layout!(
         DispatchArgs,
         DISPATCH_ARGS.struct_layout("DispatchArgs").unwrap(),
         [x, y, z]
@@ -265,10 +271,15 @@ fn dispatch_is_sized_on_the_gpu_and_empty_without_mirror_pixels() {
         .expect("compute path")
         .read_dispatch_args(&ctx)
         .unwrap_or_else(|e| panic!("{e}"));
+    let per_group = 256 / ctx.report().subgroup_size.min(32);
+    assert_eq!(
+        DispatchParams::for_subgroup_size(ctx.report().subgroup_size).rays_per_group,
+        per_group
+    );
     assert_eq!(
         args,
         DispatchArgs {
-            x: n.div_ceil(8),
+            x: n.div_ceil(per_group),
             y: 1,
             z: 1
         }

@@ -35,8 +35,15 @@ struct DispatchArgs {
     z: u32,
 }
 
-// Rays per `compute_trace` workgroup when one ray owns 32 lanes (256 / 32): the nominal size the
-// dispatch is computed with. The kernel strides over the queue, so any size >= 1 is correct.
-const RAYS_PER_GROUP: u32 = 8u;
+// Sizing of the `compute_trace` dispatch (Rust `cubetrace::vk::compute::DispatchParams`).
+struct DispatchParams {
+    // Rays one `compute_trace` workgroup takes per batch at the device's subgroup size S:
+    // 256 / min(S, 32). The kernel strides over the queue with the rays per workgroup it really
+    // has, so any value >= 1 is correct; a smaller one only launches idle workgroups.
+    rays_per_group: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
+}
 // The largest workgroup count per dimension every Vulkan device accepts.
 const MAX_GROUPS_X: u32 = 65535u;

@@ -18,7 +18,11 @@
 //!   refuses other criteria for this method.
 //! - Subgroup sizes 4..=128 (powers of two) are supported; the kernel's docs say how lanes map
 //!   to rays and why no workgroup barrier is needed (there is none).
-//! - The ray counter is zeroed (`vkCmdFillBuffer`) before `append` in every frame.
+//! - The ray counter is zeroed (`vkCmdFillBuffer`) before `append` in every frame. One fragment
+//!   per pixel (no multisampling), so the queue holds at most `width * height` rays.
+//! - The dispatch is sized for the device's default subgroup size ([`DispatchParams`]); the
+//!   kernel strides over the queue with the rays per workgroup it really has, so a device that
+//!   picks another size still traces every ray.
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use gpu_allocator::MemoryLocation;
@@ -69,6 +73,28 @@ pub struct DispatchArgs {
     pub x: u32,
     pub y: u32,
     pub z: u32,
+}
+
+/// WGSL `DispatchParams` of `dispatch_args`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct DispatchParams {
+    /// Rays per `compute_trace` workgroup at the device's subgroup size: `256 / min(S, 32)`.
+    pub rays_per_group: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+    pub pad2: u32,
+}
+
+impl DispatchParams {
+    /// For a device whose compute shaders run with subgroups of `subgroup_size` lanes (the
+    /// kernel is correct with any value; this one launches no idle workgroup on that device).
+    pub fn for_subgroup_size(subgroup_size: u32) -> Self {
+        DispatchParams {
+            rays_per_group: 256 / subgroup_size.clamp(4, 32),
+            ..DispatchParams::default()
+        }
+    }
 }
 
 /// WGSL `HierConfig` of `compute_trace`: the [`Hier32`](crate::cubemap::pyramid::Hier32)
@@ -197,6 +223,7 @@ pub struct ComputePath {
     trace_sets: [BindGroup; 3],
     _hier: Buffer,
     _hier_config: Buffer,
+    _dispatch_params: Buffer,
     _rays: Buffer,
     counter: Buffer,
     args: Buffer,
@@ -280,6 +307,13 @@ impl ComputePath {
                 (7, Resource::Buffer(&rays)),
             ],
         )?;
+        let dispatch_params = ctx.create_buffer_init(
+            "dispatch params",
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            &[DispatchParams::for_subgroup_size(
+                ctx.report().subgroup_size,
+            )],
+        )?;
         let dispatch_args =
             ComputePipeline::new(ctx, &DISPATCH_ARGS, "main", ComputeOptions::default())?;
         let args_set = dispatch_args.bind_group(
@@ -287,6 +321,7 @@ impl ComputePath {
             &[
                 (0, Resource::Buffer(&counter)),
                 (1, Resource::Buffer(&args)),
+                (2, Resource::Buffer(&dispatch_params)),
             ],
         )?;
         let trace = ComputePipeline::new(ctx, &COMPUTE_TRACE, "main", ComputeOptions::default())?;
@@ -323,6 +358,7 @@ impl ComputePath {
             trace_sets,
             _hier: hier,
             _hier_config: hier_config,
+            _dispatch_params: dispatch_params,
             _rays: rays,
             counter,
             args,
