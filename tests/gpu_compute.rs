@@ -25,7 +25,7 @@ use cubetrace::cubemap::face::Texel;
 use cubetrace::cubemap::pyramid::Hier32;
 use cubetrace::metrics::{self, ErrorReport};
 use cubetrace::reference;
-use cubetrace::scene::{self, Scene};
+use cubetrace::scene::{self, CmoPlacement, Scene};
 use cubetrace::vk::compute::{AppendedRay, DispatchArgs, DispatchParams, HierConfig, RayCounter};
 use cubetrace::vk::frame::{
     Fallback, GpuFrame, GpuMethod, GpuRenderer, PixelRecord, RenderOptions, scene_ranges,
@@ -476,8 +476,18 @@ fn compute_matches_fragment_cpu_twin_and_reference_on_every_scene() {
 
         // Compute against fragment: the same decision on every mirror pixel.
         let d = decision_disagreements(&compute, &fragment);
+        let count = |f: &dyn Fn(&PixelRecord) -> bool| {
+            (0..compute.mask.len())
+                .filter(|&k| compute.mask[k] != 0 && f(&compute.records[k]))
+                .count()
+        };
         eprintln!(
-            "{name} (N = {n}): {mirror} mirror pixels, {} disagreements with fragment",
+            "{name} (N = {n}): {mirror} mirror pixels (hit {}, riser {}, escaped {}, unresolved {}, handoff {}), {} disagreements with fragment",
+            count(&|r| r.status == 0),
+            count(&|r| r.status == 0 && r.riser != 0),
+            count(&|r| r.status == 1),
+            count(&|r| r.status == 2),
+            count(&|r| r.traces > 1),
             d.len()
         );
         assert!(
@@ -540,6 +550,50 @@ fn compute_matches_fragment_cpu_twin_and_reference_on_every_scene() {
         scene::builtin::NAMES.len(),
         "the accuracy bound must reject the environment map on every scene"
     );
+    compute_finish(ctx);
+}
+
+/// Odd configurations: tiny cubes (N <= 4: the texels are the root, no hierarchy buffer; N = 5:
+/// one level), N = 17, and three or five CMOs placed automatically (more handoffs): compute ==
+/// fragment on every decision and == the CPU twin on every field.
+#[test]
+fn compute_matches_with_tiny_cubes_and_several_cmos() {
+    let ctx = compute_context();
+    let subgroup = ctx.report().subgroup_size;
+    for (name, n, cmos) in [
+        ("default", 1u32, None),
+        ("torus", 3, Some(3u32)),
+        ("sphere-room", 4, None),
+        ("bowl", 5, Some(5)),
+        ("teapot", 17, Some(3)),
+    ] {
+        let (mut scene, camera) = compute_scene(name, n);
+        if let Some(count) = cmos {
+            scene.cmo.placement = CmoPlacement::Auto { count };
+        }
+        let (compute, cubes) = compute_render(&ctx, &scene, &camera, GpuMethod::Compute);
+        let (fragment, _) = compute_render(&ctx, &scene, &camera, GpuMethod::Fragment);
+        let mirror = compute.mirror_pixels();
+        assert!(mirror > 50, "{name}: only {mirror} mirror pixels");
+        let d = decision_disagreements(&compute, &fragment);
+        let handoffs = (0..compute.mask.len())
+            .filter(|&k| compute.mask[k] != 0 && compute.records[k].traces > 1)
+            .count();
+        eprintln!(
+            "{name} (N = {n}, {} CMOs): {mirror} mirror pixels ({handoffs} with a handoff), {} disagreements with fragment",
+            cubes.len(),
+            d.len()
+        );
+        assert!(d.is_empty(), "{name}, N = {n}: {} disagreements", d.len());
+        let t_hi = scene_ranges(&scene, &camera).2;
+        let tw = twin_disagreements(&compute, &cubes, t_hi, subgroup);
+        assert!(
+            tw.is_empty(),
+            "{name}, N = {n}: {} pixels differ from the CPU twin, e.g. {:?}",
+            tw.len(),
+            tw[0]
+        );
+    }
     compute_finish(ctx);
 }
 
