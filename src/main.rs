@@ -60,6 +60,9 @@ enum SceneCommand {
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 enum Method {
+    /// Cubemap tracing in a compute pass on the GPU over the 8x4/4x8 hierarchy with subgroup
+    /// ballots (thesis alg. 3; exact criterion).
+    Compute,
     /// Cubemap tracing in a deferred fragment pass on the GPU (thesis alg. 1, 2, 4).
     Fragment,
     /// One cube map lookup per pixel on the GPU, no parallax (the baseline).
@@ -123,7 +126,7 @@ impl GpuArgs {
     }
 }
 
-/// Options of the cubemap tracer (`--method fragment`).
+/// Options of the cubemap tracer (`--method compute|fragment`; compute: exact criterion only).
 #[derive(clap::Args)]
 struct TraceArgs {
     /// Intersection criterion.
@@ -200,8 +203,8 @@ struct RenderArgs {
     /// Built-in scene name or path to a .toml scene file.
     #[arg(default_value = "default")]
     scene: String,
-    /// How reflections are computed.
-    #[arg(long, value_enum, default_value_t = Method::Fragment)]
+    /// How reflections are computed (default: the compute path, thesis alg. 3).
+    #[arg(long, value_enum, default_value_t = Method::Compute)]
     method: Method,
     /// Camera of the scene, by name or index (default: the first).
     #[arg(long)]
@@ -252,6 +255,7 @@ fn render(args: RenderArgs) -> Result<()> {
     let gpu_method = match args.method {
         Method::Fragment => Some(GpuMethod::Fragment),
         Method::Envmap => Some(GpuMethod::Envmap),
+        Method::Compute => Some(GpuMethod::Compute),
         Method::Reference => None,
     };
     if let Some(m) = gpu_method {
@@ -271,6 +275,23 @@ fn render(args: RenderArgs) -> Result<()> {
         let gpu_ms: f64 = frame.pass_times.iter().map(|(_, t)| t).sum::<f64>() * 1e-6;
         for (pass, ns) in &frame.pass_times {
             log::info!("{pass:>16}: {:9.3} ms", ns * 1e-6);
+        }
+        if let Some(c) = &frame.compute {
+            let [texels, cells, descents, backtracks] = c.summary(&frame.mask);
+            log::info!(
+                "compute: {} rays, subgroup size {} (min {}), per ray mean/max: texels {:.1}/{}, cells {:.1}/{}, descents {:.1}/{}, backtracks {:.1}/{}",
+                c.rays,
+                c.subgroup_size.1,
+                c.subgroup_size.0,
+                texels.0,
+                texels.1,
+                cells.0,
+                cells.1,
+                descents.0,
+                descents.1,
+                backtracks.0,
+                backtracks.1
+            );
         }
         let unresolved = traced
             .mask
@@ -319,7 +340,9 @@ fn render(args: RenderArgs) -> Result<()> {
         return Ok(());
     }
     let frame = match args.method {
-        Method::Fragment | Method::Envmap => unreachable!("GPU methods returned above"),
+        Method::Fragment | Method::Envmap | Method::Compute => {
+            unreachable!("GPU methods returned above")
+        }
         Method::Reference => {
             let tracer = reference::Tracer::new(&scene);
             log::info!(

@@ -328,8 +328,9 @@ fn cli_render_exr_and_default_path() {
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let stdout = String::from_utf8_lossy(&o.stdout);
-    assert!(stdout.contains("out/default-fragment.png"), "{stdout}");
-    let img = image::open(dir.path().join("out/default-fragment.png")).unwrap();
+    // The default method is the compute path.
+    assert!(stdout.contains("out/default-compute.png"), "{stdout}");
+    let img = image::open(dir.path().join("out/default-compute.png")).unwrap();
     assert_eq!((img.width(), img.height()), (64, 48));
 
     let o = run(

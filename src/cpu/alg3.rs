@@ -21,6 +21,9 @@
 //! the mask is assembled from `32 / S` ballots (`ballot_c << S c`); with `S = 64` two rays share
 //! the subgroup (lanes `32 r .. 32 r + 32` for ray slot `r`), advance in lockstep, and each
 //! takes its 32 bits of the 64-bit ballot. No barrier is needed: all communication is ballots.
+//!
+//! GPU: `spirv/compute_trace.wgsl` (the `compute_trace` pass), checked against this twin field
+//! for field, counters included, in `tests/gpu_compute.rs`.
 
 use glam::Vec3;
 

@@ -234,6 +234,45 @@ impl Hier32 {
     pub fn root(&self) -> usize {
         self.levels.len() - 1
     }
+
+    /// Levels 1.. concatenated in the [`hier32_flat_layout`] order: what the GPU `hier32` pass
+    /// writes and the compute tracer reads.
+    pub fn flatten(&self) -> Vec<[f32; 2]> {
+        self.levels[1..]
+            .iter()
+            .flat_map(|l| l.cells.iter().copied())
+            .collect()
+    }
+}
+
+/// The GPU buffer layout of a [`Hier32`] for face size `size`: levels 1.. (level 0, the texels,
+/// is the distance buffer itself) with the [`hier32_layout`] dimensions, each `6 * width *
+/// height` cells `[min, max]`, face-major and row-major, concatenated finest first. Empty for
+/// `size <= 4` (the texels are the root).
+pub fn hier32_flat_layout(size: u32) -> Vec<FlatLevel> {
+    let mut offset = 0u32;
+    hier32_layout(size)
+        .into_iter()
+        .skip(1)
+        .map(|(width, height)| {
+            let l = FlatLevel {
+                offset,
+                width,
+                height,
+            };
+            offset += FACE_COUNT * width * height;
+            l
+        })
+        .collect()
+}
+
+/// Cells per CMO in the flattened [`Hier32`] of face size `size`: the length of
+/// [`Hier32::flatten`] and the stride of CMO blocks in the GPU buffer `cmo_hier` (0 for
+/// `size <= 4`).
+pub fn hier32_len(size: u32) -> usize {
+    hier32_flat_layout(size)
+        .last()
+        .map_or(0, |l| (l.offset + FACE_COUNT * l.width * l.height) as usize)
 }
 
 #[cfg(test)]
@@ -350,6 +389,31 @@ mod flat_tests {
             assert_eq!(flat.len(), mip_len(size));
             for (l, fl) in layout.iter().enumerate() {
                 let level = &p.levels[l + 1];
+                assert_eq!((fl.width, fl.height), (level.width, level.height));
+                for face in 0..FACE_COUNT {
+                    for y in 0..fl.height {
+                        for x in 0..fl.width {
+                            let i = fl.offset + (face * fl.height + y) * fl.width + x;
+                            assert_eq!(flat[i as usize], level.get(face, x, y));
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn hier32_flat_layout_matches_levels() {
+        for size in [1u32, 4, 5, 32, 33, 100, 128] {
+            let mut cube = CubeMap::new(size, Vec3::ZERO);
+            cube.fill(|t, _| ((t.index(size) % 7) as f32 + 1.0, [0.0; 4]));
+            let h = Hier32::build(&cube);
+            let layout = hier32_flat_layout(size);
+            assert_eq!(layout.len(), h.levels.len() - 1);
+            let flat = h.flatten();
+            assert_eq!(flat.len(), hier32_len(size));
+            for (l, fl) in layout.iter().enumerate() {
+                let level = &h.levels[l + 1];
                 assert_eq!((fl.width, fl.height), (level.width, level.height));
                 for face in 0..FACE_COUNT {
                     for y in 0..fl.height {

@@ -20,6 +20,7 @@ pub struct Buffer {
     raw: vk::Buffer,
     allocation: Option<Allocation>,
     size: u64,
+    usage: vk::BufferUsageFlags,
     name: String,
 }
 
@@ -62,6 +63,7 @@ impl Buffer {
             raw,
             allocation: Some(allocation),
             size,
+            usage,
             name: name.into(),
         };
         let (memory, offset) = buffer.memory();
@@ -88,6 +90,11 @@ impl Buffer {
     /// Size in bytes.
     pub fn size(&self) -> u64 {
         self.size
+    }
+
+    /// The usage flags it was created with.
+    pub fn usage(&self) -> vk::BufferUsageFlags {
+        self.usage
     }
 
     /// Debug name.

@@ -143,6 +143,17 @@ impl Recorder<'_> {
         }
     }
 
+    /// Fills all of `buffer` (created with `TRANSFER_DST`) with the 32-bit word `value`.
+    pub fn fill_buffer(&self, buffer: &Buffer, value: u32) {
+        // SAFETY: `cmd` is recording; the buffer is alive for the submission, its size is a
+        // multiple of 4 (`Buffer::new` rounds up) and WHOLE_SIZE stays inside it.
+        unsafe {
+            self.device
+                .raw
+                .cmd_fill_buffer(self.cmd, buffer.raw(), 0, vk::WHOLE_SIZE, value)
+        };
+    }
+
     /// Copies `size` bytes from the start of `src` to the start of `dst`.
     pub fn copy_buffer(&self, src: &Buffer, dst: &Buffer, size: u64) {
         let region = [vk::BufferCopy::default().size(size)];

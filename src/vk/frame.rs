@@ -4,8 +4,10 @@
 //! |---|---|---|
 //! | `capture` | scene | CMO distance, colour (+ normal/mirror with self-reflections) |
 //! | `pyramid` | CMO distance | CMO 2x2 min/max pyramid (fragment path only) |
+//! | `hier32` | CMO distance | CMO 8x4/4x8 min/max hierarchy (compute path only) |
 //! | `gbuffer` | scene | G-buffer colour, position + mirror mask, normal |
 //! | `fragment_trace` or `envmap` | G-buffer, CMO data | one record per mirror pixel |
+//! | or `append`, `dispatch_args`, `compute_trace` | G-buffer, CMO data, hierarchy | the same records ([`super::compute`]) |
 //! | `composite` | G-buffer, records, CMO colour | final colour |
 //!
 //! Each pass name is its WGSL file, its debug label and its timestamp scope, so
@@ -14,7 +16,7 @@
 //! reads back, so repeated renders (the harness) measure the passes, not allocation.
 //!
 //! Only what the options use is allocated: no pyramid for the environment map, no normal/mirror
-//! capture without self-reflections.
+//! capture without self-reflections, the hierarchy and the ray queue for the compute path only.
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
@@ -23,6 +25,7 @@ use gpu_allocator::MemoryLocation;
 use super::buffer::Buffer;
 use super::capture::Capture;
 use super::cmo::CmoData;
+use super::compute::{ComputePath, ComputeStats};
 use super::context::GpuContext;
 use super::error::{VkError, VkResult};
 use super::gbuffer::Gbuffer;
@@ -30,7 +33,9 @@ use super::graphics::{GraphicsDesc, GraphicsPipeline, RenderTarget};
 use super::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
 use super::pyramid::{Pyramid, PyramidBindings};
 use super::scene_buffers::SceneBuffers;
-use super::shaders::{COMPOSITE, ENVMAP, FRAGMENT_TRACE, Pass};
+use super::shaders::{
+    APPEND, COMPOSITE, COMPUTE_TRACE, DISPATCH_ARGS, ENVMAP, FRAGMENT_TRACE, HIER32, Pass,
+};
 use super::sync::{SHADER_READ, SHADER_WRITE};
 use super::timestamps::{PassTime, Timestamps};
 use crate::camera::Camera;
@@ -46,6 +51,9 @@ pub enum GpuMethod {
     Fragment,
     /// One cubemap lookup per pixel, no parallax (the baseline).
     Envmap,
+    /// Thesis alg. 3: mirror rays appended to a queue, traced by a compute pass over the
+    /// 8x4/4x8 hierarchy with subgroup ballots (exact criterion only).
+    Compute,
 }
 
 impl GpuMethod {
@@ -58,6 +66,7 @@ impl GpuMethod {
         match self {
             GpuMethod::Fragment => &FRAGMENT_TRACE,
             GpuMethod::Envmap => &ENVMAP,
+            GpuMethod::Compute => &COMPUTE_TRACE,
         }
     }
 }
@@ -152,6 +161,8 @@ pub struct GpuFrame {
     pub records: Vec<PixelRecord>,
     /// GPU time per pass, in recording order.
     pub pass_times: Vec<PassTime>,
+    /// Ray count, subgroup size and per-ray counters ([`GpuMethod::Compute`] only).
+    pub compute: Option<ComputeStats>,
 }
 
 impl GpuFrame {
@@ -226,8 +237,10 @@ pub struct GpuRenderer {
     capture: Capture,
     pyramid: Option<(Pyramid, PyramidBindings)>,
     gbuffer: Gbuffer,
-    trace: GraphicsPipeline,
-    trace_sets: [BindGroup; 2],
+    /// The fragment pass of `Fragment` and `Envmap`.
+    trace: Option<(GraphicsPipeline, [BindGroup; 2])>,
+    /// The passes of `Compute`.
+    compute: Option<ComputePath>,
     composite: ComputePipeline,
     composite_sets: [BindGroup; 2],
     _params: Buffer,
@@ -258,6 +271,18 @@ impl GpuRenderer {
         let data = GpuSceneData::new(scene);
         let scene_buffers = SceneBuffers::new(ctx, &data)?;
         let needs_pyramid = options.method == GpuMethod::Fragment;
+        if options.method == GpuMethod::Compute {
+            if options.trace.criterion != crate::cpu::options::TraceCriterion::Exact {
+                return Err(usage(
+                    "compute method",
+                    format!(
+                        "criterion {:?}: the compute path implements the exact criterion only",
+                        options.trace.criterion
+                    ),
+                ));
+            }
+            super::compute::check_device(ctx)?;
+        }
         let cmo = CmoData::new(
             ctx,
             &centres,
@@ -318,28 +343,35 @@ impl GpuRenderer {
             view: img.view(),
             layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
         };
-        let trace = GraphicsPipeline::new(
-            ctx,
-            options.method.pass(),
-            &GraphicsDesc {
-                vertex: "vs_fullscreen",
-                fragment: "fs_main",
-                colour_formats: Vec::new(),
-                depth: None,
-            },
-        )?;
-        let trace_sets = [
-            trace.bind_group(
-                0,
-                &[
-                    (0, sampled(&gbuffer.position)),
-                    (1, sampled(&gbuffer.normal)),
-                    (2, Resource::Buffer(&params_buf)),
-                    (3, Resource::Buffer(&records)),
-                ],
-            )?,
-            trace.bind_group(1, &cmo.resources_for(options.method.pass(), "fs_main"))?,
-        ];
+        let (trace, compute) = if options.method == GpuMethod::Compute {
+            let path =
+                ComputePath::new(ctx, &cmo, &gbuffer, &params_buf, &records, (width, height))?;
+            (None, Some(path))
+        } else {
+            let trace = GraphicsPipeline::new(
+                ctx,
+                options.method.pass(),
+                &GraphicsDesc {
+                    vertex: "vs_fullscreen",
+                    fragment: "fs_main",
+                    colour_formats: Vec::new(),
+                    depth: None,
+                },
+            )?;
+            let trace_sets = [
+                trace.bind_group(
+                    0,
+                    &[
+                        (0, sampled(&gbuffer.position)),
+                        (1, sampled(&gbuffer.normal)),
+                        (2, Resource::Buffer(&params_buf)),
+                        (3, Resource::Buffer(&records)),
+                    ],
+                )?,
+                trace.bind_group(1, &cmo.resources_for(options.method.pass(), "fs_main"))?,
+            ];
+            (Some((trace, trace_sets)), None)
+        };
         let composite = ComputePipeline::new(ctx, &COMPOSITE, "main", ComputeOptions::default())?;
         let composite_sets = [
             composite.bind_group(
@@ -371,7 +403,7 @@ impl GpuRenderer {
             pyramid,
             gbuffer,
             trace,
-            trace_sets,
+            compute,
             composite,
             composite_sets,
             _params: params_buf,
@@ -384,6 +416,11 @@ impl GpuRenderer {
     /// The CMO data (for reading the captures back).
     pub fn cmo(&self) -> &CmoData {
         &self.cmo
+    }
+
+    /// The compute path's passes ([`GpuMethod::Compute`] only).
+    pub fn compute_path(&self) -> Option<&ComputePath> {
+        self.compute.as_ref()
     }
 
     /// The options this renderer was built with.
@@ -421,17 +458,33 @@ impl GpuRenderer {
                 scoped("pyramid", &mut || p.record(rec, b, None))?;
                 rec.memory_barrier(SHADER_WRITE, SHADER_READ);
             }
+            if let Some(c) = &self.compute {
+                scoped(HIER32.name, &mut || {
+                    c.record_hier(rec);
+                    Ok(())
+                })?;
+                rec.memory_barrier(SHADER_WRITE, SHADER_READ);
+            }
             scoped("gbuffer", &mut || self.gbuffer.record(rec, self.background))?;
-            scoped(self.options.method.pass_name(), &mut || {
-                let target = RenderTarget {
-                    width: self.width,
-                    height: self.height,
-                    colour: Vec::new(),
-                    depth: None,
-                };
-                let sets = [&self.trace_sets[0], &self.trace_sets[1]];
-                self.trace.draw(rec, &target, &sets, 3, 0)
-            })?;
+            if let Some((trace, sets)) = &self.trace {
+                scoped(self.options.method.pass_name(), &mut || {
+                    let target = RenderTarget {
+                        width: self.width,
+                        height: self.height,
+                        colour: Vec::new(),
+                        depth: None,
+                    };
+                    trace.draw(rec, &target, &[&sets[0], &sets[1]], 3, 0)
+                })?;
+            }
+            if let Some(c) = &self.compute {
+                scoped(APPEND.name, &mut || c.record_append(rec))?;
+                scoped(DISPATCH_ARGS.name, &mut || {
+                    c.record_dispatch_args(rec);
+                    Ok(())
+                })?;
+                scoped(COMPUTE_TRACE.name, &mut || c.record_trace(rec))?;
+            }
             rec.memory_barrier(SHADER_WRITE, SHADER_READ);
             scoped("composite", &mut || {
                 let groups = (self.width * self.height).div_ceil(64);
@@ -454,6 +507,10 @@ impl GpuRenderer {
             vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
         )?;
         let position: &[[f32; 4]] = bytemuck::cast_slice(&position);
+        let compute = match &self.compute {
+            Some(c) => Some(c.read_stats(ctx)?),
+            None => None,
+        };
         let n = (self.width * self.height) as usize;
         Ok(GpuFrame {
             width: self.width,
@@ -472,6 +529,7 @@ impl GpuRenderer {
                 .collect(),
             records: records[..n].to_vec(),
             pass_times,
+            compute,
         })
     }
 }

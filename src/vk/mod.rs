@@ -15,6 +15,7 @@
 pub mod buffer;
 pub mod capture;
 pub mod cmo;
+pub mod compute;
 pub mod context;
 pub mod conv;
 pub mod device;
@@ -22,6 +23,7 @@ pub mod error;
 pub mod frame;
 pub mod gbuffer;
 pub mod graphics;
+pub mod hier32;
 pub mod image;
 pub mod info;
 pub mod instance;

@@ -207,6 +207,51 @@ impl ComputePipeline {
     /// Records bind + dispatch of `groups` workgroups. `sets` must be consecutive groups, starting
     /// at `sets[0]`'s group.
     pub fn dispatch(&self, rec: &Recorder<'_>, sets: &[&BindGroup], groups: [u32; 3]) {
+        self.bind(rec, sets);
+        // SAFETY: pipeline and sets are bound.
+        unsafe {
+            self.device
+                .raw
+                .cmd_dispatch(rec.cmd, groups[0], groups[1], groups[2])
+        };
+    }
+
+    /// Records bind + an indirect dispatch whose workgroup counts are the
+    /// `VkDispatchIndirectCommand` (three u32) at byte `offset` of `args`, written by an earlier
+    /// pass (the caller records the barrier to `DRAW_INDIRECT`/`INDIRECT_COMMAND_READ`). Fails
+    /// when `args` lacks `INDIRECT_BUFFER` usage, is too small, or `offset` is not 4-aligned.
+    pub fn dispatch_indirect(
+        &self,
+        rec: &Recorder<'_>,
+        sets: &[&BindGroup],
+        args: &Buffer,
+        offset: u64,
+    ) -> VkResult<()> {
+        if !args.usage().contains(vk::BufferUsageFlags::INDIRECT_BUFFER)
+            || !offset.is_multiple_of(4)
+            || offset + 12 > args.size()
+        {
+            return Err(VkError::Usage {
+                what: self.pass.name.into(),
+                detail: format!(
+                    "indirect dispatch from `{}` at byte {offset}: needs INDIRECT_BUFFER usage, a \
+                     4-aligned offset and 12 bytes",
+                    args.name()
+                ),
+            });
+        }
+        self.bind(rec, sets);
+        // SAFETY: pipeline and sets are bound; `args` is an indirect buffer holding 12 bytes at a
+        // 4-aligned `offset` (checked above) and is alive for the submission.
+        unsafe {
+            self.device
+                .raw
+                .cmd_dispatch_indirect(rec.cmd, args.raw(), offset)
+        };
+        Ok(())
+    }
+
+    fn bind(&self, rec: &Recorder<'_>, sets: &[&BindGroup]) {
         let raw_sets: Vec<vk::DescriptorSet> = sets.iter().map(|s| s.set).collect();
         // SAFETY: `rec` is recording; the pipeline is alive for the submission.
         unsafe {
@@ -227,12 +272,6 @@ impl ComputePipeline {
                 )
             };
         }
-        // SAFETY: pipeline and sets are bound.
-        unsafe {
-            self.device
-                .raw
-                .cmd_dispatch(rec.cmd, groups[0], groups[1], groups[2])
-        };
     }
 }
 

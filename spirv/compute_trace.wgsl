@@ -1,0 +1,464 @@
+// compute_trace: thesis alg. 3. Traces the rays `append` queued, each by a group of lanes of one
+// subgroup, over the alternating 8x4/4x8 hierarchy (`hier32`), and writes `records[pixel]` for
+// the composite pass. CPU twin: `cubetrace::cpu::alg3::trace_alg3` (the traversal, loop for
+// loop) inside `cpu::multi::trace_cmos` (the occlusion handoff between CMOs).
+//
+// Lanes. `@workgroup_size(256)`, 1-D (naga rejects the subgroup builtins with a 2-D size). A ray
+// owns `lanes = min(S, 32)` lanes of one subgroup of size S; logical lane j in 0..32 (child j of
+// the node being visited) lives on lane `j % lanes`, round `j / lanes`, so with S < 32 each lane
+// tests 32 / S children and the 32-bit mask is assembled from 32 / S ballots; with S = 64 two
+// rays share a subgroup (lanes 0..32 and 32..64), and each takes its 32 bits of the ballot.
+// With S = 32 this is the thesis's 8 rays x 32 lanes per workgroup.
+//
+// Per ray (every lane of a ray holds the same copy of the ray's state, computed redundantly):
+// per CMO (handoff), per piece of the segment and per face crossed in order of t, a depth-first
+// search. Visiting a node, lane j tests child j (the `t` interval from the frustum
+// inequalities, then the range test `rmax < min`: skip, ALGORITHM.md fact 3; at the texel level
+// "not entirely in front", `rmax >= D`); the ballot gives the candidate mask, kept per level
+// with each lane's keys (the children's entry t). The first candidate along the ray (smallest
+// key: a min over the ray's lanes by xor shuffles, then a ballot of the lanes holding it, lowest
+// j) is removed from the mask and descended into; an empty mask backtracks to the parent. The
+// first texel candidate is classified exactly as the fragment path does (`classify`), which
+// ends the single-CMO trace; the CMOs are combined by `trace_ray`'s handoff.
+//
+// Uniformity (reviewed; naga and lavapipe would not catch a mistake): there is NO workgroup
+// barrier in this shader. Every subgroup operation (ballot, shuffle, any) sits in control flow
+// that is uniform over the subgroup: the loops around them run until `subgroupAny` says that no
+// ray of the subgroup has work left, their trip counts (`cells`, the shuffle offsets) depend on
+// the subgroup size only, and a finished or absent ray keeps taking part with empty ballots.
+// Everything per-ray is inside `if busy` blocks holding no subgroup operation.
+//
+// Invariants: no recursion; every loop has an explicit cap (`MAX_BATCHES`, `MAX_STEPS`, the
+// handoff's `MAX_ROUNDS * cmo_count`; see there). Subgroup sizes 4..=128 (powers of two); the
+// Rust side refuses others.
+//! import shared/mirror.wgsl
+//! import shared/compute_rays.wgsl
+
+// Levels of a node stack: HIER_MAX_LEVELS (8) + the face on top.
+const NODE_LEVELS: u32 = 9u;
+// Children per lane at the smallest supported subgroup size (32 / 4).
+const MAX_CELLS: u32 = 8u;
+// Traversal steps of one subgroup over its rays. One step visits, descends into, classifies or
+// leaves one node; a single-CMO trace takes fewer than 4 * (2 pieces * 4 faces) * (sum over
+// levels of the cells a segment crosses, under 8 * N + 64) steps, about 2^21 for N = 4096, and a
+// ray runs at most MAX_ROUNDS * 16 CMOs = 256 traces: 2^29 < 2^31. Never reached for the sizes
+// `TraceConfig::new` accepts; a ray that reached it would be reported unresolved.
+const MAX_STEPS: u32 = 0x80000000u;
+// Batches of the grid-stride loop over the queue. `dispatch_args` launches ceil(n / h) groups
+// with h = `rays_per_group` <= 64, and a group takes at least 8 rays per batch, so at most 8
+// batches are needed below the 65535-group cap, and at most 2^32 / (65535 * 8) < 2^14 above it.
+const MAX_BATCHES: u32 = 65536u;
+
+// The hierarchy layout (Rust `cubetrace::vk::compute::HierConfig`).
+struct HierConfig {
+    // Index of the root level (0 when the texels are the root, N <= 4).
+    root: u32,
+    // Cells per CMO in `cmo_hier`: hier32_len(N).
+    hier_len: u32,
+    pad0: u32,
+    pad1: u32,
+    // Level l: (offset in cells within a CMO block (l >= 1), width, height, 0).
+    dims: array<vec4<u32>, 8>,
+    // Level l: (gx, gy) block of level l - 1 cells per cell, (span x, span y) in texels.
+    shape: array<vec4<u32>, 8>,
+}
+
+@group(2) @binding(0) var<storage, read_write> ray_counter: RayCounter;
+@group(2) @binding(1) var<storage, read> rays: array<AppendedRay>;
+@group(2) @binding(2) var<uniform> hier_config: HierConfig;
+@group(2) @binding(3) var<storage, read> cmo_hier: array<vec2<f32>>;
+// Per pixel: (texels tested, cells tested, descents, backtracks), summed over the ray's traces.
+@group(2) @binding(4) var<storage, read_write> ray_stats: array<vec4<u32>>;
+
+struct RayState {
+    // The world ray.
+    origin: vec3<f32>,
+    dir: vec3<f32>,
+    pixel: u32,
+    // Handoff (`trace_ray`): current CMO, round, proven-empty prefix, traces run.
+    k: u32,
+    round: u32,
+    progress: bool,
+    t_done: f32,
+    traces: u32,
+    // The ray is done; `out` holds its result.
+    finished: bool,
+    out: TraceOut,
+    // Sums over the ray's traces: texels, cells, descents, backtracks.
+    sums: vec4<u32>,
+    // The single-CMO trace (`cpu::alg3::RayState`).
+    seg: Segment,
+    pieces: Pieces,
+    piece: u32,
+    faces: FaceList,
+    face: u32,
+    la: vec3<f32>,
+    ld: vec3<f32>,
+    level: u32,
+    node: array<vec2<u32>, NODE_LEVELS>,
+    mask: array<u32, NODE_LEVELS>,
+    // This lane's keys: level l, round c at l * MAX_CELLS + c.
+    keys: array<f32, 72>,
+    need_mask: bool,
+    trace_done: bool,
+    result: TraceResult,
+    descents: u32,
+    backtracks: u32,
+}
+
+fn hier_top() -> u32 {
+    return hier_config.root + 1u;
+}
+
+// `(gx, gy)`: the children grid of a node at level `lvl` (the root level's size for the face).
+fn child_grid(lvl: u32) -> vec2<u32> {
+    if lvl == hier_top() {
+        return hier_config.dims[lvl - 1u].yz;
+    }
+    return hier_config.shape[lvl].xy;
+}
+
+// 0.5 * min D of CMO k (0 when no finite positive minimum), as `CmoTracer::new`: the min over
+// the root level's cells is the min over the texels (exact, no NaN in the data).
+fn hier_cut_radius(k: u32) -> f32 {
+    let n = trace_config.size;
+    var m = f32_inf();
+    let root = hier_config.root;
+    if root == 0u {
+        for (var i = 0u; i < 6u * n * n; i++) {
+            m = min(m, cmo_distance[k * 6u * n * n + i]);
+        }
+    } else {
+        let d = hier_config.dims[root];
+        for (var i = 0u; i < 6u * d.y * d.z; i++) {
+            m = min(m, cmo_hier[k * hier_config.hier_len + d.x + i].x);
+        }
+    }
+    if is_finite_f32(m) && m > 0.0 {
+        return 0.5 * m;
+    }
+    return 0.0;
+}
+
+struct LaneTest {
+    cand: bool,
+    key: f32,
+}
+
+// Test of child j of the ray's current node (`cpu::alg3::lane_test`).
+fn lane_test(st: ptr<function, RayState>, j: u32) -> LaneTest {
+    let none = LaneTest(false, f32_inf());
+    let n = trace_config.size;
+    let lvl = (*st).level;
+    let cl = lvl - 1u;
+    let cd = hier_config.dims[cl];
+    let g = child_grid(lvl);
+    if j >= g.x * g.y {
+        return none;
+    }
+    let nd = (*st).node[lvl];
+    let cx = nd.x * g.x + j % g.x;
+    let cy = nd.y * g.y + j / g.x;
+    if cx >= cd.y || cy >= cd.z {
+        return none;
+    }
+    let range = (*st).pieces.range[(*st).piece];
+    let face = (*st).faces.face[(*st).face];
+    let seg = (*st).seg;
+    if cl == 0u {
+        let iv = cell_interval((*st).la, (*st).ld, cell_rect_texel(face, cx, cy, n), range.x, range.y);
+        let d = distance_at((*st).k, Texel(face, cx, cy));
+        return LaneTest(texel_not_in_front(seg, iv, d), iv.t0);
+    }
+    let span = hier_config.shape[cl].zw;
+    let rect = CellRect(face, min(cx * span.x, n), min((cx + 1u) * span.x, n), min(cy * span.y, n), min((cy + 1u) * span.y, n), n);
+    if rect.x0 >= rect.x1 || rect.y0 >= rect.y1 {
+        return none;
+    }
+    let iv = cell_interval((*st).la, (*st).ld, rect, range.x, range.y);
+    let inf = inflated(iv, range.x, range.y);
+    if !inf.ok {
+        return none;
+    }
+    let mm = cmo_hier[(*st).k * hier_config.hier_len + cd.x + (face * cd.z + cy) * cd.y + cx];
+    // Skip iff entirely in front; a NaN keeps the cell (conservative).
+    let in_front = r_bounds(seg.a, seg.d, inf.lo, inf.hi).y < mm.x;
+    return LaneTest(!in_front, iv.t0);
+}
+
+// Sets up the search at the current (piece, face), advancing past exhausted ones; ends the
+// single-CMO trace as escaped when none is left (`cpu::alg3::enter_face`). At most 3 turns.
+fn enter_face(st: ptr<function, RayState>) {
+    for (var turn = 0u; turn < 4u; turn++) {
+        if (*st).piece >= (*st).pieces.count {
+            (*st).trace_done = true;
+            (*st).result = escaped((*st).seg, (*st).result.counters);
+            return;
+        }
+        if (*st).face < (*st).faces.count {
+            let f = (*st).faces.face[(*st).face];
+            (*st).la = to_face_local(f, (*st).seg.a);
+            (*st).ld = to_face_local(f, (*st).seg.d);
+            (*st).level = hier_top();
+            (*st).node[(*st).level] = vec2<u32>(0u, 0u);
+            (*st).need_mask = true;
+            return;
+        }
+        (*st).piece += 1u;
+        (*st).face = 0u;
+        if (*st).piece < (*st).pieces.count {
+            let r = (*st).pieces.range[(*st).piece];
+            (*st).faces = faces_crossed((*st).seg, r.x, r.y, trace_config.size);
+        }
+    }
+}
+
+// Starts the single-CMO trace of CMO `k` over [t_done, t_hi] (`cpu::alg3::new_state`).
+fn start_trace(st: ptr<function, RayState>) {
+    let k = (*st).k;
+    let seg = Segment((*st).origin - cmo_centres[k].xyz, (*st).dir, (*st).t_done, frame.t_hi);
+    (*st).seg = seg;
+    (*st).pieces = split_near_centre(seg, hier_cut_radius(k));
+    (*st).faces.count = 0u;
+    if (*st).pieces.count > 0u {
+        (*st).faces = faces_crossed(seg, (*st).pieces.range[0].x, (*st).pieces.range[0].y, trace_config.size);
+    }
+    (*st).piece = 0u;
+    (*st).face = 0u;
+    (*st).trace_done = false;
+    (*st).need_mask = false;
+    (*st).result.counters = Counters(0u, 0u);
+    (*st).descents = 0u;
+    (*st).backtracks = 0u;
+    enter_face(st);
+}
+
+fn finish_ray(st: ptr<function, RayState>, status: u32, cmo: u32, point: vec3<f32>) {
+    (*st).finished = true;
+    (*st).out = trace_out(status, cmo, (*st).result, point, (*st).t_done, (*st).traces);
+}
+
+// The handoff after a single-CMO trace ended (`trace_ray`, one CMO step of its loops).
+fn handoff(st: ptr<function, RayState>) {
+    let r = (*st).result;
+    (*st).traces += 1u;
+    (*st).sums += vec4<u32>(r.counters.texels, r.counters.cells, (*st).descents, (*st).backtracks);
+    let k = (*st).k;
+    if r.status == ONE_HIT || r.status == ONE_ESCAPED {
+        finish_ray(st, select(STATUS_ESCAPED, STATUS_HIT, r.status == ONE_HIT), k, r.point + cmo_centres[k].xyz);
+        return;
+    }
+    if r.t > (*st).t_done {
+        (*st).t_done = r.t;
+        (*st).progress = true;
+    }
+    (*st).k += 1u;
+    if (*st).k >= trace_config.cmo_count {
+        (*st).round += 1u;
+        if !(*st).progress || (*st).round >= MAX_ROUNDS {
+            let o = (*st).origin;
+            let d = (*st).dir;
+            let t = (*st).t_done;
+            finish_ray(st, STATUS_UNRESOLVED, 0xffffffffu, vec3<f32>(o.x + prod(t, d.x), o.y + prod(t, d.y), o.z + prod(t, d.z)));
+            return;
+        }
+        (*st).k = 0u;
+        (*st).progress = false;
+    }
+}
+
+// Starts traces until one needs a traversal or the ray is finished (a trace can end at once:
+// nothing left of the segment). At most MAX_ROUNDS * cmo_count traces run in all.
+fn begin_cmo(st: ptr<function, RayState>) {
+    for (var i = 0u; i <= MAX_ROUNDS * trace_config.cmo_count; i++) {
+        start_trace(st);
+        if !(*st).trace_done {
+            return;
+        }
+        handoff(st);
+        if (*st).finished {
+            return;
+        }
+    }
+}
+
+// One traversal step once the node's mask is known (`cpu::alg3::advance`).
+fn advance(st: ptr<function, RayState>, pick: u32) {
+    let top = hier_top();
+    let lvl = (*st).level;
+    if (*st).mask[lvl] == 0u {
+        if lvl == top {
+            (*st).face += 1u;
+            enter_face(st);
+            if (*st).trace_done {
+                handoff(st);
+                if !(*st).finished {
+                    begin_cmo(st);
+                }
+            }
+        } else {
+            (*st).level += 1u;
+            (*st).backtracks += 1u;
+        }
+        return;
+    }
+    (*st).mask[lvl] &= ~(1u << pick);
+    let g = child_grid(lvl);
+    let nd = (*st).node[lvl];
+    let cx = nd.x * g.x + pick % g.x;
+    let cy = nd.y * g.y + pick / g.x;
+    if lvl == 1u {
+        let range = (*st).pieces.range[(*st).piece];
+        let face = (*st).faces.face[(*st).face];
+        let tex = Texel(face, cx, cy);
+        let iv = cell_interval((*st).la, (*st).ld, cell_rect_texel(face, cx, cy, trace_config.size), range.x, range.y);
+        let o = classify((*st).k, (*st).seg, tex, iv);
+        if o.kind != 0u {
+            (*st).trace_done = true;
+            (*st).result = finish((*st).seg, tex, o, (*st).result.counters);
+            handoff(st);
+            if !(*st).finished {
+                begin_cmo(st);
+            }
+        }
+        return;
+    }
+    (*st).level -= 1u;
+    (*st).node[(*st).level] = vec2<u32>(cx, cy);
+    (*st).need_mask = true;
+    (*st).descents += 1u;
+}
+
+// The 32-bit mask of one ray from `cells` ballots of `pred[c]` (child `lane + lanes * c`).
+fn ray_bits(b: vec4<u32>, half: u32, lanes: u32) -> u32 {
+    let bits = b[half];
+    if lanes < 32u {
+        return bits & ((1u << lanes) - 1u);
+    }
+    return bits;
+}
+
+// Traces queued ray `index` (absent when `valid` is false: the lanes still take part in the
+// subgroup operations) and writes its record. Called in subgroup-uniform control flow.
+fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells: u32) {
+    var st: RayState;
+    if valid {
+        let q = rays[index];
+        st.origin = q.origin;
+        st.dir = q.dir;
+        st.pixel = q.pixel;
+        st.t_done = 0.0;
+        st.result = TraceResult(ONE_ESCAPED, 0.0, Texel(0u, 0u, 0u), false, vec3<f32>(0.0), Counters(0u, 0u));
+        begin_cmo(&st);
+    }
+    var busy = valid && !st.finished;
+    for (var step = 0u; step < MAX_STEPS; step++) {
+        if !subgroupAny(busy) {
+            break;
+        }
+        // Lane tests of the node's children, one ballot per round.
+        let testing = busy && st.need_mask;
+        var mask = 0u;
+        for (var c = 0u; c < cells; c++) {
+            var cand = false;
+            if testing {
+                let t = lane_test(&st, lane + lanes * c);
+                cand = t.cand;
+                st.keys[st.level * MAX_CELLS + c] = t.key;
+            }
+            mask |= ray_bits(subgroupBallot(cand), half, lanes) << (lanes * c);
+        }
+        if testing {
+            let g = child_grid(st.level);
+            if st.level == 1u {
+                st.result.counters.texels += g.x * g.y;
+            } else {
+                st.result.counters.cells += g.x * g.y;
+            }
+            st.mask[st.level] = mask;
+            st.need_mask = false;
+        }
+        // The first candidate along the ray: min key over the ray's lanes, then the lowest j
+        // holding it (NaN keys never win; all NaN: the lowest candidate).
+        let lvl = st.level;
+        let m = select(0u, st.mask[lvl], busy);
+        var kmin = f32_inf();
+        for (var c = 0u; c < cells; c++) {
+            let key = st.keys[lvl * MAX_CELLS + c];
+            if ((m >> (lane + lanes * c)) & 1u) != 0u && key < kmin {
+                kmin = key;
+            }
+        }
+        for (var off = lanes / 2u; off > 0u; off /= 2u) {
+            let other = subgroupShuffleXor(kmin, off);
+            if other < kmin {
+                kmin = other;
+            }
+        }
+        var eq = 0u;
+        for (var c = 0u; c < cells; c++) {
+            let j = lane + lanes * c;
+            let holds = ((m >> j) & 1u) != 0u && st.keys[lvl * MAX_CELLS + c] == kmin;
+            eq |= ray_bits(subgroupBallot(holds), half, lanes) << (lanes * c);
+        }
+        var pick = firstTrailingBit(m);
+        if eq != 0u {
+            pick = firstTrailingBit(eq);
+        }
+        if busy {
+            advance(&st, pick);
+            busy = !st.finished;
+        }
+    }
+    if valid && lane == 0u {
+        var r = st.out;
+        if !st.finished {
+            // MAX_STEPS reached (see there): unresolved at the proven-empty prefix.
+            let t = st.t_done;
+            let p = vec3<f32>(st.origin.x + prod(t, st.dir.x), st.origin.y + prod(t, st.dir.y), st.origin.z + prod(t, st.dir.z));
+            r = trace_out(STATUS_UNRESOLVED, 0xffffffffu, st.result, p, t, st.traces);
+        }
+        var colour = frame.background;
+        if r.status == STATUS_HIT {
+            colour = cmo_texel_colour(r.cmo, Texel(r.face, r.x, r.y)).xyz;
+        }
+        records[st.pixel] = PixelRecord(
+            st.origin, r.status, st.dir, r.cmo, r.point, r.riser, colour,
+            r.face, r.x, r.y, r.texels, r.cells, r.traces, r.t, r.t_done, 0u,
+        );
+        ray_stats[st.pixel] = st.sums;
+    }
+}
+
+@compute @workgroup_size(256)
+fn main(
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(subgroup_size) sg_size: u32,
+    @builtin(subgroup_invocation_id) sg_lane: u32,
+    @builtin(subgroup_id) sg_id: u32,
+) {
+    let lanes = min(sg_size, 32u);
+    if lanes < 4u {
+        // Unsupported (refused on the Rust side); uniform over the whole dispatch.
+        return;
+    }
+    let lane = sg_lane % lanes;
+    let half = sg_lane / lanes;
+    let cells = 32u / lanes;
+    let rays_per_group = 256u / lanes;
+    let slot = sg_id * (sg_size / lanes) + half;
+    if sg_lane == 0u {
+        atomicMax(&ray_counter.subgroup_max, sg_size);
+        atomicMax(&ray_counter.subgroup_min_not, ~sg_size);
+    }
+    let count = atomicLoad(&ray_counter.count);
+    for (var batch = 0u; batch < MAX_BATCHES; batch++) {
+        let index = (wg.x + batch * groups.x) * rays_per_group + slot;
+        let valid = index < count;
+        if !subgroupAny(valid) {
+            break;
+        }
+        trace_queued(valid, index, lane, half, lanes, cells);
+    }
+}

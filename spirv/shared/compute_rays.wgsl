@@ -1,0 +1,49 @@
+// The compute path's ray queue: the `append` pass writes one `AppendedRay` per mirror pixel
+// through the atomic `RayCounter.count`; `dispatch_args` sizes the `compute_trace` dispatch from
+// that count on the GPU; `compute_trace` traces each queued ray and writes `records[pixel]`.
+// Rust twins: `cubetrace::vk::compute::{AppendedRay, RayCounter, DispatchArgs}` (layouts checked
+// in tests/gpu_compute.rs). Bindings are declared by each pass (their access differs).
+
+// One queued mirror ray.
+struct AppendedRay {
+    // World ray origin (the G-buffer position of the mirror pixel).
+    origin: vec3<f32>,
+    // Pixel index j * width + i (row 0 at the top), where the result goes.
+    pixel: u32,
+    // Unit reflected direction, exactly `mirror_ray`'s.
+    dir: vec3<f32>,
+    // Reflections already taken before this ray (0: the camera's first bounce, the only one
+    // the GPU methods trace today).
+    bounce: u32,
+}
+
+// Zeroed (vkCmdFillBuffer) before `append` every frame.
+struct RayCounter {
+    // Rays appended.
+    count: atomic<u32>,
+    // Largest subgroup size `compute_trace` ran with.
+    subgroup_max: atomic<u32>,
+    // Bitwise NOT of the smallest subgroup size (atomicMax of !size over a zeroed word).
+    subgroup_min_not: atomic<u32>,
+    pad0: u32,
+}
+
+// VkDispatchIndirectCommand.
+struct DispatchArgs {
+    x: u32,
+    y: u32,
+    z: u32,
+}
+
+// Sizing of the `compute_trace` dispatch (Rust `cubetrace::vk::compute::DispatchParams`).
+struct DispatchParams {
+    // Rays one `compute_trace` workgroup takes per batch at the device's subgroup size S:
+    // 256 / min(S, 32). The kernel strides over the queue with the rays per workgroup it really
+    // has, so any value >= 1 is correct; a smaller one only launches idle workgroups.
+    rays_per_group: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
+}
+// The largest workgroup count per dimension every Vulkan device accepts.
+const MAX_GROUPS_X: u32 = 65535u;

@@ -1,0 +1,452 @@
+//! The compute path (thesis alg. 3, `--method compute`): four passes between the G-buffer and
+//! the composite pass of a frame.
+//!
+//! | pass | reads | writes |
+//! |---|---|---|
+//! | `hier32` | CMO distance | `cmo_hier`: the 8x4/4x8 `[min, max]` hierarchy ([`super::hier32`]) |
+//! | `append` | G-buffer | ray queue + its atomic count (a fragment pass, one ray per mirror pixel) |
+//! | `dispatch_args` | ray count | `VkDispatchIndirectCommand` (no CPU round trip) |
+//! | `compute_trace` | queue, CMO data, `cmo_hier` | one [`PixelRecord`](super::frame::PixelRecord) per queued ray, per-ray counters |
+//!
+//! Invariants:
+//! - The queued ray of a mirror pixel is `mirror_ray`'s (spirv/shared/mirror.wgsl), the ray the
+//!   fragment path traces, so both paths trace bit-identical rays.
+//! - `compute_trace` writes `records[pixel]` for exactly the queued pixels, i.e. the mirror pixels
+//!   (`position.w == 1`, the composite pass's own test), and `ray_stats[pixel]` likewise.
+//! - The surface model and the classification are the fragment path's exact criterion
+//!   (`classify` in spirv/shared/trace.wgsl), so [`GpuRenderer`](super::frame::GpuRenderer)
+//!   refuses other criteria for this method.
+//! - Subgroup sizes 4..=128 (powers of two) are supported; the kernel's docs say how lanes map
+//!   to rays and why no workgroup barrier is needed (there is none).
+//! - The ray counter is zeroed (`vkCmdFillBuffer`) before `append` in every frame. One fragment
+//!   per pixel (no multisampling), so the queue holds at most `width * height` rays.
+//! - The dispatch is sized for the device's default subgroup size ([`DispatchParams`]); the
+//!   kernel strides over the queue with the rays per workgroup it really has, so a device that
+//!   picks another size still traces every ray.
+use ash::vk;
+use bytemuck::{Pod, Zeroable};
+use gpu_allocator::MemoryLocation;
+
+use super::buffer::Buffer;
+use super::cmo::CmoData;
+use super::context::{GpuContext, Recorder};
+use super::error::{VkError, VkResult};
+use super::gbuffer::Gbuffer;
+use super::graphics::{GraphicsDesc, GraphicsPipeline, RenderTarget};
+use super::hier32::{Hier32Bindings, Hier32Pass};
+use super::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
+use super::shaders::{APPEND, COMPUTE_TRACE, DISPATCH_ARGS};
+use super::sync::{SHADER_WRITE, TRANSFER_WRITE};
+use crate::cubemap::pyramid::{
+    HIER_MAX_LEVELS, hier32_flat_layout, hier32_group, hier32_layout, hier32_len,
+};
+
+/// WGSL `AppendedRay` (spirv/shared/compute_rays.wgsl): one queued mirror ray.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct AppendedRay {
+    pub origin: [f32; 3],
+    /// `j * width + i`.
+    pub pixel: u32,
+    pub dir: [f32; 3],
+    /// Reflections taken before this ray (0 today).
+    pub bounce: u32,
+}
+
+/// WGSL `RayCounter`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct RayCounter {
+    /// Rays appended.
+    pub count: u32,
+    /// Largest subgroup size `compute_trace` ran with.
+    pub subgroup_max: u32,
+    /// `!min` subgroup size.
+    pub subgroup_min_not: u32,
+    pub pad0: u32,
+}
+
+/// WGSL `DispatchArgs` (= `VkDispatchIndirectCommand`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct DispatchArgs {
+    pub x: u32,
+    pub y: u32,
+    pub z: u32,
+}
+
+/// WGSL `DispatchParams` of `dispatch_args`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct DispatchParams {
+    /// Rays per `compute_trace` workgroup at the device's subgroup size: `256 / min(S, 32)`.
+    pub rays_per_group: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+    pub pad2: u32,
+}
+
+impl DispatchParams {
+    /// For a device whose compute shaders run with subgroups of `subgroup_size` lanes (the
+    /// kernel is correct with any value; this one launches no idle workgroup on that device).
+    pub fn for_subgroup_size(subgroup_size: u32) -> Self {
+        DispatchParams {
+            rays_per_group: 256 / subgroup_size.clamp(4, 32),
+            ..DispatchParams::default()
+        }
+    }
+}
+
+/// WGSL `HierConfig` of `compute_trace`: the [`Hier32`](crate::cubemap::pyramid::Hier32)
+/// layout for face size N.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct HierConfig {
+    /// Root level index (0 when the texels are the root).
+    pub root: u32,
+    /// `hier32_len(N)`.
+    pub hier_len: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+    /// Level l: `(offset in cells (l >= 1), width, height, 0)`.
+    pub dims: [[u32; 4]; HIER_MAX_LEVELS],
+    /// Level l: `(gx, gy, span x, span y)`.
+    pub shape: [[u32; 4]; HIER_MAX_LEVELS],
+}
+
+impl HierConfig {
+    /// The layout for face size `size`; fails where the hierarchy has more than
+    /// [`HIER_MAX_LEVELS`] levels (N above 4096 is refused by `TraceConfig` anyway).
+    pub fn new(size: u32) -> VkResult<Self> {
+        let dims = hier32_layout(size);
+        if dims.len() > HIER_MAX_LEVELS {
+            return Err(VkError::Usage {
+                what: COMPUTE_TRACE.name.into(),
+                detail: format!("face size {size} needs {} hierarchy levels", dims.len()),
+            });
+        }
+        let flat = hier32_flat_layout(size);
+        let mut c = HierConfig {
+            root: (dims.len() - 1) as u32,
+            hier_len: hier32_len(size) as u32,
+            ..HierConfig::default()
+        };
+        let mut span = (1u32, 1u32);
+        for (l, &(w, h)) in dims.iter().enumerate() {
+            let offset = if l == 0 { 0 } else { flat[l - 1].offset };
+            let group = if l == 0 { (1, 1) } else { hier32_group(l) };
+            span = (span.0 * group.0, span.1 * group.1);
+            c.dims[l] = [offset, w, h, 0];
+            c.shape[l] = [group.0, group.1, span.0, span.1];
+        }
+        Ok(c)
+    }
+}
+
+/// Subgroup sizes the kernel supports.
+pub const SUBGROUP_SIZES: std::ops::RangeInclusive<u32> = 4..=128;
+
+/// Checks that the device can run the compute path: subgroup ballot, vote and shuffle in compute
+/// shaders, and a supported subgroup size.
+pub fn check_device(ctx: &GpuContext) -> VkResult<()> {
+    let r = ctx.report();
+    let need = vk::SubgroupFeatureFlags::BASIC
+        | vk::SubgroupFeatureFlags::VOTE
+        | vk::SubgroupFeatureFlags::BALLOT
+        | vk::SubgroupFeatureFlags::SHUFFLE;
+    let problem = if !r.subgroup_stages.contains(vk::ShaderStageFlags::COMPUTE) {
+        Some("no subgroup operations in compute shaders".to_string())
+    } else if !r.subgroup_ops.contains(need) {
+        Some(format!(
+            "subgroup operations {:?}, need basic, vote, ballot and shuffle",
+            r.subgroup_ops
+        ))
+    } else if !SUBGROUP_SIZES.contains(&r.subgroup_size) || !r.subgroup_size.is_power_of_two() {
+        Some(format!(
+            "subgroup size {}, the kernel supports powers of two in {SUBGROUP_SIZES:?}",
+            r.subgroup_size
+        ))
+    } else {
+        None
+    };
+    match problem {
+        Some(detail) => Err(VkError::Usage {
+            what: format!("{} on {}", COMPUTE_TRACE.name, r.name),
+            detail: format!("{detail} (use --method fragment)"),
+        }),
+        None => Ok(()),
+    }
+}
+
+/// Per-ray work of one frame, read back. Always recorded: the kernel keeps the counters anyway
+/// (they are the CPU twin's) and writes 16 bytes per ray, which is lost in the noise of the
+/// pass's time on lavapipe, so no option turns them off.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ComputeStats {
+    /// Rays the append pass queued.
+    pub rays: u32,
+    /// `(min, max)` subgroup size `compute_trace` ran with (`(0, 0)` when no workgroup ran).
+    pub subgroup_size: (u32, u32),
+    /// Per pixel (meaningful on mirror pixels): texels tested, cells tested, descents,
+    /// backtracks, summed over the ray's single-CMO traces.
+    pub per_pixel: Vec<[u32; 4]>,
+}
+
+impl ComputeStats {
+    /// Mean and max of each counter over the mirror pixels `mask` marks.
+    pub fn summary(&self, mask: &[u8]) -> [(f64, u32); 4] {
+        let mut out = [(0.0, 0u32); 4];
+        let mut n = 0usize;
+        for (c, _) in self.per_pixel.iter().zip(mask).filter(|(_, m)| **m != 0) {
+            n += 1;
+            for i in 0..4 {
+                out[i].0 += f64::from(c[i]);
+                out[i].1 = out[i].1.max(c[i]);
+            }
+        }
+        for o in &mut out {
+            o.0 /= n.max(1) as f64;
+        }
+        out
+    }
+}
+
+/// The compute path's buffers and pipelines for one renderer.
+pub struct ComputePath {
+    width: u32,
+    height: u32,
+    hier_pass: Hier32Pass,
+    hier_bindings: Hier32Bindings,
+    append: GraphicsPipeline,
+    append_set: BindGroup,
+    dispatch_args: ComputePipeline,
+    args_set: BindGroup,
+    trace: ComputePipeline,
+    trace_sets: [BindGroup; 3],
+    _hier: Buffer,
+    _hier_config: Buffer,
+    _dispatch_params: Buffer,
+    _rays: Buffer,
+    counter: Buffer,
+    args: Buffer,
+    stats: Buffer,
+}
+
+impl ComputePath {
+    /// Allocates the hierarchy, the queue and the pipelines. `params` is the frame's
+    /// `FrameParams` uniform and `records` its per-pixel record buffer.
+    pub fn new(
+        ctx: &GpuContext,
+        cmo: &CmoData,
+        gbuffer: &Gbuffer,
+        params: &Buffer,
+        records: &Buffer,
+        (width, height): (u32, u32),
+    ) -> VkResult<Self> {
+        check_device(ctx)?;
+        let size = cmo.size();
+        let config = HierConfig::new(size)?;
+        let storage = |name: &str, bytes: u64, extra: vk::BufferUsageFlags| {
+            Buffer::new(
+                ctx.device(),
+                name,
+                bytes,
+                vk::BufferUsageFlags::STORAGE_BUFFER | extra,
+                MemoryLocation::GpuOnly,
+            )
+        };
+        let cells = u64::from(cmo.count()) * hier32_len(size) as u64;
+        let hier = storage(
+            "cmo_hier",
+            cells.max(1) * 8,
+            vk::BufferUsageFlags::TRANSFER_SRC,
+        )?;
+        let hier_pass = Hier32Pass::new(ctx)?;
+        let hier_bindings = hier_pass.bind(ctx, cmo.distance(), &hier, cmo.count(), size)?;
+        let hier_config = ctx.create_buffer_init(
+            "hier_config",
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            std::slice::from_ref(&config),
+        )?;
+        let pixels = u64::from(width) * u64::from(height);
+        let rays = storage(
+            "ray queue",
+            pixels * size_of::<AppendedRay>() as u64,
+            vk::BufferUsageFlags::empty(),
+        )?;
+        let counter = storage(
+            "ray counter",
+            size_of::<RayCounter>() as u64,
+            vk::BufferUsageFlags::TRANSFER_DST | vk::BufferUsageFlags::TRANSFER_SRC,
+        )?;
+        let args = storage(
+            "compute_trace dispatch",
+            size_of::<DispatchArgs>() as u64,
+            vk::BufferUsageFlags::INDIRECT_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+        )?;
+        let stats = storage("ray stats", pixels * 16, vk::BufferUsageFlags::TRANSFER_SRC)?;
+        let sampled = |img: &super::image::Image| Resource::Texture {
+            view: img.view(),
+            layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+        };
+        let append = GraphicsPipeline::new(
+            ctx,
+            &APPEND,
+            &GraphicsDesc {
+                vertex: "vs_fullscreen",
+                fragment: "fs_main",
+                colour_formats: Vec::new(),
+                depth: None,
+            },
+        )?;
+        let append_set = append.bind_group(
+            0,
+            &[
+                (0, sampled(&gbuffer.position)),
+                (1, sampled(&gbuffer.normal)),
+                (2, Resource::Buffer(params)),
+                (6, Resource::Buffer(&counter)),
+                (7, Resource::Buffer(&rays)),
+            ],
+        )?;
+        let dispatch_params = ctx.create_buffer_init(
+            "dispatch params",
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            &[DispatchParams::for_subgroup_size(
+                ctx.report().subgroup_size,
+            )],
+        )?;
+        let dispatch_args =
+            ComputePipeline::new(ctx, &DISPATCH_ARGS, "main", ComputeOptions::default())?;
+        let args_set = dispatch_args.bind_group(
+            0,
+            &[
+                (0, Resource::Buffer(&counter)),
+                (1, Resource::Buffer(&args)),
+                (2, Resource::Buffer(&dispatch_params)),
+            ],
+        )?;
+        let trace = ComputePipeline::new(ctx, &COMPUTE_TRACE, "main", ComputeOptions::default())?;
+        let trace_sets = [
+            trace.bind_group(
+                0,
+                &[
+                    (2, Resource::Buffer(params)),
+                    (3, Resource::Buffer(records)),
+                ],
+            )?,
+            trace.bind_group(1, &cmo.resources_for(&COMPUTE_TRACE, "main"))?,
+            trace.bind_group(
+                2,
+                &[
+                    (0, Resource::Buffer(&counter)),
+                    (1, Resource::Buffer(&rays)),
+                    (2, Resource::Buffer(&hier_config)),
+                    (3, Resource::Buffer(&hier)),
+                    (4, Resource::Buffer(&stats)),
+                ],
+            )?,
+        ];
+        Ok(ComputePath {
+            width,
+            height,
+            hier_pass,
+            hier_bindings,
+            append,
+            append_set,
+            dispatch_args,
+            args_set,
+            trace,
+            trace_sets,
+            _hier: hier,
+            _hier_config: hier_config,
+            _dispatch_params: dispatch_params,
+            _rays: rays,
+            counter,
+            args,
+            stats,
+        })
+    }
+
+    /// `hier32`: the hierarchy from the captured distances (the caller orders it after the
+    /// capture and before [`ComputePath::record_trace`]).
+    pub fn record_hier(&self, rec: &Recorder<'_>) {
+        self.hier_pass.record(rec, &self.hier_bindings);
+    }
+
+    /// `append`: zeroes the counter, then queues one ray per mirror pixel of the G-buffer.
+    pub fn record_append(&self, rec: &Recorder<'_>) -> VkResult<()> {
+        rec.fill_buffer(&self.counter, 0);
+        rec.memory_barrier(TRANSFER_WRITE, STORAGE_RW);
+        let target = RenderTarget {
+            width: self.width,
+            height: self.height,
+            colour: Vec::new(),
+            depth: None,
+        };
+        self.append.draw(rec, &target, &[&self.append_set], 3, 0)
+    }
+
+    /// `dispatch_args`: the workgroup count from the ray count (after a barrier from `append`).
+    pub fn record_dispatch_args(&self, rec: &Recorder<'_>) {
+        rec.memory_barrier(SHADER_WRITE, STORAGE_RW);
+        self.dispatch_args
+            .dispatch(rec, &[&self.args_set], [1, 1, 1]);
+    }
+
+    /// `compute_trace`: the indirect dispatch over the queue (after a barrier from
+    /// `dispatch_args`; the hierarchy must already be visible).
+    pub fn record_trace(&self, rec: &Recorder<'_>) -> VkResult<()> {
+        rec.memory_barrier(SHADER_WRITE, INDIRECT_READ);
+        let sets = [
+            &self.trace_sets[0],
+            &self.trace_sets[1],
+            &self.trace_sets[2],
+        ];
+        self.trace.dispatch_indirect(rec, &sets, &self.args, 0)
+    }
+
+    /// The ray count, subgroup sizes and per-pixel counters of the last frame.
+    pub fn read_stats(&self, ctx: &GpuContext) -> VkResult<ComputeStats> {
+        let counter: Vec<RayCounter> = ctx.read_buffer(&self.counter)?;
+        let c = counter.first().copied().unwrap_or_default();
+        let mut per_pixel: Vec<[u32; 4]> = ctx.read_buffer(&self.stats)?;
+        per_pixel.truncate((self.width * self.height) as usize);
+        Ok(ComputeStats {
+            rays: c.count,
+            subgroup_size: (!c.subgroup_min_not, c.subgroup_max),
+            per_pixel,
+        })
+    }
+
+    /// The dispatch the GPU computed in the last frame (tests).
+    pub fn read_dispatch_args(&self, ctx: &GpuContext) -> VkResult<DispatchArgs> {
+        let a: Vec<DispatchArgs> = ctx.read_buffer(&self.args)?;
+        Ok(a.first().copied().unwrap_or_default())
+    }
+}
+
+/// Storage reads and writes of the fragment and compute stages (the queue and its counter).
+const STORAGE_RW: (vk::PipelineStageFlags2, vk::AccessFlags2) = (
+    vk::PipelineStageFlags2::from_raw(
+        vk::PipelineStageFlags2::COMPUTE_SHADER.as_raw()
+            | vk::PipelineStageFlags2::FRAGMENT_SHADER.as_raw(),
+    ),
+    vk::AccessFlags2::from_raw(
+        vk::AccessFlags2::SHADER_STORAGE_READ.as_raw()
+            | vk::AccessFlags2::SHADER_STORAGE_WRITE.as_raw(),
+    ),
+);
+
+/// The indirect command read of `vkCmdDispatchIndirect`, plus the kernel's reads of the queue.
+const INDIRECT_READ: (vk::PipelineStageFlags2, vk::AccessFlags2) = (
+    vk::PipelineStageFlags2::from_raw(
+        vk::PipelineStageFlags2::DRAW_INDIRECT.as_raw()
+            | vk::PipelineStageFlags2::COMPUTE_SHADER.as_raw(),
+    ),
+    vk::AccessFlags2::from_raw(
+        vk::AccessFlags2::INDIRECT_COMMAND_READ.as_raw()
+            | vk::AccessFlags2::SHADER_STORAGE_READ.as_raw()
+            | vk::AccessFlags2::SHADER_STORAGE_WRITE.as_raw(),
+    ),
+);
