@@ -383,12 +383,13 @@ struct BenchArgs {
     /// Scenes: built-in names or .toml paths, comma-separated [default: every built-in scene].
     #[arg(long, value_delimiter = ',')]
     scenes: Vec<String>,
-    /// Methods: reference, envmap, fragment (comma-separated); tracing methods run their
-    /// parameter grid (criteria x sampling x acceleration x steps) unless --quick.
+    /// Methods: reference, envmap, fragment, compute (comma-separated); fragment runs its
+    /// parameter grid (criteria x sampling x acceleration x steps) unless --quick; compute has
+    /// one setting (the exact criterion on its hierarchy).
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "reference,envmap,fragment"
+        default_value = "reference,envmap,fragment,compute"
     )]
     methods: Vec<String>,
     /// Tracing methods: only the default options (exact criterion, pyramid) instead of the grid.

@@ -59,7 +59,8 @@ const RECORD_UNRESOLVED: u32 = 2u;
 @group(0) @binding(1) var gbuffer_normal: texture_2d<f32>;
 @group(0) @binding(2) var<uniform> frame: FrameParams;
 @group(0) @binding(3) var<storage, read_write> records: array<PixelRecord>;
-@group(1) @binding(4) var<storage, read> cmo_colour: array<vec4<f32>>;
+// Layer 6 k + face: CMO k's face (an image: no storage-buffer size limit).
+@group(1) @binding(4) var cmo_colour: texture_2d_array<f32>;
 
 struct MirrorRay {
     mirror: bool,
@@ -81,8 +82,7 @@ fn mirror_ray(pixel: vec2<u32>) -> MirrorRay {
 
 // Captured colour of texel `t` of CMO `k`.
 fn cmo_texel_colour(k: u32, t: Texel) -> vec4<f32> {
-    let n = trace_config.size;
-    return cmo_colour[k * 6u * n * n + texel_index(t, n)];
+    return textureLoad(cmo_colour, vec2<u32>(t.x, t.y), k * 6u + t.face, 0);
 }
 
 // The CMO whose centre is nearest to `p` (the first on ties).

@@ -49,13 +49,16 @@ pub enum MethodKind {
     Envmap,
     /// Cubemap tracing in a deferred fragment pass.
     Fragment,
+    /// Cubemap tracing in the compute path (thesis alg. 3; exact criterion only).
+    Compute,
 }
 
 impl MethodKind {
-    pub const ALL: [MethodKind; 3] = [
+    pub const ALL: [MethodKind; 4] = [
         MethodKind::Reference,
         MethodKind::Envmap,
         MethodKind::Fragment,
+        MethodKind::Compute,
     ];
 
     pub fn name(self) -> &'static str {
@@ -63,6 +66,7 @@ impl MethodKind {
             MethodKind::Reference => "reference",
             MethodKind::Envmap => "envmap",
             MethodKind::Fragment => "fragment",
+            MethodKind::Compute => "compute",
         }
     }
 
@@ -76,12 +80,13 @@ impl MethodKind {
             MethodKind::Reference => None,
             MethodKind::Envmap => Some(GpuMethod::Envmap),
             MethodKind::Fragment => Some(GpuMethod::Fragment),
+            MethodKind::Compute => Some(GpuMethod::Compute),
         }
     }
 
     /// Whether the method runs the cubemap tracer, so that the tracer options matter.
     pub fn traces(self) -> bool {
-        matches!(self, MethodKind::Fragment)
+        matches!(self, MethodKind::Fragment | MethodKind::Compute)
     }
 }
 
@@ -104,7 +109,8 @@ impl MethodSpec {
     /// A short unique name, also used in file names: `fragment-exact-mip`,
     /// `fragment-threshold-step64`, `envmap`, ...
     pub fn label(&self) -> String {
-        if !self.kind.traces() {
+        // The compute path has one setting: the exact criterion on its own hierarchy.
+        if !self.kind.traces() || self.kind == MethodKind::Compute {
             return self.kind.name().into();
         }
         let t = &self.trace;
@@ -166,7 +172,7 @@ pub fn method_grid(kinds: &[MethodKind], quick: bool) -> Vec<MethodSpec> {
     let mut out = Vec::new();
     for &kind in kinds {
         if kind.traces() {
-            if quick {
+            if quick || kind == MethodKind::Compute {
                 out.push(MethodSpec::plain(kind));
             } else {
                 out.extend(fragment_grid(kind));

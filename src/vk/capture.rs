@@ -1,11 +1,11 @@
 //! The `capture` pass: rasterises each cubemap object's six faces (colour and distance, plus
-//! normals and the mirror mask when the scene has self-reflections on) and copies them into the
-//! flat buffers the tracers read.
+//! normals and the mirror mask when the scene has self-reflections on) into [`CmoData`]: colour
+//! straight into its colour image, distance (and normals) into the flat buffers the tracers read.
 //!
 //! Invariants:
-//! - The outputs are [`CmoData`]'s buffers, in [`crate::cubemap::CubeMap`]'s layout: CMO-major, then `(face * N + y) * N + x`,
-//!   faces in Vulkan's order. A layer of the capture images is one face (`layer = 6 k + face`),
-//!   and an image-to-buffer copy of all layers is exactly that layout.
+//! - A layer of every capture image is one face (`layer = 6 k + face`, faces in Vulkan's order),
+//!   so an image-to-buffer copy of all layers is [`crate::cubemap::CubeMap`]'s layout:
+//!   CMO-major, then `(face * N + y) * N + x`.
 //! - Distance is the f32 world distance to the CMO centre, `+inf` where nothing was drawn (the
 //!   clear value); colour is linear RGBA with alpha 1 on surfaces and the background with alpha 0
 //!   elsewhere, as [`crate::reference::capture`] (the CPU check of this pass) produces.
@@ -24,7 +24,9 @@ use super::image::{Image, ImageDesc};
 use super::pipeline::{BindGroup, Resource};
 use super::scene_buffers::SceneBuffers;
 use super::shaders::CAPTURE;
-use super::sync::{ALL_READS, COLOUR_WRITE, DEPTH_WRITE, TRANSFER_READ, TRANSFER_WRITE};
+use super::sync::{
+    ALL_READS, COLOUR_WRITE, DEPTH_WRITE, SHADER_READ, TRANSFER_READ, TRANSFER_WRITE,
+};
 
 /// One face of one CMO, as `capture_views[k]` in `spirv/capture.wgsl`.
 #[repr(C)]
@@ -44,7 +46,6 @@ pub struct Capture {
     scene_set: BindGroup,
     view_set: BindGroup,
     _views: Buffer,
-    colour: Image,
     distance: Image,
     normal: Option<Image>,
     depth: Image,
@@ -53,7 +54,7 @@ pub struct Capture {
 }
 
 const DISTANCE_FORMAT: vk::Format = vk::Format::R32_SFLOAT;
-const COLOUR_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
+const COLOUR_FORMAT: vk::Format = super::cmo::COLOUR_FORMAT;
 
 impl Capture {
     /// Prepares the capture of CMOs at `centres` with faces of `size` texels. Geometry nearer
@@ -124,7 +125,6 @@ impl Capture {
             usage: target_usage,
         };
         let dev = ctx.device();
-        let colour = Image::new(dev, layered("capture colour", COLOUR_FORMAT))?;
         let distance = Image::new(dev, layered("capture distance", DISTANCE_FORMAT))?;
         let normal = if self_reflections {
             Some(Image::new(dev, layered("capture normal", COLOUR_FORMAT))?)
@@ -146,7 +146,6 @@ impl Capture {
             scene_set,
             view_set,
             _views: views_buf,
-            colour,
             distance,
             normal,
             depth,
@@ -159,13 +158,14 @@ impl Capture {
         })
     }
 
-    /// Records the capture of every face of every CMO and the copies into `cmo`'s buffers,
-    /// followed by a barrier that makes them readable by any later pass. `background` fills
-    /// the colour of empty texels (alpha 0).
+    /// Records the capture of every face of every CMO into `cmo`: colour straight into its
+    /// colour image (left readable by shaders), distance (and normals) through this pass's
+    /// images into its buffers, then a barrier that makes everything readable by any later
+    /// pass. `background` fills the colour of empty texels (alpha 0).
     pub fn record(&self, rec: &Recorder<'_>, cmo: &CmoData, background: Vec3) -> VkResult<()> {
         let normal = match (&self.normal, cmo.normal()) {
             (None, _) => None,
-            (Some(_), Some(b)) => Some(b),
+            (Some(img), Some(b)) => Some((img, b)),
             (Some(_), None) => {
                 return Err(VkError::Usage {
                     what: "capture".into(),
@@ -173,11 +173,17 @@ impl Capture {
                 });
             }
         };
-        let images: Vec<&Image> = [&self.colour, &self.distance]
+        if cmo.colour().desc().layers != self.distance.desc().layers {
+            return Err(VkError::Usage {
+                what: "capture".into(),
+                detail: "the CMO data was made for another number of CMOs".into(),
+            });
+        }
+        let images: Vec<&Image> = [cmo.colour(), &self.distance]
             .into_iter()
-            .chain(self.normal.as_ref())
+            .chain(normal.map(|(img, _)| img))
             .collect();
-        rec.prepare_render_targets(&images, Some(&self.depth), TRANSFER_READ);
+        rec.prepare_render_targets(&images, Some(&self.depth), ALL_READS);
         let bg = background.to_array();
         let clears = [
             vk::ClearColorValue {
@@ -189,19 +195,14 @@ impl Capture {
             vk::ClearColorValue { float32: [0.0; 4] },
         ];
         let sets = [&self.scene_set, &self.view_set];
-        for layer in 0..self.colour.desc().layers {
-            let view = |img: &Image| {
-                img.layer_view(layer).ok_or_else(|| VkError::Usage {
-                    what: img.desc().name.clone(),
-                    detail: format!("no layer {layer}"),
-                })
-            };
+        for layer in 0..self.distance.desc().layers {
             let mut colour = Vec::with_capacity(images.len());
             for (img, clear) in images.iter().zip(clears) {
-                colour.push(ColourTarget {
-                    view: view(img)?,
-                    clear,
-                });
+                let view = img.layer_view(layer).ok_or_else(|| VkError::Usage {
+                    what: img.desc().name.clone(),
+                    detail: format!("no layer {layer}"),
+                })?;
+                colour.push(ColourTarget { view, clear });
             }
             let target = RenderTarget {
                 width: self.size,
@@ -214,19 +215,19 @@ impl Capture {
                 // face's depth writes.
                 rec.memory_barrier(DEPTH_WRITE, DEPTH_WRITE);
             }
-            if self.draw_indices > 0 {
-                self.pipeline
-                    .draw(rec, &target, &sets, self.draw_indices, layer)?;
-            } else {
-                // Nothing to draw: still clear the face (an empty draw).
-                self.pipeline.draw(rec, &target, &sets, 0, layer)?;
-            }
+            // With nothing to draw this is an empty draw that still clears the face.
+            self.pipeline
+                .draw(rec, &target, &sets, self.draw_indices, layer)?;
         }
-        let buffers: Vec<&Buffer> = [cmo.colour(), cmo.distance()]
-            .into_iter()
-            .chain(normal)
-            .collect();
-        for (img, buf) in images.iter().zip(buffers) {
+        rec.image_barrier(
+            cmo.colour(),
+            vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+            vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+            COLOUR_WRITE,
+            SHADER_READ,
+        );
+        let copies = [(&self.distance, cmo.distance())].into_iter().chain(normal);
+        for (img, buf) in copies {
             rec.image_barrier(
                 img,
                 vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,

@@ -6,10 +6,13 @@
 //! | 1 | `cmo_centres` | `vec4` per CMO (xyz centre) | always |
 //! | 2 | `cmo_distance` | `6 N N` f32 per CMO, [`CubeMap`]'s layout, `+inf` where empty | always |
 //! | 3 | `cmo_mip` | `mip_len(N)` `[min, max]` per CMO, `MipPyramid::flatten` | with a pyramid |
-//! | 4 | `cmo_colour` | `6 N N` linear RGBA per CMO (alpha 0 where empty) | always |
+//! | 4 | `cmo_colour` | texture array, layer `6 k + face`: linear RGBA (alpha 0 where empty) | always |
 //! | (none yet) | normal + mirror flag | `6 N N` RGBA per CMO | with self-reflections |
 //!
 //! The capture pass writes distance, colour and normals; the pyramid pass writes `cmo_mip`.
+//! Colour is an image, not a buffer: it is only ever looked up per texel, and an image has no
+//! `maxStorageBufferRange` (128 MiB on lavapipe, less than one 2048-texel RGBA32F capture).
+//! Buffers larger than the device can bind are refused when bound ([`super::VkError::Limit`]).
 //! Without a pyramid `cmo_mip` is a one-cell placeholder (a binding cannot be empty), and the
 //! config says so: `mip_top = 0` makes the tracer read texels only.
 use ash::vk;
@@ -19,6 +22,7 @@ use gpu_allocator::MemoryLocation;
 use super::buffer::Buffer;
 use super::context::GpuContext;
 use super::error::{VkError, VkResult};
+use super::image::{Image, ImageDesc};
 use super::pipeline::Resource;
 use super::shaders::Pass;
 use super::trace_probe::TraceConfig;
@@ -36,9 +40,12 @@ pub struct CmoData {
     centres_buf: Buffer,
     distance: Buffer,
     mip: Buffer,
-    colour: Buffer,
+    colour: Image,
     normal: Option<Buffer>,
 }
+
+/// Format of the colour capture: linear RGBA, f32 so that the CPU twins read the same bits.
+pub const COLOUR_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
 
 fn storage(ctx: &GpuContext, name: &str, bytes: u64) -> VkResult<Buffer> {
     Buffer::new(
@@ -100,7 +107,21 @@ impl CmoData {
             )?,
             distance: storage(ctx, "cmo_distance", texels * 4)?,
             mip: storage(ctx, "cmo_mip", mip_cells.max(1) * 8)?,
-            colour: storage(ctx, "cmo_colour", texels * 16)?,
+            colour: Image::new(
+                ctx.device(),
+                ImageDesc {
+                    name: "cmo_colour".into(),
+                    format: COLOUR_FORMAT,
+                    width: size,
+                    height: size,
+                    layers: 6 * count,
+                    cube: false,
+                    usage: vk::ImageUsageFlags::COLOR_ATTACHMENT
+                        | vk::ImageUsageFlags::SAMPLED
+                        | vk::ImageUsageFlags::TRANSFER_SRC
+                        | vk::ImageUsageFlags::TRANSFER_DST,
+                },
+            )?,
             normal: if self_reflections {
                 Some(storage(ctx, "cmo_normal", texels * 16)?)
             } else {
@@ -136,7 +157,11 @@ impl CmoData {
             mip.push(EMPTY_CELL);
         }
         ctx.write_buffer(&data.distance, &distance)?;
-        ctx.write_buffer(&data.colour, &colour)?;
+        ctx.upload_image(
+            &data.colour,
+            bytemuck::cast_slice(&colour),
+            vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+        )?;
         ctx.write_buffer(&data.mip, &mip)?;
         Ok(data)
     }
@@ -174,8 +199,8 @@ impl CmoData {
     pub fn mip(&self) -> &Buffer {
         &self.mip
     }
-    /// Colours (binding 4).
-    pub fn colour(&self) -> &Buffer {
+    /// Colours (binding 4): layer `6 k + face` holds CMO `k`'s face.
+    pub fn colour(&self) -> &Image {
         &self.colour
     }
     /// Normals and mirror flags (self-reflections only).
@@ -185,17 +210,18 @@ impl CmoData {
 
     /// Bytes of GPU memory the CMO data takes.
     pub fn bytes(&self) -> u64 {
+        let colour = self.colour.desc();
         [
             &self.config_buf,
             &self.centres_buf,
             &self.distance,
             &self.mip,
-            &self.colour,
         ]
         .iter()
         .map(|b| b.size())
         .sum::<u64>()
             + self.normal.as_ref().map_or(0, |b| b.size())
+            + colour.layer_bytes().unwrap_or(0) * u64::from(colour.layers)
     }
 
     /// Every `@group(1)` resource by binding number.
@@ -205,7 +231,13 @@ impl CmoData {
             (1, Resource::Buffer(&self.centres_buf)),
             (2, Resource::Buffer(&self.distance)),
             (3, Resource::Buffer(&self.mip)),
-            (4, Resource::Buffer(&self.colour)),
+            (
+                4,
+                Resource::Texture {
+                    view: self.colour.array_view(),
+                    layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+                },
+            ),
         ]
     }
 
@@ -222,7 +254,8 @@ impl CmoData {
     /// Reads the captures back as CPU cube maps (for the CPU twins and the tests).
     pub fn read_back(&self, ctx: &GpuContext) -> VkResult<Vec<CubeMap>> {
         let distance: Vec<f32> = ctx.read_buffer(&self.distance)?;
-        let colour: Vec<[f32; 4]> = ctx.read_buffer(&self.colour)?;
+        let bytes = ctx.read_image(&self.colour, vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)?;
+        let colour: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
         let per = 6 * self.size as usize * self.size as usize;
         Ok(self
             .centres

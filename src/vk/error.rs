@@ -36,6 +36,16 @@ pub enum VkError {
     /// A shader table entry could not be used (missing entry point, bad binding, …).
     #[error("shader pass `{pass}`: {detail}")]
     Shader { pass: String, detail: String },
+    /// A resource exceeds a device limit (e.g. a cube size too large to bind on this device).
+    #[error(
+        "{what} exceeds the limit of {device} ({limit}); use a smaller --cube-size, fewer CMOs \
+         or a smaller frame"
+    )]
+    Limit {
+        device: String,
+        what: String,
+        limit: String,
+    },
     /// A caller asked for something inconsistent (sizes, formats, …).
     #[error("`{what}`: {detail}")]
     Usage { what: String, detail: String },

@@ -61,6 +61,7 @@ pub struct DeviceReport {
     /// `maxComputeWorkgroupSubgroups` (Vulkan 1.3).
     pub max_compute_workgroup_subgroups: Option<u32>,
     pub max_storage_buffer_range: u32,
+    pub max_uniform_buffer_range: u32,
     pub max_compute_shared_memory_size: u32,
 }
 
@@ -212,6 +213,7 @@ pub(crate) fn probe(instance: &Instance, index: usize, pd: vk::PhysicalDevice) -
         max_compute_work_group_invocations: props.limits.max_compute_work_group_invocations,
         max_compute_workgroup_subgroups: None,
         max_storage_buffer_range: props.limits.max_storage_buffer_range,
+        max_uniform_buffer_range: props.limits.max_uniform_buffer_range,
         max_compute_shared_memory_size: props.limits.max_compute_shared_memory_size,
     };
 

@@ -344,6 +344,24 @@ impl BindGroup {
                             b.min_size
                         )));
                     }
+                    // Whole buffers are bound: the device's range limit applies to the size.
+                    let (limit, limit_name) = match b.kind {
+                        BindingKind::UniformBuffer => (
+                            device.report.max_uniform_buffer_range,
+                            "maxUniformBufferRange",
+                        ),
+                        _ => (
+                            device.report.max_storage_buffer_range,
+                            "maxStorageBufferRange",
+                        ),
+                    };
+                    if buf.size() > u64::from(limit) {
+                        return Err(VkError::Limit {
+                            device: device.report.name.clone(),
+                            what: format!("buffer `{}` ({} MiB)", buf.name(), buf.size() >> 20),
+                            limit: format!("{limit_name} = {} MiB", limit >> 20),
+                        });
+                    }
                     true
                 }
                 (BindingKind::SampledTexture { .. }, Resource::Texture { .. })
