@@ -12,7 +12,7 @@
 //!   the mirror point, over pixels where both hit something.
 //! - **PSNR**: over mirror pixels, on linear RGB clamped to [0, 1].
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
 use crate::reference::Frame;
 
@@ -117,10 +117,12 @@ pub fn classify(
                 (false, false) => {
                     // A hit on the mirror point itself (an approximate criterion firing at
                     // the ray's start) has no direction: no angle, the distance still counts.
-                    let p = mirror_point[k];
-                    let (a, b) = ((rh - p).normalize_or_zero(), (th - p).normalize_or_zero());
-                    let angle_deg = (a != Vec3::ZERO && b != Vec3::ZERO)
-                        .then(|| (a.dot(b).clamp(-1.0, 1.0) as f64).acos().to_degrees());
+                    // In f64 with atan2: acos of an f32 cosine cannot resolve angles below
+                    // about 0.03 degrees (1 - cos is then under one f32 ulp of 1).
+                    let p = mirror_point[k].as_dvec3();
+                    let (a, b) = (rh.as_dvec3() - p, th.as_dvec3() - p);
+                    let angle_deg = (a != DVec3::ZERO && b != DVec3::ZERO)
+                        .then(|| a.cross(b).length().atan2(a.dot(b)).to_degrees());
                     PixelError {
                         class: if (rh - th).length() > WRONG_SURFACE_FOOTPRINTS * footprint(rh) {
                             PixelClass::WrongSurface
@@ -240,6 +242,18 @@ mod tests {
         t.hit_position[0].x += 0.5;
         let r = compare(&f, &t, &m, &[Vec3::ZERO], 64);
         assert_eq!(r.wrong_surface, 0.0);
+    }
+
+    #[test]
+    fn small_angles_are_resolved() {
+        // A hit 1e-4 degrees off as seen from the mirror point, 10 units away: f32 acos would
+        // report 0 or about 0.03 degrees.
+        let (f, mut t, m) = pair();
+        let a = 1e-4f32.to_radians();
+        t.hit_position[0] = Vec3::new(10.0 * a.sin(), 0.0, -10.0 * a.cos());
+        let e = classify(&f, &t, &m, &[Vec3::ZERO], 64)[0];
+        let got = e.angle_deg.unwrap();
+        assert!((got - 1e-4).abs() < 1e-6, "{got}");
     }
 
     #[test]
