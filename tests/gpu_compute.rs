@@ -10,6 +10,9 @@
 //!
 //! Every comparison has a negative test. Runs under the validation layer when installed and
 //! fails on any validation error.
+mod common;
+use common::{finish_gpu, gpu_context};
+
 use std::cell::Cell;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -49,34 +52,11 @@ fn compute_cube_size(name: &str) -> u32 {
     }
 }
 
+/// [`gpu_context`] plus the subgroup size, which these tests depend on.
 fn compute_context() -> GpuContext {
-    let ctx = GpuContext::new(ContextOptions::for_tests()).unwrap_or_else(|e| panic!("{e}"));
-    eprintln!(
-        "device: {}; subgroup size {}; validation layer: {}",
-        ctx.report().name,
-        ctx.report().subgroup_size,
-        if ctx.validation_enabled() {
-            "on"
-        } else {
-            "not installed, off"
-        }
-    );
+    let ctx = gpu_context();
+    eprintln!("subgroup size {}", ctx.report().subgroup_size);
     ctx
-}
-
-fn compute_finish(ctx: GpuContext) {
-    let log = ctx.validation_log();
-    assert_eq!(
-        ctx.validation_errors(),
-        Vec::<String>::new(),
-        "validation errors"
-    );
-    drop(ctx);
-    assert_eq!(
-        log.errors(),
-        Vec::<String>::new(),
-        "validation errors at destruction"
-    );
 }
 
 fn compute_scene(name: &str, cube_size: u32) -> (Scene, Camera) {
@@ -217,7 +197,7 @@ fn hier32_gpu_matches_cpu_bit_for_bit() {
             );
         }
     }
-    compute_finish(ctx);
+    finish_gpu(ctx);
 }
 
 #[test]
@@ -246,7 +226,7 @@ fn hier32_comparison_detects_a_changed_texel() {
             "N = {size}: only {diff} cells differ"
         );
     }
-    compute_finish(ctx);
+    finish_gpu(ctx);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -314,7 +294,7 @@ fn dispatch_is_sized_on_the_gpu_and_empty_without_mirror_pixels() {
         .unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(args, DispatchArgs { x: 0, y: 1, z: 1 });
     assert!(frame.colour.iter().all(|c| c.is_finite()));
-    compute_finish(ctx);
+    finish_gpu(ctx);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -550,7 +530,7 @@ fn compute_matches_fragment_cpu_twin_and_reference_on_every_scene() {
         scene::builtin::NAMES.len(),
         "the accuracy bound must reject the environment map on every scene"
     );
-    compute_finish(ctx);
+    finish_gpu(ctx);
 }
 
 /// Odd configurations: tiny cubes (N <= 4: the texels are the root, no hierarchy buffer; N = 5:
@@ -594,7 +574,7 @@ fn compute_matches_with_tiny_cubes_and_several_cmos() {
             tw[0]
         );
     }
-    compute_finish(ctx);
+    finish_gpu(ctx);
 }
 
 /// Negative test of the compute/fragment comparison: a fragment render from different CMO data
@@ -613,7 +593,7 @@ fn fragment_comparison_detects_other_cmo_data() {
         compute.mirror_pixels()
     );
     assert!(d.len() * 4 > compute.mirror_pixels());
-    compute_finish(ctx);
+    finish_gpu(ctx);
 }
 
 /// The compute method refuses the approximate criteria (it implements the exact one only).
@@ -631,7 +611,7 @@ fn compute_refuses_approximate_criteria() {
         err.is_some_and(|e| e.to_string().contains("exact criterion")),
         "the threshold criterion was accepted"
     );
-    compute_finish(ctx);
+    finish_gpu(ctx);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -8,8 +8,15 @@
 //! (`origin`, `dir`); the exact CPU tracer follows that very ray through the scene's
 //! non-reflector triangles (what the CMOs capture when self-reflections are off). Then:
 //! - a record `HIT` is *correct* when its point is within [`TOL_FOOTPRINTS`] texel footprints
-//!   (the footprint of [`cubetrace::metrics`]) of the CPU hit, and a *wrong hit* otherwise
-//!   (also when the CPU ray escapes);
+//!   (the footprint of [`cubetrace::metrics`]) of the CPU hit, or, failing that, when it names
+//!   the same texel and surface ([`same_texel_surface`]), and a *wrong hit* otherwise (also
+//!   when the CPU ray escapes). Why the second test: the per-texel model is exact only to the
+//!   texel it resolves. On a surface seen at an angle `psi` from its normal a texel's patch lies
+//!   up to `D tan(psi) / N` off the true surface radially (2.8 footprints at the continuity
+//!   limit, 80 degrees), and a ray crossing it obliquely turns that into a longer 3-D offset
+//!   (teapot: 0.074 m against a 0.072 m tolerance, in the reference's own texel). A hit on an
+//!   occluder or on the surface behind it is still wrong: their distances differ by more than
+//!   the continuous band plus its margin;
 //! - `ESCAPED` is correct when the CPU ray escapes or hits farther than the scene's ray length,
 //!   wrong otherwise;
 //! - `UNRESOLVED` is always allowed (the method said it does not know).
@@ -17,43 +24,32 @@
 //! For the exact criterion every case asserts zero wrong hits. Judging on the same ray keeps
 //! rasterisation differences at the mirror's silhouette (where the reflected direction of the
 //! G-buffer and of the reference's primary ray differ most) out of the count.
+mod common;
+use common::{finish_gpu, gpu_context};
+
 use cubetrace::cpu::options::TraceOptions;
+use cubetrace::cpu::{TraceParams, continuous};
+use cubetrace::cubemap::Texel;
+use cubetrace::cubemap::face::{dir_to_texel, face_st_to_dir, neighbour_across, texel_centre_dir};
 use cubetrace::reference::Tracer;
 use cubetrace::scene::shapes::{cuboid, uv_sphere};
 use cubetrace::scene::{CmoPlacement, Material, MeshInstance, Scene, Transform, builtin};
+use cubetrace::vk::GpuContext;
 use cubetrace::vk::frame::{
     Fallback, GpuFrame, GpuMethod, GpuRenderer, RECORD_ESCAPED, RECORD_HIT, RECORD_UNRESOLVED,
     RenderOptions, scene_ranges,
 };
-use cubetrace::vk::{ContextOptions, GpuContext};
 use glam::Vec3;
 
 /// Texel footprints a hit may be off (as `metrics::WRONG_SURFACE_FOOTPRINTS`): the texel the hit
 /// falls in plus one neighbour.
 const TOL_FOOTPRINTS: f32 = cubetrace::metrics::WRONG_SURFACE_FOOTPRINTS;
 
-fn hc_context() -> GpuContext {
-    GpuContext::new(ContextOptions::for_tests()).unwrap_or_else(|e| panic!("{e}"))
-}
-
-fn hc_finish(ctx: GpuContext) {
-    let log = ctx.validation_log();
-    assert_eq!(
-        ctx.validation_errors(),
-        Vec::<String>::new(),
-        "validation errors"
-    );
-    drop(ctx);
-    assert_eq!(
-        log.errors(),
-        Vec::<String>::new(),
-        "validation errors at destruction"
-    );
-}
-
 /// Per-frame verdict counts over mirror pixels.
-#[derive(Debug, Default, Clone, Copy, PartialEq)]
+#[derive(Debug, Default, Clone, PartialEq)]
 struct Verdicts {
+    /// Pixel indices of the wrong results (for [`explain`]).
+    wrong_pixels: Vec<usize>,
     mirror: usize,
     hits_ok: usize,
     escapes_ok: usize,
@@ -69,6 +65,15 @@ impl Verdicts {
 }
 
 fn render(ctx: &GpuContext, scene: &Scene, size: (u32, u32), trace: TraceOptions) -> GpuFrame {
+    render_keep(ctx, scene, size, trace).0
+}
+
+fn render_keep(
+    ctx: &GpuContext,
+    scene: &Scene,
+    size: (u32, u32),
+    trace: TraceOptions,
+) -> (GpuFrame, GpuRenderer) {
     let mut camera = scene.cameras[0].clone();
     (camera.width, camera.height) = size;
     let mut r = GpuRenderer::new(
@@ -82,8 +87,10 @@ fn render(ctx: &GpuContext, scene: &Scene, size: (u32, u32), trace: TraceOptions
         },
     )
     .unwrap_or_else(|e| panic!("{}: {e}", scene.name));
-    r.render(ctx)
-        .unwrap_or_else(|e| panic!("{}: {e}", scene.name))
+    let f = r
+        .render(ctx)
+        .unwrap_or_else(|e| panic!("{}: {e}", scene.name));
+    (f, r)
 }
 
 /// Judges every mirror pixel of `frame` on its own ray (see the module docs). `shift` moves
@@ -96,12 +103,10 @@ fn judge(scene: &Scene, frame: &GpuFrame, shift: Vec3) -> Verdicts {
     let camera = &scene.cameras[0];
     let (_, _, t_hi) = scene_ranges(scene, camera);
     let mut v = Verdicts::default();
-    for (rec, _) in frame
-        .records
-        .iter()
-        .zip(&frame.mask)
-        .filter(|(_, m)| **m != 0)
-    {
+    for (k, rec) in frame.records.iter().enumerate() {
+        if frame.mask[k] == 0 {
+            continue;
+        }
         v.mirror += 1;
         let (o, d) = (Vec3::from_array(rec.origin), Vec3::from_array(rec.dir));
         let cpu = if o.is_finite() && d.is_finite() && d != Vec3::ZERO {
@@ -117,7 +122,8 @@ fn judge(scene: &Scene, frame: &GpuFrame, shift: Vec3) -> Verdicts {
                 if cpu.is_none() {
                     v.escapes_ok += 1
                 } else {
-                    v.wrong_escapes += 1
+                    v.wrong_escapes += 1;
+                    v.wrong_pixels.push(k);
                 }
             }
             RECORD_HIT => {
@@ -129,17 +135,131 @@ fn judge(scene: &Scene, frame: &GpuFrame, shift: Vec3) -> Verdicts {
                         .fold(f32::INFINITY, f32::min)
                         * texel;
                     (p - h.position).length() <= TOL_FOOTPRINTS * fp
+                        || same_texel_surface(
+                            scene,
+                            &tracer,
+                            centres[rec.cmo as usize],
+                            p,
+                            h.position,
+                        )
                 });
                 if ok {
                     v.hits_ok += 1
                 } else {
-                    v.wrong_hits += 1
+                    v.wrong_hits += 1;
+                    v.wrong_pixels.push(k);
                 }
             }
             s => panic!("unknown record status {s}"),
         }
     }
     v
+}
+
+/// The texel-level criterion of the judge (module docs): as seen from the deciding CMO's centre
+/// `c`, the GPU hit `p` lies in the texel of the reference hit `h` or in one of its four side
+/// neighbours, and both `|p - c|` and `|h - c|` lie within the depth band of that texel: the
+/// `[min, max]` of the distances sampled at its centre and at the centres of its side
+/// neighbours that are continuous with it ([`continuous`], default `k`). The samples are
+/// reference rays through texel centres, what the capture stores.
+fn same_texel_surface(scene: &Scene, tracer: &Tracer, c: Vec3, p: Vec3, h: Vec3) -> bool {
+    let n = scene.cmo.resolution;
+    let sample = |t: Texel| {
+        let dir = texel_centre_dir(t, n).normalize();
+        tracer
+            .nearest_where(c, dir, None, |tri| !tracer.is_reflector(tri))
+            .map_or(f32::INFINITY, |hit| hit.t)
+    };
+    let t_ref = dir_to_texel(h - c, n);
+    let t_p = dir_to_texel(p - c, n);
+    let neighbours = [0, 1, 2, 3].map(|s| neighbour_across(t_ref, s, n));
+    if t_p != t_ref && !neighbours.contains(&t_p) {
+        return false;
+    }
+    let d_ref = sample(t_ref);
+    let k = TraceParams::default().continuity_k;
+    let (mut lo, mut hi) = (d_ref, d_ref);
+    for nb in neighbours {
+        let d = sample(nb);
+        let chord =
+            (texel_centre_dir(t_ref, n).normalize() - texel_centre_dir(nb, n).normalize()).length();
+        if continuous(d, d_ref, chord, k) {
+            lo = lo.min(d);
+            hi = hi.max(d);
+        }
+    }
+    // The samples bound the surface between texel centres only up to a kink inside the texel
+    // (a concave corner lies beyond its neighbours' samples): one footprint of margin. A
+    // silhouette's step is over k = 5.7 footprints, so the margin admits no other surface.
+    let margin = d_ref * 2.0 / n as f32;
+    let in_band = |x: Vec3| (lo - margin..=hi + margin).contains(&(x - c).length());
+    in_band(p) && in_band(h)
+}
+
+/// Prints, for the first `max` wrong pixels of `v`, what decided them: the ray, the reference
+/// hit, the GPU record, the deciding texel's distance and its four neighbours', and the true
+/// distances (reference rays from the CMO centre) over a 5x5 grid inside the deciding texel.
+fn explain(
+    ctx: &GpuContext,
+    scene: &Scene,
+    frame: &GpuFrame,
+    r: &GpuRenderer,
+    v: &Verdicts,
+    max: usize,
+) {
+    let tracer = Tracer::new(scene);
+    let cubes = r.cmo().read_back(ctx).unwrap_or_else(|e| panic!("{e}"));
+    for &k in v.wrong_pixels.iter().take(max) {
+        let rec = &frame.records[k];
+        let (o, d) = (Vec3::from_array(rec.origin), Vec3::from_array(rec.dir));
+        let cpu = tracer.nearest_where(o, d, None, |tri| !tracer.is_reflector(tri));
+        eprintln!(
+            "pixel {k} ({}, {}): ray {o} + t {d}; reference {:?}",
+            k as u32 % frame.width,
+            k as u32 / frame.width,
+            cpu.map(|h| (h.t, h.position))
+        );
+        eprintln!("  GPU {rec:?}");
+        if rec.status != RECORD_HIT {
+            continue;
+        }
+        let cube = &cubes[rec.cmo as usize];
+        let n = cube.size;
+        let tex = Texel {
+            face: rec.face,
+            x: rec.x,
+            y: rec.y,
+        };
+        let c = cube.centre;
+        let p = Vec3::from_array(rec.point);
+        let neigh: Vec<f32> = (0..4)
+            .map(|s| cube.distance_at(neighbour_across(tex, s, n)))
+            .collect();
+        eprintln!(
+            "  texel {tex:?}: D {} (x-1, x+1, y-1, y+1: {neigh:?}); |p - c| {}; ref |h - c| {:?}",
+            cube.distance_at(tex),
+            (p - c).length(),
+            cpu.map(|h| (h.position - c).length())
+        );
+        let mut grid = String::new();
+        for j in 0..5 {
+            for i in 0..5 {
+                let s = (tex.x as f32 + (i as f32 + 0.5) / 5.0) / n as f32;
+                let t = (tex.y as f32 + (j as f32 + 0.5) / 5.0) / n as f32;
+                let dir = face_st_to_dir(tex.face, s, t).normalize();
+                let h = tracer.nearest_where(c, dir, None, |tri| !tracer.is_reflector(tri));
+                grid += &format!(" {:.4}", h.map_or(f32::INFINITY, |h| h.t));
+            }
+            grid += "\n";
+        }
+        eprint!("  true D over the texel (5x5, rows of increasing y):\n{grid}");
+        // The ray's distance from the centre where it is in the deciding texel.
+        eprintln!(
+            "  ray r at t {}: {}; ray at the reference hit's direction",
+            rec.t,
+            (o + rec.t * d - c).length()
+        );
+    }
 }
 
 fn exact() -> TraceOptions {
@@ -163,7 +283,7 @@ fn scaled(mut scene: Scene, s: f32) -> Scene {
     scene
 }
 
-fn assert_no_wrong(name: &str, v: Verdicts) {
+fn assert_no_wrong(name: &str, v: &Verdicts) {
     eprintln!("{name}: {v:?}");
     assert!(v.mirror > 0, "{name}: no mirror pixels");
     assert_eq!(v.wrong(), 0, "{name}: silent wrong results: {v:?}");
@@ -177,33 +297,47 @@ fn assert_no_wrong(name: &str, v: Verdicts) {
 fn judge_catches_moved_hits() {
     // Negative test of the judge itself: the same frame with every hit moved by 0.5 m has wrong
     // hits; unmoved it has none.
-    let ctx = hc_context();
+    let ctx = gpu_context();
     let scene = builtin::sphere_room();
     let frame = render(&ctx, &scene, (48, 36), exact());
     let ok = judge(&scene, &frame, Vec3::ZERO);
-    assert_no_wrong("sphere-room", ok);
+    assert_no_wrong("sphere-room", &ok);
     let moved = judge(&scene, &frame, Vec3::new(0.0, 0.5, 0.0));
     assert!(moved.wrong_hits > ok.hits_ok / 2, "{moved:?}");
-    hc_finish(ctx);
+    finish_gpu(ctx);
 }
 
 #[test]
 fn exact_has_no_wrong_hits_in_the_builtin_scenes() {
-    let ctx = hc_context();
+    let ctx = gpu_context();
     for name in ["default", "sphere-room", "bowl"] {
         exact_scene_no_wrong(&ctx, name);
     }
-    hc_finish(ctx);
+    finish_gpu(ctx);
 }
 
+/// Diagnosis of the former findings here (64x48, self-reflections off; before the decisive
+/// patch-hit rule of `cpu::classify` and the judge's texel criterion), per pixel:
+/// - teapot (19, 24): a floor texel seen at about 75 degrees from its normal (D 4.670, its
+///   y-neighbours 4.467 and 4.894): the patch hit lies 0.074 m along the ray past the true floor
+///   (4.597, inside the same texel), 1.03 times the 2-footprint tolerance. Right texel, right
+///   surface: a judge artefact, fixed by its texel criterion.
+/// - teapot (41, 27): same texel as the reference hit, at the floor-wall corner: the true
+///   distance (4.5018) lies 6 mm beyond the largest neighbour sample (4.4960), a kink inside
+///   the texel; 0.080 m off in 3D. Judge artefact (the band's one-footprint margin).
+/// - teapot (45, 24): a box top seen at 86 degrees: both y-neighbours are discontinuous
+///   (4.101 beyond the edge, 1.796 nearer), the patch (2.0065) sticks out 3 mm above the box
+///   top and the ray, descending at 2.8 degrees, hit it 0.064 m early. Tracer: now undecided.
+/// - torus (47, 34): a texel at an object's silhouette (y-1 neighbour 4.000, the wall); the
+///   object covers the texel but recedes to 1.81 at its y-1 edge, the ray passes in front of it
+///   and on to the wall (5.33) yet crossed the patch at 1.777 in the silhouette quadrant.
+///   Tracer: now undecided.
 #[test]
-#[ignore = "finding: at 64x48 with self-reflections off, teapot has 3 wrong hits of 463 mirror \
-            pixels and torus 1 of 1020; not yet diagnosed"]
 fn exact_has_no_wrong_hits_in_the_teapot_and_torus() {
-    let ctx = hc_context();
+    let ctx = gpu_context();
     exact_scene_no_wrong(&ctx, "teapot");
     exact_scene_no_wrong(&ctx, "torus");
-    hc_finish(ctx);
+    finish_gpu(ctx);
 }
 
 fn exact_scene_no_wrong(ctx: &GpuContext, name: &str) {
@@ -211,8 +345,10 @@ fn exact_scene_no_wrong(ctx: &GpuContext, name: &str) {
         let mut scene = builtin::by_name(name).expect("listed");
         // The judge compares against non-reflector geometry, as the capture sees it.
         scene.self_reflections = false;
-        let frame = render(ctx, &scene, (64, 48), exact());
-        assert_no_wrong(name, judge(&scene, &frame, Vec3::ZERO));
+        let (frame, r) = render_keep(ctx, &scene, (64, 48), exact());
+        let v = judge(&scene, &frame, Vec3::ZERO);
+        explain(ctx, &scene, &frame, &r, &v, 8);
+        assert_no_wrong(name, &v);
     }
 }
 
@@ -230,7 +366,7 @@ fn cube_size_2048() {
 }
 
 fn cube_sizes(sizes: &[u32]) {
-    let ctx = hc_context();
+    let ctx = gpu_context();
     for &n in sizes {
         let mut scene = builtin::sphere_room();
         scene.cmo.resolution = n;
@@ -240,12 +376,12 @@ fn cube_sizes(sizes: &[u32]) {
         assert!(v.mirror > 0);
         assert_eq!(v.wrong(), 0, "N = {n}: {v:?}");
     }
-    hc_finish(ctx);
+    finish_gpu(ctx);
 }
 
 #[test]
 fn scenes_at_scale_1e_minus_3_and_1e4() {
-    let ctx = hc_context();
+    let ctx = gpu_context();
     let base = judge(
         &builtin::sphere_room(),
         &render(&ctx, &builtin::sphere_room(), (48, 36), exact()),
@@ -255,7 +391,7 @@ fn scenes_at_scale_1e_minus_3_and_1e4() {
         let scene = scaled(builtin::sphere_room(), s);
         let frame = render(&ctx, &scene, (48, 36), exact());
         let v = judge(&scene, &frame, Vec3::ZERO);
-        assert_no_wrong(&scene.name, v);
+        assert_no_wrong(&scene.name, &v);
         // The same picture: the same mirror pixels, and the unresolved count within 1% of the
         // mirror pixels of the unscaled scene's (f32 rounding moves a few boundary rays).
         assert_eq!(v.mirror, base.mirror, "{v:?} vs {base:?}");
@@ -264,12 +400,12 @@ fn scenes_at_scale_1e_minus_3_and_1e4() {
             "{v:?} vs {base:?}"
         );
     }
-    hc_finish(ctx);
+    finish_gpu(ctx);
 }
 
 #[test]
 fn reflector_covering_the_whole_frame_and_none_of_it() {
-    let ctx = hc_context();
+    let ctx = gpu_context();
     // Camera 1.3 radii from the mirror sphere's centre, looking at it with a narrow field.
     let mut full = builtin::sphere_room();
     let c = Vec3::new(0.0, 1.2, 0.0);
@@ -278,19 +414,19 @@ fn reflector_covering_the_whole_frame_and_none_of_it() {
     full.cameras[0].fov_y_deg = 30.0;
     let frame = render(&ctx, &full, (40, 30), exact());
     assert_eq!(frame.mirror_pixels(), 40 * 30, "the mirror fills the frame");
-    assert_no_wrong("full", judge(&full, &frame, Vec3::ZERO));
+    assert_no_wrong("full", &judge(&full, &frame, Vec3::ZERO));
     // Looking away from the mirror: no mirror pixel, no record claims anything.
     let mut none = builtin::sphere_room();
     none.cameras[0].target = none.cameras[0].eye + Vec3::new(0.0, 0.0, 1.0);
     let frame = render(&ctx, &none, (40, 30), exact());
     assert_eq!(frame.mirror_pixels(), 0);
     assert!(frame.colour.iter().all(|c| c.is_finite()));
-    hc_finish(ctx);
+    finish_gpu(ctx);
 }
 
 #[test]
 fn cmo_centre_on_the_reflector_surface_or_inside_an_object() {
-    let ctx = hc_context();
+    let ctx = gpu_context();
     let mirror_centre = Vec3::new(0.0, 1.2, 0.0);
     for (what, centre) in [
         // On the sphere's surface, on the side facing the camera.
@@ -307,7 +443,7 @@ fn cmo_centre_on_the_reflector_surface_or_inside_an_object() {
         // be a wrong hit.
         assert_eq!(v.wrong(), 0, "{what}: {v:?}");
     }
-    hc_finish(ctx);
+    finish_gpu(ctx);
 }
 
 /// sphere-room with a diffuse slab of `thickness` standing beside the mirror, in view.
@@ -335,26 +471,31 @@ fn with_slab(thickness: f32) -> Scene {
 }
 
 #[test]
-#[ignore = "finding: the 1 mm slab at N = 64 gives 2 wrong hits of 678 mirror pixels; not yet diagnosed"]
 fn objects_thinner_than_a_texel() {
+    // Former finding (2 wrong hits of 678 for the 1 mm slab): both rays passed 1.8 and 1.9 mm
+    // beside the slab's edge (z = 1.0018, 1.0019) through a texel whose centre sees the slab
+    // (D 1.702 and 1.874) but whose x-1 neighbour sees the wall behind (5.313, 2.490): the patch
+    // was hit in its silhouette quadrant, the reference goes on to the wall. The decisive rule
+    // (`cpu::classify`) leaves a hit in a quadrant with a discontinuous neighbour undecided.
     // At N = 64 a texel at 1.3 m from the centre is about 4 cm wide: 1 mm and 0.1 mm slabs.
-    let ctx = hc_context();
+    let ctx = gpu_context();
     for t in [1e-3, 1e-4] {
         let mut scene = with_slab(t);
         scene.cmo.resolution = 64;
-        let frame = render(&ctx, &scene, (64, 48), exact());
+        let (frame, r) = render_keep(&ctx, &scene, (64, 48), exact());
         let v = judge(&scene, &frame, Vec3::ZERO);
+        explain(&ctx, &scene, &frame, &r, &v, 8);
         eprintln!("slab {t}: {v:?}");
         assert_eq!(v.wrong(), 0, "slab {t}: {v:?}");
     }
-    hc_finish(ctx);
+    finish_gpu(ctx);
 }
 
 #[test]
 fn degenerate_nan_and_zero_normals_in_the_mirror_mesh() {
     // A mirror sphere whose normals are partly NaN, zero or not unit: no NaN may reach the
     // image, and no pixel may claim a wrong hit.
-    let ctx = hc_context();
+    let ctx = gpu_context();
     let mut scene = builtin::sphere_room();
     let mirror = scene
         .meshes
@@ -378,16 +519,22 @@ fn degenerate_nan_and_zero_normals_in_the_mirror_mesh() {
     let v = judge(&scene, &frame, Vec3::ZERO);
     eprintln!("bad normals: {v:?}");
     assert_eq!(v.wrong(), 0, "{v:?}");
-    hc_finish(ctx);
+    finish_gpu(ctx);
 }
 
 #[test]
-#[ignore = "finding: 144 of 768 mirror pixels are wrong hits at grazing incidence; not yet diagnosed \
-            (tracer, tolerance or the judge's ray length)"]
 fn grazing_incidence_on_the_mirror() {
+    // Former finding (144 of 768 wrong hits): the wrong pixels were the tile's 1 cm high front
+    // side (z = 2), whose reflected rays go down at 1.5 degrees onto the room floor (reference
+    // hit 0.33 m away, |h - c| 2.384). The CMO (0.5 m up) sees the floor at 77 degrees from its
+    // normal: one texel spans D 2.132..2.189 (centre 2.158, y-neighbours 2.093 and 2.227), so
+    // its patch sticks up to 7 mm above the floor on its far half; the ray, 6 mm above the
+    // floor there, hit it 0.23 m early (2 footprints: 0.037 m). The decisive rule needs the ray
+    // to reach the quadrant's largest half-way distance (2.193) inside the texel: it does not,
+    // so these pixels are now undecided (unresolved: one CMO), not wrong.
     // A mirror floor tile seen at 88 to 89.5 degrees from its normal: reflections almost
     // tangent to the mirror.
-    let ctx = hc_context();
+    let ctx = gpu_context();
     let mut scene = builtin::sphere_room();
     scene.meshes.retain(|m| !m.reflector);
     let m = scene.materials.len() as u32;
@@ -412,12 +559,13 @@ fn grazing_incidence_on_the_mirror() {
     scene.cameras[0].eye = Vec3::new(0.0, 0.06, 3.9);
     scene.cameras[0].target = Vec3::new(0.0, 0.0, -2.0);
     scene.cameras[0].fov_y_deg = 3.0;
-    let frame = render(&ctx, &scene, (48, 36), exact());
+    let (frame, r) = render_keep(&ctx, &scene, (48, 36), exact());
     let v = judge(&scene, &frame, Vec3::ZERO);
+    explain(&ctx, &scene, &frame, &r, &v, 12);
     eprintln!("grazing: {v:?}");
     assert!(v.mirror > 100, "{v:?}");
     assert_eq!(v.wrong(), 0, "{v:?}");
-    hc_finish(ctx);
+    finish_gpu(ctx);
 }
 
 #[test]
@@ -426,7 +574,7 @@ fn silhouette_right_behind_the_ray_is_not_a_hit() {
     // just beside it cross a depth jump (column -> wall) in the distance profile. The exact
     // criterion's continuity rule must classify those as "behind" or pass, never as hits on
     // the column; the judge counts any hit off the true surface.
-    let ctx = hc_context();
+    let ctx = gpu_context();
     let mut scene = builtin::sphere_room();
     let m = scene.materials.len() as u32;
     scene.materials.push(Material {
@@ -450,6 +598,6 @@ fn silhouette_right_behind_the_ray_is_not_a_hit() {
         reflector: false,
     });
     let frame = render(&ctx, &scene, (96, 72), exact());
-    assert_no_wrong("near column", judge(&scene, &frame, Vec3::ZERO));
-    hc_finish(ctx);
+    assert_no_wrong("near column", &judge(&scene, &frame, Vec3::ZERO));
+    finish_gpu(ctx);
 }

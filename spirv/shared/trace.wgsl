@@ -254,6 +254,34 @@ struct Outcome {
     riser: bool,
 }
 
+// `continuous` between `texel` (distance `d`) and its neighbour `nb` (`cpu::continuous_with`).
+fn continuous_with(k: u32, texel: Texel, d: f32, nb: Texel) -> bool {
+    let n = trace_config.size;
+    let chord = length_glam(normalize_glam(texel_centre_dir(texel, n)) - normalize_glam(texel_centre_dir(nb, n)));
+    return continuous(distance_at(k, nb), d, chord, trace_config.continuity_k);
+}
+
+// A patch hit at `t` counts only when decisive (`cpu::decisive_patch_hit`): the two side
+// neighbours of the hit point's quadrant are continuous with the texel, and the ray reaches the
+// largest of the three distances within the texel.
+fn decisive_patch_hit(k: u32, seg: Segment, texel: Texel, iv: Interval, d: f32, t: f32) -> bool {
+    let n = trace_config.size;
+    let l = to_face_local(texel.face, seg_at(seg, t));
+    let u = l.x / l.z;
+    let v = l.y / l.z;
+    let uc = f32(2u * texel.x + 1u) / f32(n) - 1.0;
+    let vc = f32(2u * texel.y + 1u) / f32(n) - 1.0;
+    let side_x = select(1u, 0u, u < uc);
+    let side_y = select(3u, 2u, v < vc);
+    let nx = neighbour_across(texel, side_x, n);
+    let ny = neighbour_across(texel, side_y, n);
+    if !continuous_with(k, texel, d, nx) || !continuous_with(k, texel, d, ny) {
+        return false;
+    }
+    let d_hi = max(max(d, 0.5 * (d + distance_at(k, nx))), 0.5 * (d + distance_at(k, ny)));
+    return max(r_at(seg.a, seg.d, iv.t0), r_at(seg.a, seg.d, iv.t1)) >= d_hi;
+}
+
 fn classify(k: u32, seg: Segment, texel: Texel, iv: Interval) -> Outcome {
     let n = trace_config.size;
     let d = distance_at(k, texel);
@@ -267,15 +295,17 @@ fn classify(k: u32, seg: Segment, texel: Texel, iv: Interval) -> Outcome {
         let ts = -(prod(seg.a.x, seg.d.x) + prod(seg.a.y, seg.d.y) + prod(seg.a.z, seg.d.z)) / dd;
         let q = seg_at(seg, ts);
         let q2 = prod(q.x, q.x) + prod(q.y, q.y) + prod(q.z, q.z);
-        let t = ts + sqrt(max(prod(d, d) - q2, 0.0) / dd);
-        return Outcome(1u, clamp_rust(t, iv.t0, iv.t1), false);
+        let t = clamp_rust(ts + sqrt(max(prod(d, d) - q2, 0.0) / dd), iv.t0, iv.t1);
+        if decisive_patch_hit(k, seg, texel, iv, d, t) {
+            return Outcome(1u, t, false);
+        }
+        return Outcome(2u, iv.t0, false);
     }
     if iv.entry == SIDE_SEGMENT || iv.entry > SIDE_Y1 {
         return Outcome(2u, iv.t0, false);
     }
     let prev = neighbour_across(texel, iv.entry - SIDE_X0, n);
-    let chord = length_glam(normalize_glam(texel_centre_dir(texel, n)) - normalize_glam(texel_centre_dir(prev, n)));
-    if continuous(distance_at(k, prev), d, chord, trace_config.continuity_k) {
+    if continuous_with(k, texel, d, prev) {
         return Outcome(1u, iv.t0, true);
     }
     return Outcome(2u, iv.t0, false);

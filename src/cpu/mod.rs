@@ -7,8 +7,9 @@
 //! texel's frustum ([`crate::cubemap::frustum`]). Along the ray the texels it crosses (positive
 //! length, half-open tie rule) are taken in order of `t`; the first texel whose interval
 //! `[t0, t1]` is **not entirely in front** (`rmax >= D_i`, `rmax = max(r(t0), r(t1))`) decides:
-//! - `r(t0) <= D_i`: the ray meets the patch inside the texel: **hit** at the first root of
-//!   `|a + t d| = D_i` after `t0` ([`Outcome::Hit`]).
+//! - `r(t0) <= D_i`: the ray meets the patch inside the texel at the first root of
+//!   `|a + t d| = D_i` after `t0`: a **hit** ([`Outcome::Hit`]) if it is decisive (below),
+//!   otherwise **behind** at `t0` (undecided: this CMO cannot tell; the next CMO goes on).
 //! - `r(t0) > D_i` and `t0` is the segment start: the ray starts behind the profile: **behind**
 //!   at `t_lo`.
 //! - `r(t0) > D_i` otherwise: the ray entered through side `s` (the constraint that set `t0`)
@@ -18,6 +19,19 @@
 //!   surface by the [continuity rule](continuous); otherwise the ray went **behind** an occluder
 //!   at `t_b = t0`. A silhouette never becomes a hit.
 //! - No such texel up to `t_hi`: **escaped**.
+//!
+//! # Decisive patch hits
+//! A texel's sample is the surface at its centre only; across the texel the true distance
+//! varies (by `D tan(psi)` per radian on a surface at `psi` from the view direction) and may end
+//! at a silhouette. A patch hit counts only when the samples around the hit direction show the
+//! ray behind the surface: the hit point's quadrant (its side of the centre in `u` and in `v`)
+//! names the two side neighbours whose samples, with the texel's, surround it; both must be
+//! continuous with the texel (else the silhouette may pass between: thin objects, object
+//! edges), and the ray must reach `max(D_i, (D_i + D_n) / 2)` over those two neighbours (the
+//! half-way distances, the surface at the texel's edges) within the texel (else it may pass in
+//! front of the surface where the patch sticks out of it: grazing rays). Undecided is reported
+//! as behind, which is exact: no hit is claimed that the samples do not show, and another CMO
+//! (or the fallback, flagged unresolved) takes the rest of the ray. Risers are unchanged.
 //!
 //! # Near-centre rays
 //! Where the ray comes within `cut_radius = min(D) / 2` of the centre it is in front of every
@@ -275,6 +289,46 @@ pub fn continuous(d_prev: f32, d: f32, chord: f32, k: f32) -> bool {
     d_prev.is_finite() && d.is_finite() && (d_prev - d).abs() <= k * d_prev.max(d) * chord
 }
 
+/// [`continuous`] between `texel` (distance `d`) and its neighbour `nb`, with the chord between
+/// their centre directions.
+fn continuous_with(tr: &CmoTracer, texel: Texel, d: f32, nb: Texel) -> bool {
+    let chord = (texel_centre_dir(texel, tr.cube.size).normalize()
+        - texel_centre_dir(nb, tr.cube.size).normalize())
+    .length();
+    continuous(tr.cube.distance_at(nb), d, chord, tr.params.continuity_k)
+}
+
+/// Whether a patch hit at `t` in `texel` (distance `d`, crossed over `iv`) is decisive (module
+/// docs, "Decisive patch hits"): the hit point's quadrant of the texel (the side of the centre
+/// it lies on in `u` and in `v`) names the two side neighbours whose samples, with the texel's,
+/// surround the hit direction; both must be continuous with the texel, and the ray must reach
+/// the largest of the three distances within the texel.
+fn decisive_patch_hit(
+    tr: &CmoTracer,
+    seg: &Segment,
+    texel: Texel,
+    iv: &Interval,
+    d: f32,
+    t: f32,
+) -> bool {
+    let n = tr.cube.size;
+    let l = to_face_local(texel.face, seg.at(t));
+    let u = l.x / l.z;
+    let v = l.y / l.z;
+    let uc = (2 * texel.x + 1) as f32 / n as f32 - 1.0;
+    let vc = (2 * texel.y + 1) as f32 / n as f32 - 1.0;
+    let sides = [if u < uc { 0 } else { 1 }, if v < vc { 2 } else { 3 }];
+    let mut d_hi = d;
+    for side in sides {
+        let nb = neighbour_across(texel, side, n);
+        if !continuous_with(tr, texel, d, nb) {
+            return false;
+        }
+        d_hi = d_hi.max(0.5 * (d + tr.cube.distance_at(nb)));
+    }
+    r_at(seg.a, seg.d, iv.t0).max(r_at(seg.a, seg.d, iv.t1)) >= d_hi
+}
+
 /// Outcome of classifying the first not-in-front texel.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Outcome {
@@ -306,20 +360,17 @@ pub fn classify(tr: &CmoTracer, seg: &Segment, texel: Texel, iv: &Interval) -> O
         let ts = -(seg.a.x * seg.d.x + seg.a.y * seg.d.y + seg.a.z * seg.d.z) / dd;
         let q = seg.at(ts);
         let q2 = q.x * q.x + q.y * q.y + q.z * q.z;
-        let t = ts + ((d * d - q2).max(0.0) / dd).sqrt();
-        return Some(Outcome::Hit {
-            t: t.clamp(iv.t0, iv.t1),
-            riser: false,
-        });
+        let t = (ts + ((d * d - q2).max(0.0) / dd).sqrt()).clamp(iv.t0, iv.t1);
+        if decisive_patch_hit(tr, seg, texel, iv, d, t) {
+            return Some(Outcome::Hit { t, riser: false });
+        }
+        return Some(Outcome::Behind { t: iv.t0 });
     }
     if iv.entry == SIDE_SEGMENT || iv.entry > SIDE_Y1 {
         return Some(Outcome::Behind { t: iv.t0 });
     }
     let prev = neighbour_across(texel, iv.entry - SIDE_X0, tr.cube.size);
-    let chord = (texel_centre_dir(texel, tr.cube.size).normalize()
-        - texel_centre_dir(prev, tr.cube.size).normalize())
-    .length();
-    if continuous(tr.cube.distance_at(prev), d, chord, tr.params.continuity_k) {
+    if continuous_with(tr, texel, d, prev) {
         Some(Outcome::Hit {
             t: iv.t0,
             riser: true,
