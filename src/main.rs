@@ -138,6 +138,11 @@ struct TraceArgs {
     /// Turn off the min/max pyramid (exact criterion: walk every texel instead; same result).
     #[arg(long)]
     no_accel: bool,
+    /// Exact criterion: count a hit inside a texel only where the texel data decides it (the
+    /// ray gets behind the surface around the hit and no outline passes through the texel).
+    /// Never a silent wrong hit at grazing angles or object outlines; more unresolved pixels.
+    #[arg(long)]
+    strict: bool,
     /// Sample intervals along the ray for constant-step and constant-angle sampling.
     #[arg(long, default_value_t = 400, value_parser = clap::value_parser!(u32).range(1..=65536))]
     steps: u32,
@@ -175,6 +180,7 @@ impl TraceArgs {
                     SamplingArg::PerTexel => TraceSampling::PerTexel,
                 },
                 accel: !self.no_accel,
+                strict: self.strict,
                 steps: self.steps,
                 eps: self.eps,
                 ..TraceOptions::default()

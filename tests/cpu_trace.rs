@@ -285,7 +285,13 @@ fn silhouettes_are_not_hits_without_the_continuity_rule_they_are() {
     let tr = CmoTracer::new(capture(64, CENTRE, true), TraceParams::default());
     assert_eq!(accuracy(&tr, &rs, 3.0).3, 0);
     // Negative: treat every step as continuous and silhouettes become (wrong) hits.
-    let loose = CmoTracer::new(capture(64, CENTRE, true), TraceParams { continuity_k: 1e9 });
+    let loose = CmoTracer::new(
+        capture(64, CENTRE, true),
+        TraceParams {
+            continuity_k: 1e9,
+            ..TraceParams::default()
+        },
+    );
     assert!(accuracy(&loose, &rs, 3.0).3 > 0);
 }
 

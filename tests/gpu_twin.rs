@@ -314,7 +314,7 @@ fn trace_structs_match_naga_layout() {
             continuity_k,
             mip_top,
             mip_len,
-            pad0,
+            strict,
             pad1,
             mip_levels
         ]

@@ -21,7 +21,8 @@
 //!   wrong otherwise;
 //! - `UNRESOLVED` is always allowed (the method said it does not know).
 //!
-//! For the exact criterion every case asserts zero wrong hits. Judging on the same ray keeps
+//! For the exact criterion in strict mode (`TraceOptions::strict`) every case asserts zero wrong
+//! hits; the default mode's wrong hits are counted where a case shows them. Judging on the same ray keeps
 //! rasterisation differences at the mirror's silhouette (where the reflected direction of the
 //! G-buffer and of the reference's primary ray differ most) out of the count.
 mod common;
@@ -262,7 +263,18 @@ fn explain(
     }
 }
 
+/// The exact criterion in strict mode (`TraceOptions::strict`): the mode that promises no
+/// silent wrong hit, which every case here asserts. The default mode's wrong hits are counted
+/// where a case shows them (grazing, thin slab, teapot and torus).
 fn exact() -> TraceOptions {
+    TraceOptions {
+        strict: true,
+        ..TraceOptions::default()
+    }
+}
+
+/// The exact criterion as `cubetrace render` runs it by default.
+fn exact_default() -> TraceOptions {
     TraceOptions::default()
 }
 
@@ -327,11 +339,11 @@ fn exact_has_no_wrong_hits_in_the_builtin_scenes() {
 ///   the texel; 0.080 m off in 3D. Judge artefact (the band's one-footprint margin).
 /// - teapot (45, 24): a box top seen at 86 degrees: both y-neighbours are discontinuous
 ///   (4.101 beyond the edge, 1.796 nearer), the patch (2.0065) sticks out 3 mm above the box
-///   top and the ray, descending at 2.8 degrees, hit it 0.064 m early. Tracer: now undecided.
+///   top and the ray, descending at 2.8 degrees, hit it 0.064 m early. Tracer: undecided in strict mode.
 /// - torus (47, 34): a texel at an object's silhouette (y-1 neighbour 4.000, the wall); the
 ///   object covers the texel but recedes to 1.81 at its y-1 edge, the ray passes in front of it
 ///   and on to the wall (5.33) yet crossed the patch at 1.777 in the silhouette quadrant.
-///   Tracer: now undecided.
+///   Tracer: undecided in strict mode.
 #[test]
 fn exact_has_no_wrong_hits_in_the_teapot_and_torus() {
     let ctx = gpu_context();
@@ -348,6 +360,12 @@ fn exact_scene_no_wrong(ctx: &GpuContext, name: &str) {
         let (frame, r) = render_keep(ctx, &scene, (64, 48), exact());
         let v = judge(&scene, &frame, Vec3::ZERO);
         explain(ctx, &scene, &frame, &r, &v, 8);
+        let default = judge(
+            &scene,
+            &render(ctx, &scene, (64, 48), exact_default()),
+            Vec3::ZERO,
+        );
+        eprintln!("{name}: strict {v:?}; default mode {default:?}");
         assert_no_wrong(name, &v);
     }
 }
@@ -358,10 +376,10 @@ fn cube_sizes_1_2_3_32() {
 }
 
 #[test]
-#[ignore = "bug: at N = 2048 the cmo_colour buffer (402653184 bytes) exceeds lavapipe's \
-            maxStorageBufferRange (134217728); GpuRenderer::new accepts it and the validation \
-            layer reports VUID-VkWriteDescriptorSet-descriptorType-00333. It should refuse clearly."]
 fn cube_size_2048() {
+    // Former bug: the colour capture (402 MB at N = 2048) was a storage buffer, over lavapipe's
+    // maxStorageBufferRange (128 MiB). It is an image now; buffers over the limit (two CMOs at
+    // 2048: 201 MB of distances) are refused with `VkError::Limit` when bound.
     cube_sizes(&[2048]);
 }
 
@@ -475,8 +493,8 @@ fn objects_thinner_than_a_texel() {
     // Former finding (2 wrong hits of 678 for the 1 mm slab): both rays passed 1.8 and 1.9 mm
     // beside the slab's edge (z = 1.0018, 1.0019) through a texel whose centre sees the slab
     // (D 1.702 and 1.874) but whose x-1 neighbour sees the wall behind (5.313, 2.490): the patch
-    // was hit in its silhouette quadrant, the reference goes on to the wall. The decisive rule
-    // (`cpu::classify`) leaves a hit in a quadrant with a discontinuous neighbour undecided.
+    // was hit in its silhouette quadrant, the reference goes on to the wall. The decisive rule of strict
+    // mode (`cpu::classify`) leaves a hit in a quadrant with a discontinuous neighbour undecided.
     // At N = 64 a texel at 1.3 m from the centre is about 4 cm wide: 1 mm and 0.1 mm slabs.
     let ctx = gpu_context();
     for t in [1e-3, 1e-4] {
@@ -485,7 +503,12 @@ fn objects_thinner_than_a_texel() {
         let (frame, r) = render_keep(&ctx, &scene, (64, 48), exact());
         let v = judge(&scene, &frame, Vec3::ZERO);
         explain(&ctx, &scene, &frame, &r, &v, 8);
-        eprintln!("slab {t}: {v:?}");
+        let default = judge(
+            &scene,
+            &render(&ctx, &scene, (64, 48), exact_default()),
+            Vec3::ZERO,
+        );
+        eprintln!("slab {t}: strict {v:?}; default mode {default:?}");
         assert_eq!(v.wrong(), 0, "slab {t}: {v:?}");
     }
     finish_gpu(ctx);
@@ -531,7 +554,7 @@ fn grazing_incidence_on_the_mirror() {
     // its patch sticks up to 7 mm above the floor on its far half; the ray, 6 mm above the
     // floor there, hit it 0.23 m early (2 footprints: 0.037 m). The decisive rule needs the ray
     // to reach the quadrant's largest half-way distance (2.193) inside the texel: it does not,
-    // so these pixels are now undecided (unresolved: one CMO), not wrong.
+    // so in strict mode these pixels are undecided (unresolved: one CMO), not wrong.
     // A mirror floor tile seen at 88 to 89.5 degrees from its normal: reflections almost
     // tangent to the mirror.
     let ctx = gpu_context();
@@ -562,8 +585,16 @@ fn grazing_incidence_on_the_mirror() {
     let (frame, r) = render_keep(&ctx, &scene, (48, 36), exact());
     let v = judge(&scene, &frame, Vec3::ZERO);
     explain(&ctx, &scene, &frame, &r, &v, 12);
-    eprintln!("grazing: {v:?}");
+    // The default mode's patch hits on the tile's front side (see above) are wrong: the case
+    // is hard, and the judge sees it (144 of 768 measured).
+    let default = judge(
+        &scene,
+        &render(&ctx, &scene, (48, 36), exact_default()),
+        Vec3::ZERO,
+    );
+    eprintln!("grazing: strict {v:?}; default mode {default:?}");
     assert!(v.mirror > 100, "{v:?}");
+    assert!(default.wrong_hits > 50, "default mode: {default:?}");
     assert_eq!(v.wrong(), 0, "{v:?}");
     finish_gpu(ctx);
 }

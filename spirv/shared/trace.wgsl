@@ -70,7 +70,8 @@ struct TraceConfig {
     mip_top: u32,
     // Cells per CMO in `cmo_mip` (`mip_len(N)`).
     mip_len: u32,
-    pad0: u32,
+    // 1: patch hits count only when decisive (`decisive_patch_hit`); 0: every patch hit counts.
+    strict: u32,
     pad1: u32,
     // Level l (1..=mip_top): (offset in cells, width, height, span in texels).
     mip_levels: array<vec4<u32>, 16>,
@@ -296,7 +297,7 @@ fn classify(k: u32, seg: Segment, texel: Texel, iv: Interval) -> Outcome {
         let q = seg_at(seg, ts);
         let q2 = prod(q.x, q.x) + prod(q.y, q.y) + prod(q.z, q.z);
         let t = clamp_rust(ts + sqrt(max(prod(d, d) - q2, 0.0) / dd), iv.t0, iv.t1);
-        if decisive_patch_hit(k, seg, texel, iv, d, t) {
+        if trace_config.strict == 0u || decisive_patch_hit(k, seg, texel, iv, d, t) {
             return Outcome(1u, t, false);
         }
         return Outcome(2u, iv.t0, false);

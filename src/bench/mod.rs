@@ -121,9 +121,10 @@ impl MethodSpec {
         };
         match t.criterion {
             TraceCriterion::Exact => format!(
-                "{}-exact-{}",
+                "{}-exact-{}{}",
                 self.kind.name(),
-                if t.accel { "mip" } else { "walk" }
+                if t.accel { "mip" } else { "walk" },
+                if t.strict { "-strict" } else { "" }
             ),
             TraceCriterion::Threshold => format!("{}-threshold-{sampling}", self.kind.name()),
             TraceCriterion::SignChange => format!("{}-sign-{sampling}", self.kind.name()),
@@ -132,9 +133,9 @@ impl MethodSpec {
 }
 
 /// The default parameter grid of a tracing method: the exact criterion with and without the
-/// min/max pyramid, and the threshold and sign-change criteria with per-texel, 64 and 256
-/// constant steps, and 256 constant-angle steps (`eps` stays at its default, 0.05 world units:
-/// the built-in scenes are a few metres across).
+/// min/max pyramid and in strict mode, and the threshold and sign-change criteria with per-texel,
+/// 64 and 256 constant steps, and 256 constant-angle steps (`eps` stays at its default, 0.05
+/// world units: the built-in scenes are a few metres across).
 pub fn fragment_grid(kind: MethodKind) -> Vec<MethodSpec> {
     let base = TraceOptions::default();
     let mut out = vec![
@@ -144,6 +145,10 @@ pub fn fragment_grid(kind: MethodKind) -> Vec<MethodSpec> {
         },
         TraceOptions {
             accel: false,
+            ..base
+        },
+        TraceOptions {
+            strict: true,
             ..base
         },
     ];
@@ -735,7 +740,7 @@ mod tests {
         assert!(labels.contains(&"fragment-exact-mip".to_string()));
         assert!(labels.contains(&"fragment-sign-angle256".to_string()));
         // Negative: two specs differing only in steps must get different labels.
-        let a = fragment_grid(MethodKind::Fragment)[3];
+        let a = fragment_grid(MethodKind::Fragment)[4];
         let mut b = a;
         b.trace.steps += 1;
         assert_ne!(a.label(), b.label());

@@ -54,6 +54,10 @@ pub struct TraceOptions {
     pub eps: f32,
     /// `k` of the continuity rule ([`super::continuous`]). Default `tan(80 deg)`.
     pub continuity_k: f32,
+    /// Exact criterion: count a patch hit only when the texel data decides it (see
+    /// [`super`], "Decisive patch hits"); never a silent wrong hit, more unresolved pixels.
+    /// Default `false`.
+    pub strict: bool,
 }
 
 impl Default for TraceOptions {
@@ -65,6 +69,7 @@ impl Default for TraceOptions {
             steps: 400,
             eps: 0.05,
             continuity_k: TraceParams::default().continuity_k,
+            strict: false,
         }
     }
 }
@@ -74,6 +79,7 @@ impl TraceOptions {
     pub fn params(&self) -> TraceParams {
         TraceParams {
             continuity_k: self.continuity_k,
+            strict: self.strict,
         }
     }
 

@@ -55,8 +55,8 @@ pub struct TraceConfig {
     pub mip_top: u32,
     /// Cells per CMO in the mip buffer.
     pub mip_len: u32,
-    /// Padding (WGSL alignment of the array).
-    pub pad0: u32,
+    /// 1: exact criterion with decisive patch hits only (`TraceOptions::strict`).
+    pub strict: u32,
     /// Padding.
     pub pad1: u32,
     /// Level `l` in `1..=mip_top`: `[offset, width, height, span]` (offset in cells within a
@@ -117,7 +117,7 @@ impl TraceConfig {
             continuity_k: opts.continuity_k,
             mip_top: layout.len() as u32,
             mip_len: mip_len(size),
-            pad0: 0,
+            strict: u32::from(opts.strict),
             pad1: 0,
             mip_levels,
         })
