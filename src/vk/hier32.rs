@@ -19,7 +19,9 @@ use super::buffer::Buffer;
 use super::context::{GpuContext, Recorder};
 use super::error::{VkError, VkResult};
 use super::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
+use super::pyramid::reduce_on_gpu;
 use super::shaders::HIER32;
+use super::sync::{COMPUTE_READ, COMPUTE_WRITE};
 use crate::cubemap::CubeMap;
 use crate::cubemap::face::FACE_COUNT;
 pub use crate::cubemap::pyramid::{Hier32, hier32_flat_layout, hier32_len};
@@ -185,62 +187,22 @@ impl Hier32Pass {
     }
 }
 
-const COMPUTE_WRITE: (vk::PipelineStageFlags2, vk::AccessFlags2) = (
-    vk::PipelineStageFlags2::COMPUTE_SHADER,
-    vk::AccessFlags2::SHADER_STORAGE_WRITE,
-);
-const COMPUTE_READ: (vk::PipelineStageFlags2, vk::AccessFlags2) = (
-    vk::PipelineStageFlags2::COMPUTE_SHADER,
-    vk::AccessFlags2::SHADER_STORAGE_READ,
-);
-
 /// Test helper: uploads the distances of `cubes` (one face size), builds their hierarchy on the
-/// GPU and reads it back, one `flatten()`-shaped vector per CMO. The output buffer is first
-/// filled with NaN, so a cell the pass fails to write cannot equal the CPU's by accident.
+/// GPU and reads it back, one `flatten()`-shaped vector per CMO (see
+/// [`super::pyramid::reduce_on_gpu`]).
 pub fn build_hier_gpu(ctx: &GpuContext, cubes: &[CubeMap]) -> VkResult<Vec<Vec<[f32; 2]>>> {
-    let usage = |detail: String| VkError::Usage {
-        what: HIER32.name.into(),
-        detail,
-    };
-    let Some(first) = cubes.first() else {
-        return Err(usage("no cube maps given".into()));
-    };
-    let size = first.size;
-    if let Some(c) = cubes.iter().find(|c| c.size != size) {
-        return Err(usage(format!(
-            "all CMOs must have one face size: {size} and {}",
-            c.size
-        )));
-    }
-    let len = hier32_len(size);
-    if len == 0 {
-        return Ok(vec![Vec::new(); cubes.len()]);
-    }
-    let cmo_count = u32::try_from(cubes.len()).map_err(|_| usage("too many CMOs".into()))?;
-    let distances: Vec<f32> = cubes
-        .iter()
-        .flat_map(|c| c.distance.iter().copied())
-        .collect();
-    let distance = ctx.create_buffer_init(
-        "cmo_distance",
-        vk::BufferUsageFlags::STORAGE_BUFFER,
-        &distances,
-    )?;
-    let hier = ctx.create_buffer_init(
-        "cmo_hier",
-        vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
-        &vec![[f32::NAN; 2]; len * cubes.len()],
-    )?;
-    let pass = Hier32Pass::new(ctx)?;
-    let bindings = pass.bind(ctx, &distance, &hier, cmo_count, size)?;
-    ctx.submit_and_wait(HIER32.name, |rec| {
-        pass.record(rec, &bindings);
-        Ok(())
-    })?;
-    let cells: Vec<[f32; 2]> = ctx.read_buffer(&hier)?;
-    Ok(cells
-        .chunks(len)
-        .take(cubes.len())
-        .map(<[[f32; 2]]>::to_vec)
-        .collect())
+    reduce_on_gpu(
+        ctx,
+        cubes,
+        HIER32.name,
+        hier32_len,
+        |distance, hier, count, size| {
+            let pass = Hier32Pass::new(ctx)?;
+            let bindings = pass.bind(ctx, distance, hier, count, size)?;
+            ctx.submit_and_wait(HIER32.name, |rec| {
+                pass.record(rec, &bindings);
+                Ok(())
+            })
+        },
+    )
 }

@@ -23,6 +23,7 @@ use super::context::{GpuContext, Recorder};
 use super::error::{VkError, VkResult};
 use super::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
 use super::shaders::PYRAMID;
+use super::sync::{COMPUTE_READ, COMPUTE_WRITE};
 use super::timestamps::Timestamps;
 use crate::cubemap::CubeMap;
 use crate::cubemap::face::FACE_COUNT;
@@ -249,23 +250,36 @@ impl Pyramid {
     }
 }
 
-/// Storage writes of a compute dispatch ...
-const COMPUTE_WRITE: (vk::PipelineStageFlags2, vk::AccessFlags2) = (
-    vk::PipelineStageFlags2::COMPUTE_SHADER,
-    vk::AccessFlags2::SHADER_STORAGE_WRITE,
-);
-/// ... made visible to storage reads of the next one.
-const COMPUTE_READ: (vk::PipelineStageFlags2, vk::AccessFlags2) = (
-    vk::PipelineStageFlags2::COMPUTE_SHADER,
-    vk::AccessFlags2::SHADER_STORAGE_READ,
-);
-
 /// Test and tool helper: uploads the distances of `cubes` (all of one face size), builds their
-/// pyramid on the GPU and reads it back, one `flatten()`-shaped vector per CMO. The mip buffer is
-/// first filled with NaN, so a cell the pass fails to write cannot equal the CPU's by accident.
+/// pyramid on the GPU and reads it back, one `flatten()`-shaped vector per CMO (see
+/// [`reduce_on_gpu`]).
 pub fn build_mip_gpu(ctx: &GpuContext, cubes: &[CubeMap]) -> VkResult<Vec<Vec<[f32; 2]>>> {
+    reduce_on_gpu(
+        ctx,
+        cubes,
+        PYRAMID.name,
+        mip_len,
+        |distance, mip, count, size| {
+            let pyramid = Pyramid::new(ctx)?;
+            let bindings = pyramid.bind(ctx, distance, mip, count, size)?;
+            ctx.submit_and_wait(PYRAMID.name, |rec| pyramid.record(rec, &bindings, None))
+        },
+    )
+}
+
+/// Test and tool helper behind `build_mip_gpu` and `build_hier_gpu`: uploads the distances of
+/// `cubes` (all of one face size), runs `record` to build `len(N)` `[min, max]` cells per CMO
+/// from them into the output buffer, and reads it back, one vector per CMO. The output is first
+/// filled with NaN, so a cell the pass fails to write cannot equal the CPU's by accident.
+pub(crate) fn reduce_on_gpu(
+    ctx: &GpuContext,
+    cubes: &[CubeMap],
+    pass: &str,
+    len: fn(u32) -> usize,
+    record: impl FnOnce(&Buffer, &Buffer, u32, u32) -> VkResult<()>,
+) -> VkResult<Vec<Vec<[f32; 2]>>> {
     let usage = |detail: String| VkError::Usage {
-        what: PYRAMID.name.into(),
+        what: pass.into(),
         detail,
     };
     let Some(first) = cubes.first() else {
@@ -278,7 +292,7 @@ pub fn build_mip_gpu(ctx: &GpuContext, cubes: &[CubeMap]) -> VkResult<Vec<Vec<[f
             c.size
         )));
     }
-    let len = mip_len(size);
+    let len = len(size);
     if len == 0 {
         return Ok(vec![Vec::new(); cubes.len()]);
     }
@@ -292,15 +306,13 @@ pub fn build_mip_gpu(ctx: &GpuContext, cubes: &[CubeMap]) -> VkResult<Vec<Vec<[f
         vk::BufferUsageFlags::STORAGE_BUFFER,
         &distances,
     )?;
-    let mip = ctx.create_buffer_init(
-        "cmo_mip",
+    let out = ctx.create_buffer_init(
+        &format!("{pass} output"),
         vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
         &vec![[f32::NAN; 2]; len * cubes.len()],
     )?;
-    let pyramid = Pyramid::new(ctx)?;
-    let bindings = pyramid.bind(ctx, &distance, &mip, cmo_count, size)?;
-    ctx.submit_and_wait(PYRAMID.name, |rec| pyramid.record(rec, &bindings, None))?;
-    let cells: Vec<[f32; 2]> = ctx.read_buffer(&mip)?;
+    record(&distance, &out, cmo_count, size)?;
+    let cells: Vec<[f32; 2]> = ctx.read_buffer(&out)?;
     Ok(cells
         .chunks(len)
         .take(cubes.len())

@@ -65,3 +65,13 @@ pub const SHADER_READ: Access = (
         vk::AccessFlags2::SHADER_READ.as_raw() | vk::AccessFlags2::UNIFORM_READ.as_raw(),
     ),
 );
+/// Storage writes of a compute dispatch ...
+pub const COMPUTE_WRITE: Access = (
+    vk::PipelineStageFlags2::COMPUTE_SHADER,
+    vk::AccessFlags2::SHADER_STORAGE_WRITE,
+);
+/// ... made visible to storage reads of the next one.
+pub const COMPUTE_READ: Access = (
+    vk::PipelineStageFlags2::COMPUTE_SHADER,
+    vk::AccessFlags2::SHADER_STORAGE_READ,
+);
