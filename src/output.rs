@@ -37,9 +37,13 @@ pub fn write_atomic_with(
         _ => Path::new("."),
     };
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    let tmp = tempfile::Builder::new()
-        .prefix(".cubetrace-")
-        .suffix(".tmp")
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(".cubetrace-").suffix(".tmp");
+    // A temporary file is private (0600); the finished file gets the usual 0644 (less the
+    // umask), as a plain create would.
+    #[cfg(unix)]
+    builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o644));
+    let tmp = builder
         .tempfile_in(dir)
         .with_context(|| format!("cannot create a temporary file in {}", dir.display()))?;
     {
@@ -219,6 +223,20 @@ mod tests {
         write_atomic(&path, b"whole").unwrap();
         assert_eq!(entries(dir.path()), vec!["x.png".to_string()]);
         assert_eq!(std::fs::read(&path).unwrap(), b"whole");
+    }
+
+    /// The finished file has the mode a plain create gives (not the temporary file's 0600).
+    #[cfg(unix)]
+    #[test]
+    fn written_file_has_the_usual_mode() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = tempfile::tempdir().unwrap();
+        let plain = dir.path().join("plain");
+        std::fs::write(&plain, b"x").unwrap();
+        let atomic = dir.path().join("atomic.png");
+        write_atomic(&atomic, b"x").unwrap();
+        let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode(&atomic), mode(&plain));
     }
 
     #[test]
