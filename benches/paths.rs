@@ -52,6 +52,7 @@ fn run(cfg: &BenchConfig) -> anyhow::Result<()> {
     let report = bench::run(&ctx, cfg, &bar)?;
     println!("{}", bench::report::header(&report));
     println!("{}", bench::report::summary_table(&report));
+    println!("{}", bench::report::ratios_table(&report));
     for p in bench::report::write(&report, &cfg.out)? {
         println!("wrote {}", p.display());
     }

@@ -425,6 +425,10 @@ struct BenchArgs {
     /// Skip the error heat maps.
     #[arg(long)]
     no_heatmaps: bool,
+    /// Skip timing each GPU method's default setting again at 16x12 (the fixed-cost "floor"
+    /// columns of the cost-per-ray table).
+    #[arg(long)]
+    no_floor: bool,
     /// Cost curves instead of the grid: against cube size, screen size, CMO count and triangle
     /// count (fragment, exact criterion with the pyramid).
     #[arg(long)]
@@ -492,12 +496,14 @@ fn bench(args: BenchArgs) -> Result<()> {
             cmos: args.cmos,
             flip: !args.no_flip,
             heatmaps: !args.no_heatmaps,
+            floor: (!args.no_floor).then_some(bench::FLOOR_FRAME),
             out: args.out.clone(),
         };
         let report = bench::run(&ctx, &cfg, &bar)?;
         bar.finish_and_clear();
         println!("{}", bench::report::header(&report));
         println!("{}", bench::report::summary_table(&report));
+        println!("{}", bench::report::ratios_table(&report));
         bench::report::write(&report, &args.out)?
     };
     bench::check_validation(&ctx)?;

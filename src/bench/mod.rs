@@ -7,8 +7,12 @@
 //! timestamps; the tracing pass's median per mirror pixel; the mean `cells`, `texels` and
 //! `traces` counters of the pixel records over mirror pixels; the CMO memory; and the error of
 //! the **last** frame against the exact CPU reference ([`metrics::compare`], plus the FLIP mean
-//! over mirror pixels). `reference` runs on the CPU: its time is wall-clock, its error zero by
+//! over mirror pixels). `reference` runs on the CPU: its time is wall-clock, its tracing cost
+//! the phase that traces the reflected rays ([`reference::render_phased`]), its error zero by
 //! definition (it is the yardstick), and it appears in the table but not in the plot.
+//! Per scene, [`SceneRatios`] sets the default settings' costs per ray side by side, and each
+//! GPU method's default setting is timed again at a 16x12 frame ([`FloorRun`]) to expose a
+//! fixed per-pass cost.
 //!
 //! Invariants:
 //! - Every figure comes from the frames of this run; nothing is extrapolated. Frames are
@@ -209,6 +213,10 @@ pub struct BenchConfig {
     pub flip: bool,
     /// Write per-run error heat maps.
     pub heatmaps: bool,
+    /// Also time each GPU method's default setting at this small frame size, to expose a fixed
+    /// per-pass cost (the "floor": small frame time / full frame time, near 0 when the pass
+    /// costs per ray).
+    pub floor: Option<(u32, u32)>,
     pub out: PathBuf,
 }
 
@@ -230,10 +238,14 @@ impl Default for BenchConfig {
             cmos: None,
             flip: true,
             heatmaps: true,
+            floor: Some(FLOOR_FRAME),
             out: PathBuf::from("out/bench"),
         }
     }
 }
+
+/// The small frame of the floor measurement ([`BenchConfig::floor`]).
+pub const FLOOR_FRAME: (u32, u32) = (16, 12);
 
 /// Median, min and max of a sample.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
@@ -319,15 +331,24 @@ pub struct RunResult {
     pub cmos: u32,
     pub triangles: usize,
     pub mirror_pixels: usize,
+    /// Rays the tracing pass traced: the method's own mirror pixels (GPU), or the reference's
+    /// first reflected rays.
+    pub rays: usize,
     pub frames: u32,
     /// Per pass, in recording order (GPU methods).
     pub passes: Vec<PassStats>,
-    /// The method's own pass (GPU), or the whole frame's wall time (reference), ns.
+    /// The method's own pass (GPU), or the wall time of the reference's reflected-ray phase
+    /// ([`reference::render_phased`]), ns.
     pub trace_ns: Stats,
-    /// Sum of all passes per frame (GPU) or wall time (reference), ns.
+    /// Sum of all passes per frame (GPU) or the whole frame's wall time (reference), ns.
     pub total_ns: Stats,
-    /// Median of `trace_ns` per mirror pixel.
+    /// Median of `trace_ns` per mirror pixel of the reference.
     pub trace_ns_per_mirror_px: f64,
+    /// Median of `trace_ns` per traced ray (`rays`).
+    pub ns_per_ray: f64,
+    /// The tracing pass at the [`BenchConfig::floor`] frame size, for the default setting of
+    /// each GPU method.
+    pub floor: Option<FloorRun>,
     pub counters: Counters,
     /// Bytes of GPU memory of the CMO data (0 for the reference).
     pub cmo_bytes: u64,
@@ -336,6 +357,78 @@ pub struct RunResult {
     pub flip_mean: Option<f64>,
     /// The error heat map, relative to the output folder.
     pub heatmap: Option<String>,
+}
+
+/// The tracing pass of a method at a small frame ([`BenchConfig::floor`]).
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct FloorRun {
+    pub width: u32,
+    pub height: u32,
+    pub rays: usize,
+    pub trace_ns: Stats,
+    /// `trace_ns.median` at the small frame over the full frame's: a pass that costs per ray
+    /// scales with the ray count, a fixed cost keeps this near 1.
+    pub ratio: f64,
+}
+
+/// Per scene, the cost per ray of each method and the ratios the project tracks.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct SceneRatios {
+    pub scene: String,
+    /// ns per ray of each method's default setting (`None` where not run).
+    pub reference_ns_per_ray: Option<f64>,
+    pub envmap_ns_per_ray: Option<f64>,
+    pub fragment_ns_per_ray: Option<f64>,
+    pub compute_ns_per_ray: Option<f64>,
+    pub fragment_over_reference: Option<f64>,
+    pub compute_over_reference: Option<f64>,
+    pub compute_over_fragment: Option<f64>,
+    /// Tracing pass at the small frame over the full frame ([`FloorRun::ratio`]).
+    pub fragment_floor: Option<f64>,
+    pub compute_floor: Option<f64>,
+}
+
+impl SceneRatios {
+    /// The ratios of every scene of `runs`, in first-appearance order. The methods are the
+    /// default settings: `reference`, `envmap`, `fragment-exact-mip` and `compute`.
+    pub fn of(runs: &[RunResult]) -> Vec<SceneRatios> {
+        let mut scenes: Vec<&str> = Vec::new();
+        for r in runs {
+            if !scenes.contains(&r.scene.as_str()) {
+                scenes.push(&r.scene);
+            }
+        }
+        let default_label = |kind: MethodKind| MethodSpec::plain(kind).label();
+        scenes
+            .into_iter()
+            .map(|scene| {
+                let run = |kind: MethodKind| {
+                    let label = default_label(kind);
+                    runs.iter().find(|r| r.scene == scene && r.method == label)
+                };
+                let per_ray = |kind| run(kind).map(|r| r.ns_per_ray);
+                let ratio = |a: Option<f64>, b: Option<f64>| Some(a? / b?);
+                let floor = |kind| run(kind).and_then(|r| r.floor).map(|f| f.ratio);
+                let (refr, fragment, compute) = (
+                    per_ray(MethodKind::Reference),
+                    per_ray(MethodKind::Fragment),
+                    per_ray(MethodKind::Compute),
+                );
+                SceneRatios {
+                    scene: scene.to_string(),
+                    reference_ns_per_ray: refr,
+                    envmap_ns_per_ray: per_ray(MethodKind::Envmap),
+                    fragment_ns_per_ray: fragment,
+                    compute_ns_per_ray: compute,
+                    fragment_over_reference: ratio(fragment, refr),
+                    compute_over_reference: ratio(compute, refr),
+                    compute_over_fragment: ratio(compute, fragment),
+                    fragment_floor: floor(MethodKind::Fragment),
+                    compute_floor: floor(MethodKind::Compute),
+                }
+            })
+            .collect()
+    }
 }
 
 /// The device a run was measured on.
@@ -389,6 +482,8 @@ pub struct BenchReport {
     pub cpu_threads: usize,
     pub warmup: u32,
     pub runs: Vec<RunResult>,
+    /// Per scene: ns per ray of each method and the ratios between them ([`SceneRatios::of`]).
+    pub ratios: Vec<SceneRatios>,
 }
 
 /// The commit being measured: `git rev-parse HEAD` in the current folder, else the build-time
@@ -436,23 +531,38 @@ pub fn prepare_scene(
 /// The reference frame of one scene, with its wall times per frame (ns).
 pub struct ReferenceRun {
     pub frame: Frame,
+    /// The whole frame.
     pub wall_ns: Vec<f64>,
+    /// The reflected-ray phase alone ([`reference::PhaseTimes::reflected_ns`]).
+    pub reflected_ns: Vec<f64>,
+    /// First reflected rays per frame (the reference's mirror pixels).
+    pub reflected_rays: usize,
 }
 
-/// Renders the CPU reference `warmup + frames` times (one bounce) and keeps the last frame.
+/// Renders the CPU reference `warmup + frames` times (one bounce, [`reference::render_phased`])
+/// and keeps the last frame.
 pub fn run_reference(scene: &Scene, camera: &Camera, warmup: u32, frames: u32) -> ReferenceRun {
     let tracer = reference::Tracer::new(scene);
-    let mut frame = reference::render(scene, &tracer, camera, 1);
+    let (mut frame, _) = reference::render_phased(scene, &tracer, camera, 1);
     for _ in 1..warmup {
-        frame = reference::render(scene, &tracer, camera, 1);
+        frame = reference::render_phased(scene, &tracer, camera, 1).0;
     }
-    let mut wall_ns = Vec::new();
+    let (mut wall_ns, mut reflected_ns) = (Vec::new(), Vec::new());
+    let mut reflected_rays = 0;
     for _ in 0..frames.max(1) {
         let start = Instant::now();
-        frame = reference::render(scene, &tracer, camera, 1);
+        let (f, phases) = reference::render_phased(scene, &tracer, camera, 1);
         wall_ns.push(start.elapsed().as_secs_f64() * 1e9);
+        reflected_ns.push(phases.reflected_ns);
+        reflected_rays = phases.reflected_rays;
+        frame = f;
     }
-    ReferenceRun { frame, wall_ns }
+    ReferenceRun {
+        frame,
+        wall_ns,
+        reflected_ns,
+        reflected_rays,
+    }
 }
 
 /// A GPU method's timed frames: the last frame, pass times per frame, CMO bytes.
@@ -575,7 +685,15 @@ pub fn run(
         .iter()
         .filter(|m| m.kind.gpu().is_some())
         .count();
-    bar.set_length((cfg.scenes.len() * (1 + gpu_methods)) as u64);
+    let floor_runs = match cfg.floor {
+        Some(_) => cfg
+            .methods
+            .iter()
+            .filter(|m| m.kind.gpu().is_some() && **m == MethodSpec::plain(m.kind))
+            .count(),
+        None => 0,
+    };
+    bar.set_length((cfg.scenes.len() * (1 + gpu_methods + floor_runs)) as u64);
     let mut runs = Vec::new();
     for name in &cfg.scenes {
         let (scene, camera) = prepare_scene(name, cfg.width, cfg.height, cfg.cube_size, cfg.cmos)?;
@@ -605,11 +723,14 @@ pub fn run(
             cmos: centres.len() as u32,
             triangles,
             mirror_pixels: mirror,
+            rays: 0,
             frames: cfg.frames.max(1),
             passes: Vec::new(),
             trace_ns: Stats::default(),
             total_ns: Stats::default(),
             trace_ns_per_mirror_px: 0.0,
+            ns_per_ray: 0.0,
+            floor: None,
             counters: Counters::default(),
             cmo_bytes: 0,
             error: ErrorReport::default(),
@@ -619,10 +740,13 @@ pub fn run(
         for spec in &cfg.methods {
             let Some(gpu) = spec.kind.gpu() else {
                 let wall = Stats::of(&refr.wall_ns).unwrap_or_default();
+                let reflected = Stats::of(&refr.reflected_ns).unwrap_or_default();
                 runs.push(RunResult {
-                    trace_ns: wall,
+                    rays: refr.reflected_rays,
+                    trace_ns: reflected,
                     total_ns: wall,
-                    trace_ns_per_mirror_px: wall.median / mirror.max(1) as f64,
+                    trace_ns_per_mirror_px: reflected.median / mirror.max(1) as f64,
+                    ns_per_ray: reflected.median / refr.reflected_rays.max(1) as f64,
                     error: ErrorReport {
                         mirror_pixels: mirror,
                         psnr_db: f64::INFINITY,
@@ -656,6 +780,31 @@ pub fn run(
             let passes = pass_stats(&g.pass_ns);
             let trace_ns = frame_stats(&g.pass_ns, Some(gpu.pass_name()));
             let total_ns = frame_stats(&g.pass_ns, None);
+            let floor = match cfg.floor {
+                Some((w, h)) if *spec == MethodSpec::plain(spec.kind) => {
+                    bar.set_message(format!("{name}: {label} at {w}x{h}"));
+                    let small = Camera {
+                        width: w,
+                        height: h,
+                        ..camera.clone()
+                    };
+                    let f = run_gpu(ctx, &scene, &small, gpu, spec.trace, cfg.warmup, cfg.frames)
+                        .with_context(|| {
+                        format!("scene '{name}', method {label} at {w}x{h}")
+                    })?;
+                    let small_ns = frame_stats(&f.pass_ns, Some(gpu.pass_name()));
+                    bar.inc(1);
+                    Some(FloorRun {
+                        width: w,
+                        height: h,
+                        rays: f.frame.mirror_pixels(),
+                        trace_ns: small_ns,
+                        ratio: small_ns.median / trace_ns.median,
+                    })
+                }
+                _ => None,
+            };
+            let rays = g.frame.mirror_pixels();
             let heatmap = if cfg.heatmaps {
                 let rel = format!("heat/{}-{label}.png", scene.name);
                 heatmap::write(&cfg.out.join(&rel), &refr.frame, &pixels)?;
@@ -668,6 +817,9 @@ pub fn run(
                 trace_ns,
                 total_ns,
                 trace_ns_per_mirror_px: trace_ns.median / mirror.max(1) as f64,
+                rays,
+                ns_per_ray: trace_ns.median / rays.max(1) as f64,
+                floor,
                 counters: Counters::of(&g.frame),
                 cmo_bytes: g.cmo_bytes,
                 error,
@@ -689,6 +841,7 @@ pub fn run(
         cubetrace_version: env!("CARGO_PKG_VERSION"),
         cpu_threads: rayon::current_num_threads(),
         warmup: cfg.warmup,
+        ratios: SceneRatios::of(&runs),
         runs,
     })
 }
@@ -752,6 +905,78 @@ mod tests {
             assert_eq!(MethodKind::from_name(m.name()), Some(m));
         }
         assert_eq!(MethodKind::from_name("raytrace"), None);
+    }
+
+    fn run(scene: &str, kind: MethodKind, ns: f64, rays: usize, floor: Option<f64>) -> RunResult {
+        RunResult {
+            scene: scene.into(),
+            method: MethodSpec::plain(kind).label(),
+            kind,
+            params: String::new(),
+            width: 160,
+            height: 120,
+            cube_size: 256,
+            cmos: 1,
+            triangles: 1,
+            mirror_pixels: rays,
+            rays,
+            frames: 1,
+            passes: Vec::new(),
+            trace_ns: Stats {
+                median: ns,
+                min: ns,
+                max: ns,
+            },
+            total_ns: Stats::default(),
+            trace_ns_per_mirror_px: ns / rays as f64,
+            ns_per_ray: ns / rays as f64,
+            floor: floor.map(|ratio| FloorRun {
+                width: 16,
+                height: 12,
+                rays: 1,
+                trace_ns: Stats::default(),
+                ratio,
+            }),
+            counters: Counters::default(),
+            cmo_bytes: 0,
+            error: ErrorReport::default(),
+            flip_mean: None,
+            heatmap: None,
+        }
+    }
+
+    #[test]
+    fn scene_ratios_pair_the_default_settings_per_scene() {
+        let mut strict = run("a", MethodKind::Fragment, 1.0, 100, None);
+        strict.method = "fragment-exact-mip-strict".into();
+        let runs = vec![
+            run("a", MethodKind::Reference, 1000.0, 100, None),
+            strict,
+            run("a", MethodKind::Fragment, 4000.0, 100, Some(0.5)),
+            run("a", MethodKind::Compute, 2000.0, 50, Some(0.1)),
+            run("b", MethodKind::Compute, 1.0, 1, None),
+        ];
+        let r = SceneRatios::of(&runs);
+        assert_eq!(r.len(), 2);
+        assert_eq!(r[0].scene, "a");
+        assert_eq!(r[0].reference_ns_per_ray, Some(10.0));
+        assert_eq!(r[0].fragment_ns_per_ray, Some(40.0), "not the strict run");
+        assert_eq!(
+            r[0].compute_ns_per_ray,
+            Some(40.0),
+            "per the method's own rays"
+        );
+        assert_eq!(r[0].fragment_over_reference, Some(4.0));
+        assert_eq!(r[0].compute_over_reference, Some(4.0));
+        assert_eq!(r[0].compute_over_fragment, Some(1.0));
+        assert_eq!(
+            (r[0].fragment_floor, r[0].compute_floor),
+            (Some(0.5), Some(0.1))
+        );
+        // Scene b ran no reference and no fragment: no ratio is made up.
+        assert_eq!(r[1].compute_ns_per_ray, Some(1.0));
+        assert_eq!(r[1].compute_over_reference, None);
+        assert_eq!(r[1].compute_over_fragment, None);
     }
 
     #[test]

@@ -176,6 +176,43 @@ pub fn runs_table(report: &BenchReport) -> String {
     s
 }
 
+fn opt(x: Option<f64>, digits: usize) -> String {
+    x.map_or("-".into(), |x| num(x, digits))
+}
+
+/// Per scene: ns per ray of each method's default setting and the ratios between them; the
+/// floor columns are the tracing pass at the small frame over the full frame.
+pub fn ratios_table(report: &BenchReport) -> String {
+    let floor = report
+        .runs
+        .iter()
+        .find_map(|r| r.floor)
+        .map_or("small frame".to_string(), |f| {
+            format!("{}x{}", f.width, f.height)
+        });
+    let mut s = format!(
+        "| scene | reference ns/ray | envmap ns/ray | fragment ns/ray | compute ns/ray | fragment / reference | compute / reference | compute / fragment | fragment floor ({floor} / full) | compute floor ({floor} / full) |\n\
+         |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n"
+    );
+    for r in &report.ratios {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            r.scene,
+            opt(r.reference_ns_per_ray, 0),
+            opt(r.envmap_ns_per_ray, 0),
+            opt(r.fragment_ns_per_ray, 0),
+            opt(r.compute_ns_per_ray, 0),
+            opt(r.fragment_over_reference, 3),
+            opt(r.compute_over_reference, 3),
+            opt(r.compute_over_fragment, 3),
+            opt(r.fragment_floor, 3),
+            opt(r.compute_floor, 3),
+        );
+    }
+    s
+}
+
 /// GPU time per pass: one row per GPU run, `median [min, max]` ms.
 pub fn passes_table(report: &BenchReport) -> String {
     let mut s = String::from(
@@ -227,12 +264,15 @@ pub fn write(report: &BenchReport, dir: &Path) -> Result<Vec<PathBuf>> {
     write_atomic(&json, serde_json::to_string_pretty(report)?.as_bytes())?;
     let md = dir.join("bench.md");
     let doc = format!(
-        "# cubetrace bench\n\n{}\n## Summary per method\n\n{}\nCost: the tracing pass alone (reference: CPU wall time of the whole frame). \
-         Error: against the exact CPU reference, over mirror pixels.\n\n## Runs\n\n{}\n## GPU time per pass\n\n{}\n\
+        "# cubetrace bench\n\n{}\n## Summary per method\n\n{}\nCost: the tracing pass alone (reference: CPU wall time of its reflected-ray phase). \
+         Error: against the exact CPU reference, over mirror pixels.\n\n## Cost per ray\n\n{}\nns/ray: the tracing pass's median time over the rays it traced (GPU: the method's mirror pixels; \
+         reference: the CPU wall time of its reflected-ray phase over its first reflected rays, shading at the hit included). \
+         Default settings: `fragment` is fragment-exact-mip.\n\n## Runs\n\n{}\n## GPU time per pass\n\n{}\n\
          Heat maps (`heat/SCENE-METHOD.png`): grey = not a mirror pixel; black to red = angular error of the hit point, \
          0.01 to 10 degrees, logarithmic; white = wrong surface; magenta = unresolved; cyan = mirror pixel missed by the method's rasterisation.\n",
         header(report),
         summary_table(report),
+        ratios_table(report),
         runs_table(report),
         passes_table(report)
     );

@@ -79,6 +79,20 @@ impl Frame {
     pub fn mirror_pixels(&self) -> usize {
         self.mask.iter().filter(|&&m| m != 0).count()
     }
+
+    /// Stores pixel `k`'s path.
+    fn set_path(&mut self, k: usize, tracer: &Tracer, p: PathResult) {
+        self.colour[k] = p.colour;
+        self.mask[k] = p.mirror as u8;
+        self.surface_position[k] = p.surface.unwrap_or(Vec3::NAN);
+        self.bounces[k] = p.bounces;
+        if let Some(h) = p.first_reflected {
+            self.hit_position[k] = h.position;
+            let (o, prim) = tracer.ids(h.triangle);
+            self.object_id[k] = o;
+            self.primitive_id[k] = prim;
+        }
+    }
 }
 
 /// A nearest hit.
@@ -294,6 +308,25 @@ pub fn trace_path(
     dir: Vec3,
     max_bounces: u32,
 ) -> PathResult {
+    finish_path(
+        scene,
+        tracer,
+        dir,
+        tracer.nearest(origin, dir, None),
+        max_bounces,
+    )
+}
+
+/// The rest of [`trace_path`] once the primary ray (along `dir`) has found `first`: the
+/// reflections off mirrors and the shading at the end. Split out so that the harness can time
+/// the reflected rays on their own ([`render_phased`]).
+pub fn finish_path(
+    scene: &Scene,
+    tracer: &Tracer,
+    dir: Vec3,
+    first: Option<Hit>,
+    max_bounces: u32,
+) -> PathResult {
     let mut out = PathResult {
         colour: scene.background,
         surface: None,
@@ -301,33 +334,28 @@ pub fn trace_path(
         first_reflected: None,
         bounces: 0,
     };
-    let (mut o, mut d, mut skip) = (origin, dir, None);
+    let Some(mut hit) = first else {
+        return out;
+    };
+    out.surface = Some(hit.position);
+    out.mirror = tracer.is_reflector(hit.triangle);
+    let mut d = dir;
     let mut bounce = 0u32;
-    loop {
-        let Some(hit) = tracer.nearest(o, d, skip) else {
+    while tracer.is_reflector(hit.triangle) && bounce < max_bounces {
+        d = reflect(d, tracer.normal(&hit)).normalize();
+        bounce += 1;
+        out.bounces = bounce as u8;
+        let Some(next) = tracer.nearest(hit.position, d, Some(hit.triangle)) else {
             out.colour = scene.background;
             return out;
         };
-        if bounce == 0 {
-            out.surface = Some(hit.position);
-        } else if bounce == 1 {
-            out.first_reflected = Some(hit);
+        if bounce == 1 {
+            out.first_reflected = Some(next);
         }
-        let reflector = tracer.is_reflector(hit.triangle);
-        if bounce == 0 && reflector {
-            out.mirror = true;
-        }
-        if reflector && bounce < max_bounces {
-            d = reflect(d, tracer.normal(&hit)).normalize();
-            o = hit.position;
-            skip = Some(hit.triangle);
-            bounce += 1;
-            out.bounces = bounce as u8;
-            continue;
-        }
-        out.colour = tracer.shade(scene, &hit);
-        return out;
+        hit = next;
     }
+    out.colour = tracer.shade(scene, &hit);
+    out
 }
 
 /// Renders `camera`'s view of `scene` with up to `bounces` reflections per path.
@@ -368,20 +396,68 @@ pub fn render_with_progress(
     progress.finish_and_clear();
     for (j, row) in rows.into_iter().enumerate() {
         for (i, p) in row.into_iter().enumerate() {
-            let k = j * w + i;
-            frame.colour[k] = p.colour;
-            frame.mask[k] = p.mirror as u8;
-            frame.surface_position[k] = p.surface.unwrap_or(Vec3::NAN);
-            frame.bounces[k] = p.bounces;
-            if let Some(h) = p.first_reflected {
-                frame.hit_position[k] = h.position;
-                let (o, prim) = tracer.ids(h.triangle);
-                frame.object_id[k] = o;
-                frame.primitive_id[k] = prim;
-            }
+            frame.set_path(j * w + i, tracer, p);
         }
     }
     frame
+}
+
+/// Wall-clock times of the two phases of [`render_phased`], nanoseconds.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PhaseTimes {
+    /// Primary rays of every pixel, and the shading of the pixels that are not mirrors.
+    pub primary_ns: f64,
+    /// The mirror pixels' reflected rays: each traced to its hit (and on, up to the bounces)
+    /// and shaded there. This is the work the GPU tracing passes do.
+    pub reflected_ns: f64,
+    /// Mirror pixels, i.e. first reflected rays.
+    pub reflected_rays: usize,
+}
+
+/// [`render`] in two timed phases: first every primary ray (and the shading of non-mirror
+/// pixels), then the reflected rays of the mirror pixels, each phase parallel over pixels.
+/// The frame is the same bits as [`render`]'s (tested); only the order of work differs.
+pub fn render_phased(
+    scene: &Scene,
+    tracer: &Tracer,
+    camera: &Camera,
+    bounces: u32,
+) -> (Frame, PhaseTimes) {
+    let w = camera.width as usize;
+    let n = w * camera.height as usize;
+    let start = std::time::Instant::now();
+    let primary: Vec<(Vec3, Option<Hit>, Option<PathResult>)> = (0..n)
+        .into_par_iter()
+        .map(|k| {
+            let (o, d) = camera.ray((k % w) as u32, (k / w) as u32);
+            let hit = tracer.nearest(o, d, None);
+            let done = match hit {
+                Some(h) if tracer.is_reflector(h.triangle) => None,
+                _ => Some(finish_path(scene, tracer, d, hit, bounces)),
+            };
+            (d, hit, done)
+        })
+        .collect();
+    let primary_ns = start.elapsed().as_secs_f64() * 1e9;
+    let start = std::time::Instant::now();
+    let paths: Vec<PathResult> = primary
+        .into_par_iter()
+        .map(|(d, hit, done)| done.unwrap_or_else(|| finish_path(scene, tracer, d, hit, bounces)))
+        .collect();
+    let reflected_ns = start.elapsed().as_secs_f64() * 1e9;
+    let mut frame = Frame::new(camera.width, camera.height);
+    for (k, p) in paths.into_iter().enumerate() {
+        frame.set_path(k, tracer, p);
+    }
+    let reflected_rays = frame.mirror_pixels();
+    (
+        frame,
+        PhaseTimes {
+            primary_ns,
+            reflected_ns,
+            reflected_rays,
+        },
+    )
 }
 
 /// The CPU capture of one cubemap object: for every texel, a ray from `centre` through the
@@ -419,4 +495,45 @@ pub fn capture(scene: &Scene, tracer: &Tracer, centre: Vec3, size: u32) -> crate
         cube.colour[i] = c;
     }
     cube
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The phased render (the harness's timing of the reflected rays) is the same frame as the
+    /// plain one, bit for bit, bounces included; a different bounce count is not.
+    #[test]
+    fn phased_render_is_the_plain_render() {
+        let scene = crate::scene::builtin::by_name("teapot").expect("built-in");
+        let mut camera = scene.cameras[0].clone();
+        (camera.width, camera.height) = (48, 36);
+        let tracer = Tracer::new(&scene);
+        for bounces in [0, 1, 3] {
+            let plain = render(&scene, &tracer, &camera, bounces);
+            let (phased, times) = render_phased(&scene, &tracer, &camera, bounces);
+            assert!(plain.mirror_pixels() > 100);
+            assert_eq!(times.reflected_rays, plain.mirror_pixels());
+            assert!(
+                plain.colour == phased.colour
+                    && plain.bounces == phased.bounces
+                    && plain.primitive_id == phased.primitive_id,
+                "bounces {bounces}"
+            );
+            // NaN positions compare unequal: compare their bits.
+            let bits = |v: &[Vec3]| {
+                v.iter()
+                    .map(|p| p.to_array().map(f32::to_bits))
+                    .collect::<Vec<_>>()
+            };
+            assert_eq!(bits(&plain.hit_position), bits(&phased.hit_position));
+            assert_eq!(plain.mask, phased.mask);
+        }
+        let one = render(&scene, &tracer, &camera, 1);
+        let three = render_phased(&scene, &tracer, &camera, 3).0;
+        assert_ne!(
+            one.colour, three.colour,
+            "negative: the bounce count must show"
+        );
+    }
 }

@@ -1,0 +1,73 @@
+//! The harness end to end on one small scene: every method's default setting, the per-ray
+//! costs and ratios per scene, the small-frame floor runs, and the files it writes.
+
+mod common;
+
+use cubetrace::bench::{self, BenchConfig, MethodKind};
+
+#[test]
+fn bench_reports_cost_per_ray_ratios_and_floor() {
+    let ctx = common::gpu_context();
+    let out = tempfile::tempdir().expect("temp dir");
+    let cfg = BenchConfig {
+        scenes: vec!["sphere-room".into()],
+        methods: bench::method_grid(&MethodKind::ALL, true),
+        width: 40,
+        height: 30,
+        frames: 1,
+        warmup: 0,
+        cube_size: Some(32),
+        flip: false,
+        heatmaps: false,
+        out: out.path().to_path_buf(),
+        ..BenchConfig::default()
+    };
+    let report = bench::run(&ctx, &cfg, &indicatif::ProgressBar::hidden()).expect("bench");
+    assert_eq!(report.runs.len(), 4);
+    let refr = &report.runs[0];
+    assert_eq!(refr.kind, MethodKind::Reference);
+    assert!(refr.rays > 50 && refr.rays == refr.mirror_pixels);
+    assert!(refr.trace_ns.median > 0.0 && refr.trace_ns.median <= refr.total_ns.median);
+    for r in &report.runs[1..] {
+        let f = r
+            .floor
+            .unwrap_or_else(|| panic!("{}: no floor run", r.method));
+        assert_eq!((f.width, f.height), bench::FLOOR_FRAME);
+        assert!(
+            f.rays < r.rays,
+            "{}: the small frame has fewer rays",
+            r.method
+        );
+        assert!(f.ratio > 0.0 && f.ratio.is_finite());
+        assert!(r.ns_per_ray > 0.0);
+    }
+    let [ratios] = report.ratios.as_slice() else {
+        panic!("one scene, one row: {:?}", report.ratios)
+    };
+    let (Some(c), Some(fr), Some(rf)) = (
+        ratios.compute_ns_per_ray,
+        ratios.fragment_ns_per_ray,
+        ratios.reference_ns_per_ray,
+    ) else {
+        panic!("missing per-ray cost: {ratios:?}")
+    };
+    assert_eq!(ratios.compute_over_reference, Some(c / rf));
+    assert_eq!(ratios.compute_over_fragment, Some(c / fr));
+    let files = bench::report::write(&report, out.path()).expect("write");
+    let md = std::fs::read_to_string(&files[1]).expect("bench.md");
+    assert!(md.contains("## Cost per ray") && md.contains("| sphere-room | "));
+    let json = std::fs::read_to_string(&files[0]).expect("bench.json");
+    assert!(json.contains("\"compute_over_reference\""));
+
+    // Without the floor runs, no floor figure is reported.
+    let cfg = BenchConfig {
+        methods: bench::method_grid(&[MethodKind::Envmap], true),
+        floor: None,
+        ..cfg
+    };
+    let report = bench::run(&ctx, &cfg, &indicatif::ProgressBar::hidden()).expect("bench");
+    assert!(report.runs.iter().all(|r| r.floor.is_none()));
+    assert_eq!(report.ratios[0].compute_ns_per_ray, None);
+    bench::check_validation(&ctx).expect("validation");
+    common::finish_gpu(ctx);
+}
