@@ -119,11 +119,11 @@ struct Span {
 }
 
 /// The frame against the reference (`metrics::compare`): the same mirror pixels, at most 6%
-/// unresolved (3.1% measured on both paths), and the far cube seen in the mirror where the
+/// unresolved (2.8% measured on both paths), and the far cube seen in the mirror where the
 /// reference sees it (at least 100 pixels, 95% of them right). Wrong surfaces are judged as in
 /// `tests/hard_cases.rs`, on each pixel's own ray traced exactly through the non-reflectors
-/// (at most 1%): the reference drops hits nearer than `SELF_HIT_EPSILON` x extent (0.4 here)
-/// on reflected rays, so `compare` counts the floor right under the sphere as wrong (about 3.5%
+/// (at most 1%; 0.16% measured): the reference drops hits nearer than `SELF_HIT_EPSILON` x extent (0.4 here)
+/// on reflected rays, so `compare` counts the floor right under the sphere as wrong (3.7%
 /// of the mirror pixels here, printed with the report).
 fn check_span(
     scene: &Scene,
@@ -214,8 +214,8 @@ fn scene_spanning_1e_minus_3_to_1e5_matches_the_reference() {
     let ranges = FrameRanges::new(&scene, camera);
     eprintln!("{ranges:?}");
     ranges.check(&scene).expect("f32 holds this scene");
-    // The near planes come from the geometry: the eye is 2.7 from the mirror, the CMO centre
-    // 1.0 from the floor and the speck; both far below the old 1e-4 x far = 10.
+    // The near planes come from the geometry: the eye is 1.6 from the floor (near 0.73), the
+    // CMO centre 1.0 from it (capture near 0.29); the old near plane was 1e-4 x far = 42.
     assert!(ranges.near > 0.5 && ranges.near < 1.5, "{ranges:?}");
     assert!(
         ranges.capture_near > 0.2 && ranges.capture_near < 0.3,
@@ -232,7 +232,7 @@ fn scene_spanning_1e_minus_3_to_1e5_matches_the_reference() {
     finish_gpu(ctx);
 }
 
-/// Negative tests of [`check_span`]: the old near plane, 1e-4 x far (10 here), clips the near
+/// Negative tests of [`check_span`]: the old near plane, 1e-4 x far (42 here), clips the near
 /// scene (the check must fail); a ray length that stops short of the far cube (1e3) loses it
 /// from the mirror (the check must fail again).
 #[test]
