@@ -122,9 +122,9 @@ struct Span {
 /// unresolved (2.8% measured on both paths), and the far cube seen in the mirror where the
 /// reference sees it (at least 100 pixels, 95% of them right). Wrong surfaces are judged as in
 /// `tests/hard_cases.rs`, on each pixel's own ray traced exactly through the non-reflectors
-/// (at most 1%; 0.16% measured): the reference drops hits nearer than `SELF_HIT_EPSILON` x extent (0.4 here)
-/// on reflected rays, so `compare` counts the floor right under the sphere as wrong (3.7%
-/// of the mirror pixels here, printed with the report).
+/// (at most 1%; 0.16% measured): the reference drops hits nearer than `SELF_HIT_EPSILON` x
+/// extent (0.4 here) on reflected rays, so `compare` counts the floor right under the sphere
+/// as wrong (3.7% of the mirror pixels here, printed with the report).
 fn check_span(
     scene: &Scene,
     reference: &reference::Frame,
