@@ -4,8 +4,8 @@
 //!
 //! The span scene: a mirror sphere of radius 1 over a textured floor, a slab 1e-3 thick beside
 //! it, a 2e-3 speck 1e-2 above the sphere, and a cube 1e5 behind the camera (its near face at
-//! z = 1e5, 2e5 wide) that the mirror shows. The old ranges (near = 1e-4 x far on a `[near, far]` projection) clipped the
-//! whole near scene there: 0 mirror pixels.
+//! z = 1e5, 2e5 wide) that the mirror shows. The old ranges (near = 1e-4 x far on a
+//! `[near, far]` projection) clipped the whole near scene there: 0 mirror pixels.
 mod common;
 use common::{finish_gpu, gpu_context};
 
