@@ -445,6 +445,40 @@ fn eye_close_to_a_surface_clips_nothing() {
     finish_gpu(ctx);
 }
 
+/// The eye exactly on the floor: no distance bounds the near plane, which falls back to the
+/// scene's extent times 2^-40; the G-buffer still matches the reference's primary hits.
+#[test]
+fn eye_on_a_surface_falls_back_to_a_tiny_near_plane() {
+    let ctx = gpu_context();
+    let mut scene = span_scene(FAR);
+    scene.cameras[0].eye = Vec3::new(0.0, 0.0, 3.0);
+    let camera = scene.cameras[0].clone();
+    let ranges = FrameRanges::new(&scene, &camera);
+    assert_eq!(ranges.eye.as_ref().map(|c| c.distance), Some(0.0));
+    assert_eq!(ranges.near, ranges.far / (1u64 << 40) as f32, "{ranges:?}");
+    let reference = reference::render(&scene, &Tracer::new(&scene), &camera, 1);
+    let mask_diff = |ranges: &FrameRanges| {
+        let frame = render_with(&ctx, &scene, GpuMethod::Fragment, ranges);
+        (0..frame.mask.len())
+            .filter(|&k| frame.mask[k] != reference.mask[k])
+            .count()
+    };
+    let diff = mask_diff(&ranges);
+    eprintln!(
+        "reference mirror pixels {}, mask differences {diff}",
+        reference.mirror_pixels()
+    );
+    assert!(reference.mirror_pixels() > 500);
+    assert!(diff <= 8, "{diff}");
+    // Negative: a near plane beyond the mirror (5; it is 3.2 away) loses it.
+    let beyond = FrameRanges {
+        near: 5.0,
+        ..ranges
+    };
+    assert!(mask_diff(&beyond) > 500);
+    finish_gpu(ctx);
+}
+
 /// Through the binary: a scene file 1e6 from the origin is refused with the numbers, exit 1,
 /// no image.
 #[test]
