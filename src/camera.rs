@@ -6,8 +6,9 @@
 //! - Pixel `(i, j)` has its centre at `(i + 0.5, j + 0.5)` in framebuffer coordinates; `j = 0` is
 //!   the top row of the image.
 //! - Normalised device coordinates: `x_ndc = 2 (i + 0.5) / W - 1`, `y_ndc = 2 (j + 0.5) / H - 1`,
-//!   so `y_ndc = -1` is the top of the image (Vulkan's y points down), and depth runs 0 (near)
-//!   to 1 (far).
+//!   so `y_ndc = -1` is the top of the image (Vulkan's y points down). Depth is reversed and has
+//!   no far plane: `z_ndc = near / z_view` runs from 1 at the near plane towards 0 at infinity, so
+//!   a D32_SFLOAT depth buffer keeps f32's relative precision at every distance.
 //! - The view is right-handed, looking down `-z` in camera space, with `up` towards the top of
 //!   the image. [`Camera::view_proj`] is the matrix a vertex shader uses; [`Camera::ray`] is the
 //!   primary ray through a pixel centre. A test checks that the two agree.
@@ -36,19 +37,29 @@ impl Camera {
         glam::camera::rh::view::look_at_mat4(self.eye, self.target, self.up)
     }
 
-    /// Camera-to-clip matrix for Vulkan: depth in [0, 1], y of NDC pointing down.
-    pub fn proj(&self, near: f32, far: f32) -> Mat4 {
+    /// Camera-to-clip matrix for Vulkan: reversed depth with an infinite far plane
+    /// (`z_ndc = near / distance along the view axis`: 1 at `near`, towards 0 far away; test
+    /// `GREATER`, clear to 0), y of NDC pointing down.
+    pub fn proj(&self, near: f32) -> Mat4 {
         // glam's Vulkan projection: NDC z in [0, 1], NDC y pointing down (camera up maps to -y).
-        glam::camera::rh::proj::vulkan::perspective(
+        glam::camera::rh::proj::vulkan::perspective_infinite_reverse(
             self.fov_y_deg.to_radians(),
             self.aspect(),
             near,
-            far,
         )
     }
 
-    pub fn view_proj(&self, near: f32, far: f32) -> Mat4 {
-        self.proj(near, far) * self.view()
+    pub fn view_proj(&self, near: f32) -> Mat4 {
+        self.proj(near) * self.view()
+    }
+
+    /// Cosine of the angle between the view axis and the ray through a corner of the frame:
+    /// every point the camera sees at distance `d` from the eye lies at least `d` times this
+    /// far along the view axis.
+    pub fn corner_cos(&self) -> f32 {
+        let tan = (0.5 * self.fov_y_deg.to_radians()).tan();
+        let corner = tan * (1.0 + self.aspect() * self.aspect()).sqrt();
+        1.0 / (1.0 + corner * corner).sqrt()
     }
 
     /// The orthonormal camera basis `(right, up, back)`: the view looks along `-back`.
@@ -88,20 +99,54 @@ mod tests {
         }
     }
 
-    /// A point on the ray through a pixel centre projects back to that pixel centre.
+    /// A point on the ray through a pixel centre projects back to that pixel centre, at the
+    /// reversed depth `near / z_view`, from 3 to 3e7 units away.
     #[test]
     fn ray_and_projection_agree() {
         let c = cam();
-        let vp = c.view_proj(0.1, 100.0);
+        let near = 0.1;
+        let vp = c.view_proj(near);
+        let (_, _, back) = c.basis();
         for &(i, j) in &[(0, 0), (63, 0), (0, 47), (63, 47), (20, 31)] {
             let (o, d) = c.ray(i, j);
-            let p = vp.project_point3(o + d * 3.0);
-            let px = (p.x + 1.0) * 0.5 * c.width as f32;
-            let py = (p.y + 1.0) * 0.5 * c.height as f32;
-            assert!((px - (i as f32 + 0.5)).abs() < 1e-3, "x {px} for pixel {i}");
-            assert!((py - (j as f32 + 0.5)).abs() < 1e-3, "y {py} for pixel {j}");
-            assert!((0.0..=1.0).contains(&p.z));
+            for t in [3.0, 3e3, 3e7] {
+                let p = vp.project_point3(o + d * t);
+                let px = (p.x + 1.0) * 0.5 * c.width as f32;
+                let py = (p.y + 1.0) * 0.5 * c.height as f32;
+                assert!((px - (i as f32 + 0.5)).abs() < 1e-3, "x {px} for pixel {i}");
+                assert!((py - (j as f32 + 0.5)).abs() < 1e-3, "y {py} for pixel {j}");
+                let z_view = (d * t).dot(-back);
+                assert!(
+                    (p.z - near / z_view).abs() <= 1e-5 * p.z,
+                    "depth {} at {t}",
+                    p.z
+                );
+            }
         }
+    }
+
+    /// The frame's corner direction makes the angle `corner_cos` with the view axis; no pixel's
+    /// ray a larger one. Negative: a narrower field of view gives a larger cosine.
+    #[test]
+    fn corner_cosine() {
+        let c = cam();
+        let (right, up, back) = c.basis();
+        let tan = (0.5 * c.fov_y_deg.to_radians()).tan();
+        let corner = (right * tan * c.aspect() + up * tan - back).normalize();
+        let cos = corner.dot(-back);
+        assert!(
+            (cos - c.corner_cos()).abs() < 1e-6,
+            "{cos} vs {}",
+            c.corner_cos()
+        );
+        for (i, j) in [(0, 0), (63, 0), (31, 0), (0, 23), (63, 47), (10, 40)] {
+            assert!(c.ray(i, j).1.dot(-back) >= c.corner_cos());
+        }
+        let narrow = Camera {
+            fov_y_deg: 20.0,
+            ..cam()
+        };
+        assert!(narrow.corner_cos() > c.corner_cos() + 0.05);
     }
 
     /// The top row looks up, the left column looks left.

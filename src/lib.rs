@@ -7,6 +7,7 @@
 //! - [`reference`]: the exact CPU ray tracer that every accuracy figure is measured against.
 //! - [`bench`]: the speed-against-error harness (`cubetrace bench`) and scaling curves.
 //! - [`metrics`]: error of a traced reflection against the reference.
+//! - [`ranges`]: depth ranges and ray length of a GPU frame, and the f32 precision check.
 //! - [`output`]: PNG and EXR writers (atomic: temporary file, then rename).
 //! - [`cubemap`]: cube face mapping and distance hierarchies (pure data, no GPU).
 //! - [`cpu`]: CPU twins of the GPU passes, with the shaders' names and loop structure.
@@ -19,6 +20,7 @@ pub mod cpu;
 pub mod cubemap;
 pub mod metrics;
 pub mod output;
+pub mod ranges;
 pub mod reference;
 pub mod scene;
 pub mod shading;

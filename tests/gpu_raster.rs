@@ -8,6 +8,7 @@ use ash::vk;
 use cubetrace::check_layout;
 use cubetrace::cpu::options::TraceOptions;
 use cubetrace::cubemap::CubeMap;
+use cubetrace::ranges::FrameRanges;
 use cubetrace::reference::{self, Tracer};
 use cubetrace::scene::gpu_data::{
     GpuMaterial, GpuObject, GpuSceneData, GpuShading, GpuTexture, GpuVertex,
@@ -195,9 +196,10 @@ fn gbuffer_matches_reference_primary_hits() {
         camera.width = 64;
         camera.height = 48;
         let extent = scene.world().extent();
+        let near = FrameRanges::new(&scene, &camera).near;
         let data = GpuSceneData::new(&scene);
         let buffers = SceneBuffers::new(&ctx, &data).unwrap();
-        let gb = Gbuffer::new(&ctx, &buffers, &camera, 1e-3 * extent, 10.0 * extent).unwrap();
+        let gb = Gbuffer::new(&ctx, &buffers, &camera, near).unwrap();
         ctx.submit_and_wait("gbuffer", |rec| gb.record(rec, scene.background))
             .unwrap();
         let position = read_rgba32f(&ctx, &gb.position);

@@ -1,6 +1,6 @@
 //! World-space geometry: every mesh part of a scene, transformed and concatenated.
 
-use glam::{Vec2, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 
 use super::Scene;
 
@@ -87,5 +87,162 @@ impl WorldGeometry {
     pub fn extent(&self) -> f32 {
         let (lo, hi) = self.bounds(|_| true);
         if lo.x > hi.x { 0.0 } else { (hi - lo).length() }
+    }
+
+    /// The nearest triangle of the objects selected by `keep` to `point`: its exact distance
+    /// (f64, closest point on the triangle) and its object id; `None` when none is selected.
+    /// Objects whose bounding box lies farther than the best distance so far are skipped.
+    pub fn nearest_triangle(
+        &self,
+        point: Vec3,
+        keep: impl Fn(&ObjectInfo) -> bool,
+    ) -> Option<(f64, u32)> {
+        let p = point.as_dvec3();
+        let mut objects: Vec<(f64, u32)> = Vec::new();
+        for (id, o) in self.objects.iter().enumerate() {
+            if !keep(o) || o.triangle_count == 0 {
+                continue;
+            }
+            let tris = self.object_triangles(o);
+            let mut lo = DVec3::INFINITY;
+            let mut hi = DVec3::NEG_INFINITY;
+            for t in tris {
+                for &i in t {
+                    let v = self.positions[i as usize].as_dvec3();
+                    lo = lo.min(v);
+                    hi = hi.max(v);
+                }
+            }
+            let box_distance = (lo - p).max(p - hi).max(DVec3::ZERO).length();
+            objects.push((box_distance, id as u32));
+        }
+        objects.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut best: Option<(f64, u32)> = None;
+        for (box_distance, id) in objects {
+            if best.is_some_and(|(d, _)| box_distance > d) {
+                break;
+            }
+            for t in self.object_triangles(&self.objects[id as usize]) {
+                let [a, b, c] = t.map(|i| self.positions[i as usize].as_dvec3());
+                let d = (closest_point_on_triangle(p, a, b, c) - p).length();
+                if best.is_none_or(|(bd, _)| d < bd) {
+                    best = Some((d, id));
+                }
+            }
+        }
+        best
+    }
+
+    fn object_triangles(&self, o: &ObjectInfo) -> &[[u32; 3]] {
+        let first = o.first_triangle as usize;
+        &self.triangles[first..first + o.triangle_count as usize]
+    }
+}
+
+/// The point of triangle `abc` nearest to `p` (Ericson, *Real-Time Collision Detection*,
+/// 5.1.5: Voronoi regions of the vertices, then the edges, then the face). Degenerate
+/// triangles fall into a vertex or edge region.
+pub fn closest_point_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> DVec3 {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return a + ab * (d1 / (d1 - d3));
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return a + ac * (d2 / (d2 - d6));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    }
+    let denom = va + vb + vc;
+    if denom == 0.0 || !denom.is_finite() {
+        // Collinear corners not caught above (a zero-area triangle): nearest of its edges.
+        return [(a, b), (b, c), (c, a)]
+            .into_iter()
+            .map(|(s, e)| {
+                let d = e - s;
+                let l = d.length_squared();
+                let t = if l > 0.0 {
+                    ((p - s).dot(d) / l).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                s + d * t
+            })
+            .min_by(|x, y| {
+                (*x - p)
+                    .length_squared()
+                    .total_cmp(&(*y - p).length_squared())
+            })
+            .unwrap_or(a);
+    }
+    let (v, w) = (vb / denom, vc / denom);
+    a + ab * v + ac * w
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Against brute force over a fine barycentric grid of the triangle: never farther, and
+    /// within the grid's spacing. Negative: the centroid, another point of the triangle, fails.
+    #[test]
+    fn closest_point_matches_a_dense_sampling() {
+        let (a, b, c) = (
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(2.0, 0.1, 0.0),
+            DVec3::new(0.3, 1.5, 0.4),
+        );
+        let n = 200;
+        for p in [
+            DVec3::new(0.5, 0.5, 1.0),
+            DVec3::new(-1.0, -1.0, 0.0),
+            DVec3::new(3.0, 0.0, 0.2),
+            DVec3::new(1.0, -1.0, -0.5),
+            DVec3::new(0.0, 3.0, 0.0),
+            DVec3::new(1.5, 1.5, 0.0),
+            DVec3::new(-1.0, 0.7, 0.3),
+        ] {
+            let q = closest_point_on_triangle(p, a, b, c);
+            let mut brute = f64::INFINITY;
+            for i in 0..=n {
+                for j in 0..=n - i {
+                    let (u, v) = (i as f64 / n as f64, j as f64 / n as f64);
+                    brute = brute.min((a + (b - a) * u + (c - a) * v - p).length());
+                }
+            }
+            let passes = |q: DVec3| {
+                let d = (q - p).length();
+                d <= brute + 1e-12 && brute - d < 0.02
+            };
+            assert!(passes(q), "{p}: {q} vs brute {brute}");
+            // Negative: another point of the triangle (its centroid) fails the check.
+            assert!(!passes((a + b + c) / 3.0), "{p}");
+        }
+    }
+
+    #[test]
+    fn degenerate_triangles_give_the_nearest_edge_point() {
+        let (a, b) = (DVec3::ZERO, DVec3::X);
+        let q = closest_point_on_triangle(DVec3::new(0.5, 1.0, 0.0), a, b, b * 0.5);
+        assert!((q - DVec3::new(0.5, 0.0, 0.0)).length() < 1e-12, "{q}");
+        let q = closest_point_on_triangle(DVec3::new(3.0, 1.0, 0.0), a, a, a);
+        assert_eq!(q, a);
     }
 }

@@ -41,6 +41,7 @@ use super::timestamps::{PassTime, Timestamps};
 use crate::camera::Camera;
 use crate::cpu::options::TraceOptions;
 use crate::metrics::Traced;
+use crate::ranges::FrameRanges;
 use crate::scene::Scene;
 use crate::scene::gpu_data::GpuSceneData;
 
@@ -206,24 +207,12 @@ impl GpuFrame {
     }
 }
 
-/// Depth range and ray length for a scene seen by a camera: `(near, far, t_hi)`. The ray length
-/// is the scene's bounding-box diagonal (a ray starting inside the box has left it by then), and
-/// the camera's far plane the farthest box corner from the eye, both with 1% to spare.
+/// Depth range and ray length for a scene seen by a camera: `(near, far, t_hi)` of
+/// [`FrameRanges`] (the G-buffer's near plane, the scene's far extent from the eye, which is no
+/// clip plane, and the ray length), without the precision check.
 pub fn scene_ranges(scene: &Scene, camera: &Camera) -> (f32, f32, f32) {
-    let world = scene.world();
-    let (lo, hi) = world.bounds(|_| true);
-    let diagonal = (hi - lo).length().max(f32::MIN_POSITIVE);
-    let mut far = 0.0f32;
-    for i in 0..8 {
-        let c = Vec3::new(
-            if i & 1 == 0 { lo.x } else { hi.x },
-            if i & 2 == 0 { lo.y } else { hi.y },
-            if i & 4 == 0 { lo.z } else { hi.z },
-        );
-        far = far.max((c - camera.eye).length());
-    }
-    let far = 1.01 * far.max(diagonal);
-    (1e-4 * far, far, 1.01 * diagonal)
+    let r = FrameRanges::new(scene, camera);
+    (r.near, r.far, r.t_hi)
 }
 
 /// Everything one scene + camera + options needs on the GPU, allocated once.
@@ -251,12 +240,30 @@ pub struct GpuRenderer {
 
 impl GpuRenderer {
     /// Uploads the scene and creates every pass for `camera` (its width and height are the
-    /// frame's).
+    /// frame's). Depth ranges and ray length come from [`FrameRanges`]; a scene beyond f32
+    /// precision is refused ([`FrameRanges::check`]).
     pub fn new(
         ctx: &GpuContext,
         scene: &Scene,
         camera: &Camera,
         options: RenderOptions,
+    ) -> VkResult<Self> {
+        let ranges = FrameRanges::new(scene, camera);
+        ranges.check(scene).map_err(|e| VkError::Usage {
+            what: "depth range".into(),
+            detail: e.to_string(),
+        })?;
+        Self::with_ranges(ctx, scene, camera, options, &ranges)
+    }
+
+    /// [`GpuRenderer::new`] with the given ranges and no precision check: for tests that show
+    /// what other ranges do.
+    pub fn with_ranges(
+        ctx: &GpuContext,
+        scene: &Scene,
+        camera: &Camera,
+        options: RenderOptions,
+        ranges: &FrameRanges,
     ) -> VkResult<Self> {
         let usage = |what: &str, detail: String| VkError::Usage {
             what: what.into(),
@@ -267,7 +274,7 @@ impl GpuRenderer {
             return Err(usage("scene", "no CMO centres".into()));
         }
         let size = scene.cmo.resolution;
-        let (near, far, t_hi) = scene_ranges(scene, camera);
+        let t_hi = ranges.t_hi;
         let data = GpuSceneData::new(scene);
         let scene_buffers = SceneBuffers::new(ctx, &data)?;
         let needs_pyramid = options.method == GpuMethod::Fragment;
@@ -297,7 +304,7 @@ impl GpuRenderer {
             &centres,
             size,
             scene.self_reflections,
-            1e-6 * far,
+            ranges.capture_near,
         )?;
         let pyramid = if needs_pyramid {
             let p = Pyramid::new(ctx)?;
@@ -306,7 +313,7 @@ impl GpuRenderer {
         } else {
             None
         };
-        let gbuffer = Gbuffer::new(ctx, &scene_buffers, camera, near, far)?;
+        let gbuffer = Gbuffer::new(ctx, &scene_buffers, camera, ranges.near)?;
         let (width, height) = (camera.width, camera.height);
         let params = FrameParams {
             eye: camera.eye.to_array(),

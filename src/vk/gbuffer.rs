@@ -3,7 +3,10 @@
 //!
 //! Invariants:
 //! - Pixel convention and projection are [`crate::camera::Camera`]'s (`view_proj`), so pixel
-//!   `(i, j)` of the G-buffer is the CPU reference's pixel `(i, j)`.
+//!   `(i, j)` of the G-buffer is the CPU reference's pixel `(i, j)`. Depth is reversed (test
+//!   `GREATER`, cleared to 0) with no far plane: D32_SFLOAT keeps f32's relative precision at
+//!   every distance, and only geometry nearer than `near` is clipped
+//!   ([`crate::ranges::FrameRanges`]).
 //! - Images are left in `SHADER_READ_ONLY_OPTIMAL` after [`Gbuffer::record`]: `colour` (rgb
 //!   shaded, a = 1 where covered), `position` (xyz world; w = 1 on a reflector, 0 elsewhere, -1
 //!   where nothing is drawn), `normal` (xyz the interpolated vertex normal, unnormalised; w = 1
@@ -49,13 +52,13 @@ pub struct Gbuffer {
 }
 
 impl Gbuffer {
-    /// Prepares the pass. `near` and `far` bound the camera's depth range (world units).
+    /// Prepares the pass. `near` is the camera's near plane (world units, along the view axis):
+    /// the depth is reversed with no far plane ([`Camera::proj`]).
     pub fn new(
         ctx: &GpuContext,
         scene: &SceneBuffers,
         camera: &Camera,
         near: f32,
-        far: f32,
     ) -> VkResult<Self> {
         let pipeline = GraphicsPipeline::new(
             ctx,
@@ -64,11 +67,11 @@ impl Gbuffer {
                 vertex: "vs_main",
                 fragment: "fs_main",
                 colour_formats: vec![FORMAT; 3],
-                depth: Some((vk::Format::D32_SFLOAT, DepthTest::Less)),
+                depth: Some((vk::Format::D32_SFLOAT, DepthTest::Reversed)),
             },
         )?;
         let uniform = GbufferCamera {
-            view_proj: camera.view_proj(near, far).to_cols_array_2d(),
+            view_proj: camera.view_proj(near).to_cols_array_2d(),
         };
         let camera_buf = ctx.create_buffer_init(
             "gbuffer camera",

@@ -1,0 +1,208 @@
+#![forbid(unsafe_code)]
+//! Depth ranges and ray length of a GPU frame, derived from the geometry the camera and the
+//! CMOs see, and the check that f32 can hold the scene ([`FrameRanges::check`]).
+//!
+//! - **G-buffer**: reversed depth with no far plane ([`crate::camera::Camera::proj`]), so a
+//!   D32_SFLOAT buffer keeps f32's relative precision (2^-24) at every distance and only the near
+//!   plane clips. It is half the distance from the eye to the nearest triangle, times the cosine
+//!   of the frame's corner angle: nothing the camera can see is clipped, whatever the scene's
+//!   far extent.
+//! - **Capture**: the same reversed depth along each face axis; its near plane is half the
+//!   distance from the CMO centres to the nearest captured triangle over `sqrt 3` (a point at
+//!   distance `d` from a centre lies at least `d / sqrt 3` along the axis of the face that sees
+//!   it).
+//! - **Ray length** `t_hi`: the scene's bounding-box diagonal, 1% to spare (a ray starting
+//!   inside the box has left it by then).
+//!
+//! Where nothing bounds a near plane (the eye or a CMO centre on a triangle) it is the scene's
+//! far extent times 2^-40: the depth `near / z` stays a normal f32 at every distance.
+//!
+//! # What f32 cannot hold
+//! Reflected rays start at G-buffer positions and CMO-local coordinates are `x - c`, both in f32
+//! world coordinates, rounded to `|x| 2^-24`. A texel of a face of `N` texels spans `2 d / N` at
+//! distance `d` from its centre; the smallest such footprint is at the nearest captured surface,
+//! `d_min`. With mirror points and CMO centres up to `X` from the world origin, the rounding must
+//! stay below 1/8 of that footprint: `X 2^-24 <= (2 d_min / N) / 8`, i.e.
+//! `X / d_min <= 2^22 / N` (16384 at N = 256). Measured on sphere-room (N = 256, `d_min` = 1.2)
+//! moved away from the origin: at `X / d_min` = 1.05e4 (1/13 of a footprint) 0.3% of the mirror
+//! pixels hit the wrong surface (0.15% at the origin); at 1.05e5 (3/4 of a footprint) 26%, and
+//! the image turns to noise. [`FrameRanges::check`] refuses such a scene with the numbers
+//! (`tests/depth_range.rs`). Distances are squared in f32 by the tracer: an extent over 2^60 is
+//! refused too.
+use glam::Vec3;
+
+use crate::camera::Camera;
+use crate::scene::Scene;
+
+/// `X / d_min` may be at most `PRECISION_BUDGET / N` (module docs): `2^22`.
+pub const PRECISION_BUDGET: f64 = (1u64 << 22) as f64;
+
+/// Largest scene extent whose squared distances (up to `(4 extent)^2`) stay finite in f32.
+pub const MAX_EXTENT: f64 = (1u64 << 60) as f64;
+
+/// Fraction of the far extent below which no near plane goes (module docs).
+const NEAR_FLOOR: f32 = 1.0 / (1u64 << 40) as f32;
+
+/// The nearest triangle to a point: distance, object name.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Clearance {
+    pub distance: f32,
+    pub object: String,
+}
+
+/// Depth ranges and ray length of one frame, and what they were derived from.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameRanges {
+    /// G-buffer near plane along the view axis (world units); there is no far plane.
+    pub near: f32,
+    /// Capture near plane along a face axis (world units).
+    pub capture_near: f32,
+    /// The farthest corner of the scene's bounding box from the eye (or its diagonal, if
+    /// larger), 1% to spare: not a clip plane, the scale of the scene.
+    pub far: f32,
+    /// Length of every reflected ray (world units).
+    pub t_hi: f32,
+    /// Nearest triangle to the eye.
+    pub eye: Option<Clearance>,
+    /// Nearest captured triangle to a CMO centre, and that centre's index.
+    pub cmo: Option<(usize, Clearance)>,
+    /// Largest distance of a reflector vertex or a CMO centre from the world origin.
+    pub coordinates: f32,
+    /// Texels per face side.
+    pub cube_size: u32,
+}
+
+/// The scene cannot be rendered in f32 (see the module docs).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RangeError {
+    #[error(
+        "scene `{scene}` is beyond f32 precision: mirror points and CMO centres lie up to \
+         {coordinates:.3e} from the world origin, but the nearest surface CMO {cmo} captures \
+         (`{object}`) is {distance:.3e} from its centre; their ratio {ratio:.3e} exceeds 2^22 / \
+         N = {limit:.0} for cube size N = {cube_size} (coordinates round to {rounding:.1e}, \
+         over 1/8 of the smallest texel footprint, {footprint:.1e}). Move the scene nearer \
+         the world origin, the CMO centres farther from that surface, or use a smaller \
+         --cube-size"
+    )]
+    Precision {
+        scene: String,
+        coordinates: f32,
+        cmo: usize,
+        object: String,
+        distance: f32,
+        ratio: f64,
+        limit: f64,
+        cube_size: u32,
+        rounding: f64,
+        footprint: f64,
+    },
+    #[error(
+        "scene `{scene}` is beyond f32 range: its extent {extent:.3e} exceeds 2^60 = \
+         {max:.3e} (the tracer squares distances in f32)"
+    )]
+    Extent {
+        scene: String,
+        extent: f64,
+        max: f64,
+    },
+}
+
+impl FrameRanges {
+    /// Derives the ranges of `scene` seen by `camera` (no check: see [`FrameRanges::check`]).
+    pub fn new(scene: &Scene, camera: &Camera) -> FrameRanges {
+        let world = scene.world();
+        let (lo, hi) = world.bounds(|_| true);
+        let empty = lo.x > hi.x;
+        let diagonal = if empty {
+            1.0
+        } else {
+            (hi - lo).length().max(f32::MIN_POSITIVE)
+        };
+        let mut far = 0.0f32;
+        if !empty {
+            for i in 0..8 {
+                let c = Vec3::new(
+                    if i & 1 == 0 { lo.x } else { hi.x },
+                    if i & 2 == 0 { lo.y } else { hi.y },
+                    if i & 4 == 0 { lo.z } else { hi.z },
+                );
+                far = far.max((c - camera.eye).length());
+            }
+        }
+        let far = 1.01 * far.max(diagonal);
+        let floor = far * NEAR_FLOOR;
+        let clearance = |p: Vec3, keep: &dyn Fn(&crate::scene::ObjectInfo) -> bool| {
+            world.nearest_triangle(p, keep).map(|(d, id)| Clearance {
+                distance: d as f32,
+                object: world.objects[id as usize].name.clone(),
+            })
+        };
+        let eye = clearance(camera.eye, &|_| true);
+        let near = eye.as_ref().map_or(floor, |c| {
+            (0.5 * c.distance * camera.corner_cos()).max(floor)
+        });
+        let captured = |o: &crate::scene::ObjectInfo| scene.self_reflections || !o.reflector;
+        let centres = scene.cmo_centres();
+        let cmo = centres
+            .iter()
+            .enumerate()
+            .filter_map(|(k, &c)| clearance(c, &captured).map(|cl| (k, cl)))
+            .min_by(|a, b| a.1.distance.total_cmp(&b.1.distance));
+        let capture_near = cmo
+            .as_ref()
+            .map_or(floor, |(_, c)| (0.5 * c.distance / 3f32.sqrt()).max(floor));
+        let mut coordinates = centres.iter().map(|c| c.length()).fold(0.0f32, f32::max);
+        for (t, &o) in world.triangles.iter().zip(&world.triangle_object) {
+            if world.objects[o as usize].reflector {
+                for &i in t {
+                    coordinates = coordinates.max(world.positions[i as usize].length());
+                }
+            }
+        }
+        FrameRanges {
+            near,
+            capture_near,
+            far,
+            t_hi: 1.01 * diagonal,
+            eye,
+            cmo,
+            coordinates,
+            cube_size: scene.cmo.resolution,
+        }
+    }
+
+    /// Refuses a scene f32 cannot hold (module docs), naming its extent and the numbers.
+    pub fn check(&self, scene: &Scene) -> Result<(), RangeError> {
+        let extent = f64::from(self.far).max(f64::from(self.coordinates));
+        // NaN is refused too.
+        if extent.is_nan() || extent > MAX_EXTENT {
+            return Err(RangeError::Extent {
+                scene: scene.name.clone(),
+                extent,
+                max: MAX_EXTENT,
+            });
+        }
+        if let Some((k, c)) = &self.cmo {
+            let n = f64::from(self.cube_size.max(1));
+            let limit = PRECISION_BUDGET / n;
+            let distance = f64::from(c.distance);
+            let coordinates = f64::from(self.coordinates);
+            let ratio = coordinates / distance;
+            if ratio.is_nan() || ratio > limit {
+                return Err(RangeError::Precision {
+                    scene: scene.name.clone(),
+                    coordinates: self.coordinates,
+                    cmo: *k,
+                    object: c.object.clone(),
+                    distance: c.distance,
+                    ratio,
+                    limit,
+                    cube_size: self.cube_size,
+                    rounding: coordinates * f64::from(f32::EPSILON) / 2.0,
+                    footprint: 2.0 * distance / n,
+                });
+            }
+        }
+        Ok(())
+    }
+}
