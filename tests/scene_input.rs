@@ -550,6 +550,7 @@ fn diagnose_every_mesh_a_reflector_and_no_reflector() {
         &[
             ("mirror.obj", MIRROR_OBJ.as_bytes(), true),
             ("b.obj", other.as_bytes(), true),
+            ("empty.obj", b"# no triangles\n", false),
         ],
         "",
     );

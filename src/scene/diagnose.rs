@@ -12,7 +12,7 @@ const SAMPLES: usize = 512;
 
 /// What is wrong with a scene's set-up, one message per problem (empty when nothing is):
 /// - no reflector at all: there is nothing to trace;
-/// - every mesh a reflector: the cubemaps capture no surroundings (with self-reflections, only
+/// - every mesh (with triangles) a reflector: the cubemaps capture no surroundings (with self-reflections, only
 ///   mirror surfaces that face the centre), so every reflected ray that leaves the mirrors shows
 ///   the background colour;
 /// - a CMO centre that sees none of the reflectors (each line of sight from the centre to a
@@ -21,8 +21,14 @@ const SAMPLES: usize = 512;
 ///   pixels it serves end unresolved (filled by the fallback).
 pub fn diagnose(scene: &Scene) -> Vec<String> {
     let mut out = Vec::new();
-    let reflectors = scene.meshes.iter().filter(|m| m.reflector).count();
-    if scene.meshes.is_empty() {
+    // Meshes without triangles (an empty OBJ) neither reflect nor get reflected.
+    let meshes: Vec<_> = scene
+        .meshes
+        .iter()
+        .filter(|m| m.parts.iter().any(|p| !p.triangles.is_empty()))
+        .collect();
+    let reflectors = meshes.iter().filter(|m| m.reflector).count();
+    if meshes.is_empty() {
         return out;
     }
     if reflectors == 0 {
@@ -32,7 +38,7 @@ pub fn diagnose(scene: &Scene) -> Vec<String> {
         ));
         return out;
     }
-    if reflectors == scene.meshes.len() {
+    if reflectors == meshes.len() {
         let captured = if scene.self_reflections {
             "only the mirror surfaces that face a CMO centre"
         } else {
