@@ -242,6 +242,9 @@ fn render(args: RenderArgs) -> Result<()> {
     let start = Instant::now();
     let mut scene = scene::load(&args.scene)?;
     args.trace.apply(&mut scene);
+    for problem in scene::diagnose(&scene) {
+        log::warn!("{problem}");
+    }
     let mut camera = scene.camera(args.camera.as_deref())?.clone();
     camera.width = args.width.unwrap_or(camera.width);
     camera.height = args.height.unwrap_or(camera.height);

@@ -30,16 +30,19 @@
 //! resolution = 256                  # texels per cube face side
 //! ```
 //!
-//! Unknown fields are errors. Every value is checked (finite numbers, sane sizes) and an error
-//! names the file, the line and the field.
+//! Unknown fields are errors. Every value is checked (finite numbers, arrays of exactly the
+//! stated length, `ambient` in [0, 1], sane sizes) and an error names the file, the line and the
+//! field. A reflector whose OBJ holds no triangles is an error (it would be an invisible mirror).
 
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
-use serde::{Deserialize, Serialize};
+use serde::de::Error as _;
+use serde::{Deserialize, Deserializer, Serialize};
 use toml::Spanned;
 
 use super::obj::load_obj_file;
+use super::report::{LoadReport, WarningKind};
 use super::{
     CmoPlacement, CmoSpec, MAX_CUBE_SIZE, MAX_IMAGE_SIDE, MeshInstance, Scene, SceneError,
     Transform,
@@ -51,7 +54,7 @@ use crate::shading::Shading;
 #[serde(deny_unknown_fields)]
 pub(crate) struct SceneFile {
     pub name: Option<String>,
-    #[serde(default = "default_background")]
+    #[serde(default = "default_background", deserialize_with = "exact")]
     pub background: Spanned<[f32; 3]>,
     #[serde(default)]
     pub self_reflections: bool,
@@ -82,6 +85,7 @@ pub(crate) struct ShadingFile {
     #[serde(default)]
     pub model: ShadingModel,
     pub ambient: Option<Spanned<f32>>,
+    #[serde(default, deserialize_with = "exact_opt")]
     pub light_direction: Option<Spanned<[f32; 3]>>,
     pub light_intensity: Option<Spanned<f32>>,
 }
@@ -107,11 +111,11 @@ pub(crate) enum ScaleFile {
 #[derive(Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub(crate) struct TransformFile {
-    #[serde(default = "zero3")]
+    #[serde(default = "zero3", deserialize_with = "exact")]
     pub translate: Spanned<[f32; 3]>,
-    #[serde(default = "zero3")]
+    #[serde(default = "zero3", deserialize_with = "exact")]
     pub rotate_deg: Spanned<[f32; 3]>,
-    #[serde(default = "one")]
+    #[serde(default = "one", deserialize_with = "scale_value")]
     pub scale: Spanned<ScaleFile>,
 }
 
@@ -136,12 +140,15 @@ impl Default for TransformFile {
 #[serde(deny_unknown_fields)]
 pub(crate) struct CameraFile {
     pub name: Option<String>,
+    #[serde(deserialize_with = "exact")]
     pub eye: Spanned<[f32; 3]>,
+    #[serde(deserialize_with = "exact")]
     pub target: Spanned<[f32; 3]>,
-    #[serde(default = "up")]
+    #[serde(default = "up", deserialize_with = "exact")]
     pub up: Spanned<[f32; 3]>,
     #[serde(default = "fov")]
     pub fov_y_deg: Spanned<f32>,
+    #[serde(deserialize_with = "exact")]
     pub resolution: Spanned<[u32; 2]>,
 }
 
@@ -155,6 +162,7 @@ fn fov() -> Spanned<f32> {
 #[derive(Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub(crate) struct CmoFile {
+    #[serde(default, deserialize_with = "exact_list_opt")]
     pub centres: Option<Spanned<Vec<[f32; 3]>>>,
     pub count: Option<Spanned<u32>>,
     #[serde(default = "cube_res")]
@@ -163,6 +171,72 @@ pub(crate) struct CmoFile {
 
 fn cube_res() -> Spanned<u32> {
     Spanned::new(0..0, 256)
+}
+
+/// `items` as an array of exactly `N` (serde's own array impl does not refuse extra items).
+fn exact_array<T, const N: usize, E: serde::de::Error>(items: Vec<T>) -> Result<[T; N], E> {
+    let n = items.len();
+    items.try_into().map_err(|_| {
+        E::custom(format!(
+            "expected an array of exactly {N} numbers, found {n}"
+        ))
+    })
+}
+
+fn exact<'de, D, T, const N: usize>(d: D) -> Result<Spanned<[T; N]>, D::Error>
+where
+    D: Deserializer<'de>,
+    T: Deserialize<'de>,
+{
+    let v = Spanned::<Vec<T>>::deserialize(d)?;
+    let span = v.span();
+    Ok(Spanned::new(span, exact_array(v.into_inner())?))
+}
+
+fn exact_opt<'de, D, T, const N: usize>(d: D) -> Result<Option<Spanned<[T; N]>>, D::Error>
+where
+    D: Deserializer<'de>,
+    T: Deserialize<'de>,
+{
+    exact(d).map(Some)
+}
+
+/// `cmo.centres`: a list of arrays of exactly `N`.
+type SpannedList<T, const N: usize> = Option<Spanned<Vec<[T; N]>>>;
+
+fn exact_list_opt<'de, D, T, const N: usize>(d: D) -> Result<SpannedList<T, N>, D::Error>
+where
+    D: Deserializer<'de>,
+    T: Deserialize<'de>,
+{
+    let v = Spanned::<Vec<Vec<T>>>::deserialize(d)?;
+    let span = v.span();
+    let items = v
+        .into_inner()
+        .into_iter()
+        .map(exact_array)
+        .collect::<Result<Vec<_>, D::Error>>()?;
+    Ok(Some(Spanned::new(span, items)))
+}
+
+/// `scale`: one number, or an array of exactly 3.
+fn scale_value<'de, D: Deserializer<'de>>(d: D) -> Result<Spanned<ScaleFile>, D::Error> {
+    #[derive(Deserialize)]
+    #[serde(untagged)]
+    enum Raw {
+        Uniform(f32),
+        PerAxis(Vec<f32>),
+    }
+    let v = Spanned::<Raw>::deserialize(d)
+        .map_err(|_| D::Error::custom("scale must be a number or an array of 3 numbers"))?;
+    let span = v.span();
+    Ok(Spanned::new(
+        span,
+        match v.into_inner() {
+            Raw::Uniform(s) => ScaleFile::Uniform(s),
+            Raw::PerAxis(s) => ScaleFile::PerAxis(exact_array(s)?),
+        },
+    ))
 }
 
 /// Resolves byte spans to `file:line` for messages.
@@ -232,8 +306,18 @@ pub fn check_resolution(width: u32, height: u32) -> Result<(), String> {
     Ok(())
 }
 
-/// Loads a scene file and everything it refers to.
+/// Loads a scene file and everything it refers to. Warnings go to the log (see
+/// [`load_scene_file_report`]).
 pub fn load_scene_file(path: &Path) -> Result<Scene, SceneError> {
+    let (scene, report) = load_scene_file_report(path)?;
+    report.log();
+    Ok(scene)
+}
+
+/// Loads a scene file and everything it refers to, and returns the warnings: input that was
+/// accepted, but not as written (skipped elements, undefined materials, ...).
+pub fn load_scene_file_report(path: &Path) -> Result<(Scene, LoadReport), SceneError> {
+    let mut report = LoadReport::default();
     let text = std::fs::read_to_string(path).map_err(|e| SceneError::io(path, e))?;
     let file: SceneFile = toml::from_str(&text).map_err(|e| SceneError::Toml {
         path: path.to_path_buf(),
@@ -277,17 +361,35 @@ pub fn load_scene_file(path: &Path) -> Result<Scene, SceneError> {
             scale,
         };
         let obj_path = dir.join(m.obj.get_ref());
-        let loaded = load_obj_file(&obj_path)?;
+        let loaded = load_obj_file(&obj_path, &mut report)?;
         let name = m.name.clone().unwrap_or_else(|| {
             obj_path
                 .file_stem()
                 .map(|s| s.to_string_lossy().into_owned())
                 .unwrap_or_else(|| format!("mesh{i}"))
         });
+        if loaded.parts.is_empty() {
+            if m.reflector {
+                return Err(src.invalid(
+                    &m.obj,
+                    &format!("mesh[{i}].obj"),
+                    format!(
+                        "{} holds no triangles, so reflector '{name}' would be an invisible mirror",
+                        obj_path.display()
+                    ),
+                ));
+            }
+            report.warn(
+                WarningKind::EmptyMesh,
+                &obj_path,
+                None,
+                format!("mesh '{name}' holds no triangles"),
+            );
+        }
         merge(&mut scene, name, loaded, transform, m.reflector);
     }
     if scene.meshes.is_empty() {
-        log::warn!("{}: the scene has no meshes", path.display());
+        report.warn(WarningKind::NoMeshes, path, None, "the scene has no meshes");
     }
 
     for (i, c) in file.cameras.iter().enumerate() {
@@ -371,7 +473,7 @@ pub fn load_scene_file(path: &Path) -> Result<Scene, SceneError> {
             (None, None) => CmoPlacement::Auto { count: 1 },
         };
     }
-    Ok(scene)
+    Ok((scene, report))
 }
 
 fn shading(src: &Source, s: &ShadingFile) -> Result<Shading, SceneError> {
@@ -387,7 +489,17 @@ fn shading(src: &Source, s: &ShadingFile) -> Result<Shading, SceneError> {
                 unreachable!("the default shading is Lambert")
             };
             let ambient = match &s.ambient {
-                Some(a) => src.scalar(a, "shading.ambient")?,
+                Some(a) => {
+                    let v = src.scalar(a, "shading.ambient")?;
+                    if !(0.0..=1.0).contains(&v) {
+                        return Err(src.invalid(
+                            a,
+                            "shading.ambient",
+                            format!("{v} is outside [0, 1] (the share of the albedo lit by ambient light)"),
+                        ));
+                    }
+                    v
+                }
                 None => ambient,
             };
             let light_intensity = match &s.light_intensity {

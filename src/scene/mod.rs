@@ -14,16 +14,21 @@
 //!   normal as stored, which is what the rasteriser will interpolate too.
 
 pub mod builtin;
+mod diagnose;
 mod error;
 pub mod export;
 mod file;
 pub mod gpu_data;
 mod obj;
+mod report;
 pub mod shapes;
 mod world;
 
+pub use diagnose::diagnose;
 pub use error::SceneError;
-pub use file::{check_resolution, load_scene_file};
+pub use file::{check_resolution, load_scene_file, load_scene_file_report};
+pub use obj::MAX_INPUT_BYTES;
+pub use report::{LoadReport, LoadWarning, WarningKind};
 pub use world::{ObjectInfo, WorldGeometry};
 
 use glam::{EulerRot, Mat3, Mat4, Quat, Vec2, Vec3};

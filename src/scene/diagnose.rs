@@ -1,0 +1,99 @@
+//! Scene set-ups that load fine but cannot give a useful mirror image, found before rendering
+//! so that the user is told why, instead of getting an image that silently shows the background
+//! or the fallback.
+
+use glam::Vec3;
+
+use super::Scene;
+use crate::reference::Tracer;
+
+/// How many points of the reflectors each CMO centre looks at.
+const SAMPLES: usize = 512;
+
+/// What is wrong with a scene's set-up, one message per problem (empty when nothing is):
+/// - no reflector at all: there is nothing to trace;
+/// - every mesh (with triangles) a reflector: the cubemaps capture no surroundings (with self-reflections, only
+///   mirror surfaces that face the centre), so every reflected ray that leaves the mirrors shows
+///   the background colour;
+/// - a CMO centre that sees none of the reflectors (each line of sight from the centre to a
+///   sample of reflector vertices and triangle centres is blocked by other geometry): its
+///   cubemap shows the blocking surfaces, every reflected ray starts behind them, and the mirror
+///   pixels it serves end unresolved (filled by the fallback).
+pub fn diagnose(scene: &Scene) -> Vec<String> {
+    let mut out = Vec::new();
+    // Meshes without triangles (an empty OBJ) neither reflect nor get reflected.
+    let meshes: Vec<_> = scene
+        .meshes
+        .iter()
+        .filter(|m| m.parts.iter().any(|p| !p.triangles.is_empty()))
+        .collect();
+    let reflectors = meshes.iter().filter(|m| m.reflector).count();
+    if meshes.is_empty() {
+        return out;
+    }
+    if reflectors == 0 {
+        out.push(format!(
+            "scene '{}' has no reflector (no mesh has reflector = true): there is no mirror to trace",
+            scene.name
+        ));
+        return out;
+    }
+    if reflectors == meshes.len() {
+        let captured = if scene.self_reflections {
+            "only the mirror surfaces that face a CMO centre"
+        } else {
+            "nothing (reflectors are left out of the capture without self_reflections)"
+        };
+        out.push(format!(
+            "scene '{}': every mesh is a reflector, so the cubemaps capture {captured}; every \
+             reflected ray that leaves the mirrors shows the background colour. Add \
+             non-reflecting geometry (a floor, a room) for the mirrors to reflect",
+            scene.name
+        ));
+    }
+
+    let tracer = Tracer::new(scene);
+    let world = &tracer.world;
+    let mut points: Vec<Vec3> = Vec::new();
+    for (k, t) in world.triangles.iter().enumerate() {
+        if tracer.is_reflector(k as u32) {
+            let [a, b, c] = t.map(|i| world.positions[i as usize]);
+            points.extend([a, b, c, (a + b + c) / 3.0]);
+        }
+    }
+    let step = points.len().div_ceil(SAMPLES).max(1);
+    let samples: Vec<Vec3> = points.into_iter().step_by(step).collect();
+    for (k, centre) in scene.cmo_centres().into_iter().enumerate() {
+        let mut blocker = None;
+        let sees = samples.iter().any(|&p| {
+            let d = p - centre;
+            let dist = d.length();
+            if dist == 0.0 || !dist.is_finite() {
+                return true;
+            }
+            match tracer.nearest_where(centre, d / dist, None, |t| !tracer.is_reflector(t)) {
+                Some(h) if h.t < dist * (1.0 - 1e-4) => {
+                    blocker.get_or_insert(h.triangle);
+                    false
+                }
+                _ => true,
+            }
+        });
+        if !sees {
+            let by = blocker
+                .map(|t| {
+                    let (object, _) = tracer.ids(t);
+                    format!(" ('{}' is in the way)", world.objects[object as usize].name)
+                })
+                .unwrap_or_default();
+            out.push(format!(
+                "scene '{}': CMO {k} at ({}, {}, {}) sees none of the reflectors{by}: its cubemap \
+                 shows what blocks its view, every reflected ray starts behind that, and the mirror \
+                 pixels it serves end unresolved (filled by the fallback). Move the centre next to \
+                 or inside the reflector",
+                scene.name, centre.x, centre.y, centre.z
+            ));
+        }
+    }
+    out
+}
