@@ -34,10 +34,12 @@
 //! or behind it (or at `p` itself, when `p` lies on `T'`: a shared edge or vertex, where the
 //! exact ray meets `T'` only at `t = 0`) cannot be decided from `o`, and the computed hit, at
 //! `t_o = |s_o| / |r . n'|`, however far a shallow angle puts it, is rounding. Such a hit on
-//! the surface the ray leaves is the start point, and is ignored. A genuine hit on a neighbour
-//! (a concave fold: the bowl, the torus's inner side) starts from a point further than `e`
-//! from that neighbour's plane, and counts. The neighbour test keeps a distant triangle whose
-//! plane happens to pass near `o` (a wall's plane through the mirror's start point) a hit.
+//! the surface the ray leaves is the start point, and is ignored. A hit on a neighbour from an
+//! origin further than `e` from its plane (a concave fold: the bowl, the torus's inner side) is
+//! decided by the sign of `s_o`, is genuine, and counts, however near. (`s_o` itself is
+//! computed in f64 from f32 data, its error some `2^-50` of the coordinates, far inside `e`.)
+//! The neighbour test keeps a distant triangle whose plane happens to pass near `o` (a wall's
+//! plane through the mirror's start point) a hit.
 //!
 //! Before this rule the reference ignored `T` plus hits nearer than `1e-6` of the scene's
 //! extent: a scene-scale bias, too large for small detail and too small for a ray leaving at a
@@ -47,11 +49,13 @@
 //!
 //! The bound `e` ([`Hit::error`], first-order, with a margin of `2^-20` for higher orders). With
 //! `u = 2^-53`: the origin and the triangle's vertices are f32 values, so `s = o - a`,
-//! `e1 = b - a` and `e2 = c - a` are exact in f64 (differences of f32 values of comparable
-//! exponent). The triple products `(s x e1).e2` and `(d x e2).e1` err by at most
-//! `gamma_5 (|s|_1 |e1|_1 |e2|_1) <= 26 u |s| |e1| |e2|` (and the same with `d` for `s`); with
-//! `kappa = |d| |e1| |e2| / |det| = 1 / (sin(angle at a) |cos(incidence)|)`, the division and
-//! the reciprocal, `|d| |t^ - t| <= 2 u |d t| + 26 u kappa (|d t| + |s|)`. Forming `o + d t^`
+//! `e1 = b - a` and `e2 = c - a` are exact in f64 when the exponents differ by at most 29 (any
+//! sensible scene), and within `u` relative otherwise. The triple products `(s x e1).e2` and
+//! `(d x e2).e1` then err by at most `(gamma_5 + 3u) |s|_1 |e1|_1 |e2|_1`, under
+//! `(8u) 3 sqrt 3 |s| |e1| |e2| < 42 u |s| |e1| |e2|` (`|x|_1 <= sqrt 3 |x|`; the same with `d`
+//! for `s`); we use `48u`. With `kappa = |d| |e1| |e2| / |det| =
+//! 1 / (sin(angle at a) |cos(incidence)|)`, the division and the reciprocal,
+//! `|d| |t^ - t| <= 2 u |d t| + 48 u kappa (|d t| + |s|)`. Forming `o + d t^`
 //! in f64 adds `2 u (|o| + |d t|)`, and rounding to f32 adds `2^-24 |q| + 2^-149 sqrt 3` (half an
 //! ulp per coordinate, subnormals included). For the rays of a render `kappa` is modest and
 //! `e` is a few f32 ulps of the hit point's magnitude; a grazing hit (large `kappa`) widens it,
@@ -181,13 +185,15 @@ fn enter_box(o: DVec3, d: DVec3, inv: DVec3, min: Vec3, max: Vec3, t_max: f64) -
     (lo <= hi).then_some(lo)
 }
 
-/// An f64 Möller–Trumbore hit: `t`, the barycentrics of vertices 1 and 2, and the bound on the
-/// f32 hit point's error ([`Hit::error`]).
+/// An f64 Möller–Trumbore hit: `t`, the barycentrics of vertices 1 and 2, and what the bound on
+/// the f32 hit point's error ([`Hit::error`]) needs.
 struct Intersection {
     t: f64,
     u: f64,
     v: f64,
-    error: f64,
+    /// `|d| |e1| |e2| / |det|` and `|o - a|`, for [`hit_error`].
+    kappa: f64,
+    s: f64,
 }
 
 /// f64 Möller–Trumbore, edges included.
@@ -217,7 +223,8 @@ fn intersect(o: DVec3, d: DVec3, tri: &[Vec3; 3]) -> Option<Intersection> {
         t,
         u,
         v,
-        error: hit_error(o, d, t, kappa, s.length()),
+        kappa,
+        s: s.length(),
     })
 }
 
@@ -226,7 +233,7 @@ fn hit_error(o: DVec3, d: DVec3, t: f64, kappa: f64, s: f64) -> f64 {
     const U: f64 = f64::EPSILON / 2.0;
     let dt = d.length() * t.abs();
     let q = o + d * t;
-    let in_f64 = 2.0 * U * dt + 26.0 * U * kappa * (dt + s) + 2.0 * U * (o.length() + dt);
+    let in_f64 = 2.0 * U * dt + 48.0 * U * kappa * (dt + s) + 2.0 * U * (o.length() + dt);
     let to_f32 = q.length() * 2f64.powi(-24) + 2f64.powi(-149) * 3f64.sqrt();
     (in_f64 + to_f32) * (1.0 + 2f64.powi(-20))
 }
@@ -370,7 +377,7 @@ impl Tracer {
             position: (o + d * x.t).as_vec3(),
             triangle,
             bary: Vec2::new(x.u as f32, x.v as f32),
-            error: x.error,
+            error: hit_error(o, d, x.t, x.kappa, x.s),
         };
         // The start point itself (see the module docs).
         let left = from.map(|f| {
@@ -392,14 +399,17 @@ impl Tracer {
             best.as_ref()
                 .map_or(f64::INFINITY, |(_, b)| b.t * (1.0 + 4.0 * f64::EPSILON))
         };
-        let mut stack = vec![0u32];
-        while let Some(n) = stack.pop() {
-            let node = &self.bvh.nodes[n as usize];
-            let aabb = node.aabb();
-            let (min, max) = (Vec3::from(aabb.min), Vec3::from(aabb.max));
-            if enter_box(o, d, inv, min, max, bound(&best)).is_none() {
+        let root = &self.bvh.nodes[0].aabb();
+        let entry = enter_box(o, d, inv, root.min.into(), root.max.into(), f64::INFINITY)?;
+        // Nodes to visit with their entry distances; a node whose entry lies beyond the best
+        // hit found since it was pushed is dropped.
+        let mut stack = Vec::with_capacity(64);
+        stack.push((0u32, entry));
+        while let Some((n, entry)) = stack.pop() {
+            if entry > bound(&best) {
                 continue;
             }
+            let node = &self.bvh.nodes[n as usize];
             if node.is_leaf() {
                 for k in node.first_index..node.first_index + node.prim_count {
                     let k = k as usize;
@@ -408,14 +418,12 @@ impl Tracer {
                     let Some(x) = intersect(o, d, tri) else {
                         continue;
                     };
-                    if x.t <= 0.0 || at_start(global, tri) || !accept(&candidate(global, &x)) {
-                        continue;
-                    }
-                    let better = match &best {
-                        None => true,
-                        Some((bg, b)) => x.t < b.t || (x.t == b.t && global < *bg),
-                    };
-                    if better {
+                    let better = x.t > 0.0
+                        && match &best {
+                            None => true,
+                            Some((bg, b)) => x.t < b.t || (x.t == b.t && global < *bg),
+                        };
+                    if better && !at_start(global, tri) && accept(&candidate(global, &x)) {
                         best = Some((global, x));
                     }
                 }
@@ -424,14 +432,13 @@ impl Tracer {
             let t_max = bound(&best);
             let entry = |c: u32| {
                 let a = self.bvh.nodes[c as usize].aabb();
-                enter_box(o, d, inv, Vec3::from(a.min), Vec3::from(a.max), t_max)
+                enter_box(o, d, inv, a.min.into(), a.max.into(), t_max).map(|t| (c, t))
             };
             let (l, r) = (node.first_index, node.first_index + 1);
             match (entry(l), entry(r)) {
-                (Some(tl), Some(tr)) if tl <= tr => stack.extend([r, l]),
-                (Some(_), Some(_)) => stack.extend([l, r]),
-                (Some(_), None) => stack.push(l),
-                (None, Some(_)) => stack.push(r),
+                (Some(a), Some(b)) if a.1 <= b.1 => stack.extend([b, a]),
+                (Some(a), Some(b)) => stack.extend([a, b]),
+                (Some(a), None) | (None, Some(a)) => stack.push(a),
                 (None, None) => {}
             }
         }
