@@ -22,7 +22,8 @@
 //! - `UNRESOLVED` is always allowed (the method said it does not know).
 //!
 //! For the exact criterion in strict mode (`TraceOptions::strict`) every case asserts zero wrong
-//! hits; the default mode's wrong hits are counted where a case shows them. Judging on the same ray keeps
+//! hits and a minimum share of correct ones ([`MIN_CORRECT`]: "unresolved" everywhere fails);
+//! the default mode's wrong hits are counted where a case shows them. Judging on the same ray keeps
 //! rasterisation differences at the mirror's silhouette (where the reflected direction of the
 //! G-buffer and of the reference's primary ray differ most) out of the count.
 mod common;
@@ -295,14 +296,41 @@ fn scaled(mut scene: Scene, s: f32) -> Scene {
     scene
 }
 
-fn assert_no_wrong(name: &str, v: &Verdicts) {
+/// The least share of a case's mirror pixels judged correct (a hit or an escape the CPU
+/// confirms) wherever a case asserts no wrong result: a tracer answering "unresolved" everywhere
+/// has no wrong result and must still fail. Strict mode leaves undecided the rays that cross a
+/// depth jump of the CMO inside a texel (silhouettes, thin objects) and those no CMO sees;
+/// measured 0.898 (thin slab, 609 of 678) to 0.975 (mirror filling the frame) over the cases
+/// below at their sizes, so 0.85 is about 5 points under the lowest.
+const MIN_CORRECT: f64 = 0.85;
+
+/// Grazing incidence: strict mode leaves the tile's 1 cm front side undecided by design (see
+/// `grazing_incidence_on_the_mirror`), 144 of 768 pixels: measured 0.8125 correct.
+const MIN_CORRECT_GRAZING: f64 = 0.75;
+
+/// `Err` naming what failed when `v` has a wrong result, no mirror pixel, or under `min` of its
+/// mirror pixels correct.
+fn check_no_wrong(v: &Verdicts, min: f64) -> Result<(), String> {
+    let correct = v.hits_ok + v.escapes_ok;
+    if v.mirror == 0 {
+        Err("no mirror pixels".into())
+    } else if v.wrong() > 0 {
+        Err(format!("{} silent wrong results", v.wrong()))
+    } else if (correct as f64) < min * v.mirror as f64 {
+        Err(format!(
+            "only {correct} of {} mirror pixels correct (at least {min} required)",
+            v.mirror
+        ))
+    } else {
+        Ok(())
+    }
+}
+
+fn assert_no_wrong(name: &str, v: &Verdicts, min: f64) {
     eprintln!("{name}: {v:?}");
-    assert!(v.mirror > 0, "{name}: no mirror pixels");
-    assert_eq!(v.wrong(), 0, "{name}: silent wrong results: {v:?}");
-    assert!(
-        v.hits_ok > v.mirror / 2,
-        "{name}: too few correct hits to mean anything: {v:?}"
-    );
+    if let Err(e) = check_no_wrong(v, min) {
+        panic!("{name}: {e}: {v:?}");
+    }
 }
 
 #[test]
@@ -313,9 +341,24 @@ fn judge_catches_moved_hits() {
     let scene = builtin::sphere_room();
     let frame = render(&ctx, &scene, (48, 36), exact());
     let ok = judge(&scene, &frame, Vec3::ZERO);
-    assert_no_wrong("sphere-room", &ok);
+    assert_no_wrong("sphere-room", &ok, MIN_CORRECT);
     let moved = judge(&scene, &frame, Vec3::new(0.0, 0.5, 0.0));
     assert!(moved.wrong_hits > ok.hits_ok / 2, "{moved:?}");
+    assert!(check_no_wrong(&moved, MIN_CORRECT).is_err());
+    // Negative test of the minimum share: the same frame answering "unresolved" everywhere has
+    // no wrong result, and fails.
+    let mut unresolved = frame;
+    for r in &mut unresolved.records {
+        r.status = RECORD_UNRESOLVED;
+    }
+    let none = judge(&scene, &unresolved, Vec3::ZERO);
+    assert_eq!(
+        (none.wrong(), none.unresolved),
+        (0, none.mirror),
+        "{none:?}"
+    );
+    let err = check_no_wrong(&none, MIN_CORRECT).expect_err("an all-unresolved frame passed");
+    assert!(err.contains("correct"), "{err}");
     finish_gpu(ctx);
 }
 
@@ -366,7 +409,7 @@ fn exact_scene_no_wrong(ctx: &GpuContext, name: &str) {
             Vec3::ZERO,
         );
         eprintln!("{name}: strict {v:?}; default mode {default:?}");
-        assert_no_wrong(name, &v);
+        assert_no_wrong(name, &v, MIN_CORRECT);
     }
 }
 
@@ -390,9 +433,7 @@ fn cube_sizes(sizes: &[u32]) {
         scene.cmo.resolution = n;
         let frame = render(&ctx, &scene, (32, 24), exact());
         let v = judge(&scene, &frame, Vec3::ZERO);
-        eprintln!("N = {n}: {v:?}");
-        assert!(v.mirror > 0);
-        assert_eq!(v.wrong(), 0, "N = {n}: {v:?}");
+        assert_no_wrong(&format!("N = {n}"), &v, MIN_CORRECT);
     }
     finish_gpu(ctx);
 }
@@ -409,7 +450,7 @@ fn scenes_at_scale_1e_minus_3_and_1e4() {
         let scene = scaled(builtin::sphere_room(), s);
         let frame = render(&ctx, &scene, (48, 36), exact());
         let v = judge(&scene, &frame, Vec3::ZERO);
-        assert_no_wrong(&scene.name, &v);
+        assert_no_wrong(&scene.name, &v, MIN_CORRECT);
         // The same picture: the same mirror pixels, and the unresolved count within 1% of the
         // mirror pixels of the unscaled scene's (f32 rounding moves a few boundary rays).
         assert_eq!(v.mirror, base.mirror, "{v:?} vs {base:?}");
@@ -432,7 +473,7 @@ fn reflector_covering_the_whole_frame_and_none_of_it() {
     full.cameras[0].fov_y_deg = 30.0;
     let frame = render(&ctx, &full, (40, 30), exact());
     assert_eq!(frame.mirror_pixels(), 40 * 30, "the mirror fills the frame");
-    assert_no_wrong("full", &judge(&full, &frame, Vec3::ZERO));
+    assert_no_wrong("full", &judge(&full, &frame, Vec3::ZERO), MIN_CORRECT);
     // Looking away from the mirror: no mirror pixel, no record claims anything.
     let mut none = builtin::sphere_room();
     none.cameras[0].target = none.cameras[0].eye + Vec3::new(0.0, 0.0, 1.0);
@@ -446,21 +487,19 @@ fn reflector_covering_the_whole_frame_and_none_of_it() {
 fn cmo_centre_on_the_reflector_surface_or_inside_an_object() {
     let ctx = gpu_context();
     let mirror_centre = Vec3::new(0.0, 1.2, 0.0);
-    for (what, centre) in [
-        // On the sphere's surface, on the side facing the camera.
-        ("on the reflector", mirror_centre + Vec3::new(0.0, 0.0, 1.0)),
-        // Inside the orange box (centre (1.5, 0.3, 0.6), side 0.6).
-        ("inside the orange box", Vec3::new(1.5, 0.3, 0.6)),
-    ] {
-        let mut scene = builtin::sphere_room();
-        scene.cmo.placement = CmoPlacement::Explicit(vec![centre]);
-        let frame = render(&ctx, &scene, (48, 36), exact());
-        let v = judge(&scene, &frame, Vec3::ZERO);
-        eprintln!("{what}: {v:?}");
-        // Inside a box the CMO sees only the box's inside: most rays stay unresolved, none may
-        // be a wrong hit.
-        assert_eq!(v.wrong(), 0, "{what}: {v:?}");
-    }
+    // On the sphere's surface, on the side facing the camera: as good as the usual centre.
+    let mut scene = builtin::sphere_room();
+    let centre = mirror_centre + Vec3::new(0.0, 0.0, 1.0);
+    scene.cmo.placement = CmoPlacement::Explicit(vec![centre]);
+    let v = judge(&scene, &render(&ctx, &scene, (48, 36), exact()), Vec3::ZERO);
+    assert_no_wrong("on the reflector", &v, MIN_CORRECT);
+    // Inside the orange box (centre (1.5, 0.3, 0.6), side 0.6) the CMO sees only the box's
+    // inside, which no reflected ray reaches: the one right answer is "unresolved" everywhere
+    // (no minimum share can hold; every pixel's verdict is asserted instead).
+    scene.cmo.placement = CmoPlacement::Explicit(vec![Vec3::new(1.5, 0.3, 0.6)]);
+    let v = judge(&scene, &render(&ctx, &scene, (48, 36), exact()), Vec3::ZERO);
+    eprintln!("inside the orange box: {v:?}");
+    assert!(v.mirror > 0 && v.unresolved == v.mirror, "{v:?}");
     finish_gpu(ctx);
 }
 
@@ -508,8 +547,8 @@ fn objects_thinner_than_a_texel() {
             &render(&ctx, &scene, (64, 48), exact_default()),
             Vec3::ZERO,
         );
-        eprintln!("slab {t}: strict {v:?}; default mode {default:?}");
-        assert_eq!(v.wrong(), 0, "slab {t}: {v:?}");
+        eprintln!("slab {t}: default mode {default:?}");
+        assert_no_wrong(&format!("slab {t}"), &v, MIN_CORRECT);
     }
     finish_gpu(ctx);
 }
@@ -540,8 +579,7 @@ fn degenerate_nan_and_zero_normals_in_the_mirror_mesh() {
         "NaN or inf colour in the image"
     );
     let v = judge(&scene, &frame, Vec3::ZERO);
-    eprintln!("bad normals: {v:?}");
-    assert_eq!(v.wrong(), 0, "{v:?}");
+    assert_no_wrong("bad normals", &v, MIN_CORRECT);
     finish_gpu(ctx);
 }
 
@@ -595,7 +633,7 @@ fn grazing_incidence_on_the_mirror() {
     eprintln!("grazing: strict {v:?}; default mode {default:?}");
     assert!(v.mirror > 100, "{v:?}");
     assert!(default.wrong_hits > 50, "default mode: {default:?}");
-    assert_eq!(v.wrong(), 0, "{v:?}");
+    assert_no_wrong("grazing", &v, MIN_CORRECT_GRAZING);
     finish_gpu(ctx);
 }
 
@@ -629,6 +667,10 @@ fn silhouette_right_behind_the_ray_is_not_a_hit() {
         reflector: false,
     });
     let frame = render(&ctx, &scene, (96, 72), exact());
-    assert_no_wrong("near column", &judge(&scene, &frame, Vec3::ZERO));
+    assert_no_wrong(
+        "near column",
+        &judge(&scene, &frame, Vec3::ZERO),
+        MIN_CORRECT,
+    );
     finish_gpu(ctx);
 }

@@ -1,11 +1,14 @@
 //! Integration tests of the Vulkan backbone. They need a Vulkan driver (CI installs lavapipe) and
 //! fail with the driver's install hint when none is present; they run under the Khronos
-//! validation layer when it is installed and fail on any validation error.
+//! validation layer when it is installed and fail on any validation error. With
+//! `CUBETRACE_VALIDATION=1` (as CI sets it) the layer and `spirv-val` are required: a missing one
+//! fails the suite instead of being skipped.
 mod common;
 use common::{finish_gpu, gpu_context};
 
 use ash::vk;
 use cubetrace::check_layout;
+use cubetrace::vk::instance::VALIDATION_ENV;
 use cubetrace::vk::selftest::{SelftestOut, SelftestParams, selftest_cpu, selftest_gpu};
 use cubetrace::vk::shaders::{BindingKind, PASSES, SELFTEST, Stage, StructLayout};
 use cubetrace::vk::{ContextOptions, GpuContext, Image, ImageDesc, Validation};
@@ -200,8 +203,14 @@ fn cube_image_roundtrip_through_staging() {
     finish_gpu(ctx);
 }
 
-/// Every pass's SPIR-V passes `spirv-val` for Vulkan 1.3 (skipped with a note when spirv-tools is
-/// not installed; the validation layer checks modules at pipeline creation anyway).
+/// Whether the suite must have its checking tools (`CUBETRACE_VALIDATION=1`, as CI sets it).
+fn tools_required() -> bool {
+    std::env::var(VALIDATION_ENV).as_deref() == Ok("1")
+}
+
+/// Every pass's SPIR-V passes `spirv-val` for Vulkan 1.3. When spirv-tools is not installed
+/// this fails under `CUBETRACE_VALIDATION=1` and is skipped with a note otherwise (the
+/// validation layer checks modules at pipeline creation anyway).
 #[test]
 fn every_pass_passes_spirv_val() {
     let dir = tempfile::tempdir().expect("temp dir");
@@ -215,6 +224,10 @@ fn every_pass_passes_spirv_val() {
             .output()
         {
             Ok(o) => o,
+            Err(e) if tools_required() => panic!(
+                "spirv-val not runnable ({e}) but {}=1 requires it; apt-get install spirv-tools",
+                VALIDATION_ENV
+            ),
             Err(e) => {
                 return eprintln!(
                     "skipped: spirv-val not runnable ({e}); apt-get install spirv-tools"
@@ -247,4 +260,49 @@ fn compute_pipeline_with_required_subgroup_size() {
     assert!(err.to_string().contains("params"), "{err}");
     drop(pipeline);
     finish_gpu(ctx);
+}
+
+/// Runs one test of this binary in a child process with `env` set (`None`: removed); returns
+/// whether it passed and its output.
+fn run_self(test: &str, env: &[(&str, Option<&std::ffi::OsStr>)]) -> (bool, String) {
+    let exe = std::env::current_exe().expect("the test binary's path");
+    let mut cmd = std::process::Command::new(exe);
+    cmd.args([test, "--exact", "--nocapture", "--test-threads=1"]);
+    for (k, v) in env {
+        match v {
+            Some(v) => cmd.env(k, v),
+            None => cmd.env_remove(k),
+        };
+    }
+    let o = cmd.output().expect("running the test binary");
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    (o.status.success(), text)
+}
+
+/// `CUBETRACE_VALIDATION=1` makes a missing validation layer or `spirv-val` fail the tests that
+/// use them; without it they proceed (the layer) or skip (spirv-val). Child processes hide the
+/// layer (`VK_LAYER_PATH` at an empty folder) or the tool (`PATH` at an empty folder).
+#[test]
+fn validation_env_requires_the_layer_and_spirv_val() {
+    let empty = tempfile::tempdir().expect("temp dir");
+    let empty = Some(empty.path().as_os_str());
+    let on = Some(std::ffi::OsStr::new("1"));
+    let env = VALIDATION_ENV;
+    let layer_test = "compute_pipeline_with_required_subgroup_size";
+    let (ok, text) = run_self(layer_test, &[("VK_LAYER_PATH", empty), (env, on)]);
+    assert!(
+        !ok && text.contains("VK_LAYER_KHRONOS_validation"),
+        "{text}"
+    );
+    let (ok, text) = run_self(layer_test, &[("VK_LAYER_PATH", empty), (env, None)]);
+    assert!(ok, "without {env} a missing layer is not an error:\n{text}");
+    let tool_test = "every_pass_passes_spirv_val";
+    let (ok, text) = run_self(tool_test, &[("PATH", empty), (env, on)]);
+    assert!(!ok && text.contains("spirv-val not runnable"), "{text}");
+    let (ok, text) = run_self(tool_test, &[("PATH", empty), (env, None)]);
+    assert!(ok && text.contains("skipped"), "{text}");
 }

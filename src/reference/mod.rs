@@ -10,11 +10,56 @@
 //!
 //! Nearest hits come from a BVH built by the `obvhs` crate: it builds with glam types directly
 //! (no conversion to nalgebra, which `bvh` and `parry3d` would need), is deterministic when
-//! built single-threaded (as here), and lets us supply the triangle test, so the test runs in
-//! f64 (Möller–Trumbore) and ties are broken by the lower triangle index. A reflected ray
-//! ignores the triangle it starts on (instead of a distance bias), plus hits closer than
-//! [`SELF_HIT_EPSILON`] times the scene's extent, which only neighbouring triangles sharing the
-//! start point's edge can produce.
+//! built single-threaded (as here), and exposes its nodes. The traversal is ours
+//! ([`Tracer::nearest_accepting`]): a conservative f64 slab test (see `enter_box`), so that a
+//! ray through a shared edge or vertex never loses the boxes of all the triangles there; the
+//! triangle test runs in f64 (Möller–Trumbore) and ties are broken by the lower triangle index.
+//!
+//! ## Where a reflected ray starts
+//!
+//! A reflected ray starts at the f32 hit point `o` of the previous ray, which stands for an exact
+//! point `p` on the triangle `T` it leaves. The rule, with no distance bias:
+//!
+//! - a hit on `T` itself is ignored (a line meets `T`'s plane once, and `o` is on that plane
+//!   within rounding, so that one meeting is the start point);
+//! - a hit on another triangle `T'` is ignored when `T'`'s plane passes within `e` of `o` and
+//!   `T'` is a neighbour: it has a vertex at the same position as one of `T`'s (welded seams
+//!   included), or `o` lies within `e` of `T'` itself (a T-junction, a seam that is not welded,
+//!   a contact with another object); `e` bounds `|o - p|` ([`Hit::error`]);
+//! - every other hit with `t > 0` counts, however near.
+//!
+//! Why this is right. The ray from `p` meets `T'`'s plane at `t_p = -s_p / (r . n')`, `s_p` the
+//! signed distance of `p` to the plane and `n'` its unit normal. When `|s_o| <= e`, `s_p` lies
+//! in `[s_o - e, s_o + e]`, which holds 0: whether the exact ray meets that plane ahead of `p`
+//! or behind it (or at `p` itself, when `p` lies on `T'`: a shared edge or vertex, where the
+//! exact ray meets `T'` only at `t = 0`) cannot be decided from `o`, and the computed hit, at
+//! `t_o = |s_o| / |r . n'|`, however far a shallow angle puts it, is rounding. Such a hit on
+//! the surface the ray leaves is the start point, and is ignored. A hit on a neighbour from an
+//! origin further than `e` from its plane (a concave fold: the bowl, the torus's inner side) is
+//! decided by the sign of `s_o`, is genuine, and counts, however near. (`s_o` itself is
+//! computed in f64 from f32 data, its error some `2^-50` of the coordinates, far inside `e`.)
+//! The neighbour test keeps a distant triangle whose plane happens to pass near `o` (a wall's
+//! plane through the mirror's start point) a hit.
+//!
+//! Before this rule the reference ignored `T` plus hits nearer than `1e-6` of the scene's
+//! extent: a scene-scale bias, too large for small detail and too small for a ray leaving at a
+//! shallow angle to a neighbour's plane (`t_o` grows as `1 / |r . n'|`); ignoring only `T`
+//! sends hundreds of the rays through `sphere-room`'s vertices and edge midpoints back onto
+//! the mirror (`tests/reference.rs`).
+//!
+//! The bound `e` ([`Hit::error`], first-order, with a margin of `2^-20` for higher orders). With
+//! `u = 2^-53`: the origin and the triangle's vertices are f32 values, so `s = o - a`,
+//! `e1 = b - a` and `e2 = c - a` are exact in f64 when the exponents differ by at most 29 (any
+//! sensible scene), and within `u` relative otherwise. The triple products `(s x e1).e2` and
+//! `(d x e2).e1` then err by at most `(gamma_5 + 3u) |s|_1 |e1|_1 |e2|_1`, under
+//! `(8u) 3 sqrt 3 |s| |e1| |e2| < 42 u |s| |e1| |e2|` (`|x|_1 <= sqrt 3 |x|`; the same with `d`
+//! for `s`); we use `48u`. With `kappa = |d| |e1| |e2| / |det| =
+//! 1 / (sin(angle at a) |cos(incidence)|)`, the division and the reciprocal,
+//! `|d| |t^ - t| <= 2 u |d t| + 48 u kappa (|d t| + |s|)`. Forming `o + d t^`
+//! in f64 adds `2 u (|o| + |d t|)`, and rounding to f32 adds `2^-24 |q| + 2^-149 sqrt 3` (half an
+//! ulp per coordinate, subnormals included). For the rays of a render `kappa` is modest and
+//! `e` is a few f32 ulps of the hit point's magnitude; a grazing hit (large `kappa`) widens it,
+//! as it should, since its point is then that much less certain.
 //!
 //! Rendering is parallel over rows with `rayon`; every pixel is computed independently, so the
 //! output is the same bits for the same scene whatever the thread count.
@@ -22,15 +67,11 @@
 use glam::{DVec3, Vec2, Vec3, Vec3A};
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
-use obvhs::ray::{Ray, RayHit};
 use rayon::prelude::*;
 
 use crate::camera::Camera;
 use crate::scene::{Scene, WorldGeometry};
 use crate::shading::albedo;
-
-/// Hits nearer than this fraction of the scene's extent are ignored on reflected rays.
-pub const SELF_HIT_EPSILON: f32 = 1e-6;
 
 /// "No object / no primitive" in [`Frame`] ids.
 pub const NO_ID: u32 = u32::MAX;
@@ -104,6 +145,9 @@ pub struct Hit {
     pub triangle: u32,
     /// Barycentric weights of vertices 1 and 2.
     pub bary: Vec2,
+    /// A bound on the distance between `position` (rounded to f32) and the exact point where the
+    /// ray meets the triangle (see the module docs): what a ray leaving this hit may ignore.
+    pub error: f64,
 }
 
 /// A scene prepared for ray queries.
@@ -114,7 +158,6 @@ pub struct Tracer {
     tris: Vec<[Vec3; 3]>,
     /// BVH order -> global triangle index.
     order: Vec<u32>,
-    self_hit: f32,
 }
 
 struct Tri<'a>(&'a [Vec3; 3]);
@@ -126,8 +169,49 @@ impl obvhs::Boundable for Tri<'_> {
     }
 }
 
-/// f64 Möller–Trumbore; returns `(t, b1, b2)` with edges included.
-fn intersect(o: DVec3, d: DVec3, tri: &[Vec3; 3]) -> Option<(f64, f64, f64)> {
+/// The ray's entry distance into the box `[min, max]` if it meets the box before `t_max`.
+///
+/// A conservative slab test in f64, after Ize, "Robust BVH Ray Traversal" (JCGT 2013): the box
+/// corners and the origin are f32 values, so `min - o` is exact and each slab distance is off
+/// by at most two roundings (`1 / d` and the product), relative `2u`; the far distance is
+/// enlarged by `1 + 8u` so that a box the exact ray meets, even only along an edge or a face (a
+/// ray through a shared edge that is a box face, as the rows of a UV sphere are), is never
+/// dropped. A zero direction component is handled exactly (no `0 x inf`). `obvhs`'s own test
+/// is not conservative: it is in f32 and replaces direction components up to `f32::EPSILON` by
+/// `±f32::EPSILON`, so a ray in an axis plane (the middle column of an odd-width frame) skipped
+/// boxes ending within about `1e-7` of it, and the reference saw through the front of a mirror.
+fn enter_box(o: DVec3, d: DVec3, inv: DVec3, min: Vec3, max: Vec3, t_max: f64) -> Option<f64> {
+    const PAD: f64 = 1.0 + 4.0 * f64::EPSILON;
+    let (mut lo, mut hi) = (0.0f64, t_max);
+    for i in 0..3 {
+        let (a, b) = (min[i] as f64 - o[i], max[i] as f64 - o[i]);
+        if d[i] == 0.0 {
+            if a > 0.0 || b < 0.0 {
+                return None;
+            }
+            continue;
+        }
+        let (t0, t1) = (a * inv[i], b * inv[i]);
+        let (near, far) = if t0 <= t1 { (t0, t1) } else { (t1, t0) };
+        lo = lo.max(near);
+        hi = hi.min(far * PAD);
+    }
+    (lo <= hi).then_some(lo)
+}
+
+/// An f64 Möller–Trumbore hit: `t`, the barycentrics of vertices 1 and 2, and what the bound on
+/// the f32 hit point's error ([`Hit::error`]) needs.
+struct Intersection {
+    t: f64,
+    u: f64,
+    v: f64,
+    /// `|d| |e1| |e2| / |det|` and `|o - a|`, for [`hit_error`].
+    kappa: f64,
+    s: f64,
+}
+
+/// f64 Möller–Trumbore, edges included.
+fn intersect(o: DVec3, d: DVec3, tri: &[Vec3; 3]) -> Option<Intersection> {
     let [a, b, c] = tri.map(|v| v.as_dvec3());
     let e1 = b - a;
     let e2 = c - a;
@@ -147,7 +231,98 @@ fn intersect(o: DVec3, d: DVec3, tri: &[Vec3; 3]) -> Option<(f64, f64, f64)> {
     if v < 0.0 || u + v > 1.0 {
         return None;
     }
-    Some((e2.dot(q) * inv, u, v))
+    let t = e2.dot(q) * inv;
+    let kappa = d.length() * e1.length() * e2.length() / det.abs();
+    Some(Intersection {
+        t,
+        u,
+        v,
+        kappa,
+        s: s.length(),
+    })
+}
+
+/// The bound on `|fl32(o + d t^) - (o + d t)|` derived in the module docs.
+fn hit_error(o: DVec3, d: DVec3, t: f64, kappa: f64, s: f64) -> f64 {
+    const U: f64 = f64::EPSILON / 2.0;
+    let dt = d.length() * t.abs();
+    let q = o + d * t;
+    let in_f64 = 2.0 * U * dt + 48.0 * U * kappa * (dt + s) + 2.0 * U * (o.length() + dt);
+    let to_f32 = q.length() * 2f64.powi(-24) + 2f64.powi(-149) * 3f64.sqrt();
+    (in_f64 + to_f32) * (1.0 + 2f64.powi(-20))
+}
+
+/// The distance from `p` to the plane of `tri` (infinite for a degenerate triangle, whose
+/// plane is undefined).
+fn plane_distance(p: DVec3, tri: &[Vec3; 3]) -> f64 {
+    let [a, b, c] = tri.map(|v| v.as_dvec3());
+    let n = (b - a).cross(c - a);
+    let len = n.length();
+    if len == 0.0 {
+        return f64::INFINITY;
+    }
+    ((p - a).dot(n) / len).abs()
+}
+
+/// Whether two triangles have a vertex at the same (bit-identical) position: neighbours even
+/// across seams whose vertices are distinct indices at equal positions.
+fn shares_position(a: &[Vec3; 3], b: &[Vec3; 3]) -> bool {
+    a.iter().any(|p| {
+        b.iter()
+            .any(|q| p.to_array().map(f32::to_bits) == q.to_array().map(f32::to_bits))
+    })
+}
+
+/// The distance from `p` to the closed triangle `tri`, in f64 (the closest point by Voronoi
+/// regions, as in Ericson, "Real-Time Collision Detection", 5.1.5).
+fn distance_to_triangle(p: DVec3, tri: &[Vec3; 3]) -> f64 {
+    let [a, b, c] = tri.map(|v| v.as_dvec3());
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return ap.length();
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return bp.length();
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        let w = d1 / (d1 - d3);
+        return (p - (a + ab * w)).length();
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return cp.length();
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        let w = d2 / (d2 - d6);
+        return (p - (a + ac * w)).length();
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return (p - (b + (c - b) * w)).length();
+    }
+    let denom = va + vb + vc;
+    if denom == 0.0 || !denom.is_finite() {
+        // A degenerate triangle: the nearest of its three edges.
+        let seg = |x: DVec3, y: DVec3| {
+            let e = y - x;
+            let w = if e.length_squared() > 0.0 {
+                ((p - x).dot(e) / e.length_squared()).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            (p - (x + e * w)).length()
+        };
+        return seg(a, b).min(seg(b, c)).min(seg(c, a));
+    }
+    let (v, w) = (vb / denom, vc / denom);
+    (p - (a + ab * v + ac * w)).length()
 }
 
 impl Tracer {
@@ -170,20 +345,20 @@ impl Tracer {
         };
         let order = bvh.primitive_indices.clone();
         let tris = order.iter().map(|&i| tris_in[i as usize]).collect();
-        let self_hit = SELF_HIT_EPSILON * world.extent();
         Tracer {
             world,
             bvh,
             tris,
             order,
-            self_hit,
         }
     }
 
-    /// The nearest hit along `origin + t dir`, `t > 0`, ignoring triangle `skip` (and, when
-    /// `skip` is set, hits closer than the self-hit distance).
-    pub fn nearest(&self, origin: Vec3, dir: Vec3, skip: Option<u32>) -> Option<Hit> {
-        self.nearest_where(origin, dir, skip, |_| true)
+    /// The nearest hit along `origin + t dir`, `t > 0`. A reflected ray passes `from`, the hit
+    /// it leaves (`origin` is then `from.position`): hits on that triangle, and on neighbours
+    /// whose plane passes within `from.error` of `origin`, are the start point itself and are
+    /// ignored (see the module docs).
+    pub fn nearest(&self, origin: Vec3, dir: Vec3, from: Option<&Hit>) -> Option<Hit> {
+        self.nearest_where(origin, dir, from, |_| true)
     }
 
     /// [`Tracer::nearest`] among the triangles (global indices) that `accept` keeps.
@@ -191,10 +366,10 @@ impl Tracer {
         &self,
         origin: Vec3,
         dir: Vec3,
-        skip: Option<u32>,
+        from: Option<&Hit>,
         accept: impl Fn(u32) -> bool,
     ) -> Option<Hit> {
-        self.nearest_accepting(origin, dir, skip, |h| accept(h.triangle))
+        self.nearest_accepting(origin, dir, from, |h| accept(h.triangle))
     }
 
     /// [`Tracer::nearest`] among the hits that `accept` keeps: a rejected hit is passed through,
@@ -203,49 +378,85 @@ impl Tracer {
         &self,
         origin: Vec3,
         dir: Vec3,
-        skip: Option<u32>,
+        from: Option<&Hit>,
         accept: impl Fn(&Hit) -> bool,
     ) -> Option<Hit> {
         if self.tris.is_empty() {
             return None;
         }
         let (o, d) = (origin.as_dvec3(), dir.as_dvec3());
-        let t_min = if skip.is_some() {
-            self.self_hit as f64
-        } else {
-            0.0
-        };
-        let mut best: Option<(f64, u32, f64, f64)> = None;
-        let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, f32::INFINITY);
-        let mut hit = RayHit::none();
-        let candidate = |t: f64, triangle: u32, u: f64, v: f64| Hit {
-            t: t as f32,
-            position: (o + d * t).as_vec3(),
+        let mut best: Option<(u32, Intersection)> = None;
+        let candidate = |triangle: u32, x: &Intersection| Hit {
+            t: x.t as f32,
+            position: (o + d * x.t).as_vec3(),
             triangle,
-            bary: Vec2::new(u as f32, v as f32),
+            bary: Vec2::new(x.u as f32, x.v as f32),
+            error: hit_error(o, d, x.t, x.kappa, x.s),
         };
-        self.bvh.ray_traverse(ray, &mut hit, |_, k| {
-            let global = self.order[k];
-            if Some(global) == skip {
-                return f32::INFINITY;
-            }
-            match intersect(o, d, &self.tris[k]) {
-                Some((t, u, v)) if t > t_min && accept(&candidate(t, global, u, v)) => {
-                    let better = match best {
-                        None => true,
-                        Some((bt, bg, _, _)) => t < bt || (t == bt && global < bg),
-                    };
-                    if better {
-                        best = Some((t, global, u, v));
-                    }
-                    // Round up so that node culling never drops an equally near triangle.
-                    let tf = t as f32;
-                    if (tf as f64) < t { tf.next_up() } else { tf }
-                }
-                _ => f32::INFINITY,
-            }
+        // The start point itself (see the module docs).
+        let left = from.map(|f| {
+            let t = self.world.triangles[f.triangle as usize];
+            (f, t.map(|i| self.world.positions[i as usize]))
         });
-        best.map(|(t, triangle, u, v)| candidate(t, triangle, u, v))
+        let at_start = |global: u32, tri: &[Vec3; 3]| match &left {
+            Some((f, start)) => {
+                f.triangle == global
+                    || (plane_distance(o, tri) <= f.error
+                        && (shares_position(start, tri) || distance_to_triangle(o, tri) <= f.error))
+            }
+            None => false,
+        };
+        let inv = DVec3::ONE / d;
+        // Depth-first, nearer child first; a box is entered only if it can hold a hit no
+        // further than the best so far (enlarged as in `enter_box`, so ties are kept).
+        let bound = |best: &Option<(u32, Intersection)>| {
+            best.as_ref()
+                .map_or(f64::INFINITY, |(_, b)| b.t * (1.0 + 4.0 * f64::EPSILON))
+        };
+        let root = &self.bvh.nodes[0].aabb();
+        let entry = enter_box(o, d, inv, root.min.into(), root.max.into(), f64::INFINITY)?;
+        // Nodes to visit with their entry distances; a node whose entry lies beyond the best
+        // hit found since it was pushed is dropped.
+        let mut stack = Vec::with_capacity(64);
+        stack.push((0u32, entry));
+        while let Some((n, entry)) = stack.pop() {
+            if entry > bound(&best) {
+                continue;
+            }
+            let node = &self.bvh.nodes[n as usize];
+            if node.is_leaf() {
+                for k in node.first_index..node.first_index + node.prim_count {
+                    let k = k as usize;
+                    let global = self.order[k];
+                    let tri = &self.tris[k];
+                    let Some(x) = intersect(o, d, tri) else {
+                        continue;
+                    };
+                    let better = x.t > 0.0
+                        && match &best {
+                            None => true,
+                            Some((bg, b)) => x.t < b.t || (x.t == b.t && global < *bg),
+                        };
+                    if better && !at_start(global, tri) && accept(&candidate(global, &x)) {
+                        best = Some((global, x));
+                    }
+                }
+                continue;
+            }
+            let t_max = bound(&best);
+            let entry = |c: u32| {
+                let a = self.bvh.nodes[c as usize].aabb();
+                enter_box(o, d, inv, a.min.into(), a.max.into(), t_max).map(|t| (c, t))
+            };
+            let (l, r) = (node.first_index, node.first_index + 1);
+            match (entry(l), entry(r)) {
+                (Some(a), Some(b)) if a.1 <= b.1 => stack.extend([b, a]),
+                (Some(a), Some(b)) => stack.extend([a, b]),
+                (Some(a), None) | (None, Some(a)) => stack.push(a),
+                (None, None) => {}
+            }
+        }
+        best.map(|(triangle, x)| candidate(triangle, &x))
     }
 
     /// Interpolated, normalised vertex normal at a hit (the rasteriser's shading normal).
@@ -345,7 +556,7 @@ pub fn finish_path(
         d = reflect(d, tracer.normal(&hit)).normalize();
         bounce += 1;
         out.bounces = bounce as u8;
-        let Some(next) = tracer.nearest(hit.position, d, Some(hit.triangle)) else {
+        let Some(next) = tracer.nearest(hit.position, d, Some(&hit)) else {
             out.colour = scene.background;
             return out;
         };
