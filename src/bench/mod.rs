@@ -576,9 +576,14 @@ pub fn run(
         .filter(|m| m.kind.gpu().is_some())
         .count();
     bar.set_length((cfg.scenes.len() * (1 + gpu_methods)) as u64);
+    // Every scene is loaded and checked before anything renders.
+    let prepared = cfg
+        .scenes
+        .iter()
+        .map(|name| prepare_scene(name, cfg.width, cfg.height, cfg.cube_size, cfg.cmos))
+        .collect::<Result<Vec<_>>>()?;
     let mut runs = Vec::new();
-    for name in &cfg.scenes {
-        let (scene, camera) = prepare_scene(name, cfg.width, cfg.height, cfg.cube_size, cfg.cmos)?;
+    for (name, (scene, camera)) in cfg.scenes.iter().zip(prepared) {
         bar.set_message(format!("{name}: reference"));
         // The reference is needed for every error figure, even when it is not a listed method.
         let refr = run_reference(&scene, &camera, cfg.warmup, cfg.frames);
@@ -657,7 +662,11 @@ pub fn run(
             let trace_ns = frame_stats(&g.pass_ns, Some(gpu.pass_name()));
             let total_ns = frame_stats(&g.pass_ns, None);
             let heatmap = if cfg.heatmaps {
-                let rel = format!("heat/{}-{label}.png", scene.name);
+                // The scene's name comes from its file: only a sanitised form enters the path.
+                let rel = format!(
+                    "heat/{}-{label}.png",
+                    crate::output::safe_file_stem(&scene.name)
+                );
                 heatmap::write(&cfg.out.join(&rel), &refr.frame, &pixels)?;
                 Some(rel)
             } else {
