@@ -249,8 +249,10 @@ struct RenderArgs {
     /// Output file, .png or .exr [default: out/SCENE-METHOD.png].
     #[arg(short, long)]
     output: Option<PathBuf>,
-    /// Also render the reference and print the error of the method against it (mirror
-    /// pixels: unresolved, wrong surface, angular error, PSNR).
+    /// Also render the reference and print the error of the method against it, over the mirror
+    /// pixels of either image: mask mismatch (a mirror pixel of one image only, counted both
+    /// ways), unresolved, wrong surface, angular error; PSNR over mirror pixels and over the
+    /// whole frame.
     #[arg(long)]
     compare: bool,
     #[command(flatten)]
@@ -358,15 +360,15 @@ fn render(args: RenderArgs) -> Result<()> {
                 &scene.cmo_centres(),
                 scene.cmo.resolution,
             );
-            println!(
-                "against the reference: {} mirror pixels, unresolved {:.2}%, wrong surface {:.2}%, angular error mean {:.3} deg / p95 {:.3} deg, PSNR {:.2} dB",
-                r.mirror_pixels,
-                100.0 * r.unresolved,
-                100.0 * r.wrong_surface,
-                r.angular_mean_deg,
-                r.angular_p95_deg,
-                r.psnr_db
-            );
+            println!("{}", compare_summary(&r));
+            if r.mask_mismatch > 0 {
+                log::warn!(
+                    "the mirror masks disagree on {} pixels: {} mirror pixels of the reference are not mirror pixels here, {} mirror pixels here are not in the reference",
+                    r.mask_mismatch,
+                    r.mask_missed,
+                    r.mask_extra
+                );
+            }
         }
         return Ok(());
     }
@@ -407,6 +409,32 @@ fn render(args: RenderArgs) -> Result<()> {
         render_time
     );
     Ok(())
+}
+
+/// The `--compare` line: every figure over the mirror pixels of either frame, the mask
+/// disagreements both ways first; `-` where a figure does not exist (no mirror pixel, no hit).
+fn compare_summary(r: &metrics::ErrorReport) -> String {
+    let num = |x: f64, digits: usize| {
+        if x.is_nan() {
+            "-".to_string()
+        } else {
+            format!("{x:.digits$}")
+        }
+    };
+    format!(
+        "against the reference: {} mirror pixels (either frame), {:.2}% in error: mask mismatch {:.2}% ({} only in the reference, {} only here), unresolved {:.2}%, wrong surface {:.2}%; angular error mean {} deg / p95 {} deg; PSNR {} dB over mirror pixels, {} dB over the frame",
+        r.mirror_pixels,
+        100.0 * r.error,
+        100.0 * r.mask_mismatch_fraction,
+        r.mask_missed,
+        r.mask_extra,
+        100.0 * r.unresolved,
+        100.0 * r.wrong_surface,
+        num(r.angular_mean_deg, 3),
+        num(r.angular_p95_deg, 3),
+        num(r.psnr_db, 2),
+        num(r.psnr_frame_db, 2),
+    )
 }
 
 #[derive(clap::Args)]

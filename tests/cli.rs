@@ -366,3 +366,92 @@ fn scene_export_does_not_overwrite_without_force() {
             .contains("scene 'torus'")
     );
 }
+
+// ---- Item 2: --compare counts both sides ----
+
+#[test]
+fn compare_reports_both_masks_and_the_whole_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = run(
+        &[
+            "render",
+            "bowl",
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--compare",
+            "-o",
+            "x.png",
+        ],
+        dir.path(),
+    );
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+    let line = o
+        .stdout
+        .lines()
+        .find(|l| l.starts_with("against the reference"))
+        .unwrap_or_else(|| panic!("no comparison in: {}", o.stdout));
+    for needle in [
+        "mirror pixels (either frame)",
+        "in error: mask mismatch",
+        "only in the reference",
+        "only here",
+        "dB over mirror pixels",
+        "dB over the frame",
+    ] {
+        assert!(line.contains(needle), "'{needle}' in: {line}");
+    }
+    // A rendered frame has figures, not "inf" or NaN.
+    assert!(!line.contains("inf") && !line.contains("NaN"), "{line}");
+}
+
+#[test]
+fn bench_outputs_carry_mask_mismatch_and_frame_psnr() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = run(
+        &[
+            "bench",
+            "--scenes",
+            "bowl",
+            "--methods",
+            "envmap",
+            "--width",
+            "16",
+            "--height",
+            "12",
+            "--frames",
+            "1",
+            "--warmup",
+            "0",
+            "--no-flip",
+            "--no-heatmaps",
+            "-o",
+            "b",
+        ],
+        dir.path(),
+    );
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+    assert!(o.stdout.contains("| mask mismatch % |"), "{}", o.stdout);
+    assert!(o.stdout.contains("| PSNR frame dB |"), "{}", o.stdout);
+    let md = std::fs::read_to_string(dir.path().join("b/bench.md")).unwrap();
+    assert!(
+        md.contains("mask mismatch (ref only + method only)"),
+        "{md}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("b/bench.json")).unwrap())
+            .unwrap();
+    let error = &json["runs"][0]["error"];
+    for field in [
+        "mask_missed",
+        "mask_extra",
+        "mask_mismatch_fraction",
+        "error",
+    ] {
+        assert!(error[field].is_number(), "{field}: {error}");
+    }
+    assert!(error["psnr_frame_db"].as_f64().unwrap() > 0.0, "{error}");
+    // Negative: a field that does not exist reads as absent, so the checks above can fail.
+    assert!(error["no_such_field"].is_null());
+}

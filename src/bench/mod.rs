@@ -532,15 +532,15 @@ pub fn pass_stats(pass_ns: &[Vec<PassTime>]) -> Vec<PassStats> {
         .collect()
 }
 
-/// FLIP mean (LDR) over the reference's mirror pixels, on 8-bit sRGB images of the whole frame;
-/// `None` when built without the `flip` feature.
+/// FLIP mean (LDR) over the mirror pixels of either frame ([`metrics`]), on 8-bit sRGB images
+/// of the whole frame; `None` when built without the `flip` feature.
 #[cfg(not(feature = "flip"))]
 pub fn flip_mean(_reference: &Frame, _traced: &Traced) -> Option<f64> {
     None
 }
 
-/// FLIP mean (LDR) over the reference's mirror pixels, on 8-bit sRGB images of the whole frame;
-/// `None` when built without the `flip` feature.
+/// FLIP mean (LDR) over the mirror pixels of either frame ([`metrics`]), on 8-bit sRGB images
+/// of the whole frame; `None` when built without the `flip` feature.
 #[cfg(feature = "flip")]
 pub fn flip_mean(reference: &Frame, traced: &Traced) -> Option<f64> {
     let srgb = |c: &[glam::Vec3]| -> Vec<u8> {
@@ -554,9 +554,9 @@ pub fn flip_mean(reference: &Frame, traced: &Traced) -> Option<f64> {
     let err = nv_flip::flip(r, t, nv_flip::DEFAULT_PIXELS_PER_DEGREE).to_vec();
     let (sum, n) = err
         .iter()
-        .zip(&reference.mask)
-        .filter(|(_, m)| **m != 0)
-        .fold((0f64, 0usize), |(s, n), (e, _)| (s + f64::from(*e), n + 1));
+        .enumerate()
+        .filter(|(k, _)| reference.mask[*k] != 0 || traced.mask[*k] != 0)
+        .fold((0f64, 0usize), |(s, n), (_, e)| (s + f64::from(*e), n + 1));
     Some(if n == 0 { 0.0 } else { sum / n as f64 })
 }
 
@@ -628,11 +628,7 @@ pub fn run(
                     trace_ns: wall,
                     total_ns: wall,
                     trace_ns_per_mirror_px: wall.median / mirror.max(1) as f64,
-                    error: ErrorReport {
-                        mirror_pixels: mirror,
-                        psnr_db: f64::INFINITY,
-                        ..ErrorReport::default()
-                    },
+                    error: ErrorReport::exact(mirror),
                     ..base(spec)
                 });
                 continue;
