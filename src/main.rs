@@ -12,7 +12,7 @@ use cubetrace::cpu::options::{TraceCriterion, TraceOptions, TraceSampling};
 use cubetrace::scene::{CmoPlacement, Scene};
 use cubetrace::vk::frame::{Fallback, GpuMethod, GpuRenderer, RenderOptions};
 use cubetrace::vk::{ContextOptions, GpuContext, Validation};
-use cubetrace::{metrics, output, reference, scene};
+use cubetrace::{memory, metrics, output, reference, scene};
 
 /// Accurate mirror reflections on curved surfaces by cubemap tracing.
 ///
@@ -283,7 +283,12 @@ fn render(args: RenderArgs) -> Result<()> {
         ))
     });
     // Check the output before spending time on the render.
-    output::check_output(&out)?;
+    let format = output::check_output(&out)?;
+    let pixels = u64::from(camera.width) * u64::from(camera.height);
+    let size = format!(
+        "a {}x{} frame with --method {method}",
+        camera.width, camera.height
+    );
 
     let gpu_method = match args.method {
         Method::Fragment => Some(GpuMethod::Fragment),
@@ -300,6 +305,41 @@ fn render(args: RenderArgs) -> Result<()> {
         }
         let options = args.trace.options(m);
         let ctx = args.gpu.context()?;
+        let device = cubetrace::vk::budget::device_bytes(
+            camera.width,
+            camera.height,
+            m,
+            scene.cmo_centres().len() as u32,
+            scene.cmo.resolution,
+            scene.self_reflections,
+        );
+        let mut host = memory::gpu_host_bytes(pixels, format, args.compare);
+        if ctx.device_is_cpu() {
+            // A CPU device's memory is the machine's.
+            host += device.total();
+        }
+        let gpu_size = format!(
+            "{size} ({} CMOs of {}^2 texels per face: {} of GPU data)",
+            scene.cmo_centres().len(),
+            scene.cmo.resolution,
+            memory::human(device.total())
+        );
+        memory::check(&gpu_size, host, memory::host_available()?)?;
+        let heap = ctx.device_local_heap_bytes();
+        let heap_limit = match memory::env_limit()? {
+            Some(b) if b < heap => (b, memory::LIMIT_ENV.to_string()),
+            _ => (heap, "the device's largest device-local heap".to_string()),
+        };
+        memory::check(
+            &format!(
+                "{size} ({} of CMO data, {} per frame) on {}",
+                memory::human(device.cmo),
+                memory::human(device.frame),
+                ctx.report().name
+            ),
+            device.total(),
+            Some(heap_limit),
+        )?;
         let mut renderer = GpuRenderer::new(&ctx, &scene, &camera, options)?;
         let frame = renderer.render(&ctx)?;
         let render_time = start.elapsed();
@@ -377,6 +417,11 @@ fn render(args: RenderArgs) -> Result<()> {
             unreachable!("GPU methods returned above")
         }
         Method::Reference => {
+            memory::check(
+                &size,
+                memory::reference_bytes(pixels, format),
+                memory::host_available()?,
+            )?;
             let tracer = reference::Tracer::new(&scene);
             log::info!(
                 "{}: {} triangles, BVH built in {:.2?}",

@@ -455,3 +455,75 @@ fn bench_outputs_carry_mask_mismatch_and_frame_psnr() {
     // Negative: a field that does not exist reads as absent, so the checks above can fail.
     assert!(error["no_such_field"].is_null());
 }
+
+// ---- Item 7: memory ----
+
+#[test]
+fn a_render_too_large_for_memory_is_refused_before_it_starts() {
+    let dir = tempfile::tempdir().unwrap();
+    // The command: it grew past 14 GB. Capped at 8 GiB it must be refused at once, with
+    // the figure, whatever memory the test machine has.
+    let cap = [("CUBETRACE_MEMORY_LIMIT", "8G")];
+    for method in ["reference", "compute"] {
+        let start = std::time::Instant::now();
+        let o = run_env(
+            &[
+                "render", "--method", method, "--width", "16384", "--height", "16384", "-o",
+                "big.png",
+            ],
+            dir.path(),
+            &cap,
+        );
+        assert_clean_failure(
+            &o,
+            &[
+                "16384x16384",
+                &format!("--method {method}"),
+                "GiB of memory",
+                "8.00 GiB",
+                "CUBETRACE_MEMORY_LIMIT",
+            ],
+        );
+        assert!(start.elapsed().as_secs() < 20, "{:?}", start.elapsed());
+    }
+    // The GPU's CMO data counts too: a tiny frame with huge cube maps.
+    let o = run_env(
+        &[
+            "render",
+            "--cube-size",
+            "4096",
+            "--cmos",
+            "16",
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "-o",
+            "big.png",
+        ],
+        dir.path(),
+        &cap,
+    );
+    assert_clean_failure(&o, &["16 CMOs of 4096^2 texels", "GiB of GPU data"]);
+    assert!(files(dir.path()).is_empty(), "{:?}", files(dir.path()));
+    // A malformed cap is named.
+    let o = run_env(
+        &["render", "--method", "reference", "-o", "x.png"],
+        dir.path(),
+        &[("CUBETRACE_MEMORY_LIMIT", "lots")],
+    );
+    assert_clean_failure(&o, &["CUBETRACE_MEMORY_LIMIT=lots", "not a memory size"]);
+    // Negative: small frames fit under the same cap, on the CPU and on the GPU.
+    for method in ["reference", "compute"] {
+        let out = format!("{method}.png");
+        let o = run_env(
+            &[
+                "render", "--method", method, "--width", "32", "--height", "24", "-o", &out,
+            ],
+            dir.path(),
+            &cap,
+        );
+        assert_eq!(o.code, Some(0), "{}", o.stderr);
+        assert!(dir.path().join(&out).is_file());
+    }
+}
