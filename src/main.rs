@@ -325,11 +325,7 @@ fn render(args: RenderArgs) -> Result<()> {
             memory::human(device.total())
         );
         memory::check(&gpu_size, host, memory::host_available()?)?;
-        let heap = ctx.device_local_heap_bytes();
-        let heap_limit = match memory::env_limit()? {
-            Some(b) if b < heap => (b, memory::LIMIT_ENV.to_string()),
-            _ => (heap, "the device's largest device-local heap".to_string()),
-        };
+
         memory::check(
             &format!(
                 "{size} ({} of CMO data, {} per frame) on {}",
@@ -338,7 +334,7 @@ fn render(args: RenderArgs) -> Result<()> {
                 ctx.report().name
             ),
             device.total(),
-            Some(heap_limit),
+            Some(memory::device_available(ctx.device_local_heap_bytes())?),
         )?;
         let mut renderer = GpuRenderer::new(&ctx, &scene, &camera, options)?;
         let frame = renderer.render(&ctx)?;

@@ -156,6 +156,15 @@ pub fn host_available() -> Result<Option<(u64, String)>> {
     Ok(best)
 }
 
+/// The device memory a render may take: the device's largest device-local heap (`heap`), or
+/// [`LIMIT_ENV`] where it is lower; with where the figure comes from.
+pub fn device_available(heap: u64) -> Result<(u64, String)> {
+    Ok(match env_limit()? {
+        Some(b) if b < heap => (b, LIMIT_ENV.to_string()),
+        _ => (heap, "the device's largest device-local heap".to_string()),
+    })
+}
+
 /// Refuses `need` bytes for `what` when they exceed `available` (bytes and where the figure
 /// comes from); `None` available refuses nothing.
 pub fn check(what: &str, need: u64, available: Option<(u64, String)>) -> Result<()> {

@@ -96,8 +96,8 @@ fn existing_ancestor(path: &Path) -> &Path {
 }
 
 /// Checks, before any work, that files can be written into the folder `dir` (created later if
-/// needed): its nearest existing ancestor must be a folder in which a file can be created (a
-/// temporary file is created and removed at once).
+/// needed): its nearest existing ancestor must be a folder in which a file can be created (an
+/// empty file is created and removed at once).
 pub fn check_folder(dir: &Path) -> Result<()> {
     let base = existing_ancestor(dir);
     if !base.is_dir() {
@@ -107,17 +107,27 @@ pub fn check_folder(dir: &Path) -> Result<()> {
             base.display()
         );
     }
-    tempfile::Builder::new()
-        .prefix(".cubetrace-check-")
-        .tempfile_in(base)
+    // A file of our own, created and removed at once (the OS error says why, if it cannot be).
+    let probe = base.join(format!(
+        ".cubetrace-check-{}-{}",
+        std::process::id(),
+        std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.subsec_nanos())
+    ));
+    std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&probe)
         .map_err(|e| {
             anyhow::anyhow!(
-                "cannot write into {}: cannot create a file in {}: {}",
+                "cannot write into {}: cannot create a file in {}: {e}",
                 dir.display(),
                 base.display(),
-                std::io::Error::from(e.kind())
             )
         })?;
+    std::fs::remove_file(&probe)
+        .with_context(|| format!("cannot remove the test file {}", probe.display()))?;
     Ok(())
 }
 

@@ -409,7 +409,7 @@ fn compare_reports_both_masks_and_the_whole_frame() {
 #[test]
 fn bench_outputs_carry_mask_mismatch_and_frame_psnr() {
     let dir = tempfile::tempdir().unwrap();
-    let o = run(
+    let o = run_env(
         &[
             "bench",
             "--scenes",
@@ -430,6 +430,8 @@ fn bench_outputs_carry_mask_mismatch_and_frame_psnr() {
             "b",
         ],
         dir.path(),
+        // Under a cap it fits in (the negative side of the bench's memory refusal).
+        &[("CUBETRACE_MEMORY_LIMIT", "1G")],
     );
     assert_eq!(o.code, Some(0), "{}", o.stderr);
     assert!(o.stdout.contains("| mask mismatch % |"), "{}", o.stdout);
@@ -505,6 +507,26 @@ fn a_render_too_large_for_memory_is_refused_before_it_starts() {
         &cap,
     );
     assert_clean_failure(&o, &["16 CMOs of 4096^2 texels", "GiB of GPU data"]);
+    assert!(files(dir.path()).is_empty(), "{:?}", files(dir.path()));
+    // The bench checks every scene's largest run before it renders anything.
+    let o = run_env(
+        &[
+            "bench",
+            "--scenes",
+            "bowl",
+            "--methods",
+            "envmap",
+            "--width",
+            "4096",
+            "--height",
+            "4096",
+            "-o",
+            "b",
+        ],
+        dir.path(),
+        &[("CUBETRACE_MEMORY_LIMIT", "256M")],
+    );
+    assert_clean_failure(&o, &["bench scene 'bowl' at 4096x4096", "256.0 MiB"]);
     assert!(files(dir.path()).is_empty(), "{:?}", files(dir.path()));
     // A malformed cap is named.
     let o = run_env(

@@ -433,6 +433,49 @@ pub fn prepare_scene(
     Ok((scene, camera))
 }
 
+/// Refuses, before anything renders, a grid whose largest run would not fit in memory
+/// ([`crate::memory`]): per scene, the reference frame (held through the scene's runs) beside
+/// the largest GPU method's device data and its read-back and comparison.
+fn check_memory(ctx: &GpuContext, cfg: &BenchConfig, prepared: &[(Scene, Camera)]) -> Result<()> {
+    use crate::memory;
+    use crate::output::Format;
+    let host_available = memory::host_available()?;
+    let device_available = memory::device_available(ctx.device_local_heap_bytes())?;
+    for (scene, camera) in prepared {
+        let pixels = u64::from(camera.width) * u64::from(camera.height);
+        let cmos = scene.cmo_centres().len() as u32;
+        let device = cfg
+            .methods
+            .iter()
+            .filter_map(|m| m.kind.gpu())
+            .map(|g| {
+                crate::vk::budget::device_bytes(
+                    camera.width,
+                    camera.height,
+                    g,
+                    cmos,
+                    scene.cmo.resolution,
+                    scene.self_reflections,
+                )
+                .total()
+            })
+            .max()
+            .unwrap_or(0);
+        let mut host = memory::reference_bytes(pixels, Format::Png)
+            + memory::gpu_host_bytes(pixels, Format::Png, true);
+        if ctx.device_is_cpu() {
+            host += device;
+        }
+        let what = format!(
+            "bench scene '{}' at {}x{} ({cmos} CMOs of {}^2 texels per face)",
+            scene.name, camera.width, camera.height, scene.cmo.resolution
+        );
+        memory::check(&what, host, host_available.clone())?;
+        memory::check(&what, device, Some(device_available.clone()))?;
+    }
+    Ok(())
+}
+
 /// The reference frame of one scene, with its wall times per frame (ns).
 pub struct ReferenceRun {
     pub frame: Frame,
@@ -582,6 +625,7 @@ pub fn run(
         .iter()
         .map(|name| prepare_scene(name, cfg.width, cfg.height, cfg.cube_size, cfg.cmos))
         .collect::<Result<Vec<_>>>()?;
+    check_memory(ctx, cfg, &prepared)?;
     let mut runs = Vec::new();
     for (name, (scene, camera)) in cfg.scenes.iter().zip(prepared) {
         bar.set_message(format!("{name}: reference"));
