@@ -161,10 +161,10 @@ struct TraceArgs {
     /// elsewhere the ray is handed on, so more pixels end unresolved.
     ///
     /// What the tests show (tests/hard_cases.rs): on grazing rays, slabs thinner than a texel,
-    /// outlines right behind the rays, scales 1e-3 and 1e4, cube sizes 1 to 2048 and the
-    /// built-in scenes, no hit is wrong for the ray the GPU reflected. It does not make surfaces
-    /// the CMOs never captured (a reflector seeing itself) right: against the reference those
-    /// pixels stay wrong, as without it (see `cubetrace bench`).
+    /// outlines right behind the rays, scales 1e-3 and 1e4, cube sizes 1, 2, 3, 32 and 2048 and
+    /// the built-in scenes, no hit or escape is wrong for the ray the GPU reflected. It does not
+    /// make surfaces the CMOs never captured (a reflector seeing itself) right: against the
+    /// reference those pixels stay wrong, as without it (see `cubetrace bench`).
     #[arg(long)]
     strict: bool,
     /// Sample intervals along the ray for constant-step and constant-angle sampling.
