@@ -2,10 +2,14 @@
 //! frames. Output paths, refusals before the render, messages. Every check has its negative
 //! side: the same command with the problem removed must pass.
 
+mod common;
+
 use std::path::Path;
 use std::process::Command;
 
 use cubetrace::scene::{builtin, export};
+use cubetrace::vk::budget;
+use cubetrace::vk::frame::{Fallback, GpuMethod, GpuRenderer, RenderOptions};
 
 struct Outcome {
     code: Option<i32>,
@@ -548,4 +552,35 @@ fn a_render_too_large_for_memory_is_refused_before_it_starts() {
         assert_eq!(o.code, Some(0), "{}", o.stderr);
         assert!(dir.path().join(&out).is_file());
     }
+}
+
+/// The GPU estimate against what the renderer really allocates for its CMO data.
+#[test]
+fn gpu_estimate_covers_the_cmo_allocation() {
+    let ctx = common::gpu_context();
+    let mut scene = builtin::sphere_room();
+    scene.cmo.resolution = 64;
+    let mut camera = scene.cameras[0].clone();
+    (camera.width, camera.height) = (16, 12);
+    for method in [GpuMethod::Fragment, GpuMethod::Compute, GpuMethod::Envmap] {
+        let options = RenderOptions {
+            method,
+            trace: Default::default(),
+            fallback: Fallback::Envmap,
+        };
+        let renderer = GpuRenderer::new(&ctx, &scene, &camera, options).unwrap();
+        let real = renderer.cmo().bytes();
+        let cmos = scene.cmo_centres().len() as u32;
+        let estimate = budget::device_bytes(16, 12, method, cmos, 64, scene.self_reflections);
+        eprintln!("{method:?}: CMO data {real} bytes, estimate {estimate:?}");
+        assert!(estimate.cmo >= real, "{method:?}: {estimate:?} < {real}");
+        assert!(
+            (estimate.cmo as f64) < 1.5 * real as f64,
+            "{method:?}: {estimate:?} against {real}"
+        );
+        // Negative: the estimate for half the cube size is below the real allocation.
+        let half = budget::device_bytes(16, 12, method, cmos, 32, scene.self_reflections);
+        assert!(half.cmo < real, "{method:?}");
+    }
+    common::finish_gpu(ctx);
 }
