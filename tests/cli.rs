@@ -320,11 +320,15 @@ fn bench_heat_map_names_are_sanitised() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::create_dir(dir.path().join("scene")).unwrap();
     let scene = renamed_scene(&dir.path().join("scene"), "../up");
+    std::fs::create_dir(dir.path().join("other")).unwrap();
+    // Another scene whose name sanitises to the same file name.
+    let other = renamed_scene(&dir.path().join("other"), "__/up");
+    let scenes = format!("{},{}", scene.display(), other.display());
     let o = run(
         &[
             "bench",
             "--scenes",
-            scene.to_str().unwrap(),
+            &scenes,
             "--methods",
             "envmap",
             "--width",
@@ -346,7 +350,12 @@ fn bench_heat_map_names_are_sanitised() {
         .into_iter()
         .filter(|f| f.contains("heat"))
         .collect();
-    assert_eq!(heat, ["b/heat/___up-envmap.png"]);
+    assert_eq!(
+        heat,
+        ["b/heat/___up-envmap-2.png", "b/heat/___up-envmap.png"]
+    );
+    let json = std::fs::read_to_string(dir.path().join("b/bench.json")).unwrap();
+    assert!(json.contains("\"heat/___up-envmap-2.png\""), "{json}");
     // Negative: the unsanitised name would have left the heat folder.
     assert!(!dir.path().join("b/up-envmap.png").exists());
 }

@@ -627,6 +627,8 @@ pub fn run(
         .collect::<Result<Vec<_>>>()?;
     check_memory(ctx, cfg, &prepared)?;
     let mut runs = Vec::new();
+    // Heat map paths given so far: two scenes of one (sanitised) name get their own files.
+    let mut heat_paths: Vec<String> = Vec::new();
     for (name, (scene, camera)) in cfg.scenes.iter().zip(prepared) {
         bar.set_message(format!("{name}: reference"));
         // The reference is needed for every error figure, even when it is not a listed method.
@@ -703,10 +705,14 @@ pub fn run(
             let total_ns = frame_stats(&g.pass_ns, None);
             let heatmap = if cfg.heatmaps {
                 // The scene's name comes from its file: only a sanitised form enters the path.
-                let rel = format!(
-                    "heat/{}-{label}.png",
-                    crate::output::safe_file_stem(&scene.name)
-                );
+                let stem = format!("{}-{label}", crate::output::safe_file_stem(&scene.name));
+                let mut rel = format!("heat/{stem}.png");
+                let mut k = 2;
+                while heat_paths.contains(&rel) {
+                    rel = format!("heat/{stem}-{k}.png");
+                    k += 1;
+                }
+                heat_paths.push(rel.clone());
                 heatmap::write(&cfg.out.join(&rel), &refr.frame, &pixels)?;
                 Some(rel)
             } else {
