@@ -18,6 +18,7 @@ pub mod bench;
 pub mod camera;
 pub mod cpu;
 pub mod cubemap;
+pub mod memory;
 pub mod metrics;
 pub mod output;
 pub mod ranges;

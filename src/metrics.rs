@@ -1,6 +1,12 @@
 #![forbid(unsafe_code)]
-//! Error of a traced reflection against the exact reference, over mirror pixels.
+//! Error of a traced reflection against the exact reference, over **mirror pixels**: the pixels
+//! that are mirror pixels in either frame (the union of the two masks), so that a frame that
+//! lost its mirror, or shows one where the reference has none, cannot look perfect.
 //!
+//! - **mask mismatch**: a mirror pixel of only one of the two frames (the method's rasterisation
+//!   missed it, or drew a mirror where the reference has none). It is an error: the pixel shows
+//!   the wrong thing. Counted both ways ([`ErrorReport::mask_missed`],
+//!   [`ErrorReport::mask_extra`]).
 //! - **unresolved**: the tracer could not decide (no CMO saw the ray's surface) and a fallback
 //!   filled the pixel.
 //! - **wrong surface**: a resolved pixel whose hit point lies farther from the reference's than
@@ -8,9 +14,12 @@
 //!   left the scene (or the reverse). A texel footprint at a point is its distance from the
 //!   nearest CMO centre times `2 / N`, the angular size of a texel at the centre of a face of
 //!   `N` texels (texels are smaller towards the face corners, so this is an upper bound).
+//! - **error**: the share of mirror pixels that are not correct: mask mismatch + unresolved +
+//!   wrong surface.
 //! - **angular error**: the angle between the traced and the reference hit points as seen from
-//!   the mirror point, over pixels where both hit something.
-//! - **PSNR**: over mirror pixels, on linear RGB clamped to [0, 1].
+//!   the mirror point, over pixels where both hit something; NaN where there is no such pixel.
+//! - **PSNR**: on linear RGB clamped to [0, 1], over mirror pixels (NaN when neither frame has
+//!   any) and over the whole frame.
 
 use glam::{DVec3, Vec3};
 
@@ -37,24 +46,60 @@ pub struct Traced {
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct ErrorReport {
+    /// Mirror pixels of either frame (the union of the two masks): the denominator of every
+    /// fraction below.
     pub mirror_pixels: usize,
+    /// Share of mirror pixels that are not correct: mask mismatch, unresolved or wrong surface.
+    pub error: f64,
+    /// Share of mirror pixels that are mirror pixels of one frame only.
+    pub mask_mismatch_fraction: f64,
     pub unresolved: f64,
     pub wrong_surface: f64,
+    /// NaN where no pixel has both hits.
     pub angular_mean_deg: f64,
+    /// NaN where no pixel has both hits.
     pub angular_p95_deg: f64,
+    /// PSNR over mirror pixels; infinite when they are identical, NaN when there are none.
     pub psnr_db: f64,
-    /// Pixels where the masks of the two disagree (rasterisation edge differences).
+    /// PSNR over the whole frame; infinite when it is identical.
+    pub psnr_frame_db: f64,
+    /// Pixels where the masks of the two disagree: `mask_missed + mask_extra`.
     pub mask_mismatch: usize,
+    /// Mirror pixels of the reference that are not mirror pixels of the traced frame.
+    pub mask_missed: usize,
+    /// Mirror pixels of the traced frame that are not mirror pixels of the reference.
+    pub mask_extra: usize,
+}
+
+impl ErrorReport {
+    /// The report of the reference against itself: no error, infinite PSNR.
+    pub fn exact(mirror_pixels: usize) -> Self {
+        ErrorReport {
+            mirror_pixels,
+            angular_mean_deg: if mirror_pixels == 0 { f64::NAN } else { 0.0 },
+            angular_p95_deg: if mirror_pixels == 0 { f64::NAN } else { 0.0 },
+            psnr_db: if mirror_pixels == 0 {
+                f64::NAN
+            } else {
+                f64::INFINITY
+            },
+            psnr_frame_db: f64::INFINITY,
+            ..ErrorReport::default()
+        }
+    }
 }
 
 /// What one pixel of a traced frame is, against the reference ([`classify`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum PixelClass {
-    /// Not a mirror pixel of the reference: not counted.
+    /// A mirror pixel of neither frame: not counted.
     NotMirror,
-    /// A mirror pixel of the reference that the traced frame's rasterisation missed: counted as
-    /// a mirror pixel (its colour enters the PSNR) but neither unresolved nor wrong.
+    /// A mirror pixel of the reference that the traced frame's rasterisation missed: a mask
+    /// mismatch, an error.
     MaskMissed,
+    /// A mirror pixel of the traced frame where the reference has none: a mask mismatch, an
+    /// error.
+    MaskExtra,
     /// The tracer could not decide; a fallback filled the pixel.
     Unresolved,
     /// Resolved, and (within [`WRONG_SURFACE_FOOTPRINTS`] footprints) the reference's surface,
@@ -103,7 +148,11 @@ pub fn classify(
     (0..reference.mask.len())
         .map(|k| {
             if reference.mask[k] == 0 {
-                return verdict(PixelClass::NotMirror);
+                return verdict(if traced.mask[k] == 0 {
+                    PixelClass::NotMirror
+                } else {
+                    PixelClass::MaskExtra
+                });
             }
             if traced.mask[k] == 0 {
                 return verdict(PixelClass::MaskMissed);
@@ -138,9 +187,22 @@ pub fn classify(
         .collect()
 }
 
-/// Compares `traced` with `reference` over the reference's mirror pixels. `mirror_point` gives
-/// the primary hit on the mirror per pixel, `cmo_centres` and `cube_size` define the texel
-/// footprint.
+/// PSNR of a summed squared error over `n` RGB pixels: infinite for no error, NaN for no pixel.
+fn psnr(squared_error: f64, n: usize) -> f64 {
+    if n == 0 {
+        return f64::NAN;
+    }
+    let mse = squared_error / (3.0 * n as f64);
+    if mse == 0.0 {
+        f64::INFINITY
+    } else {
+        10.0 * (1.0 / mse).log10()
+    }
+}
+
+/// Compares `traced` with `reference` over the mirror pixels of either (see the module docs).
+/// `mirror_point` gives the primary hit on the mirror per pixel, `cmo_centres` and `cube_size`
+/// define the texel footprint.
 pub fn compare(
     reference: &Frame,
     traced: &Traced,
@@ -150,37 +212,40 @@ pub fn compare(
 ) -> ErrorReport {
     let pixels = classify(reference, traced, mirror_point, cmo_centres, cube_size);
     let mut r = ErrorReport::default();
-    let (mut unresolved, mut wrong, mut se) = (0usize, 0usize, 0f64);
+    let (mut unresolved, mut wrong, mut se, mut se_frame) = (0usize, 0usize, 0f64, 0f64);
     let mut angles = Vec::new();
     for (k, p) in pixels.iter().enumerate() {
-        if reference.mask[k] != traced.mask[k] {
-            r.mask_mismatch += 1;
-        }
+        let d = (reference.colour[k].clamp(Vec3::ZERO, Vec3::ONE)
+            - traced.colour[k].clamp(Vec3::ZERO, Vec3::ONE))
+        .as_dvec3()
+        .length_squared();
+        se_frame += d;
         if p.class == PixelClass::NotMirror {
             continue;
         }
         r.mirror_pixels += 1;
-        let d = (reference.colour[k].clamp(Vec3::ZERO, Vec3::ONE)
-            - traced.colour[k].clamp(Vec3::ZERO, Vec3::ONE))
-        .as_dvec3();
-        se += d.length_squared();
+        se += d;
         match p.class {
+            PixelClass::MaskMissed => r.mask_missed += 1,
+            PixelClass::MaskExtra => r.mask_extra += 1,
             PixelClass::Unresolved => unresolved += 1,
             PixelClass::WrongSurface => wrong += 1,
-            _ => {}
+            PixelClass::Correct | PixelClass::NotMirror => {}
         }
         angles.extend(p.angle_deg);
     }
+    r.mask_mismatch = r.mask_missed + r.mask_extra;
     let n = r.mirror_pixels.max(1) as f64;
     r.unresolved = unresolved as f64 / n;
     r.wrong_surface = wrong as f64 / n;
-    let mse = se / (3.0 * n);
-    r.psnr_db = if mse == 0.0 {
-        f64::INFINITY
+    r.mask_mismatch_fraction = r.mask_mismatch as f64 / n;
+    r.error = (r.mask_mismatch + unresolved + wrong) as f64 / n;
+    r.psnr_db = psnr(se, r.mirror_pixels);
+    r.psnr_frame_db = psnr(se_frame, pixels.len());
+    if angles.is_empty() {
+        r.angular_mean_deg = f64::NAN;
+        r.angular_p95_deg = f64::NAN;
     } else {
-        10.0 * (1.0 / mse).log10()
-    };
-    if !angles.is_empty() {
         r.angular_mean_deg = angles.iter().sum::<f64>() / angles.len() as f64;
         angles.sort_by(f64::total_cmp);
         r.angular_p95_deg = angles[((angles.len() - 1) as f64 * 0.95).round() as usize];
@@ -221,6 +286,129 @@ mod tests {
         assert_eq!((r.unresolved, r.wrong_surface), (0.0, 0.0));
         assert_eq!(r.angular_mean_deg, 0.0);
         assert!(r.psnr_db.is_infinite());
+        assert!(r.psnr_frame_db.is_infinite());
+        assert_eq!((r.mask_mismatch, r.error), (0, 0.0));
+        assert_eq!(r, ErrorReport::exact(3));
+    }
+
+    /// A larger pair: a 16 x 8 frame whose left half is a mirror with varied hits and colours.
+    fn big_pair() -> (Frame, Traced, Vec<Vec3>) {
+        let (w, h) = (16u32, 8u32);
+        let n = (w * h) as usize;
+        let mut f = Frame::new(w, h);
+        for k in 0..n {
+            let (i, j) = (k as u32 % w, k as u32 / w);
+            f.mask[k] = u8::from(i < w / 2);
+            f.colour[k] = Vec3::new(i as f32 / w as f32, j as f32 / h as f32, 0.3);
+            if f.mask[k] != 0 {
+                f.hit_position[k] = Vec3::new(i as f32, j as f32, -10.0);
+            }
+        }
+        let t = Traced {
+            width: w,
+            height: h,
+            colour: f.colour.clone(),
+            mask: f.mask.clone(),
+            hit_position: f.hit_position.clone(),
+            resolved: f.mask.clone(),
+        };
+        (f, t, vec![Vec3::ZERO; n])
+    }
+
+    fn report_of(f: &Frame, t: &Traced, m: &[Vec3]) -> ErrorReport {
+        compare(f, t, m, &[Vec3::ZERO], 64)
+    }
+
+    /// The frames that used to pass as perfect: each must show as errors.
+    #[test]
+    fn blank_noise_and_mirrorless_frames_are_errors() {
+        let (f, t, m) = big_pair();
+        let good = report_of(&f, &t, &m);
+        assert_eq!((good.error, good.mirror_pixels), (0.0, 64));
+        assert!(good.psnr_db.is_infinite() && good.psnr_frame_db.is_infinite());
+
+        // A frame without a mirror pixel (the method drew no mirror) and otherwise the right
+        // colours: every mirror pixel of the reference is a mask mismatch.
+        let mut none = t.clone();
+        none.mask.fill(0);
+        none.resolved.fill(0);
+        none.hit_position.fill(Vec3::NAN);
+        let r = report_of(&f, &none, &m);
+        assert_eq!((r.mask_missed, r.mask_extra, r.mirror_pixels), (64, 0, 64));
+        assert_eq!((r.error, r.mask_mismatch_fraction), (1.0, 1.0));
+        assert!(r.angular_mean_deg.is_nan(), "no angle to measure, not 0");
+
+        // A blank (black) frame.
+        let mut blank = none.clone();
+        blank.colour.fill(Vec3::ZERO);
+        let r = report_of(&f, &blank, &m);
+        assert_eq!(r.error, 1.0);
+        assert!(r.psnr_db < 15.0 && r.psnr_frame_db < 15.0, "{r:?}");
+
+        // Pure noise: random mask, colours and hits.
+        let mut noise = t.clone();
+        let mut x = 0x2545_f491u32;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            x as f32 / u32::MAX as f32
+        };
+        for k in 0..noise.mask.len() {
+            noise.mask[k] = u8::from(next() < 0.5);
+            noise.resolved[k] = noise.mask[k];
+            noise.colour[k] = Vec3::new(next(), next(), next());
+            noise.hit_position[k] = Vec3::new(next(), next(), next()) * 100.0;
+        }
+        let r = report_of(&f, &noise, &m);
+        assert!(r.mask_missed > 0 && r.mask_extra > 0, "{r:?}");
+        assert!(
+            r.mirror_pixels > 64,
+            "the union counts the method's mirror too: {r:?}"
+        );
+        assert!(r.error > 0.9, "{r:?}");
+        assert!(r.psnr_db < 15.0 && r.psnr_frame_db < 15.0, "{r:?}");
+
+        // A mirror where the reference has none, everything else right.
+        let mut extra = t.clone();
+        extra.mask[w_index(12, 3)] = 1;
+        extra.resolved[w_index(12, 3)] = 1;
+        let r = report_of(&f, &extra, &m);
+        assert_eq!((r.mask_missed, r.mask_extra, r.mirror_pixels), (0, 1, 65));
+        assert!((r.error - 1.0 / 65.0).abs() < 1e-12);
+
+        // Neither frame has a mirror pixel: no mirror figure to give (NaN), not "perfect".
+        let mut f0 = f.clone();
+        f0.mask.fill(0);
+        let r = report_of(&f0, &none, &m);
+        assert_eq!((r.mirror_pixels, r.error), (0, 0.0));
+        assert!(r.psnr_db.is_nan() && r.psnr_frame_db.is_infinite());
+    }
+
+    fn w_index(i: usize, j: usize) -> usize {
+        j * 16 + i
+    }
+
+    #[test]
+    fn whole_frame_psnr_sees_outside_the_mirror() {
+        let (f, mut t, m) = big_pair();
+        // Change a pixel outside the mirror: the mirror figures stay perfect, the frame's not.
+        t.colour[w_index(12, 3)] = Vec3::ONE;
+        let r = report_of(&f, &t, &m);
+        assert!(r.psnr_db.is_infinite());
+        assert!(
+            r.psnr_frame_db.is_finite() && r.psnr_frame_db > 20.0,
+            "{r:?}"
+        );
+        // Negative: the same change inside the mirror lowers both.
+        let (f, mut t, m) = big_pair();
+        t.colour[w_index(3, 3)] = Vec3::ONE;
+        let r = report_of(&f, &t, &m);
+        assert!(
+            r.psnr_db.is_finite() && r.psnr_frame_db.is_finite(),
+            "{r:?}"
+        );
+        assert!(r.psnr_db < r.psnr_frame_db);
     }
 
     #[test]
@@ -271,7 +459,7 @@ mod tests {
         t.mask[3] = 1;
         let bad = classify(&f, &t, &m, &[Vec3::ZERO], 64);
         let classes: Vec<_> = bad.iter().map(|p| p.class).collect();
-        assert_eq!(classes, [WrongSurface, Unresolved, WrongSurface, NotMirror]);
+        assert_eq!(classes, [WrongSurface, Unresolved, WrongSurface, MaskExtra]);
         assert!(bad[0].angle_deg.is_some_and(|a| a > 5.0));
         // A hit on the mirror point: wrong, and no angle (not NaN).
         let mut t = pair().1;

@@ -57,6 +57,95 @@ pub fn write_atomic_with(
     Ok(())
 }
 
+/// The longest file name part [`safe_file_stem`] returns, in bytes (file systems allow 255).
+pub const MAX_STEM: usize = 64;
+
+/// A file name part made from `name` (a scene or mesh name, which comes from a file and may hold
+/// anything): ASCII letters, digits, `-` and `_` are kept, every other character becomes `_`,
+/// so no `/`, `..`, control character or leading `-` can steer or break a path; at most
+/// [`MAX_STEM`] bytes; `unnamed` for an empty name.
+pub fn safe_file_stem(name: &str) -> String {
+    let s: String = name
+        .chars()
+        .take(MAX_STEM)
+        .enumerate()
+        .map(|(i, c)| {
+            if c.is_ascii_alphanumeric() || c == '_' || (c == '-' && i > 0) {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    if s.is_empty() { "unnamed".into() } else { s }
+}
+
+/// The nearest folder of `path`'s ancestors that exists (`.` for a relative path with none).
+fn existing_ancestor(path: &Path) -> &Path {
+    let mut dir = path;
+    while !dir.as_os_str().is_empty() {
+        if std::fs::symlink_metadata(dir).is_ok() {
+            return dir;
+        }
+        match dir.parent() {
+            Some(p) => dir = p,
+            None => break,
+        }
+    }
+    Path::new(".")
+}
+
+/// Checks, before any work, that files can be written into the folder `dir` (created later if
+/// needed): its nearest existing ancestor must be a folder in which a file can be created (an
+/// empty file is created and removed at once).
+pub fn check_folder(dir: &Path) -> Result<()> {
+    let base = existing_ancestor(dir);
+    if !base.is_dir() {
+        bail!(
+            "cannot write into {}: {} is not a folder",
+            dir.display(),
+            base.display()
+        );
+    }
+    // A file of our own, created and removed at once (the OS error says why, if it cannot be).
+    let probe = base.join(format!(
+        ".cubetrace-check-{}-{}",
+        std::process::id(),
+        std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.subsec_nanos())
+    ));
+    std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&probe)
+        .map_err(|e| {
+            anyhow::anyhow!(
+                "cannot write into {}: cannot create a file in {}: {e}",
+                dir.display(),
+                base.display(),
+            )
+        })?;
+    std::fs::remove_file(&probe)
+        .with_context(|| format!("cannot remove the test file {}", probe.display()))?;
+    Ok(())
+}
+
+/// Checks an output image path before the render: a known extension ([`Format`]), not a
+/// folder, and a folder it can be written into ([`check_folder`]).
+pub fn check_output(path: &Path) -> Result<Format> {
+    let format = Format::from_path(path)?;
+    if path.is_dir() {
+        bail!("output {}: is a folder", path.display());
+    }
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    check_folder(dir).with_context(|| format!("output {}", path.display()))?;
+    Ok(format)
+}
+
 /// The image formats the CLI writes, chosen by file extension.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Format {
@@ -207,6 +296,41 @@ mod tests {
             .unwrap()
             .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
             .collect()
+    }
+
+    #[test]
+    fn file_stems_are_safe() {
+        assert_eq!(safe_file_stem("sphere-room_2"), "sphere-room_2");
+        assert_eq!(safe_file_stem("../a/b"), "___a_b");
+        assert_eq!(safe_file_stem(".."), "__");
+        assert_eq!(safe_file_stem("-rf"), "_rf");
+        assert_eq!(safe_file_stem("a\u{0}\tb\u{7f}é"), "a__b__");
+        assert_eq!(safe_file_stem(""), "unnamed");
+        assert_eq!(safe_file_stem(&"x".repeat(300)).len(), MAX_STEM);
+        // Negative: a name with a separator is not kept as it is.
+        assert_ne!(safe_file_stem("a/b"), "a/b");
+    }
+
+    #[test]
+    fn output_checks() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("file");
+        std::fs::write(&file, b"x").unwrap();
+        assert!(check_output(&file.join("x.png")).is_err());
+        assert!(check_output(&file.join("a/b/x.png")).is_err());
+        assert!(check_output(dir.path()).is_err());
+        assert!(check_folder(&file).is_err());
+        // Negative: a file in an existing or a new folder passes, and the check leaves nothing.
+        assert_eq!(
+            check_output(&dir.path().join("x.exr")).unwrap(),
+            Format::Exr
+        );
+        assert_eq!(
+            check_output(&dir.path().join("new/x.png")).unwrap(),
+            Format::Png
+        );
+        check_folder(&dir.path().join("new/deeper")).unwrap();
+        assert_eq!(entries(dir.path()), vec!["file".to_string()]);
     }
 
     #[test]

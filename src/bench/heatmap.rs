@@ -7,7 +7,7 @@
 //!   (<= [`ANGLE_LO_DEG`]) through blue, green and yellow to red (>= [`ANGLE_HI_DEG`]);
 //!   pixels where both rays left the scene are black;
 //! - wrong surface: white; unresolved: magenta; mirror pixels the method's rasterisation missed:
-//!   cyan.
+//!   cyan; mirror pixels of the method where the reference has none: pink.
 
 use std::path::Path;
 
@@ -22,6 +22,11 @@ use crate::shading::linear_to_srgb;
 pub const ANGLE_LO_DEG: f64 = 0.01;
 /// Angular errors at or above this are red.
 pub const ANGLE_HI_DEG: f64 = 10.0;
+
+/// A mirror pixel of the reference that the method's rasterisation missed.
+pub const MASK_MISSED: [u8; 3] = [0, 255, 255];
+/// A mirror pixel of the method where the reference has none.
+pub const MASK_EXTRA: [u8; 3] = [255, 128, 192];
 
 /// The ramp colour of an angular error.
 pub fn ramp(angle_deg: f64) -> [u8; 3] {
@@ -53,7 +58,8 @@ pub fn pixels(reference: &Frame, errors: &[PixelError]) -> Vec<u8> {
                 let g = linear_to_srgb((c.x + c.y + c.z) / 3.0) / 4;
                 [g, g, g]
             }
-            PixelClass::MaskMissed => [0, 255, 255],
+            PixelClass::MaskMissed => MASK_MISSED,
+            PixelClass::MaskExtra => MASK_EXTRA,
             PixelClass::Unresolved => [255, 0, 255],
             PixelClass::WrongSurface => [255, 255, 255],
             PixelClass::Correct => e.angle_deg.map_or([0, 0, 0], ramp),
@@ -94,17 +100,26 @@ mod tests {
 
     #[test]
     fn classes_have_their_colours() {
-        let mut f = Frame::new(3, 1);
-        f.mask = vec![1, 1, 0];
+        let mut f = Frame::new(5, 1);
+        f.mask = vec![1, 1, 0, 1, 0];
         let e = |class, angle_deg| PixelError { class, angle_deg };
         let errs = [
             e(PixelClass::Unresolved, None),
             e(PixelClass::WrongSurface, Some(3.0)),
             e(PixelClass::NotMirror, None),
+            e(PixelClass::MaskMissed, None),
+            e(PixelClass::MaskExtra, None),
         ];
         let p = pixels(&f, &errs);
         assert_eq!(&p[0..3], &[255, 0, 255]);
         assert_eq!(&p[3..6], &[255, 255, 255]);
         assert_ne!(&p[6..9], &[255, 255, 255]);
+        assert_eq!(&p[9..12], &MASK_MISSED);
+        assert_eq!(&p[12..15], &MASK_EXTRA);
+        // Negative: the two mask colours differ from each other and from every other class.
+        for c in [MASK_MISSED, MASK_EXTRA] {
+            assert!(![[255, 0, 255], [255, 255, 255], [0, 0, 0]].contains(&c));
+        }
+        assert_ne!(MASK_MISSED, MASK_EXTRA);
     }
 }

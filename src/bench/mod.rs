@@ -528,6 +528,49 @@ pub fn prepare_scene(
     Ok((scene, camera))
 }
 
+/// Refuses, before anything renders, a grid whose largest run would not fit in memory
+/// ([`crate::memory`]): per scene, the reference frame (held through the scene's runs) beside
+/// the largest GPU method's device data and its read-back and comparison.
+fn check_memory(ctx: &GpuContext, cfg: &BenchConfig, prepared: &[(Scene, Camera)]) -> Result<()> {
+    use crate::memory;
+    use crate::output::Format;
+    let host_available = memory::host_available()?;
+    let device_available = memory::device_available(ctx.device_local_heap_bytes())?;
+    for (scene, camera) in prepared {
+        let pixels = u64::from(camera.width) * u64::from(camera.height);
+        let cmos = scene.cmo_centres().len() as u32;
+        let device = cfg
+            .methods
+            .iter()
+            .filter_map(|m| m.kind.gpu())
+            .map(|g| {
+                crate::vk::budget::device_bytes(
+                    camera.width,
+                    camera.height,
+                    g,
+                    cmos,
+                    scene.cmo.resolution,
+                    scene.self_reflections,
+                )
+                .total()
+            })
+            .max()
+            .unwrap_or(0);
+        let mut host = memory::reference_bytes(pixels, Format::Png)
+            + memory::gpu_host_bytes(pixels, Format::Png, true);
+        if ctx.device_is_cpu() {
+            host += device;
+        }
+        let what = format!(
+            "bench scene '{}' at {}x{} ({cmos} CMOs of {}^2 texels per face)",
+            scene.name, camera.width, camera.height, scene.cmo.resolution
+        );
+        memory::check(&what, host, host_available.clone())?;
+        memory::check(&what, device, Some(device_available.clone()))?;
+    }
+    Ok(())
+}
+
 /// The reference frame of one scene, with its wall times per frame (ns).
 pub struct ReferenceRun {
     pub frame: Frame,
@@ -642,15 +685,15 @@ pub fn pass_stats(pass_ns: &[Vec<PassTime>]) -> Vec<PassStats> {
         .collect()
 }
 
-/// FLIP mean (LDR) over the reference's mirror pixels, on 8-bit sRGB images of the whole frame;
-/// `None` when built without the `flip` feature.
+/// FLIP mean (LDR) over the mirror pixels of either frame ([`metrics`]), on 8-bit sRGB images
+/// of the whole frame; `None` when built without the `flip` feature.
 #[cfg(not(feature = "flip"))]
 pub fn flip_mean(_reference: &Frame, _traced: &Traced) -> Option<f64> {
     None
 }
 
-/// FLIP mean (LDR) over the reference's mirror pixels, on 8-bit sRGB images of the whole frame;
-/// `None` when built without the `flip` feature.
+/// FLIP mean (LDR) over the mirror pixels of either frame ([`metrics`]), on 8-bit sRGB images
+/// of the whole frame; `None` when built without the `flip` feature.
 #[cfg(feature = "flip")]
 pub fn flip_mean(reference: &Frame, traced: &Traced) -> Option<f64> {
     let srgb = |c: &[glam::Vec3]| -> Vec<u8> {
@@ -664,9 +707,9 @@ pub fn flip_mean(reference: &Frame, traced: &Traced) -> Option<f64> {
     let err = nv_flip::flip(r, t, nv_flip::DEFAULT_PIXELS_PER_DEGREE).to_vec();
     let (sum, n) = err
         .iter()
-        .zip(&reference.mask)
-        .filter(|(_, m)| **m != 0)
-        .fold((0f64, 0usize), |(s, n), (e, _)| (s + f64::from(*e), n + 1));
+        .enumerate()
+        .filter(|(k, _)| reference.mask[*k] != 0 || traced.mask[*k] != 0)
+        .fold((0f64, 0usize), |(s, n), (_, e)| (s + f64::from(*e), n + 1));
     Some(if n == 0 { 0.0 } else { sum / n as f64 })
 }
 
@@ -694,9 +737,17 @@ pub fn run(
         None => 0,
     };
     bar.set_length((cfg.scenes.len() * (1 + gpu_methods + floor_runs)) as u64);
+    // Every scene is loaded and checked before anything renders.
+    let prepared = cfg
+        .scenes
+        .iter()
+        .map(|name| prepare_scene(name, cfg.width, cfg.height, cfg.cube_size, cfg.cmos))
+        .collect::<Result<Vec<_>>>()?;
+    check_memory(ctx, cfg, &prepared)?;
     let mut runs = Vec::new();
-    for name in &cfg.scenes {
-        let (scene, camera) = prepare_scene(name, cfg.width, cfg.height, cfg.cube_size, cfg.cmos)?;
+    // Heat map paths given so far: two scenes of one (sanitised) name get their own files.
+    let mut heat_paths: Vec<String> = Vec::new();
+    for (name, (scene, camera)) in cfg.scenes.iter().zip(prepared) {
         bar.set_message(format!("{name}: reference"));
         // The reference is needed for every error figure, even when it is not a listed method.
         let refr = run_reference(&scene, &camera, cfg.warmup, cfg.frames);
@@ -747,11 +798,7 @@ pub fn run(
                     total_ns: wall,
                     trace_ns_per_mirror_px: reflected.median / mirror.max(1) as f64,
                     ns_per_ray: reflected.median / refr.reflected_rays.max(1) as f64,
-                    error: ErrorReport {
-                        mirror_pixels: mirror,
-                        psnr_db: f64::INFINITY,
-                        ..ErrorReport::default()
-                    },
+                    error: ErrorReport::exact(mirror),
                     ..base(spec)
                 });
                 continue;
@@ -806,7 +853,15 @@ pub fn run(
             };
             let rays = g.frame.mirror_pixels();
             let heatmap = if cfg.heatmaps {
-                let rel = format!("heat/{}-{label}.png", scene.name);
+                // The scene's name comes from its file: only a sanitised form enters the path.
+                let stem = format!("{}-{label}", crate::output::safe_file_stem(&scene.name));
+                let mut rel = format!("heat/{stem}.png");
+                let mut k = 2;
+                while heat_paths.contains(&rel) {
+                    rel = format!("heat/{stem}-{k}.png");
+                    k += 1;
+                }
+                heat_paths.push(rel.clone());
                 heatmap::write(&cfg.out.join(&rel), &refr.frame, &pixels)?;
                 Some(rel)
             } else {

@@ -6,7 +6,10 @@
 //!
 //! The per-method summary pools a method's runs over the scenes: costs are summed and divided by
 //! the summed mirror pixels; fractions, counters, mean angles and FLIP are averages weighted by
-//! mirror pixels; p95 is the worst scene's; PSNR is the plain mean over scenes.
+//! mirror pixels; p95 is the worst scene's; PSNR is the plain mean over scenes. A figure that a
+//! run cannot give (NaN: no mirror pixel, no pair of hits) is left out of its pool and printed
+//! as `-`. Mask mismatch (mirror pixels of one frame only, [`crate::metrics`]) is a column of
+//! its own and part of the plot's error.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -27,12 +30,22 @@ pub struct Summary {
     pub trace_ns_per_mirror_px: f64,
     pub cells: f64,
     pub texels: f64,
+    pub mask_mismatch: f64,
     pub unresolved: f64,
     pub wrong_surface: f64,
     pub angular_mean_deg: f64,
     pub angular_p95_deg: f64,
     pub psnr_db: f64,
+    pub psnr_frame_db: f64,
     pub flip_mean: Option<f64>,
+}
+
+/// The mean of the values that are not NaN (NaN if none is).
+fn mean_known(values: impl Iterator<Item = f64>) -> f64 {
+    let (sum, n) = values
+        .filter(|v| !v.is_nan())
+        .fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
+    if n == 0 { f64::NAN } else { sum / n as f64 }
 }
 
 /// Pools runs per method, in first-appearance order.
@@ -56,6 +69,20 @@ pub fn summarise(runs: &[RunResult]) -> Vec<Summary> {
                     / w
             };
             let flips: Vec<f64> = rs.iter().filter_map(|r| r.flip_mean).collect();
+            // Weighted over the runs where the figure exists.
+            let weighted_known = |f: &dyn Fn(&RunResult) -> f64| {
+                let known: Vec<&&RunResult> = rs.iter().filter(|r| !f(r).is_nan()).collect();
+                let w: usize = known.iter().map(|r| r.mirror_pixels).sum();
+                if known.is_empty() {
+                    f64::NAN
+                } else {
+                    known
+                        .iter()
+                        .map(|r| f(r) * r.mirror_pixels as f64)
+                        .sum::<f64>()
+                        / w.max(1) as f64
+                }
+            };
             Summary {
                 method: m.to_string(),
                 kind: rs[0].kind,
@@ -64,14 +91,18 @@ pub fn summarise(runs: &[RunResult]) -> Vec<Summary> {
                 trace_ns_per_mirror_px: rs.iter().map(|r| r.trace_ns.median).sum::<f64>() / w,
                 cells: weighted(&|r| r.counters.cells),
                 texels: weighted(&|r| r.counters.texels),
+                mask_mismatch: weighted(&|r| r.error.mask_mismatch_fraction),
                 unresolved: weighted(&|r| r.error.unresolved),
                 wrong_surface: weighted(&|r| r.error.wrong_surface),
-                angular_mean_deg: weighted(&|r| r.error.angular_mean_deg),
+                angular_mean_deg: weighted_known(&|r| r.error.angular_mean_deg),
                 angular_p95_deg: rs
                     .iter()
                     .map(|r| r.error.angular_p95_deg)
-                    .fold(0.0, f64::max),
-                psnr_db: rs.iter().map(|r| r.error.psnr_db).sum::<f64>() / rs.len() as f64,
+                    .filter(|a| !a.is_nan())
+                    .reduce(f64::max)
+                    .unwrap_or(f64::NAN),
+                psnr_db: mean_known(rs.iter().map(|r| r.error.psnr_db)),
+                psnr_frame_db: mean_known(rs.iter().map(|r| r.error.psnr_frame_db)),
                 flip_mean: (flips.len() == rs.len())
                     .then(|| weighted(&|r| r.flip_mean.unwrap_or(0.0))),
             }
@@ -84,7 +115,9 @@ fn pct(x: f64) -> String {
 }
 
 fn num(x: f64, digits: usize) -> String {
-    if x.is_infinite() {
+    if x.is_nan() {
+        "-".into()
+    } else if x.is_infinite() {
         "inf".into()
     } else {
         format!("{x:.digits$}")
@@ -113,24 +146,26 @@ pub fn header(report: &BenchReport) -> String {
 pub fn summary_table(report: &BenchReport) -> String {
     let mut s = String::new();
     s.push_str(
-        "| method | scenes | mirror px | ns/mirror px | cells/ray | texels/ray | unresolved % | wrong surface % | angle mean deg | angle p95 deg | PSNR dB | FLIP |\n\
-         |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+        "| method | scenes | mirror px | ns/mirror px | cells/ray | texels/ray | mask mismatch % | unresolved % | wrong surface % | angle mean deg | angle p95 deg | PSNR dB | PSNR frame dB | FLIP |\n\
+         |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
     );
     for m in summarise(&report.runs) {
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
             m.method,
             m.scenes,
             m.mirror_pixels,
             num(m.trace_ns_per_mirror_px, 0),
             num(m.cells, 1),
             num(m.texels, 1),
+            pct(m.mask_mismatch),
             pct(m.unresolved),
             pct(m.wrong_surface),
             num(m.angular_mean_deg, 3),
             num(m.angular_p95_deg, 3),
             num(m.psnr_db, 2),
+            num(m.psnr_frame_db, 2),
             m.flip_mean.map_or("-".into(), |f| num(f, 4)),
         );
     }
@@ -141,14 +176,14 @@ pub fn summary_table(report: &BenchReport) -> String {
 pub fn runs_table(report: &BenchReport) -> String {
     let mut s = String::new();
     s.push_str(
-        "| scene | method | mirror px | trace ms (median [min, max]) | ns/mirror px | frame GPU ms | cells/ray | texels/ray | traces/ray | CMO MiB | unresolved % | wrong % | angle mean | angle p95 | PSNR dB | FLIP |\n\
-         |---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+        "| scene | method | mirror px | trace ms (median [min, max]) | ns/mirror px | frame GPU ms | cells/ray | texels/ray | traces/ray | CMO MiB | mask mismatch (ref only + method only) | unresolved % | wrong % | angle mean | angle p95 | PSNR dB | PSNR frame dB | FLIP |\n\
+         |---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
     );
     for r in &report.runs {
         let t = &r.trace_ns;
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {:.3} [{:.3}, {:.3}] | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {:.3} [{:.3}, {:.3}] | {} | {} | {} | {} | {} | {} | {} + {} | {} | {} | {} | {} | {} | {} | {} |",
             r.scene,
             r.method,
             r.mirror_pixels,
@@ -165,11 +200,14 @@ pub fn runs_table(report: &BenchReport) -> String {
             num(r.counters.texels, 1),
             num(r.counters.traces, 2),
             num(r.cmo_bytes as f64 / (1024.0 * 1024.0), 2),
+            r.error.mask_missed,
+            r.error.mask_extra,
             pct(r.error.unresolved),
             pct(r.error.wrong_surface),
             num(r.error.angular_mean_deg, 3),
             num(r.error.angular_p95_deg, 3),
             num(r.error.psnr_db, 2),
+            num(r.error.psnr_frame_db, 2),
             r.flip_mean.map_or("-".into(), |f| num(f, 4)),
         );
     }
@@ -246,13 +284,15 @@ pub fn speed_error_svg(report: &BenchReport) -> Result<String> {
         .map(|m| Point {
             label: m.method,
             cost: m.trace_ns_per_mirror_px,
-            error: 100.0 * (m.unresolved + m.wrong_surface),
+            error: 100.0 * (m.mask_mismatch + m.unresolved + m.wrong_surface),
         })
         .collect();
     plot::scatter(
         &format!("speed against error on {}", report.device.name),
         "tracing pass, ns per mirror pixel (median, pooled over scenes)",
-        &format!("unresolved + wrong surface, % of mirror pixels (floor {PLOT_FLOOR_PCT})"),
+        &format!(
+            "mask mismatch + unresolved + wrong surface, % of mirror pixels (floor {PLOT_FLOOR_PCT})"
+        ),
         &points,
         PLOT_FLOOR_PCT,
     )
@@ -265,11 +305,12 @@ pub fn write(report: &BenchReport, dir: &Path) -> Result<Vec<PathBuf>> {
     let md = dir.join("bench.md");
     let doc = format!(
         "# cubetrace bench\n\n{}\n## Summary per method\n\n{}\nCost: the tracing pass alone (reference: CPU wall time of its reflected-ray phase). \
-         Error: against the exact CPU reference, over mirror pixels.\n\n## Cost per ray\n\n{}\nns/ray: the tracing pass's median time over the rays it traced (GPU: the method's mirror pixels; \
+         Error: against the exact CPU reference, over the mirror pixels of either frame (mask mismatch: a mirror pixel of one frame only; \
+         PSNR frame: the whole image).\n\n## Cost per ray\n\n{}\nns/ray: the tracing pass's median time over the rays it traced (GPU: the method's mirror pixels; \
          reference: the CPU wall time of its reflected-ray phase over its first reflected rays, shading at the hit included). \
          Default settings: `fragment` is fragment-exact-mip.\n\n## Runs\n\n{}\n## GPU time per pass\n\n{}\n\
          Heat maps (`heat/SCENE-METHOD.png`): grey = not a mirror pixel; black to red = angular error of the hit point, \
-         0.01 to 10 degrees, logarithmic; white = wrong surface; magenta = unresolved; cyan = mirror pixel missed by the method's rasterisation.\n",
+         0.01 to 10 degrees, logarithmic; white = wrong surface; magenta = unresolved; cyan = mirror pixel missed by the method's rasterisation; pink = mirror pixel of the method where the reference has none.\n",
         header(report),
         summary_table(report),
         ratios_table(report),
@@ -280,4 +321,110 @@ pub fn write(report: &BenchReport, dir: &Path) -> Result<Vec<PathBuf>> {
     let svg = dir.join("speed-error.svg");
     write_atomic(&svg, speed_error_svg(report)?.as_bytes())?;
     Ok(vec![json, md, svg])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{Counters, DeviceInfo, Stats};
+    use super::*;
+    use crate::metrics::ErrorReport;
+
+    fn run(scene: &str, error: ErrorReport) -> RunResult {
+        RunResult {
+            scene: scene.into(),
+            method: "envmap".into(),
+            kind: MethodKind::Envmap,
+            params: String::new(),
+            width: 10,
+            height: 10,
+            cube_size: 8,
+            cmos: 1,
+            triangles: 12,
+            mirror_pixels: 100,
+            rays: 100,
+            frames: 1,
+            passes: Vec::new(),
+            trace_ns: Stats::default(),
+            total_ns: Stats::default(),
+            trace_ns_per_mirror_px: 0.0,
+            ns_per_ray: 0.0,
+            floor: None,
+            counters: Counters::default(),
+            cmo_bytes: 0,
+            error,
+            flip_mean: None,
+            heatmap: None,
+        }
+    }
+
+    fn report(runs: Vec<RunResult>) -> BenchReport {
+        BenchReport {
+            device: DeviceInfo {
+                name: "test".into(),
+                driver_name: None,
+                driver_info: None,
+                api_version: "1.3.0".into(),
+                subgroup_size: 8,
+                timestamps: true,
+            },
+            git_commit: None,
+            cubetrace_version: "0",
+            cpu_threads: 1,
+            warmup: 0,
+            ratios: super::super::SceneRatios::of(&runs),
+            runs,
+        }
+    }
+
+    /// The cell of `column` in the first data row of a Markdown table.
+    fn cell(table: &str, column: &str) -> String {
+        let rows: Vec<Vec<&str>> = table
+            .lines()
+            .map(|l| l.trim_matches('|').split(" | ").map(str::trim).collect())
+            .collect();
+        let k = rows[0].iter().position(|h| *h == column).unwrap();
+        rows[2][k].to_string()
+    }
+
+    #[test]
+    fn mask_mismatch_and_frame_psnr_are_in_every_table() {
+        let good = ErrorReport {
+            psnr_frame_db: 30.0,
+            psnr_db: 20.0,
+            ..ErrorReport::exact(100)
+        };
+        // A run whose frame lost 5 mirror pixels and drew 3 where the reference has none; no
+        // angle to measure (NaN).
+        let bad = ErrorReport {
+            mask_missed: 5,
+            mask_extra: 3,
+            mask_mismatch: 8,
+            mask_mismatch_fraction: 0.08,
+            angular_mean_deg: f64::NAN,
+            angular_p95_deg: f64::NAN,
+            psnr_db: 10.0,
+            psnr_frame_db: 20.0,
+            ..ErrorReport::default()
+        };
+        let r = report(vec![run("a", good), run("b", bad)]);
+        let summary = summary_table(&r);
+        assert_eq!(cell(&summary, "mask mismatch %"), "4.00", "{summary}");
+        assert_eq!(cell(&summary, "PSNR frame dB"), "25.00", "{summary}");
+        // The NaN angle is left out of the pool, not averaged in as 0 or NaN.
+        assert_eq!(cell(&summary, "angle mean deg"), "0.000", "{summary}");
+        let runs = runs_table(&report(vec![run("b", bad)]));
+        assert_eq!(
+            cell(&runs, "mask mismatch (ref only + method only)"),
+            "5 + 3"
+        );
+        assert_eq!(cell(&runs, "angle mean"), "-");
+        assert_eq!(cell(&runs, "PSNR frame dB"), "20.00");
+        // The plot's error includes the mismatch.
+        let svg = speed_error_svg(&report(vec![run("b", bad)])).unwrap();
+        assert!(svg.contains("mask mismatch"), "axis label");
+        // Negative: without a mismatch the column reads 0.
+        let summary = summary_table(&report(vec![run("a", good)]));
+        assert_eq!(cell(&summary, "mask mismatch %"), "0.00");
+        assert_eq!(cell(&summary, "PSNR frame dB"), "30.00");
+    }
 }

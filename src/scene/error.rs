@@ -4,11 +4,12 @@ use std::path::PathBuf;
 /// line and the field.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
-    #[error("cannot read {}: {source}", path.display())]
+    /// The I/O error is part of the message, not a `source()`: a chain printer (`{:#}`) would
+    /// print it twice.
+    #[error("cannot read {}: {error}", path.display())]
     Io {
         path: PathBuf,
-        #[source]
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// Malformed TOML or an unknown field; `message` is the parser's, with line and column.
     #[error("{}: {message}", path.display())]
@@ -42,7 +43,7 @@ impl SceneError {
     pub(crate) fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
         SceneError::Io {
             path: path.into(),
-            source,
+            error: source,
         }
     }
 }

@@ -11,26 +11,11 @@ use super::file::{
     CameraFile, CmoFile, MeshFile, ScaleFile, SceneFile, ShadingFile, ShadingModel, TransformFile,
 };
 use super::{CmoPlacement, Scene};
-use crate::output::write_atomic;
+use crate::output::{safe_file_stem as safe, write_atomic};
 use crate::shading::Shading;
 
 fn sp<T>(v: T) -> Spanned<T> {
     Spanned::new(0..0, v)
-}
-
-/// A file-name-safe version of `name`.
-fn safe(name: &str) -> String {
-    let s: String = name
-        .chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect();
-    if s.is_empty() { "unnamed".into() } else { s }
 }
 
 /// Unique, file-safe names for a list.

@@ -263,6 +263,31 @@ impl GpuContext {
         &self.device.report
     }
 
+    /// The size of the device's largest device-local memory heap, in bytes: the most a
+    /// render's buffers and images can take.
+    pub fn device_local_heap_bytes(&self) -> u64 {
+        // SAFETY: `physical` was enumerated from this instance, which outlives the device.
+        let props = unsafe {
+            self.device
+                .instance
+                .raw
+                .get_physical_device_memory_properties(self.device.physical)
+        };
+        props
+            .memory_heaps_as_slice()
+            .iter()
+            .filter(|h| h.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL))
+            .map(|h| h.size)
+            .max()
+            .unwrap_or(0)
+    }
+
+    /// Whether the device is a CPU implementation (lavapipe): its device memory is the
+    /// machine's memory.
+    pub fn device_is_cpu(&self) -> bool {
+        self.device.report.device_type == vk::PhysicalDeviceType::CPU
+    }
+
     /// Optional features that are enabled.
     pub fn enabled_features(&self) -> EnabledFeatures {
         self.device.enabled

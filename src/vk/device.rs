@@ -137,7 +137,7 @@ impl Device {
                 unsafe { raw.destroy_device(None) };
                 return Err(VkError::Alloc {
                     what: "allocator".into(),
-                    source,
+                    error: source,
                 });
             }
         };

@@ -26,13 +26,21 @@ pub enum VkError {
         what: String,
         result: vk::Result,
     },
-    /// gpu-allocator failed to allocate or free memory.
-    #[error("memory allocation for `{what}` failed: {source}")]
+    /// gpu-allocator failed to allocate or free memory. The allocator's error is part of the
+    /// message, not a `source()`, so that a chain printer (`{:#}`) prints it once.
+    #[error("memory allocation for `{what}` failed: {error}")]
     Alloc {
         what: String,
-        #[source]
-        source: gpu_allocator::AllocationError,
+        error: gpu_allocator::AllocationError,
     },
+    /// Validation was required (`--validate`, `CUBETRACE_VALIDATION=1`) but the layer is not
+    /// installed.
+    #[error(
+        "validation was asked for (--validate or CUBETRACE_VALIDATION=1), but the Khronos \
+         validation layer {layer} is not installed; install it (Debian/Ubuntu: \
+         `sudo apt-get install vulkan-validationlayers`) or run without validation"
+    )]
+    NoValidationLayer { layer: String },
     /// A shader table entry could not be used (missing entry point, bad binding, …).
     #[error("shader pass `{pass}`: {detail}")]
     Shader { pass: String, detail: String },
@@ -68,7 +76,7 @@ pub(crate) fn alloc_err(
     what: impl Into<String>,
 ) -> impl FnOnce(gpu_allocator::AllocationError) -> VkError {
     let what = what.into();
-    move |source| VkError::Alloc { what, source }
+    move |error| VkError::Alloc { what, error }
 }
 
 #[cfg(test)]

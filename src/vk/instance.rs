@@ -28,7 +28,7 @@ pub enum Validation {
     Off,
     /// Use the layer when it is installed; proceed without it (with a log line) when not.
     IfAvailable,
-    /// Fail with [`VkError::MissingFeature`] when the layer is not installed.
+    /// Fail with [`VkError::NoValidationLayer`] when the layer is not installed.
     Required,
 }
 
@@ -106,12 +106,8 @@ impl Instance {
                 false
             }
             (Validation::Required, false) => {
-                return Err(VkError::MissingFeature {
-                    device: "instance".into(),
-                    feature: format!(
-                        "{} (install it: `sudo apt-get install vulkan-validationlayers`)",
-                        VALIDATION_LAYER.to_string_lossy()
-                    ),
+                return Err(VkError::NoValidationLayer {
+                    layer: VALIDATION_LAYER.to_string_lossy().into_owned(),
                 });
             }
         };

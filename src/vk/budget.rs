@@ -1,0 +1,95 @@
+//! GPU memory of a render, estimated before anything is allocated, from the sizes that
+//! [`super::frame::GpuRenderer::new`] and the objects it creates use. Pure arithmetic: no Vulkan
+//! call. The scene's own buffers (vertices, indices, textures) are not counted: they are the
+//! size of the scene's files, small against frames and CMOs at the sizes where a refusal matters.
+
+use super::compute::AppendedRay;
+use super::frame::{GpuMethod, PixelRecord};
+use crate::cubemap::pyramid::{hier32_len, mip_len};
+
+/// Bytes per texel of one face of one CMO: f32 distances (`cmo_distance`), RGBA f32 colour
+/// (`cmo_colour`), the capture pass's f32 distance target, and with self-reflections the
+/// capture's normal target and `cmo_normal` (RGBA f32 each).
+pub fn cmo_bytes_per_texel(self_reflections: bool) -> u64 {
+    4 + 16 + 4 + if self_reflections { 16 + 16 } else { 0 }
+}
+
+/// Bytes per frame pixel: the pixel records, the frame colour (RGBA f32), the G-buffer (colour,
+/// position, normal: RGBA f32 each; depth f32), and for the compute path the ray queue and the
+/// per-ray statistics.
+pub fn frame_bytes_per_pixel(method: GpuMethod) -> u64 {
+    let records = size_of::<PixelRecord>() as u64;
+    let gbuffer = 3 * 16 + 4;
+    let compute = if method == GpuMethod::Compute {
+        size_of::<AppendedRay>() as u64 + 16
+    } else {
+        0
+    };
+    records + 16 + gbuffer + compute
+}
+
+/// What a render allocates on the device, in bytes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DeviceBytes {
+    /// Per-pixel buffers and images of the frame.
+    pub frame: u64,
+    /// CMO data (distances, colours, capture targets, pyramid or hierarchy).
+    pub cmo: u64,
+}
+
+impl DeviceBytes {
+    pub fn total(&self) -> u64 {
+        self.frame + self.cmo
+    }
+}
+
+/// The device memory of one render of `width` x `height` pixels with `cmos` CMOs of
+/// `cube_size` texels per face side.
+pub fn device_bytes(
+    width: u32,
+    height: u32,
+    method: GpuMethod,
+    cmos: u32,
+    cube_size: u32,
+    self_reflections: bool,
+) -> DeviceBytes {
+    let pixels = u64::from(width) * u64::from(height);
+    let face = u64::from(cube_size) * u64::from(cube_size);
+    let texels = u64::from(cmos) * 6 * face;
+    // [min, max] f32 pairs per cell.
+    let acceleration = match method {
+        GpuMethod::Fragment => u64::from(cmos) * mip_len(cube_size) as u64 * 8,
+        GpuMethod::Compute => u64::from(cmos) * hier32_len(cube_size) as u64 * 8,
+        GpuMethod::Envmap => 0,
+    };
+    DeviceBytes {
+        frame: pixels * frame_bytes_per_pixel(method),
+        // The capture's depth target: one face at a time.
+        cmo: texels * cmo_bytes_per_texel(self_reflections) + face * 4 + acceleration,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes_grow_with_what_they_depend_on() {
+        let base = device_bytes(160, 120, GpuMethod::Fragment, 1, 256, false);
+        // 6 * 256^2 texels of 24 bytes, plus the pyramid: about 9.4 MiB + 2.x MiB.
+        assert!(base.cmo > 6 * 256 * 256 * 24, "{base:?}");
+        assert!(base.cmo < 6 * 256 * 256 * 40, "{base:?}");
+        assert!(base.frame >= 160 * 120 * (96 + 16 + 52), "{base:?}");
+        // Negative: each input changes the estimate the way it should.
+        let twice = device_bytes(160, 120, GpuMethod::Fragment, 2, 256, false);
+        assert!(twice.cmo > 2 * base.cmo - 6 * 256 * 256);
+        let big = device_bytes(320, 240, GpuMethod::Fragment, 1, 256, false);
+        assert_eq!(big.frame, 4 * base.frame);
+        let selfr = device_bytes(160, 120, GpuMethod::Fragment, 1, 256, true);
+        assert!(selfr.cmo > base.cmo);
+        let compute = device_bytes(160, 120, GpuMethod::Compute, 1, 256, false);
+        assert!(compute.frame > base.frame);
+        let envmap = device_bytes(160, 120, GpuMethod::Envmap, 1, 256, false);
+        assert!(envmap.cmo < base.cmo);
+    }
+}

@@ -1,0 +1,595 @@
+//! The command line as a user meets it: the built binary run in a temporary folder, on small
+//! frames. Output paths, refusals before the render, messages. Every check has its negative
+//! side: the same command with the problem removed must pass.
+
+mod common;
+
+use std::path::Path;
+use std::process::Command;
+
+use cubetrace::scene::{builtin, export};
+use cubetrace::vk::budget;
+use cubetrace::vk::frame::{Fallback, GpuMethod, GpuRenderer, RenderOptions};
+
+struct Outcome {
+    code: Option<i32>,
+    stdout: String,
+    stderr: String,
+}
+
+fn run_env(args: &[&str], cwd: &Path, env: &[(&str, &str)]) -> Outcome {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_cubetrace"));
+    cmd.args(args)
+        .current_dir(cwd)
+        .env("XDG_RUNTIME_DIR", "/tmp");
+    for (k, v) in env {
+        cmd.env(k, v);
+    }
+    let out = cmd.output().unwrap();
+    Outcome {
+        code: out.status.code(),
+        stdout: String::from_utf8_lossy(&out.stdout).into_owned(),
+        stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
+    }
+}
+
+fn run(args: &[&str], cwd: &Path) -> Outcome {
+    run_env(args, cwd, &[])
+}
+
+/// Every file under `dir`, relative, sorted.
+fn files(dir: &Path) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                out.push(p.strip_prefix(dir).unwrap().display().to_string());
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+/// A clean failure: exit status 1, no panic, exactly one `error:` line containing every needle.
+fn assert_clean_failure(o: &Outcome, needles: &[&str]) {
+    assert_eq!(o.code, Some(1), "exit status; stderr: {}", o.stderr);
+    assert!(!o.stderr.contains("panicked"), "{}", o.stderr);
+    let errors = o.stderr.lines().filter(|l| l.starts_with("error:")).count();
+    assert_eq!(errors, 1, "one error message: {}", o.stderr);
+    for n in needles {
+        assert!(o.stderr.contains(n), "expected '{n}' in: {}", o.stderr);
+    }
+}
+
+fn occurrences(haystack: &str, needle: &str) -> usize {
+    haystack.matches(needle).count()
+}
+
+// ---- Item 8: messages ----
+
+#[test]
+fn the_cause_is_printed_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = run(&["render", "missing/scene.toml", "-o", "x.png"], dir.path());
+    assert_clean_failure(&o, &["missing/scene.toml", "cannot read"]);
+    // The OS error's text, once (it used to follow the message a second time).
+    let cause = std::io::Error::from_raw_os_error(2).to_string();
+    assert!(cause.contains("os error 2"), "{cause}");
+    assert_eq!(occurrences(&o.stderr, &cause), 1, "{}", o.stderr);
+    // Negative: the counter does see a doubled cause.
+    let doubled = format!("error: cannot read x: {cause}: {cause}");
+    assert_eq!(occurrences(&doubled, &cause), 2);
+}
+
+#[test]
+fn validate_without_the_layer_says_what_to_install() {
+    let dir = tempfile::tempdir().unwrap();
+    // An explicit layer path with no layers in it hides the installed validation layer.
+    let empty = tempfile::tempdir().unwrap();
+    let hidden = [("VK_LAYER_PATH", empty.path().to_str().unwrap())];
+    let o = run_env(&["info", "--validate"], dir.path(), &hidden);
+    assert_clean_failure(
+        &o,
+        &[
+            "VK_LAYER_KHRONOS_validation",
+            "is not installed",
+            "apt-get install vulkan-validationlayers",
+        ],
+    );
+    // Not dressed up as a device feature, and not nested quotes.
+    assert!(!o.stderr.contains("lacks required feature"), "{}", o.stderr);
+    assert!(!o.stderr.contains("`instance`"), "{}", o.stderr);
+    // Negative: without --validate the same environment lists the devices.
+    let o = run_env(&["info"], dir.path(), &hidden);
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+}
+
+#[test]
+fn negative_eps_gets_our_message() {
+    let dir = tempfile::tempdir().unwrap();
+    for form in [
+        &["--eps", "-1"][..],
+        &["--eps=-1"],
+        &["--eps", "0"],
+        &["--eps=inf"],
+    ] {
+        let mut args = vec!["render", "--method", "fragment", "-o", "x.png"];
+        args.extend_from_slice(form);
+        let o = run(&args, dir.path());
+        assert_ne!(o.code, Some(0), "{form:?}");
+        assert!(
+            o.stderr.contains("--eps") && o.stderr.contains("must be a positive"),
+            "{form:?}: {}",
+            o.stderr
+        );
+        assert!(!o.stderr.contains("unexpected argument"), "{}", o.stderr);
+        assert!(!dir.path().join("x.png").exists());
+    }
+    // Negative: a positive value passes the parser (and the command then fails on the output
+    // extension, which shows that the value was accepted without rendering anything).
+    let o = run(&["render", "--eps", "0.1", "-o", "x.jpg"], dir.path());
+    assert_clean_failure(&o, &["x.jpg", "unsupported extension"]);
+}
+
+#[test]
+fn scene_export_suggests_the_next_command() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = run(&["scene", "export", "spheer-room", "x"], dir.path());
+    assert_clean_failure(
+        &o,
+        &[
+            "unknown scene 'spheer-room'",
+            "sphere-room",
+            "cubetrace scene export",
+        ],
+    );
+    // A scene file is not something to export: the suggestion is to render it.
+    std::fs::write(dir.path().join("mine.toml"), "").unwrap();
+    let o = run(&["scene", "export", "mine.toml", "x"], dir.path());
+    assert_clean_failure(&o, &["mine.toml", "cubetrace render mine.toml"]);
+    assert!(!dir.path().join("x").exists());
+    // Negative: a built-in name exports.
+    let o = run(&["scene", "export", "bowl", "x"], dir.path());
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+    assert!(dir.path().join("x/scene.toml").is_file());
+}
+
+#[test]
+fn strict_help_claims_what_the_hard_cases_show() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = run(&["render", "--help"], dir.path());
+    assert_eq!(o.code, Some(0));
+    let help = o.stdout.replace('\n', " ");
+    let help = help.split_whitespace().collect::<Vec<_>>().join(" ");
+    assert!(help.contains("tests/hard_cases.rs"), "{help}");
+    assert!(help.contains("against the reference"), "{help}");
+    // The old claim, which the bench's wrong-surface figures for strict mode contradict.
+    assert!(!help.contains("Never a silent wrong hit"), "{help}");
+}
+
+// ---- Item 6: output paths ----
+
+/// A built-in scene exported to `dir`, renamed to `name`.
+fn renamed_scene(dir: &Path, name: &str) -> std::path::PathBuf {
+    let path = export::export(&builtin::by_name("bowl").unwrap(), dir).unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    let line = text.lines().find(|l| l.starts_with("name = ")).unwrap();
+    let quoted = toml::Value::String(name.into()).to_string();
+    std::fs::write(&path, text.replacen(line, &format!("name = {quoted}"), 1)).unwrap();
+    path
+}
+
+#[test]
+fn scene_name_does_not_steer_the_default_output_path() {
+    let root = tempfile::tempdir().unwrap();
+    let work = root.path().join("work");
+    std::fs::create_dir_all(work.join("scene")).unwrap();
+    let evil = "../../escaped/\u{7}x\ny";
+    let scene = renamed_scene(&work.join("scene"), evil);
+    let o = run(
+        &[
+            "render",
+            scene.to_str().unwrap(),
+            "--method",
+            "reference",
+            "--width",
+            "4",
+            "--height",
+            "3",
+        ],
+        &work,
+    );
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+    let written: Vec<String> = files(root.path())
+        .into_iter()
+        .filter(|f| f.ends_with(".png") && !f.starts_with("work/scene/"))
+        .collect();
+    assert_eq!(written, ["work/out/______escaped__x_y-reference.png"]);
+    assert!(!root.path().join("escaped").exists());
+    // Negative: a plain name is kept as it is.
+    let scene = renamed_scene(&work.join("scene"), "plain-name_2");
+    let o = run(
+        &[
+            "render",
+            scene.to_str().unwrap(),
+            "--method",
+            "reference",
+            "--width",
+            "4",
+            "--height",
+            "3",
+        ],
+        &work,
+    );
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+    assert!(work.join("out/plain-name_2-reference.png").is_file());
+}
+
+#[test]
+fn output_problems_are_found_before_the_render() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("file"), "x").unwrap();
+    std::fs::create_dir(dir.path().join("folder.png")).unwrap();
+    // A frame that would take minutes: a refusal that comes after the render would time out
+    // the test, and it must come in well under that.
+    let slow = [
+        "--method",
+        "reference",
+        "--width",
+        "4000",
+        "--height",
+        "3000",
+    ];
+    for (out, needle) in [
+        ("file/x.png", "is not a folder"),
+        ("file/sub/x.exr", "is not a folder"),
+        ("folder.png", "is a folder"),
+        ("x.jpg", "unsupported extension"),
+    ] {
+        let mut args = vec!["render", "sphere-room", "-o", out];
+        args.extend_from_slice(&slow);
+        let start = std::time::Instant::now();
+        let o = run(&args, dir.path());
+        assert_clean_failure(&o, &[out, needle]);
+        assert!(
+            start.elapsed().as_secs() < 20,
+            "{out}: refused only after {:?}",
+            start.elapsed()
+        );
+    }
+    assert_eq!(files(dir.path()), ["file"]);
+    // Negative: a folder that does not exist yet is fine (it is created).
+    let o = run(
+        &[
+            "render",
+            "bowl",
+            "--method",
+            "reference",
+            "--width",
+            "4",
+            "--height",
+            "3",
+            "-o",
+            "new/sub/x.png",
+        ],
+        dir.path(),
+    );
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+    assert!(dir.path().join("new/sub/x.png").is_file());
+}
+
+#[test]
+fn bench_checks_every_scene_before_rendering() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = run(
+        &[
+            "bench",
+            "--scenes",
+            "bowl,no-such-scene",
+            "--methods",
+            "envmap",
+            "--width",
+            "8",
+            "--height",
+            "6",
+            "--frames",
+            "1",
+            "--warmup",
+            "0",
+            "-o",
+            "b",
+        ],
+        dir.path(),
+    );
+    assert_clean_failure(&o, &["no-such-scene"]);
+    // Nothing was rendered or written: not even the first scene's heat map.
+    assert!(files(dir.path()).is_empty(), "{:?}", files(dir.path()));
+    // A bench output folder that cannot be made is found before any work too.
+    std::fs::write(dir.path().join("file"), "x").unwrap();
+    let o = run(&["bench", "--scenes", "bowl", "-o", "file/b"], dir.path());
+    assert_clean_failure(&o, &["file/b", "is not a folder"]);
+}
+
+#[test]
+fn bench_heat_map_names_are_sanitised() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir(dir.path().join("scene")).unwrap();
+    let scene = renamed_scene(&dir.path().join("scene"), "../up");
+    std::fs::create_dir(dir.path().join("other")).unwrap();
+    // Another scene whose name sanitises to the same file name.
+    let other = renamed_scene(&dir.path().join("other"), "__/up");
+    let scenes = format!("{},{}", scene.display(), other.display());
+    let o = run(
+        &[
+            "bench",
+            "--scenes",
+            &scenes,
+            "--methods",
+            "envmap",
+            "--width",
+            "8",
+            "--height",
+            "6",
+            "--frames",
+            "1",
+            "--warmup",
+            "0",
+            "--no-flip",
+            "-o",
+            "b",
+        ],
+        dir.path(),
+    );
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+    let heat: Vec<String> = files(dir.path())
+        .into_iter()
+        .filter(|f| f.contains("heat"))
+        .collect();
+    assert_eq!(
+        heat,
+        ["b/heat/___up-envmap-2.png", "b/heat/___up-envmap.png"]
+    );
+    let json = std::fs::read_to_string(dir.path().join("b/bench.json")).unwrap();
+    assert!(json.contains("\"heat/___up-envmap-2.png\""), "{json}");
+    // Negative: the unsanitised name would have left the heat folder.
+    assert!(!dir.path().join("b/up-envmap.png").exists());
+}
+
+#[test]
+fn scene_export_does_not_overwrite_without_force() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = run(&["scene", "export", "bowl", "x"], dir.path());
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+    let toml = dir.path().join("x/scene.toml");
+    std::fs::write(&toml, "# my edits\n").unwrap();
+    let o = run(&["scene", "export", "torus", "x"], dir.path());
+    assert_clean_failure(&o, &["x/scene.toml", "already exists", "--force"]);
+    assert_eq!(std::fs::read_to_string(&toml).unwrap(), "# my edits\n");
+    // Negative: --force overwrites.
+    let o = run(&["scene", "export", "torus", "x", "--force"], dir.path());
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+    assert!(
+        std::fs::read_to_string(&toml)
+            .unwrap()
+            .contains("scene 'torus'")
+    );
+}
+
+// ---- Item 2: --compare counts both sides ----
+
+#[test]
+fn compare_reports_both_masks_and_the_whole_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = run(
+        &[
+            "render",
+            "bowl",
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--compare",
+            "-o",
+            "x.png",
+        ],
+        dir.path(),
+    );
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+    let line = o
+        .stdout
+        .lines()
+        .find(|l| l.starts_with("against the reference"))
+        .unwrap_or_else(|| panic!("no comparison in: {}", o.stdout));
+    for needle in [
+        "mirror pixels (either frame)",
+        "in error: mask mismatch",
+        "only in the reference",
+        "only here",
+        "dB over mirror pixels",
+        "dB over the frame",
+    ] {
+        assert!(line.contains(needle), "'{needle}' in: {line}");
+    }
+    // A rendered frame has figures, not "inf" or NaN.
+    assert!(!line.contains("inf") && !line.contains("NaN"), "{line}");
+}
+
+#[test]
+fn bench_outputs_carry_mask_mismatch_and_frame_psnr() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = run_env(
+        &[
+            "bench",
+            "--scenes",
+            "bowl",
+            "--methods",
+            "envmap",
+            "--width",
+            "16",
+            "--height",
+            "12",
+            "--frames",
+            "1",
+            "--warmup",
+            "0",
+            "--no-flip",
+            "--no-heatmaps",
+            "-o",
+            "b",
+        ],
+        dir.path(),
+        // Under a cap it fits in (the negative side of the bench's memory refusal).
+        &[("CUBETRACE_MEMORY_LIMIT", "1G")],
+    );
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+    assert!(o.stdout.contains("| mask mismatch % |"), "{}", o.stdout);
+    assert!(o.stdout.contains("| PSNR frame dB |"), "{}", o.stdout);
+    let md = std::fs::read_to_string(dir.path().join("b/bench.md")).unwrap();
+    assert!(
+        md.contains("mask mismatch (ref only + method only)"),
+        "{md}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("b/bench.json")).unwrap())
+            .unwrap();
+    let error = &json["runs"][0]["error"];
+    for field in [
+        "mask_missed",
+        "mask_extra",
+        "mask_mismatch_fraction",
+        "error",
+    ] {
+        assert!(error[field].is_number(), "{field}: {error}");
+    }
+    assert!(error["psnr_frame_db"].as_f64().unwrap() > 0.0, "{error}");
+    // Negative: a field that does not exist reads as absent, so the checks above can fail.
+    assert!(error["no_such_field"].is_null());
+}
+
+// ---- Item 7: memory ----
+
+#[test]
+fn a_render_too_large_for_memory_is_refused_before_it_starts() {
+    let dir = tempfile::tempdir().unwrap();
+    // The command: it grew past 14 GB. Capped at 8 GiB it must be refused at once, with
+    // the figure, whatever memory the test machine has.
+    let cap = [("CUBETRACE_MEMORY_LIMIT", "8G")];
+    for method in ["reference", "compute"] {
+        let start = std::time::Instant::now();
+        let o = run_env(
+            &[
+                "render", "--method", method, "--width", "16384", "--height", "16384", "-o",
+                "big.png",
+            ],
+            dir.path(),
+            &cap,
+        );
+        assert_clean_failure(
+            &o,
+            &[
+                "16384x16384",
+                &format!("--method {method}"),
+                "GiB of memory",
+                "8.00 GiB",
+                "CUBETRACE_MEMORY_LIMIT",
+            ],
+        );
+        assert!(start.elapsed().as_secs() < 20, "{:?}", start.elapsed());
+    }
+    // The GPU's CMO data counts too: a tiny frame with huge cube maps.
+    let o = run_env(
+        &[
+            "render",
+            "--cube-size",
+            "4096",
+            "--cmos",
+            "16",
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "-o",
+            "big.png",
+        ],
+        dir.path(),
+        &cap,
+    );
+    assert_clean_failure(&o, &["16 CMOs of 4096^2 texels", "GiB of GPU data"]);
+    assert!(files(dir.path()).is_empty(), "{:?}", files(dir.path()));
+    // The bench checks every scene's largest run before it renders anything.
+    let o = run_env(
+        &[
+            "bench",
+            "--scenes",
+            "bowl",
+            "--methods",
+            "envmap",
+            "--width",
+            "4096",
+            "--height",
+            "4096",
+            "-o",
+            "b",
+        ],
+        dir.path(),
+        &[("CUBETRACE_MEMORY_LIMIT", "256M")],
+    );
+    assert_clean_failure(&o, &["bench scene 'bowl' at 4096x4096", "256.0 MiB"]);
+    assert!(files(dir.path()).is_empty(), "{:?}", files(dir.path()));
+    // A malformed cap is named.
+    let o = run_env(
+        &["render", "--method", "reference", "-o", "x.png"],
+        dir.path(),
+        &[("CUBETRACE_MEMORY_LIMIT", "lots")],
+    );
+    assert_clean_failure(&o, &["CUBETRACE_MEMORY_LIMIT=lots", "not a memory size"]);
+    // Negative: small frames fit under the same cap, on the CPU and on the GPU.
+    for method in ["reference", "compute"] {
+        let out = format!("{method}.png");
+        let o = run_env(
+            &[
+                "render", "--method", method, "--width", "32", "--height", "24", "-o", &out,
+            ],
+            dir.path(),
+            &cap,
+        );
+        assert_eq!(o.code, Some(0), "{}", o.stderr);
+        assert!(dir.path().join(&out).is_file());
+    }
+}
+
+/// The GPU estimate against what the renderer really allocates for its CMO data.
+#[test]
+fn gpu_estimate_covers_the_cmo_allocation() {
+    let ctx = common::gpu_context();
+    let mut scene = builtin::sphere_room();
+    scene.cmo.resolution = 64;
+    let mut camera = scene.cameras[0].clone();
+    (camera.width, camera.height) = (16, 12);
+    for method in [GpuMethod::Fragment, GpuMethod::Compute, GpuMethod::Envmap] {
+        let options = RenderOptions {
+            method,
+            trace: Default::default(),
+            fallback: Fallback::Envmap,
+        };
+        let renderer = GpuRenderer::new(&ctx, &scene, &camera, options).unwrap();
+        let real = renderer.cmo().bytes();
+        let cmos = scene.cmo_centres().len() as u32;
+        let estimate = budget::device_bytes(16, 12, method, cmos, 64, scene.self_reflections);
+        eprintln!("{method:?}: CMO data {real} bytes, estimate {estimate:?}");
+        assert!(estimate.cmo >= real, "{method:?}: {estimate:?} < {real}");
+        assert!(
+            (estimate.cmo as f64) < 1.5 * real as f64,
+            "{method:?}: {estimate:?} against {real}"
+        );
+        // Negative: the estimate for half the cube size is below the real allocation.
+        let half = budget::device_bytes(16, 12, method, cmos, 32, scene.self_reflections);
+        assert!(half.cmo < real, "{method:?}");
+    }
+    common::finish_gpu(ctx);
+}
