@@ -8,6 +8,7 @@
 //! | `gbuffer` | scene | G-buffer colour, position + mirror mask, normal |
 //! | `fragment_trace` or `envmap` | G-buffer, CMO data | one record per mirror pixel |
 //! | or `append`, `dispatch_args`, `compute_trace` | G-buffer, CMO data, hierarchy | the same records ([`super::compute`]) |
+//! | or `hiz`, `ssr` | G-buffer, its min pyramid | the same records ([`super::ssr`]) |
 //! | `composite` | G-buffer, records, CMO colour | final colour |
 //!
 //! Each pass name is its WGSL file, its debug label and its timestamp scope, so
@@ -34,12 +35,14 @@ use super::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
 use super::pyramid::{Pyramid, PyramidBindings};
 use super::scene_buffers::SceneBuffers;
 use super::shaders::{
-    APPEND, COMPOSITE, COMPUTE_TRACE, DISPATCH_ARGS, ENVMAP, FRAGMENT_TRACE, HIER32, Pass,
+    APPEND, COMPOSITE, COMPUTE_TRACE, DISPATCH_ARGS, ENVMAP, FRAGMENT_TRACE, HIER32, HIZ, Pass, SSR,
 };
+use super::ssr::SsrPasses;
 use super::sync::{SHADER_READ, SHADER_WRITE};
 use super::timestamps::{PassTime, Timestamps};
 use crate::camera::Camera;
 use crate::cpu::options::TraceOptions;
+use crate::cpu::ssr::SsrOptions;
 use crate::metrics::Traced;
 use crate::scene::Scene;
 use crate::scene::gpu_data::GpuSceneData;
@@ -54,6 +57,9 @@ pub enum GpuMethod {
     /// Thesis alg. 3: mirror rays appended to a queue, traced by a compute pass over the
     /// 8x4/4x8 hierarchy with subgroup ballots (exact criterion only).
     Compute,
+    /// Hi-Z screen-space reflections (Uludag 2014): a min pyramid of the G-buffer's depth and
+    /// the chapter's hierarchical ray march; the CMOs only feed the fallback.
+    Ssr,
 }
 
 impl GpuMethod {
@@ -67,6 +73,7 @@ impl GpuMethod {
             GpuMethod::Fragment => &FRAGMENT_TRACE,
             GpuMethod::Envmap => &ENVMAP,
             GpuMethod::Compute => &COMPUTE_TRACE,
+            GpuMethod::Ssr => &SSR,
         }
     }
 }
@@ -90,6 +97,8 @@ pub struct RenderOptions {
     /// Tracer options (criterion, sampling, acceleration, steps); used by `Fragment`.
     pub trace: TraceOptions,
     pub fallback: Fallback,
+    /// Options of `Ssr` (iteration cap, thickness).
+    pub ssr: SsrOptions,
 }
 
 impl Default for RenderOptions {
@@ -98,6 +107,7 @@ impl Default for RenderOptions {
             method: GpuMethod::Fragment,
             trace: TraceOptions::default(),
             fallback: Fallback::default(),
+            ssr: SsrOptions::default(),
         }
     }
 }
@@ -241,6 +251,8 @@ pub struct GpuRenderer {
     trace: Option<(GraphicsPipeline, [BindGroup; 2])>,
     /// The passes of `Compute`.
     compute: Option<ComputePath>,
+    /// The passes of `Ssr`.
+    ssr: Option<SsrPasses>,
     composite: ComputePipeline,
     composite_sets: [BindGroup; 2],
     _params: Buffer,
@@ -343,10 +355,22 @@ impl GpuRenderer {
             view: img.view(),
             layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
         };
+        let mut ssr = None;
         let (trace, compute) = if options.method == GpuMethod::Compute {
             let path =
                 ComputePath::new(ctx, &cmo, &gbuffer, &params_buf, &records, (width, height))?;
             (None, Some(path))
+        } else if options.method == GpuMethod::Ssr {
+            let view_proj = camera.view_proj(near, far);
+            ssr = Some(SsrPasses::new(
+                ctx,
+                &gbuffer,
+                view_proj,
+                &params_buf,
+                &records,
+                &options.ssr,
+            )?);
+            (None, None)
         } else {
             let trace = GraphicsPipeline::new(
                 ctx,
@@ -404,6 +428,7 @@ impl GpuRenderer {
             gbuffer,
             trace,
             compute,
+            ssr,
             composite,
             composite_sets,
             _params: params_buf,
@@ -421,6 +446,16 @@ impl GpuRenderer {
     /// The compute path's passes ([`GpuMethod::Compute`] only).
     pub fn compute_path(&self) -> Option<&ComputePath> {
         self.compute.as_ref()
+    }
+
+    /// The screen-space method's passes ([`GpuMethod::Ssr`] only).
+    pub fn ssr_passes(&self) -> Option<&SsrPasses> {
+        self.ssr.as_ref()
+    }
+
+    /// The G-buffer (for reading it back in the tests).
+    pub fn gbuffer(&self) -> &Gbuffer {
+        &self.gbuffer
     }
 
     /// The options this renderer was built with.
@@ -466,6 +501,14 @@ impl GpuRenderer {
                 rec.memory_barrier(SHADER_WRITE, SHADER_READ);
             }
             scoped("gbuffer", &mut || self.gbuffer.record(rec, self.background))?;
+            if let Some(s) = &self.ssr {
+                scoped(HIZ.name, &mut || {
+                    s.record_hiz(rec);
+                    Ok(())
+                })?;
+                rec.memory_barrier(SHADER_WRITE, SHADER_READ);
+                scoped(SSR.name, &mut || s.record_trace(rec))?;
+            }
             if let Some((trace, sets)) = &self.trace {
                 scoped(self.options.method.pass_name(), &mut || {
                     let target = RenderTarget {
