@@ -268,6 +268,11 @@ fn ssr_outcomes(frame: &cubetrace::vk::frame::GpuFrame) -> String {
         .collect();
     let n = mirror.len().max(1) as f64;
     let iterations: f64 = mirror.iter().map(|r| f64::from(r.cells)).sum();
+    let traced = mirror
+        .iter()
+        .filter(|r| r.face != Outcome::TowardsCamera as u32)
+        .count()
+        .max(1) as f64;
     let counts: Vec<String> = Outcome::ALL
         .iter()
         .map(|o| {
@@ -276,9 +281,10 @@ fn ssr_outcomes(frame: &cubetrace::vk::frame::GpuFrame) -> String {
         })
         .collect();
     format!(
-        "{}; {:.1} iterations per mirror pixel",
+        "{}; {:.1} iterations per mirror pixel, {:.1} per traced ray",
         counts.join(", "),
-        iterations / n
+        iterations / n,
+        iterations / traced
     )
 }
 

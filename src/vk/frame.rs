@@ -17,7 +17,9 @@
 //! reads back, so repeated renders (the harness) measure the passes, not allocation.
 //!
 //! Only what the options use is allocated: no pyramid for the environment map, no normal/mirror
-//! capture without self-reflections, the hierarchy and the ray queue for the compute path only.
+//! capture without self-reflections, the hierarchy and the ray queue for the compute path only,
+//! the Hi-Z pyramid for `ssr` only (which, like the environment map, uses the CMOs' colour for
+//! its fallback alone).
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
