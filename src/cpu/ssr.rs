@@ -344,6 +344,113 @@ mod tests {
         assert_ne!(build_hiz(&p, 3, 3)[9], -5.0);
     }
 
+    /// A camera at the origin looking down -z at a wall `z = -5` filling the frame.
+    fn wall() -> (Mat4, Vec<f32>) {
+        let camera = crate::camera::Camera {
+            name: "wall".into(),
+            eye: Vec3::ZERO,
+            target: Vec3::new(0.0, 0.0, -1.0),
+            up: Vec3::Y,
+            fov_y_deg: 60.0,
+            width: 64,
+            height: 48,
+        };
+        let vp = camera.view_proj(0.01, 100.0);
+        let level0 = (0..64u32 * 48)
+            .map(|k| {
+                let (i, j) = (k % 64, k / 64);
+                let (o, d) = camera.ray(i, j);
+                depth_key(&vp, Some(o + d * (-5.0 - o.z) / d.z))
+            })
+            .collect();
+        (vp, level0)
+    }
+
+    #[test]
+    fn ray_to_a_wall_lands_on_the_pixel_of_the_analytic_hit() {
+        let (vp, mut level0) = wall();
+        let origin = Vec3::new(-0.4, 0.1, -2.0);
+        let project = |p: Vec3| {
+            let c = vp * p.extend(1.0);
+            [
+                ((c.x / c.w + 1.0) * 32.0).floor() as i32,
+                ((c.y / c.w + 1.0) * 24.0).floor() as i32,
+            ]
+        };
+        let pixel = project(origin).map(|c| c as u32);
+        // The ray starts on what its pixel shows (as a mirror pixel does): a one-pixel object.
+        level0[(pixel[1] * 64 + pixel[0]) as usize] = depth_key(&vp, Some(origin));
+        let cells = build_hiz(&level0, 64, 48);
+        let hiz = Hiz {
+            width: 64,
+            height: 48,
+            view_proj: vp,
+            cells: &cells,
+            levels: hiz_levels(64, 48),
+        };
+        for dir in [
+            Vec3::new(0.3, 0.1, -1.0),
+            Vec3::new(-0.2, -0.25, -1.0),
+            Vec3::new(0.05, 0.0, -1.0),
+        ] {
+            let dir = dir.normalize();
+            let exact = origin + dir * ((-5.0 - origin.z) / dir.z);
+            let r = trace(&hiz, &SsrOptions::default(), pixel, origin, dir);
+            assert_eq!(r.outcome, Outcome::Hit, "{dir}: {r:?}");
+            let want = project(exact);
+            assert!(
+                (r.pixel[0] - want[0]).abs() <= 1 && (r.pixel[1] - want[1]).abs() <= 1,
+                "{dir}: {r:?}, analytic pixel {want:?}"
+            );
+            assert!(r.iterations > 0 && r.iterations < 40, "{r:?}");
+            // Negative: a wall one unit nearer (every key changed) moves the hit.
+            let nearer: Vec<f32> = level0.iter().map(|q| q * 5.0 / 4.0).collect();
+            let cells = build_hiz(&nearer, 64, 48);
+            let moved = trace(
+                &Hiz {
+                    cells: &cells,
+                    levels: hiz_levels(64, 48),
+                    ..hiz
+                },
+                &SsrOptions::default(),
+                pixel,
+                origin,
+                dir,
+            );
+            assert_ne!(moved.pixel, r.pixel, "{dir}");
+        }
+        // Leaving the frame sideways, and coming back towards the camera.
+        let r = trace(
+            &hiz,
+            &SsrOptions::default(),
+            pixel,
+            origin,
+            Vec3::new(1.0, 0.0, -0.2).normalize(),
+        );
+        assert_eq!(r.outcome, Outcome::OffScreen, "{r:?}");
+        let r = trace(
+            &hiz,
+            &SsrOptions::default(),
+            pixel,
+            origin,
+            Vec3::new(0.1, 0.0, 1.0).normalize(),
+        );
+        assert_eq!((r.outcome, r.iterations), (Outcome::TowardsCamera, 0));
+        // An iteration cap of 1 gives up.
+        let capped = SsrOptions {
+            max_iterations: 1,
+            thickness: None,
+        };
+        let r = trace(
+            &hiz,
+            &capped,
+            pixel,
+            origin,
+            Vec3::new(0.3, 0.1, -1.0).normalize(),
+        );
+        assert_eq!(r.outcome, Outcome::Iterations);
+    }
+
     #[test]
     fn gpu_outcome_codes_round_trip() {
         for o in Outcome::ALL {
