@@ -70,6 +70,9 @@ enum Method {
     Fragment,
     /// One cube map lookup per pixel on the GPU, no parallax (the baseline).
     Envmap,
+    /// Hi-Z screen-space reflections on the GPU (Uludag 2014): a min pyramid of the G-buffer's
+    /// depth and a hierarchical ray march; what leaves the screen goes to the fallback.
+    Ssr,
     /// Exact CPU ray tracing against the scene's triangles: the ground truth.
     Reference,
 }
@@ -129,8 +132,9 @@ impl GpuArgs {
     }
 }
 
-/// Parses a positive, finite number (`--eps`). Negative numbers reach this parser (the argument
-/// allows them), so that `--eps -1` gets this message rather than clap's "unexpected argument".
+/// Parses a positive, finite distance (`--eps`, `--ssr-thickness`). Negative numbers reach this
+/// parser (the argument allows them), so that `--eps -1` gets this message rather than clap's
+/// "unexpected argument".
 fn positive_finite(s: &str) -> std::result::Result<f32, String> {
     let v: f32 = s
         .parse()
@@ -139,7 +143,7 @@ fn positive_finite(s: &str) -> std::result::Result<f32, String> {
         Ok(v)
     } else {
         Err(format!(
-            "{s} is not allowed: the threshold must be a positive, finite distance in world units (default 0.05)"
+            "{s} is not allowed: it must be a positive, finite distance in world units"
         ))
     }
 }
@@ -183,6 +187,15 @@ struct TraceArgs {
     /// What fills mirror pixels that no CMO could resolve.
     #[arg(long, value_enum, default_value_t = FallbackArg::Envmap)]
     fallback: FallbackArg,
+    /// ssr: iterations of the Hi-Z ray march before a ray is given up (unresolved).
+    #[arg(long, default_value_t = cubetrace::cpu::ssr::DEFAULT_MAX_ITERATIONS,
+          value_parser = clap::value_parser!(u32).range(1..=65536))]
+    ssr_iterations: u32,
+    /// ssr: thickness test, world units along the view axis: a hit farther than this behind the
+    /// surface it lands on is unresolved. Default: none (the chapter's: every surface is
+    /// infinitely thick, so a ray passing behind a thin object hits it).
+    #[arg(long, allow_negative_numbers = true, value_parser = positive_finite)]
+    ssr_thickness: Option<f32>,
 }
 
 impl TraceArgs {
@@ -210,6 +223,10 @@ impl TraceArgs {
                 FallbackArg::Flag => Fallback::Flag,
                 FallbackArg::Envmap => Fallback::Envmap,
                 FallbackArg::Background => Fallback::Background,
+            },
+            ssr: cubetrace::cpu::ssr::SsrOptions {
+                max_iterations: self.ssr_iterations,
+                thickness: self.ssr_thickness,
             },
         }
     }
@@ -261,6 +278,35 @@ struct RenderArgs {
     gpu: GpuArgs,
 }
 
+/// Mirror pixels per outcome of the screen-space method, and the mean iterations.
+fn ssr_outcomes(frame: &cubetrace::vk::frame::GpuFrame) -> String {
+    use cubetrace::cpu::ssr::Outcome;
+    let mirror: Vec<_> = (0..frame.records.len())
+        .filter(|&k| frame.mask[k] != 0)
+        .map(|k| frame.records[k])
+        .collect();
+    let n = mirror.len().max(1) as f64;
+    let iterations: f64 = mirror.iter().map(|r| f64::from(r.cells)).sum();
+    let traced = mirror
+        .iter()
+        .filter(|r| r.face != Outcome::TowardsCamera as u32)
+        .count()
+        .max(1) as f64;
+    let counts: Vec<String> = Outcome::ALL
+        .iter()
+        .map(|o| {
+            let c = mirror.iter().filter(|r| r.face == *o as u32).count();
+            format!("{} {c}", o.name())
+        })
+        .collect();
+    format!(
+        "{}; {:.1} iterations per mirror pixel, {:.1} per traced ray",
+        counts.join(", "),
+        iterations / n,
+        iterations / traced
+    )
+}
+
 fn render(args: RenderArgs) -> Result<()> {
     let start = Instant::now();
     let mut scene = scene::load(&args.scene)?;
@@ -297,6 +343,7 @@ fn render(args: RenderArgs) -> Result<()> {
         Method::Fragment => Some(GpuMethod::Fragment),
         Method::Envmap => Some(GpuMethod::Envmap),
         Method::Compute => Some(GpuMethod::Compute),
+        Method::Ssr => Some(GpuMethod::Ssr),
         Method::Reference => None,
     };
     if let Some(m) = gpu_method {
@@ -347,6 +394,9 @@ fn render(args: RenderArgs) -> Result<()> {
         let gpu_ms: f64 = frame.pass_times.iter().map(|(_, t)| t).sum::<f64>() * 1e-6;
         for (pass, ns) in &frame.pass_times {
             log::info!("{pass:>16}: {:9.3} ms", ns * 1e-6);
+        }
+        if m == GpuMethod::Ssr {
+            log::info!("ssr: {}", ssr_outcomes(&frame));
         }
         if let Some(c) = &frame.compute {
             let [texels, cells, descents, backtracks] = c.summary(&frame.mask);
@@ -412,7 +462,7 @@ fn render(args: RenderArgs) -> Result<()> {
         return Ok(());
     }
     let frame = match args.method {
-        Method::Fragment | Method::Envmap | Method::Compute => {
+        Method::Fragment | Method::Envmap | Method::Compute | Method::Ssr => {
             unreachable!("GPU methods returned above")
         }
         Method::Reference => {
@@ -486,13 +536,14 @@ struct BenchArgs {
     /// Scenes: built-in names or .toml paths, comma-separated [default: every built-in scene].
     #[arg(long, value_delimiter = ',')]
     scenes: Vec<String>,
-    /// Methods: reference, envmap, fragment, compute (comma-separated); fragment runs its
+    /// Methods: reference, envmap, fragment, compute, ssr (comma-separated); fragment runs its
     /// parameter grid (criteria x sampling x acceleration x steps) unless --quick; compute has
-    /// one setting (the exact criterion on its hierarchy).
+    /// one setting (the exact criterion on its hierarchy), ssr its defaults (64 iterations, no
+    /// thickness test).
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "reference,envmap,fragment,compute"
+        default_value = "reference,envmap,fragment,compute,ssr"
     )]
     methods: Vec<String>,
     /// Tracing methods: only the default options (exact criterion, pyramid) instead of the grid.

@@ -23,7 +23,7 @@ fn bench_reports_cost_per_ray_ratios_and_floor() {
         ..BenchConfig::default()
     };
     let report = bench::run(&ctx, &cfg, &indicatif::ProgressBar::hidden()).expect("bench");
-    assert_eq!(report.runs.len(), 4);
+    assert_eq!(report.runs.len(), MethodKind::ALL.len());
     let refr = &report.runs[0];
     assert_eq!(refr.kind, MethodKind::Reference);
     assert!(refr.rays > 50 && refr.rays == refr.mirror_pixels);

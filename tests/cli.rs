@@ -571,11 +571,16 @@ fn gpu_estimate_covers_the_cmo_allocation() {
     scene.cmo.resolution = 64;
     let mut camera = scene.cameras[0].clone();
     (camera.width, camera.height) = (16, 12);
-    for method in [GpuMethod::Fragment, GpuMethod::Compute, GpuMethod::Envmap] {
+    for method in [
+        GpuMethod::Fragment,
+        GpuMethod::Compute,
+        GpuMethod::Envmap,
+        GpuMethod::Ssr,
+    ] {
         let options = RenderOptions {
             method,
-            trace: Default::default(),
             fallback: Fallback::Envmap,
+            ..RenderOptions::default()
         };
         let renderer = GpuRenderer::new(&ctx, &scene, &camera, options).unwrap();
         let real = renderer.cmo().bytes();

@@ -102,6 +102,7 @@ fn options(method: GpuMethod) -> RenderOptions {
         method,
         trace: TraceOptions::default(),
         fallback: Fallback::Flag,
+        ..RenderOptions::default()
     }
 }
 

@@ -79,6 +79,7 @@ fn compute_render(
         method,
         trace: TraceOptions::default(),
         fallback: Fallback::Flag,
+        ..RenderOptions::default()
     };
     let mut r = GpuRenderer::new(ctx, scene, camera, options).unwrap_or_else(|e| panic!("{e}"));
     let frame = r.render(ctx).unwrap_or_else(|e| panic!("{e}"));

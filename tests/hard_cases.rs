@@ -86,6 +86,7 @@ fn render_keep(
             method: GpuMethod::Fragment,
             trace,
             fallback: Fallback::Flag,
+            ..RenderOptions::default()
         },
     )
     .unwrap_or_else(|e| panic!("{}: {e}", scene.name));

@@ -55,14 +55,17 @@ pub enum MethodKind {
     Fragment,
     /// Cubemap tracing in the compute path (thesis alg. 3; exact criterion only).
     Compute,
+    /// Hi-Z screen-space reflections (its default options; iterations in the `cells` column).
+    Ssr,
 }
 
 impl MethodKind {
-    pub const ALL: [MethodKind; 4] = [
+    pub const ALL: [MethodKind; 5] = [
         MethodKind::Reference,
         MethodKind::Envmap,
         MethodKind::Fragment,
         MethodKind::Compute,
+        MethodKind::Ssr,
     ];
 
     pub fn name(self) -> &'static str {
@@ -71,6 +74,7 @@ impl MethodKind {
             MethodKind::Envmap => "envmap",
             MethodKind::Fragment => "fragment",
             MethodKind::Compute => "compute",
+            MethodKind::Ssr => "ssr",
         }
     }
 
@@ -85,6 +89,7 @@ impl MethodKind {
             MethodKind::Envmap => Some(GpuMethod::Envmap),
             MethodKind::Fragment => Some(GpuMethod::Fragment),
             MethodKind::Compute => Some(GpuMethod::Compute),
+            MethodKind::Ssr => Some(GpuMethod::Ssr),
         }
     }
 
@@ -631,6 +636,7 @@ pub fn run_gpu(
         // The CLI's default: PSNR and FLIP measure the image a user would see; unresolved pixels
         // are counted separately, whatever fills them.
         fallback: Fallback::Envmap,
+        ..RenderOptions::default()
     };
     let mut renderer = GpuRenderer::new(ctx, scene, camera, options)?;
     for _ in 0..warmup {

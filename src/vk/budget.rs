@@ -16,16 +16,18 @@ pub fn cmo_bytes_per_texel(self_reflections: bool) -> u64 {
 
 /// Bytes per frame pixel: the pixel records, the frame colour (RGBA f32), the G-buffer (colour,
 /// position, normal: RGBA f32 each; depth f32), and for the compute path the ray queue and the
-/// per-ray statistics.
+/// per-ray statistics; for ssr the Hi-Z pyramid.
 pub fn frame_bytes_per_pixel(method: GpuMethod) -> u64 {
     let records = size_of::<PixelRecord>() as u64;
     let gbuffer = 3 * 16 + 4;
-    let compute = if method == GpuMethod::Compute {
-        size_of::<AppendedRay>() as u64 + 16
-    } else {
-        0
+    let method_bytes = match method {
+        GpuMethod::Compute => size_of::<AppendedRay>() as u64 + 16,
+        // The Hi-Z pyramid: f32 cells, about 4/3 per pixel over all levels (2 on a one-pixel-wide
+        // frame; counted as 2), plus the ssr pass's parameters (per frame, negligible).
+        GpuMethod::Ssr => 2 * 4,
+        GpuMethod::Fragment | GpuMethod::Envmap => 0,
     };
-    records + 16 + gbuffer + compute
+    records + 16 + gbuffer + method_bytes
 }
 
 /// What a render allocates on the device, in bytes.
@@ -60,7 +62,7 @@ pub fn device_bytes(
     let acceleration = match method {
         GpuMethod::Fragment => u64::from(cmos) * mip_len(cube_size) as u64 * 8,
         GpuMethod::Compute => u64::from(cmos) * hier32_len(cube_size) as u64 * 8,
-        GpuMethod::Envmap => 0,
+        GpuMethod::Envmap | GpuMethod::Ssr => 0,
     };
     DeviceBytes {
         frame: pixels * frame_bytes_per_pixel(method),

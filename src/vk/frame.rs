@@ -8,6 +8,7 @@
 //! | `gbuffer` | scene | G-buffer colour, position + mirror mask, normal |
 //! | `fragment_trace` or `envmap` | G-buffer, CMO data | one record per mirror pixel |
 //! | or `append`, `dispatch_args`, `compute_trace` | G-buffer, CMO data, hierarchy | the same records ([`super::compute`]) |
+//! | or `hiz`, `ssr` | G-buffer, its min pyramid | the same records ([`super::ssr`]) |
 //! | `composite` | G-buffer, records, CMO colour | final colour |
 //!
 //! Each pass name is its WGSL file, its debug label and its timestamp scope, so
@@ -16,7 +17,9 @@
 //! reads back, so repeated renders (the harness) measure the passes, not allocation.
 //!
 //! Only what the options use is allocated: no pyramid for the environment map, no normal/mirror
-//! capture without self-reflections, the hierarchy and the ray queue for the compute path only.
+//! capture without self-reflections, the hierarchy and the ray queue for the compute path only,
+//! the Hi-Z pyramid for `ssr` only (which, like the environment map, uses the CMOs' colour for
+//! its fallback alone).
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
@@ -34,12 +37,14 @@ use super::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
 use super::pyramid::{Pyramid, PyramidBindings};
 use super::scene_buffers::SceneBuffers;
 use super::shaders::{
-    APPEND, COMPOSITE, COMPUTE_TRACE, DISPATCH_ARGS, ENVMAP, FRAGMENT_TRACE, HIER32, Pass,
+    APPEND, COMPOSITE, COMPUTE_TRACE, DISPATCH_ARGS, ENVMAP, FRAGMENT_TRACE, HIER32, HIZ, Pass, SSR,
 };
+use super::ssr::SsrPasses;
 use super::sync::{SHADER_READ, SHADER_WRITE};
 use super::timestamps::{PassTime, Timestamps};
 use crate::camera::Camera;
 use crate::cpu::options::TraceOptions;
+use crate::cpu::ssr::SsrOptions;
 use crate::metrics::Traced;
 use crate::ranges::FrameRanges;
 use crate::scene::Scene;
@@ -55,6 +60,9 @@ pub enum GpuMethod {
     /// Thesis alg. 3: mirror rays appended to a queue, traced by a compute pass over the
     /// 8x4/4x8 hierarchy with subgroup ballots (exact criterion only).
     Compute,
+    /// Hi-Z screen-space reflections (Uludag 2014): a min pyramid of the G-buffer's depth and
+    /// the chapter's hierarchical ray march; the CMOs only feed the fallback.
+    Ssr,
 }
 
 impl GpuMethod {
@@ -68,6 +76,7 @@ impl GpuMethod {
             GpuMethod::Fragment => &FRAGMENT_TRACE,
             GpuMethod::Envmap => &ENVMAP,
             GpuMethod::Compute => &COMPUTE_TRACE,
+            GpuMethod::Ssr => &SSR,
         }
     }
 }
@@ -91,6 +100,8 @@ pub struct RenderOptions {
     /// Tracer options (criterion, sampling, acceleration, steps); used by `Fragment`.
     pub trace: TraceOptions,
     pub fallback: Fallback,
+    /// Options of `Ssr` (iteration cap, thickness).
+    pub ssr: SsrOptions,
 }
 
 impl Default for RenderOptions {
@@ -99,6 +110,7 @@ impl Default for RenderOptions {
             method: GpuMethod::Fragment,
             trace: TraceOptions::default(),
             fallback: Fallback::default(),
+            ssr: SsrOptions::default(),
         }
     }
 }
@@ -230,6 +242,8 @@ pub struct GpuRenderer {
     trace: Option<(GraphicsPipeline, [BindGroup; 2])>,
     /// The passes of `Compute`.
     compute: Option<ComputePath>,
+    /// The passes of `Ssr`.
+    ssr: Option<SsrPasses>,
     composite: ComputePipeline,
     composite_sets: [BindGroup; 2],
     _params: Buffer,
@@ -350,10 +364,22 @@ impl GpuRenderer {
             view: img.view(),
             layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
         };
+        let mut ssr = None;
         let (trace, compute) = if options.method == GpuMethod::Compute {
             let path =
                 ComputePath::new(ctx, &cmo, &gbuffer, &params_buf, &records, (width, height))?;
             (None, Some(path))
+        } else if options.method == GpuMethod::Ssr {
+            let view_proj = camera.view_proj(ranges.near);
+            ssr = Some(SsrPasses::new(
+                ctx,
+                &gbuffer,
+                view_proj,
+                &params_buf,
+                &records,
+                &options.ssr,
+            )?);
+            (None, None)
         } else {
             let trace = GraphicsPipeline::new(
                 ctx,
@@ -411,6 +437,7 @@ impl GpuRenderer {
             gbuffer,
             trace,
             compute,
+            ssr,
             composite,
             composite_sets,
             _params: params_buf,
@@ -428,6 +455,16 @@ impl GpuRenderer {
     /// The compute path's passes ([`GpuMethod::Compute`] only).
     pub fn compute_path(&self) -> Option<&ComputePath> {
         self.compute.as_ref()
+    }
+
+    /// The screen-space method's passes ([`GpuMethod::Ssr`] only).
+    pub fn ssr_passes(&self) -> Option<&SsrPasses> {
+        self.ssr.as_ref()
+    }
+
+    /// The G-buffer (for reading it back in the tests).
+    pub fn gbuffer(&self) -> &Gbuffer {
+        &self.gbuffer
     }
 
     /// The options this renderer was built with.
@@ -473,6 +510,14 @@ impl GpuRenderer {
                 rec.memory_barrier(SHADER_WRITE, SHADER_READ);
             }
             scoped("gbuffer", &mut || self.gbuffer.record(rec, self.background))?;
+            if let Some(s) = &self.ssr {
+                scoped(HIZ.name, &mut || {
+                    s.record_hiz(rec);
+                    Ok(())
+                })?;
+                rec.memory_barrier(SHADER_WRITE, SHADER_READ);
+                scoped(SSR.name, &mut || s.record_trace(rec))?;
+            }
             if let Some((trace, sets)) = &self.trace {
                 scoped(self.options.method.pass_name(), &mut || {
                     let target = RenderTarget {

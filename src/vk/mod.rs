@@ -33,6 +33,7 @@ pub mod pyramid;
 pub mod scene_buffers;
 pub mod selftest;
 pub mod shaders;
+pub mod ssr;
 pub mod sync;
 pub mod timestamps;
 pub mod trace_probe;
