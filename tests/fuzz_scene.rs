@@ -4,7 +4,8 @@
 //! one-value `Kd`, undefined materials, extra array items, ...) and mutated (bytes and tokens
 //! inserted, lines dropped, doubled and spliced between files).
 //!
-//! Each case must load or fail with an error, never panic; must finish (a watchdog fails a case
+//! Each case must load or fail with an error, never panic (nor fail inside `tobj`, which parses
+//! only text the loader has checked); must finish (a watchdog fails a case
 //! that runs for a minute, far beyond the milliseconds one takes); and must not amplify its
 //! input (what a scene holds is bounded by the input's size; the loader refuses files over
 //! `MAX_INPUT_BYTES`). A loaded scene also goes through `diagnose`.
@@ -245,6 +246,11 @@ fn check(case: &Case, load: Loader, tally: &Mutex<Tally>) -> Result<(), String> 
         }
         Ok(Err(e)) => {
             let e = e.to_string();
+            // tobj parses only what the loader's own pass has checked and normalised; tobj
+            // refusing that text is a gap in the pass.
+            if e.contains("tobj refused") {
+                return Err(format!("the checked text reached tobj and failed: {e}"));
+            }
             let mut t = tally.lock().unwrap();
             if e.contains("scene.toml") {
                 t.toml += 1;
@@ -328,8 +334,8 @@ fn fuzz_scene_loader_fixed_seed() {
     assert!(t.toml > 0 && t.obj > 0 && t.mtl > 0, "{t:?}");
 }
 
-/// Negative: the pass catches a loader that panics on one corpus feature (as tobj did on
-/// `Kd 0.5`), and one that amplifies its input.
+/// Negative: the pass catches a loader that panics on one corpus feature (as tobj does on
+/// `Kd 0.5`), one that amplifies its input, and tobj fed the raw MTL instead of the checked copy.
 #[test]
 fn fuzz_catches_panics_and_amplification() {
     fn panicky(path: &Path) -> Result<(Scene, LoadReport), SceneError> {
@@ -350,4 +356,16 @@ fn fuzz_catches_panics_and_amplification() {
     }
     let e = fuzz(amplifying, 50).unwrap_err();
     assert!(e.contains("from"), "{e}");
+
+    // tobj given the raw MTL (not the loader's checked copy) panics or refuses it.
+    fn raw_tobj(path: &Path) -> Result<(Scene, LoadReport), SceneError> {
+        let mtl = std::fs::read(path.with_file_name("lib.mtl")).unwrap();
+        tobj::load_mtl_buf(&mut mtl.as_slice()).map_err(|e| SceneError::Mtl {
+            path: path.with_file_name("lib.mtl"),
+            reason: format!("tobj refused it: {e}"),
+        })?;
+        scene::load_scene_file_report(path)
+    }
+    let e = fuzz(raw_tobj, 50).unwrap_err();
+    assert!(e.contains("panicked") || e.contains("tobj"), "{e}");
 }

@@ -250,8 +250,8 @@ fn undefined_materials_warn_by_name() {
     assert_eq!(diffuse(&scene), Vec3::splat(0.5));
 }
 
-/// `Kd 0.5` and short `Ka`, `Ks`, `Ke` panicked inside tobj (before this loader replaced it):
-/// this test failed with "the loader panicked" then.
+/// `Kd 0.5` and short `Ka`, `Ks`, `Ke` panic inside tobj when it reads the raw MTL (this test
+/// failed with "the loader panicked" then); tobj now reads the loader's checked copy.
 #[test]
 fn mtl_single_value_colours_load() {
     for key in ["Kd", "Ka", "Ks", "Ke"] {

@@ -1,27 +1,45 @@
 //! OBJ/MTL loading and mesh hygiene.
 //!
-//! The parser is our own (it replaced `tobj`, which panics on `Kd 0.5`, fans concave polygons,
-//! drops a whole part's texture coordinates when one face lacks them, splits `mtllib` and
-//! `usemtl` on spaces only and reports no line numbers). What it accepts:
+//! `tobj` parses the OBJ and MTL files, but never the bytes on disk. Our line-by-line pass reads
+//! them first: it holds the line numbers, so its errors and warnings name the line, and it
+//! writes a normalised copy that is the only text `tobj` sees. That copy holds nothing `tobj`
+//! could panic or be wrong on: only `v x y z`, `vt u v`, `vn x y z`, `f` with absolute 1-based
+//! indices already checked against the counts, `o`/`g` names, and `mtllib`/`usemtl`/`newmtl`
+//! lines; an MTL holds only `newmtl`, `Kd r g b` and `map_Kd file` (so `tobj` never meets a
+//! short `Kd`, `Ka`, `Ks` or `Ke`, which it panicked on). Numbers are passed on as the tokens
+//! of the file, already parsed as finite `f32` by the same `str::parse` that `tobj` uses.
+//! `tobj` (with `single_index`, without `triangulate`) then builds the parts and materials,
+//! and our code triangulates each polygon from `tobj`'s `face_arities`, naming the polygon's
+//! source line on failure.
+//!
+//! What the loader accepts:
 //! - UTF-8 text, with or without a byte order mark, LF or CRLF line ends, spaces or tabs.
 //!   Comments (`#` to the end of the line) may hold any bytes (Latin-1 ones included); a byte
 //!   that is not UTF-8 outside a comment is an error naming the line and column.
 //! - `v`, `vt`, `vn`, `f`, `o`, `g`, `usemtl`, `mtllib`; other statements (`s`, curves, ...)
-//!   are ignored. `l` and `p` elements and faces with fewer than 3 vertices are skipped with a
-//!   warning that counts them and names their lines.
-//! - Polygons: convex ones are fanned from their first vertex; others are ear-clipped
-//!   (`earcut`) in the plane of their Newell normal, and a polygon whose triangles do not
-//!   cover exactly its area (self-intersecting) is refused, naming the line.
+//!   are ignored. Extra values after `v x y z` (a `w`, vertex colours) are ignored, a `vt` with
+//!   one value gets v = 0. `l` and `p` elements and faces with fewer than 3 vertices are
+//!   skipped with a warning that counts them and names their lines.
+//! - Polygons: convex ones are fanned from their first vertex (the triangles `tobj`'s own
+//!   `triangulate` makes); others are ear-clipped (`earcut`) in the plane of their Newell
+//!   normal, and a polygon whose triangles do not cover exactly its area (self-intersecting) is
+//!   refused, naming the line.
 //! - Texture coordinates and normals per face corner: a face without `vt` in a part whose other
 //!   faces have them gets uv (0, 0) at its corners (with a warning), a corner without `vn` gets
-//!   the computed normal.
+//!   the computed normal. (`tobj` drops a part's texture coordinates or normals when some
+//!   corners lack them, so such corners refer to a `vt 0 0` or `vn 0 0 0` the normalised copy
+//!   puts first.)
 //! - An undefined material, or `usemtl` in a file without `mtllib`, is a warning naming it;
-//!   the faces get the default material (grey 0.8).
+//!   the faces get the default material (grey 0.8). (The normalised copy declares such names in
+//!   one more, empty-bodied library so that `tobj` splits parts at every change of name, as the
+//!   file does.)
 //! - MTL: `newmtl`, `Kd` (1 value = grey, or 3) and `map_Kd` (options such as `-s` are skipped
 //!   with a warning); other statements are ignored. Errors name the MTL file and line.
 //!
 //! Every error names the file and the line: numbers that do not parse or are not finite (NaN,
-//! inf), face indices out of range, a missing material library or texture.
+//! inf), face indices out of range, a missing material library or texture. Errors are found in
+//! this order: the OBJ pass, the MTL passes, then polygons (so of a bad index and a
+//! self-intersecting polygon, the index is named even when it comes later in the file).
 //!
 //! Hygiene on load, per part:
 //! - missing normals are computed: bit-identical positions are welded first (the teapot repeats
@@ -29,7 +47,8 @@
 //!   vertex; zero-length normals in the file are replaced the same way;
 //! - degenerate triangles (a repeated index, or zero area) are dropped and counted in a warning.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
+use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use glam::{DVec2, Vec2, Vec3};
@@ -111,14 +130,15 @@ fn keyword(text: &str) -> Option<(&str, &str)> {
     Some((&t[..end], t[end..].trim()))
 }
 
-/// Parses the numbers of a statement: at least `min`, all finite.
-fn numbers(
-    args: &str,
+/// Checks the numbers of a statement (at least `min`, all finite as `f32`) and returns their
+/// tokens, which parse to the same values wherever `str::parse::<f32>` reads them (`tobj`).
+fn numbers<'a>(
+    args: &'a str,
     min: usize,
     what: &str,
     path: &Path,
     line: usize,
-) -> Result<Vec<f32>, SceneError> {
+) -> Result<Vec<&'a str>, SceneError> {
     let words: Vec<&str> = args.split_whitespace().collect();
     if words.len() < min {
         return Err(obj_err(
@@ -132,9 +152,9 @@ fn numbers(
         ));
     }
     words
-        .iter()
+        .into_iter()
         .map(|a| match a.parse::<f32>() {
-            Ok(x) if x.is_finite() => Ok(x),
+            Ok(x) if x.is_finite() => Ok(a),
             Ok(_) => Err(obj_err(
                 path,
                 line,
@@ -256,81 +276,101 @@ pub(crate) fn triangulate(points: &[Vec3]) -> Result<Vec<[usize; 3]>, String> {
     Ok(out)
 }
 
-/// A part being built: the faces between two `o`/`g`/`usemtl` changes.
-struct PartBuilder {
+/// One OBJ statement the validation pass keeps, in file order, as the tokens `tobj` will read.
+enum Statement<'a> {
+    Position([&'a str; 3]),
+    Texcoord([&'a str; 2]),
+    Normal([&'a str; 3]),
+    /// `o` or `g` (the keyword) with its name (empty: unnamed).
+    Name(&'a str, &'a str),
+    UseMtl(&'a str),
+    /// A polygon of at least 3 corners; `part` indexes [`ObjPass::parts`].
+    Face {
+        corners: Vec<Corner>,
+        part: usize,
+    },
+}
+
+/// The faces between two `o`/`g`/`usemtl` changes, as the validation pass sees them. The
+/// parts that hold faces are, in order, the `tobj` models that hold faces.
+struct PartInfo {
     name: String,
     /// `usemtl` name and line.
     material: Option<(String, usize)>,
-    corners: Vec<Corner>,
-    index_of: HashMap<Corner, u32>,
-    triangles: Vec<[u32; 3]>,
+    faces: usize,
     /// Lines of faces without texture coordinates.
     faces_without_vt: Vec<usize>,
     any_vt: bool,
     any_vn: bool,
+    /// Some corner lacks a `vt` (a `vn`).
+    corner_without_vt: bool,
+    corner_without_vn: bool,
 }
 
-impl PartBuilder {
+impl PartInfo {
     fn new(name: String, material: Option<(String, usize)>) -> Self {
         Self {
             name,
             material,
-            corners: Vec::new(),
-            index_of: HashMap::new(),
-            triangles: Vec::new(),
+            faces: 0,
             faces_without_vt: Vec::new(),
             any_vt: false,
             any_vn: false,
+            corner_without_vt: false,
+            corner_without_vn: false,
         }
-    }
-
-    fn vertex(&mut self, c: Corner) -> u32 {
-        *self.index_of.entry(c).or_insert_with(|| {
-            self.corners.push(c);
-            (self.corners.len() - 1) as u32
-        })
     }
 }
 
-/// An OBJ file parsed, before its materials are resolved.
-struct ParsedObj {
-    parts: Vec<PartBuilder>,
+/// An OBJ file checked line by line, ready to be written out for `tobj`.
+struct ObjPass<'a> {
+    statements: Vec<Statement<'a>>,
+    parts: Vec<PartInfo>,
+    /// The source line of each face, in file order (the order `tobj` keeps).
+    face_lines: Vec<usize>,
     /// Material libraries and the line naming each (first mention).
     libraries: Vec<(PathBuf, usize)>,
-    positions: Vec<Vec3>,
-    texcoords: Vec<Vec2>,
-    normals: Vec<Vec3>,
 }
 
 const UNNAMED: &str = "unnamed_object";
 
-fn parse_obj(bytes: &[u8], path: &Path, report: &mut LoadReport) -> Result<ParsedObj, SceneError> {
+/// The validation pass over an OBJ file (see the module docs).
+fn validate_obj<'a>(
+    bytes: &'a [u8],
+    path: &Path,
+    report: &mut LoadReport,
+) -> Result<ObjPass<'a>, SceneError> {
     let dir = path.parent().unwrap_or(Path::new("."));
-    let mut obj = ParsedObj {
-        parts: Vec::new(),
+    let mut obj = ObjPass {
+        statements: Vec::new(),
+        parts: vec![PartInfo::new(UNNAMED.into(), None)],
+        face_lines: Vec::new(),
         libraries: Vec::new(),
-        positions: Vec::new(),
-        texcoords: Vec::new(),
-        normals: Vec::new(),
     };
-    let mut part = PartBuilder::new(UNNAMED.into(), None);
+    let mut counts = [0usize; 3];
     for (line, text) in text_lines(bytes, path)? {
         let Some((key, args)) = keyword(text) else {
             continue;
         };
+        let part = obj.parts.len() - 1;
         match key {
             "v" => {
                 let v = numbers(args, 3, "vertex position (v)", path, line)?;
-                obj.positions.push(Vec3::new(v[0], v[1], v[2]));
+                obj.statements.push(Statement::Position([v[0], v[1], v[2]]));
+                counts[0] += 1;
             }
             "vt" => {
                 let v = numbers(args, 1, "texture coordinate (vt)", path, line)?;
-                obj.texcoords
-                    .push(Vec2::new(v[0], v.get(1).copied().unwrap_or(0.0)));
+                obj.statements.push(Statement::Texcoord([
+                    v[0],
+                    v.get(1).copied().unwrap_or("0"),
+                ]));
+                counts[1] += 1;
             }
             "vn" => {
                 let v = numbers(args, 3, "normal (vn)", path, line)?;
-                obj.normals.push(Vec3::new(v[0], v[1], v[2]));
+                obj.statements.push(Statement::Normal([v[0], v[1], v[2]]));
+                counts[2] += 1;
             }
             "f" => {
                 let words: Vec<&str> = args.split_whitespace().collect();
@@ -343,26 +383,22 @@ fn parse_obj(bytes: &[u8], path: &Path, report: &mut LoadReport) -> Result<Parse
                     );
                     continue;
                 }
-                let counts = [obj.positions.len(), obj.texcoords.len(), obj.normals.len()];
                 let corners = words
                     .iter()
                     .map(|a| corner(a, counts, path, line))
                     .collect::<Result<Vec<_>, _>>()?;
-                let points: Vec<Vec3> = corners
-                    .iter()
-                    .map(|c| obj.positions[c.0 as usize])
-                    .collect();
-                let triangles = triangulate(&points).map_err(|r| obj_err(path, line, r))?;
+                let info = &mut obj.parts[part];
+                info.faces += 1;
                 if corners.iter().all(|c| c.1.is_none()) {
-                    part.faces_without_vt.push(line);
+                    info.faces_without_vt.push(line);
                 } else {
-                    part.any_vt = true;
+                    info.any_vt = true;
                 }
-                part.any_vn |= corners.iter().any(|c| c.2.is_some());
-                for t in triangles {
-                    let t = t.map(|k| part.vertex(corners[k]));
-                    part.triangles.push(t);
-                }
+                info.corner_without_vt |= corners.iter().any(|c| c.1.is_none());
+                info.corner_without_vn |= corners.iter().any(|c| c.2.is_none());
+                info.any_vn |= corners.iter().any(|c| c.2.is_some());
+                obj.face_lines.push(line);
+                obj.statements.push(Statement::Face { corners, part });
             }
             "l" => report.warn(
                 WarningKind::LineElement,
@@ -378,24 +414,29 @@ fn parse_obj(bytes: &[u8], path: &Path, report: &mut LoadReport) -> Result<Parse
             ),
             "o" | "g" => {
                 let name = if args.is_empty() { UNNAMED } else { args };
-                let material = part.material.clone();
-                let done = std::mem::replace(&mut part, PartBuilder::new(name.into(), material));
-                if !done.triangles.is_empty() {
-                    obj.parts.push(done);
+                if obj.parts[part].faces == 0 {
+                    obj.parts[part].name = name.into();
+                } else {
+                    let material = obj.parts[part].material.clone();
+                    obj.parts.push(PartInfo::new(name.into(), material));
                 }
+                obj.statements.push(Statement::Name(key, args));
             }
             "usemtl" => {
                 if args.is_empty() {
                     return Err(obj_err(path, line, "usemtl needs a material name"));
                 }
-                if part.material.as_ref().map(|m| m.0.as_str()) != Some(args) {
-                    let name = part.name.clone();
+                let current = &mut obj.parts[part];
+                if current.material.as_ref().map(|m| m.0.as_str()) != Some(args) {
                     let material = Some((args.to_string(), line));
-                    let done = std::mem::replace(&mut part, PartBuilder::new(name, material));
-                    if !done.triangles.is_empty() {
-                        obj.parts.push(done);
+                    if current.faces == 0 {
+                        current.material = material;
+                    } else {
+                        let name = current.name.clone();
+                        obj.parts.push(PartInfo::new(name, material));
                     }
                 }
+                obj.statements.push(Statement::UseMtl(args));
             }
             "mtllib" => {
                 if args.is_empty() {
@@ -424,19 +465,66 @@ fn parse_obj(bytes: &[u8], path: &Path, report: &mut LoadReport) -> Result<Parse
             _ => {}
         }
     }
-    if !part.triangles.is_empty() {
-        obj.parts.push(part);
-    }
     Ok(obj)
 }
 
-/// One `newmtl` of an MTL file.
-struct MtlEntry {
-    name: String,
+/// Writes the normalised OBJ text `tobj` reads: `mtllib 0` to `mtllib {libraries - 1}` first
+/// (so every `usemtl` finds its library loaded), then the `vt 0 0` and `vn 0 0 0` that corners
+/// without them refer to in parts that have them, then every kept statement, faces with
+/// absolute 1-based indices.
+fn normalised_obj(obj: &ObjPass, libraries: usize) -> String {
+    let mut out = String::new();
+    for k in 0..libraries {
+        writeln!(out, "mtllib {k}").expect("writing to a String");
+    }
+    let need_vt = obj.parts.iter().any(|p| p.any_vt && p.corner_without_vt);
+    let need_vn = obj.parts.iter().any(|p| p.any_vn && p.corner_without_vn);
+    if need_vt {
+        out.push_str("vt 0 0\n");
+    }
+    if need_vn {
+        out.push_str("vn 0 0 0\n");
+    }
+    // 1-based index of a texture coordinate or normal: after the placeholder when there is one.
+    let (vt_base, vn_base) = (1 + need_vt as u32, 1 + need_vn as u32);
+    for s in &obj.statements {
+        let w = match s {
+            Statement::Position([x, y, z]) => writeln!(out, "v {x} {y} {z}"),
+            Statement::Texcoord([u, v]) => writeln!(out, "vt {u} {v}"),
+            Statement::Normal([x, y, z]) => writeln!(out, "vn {x} {y} {z}"),
+            Statement::Name(key, name) => writeln!(out, "{key} {name}"),
+            Statement::UseMtl(name) => writeln!(out, "usemtl {name}"),
+            Statement::Face { corners, part } => {
+                let info = &obj.parts[*part];
+                out.push('f');
+                for &(v, vt, vn) in corners {
+                    write!(out, " {}", v + 1).expect("writing to a String");
+                    let vt = vt.map(|t| t + vt_base).or(info.any_vt.then_some(1));
+                    let vn = vn.map(|n| n + vn_base).or(info.any_vn.then_some(1));
+                    match (vt, vn) {
+                        (None, None) => {}
+                        (Some(t), None) => write!(out, "/{t}").expect("writing to a String"),
+                        (None, Some(n)) => write!(out, "//{n}").expect("writing to a String"),
+                        (Some(t), Some(n)) => write!(out, "/{t}/{n}").expect("writing to a String"),
+                    }
+                }
+                out.push('\n');
+                Ok(())
+            }
+        };
+        w.expect("writing to a String");
+    }
+    out
+}
+
+/// One `newmtl` of an MTL file, checked.
+struct MtlEntry<'a> {
+    name: &'a str,
     line: usize,
-    diffuse: Vec3,
-    /// `map_Kd` file name (relative to the MTL file) and its line.
-    map: Option<(String, usize)>,
+    /// `Kd` as three tokens (a single grey value repeated).
+    diffuse: Option<[&'a str; 3]>,
+    /// `map_Kd` file name (relative to the MTL file), options removed.
+    map: Option<String>,
 }
 
 /// `map_Kd` options and how many arguments each takes (`-o`, `-s`, `-t`: 1 to 3 numbers).
@@ -450,11 +538,13 @@ fn map_option_arguments(option: &str) -> Option<(usize, usize)> {
     })
 }
 
-fn parse_mtl(
-    bytes: &[u8],
+/// The validation pass over an MTL file: its entries, for the normalised MTL text and the
+/// duplicate check.
+fn validate_mtl<'a>(
+    bytes: &'a [u8],
     path: &Path,
     report: &mut LoadReport,
-) -> Result<Vec<MtlEntry>, SceneError> {
+) -> Result<Vec<MtlEntry<'a>>, SceneError> {
     let mut out: Vec<MtlEntry> = Vec::new();
     for (line, text) in text_lines(bytes, path)? {
         let Some((key, args)) = keyword(text) else {
@@ -465,9 +555,9 @@ fn parse_mtl(
                 return Err(obj_err(path, line, "newmtl needs a material name"));
             }
             out.push(MtlEntry {
-                name: args.to_string(),
+                name: args,
                 line,
-                diffuse: Vec3::splat(0.8),
+                diffuse: None,
                 map: None,
             });
             continue;
@@ -493,9 +583,9 @@ fn parse_mtl(
                 continue;
             }
             let v = numbers(args, 1, "diffuse colour (Kd)", path, line)?;
-            current.diffuse = match v[..] {
-                [g] => Vec3::splat(g),
-                [r, g, b] => Vec3::new(r, g, b),
+            current.diffuse = Some(match v[..] {
+                [g] => [g; 3],
+                [r, g, b] => [r, g, b],
                 _ => {
                     return Err(obj_err(
                         path,
@@ -506,7 +596,7 @@ fn parse_mtl(
                         ),
                     ));
                 }
-            };
+            });
         } else {
             let words: Vec<&str> = args.split_whitespace().collect();
             let mut k = 0;
@@ -538,48 +628,223 @@ fn parse_mtl(
             if file.is_empty() {
                 return Err(obj_err(path, line, "map_Kd needs a file name"));
             }
-            current.map = Some((file, line));
+            current.map = Some(file);
         }
     }
     Ok(out)
 }
 
-/// Turns a parsed part into a [`MeshPart`], applying the hygiene rules. Returns the part and
-/// the number of degenerate triangles dropped.
+/// The normalised MTL text `tobj` reads for checked entries.
+fn normalised_mtl(entries: &[MtlEntry]) -> String {
+    let mut out = String::new();
+    for m in entries {
+        writeln!(out, "newmtl {}", m.name).expect("writing to a String");
+        if let Some([r, g, b]) = m.diffuse {
+            writeln!(out, "Kd {r} {g} {b}").expect("writing to a String");
+        }
+        if let Some(file) = &m.map {
+            writeln!(out, "map_Kd {file}").expect("writing to a String");
+        }
+    }
+    out
+}
+
+/// Parses the normalised OBJ with `tobj`. `mtl_texts[k]` is the normalised text of library `k`
+/// (`mtllib k`); a last library declares every `usemtl` name the others lack (see the module
+/// docs). Returns the models and the materials of all libraries, in order.
+fn parse_with_tobj(
+    obj: &ObjPass,
+    mtl_texts: &[String],
+    path: &Path,
+) -> Result<(Vec<tobj::Model>, Vec<tobj::Material>), SceneError> {
+    let mut defined: HashSet<&str> = HashSet::new();
+    let mut undefined = String::new();
+    for text in mtl_texts {
+        defined.extend(text.lines().filter_map(|l| l.strip_prefix("newmtl ")));
+    }
+    for s in &obj.statements {
+        if let Statement::UseMtl(name) = s
+            && defined.insert(name)
+        {
+            writeln!(undefined, "newmtl {name}").expect("writing to a String");
+        }
+    }
+    let libraries: Vec<&str> = mtl_texts
+        .iter()
+        .map(String::as_str)
+        .chain([undefined.as_str()])
+        .collect();
+    let text = normalised_obj(obj, libraries.len());
+    let (models, materials) = tobj::load_obj_buf(&mut text.as_bytes(), &load_options(), |p| {
+        let library = p
+            .to_str()
+            .and_then(|k| k.parse::<usize>().ok())
+            .and_then(|k| libraries.get(k));
+        match library {
+            Some(text) => tobj::load_mtl_buf(&mut text.as_bytes()),
+            None => Err(tobj::LoadError::OpenFileFailed),
+        }
+    })
+    .map_err(|e| tobj_failed(path, e))?;
+    let materials = materials.map_err(|e| tobj_failed(path, e))?;
+    Ok((models, materials))
+}
+
+/// An error from `tobj` on the normalised text: a gap in the validation pass, not the file.
+fn tobj_failed(path: &Path, e: tobj::LoadError) -> SceneError {
+    SceneError::Mtl {
+        path: path.to_path_buf(),
+        reason: format!("tobj refused the checked file ({e}); please report this as a bug"),
+    }
+}
+
+// Other tobj features add fields to `LoadOptions`; keep their defaults whatever is enabled.
+#[allow(clippy::needless_update)]
+fn load_options() -> tobj::LoadOptions {
+    tobj::LoadOptions {
+        single_index: true,
+        triangulate: false,
+        ignore_points: true,
+        ignore_lines: true,
+        ..Default::default()
+    }
+}
+
+/// One part as `tobj` built it, its polygons triangulated.
+struct RawPart {
+    /// Index into [`ObjPass::parts`].
+    part: usize,
+    material_id: Option<usize>,
+    positions: Vec<Vec3>,
+    uvs: Vec<Vec2>,
+    normals: Vec<Vec3>,
+    triangles: Vec<[u32; 3]>,
+}
+
+/// The items of `v` at `kept`; an empty `v` (texture coordinates or normals absent) stays empty.
+fn pick<T: Copy>(v: &[T], kept: &[usize]) -> Vec<T> {
+    if v.is_empty() {
+        Vec::new()
+    } else {
+        kept.iter().map(|&i| v[i]).collect()
+    }
+}
+
+/// Triangulates the polygons of `tobj`'s models (see [`triangulate`]), naming a polygon's
+/// source line when it is refused. Models without faces are left out.
+fn triangulate_models(
+    obj: &ObjPass,
+    models: Vec<tobj::Model>,
+    path: &Path,
+) -> Result<Vec<RawPart>, SceneError> {
+    let mismatch = || tobj_failed(path, tobj::LoadError::GenericFailure);
+    let mut parts = obj.parts.iter().enumerate().filter(|(_, p)| p.faces > 0);
+    let mut lines = obj.face_lines.iter();
+    let mut out = Vec::new();
+    for model in models {
+        let m = model.mesh;
+        if m.indices.is_empty() {
+            continue;
+        }
+        let (part, info) = parts.next().ok_or_else(mismatch)?;
+        // `tobj` leaves `face_arities` empty when every face is a triangle.
+        let arities = if m.face_arities.is_empty() {
+            vec![3; m.indices.len() / 3]
+        } else {
+            m.face_arities
+        };
+        if arities.len() != info.faces
+            || arities.iter().map(|&n| n as usize).sum::<usize>() != m.indices.len()
+        {
+            return Err(mismatch());
+        }
+        let positions: Vec<Vec3> = m
+            .positions
+            .chunks_exact(3)
+            .map(|p| Vec3::new(p[0], p[1], p[2]))
+            .collect();
+        if m.indices.iter().any(|&i| i as usize >= positions.len()) {
+            return Err(mismatch());
+        }
+        let mut triangles = Vec::with_capacity(m.indices.len());
+        let mut start = 0;
+        for &n in &arities {
+            let face = &m.indices[start..start + n as usize];
+            start += n as usize;
+            let line = *lines.next().ok_or_else(mismatch)?;
+            let points: Vec<Vec3> = face.iter().map(|&i| positions[i as usize]).collect();
+            let tris = triangulate(&points).map_err(|r| obj_err(path, line, r))?;
+            triangles.extend(tris.into_iter().map(|t| t.map(|k| face[k])));
+        }
+        let uvs: Vec<Vec2> = m
+            .texcoords
+            .chunks_exact(2)
+            .map(|t| Vec2::new(t[0], t[1]))
+            .collect();
+        let normals: Vec<Vec3> = m
+            .normals
+            .chunks_exact(3)
+            .map(|n| Vec3::new(n[0], n[1], n[2]))
+            .collect();
+        let expect = |len: usize, wanted: bool| len == if wanted { positions.len() } else { 0 };
+        if !expect(uvs.len(), info.any_vt) || !expect(normals.len(), info.any_vn) {
+            return Err(mismatch());
+        }
+        // Keep only the vertices the triangles use, numbered in the order they first use them
+        // (for fanned polygons, tobj's own order; ear clipping may leave a repeated corner out).
+        let mut new_index = vec![u32::MAX; positions.len()];
+        let mut kept: Vec<usize> = Vec::with_capacity(positions.len());
+        for t in &mut triangles {
+            for i in t.iter_mut() {
+                let slot = &mut new_index[*i as usize];
+                if *slot == u32::MAX {
+                    *slot = kept.len() as u32;
+                    kept.push(*i as usize);
+                }
+                *i = *slot;
+            }
+        }
+        out.push(RawPart {
+            part,
+            material_id: m.material_id,
+            positions: pick(&positions, &kept),
+            uvs: pick(&uvs, &kept),
+            normals: pick(&normals, &kept),
+            triangles,
+        });
+    }
+    if parts.next().is_some() {
+        return Err(mismatch());
+    }
+    Ok(out)
+}
+
+/// Turns a triangulated part into a [`MeshPart`], applying the hygiene rules. Returns the part
+/// and the number of degenerate triangles dropped.
 fn finish_part(
-    obj: &ParsedObj,
-    part: &PartBuilder,
+    info: &PartInfo,
+    raw: RawPart,
     material: u32,
     path: &Path,
     report: &mut LoadReport,
 ) -> (MeshPart, usize) {
-    let positions: Vec<Vec3> = part
-        .corners
-        .iter()
-        .map(|c| obj.positions[c.0 as usize])
-        .collect();
-    let uvs: Vec<Vec2> = if part.any_vt {
-        for &line in &part.faces_without_vt {
+    if info.any_vt {
+        for &line in &info.faces_without_vt {
             report.warn(
                 WarningKind::MissingTexcoords,
                 path,
                 Some(line),
                 format!(
                     "face without texture coordinates in textured part '{}': its corners get uv (0, 0)",
-                    part.name
+                    info.name
                 ),
             );
         }
-        part.corners
-            .iter()
-            .map(|c| c.1.map_or(Vec2::ZERO, |t| obj.texcoords[t as usize]))
-            .collect()
-    } else {
-        Vec::new()
-    };
-    let mut triangles = Vec::with_capacity(part.triangles.len());
+    }
+    let positions = raw.positions;
+    let mut triangles = Vec::with_capacity(raw.triangles.len());
     let mut dropped = 0;
-    for &t in &part.triangles {
+    for &t in &raw.triangles {
         let [a, b, c] = t.map(|i| positions[i as usize]);
         let area2 = (b - a).cross(c - a).length_squared();
         if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || area2 == 0.0 || !area2.is_finite() {
@@ -588,15 +853,8 @@ fn finish_part(
             triangles.push(t);
         }
     }
-    // Corners without a normal get a zero one here, replaced by the computed normal below.
-    let given: Vec<Vec3> = if part.any_vn {
-        part.corners
-            .iter()
-            .map(|c| c.2.map_or(Vec3::ZERO, |n| obj.normals[n as usize]))
-            .collect()
-    } else {
-        Vec::new()
-    };
+    // Corners without a normal have the zero one here, replaced by the computed normal below.
+    let given = raw.normals;
     // Normals already of unit length (to f32 precision) are kept bit for bit.
     let unit = |n: Vec3| {
         if (n.length_squared() - 1.0).abs() < 1e-6 {
@@ -625,10 +883,10 @@ fn finish_part(
     };
     (
         MeshPart {
-            name: part.name.clone(),
+            name: info.name.clone(),
             positions,
             normals,
-            uvs,
+            uvs: raw.uvs,
             triangles,
             material,
         },
@@ -641,67 +899,35 @@ fn finish_part(
 /// dropped.
 pub(crate) fn parse_obj_str(text: &str, path: &Path) -> Result<(Vec<MeshPart>, usize), SceneError> {
     let mut report = LoadReport::default();
-    let obj = parse_obj(text.as_bytes(), path, &mut report)?;
+    let obj = validate_obj(text.as_bytes(), path, &mut report)?;
+    let (models, _) = parse_with_tobj(&obj, &[], path)?;
     let mut dropped = 0;
-    let parts = obj
-        .parts
-        .iter()
-        .map(|p| {
-            let (part, d) = finish_part(&obj, p, 0, path, &mut report);
-            dropped += d;
-            part
-        })
-        .filter(|p| !p.triangles.is_empty())
-        .collect();
+    let mut parts = Vec::new();
+    for raw in triangulate_models(&obj, models, path)? {
+        let (part, d) = finish_part(&obj.parts[raw.part], raw, 0, path, &mut report);
+        dropped += d;
+        if !part.triangles.is_empty() {
+            parts.push(part);
+        }
+    }
     Ok((parts, dropped))
 }
 
 /// Loads an OBJ file with its MTL materials and `map_Kd` textures; warnings go to `report`.
 pub(crate) fn load_obj_file(path: &Path, report: &mut LoadReport) -> Result<LoadedObj, SceneError> {
     let bytes = read_input(path)?;
-    let obj = parse_obj(&bytes, path, report)?;
+    let obj = validate_obj(&bytes, path, report)?;
 
-    let mut out = LoadedObj {
-        parts: Vec::new(),
-        materials: Vec::new(),
-        textures: Vec::new(),
-    };
-    // Material name -> index in `out.materials`; a later definition replaces an earlier one.
-    let mut by_name: HashMap<String, (u32, PathBuf, usize)> = HashMap::new();
-    let mut texture_ids: HashMap<PathBuf, u32> = HashMap::new();
+    // Each library checked and normalised; `origin[k]` is the MTL file of tobj's material k.
+    let mut mtl_texts = Vec::with_capacity(obj.libraries.len());
+    let mut origin: Vec<&Path> = Vec::new();
+    let mut previous: HashMap<String, (PathBuf, usize)> = HashMap::new();
     for (mtl_path, _) in &obj.libraries {
         let bytes = read_input(mtl_path)?;
-        for m in parse_mtl(&bytes, mtl_path, report)? {
-            let texture = match &m.map {
-                None => None,
-                Some((t, _)) => {
-                    let tex_path = mtl_path.parent().unwrap_or(Path::new(".")).join(t);
-                    if let Some(&id) = texture_ids.get(&tex_path) {
-                        Some(id)
-                    } else {
-                        let tex =
-                            load_texture(&tex_path).map_err(|reason| SceneError::Texture {
-                                mtl: mtl_path.clone(),
-                                material: m.name.clone(),
-                                texture: tex_path.clone(),
-                                reason,
-                            })?;
-                        out.textures.push(tex);
-                        let id = (out.textures.len() - 1) as u32;
-                        texture_ids.insert(tex_path, id);
-                        Some(id)
-                    }
-                }
-            };
-            out.materials.push(Material {
-                name: m.name.clone(),
-                diffuse: m.diffuse,
-                texture,
-            });
-            let id = (out.materials.len() - 1) as u32;
-            if let Some((_, first, first_line)) =
-                by_name.insert(m.name.clone(), (id, mtl_path.clone(), m.line))
-            {
+        let entries = validate_mtl(&bytes, mtl_path, report)?;
+        for m in &entries {
+            origin.push(mtl_path);
+            if let Some((first, first_line)) = previous.get(m.name) {
                 report.warn(
                     WarningKind::DuplicateMaterial,
                     mtl_path,
@@ -713,47 +939,85 @@ pub(crate) fn load_obj_file(path: &Path, report: &mut LoadReport) -> Result<Load
                     ),
                 );
             }
+            previous.insert(m.name.to_string(), (mtl_path.clone(), m.line));
         }
+        mtl_texts.push(normalised_mtl(&entries));
+    }
+    let (models, materials) = parse_with_tobj(&obj, &mtl_texts, path)?;
+    let raw_parts = triangulate_models(&obj, models, path)?;
+
+    let mut out = LoadedObj {
+        parts: Vec::new(),
+        materials: Vec::new(),
+        textures: Vec::new(),
+    };
+    // tobj's materials past those of the libraries declare undefined names.
+    let defined = origin.len();
+    if materials.len() < defined {
+        return Err(tobj_failed(path, tobj::LoadError::GenericFailure));
+    }
+    let mut texture_ids: HashMap<PathBuf, u32> = HashMap::new();
+    for (m, mtl_path) in materials.iter().zip(&origin) {
+        let texture = match &m.diffuse_texture {
+            None => None,
+            Some(t) => {
+                let tex_path = mtl_path.parent().unwrap_or(Path::new(".")).join(t);
+                if let Some(&id) = texture_ids.get(&tex_path) {
+                    Some(id)
+                } else {
+                    let tex = load_texture(&tex_path).map_err(|reason| SceneError::Texture {
+                        mtl: mtl_path.to_path_buf(),
+                        material: m.name.clone(),
+                        texture: tex_path.clone(),
+                        reason,
+                    })?;
+                    out.textures.push(tex);
+                    let id = (out.textures.len() - 1) as u32;
+                    texture_ids.insert(tex_path, id);
+                    Some(id)
+                }
+            }
+        };
+        out.materials.push(Material {
+            name: m.name.clone(),
+            diffuse: m.diffuse.map_or(Vec3::splat(0.8), Vec3::from_array),
+            texture,
+        });
     }
 
     let mut dropped = 0;
     let mut default_material = None;
-    for part in &obj.parts {
-        let found = match &part.material {
-            None => None,
-            Some((name, line)) => {
-                let found = by_name.get(name).map(|m| m.0);
-                if found.is_none() {
-                    if obj.libraries.is_empty() {
-                        report.warn(
-                            WarningKind::NoMaterialLibrary,
-                            path,
-                            Some(*line),
-                            format!(
-                                "usemtl '{name}' in a file without mtllib: the default material is used"
-                            ),
-                        );
-                    } else {
-                        report.warn(
-                            WarningKind::UndefinedMaterial,
-                            path,
-                            Some(*line),
-                            format!(
-                                "material '{name}' is not defined in {}: the default material is used",
-                                obj.libraries
-                                    .iter()
-                                    .map(|(p, _)| p.display().to_string())
-                                    .collect::<Vec<_>>()
-                                    .join(", ")
-                            ),
-                        );
-                    }
-                }
-                found
+    for raw in raw_parts {
+        let info = &obj.parts[raw.part];
+        let found = raw.material_id.filter(|&id| id < defined);
+        if let (None, Some((name, line))) = (found, &info.material) {
+            if obj.libraries.is_empty() {
+                report.warn(
+                    WarningKind::NoMaterialLibrary,
+                    path,
+                    Some(*line),
+                    format!(
+                        "usemtl '{name}' in a file without mtllib: the default material is used"
+                    ),
+                );
+            } else {
+                report.warn(
+                    WarningKind::UndefinedMaterial,
+                    path,
+                    Some(*line),
+                    format!(
+                        "material '{name}' is not defined in {}: the default material is used",
+                        obj.libraries
+                            .iter()
+                            .map(|(p, _)| p.display().to_string())
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ),
+                );
             }
-        };
+        }
         let material = match found {
-            Some(id) => id,
+            Some(id) => id as u32,
             None => *default_material.get_or_insert_with(|| {
                 out.materials.push(Material {
                     name: "default".into(),
@@ -763,7 +1027,7 @@ pub(crate) fn load_obj_file(path: &Path, report: &mut LoadReport) -> Result<Load
                 (out.materials.len() - 1) as u32
             }),
         };
-        let (p, d) = finish_part(&obj, part, material, path, report);
+        let (p, d) = finish_part(info, raw, material, path, report);
         dropped += d;
         if !p.triangles.is_empty() {
             out.parts.push(p);
@@ -849,6 +1113,59 @@ mod tests {
             .to_string();
         assert!(e.contains("x.obj:4"), "{e}");
         assert!(scan("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -1\n").is_ok());
+    }
+
+    /// tobj panics on a one-value `Kd` and on short `Ka`, `Ks`, `Ke` (a missing value
+    /// unwrapped); the normalised MTL it reads instead loads, `Kd 0.5` as grey.
+    #[test]
+    fn tobj_reads_only_normalised_mtl() {
+        for raw in ["Kd 0.5", "Ka 1", "Ks 0 0", "Ke 0"] {
+            let text = format!("newmtl g\n{raw}\n");
+            let panicked = std::panic::catch_unwind(|| tobj::load_mtl_buf(&mut text.as_bytes()));
+            assert!(panicked.is_err(), "tobj no longer panics on '{raw}'");
+            let mut report = LoadReport::default();
+            let entries = validate_mtl(text.as_bytes(), Path::new("g.mtl"), &mut report).unwrap();
+            let clean = normalised_mtl(&entries);
+            let (mats, _) = tobj::load_mtl_buf(&mut clean.as_bytes()).unwrap();
+            let kd = if raw == "Kd 0.5" {
+                Some([0.5; 3])
+            } else {
+                None
+            };
+            assert_eq!(
+                (mats[0].name.as_str(), mats[0].diffuse),
+                ("g", kd),
+                "{clean}"
+            );
+        }
+    }
+
+    /// What tobj is given: plain statements, absolute indices, placeholders first for corners
+    /// without `vt` in a textured part; nothing of `l`, `p`, `s`, comments, tabs or a BOM.
+    #[test]
+    fn normalised_obj_is_plain() {
+        let raw = b"\xEF\xBB\xBFv\t0 0 0 1 # caf\xE9\r\nv 1 0 0 0.5 0.5 0.5\r\nv 0 1 0\nvt 0.5\n\
+                    s off\nl 1 2\np 1\nf 1 2\no\t a\tb \nf -3/-1 -2 -1\ng\nf 1 2 3\n";
+        let mut report = LoadReport::default();
+        let obj = validate_obj(raw, Path::new("n.obj"), &mut report).unwrap();
+        assert_eq!(
+            normalised_obj(&obj, 1),
+            "mtllib 0\nvt 0 0\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0.5 0\no a\tb\n\
+             f 1/2 2/1 3/1\ng \nf 1 2 3\n"
+        );
+        assert_eq!(obj.face_lines, vec![10, 12]);
+        // Negative: without the placeholder, tobj drops the part's texture coordinates.
+        let partial = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0.5 0\nf 1/1 2 3\n";
+        let (models, _) = tobj::load_obj_buf(&mut partial.as_bytes(), &load_options(), |_| {
+            Err(tobj::LoadError::OpenFileFailed)
+        })
+        .unwrap();
+        assert_ne!(models[0].mesh.texcoords.len(), 2 * 3);
+        let (parts, _) = parse_obj_str(partial, Path::new("p.obj")).unwrap();
+        assert_eq!(
+            parts[0].uvs,
+            vec![Vec2::new(0.5, 0.0), Vec2::ZERO, Vec2::ZERO]
+        );
     }
 
     #[test]
