@@ -65,7 +65,7 @@ struct HierConfig {
 
 @group(2) @binding(0) var<storage, read_write> ray_counter: RayCounter;
 @group(2) @binding(1) var<storage, read> rays: array<AppendedRay>;
-@group(2) @binding(2) var<uniform> hier_config: HierConfig;
+@group(2) @binding(2) var<storage, read> hier_config: HierConfig;
 @group(2) @binding(3) var<storage, read> cmo_hier: array<vec2<f32>>;
 // Per pixel: (texels tested, cells tested, descents, backtracks), summed over the ray's traces.
 @group(2) @binding(4) var<storage, read_write> ray_stats: array<vec4<u32>>;

@@ -77,7 +77,7 @@ struct TraceConfig {
     mip_levels: array<vec4<u32>, 16>,
 }
 
-@group(1) @binding(0) var<uniform> trace_config: TraceConfig;
+@group(1) @binding(0) var<storage, read> trace_config: TraceConfig;
 @group(1) @binding(1) var<storage, read> cmo_centres: array<vec4<f32>>;
 @group(1) @binding(2) var<storage, read> cmo_distance: array<f32>;
 @group(1) @binding(3) var<storage, read> cmo_mip: array<vec2<f32>>;

@@ -265,7 +265,7 @@ impl ComputePath {
         let hier_bindings = hier_pass.bind(ctx, cmo.distance(), &hier, cmo.count(), size)?;
         let hier_config = ctx.create_buffer_init(
             "hier_config",
-            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            vk::BufferUsageFlags::STORAGE_BUFFER,
             std::slice::from_ref(&config),
         )?;
         let pixels = u64::from(width) * u64::from(height);

@@ -324,7 +324,7 @@ impl GpuRenderer {
         };
         let params_buf = ctx.create_buffer_init(
             "frame params",
-            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            vk::BufferUsageFlags::STORAGE_BUFFER,
             std::slice::from_ref(&params),
         )?;
         let pixels = u64::from(width) * u64::from(height);
