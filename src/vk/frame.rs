@@ -348,12 +348,20 @@ impl GpuRenderer {
                 ComputePath::new(ctx, &cmo, &gbuffer, &params_buf, &records, (width, height))?;
             (None, Some(path))
         } else {
+            // The fragment pass's specialised entry point when the options allow it.
+            let entry = if options.method == GpuMethod::Fragment
+                && super::trace_probe::exact_mip_only(&options.trace)
+            {
+                "fs_exact_mip"
+            } else {
+                "fs_main"
+            };
             let trace = GraphicsPipeline::new(
                 ctx,
                 options.method.pass(),
                 &GraphicsDesc {
                     vertex: "vs_fullscreen",
-                    fragment: "fs_main",
+                    fragment: entry,
                     colour_formats: Vec::new(),
                     depth: None,
                 },
@@ -368,7 +376,7 @@ impl GpuRenderer {
                         (3, Resource::Buffer(&records)),
                     ],
                 )?,
-                trace.bind_group(1, &cmo.resources_for(options.method.pass(), "fs_main"))?,
+                trace.bind_group(1, &cmo.resources_for(options.method.pass(), entry))?,
             ];
             (Some((trace, trace_sets)), None)
         };
