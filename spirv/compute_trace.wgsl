@@ -94,11 +94,13 @@ struct RayState {
     face: u32,
     la: vec3<f32>,
     ld: vec3<f32>,
+    // The face being searched and its piece's [lo, hi] (`faces.face[face]`,
+    // `pieces.range[piece]`, cached by `enter_face`: read by every lane test).
+    cur_face: u32,
+    range: vec2<f32>,
     level: u32,
     node: array<vec2<u32>, NODE_LEVELS>,
     mask: array<u32, NODE_LEVELS>,
-    // This lane's keys: level l, round c at l * MAX_CELLS + c.
-    keys: array<f32, 72>,
     need_mask: bool,
     trace_done: bool,
     result: TraceResult,
@@ -145,32 +147,52 @@ struct LaneTest {
     key: f32,
 }
 
-// Test of child j of the ray's current node (`cpu::alg3::lane_test`).
-fn lane_test(st: ptr<function, RayState>, j: u32) -> LaneTest {
-    let none = LaneTest(false, f32_inf());
-    let n = trace_config.size;
+// What every lane test of one node reads: the node's level, children grid, child level's
+// dims and span (loaded once per visit, not once per child).
+struct NodeCtx {
+    // Child level.
+    cl: u32,
+    // The child level's (offset, width, height, 0).
+    cd: vec4<u32>,
+    // Children grid of the node.
+    g: vec2<u32>,
+    // The node's cell.
+    nd: vec2<u32>,
+    // The child level's span in texels.
+    span: vec2<u32>,
+}
+
+fn node_ctx(st: ptr<function, RayState>) -> NodeCtx {
     let lvl = (*st).level;
     let cl = lvl - 1u;
-    let cd = hier_config.dims[cl];
-    let g = child_grid(lvl);
+    return NodeCtx(cl, hier_config.dims[cl], child_grid(lvl), (*st).node[lvl], hier_config.shape[cl].zw);
+}
+
+// Test of child j of the ray's current node (`cpu::alg3::lane_test`).
+fn lane_test(st: ptr<function, RayState>, nc: NodeCtx, j: u32) -> LaneTest {
+    let none = LaneTest(false, f32_inf());
+    let n = trace_config.size;
+    let cl = nc.cl;
+    let cd = nc.cd;
+    let g = nc.g;
     if j >= g.x * g.y {
         return none;
     }
-    let nd = (*st).node[lvl];
+    let nd = nc.nd;
     let cx = nd.x * g.x + j % g.x;
     let cy = nd.y * g.y + j / g.x;
     if cx >= cd.y || cy >= cd.z {
         return none;
     }
-    let range = (*st).pieces.range[(*st).piece];
-    let face = (*st).faces.face[(*st).face];
+    let range = (*st).range;
+    let face = (*st).cur_face;
     let seg = (*st).seg;
     if cl == 0u {
         let iv = cell_interval((*st).la, (*st).ld, cell_rect_texel(face, cx, cy, n), range.x, range.y);
         let d = distance_at((*st).k, Texel(face, cx, cy));
         return LaneTest(texel_not_in_front(seg, iv, d), iv.t0);
     }
-    let span = hier_config.shape[cl].zw;
+    let span = nc.span;
     let rect = CellRect(face, min(cx * span.x, n), min((cx + 1u) * span.x, n), min(cy * span.y, n), min((cy + 1u) * span.y, n), n);
     if rect.x0 >= rect.x1 || rect.y0 >= rect.y1 {
         return none;
@@ -197,6 +219,8 @@ fn enter_face(st: ptr<function, RayState>) {
         }
         if (*st).face < (*st).faces.count {
             let f = (*st).faces.face[(*st).face];
+            (*st).cur_face = f;
+            (*st).range = (*st).pieces.range[(*st).piece];
             (*st).la = to_face_local(f, (*st).seg.a);
             (*st).ld = to_face_local(f, (*st).seg.d);
             (*st).level = hier_top();
@@ -308,8 +332,8 @@ fn advance(st: ptr<function, RayState>, pick: u32) {
     let cx = nd.x * g.x + pick % g.x;
     let cy = nd.y * g.y + pick / g.x;
     if lvl == 1u {
-        let range = (*st).pieces.range[(*st).piece];
-        let face = (*st).faces.face[(*st).face];
+        let range = (*st).range;
+        let face = (*st).cur_face;
         let tex = Texel(face, cx, cy);
         let iv = cell_interval((*st).la, (*st).ld, cell_rect_texel(face, cx, cy, trace_config.size), range.x, range.y);
         let o = classify((*st).k, (*st).seg, tex, iv);
@@ -342,6 +366,9 @@ fn ray_bits(b: vec4<u32>, half: u32, lanes: u32) -> u32 {
 // subgroup operations) and writes its record. Called in subgroup-uniform control flow.
 fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells: u32) {
     var st: RayState;
+    // This lane's keys (its children's entry t): level l, round c at l * MAX_CELLS + c. Kept
+    // out of `RayState`: only this loop reads them.
+    var keys: array<f32, 72>;
     if valid {
         let q = rays[index];
         st.origin = q.origin;
@@ -359,12 +386,16 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
         // Lane tests of the node's children, one ballot per round.
         let testing = busy && st.need_mask;
         var mask = 0u;
+        var nc: NodeCtx;
+        if testing {
+            nc = node_ctx(&st);
+        }
         for (var c = 0u; c < cells; c++) {
             var cand = false;
             if testing {
-                let t = lane_test(&st, lane + lanes * c);
+                let t = lane_test(&st, nc, lane + lanes * c);
                 cand = t.cand;
-                st.keys[st.level * MAX_CELLS + c] = t.key;
+                keys[st.level * MAX_CELLS + c] = t.key;
             }
             mask |= ray_bits(subgroupBallot(cand), half, lanes) << (lanes * c);
         }
@@ -384,7 +415,7 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
         let m = select(0u, st.mask[lvl], busy);
         var kmin = f32_inf();
         for (var c = 0u; c < cells; c++) {
-            let key = st.keys[lvl * MAX_CELLS + c];
+            let key = keys[lvl * MAX_CELLS + c];
             if ((m >> (lane + lanes * c)) & 1u) != 0u && key < kmin {
                 kmin = key;
             }
@@ -398,7 +429,7 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
         var eq = 0u;
         for (var c = 0u; c < cells; c++) {
             let j = lane + lanes * c;
-            let holds = ((m >> j) & 1u) != 0u && st.keys[lvl * MAX_CELLS + c] == kmin;
+            let holds = ((m >> j) & 1u) != 0u && keys[lvl * MAX_CELLS + c] == kmin;
             eq |= ray_bits(subgroupBallot(holds), half, lanes) << (lanes * c);
         }
         var pick = firstTrailingBit(m);
