@@ -49,26 +49,14 @@ const MAX_STEPS: u32 = 0x80000000u;
 // batches are needed below the 65535-group cap, and at most 2^32 / (65535 * 8) < 2^14 above it.
 const MAX_BATCHES: u32 = 65536u;
 
-// The hierarchy layout (Rust `cubetrace::vk::compute::HierConfig`).
-struct HierConfig {
-    // Index of the root level (0 when the texels are the root, N <= 4).
-    root: u32,
-    // Cells per CMO in `cmo_hier`: hier32_len(N).
-    hier_len: u32,
-    pad0: u32,
-    pad1: u32,
-    // Level l: (offset in cells within a CMO block (l >= 1), width, height, 0).
-    dims: array<vec4<u32>, 8>,
-    // Level l: (gx, gy) block of level l - 1 cells per cell, (span x, span y) in texels.
-    shape: array<vec4<u32>, 8>,
-}
-
 @group(2) @binding(0) var<storage, read_write> ray_counter: RayCounter;
 @group(2) @binding(1) var<storage, read> rays: array<AppendedRay>;
 @group(2) @binding(2) var<storage, read> hier_config: HierConfig;
 @group(2) @binding(3) var<storage, read> cmo_hier: array<vec2<f32>>;
 // Per pixel: (texels tested, cells tested, descents, backtracks), summed over the ray's traces.
 @group(2) @binding(4) var<storage, read_write> ray_stats: array<vec4<u32>>;
+// Per CMO: the near-centre cut radius, computed once per frame by `dispatch_args`.
+@group(2) @binding(5) var<storage, read> cmo_cut: array<f32>;
 
 struct RayState {
     // The world ray.
@@ -118,28 +106,6 @@ fn child_grid(lvl: u32) -> vec2<u32> {
         return hier_config.dims[lvl - 1u].yz;
     }
     return hier_config.shape[lvl].xy;
-}
-
-// 0.5 * min D of CMO k (0 when no finite positive minimum), as `CmoTracer::new`: the min over
-// the root level's cells is the min over the texels (exact, no NaN in the data).
-fn hier_cut_radius(k: u32) -> f32 {
-    let n = trace_config.size;
-    var m = f32_inf();
-    let root = hier_config.root;
-    if root == 0u {
-        for (var i = 0u; i < 6u * n * n; i++) {
-            m = min(m, cmo_distance[k * 6u * n * n + i]);
-        }
-    } else {
-        let d = hier_config.dims[root];
-        for (var i = 0u; i < 6u * d.y * d.z; i++) {
-            m = min(m, cmo_hier[k * hier_config.hier_len + d.x + i].x);
-        }
-    }
-    if is_finite_f32(m) && m > 0.0 {
-        return 0.5 * m;
-    }
-    return 0.0;
 }
 
 struct LaneTest {
@@ -242,7 +208,7 @@ fn start_trace(st: ptr<function, RayState>) {
     let k = (*st).k;
     let seg = Segment((*st).origin - cmo_centres[k].xyz, (*st).dir, (*st).t_done, frame.t_hi);
     (*st).seg = seg;
-    (*st).pieces = split_near_centre(seg, hier_cut_radius(k));
+    (*st).pieces = split_near_centre(seg, cmo_cut[k]);
     (*st).faces.count = 0u;
     if (*st).pieces.count > 0u {
         (*st).faces = faces_crossed(seg, (*st).pieces.range[0].x, (*st).pieces.range[0].y, trace_config.size);

@@ -132,7 +132,7 @@ fn compute_struct_layouts_match_naga() {
     check_layout!(
         DispatchParams,
         DISPATCH_ARGS.struct_layout("DispatchParams").unwrap(),
-        [rays_per_group, pad0, pad1, pad2]
+        [rays_per_group, cmo_count, size, pad0]
     )
     .unwrap();
     check_layout!(

@@ -5,7 +5,7 @@
 //! |---|---|---|
 //! | `hier32` | CMO distance | `cmo_hier`: the 8x4/4x8 `[min, max]` hierarchy ([`super::hier32`]) |
 //! | `append` | G-buffer | ray queue + its atomic count (a fragment pass, one ray per mirror pixel) |
-//! | `dispatch_args` | ray count | `VkDispatchIndirectCommand` (no CPU round trip) |
+//! | `dispatch_args` | ray count, hierarchy | `VkDispatchIndirectCommand` (no CPU round trip), the CMOs' cut radii |
 //! | `compute_trace` | queue, CMO data, `cmo_hier` | one [`PixelRecord`](super::frame::PixelRecord) per queued ray, per-ray counters |
 //!
 //! Invariants:
@@ -81,9 +81,11 @@ pub struct DispatchArgs {
 pub struct DispatchParams {
     /// Rays per `compute_trace` workgroup at the device's subgroup size: `256 / min(S, 32)`.
     pub rays_per_group: u32,
+    /// Number of CMOs K whose cut radii `dispatch_args` computes (0: none).
+    pub cmo_count: u32,
+    /// Face size N of the CMOs.
+    pub size: u32,
     pub pad0: u32,
-    pub pad1: u32,
-    pub pad2: u32,
 }
 
 impl DispatchParams {
@@ -93,6 +95,15 @@ impl DispatchParams {
         DispatchParams {
             rays_per_group: 256 / subgroup_size.clamp(4, 32),
             ..DispatchParams::default()
+        }
+    }
+
+    /// With the cut radii of `cmo_count` CMOs of face size `size` to compute.
+    pub fn with_cmos(self, cmo_count: u32, size: u32) -> Self {
+        DispatchParams {
+            cmo_count,
+            size,
+            ..self
         }
     }
 }
@@ -226,6 +237,7 @@ pub struct ComputePath {
     _hier: Buffer,
     _hier_config: Buffer,
     _dispatch_params: Buffer,
+    _cut: Buffer,
     _rays: Buffer,
     counter: Buffer,
     args: Buffer,
@@ -285,6 +297,11 @@ impl ComputePath {
             vk::BufferUsageFlags::INDIRECT_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
         )?;
         let stats = storage("ray stats", pixels * 16, vk::BufferUsageFlags::TRANSFER_SRC)?;
+        let cut = storage(
+            "cmo_cut",
+            u64::from(cmo.count()) * 4,
+            vk::BufferUsageFlags::TRANSFER_SRC,
+        )?;
         let sampled = |img: &super::image::Image| Resource::Texture {
             view: img.view(),
             layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
@@ -311,10 +328,11 @@ impl ComputePath {
         )?;
         let dispatch_params = ctx.create_buffer_init(
             "dispatch params",
-            vk::BufferUsageFlags::UNIFORM_BUFFER,
-            &[DispatchParams::for_subgroup_size(
-                ctx.report().subgroup_size,
-            )],
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            &[
+                DispatchParams::for_subgroup_size(ctx.report().subgroup_size)
+                    .with_cmos(cmo.count(), size),
+            ],
         )?;
         let dispatch_args =
             ComputePipeline::new(ctx, &DISPATCH_ARGS, "main", ComputeOptions::default())?;
@@ -324,6 +342,10 @@ impl ComputePath {
                 (0, Resource::Buffer(&counter)),
                 (1, Resource::Buffer(&args)),
                 (2, Resource::Buffer(&dispatch_params)),
+                (3, Resource::Buffer(&cut)),
+                (4, Resource::Buffer(&hier_config)),
+                (5, Resource::Buffer(&hier)),
+                (6, Resource::Buffer(cmo.distance())),
             ],
         )?;
         let trace = ComputePipeline::new(ctx, &COMPUTE_TRACE, "main", ComputeOptions::default())?;
@@ -344,6 +366,7 @@ impl ComputePath {
                     (2, Resource::Buffer(&hier_config)),
                     (3, Resource::Buffer(&hier)),
                     (4, Resource::Buffer(&stats)),
+                    (5, Resource::Buffer(&cut)),
                 ],
             )?,
         ];
@@ -361,6 +384,7 @@ impl ComputePath {
             _hier: hier,
             _hier_config: hier_config,
             _dispatch_params: dispatch_params,
+            _cut: cut,
             _rays: rays,
             counter,
             args,
