@@ -319,9 +319,11 @@ fn advance(st: ptr<function, RayState>, pick: u32) {
     (*st).descents += 1u;
 }
 
-// The 32-bit mask of one ray from `cells` ballots of `pred[c]` (child `lane + lanes * c`).
+// The 32 bits of one ray from a ballot: the ray whose lanes are `half * lanes ..` of the
+// subgroup (`lanes` <= 32 divides 32, so they lie in one 32-bit word of the ballot).
 fn ray_bits(b: vec4<u32>, half: u32, lanes: u32) -> u32 {
-    let bits = b[half];
+    let first = half * lanes;
+    let bits = b[first / 32u] >> (first % 32u);
     if lanes < 32u {
         return bits & ((1u << lanes) - 1u);
     }
@@ -427,6 +429,11 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
     }
 }
 
+// Entry points: the same kernel with at most `lane_cap` lanes per ray (a constant, folded by the
+// driver). `main`: the thesis layout, min(S, 32) lanes per ray. `main_lanes4`: 4 lanes per ray
+// (32 / 4 = 8 rounds of ballots per node), so S / 4 rays share a subgroup; chosen for CPU
+// devices (`vk::compute::ray_lanes`), where the per-ray work every lane of a ray repeats costs
+// in proportion to the lanes (spirv/README.md, "Performance on lavapipe").
 @compute @workgroup_size(256)
 fn main(
     @builtin(workgroup_id) wg: vec3<u32>,
@@ -435,7 +442,22 @@ fn main(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    let lanes = min(sg_size, 32u);
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 32u);
+}
+
+@compute @workgroup_size(256)
+fn main_lanes4(
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(subgroup_size) sg_size: u32,
+    @builtin(subgroup_invocation_id) sg_lane: u32,
+    @builtin(subgroup_id) sg_id: u32,
+) {
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 4u);
+}
+
+fn trace_all(wg: vec3<u32>, groups: vec3<u32>, sg_size: u32, sg_lane: u32, sg_id: u32, lane_cap: u32) {
+    let lanes = min(min(sg_size, 32u), lane_cap);
     if lanes < 4u {
         // Unsupported (refused on the Rust side); uniform over the whole dispatch.
         return;

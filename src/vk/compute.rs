@@ -88,12 +88,50 @@ pub struct DispatchParams {
     pub pad0: u32,
 }
 
+/// Environment variable that overrides [`ray_lanes`]'s cap: `32` (the thesis layout, entry
+/// `main`) or `4` (entry `main_lanes4`). Anything else is refused.
+pub const RAY_LANES_ENV: &str = "CUBETRACE_RAY_LANES";
+
+/// The most lanes `compute_trace` gives one ray on this device, and the entry point that does
+/// it: 32 (`main`, thesis alg. 3: min(S, 32) lanes per ray) on GPUs, 4 (`main_lanes4`: S / 4
+/// rays per subgroup) on CPU devices such as lavapipe, where every lane repeats the ray's
+/// per-ray work at a cost that grows with the lanes (spirv/README.md, "Performance on
+/// lavapipe"). [`RAY_LANES_ENV`] overrides the choice.
+pub fn ray_lanes(ctx: &GpuContext) -> VkResult<(u32, &'static str)> {
+    let cap = match std::env::var(RAY_LANES_ENV) {
+        Ok(v) => match v.trim() {
+            "32" => 32,
+            "4" => 4,
+            other => {
+                return Err(VkError::Usage {
+                    what: RAY_LANES_ENV.into(),
+                    detail: format!("`{other}`: expected 32 or 4"),
+                });
+            }
+        },
+        Err(_) if ctx.report().device_type == vk::PhysicalDeviceType::CPU => 4,
+        Err(_) => 32,
+    };
+    Ok(if cap == 4 {
+        (4, "main_lanes4")
+    } else {
+        (32, "main")
+    })
+}
+
 impl DispatchParams {
-    /// For a device whose compute shaders run with subgroups of `subgroup_size` lanes (the
-    /// kernel is correct with any value; this one launches no idle workgroup on that device).
+    /// For a device whose compute shaders run with subgroups of `subgroup_size` lanes and the
+    /// thesis layout (entry `main`; the kernel is correct with any value, this one launches no
+    /// idle workgroup on that device).
     pub fn for_subgroup_size(subgroup_size: u32) -> Self {
+        Self::for_lanes(subgroup_size, 32)
+    }
+
+    /// For subgroups of `subgroup_size` lanes and at most `lane_cap` lanes per ray
+    /// ([`ray_lanes`]): `256 / min(S, 32, lane_cap)` rays per workgroup.
+    pub fn for_lanes(subgroup_size: u32, lane_cap: u32) -> Self {
         DispatchParams {
-            rays_per_group: 256 / subgroup_size.clamp(4, 32),
+            rays_per_group: 256 / subgroup_size.clamp(4, 32).min(lane_cap.max(4)),
             ..DispatchParams::default()
         }
     }
@@ -256,6 +294,7 @@ impl ComputePath {
         (width, height): (u32, u32),
     ) -> VkResult<Self> {
         check_device(ctx)?;
+        let (lane_cap, entry) = ray_lanes(ctx)?;
         let size = cmo.size();
         let config = HierConfig::new(size)?;
         let storage = |name: &str, bytes: u64, extra: vk::BufferUsageFlags| {
@@ -330,7 +369,7 @@ impl ComputePath {
             "dispatch params",
             vk::BufferUsageFlags::STORAGE_BUFFER,
             &[
-                DispatchParams::for_subgroup_size(ctx.report().subgroup_size)
+                DispatchParams::for_lanes(ctx.report().subgroup_size, lane_cap)
                     .with_cmos(cmo.count(), size),
             ],
         )?;
@@ -348,7 +387,7 @@ impl ComputePath {
                 (6, Resource::Buffer(cmo.distance())),
             ],
         )?;
-        let trace = ComputePipeline::new(ctx, &COMPUTE_TRACE, "main", ComputeOptions::default())?;
+        let trace = ComputePipeline::new(ctx, &COMPUTE_TRACE, entry, ComputeOptions::default())?;
         let trace_sets = [
             trace.bind_group(
                 0,
@@ -357,7 +396,7 @@ impl ComputePath {
                     (3, Resource::Buffer(records)),
                 ],
             )?,
-            trace.bind_group(1, &cmo.resources_for(&COMPUTE_TRACE, "main"))?,
+            trace.bind_group(1, &cmo.resources_for(&COMPUTE_TRACE, entry))?,
             trace.bind_group(
                 2,
                 &[
