@@ -4,11 +4,12 @@
 // loop) inside `cpu::multi::trace_cmos` (the occlusion handoff between CMOs).
 //
 // Lanes. `@workgroup_size(256)`, 1-D (naga rejects the subgroup builtins with a 2-D size). A ray
-// owns `lanes = min(S, 32)` lanes of one subgroup of size S; logical lane j in 0..32 (child j of
-// the node being visited) lives on lane `j % lanes`, round `j / lanes`, so with S < 32 each lane
-// tests 32 / S children and the 32-bit mask is assembled from 32 / S ballots; with S = 64 two
-// rays share a subgroup (lanes 0..32 and 32..64), and each takes its 32 bits of the ballot.
-// With S = 32 this is the thesis's 8 rays x 32 lanes per workgroup.
+// owns `lanes = min(S, 32, cap)` lanes of one subgroup of size S (cap: 32 for `main`, 4 for
+// `main_lanes4`); logical lane j in 0..32 (child j of the node being visited) lives on lane
+// `j % lanes`, round `j / lanes`, so with lanes < 32 each lane tests 32 / lanes children and the
+// 32-bit mask is assembled from 32 / lanes ballots; S / lanes rays share a subgroup (e.g. lanes
+// 0..32 and 32..64 at S = 64), and each takes its bits of the ballot (`ray_bits`).
+// With S = 32 and `main` this is the thesis's 8 rays x 32 lanes per workgroup.
 //
 // Per ray (every lane of a ray holds the same copy of the ray's state, computed redundantly):
 // per CMO (handoff), per piece of the segment and per face crossed in order of t, a depth-first
