@@ -4,8 +4,8 @@
 // loop) inside `cpu::multi::trace_cmos` (the occlusion handoff between CMOs).
 //
 // Lanes. `@workgroup_size(256)`, 1-D (naga rejects the subgroup builtins with a 2-D size). A ray
-// owns `lanes = min(S, 32, cap)` lanes of one subgroup of size S (cap: 32 for `main`, 4 for
-// `main_lanes4`); logical lane j in 0..32 (child j of the node being visited) lives on lane
+// owns `lanes = min(S, 32, cap)` lanes of one subgroup of size S (cap: 32 for `main`, 1 for
+// `main_lanes1`); logical lane j in 0..32 (child j of the node being visited) lives on lane
 // `j % lanes`, round `j / lanes`, so with lanes < 32 each lane tests 32 / lanes children and the
 // 32-bit mask is assembled from 32 / lanes ballots; S / lanes rays share a subgroup (e.g. lanes
 // 0..32 and 32..64 at S = 64), and each takes its bits of the ballot (`ray_bits`).
@@ -37,8 +37,10 @@
 
 // Levels of a node stack: HIER_MAX_LEVELS (8) + the face on top.
 const NODE_LEVELS: u32 = 9u;
-// Children per lane at the smallest supported subgroup size (32 / 4).
+// Children per lane with at least 4 lanes per ray (32 / 4): the keys of `main`.
 const MAX_CELLS: u32 = 8u;
+// Children per lane with 1 lane per ray (`main_lanes1`).
+const MAX_CELLS_ONE: u32 = 32u;
 // Traversal steps of one subgroup over its rays. One step visits, descends into, classifies or
 // leaves one node; a single-CMO trace takes fewer than 4 * (2 pieces * 4 faces) * (sum over
 // levels of the cells a segment crosses, under 8 * N + 64) steps, about 2^21 for N = 4096, and a
@@ -331,13 +333,31 @@ fn ray_bits(b: vec4<u32>, half: u32, lanes: u32) -> u32 {
     return bits;
 }
 
+// This lane's keys (its children's entry t): level l, round c at l * MAX_CELLS + c, or at
+// l * MAX_CELLS_ONE + c with one lane per ray (`one`, a constant per entry point: the driver
+// keeps only the array its entry point uses, so `main` does not carry the large one).
+var<private> keys_wide: array<f32, 72>;
+var<private> keys_one: array<f32, 288>;
+
+fn key_get(one: bool, lvl: u32, c: u32) -> f32 {
+    if one {
+        return keys_one[lvl * MAX_CELLS_ONE + c];
+    }
+    return keys_wide[lvl * MAX_CELLS + c];
+}
+
+fn key_set(one: bool, lvl: u32, c: u32, key: f32) {
+    if one {
+        keys_one[lvl * MAX_CELLS_ONE + c] = key;
+    } else {
+        keys_wide[lvl * MAX_CELLS + c] = key;
+    }
+}
+
 // Traces queued ray `index` (absent when `valid` is false: the lanes still take part in the
 // subgroup operations) and writes its record. Called in subgroup-uniform control flow.
-fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells: u32) {
+fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells: u32, one: bool) {
     var st: RayState;
-    // This lane's keys (its children's entry t): level l, round c at l * MAX_CELLS + c. Kept
-    // out of `RayState`: only this loop reads them.
-    var keys: array<f32, 72>;
     if valid {
         let q = rays[index];
         st.origin = q.origin;
@@ -364,7 +384,7 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
             if testing {
                 let t = lane_test(&st, nc, lane + lanes * c);
                 cand = t.cand;
-                keys[st.level * MAX_CELLS + c] = t.key;
+                key_set(one, st.level, c, t.key);
             }
             mask |= ray_bits(subgroupBallot(cand), half, lanes) << (lanes * c);
         }
@@ -384,7 +404,7 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
         let m = select(0u, st.mask[lvl], busy);
         var kmin = f32_inf();
         for (var c = 0u; c < cells; c++) {
-            let key = keys[lvl * MAX_CELLS + c];
+            let key = key_get(one, lvl, c);
             if ((m >> (lane + lanes * c)) & 1u) != 0u && key < kmin {
                 kmin = key;
             }
@@ -398,7 +418,7 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
         var eq = 0u;
         for (var c = 0u; c < cells; c++) {
             let j = lane + lanes * c;
-            let holds = ((m >> j) & 1u) != 0u && keys[lvl * MAX_CELLS + c] == kmin;
+            let holds = ((m >> j) & 1u) != 0u && key_get(one, lvl, c) == kmin;
             eq |= ray_bits(subgroupBallot(holds), half, lanes) << (lanes * c);
         }
         var pick = firstTrailingBit(m);
@@ -431,10 +451,10 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
 }
 
 // Entry points: the same kernel with at most `lane_cap` lanes per ray (a constant, folded by the
-// driver). `main`: the thesis layout, min(S, 32) lanes per ray. `main_lanes4`: 4 lanes per ray
-// (32 / 4 = 8 rounds of ballots per node), so S / 4 rays share a subgroup; chosen for CPU
-// devices (`vk::compute::ray_lanes`), where the per-ray work every lane of a ray repeats costs
-// in proportion to the lanes (spirv/README.md, "Performance on lavapipe").
+// driver). `main`: the thesis layout, min(S, 32) lanes per ray. `main_lanes1`: 1 lane per ray
+// (its 32 logical lanes in 32 rounds of one-bit ballots), so S rays share a subgroup; chosen for
+// CPU devices (`vk::compute::ray_lanes`), where the per-ray work every lane of a ray repeats
+// costs in proportion to the lanes (spirv/README.md, "Performance on lavapipe").
 @compute @workgroup_size(256)
 fn main(
     @builtin(workgroup_id) wg: vec3<u32>,
@@ -447,19 +467,19 @@ fn main(
 }
 
 @compute @workgroup_size(256)
-fn main_lanes4(
+fn main_lanes1(
     @builtin(workgroup_id) wg: vec3<u32>,
     @builtin(num_workgroups) groups: vec3<u32>,
     @builtin(subgroup_size) sg_size: u32,
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    trace_all(wg, groups, sg_size, sg_lane, sg_id, 4u);
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 1u);
 }
 
 fn trace_all(wg: vec3<u32>, groups: vec3<u32>, sg_size: u32, sg_lane: u32, sg_id: u32, lane_cap: u32) {
     let lanes = min(min(sg_size, 32u), lane_cap);
-    if lanes < 4u {
+    if min(sg_size, 32u) < 4u {
         // Unsupported (refused on the Rust side); uniform over the whole dispatch.
         return;
     }
@@ -479,6 +499,6 @@ fn trace_all(wg: vec3<u32>, groups: vec3<u32>, sg_size: u32, sg_lane: u32, sg_id
         if !subgroupAny(valid) {
             break;
         }
-        trace_queued(valid, index, lane, half, lanes, cells);
+        trace_queued(valid, index, lane, half, lanes, cells, lane_cap == 1u);
     }
 }

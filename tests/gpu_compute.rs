@@ -263,7 +263,7 @@ fn dispatch_is_sized_on_the_gpu_and_empty_without_mirror_pixels() {
         DispatchParams::for_subgroup_size(8).rays_per_group,
         DispatchParams::for_lanes(8, 32).rays_per_group
     );
-    assert_eq!(DispatchParams::for_lanes(8, 4).rays_per_group, 64);
+    assert_eq!(DispatchParams::for_lanes(8, 1).rays_per_group, 256);
     assert_eq!(
         args,
         DispatchArgs {
@@ -689,9 +689,9 @@ fn subgroup_sizes_4_8_16_give_identical_output() {
         .unwrap_or(false);
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("gpu_compute");
     std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
-    // Both entry points (thesis layout, lane cap 32; lane cap 4) at every size.
+    // Both entry points (thesis layout, lane cap 32; lane cap 1) at every size.
     let mut runs = Vec::new();
-    for lanes in [32u32, 4] {
+    for lanes in [32u32, 1] {
         for (bits, size) in [(128u32, 4u32), (256, 8), (512, 16)] {
             let r = run_child(
                 bits,
@@ -720,7 +720,7 @@ fn subgroup_sizes_4_8_16_give_identical_output() {
     assert!(other.exr != runs[1].2.exr, "the EXR comparison is blind");
 }
 
-/// A lane cap other than 32 or 4 in `CUBETRACE_RAY_LANES` is refused with a clear error.
+/// A lane cap other than 32 or 1 in `CUBETRACE_RAY_LANES` is refused with a clear error.
 #[test]
 fn bad_ray_lanes_is_a_clear_error() {
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("gpu_compute");
@@ -738,7 +738,7 @@ fn bad_ray_lanes_is_a_clear_error() {
     let text = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success(), "accepted a lane cap of 7");
     assert!(
-        text.contains(RAY_LANES_ENV) && text.contains("expected 32 or 4"),
+        text.contains(RAY_LANES_ENV) && text.contains("expected 32 or 1"),
         "{text}"
     );
     assert!(!out.exists(), "left an output behind");

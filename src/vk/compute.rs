@@ -89,31 +89,31 @@ pub struct DispatchParams {
 }
 
 /// Environment variable that overrides [`ray_lanes`]'s cap: `32` (the thesis layout, entry
-/// `main`) or `4` (entry `main_lanes4`). Anything else is refused.
+/// `main`) or `1` (entry `main_lanes1`). Anything else is refused.
 pub const RAY_LANES_ENV: &str = "CUBETRACE_RAY_LANES";
 
 /// The most lanes `compute_trace` gives one ray on this device, and the entry point that does
-/// it: 32 (`main`, thesis alg. 3: min(S, 32) lanes per ray) on GPUs, 4 (`main_lanes4`: S / 4
-/// rays per subgroup) on CPU devices such as lavapipe, where every lane repeats the ray's
-/// per-ray work at a cost that grows with the lanes (spirv/README.md, "Performance on
-/// lavapipe"). [`RAY_LANES_ENV`] overrides the choice.
+/// it: 32 (`main`, thesis alg. 3: min(S, 32) lanes per ray) on GPUs, 1 (`main_lanes1`: S rays
+/// per subgroup, each lane running its ray's 32 logical lanes in rounds) on CPU devices such as
+/// lavapipe, where every lane repeats the ray's per-ray work at a cost that grows with the
+/// lanes (spirv/README.md, "Performance on lavapipe"). [`RAY_LANES_ENV`] overrides the choice.
 pub fn ray_lanes(ctx: &GpuContext) -> VkResult<(u32, &'static str)> {
     let cap = match std::env::var(RAY_LANES_ENV) {
         Ok(v) => match v.trim() {
             "32" => 32,
-            "4" => 4,
+            "1" => 1,
             other => {
                 return Err(VkError::Usage {
                     what: RAY_LANES_ENV.into(),
-                    detail: format!("`{other}`: expected 32 or 4"),
+                    detail: format!("`{other}`: expected 32 or 1"),
                 });
             }
         },
-        Err(_) if ctx.report().device_type == vk::PhysicalDeviceType::CPU => 4,
+        Err(_) if ctx.report().device_type == vk::PhysicalDeviceType::CPU => 1,
         Err(_) => 32,
     };
-    Ok(if cap == 4 {
-        (4, "main_lanes4")
+    Ok(if cap == 1 {
+        (1, "main_lanes1")
     } else {
         (32, "main")
     })
@@ -131,7 +131,7 @@ impl DispatchParams {
     /// ([`ray_lanes`]): `256 / min(S, 32, lane_cap)` rays per workgroup.
     pub fn for_lanes(subgroup_size: u32, lane_cap: u32) -> Self {
         DispatchParams {
-            rays_per_group: 256 / subgroup_size.clamp(4, 32).min(lane_cap.max(4)),
+            rays_per_group: 256 / subgroup_size.clamp(4, 32).min(lane_cap.max(1)),
             ..DispatchParams::default()
         }
     }
