@@ -4,11 +4,12 @@
 // loop) inside `cpu::multi::trace_cmos` (the occlusion handoff between CMOs).
 //
 // Lanes. `@workgroup_size(256)`, 1-D (naga rejects the subgroup builtins with a 2-D size). A ray
-// owns `lanes = min(S, 32)` lanes of one subgroup of size S; logical lane j in 0..32 (child j of
-// the node being visited) lives on lane `j % lanes`, round `j / lanes`, so with S < 32 each lane
-// tests 32 / S children and the 32-bit mask is assembled from 32 / S ballots; with S = 64 two
-// rays share a subgroup (lanes 0..32 and 32..64), and each takes its 32 bits of the ballot.
-// With S = 32 this is the thesis's 8 rays x 32 lanes per workgroup.
+// owns `lanes = min(S, 32, cap)` lanes of one subgroup of size S (cap: 32 for `main`, 1 for
+// `main_lanes1`); logical lane j in 0..32 (child j of the node being visited) lives on lane
+// `j % lanes`, round `j / lanes`, so with lanes < 32 each lane tests 32 / lanes children and the
+// 32-bit mask is assembled from 32 / lanes ballots; S / lanes rays share a subgroup (e.g. lanes
+// 0..32 and 32..64 at S = 64), and each takes its bits of the ballot (`ray_bits`).
+// With S = 32 and `main` this is the thesis's 8 rays x 32 lanes per workgroup.
 //
 // Per ray (every lane of a ray holds the same copy of the ray's state, computed redundantly):
 // per CMO (handoff), per piece of the segment and per face crossed in order of t, a depth-first
@@ -36,8 +37,10 @@
 
 // Levels of a node stack: HIER_MAX_LEVELS (8) + the face on top.
 const NODE_LEVELS: u32 = 9u;
-// Children per lane at the smallest supported subgroup size (32 / 4).
+// Children per lane with at least 4 lanes per ray (32 / 4): the keys of `main`.
 const MAX_CELLS: u32 = 8u;
+// Children per lane with 1 lane per ray (`main_lanes1`).
+const MAX_CELLS_ONE: u32 = 32u;
 // Traversal steps of one subgroup over its rays. One step visits, descends into, classifies or
 // leaves one node; a single-CMO trace takes fewer than 4 * (2 pieces * 4 faces) * (sum over
 // levels of the cells a segment crosses, under 8 * N + 64) steps, about 2^21 for N = 4096, and a
@@ -49,26 +52,14 @@ const MAX_STEPS: u32 = 0x80000000u;
 // batches are needed below the 65535-group cap, and at most 2^32 / (65535 * 8) < 2^14 above it.
 const MAX_BATCHES: u32 = 65536u;
 
-// The hierarchy layout (Rust `cubetrace::vk::compute::HierConfig`).
-struct HierConfig {
-    // Index of the root level (0 when the texels are the root, N <= 4).
-    root: u32,
-    // Cells per CMO in `cmo_hier`: hier32_len(N).
-    hier_len: u32,
-    pad0: u32,
-    pad1: u32,
-    // Level l: (offset in cells within a CMO block (l >= 1), width, height, 0).
-    dims: array<vec4<u32>, 8>,
-    // Level l: (gx, gy) block of level l - 1 cells per cell, (span x, span y) in texels.
-    shape: array<vec4<u32>, 8>,
-}
-
 @group(2) @binding(0) var<storage, read_write> ray_counter: RayCounter;
 @group(2) @binding(1) var<storage, read> rays: array<AppendedRay>;
-@group(2) @binding(2) var<uniform> hier_config: HierConfig;
+@group(2) @binding(2) var<storage, read> hier_config: HierConfig;
 @group(2) @binding(3) var<storage, read> cmo_hier: array<vec2<f32>>;
 // Per pixel: (texels tested, cells tested, descents, backtracks), summed over the ray's traces.
 @group(2) @binding(4) var<storage, read_write> ray_stats: array<vec4<u32>>;
+// Per CMO: the near-centre cut radius, computed once per frame by `dispatch_args`.
+@group(2) @binding(5) var<storage, read> cmo_cut: array<f32>;
 
 struct RayState {
     // The world ray.
@@ -94,11 +85,13 @@ struct RayState {
     face: u32,
     la: vec3<f32>,
     ld: vec3<f32>,
+    // The face being searched and its piece's [lo, hi] (`faces.face[face]`,
+    // `pieces.range[piece]`, cached by `enter_face`: read by every lane test).
+    cur_face: u32,
+    range: vec2<f32>,
     level: u32,
     node: array<vec2<u32>, NODE_LEVELS>,
     mask: array<u32, NODE_LEVELS>,
-    // This lane's keys: level l, round c at l * MAX_CELLS + c.
-    keys: array<f32, 72>,
     need_mask: bool,
     trace_done: bool,
     result: TraceResult,
@@ -118,59 +111,57 @@ fn child_grid(lvl: u32) -> vec2<u32> {
     return hier_config.shape[lvl].xy;
 }
 
-// 0.5 * min D of CMO k (0 when no finite positive minimum), as `CmoTracer::new`: the min over
-// the root level's cells is the min over the texels (exact, no NaN in the data).
-fn hier_cut_radius(k: u32) -> f32 {
-    let n = trace_config.size;
-    var m = f32_inf();
-    let root = hier_config.root;
-    if root == 0u {
-        for (var i = 0u; i < 6u * n * n; i++) {
-            m = min(m, cmo_distance[k * 6u * n * n + i]);
-        }
-    } else {
-        let d = hier_config.dims[root];
-        for (var i = 0u; i < 6u * d.y * d.z; i++) {
-            m = min(m, cmo_hier[k * hier_config.hier_len + d.x + i].x);
-        }
-    }
-    if is_finite_f32(m) && m > 0.0 {
-        return 0.5 * m;
-    }
-    return 0.0;
-}
-
 struct LaneTest {
     cand: bool,
     key: f32,
 }
 
-// Test of child j of the ray's current node (`cpu::alg3::lane_test`).
-fn lane_test(st: ptr<function, RayState>, j: u32) -> LaneTest {
-    let none = LaneTest(false, f32_inf());
-    let n = trace_config.size;
+// What every lane test of one node reads: the node's level, children grid, child level's
+// dims and span (loaded once per visit, not once per child).
+struct NodeCtx {
+    // Child level.
+    cl: u32,
+    // The child level's (offset, width, height, 0).
+    cd: vec4<u32>,
+    // Children grid of the node.
+    g: vec2<u32>,
+    // The node's cell.
+    nd: vec2<u32>,
+    // The child level's span in texels.
+    span: vec2<u32>,
+}
+
+fn node_ctx(st: ptr<function, RayState>) -> NodeCtx {
     let lvl = (*st).level;
     let cl = lvl - 1u;
-    let cd = hier_config.dims[cl];
-    let g = child_grid(lvl);
+    return NodeCtx(cl, hier_config.dims[cl], child_grid(lvl), (*st).node[lvl], hier_config.shape[cl].zw);
+}
+
+// Test of child j of the ray's current node (`cpu::alg3::lane_test`).
+fn lane_test(st: ptr<function, RayState>, nc: NodeCtx, j: u32) -> LaneTest {
+    let none = LaneTest(false, f32_inf());
+    let n = trace_config.size;
+    let cl = nc.cl;
+    let cd = nc.cd;
+    let g = nc.g;
     if j >= g.x * g.y {
         return none;
     }
-    let nd = (*st).node[lvl];
+    let nd = nc.nd;
     let cx = nd.x * g.x + j % g.x;
     let cy = nd.y * g.y + j / g.x;
     if cx >= cd.y || cy >= cd.z {
         return none;
     }
-    let range = (*st).pieces.range[(*st).piece];
-    let face = (*st).faces.face[(*st).face];
+    let range = (*st).range;
+    let face = (*st).cur_face;
     let seg = (*st).seg;
     if cl == 0u {
         let iv = cell_interval((*st).la, (*st).ld, cell_rect_texel(face, cx, cy, n), range.x, range.y);
         let d = distance_at((*st).k, Texel(face, cx, cy));
         return LaneTest(texel_not_in_front(seg, iv, d), iv.t0);
     }
-    let span = hier_config.shape[cl].zw;
+    let span = nc.span;
     let rect = CellRect(face, min(cx * span.x, n), min((cx + 1u) * span.x, n), min(cy * span.y, n), min((cy + 1u) * span.y, n), n);
     if rect.x0 >= rect.x1 || rect.y0 >= rect.y1 {
         return none;
@@ -197,6 +188,8 @@ fn enter_face(st: ptr<function, RayState>) {
         }
         if (*st).face < (*st).faces.count {
             let f = (*st).faces.face[(*st).face];
+            (*st).cur_face = f;
+            (*st).range = (*st).pieces.range[(*st).piece];
             (*st).la = to_face_local(f, (*st).seg.a);
             (*st).ld = to_face_local(f, (*st).seg.d);
             (*st).level = hier_top();
@@ -218,7 +211,7 @@ fn start_trace(st: ptr<function, RayState>) {
     let k = (*st).k;
     let seg = Segment((*st).origin - cmo_centres[k].xyz, (*st).dir, (*st).t_done, frame.t_hi);
     (*st).seg = seg;
-    (*st).pieces = split_near_centre(seg, hier_cut_radius(k));
+    (*st).pieces = split_near_centre(seg, cmo_cut[k]);
     (*st).faces.count = 0u;
     if (*st).pieces.count > 0u {
         (*st).faces = faces_crossed(seg, (*st).pieces.range[0].x, (*st).pieces.range[0].y, trace_config.size);
@@ -308,8 +301,8 @@ fn advance(st: ptr<function, RayState>, pick: u32) {
     let cx = nd.x * g.x + pick % g.x;
     let cy = nd.y * g.y + pick / g.x;
     if lvl == 1u {
-        let range = (*st).pieces.range[(*st).piece];
-        let face = (*st).faces.face[(*st).face];
+        let range = (*st).range;
+        let face = (*st).cur_face;
         let tex = Texel(face, cx, cy);
         let iv = cell_interval((*st).la, (*st).ld, cell_rect_texel(face, cx, cy, trace_config.size), range.x, range.y);
         let o = classify((*st).k, (*st).seg, tex, iv);
@@ -329,18 +322,41 @@ fn advance(st: ptr<function, RayState>, pick: u32) {
     (*st).descents += 1u;
 }
 
-// The 32-bit mask of one ray from `cells` ballots of `pred[c]` (child `lane + lanes * c`).
+// The 32 bits of one ray from a ballot: the ray whose lanes are `half * lanes ..` of the
+// subgroup (`lanes` <= 32 divides 32, so they lie in one 32-bit word of the ballot).
 fn ray_bits(b: vec4<u32>, half: u32, lanes: u32) -> u32 {
-    let bits = b[half];
+    let first = half * lanes;
+    let bits = b[first / 32u] >> (first % 32u);
     if lanes < 32u {
         return bits & ((1u << lanes) - 1u);
     }
     return bits;
 }
 
+// This lane's keys (its children's entry t): level l, round c at l * MAX_CELLS + c, or at
+// l * MAX_CELLS_ONE + c with one lane per ray (`one`, a constant per entry point: the driver
+// keeps only the array its entry point uses, so `main` does not carry the large one).
+var<private> keys_wide: array<f32, 72>;
+var<private> keys_one: array<f32, 288>;
+
+fn key_get(one: bool, lvl: u32, c: u32) -> f32 {
+    if one {
+        return keys_one[lvl * MAX_CELLS_ONE + c];
+    }
+    return keys_wide[lvl * MAX_CELLS + c];
+}
+
+fn key_set(one: bool, lvl: u32, c: u32, key: f32) {
+    if one {
+        keys_one[lvl * MAX_CELLS_ONE + c] = key;
+    } else {
+        keys_wide[lvl * MAX_CELLS + c] = key;
+    }
+}
+
 // Traces queued ray `index` (absent when `valid` is false: the lanes still take part in the
 // subgroup operations) and writes its record. Called in subgroup-uniform control flow.
-fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells: u32) {
+fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells: u32, one: bool) {
     var st: RayState;
     if valid {
         let q = rays[index];
@@ -359,12 +375,16 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
         // Lane tests of the node's children, one ballot per round.
         let testing = busy && st.need_mask;
         var mask = 0u;
+        var nc: NodeCtx;
+        if testing {
+            nc = node_ctx(&st);
+        }
         for (var c = 0u; c < cells; c++) {
             var cand = false;
             if testing {
-                let t = lane_test(&st, lane + lanes * c);
+                let t = lane_test(&st, nc, lane + lanes * c);
                 cand = t.cand;
-                st.keys[st.level * MAX_CELLS + c] = t.key;
+                key_set(one, st.level, c, t.key);
             }
             mask |= ray_bits(subgroupBallot(cand), half, lanes) << (lanes * c);
         }
@@ -384,7 +404,7 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
         let m = select(0u, st.mask[lvl], busy);
         var kmin = f32_inf();
         for (var c = 0u; c < cells; c++) {
-            let key = st.keys[lvl * MAX_CELLS + c];
+            let key = key_get(one, lvl, c);
             if ((m >> (lane + lanes * c)) & 1u) != 0u && key < kmin {
                 kmin = key;
             }
@@ -398,7 +418,7 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
         var eq = 0u;
         for (var c = 0u; c < cells; c++) {
             let j = lane + lanes * c;
-            let holds = ((m >> j) & 1u) != 0u && st.keys[lvl * MAX_CELLS + c] == kmin;
+            let holds = ((m >> j) & 1u) != 0u && key_get(one, lvl, c) == kmin;
             eq |= ray_bits(subgroupBallot(holds), half, lanes) << (lanes * c);
         }
         var pick = firstTrailingBit(m);
@@ -430,6 +450,11 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
     }
 }
 
+// Entry points: the same kernel with at most `lane_cap` lanes per ray (a constant, folded by the
+// driver). `main`: the thesis layout, min(S, 32) lanes per ray. `main_lanes1`: 1 lane per ray
+// (its 32 logical lanes in 32 rounds of one-bit ballots), so S rays share a subgroup; chosen for
+// CPU devices (`vk::compute::ray_lanes`), where the per-ray work every lane of a ray repeats
+// costs in proportion to the lanes (spirv/README.md, "Performance on lavapipe").
 @compute @workgroup_size(256)
 fn main(
     @builtin(workgroup_id) wg: vec3<u32>,
@@ -438,8 +463,23 @@ fn main(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    let lanes = min(sg_size, 32u);
-    if lanes < 4u {
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 32u);
+}
+
+@compute @workgroup_size(256)
+fn main_lanes1(
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(subgroup_size) sg_size: u32,
+    @builtin(subgroup_invocation_id) sg_lane: u32,
+    @builtin(subgroup_id) sg_id: u32,
+) {
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 1u);
+}
+
+fn trace_all(wg: vec3<u32>, groups: vec3<u32>, sg_size: u32, sg_lane: u32, sg_id: u32, lane_cap: u32) {
+    let lanes = min(min(sg_size, 32u), lane_cap);
+    if min(sg_size, 32u) < 4u {
         // Unsupported (refused on the Rust side); uniform over the whole dispatch.
         return;
     }
@@ -459,6 +499,6 @@ fn main(
         if !subgroupAny(valid) {
             break;
         }
-        trace_queued(valid, index, lane, half, lanes, cells);
+        trace_queued(valid, index, lane, half, lanes, cells, lane_cap == 1u);
     }
 }

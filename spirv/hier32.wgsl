@@ -39,7 +39,7 @@ struct Hier32Params {
     texels_per_cmo: u32,
 }
 
-@group(0) @binding(0) var<uniform> params: Hier32Params;
+@group(0) @binding(0) var<storage, read> params: Hier32Params;
 @group(0) @binding(1) var<storage, read> cmo_distance: array<f32>;
 @group(0) @binding(2) var<storage, read_write> cmo_hier: array<vec2<f32>>;
 

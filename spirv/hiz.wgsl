@@ -13,9 +13,9 @@ struct HizLevel {
 }
 
 @group(0) @binding(0) var gbuffer_position: texture_2d<f32>;
-@group(0) @binding(1) var<uniform> ssr: SsrParams;
+@group(0) @binding(1) var<storage, read> ssr: SsrParams;
 @group(0) @binding(2) var<storage, read_write> hiz: array<f32>;
-@group(0) @binding(3) var<uniform> hiz_level: HizLevel;
+@group(0) @binding(3) var<storage, read> hiz_level: HizLevel;
 
 const WG: u32 = 64u;
 

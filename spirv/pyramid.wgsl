@@ -35,7 +35,7 @@ struct PyramidParams {
     texels_per_cmo: u32,
 }
 
-@group(0) @binding(0) var<uniform> params: PyramidParams;
+@group(0) @binding(0) var<storage, read> params: PyramidParams;
 @group(0) @binding(1) var<storage, read> cmo_distance: array<f32>;
 @group(0) @binding(2) var<storage, read_write> cmo_mip: array<vec2<f32>>;
 

@@ -19,7 +19,7 @@
 
 @group(0) @binding(4) var gbuffer_colour: texture_2d<f32>;
 @group(0) @binding(5) var<storage, read> hiz: array<f32>;
-@group(0) @binding(6) var<uniform> ssr: SsrParams;
+@group(0) @binding(6) var<storage, read> ssr: SsrParams;
 
 // Outcomes (`cpu::ssr::Outcome`).
 const SSR_HIT: u32 = 0u;

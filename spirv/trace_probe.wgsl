@@ -19,16 +19,26 @@ struct ProbeParams {
     pad2: u32,
 }
 
-@group(0) @binding(0) var<uniform> probe_params: ProbeParams;
+@group(0) @binding(0) var<storage, read> probe_params: ProbeParams;
 @group(0) @binding(1) var<storage, read> probe_rays: array<ProbeRay>;
 @group(0) @binding(2) var<storage, read_write> probe_out: array<TraceOut>;
 
+// `main`: any options; `main_exact_mip`: the exact criterion's mip march only (as the
+// fragment pass's `fs_main` and `fs_exact_mip`).
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let i = gid.x;
+    probe(gid.x, TRACE_ANY);
+}
+
+@compute @workgroup_size(64)
+fn main_exact_mip(@builtin(global_invocation_id) gid: vec3<u32>) {
+    probe(gid.x, TRACE_EXACT_MIP);
+}
+
+fn probe(i: u32, variant: u32) {
     if i >= probe_params.count {
         return;
     }
     let ray = probe_rays[i];
-    probe_out[i] = trace_ray(ray.origin, ray.dir, ray.t_lo, ray.t_hi);
+    probe_out[i] = trace_ray_variant(ray.origin, ray.dir, ray.t_lo, ray.t_hi, variant);
 }

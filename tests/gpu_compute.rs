@@ -30,7 +30,9 @@ use cubetrace::cubemap::pyramid::Hier32;
 use cubetrace::metrics::{self, ErrorReport};
 use cubetrace::reference;
 use cubetrace::scene::{self, CmoPlacement, Scene};
-use cubetrace::vk::compute::{AppendedRay, DispatchArgs, DispatchParams, HierConfig, RayCounter};
+use cubetrace::vk::compute::{
+    AppendedRay, DispatchArgs, DispatchParams, HierConfig, RAY_LANES_ENV, RayCounter, ray_lanes,
+};
 use cubetrace::vk::frame::{
     Fallback, GpuFrame, GpuMethod, GpuRenderer, PixelRecord, RenderOptions, scene_ranges,
 };
@@ -134,7 +136,7 @@ fn compute_struct_layouts_match_naga() {
     check_layout!(
         DispatchParams,
         DISPATCH_ARGS.struct_layout("DispatchParams").unwrap(),
-        [rays_per_group, pad0, pad1, pad2]
+        [rays_per_group, cmo_count, size, pad0]
     )
     .unwrap();
     check_layout!(
@@ -253,11 +255,17 @@ fn dispatch_is_sized_on_the_gpu_and_empty_without_mirror_pixels() {
         .expect("compute path")
         .read_dispatch_args(&ctx)
         .unwrap_or_else(|e| panic!("{e}"));
-    let per_group = 256 / ctx.report().subgroup_size.min(32);
+    let (lane_cap, _) = ray_lanes(&ctx).unwrap_or_else(|e| panic!("{e}"));
+    let per_group = 256 / ctx.report().subgroup_size.min(32).min(lane_cap);
     assert_eq!(
-        DispatchParams::for_subgroup_size(ctx.report().subgroup_size).rays_per_group,
+        DispatchParams::for_lanes(ctx.report().subgroup_size, lane_cap).rays_per_group,
         per_group
     );
+    assert_eq!(
+        DispatchParams::for_subgroup_size(8).rays_per_group,
+        DispatchParams::for_lanes(8, 32).rays_per_group
+    );
+    assert_eq!(DispatchParams::for_lanes(8, 1).rays_per_group, 256);
     assert_eq!(
         args,
         DispatchArgs {
@@ -624,9 +632,10 @@ struct ChildRun {
     exr: Vec<u8>,
 }
 
-fn run_child(width_bits: u32, cube_size: u32, out: &Path, validate: bool) -> ChildRun {
+fn run_child(width_bits: u32, lanes: u32, cube_size: u32, out: &Path, validate: bool) -> ChildRun {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_cubetrace"));
     cmd.env("LP_NATIVE_VECTOR_WIDTH", width_bits.to_string())
+        .env(RAY_LANES_ENV, lanes.to_string())
         .env("XDG_RUNTIME_DIR", "/tmp")
         .env_remove("RUST_LOG")
         .args([
@@ -697,28 +706,59 @@ fn subgroup_sizes_4_8_16_give_identical_output() {
     }
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("gpu_compute");
     std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
+    // Both entry points (thesis layout, lane cap 32; lane cap 1) at every size.
     let mut runs = Vec::new();
-    for (bits, size) in [(128u32, 4u32), (256, 8), (512, 16)] {
-        let r = run_child(bits, 48, &dir.join(format!("sg{size}.exr")), validate);
-        assert_eq!(
-            r.subgroup,
-            (size, size),
-            "LP_NATIVE_VECTOR_WIDTH={bits}: the kernel ran with subgroup sizes {:?}",
-            r.subgroup
-        );
-        runs.push(r);
+    for lanes in [32u32, 1] {
+        for (bits, size) in [(128u32, 4u32), (256, 8), (512, 16)] {
+            let r = run_child(
+                bits,
+                lanes,
+                48,
+                &dir.join(format!("sg{size}-lanes{lanes}.exr")),
+                validate,
+            );
+            assert_eq!(
+                r.subgroup,
+                (size, size),
+                "LP_NATIVE_VECTOR_WIDTH={bits}: the kernel ran with subgroup sizes {:?}",
+                r.subgroup
+            );
+            runs.push((size, lanes, r));
+        }
     }
-    assert!(
-        runs[0].exr == runs[1].exr,
-        "subgroup 4 and 8 outputs differ"
-    );
-    assert!(
-        runs[1].exr == runs[2].exr,
-        "subgroup 8 and 16 outputs differ"
-    );
+    for (size, lanes, r) in &runs[1..] {
+        assert!(
+            r.exr == runs[0].2.exr,
+            "subgroup {size} with lane cap {lanes} differs from subgroup 4 with lane cap 32"
+        );
+    }
     // Negative: other CMO data gives another file.
-    let other = run_child(256, 40, &dir.join("sg8-n40.exr"), validate);
-    assert!(other.exr != runs[1].exr, "the EXR comparison is blind");
+    let other = run_child(256, 32, 40, &dir.join("sg8-n40.exr"), validate);
+    assert!(other.exr != runs[1].2.exr, "the EXR comparison is blind");
+}
+
+/// A lane cap other than 32 or 1 in `CUBETRACE_RAY_LANES` is refused with a clear error.
+#[test]
+fn bad_ray_lanes_is_a_clear_error() {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("gpu_compute");
+    std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
+    let out = dir.join("bad-lanes.png");
+    let _ = std::fs::remove_file(&out);
+    let o = Command::new(env!("CARGO_BIN_EXE_cubetrace"))
+        .env(RAY_LANES_ENV, "7")
+        .env("XDG_RUNTIME_DIR", "/tmp")
+        .args(["render", "default", "--method", "compute", "--width", "16"])
+        .args(["--height", "12", "-o"])
+        .arg(&out)
+        .output()
+        .unwrap_or_else(|e| panic!("spawning cubetrace: {e}"));
+    let text = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "accepted a lane cap of 7");
+    assert!(
+        text.contains(RAY_LANES_ENV) && text.contains("expected 32 or 1"),
+        "{text}"
+    );
+    assert!(!out.exists(), "left an output behind");
 }
 
 /// The skip decision: lavapipe is steered, a real GPU is not (reports taken from this device's,

@@ -19,7 +19,9 @@ use cubetrace::cubemap::CubeMap;
 use cubetrace::vk::GpuContext;
 use cubetrace::vk::cmo::CmoData;
 use cubetrace::vk::shaders::TRACE_PROBE;
-use cubetrace::vk::trace_probe::{ProbeParams, ProbeRay, ProbeResult, TraceConfig, trace_probe};
+use cubetrace::vk::trace_probe::{
+    ProbeParams, ProbeRay, ProbeResult, TraceConfig, exact_mip_only, trace_probe, trace_probe_entry,
+};
 use glam::Vec3;
 
 // ---------------------------------------------------------------------------------------------
@@ -379,6 +381,13 @@ fn exact_criterion_matches_the_cpu_bit_for_bit() {
             let gpu = gpu_trace(&ctx, &data, &rays);
             let label = format!("{} size {size} accel {accel}", scene_name(scene));
             let d = compare(&cpu, &gpu, 0, &label);
+            if accel {
+                // `gpu_trace` took the specialised entry point (`main_exact_mip`); the generic
+                // one must agree too.
+                let generic = trace_probe_entry(&ctx, &data, &probe_rays(&rays), "main")
+                    .unwrap_or_else(|e| panic!("{e}"));
+                bad += compare(&cpu, &generic, 0, &format!("{label} generic entry")).total();
+            }
             let hits = cpu.iter().filter(|m| m.status == MultiStatus::Hit).count();
             let behind = cpu
                 .iter()
@@ -628,6 +637,45 @@ fn approximate_criteria_match_the_cpu() {
     }
     eprintln!("approximate criteria: {total} ray traces, {bad} disagreements");
     assert_eq!(bad, 0);
+    finish_gpu(ctx);
+}
+
+/// The specialised entry point carries the exact criterion's mip march only: it is chosen for
+/// those options alone, and refused for any other config (it would trace them wrongly).
+#[test]
+fn specialised_entry_only_for_the_exact_mip_march() {
+    assert!(exact_mip_only(&TraceOptions::default()));
+    assert!(!exact_mip_only(&exact(false)));
+    for criterion in [TraceCriterion::Threshold, TraceCriterion::SignChange] {
+        let opts = TraceOptions {
+            criterion,
+            ..TraceOptions::default()
+        };
+        assert!(!exact_mip_only(&opts));
+    }
+    let ctx = gpu_context();
+    let cubes = vec![twin_capture(Scene::SphereRoom, 16, CENTRE)];
+    let rays = twin_rays(77, 200, &[CENTRE]);
+    let threshold = TraceOptions {
+        criterion: TraceCriterion::Threshold,
+        ..TraceOptions::default()
+    };
+    let data = CmoData::upload(&ctx, &cubes, &threshold).unwrap_or_else(|e| panic!("{e}"));
+    let err = trace_probe_entry(&ctx, &data, &probe_rays(&rays), "main_exact_mip")
+        .expect_err("main_exact_mip with the threshold criterion must be refused");
+    assert!(err.to_string().contains("main_exact_mip"), "{err}");
+    // Both entries accept the exact mip march and agree with the CPU (and so with each other);
+    // the threshold config through the generic entry differs from the exact CPU trace.
+    let exact_data = CmoData::upload(&ctx, &cubes, &exact(true)).unwrap_or_else(|e| panic!("{e}"));
+    let cpu = cpu_trace(&tracers(&cubes, &exact(true)), &rays, &exact(true));
+    for entry in ["main", "main_exact_mip"] {
+        let gpu = trace_probe_entry(&ctx, &exact_data, &probe_rays(&rays), entry)
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(compare(&cpu, &gpu, 0, entry).total(), 0, "{entry}");
+    }
+    let gpu_threshold = trace_probe_entry(&ctx, &data, &probe_rays(&rays), "main")
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert!(compare(&cpu, &gpu_threshold, 0, "threshold vs exact").total() > 0);
     finish_gpu(ctx);
 }
 

@@ -41,9 +41,24 @@ struct DispatchParams {
     // 256 / min(S, 32). The kernel strides over the queue with the rays per workgroup it really
     // has, so any value >= 1 is correct; a smaller one only launches idle workgroups.
     rays_per_group: u32,
+    // Number of CMOs K and face size N (for the cut radii).
+    cmo_count: u32,
+    size: u32,
     pad0: u32,
-    pad1: u32,
-    pad2: u32,
 }
 // The largest workgroup count per dimension every Vulkan device accepts.
 const MAX_GROUPS_X: u32 = 65535u;
+
+// The hierarchy layout (Rust `cubetrace::vk::compute::HierConfig`).
+struct HierConfig {
+    // Index of the root level (0 when the texels are the root, N <= 4).
+    root: u32,
+    // Cells per CMO in `cmo_hier`: hier32_len(N).
+    hier_len: u32,
+    pad0: u32,
+    pad1: u32,
+    // Level l: (offset in cells within a CMO block (l >= 1), width, height, 0).
+    dims: array<vec4<u32>, 8>,
+    // Level l: (gx, gy) block of level l - 1 cells per cell, (span x, span y) in texels.
+    shape: array<vec4<u32>, 8>,
+}

@@ -57,7 +57,7 @@ const RECORD_UNRESOLVED: u32 = 2u;
 
 @group(0) @binding(0) var gbuffer_position: texture_2d<f32>;
 @group(0) @binding(1) var gbuffer_normal: texture_2d<f32>;
-@group(0) @binding(2) var<uniform> frame: FrameParams;
+@group(0) @binding(2) var<storage, read> frame: FrameParams;
 @group(0) @binding(3) var<storage, read_write> records: array<PixelRecord>;
 // Layer 6 k + face: CMO k's face (an image: no storage-buffer size limit).
 @group(1) @binding(4) var cmo_colour: texture_2d_array<f32>;

@@ -55,7 +55,7 @@ struct GpuShading {
 @group(0) @binding(5) var<storage, read> scene_texels: array<u32>;
 // The CPU's sRGB decode table (`shading::srgb_to_linear` of 0..=255).
 @group(0) @binding(6) var<storage, read> scene_srgb: array<f32>;
-@group(0) @binding(7) var<uniform> scene_shading: GpuShading;
+@group(0) @binding(7) var<storage, read> scene_shading: GpuShading;
 
 // `a.lerp(b, s)` as glam computes it.
 fn scene_lerp3(a: vec3<f32>, b: vec3<f32>, s: f32) -> vec3<f32> {

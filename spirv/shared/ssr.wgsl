@@ -4,8 +4,10 @@
 // Depth: the pyramid stores `q = -1 / w` per pixel, `w` the clip-space w of the G-buffer's world
 // position (the distance along the view axis). `q` is an affine function of the post-projective
 // depth `z / w`, so it interpolates linearly in screen space as the chapter requires, and its
-// order is the depth buffer's (nearer = smaller); unlike `z / w` with our near plane (1e-4 of the
-// far plane) it keeps f32 resolution at every distance. Pixels where nothing was drawn hold 0
+// order is the depth buffer's (nearer = smaller); unlike the depth buffer's `z / w` (`near / w`
+// with the reversed infinite projection, crowded towards 0 far away) it does not depend on the
+// near plane. The parameters are a read-only storage buffer, not a uniform: lavapipe re-JITs a
+// shader per bind when it branches on uniform values (spirv/README.md). Pixels where nothing was drawn hold 0
 // (infinitely far). Levels: level 0 is the frame (W x H); level l has ceil(W / 2^l) x
 // ceil(H / 2^l) cells, each the min over the (up to) 2 x 2 cells below it, down to 1 x 1; they
 // are stored one after another, row-major (`levels[l]` = (offset, width, height, 0)).

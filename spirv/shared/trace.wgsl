@@ -3,7 +3,9 @@
 // handoff are documented in `src/cpu/mod.rs` and `src/cpu/multi.rs`; the options in
 // `src/cpu/options.rs` (`TraceOptions`), whose GPU form is `TraceConfig` below.
 //
-// Entry: `trace_ray(origin, dir, t_lo, t_hi)` on a world-space ray, over the `cmo_count` CMOs.
+// Entry: `trace_ray(origin, dir, t_lo, t_hi)` on a world-space ray, over the `cmo_count` CMOs,
+// with any options; `trace_ray_variant(.., TRACE_EXACT_MIP)` carries only the exact criterion's
+// mip march (the production path), for options with `criterion` exact and `accel` set.
 //
 // Data (all passes that import this file bind the same @group(1)):
 // - binding 0 `trace_config`: `TraceConfig` (Rust `cubetrace::vk::trace_probe::TraceConfig`).
@@ -39,6 +41,14 @@ const CRITERION_SIGN_CHANGE: u32 = 2u;
 const SAMPLING_CONSTANT_STEP: u32 = 0u;
 const SAMPLING_CONSTANT_ANGLE: u32 = 1u;
 const SAMPLING_PER_TEXEL: u32 = 2u;
+
+// Which tracing code a caller carries. Always pass a constant: the driver inlines every call,
+// folds the constant and drops the code of the other methods (specialisation by entry point).
+// TRACE_ANY: every criterion, sampling and acceleration, chosen at run time by `trace_config`.
+const TRACE_ANY: u32 = 0u;
+// TRACE_EXACT_MIP: the exact criterion with the mip march only (`criterion` exact, `accel` 1;
+// the Rust side picks it only then: `vk::trace_probe::exact_mip_only`).
+const TRACE_EXACT_MIP: u32 = 1u;
 
 const STATUS_HIT: u32 = 0u;
 const STATUS_ESCAPED: u32 = 1u;
@@ -77,7 +87,7 @@ struct TraceConfig {
     mip_levels: array<vec4<u32>, 16>,
 }
 
-@group(1) @binding(0) var<uniform> trace_config: TraceConfig;
+@group(1) @binding(0) var<storage, read> trace_config: TraceConfig;
 @group(1) @binding(1) var<storage, read> cmo_centres: array<vec4<f32>>;
 @group(1) @binding(2) var<storage, read> cmo_distance: array<f32>;
 @group(1) @binding(3) var<storage, read> cmo_mip: array<vec2<f32>>;
@@ -599,8 +609,11 @@ fn trace_sampled(k: u32, seg: Segment, cut: f32) -> TraceResult {
 }
 
 // One CMO-local segment with the configured method (`cpu::options::trace_one_with`).
-fn trace_one(k: u32, seg: Segment) -> TraceResult {
+fn trace_one(k: u32, seg: Segment, variant: u32) -> TraceResult {
     let cut = cut_radius(k);
+    if variant == TRACE_EXACT_MIP {
+        return trace_mip(k, seg, cut);
+    }
     if trace_config.criterion != CRITERION_EXACT {
         return trace_sampled(k, seg, cut);
     } else if trace_config.accel != 0u {
@@ -614,8 +627,13 @@ fn trace_out(status: u32, cmo: u32, r: TraceResult, point: vec3<f32>, t_done: f3
 }
 
 // The world ray origin + t dir, t in [t_lo, t_hi], over the CMOs with the occlusion handoff
-// (`cpu::multi::trace_cmos`).
+// (`cpu::multi::trace_cmos`), with any options.
 fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, t_lo: f32, t_hi: f32) -> TraceOut {
+    return trace_ray_variant(origin, dir, t_lo, t_hi, TRACE_ANY);
+}
+
+// `trace_ray` carrying only the code of `variant` (a constant: TRACE_ANY or TRACE_EXACT_MIP).
+fn trace_ray_variant(origin: vec3<f32>, dir: vec3<f32>, t_lo: f32, t_hi: f32, variant: u32) -> TraceOut {
     var t_done = t_lo;
     var traces = 0u;
     var last = TraceResult(ONE_ESCAPED, 0.0, Texel(0u, 0u, 0u), false, vec3<f32>(0.0), Counters(0u, 0u));
@@ -624,7 +642,7 @@ fn trace_ray(origin: vec3<f32>, dir: vec3<f32>, t_lo: f32, t_hi: f32) -> TraceOu
         for (var k = 0u; k < trace_config.cmo_count; k++) {
             let centre = cmo_centres[k].xyz;
             let seg = Segment(origin - centre, dir, t_done, t_hi);
-            let r = trace_one(k, seg);
+            let r = trace_one(k, seg, variant);
             traces += 1u;
             last = r;
             if r.status == ONE_HIT || r.status == ONE_ESCAPED {

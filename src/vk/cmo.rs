@@ -91,7 +91,7 @@ impl CmoData {
         let centres4: Vec<[f32; 4]> = centres.iter().map(|c| c.extend(0.0).to_array()).collect();
         let config_buf = ctx.create_buffer_init(
             "trace_config",
-            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            vk::BufferUsageFlags::STORAGE_BUFFER,
             std::slice::from_ref(&config),
         )?;
         Ok(CmoData {
@@ -172,7 +172,7 @@ impl CmoData {
         config.mip_top = self.config.mip_top.min(config.mip_top);
         self.config_buf = ctx.create_buffer_init(
             "trace_config",
-            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            vk::BufferUsageFlags::STORAGE_BUFFER,
             std::slice::from_ref(&config),
         )?;
         self.config = config;

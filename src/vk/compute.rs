@@ -5,7 +5,7 @@
 //! |---|---|---|
 //! | `hier32` | CMO distance | `cmo_hier`: the 8x4/4x8 `[min, max]` hierarchy ([`super::hier32`]) |
 //! | `append` | G-buffer | ray queue + its atomic count (a fragment pass, one ray per mirror pixel) |
-//! | `dispatch_args` | ray count | `VkDispatchIndirectCommand` (no CPU round trip) |
+//! | `dispatch_args` | ray count, hierarchy | `VkDispatchIndirectCommand` (no CPU round trip), the CMOs' cut radii |
 //! | `compute_trace` | queue, CMO data, `cmo_hier` | one [`PixelRecord`](super::frame::PixelRecord) per queued ray, per-ray counters |
 //!
 //! Invariants:
@@ -81,18 +81,67 @@ pub struct DispatchArgs {
 pub struct DispatchParams {
     /// Rays per `compute_trace` workgroup at the device's subgroup size: `256 / min(S, 32)`.
     pub rays_per_group: u32,
+    /// Number of CMOs K whose cut radii `dispatch_args` computes (0: none).
+    pub cmo_count: u32,
+    /// Face size N of the CMOs.
+    pub size: u32,
     pub pad0: u32,
-    pub pad1: u32,
-    pub pad2: u32,
+}
+
+/// Environment variable that overrides [`ray_lanes`]'s cap: `32` (the thesis layout, entry
+/// `main`) or `1` (entry `main_lanes1`). Anything else is refused.
+pub const RAY_LANES_ENV: &str = "CUBETRACE_RAY_LANES";
+
+/// The most lanes `compute_trace` gives one ray on this device, and the entry point that does
+/// it: 32 (`main`, thesis alg. 3: min(S, 32) lanes per ray) on GPUs, 1 (`main_lanes1`: S rays
+/// per subgroup, each lane running its ray's 32 logical lanes in rounds) on CPU devices such as
+/// lavapipe, where every lane repeats the ray's per-ray work at a cost that grows with the
+/// lanes (spirv/README.md, "Performance on lavapipe"). [`RAY_LANES_ENV`] overrides the choice.
+pub fn ray_lanes(ctx: &GpuContext) -> VkResult<(u32, &'static str)> {
+    let cap = match std::env::var(RAY_LANES_ENV) {
+        Ok(v) => match v.trim() {
+            "32" => 32,
+            "1" => 1,
+            other => {
+                return Err(VkError::Usage {
+                    what: RAY_LANES_ENV.into(),
+                    detail: format!("`{other}`: expected 32 or 1"),
+                });
+            }
+        },
+        Err(_) if ctx.report().device_type == vk::PhysicalDeviceType::CPU => 1,
+        Err(_) => 32,
+    };
+    Ok(if cap == 1 {
+        (1, "main_lanes1")
+    } else {
+        (32, "main")
+    })
 }
 
 impl DispatchParams {
-    /// For a device whose compute shaders run with subgroups of `subgroup_size` lanes (the
-    /// kernel is correct with any value; this one launches no idle workgroup on that device).
+    /// For a device whose compute shaders run with subgroups of `subgroup_size` lanes and the
+    /// thesis layout (entry `main`; the kernel is correct with any value, this one launches no
+    /// idle workgroup on that device).
     pub fn for_subgroup_size(subgroup_size: u32) -> Self {
+        Self::for_lanes(subgroup_size, 32)
+    }
+
+    /// For subgroups of `subgroup_size` lanes and at most `lane_cap` lanes per ray
+    /// ([`ray_lanes`]): `256 / min(S, 32, lane_cap)` rays per workgroup.
+    pub fn for_lanes(subgroup_size: u32, lane_cap: u32) -> Self {
         DispatchParams {
-            rays_per_group: 256 / subgroup_size.clamp(4, 32),
+            rays_per_group: 256 / subgroup_size.clamp(4, 32).min(lane_cap.max(1)),
             ..DispatchParams::default()
+        }
+    }
+
+    /// With the cut radii of `cmo_count` CMOs of face size `size` to compute.
+    pub fn with_cmos(self, cmo_count: u32, size: u32) -> Self {
+        DispatchParams {
+            cmo_count,
+            size,
+            ..self
         }
     }
 }
@@ -226,6 +275,7 @@ pub struct ComputePath {
     _hier: Buffer,
     _hier_config: Buffer,
     _dispatch_params: Buffer,
+    _cut: Buffer,
     _rays: Buffer,
     counter: Buffer,
     args: Buffer,
@@ -244,6 +294,7 @@ impl ComputePath {
         (width, height): (u32, u32),
     ) -> VkResult<Self> {
         check_device(ctx)?;
+        let (lane_cap, entry) = ray_lanes(ctx)?;
         let size = cmo.size();
         let config = HierConfig::new(size)?;
         let storage = |name: &str, bytes: u64, extra: vk::BufferUsageFlags| {
@@ -265,7 +316,7 @@ impl ComputePath {
         let hier_bindings = hier_pass.bind(ctx, cmo.distance(), &hier, cmo.count(), size)?;
         let hier_config = ctx.create_buffer_init(
             "hier_config",
-            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            vk::BufferUsageFlags::STORAGE_BUFFER,
             std::slice::from_ref(&config),
         )?;
         let pixels = u64::from(width) * u64::from(height);
@@ -285,6 +336,11 @@ impl ComputePath {
             vk::BufferUsageFlags::INDIRECT_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
         )?;
         let stats = storage("ray stats", pixels * 16, vk::BufferUsageFlags::TRANSFER_SRC)?;
+        let cut = storage(
+            "cmo_cut",
+            u64::from(cmo.count()) * 4,
+            vk::BufferUsageFlags::TRANSFER_SRC,
+        )?;
         let sampled = |img: &super::image::Image| Resource::Texture {
             view: img.view(),
             layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
@@ -311,10 +367,11 @@ impl ComputePath {
         )?;
         let dispatch_params = ctx.create_buffer_init(
             "dispatch params",
-            vk::BufferUsageFlags::UNIFORM_BUFFER,
-            &[DispatchParams::for_subgroup_size(
-                ctx.report().subgroup_size,
-            )],
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            &[
+                DispatchParams::for_lanes(ctx.report().subgroup_size, lane_cap)
+                    .with_cmos(cmo.count(), size),
+            ],
         )?;
         let dispatch_args =
             ComputePipeline::new(ctx, &DISPATCH_ARGS, "main", ComputeOptions::default())?;
@@ -324,9 +381,13 @@ impl ComputePath {
                 (0, Resource::Buffer(&counter)),
                 (1, Resource::Buffer(&args)),
                 (2, Resource::Buffer(&dispatch_params)),
+                (3, Resource::Buffer(&cut)),
+                (4, Resource::Buffer(&hier_config)),
+                (5, Resource::Buffer(&hier)),
+                (6, Resource::Buffer(cmo.distance())),
             ],
         )?;
-        let trace = ComputePipeline::new(ctx, &COMPUTE_TRACE, "main", ComputeOptions::default())?;
+        let trace = ComputePipeline::new(ctx, &COMPUTE_TRACE, entry, ComputeOptions::default())?;
         let trace_sets = [
             trace.bind_group(
                 0,
@@ -335,7 +396,7 @@ impl ComputePath {
                     (3, Resource::Buffer(records)),
                 ],
             )?,
-            trace.bind_group(1, &cmo.resources_for(&COMPUTE_TRACE, "main"))?,
+            trace.bind_group(1, &cmo.resources_for(&COMPUTE_TRACE, entry))?,
             trace.bind_group(
                 2,
                 &[
@@ -344,6 +405,7 @@ impl ComputePath {
                     (2, Resource::Buffer(&hier_config)),
                     (3, Resource::Buffer(&hier)),
                     (4, Resource::Buffer(&stats)),
+                    (5, Resource::Buffer(&cut)),
                 ],
             )?,
         ];
@@ -361,6 +423,7 @@ impl ComputePath {
             _hier: hier,
             _hier_config: hier_config,
             _dispatch_params: dispatch_params,
+            _cut: cut,
             _rays: rays,
             counter,
             args,

@@ -345,7 +345,7 @@ impl GpuRenderer {
         };
         let params_buf = ctx.create_buffer_init(
             "frame params",
-            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            vk::BufferUsageFlags::STORAGE_BUFFER,
             std::slice::from_ref(&params),
         )?;
         let pixels = u64::from(width) * u64::from(height);
@@ -381,12 +381,20 @@ impl GpuRenderer {
             )?);
             (None, None)
         } else {
+            // The fragment pass's specialised entry point when the options allow it.
+            let entry = if options.method == GpuMethod::Fragment
+                && super::trace_probe::exact_mip_only(&options.trace)
+            {
+                "fs_exact_mip"
+            } else {
+                "fs_main"
+            };
             let trace = GraphicsPipeline::new(
                 ctx,
                 options.method.pass(),
                 &GraphicsDesc {
                     vertex: "vs_fullscreen",
-                    fragment: "fs_main",
+                    fragment: entry,
                     colour_formats: Vec::new(),
                     depth: None,
                 },
@@ -401,7 +409,7 @@ impl GpuRenderer {
                         (3, Resource::Buffer(&records)),
                     ],
                 )?,
-                trace.bind_group(1, &cmo.resources_for(options.method.pass(), "fs_main"))?,
+                trace.bind_group(1, &cmo.resources_for(options.method.pass(), entry))?,
             ];
             (Some((trace, trace_sets)), None)
         };

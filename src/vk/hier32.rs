@@ -27,7 +27,7 @@ use crate::cubemap::face::FACE_COUNT;
 pub use crate::cubemap::pyramid::{Hier32, hier32_flat_layout, hier32_len};
 use crate::cubemap::pyramid::{hier32_group, hier32_layout};
 
-/// WGSL `Hier32Params` (uniform, one per level). Layout checked against naga's in the tests.
+/// WGSL `Hier32Params` (read-only storage buffer, one per level). Layout checked against naga's in the tests.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct Hier32Params {
@@ -157,7 +157,7 @@ impl Hier32Pass {
                 ctx.device(),
                 &format!("hier32 params level {}", l + 1),
                 size_of::<Hier32Params>() as u64,
-                vk::BufferUsageFlags::UNIFORM_BUFFER,
+                vk::BufferUsageFlags::STORAGE_BUFFER,
                 MemoryLocation::CpuToGpu,
             )?;
             buf.write(0, &[params])?;

@@ -30,7 +30,7 @@ use crate::cubemap::face::FACE_COUNT;
 use crate::cubemap::pyramid::mip_flat_layout;
 pub use crate::cubemap::pyramid::mip_len;
 
-/// WGSL `PyramidParams` (uniform, one per level). Layout checked against naga's in the tests.
+/// WGSL `PyramidParams` (read-only storage buffer, one per level). Layout checked against naga's in the tests.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct PyramidParams {
@@ -192,12 +192,12 @@ impl Pyramid {
             .into_iter()
             .enumerate()
         {
-            // Host-visible uniform: written once here, no staging submission per level.
+            // Host-visible: written once here, no staging submission per level.
             let mut buf = Buffer::new(
                 ctx.device(),
                 &format!("pyramid params level {}", l + 1),
                 size_of::<PyramidParams>() as u64,
-                vk::BufferUsageFlags::UNIFORM_BUFFER,
+                vk::BufferUsageFlags::STORAGE_BUFFER,
                 MemoryLocation::CpuToGpu,
             )?;
             buf.write(0, &[params])?;

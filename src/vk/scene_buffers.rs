@@ -41,7 +41,7 @@ impl SceneBuffers {
             srgb: ctx.create_buffer_init("sRGB table", storage, &data.srgb_to_linear)?,
             shading: ctx.create_buffer_init(
                 "scene shading",
-                vk::BufferUsageFlags::UNIFORM_BUFFER,
+                vk::BufferUsageFlags::STORAGE_BUFFER,
                 std::slice::from_ref(&data.shading),
             )?,
             index_count: data.indices.len() as u32,

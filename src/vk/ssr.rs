@@ -119,7 +119,7 @@ impl SsrPasses {
         let params = SsrParams::new(view_proj, width, height, options)?;
         let params_buf = ctx.create_buffer_init(
             "ssr params",
-            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            vk::BufferUsageFlags::STORAGE_BUFFER,
             std::slice::from_ref(&params),
         )?;
         let pyramid = Buffer::new(
@@ -143,7 +143,7 @@ impl SsrPasses {
                 ctx.device(),
                 &format!("hiz level {l}"),
                 size_of::<HizLevelParams>() as u64,
-                vk::BufferUsageFlags::UNIFORM_BUFFER,
+                vk::BufferUsageFlags::STORAGE_BUFFER,
                 MemoryLocation::CpuToGpu,
             )?;
             buf.write(

@@ -186,19 +186,55 @@ pub struct ProbeResult {
     pub pad1: u32,
 }
 
+/// Whether `opts` select the exact criterion's mip march, the only method the specialised entry
+/// points carry (`fs_exact_mip` of `fragment_trace`, `main_exact_mip` of `trace_probe`; WGSL
+/// `TRACE_EXACT_MIP`). Every other option set needs the generic entry point.
+pub fn exact_mip_only(opts: &TraceOptions) -> bool {
+    opts.criterion == TraceCriterion::Exact && opts.accel
+}
+
+/// The same test on a built config (`criterion` exact and `accel` set, as `trace_one` decides).
+fn config_exact_mip(config: &TraceConfig) -> bool {
+    config.criterion == 0 && config.accel != 0
+}
+
 /// Workgroup size of `trace_probe` (fixed by the WGSL, checked against reflection).
 pub const PROBE_WORKGROUP: u32 = 64;
 
-/// Traces `rays` on the GPU with the tracer of `spirv/shared/trace.wgsl` over `data`.
+/// Traces `rays` on the GPU with the tracer of `spirv/shared/trace.wgsl` over `data`, through
+/// the specialised entry point `main_exact_mip` when the config allows it (the production
+/// path's code), else the generic `main`.
 pub fn trace_probe(
     ctx: &GpuContext,
     data: &CmoData,
     rays: &[ProbeRay],
 ) -> VkResult<Vec<ProbeResult>> {
+    let entry = if config_exact_mip(data.config()) {
+        "main_exact_mip"
+    } else {
+        "main"
+    };
+    trace_probe_entry(ctx, data, rays, entry)
+}
+
+/// [`trace_probe`] through a named entry point of the pass: `main` (any options) or
+/// `main_exact_mip` (only valid when [`exact_mip_only`] holds for the config's options).
+pub fn trace_probe_entry(
+    ctx: &GpuContext,
+    data: &CmoData,
+    rays: &[ProbeRay],
+    entry: &str,
+) -> VkResult<Vec<ProbeResult>> {
     if rays.is_empty() {
         return Ok(Vec::new());
     }
-    let pipeline = ComputePipeline::new(ctx, &TRACE_PROBE, "main", ComputeOptions::default())?;
+    if entry == "main_exact_mip" && !config_exact_mip(data.config()) {
+        return Err(VkError::Usage {
+            what: "trace_probe".into(),
+            detail: "entry point main_exact_mip needs the exact criterion with accel".into(),
+        });
+    }
+    let pipeline = ComputePipeline::new(ctx, &TRACE_PROBE, entry, ComputeOptions::default())?;
     if pipeline.entry.workgroup_size[0] != PROBE_WORKGROUP {
         return Err(VkError::Shader {
             pass: TRACE_PROBE.name.into(),
@@ -215,7 +251,7 @@ pub fn trace_probe(
     };
     let params_buf = ctx.create_buffer_init(
         "trace_probe params",
-        vk::BufferUsageFlags::UNIFORM_BUFFER,
+        vk::BufferUsageFlags::STORAGE_BUFFER,
         &[params],
     )?;
     let rays_buf = ctx.create_buffer_init(
@@ -238,7 +274,7 @@ pub fn trace_probe(
             (2, Resource::Buffer(&out_buf)),
         ],
     )?;
-    let set1 = pipeline.bind_group(1, &data.resources_for(&TRACE_PROBE, "main"))?;
+    let set1 = pipeline.bind_group(1, &data.resources_for(&TRACE_PROBE, entry))?;
     let groups = count.div_ceil(PROBE_WORKGROUP);
     ctx.submit_and_wait(TRACE_PROBE.name, |rec| {
         rec.begin_label(TRACE_PROBE.name);
