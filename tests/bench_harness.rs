@@ -56,6 +56,13 @@ fn bench_reports_cost_per_ray_ratios_and_floor() {
     let files = bench::report::write(&report, out.path()).expect("write");
     let md = std::fs::read_to_string(&files[1]).expect("bench.md");
     assert!(md.contains("## Cost per ray") && md.contains("| sphere-room | "));
+    // One point per scene and method in the per-scene plot, without a Pareto front (the scenes
+    // differ); the pooled plot has one.
+    let scenes_svg = std::fs::read_to_string(&files[3]).expect("speed-error-scenes.svg");
+    assert!(scenes_svg.contains("compute: sphere-room") && scenes_svg.contains("ssr: sphere-room"));
+    assert!(!scenes_svg.contains("Pareto front"));
+    let pooled_svg = std::fs::read_to_string(&files[2]).expect("speed-error.svg");
+    assert!(pooled_svg.contains("Pareto front") && !pooled_svg.contains(": sphere-room"));
     let json = std::fs::read_to_string(&files[0]).expect("bench.json");
     assert!(json.contains("\"compute_over_reference\""));
 

@@ -60,13 +60,16 @@ fn err(e: impl std::fmt::Display) -> anyhow::Error {
 }
 
 /// The speed-against-error scatter plot as an SVG document. Errors below `floor` are drawn at
-/// `floor` (a log axis has no zero).
+/// `floor` (a log axis has no zero). With `pareto`, the Pareto front is drawn and its points
+/// filled (meaningful only when the points compete on the same data, e.g. methods pooled over
+/// the same scenes).
 pub fn scatter(
     title: &str,
     x_desc: &str,
     y_desc: &str,
     points: &[Point],
     floor: f64,
+    pareto: bool,
 ) -> Result<String> {
     let mut svg = String::new();
     {
@@ -87,16 +90,22 @@ pub fn scatter(
             .y_desc(y_desc)
             .draw()
             .map_err(err)?;
-        let front = pareto_front(points);
+        let front = if pareto {
+            pareto_front(points)
+        } else {
+            Vec::new()
+        };
         let at = |p: &Point| (p.cost, p.error.max(floor));
-        chart
-            .draw_series(LineSeries::new(
-                staircase(&front.iter().map(|&i| at(&points[i])).collect::<Vec<_>>()),
-                RED.stroke_width(2),
-            ))
-            .map_err(err)?
-            .label("Pareto front")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED.stroke_width(2)));
+        if pareto {
+            chart
+                .draw_series(LineSeries::new(
+                    staircase(&front.iter().map(|&i| at(&points[i])).collect::<Vec<_>>()),
+                    RED.stroke_width(2),
+                ))
+                .map_err(err)?
+                .label("Pareto front")
+                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED.stroke_width(2)));
+        }
         chart
             .draw_series(points.iter().enumerate().map(|(i, p)| {
                 let style = if front.contains(&i) {
@@ -116,13 +125,15 @@ pub fn scatter(
                 )
             }))
             .map_err(err)?;
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::LowerLeft)
-            .border_style(BLACK)
-            .background_style(WHITE.mix(0.8))
-            .draw()
-            .map_err(err)?;
+        if pareto {
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::LowerLeft)
+                .border_style(BLACK)
+                .background_style(WHITE.mix(0.8))
+                .draw()
+                .map_err(err)?;
+        }
         root.present().map_err(err)?;
     }
     Ok(svg)
@@ -235,7 +246,7 @@ mod tests {
     #[test]
     fn scatter_is_an_svg_with_labels() {
         let pts = [p("a-method", 1.0, 10.0), p("b-method", 5.0, 0.0)];
-        let svg = scatter("t", "x", "y", &pts, 0.01).unwrap();
+        let svg = scatter("t", "x", "y", &pts, 0.01, true).unwrap();
         assert!(svg.starts_with("<svg"), "{}", &svg[..40.min(svg.len())]);
         assert!(svg.contains("a-method") && svg.contains("b-method"));
         assert!(svg.contains("Pareto front"));

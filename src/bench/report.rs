@@ -296,6 +296,34 @@ pub fn speed_error_svg(report: &BenchReport) -> Result<String> {
         ),
         &points,
         PLOT_FLOOR_PCT,
+        true,
+    )
+}
+
+/// One point per scene and GPU method at its default setting (`fragment` is
+/// fragment-exact-mip), labelled `method: scene`; no Pareto front, since the scenes differ.
+pub fn speed_error_scenes_svg(report: &BenchReport) -> Result<String> {
+    let points: Vec<Point> = report
+        .runs
+        .iter()
+        .filter(|r| {
+            r.kind != MethodKind::Reference && r.method == super::MethodSpec::plain(r.kind).label()
+        })
+        .map(|r| Point {
+            label: format!("{}: {}", r.method, r.scene),
+            cost: r.trace_ns_per_mirror_px,
+            error: 100.0 * r.error.error,
+        })
+        .collect();
+    plot::scatter(
+        &format!("speed against error per scene on {}", report.device.name),
+        "tracing pass, ns per mirror pixel (median)",
+        &format!(
+            "mask mismatch + unresolved + wrong surface, % of mirror pixels (floor {PLOT_FLOOR_PCT})"
+        ),
+        &points,
+        PLOT_FLOOR_PCT,
+        false,
     )
 }
 
@@ -321,7 +349,9 @@ pub fn write(report: &BenchReport, dir: &Path) -> Result<Vec<PathBuf>> {
     write_atomic(&md, doc.as_bytes())?;
     let svg = dir.join("speed-error.svg");
     write_atomic(&svg, speed_error_svg(report)?.as_bytes())?;
-    Ok(vec![json, md, svg])
+    let scenes_svg = dir.join("speed-error-scenes.svg");
+    write_atomic(&scenes_svg, speed_error_scenes_svg(report)?.as_bytes())?;
+    Ok(vec![json, md, svg, scenes_svg])
 }
 
 #[cfg(test)]
