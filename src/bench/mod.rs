@@ -57,15 +57,19 @@ pub enum MethodKind {
     Compute,
     /// Hi-Z screen-space reflections (its default options; iterations in the `cells` column).
     Ssr,
+    /// Reflection-point search with virtual objects (Estalella et al. 2006); its iterations per
+    /// vertex (mean, max) in the counters.
+    ReflectionPoint,
 }
 
 impl MethodKind {
-    pub const ALL: [MethodKind; 5] = [
+    pub const ALL: [MethodKind; 6] = [
         MethodKind::Reference,
         MethodKind::Envmap,
         MethodKind::Fragment,
         MethodKind::Compute,
         MethodKind::Ssr,
+        MethodKind::ReflectionPoint,
     ];
 
     pub fn name(self) -> &'static str {
@@ -75,6 +79,7 @@ impl MethodKind {
             MethodKind::Fragment => "fragment",
             MethodKind::Compute => "compute",
             MethodKind::Ssr => "ssr",
+            MethodKind::ReflectionPoint => "reflection-point",
         }
     }
 
@@ -90,6 +95,7 @@ impl MethodKind {
             MethodKind::Fragment => Some(GpuMethod::Fragment),
             MethodKind::Compute => Some(GpuMethod::Compute),
             MethodKind::Ssr => Some(GpuMethod::Ssr),
+            MethodKind::ReflectionPoint => Some(GpuMethod::ReflectionPoint),
         }
     }
 
@@ -296,6 +302,10 @@ pub struct Counters {
     pub texels: f64,
     /// CMO traces per ray (1 + handoffs to further CMOs).
     pub traces: f64,
+    /// Reflection-point method: search steps per searched vertex in the frame, mean and max
+    /// (the paper's Table 1); 0 for the other methods.
+    pub search_mean: f64,
+    pub search_max: u32,
 }
 
 impl Counters {
@@ -318,6 +328,8 @@ impl Counters {
             cells: c.cells / n,
             texels: c.texels / n,
             traces: c.traces / n,
+            search_mean: frame.search.map_or(0.0, |s| s.mean_iterations),
+            search_max: frame.search.map_or(0, |s| s.max_iterations),
         }
     }
 }
