@@ -576,6 +576,7 @@ fn gpu_estimate_covers_the_cmo_allocation() {
         GpuMethod::Compute,
         GpuMethod::Envmap,
         GpuMethod::Ssr,
+        GpuMethod::ReflectionPoint,
     ] {
         let options = RenderOptions {
             method,
