@@ -359,3 +359,30 @@ fn error_against_the_reference_per_builtin_scene() {
     assert!(of("torus") < of("sphere-room"), "{same:?}");
     assert!(of("teapot") < of("sphere-room"), "{same:?}");
 }
+
+/// A search scale whose textures would exceed the largest image side is refused with a message
+/// naming it, before anything is rendered; the same frame at a smaller scale renders.
+#[test]
+fn oversized_search_textures_are_refused() {
+    let ctx = gpu_context();
+    let scene = builtin::by_name("sphere-room").unwrap();
+    let camera = camera(&scene, (3000, 20));
+    let options = |search_scale| RenderOptions {
+        method: GpuMethod::ReflectionPoint,
+        reflection_point: RpOptions {
+            search_scale,
+            ..RpOptions::default()
+        },
+        ..RenderOptions::default()
+    };
+    let err = GpuRenderer::new(&ctx, &scene, &camera, options(8))
+        .err()
+        .expect("scale 8 at 3000 pixels refused")
+        .to_string();
+    assert!(
+        err.contains("search scale") && err.contains("24000"),
+        "{err}"
+    );
+    assert!(GpuRenderer::new(&ctx, &scene, &camera, options(5)).is_ok());
+    finish_gpu(ctx);
+}

@@ -22,7 +22,7 @@ use gpu_allocator::MemoryLocation;
 
 use super::buffer::Buffer;
 use super::context::{GpuContext, Recorder};
-use super::error::VkResult;
+use super::error::{VkError, VkResult};
 use super::gbuffer::Gbuffer;
 use super::graphics::{ColourTarget, DepthTest, GraphicsDesc, GraphicsPipeline, RenderTarget};
 use super::image::{Image, ImageDesc};
@@ -131,7 +131,11 @@ impl ReflectionPointPasses {
     ) -> VkResult<Self> {
         let (width, height) = gbuffer.extent();
         let scale = options.search_scale.max(1);
-        let (sw, sh) = (width * scale, height * scale);
+        let (sw, sh) = (width.saturating_mul(scale), height.saturating_mul(scale));
+        crate::scene::check_resolution(sw, sh).map_err(|e| VkError::Usage {
+            what: "reflection-point search scale".into(),
+            detail: format!("{width}x{height} times {scale}: the search textures' {e}"),
+        })?;
         let view_proj = camera.view_proj(near);
         let vertex_count = data.vertices.len();
         let params = RpParams {
