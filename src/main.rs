@@ -579,7 +579,8 @@ struct BenchArgs {
     /// Methods: reference, envmap, fragment, compute, ssr, reflection-point (comma-separated);
     /// fragment runs its parameter grid (criteria x sampling x acceleration x steps) unless
     /// --quick; compute has one setting (the exact criterion on its hierarchy), ssr its defaults
-    /// (64 iterations, no thickness test), reflection-point its default cap (256 steps).
+    /// (64 iterations, no thickness test), reflection-point its defaults (cap 256 steps, search
+    /// scale 1) as is and with the other objects subdivided twice (`reflection-point-sub2`).
     #[arg(
         long,
         value_delimiter = ',',
