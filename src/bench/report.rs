@@ -310,13 +310,14 @@ pub fn search_table(report: &BenchReport) -> String {
         return String::new();
     }
     let mut s = String::from(
-        "\n## Reflection-point search\n\n| scene | steps/vertex mean | steps/vertex max |\n|---|---:|---:|\n",
+        "\n## Reflection-point search\n\n| scene | method | steps/vertex mean | steps/vertex max |\n|---|---|---:|---:|\n",
     );
     for r in runs {
         let _ = writeln!(
             s,
-            "| {} | {} | {} |",
+            "| {} | {} | {} | {} |",
             r.scene,
+            r.method,
             num(r.counters.search_mean, 1),
             r.counters.search_max
         );
