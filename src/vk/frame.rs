@@ -20,7 +20,8 @@
 //! Only what the options use is allocated: no pyramid for the environment map, no normal/mirror
 //! capture without self-reflections, the hierarchy and the ray queue for the compute path only,
 //! the Hi-Z pyramid for `ssr` only (which, like the environment map, uses the CMOs' colour for
-//! its fallback alone).
+//! its fallback alone), the search textures, per-vertex buffer and virtual-object targets for
+//! `reflection-point` only (the same).
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
