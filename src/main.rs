@@ -292,9 +292,9 @@ struct RenderArgs {
     compare: bool,
     /// Split every triangle of the non-reflector objects into four, N times, before rendering
     /// (with any method, so the reference sees the same geometry): the surfaces stay, the vertex
-    /// count grows 4^N-fold. The reflection-point method reflects vertices, so this is its
-    /// quality knob.
-    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=6))]
+    /// count grows 4^N-fold (at most 5: about 1000 times). The reflection-point method reflects
+    /// vertices, so this is its quality knob.
+    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=5))]
     subdivide: u32,
     #[command(flatten)]
     trace: TraceArgs,
