@@ -73,6 +73,10 @@ enum Method {
     /// Hi-Z screen-space reflections on the GPU (Uludag 2014): a min pyramid of the G-buffer's
     /// depth and a hierarchical ray march; what leaves the screen goes to the fallback.
     Ssr,
+    /// Reflection-point search with virtual objects on the GPU (Estalella et al. 2006): per
+    /// vertex of the other objects, a local search over the reflector's position and normal
+    /// textures; the virtual objects rasterised into the mirror; uncovered pixels get the fallback.
+    ReflectionPoint,
     /// Exact CPU ray tracing against the scene's triangles: the ground truth.
     Reference,
 }
@@ -196,6 +200,16 @@ struct TraceArgs {
     /// infinitely thick, so a ray passing behind a thin object hits it).
     #[arg(long, allow_negative_numbers = true, value_parser = positive_finite)]
     ssr_thickness: Option<f32>,
+    /// reflection-point: steps of one search (forward or inverse) before the vertex is given up
+    /// (its triangles are then not drawn).
+    #[arg(long, default_value_t = cubetrace::cpu::reflection_point::DEFAULT_MAX_ITERATIONS,
+          value_parser = clap::value_parser!(u32).range(1..=65536))]
+    rp_iterations: u32,
+    /// reflection-point: the search textures (the reflector's positions and normals) have this
+    /// many times the frame's width and height.
+    #[arg(long, default_value_t = cubetrace::cpu::reflection_point::DEFAULT_SEARCH_SCALE,
+          value_parser = clap::value_parser!(u32).range(1..=8))]
+    rp_scale: u32,
 }
 
 impl TraceArgs {
@@ -227,6 +241,10 @@ impl TraceArgs {
             ssr: cubetrace::cpu::ssr::SsrOptions {
                 max_iterations: self.ssr_iterations,
                 thickness: self.ssr_thickness,
+            },
+            reflection_point: cubetrace::cpu::reflection_point::RpOptions {
+                max_iterations: self.rp_iterations,
+                search_scale: self.rp_scale,
             },
         }
     }
@@ -272,6 +290,12 @@ struct RenderArgs {
     /// whole frame.
     #[arg(long)]
     compare: bool,
+    /// Split every triangle of the non-reflector objects into four, N times, before rendering
+    /// (with any method, so the reference sees the same geometry): the surfaces stay, the vertex
+    /// count grows 4^N-fold (at most 5: about 1000 times). The reflection-point method reflects
+    /// vertices, so this is its quality knob.
+    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=5))]
+    subdivide: u32,
     #[command(flatten)]
     trace: TraceArgs,
     #[command(flatten)]
@@ -311,6 +335,7 @@ fn render(args: RenderArgs) -> Result<()> {
     let start = Instant::now();
     let mut scene = scene::load(&args.scene)?;
     args.trace.apply(&mut scene);
+    cubetrace::cpu::reflection_point::subdivide_non_reflectors(&mut scene, args.subdivide);
     for problem in scene::diagnose(&scene) {
         log::warn!("{problem}");
     }
@@ -344,6 +369,7 @@ fn render(args: RenderArgs) -> Result<()> {
         Method::Envmap => Some(GpuMethod::Envmap),
         Method::Compute => Some(GpuMethod::Compute),
         Method::Ssr => Some(GpuMethod::Ssr),
+        Method::ReflectionPoint => Some(GpuMethod::ReflectionPoint),
         Method::Reference => None,
     };
     if let Some(m) = gpu_method {
@@ -397,6 +423,16 @@ fn render(args: RenderArgs) -> Result<()> {
         }
         if m == GpuMethod::Ssr {
             log::info!("ssr: {}", ssr_outcomes(&frame));
+        }
+        if let Some(s) = &frame.search {
+            log::info!(
+                "reflection-point: {} vertices searched, steps per vertex mean {:.1} max {}, {} hidden (inverse search), {} at the cap",
+                s.searched,
+                s.mean_iterations,
+                s.max_iterations,
+                s.hidden,
+                s.capped
+            );
         }
         if let Some(c) = &frame.compute {
             let [texels, cells, descents, backtracks] = c.summary(&frame.mask);
@@ -462,7 +498,11 @@ fn render(args: RenderArgs) -> Result<()> {
         return Ok(());
     }
     let frame = match args.method {
-        Method::Fragment | Method::Envmap | Method::Compute | Method::Ssr => {
+        Method::Fragment
+        | Method::Envmap
+        | Method::Compute
+        | Method::Ssr
+        | Method::ReflectionPoint => {
             unreachable!("GPU methods returned above")
         }
         Method::Reference => {
@@ -536,14 +576,15 @@ struct BenchArgs {
     /// Scenes: built-in names or .toml paths, comma-separated [default: every built-in scene].
     #[arg(long, value_delimiter = ',')]
     scenes: Vec<String>,
-    /// Methods: reference, envmap, fragment, compute, ssr (comma-separated); fragment runs its
-    /// parameter grid (criteria x sampling x acceleration x steps) unless --quick; compute has
-    /// one setting (the exact criterion on its hierarchy), ssr its defaults (64 iterations, no
-    /// thickness test).
+    /// Methods: reference, envmap, fragment, compute, ssr, reflection-point (comma-separated);
+    /// fragment runs its parameter grid (criteria x sampling x acceleration x steps) unless
+    /// --quick; compute has one setting (the exact criterion on its hierarchy), ssr its defaults
+    /// (64 iterations, no thickness test), reflection-point its defaults (cap 256 steps, search
+    /// scale 1) as is and with the other objects subdivided twice (`reflection-point-sub2`).
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "reference,envmap,fragment,compute,ssr"
+        default_value = "reference,envmap,fragment,compute,ssr,reflection-point"
     )]
     methods: Vec<String>,
     /// Tracing methods: only the default options (exact criterion, pyramid) instead of the grid.

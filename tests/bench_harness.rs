@@ -23,12 +23,35 @@ fn bench_reports_cost_per_ray_ratios_and_floor() {
         ..BenchConfig::default()
     };
     let report = bench::run(&ctx, &cfg, &indicatif::ProgressBar::hidden()).expect("bench");
-    assert_eq!(report.runs.len(), MethodKind::ALL.len());
+    assert_eq!(report.runs.len(), cfg.methods.len());
+    assert_eq!(cfg.methods.len(), MethodKind::ALL.len() + 1);
+    // The reflection-point method runs plain and subdivided (more triangles, same reference),
+    // with its search steps per vertex in the counters.
+    let rp: Vec<_> = report
+        .runs
+        .iter()
+        .filter(|r| r.kind == MethodKind::ReflectionPoint)
+        .collect();
+    let [plain, sub] = rp.as_slice() else {
+        panic!("two reflection-point runs: {rp:?}")
+    };
+    assert_eq!(sub.method, "reflection-point-sub2");
+    assert!(sub.triangles > plain.triangles);
+    assert!(plain.counters.search_mean > 1.0 && plain.counters.search_max >= 1);
+    assert!(
+        report
+            .runs
+            .iter()
+            .all(|r| r.kind == MethodKind::ReflectionPoint || r.counters.search_max == 0)
+    );
     let refr = &report.runs[0];
     assert_eq!(refr.kind, MethodKind::Reference);
     assert!(refr.rays > 50 && refr.rays == refr.mirror_pixels);
     assert!(refr.trace_ns.median > 0.0 && refr.trace_ns.median <= refr.total_ns.median);
-    for r in &report.runs[1..] {
+    for r in report.runs[1..]
+        .iter()
+        .filter(|r| r.method != "reflection-point-sub2")
+    {
         let f = r
             .floor
             .unwrap_or_else(|| panic!("{}: no floor run", r.method));

@@ -578,6 +578,7 @@ fn gpu_estimate_covers_the_cmo_allocation() {
         GpuMethod::Compute,
         GpuMethod::Envmap,
         GpuMethod::Ssr,
+        GpuMethod::ReflectionPoint,
     ] {
         let options = RenderOptions {
             method,
@@ -599,4 +600,42 @@ fn gpu_estimate_covers_the_cmo_allocation() {
         assert!(half.cmo < real, "{method:?}");
     }
     common::finish_gpu(ctx);
+}
+
+#[test]
+fn reflection_point_renders_and_refuses_oversized_search_textures() {
+    let dir = tempfile::tempdir().unwrap();
+    let size = ["--width", "32", "--height", "24"];
+    let mut args = vec!["render", "sphere-room", "--method", "reflection-point"];
+    args.extend(size);
+    args.extend(["--subdivide", "1", "--compare", "-o", "rp.png"]);
+    let o = run(&args, dir.path());
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+    assert!(o.stdout.contains("method reflection-point"), "{}", o.stdout);
+    assert!(o.stdout.contains("against the reference"), "{}", o.stdout);
+    assert_eq!(files(dir.path()), vec!["rp.png".to_string()]);
+    // Search textures wider than the largest image side: refused, nothing written.
+    let o = run(
+        &[
+            "render",
+            "sphere-room",
+            "--method",
+            "reflection-point",
+            "--width",
+            "3000",
+            "--height",
+            "20",
+            "--rp-scale",
+            "8",
+            "-o",
+            "big.png",
+        ],
+        dir.path(),
+    );
+    assert_clean_failure(&o, &["search scale", "24000"]);
+    assert_eq!(files(dir.path()), vec!["rp.png".to_string()]);
+    // Out-of-range subdivision: clap's usage error.
+    let o = run(&["render", "--subdivide", "9"], dir.path());
+    assert_eq!(o.code, Some(2), "{}", o.stderr);
+    assert!(o.stderr.contains("--subdivide"), "{}", o.stderr);
 }

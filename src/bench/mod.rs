@@ -57,15 +57,19 @@ pub enum MethodKind {
     Compute,
     /// Hi-Z screen-space reflections (its default options; iterations in the `cells` column).
     Ssr,
+    /// Reflection-point search with virtual objects (Estalella et al. 2006); its iterations per
+    /// vertex (mean, max) in the counters.
+    ReflectionPoint,
 }
 
 impl MethodKind {
-    pub const ALL: [MethodKind; 5] = [
+    pub const ALL: [MethodKind; 6] = [
         MethodKind::Reference,
         MethodKind::Envmap,
         MethodKind::Fragment,
         MethodKind::Compute,
         MethodKind::Ssr,
+        MethodKind::ReflectionPoint,
     ];
 
     pub fn name(self) -> &'static str {
@@ -75,6 +79,7 @@ impl MethodKind {
             MethodKind::Fragment => "fragment",
             MethodKind::Compute => "compute",
             MethodKind::Ssr => "ssr",
+            MethodKind::ReflectionPoint => "reflection-point",
         }
     }
 
@@ -90,6 +95,7 @@ impl MethodKind {
             MethodKind::Fragment => Some(GpuMethod::Fragment),
             MethodKind::Compute => Some(GpuMethod::Compute),
             MethodKind::Ssr => Some(GpuMethod::Ssr),
+            MethodKind::ReflectionPoint => Some(GpuMethod::ReflectionPoint),
         }
     }
 
@@ -105,19 +111,34 @@ pub struct MethodSpec {
     pub kind: MethodKind,
     /// Used when [`MethodKind::traces`].
     pub trace: TraceOptions,
+    /// The non-reflector objects split into four this many times for this run
+    /// ([`crate::cpu::reflection_point::subdivide_non_reflectors`]): the same surfaces, so the
+    /// same reference. Used for the reflection-point method, whose quality depends on it.
+    pub subdivide: u32,
 }
+
+/// The subdivision of the second reflection-point row of the grid.
+pub const RP_BENCH_SUBDIVIDE: u32 = 2;
 
 impl MethodSpec {
     pub fn plain(kind: MethodKind) -> Self {
         MethodSpec {
             kind,
             trace: TraceOptions::default(),
+            subdivide: 0,
         }
     }
 
     /// A short unique name, also used in file names: `fragment-exact-mip`,
     /// `fragment-threshold-step64`, `envmap`, ...
     pub fn label(&self) -> String {
+        if self.subdivide > 0 {
+            let plain = MethodSpec {
+                subdivide: 0,
+                ..*self
+            };
+            return format!("{}-sub{}", plain.label(), self.subdivide);
+        }
         // The compute path has one setting: the exact criterion on its own hierarchy.
         if !self.kind.traces() || self.kind == MethodKind::Compute {
             return self.kind.name().into();
@@ -177,7 +198,11 @@ pub fn fragment_grid(kind: MethodKind) -> Vec<MethodSpec> {
         }
     }
     out.into_iter()
-        .map(|trace| MethodSpec { kind, trace })
+        .map(|trace| MethodSpec {
+            kind,
+            trace,
+            subdivide: 0,
+        })
         .collect()
 }
 
@@ -193,6 +218,12 @@ pub fn method_grid(kinds: &[MethodKind], quick: bool) -> Vec<MethodSpec> {
             }
         } else {
             out.push(MethodSpec::plain(kind));
+            if kind == MethodKind::ReflectionPoint {
+                out.push(MethodSpec {
+                    subdivide: RP_BENCH_SUBDIVIDE,
+                    ..MethodSpec::plain(kind)
+                });
+            }
         }
     }
     out
@@ -296,6 +327,10 @@ pub struct Counters {
     pub texels: f64,
     /// CMO traces per ray (1 + handoffs to further CMOs).
     pub traces: f64,
+    /// Reflection-point method: search steps per searched vertex in the frame, mean and max
+    /// (the paper's Table 1); 0 for the other methods.
+    pub search_mean: f64,
+    pub search_max: u32,
 }
 
 impl Counters {
@@ -318,6 +353,8 @@ impl Counters {
             cells: c.cells / n,
             texels: c.texels / n,
             traces: c.traces / n,
+            search_mean: frame.search.map_or(0.0, |s| s.mean_iterations),
+            search_max: frame.search.map_or(0, |s| s.max_iterations),
         }
     }
 }
@@ -813,10 +850,17 @@ pub fn run(
             };
             let label = spec.label();
             bar.set_message(format!("{name}: {label}"));
-            let g = run_gpu(
-                ctx, &scene, &camera, gpu, spec.trace, cfg.warmup, cfg.frames,
-            )
-            .with_context(|| format!("scene '{name}', method {label}"))?;
+            let subdivided;
+            let scene = if spec.subdivide > 0 {
+                let mut s = scene.clone();
+                crate::cpu::reflection_point::subdivide_non_reflectors(&mut s, spec.subdivide);
+                subdivided = s;
+                &subdivided
+            } else {
+                &scene
+            };
+            let g = run_gpu(ctx, scene, &camera, gpu, spec.trace, cfg.warmup, cfg.frames)
+                .with_context(|| format!("scene '{name}', method {label}"))?;
             let traced = g.frame.traced();
             let pixels = metrics::classify(
                 &refr.frame,
@@ -843,10 +887,8 @@ pub fn run(
                         height: h,
                         ..camera.clone()
                     };
-                    let f = run_gpu(ctx, &scene, &small, gpu, spec.trace, cfg.warmup, cfg.frames)
-                        .with_context(|| {
-                        format!("scene '{name}', method {label} at {w}x{h}")
-                    })?;
+                    let f = run_gpu(ctx, scene, &small, gpu, spec.trace, cfg.warmup, cfg.frames)
+                        .with_context(|| format!("scene '{name}', method {label} at {w}x{h}"))?;
                     let small_ns = frame_stats(&f.pass_ns, Some(gpu.pass_name()));
                     bar.inc(1);
                     Some(FloorRun {
@@ -892,6 +934,7 @@ pub fn run(
                     None
                 },
                 heatmap,
+                triangles: scene.world().triangles.len(),
                 ..base(spec)
             });
             bar.inc(1);

@@ -327,6 +327,34 @@ pub fn speed_error_scenes_svg(report: &BenchReport) -> Result<String> {
     )
 }
 
+/// The reflection-point runs' search steps per vertex (mean and max in the frame, the paper's
+/// Table 1); empty when none ran.
+pub fn search_table(report: &BenchReport) -> String {
+    let runs: Vec<&RunResult> = report
+        .runs
+        .iter()
+        .filter(|r| r.kind == MethodKind::ReflectionPoint)
+        .collect();
+    if runs.is_empty() {
+        return String::new();
+    }
+    let mut s = String::from(
+        "\n## Reflection-point search\n\n| scene | method | steps/vertex mean | steps/vertex max |\n|---|---|---:|---:|\n",
+    );
+    for r in runs {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} |",
+            r.scene,
+            r.method,
+            num(r.counters.search_mean, 1),
+            r.counters.search_max
+        );
+    }
+    s.push_str("\nCost: `rp_search` (the reflector textures and the per-vertex search) and `rp_raster` (the virtual objects and the records) in the per-pass table.\n");
+    s
+}
+
 /// Writes `bench.json`, `bench.md` and `speed-error.svg` into `dir`; returns the paths.
 pub fn write(report: &BenchReport, dir: &Path) -> Result<Vec<PathBuf>> {
     let json = dir.join("bench.json");
@@ -339,12 +367,13 @@ pub fn write(report: &BenchReport, dir: &Path) -> Result<Vec<PathBuf>> {
          reference: the CPU wall time of its reflected-ray phase over its first reflected rays, shading at the hit included). \
          Default settings: `fragment` is fragment-exact-mip.\n\n## Runs\n\n{}\n## GPU time per pass\n\n{}\n\
          Heat maps (`heat/SCENE-METHOD.png`): grey = not a mirror pixel; black to red = angular error of the hit point, \
-         0.01 to 10 degrees, logarithmic; white = wrong surface; magenta = unresolved; cyan = mirror pixel missed by the method's rasterisation; pink = mirror pixel of the method where the reference has none.\n",
+         0.01 to 10 degrees, logarithmic; white = wrong surface; magenta = unresolved; cyan = mirror pixel missed by the method's rasterisation; pink = mirror pixel of the method where the reference has none.\n{}",
         header(report),
         summary_table(report),
         ratios_table(report),
         runs_table(report),
-        passes_table(report)
+        passes_table(report),
+        search_table(report)
     );
     write_atomic(&md, doc.as_bytes())?;
     let svg = dir.join("speed-error.svg");

@@ -63,6 +63,7 @@ pub mod fragment_trace;
 pub mod mip;
 pub mod multi;
 pub mod options;
+pub mod reflection_point;
 pub mod ssr;
 pub mod walk;
 

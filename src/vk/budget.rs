@@ -25,6 +25,11 @@ pub fn frame_bytes_per_pixel(method: GpuMethod) -> u64 {
         // The Hi-Z pyramid: f32 cells, about 4/3 per pixel over all levels (2 on a one-pixel-wide
         // frame; counted as 2), plus the ssr pass's parameters (per frame, negligible).
         GpuMethod::Ssr => 2 * 4,
+        // The reflection-point method: the reflector's position and normal textures, the
+        // virtual objects' colour and point (RGBA f32 each) and two f32 depth buffers, at search
+        // scale 1 (T_P, T_N and their depth grow with the scale's square: not counted); its
+        // per-vertex buffer is per scene vertex (small beside these, not counted).
+        GpuMethod::ReflectionPoint => 4 * 16 + 2 * 4,
         GpuMethod::Fragment | GpuMethod::Envmap => 0,
     };
     records + 16 + gbuffer + method_bytes
@@ -62,7 +67,7 @@ pub fn device_bytes(
     let acceleration = match method {
         GpuMethod::Fragment => u64::from(cmos) * mip_len(cube_size) as u64 * 8,
         GpuMethod::Compute => u64::from(cmos) * hier32_len(cube_size) as u64 * 8,
-        GpuMethod::Envmap | GpuMethod::Ssr => 0,
+        GpuMethod::Envmap | GpuMethod::Ssr | GpuMethod::ReflectionPoint => 0,
     };
     DeviceBytes {
         frame: pixels * frame_bytes_per_pixel(method),

@@ -9,6 +9,7 @@
 //! | `fragment_trace` or `envmap` | G-buffer, CMO data | one record per mirror pixel |
 //! | or `append`, `dispatch_args`, `compute_trace` | G-buffer, CMO data, hierarchy | the same records ([`super::compute`]) |
 //! | or `hiz`, `ssr` | G-buffer, its min pyramid | the same records ([`super::ssr`]) |
+//! | or `rp_search`, `rp_raster` | scene, G-buffer | the same records ([`super::reflection_point`]) |
 //! | `composite` | G-buffer, records, CMO colour | final colour |
 //!
 //! Each pass name is its WGSL file, its debug label and its timestamp scope, so
@@ -19,7 +20,8 @@
 //! Only what the options use is allocated: no pyramid for the environment map, no normal/mirror
 //! capture without self-reflections, the hierarchy and the ray queue for the compute path only,
 //! the Hi-Z pyramid for `ssr` only (which, like the environment map, uses the CMOs' colour for
-//! its fallback alone).
+//! its fallback alone), the search textures, per-vertex buffer and virtual-object targets for
+//! `reflection-point` only (the same).
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
@@ -35,15 +37,18 @@ use super::gbuffer::Gbuffer;
 use super::graphics::{GraphicsDesc, GraphicsPipeline, RenderTarget};
 use super::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
 use super::pyramid::{Pyramid, PyramidBindings};
+use super::reflection_point::ReflectionPointPasses;
 use super::scene_buffers::SceneBuffers;
 use super::shaders::{
-    APPEND, COMPOSITE, COMPUTE_TRACE, DISPATCH_ARGS, ENVMAP, FRAGMENT_TRACE, HIER32, HIZ, Pass, SSR,
+    APPEND, COMPOSITE, COMPUTE_TRACE, DISPATCH_ARGS, ENVMAP, FRAGMENT_TRACE, HIER32, HIZ, Pass,
+    RP_RASTER, RP_SEARCH, SSR,
 };
 use super::ssr::SsrPasses;
 use super::sync::{SHADER_READ, SHADER_WRITE};
 use super::timestamps::{PassTime, Timestamps};
 use crate::camera::Camera;
 use crate::cpu::options::TraceOptions;
+use crate::cpu::reflection_point::{RpOptions, SearchStats};
 use crate::cpu::ssr::SsrOptions;
 use crate::metrics::Traced;
 use crate::ranges::FrameRanges;
@@ -63,6 +68,10 @@ pub enum GpuMethod {
     /// Hi-Z screen-space reflections (Uludag 2014): a min pyramid of the G-buffer's depth and
     /// the chapter's hierarchical ray march; the CMOs only feed the fallback.
     Ssr,
+    /// Reflection-point search with virtual objects (Estalella et al. 2006): per scene vertex a
+    /// local search over the reflector's position and normal textures, then the virtual objects
+    /// rasterised into the mirror pixels; the CMOs only feed the fallback.
+    ReflectionPoint,
 }
 
 impl GpuMethod {
@@ -77,6 +86,7 @@ impl GpuMethod {
             GpuMethod::Envmap => &ENVMAP,
             GpuMethod::Compute => &COMPUTE_TRACE,
             GpuMethod::Ssr => &SSR,
+            GpuMethod::ReflectionPoint => &RP_SEARCH,
         }
     }
 }
@@ -102,6 +112,8 @@ pub struct RenderOptions {
     pub fallback: Fallback,
     /// Options of `Ssr` (iteration cap, thickness).
     pub ssr: SsrOptions,
+    /// Options of `ReflectionPoint` (iteration cap).
+    pub reflection_point: RpOptions,
 }
 
 impl Default for RenderOptions {
@@ -111,6 +123,7 @@ impl Default for RenderOptions {
             trace: TraceOptions::default(),
             fallback: Fallback::default(),
             ssr: SsrOptions::default(),
+            reflection_point: RpOptions::default(),
         }
     }
 }
@@ -176,6 +189,8 @@ pub struct GpuFrame {
     pub pass_times: Vec<PassTime>,
     /// Ray count, subgroup size and per-ray counters ([`GpuMethod::Compute`] only).
     pub compute: Option<ComputeStats>,
+    /// Iteration counts of the searches ([`GpuMethod::ReflectionPoint`] only).
+    pub search: Option<SearchStats>,
 }
 
 impl GpuFrame {
@@ -244,6 +259,8 @@ pub struct GpuRenderer {
     compute: Option<ComputePath>,
     /// The passes of `Ssr`.
     ssr: Option<SsrPasses>,
+    /// The passes of `ReflectionPoint`.
+    rp: Option<ReflectionPointPasses>,
     composite: ComputePipeline,
     composite_sets: [BindGroup; 2],
     _params: Buffer,
@@ -365,6 +382,7 @@ impl GpuRenderer {
             layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
         };
         let mut ssr = None;
+        let mut rp = None;
         let (trace, compute) = if options.method == GpuMethod::Compute {
             let path =
                 ComputePath::new(ctx, &cmo, &gbuffer, &params_buf, &records, (width, height))?;
@@ -378,6 +396,18 @@ impl GpuRenderer {
                 &params_buf,
                 &records,
                 &options.ssr,
+            )?);
+            (None, None)
+        } else if options.method == GpuMethod::ReflectionPoint {
+            rp = Some(ReflectionPointPasses::new(
+                ctx,
+                &data,
+                &scene_buffers,
+                &gbuffer,
+                camera,
+                ranges.near,
+                &records,
+                &options.reflection_point,
             )?);
             (None, None)
         } else {
@@ -446,6 +476,7 @@ impl GpuRenderer {
             trace,
             compute,
             ssr,
+            rp,
             composite,
             composite_sets,
             _params: params_buf,
@@ -468,6 +499,11 @@ impl GpuRenderer {
     /// The screen-space method's passes ([`GpuMethod::Ssr`] only).
     pub fn ssr_passes(&self) -> Option<&SsrPasses> {
         self.ssr.as_ref()
+    }
+
+    /// The reflection-point method's passes ([`GpuMethod::ReflectionPoint`] only).
+    pub fn reflection_point_passes(&self) -> Option<&ReflectionPointPasses> {
+        self.rp.as_ref()
     }
 
     /// The G-buffer (for reading it back in the tests).
@@ -526,6 +562,10 @@ impl GpuRenderer {
                 rec.memory_barrier(SHADER_WRITE, SHADER_READ);
                 scoped(SSR.name, &mut || s.record_trace(rec))?;
             }
+            if let Some(r) = &self.rp {
+                scoped(RP_SEARCH.name, &mut || r.record_search(rec))?;
+                scoped(RP_RASTER.name, &mut || r.record_raster(rec))?;
+            }
             if let Some((trace, sets)) = &self.trace {
                 scoped(self.options.method.pass_name(), &mut || {
                     let target = RenderTarget {
@@ -571,6 +611,10 @@ impl GpuRenderer {
             Some(c) => Some(c.read_stats(ctx)?),
             None => None,
         };
+        let search = match &self.rp {
+            Some(r) => Some(r.read_stats(ctx)?),
+            None => None,
+        };
         let n = (self.width * self.height) as usize;
         Ok(GpuFrame {
             width: self.width,
@@ -590,6 +634,7 @@ impl GpuRenderer {
             records: records[..n].to_vec(),
             pass_times,
             compute,
+            search,
         })
     }
 }

@@ -30,6 +30,7 @@ pub mod info;
 pub mod instance;
 pub mod pipeline;
 pub mod pyramid;
+pub mod reflection_point;
 pub mod scene_buffers;
 pub mod selftest;
 pub mod shaders;
