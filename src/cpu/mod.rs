@@ -64,7 +64,9 @@ pub mod mip;
 pub mod multi;
 pub mod options;
 pub mod ssr;
+pub mod verify;
 pub mod walk;
+pub mod watertight;
 
 use glam::Vec3;
 
