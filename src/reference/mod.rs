@@ -93,6 +93,9 @@ pub struct Frame {
     pub object_id: Vec<u32>,
     /// Triangle (within its object) hit by the first reflected ray ([`NO_ID`] where none).
     pub primitive_id: Vec<u32>,
+    /// The same triangle by its global index in [`WorldGeometry::triangles`] ([`NO_ID`] where
+    /// none): what a GPU frame's triangle IDs are compared with.
+    pub triangle: Vec<u32>,
     /// Number of reflections the pixel's path took.
     pub bounces: Vec<u8>,
 }
@@ -109,6 +112,7 @@ impl Frame {
             hit_position: vec![Vec3::NAN; n],
             object_id: vec![NO_ID; n],
             primitive_id: vec![NO_ID; n],
+            triangle: vec![NO_ID; n],
             bounces: vec![0; n],
         }
     }
@@ -132,6 +136,7 @@ impl Frame {
             let (o, prim) = tracer.ids(h.triangle);
             self.object_id[k] = o;
             self.primitive_id[k] = prim;
+            self.triangle[k] = h.triangle;
         }
     }
 }
