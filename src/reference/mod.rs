@@ -678,14 +678,15 @@ pub fn render_phased(
 
 /// The CPU capture of one cubemap object: for every texel, a ray from `centre` through the
 /// texel centre ([`crate::cubemap::face::texel_centre_dir`]); the distance to the nearest surface
-/// (`+inf` where none) and its shaded colour (alpha 1; the background with alpha 0 where none).
+/// (`+inf` where none), its shaded colour (alpha 1; the background with alpha 0 where none) and
+/// the global index of the triangle it hits ([`NO_ID`] where none).
 /// Reflectors are left out unless the scene has self-reflections on, and then kept only where
 /// they face the centre (normal towards it), as in the GPU capture (`spirv/capture.wgsl`).
 /// This is what a rasterised capture computes at texel centres, so it checks the GPU capture.
 pub fn capture(scene: &Scene, tracer: &Tracer, centre: Vec3, size: u32) -> crate::cubemap::CubeMap {
     let mut cube = crate::cubemap::CubeMap::new(size, centre);
     let n = cube.distance.len();
-    let texels: Vec<(f32, [f32; 4])> = (0..n)
+    let texels: Vec<(f32, [f32; 4], u32)> = (0..n)
         .into_par_iter()
         .map(|i| {
             let t = crate::cubemap::Texel::from_index(i, size);
@@ -697,18 +698,23 @@ pub fn capture(scene: &Scene, tracer: &Tracer, centre: Vec3, size: u32) -> crate
             match hit {
                 Some(h) => {
                     let c = tracer.shade(scene, &h);
-                    ((h.position - centre).length(), [c.x, c.y, c.z, 1.0])
+                    (
+                        (h.position - centre).length(),
+                        [c.x, c.y, c.z, 1.0],
+                        h.triangle,
+                    )
                 }
                 None => {
                     let b = scene.background;
-                    (f32::INFINITY, [b.x, b.y, b.z, 0.0])
+                    (f32::INFINITY, [b.x, b.y, b.z, 0.0], NO_ID)
                 }
             }
         })
         .collect();
-    for (i, (d, c)) in texels.into_iter().enumerate() {
+    for (i, (d, c, tri)) in texels.into_iter().enumerate() {
         cube.distance[i] = d;
         cube.colour[i] = c;
+        cube.triangle[i] = tri;
     }
     cube
 }
