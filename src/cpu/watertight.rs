@@ -73,9 +73,12 @@ pub fn shear(d: Vec3) -> Option<Shear> {
     if dz < 0.0 {
         std::mem::swap(&mut kx, &mut ky);
     }
+    // One division, then products (the WGSL twin does the same, so that no driver's lowering
+    // of `a / b` to `a * (1 / b)` can make the two differ).
+    let sz = 1.0 / dz;
     Some(Shear {
         k: [kx, ky, kz],
-        s: [component(d, kx) / dz, component(d, ky) / dz, 1.0 / dz],
+        s: [component(d, kx) * sz, component(d, ky) * sz, sz],
     })
 }
 
