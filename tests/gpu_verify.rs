@@ -7,11 +7,15 @@ mod common;
 use common::{finish_gpu, gpu_context};
 
 use cubetrace::check_layout;
+use cubetrace::cpu::verify::triangle_corners;
+use cubetrace::cubemap::face::dir_to_texel;
+use cubetrace::reference;
 use cubetrace::reference::{Hit, Tracer};
 use cubetrace::scene::builtin;
 use cubetrace::scene::gpu_data::GpuSceneData;
 use cubetrace::vk::hit_probe::{
-    ShadeQuery, WatertightQuery, WatertightResult, shade_gpu, watertight_cpu, watertight_gpu,
+    ShadeQuery, VerifyQuery, VerifyResult, WatertightQuery, WatertightResult, shade_gpu,
+    verify_cpu, verify_gpu, watertight_cpu, watertight_gpu,
 };
 use cubetrace::vk::scene_buffers::SceneBuffers;
 use cubetrace::vk::shaders::HIT_PROBE;
@@ -183,6 +187,18 @@ fn probe_structs_match_naga_layout() {
     )
     .unwrap();
     check_layout!(ShadeQuery, l("ShadeQuery"), [bary, triangle, _pad]).unwrap();
+    check_layout!(
+        VerifyQuery,
+        l("VerifyQuery"),
+        [a, t_done, d, t_hi, centre, size, face, x, y, _pad]
+    )
+    .unwrap();
+    check_layout!(
+        VerifyResult,
+        l("VerifyResult"),
+        [bary, t, position, triangle, hit, _pad0, _pad1, _pad2]
+    )
+    .unwrap();
 }
 
 #[test]
@@ -365,6 +381,135 @@ fn shading_at_a_hit_matches_the_reference_on_every_scene() {
             .collect();
         let (_, over) = diff(&shade_gpu(&ctx, &buffers, &swapped).unwrap());
         assert!(over > 0, "{name}: swapped barycentrics must show");
+    }
+    finish_gpu(ctx);
+}
+
+fn verify_bits(r: &VerifyResult) -> (u32, u32, u32, [u32; 3], [u32; 3]) {
+    (
+        r.hit,
+        r.triangle,
+        r.t.to_bits(),
+        r.position.map(f32::to_bits),
+        r.bary.map(f32::to_bits),
+    )
+}
+
+/// The verified-hit rule on the GPU (`shared/verify.wgsl`) equals `cpu::verify::verify_hit` bit
+/// for bit over the CPU capture's triangle IDs: rays from around the CMO centre, decided at the
+/// texel of their exact hit (mostly verified hits), at a texel four away (mostly none), and with
+/// the prefix proven empty past the hit (none). Where the ray's exact nearest non-reflector hit
+/// is captured, the verified hit is on that triangle for nearly every ray.
+#[test]
+fn verified_hits_gpu_equal_cpu_bit_for_bit() {
+    let ctx = gpu_context();
+    let size = 32;
+    let mut r = Rng(0x0bad_cafe);
+    for name in ["sphere-room", "teapot", "torus"] {
+        let scene = builtin::by_name(name).unwrap();
+        let tracer = Tracer::new(&scene);
+        let centre = scene.cmo_centres()[0];
+        let cube = reference::capture(&scene, &tracer, centre, size);
+        let ids = cube.triangle.clone();
+        let triangles = triangle_corners(&tracer.world);
+        let buffers = SceneBuffers::new(&ctx, &GpuSceneData::new(&scene)).unwrap();
+        let reach = 0.25 * cube.min_distance();
+        let mut queries = Vec::new();
+        let mut truth = Vec::new();
+        for _ in 0..3000 {
+            let a = centre + r.vec(2.0 * reach);
+            let d = r.vec(2.0).normalize_or_zero();
+            let Some(h) =
+                tracer.nearest_accepting(a, d, None, |h| !tracer.is_reflector(h.triangle))
+            else {
+                continue;
+            };
+            let texel = dir_to_texel(h.position - centre, size);
+            let q = VerifyQuery {
+                a: a.to_array(),
+                t_done: 0.0,
+                d: d.to_array(),
+                t_hi: 1e6,
+                centre: centre.to_array(),
+                size,
+                face: texel.face,
+                x: texel.x,
+                y: texel.y,
+                _pad: 0,
+            };
+            queries.push(q);
+            truth.push(h.triangle);
+            queries.push(VerifyQuery {
+                x: (texel.x + 4) % size,
+                ..q
+            });
+            queries.push(VerifyQuery {
+                t_done: h.t * 1.01 + 1e-3,
+                ..q
+            });
+        }
+        let gpu = verify_gpu(&ctx, &buffers, &ids, &queries).unwrap();
+        let cpu: Vec<_> = queries
+            .iter()
+            .map(|q| verify_cpu(q, &ids, &triangles))
+            .collect();
+        let differ = (0..queries.len())
+            .filter(|&i| verify_bits(&gpu[i]) != verify_bits(&cpu[i]))
+            .count();
+        let at_hit: Vec<&VerifyResult> = cpu.iter().step_by(3).collect();
+        let verified = at_hit.iter().filter(|v| v.hit == 1).count();
+        let same = at_hit
+            .iter()
+            .zip(&truth)
+            .filter(|(v, t)| v.hit == 1 && v.triangle == **t)
+            .count();
+        let captured = at_hit
+            .iter()
+            .zip(&truth)
+            .filter(|(_, t)| ids.contains(t))
+            .count();
+        let past = cpu.iter().skip(2).step_by(3).filter(|v| v.hit == 1).count();
+        eprintln!(
+            "{name}: {} queries, {differ} differ; at the hit texel {verified} of {} verified, {same} on the exact triangle ({captured} exact triangles captured); {past} hits past the prefix",
+            queries.len(),
+            at_hit.len()
+        );
+        assert_eq!(differ, 0, "{name}");
+        assert!(at_hit.len() > 1000, "{name}");
+        assert!(
+            same as f64 >= 0.95 * captured as f64,
+            "{name}: {same} of {captured}"
+        );
+        assert!(verified >= same);
+        // Every verified hit lies on a triangle the ray meets: the watertight test agrees.
+        for (q, v) in queries.iter().zip(&cpu).filter(|(_, v)| v.hit == 1) {
+            let w = watertight_cpu(&WatertightQuery::new(
+                Vec3::from_array(q.a),
+                Vec3::from_array(q.d),
+                triangles[v.triangle as usize],
+            ));
+            assert!(w.hit == 1 && w.t == v.t && w.t >= q.t_done, "{name}");
+        }
+        // Negative: shifted IDs change the CPU's answers, so the comparison fails.
+        let shifted: Vec<u32> = ids
+            .iter()
+            .map(|&i| {
+                if i == u32::MAX {
+                    i
+                } else {
+                    (i + 1) % triangles.len() as u32
+                }
+            })
+            .collect();
+        let differ = (0..queries.len())
+            .filter(|&i| {
+                verify_bits(&gpu[i]) != verify_bits(&verify_cpu(&queries[i], &shifted, &triangles))
+            })
+            .count();
+        assert!(
+            differ > queries.len() / 10,
+            "{name}: shifted IDs: only {differ} differ"
+        );
     }
     finish_gpu(ctx);
 }

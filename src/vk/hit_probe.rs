@@ -4,6 +4,8 @@
 //!   [`crate::cpu::watertight::intersect`], bit for bit.
 //! - [`shade_gpu`]: `hit_shade` (`spirv/shared/hit.wgsl`) per (triangle, barycentrics); twin:
 //!   [`crate::reference::Tracer::shade`], within a stated tolerance.
+//! - [`verify_gpu`]: `verify_hit` (`spirv/shared/verify.wgsl`) per query over one CMO's
+//!   triangle IDs; twin: [`crate::cpu::verify::verify_hit`] ([`verify_cpu`]), bit for bit.
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
@@ -50,6 +52,70 @@ pub struct ShadeQuery {
     pub bary: [f32; 2],
     pub triangle: u32,
     pub _pad: u32,
+}
+
+/// WGSL `VerifyQuery`: a ray `a + t d` with its proven-empty prefix `[.., t_done]` and end
+/// `t_hi`, the CMO centre and face size, and the deciding texel `(face, x, y)`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct VerifyQuery {
+    pub a: [f32; 3],
+    pub t_done: f32,
+    pub d: [f32; 3],
+    pub t_hi: f32,
+    pub centre: [f32; 3],
+    pub size: u32,
+    pub face: u32,
+    pub x: u32,
+    pub y: u32,
+    pub _pad: u32,
+}
+
+/// WGSL `VerifyResult`: `hit` 1 or 0; the rest 0 (triangle `u32::MAX`) on no hit.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct VerifyResult {
+    pub bary: [f32; 3],
+    pub t: f32,
+    pub position: [f32; 3],
+    pub triangle: u32,
+    pub hit: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
+}
+
+/// What the CPU twin gives for a query over `ids` (one CMO, [`crate::cubemap::CubeMap`]'s
+/// layout) and the triangles' corners, in the GPU's result layout.
+pub fn verify_cpu(q: &VerifyQuery, ids: &[u32], triangles: &[[glam::Vec3; 3]]) -> VerifyResult {
+    use crate::cpu::verify::{Neighbourhood, VerifyRay, verify_hit};
+    use glam::Vec3;
+    let texel = crate::cubemap::Texel {
+        face: q.face,
+        x: q.x,
+        y: q.y,
+    };
+    let nb = Neighbourhood::around(texel, q.size, ids);
+    let ray = VerifyRay {
+        a: Vec3::from_array(q.a),
+        d: Vec3::from_array(q.d),
+        t_done: q.t_done,
+        t_hi: q.t_hi,
+    };
+    match verify_hit(ray, Vec3::from_array(q.centre), &nb, triangles) {
+        Some(h) => VerifyResult {
+            bary: h.bary,
+            t: h.t,
+            position: h.position.to_array(),
+            triangle: h.triangle,
+            hit: 1,
+            ..VerifyResult::default()
+        },
+        None => VerifyResult {
+            triangle: u32::MAX,
+            ..VerifyResult::default()
+        },
+    }
 }
 
 impl WatertightQuery {
@@ -161,4 +227,49 @@ pub fn shade_gpu(
         .iter()
         .map(|c| [c[0], c[1], c[2]])
         .collect())
+}
+
+/// Runs `verify_hit` on the GPU over `scene` and one CMO's triangle IDs, one result per query.
+pub fn verify_gpu(
+    ctx: &GpuContext,
+    scene: &SceneBuffers,
+    ids: &[u32],
+    queries: &[VerifyQuery],
+) -> VkResult<Vec<VerifyResult>> {
+    if queries.is_empty() {
+        return Ok(Vec::new());
+    }
+    let pipeline = ComputePipeline::new(ctx, &HIT_PROBE, "verify_main", ComputeOptions::default())?;
+    // The rule reads positions only: bind the scene bindings the entry point uses.
+    let used = pipeline.entry.bindings;
+    let scene_resources: Vec<_> = scene
+        .resources()
+        .into_iter()
+        .filter(|(b, _)| used.iter().any(|u| u.group == 0 && u.binding == *b))
+        .collect();
+    let scene_set = pipeline.bind_group(0, &scene_resources)?;
+    let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+    let input = ctx.create_buffer_init("verify queries", storage, queries)?;
+    let ids_buf = ctx.create_buffer_init("verify ids", storage, ids)?;
+    let out = output(
+        ctx,
+        "verify results",
+        (queries.len() * size_of::<VerifyResult>()) as u64,
+    )?;
+    let set = pipeline.bind_group(
+        1,
+        &[
+            (4, Resource::Buffer(&input)),
+            (5, Resource::Buffer(&ids_buf)),
+            (6, Resource::Buffer(&out)),
+        ],
+    )?;
+    let groups = (queries.len() as u32).div_ceil(WORKGROUP);
+    ctx.submit_and_wait(HIT_PROBE.name, |rec| {
+        pipeline.dispatch(rec, &[&scene_set, &set], [groups, 1, 1]);
+        Ok(())
+    })?;
+    let mut r: Vec<VerifyResult> = ctx.read_buffer(&out)?;
+    r.truncate(queries.len());
+    Ok(r)
 }
