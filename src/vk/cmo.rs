@@ -8,7 +8,7 @@
 //! | 3 | `cmo_mip` | `mip_len(N)` `[min, max]` per CMO, `MipPyramid::flatten` | with a pyramid |
 //! | 4 | `cmo_colour` | texture array, layer `6 k + face`: linear RGBA (alpha 0 where empty) | with [`CaptureContents::colour`]; else a 1x1-texel placeholder per layer |
 //! | (none yet) | normal + mirror flag | `6 N N` RGBA per CMO | with self-reflections |
-//! | (none yet) | triangle ID | `6 N N` u32 per CMO: global triangle index, `u32::MAX` where empty | with [`CaptureContents::triangle_ids`] |
+//! | 5 | `cmo_triangle` | `6 N N` u32 per CMO: global triangle index, `u32::MAX` where empty | with [`CaptureContents::triangle_ids`] |
 //!
 //! The capture pass writes distance, colour and normals; the pyramid pass writes `cmo_mip`.
 //! Colour is an image, not a buffer: it is only ever looked up per texel, and an image has no
@@ -295,9 +295,9 @@ impl CmoData {
             + colour.layer_bytes().unwrap_or(0) * u64::from(colour.layers)
     }
 
-    /// Every `@group(1)` resource by binding number.
-    pub fn resources(&self) -> [(u32, Resource<'_>); 5] {
-        [
+    /// Every `@group(1)` resource by binding number (`cmo_triangle` only where captured).
+    pub fn resources(&self) -> Vec<(u32, Resource<'_>)> {
+        let mut r = vec![
             (0, Resource::Buffer(&self.config_buf)),
             (1, Resource::Buffer(&self.centres_buf)),
             (2, Resource::Buffer(&self.distance)),
@@ -309,7 +309,11 @@ impl CmoData {
                     layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
                 },
             ),
-        ]
+        ];
+        if let Some(t) = &self.triangle {
+            r.push((5, Resource::Buffer(t)));
+        }
+        r
     }
 
     /// The `@group(1)` resources that entry point `entry` of `pass` uses (a bind group may not
