@@ -15,6 +15,11 @@
 // every distance. Geometry nearer than `near` along the face axis is clipped.
 // `fs_self` also writes the unit normal and the mirror flag: only when the scene has
 // self-reflections on (model only what the scene needs).
+// The `_ids` entry points also write the triangle ID: the global index of the triangle the texel's
+// centre ray sees (`WorldGeometry::triangles` order: the index buffer is in that order, and every
+// draw is of every triangle, so `vertex_index` = 3 * triangle + corner; with self-reflections off
+// the vertex shader culls the reflectors'), as a u32 target cleared to u32::MAX. The
+// `_ids_only` ones leave the colour out, for frames whose methods shade at verified hits instead.
 //! import shared/scene.wgsl
 //! import shared/cube.wgsl
 
@@ -22,7 +27,8 @@ struct CaptureView {
     centre: vec3<f32>,
     face: u32,
     near: f32,
-    _pad: u32,
+    // 1: draw the reflectors (self-reflections on); 0: cull them here.
+    reflectors: u32,
     _pad2: vec2<u32>,
 }
 
@@ -35,6 +41,7 @@ struct CaptureVarying {
     @location(2) uv: vec2<f32>,
     @location(3) @interpolate(flat) object: u32,
     @location(4) @interpolate(flat) view: u32,
+    @location(5) @interpolate(flat) triangle: u32,
 }
 
 @vertex
@@ -44,11 +51,17 @@ fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) view: u3
     let l = to_face_local(cv.face, v.position - cv.centre);
     var out: CaptureVarying;
     out.clip = vec4<f32>(l.x, l.y, cv.near, l.z);
+    if cv.reflectors == 0u && scene_is_reflector(v.object) {
+        // All three vertices of a reflector triangle (its object's) go to one point outside
+        // the clip volume: the triangle is culled, and the index buffer keeps its global order.
+        out.clip = vec4<f32>(2.0, 2.0, 0.0, 1.0);
+    }
     out.world = v.position;
     out.normal = v.normal;
     out.uv = v.uv;
     out.object = v.object;
     out.view = view;
+    out.triangle = vertex / 3u;
     return out;
 }
 
@@ -90,4 +103,68 @@ fn fs_self(in: CaptureVarying) -> CaptureSelfOut {
         capture_distance(in),
         vec4<f32>(scene_normalize(in.normal), mirror),
     );
+}
+
+// Whether the fragment is kept with self-reflections on (`fs_self`'s test).
+fn capture_self_keeps(in: CaptureVarying) -> bool {
+    return !(scene_is_reflector(in.object) && dot(in.normal, in.world - capture_views[in.view].centre) > 0.0);
+}
+
+fn capture_normal_mirror(in: CaptureVarying) -> vec4<f32> {
+    return vec4<f32>(scene_normalize(in.normal), select(0.0, 1.0, scene_is_reflector(in.object)));
+}
+
+struct CaptureIdsOut {
+    @location(0) colour: vec4<f32>,
+    @location(1) distance: f32,
+    @location(2) triangle: u32,
+}
+
+@fragment
+fn fs_main_ids(in: CaptureVarying) -> CaptureIdsOut {
+    return CaptureIdsOut(vec4<f32>(scene_shade(in.object, in.uv, in.normal), 1.0), capture_distance(in), in.triangle);
+}
+
+struct CaptureSelfIdsOut {
+    @location(0) colour: vec4<f32>,
+    @location(1) distance: f32,
+    @location(2) normal_mirror: vec4<f32>,
+    @location(3) triangle: u32,
+}
+
+@fragment
+fn fs_self_ids(in: CaptureVarying) -> CaptureSelfIdsOut {
+    if !capture_self_keeps(in) {
+        discard;
+    }
+    return CaptureSelfIdsOut(
+        vec4<f32>(scene_shade(in.object, in.uv, in.normal), 1.0),
+        capture_distance(in),
+        capture_normal_mirror(in),
+        in.triangle,
+    );
+}
+
+struct CaptureIdsOnlyOut {
+    @location(0) distance: f32,
+    @location(1) triangle: u32,
+}
+
+@fragment
+fn fs_ids_only(in: CaptureVarying) -> CaptureIdsOnlyOut {
+    return CaptureIdsOnlyOut(capture_distance(in), in.triangle);
+}
+
+struct CaptureSelfIdsOnlyOut {
+    @location(0) distance: f32,
+    @location(1) normal_mirror: vec4<f32>,
+    @location(2) triangle: u32,
+}
+
+@fragment
+fn fs_self_ids_only(in: CaptureVarying) -> CaptureSelfIdsOnlyOut {
+    if !capture_self_keeps(in) {
+        discard;
+    }
+    return CaptureSelfIdsOnlyOut(capture_distance(in), capture_normal_mirror(in), in.triangle);
 }

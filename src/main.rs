@@ -556,7 +556,7 @@ fn compare_summary(r: &metrics::ErrorReport) -> String {
         }
     };
     format!(
-        "against the reference: {} mirror pixels (either frame), {:.2}% in error: mask mismatch {:.2}% ({} only in the reference, {} only here), unresolved {:.2}%, wrong surface {:.2}%; angular error mean {} deg / p95 {} deg; PSNR {} dB over mirror pixels, {} dB over the frame",
+        "against the reference: {} mirror pixels (either frame), {:.2}% in error: mask mismatch {:.2}% ({} only in the reference, {} only here), unresolved {:.2}%, wrong surface {:.2}%; angular error mean {} deg / p95 {} deg; PSNR {} dB over mirror pixels, {} dB over resolved mirror pixels, {} dB over the frame{}",
         r.mirror_pixels,
         100.0 * r.error,
         100.0 * r.mask_mismatch_fraction,
@@ -567,7 +567,16 @@ fn compare_summary(r: &metrics::ErrorReport) -> String {
         num(r.angular_mean_deg, 3),
         num(r.angular_p95_deg, 3),
         num(r.psnr_db, 2),
+        num(r.psnr_resolved_db, 2),
         num(r.psnr_frame_db, 2),
+        if r.same_triangle.is_nan() {
+            String::new()
+        } else {
+            format!(
+                "; same triangle {:.2}% of resolved mirror pixels",
+                100.0 * r.same_triangle
+            )
+        },
     )
 }
 

@@ -25,8 +25,8 @@ use crate::reference::PathResult;
 pub const LIMIT_ENV: &str = "CUBETRACE_MEMORY_LIMIT";
 
 /// Bytes per pixel of a [`crate::reference::Frame`]: colour, surface and hit positions, mask,
-/// object and primitive ids, bounces.
-pub const REFERENCE_FRAME_BYTES: u64 = 3 * size_of::<Vec3>() as u64 + 1 + 4 + 4 + 1;
+/// object, primitive and global triangle ids, bounces.
+pub const REFERENCE_FRAME_BYTES: u64 = 3 * size_of::<Vec3>() as u64 + 1 + 4 + 4 + 4 + 1;
 
 /// Bytes per pixel of writing an image: PNG: 8-bit RGB plus the encoded file (at most about the
 /// same again); EXR: `channels` 32-bit channels, built and then encoded into memory before the

@@ -19,7 +19,13 @@
 //! - **angular error**: the angle between the traced and the reference hit points as seen from
 //!   the mirror point, over pixels where both hit something; NaN where there is no such pixel.
 //! - **PSNR**: on linear RGB clamped to [0, 1], over mirror pixels (NaN when neither frame has
-//!   any) and over the whole frame.
+//!   any), over the whole frame, and over the **resolved** mirror pixels (mirror pixels of both
+//!   frames that the tracer resolved; NaN when there are none): the image quality of what the
+//!   tracer claims, apart from what the fallback filled.
+//! - **same triangle**: where the traced frame carries the triangle of each hit
+//!   ([`Traced::triangle`]), the share of resolved mirror pixels whose hit triangle (global
+//!   index, `u32::MAX` where the ray left the scene) is the reference's
+//!   ([`Frame::triangle`]); NaN for frames without triangle IDs or without resolved pixels.
 
 use glam::{DVec3, Vec3};
 
@@ -42,6 +48,9 @@ pub struct Traced {
     pub hit_position: Vec<Vec3>,
     /// 1 where the tracer resolved the pixel (a hit, or provably leaving the scene).
     pub resolved: Vec<u8>,
+    /// Global triangle index of the traced hit (`u32::MAX` where none), for tracers that know
+    /// it; `None` for those that do not.
+    pub triangle: Option<Vec<u32>>,
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
@@ -63,6 +72,12 @@ pub struct ErrorReport {
     pub psnr_db: f64,
     /// PSNR over the whole frame; infinite when it is identical.
     pub psnr_frame_db: f64,
+    /// PSNR over the resolved mirror pixels (mirror pixels of both frames, resolved by the
+    /// tracer); NaN when there are none.
+    pub psnr_resolved_db: f64,
+    /// Share of resolved mirror pixels whose hit triangle is the reference's; NaN when the
+    /// traced frame has no triangle IDs or there is no resolved mirror pixel.
+    pub same_triangle: f64,
     /// Pixels where the masks of the two disagree: `mask_missed + mask_extra`.
     pub mask_mismatch: usize,
     /// Mirror pixels of the reference that are not mirror pixels of the traced frame.
@@ -84,6 +99,12 @@ impl ErrorReport {
                 f64::INFINITY
             },
             psnr_frame_db: f64::INFINITY,
+            psnr_resolved_db: if mirror_pixels == 0 {
+                f64::NAN
+            } else {
+                f64::INFINITY
+            },
+            same_triangle: if mirror_pixels == 0 { f64::NAN } else { 1.0 },
             ..ErrorReport::default()
         }
     }
@@ -214,6 +235,10 @@ pub fn compare(
     let mut r = ErrorReport::default();
     let (mut unresolved, mut wrong, mut se, mut se_frame) = (0usize, 0usize, 0f64, 0f64);
     let mut angles = Vec::new();
+    let (mut resolved, mut se_resolved, mut same) = (0usize, 0f64, 0usize);
+    if let Some(ids) = &traced.triangle {
+        assert_eq!(ids.len(), traced.mask.len(), "one triangle ID per pixel");
+    }
     for (k, p) in pixels.iter().enumerate() {
         let d = (reference.colour[k].clamp(Vec3::ZERO, Vec3::ONE)
             - traced.colour[k].clamp(Vec3::ZERO, Vec3::ONE))
@@ -232,6 +257,13 @@ pub fn compare(
             PixelClass::WrongSurface => wrong += 1,
             PixelClass::Correct | PixelClass::NotMirror => {}
         }
+        if matches!(p.class, PixelClass::Correct | PixelClass::WrongSurface) {
+            resolved += 1;
+            se_resolved += d;
+            if let Some(ids) = &traced.triangle {
+                same += usize::from(ids[k] == reference.triangle[k]);
+            }
+        }
         angles.extend(p.angle_deg);
     }
     r.mask_mismatch = r.mask_missed + r.mask_extra;
@@ -242,6 +274,12 @@ pub fn compare(
     r.error = (r.mask_mismatch + unresolved + wrong) as f64 / n;
     r.psnr_db = psnr(se, r.mirror_pixels);
     r.psnr_frame_db = psnr(se_frame, pixels.len());
+    r.psnr_resolved_db = psnr(se_resolved, resolved);
+    r.same_triangle = if traced.triangle.is_some() && resolved > 0 {
+        same as f64 / resolved as f64
+    } else {
+        f64::NAN
+    };
     if angles.is_empty() {
         r.angular_mean_deg = f64::NAN;
         r.angular_p95_deg = f64::NAN;
@@ -274,6 +312,7 @@ mod tests {
             mask: f.mask.clone(),
             hit_position: f.hit_position.clone(),
             resolved: vec![1; 4],
+            triangle: Some(f.triangle.clone()),
         };
         (f, t, vec![Vec3::ZERO; 4])
     }
@@ -311,6 +350,7 @@ mod tests {
             mask: f.mask.clone(),
             hit_position: f.hit_position.clone(),
             resolved: f.mask.clone(),
+            triangle: None,
         };
         (f, t, vec![Vec3::ZERO; n])
     }
@@ -469,5 +509,68 @@ mod tests {
         let mut t = pair().1;
         t.mask[0] = 0;
         assert_eq!(classify(&f, &t, &m, &[Vec3::ZERO], 64)[0].class, MaskMissed);
+    }
+
+    /// A 16 x 8 pair whose reference carries triangle IDs; the traced frame's IDs are set per
+    /// test.
+    fn pair_with_ids() -> (Frame, Traced, Vec<Vec3>) {
+        let (mut f, t, m) = big_pair();
+        for k in 0..f.mask.len() {
+            if f.mask[k] != 0 {
+                f.triangle[k] = k as u32 * 7;
+            }
+        }
+        (f, t, m)
+    }
+
+    #[test]
+    fn same_triangle_and_resolved_psnr() {
+        let (f, mut t, m) = pair_with_ids();
+        // Without triangle IDs there is no figure, not 0 or 100 %.
+        let r = report_of(&f, &t, &m);
+        assert!(r.same_triangle.is_nan(), "{r:?}");
+        assert!(r.psnr_resolved_db.is_infinite());
+        t.triangle = Some(f.triangle.clone());
+        let r = report_of(&f, &t, &m);
+        assert_eq!(r.same_triangle, 1.0);
+        // Negative: shifted IDs (every hit one triangle off) are 0 % the same.
+        let mut shifted = t.clone();
+        shifted.triangle = Some(
+            f.triangle
+                .iter()
+                .map(|&i| if i == u32::MAX { i } else { i + 1 })
+                .collect(),
+        );
+        assert_eq!(report_of(&f, &shifted, &m).same_triangle, 0.0);
+        // Four wrong triangles, one unresolved pixel (left out of both figures) with a wrong
+        // colour, one wrong colour on a resolved pixel.
+        let mut four = t.clone();
+        let ids = four.triangle.as_mut().unwrap();
+        for k in [w_index(0, 0), w_index(1, 0), w_index(2, 0), w_index(3, 0)] {
+            ids[k] = 3;
+        }
+        four.resolved[w_index(5, 5)] = 0;
+        four.colour[w_index(5, 5)] = Vec3::ONE;
+        let r = report_of(&f, &four, &m);
+        assert!((r.same_triangle - 59.0 / 63.0).abs() < 1e-12, "{r:?}");
+        assert!(
+            r.psnr_resolved_db.is_infinite(),
+            "the unresolved pixel is left out"
+        );
+        assert!(r.psnr_db.is_finite(), "but counts over all mirror pixels");
+        four.colour[w_index(6, 5)] = Vec3::ONE;
+        let r = report_of(&f, &four, &m);
+        assert!(
+            r.psnr_resolved_db.is_finite() && r.psnr_resolved_db > r.psnr_db,
+            "{r:?}"
+        );
+        // Nothing resolved: no figure.
+        let mut none = t.clone();
+        none.resolved.fill(0);
+        let r = report_of(&f, &none, &m);
+        assert!(
+            r.same_triangle.is_nan() && r.psnr_resolved_db.is_nan(),
+            "{r:?}"
+        );
     }
 }

@@ -413,6 +413,7 @@ fn compare_reports_both_masks_and_the_whole_frame() {
         "only in the reference",
         "only here",
         "dB over mirror pixels",
+        "dB over resolved mirror pixels",
         "dB over the frame",
     ] {
         assert!(line.contains(needle), "'{needle}' in: {line}");

@@ -37,6 +37,9 @@ pub struct Summary {
     pub angular_p95_deg: f64,
     pub psnr_db: f64,
     pub psnr_frame_db: f64,
+    pub psnr_resolved_db: f64,
+    /// NaN where no run of the method carries triangle IDs.
+    pub same_triangle: f64,
     pub flip_mean: Option<f64>,
 }
 
@@ -103,6 +106,8 @@ pub fn summarise(runs: &[RunResult]) -> Vec<Summary> {
                     .unwrap_or(f64::NAN),
                 psnr_db: mean_known(rs.iter().map(|r| r.error.psnr_db)),
                 psnr_frame_db: mean_known(rs.iter().map(|r| r.error.psnr_frame_db)),
+                psnr_resolved_db: mean_known(rs.iter().map(|r| r.error.psnr_resolved_db)),
+                same_triangle: weighted_known(&|r| r.error.same_triangle),
                 flip_mean: (flips.len() == rs.len())
                     .then(|| weighted(&|r| r.flip_mean.unwrap_or(0.0))),
             }
@@ -112,6 +117,11 @@ pub fn summarise(runs: &[RunResult]) -> Vec<Summary> {
 
 fn pct(x: f64) -> String {
     format!("{:.2}", 100.0 * x)
+}
+
+/// A percentage, `-` where the figure does not exist (NaN).
+fn pct_known(x: f64) -> String {
+    if x.is_nan() { "-".into() } else { pct(x) }
 }
 
 fn num(x: f64, digits: usize) -> String {
@@ -146,13 +156,13 @@ pub fn header(report: &BenchReport) -> String {
 pub fn summary_table(report: &BenchReport) -> String {
     let mut s = String::new();
     s.push_str(
-        "| method | scenes | mirror px | ns/mirror px | cells/ray | texels/ray | mask mismatch % | unresolved % | wrong surface % | angle mean deg | angle p95 deg | PSNR dB | PSNR frame dB | FLIP |\n\
-         |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+        "| method | scenes | mirror px | ns/mirror px | cells/ray | texels/ray | mask mismatch % | unresolved % | wrong surface % | angle mean deg | angle p95 deg | PSNR dB | PSNR resolved dB | PSNR frame dB | same triangle % | FLIP |\n\
+         |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
     );
     for m in summarise(&report.runs) {
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
             m.method,
             m.scenes,
             m.mirror_pixels,
@@ -165,7 +175,9 @@ pub fn summary_table(report: &BenchReport) -> String {
             num(m.angular_mean_deg, 3),
             num(m.angular_p95_deg, 3),
             num(m.psnr_db, 2),
+            num(m.psnr_resolved_db, 2),
             num(m.psnr_frame_db, 2),
+            pct_known(m.same_triangle),
             m.flip_mean.map_or("-".into(), |f| num(f, 4)),
         );
     }
@@ -176,14 +188,14 @@ pub fn summary_table(report: &BenchReport) -> String {
 pub fn runs_table(report: &BenchReport) -> String {
     let mut s = String::new();
     s.push_str(
-        "| scene | method | mirror px | trace ms (median [min, max]) | ns/mirror px | frame GPU ms | cells/ray | texels/ray | traces/ray | CMO MiB | mask mismatch (ref only + method only) | unresolved % | wrong % | angle mean | angle p95 | PSNR dB | PSNR frame dB | FLIP |\n\
-         |---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+        "| scene | method | mirror px | trace ms (median [min, max]) | ns/mirror px | frame GPU ms | cells/ray | texels/ray | traces/ray | CMO MiB | mask mismatch (ref only + method only) | unresolved % | wrong % | angle mean | angle p95 | PSNR dB | PSNR resolved dB | PSNR frame dB | same triangle % | FLIP |\n\
+         |---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
     );
     for r in &report.runs {
         let t = &r.trace_ns;
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {:.3} [{:.3}, {:.3}] | {} | {} | {} | {} | {} | {} | {} + {} | {} | {} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {:.3} [{:.3}, {:.3}] | {} | {} | {} | {} | {} | {} | {} + {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
             r.scene,
             r.method,
             r.mirror_pixels,
@@ -207,7 +219,9 @@ pub fn runs_table(report: &BenchReport) -> String {
             num(r.error.angular_mean_deg, 3),
             num(r.error.angular_p95_deg, 3),
             num(r.error.psnr_db, 2),
+            num(r.error.psnr_resolved_db, 2),
             num(r.error.psnr_frame_db, 2),
+            pct_known(r.error.same_triangle),
             r.flip_mean.map_or("-".into(), |f| num(f, 4)),
         );
     }
@@ -464,6 +478,8 @@ mod tests {
             angular_p95_deg: f64::NAN,
             psnr_db: 10.0,
             psnr_frame_db: 20.0,
+            psnr_resolved_db: 12.0,
+            same_triangle: f64::NAN,
             ..ErrorReport::default()
         };
         let r = report(vec![run("a", good), run("b", bad)]);
@@ -478,6 +494,11 @@ mod tests {
             "5 + 3"
         );
         assert_eq!(cell(&runs, "angle mean"), "-");
+        // Same triangle: '-' for a run without triangle IDs, left out of the pool.
+        assert_eq!(cell(&runs, "same triangle %"), "-");
+        assert_eq!(cell(&runs, "PSNR resolved dB"), "12.00");
+        assert_eq!(cell(&summary, "same triangle %"), "100.00", "{summary}");
+        assert_eq!(cell(&summary, "PSNR resolved dB"), "inf", "{summary}");
         assert_eq!(cell(&runs, "PSNR frame dB"), "20.00");
         // The plot's error includes the mismatch.
         let svg = speed_error_svg(&report(vec![run("b", bad)])).unwrap();

@@ -65,7 +65,9 @@ pub mod multi;
 pub mod options;
 pub mod reflection_point;
 pub mod ssr;
+pub mod verify;
 pub mod walk;
+pub mod watertight;
 
 use glam::Vec3;
 

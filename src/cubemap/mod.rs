@@ -27,6 +27,9 @@ pub struct CubeMap {
     pub distance: Vec<f32>,
     /// `6 N N` linear RGBA colours, same layout.
     pub colour: Vec<[f32; 4]>,
+    /// `6 N N` global triangle indices (the triangle each texel's centre ray sees), same
+    /// layout; `u32::MAX` where empty or not captured.
+    pub triangle: Vec<u32>,
 }
 
 impl CubeMap {
@@ -39,6 +42,7 @@ impl CubeMap {
             centre,
             distance: vec![f32::INFINITY; n],
             colour: vec![[0.0; 4]; n],
+            triangle: vec![u32::MAX; n],
         }
     }
 

@@ -93,6 +93,9 @@ pub struct Frame {
     pub object_id: Vec<u32>,
     /// Triangle (within its object) hit by the first reflected ray ([`NO_ID`] where none).
     pub primitive_id: Vec<u32>,
+    /// The same triangle by its global index in [`WorldGeometry::triangles`] ([`NO_ID`] where
+    /// none): what a GPU frame's triangle IDs are compared with.
+    pub triangle: Vec<u32>,
     /// Number of reflections the pixel's path took.
     pub bounces: Vec<u8>,
 }
@@ -109,6 +112,7 @@ impl Frame {
             hit_position: vec![Vec3::NAN; n],
             object_id: vec![NO_ID; n],
             primitive_id: vec![NO_ID; n],
+            triangle: vec![NO_ID; n],
             bounces: vec![0; n],
         }
     }
@@ -132,6 +136,7 @@ impl Frame {
             let (o, prim) = tracer.ids(h.triangle);
             self.object_id[k] = o;
             self.primitive_id[k] = prim;
+            self.triangle[k] = h.triangle;
         }
     }
 }
@@ -673,14 +678,15 @@ pub fn render_phased(
 
 /// The CPU capture of one cubemap object: for every texel, a ray from `centre` through the
 /// texel centre ([`crate::cubemap::face::texel_centre_dir`]); the distance to the nearest surface
-/// (`+inf` where none) and its shaded colour (alpha 1; the background with alpha 0 where none).
+/// (`+inf` where none), its shaded colour (alpha 1; the background with alpha 0 where none) and
+/// the global index of the triangle it hits ([`NO_ID`] where none).
 /// Reflectors are left out unless the scene has self-reflections on, and then kept only where
 /// they face the centre (normal towards it), as in the GPU capture (`spirv/capture.wgsl`).
 /// This is what a rasterised capture computes at texel centres, so it checks the GPU capture.
 pub fn capture(scene: &Scene, tracer: &Tracer, centre: Vec3, size: u32) -> crate::cubemap::CubeMap {
     let mut cube = crate::cubemap::CubeMap::new(size, centre);
     let n = cube.distance.len();
-    let texels: Vec<(f32, [f32; 4])> = (0..n)
+    let texels: Vec<(f32, [f32; 4], u32)> = (0..n)
         .into_par_iter()
         .map(|i| {
             let t = crate::cubemap::Texel::from_index(i, size);
@@ -692,18 +698,23 @@ pub fn capture(scene: &Scene, tracer: &Tracer, centre: Vec3, size: u32) -> crate
             match hit {
                 Some(h) => {
                     let c = tracer.shade(scene, &h);
-                    ((h.position - centre).length(), [c.x, c.y, c.z, 1.0])
+                    (
+                        (h.position - centre).length(),
+                        [c.x, c.y, c.z, 1.0],
+                        h.triangle,
+                    )
                 }
                 None => {
                     let b = scene.background;
-                    (f32::INFINITY, [b.x, b.y, b.z, 0.0])
+                    (f32::INFINITY, [b.x, b.y, b.z, 0.0], NO_ID)
                 }
             }
         })
         .collect();
-    for (i, (d, c)) in texels.into_iter().enumerate() {
+    for (i, (d, c, tri)) in texels.into_iter().enumerate() {
         cube.distance[i] = d;
         cube.colour[i] = c;
+        cube.triangle[i] = tri;
     }
     cube
 }

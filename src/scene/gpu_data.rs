@@ -70,10 +70,12 @@ pub struct GpuShading {
 #[derive(Clone, Debug, Default)]
 pub struct GpuSceneData {
     pub vertices: Vec<GpuVertex>,
-    /// Triangle list; with self-reflections off, [`Self::capture_index_count`] leaves out the
-    /// reflectors' triangles, which come last.
+    /// Triangle list in [`crate::scene::WorldGeometry::triangles`] order: global triangle `k`
+    /// is `indices[3k..3k + 3]`.
     pub indices: Vec<u32>,
-    /// Indices of non-reflector triangles (they come first in `indices`).
+    /// Indices of the non-reflector triangles: what the capture rasterises with
+    /// self-reflections off (it draws every triangle and culls the reflectors' in the vertex
+    /// shader, so that `vertex_index / 3` stays the global triangle index).
     pub capture_index_count: u32,
     pub objects: Vec<GpuObject>,
     pub materials: Vec<GpuMaterial>,
@@ -103,14 +105,9 @@ impl GpuSceneData {
             })
             .collect();
         let reflector = |t: usize| world.objects[world.triangle_object[t] as usize].reflector;
-        let mut indices: Vec<u32> = Vec::with_capacity(world.triangles.len() * 3);
-        for pass in [false, true] {
-            for (t, tri) in world.triangles.iter().enumerate() {
-                if reflector(t) == pass {
-                    indices.extend_from_slice(tri);
-                }
-            }
-        }
+        // Indices in `WorldGeometry::triangles` order: triangle `k` is indices `3k..3k + 3`, so a
+        // draw's `vertex_index / 3` is the global triangle index.
+        let indices: Vec<u32> = world.triangles.iter().flatten().copied().collect();
         let capture_index_count = 3
             * (0..world.triangles.len())
                 .filter(|&t| !reflector(t))
@@ -197,21 +194,18 @@ mod tests {
     use super::*;
 
     #[test]
-    fn reflectors_come_last_and_are_counted() {
+    fn indices_in_world_order_and_reflectors_counted() {
         let s = crate::scene::builtin::sphere_room();
         let g = GpuSceneData::new(&s);
-        let n = g.capture_index_count as usize;
-        assert!(n > 0 && n < g.indices.len());
-        assert!(
-            g.indices[..n]
-                .iter()
-                .all(|&i| g.objects[g.vertices[i as usize].object as usize].reflector == 0)
-        );
-        assert!(
-            g.indices[n..]
-                .iter()
-                .all(|&i| g.objects[g.vertices[i as usize].object as usize].reflector == 1)
-        );
+        let world = s.world();
+        for (k, t) in world.triangles.iter().enumerate() {
+            assert_eq!(&g.indices[3 * k..3 * k + 3], t);
+        }
+        let reflector = |i: u32| g.objects[g.vertices[i as usize].object as usize].reflector;
+        let others = g.indices.iter().filter(|&&i| reflector(i) == 0).count();
+        assert_eq!(g.capture_index_count as usize, others);
+        assert!(g.capture_triangles(false) > 0);
+        assert!(g.capture_triangles(false) < g.capture_triangles(true));
         assert_eq!(g.srgb_to_linear[255], 1.0);
         // Texels: red in the low byte.
         let t = &s.textures[0];

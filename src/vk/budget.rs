@@ -11,7 +11,20 @@ use crate::cubemap::pyramid::{hier32_len, mip_len};
 /// (`cmo_colour`), the capture pass's f32 distance target, and with self-reflections the
 /// capture's normal target and `cmo_normal` (RGBA f32 each).
 pub fn cmo_bytes_per_texel(self_reflections: bool) -> u64 {
-    4 + 16 + 4 + if self_reflections { 16 + 16 } else { 0 }
+    cmo_bytes_per_texel_with(self_reflections, super::cmo::CaptureContents::default())
+}
+
+/// [`cmo_bytes_per_texel`] for the chosen capture contents: the colour (16 B) only where
+/// captured, and with triangle IDs the capture's u32 target and `CmoData`'s ID buffer (4 B
+/// each). IDs without colour take 8 B less per texel than colour without IDs.
+pub fn cmo_bytes_per_texel_with(
+    self_reflections: bool,
+    contents: super::cmo::CaptureContents,
+) -> u64 {
+    4 + 4
+        + if contents.colour { 16 } else { 0 }
+        + if contents.triangle_ids { 4 + 4 } else { 0 }
+        + if self_reflections { 16 + 16 } else { 0 }
 }
 
 /// Bytes per frame pixel: the pixel records, the frame colour (RGBA f32), the G-buffer (colour,
@@ -79,6 +92,21 @@ pub fn device_bytes(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::vk::cmo::CaptureContents;
+
+    #[test]
+    fn triangle_ids_replace_colour_at_less_memory() {
+        let with = |colour, triangle_ids| CaptureContents {
+            colour,
+            triangle_ids,
+        };
+        for s in [false, true] {
+            let colour = cmo_bytes_per_texel_with(s, with(true, false));
+            assert_eq!(colour, cmo_bytes_per_texel(s), "the default is today's");
+            assert_eq!(cmo_bytes_per_texel_with(s, with(false, true)) + 8, colour);
+            assert_eq!(cmo_bytes_per_texel_with(s, with(true, true)), colour + 8);
+        }
+    }
 
     #[test]
     fn sizes_grow_with_what_they_depend_on() {

@@ -11,12 +11,20 @@
 //!   elsewhere, as [`crate::reference::capture`] (the CPU check of this pass) produces.
 //! - Reflectors are drawn only with self-reflections on, and only then are the normal/mirror
 //!   image and buffer allocated.
+//! - With [`CaptureContents::triangle_ids`] the pass also writes each texel's global triangle
+//!   index (`u32::MAX` where empty, the clear value) into the CMO's triangle buffer; without
+//!   [`CaptureContents::colour`] it writes no colour (the CMO's colour image is a placeholder,
+//!   left readable). The scene's index buffer is in global triangle order and every triangle is
+//!   drawn (the vertex shader culls the reflectors' when self-reflections are off), so
+//!   `vertex_index / 3` is the global triangle index. (Drawing only the runs of non-reflector
+//!   triangles, with several draws and `firstVertex > 0`, crashed lavapipe at 128-bit vectors:
+//!   `malloc(): invalid size`.)
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
 use super::buffer::Buffer;
-use super::cmo::CmoData;
+use super::cmo::{CaptureContents, CmoData};
 use super::context::{GpuContext, Recorder};
 use super::error::{VkError, VkResult};
 use super::graphics::{ColourTarget, DepthTest, GraphicsDesc, GraphicsPipeline, RenderTarget};
@@ -36,7 +44,8 @@ pub struct CaptureView {
     pub face: u32,
     /// Near plane along the face axis (world units): nearer geometry is clipped.
     pub near: f32,
-    pub _pad: u32,
+    /// 1: draw the reflectors (self-reflections on); 0: cull them in the vertex shader.
+    pub reflectors: u32,
     pub _pad2: [u32; 2],
 }
 
@@ -48,17 +57,21 @@ pub struct Capture {
     _views: Buffer,
     distance: Image,
     normal: Option<Image>,
+    triangle: Option<Image>,
     depth: Image,
     draw_indices: u32,
     size: u32,
+    contents: CaptureContents,
 }
 
 const DISTANCE_FORMAT: vk::Format = vk::Format::R32_SFLOAT;
 const COLOUR_FORMAT: vk::Format = super::cmo::COLOUR_FORMAT;
+const TRIANGLE_FORMAT: vk::Format = vk::Format::R32_UINT;
 
 impl Capture {
     /// Prepares the capture of CMOs at `centres` with faces of `size` texels. Geometry nearer
-    /// than `near` to a centre (along a face axis) is clipped.
+    /// than `near` to a centre (along a face axis) is clipped. Captures colour, no triangle IDs
+    /// ([`CaptureContents`]'s default).
     pub fn new(
         ctx: &GpuContext,
         scene: &SceneBuffers,
@@ -66,6 +79,27 @@ impl Capture {
         size: u32,
         self_reflections: bool,
         near: f32,
+    ) -> VkResult<Self> {
+        Self::with_contents(
+            ctx,
+            scene,
+            centres,
+            size,
+            self_reflections,
+            near,
+            CaptureContents::default(),
+        )
+    }
+
+    /// [`Self::new`] capturing `contents` (the [`CmoData`] it records into must have the same).
+    pub fn with_contents(
+        ctx: &GpuContext,
+        scene: &SceneBuffers,
+        centres: &[Vec3],
+        size: u32,
+        self_reflections: bool,
+        near: f32,
+        contents: CaptureContents,
     ) -> VkResult<Self> {
         if centres.is_empty() || size == 0 {
             return Err(VkError::Usage {
@@ -76,20 +110,39 @@ impl Capture {
                 ),
             });
         }
-        let mut formats = vec![COLOUR_FORMAT, DISTANCE_FORMAT];
+        // Attachment order = the entry point's output locations: colour, distance, normal,
+        // triangle, each only where captured.
+        let mut formats = Vec::new();
+        if contents.colour {
+            formats.push(COLOUR_FORMAT);
+        }
+        formats.push(DISTANCE_FORMAT);
         if self_reflections {
             formats.push(COLOUR_FORMAT);
         }
+        if contents.triangle_ids {
+            formats.push(TRIANGLE_FORMAT);
+        }
+        let fragment = match (self_reflections, contents.colour, contents.triangle_ids) {
+            (false, true, false) => "fs_main",
+            (true, true, false) => "fs_self",
+            (false, true, true) => "fs_main_ids",
+            (true, true, true) => "fs_self_ids",
+            (false, false, true) => "fs_ids_only",
+            (true, false, true) => "fs_self_ids_only",
+            (_, false, false) => {
+                return Err(VkError::Usage {
+                    what: "capture".into(),
+                    detail: "neither colour nor triangle IDs captured".into(),
+                });
+            }
+        };
         let pipeline = GraphicsPipeline::new(
             ctx,
             &CAPTURE,
             &GraphicsDesc {
                 vertex: "vs_main",
-                fragment: if self_reflections {
-                    "fs_self"
-                } else {
-                    "fs_main"
-                },
+                fragment,
                 colour_formats: formats,
                 depth: Some((vk::Format::D32_SFLOAT, DepthTest::Reversed)),
             },
@@ -101,6 +154,7 @@ impl Capture {
                     centre: c.to_array(),
                     face,
                     near,
+                    reflectors: u32::from(self_reflections),
                     ..CaptureView::default()
                 })
             })
@@ -110,7 +164,21 @@ impl Capture {
             vk::BufferUsageFlags::STORAGE_BUFFER,
             &views,
         )?;
-        let scene_set = pipeline.bind_group(0, &scene.resources())?;
+        // Only the scene bindings the two entry points use (the IDs-only entry points shade
+        // nothing, and a bind group may not supply a binding its shaders do not use).
+        let used = |b: u32| {
+            ["vs_main", fragment].iter().any(|e| {
+                CAPTURE
+                    .entry_point(e)
+                    .is_some_and(|e| e.bindings.iter().any(|u| u.group == 0 && u.binding == b))
+            })
+        };
+        let scene_resources: Vec<_> = scene
+            .resources()
+            .into_iter()
+            .filter(|(b, _)| used(*b))
+            .collect();
+        let scene_set = pipeline.bind_group(0, &scene_resources)?;
         let view_set = pipeline.bind_group(1, &[(0, Resource::Buffer(&views_buf))])?;
         let layers = 6 * centres.len() as u32;
         let target_usage =
@@ -131,6 +199,14 @@ impl Capture {
         } else {
             None
         };
+        let triangle = if contents.triangle_ids {
+            Some(Image::new(
+                dev,
+                layered("capture triangle", TRIANGLE_FORMAT),
+            )?)
+        } else {
+            None
+        };
         let depth = Image::new(
             dev,
             ImageDesc::d2(
@@ -148,13 +224,11 @@ impl Capture {
             _views: views_buf,
             distance,
             normal,
+            triangle,
             depth,
-            draw_indices: if self_reflections {
-                scene.index_count
-            } else {
-                scene.non_reflector_index_count
-            },
+            draw_indices: scene.index_count,
             size,
+            contents,
         })
     }
 
@@ -179,25 +253,48 @@ impl Capture {
                 detail: "the CMO data was made for another number of CMOs".into(),
             });
         }
-        let images: Vec<&Image> = [cmo.colour(), &self.distance]
-            .into_iter()
-            .chain(normal.map(|(img, _)| img))
-            .collect();
-        rec.prepare_render_targets(&images, Some(&self.depth), ALL_READS);
+        if cmo.contents() != self.contents {
+            return Err(VkError::Usage {
+                what: "capture".into(),
+                detail: format!(
+                    "the CMO data holds {:?}, the capture writes {:?}",
+                    cmo.contents(),
+                    self.contents
+                ),
+            });
+        }
+        let triangle = match (&self.triangle, cmo.triangle()) {
+            (Some(img), Some(b)) => Some((img, b)),
+            _ => None,
+        };
         let bg = background.to_array();
-        let clears = [
-            vk::ClearColorValue {
+        let mut images: Vec<&Image> = Vec::new();
+        let mut clears = Vec::new();
+        if self.contents.colour {
+            images.push(cmo.colour());
+            clears.push(vk::ClearColorValue {
                 float32: [bg[0], bg[1], bg[2], 0.0],
-            },
-            vk::ClearColorValue {
-                float32: [f32::INFINITY, 0.0, 0.0, 0.0],
-            },
-            vk::ClearColorValue { float32: [0.0; 4] },
-        ];
+            });
+        }
+        images.push(&self.distance);
+        clears.push(vk::ClearColorValue {
+            float32: [f32::INFINITY, 0.0, 0.0, 0.0],
+        });
+        if let Some((img, _)) = normal {
+            images.push(img);
+            clears.push(vk::ClearColorValue { float32: [0.0; 4] });
+        }
+        if let Some((img, _)) = triangle {
+            images.push(img);
+            clears.push(vk::ClearColorValue {
+                uint32: [u32::MAX; 4],
+            });
+        }
+        rec.prepare_render_targets(&images, Some(&self.depth), ALL_READS);
         let sets = [&self.scene_set, &self.view_set];
         for layer in 0..self.distance.desc().layers {
             let mut colour = Vec::with_capacity(images.len());
-            for (img, clear) in images.iter().zip(clears) {
+            for (img, clear) in images.iter().zip(clears.iter().copied()) {
                 let view = img.layer_view(layer).ok_or_else(|| VkError::Usage {
                     what: img.desc().name.clone(),
                     detail: format!("no layer {layer}"),
@@ -219,14 +316,22 @@ impl Capture {
             self.pipeline
                 .draw(rec, &target, &sets, self.draw_indices, layer)?;
         }
+        // The colour image (or, without colour, its placeholder, never written) ends readable.
         rec.image_barrier(
             cmo.colour(),
-            vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+            if self.contents.colour {
+                vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL
+            } else {
+                vk::ImageLayout::UNDEFINED
+            },
             vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
             COLOUR_WRITE,
             SHADER_READ,
         );
-        let copies = [(&self.distance, cmo.distance())].into_iter().chain(normal);
+        let copies = [(&self.distance, cmo.distance())]
+            .into_iter()
+            .chain(normal)
+            .chain(triangle);
         for (img, buf) in copies {
             rec.image_barrier(
                 img,

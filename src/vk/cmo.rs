@@ -6,8 +6,9 @@
 //! | 1 | `cmo_centres` | `vec4` per CMO (xyz centre) | always |
 //! | 2 | `cmo_distance` | `6 N N` f32 per CMO, [`CubeMap`]'s layout, `+inf` where empty | always |
 //! | 3 | `cmo_mip` | `mip_len(N)` `[min, max]` per CMO, `MipPyramid::flatten` | with a pyramid |
-//! | 4 | `cmo_colour` | texture array, layer `6 k + face`: linear RGBA (alpha 0 where empty) | always |
+//! | 4 | `cmo_colour` | texture array, layer `6 k + face`: linear RGBA (alpha 0 where empty) | with [`CaptureContents::colour`]; else a 1x1-texel placeholder per layer |
 //! | (none yet) | normal + mirror flag | `6 N N` RGBA per CMO | with self-reflections |
+//! | 5 | `cmo_triangle` | `6 N N` u32 per CMO: global triangle index, `u32::MAX` where empty | with [`CaptureContents::triangle_ids`] |
 //!
 //! The capture pass writes distance, colour and normals; the pyramid pass writes `cmo_mip`.
 //! Colour is an image, not a buffer: it is only ever looked up per texel, and an image has no
@@ -30,6 +31,27 @@ use crate::cpu::options::TraceOptions;
 use crate::cubemap::CubeMap;
 use crate::cubemap::pyramid::{EMPTY_CELL, MipPyramid};
 
+/// What the capture stores per texel besides the distance (and, with self-reflections, the
+/// normal). [`Default`] is the colour without IDs: what the tracers read today.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CaptureContents {
+    /// The shaded colour (16 B per texel): for methods that take a hit's colour from the texel
+    /// (the environment map, the texel-colour tracers and the thesis's criteria).
+    pub colour: bool,
+    /// The global triangle index the texel's centre ray sees (4 B per texel, `u32::MAX` for
+    /// none): for methods that verify hits against the triangles and shade at the hit.
+    pub triangle_ids: bool,
+}
+
+impl Default for CaptureContents {
+    fn default() -> Self {
+        CaptureContents {
+            colour: true,
+            triangle_ids: false,
+        }
+    }
+}
+
 /// The GPU buffers of a scene's CMOs.
 pub struct CmoData {
     count: u32,
@@ -42,6 +64,8 @@ pub struct CmoData {
     mip: Buffer,
     colour: Image,
     normal: Option<Buffer>,
+    triangle: Option<Buffer>,
+    contents: CaptureContents,
 }
 
 /// Format of the colour capture: linear RGBA, f32 so that the CPU twins read the same bits.
@@ -61,7 +85,8 @@ fn storage(ctx: &GpuContext, name: &str, bytes: u64) -> VkResult<Buffer> {
 
 impl CmoData {
     /// Allocates (uninitialised) buffers for CMOs at `centres` with faces of `size` texels; the
-    /// capture and pyramid passes fill them.
+    /// capture and pyramid passes fill them. Colour, no triangle IDs ([`CaptureContents`]'s
+    /// default).
     pub fn new(
         ctx: &GpuContext,
         centres: &[Vec3],
@@ -70,6 +95,37 @@ impl CmoData {
         pyramid: bool,
         opts: &TraceOptions,
     ) -> VkResult<Self> {
+        Self::with_contents(
+            ctx,
+            centres,
+            size,
+            self_reflections,
+            pyramid,
+            opts,
+            CaptureContents::default(),
+        )
+    }
+
+    /// [`Self::new`] with the per-texel contents chosen. Without colour, `cmo_colour` is a
+    /// placeholder of one texel per layer (a binding cannot be missing), which the capture
+    /// leaves readable and never writes; without colour the IDs are required (a capture of
+    /// distances alone could not be shaded).
+    pub fn with_contents(
+        ctx: &GpuContext,
+        centres: &[Vec3],
+        size: u32,
+        self_reflections: bool,
+        pyramid: bool,
+        opts: &TraceOptions,
+        contents: CaptureContents,
+    ) -> VkResult<Self> {
+        if !contents.colour && !contents.triangle_ids {
+            return Err(VkError::Usage {
+                what: "CMO data".into(),
+                detail: "neither colour nor triangle IDs captured: nothing to shade a hit with"
+                    .into(),
+            });
+        }
         if centres.is_empty() || size == 0 {
             return Err(VkError::Usage {
                 what: "CMO data".into(),
@@ -112,8 +168,8 @@ impl CmoData {
                 ImageDesc {
                     name: "cmo_colour".into(),
                     format: COLOUR_FORMAT,
-                    width: size,
-                    height: size,
+                    width: if contents.colour { size } else { 1 },
+                    height: if contents.colour { size } else { 1 },
                     layers: 6 * count,
                     cube: false,
                     usage: vk::ImageUsageFlags::COLOR_ATTACHMENT
@@ -127,6 +183,12 @@ impl CmoData {
             } else {
                 None
             },
+            triangle: if contents.triangle_ids {
+                Some(storage(ctx, "cmo_triangle", texels * 4)?)
+            } else {
+                None
+            },
+            contents,
         })
     }
 
@@ -207,6 +269,14 @@ impl CmoData {
     pub fn normal(&self) -> Option<&Buffer> {
         self.normal.as_ref()
     }
+    /// Triangle IDs ([`CaptureContents::triangle_ids`] only), [`CubeMap`]'s layout per CMO.
+    pub fn triangle(&self) -> Option<&Buffer> {
+        self.triangle.as_ref()
+    }
+    /// What the capture stores per texel.
+    pub fn contents(&self) -> CaptureContents {
+        self.contents
+    }
 
     /// Bytes of GPU memory the CMO data takes.
     pub fn bytes(&self) -> u64 {
@@ -221,12 +291,13 @@ impl CmoData {
         .map(|b| b.size())
         .sum::<u64>()
             + self.normal.as_ref().map_or(0, |b| b.size())
+            + self.triangle.as_ref().map_or(0, |b| b.size())
             + colour.layer_bytes().unwrap_or(0) * u64::from(colour.layers)
     }
 
-    /// Every `@group(1)` resource by binding number.
-    pub fn resources(&self) -> [(u32, Resource<'_>); 5] {
-        [
+    /// Every `@group(1)` resource by binding number (`cmo_triangle` only where captured).
+    pub fn resources(&self) -> Vec<(u32, Resource<'_>)> {
+        let mut r = vec![
             (0, Resource::Buffer(&self.config_buf)),
             (1, Resource::Buffer(&self.centres_buf)),
             (2, Resource::Buffer(&self.distance)),
@@ -238,7 +309,11 @@ impl CmoData {
                     layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
                 },
             ),
-        ]
+        ];
+        if let Some(t) = &self.triangle {
+            r.push((5, Resource::Buffer(t)));
+        }
+        r
     }
 
     /// The `@group(1)` resources that entry point `entry` of `pass` uses (a bind group may not
@@ -251,11 +326,20 @@ impl CmoData {
             .collect()
     }
 
-    /// Reads the captures back as CPU cube maps (for the CPU twins and the tests).
+    /// Reads the captures back as CPU cube maps (for the CPU twins and the tests). Contents
+    /// that were not captured stay as [`CubeMap::new`] leaves them.
     pub fn read_back(&self, ctx: &GpuContext) -> VkResult<Vec<CubeMap>> {
         let distance: Vec<f32> = ctx.read_buffer(&self.distance)?;
-        let bytes = ctx.read_image(&self.colour, vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)?;
-        let colour: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
+        let colour: Vec<[f32; 4]> = if self.contents.colour {
+            let bytes = ctx.read_image(&self.colour, vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)?;
+            bytemuck::pod_collect_to_vec(&bytes)
+        } else {
+            Vec::new()
+        };
+        let triangle: Vec<u32> = match &self.triangle {
+            Some(b) => ctx.read_buffer(b)?,
+            None => Vec::new(),
+        };
         let per = 6 * self.size as usize * self.size as usize;
         Ok(self
             .centres
@@ -265,7 +349,13 @@ impl CmoData {
                 let mut cube = CubeMap::new(self.size, *c);
                 cube.distance
                     .copy_from_slice(&distance[k * per..(k + 1) * per]);
-                cube.colour.copy_from_slice(&colour[k * per..(k + 1) * per]);
+                if self.contents.colour {
+                    cube.colour.copy_from_slice(&colour[k * per..(k + 1) * per]);
+                }
+                if !triangle.is_empty() {
+                    cube.triangle
+                        .copy_from_slice(&triangle[k * per..(k + 1) * per]);
+                }
                 cube
             })
             .collect())

@@ -216,6 +216,8 @@ impl GpuFrame {
             resolved: (0..self.records.len())
                 .map(|k| u8::from(mirror(k) && self.records[k].status != RECORD_UNRESOLVED))
                 .collect(),
+            // The tracers do not verify hits against triangles yet (issue 10, part B).
+            triangle: None,
         }
     }
 

@@ -25,6 +25,7 @@ pub mod frame;
 pub mod gbuffer;
 pub mod graphics;
 pub mod hier32;
+pub mod hit_probe;
 pub mod image;
 pub mod info;
 pub mod instance;

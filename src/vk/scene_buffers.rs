@@ -1,8 +1,8 @@
 //! The scene's GPU buffers: `@group(0)` of every pass that imports `spirv/shared/scene.wgsl`.
 //!
 //! Invariants: the contents are [`GpuSceneData`] as is (layouts checked against naga's in
-//! tests/gpu_raster.rs); `indices` holds the non-reflector triangles first, so a draw of
-//! [`SceneBuffers::capture_index_count`] indices leaves the reflectors out.
+//! tests/gpu_raster.rs); `indices` is in global triangle order (`WorldGeometry::triangles`),
+//! so a draw's `vertex_index / 3` is the global triangle index.
 use ash::vk;
 
 use super::buffer::Buffer;
@@ -23,8 +23,6 @@ pub struct SceneBuffers {
     shading: Buffer,
     /// Indices of every triangle.
     pub index_count: u32,
-    /// Indices of the non-reflector triangles (they come first).
-    pub non_reflector_index_count: u32,
 }
 
 impl SceneBuffers {
@@ -45,7 +43,6 @@ impl SceneBuffers {
                 std::slice::from_ref(&data.shading),
             )?,
             index_count: data.indices.len() as u32,
-            non_reflector_index_count: data.capture_index_count,
         })
     }
 
