@@ -109,7 +109,6 @@ pub struct ReflectionPointPasses {
     virtual_point: Image,
     virtual_depth: Image,
     index_count: u32,
-    non_reflector_index_count: u32,
     vertex_count: usize,
     params: RpParams,
     width: u32,
@@ -277,7 +276,6 @@ impl ReflectionPointPasses {
             virtual_point,
             virtual_depth: depth("rp virtual depth", (width, height))?,
             index_count: scene.index_count,
-            non_reflector_index_count: scene.non_reflector_index_count,
             vertex_count,
             params,
             width,
@@ -348,7 +346,7 @@ impl ReflectionPointPasses {
             &self.virtual_sets,
             [&self.virtual_colour, &self.virtual_point],
             &self.virtual_depth,
-            self.non_reflector_index_count,
+            self.index_count,
         )?;
         let groups = (self.width * self.height).div_ceil(64);
         self.resolve
