@@ -14,6 +14,7 @@
 //   (the frame's fallback fills it). `cmo` is 0xffffffff; `texels`, `cells`, `traces`, `riser`,
 //   `t`, `t_done` are 0 (the search's counts are per vertex, read from `rp_search`'s buffer).
 //! import shared/scene.wgsl
+//! import shared/record.wgsl
 
 struct RpCamera {
     view_proj: mat4x4<f32>,
@@ -94,28 +95,6 @@ fn fs_virtual(in: VirtualVarying) -> VirtualOut {
     );
 }
 
-// `PixelRecord` of shared/mirror.wgsl.
-struct PixelRecord {
-    origin: vec3<f32>,
-    status: u32,
-    dir: vec3<f32>,
-    cmo: u32,
-    point: vec3<f32>,
-    riser: u32,
-    colour: vec3<f32>,
-    face: u32,
-    x: u32,
-    y: u32,
-    texels: u32,
-    cells: u32,
-    traces: u32,
-    t: f32,
-    t_done: f32,
-    pad0: u32,
-}
-
-const RECORD_HIT: u32 = 0u;
-const RECORD_UNRESOLVED: u32 = 2u;
 
 // Bindings 8.. of group 0, apart from the scene's 0..7 (the virtual draw's).
 @group(0) @binding(8) var<uniform> rp_resolve_camera: RpCamera;

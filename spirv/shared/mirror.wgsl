@@ -11,6 +11,7 @@
 // - Status: 0 hit, 1 escaped (the ray left the scene: background), 2 unresolved (no CMO saw
 //   the surface; composite fills it with the fallback).
 //! import shared/trace.wgsl
+//! import shared/record.wgsl
 
 struct FrameParams {
     eye: vec3<f32>,
@@ -28,32 +29,6 @@ struct FrameParams {
     pad2: u32,
 }
 
-struct PixelRecord {
-    origin: vec3<f32>,
-    status: u32,
-    dir: vec3<f32>,
-    // CMO that decided (0xffffffff when unresolved).
-    cmo: u32,
-    // World hit point (the escape point when escaped, the end of the proven-empty part when
-    // unresolved).
-    point: vec3<f32>,
-    riser: u32,
-    // Linear colour of the hit (or the background).
-    colour: vec3<f32>,
-    face: u32,
-    x: u32,
-    y: u32,
-    texels: u32,
-    cells: u32,
-    traces: u32,
-    t: f32,
-    t_done: f32,
-    pad0: u32,
-}
-
-const RECORD_HIT: u32 = 0u;
-const RECORD_ESCAPED: u32 = 1u;
-const RECORD_UNRESOLVED: u32 = 2u;
 
 @group(0) @binding(0) var gbuffer_position: texture_2d<f32>;
 @group(0) @binding(1) var gbuffer_normal: texture_2d<f32>;

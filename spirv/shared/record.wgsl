@@ -1,0 +1,29 @@
+// The per-pixel record every reflection pass writes (`frame::PixelRecord` in Rust; layout
+// checked in the tests) and its status values; read by `composite` and the metrics.
+
+struct PixelRecord {
+    origin: vec3<f32>,
+    status: u32,
+    dir: vec3<f32>,
+    // CMO that decided (0xffffffff when unresolved).
+    cmo: u32,
+    // World hit point (the escape point when escaped, the end of the proven-empty part when
+    // unresolved).
+    point: vec3<f32>,
+    riser: u32,
+    // Linear colour of the hit (or the background).
+    colour: vec3<f32>,
+    face: u32,
+    x: u32,
+    y: u32,
+    texels: u32,
+    cells: u32,
+    traces: u32,
+    t: f32,
+    t_done: f32,
+    pad0: u32,
+}
+
+const RECORD_HIT: u32 = 0u;
+const RECORD_ESCAPED: u32 = 1u;
+const RECORD_UNRESOLVED: u32 = 2u;
