@@ -40,7 +40,9 @@ pub struct PixelResult {
     pub triangle: u32,
 }
 
-/// `fragment_trace` for one pixel: [`trace_ray`] over the CMOs, coloured by the hit texel.
+/// `fragment_trace` for one pixel with a texel-colour criterion: [`trace_ray`] over the CMOs,
+/// coloured by the hit texel (what the GPU runs for the approximate criteria; the exact
+/// criterion is [`trace_pixel_verified`]).
 pub fn trace_pixel(
     cmos: &[CmoTracer],
     origin: Vec3,

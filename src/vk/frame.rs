@@ -2,12 +2,12 @@
 //!
 //! | pass | reads | writes |
 //! |---|---|---|
-//! | `capture` | scene | CMO distance, colour (+ normal/mirror with self-reflections) |
+//! | `capture` | scene | CMO distance, colour and/or triangle IDs (+ normal/mirror with self-reflections) |
 //! | `pyramid` | CMO distance | CMO 2x2 min/max pyramid (fragment path only) |
 //! | `hier32` | CMO distance | CMO 8x4/4x8 min/max hierarchy (compute path only) |
 //! | `gbuffer` | scene | G-buffer colour, position + mirror mask, normal |
-//! | `fragment_trace` or `envmap` | G-buffer, CMO data | one record per mirror pixel |
-//! | or `append`, `dispatch_args`, `compute_trace` | G-buffer, CMO data, hierarchy | the same records ([`super::compute`]) |
+//! | `fragment_trace` or `envmap` | G-buffer, CMO data (+ scene: verified hits) | one record per mirror pixel |
+//! | or `append`, `dispatch_args`, `compute_trace` | G-buffer, CMO data, hierarchy, scene | the same records ([`super::compute`]) |
 //! | or `hiz`, `ssr` | G-buffer, its min pyramid | the same records ([`super::ssr`]) |
 //! | or `rp_search`, `rp_raster` | scene, G-buffer | the same records ([`super::reflection_point`]) |
 //! | `composite` | G-buffer, records, CMO colour | final colour |
