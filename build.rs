@@ -216,7 +216,16 @@ struct CompiledPass {
 
 /// Parses, validates and (for passes) writes SPIR-V. Returns `None` for a shared file.
 fn compile(spirv_dir: &Path, rel: &str, is_pass: bool) -> Result<Option<CompiledPass>, String> {
-    let spliced = splice(spirv_dir, rel)?;
+    let mut spliced = splice(spirv_dir, rel)?;
+    // shared/scene.wgsl binds the scene at @group(SCENE_GROUP), a constant each root file
+    // defines; a shared file validated on its own gets one appended (after every segment, so
+    // the line numbers of the diagnostics stay the file's own).
+    if !is_pass
+        && spliced.text.contains("SCENE_GROUP")
+        && !spliced.text.contains("const SCENE_GROUP")
+    {
+        spliced.text.push_str("\nconst SCENE_GROUP: u32 = 0u;\n");
+    }
     let label = format!("spirv/{rel}");
     let module = naga::front::wgsl::parse_str(&spliced.text).map_err(|e| {
         let off = e.location(&spliced.text).map(|l| l.offset);

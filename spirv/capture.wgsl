@@ -20,6 +20,9 @@
 // draw is of every triangle, so `vertex_index` = 3 * triangle + corner; with self-reflections off
 // the vertex shader culls the reflectors'), as a u32 target cleared to u32::MAX. The
 // `_ids_only` ones leave the colour out, for frames whose methods shade at verified hits instead.
+
+// The scene's bind group (shared/scene.wgsl).
+const SCENE_GROUP: u32 = 0u;
 //! import shared/scene.wgsl
 //! import shared/cube.wgsl
 

@@ -20,7 +20,11 @@
 // key: a min over the ray's lanes by xor shuffles, then a ballot of the lanes holding it, lowest
 // j) is removed from the mask and descended into; an empty mask backtracks to the parent. The
 // first texel candidate is classified exactly as the fragment path does (`classify`), which
-// ends the single-CMO trace; the CMOs are combined by `trace_ray`'s handoff.
+// ends the single-CMO trace; the CMOs are combined by `trace_ray`'s handoff. A hit is then
+// verified against the captured triangle IDs (`verify_decision`, shared/trace_verified.wgsl, as
+// `trace_ray_verified` does for the fragment path): the record gets the verified point, the
+// triangle and the colour shaded there; a failed verification counts as behind at the texel's
+// entry and the handoff goes on. Verification is per-ray work: it runs inside `if busy` blocks.
 //
 // Uniformity (reviewed; naga and lavapipe would not catch a mistake): there is NO workgroup
 // barrier in this shader. Every subgroup operation (ballot, shuffle, any) sits in control flow
@@ -34,6 +38,11 @@
 // Rust side refuses others.
 //! import shared/mirror.wgsl
 //! import shared/compute_rays.wgsl
+//! import shared/trace_verified.wgsl
+
+// The scene's bind group (shared/scene.wgsl): groups 0..2 are the frame's, the CMOs' and this
+// pass's own.
+const SCENE_GROUP: u32 = 3u;
 
 // Levels of a node stack: HIER_MAX_LEVELS (8) + the face on top.
 const NODE_LEVELS: u32 = 9u;
@@ -95,6 +104,9 @@ struct RayState {
     need_mask: bool,
     trace_done: bool,
     result: TraceResult,
+    // The verified hit (when `out` is a hit): triangle and barycentric weights.
+    triangle: u32,
+    bary: vec3<f32>,
     descents: u32,
     backtracks: u32,
 }
@@ -237,12 +249,22 @@ fn handoff(st: ptr<function, RayState>) {
     (*st).traces += 1u;
     (*st).sums += vec4<u32>(r.counters.texels, r.counters.cells, (*st).descents, (*st).backtracks);
     let k = (*st).k;
-    if r.status == ONE_HIT || r.status == ONE_ESCAPED {
-        finish_ray(st, select(STATUS_ESCAPED, STATUS_HIT, r.status == ONE_HIT), k, r.point + cmo_centres[k].xyz);
+    var t_b = r.t;
+    if r.status == ONE_HIT {
+        let v = verify_decision(k, (*st).seg, r.texel, (*st).origin, (*st).dir, (*st).t_done, frame.t_hi);
+        if v.hit.hit {
+            (*st).triangle = v.hit.triangle;
+            (*st).bary = v.hit.bary;
+            finish_ray(st, STATUS_HIT, k, v.hit.position);
+            return;
+        }
+        t_b = v.t_behind;
+    } else if r.status == ONE_ESCAPED {
+        finish_ray(st, STATUS_ESCAPED, k, r.point + cmo_centres[k].xyz);
         return;
     }
-    if r.t > (*st).t_done {
-        (*st).t_done = r.t;
+    if t_b > (*st).t_done {
+        (*st).t_done = t_b;
         (*st).progress = true;
     }
     (*st).k += 1u;
@@ -364,6 +386,7 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
         st.dir = q.dir;
         st.pixel = q.pixel;
         st.t_done = 0.0;
+        st.triangle = VERIFY_NO_TRIANGLE;
         st.result = TraceResult(ONE_ESCAPED, 0.0, Texel(0u, 0u, 0u), false, vec3<f32>(0.0), Counters(0u, 0u));
         begin_cmo(&st);
     }
@@ -439,12 +462,14 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
             r = trace_out(STATUS_UNRESOLVED, 0xffffffffu, st.result, p, t, st.traces);
         }
         var colour = frame.background;
+        var triangle = VERIFY_NO_TRIANGLE;
         if r.status == STATUS_HIT {
-            colour = cmo_texel_colour(r.cmo, Texel(r.face, r.x, r.y)).xyz;
+            triangle = st.triangle;
+            colour = hit_shade(st.triangle, st.bary.yz);
         }
         records[st.pixel] = PixelRecord(
             st.origin, r.status, st.dir, r.cmo, r.point, r.riser, colour,
-            r.face, r.x, r.y, r.texels, r.cells, r.traces, r.t, r.t_done, 0u,
+            r.face, r.x, r.y, r.texels, r.cells, r.traces, r.t, r.t_done, triangle,
         );
         ray_stats[st.pixel] = st.sums;
     }

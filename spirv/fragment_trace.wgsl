@@ -1,12 +1,19 @@
 // fragment_trace: thesis alg. 1 as a deferred full-screen fragment pass. Every mirror pixel of
 // the G-buffer traces its reflected ray through the CMOs (`trace_ray`: the criterion, sampling
 // and acceleration of `trace_config`, with the occlusion handoff between CMOs) and writes its
-// record. The colour of a hit is the captured colour of the deciding texel.
+// record. With the exact criterion every hit is verified against the captured triangle IDs
+// (shared/trace_verified.wgsl): the record's point is on the hit triangle, `triangle` names it and
+// the colour is shaded there (`hit_shade`, the reference's shading). With the thesis's
+// approximate criteria the colour of a hit is the captured colour of the deciding texel.
 //
 // Two entry points, the same code specialised: `fs_main` carries every criterion, sampling and
 // acceleration (chosen at run time by `trace_config`); `fs_exact_mip` only the exact criterion's
 // mip march, the default options' path (`vk::trace_probe::exact_mip_only` picks it).
 //! import shared/mirror.wgsl
+//! import shared/trace_verified.wgsl
+
+// The scene's bind group (shared/scene.wgsl): group 0 is the frame's (shared/mirror.wgsl).
+const SCENE_GROUP: u32 = 2u;
 
 @fragment
 fn fs_main(@builtin(position) position: vec4<f32>) {
@@ -25,13 +32,24 @@ fn trace_pixel(position: vec4<f32>, variant: u32) {
     if !ray.mirror {
         return;
     }
-    let r = trace_ray_variant(ray.origin, ray.dir, 0.0, frame.t_hi, variant);
     var colour = frame.background;
-    if r.status == STATUS_HIT {
-        colour = cmo_texel_colour(r.cmo, Texel(r.face, r.x, r.y)).xyz;
+    var r: TraceOut;
+    var triangle = VERIFY_NO_TRIANGLE;
+    if variant == TRACE_EXACT_MIP || trace_config.criterion == CRITERION_EXACT {
+        let v = trace_ray_verified(ray.origin, ray.dir, 0.0, frame.t_hi, variant);
+        r = v.out;
+        if r.status == STATUS_HIT {
+            triangle = v.triangle;
+            colour = hit_shade(v.triangle, v.bary.yz);
+        }
+    } else {
+        r = trace_ray_variant(ray.origin, ray.dir, 0.0, frame.t_hi, variant);
+        if r.status == STATUS_HIT {
+            colour = cmo_texel_colour(r.cmo, Texel(r.face, r.x, r.y)).xyz;
+        }
     }
     records[pixel.y * frame.width + pixel.x] = PixelRecord(
         ray.origin, r.status, ray.dir, r.cmo, r.point, r.riser, colour,
-        r.face, r.x, r.y, r.texels, r.cells, r.traces, r.t, r.t_done, 0u,
+        r.face, r.x, r.y, r.texels, r.cells, r.traces, r.t, r.t_done, triangle,
     );
 }

@@ -5,6 +5,9 @@
 // where nothing is drawn), and the interpolated vertex normal as
 // stored (w = 1 where covered). The mirror's normal is left unnormalised here; tracers normalise
 // it exactly as the CPU reference does (`normalize_or_zero` of the interpolated normal).
+
+// The scene's bind group (shared/scene.wgsl).
+const SCENE_GROUP: u32 = 0u;
 //! import shared/scene.wgsl
 
 struct GbufferCamera {

@@ -3,6 +3,9 @@
 // query (shared/watertight.wgsl). `shade_main`: shading at (triangle, barycentrics) per query
 // (shared/hit.wgsl). `verify_main`: the verified-hit rule per query (shared/verify.wgsl), with
 // the neighbourhood's IDs read from one CMO's ID cube.
+
+// The scene's bind group (shared/scene.wgsl).
+const SCENE_GROUP: u32 = 0u;
 //! import shared/hit.wgsl
 //! import shared/watertight.wgsl
 //! import shared/verify.wgsl

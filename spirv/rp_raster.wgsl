@@ -13,6 +13,9 @@
 //   and `face` = the object's index) where a virtual object covers it, else an unresolved record
 //   (the frame's fallback fills it). `cmo` is 0xffffffff; `texels`, `cells`, `traces`, `riser`,
 //   `t`, `t_done` are 0 (the search's counts are per vertex, read from `rp_search`'s buffer).
+
+// The scene's bind group (shared/scene.wgsl).
+const SCENE_GROUP: u32 = 0u;
 //! import shared/scene.wgsl
 //! import shared/record.wgsl
 
@@ -127,6 +130,7 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
     r.origin = p.xyz;
     r.dir = dir;
     r.cmo = 0xffffffffu;
+    r.triangle = 0xffffffffu;
     r.x = u32(pixel.x);
     r.y = u32(pixel.y);
     if q.w == 1.0 {

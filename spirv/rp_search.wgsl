@@ -16,6 +16,9 @@
 //   candidate original is its mirror image in the plane of each texel. The virtual vertex is the
 //   vertex mirrored in the plane (R, N) of the final texel, and its depth the reflected path's
 //   length |O - R| + |R - V|.
+
+// The scene's bind group (shared/scene.wgsl).
+const SCENE_GROUP: u32 = 0u;
 //! import shared/scene.wgsl
 
 struct RpParams {

@@ -248,7 +248,9 @@ pub fn frame_channels(frame: &Frame) -> Vec<(&'static str, Channel)> {
 
 /// Writes a traced (GPU) frame as PNG or EXR, chosen by the extension of `path`. EXR channels:
 /// `R`, `G`, `B`, `mask`, `P.X/Y/Z` (`surface_position`), `hit.X/Y/Z` (NaN where the ray left
-/// the scene or was unresolved) and `unresolved` (1 on mirror pixels no CMO could decide).
+/// the scene or was unresolved), `unresolved` (1 on mirror pixels no CMO could decide) and, for
+/// methods that verify their hits (the tracers with the exact criterion), `primitive_id` (u32:
+/// the global triangle of the traced hit, 4294967295 where none, as the reference's).
 pub fn write_traced(path: &Path, traced: &Traced, surface_position: &[Vec3]) -> Result<()> {
     match Format::from_path(path)? {
         Format::Png => write_atomic(
@@ -258,7 +260,7 @@ pub fn write_traced(path: &Path, traced: &Traced, surface_position: &[Vec3]) -> 
         Format::Exr => {
             let n = traced.colour.len();
             let f = |g: &dyn Fn(usize) -> f32| Channel::F32((0..n).map(g).collect());
-            let channels = vec![
+            let mut channels = vec![
                 ("R", f(&|k| traced.colour[k].x)),
                 ("G", f(&|k| traced.colour[k].y)),
                 ("B", f(&|k| traced.colour[k].z)),
@@ -274,6 +276,9 @@ pub fn write_traced(path: &Path, traced: &Traced, surface_position: &[Vec3]) -> 
                     f(&|k| u8::from(traced.mask[k] != 0 && traced.resolved[k] == 0) as f32),
                 ),
             ];
+            if let Some(ids) = &traced.triangle {
+                channels.push(("primitive_id", Channel::U32(ids.clone())));
+            }
             write_exr(path, traced.width, traced.height, channels)
         }
     }

@@ -21,8 +21,9 @@ use std::process::Command;
 use cubetrace::camera::Camera;
 use cubetrace::check_layout;
 use cubetrace::cpu::alg3::trace_alg3;
-use cubetrace::cpu::multi::{MultiStatus, trace_cmos_by};
+use cubetrace::cpu::multi::{MultiStatus, Verify, trace_cmos_verified_by};
 use cubetrace::cpu::options::TraceOptions;
+use cubetrace::cpu::verify::triangle_corners;
 use cubetrace::cpu::{CmoTracer, TraceResult};
 use cubetrace::cubemap::CubeMap;
 use cubetrace::cubemap::face::Texel;
@@ -150,7 +151,7 @@ fn compute_struct_layouts_match_naga() {
         COMPUTE_TRACE.struct_layout("PixelRecord").unwrap(),
         [
             origin, status, dir, cmo, point, riser, colour, face, x, y, texels, cells, traces, t,
-            t_done, pad0
+            t_done, triangle
         ]
     )
     .unwrap();
@@ -310,9 +311,10 @@ fn dispatch_is_sized_on_the_gpu_and_empty_without_mirror_pixels() {
 // ---------------------------------------------------------------------------------------------
 // Compute against fragment, CPU twin and reference.
 
-/// `(status, cmo, face, x, y, riser)` of a record: what both exact paths must agree on.
-fn decision(r: &PixelRecord) -> [u32; 6] {
-    [r.status, r.cmo, r.face, r.x, r.y, r.riser]
+/// `(status, cmo, face, x, y, riser, triangle)` of a record: what both exact paths must agree
+/// on (the verified hit's triangle included).
+fn decision(r: &PixelRecord) -> [u32; 7] {
+    [r.status, r.cmo, r.face, r.x, r.y, r.riser, r.triangle]
 }
 
 /// Mirror pixels of `a` where `b` decided differently (or is not a mirror pixel).
@@ -349,14 +351,21 @@ fn gpu_fields(r: &PixelRecord, stats: [u32; 4]) -> Vec<u32> {
 
 /// The CPU twin's fields for the same ray (`cpu::alg3` with `subgroup` lanes inside the
 /// handoff of `cpu::multi`), in [`gpu_fields`]' order.
-fn cpu_fields(tracers: &[CmoTracer], r: &PixelRecord, t_hi: f32, subgroup: u32) -> Vec<u32> {
+fn cpu_fields(
+    tracers: &[CmoTracer],
+    corners: &[[Vec3; 3]],
+    r: &PixelRecord,
+    t_hi: f32,
+    subgroup: u32,
+) -> Vec<u32> {
     let sums = Cell::new([0u32; 4]);
-    let m = trace_cmos_by(
+    let m = trace_cmos_verified_by(
         tracers,
         Vec3::from_array(r.origin),
         Vec3::from_array(r.dir),
         0.0,
         t_hi,
+        Some(Verify { triangles: corners }),
         |tr, seg| {
             let res: TraceResult = trace_alg3(tr, std::slice::from_ref(seg), subgroup)[0];
             let c = res.counters;
@@ -378,6 +387,7 @@ fn cpu_fields(tracers: &[CmoTracer], r: &PixelRecord, t_hi: f32, subgroup: u32) 
         x,
         y,
         u32::from(m.result.riser),
+        m.triangle,
         m.result.t.to_bits(),
         m.t_done.to_bits(),
         m.traces,
@@ -392,6 +402,7 @@ fn cpu_fields(tracers: &[CmoTracer], r: &PixelRecord, t_hi: f32, subgroup: u32) 
 fn twin_disagreements(
     frame: &GpuFrame,
     cubes: &[CubeMap],
+    corners: &[[Vec3; 3]],
     t_hi: f32,
     subgroup: u32,
 ) -> Vec<(usize, Vec<u32>, Vec<u32>)> {
@@ -405,7 +416,7 @@ fn twin_disagreements(
         .filter(|&k| frame.mask[k] != 0)
         .filter_map(|k| {
             let g = gpu_fields(&frame.records[k], stats.per_pixel[k]);
-            let c = cpu_fields(&tracers, &frame.records[k], t_hi, subgroup);
+            let c = cpu_fields(&tracers, corners, &frame.records[k], t_hi, subgroup);
             (g != c).then_some((k, g, c))
         })
         .collect()
@@ -491,7 +502,8 @@ fn compute_matches_fragment_cpu_twin_and_reference_on_every_scene() {
 
         // Compute against the CPU twin of alg. 3 over the GPU's own capture: every field.
         let t_hi = scene_ranges(&scene, &camera).2;
-        let tw = twin_disagreements(&compute, &cubes, t_hi, subgroup);
+        let corners = triangle_corners(&scene.world());
+        let tw = twin_disagreements(&compute, &cubes, &corners, t_hi, subgroup);
         assert!(
             tw.is_empty(),
             "{name}: {} pixels differ from the CPU alg3 twin, e.g. {:?}",
@@ -512,7 +524,7 @@ fn compute_matches_fragment_cpu_twin_and_reference_on_every_scene() {
         };
         let i = t.index(n);
         changed[r.cmo as usize].distance[i] *= 4.0;
-        let tw = twin_disagreements(&compute, &changed, t_hi, subgroup);
+        let tw = twin_disagreements(&compute, &changed, &corners, t_hi, subgroup);
         assert!(
             tw.iter().any(|(p, _, _)| *p == k),
             "{name}: the twin comparison missed a changed hit texel"
@@ -576,7 +588,8 @@ fn compute_matches_with_tiny_cubes_and_several_cmos() {
         );
         assert!(d.is_empty(), "{name}, N = {n}: {} disagreements", d.len());
         let t_hi = scene_ranges(&scene, &camera).2;
-        let tw = twin_disagreements(&compute, &cubes, t_hi, subgroup);
+        let corners = triangle_corners(&scene.world());
+        let tw = twin_disagreements(&compute, &cubes, &corners, t_hi, subgroup);
         assert!(
             tw.is_empty(),
             "{name}, N = {n}: {} pixels differ from the CPU twin, e.g. {:?}",

@@ -10,8 +10,9 @@ use common::{finish_gpu, gpu_context};
 use cubetrace::camera::Camera;
 use cubetrace::check_layout;
 use cubetrace::cpu::CmoTracer;
-use cubetrace::cpu::fragment_trace::{PixelResult, envmap_pixel, trace_pixel};
+use cubetrace::cpu::fragment_trace::{HitShading, PixelResult, envmap_pixel, trace_pixel_verified};
 use cubetrace::cpu::options::TraceOptions;
+use cubetrace::cpu::verify::triangle_corners;
 use cubetrace::cubemap::pyramid::MipPyramid;
 use cubetrace::metrics::{self, ErrorReport};
 use cubetrace::reference::{self, Tracer};
@@ -78,7 +79,7 @@ fn shared_structs_match_naga_layout() {
         l("PixelRecord"),
         [
             origin, status, dir, cmo, point, riser, colour, face, x, y, texels, cells, traces, t,
-            t_done, pad0
+            t_done, triangle
         ]
     )
     .unwrap();
@@ -102,11 +103,23 @@ fn twin_disagreements(
         compared += 1;
         let r = twin(Vec3::from_array(rec.origin), Vec3::from_array(rec.dir));
         let t = r.texel;
+        // Colours of verified hits are shaded at the hit (`hit_shade` and `Tracer::shade`,
+        // within 2.4e-7 of each other: tests/gpu_verify.rs); others are the same bits.
+        let colour_same = if r.triangle != u32::MAX {
+            (r.colour - Vec3::from_array(rec.colour))
+                .abs()
+                .max_element()
+                <= 1e-5
+        } else {
+            r.colour.to_array().map(f32::to_bits) == rec.colour.map(f32::to_bits)
+        };
         let same = r.status == rec.status
             && r.cmo == rec.cmo
             && (t.face, t.x, t.y) == (rec.face, rec.x, rec.y)
             && u32::from(r.riser) == rec.riser
-            && r.colour.to_array().map(f32::to_bits) == rec.colour.map(f32::to_bits);
+            && r.triangle == rec.triangle
+            && r.point.to_array().map(f32::to_bits) == rec.point.map(f32::to_bits)
+            && colour_same;
         if !same {
             bad += 1;
             if bad <= 3 {
@@ -139,6 +152,13 @@ fn fragment_matches_cpu_twin_on_every_scene() {
     for (name, _) in builtin::NAMES {
         let scene = builtin::by_name(name).unwrap();
         let (_, _, t_hi) = scene_ranges(&scene, &camera(&scene));
+        let tracer = Tracer::new(&scene);
+        let corners = triangle_corners(&scene.world());
+        let shading = HitShading {
+            scene: &scene,
+            tracer: &tracer,
+            corners: &corners,
+        };
         for (accel, strict) in [(true, false), (false, false), (true, true)] {
             if (!accel || strict) && !["sphere-room", "torus"].contains(name) {
                 continue; // the walk gives the same answers more slowly; strict on two scenes
@@ -166,8 +186,9 @@ fn fragment_matches_cpu_twin_on_every_scene() {
                 );
             }
             let bg = scene.background;
-            let (compared, bad) =
-                twin_disagreements(&frame, |o, d| trace_pixel(&cmos, o, d, t_hi, &opts, bg));
+            let (compared, bad) = twin_disagreements(&frame, |o, d| {
+                trace_pixel_verified(&cmos, o, d, t_hi, &opts, bg, &shading)
+            });
             eprintln!(
                 "{name} (accel {accel}, strict {strict}): {bad} of {compared} mirror pixels differ from the CPU twin"
             );
@@ -213,10 +234,38 @@ fn twin_comparison_detects_perturbed_data() {
     let opts = TraceOptions::default();
     let (frame, r) = render(&ctx, &scene, options(GpuMethod::Fragment, opts));
     let bg = scene.background;
+    let tracer = Tracer::new(&scene);
+    let corners = triangle_corners(&scene.world());
+    let shading = HitShading {
+        scene: &scene,
+        tracer: &tracer,
+        corners: &corners,
+    };
+    let cmos = twins(&ctx, &r, &opts);
+    let (compared, bad) = twin_disagreements(&frame, |o, d| {
+        trace_pixel_verified(&cmos, o, d, t_hi, &opts, bg, &shading)
+    });
+    assert_eq!(
+        bad, 0,
+        "the unperturbed twin disagrees on {bad} of {compared}"
+    );
+    // A twin that reports the neighbouring triangle must disagree on (nearly) every hit.
+    let (_, bad) = twin_disagreements(&frame, |o, d| {
+        let mut p = trace_pixel_verified(&cmos, o, d, t_hi, &opts, bg, &shading);
+        if p.triangle != u32::MAX {
+            p.triangle ^= 1;
+        }
+        p
+    });
+    assert!(
+        bad > compared / 2,
+        "another triangle: only {bad} of {compared} differ"
+    );
     let mut moved = twins(&ctx, &r, &opts);
     moved[0].cube.centre += Vec3::splat(1e-3);
-    let (compared, bad) =
-        twin_disagreements(&frame, |o, d| trace_pixel(&moved, o, d, t_hi, &opts, bg));
+    let (compared, bad) = twin_disagreements(&frame, |o, d| {
+        trace_pixel_verified(&moved, o, d, t_hi, &opts, bg, &shading)
+    });
     eprintln!("moved centre: {bad} of {compared} differ");
     assert!(
         bad > compared / 10,
@@ -228,7 +277,7 @@ fn twin_comparison_detects_perturbed_data() {
     };
     let strict_cmos = twins(&ctx, &r, &strict);
     let (_, bad) = twin_disagreements(&frame, |o, d| {
-        trace_pixel(&strict_cmos, o, d, t_hi, &opts, bg)
+        trace_pixel_verified(&strict_cmos, o, d, t_hi, &opts, bg, &shading)
     });
     eprintln!("strict continuity rule: {bad} of {compared} differ");
     assert!(bad > 0, "a different continuity rule changed nothing");

@@ -427,6 +427,12 @@ fn cube_size_2048() {
     cube_sizes(&[2048]);
 }
 
+/// The least share correct at cube sizes under 4: with verified hits, a hit needs the triangle
+/// among the IDs of the deciding texel's 3x3 neighbourhood, and at N = 1 a face holds one ID
+/// (six for the whole room), so most rays end unresolved rather than on a triangle they miss
+/// (measured 75 of 170 at N = 1).
+const MIN_CORRECT_TINY_CUBE: f64 = 0.4;
+
 fn cube_sizes(sizes: &[u32]) {
     let ctx = gpu_context();
     for &n in sizes {
@@ -434,7 +440,12 @@ fn cube_sizes(sizes: &[u32]) {
         scene.cmo.resolution = n;
         let frame = render(&ctx, &scene, (32, 24), exact());
         let v = judge(&scene, &frame, Vec3::ZERO);
-        assert_no_wrong(&format!("N = {n}"), &v, MIN_CORRECT);
+        let min = if n < 4 {
+            MIN_CORRECT_TINY_CUBE
+        } else {
+            MIN_CORRECT
+        };
+        assert_no_wrong(&format!("N = {n}"), &v, min);
     }
     finish_gpu(ctx);
 }
@@ -624,8 +635,9 @@ fn grazing_incidence_on_the_mirror() {
     let (frame, r) = render_keep(&ctx, &scene, (48, 36), exact());
     let v = judge(&scene, &frame, Vec3::ZERO);
     explain(&ctx, &scene, &frame, &r, &v, 12);
-    // The default mode's patch hits on the tile's front side (see above) are wrong: the case
-    // is hard, and the judge sees it (144 of 768 measured).
+    // Before verified hits, the default mode's patch hits on the tile's front side (see above)
+    // were wrong (144 of 768 measured). Verified, they end on the triangle the ray meets or
+    // unresolved: no wrong hit (measured 672 right, 96 unresolved).
     let default = judge(
         &scene,
         &render(&ctx, &scene, (48, 36), exact_default()),
@@ -633,7 +645,7 @@ fn grazing_incidence_on_the_mirror() {
     );
     eprintln!("grazing: strict {v:?}; default mode {default:?}");
     assert!(v.mirror > 100, "{v:?}");
-    assert!(default.wrong_hits > 50, "default mode: {default:?}");
+    assert_no_wrong("grazing, default mode", &default, MIN_CORRECT_GRAZING);
     assert_no_wrong("grazing", &v, MIN_CORRECT_GRAZING);
     finish_gpu(ctx);
 }

@@ -5,8 +5,10 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use cubetrace::cpu::verify::triangle_corners;
 use cubetrace::reference::{self, Tracer};
 use cubetrace::scene::{self, builtin, export};
+use glam::Vec3;
 
 fn export_to(name: &str, dir: &Path) -> PathBuf {
     export::export(&builtin::by_name(name).unwrap(), dir).unwrap()
@@ -414,4 +416,51 @@ fn cli_render_fragment_exr_channels() {
         })
         .count();
     assert!(hits > 10, "{hits} traced hits");
+    // The verified hit's triangle: present exactly where a hit is, and the hit point lies on it
+    // (a neighbouring index does not fit: the check can fail).
+    let prim = channel("primitive_id");
+    let corners = triangle_corners(&builtin::by_name("bowl").unwrap().world());
+    let at = |c: &exr::prelude::AnyChannel<exr::prelude::FlatSamples>, i: usize| {
+        c.sample_data.value_by_flat_index(i).to_f32()
+    };
+    let on = |tri: u32, p: Vec3| {
+        corners.get(tri as usize).is_some_and(|&[a, b, c]| {
+            let n = (b - a).cross(c - a);
+            let inside = [(a, b), (b, c), (c, a)]
+                .iter()
+                .all(|&(u, v)| (v - u).cross(p - u).dot(n) >= -1e-4 * n.length_squared());
+            inside && (p - a).dot(n.normalize()).abs() < 1e-3
+        })
+    };
+    let (mut on_tri, mut on_other) = (0, 0);
+    for i in 0..32 * 24 {
+        let id = match prim.sample_data.value_by_flat_index(i) {
+            exr::prelude::Sample::U32(v) => v,
+            s => panic!("primitive_id is {s:?}, not u32"),
+        };
+        let p = Vec3::new(at(hit, i), at(channel("hit.Y"), i), at(channel("hit.Z"), i));
+        let is_hit = at(mask, i) == 1.0 && p.x.is_finite();
+        assert_eq!(id != u32::MAX, is_hit, "pixel {i}: id {id}, hit {p}");
+        if is_hit {
+            on_tri += usize::from(on(id, p));
+            on_other += usize::from(on(id ^ 1, p));
+        }
+    }
+    assert_eq!(on_tri, hits, "hits off their primitive_id's triangle");
+    assert!(
+        on_other < hits / 2,
+        "{on_other} of {hits} also on the neighbouring triangle"
+    );
+    // Methods that do not verify write no primitive_id.
+    let o = run(
+        &[
+            "render", "bowl", "--method", "envmap", "--width", "32", "--height", "24", "-o",
+            "e.exr",
+        ],
+        dir.path(),
+    );
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+    let exr = exr::prelude::read_all_flat_layers_from_file(dir.path().join("e.exr")).unwrap();
+    let list = &exr.layer_data[0].channel_data.list;
+    assert!(list.iter().all(|c| c.name.to_string() != "primitive_id"));
 }

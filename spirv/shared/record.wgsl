@@ -21,7 +21,9 @@ struct PixelRecord {
     traces: u32,
     t: f32,
     t_done: f32,
-    pad0: u32,
+    // Verified hits: the global triangle hit (0xffffffff otherwise, and for methods that do not
+    // verify).
+    triangle: u32,
 }
 
 const RECORD_HIT: u32 = 0u;

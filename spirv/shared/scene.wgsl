@@ -3,7 +3,9 @@
 // captured texel and the CPU reference shade a point alike.
 //
 // Layouts mirror `src/scene/gpu_data.rs` (checked against naga's layout in tests/gpu_raster.rs).
-// Every pass that imports this file binds the scene as @group(0).
+// Every pass that imports this file binds the scene as @group(SCENE_GROUP), a constant its root
+// file defines: 0 where the scene is the pass's first group, another where group 0 is taken
+// (the trace passes: fragment_trace 2, compute_trace 3).
 
 struct GpuVertex {
     position: vec3<f32>,
@@ -46,16 +48,16 @@ struct GpuShading {
     _pad3: u32,
 }
 
-@group(0) @binding(0) var<storage, read> scene_vertices: array<GpuVertex>;
-@group(0) @binding(1) var<storage, read> scene_indices: array<u32>;
-@group(0) @binding(2) var<storage, read> scene_objects: array<GpuObject>;
-@group(0) @binding(3) var<storage, read> scene_materials: array<GpuMaterial>;
-@group(0) @binding(4) var<storage, read> scene_textures: array<GpuTexture>;
+@group(SCENE_GROUP) @binding(0) var<storage, read> scene_vertices: array<GpuVertex>;
+@group(SCENE_GROUP) @binding(1) var<storage, read> scene_indices: array<u32>;
+@group(SCENE_GROUP) @binding(2) var<storage, read> scene_objects: array<GpuObject>;
+@group(SCENE_GROUP) @binding(3) var<storage, read> scene_materials: array<GpuMaterial>;
+@group(SCENE_GROUP) @binding(4) var<storage, read> scene_textures: array<GpuTexture>;
 // Packed sRGB RGBA8, red in the low byte.
-@group(0) @binding(5) var<storage, read> scene_texels: array<u32>;
+@group(SCENE_GROUP) @binding(5) var<storage, read> scene_texels: array<u32>;
 // The CPU's sRGB decode table (`shading::srgb_to_linear` of 0..=255).
-@group(0) @binding(6) var<storage, read> scene_srgb: array<f32>;
-@group(0) @binding(7) var<storage, read> scene_shading: GpuShading;
+@group(SCENE_GROUP) @binding(6) var<storage, read> scene_srgb: array<f32>;
+@group(SCENE_GROUP) @binding(7) var<storage, read> scene_shading: GpuShading;
 
 // `a.lerp(b, s)` as glam computes it.
 fn scene_lerp3(a: vec3<f32>, b: vec3<f32>, s: f32) -> vec3<f32> {

@@ -9,7 +9,7 @@
 use glam::Vec3;
 
 use super::CmoTracer;
-use super::multi::MultiStatus;
+use super::multi::{MultiStatus, Verify, trace_cmos_verified};
 use super::options::{TraceOptions, trace_ray};
 use crate::cubemap::Texel;
 use crate::cubemap::face::dir_to_texel;
@@ -36,9 +36,13 @@ pub struct PixelResult {
     pub point: Vec3,
     /// Linear colour: the deciding texel's captured colour on a hit, else the background.
     pub colour: Vec3,
+    /// Verified hits: the global triangle hit (`u32::MAX` otherwise).
+    pub triangle: u32,
 }
 
-/// `fragment_trace` for one pixel: [`trace_ray`] over the CMOs, coloured by the hit texel.
+/// `fragment_trace` for one pixel with a texel-colour criterion: [`trace_ray`] over the CMOs,
+/// coloured by the hit texel (what the GPU runs for the approximate criteria; the exact
+/// criterion is [`trace_pixel_verified`]).
 pub fn trace_pixel(
     cmos: &[CmoTracer],
     origin: Vec3,
@@ -67,6 +71,61 @@ pub fn trace_pixel(
         riser: r.result.riser,
         point: r.point,
         colour,
+        triangle: u32::MAX,
+    }
+}
+
+/// What the verified twin needs besides the CMOs: the scene and its tracer (for the shading at
+/// a hit, `Tracer::shade`, whose WGSL twin is `hit_shade`) and the corners of every triangle
+/// ([`super::verify::triangle_corners`]).
+pub struct HitShading<'a> {
+    pub scene: &'a crate::scene::Scene,
+    pub tracer: &'a crate::reference::Tracer,
+    pub corners: &'a [[Vec3; 3]],
+}
+
+/// `fragment_trace` for one pixel as the GPU runs it: with the exact criterion every hit is
+/// verified ([`trace_cmos_verified`]) and shaded at the verified point; the approximate
+/// criteria are [`trace_pixel`]. Also the compute path's twin (with `opts` giving the
+/// traversal: every traversal decides alike).
+pub fn trace_pixel_verified(
+    cmos: &[CmoTracer],
+    origin: Vec3,
+    dir: Vec3,
+    t_hi: f32,
+    opts: &TraceOptions,
+    background: Vec3,
+    shading: &HitShading,
+) -> PixelResult {
+    if opts.approx().is_some() {
+        return trace_pixel(cmos, origin, dir, t_hi, opts, background);
+    }
+    let verify = Verify {
+        triangles: shading.corners,
+    };
+    let r = trace_cmos_verified(cmos, origin, dir, 0.0, t_hi, opts.traversal(), Some(verify));
+    let (status, colour) = match r.status {
+        MultiStatus::Hit => {
+            let hit = crate::reference::Hit {
+                t: r.result.t,
+                position: r.point,
+                triangle: r.triangle,
+                bary: glam::Vec2::new(r.bary[1], r.bary[2]),
+                error: 0.0,
+            };
+            (RECORD_HIT, shading.tracer.shade(shading.scene, &hit))
+        }
+        MultiStatus::Escaped => (RECORD_ESCAPED, background),
+        MultiStatus::Unresolved => (RECORD_UNRESOLVED, background),
+    };
+    PixelResult {
+        status,
+        cmo: r.cmo,
+        texel: r.result.texel,
+        riser: r.result.riser,
+        point: r.point,
+        colour,
+        triangle: r.triangle,
     }
 }
 
@@ -107,5 +166,6 @@ pub fn envmap_pixel(cmos: &[CmoTracer], origin: Vec3, dir: Vec3, background: Vec
         } else {
             background
         },
+        triangle: u32::MAX,
     }
 }

@@ -1,7 +1,8 @@
 #![forbid(unsafe_code)]
 //! Verified hits (issue 10, deliverable 2): the rule that turns a texel's decision into a hit on
-//! a real triangle, in pure Rust. The tracers (fragment, compute and their CPU twins) are to call
-//! it, or its WGSL twin, where the exact criterion decides a hit at texel `T`.
+//! a real triangle, in pure Rust. The tracers (fragment, compute and their CPU twins) call it, or
+//! its WGSL twin, where the exact criterion decides a hit at texel `T` (`super::multi`,
+//! "Verified hits"; `spirv/shared/trace_verified.wgsl`).
 //!
 //! # The rule
 //! Input: the reflected ray `a + t d` (world space), the end `t_done` of the prefix that the

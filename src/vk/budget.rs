@@ -27,6 +27,18 @@ pub fn cmo_bytes_per_texel_with(
         + if self_reflections { 16 + 16 } else { 0 }
 }
 
+/// The most a frame of `method` captures (`GpuRenderer`'s choice is this or less): the tracers
+/// (fragment, compute) capture triangle IDs to verify hits with, and the colour unless neither
+/// their options nor the fallback need it (the default envmap fallback does: then both are
+/// captured, 8 B per texel more than before verified hits); the other methods the colour only.
+pub fn method_capture_contents(method: GpuMethod) -> super::cmo::CaptureContents {
+    let tracer = matches!(method, GpuMethod::Fragment | GpuMethod::Compute);
+    super::cmo::CaptureContents {
+        colour: true,
+        triangle_ids: tracer,
+    }
+}
+
 /// Bytes per frame pixel: the pixel records, the frame colour (RGBA f32), the G-buffer (colour,
 /// position, normal: RGBA f32 each; depth f32), and for the compute path the ray queue and the
 /// per-ray statistics; for ssr the Hi-Z pyramid.
@@ -85,7 +97,9 @@ pub fn device_bytes(
     DeviceBytes {
         frame: pixels * frame_bytes_per_pixel(method),
         // The capture's depth target: one face at a time.
-        cmo: texels * cmo_bytes_per_texel(self_reflections) + face * 4 + acceleration,
+        cmo: texels * cmo_bytes_per_texel_with(self_reflections, method_capture_contents(method))
+            + face * 4
+            + acceleration,
     }
 }
 

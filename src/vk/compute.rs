@@ -35,6 +35,7 @@ use super::gbuffer::Gbuffer;
 use super::graphics::{GraphicsDesc, GraphicsPipeline, RenderTarget};
 use super::hier32::{Hier32Bindings, Hier32Pass};
 use super::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
+use super::scene_buffers::SceneBuffers;
 use super::shaders::{APPEND, COMPUTE_TRACE, DISPATCH_ARGS};
 use super::sync::{SHADER_WRITE, TRANSFER_WRITE};
 use crate::cubemap::pyramid::{
@@ -275,7 +276,7 @@ pub struct ComputePath {
     dispatch_args: ComputePipeline,
     args_set: BindGroup,
     trace: ComputePipeline,
-    trace_sets: [BindGroup; 3],
+    trace_sets: [BindGroup; 4],
     _hier: Buffer,
     _hier_config: Buffer,
     _dispatch_params: Buffer,
@@ -288,10 +289,12 @@ pub struct ComputePath {
 
 impl ComputePath {
     /// Allocates the hierarchy, the queue and the pipelines. `params` is the frame's
-    /// `FrameParams` uniform and `records` its per-pixel record buffer.
+    /// `FrameParams` uniform and `records` its per-pixel record buffer; `scene` is bound for
+    /// verified hits (`cmo` must carry the triangle IDs).
     pub fn new(
         ctx: &GpuContext,
         cmo: &CmoData,
+        scene: &SceneBuffers,
         gbuffer: &Gbuffer,
         params: &Buffer,
         records: &Buffer,
@@ -412,6 +415,8 @@ impl ComputePath {
                     (5, Resource::Buffer(&cut)),
                 ],
             )?,
+            // The scene, for verified hits (compute_trace's SCENE_GROUP).
+            trace.bind_group(3, &scene.resources())?,
         ];
         Ok(ComputePath {
             width,
@@ -469,6 +474,7 @@ impl ComputePath {
             &self.trace_sets[0],
             &self.trace_sets[1],
             &self.trace_sets[2],
+            &self.trace_sets[3],
         ];
         self.trace.dispatch_indirect(rec, &sets, &self.args, 0)
     }

@@ -2,12 +2,12 @@
 //!
 //! | pass | reads | writes |
 //! |---|---|---|
-//! | `capture` | scene | CMO distance, colour (+ normal/mirror with self-reflections) |
+//! | `capture` | scene | CMO distance, colour and/or triangle IDs (+ normal/mirror with self-reflections) |
 //! | `pyramid` | CMO distance | CMO 2x2 min/max pyramid (fragment path only) |
 //! | `hier32` | CMO distance | CMO 8x4/4x8 min/max hierarchy (compute path only) |
 //! | `gbuffer` | scene | G-buffer colour, position + mirror mask, normal |
-//! | `fragment_trace` or `envmap` | G-buffer, CMO data | one record per mirror pixel |
-//! | or `append`, `dispatch_args`, `compute_trace` | G-buffer, CMO data, hierarchy | the same records ([`super::compute`]) |
+//! | `fragment_trace` or `envmap` | G-buffer, CMO data (+ scene: verified hits) | one record per mirror pixel |
+//! | or `append`, `dispatch_args`, `compute_trace` | G-buffer, CMO data, hierarchy, scene | the same records ([`super::compute`]) |
 //! | or `hiz`, `ssr` | G-buffer, its min pyramid | the same records ([`super::ssr`]) |
 //! | or `rp_search`, `rp_raster` | scene, G-buffer | the same records ([`super::reflection_point`]) |
 //! | `composite` | G-buffer, records, CMO colour | final colour |
@@ -29,7 +29,7 @@ use gpu_allocator::MemoryLocation;
 
 use super::buffer::Buffer;
 use super::capture::Capture;
-use super::cmo::CmoData;
+use super::cmo::{CaptureContents, CmoData};
 use super::compute::{ComputePath, ComputeStats};
 use super::context::GpuContext;
 use super::error::{VkError, VkResult};
@@ -167,7 +167,9 @@ pub struct PixelRecord {
     pub traces: u32,
     pub t: f32,
     pub t_done: f32,
-    pub pad0: u32,
+    /// Verified hits (the exact criterion in the fragment and compute paths): the global
+    /// triangle hit; `u32::MAX` otherwise and for methods that do not verify.
+    pub triangle: u32,
 }
 
 pub use crate::cpu::fragment_trace::{RECORD_ESCAPED, RECORD_HIT, RECORD_UNRESOLVED};
@@ -216,8 +218,24 @@ impl GpuFrame {
             resolved: (0..self.records.len())
                 .map(|k| u8::from(mirror(k) && self.records[k].status != RECORD_UNRESOLVED))
                 .collect(),
-            // The tracers do not verify hits against triangles yet (issue 10, part B).
-            triangle: None,
+            // Verified hits name their triangle; other methods leave `u32::MAX` everywhere.
+            triangle: self
+                .records
+                .iter()
+                .enumerate()
+                .any(|(k, r)| mirror(k) && r.status == RECORD_HIT && r.triangle != u32::MAX)
+                .then(|| {
+                    (0..self.records.len())
+                        .map(|k| {
+                            let r = &self.records[k];
+                            if mirror(k) && r.status == RECORD_HIT {
+                                r.triangle
+                            } else {
+                                u32::MAX
+                            }
+                        })
+                        .collect()
+                }),
         }
     }
 
@@ -256,7 +274,7 @@ pub struct GpuRenderer {
     pyramid: Option<(Pyramid, PyramidBindings)>,
     gbuffer: Gbuffer,
     /// The fragment pass of `Fragment` and `Envmap`.
-    trace: Option<(GraphicsPipeline, [BindGroup; 2])>,
+    trace: Option<(GraphicsPipeline, Vec<BindGroup>)>,
     /// The passes of `Compute`.
     compute: Option<ComputePath>,
     /// The passes of `Ssr`.
@@ -323,21 +341,35 @@ impl GpuRenderer {
             }
             super::compute::check_device(ctx)?;
         }
-        let cmo = CmoData::new(
+        // What the capture writes: triangle IDs where the trace pass verifies hits (the exact
+        // criterion of the fragment and compute paths; the fragment pass's general entry point
+        // binds them for every criterion), colour where a method or the fallback still takes a
+        // texel's colour.
+        let tracer_pass = matches!(options.method, GpuMethod::Fragment | GpuMethod::Compute);
+        let exact_only = super::trace_probe::exact_mip_only(&options.trace);
+        let contents = CaptureContents {
+            colour: !tracer_pass
+                || !(exact_only || options.method == GpuMethod::Compute)
+                || options.fallback == Fallback::Envmap,
+            triangle_ids: tracer_pass,
+        };
+        let cmo = CmoData::with_contents(
             ctx,
             &centres,
             size,
             scene.self_reflections,
             needs_pyramid,
             &options.trace,
+            contents,
         )?;
-        let capture = Capture::new(
+        let capture = Capture::with_contents(
             ctx,
             &scene_buffers,
             &centres,
             size,
             scene.self_reflections,
             ranges.capture_near,
+            contents,
         )?;
         let pyramid = if needs_pyramid {
             let p = Pyramid::new(ctx)?;
@@ -386,8 +418,15 @@ impl GpuRenderer {
         let mut ssr = None;
         let mut rp = None;
         let (trace, compute) = if options.method == GpuMethod::Compute {
-            let path =
-                ComputePath::new(ctx, &cmo, &gbuffer, &params_buf, &records, (width, height))?;
+            let path = ComputePath::new(
+                ctx,
+                &cmo,
+                &scene_buffers,
+                &gbuffer,
+                &params_buf,
+                &records,
+                (width, height),
+            )?;
             (None, Some(path))
         } else if options.method == GpuMethod::Ssr {
             let view_proj = camera.view_proj(ranges.near);
@@ -431,7 +470,7 @@ impl GpuRenderer {
                     depth: None,
                 },
             )?;
-            let trace_sets = [
+            let mut trace_sets = vec![
                 trace.bind_group(
                     0,
                     &[
@@ -443,6 +482,10 @@ impl GpuRenderer {
                 )?,
                 trace.bind_group(1, &cmo.resources_for(options.method.pass(), entry))?,
             ];
+            if options.method == GpuMethod::Fragment {
+                // The scene, for verified hits (fragment_trace's SCENE_GROUP).
+                trace_sets.push(trace.bind_group(2, &scene_buffers.resources())?);
+            }
             (Some((trace, trace_sets)), None)
         };
         let composite = ComputePipeline::new(ctx, &COMPOSITE, "main", ComputeOptions::default())?;
@@ -576,7 +619,7 @@ impl GpuRenderer {
                         colour: Vec::new(),
                         depth: None,
                     };
-                    trace.draw(rec, &target, &[&sets[0], &sets[1]], 3, 0)
+                    trace.draw(rec, &target, &sets.iter().collect::<Vec<_>>(), 3, 0)
                 })?;
             }
             if let Some(c) = &self.compute {
