@@ -387,7 +387,7 @@ fn render(args: RenderArgs) -> Result<()> {
             m,
             scene.cmo_centres().len() as u32,
             scene.cmo.resolution,
-            scene.self_reflections,
+            scene.captures_reflectors(),
         );
         let mut host = memory::gpu_host_bytes(pixels, format, args.compare);
         if ctx.device_is_cpu() {

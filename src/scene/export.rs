@@ -8,9 +8,10 @@ use std::path::{Path, PathBuf};
 use toml::Spanned;
 
 use super::file::{
-    CameraFile, CmoFile, MeshFile, ScaleFile, SceneFile, ShadingFile, ShadingModel, TransformFile,
+    CameraFile, CmoFile, MeshFile, ScaleFile, SceneFile, SelfReflectionsFile, ShadingFile,
+    ShadingModel, TransformFile,
 };
-use super::{CmoPlacement, Scene};
+use super::{CmoPlacement, Scene, SelfReflections};
 use crate::output::{safe_file_stem as safe, write_atomic};
 use crate::shading::Shading;
 
@@ -139,7 +140,11 @@ pub fn export(scene: &Scene, dir: &Path) -> anyhow::Result<PathBuf> {
     let file = SceneFile {
         name: Some(scene.name.clone()),
         background: sp(scene.background.to_array()),
-        self_reflections: scene.self_reflections,
+        self_reflections: Some(sp(match scene.self_reflections {
+            SelfReflections::Auto => SelfReflectionsFile::Word("auto".into()),
+            SelfReflections::On => SelfReflectionsFile::Bool(true),
+            SelfReflections::Off => SelfReflectionsFile::Bool(false),
+        })),
         shading,
         meshes,
         cameras: scene

@@ -3,7 +3,8 @@
 //! ```toml
 //! name = "my-scene"
 //! background = [0.05, 0.05, 0.08]   # linear RGB of rays that leave the scene
-//! self_reflections = false          # reflectors see themselves (costs mask + normal cubemaps)
+//! self_reflections = "auto"         # reflectors see themselves (costs mask + normal cubemaps):
+//!                                   # "auto" (default: the reflectors that are not convex), true, false
 //!
 //! [shading]
 //! model = "lambert"                 # or "unlit"
@@ -45,7 +46,7 @@ use super::obj::load_obj_file;
 use super::report::{LoadReport, WarningKind};
 use super::{
     CmoPlacement, CmoSpec, MAX_CUBE_SIZE, MAX_IMAGE_SIDE, MeshInstance, Scene, SceneError,
-    Transform,
+    SelfReflections, Transform,
 };
 use crate::camera::Camera;
 use crate::shading::Shading;
@@ -56,8 +57,7 @@ pub(crate) struct SceneFile {
     pub name: Option<String>,
     #[serde(default = "default_background", deserialize_with = "exact")]
     pub background: Spanned<[f32; 3]>,
-    #[serde(default)]
-    pub self_reflections: bool,
+    pub self_reflections: Option<Spanned<SelfReflectionsFile>>,
     #[serde(default)]
     pub shading: ShadingFile,
     #[serde(rename = "mesh", default)]
@@ -65,6 +65,14 @@ pub(crate) struct SceneFile {
     #[serde(rename = "camera", default)]
     pub cameras: Vec<CameraFile>,
     pub cmo: Option<CmoFile>,
+}
+
+/// `self_reflections`: a TOML boolean, or the string `"auto"` (checked on load).
+#[derive(Debug, Deserialize, Serialize, Clone, PartialEq, Eq)]
+#[serde(untagged)]
+pub(crate) enum SelfReflectionsFile {
+    Bool(bool),
+    Word(String),
 }
 
 fn default_background() -> Spanned<[f32; 3]> {
@@ -342,7 +350,21 @@ pub fn load_scene_file_report(path: &Path) -> Result<(Scene, LoadReport), SceneE
         },
         background: src.finite(&file.background, "background")?,
         shading: shading(&src, &file.shading)?,
-        self_reflections: file.self_reflections,
+        self_reflections: match &file.self_reflections {
+            None => SelfReflections::Auto,
+            Some(v) => match v.get_ref() {
+                SelfReflectionsFile::Bool(true) => SelfReflections::On,
+                SelfReflectionsFile::Bool(false) => SelfReflections::Off,
+                SelfReflectionsFile::Word(w) if w == "auto" => SelfReflections::Auto,
+                SelfReflectionsFile::Word(w) => {
+                    return Err(src.invalid(
+                        v,
+                        "self_reflections",
+                        format!("'{w}' is not one of true, false or \"auto\""),
+                    ));
+                }
+            },
+        },
     };
 
     for (i, m) in file.meshes.iter().enumerate() {

@@ -327,7 +327,7 @@ impl GpuRenderer {
             ctx,
             &centres,
             size,
-            scene.self_reflections,
+            scene.captures_reflectors(),
             needs_pyramid,
             &options.trace,
         )?;
@@ -336,7 +336,7 @@ impl GpuRenderer {
             &scene_buffers,
             &centres,
             size,
-            scene.self_reflections,
+            scene.captures_reflectors(),
             ranges.capture_near,
         )?;
         let pyramid = if needs_pyramid {
