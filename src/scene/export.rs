@@ -133,9 +133,14 @@ pub fn export(scene: &Scene, dir: &Path) -> anyhow::Result<PathBuf> {
             light_intensity: Some(sp(light_intensity)),
         },
     };
-    let (centres, count) = match &scene.cmo.placement {
-        CmoPlacement::Explicit(c) => (Some(sp(c.iter().map(|v| v.to_array()).collect())), None),
-        CmoPlacement::Auto { count } => (None, Some(sp(*count))),
+    let (centres, count, placement) = match &scene.cmo.placement {
+        CmoPlacement::Explicit(c) => (
+            Some(sp(c.iter().map(|v| v.to_array()).collect())),
+            None,
+            None,
+        ),
+        CmoPlacement::Auto { count } => (None, Some(sp(*count)), None),
+        CmoPlacement::Search { count } => (None, Some(sp(*count)), Some(sp("auto".to_string()))),
     };
     let file = SceneFile {
         name: Some(scene.name.clone()),
@@ -162,6 +167,7 @@ pub fn export(scene: &Scene, dir: &Path) -> anyhow::Result<PathBuf> {
         cmo: Some(CmoFile {
             centres,
             count,
+            placement,
             resolution: sp(scene.cmo.resolution),
         }),
     };

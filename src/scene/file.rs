@@ -28,6 +28,8 @@
 //!
 //! [cmo]
 //! centres = [[0, 1.2, 0]]           # or: count = 2 (placed along the reflectors' longest axis)
+//!                                   # with count: placement = "auto" chooses up to count centres
+//!                                   # that leave the fewest reflected rays unresolved
 //! resolution = 256                  # texels per cube face side
 //! ```
 //!
@@ -173,6 +175,9 @@ pub(crate) struct CmoFile {
     #[serde(default, deserialize_with = "exact_list_opt")]
     pub centres: Option<Spanned<Vec<[f32; 3]>>>,
     pub count: Option<Spanned<u32>>,
+    /// With `count`: `"axis"` (the default: along the reflectors' longest axis) or `"auto"`
+    /// (searched for the camera, [`super::placement`]).
+    pub placement: Option<Spanned<String>>,
     #[serde(default = "cube_res")]
     pub resolution: Spanned<u32>,
 }
@@ -490,10 +495,27 @@ pub fn load_scene_file_report(path: &Path) -> Result<(Scene, LoadReport), SceneE
                 if n == 0 || n > 64 {
                     return Err(src.invalid(count, "cmo.count", "must be 1 to 64"));
                 }
-                CmoPlacement::Auto { count: n }
+                match cmo.placement.as_ref().map(|p| (p, p.get_ref().as_str())) {
+                    None | Some((_, "axis")) => CmoPlacement::Auto { count: n },
+                    Some((_, "auto")) => CmoPlacement::Search { count: n },
+                    Some((p, other)) => {
+                        return Err(src.invalid(
+                            p,
+                            "cmo.placement",
+                            format!("'{other}' is not one of \"axis\" or \"auto\""),
+                        ));
+                    }
+                }
             }
             (None, None) => CmoPlacement::Auto { count: 1 },
         };
+        if let (Some(p), Some(_)) = (&cmo.placement, &cmo.centres) {
+            return Err(src.invalid(
+                p,
+                "cmo.placement",
+                "applies to count, not to explicit centres",
+            ));
+        }
     }
     Ok((scene, report))
 }

@@ -21,6 +21,7 @@ pub mod export;
 mod file;
 pub mod gpu_data;
 mod obj;
+pub mod placement;
 mod report;
 pub mod shapes;
 mod world;
@@ -222,6 +223,10 @@ pub enum CmoPlacement {
     Explicit(Vec<Vec3>),
     /// `count` centres spread along the longest axis of the reflectors' bounding box.
     Auto { count: u32 },
+    /// Up to `count` centres chosen by [`placement::search`] for a camera (`[cmo] placement =
+    /// "auto"`). `render` resolves it for the camera it renders; elsewhere
+    /// [`Scene::cmo_centres`] searches for the first camera.
+    Search { count: u32 },
 }
 
 impl Scene {
@@ -234,32 +239,42 @@ impl Scene {
     pub fn cmo_centres(&self) -> Vec<Vec3> {
         match &self.cmo.placement {
             CmoPlacement::Explicit(c) => c.clone(),
-            CmoPlacement::Auto { count } => {
-                let world = self.world();
-                let (lo, hi) = world.bounds(|o| o.reflector);
-                let (lo, hi) = if lo.x > hi.x {
-                    world.bounds(|_| true)
-                } else {
-                    (lo, hi)
-                };
-                let ext = hi - lo;
-                let axis = if ext.x >= ext.y && ext.x >= ext.z {
-                    Vec3::X
-                } else if ext.y >= ext.z {
-                    Vec3::Y
-                } else {
-                    Vec3::Z
-                };
-                let n = (*count).max(1);
-                let centre = 0.5 * (lo + hi);
-                (0..n)
-                    .map(|i| {
-                        let f = (i as f32 + 0.5) / n as f32 - 0.5;
-                        centre + axis * (ext.dot(axis) * f)
-                    })
-                    .collect()
-            }
+            CmoPlacement::Auto { count } => self.axis_centres(*count),
+            CmoPlacement::Search { count } => match self.cameras.first() {
+                Some(camera) => {
+                    placement::search(self, camera, *count, &Default::default()).centres
+                }
+                None => self.axis_centres(*count),
+            },
         }
+    }
+
+    /// `count` centres spread along the longest axis of the reflectors' bounding box (of the
+    /// whole scene without reflectors): [`CmoPlacement::Auto`].
+    pub fn axis_centres(&self, count: u32) -> Vec<Vec3> {
+        let world = self.world();
+        let (lo, hi) = world.bounds(|o| o.reflector);
+        let (lo, hi) = if lo.x > hi.x {
+            world.bounds(|_| true)
+        } else {
+            (lo, hi)
+        };
+        let ext = hi - lo;
+        let axis = if ext.x >= ext.y && ext.x >= ext.z {
+            Vec3::X
+        } else if ext.y >= ext.z {
+            Vec3::Y
+        } else {
+            Vec3::Z
+        };
+        let n = count.max(1);
+        let centre = 0.5 * (lo + hi);
+        (0..n)
+            .map(|i| {
+                let f = (i as f32 + 0.5) / n as f32 - 0.5;
+                centre + axis * (ext.dot(axis) * f)
+            })
+            .collect()
     }
 
     /// Picks a camera by name or index (`None`: the first).
