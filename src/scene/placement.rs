@@ -5,7 +5,7 @@
 //! each reflected once about the interpolated normal at its primary hit (the exact
 //! [`Tracer`]). Candidates: a small grid over the reflectors' bounding box grown by half its
 //! largest side every way (a flat mirror's box is flat; a centre in front of it is a candidate
-//! too), plus the axis placements of `count = 1..=N`. A set of centres is scored by tracing the
+//! too) and clipped to the scene's box, plus the axis placements of `count = 1..=N`. A set of centres is scored by tracing the
 //! sample with the CPU twin of the tracer ([`crate::cpu::options::trace_ray`], exact, over
 //! CPU captures [`crate::reference::capture`] of each centre at a small cube size): the share of
 //! rays that end unresolved. Each step adds the candidate that lowers the share most (first in
@@ -119,7 +119,9 @@ fn candidates(scene: &Scene, count: u32, grid: u32) -> Vec<Vec3> {
         (lo, hi)
     };
     let grow = Vec3::splat(0.5 * (hi - lo).max_element());
-    let (lo, hi) = (lo - grow, hi + grow);
+    // Grown, but not beyond the scene: a centre outside it sees nothing the rays meet.
+    let (all_lo, all_hi) = world.bounds(|_| true);
+    let (lo, hi) = ((lo - grow).max(all_lo), (hi + grow).min(all_hi));
     let g = grid.max(1);
     let mut out = Vec::new();
     for x in 0..g {
