@@ -13,12 +13,13 @@
 // nearest surface: reversed depth `z / w = near / l.z` (test GREATER, no far plane), which falls
 // with l.z and so, along one texel ray, with the distance; f32 keeps its relative precision at
 // every distance. Geometry nearer than `near` along the face axis is clipped.
-// `fs_self` also writes the unit normal and the mirror flag: only when the scene has
-// self-reflections on (model only what the scene needs).
+// `fs_self` also writes the unit normal and the mirror flag: only when some reflector of the scene
+// sees itself (model only what the scene needs). Which reflectors are drawn is decided per object
+// (`GpuObject.captured`, Scene::self_capture).
 // The `_ids` entry points also write the triangle ID: the global index of the triangle the texel's
 // centre ray sees (`WorldGeometry::triangles` order: the index buffer is in that order, and every
-// draw is of every triangle, so `vertex_index` = 3 * triangle + corner; with self-reflections off
-// the vertex shader culls the reflectors'), as a u32 target cleared to u32::MAX. The
+// draw is of every triangle, so `vertex_index` = 3 * triangle + corner; the vertex shader culls
+// the reflectors' that are not captured), as a u32 target cleared to u32::MAX. The
 // `_ids_only` ones leave the colour out, for frames whose methods shade at verified hits instead.
 
 // The scene's bind group (shared/scene.wgsl).
@@ -30,7 +31,7 @@ struct CaptureView {
     centre: vec3<f32>,
     face: u32,
     near: f32,
-    // 1: draw the reflectors (self-reflections on); 0: cull them here.
+    // 1: draw the reflectors that see themselves (scene_is_captured); 0: cull every reflector.
     reflectors: u32,
     _pad2: vec2<u32>,
 }
@@ -54,8 +55,9 @@ fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) view: u3
     let l = to_face_local(cv.face, v.position - cv.centre);
     var out: CaptureVarying;
     out.clip = vec4<f32>(l.x, l.y, cv.near, l.z);
-    if cv.reflectors == 0u && scene_is_reflector(v.object) {
-        // All three vertices of a reflector triangle (its object's) go to one point outside
+    if (cv.reflectors == 0u && scene_is_reflector(v.object)) || !scene_is_captured(v.object) {
+        // All three vertices of a culled triangle (its object's: a reflector that does not see
+        // itself, or every reflector in a capture without reflectors) go to one point outside
         // the clip volume: the triangle is culled, and the index buffer keeps its global order.
         out.clip = vec4<f32>(2.0, 2.0, 0.0, 1.0);
     }

@@ -336,14 +336,32 @@ fn render(args: RenderArgs) -> Result<()> {
     let mut scene = scene::load(&args.scene)?;
     args.trace.apply(&mut scene);
     cubetrace::cpu::reflection_point::subdivide_non_reflectors(&mut scene, args.subdivide);
-    for problem in scene::diagnose(&scene) {
-        log::warn!("{problem}");
-    }
     let mut camera = scene.camera(args.camera.as_deref())?.clone();
     camera.width = args.width.unwrap_or(camera.width);
     camera.height = args.height.unwrap_or(camera.height);
     scene::check_resolution(camera.width, camera.height)
         .map_err(|e| anyhow::anyhow!("--width/--height: {e}"))?;
+    if let scene::CmoPlacement::Search { count } = scene.cmo.placement {
+        let p = scene::placement::search(&scene, &camera, count, &Default::default());
+        log::info!(
+            "cmo placement auto: {} reflected rays sampled; unresolved {:.2}% with {count} along the axis",
+            p.rays,
+            100.0 * p.axis_unresolved
+        );
+        for (k, (c, share)) in p.centres.iter().zip(&p.unresolved).enumerate() {
+            log::info!(
+                "cmo placement auto: CMO {k} at [{:.3}, {:.3}, {:.3}]: unresolved {:.2}%",
+                c.x,
+                c.y,
+                c.z,
+                100.0 * share
+            );
+        }
+        scene.cmo.placement = scene::CmoPlacement::Explicit(p.centres);
+    }
+    for problem in scene::diagnose(&scene) {
+        log::warn!("{problem}");
+    }
     let method = args
         .method
         .to_possible_value()
@@ -387,7 +405,7 @@ fn render(args: RenderArgs) -> Result<()> {
             m,
             scene.cmo_centres().len() as u32,
             scene.cmo.resolution,
-            scene.self_reflections,
+            scene.captures_reflectors(),
         );
         let mut host = memory::gpu_host_bytes(pixels, format, args.compare);
         if ctx.device_is_cpu() {

@@ -141,7 +141,7 @@ impl FrameRanges {
         let near = eye.as_ref().map_or(floor, |c| {
             (0.5 * c.distance * camera.corner_cos()).max(floor)
         });
-        let captured = |o: &crate::scene::ObjectInfo| scene.self_reflections || !o.reflector;
+        let captured = |o: &crate::scene::ObjectInfo| o.captured;
         let centres = scene.cmo_centres();
         let cmo = centres
             .iter()

@@ -589,7 +589,7 @@ fn gpu_estimate_covers_the_cmo_allocation() {
         let renderer = GpuRenderer::new(&ctx, &scene, &camera, options).unwrap();
         let real = renderer.cmo().bytes();
         let cmos = scene.cmo_centres().len() as u32;
-        let estimate = budget::device_bytes(16, 12, method, cmos, 64, scene.self_reflections);
+        let estimate = budget::device_bytes(16, 12, method, cmos, 64, scene.captures_reflectors());
         eprintln!("{method:?}: CMO data {real} bytes, estimate {estimate:?}");
         assert!(estimate.cmo >= real, "{method:?}: {estimate:?} < {real}");
         assert!(
@@ -597,7 +597,7 @@ fn gpu_estimate_covers_the_cmo_allocation() {
             "{method:?}: {estimate:?} against {real}"
         );
         // Negative: the estimate for half the cube size is below the real allocation.
-        let half = budget::device_bytes(16, 12, method, cmos, 32, scene.self_reflections);
+        let half = budget::device_bytes(16, 12, method, cmos, 32, scene.captures_reflectors());
         assert!(half.cmo < real, "{method:?}");
     }
     common::finish_gpu(ctx);

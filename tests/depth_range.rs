@@ -17,7 +17,7 @@ use cubetrace::metrics::{self, ErrorReport, PixelClass};
 use cubetrace::ranges::{FrameRanges, RangeError};
 use cubetrace::reference::{self, Tracer};
 use cubetrace::scene::shapes::{SceneBuilder, checker, cuboid, quad, uv_sphere};
-use cubetrace::scene::{CmoPlacement, CmoSpec, Scene, Transform, builtin};
+use cubetrace::scene::{CmoPlacement, CmoSpec, Scene, SelfReflections, Transform, builtin};
 use cubetrace::shading::Shading;
 use cubetrace::vk::GpuContext;
 use cubetrace::vk::frame::{
@@ -51,7 +51,7 @@ fn span_scene(far: f32) -> Scene {
         },
         background: Vec3::new(0.05, 0.05, 0.08),
         shading: Shading::default(),
-        self_reflections: false,
+        self_reflections: SelfReflections::Off,
     });
     let floor = checker("floor", 64, 8, [200, 200, 190], [40, 60, 90]);
     let floor = b.material("floor", Vec3::ONE, Some(floor));

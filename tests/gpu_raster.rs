@@ -16,7 +16,8 @@ use cubetrace::scene::WorldGeometry;
 use cubetrace::scene::gpu_data::{
     GpuMaterial, GpuObject, GpuSceneData, GpuShading, GpuTexture, GpuVertex,
 };
-use cubetrace::scene::{Scene, builtin};
+use cubetrace::scene::shapes::uv_sphere;
+use cubetrace::scene::{MeshInstance, Scene, SelfReflections, Transform, builtin};
 use cubetrace::vk::GpuContext;
 use cubetrace::vk::capture::{Capture, CaptureView};
 use cubetrace::vk::cmo::{CaptureContents, CmoData};
@@ -50,7 +51,7 @@ fn gpu_capture_with(
         &buffers,
         centres,
         size,
-        scene.self_reflections,
+        scene.captures_reflectors(),
         near,
         contents,
     )
@@ -59,7 +60,7 @@ fn gpu_capture_with(
         ctx,
         centres,
         size,
-        scene.self_reflections,
+        scene.captures_reflectors(),
         false,
         &TraceOptions::default(),
         contents,
@@ -102,11 +103,13 @@ fn edge_angle(world: &WorldGeometry, centre: Vec3, dir: Vec3, tri: u32) -> f64 {
 }
 
 /// Angle within which a texel's centre ray counts as grazing a triangle edge: there the
-/// rasteriser's tie rule and the CPU's f64 test may see different triangles. A 1/256 of a
-/// texel at N = 32 (a texel spans about 1/16 rad at a face centre), far above round-off, far
-/// below a texel; the 1/256-step edge search above is finer than that on the test scenes' small
-/// triangles near the CMOs.
-const ID_GRAZE_RAD: f64 = 2.5e-4;
+/// rasteriser's tie rule (and its sub-texel vertex snapping) and the CPU's f64 test may see
+/// different triangles. A 1/256 of a texel (a texel spans about 2/N rad at a face centre): far
+/// above round-off, far below a texel; the 1/256-step edge search above is finer than that on
+/// the test scenes' small triangles near the CMOs.
+fn id_graze_rad(size: u32) -> f64 {
+    2.0 / size as f64 / 256.0
+}
 
 /// ID mismatches where the centre ray does not graze an edge of either triangle.
 fn unexplained_id_mismatches(
@@ -126,7 +129,7 @@ fn unexplained_id_mismatches(
             .filter(|&t| (t as usize) < world.triangles.len())
             .map(|t| edge_angle(world, cpu.centre, dir, t))
             .fold(f64::INFINITY, f64::min);
-        if angle > ID_GRAZE_RAD {
+        if angle > id_graze_rad(cpu.size) {
             out.push((i, g, c, angle));
         }
     }
@@ -181,7 +184,7 @@ fn shared_structs_match_naga_layout() {
         [position, object, normal, _pad, uv, _pad2]
     )
     .unwrap();
-    check_layout!(GpuObject, l("GpuObject"), [material, reflector]).unwrap();
+    check_layout!(GpuObject, l("GpuObject"), [material, reflector, captured]).unwrap();
     check_layout!(GpuMaterial, l("GpuMaterial"), [diffuse, texture]).unwrap();
     check_layout!(GpuTexture, l("GpuTexture"), [offset, width, height, _pad]).unwrap();
     check_layout!(
@@ -213,11 +216,59 @@ fn shared_structs_match_naga_layout() {
     .unwrap();
 }
 
+/// The torus scene with a second reflector, a convex sphere: under `self_reflections = auto`
+/// the capture draws the torus (it sees itself) and culls the sphere.
+fn torus_and_sphere() -> Scene {
+    let mut scene = builtin::torus();
+    scene.self_reflections = SelfReflections::Auto;
+    let material = scene.meshes[1].parts[0].material;
+    scene.meshes.push(MeshInstance {
+        name: "mirror-sphere".into(),
+        // Inside the torus's hole, clear of the tube and of the CMO centre.
+        parts: vec![uv_sphere(0.15, 24, 12, material)],
+        transform: Transform::translation(Vec3::new(0.25, 1.5, 0.25)),
+        reflector: true,
+    });
+    assert_eq!(
+        scene.self_capture().iter().filter(|&&c| c).count(),
+        1,
+        "the torus only"
+    );
+    scene
+}
+
+/// Negative for the per-reflector choice: a GPU capture that draws every reflector (the old
+/// global switch on) differs from the CPU capture of the same scene under auto.
+#[test]
+fn capture_comparison_fails_when_every_reflector_is_drawn() {
+    let ctx = gpu_context();
+    let scene = torus_and_sphere();
+    let centres = scene.cmo_centres();
+    let tracer = Tracer::new(&scene);
+    let mut on = scene.clone();
+    on.self_reflections = SelfReflections::On;
+    let gpu = gpu_capture(&ctx, &on, &centres, 16);
+    let cpu = reference::capture(&scene, &tracer, centres[0], 16);
+    let bad = capture_mismatches(&gpu[0], &cpu, CAPTURE_DISTANCE_REL, CAPTURE_COLOUR_TOL);
+    let share = bad as f64 / cpu.distance.len() as f64;
+    eprintln!(
+        "sphere drawn on the GPU only: {bad} texels differ ({:.3}%)",
+        100.0 * share
+    );
+    assert!(share > CAPTURE_MISMATCH_SHARE, "{share}");
+    finish_gpu(ctx);
+}
+
 #[test]
 fn capture_matches_cpu_ray_cast_capture() {
     let ctx = gpu_context();
-    for (name, size) in [("sphere-room", 16u32), ("sphere-room", 32), ("teapot", 16)] {
-        let scene = builtin::by_name(name).unwrap();
+    let cases = [
+        ("sphere-room", builtin::sphere_room(), 16u32),
+        ("sphere-room", builtin::sphere_room(), 32),
+        ("teapot", builtin::teapot(), 16),
+        ("torus+sphere", torus_and_sphere(), 16),
+    ];
+    for (name, scene, size) in cases {
         let centres = scene.cmo_centres();
         let tracer = Tracer::new(&scene);
         let gpu = gpu_capture(&ctx, &scene, &centres, size);

@@ -35,7 +35,9 @@ use cubetrace::cubemap::Texel;
 use cubetrace::cubemap::face::{dir_to_texel, face_st_to_dir, neighbour_across, texel_centre_dir};
 use cubetrace::reference::Tracer;
 use cubetrace::scene::shapes::{cuboid, uv_sphere};
-use cubetrace::scene::{CmoPlacement, Material, MeshInstance, Scene, Transform, builtin};
+use cubetrace::scene::{
+    CmoPlacement, Material, MeshInstance, Scene, SelfReflections, Transform, builtin,
+};
 use cubetrace::vk::GpuContext;
 use cubetrace::vk::frame::{
     Fallback, GpuFrame, GpuMethod, GpuRenderer, RECORD_ESCAPED, RECORD_HIT, RECORD_UNRESOLVED,
@@ -99,7 +101,7 @@ fn render_keep(
 /// Judges every mirror pixel of `frame` on its own ray (see the module docs). `shift` moves
 /// every GPU hit point (for the negative test).
 fn judge(scene: &Scene, frame: &GpuFrame, shift: Vec3) -> Verdicts {
-    assert!(!scene.self_reflections, "the judge skips reflectors");
+    assert!(!scene.captures_reflectors(), "the judge skips reflectors");
     let tracer = Tracer::new(scene);
     let centres = scene.cmo_centres();
     let texel = 2.0 / scene.cmo.resolution as f32;
@@ -400,7 +402,7 @@ fn exact_scene_no_wrong(ctx: &GpuContext, name: &str) {
     {
         let mut scene = builtin::by_name(name).expect("listed");
         // The judge compares against non-reflector geometry, as the capture sees it.
-        scene.self_reflections = false;
+        scene.self_reflections = SelfReflections::Off;
         let (frame, r) = render_keep(ctx, &scene, (64, 48), exact());
         let v = judge(&scene, &frame, Vec3::ZERO);
         explain(ctx, &scene, &frame, &r, &v, 8);

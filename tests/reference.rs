@@ -5,7 +5,7 @@
 use cubetrace::camera::Camera;
 use cubetrace::reference::{self, Frame, Hit, Tracer, reflect};
 use cubetrace::scene::shapes::{self, SceneBuilder};
-use cubetrace::scene::{self, CmoPlacement, CmoSpec, Scene, Transform};
+use cubetrace::scene::{self, CmoPlacement, CmoSpec, Scene, SelfReflections, Transform};
 use cubetrace::shading::Shading;
 use glam::{Vec2, Vec3};
 
@@ -22,7 +22,7 @@ fn empty_scene(camera: Camera) -> SceneBuilder {
         },
         background: Vec3::new(0.1, 0.2, 0.3),
         shading: Shading::default(),
-        self_reflections: false,
+        self_reflections: SelfReflections::Off,
     })
 }
 

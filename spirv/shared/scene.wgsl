@@ -20,6 +20,9 @@ struct GpuObject {
     material: u32,
     // 1 for a reflector.
     reflector: u32,
+    // 1 where the cubemap capture draws the object: a non-reflector, or a reflector that sees
+    // itself (Scene::self_capture).
+    captured: u32,
 }
 
 struct GpuMaterial {
@@ -122,6 +125,10 @@ fn scene_shade(object: u32, uv: vec2<f32>, n: vec3<f32>) -> vec3<f32> {
     let l = scene_shading.light_direction;
     let ndl = nn.x * l.x + nn.y * l.y + nn.z * l.z;
     return albedo * (scene_shading.ambient + scene_shading.light_intensity * max(ndl, 0.0));
+}
+
+fn scene_is_captured(object: u32) -> bool {
+    return scene_objects[object].captured != 0u;
 }
 
 fn scene_is_reflector(object: u32) -> bool {

@@ -594,7 +594,7 @@ fn check_memory(ctx: &GpuContext, cfg: &BenchConfig, prepared: &[(Scene, Camera)
                     g,
                     cmos,
                     scene.cmo.resolution,
-                    scene.self_reflections,
+                    scene.captures_reflectors(),
                 )
                 .total()
             })

@@ -680,8 +680,8 @@ pub fn render_phased(
 /// texel centre ([`crate::cubemap::face::texel_centre_dir`]); the distance to the nearest surface
 /// (`+inf` where none), its shaded colour (alpha 1; the background with alpha 0 where none) and
 /// the global index of the triangle it hits ([`NO_ID`] where none).
-/// Reflectors are left out unless the scene has self-reflections on, and then kept only where
-/// they face the centre (normal towards it), as in the GPU capture (`spirv/capture.wgsl`).
+/// Reflectors are left out unless they see themselves ([`crate::scene::Scene::self_capture`]),
+/// and then kept only where they face the centre (normal towards it), as in the GPU capture (`spirv/capture.wgsl`).
 /// This is what a rasterised capture computes at texel centres, so it checks the GPU capture.
 pub fn capture(scene: &Scene, tracer: &Tracer, centre: Vec3, size: u32) -> crate::cubemap::CubeMap {
     let mut cube = crate::cubemap::CubeMap::new(size, centre);
@@ -692,8 +692,10 @@ pub fn capture(scene: &Scene, tracer: &Tracer, centre: Vec3, size: u32) -> crate
             let t = crate::cubemap::Texel::from_index(i, size);
             let dir = crate::cubemap::face::texel_centre_dir(t, size).normalize();
             let hit = tracer.nearest_accepting(centre, dir, None, |h| {
-                !tracer.is_reflector(h.triangle)
-                    || (scene.self_reflections && tracer.normal(h).dot(h.position - centre) <= 0.0)
+                let object = &tracer.world.objects
+                    [tracer.world.triangle_object[h.triangle as usize] as usize];
+                object.captured
+                    && (!object.reflector || tracer.normal(h).dot(h.position - centre) <= 0.0)
             });
             match hit {
                 Some(h) => {

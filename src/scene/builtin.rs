@@ -7,7 +7,7 @@
 use glam::Vec3;
 
 use super::shapes::{self, SceneBuilder};
-use super::{CmoPlacement, CmoSpec, MeshPart, Scene, Transform};
+use super::{CmoPlacement, CmoSpec, MeshPart, Scene, SelfReflections, Transform};
 use crate::camera::Camera;
 use crate::shading::Shading;
 
@@ -62,7 +62,7 @@ fn empty(name: &str, camera: Camera, cmo: CmoPlacement) -> SceneBuilder {
         },
         background: Vec3::new(0.05, 0.05, 0.08),
         shading: Shading::default(),
-        self_reflections: false,
+        self_reflections: SelfReflections::Auto,
     })
 }
 
@@ -206,8 +206,6 @@ pub fn teapot() -> Scene {
         },
         true,
     );
-    // Spout and handle reflect in the body.
-    b.scene.self_reflections = true;
     block(
         &mut b,
         "red-box",
@@ -250,6 +248,10 @@ pub fn torus() -> Scene {
         },
         true,
     );
+    // Not convex, so auto would capture the torus (and its wrong-surface share drops from 5.6 %
+    // to 1.8 % at 320x240, cube 256), but its one CMO sits in the hole, where the captured
+    // inner side of the tube hides the room: 84 % of mirror pixels end unresolved (0.4 % off).
+    b.scene.self_reflections = SelfReflections::Off;
     ball(
         &mut b,
         "magenta-ball",
@@ -281,6 +283,10 @@ pub fn bowl() -> Scene {
         Transform::translation(Vec3::new(0.0, 1.6, -0.4)),
         true,
     );
+    // Concave, so auto would capture the bowl, but from its CMO in front of the mirror the
+    // captured bowl hides what lies behind the centre: 50 % of mirror pixels end unresolved at
+    // 320x240 (0.3 % in error with it off, where a ray rarely meets the bowl again).
+    b.scene.self_reflections = SelfReflections::Off;
     ball(
         &mut b,
         "orange-ball",

@@ -39,10 +39,10 @@ pub fn diagnose(scene: &Scene) -> Vec<String> {
         return out;
     }
     if reflectors == meshes.len() {
-        let captured = if scene.self_reflections {
+        let captured = if scene.captures_reflectors() {
             "only the mirror surfaces that face a CMO centre"
         } else {
-            "nothing (reflectors are left out of the capture without self_reflections)"
+            "nothing (reflectors that cannot see themselves are left out of the capture)"
         };
         out.push(format!(
             "scene '{}': every mesh is a reflector, so the cubemaps capture {captured}; every \

@@ -8,9 +8,10 @@ use std::path::{Path, PathBuf};
 use toml::Spanned;
 
 use super::file::{
-    CameraFile, CmoFile, MeshFile, ScaleFile, SceneFile, ShadingFile, ShadingModel, TransformFile,
+    CameraFile, CmoFile, MeshFile, ScaleFile, SceneFile, SelfReflectionsFile, ShadingFile,
+    ShadingModel, TransformFile,
 };
-use super::{CmoPlacement, Scene};
+use super::{CmoPlacement, Scene, SelfReflections};
 use crate::output::{safe_file_stem as safe, write_atomic};
 use crate::shading::Shading;
 
@@ -132,14 +133,23 @@ pub fn export(scene: &Scene, dir: &Path) -> anyhow::Result<PathBuf> {
             light_intensity: Some(sp(light_intensity)),
         },
     };
-    let (centres, count) = match &scene.cmo.placement {
-        CmoPlacement::Explicit(c) => (Some(sp(c.iter().map(|v| v.to_array()).collect())), None),
-        CmoPlacement::Auto { count } => (None, Some(sp(*count))),
+    let (centres, count, placement) = match &scene.cmo.placement {
+        CmoPlacement::Explicit(c) => (
+            Some(sp(c.iter().map(|v| v.to_array()).collect())),
+            None,
+            None,
+        ),
+        CmoPlacement::Auto { count } => (None, Some(sp(*count)), None),
+        CmoPlacement::Search { count } => (None, Some(sp(*count)), Some(sp("auto".to_string()))),
     };
     let file = SceneFile {
         name: Some(scene.name.clone()),
         background: sp(scene.background.to_array()),
-        self_reflections: scene.self_reflections,
+        self_reflections: Some(sp(match scene.self_reflections {
+            SelfReflections::Auto => SelfReflectionsFile::Word("auto".into()),
+            SelfReflections::On => SelfReflectionsFile::Bool(true),
+            SelfReflections::Off => SelfReflectionsFile::Bool(false),
+        })),
         shading,
         meshes,
         cameras: scene
@@ -157,6 +167,7 @@ pub fn export(scene: &Scene, dir: &Path) -> anyhow::Result<PathBuf> {
         cmo: Some(CmoFile {
             centres,
             count,
+            placement,
             resolution: sp(scene.cmo.resolution),
         }),
     };

@@ -3,7 +3,8 @@
 //! ```toml
 //! name = "my-scene"
 //! background = [0.05, 0.05, 0.08]   # linear RGB of rays that leave the scene
-//! self_reflections = false          # reflectors see themselves (costs mask + normal cubemaps)
+//! self_reflections = "auto"         # reflectors see themselves (costs mask + normal cubemaps):
+//!                                   # "auto" (default: the reflectors that are not convex), true, false
 //!
 //! [shading]
 //! model = "lambert"                 # or "unlit"
@@ -27,6 +28,8 @@
 //!
 //! [cmo]
 //! centres = [[0, 1.2, 0]]           # or: count = 2 (placed along the reflectors' longest axis)
+//!                                   # with count: placement = "auto" chooses up to count centres
+//!                                   # that leave the fewest reflected rays unresolved
 //! resolution = 256                  # texels per cube face side
 //! ```
 //!
@@ -45,7 +48,7 @@ use super::obj::load_obj_file;
 use super::report::{LoadReport, WarningKind};
 use super::{
     CmoPlacement, CmoSpec, MAX_CUBE_SIZE, MAX_IMAGE_SIDE, MeshInstance, Scene, SceneError,
-    Transform,
+    SelfReflections, Transform,
 };
 use crate::camera::Camera;
 use crate::shading::Shading;
@@ -56,8 +59,7 @@ pub(crate) struct SceneFile {
     pub name: Option<String>,
     #[serde(default = "default_background", deserialize_with = "exact")]
     pub background: Spanned<[f32; 3]>,
-    #[serde(default)]
-    pub self_reflections: bool,
+    pub self_reflections: Option<Spanned<SelfReflectionsFile>>,
     #[serde(default)]
     pub shading: ShadingFile,
     #[serde(rename = "mesh", default)]
@@ -65,6 +67,14 @@ pub(crate) struct SceneFile {
     #[serde(rename = "camera", default)]
     pub cameras: Vec<CameraFile>,
     pub cmo: Option<CmoFile>,
+}
+
+/// `self_reflections`: a TOML boolean, or the string `"auto"` (checked on load).
+#[derive(Debug, Deserialize, Serialize, Clone, PartialEq, Eq)]
+#[serde(untagged)]
+pub(crate) enum SelfReflectionsFile {
+    Bool(bool),
+    Word(String),
 }
 
 fn default_background() -> Spanned<[f32; 3]> {
@@ -165,6 +175,9 @@ pub(crate) struct CmoFile {
     #[serde(default, deserialize_with = "exact_list_opt")]
     pub centres: Option<Spanned<Vec<[f32; 3]>>>,
     pub count: Option<Spanned<u32>>,
+    /// With `count`: `"axis"` (the default: along the reflectors' longest axis) or `"auto"`
+    /// (searched for the camera, [`super::placement`]).
+    pub placement: Option<Spanned<String>>,
     #[serde(default = "cube_res")]
     pub resolution: Spanned<u32>,
 }
@@ -342,7 +355,21 @@ pub fn load_scene_file_report(path: &Path) -> Result<(Scene, LoadReport), SceneE
         },
         background: src.finite(&file.background, "background")?,
         shading: shading(&src, &file.shading)?,
-        self_reflections: file.self_reflections,
+        self_reflections: match &file.self_reflections {
+            None => SelfReflections::Auto,
+            Some(v) => match v.get_ref() {
+                SelfReflectionsFile::Bool(true) => SelfReflections::On,
+                SelfReflectionsFile::Bool(false) => SelfReflections::Off,
+                SelfReflectionsFile::Word(w) if w == "auto" => SelfReflections::Auto,
+                SelfReflectionsFile::Word(w) => {
+                    return Err(src.invalid(
+                        v,
+                        "self_reflections",
+                        format!("'{w}' is not one of true, false or \"auto\""),
+                    ));
+                }
+            },
+        },
     };
 
     for (i, m) in file.meshes.iter().enumerate() {
@@ -468,10 +495,27 @@ pub fn load_scene_file_report(path: &Path) -> Result<(Scene, LoadReport), SceneE
                 if n == 0 || n > 64 {
                     return Err(src.invalid(count, "cmo.count", "must be 1 to 64"));
                 }
-                CmoPlacement::Auto { count: n }
+                match cmo.placement.as_ref().map(|p| (p, p.get_ref().as_str())) {
+                    None | Some((_, "axis")) => CmoPlacement::Auto { count: n },
+                    Some((_, "auto")) => CmoPlacement::Search { count: n },
+                    Some((p, other)) => {
+                        return Err(src.invalid(
+                            p,
+                            "cmo.placement",
+                            format!("'{other}' is not one of \"axis\" or \"auto\""),
+                        ));
+                    }
+                }
             }
             (None, None) => CmoPlacement::Auto { count: 1 },
         };
+        if let (Some(p), Some(_)) = (&cmo.placement, &cmo.centres) {
+            return Err(src.invalid(
+                p,
+                "cmo.placement",
+                "applies to count, not to explicit centres",
+            ));
+        }
     }
     Ok((scene, report))
 }

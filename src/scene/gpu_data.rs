@@ -30,6 +30,9 @@ pub struct GpuObject {
     pub material: u32,
     /// 1 for a reflector.
     pub reflector: u32,
+    /// 1 where the cubemap capture draws the object: a non-reflector, or a reflector that sees
+    /// itself ([`crate::scene::Scene::self_capture`]).
+    pub captured: u32,
 }
 
 #[repr(C)]
@@ -73,9 +76,9 @@ pub struct GpuSceneData {
     /// Triangle list in [`crate::scene::WorldGeometry::triangles`] order: global triangle `k`
     /// is `indices[3k..3k + 3]`.
     pub indices: Vec<u32>,
-    /// Indices of the non-reflector triangles: what the capture rasterises with
-    /// self-reflections off (it draws every triangle and culls the reflectors' in the vertex
-    /// shader, so that `vertex_index / 3` stays the global triangle index).
+    /// Indices of the captured triangles ([`GpuObject::captured`]): what the capture rasterises
+    /// (it draws every triangle and culls the others in the vertex shader, so that
+    /// `vertex_index / 3` stays the global triangle index).
     pub capture_index_count: u32,
     pub objects: Vec<GpuObject>,
     pub materials: Vec<GpuMaterial>,
@@ -104,14 +107,12 @@ impl GpuSceneData {
                 ..GpuVertex::default()
             })
             .collect();
-        let reflector = |t: usize| world.objects[world.triangle_object[t] as usize].reflector;
+        let captured = |t: usize| world.objects[world.triangle_object[t] as usize].captured;
         // Indices in `WorldGeometry::triangles` order: triangle `k` is indices `3k..3k + 3`, so a
         // draw's `vertex_index / 3` is the global triangle index.
         let indices: Vec<u32> = world.triangles.iter().flatten().copied().collect();
-        let capture_index_count = 3
-            * (0..world.triangles.len())
-                .filter(|&t| !reflector(t))
-                .count() as u32;
+        let capture_index_count =
+            3 * (0..world.triangles.len()).filter(|&t| captured(t)).count() as u32;
         let mut textures = Vec::new();
         let mut texels = Vec::new();
         for t in &scene.textures {
@@ -159,6 +160,7 @@ impl GpuSceneData {
                 .map(|o| GpuObject {
                     material: o.material,
                     reflector: o.reflector as u32,
+                    captured: o.captured as u32,
                 })
                 .collect(),
             materials: scene
@@ -179,13 +181,9 @@ impl GpuSceneData {
         }
     }
 
-    /// Triangles the cubemap capture draws: reflectors only with self-reflections on.
-    pub fn capture_triangles(&self, self_reflections: bool) -> u32 {
-        if self_reflections {
-            self.indices.len() as u32 / 3
-        } else {
-            self.capture_index_count / 3
-        }
+    /// Triangles the cubemap capture draws: reflectors only where they see themselves.
+    pub fn capture_triangles(&self) -> u32 {
+        self.capture_index_count / 3
     }
 }
 
@@ -203,9 +201,16 @@ mod tests {
         }
         let reflector = |i: u32| g.objects[g.vertices[i as usize].object as usize].reflector;
         let others = g.indices.iter().filter(|&&i| reflector(i) == 0).count();
+        // The sphere is convex: it does not see itself, so the capture leaves it out.
         assert_eq!(g.capture_index_count as usize, others);
-        assert!(g.capture_triangles(false) > 0);
-        assert!(g.capture_triangles(false) < g.capture_triangles(true));
+        assert!(g.capture_triangles() > 0);
+        assert!(g.capture_triangles() < g.indices.len() as u32 / 3);
+        let mut on = s.clone();
+        on.self_reflections = crate::scene::SelfReflections::On;
+        assert_eq!(
+            GpuSceneData::new(&on).capture_triangles(),
+            g.indices.len() as u32 / 3
+        );
         assert_eq!(g.srgb_to_linear[255], 1.0);
         // Texels: red in the low byte.
         let t = &s.textures[0];

@@ -14,12 +14,14 @@
 //!   normal as stored, which is what the rasteriser will interpolate too.
 
 pub mod builtin;
+pub mod convexity;
 mod diagnose;
 mod error;
 pub mod export;
 mod file;
 pub mod gpu_data;
 mod obj;
+pub mod placement;
 mod report;
 pub mod shapes;
 mod world;
@@ -56,9 +58,66 @@ pub struct Scene {
     /// Colour of rays that leave the scene (linear RGB).
     pub background: Vec3,
     pub shading: Shading,
-    /// Whether reflectors see themselves. When off, the cubemap capture leaves reflectors out and
+    /// Whether reflectors see themselves: decided per reflector by default
+    /// ([`SelfReflections::Auto`], see [`Scene::self_capture`]). A reflector without
+    /// self-capture is left out of the cubemap capture; when no reflector has it, the capture
     /// allocates no mirror mask or normal cubemaps.
-    pub self_reflections: bool,
+    pub self_reflections: SelfReflections,
+}
+
+/// The scene file's `self_reflections`: `"auto"` (the default), `true` or `false`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SelfReflections {
+    /// A reflector captures itself exactly when it can see itself: when it is not convex
+    /// ([`convexity::is_convex`] on its world-space triangles, all parts together).
+    #[default]
+    Auto,
+    /// Every reflector captures itself.
+    On,
+    /// No reflector captures itself.
+    Off,
+}
+
+impl Scene {
+    /// Per mesh of [`Scene::meshes`]: whether the cubemap capture draws it as a reflector that
+    /// sees itself (false for every non-reflector).
+    pub fn self_capture(&self) -> Vec<bool> {
+        self.meshes
+            .iter()
+            .map(|mesh| {
+                mesh.reflector
+                    && match self.self_reflections {
+                        SelfReflections::On => true,
+                        SelfReflections::Off => false,
+                        SelfReflections::Auto => !mesh.is_convex(),
+                    }
+            })
+            .collect()
+    }
+
+    /// Whether some reflector captures itself: then the capture records the mirror mask and
+    /// normals.
+    pub fn captures_reflectors(&self) -> bool {
+        self.self_capture().into_iter().any(|c| c)
+    }
+}
+
+impl MeshInstance {
+    /// [`convexity::is_convex`] of all its parts together, in world space.
+    pub fn is_convex(&self) -> bool {
+        let m = self.transform.matrix();
+        let nm = self.transform.normal_matrix();
+        let mut positions = Vec::new();
+        let mut normals = Vec::new();
+        let mut triangles = Vec::new();
+        for part in &self.parts {
+            let base = positions.len() as u32;
+            positions.extend(part.positions.iter().map(|&p| m.transform_point3(p)));
+            normals.extend(part.normals.iter().map(|&n| (nm * n).normalize_or_zero()));
+            triangles.extend(part.triangles.iter().map(|t| t.map(|i| i + base)));
+        }
+        convexity::is_convex(&positions, &normals, &triangles)
+    }
 }
 
 /// One mesh of a scene file: an OBJ file placed by a transform.
@@ -164,6 +223,10 @@ pub enum CmoPlacement {
     Explicit(Vec<Vec3>),
     /// `count` centres spread along the longest axis of the reflectors' bounding box.
     Auto { count: u32 },
+    /// Up to `count` centres chosen by [`placement::search`] for a camera (`[cmo] placement =
+    /// "auto"`). `render` resolves it for the camera it renders; elsewhere
+    /// [`Scene::cmo_centres`] searches for the first camera.
+    Search { count: u32 },
 }
 
 impl Scene {
@@ -176,32 +239,42 @@ impl Scene {
     pub fn cmo_centres(&self) -> Vec<Vec3> {
         match &self.cmo.placement {
             CmoPlacement::Explicit(c) => c.clone(),
-            CmoPlacement::Auto { count } => {
-                let world = self.world();
-                let (lo, hi) = world.bounds(|o| o.reflector);
-                let (lo, hi) = if lo.x > hi.x {
-                    world.bounds(|_| true)
-                } else {
-                    (lo, hi)
-                };
-                let ext = hi - lo;
-                let axis = if ext.x >= ext.y && ext.x >= ext.z {
-                    Vec3::X
-                } else if ext.y >= ext.z {
-                    Vec3::Y
-                } else {
-                    Vec3::Z
-                };
-                let n = (*count).max(1);
-                let centre = 0.5 * (lo + hi);
-                (0..n)
-                    .map(|i| {
-                        let f = (i as f32 + 0.5) / n as f32 - 0.5;
-                        centre + axis * (ext.dot(axis) * f)
-                    })
-                    .collect()
-            }
+            CmoPlacement::Auto { count } => self.axis_centres(*count),
+            CmoPlacement::Search { count } => match self.cameras.first() {
+                Some(camera) => {
+                    placement::search(self, camera, *count, &Default::default()).centres
+                }
+                None => self.axis_centres(*count),
+            },
         }
+    }
+
+    /// `count` centres spread along the longest axis of the reflectors' bounding box (of the
+    /// whole scene without reflectors): [`CmoPlacement::Auto`].
+    pub fn axis_centres(&self, count: u32) -> Vec<Vec3> {
+        let world = self.world();
+        let (lo, hi) = world.bounds(|o| o.reflector);
+        let (lo, hi) = if lo.x > hi.x {
+            world.bounds(|_| true)
+        } else {
+            (lo, hi)
+        };
+        let ext = hi - lo;
+        let axis = if ext.x >= ext.y && ext.x >= ext.z {
+            Vec3::X
+        } else if ext.y >= ext.z {
+            Vec3::Y
+        } else {
+            Vec3::Z
+        };
+        let n = count.max(1);
+        let centre = 0.5 * (lo + hi);
+        (0..n)
+            .map(|i| {
+                let f = (i as f32 + 0.5) / n as f32 - 0.5;
+                centre + axis * (ext.dot(axis) * f)
+            })
+            .collect()
     }
 
     /// Picks a camera by name or index (`None`: the first).

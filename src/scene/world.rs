@@ -11,6 +11,9 @@ pub struct ObjectInfo {
     pub name: String,
     pub material: u32,
     pub reflector: bool,
+    /// Whether the cubemap capture draws it: a non-reflector, or a reflector that sees itself
+    /// ([`Scene::self_capture`]).
+    pub captured: bool,
     /// Range of this object's triangles in [`WorldGeometry::triangles`].
     pub first_triangle: u32,
     pub triangle_count: u32,
@@ -36,7 +39,8 @@ pub struct WorldGeometry {
 impl WorldGeometry {
     pub(super) fn build(scene: &Scene) -> Self {
         let mut w = WorldGeometry::default();
-        for mesh in &scene.meshes {
+        let self_capture = scene.self_capture();
+        for (mesh, &self_capture) in scene.meshes.iter().zip(&self_capture) {
             let m = mesh.transform.matrix();
             let nm = mesh.transform.normal_matrix();
             for part in &mesh.parts {
@@ -56,6 +60,7 @@ impl WorldGeometry {
                     name: format!("{}/{}", mesh.name, part.name),
                     material: part.material,
                     reflector: mesh.reflector,
+                    captured: !mesh.reflector || self_capture,
                     first_triangle: w.triangles.len() as u32,
                     triangle_count: part.triangles.len() as u32,
                 });

@@ -357,7 +357,7 @@ impl GpuRenderer {
             ctx,
             &centres,
             size,
-            scene.self_reflections,
+            scene.captures_reflectors(),
             needs_pyramid,
             &options.trace,
             contents,
@@ -367,7 +367,7 @@ impl GpuRenderer {
             &scene_buffers,
             &centres,
             size,
-            scene.self_reflections,
+            scene.captures_reflectors(),
             ranges.capture_near,
             contents,
         )?;
