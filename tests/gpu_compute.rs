@@ -150,7 +150,7 @@ fn compute_struct_layouts_match_naga() {
         COMPUTE_TRACE.struct_layout("PixelRecord").unwrap(),
         [
             origin, status, dir, cmo, point, riser, colour, face, x, y, texels, cells, traces, t,
-            t_done, pad0
+            t_done, cut
         ]
     )
     .unwrap();

@@ -78,7 +78,7 @@ fn shared_structs_match_naga_layout() {
         l("PixelRecord"),
         [
             origin, status, dir, cmo, point, riser, colour, face, x, y, texels, cells, traces, t,
-            t_done, pad0
+            t_done, cut
         ]
     )
     .unwrap();

@@ -48,7 +48,8 @@ struct PixelRecord {
     traces: u32,
     t: f32,
     t_done: f32,
-    pad0: u32,
+    // 1 where the compute path's step loop ended before the ray did (`main_retrace`).
+    cut: u32,
 }
 
 const RECORD_HIT: u32 = 0u;

@@ -37,6 +37,9 @@ use super::hier32::{Hier32Bindings, Hier32Pass};
 use super::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
 use super::shaders::{APPEND, COMPUTE_TRACE, DISPATCH_ARGS};
 use super::sync::{SHADER_WRITE, TRANSFER_WRITE};
+
+/// The most workgroups of a 1-D dispatch (`maxComputeWorkGroupCount[0]`'s guaranteed minimum).
+const MAX_GROUPS_X: u32 = 65_535;
 use crate::cubemap::pyramid::{
     HIER_MAX_LEVELS, hier32_flat_layout, hier32_group, hier32_layout, hier32_len,
 };
@@ -92,14 +95,15 @@ pub struct DispatchParams {
 /// `main`) or `1` (entry `main_lanes1`). Anything else is refused.
 pub const RAY_LANES_ENV: &str = "CUBETRACE_RAY_LANES";
 
-/// The most lanes `compute_trace` gives one ray, and the entry point that does it: 32 (`main`,
-/// thesis alg. 3: min(S, 32) lanes per ray) by default on every device. [`RAY_LANES_ENV`]`=1`
-/// picks `main_lanes1` (S rays per subgroup, each lane running its ray's 32 logical lanes in
-/// rounds): experimental. It measured fastest on lavapipe, where every lane repeats the ray's
-/// per-ray work (spirv/README.md, "Performance on lavapipe"), but it is wrong on the span scene
-/// of `tests/depth_range.rs` (see there); the device argument is kept for a per-device choice
-/// once that is fixed.
-pub fn ray_lanes(_ctx: &GpuContext) -> VkResult<(u32, &'static str)> {
+/// The most lanes `compute_trace` gives one ray, and the entry point that does it: 1
+/// (`main_lanes1`: S rays per subgroup, each lane running its ray's 32 logical lanes in rounds)
+/// on CPU devices, where every lane repeats the ray's per-ray work so that this layout measured
+/// fastest (spirv/README.md, "Performance on lavapipe"); 32 (`main`, thesis alg. 3: min(S, 32)
+/// lanes per ray) elsewhere. [`RAY_LANES_ENV`] overrides it. With `main_lanes1` the frame also
+/// runs `main_retrace`, which retraces with the thesis layout the rays whose step loop the
+/// driver's loop limit cut (lavapipe: 65535 loop iterations per invocation; spirv/README.md,
+/// "Known defect"), so both layouts give the same records.
+pub fn ray_lanes(ctx: &GpuContext) -> VkResult<(u32, &'static str)> {
     let cap = match std::env::var(RAY_LANES_ENV) {
         Ok(v) => match v.trim() {
             "32" => 32,
@@ -111,9 +115,7 @@ pub fn ray_lanes(_ctx: &GpuContext) -> VkResult<(u32, &'static str)> {
                 });
             }
         },
-        // `main_lanes1` measured fastest on lavapipe, but it leaves rays unresolved that `main`
-        // finishes on very long traversals (tests/depth_range.rs, the 1e-3..1e5 span scene:
-        // 40% against 3%), so it is not the default anywhere until that is understood.
+        Err(_) if ctx.report().device_type == vk::PhysicalDeviceType::CPU => 1,
         Err(_) => 32,
     };
     Ok(if cap == 1 {
@@ -276,6 +278,9 @@ pub struct ComputePath {
     args_set: BindGroup,
     trace: ComputePipeline,
     trace_sets: [BindGroup; 3],
+    /// With `main_lanes1`: `main_retrace`, its sets and its workgroup count (one batch per
+    /// subgroup for every pixel of the frame, at most `MAX_GROUPS_X`).
+    retrace: Option<(ComputePipeline, [BindGroup; 3], u32)>,
     _hier: Buffer,
     _hier_config: Buffer,
     _dispatch_params: Buffer,
@@ -391,28 +396,45 @@ impl ComputePath {
                 (6, Resource::Buffer(cmo.distance())),
             ],
         )?;
+        let sets_for = |pipeline: &ComputePipeline, entry: &str| -> VkResult<[BindGroup; 3]> {
+            Ok([
+                pipeline.bind_group(
+                    0,
+                    &[
+                        (2, Resource::Buffer(params)),
+                        (3, Resource::Buffer(records)),
+                    ],
+                )?,
+                pipeline.bind_group(1, &cmo.resources_for(&COMPUTE_TRACE, entry))?,
+                pipeline.bind_group(
+                    2,
+                    &[
+                        (0, Resource::Buffer(&counter)),
+                        (1, Resource::Buffer(&rays)),
+                        (2, Resource::Buffer(&hier_config)),
+                        (3, Resource::Buffer(&hier)),
+                        (4, Resource::Buffer(&stats)),
+                        (5, Resource::Buffer(&cut)),
+                    ],
+                )?,
+            ])
+        };
         let trace = ComputePipeline::new(ctx, &COMPUTE_TRACE, entry, ComputeOptions::default())?;
-        let trace_sets = [
-            trace.bind_group(
-                0,
-                &[
-                    (2, Resource::Buffer(params)),
-                    (3, Resource::Buffer(records)),
-                ],
-            )?,
-            trace.bind_group(1, &cmo.resources_for(&COMPUTE_TRACE, entry))?,
-            trace.bind_group(
-                2,
-                &[
-                    (0, Resource::Buffer(&counter)),
-                    (1, Resource::Buffer(&rays)),
-                    (2, Resource::Buffer(&hier_config)),
-                    (3, Resource::Buffer(&hier)),
-                    (4, Resource::Buffer(&stats)),
-                    (5, Resource::Buffer(&cut)),
-                ],
-            )?,
-        ];
+        let trace_sets = sets_for(&trace, entry)?;
+        let retrace = if lane_cap == 1 {
+            let entry = "main_retrace";
+            let pipeline =
+                ComputePipeline::new(ctx, &COMPUTE_TRACE, entry, ComputeOptions::default())?;
+            let sets = sets_for(&pipeline, entry)?;
+            let per_group =
+                DispatchParams::for_lanes(ctx.report().subgroup_size, 32).rays_per_group;
+            let groups = u32::try_from(pixels.div_ceil(u64::from(per_group)))
+                .unwrap_or(u32::MAX)
+                .min(MAX_GROUPS_X);
+            Some((pipeline, sets, groups))
+        } else {
+            None
+        };
         Ok(ComputePath {
             width,
             height,
@@ -424,6 +446,7 @@ impl ComputePath {
             args_set,
             trace,
             trace_sets,
+            retrace,
             _hier: hier,
             _hier_config: hier_config,
             _dispatch_params: dispatch_params,
@@ -462,7 +485,8 @@ impl ComputePath {
     }
 
     /// `compute_trace`: the indirect dispatch over the queue (after a barrier from
-    /// `dispatch_args`; the hierarchy must already be visible).
+    /// `dispatch_args`; the hierarchy must already be visible); with `main_lanes1`, then
+    /// `main_retrace` over the rays it flagged `cut`.
     pub fn record_trace(&self, rec: &Recorder<'_>) -> VkResult<()> {
         rec.memory_barrier(SHADER_WRITE, INDIRECT_READ);
         let sets = [
@@ -470,7 +494,12 @@ impl ComputePath {
             &self.trace_sets[1],
             &self.trace_sets[2],
         ];
-        self.trace.dispatch_indirect(rec, &sets, &self.args, 0)
+        self.trace.dispatch_indirect(rec, &sets, &self.args, 0)?;
+        if let Some((pipeline, sets, groups)) = &self.retrace {
+            rec.memory_barrier(SHADER_WRITE, STORAGE_RW);
+            pipeline.dispatch(rec, &[&sets[0], &sets[1], &sets[2]], [*groups, 1, 1]);
+        }
+        Ok(())
     }
 
     /// The ray count, subgroup sizes and per-pixel counters of the last frame.

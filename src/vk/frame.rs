@@ -167,7 +167,9 @@ pub struct PixelRecord {
     pub traces: u32,
     pub t: f32,
     pub t_done: f32,
-    pub pad0: u32,
+    /// 1 where the compute path's step loop ended before the ray did (the driver's loop limit:
+    /// spirv/README.md, "Known defect"); such a ray is unresolved. 0 elsewhere.
+    pub cut: u32,
 }
 
 pub use crate::cpu::fragment_trace::{RECORD_ESCAPED, RECORD_HIT, RECORD_UNRESOLVED};
