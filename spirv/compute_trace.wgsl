@@ -484,7 +484,8 @@ fn main_lanes1(
 // `main_lanes1` dispatch of the same frame), the others left alone: it retraces from scratch
 // the rays that the driver's loop limit cut (spirv/README.md, "Known defect"), one ray per
 // subgroup (at S <= 32) with min(S, 32) lanes, so 32 / min(S, 32) times fewer loop iterations
-// per step than `main_lanes1`. Dispatched with enough groups for one batch per subgroup.
+// per step than `main_lanes1`. Dispatched (`retrace_args`, sized by `dispatch_args`) with one
+// batch per subgroup.
 @compute @workgroup_size(256)
 fn main_retrace(
     @builtin(workgroup_id) wg: vec3<u32>,
@@ -518,8 +519,14 @@ fn trace_all(wg: vec3<u32>, groups: vec3<u32>, sg_size: u32, sg_lane: u32, sg_id
         if !subgroupAny(valid) {
             break;
         }
-        if retrace && valid {
-            valid = records[rays[index].pixel].cut != 0u;
+        if retrace {
+            if valid {
+                valid = records[rays[index].pixel].cut != 0u;
+            }
+            // No cut ray here: skip the batch (the state set-up costs as much as short rays).
+            if !subgroupAny(valid) {
+                continue;
+            }
         }
         trace_queued(valid, index, lane, half, lanes, cells, lane_cap == 1u);
     }

@@ -136,7 +136,7 @@ fn compute_struct_layouts_match_naga() {
     check_layout!(
         DispatchParams,
         DISPATCH_ARGS.struct_layout("DispatchParams").unwrap(),
-        [rays_per_group, cmo_count, size, pad0]
+        [rays_per_group, cmo_count, size, retrace_rays_per_group]
     )
     .unwrap();
     check_layout!(

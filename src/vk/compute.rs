@@ -38,8 +38,6 @@ use super::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
 use super::shaders::{APPEND, COMPUTE_TRACE, DISPATCH_ARGS};
 use super::sync::{SHADER_WRITE, TRANSFER_WRITE};
 
-/// The most workgroups of a 1-D dispatch (`maxComputeWorkGroupCount[0]`'s guaranteed minimum).
-const MAX_GROUPS_X: u32 = 65_535;
 use crate::cubemap::pyramid::{
     HIER_MAX_LEVELS, hier32_flat_layout, hier32_group, hier32_layout, hier32_len,
 };
@@ -88,7 +86,9 @@ pub struct DispatchParams {
     pub cmo_count: u32,
     /// Face size N of the CMOs.
     pub size: u32,
-    pub pad0: u32,
+    /// Rays per `main_retrace` workgroup (`256 / min(S, 32)`) with `lane_cap` 1; 0 otherwise
+    /// (no retrace dispatch).
+    pub retrace_rays_per_group: u32,
 }
 
 /// Environment variable that overrides [`ray_lanes`]'s cap: `32` (the thesis layout, entry
@@ -138,6 +138,11 @@ impl DispatchParams {
     pub fn for_lanes(subgroup_size: u32, lane_cap: u32) -> Self {
         DispatchParams {
             rays_per_group: 256 / subgroup_size.clamp(4, 32).min(lane_cap.max(1)),
+            retrace_rays_per_group: if lane_cap == 1 {
+                256 / subgroup_size.clamp(4, 32)
+            } else {
+                0
+            },
             ..DispatchParams::default()
         }
     }
@@ -278,9 +283,9 @@ pub struct ComputePath {
     args_set: BindGroup,
     trace: ComputePipeline,
     trace_sets: [BindGroup; 3],
-    /// With `main_lanes1`: `main_retrace`, its sets and its workgroup count (one batch per
-    /// subgroup for every pixel of the frame, at most `MAX_GROUPS_X`).
-    retrace: Option<(ComputePipeline, [BindGroup; 3], u32)>,
+    /// With `main_lanes1`: `main_retrace` and its sets (its dispatch: `retrace_args`).
+    retrace: Option<(ComputePipeline, [BindGroup; 3])>,
+    retrace_args: Buffer,
     _hier: Buffer,
     _hier_config: Buffer,
     _dispatch_params: Buffer,
@@ -344,6 +349,11 @@ impl ComputePath {
             size_of::<DispatchArgs>() as u64,
             vk::BufferUsageFlags::INDIRECT_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
         )?;
+        let retrace_args = storage(
+            "main_retrace dispatch",
+            size_of::<DispatchArgs>() as u64,
+            vk::BufferUsageFlags::INDIRECT_BUFFER,
+        )?;
         let stats = storage("ray stats", pixels * 16, vk::BufferUsageFlags::TRANSFER_SRC)?;
         let cut = storage(
             "cmo_cut",
@@ -394,6 +404,7 @@ impl ComputePath {
                 (4, Resource::Buffer(&hier_config)),
                 (5, Resource::Buffer(&hier)),
                 (6, Resource::Buffer(cmo.distance())),
+                (7, Resource::Buffer(&retrace_args)),
             ],
         )?;
         let sets_for = |pipeline: &ComputePipeline, entry: &str| -> VkResult<[BindGroup; 3]> {
@@ -426,12 +437,7 @@ impl ComputePath {
             let pipeline =
                 ComputePipeline::new(ctx, &COMPUTE_TRACE, entry, ComputeOptions::default())?;
             let sets = sets_for(&pipeline, entry)?;
-            let per_group =
-                DispatchParams::for_lanes(ctx.report().subgroup_size, 32).rays_per_group;
-            let groups = u32::try_from(pixels.div_ceil(u64::from(per_group)))
-                .unwrap_or(u32::MAX)
-                .min(MAX_GROUPS_X);
-            Some((pipeline, sets, groups))
+            Some((pipeline, sets))
         } else {
             None
         };
@@ -447,6 +453,7 @@ impl ComputePath {
             trace,
             trace_sets,
             retrace,
+            retrace_args,
             _hier: hier,
             _hier_config: hier_config,
             _dispatch_params: dispatch_params,
@@ -495,9 +502,14 @@ impl ComputePath {
             &self.trace_sets[2],
         ];
         self.trace.dispatch_indirect(rec, &sets, &self.args, 0)?;
-        if let Some((pipeline, sets, groups)) = &self.retrace {
+        if let Some((pipeline, sets)) = &self.retrace {
             rec.memory_barrier(SHADER_WRITE, STORAGE_RW);
-            pipeline.dispatch(rec, &[&sets[0], &sets[1], &sets[2]], [*groups, 1, 1]);
+            pipeline.dispatch_indirect(
+                rec,
+                &[&sets[0], &sets[1], &sets[2]],
+                &self.retrace_args,
+                0,
+            )?;
         }
         Ok(())
     }
