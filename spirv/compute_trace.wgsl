@@ -456,7 +456,10 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
     if valid && lane == 0u {
         var r = st.out;
         if !st.finished {
-            // MAX_STEPS reached (see there): unresolved at the proven-empty prefix.
+            // The step loop ended before the ray did: cut by the driver's loop limit (lavapipe:
+            // 65535 loop iterations per invocation, all loops together; spirv/README.md, "Known
+            // defect") or MAX_STEPS. Unresolved at the proven-empty prefix, flagged `cut` for
+            // `main_retrace`.
             let t = st.t_done;
             let p = vec3<f32>(st.origin.x + prod(t, st.dir.x), st.origin.y + prod(t, st.dir.y), st.origin.z + prod(t, st.dir.z));
             r = trace_out(STATUS_UNRESOLVED, 0xffffffffu, st.result, p, t, st.traces);
@@ -470,6 +473,7 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
         records[st.pixel] = PixelRecord(
             st.origin, r.status, st.dir, r.cmo, r.point, r.riser, colour,
             r.face, r.x, r.y, r.texels, r.cells, r.traces, r.t, r.t_done, triangle,
+            select(0u, 1u, !st.finished), 0u, 0u, 0u,
         );
         ray_stats[st.pixel] = st.sums;
     }
@@ -488,7 +492,7 @@ fn main(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    trace_all(wg, groups, sg_size, sg_lane, sg_id, 32u);
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 32u, false);
 }
 
 @compute @workgroup_size(256)
@@ -499,10 +503,27 @@ fn main_lanes1(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    trace_all(wg, groups, sg_size, sg_lane, sg_id, 1u);
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 1u, false);
 }
 
-fn trace_all(wg: vec3<u32>, groups: vec3<u32>, sg_size: u32, sg_lane: u32, sg_id: u32, lane_cap: u32) {
+// The thesis layout over the rays of the queue whose record is flagged `cut` (by an earlier
+// `main_lanes1` dispatch of the same frame), the others left alone: it retraces from scratch
+// the rays that the driver's loop limit cut (spirv/README.md, "Known defect"), one ray per
+// subgroup (at S <= 32) with min(S, 32) lanes, so 32 / min(S, 32) times fewer loop iterations
+// per step than `main_lanes1`. Dispatched (`retrace_args`, sized by `dispatch_args`) with one
+// batch per subgroup.
+@compute @workgroup_size(256)
+fn main_retrace(
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(subgroup_size) sg_size: u32,
+    @builtin(subgroup_invocation_id) sg_lane: u32,
+    @builtin(subgroup_id) sg_id: u32,
+) {
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 32u, true);
+}
+
+fn trace_all(wg: vec3<u32>, groups: vec3<u32>, sg_size: u32, sg_lane: u32, sg_id: u32, lane_cap: u32, retrace: bool) {
     let lanes = min(min(sg_size, 32u), lane_cap);
     if min(sg_size, 32u) < 4u {
         // Unsupported (refused on the Rust side); uniform over the whole dispatch.
@@ -520,9 +541,18 @@ fn trace_all(wg: vec3<u32>, groups: vec3<u32>, sg_size: u32, sg_lane: u32, sg_id
     let count = atomicLoad(&ray_counter.count);
     for (var batch = 0u; batch < MAX_BATCHES; batch++) {
         let index = (wg.x + batch * groups.x) * rays_per_group + slot;
-        let valid = index < count;
+        var valid = index < count;
         if !subgroupAny(valid) {
             break;
+        }
+        if retrace {
+            if valid {
+                valid = records[rays[index].pixel].cut != 0u;
+            }
+            // No cut ray here: skip the batch (the state set-up costs as much as short rays).
+            if !subgroupAny(valid) {
+                continue;
+            }
         }
         trace_queued(valid, index, lane, half, lanes, cells, lane_cap == 1u);
     }

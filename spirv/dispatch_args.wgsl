@@ -18,12 +18,23 @@
 // The texels (`cmo_distance`), read when the texels are the root (N <= 4).
 @group(0) @binding(6) var<storage, read> cut_distance: array<f32>;
 
+// The `main_retrace` dispatch after `main_lanes1`: one batch per subgroup for every queued ray.
+@group(0) @binding(7) var<storage, read_write> retrace_args: DispatchArgs;
+
+fn group_count(n: u32, rays_per_group: u32) -> u32 {
+    let r = max(rays_per_group, 1u);
+    return min(n / r + select(0u, 1u, n % r != 0u), MAX_GROUPS_X);
+}
+
 @compute @workgroup_size(1)
 fn main() {
     let n = atomicLoad(&ray_counter.count);
-    let r = max(dispatch_params.rays_per_group, 1u);
-    let groups = n / r + select(0u, 1u, n % r != 0u);
-    dispatch_args = DispatchArgs(min(groups, MAX_GROUPS_X), 1u, 1u);
+    dispatch_args = DispatchArgs(group_count(n, dispatch_params.rays_per_group), 1u, 1u);
+    var retrace = 0u;
+    if dispatch_params.retrace_rays_per_group != 0u {
+        retrace = group_count(n, dispatch_params.retrace_rays_per_group);
+    }
+    retrace_args = DispatchArgs(retrace, 1u, 1u);
 
     let size = dispatch_params.size;
     let root = cut_hier_config.root;

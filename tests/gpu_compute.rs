@@ -137,7 +137,7 @@ fn compute_struct_layouts_match_naga() {
     check_layout!(
         DispatchParams,
         DISPATCH_ARGS.struct_layout("DispatchParams").unwrap(),
-        [rays_per_group, cmo_count, size, pad0]
+        [rays_per_group, cmo_count, size, retrace_rays_per_group]
     )
     .unwrap();
     check_layout!(
@@ -151,7 +151,7 @@ fn compute_struct_layouts_match_naga() {
         COMPUTE_TRACE.struct_layout("PixelRecord").unwrap(),
         [
             origin, status, dir, cmo, point, riser, colour, face, x, y, texels, cells, traces, t,
-            t_done, triangle
+            t_done, triangle, cut, pad0, pad1, pad2
         ]
     )
     .unwrap();

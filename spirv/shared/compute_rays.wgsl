@@ -44,7 +44,9 @@ struct DispatchParams {
     // Number of CMOs K and face size N (for the cut radii).
     cmo_count: u32,
     size: u32,
-    pad0: u32,
+    // Rays one `main_retrace` workgroup takes per batch (256 / min(S, 32)); 0: no retrace
+    // dispatch (its workgroup count `retrace_args` is then 0).
+    retrace_rays_per_group: u32,
 }
 // The largest workgroup count per dimension every Vulkan device accepts.
 const MAX_GROUPS_X: u32 = 65535u;

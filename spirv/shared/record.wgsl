@@ -24,6 +24,12 @@ struct PixelRecord {
     // Verified hits: the global triangle hit (0xffffffff otherwise, and for methods that do not
     // verify).
     triangle: u32,
+    // 1 where the compute path's step loop ended before the ray did (`main_retrace` finishes
+    // it); 0 elsewhere.
+    cut: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
 }
 
 const RECORD_HIT: u32 = 0u;

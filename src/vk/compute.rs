@@ -38,6 +38,7 @@ use super::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
 use super::scene_buffers::SceneBuffers;
 use super::shaders::{APPEND, COMPUTE_TRACE, DISPATCH_ARGS};
 use super::sync::{SHADER_WRITE, TRANSFER_WRITE};
+
 use crate::cubemap::pyramid::{
     HIER_MAX_LEVELS, hier32_flat_layout, hier32_group, hier32_layout, hier32_len,
 };
@@ -86,21 +87,24 @@ pub struct DispatchParams {
     pub cmo_count: u32,
     /// Face size N of the CMOs.
     pub size: u32,
-    pub pad0: u32,
+    /// Rays per `main_retrace` workgroup (`256 / min(S, 32)`) with `lane_cap` 1; 0 otherwise
+    /// (no retrace dispatch).
+    pub retrace_rays_per_group: u32,
 }
 
 /// Environment variable that overrides [`ray_lanes`]'s cap: `32` (the thesis layout, entry
 /// `main`) or `1` (entry `main_lanes1`). Anything else is refused.
 pub const RAY_LANES_ENV: &str = "CUBETRACE_RAY_LANES";
 
-/// The most lanes `compute_trace` gives one ray, and the entry point that does it: 32 (`main`,
-/// thesis alg. 3: min(S, 32) lanes per ray) by default on every device. [`RAY_LANES_ENV`]`=1`
-/// picks `main_lanes1` (S rays per subgroup, each lane running its ray's 32 logical lanes in
-/// rounds): experimental. It measured fastest on lavapipe, where every lane repeats the ray's
-/// per-ray work (spirv/README.md, "Performance on lavapipe"), but it is wrong on the span scene
-/// of `tests/depth_range.rs` (see there); the device argument is kept for a per-device choice
-/// once that is fixed.
-pub fn ray_lanes(_ctx: &GpuContext) -> VkResult<(u32, &'static str)> {
+/// The most lanes `compute_trace` gives one ray, and the entry point that does it: 1
+/// (`main_lanes1`: S rays per subgroup, each lane running its ray's 32 logical lanes in rounds)
+/// on CPU devices, where every lane repeats the ray's per-ray work so that this layout measured
+/// fastest (spirv/README.md, "Performance on lavapipe"); 32 (`main`, thesis alg. 3: min(S, 32)
+/// lanes per ray) elsewhere. [`RAY_LANES_ENV`] overrides it. With `main_lanes1` the frame also
+/// runs `main_retrace`, which retraces with the thesis layout the rays whose step loop the
+/// driver's loop limit cut (lavapipe: 65535 loop iterations per invocation; spirv/README.md,
+/// "Known defect"), so both layouts give the same records.
+pub fn ray_lanes(ctx: &GpuContext) -> VkResult<(u32, &'static str)> {
     let cap = match std::env::var(RAY_LANES_ENV) {
         Ok(v) => match v.trim() {
             "32" => 32,
@@ -112,9 +116,7 @@ pub fn ray_lanes(_ctx: &GpuContext) -> VkResult<(u32, &'static str)> {
                 });
             }
         },
-        // `main_lanes1` measured fastest on lavapipe, but it leaves rays unresolved that `main`
-        // finishes on very long traversals (tests/depth_range.rs, the 1e-3..1e5 span scene:
-        // 40% against 3%), so it is not the default anywhere until that is understood.
+        Err(_) if ctx.report().device_type == vk::PhysicalDeviceType::CPU => 1,
         Err(_) => 32,
     };
     Ok(if cap == 1 {
@@ -137,6 +139,11 @@ impl DispatchParams {
     pub fn for_lanes(subgroup_size: u32, lane_cap: u32) -> Self {
         DispatchParams {
             rays_per_group: 256 / subgroup_size.clamp(4, 32).min(lane_cap.max(1)),
+            retrace_rays_per_group: if lane_cap == 1 {
+                256 / subgroup_size.clamp(4, 32)
+            } else {
+                0
+            },
             ..DispatchParams::default()
         }
     }
@@ -277,6 +284,9 @@ pub struct ComputePath {
     args_set: BindGroup,
     trace: ComputePipeline,
     trace_sets: [BindGroup; 4],
+    /// With `main_lanes1`: `main_retrace` and its sets (its dispatch: `retrace_args`).
+    retrace: Option<(ComputePipeline, [BindGroup; 4])>,
+    retrace_args: Buffer,
     _hier: Buffer,
     _hier_config: Buffer,
     _dispatch_params: Buffer,
@@ -342,6 +352,11 @@ impl ComputePath {
             size_of::<DispatchArgs>() as u64,
             vk::BufferUsageFlags::INDIRECT_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
         )?;
+        let retrace_args = storage(
+            "main_retrace dispatch",
+            size_of::<DispatchArgs>() as u64,
+            vk::BufferUsageFlags::INDIRECT_BUFFER,
+        )?;
         let stats = storage("ray stats", pixels * 16, vk::BufferUsageFlags::TRANSFER_SRC)?;
         let cut = storage(
             "cmo_cut",
@@ -392,32 +407,45 @@ impl ComputePath {
                 (4, Resource::Buffer(&hier_config)),
                 (5, Resource::Buffer(&hier)),
                 (6, Resource::Buffer(cmo.distance())),
+                (7, Resource::Buffer(&retrace_args)),
             ],
         )?;
+        let sets_for = |pipeline: &ComputePipeline, entry: &str| -> VkResult<[BindGroup; 4]> {
+            Ok([
+                pipeline.bind_group(
+                    0,
+                    &[
+                        (2, Resource::Buffer(params)),
+                        (3, Resource::Buffer(records)),
+                    ],
+                )?,
+                pipeline.bind_group(1, &cmo.resources_for(&COMPUTE_TRACE, entry))?,
+                pipeline.bind_group(
+                    2,
+                    &[
+                        (0, Resource::Buffer(&counter)),
+                        (1, Resource::Buffer(&rays)),
+                        (2, Resource::Buffer(&hier_config)),
+                        (3, Resource::Buffer(&hier)),
+                        (4, Resource::Buffer(&stats)),
+                        (5, Resource::Buffer(&cut)),
+                    ],
+                )?,
+                // The scene, for verified hits (compute_trace's SCENE_GROUP).
+                pipeline.bind_group(3, &scene.resources())?,
+            ])
+        };
         let trace = ComputePipeline::new(ctx, &COMPUTE_TRACE, entry, ComputeOptions::default())?;
-        let trace_sets = [
-            trace.bind_group(
-                0,
-                &[
-                    (2, Resource::Buffer(params)),
-                    (3, Resource::Buffer(records)),
-                ],
-            )?,
-            trace.bind_group(1, &cmo.resources_for(&COMPUTE_TRACE, entry))?,
-            trace.bind_group(
-                2,
-                &[
-                    (0, Resource::Buffer(&counter)),
-                    (1, Resource::Buffer(&rays)),
-                    (2, Resource::Buffer(&hier_config)),
-                    (3, Resource::Buffer(&hier)),
-                    (4, Resource::Buffer(&stats)),
-                    (5, Resource::Buffer(&cut)),
-                ],
-            )?,
-            // The scene, for verified hits (compute_trace's SCENE_GROUP).
-            trace.bind_group(3, &scene.resources())?,
-        ];
+        let trace_sets = sets_for(&trace, entry)?;
+        let retrace = if lane_cap == 1 {
+            let entry = "main_retrace";
+            let pipeline =
+                ComputePipeline::new(ctx, &COMPUTE_TRACE, entry, ComputeOptions::default())?;
+            let sets = sets_for(&pipeline, entry)?;
+            Some((pipeline, sets))
+        } else {
+            None
+        };
         Ok(ComputePath {
             width,
             height,
@@ -429,6 +457,8 @@ impl ComputePath {
             args_set,
             trace,
             trace_sets,
+            retrace,
+            retrace_args,
             _hier: hier,
             _hier_config: hier_config,
             _dispatch_params: dispatch_params,
@@ -467,7 +497,8 @@ impl ComputePath {
     }
 
     /// `compute_trace`: the indirect dispatch over the queue (after a barrier from
-    /// `dispatch_args`; the hierarchy must already be visible).
+    /// `dispatch_args`; the hierarchy must already be visible); with `main_lanes1`, then
+    /// `main_retrace` over the rays it flagged `cut`.
     pub fn record_trace(&self, rec: &Recorder<'_>) -> VkResult<()> {
         rec.memory_barrier(SHADER_WRITE, INDIRECT_READ);
         let sets = [
@@ -476,7 +507,17 @@ impl ComputePath {
             &self.trace_sets[2],
             &self.trace_sets[3],
         ];
-        self.trace.dispatch_indirect(rec, &sets, &self.args, 0)
+        self.trace.dispatch_indirect(rec, &sets, &self.args, 0)?;
+        if let Some((pipeline, sets)) = &self.retrace {
+            rec.memory_barrier(SHADER_WRITE, STORAGE_RW);
+            pipeline.dispatch_indirect(
+                rec,
+                &[&sets[0], &sets[1], &sets[2], &sets[3]],
+                &self.retrace_args,
+                0,
+            )?;
+        }
+        Ok(())
     }
 
     /// The ray count, subgroup sizes and per-pixel counters of the last frame.

@@ -170,6 +170,12 @@ pub struct PixelRecord {
     /// Verified hits (the exact criterion in the fragment and compute paths): the global
     /// triangle hit; `u32::MAX` otherwise and for methods that do not verify.
     pub triangle: u32,
+    /// 1 where the compute path's step loop ended before the ray did (the driver's loop limit:
+    /// spirv/README.md, "Known defect"); such a ray is unresolved. 0 elsewhere.
+    pub cut: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+    pub pad2: u32,
 }
 
 pub use crate::cpu::fragment_trace::{RECORD_ESCAPED, RECORD_HIT, RECORD_UNRESOLVED};
