@@ -435,16 +435,26 @@ impl ComputePath {
                 pipeline.bind_group(3, &scene.resources())?,
             ])
         };
-        let trace = ComputePipeline::new(ctx, &COMPUTE_TRACE, entry, ComputeOptions::default())?;
+        // The kernel is large and a CPU driver compiles it at pipeline creation (about 0.6 s
+        // each on lavapipe): the retrace entry is compiled on a second thread meanwhile.
+        let new_trace =
+            |entry| ComputePipeline::new(ctx, &COMPUTE_TRACE, entry, ComputeOptions::default());
+        let (trace, retrace_pipeline) = std::thread::scope(|s| {
+            let retrace = (lane_cap == 1).then(|| s.spawn(|| new_trace("main_retrace")));
+            let trace = new_trace(entry);
+            let retrace =
+                retrace.map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)));
+            (trace, retrace)
+        });
+        let trace = trace?;
         let trace_sets = sets_for(&trace, entry)?;
-        let retrace = if lane_cap == 1 {
-            let entry = "main_retrace";
-            let pipeline =
-                ComputePipeline::new(ctx, &COMPUTE_TRACE, entry, ComputeOptions::default())?;
-            let sets = sets_for(&pipeline, entry)?;
-            Some((pipeline, sets))
-        } else {
-            None
+        let retrace = match retrace_pipeline {
+            Some(pipeline) => {
+                let pipeline = pipeline?;
+                let sets = sets_for(&pipeline, "main_retrace")?;
+                Some((pipeline, sets))
+            }
+            None => None,
         };
         Ok(ComputePath {
             width,
