@@ -605,7 +605,8 @@ fn compute_lane_layouts_agree_on_the_span_scene() {
     // either layout and without the validation layer: a 256-invocation workgroup is then 64
     // subgroups, above its `maxComputeWorkgroupSubgroups` of 32 (suspected; spirv/README.md,
     // "Known defect"). The built-in scenes run at 4 in tests/gpu_compute.rs.
-    for bits in [256] {
+    {
+        let bits = 256;
         let wide = span_records(32, bits, FAR);
         let one = span_records(1, bits, FAR);
         let mirror = wide.0.iter().filter(|&&m| m == 1).count();
