@@ -341,12 +341,16 @@ fn render(args: RenderArgs) -> Result<()> {
     camera.height = args.height.unwrap_or(camera.height);
     scene::check_resolution(camera.width, camera.height)
         .map_err(|e| anyhow::anyhow!("--width/--height: {e}"))?;
-    if let scene::CmoPlacement::Search { count } = scene.cmo.placement {
-        let p = scene::placement::search(&scene, &camera, count, &Default::default());
+    let requested = match scene.cmo.placement {
+        scene::CmoPlacement::Search { count } => count,
+        _ => 0,
+    };
+    if let Some(p) = scene.resolve_cmo_placement(&camera) {
         log::info!(
             "cmo placement auto: {} reflected rays sampled; unresolved {:.2}% with {count} along the axis",
             p.rays,
-            100.0 * p.axis_unresolved
+            100.0 * p.axis_unresolved,
+            count = requested,
         );
         for (k, (c, share)) in p.centres.iter().zip(&p.unresolved).enumerate() {
             log::info!(
@@ -357,7 +361,6 @@ fn render(args: RenderArgs) -> Result<()> {
                 100.0 * share
             );
         }
-        scene.cmo.placement = scene::CmoPlacement::Explicit(p.centres);
     }
     for problem in scene::diagnose(&scene) {
         log::warn!("{problem}");

@@ -568,6 +568,8 @@ pub fn prepare_scene(
         .clone();
     camera.width = width;
     camera.height = height;
+    // A placement search runs once, for this camera, not in every `cmo_centres` call.
+    scene.resolve_cmo_placement(&camera);
     scene::check_resolution(width, height).map_err(|e| anyhow::anyhow!("frame size: {e}"))?;
     Ok((scene, camera))
 }

@@ -224,8 +224,9 @@ pub enum CmoPlacement {
     /// `count` centres spread along the longest axis of the reflectors' bounding box.
     Auto { count: u32 },
     /// Up to `count` centres chosen by [`placement::search`] for a camera (`[cmo] placement =
-    /// "auto"`). `render` resolves it for the camera it renders; elsewhere
-    /// [`Scene::cmo_centres`] searches for the first camera.
+    /// "auto"`). `render` and the bench resolve it once for the camera they render
+    /// ([`Scene::resolve_cmo_placement`]); elsewhere [`Scene::cmo_centres`] searches for the
+    /// first camera.
     Search { count: u32 },
 }
 
@@ -247,6 +248,18 @@ impl Scene {
                 None => self.axis_centres(*count),
             },
         }
+    }
+
+    /// Runs the placement search of [`CmoPlacement::Search`] for `camera` once and keeps its
+    /// centres as the scene's ([`CmoPlacement::Explicit`]), so that later [`Scene::cmo_centres`]
+    /// calls (ranges, renderer, metrics) do not search again; `None` for other placements.
+    pub fn resolve_cmo_placement(&mut self, camera: &Camera) -> Option<placement::Placement> {
+        let CmoPlacement::Search { count } = self.cmo.placement else {
+            return None;
+        };
+        let p = placement::search(self, camera, count, &Default::default());
+        self.cmo.placement = CmoPlacement::Explicit(p.centres.clone());
+        Some(p)
     }
 
     /// `count` centres spread along the longest axis of the reflectors' bounding box (of the

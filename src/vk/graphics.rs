@@ -38,8 +38,6 @@ pub struct GraphicsDesc {
 /// How depth is tested (always with writes).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum DepthTest {
-    /// `LESS`, cleared to 1: the usual `[0, 1]` depth.
-    Less,
     /// `GREATER`, cleared to 0: reversed depth (`z / w = near / distance` along the view axis),
     /// with f32 relative precision at every distance and no far plane.
     Reversed,
@@ -125,10 +123,9 @@ impl GraphicsPipeline {
         let depth = vk::PipelineDepthStencilStateCreateInfo::default()
             .depth_test_enable(desc.depth.is_some())
             .depth_write_enable(desc.depth.is_some())
-            .depth_compare_op(match desc.depth {
-                Some((_, DepthTest::Reversed)) => vk::CompareOp::GREATER,
-                _ => vk::CompareOp::LESS,
-            });
+            // Every depth-tested pass uses reversed depth (`DepthTest::Reversed`); without a
+            // depth attachment the test is off and the op unused.
+            .depth_compare_op(vk::CompareOp::GREATER);
         let blend_attachments: Vec<vk::PipelineColorBlendAttachmentState> = desc
             .colour_formats
             .iter()
@@ -227,11 +224,8 @@ impl GraphicsPipeline {
                 .store_op(vk::AttachmentStoreOp::DONT_CARE)
                 .clear_value(vk::ClearValue {
                     depth_stencil: vk::ClearDepthStencilValue {
-                        depth: if self.depth == Some(DepthTest::Reversed) {
-                            0.0
-                        } else {
-                            1.0
-                        },
+                        // Reversed depth: cleared to the far end.
+                        depth: 0.0,
                         stencil: 0,
                     },
                 })
