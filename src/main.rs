@@ -409,6 +409,7 @@ fn render(args: RenderArgs) -> Result<()> {
             scene.cmo_centres().len() as u32,
             scene.cmo.resolution,
             scene.captures_reflectors(),
+            &options.trace,
         );
         let mut host = memory::gpu_host_bytes(pixels, format, args.compare);
         if ctx.device_is_cpu() {
