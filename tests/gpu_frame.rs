@@ -700,10 +700,10 @@ fn exact_frames_take_no_more_cmo_memory_than_colour_and_distance() {
 /// The environment-map fallback shades what the colour capture stored: over a CPU capture
 /// (`reference::capture`, which keeps both the colour and the triangle ID of each texel), the
 /// fallback looked up from the CMO centre along each texel's centre direction equals that
-/// texel's captured colour within 1e-3 on all but a few texels (measured below; where the
-/// texel's normalised centre direction and the unnormalised one the fallback retries with round
-/// to opposite sides of a triangle edge). Negative: looking up one texel over gives other
-/// colours on the textured walls.
+/// texel's captured colour within 1e-3 on all but a few texels (measured 0 of 6144 on
+/// sphere-room and 7 of 6144 on bowl, bound 0.5%; the capture's hit is in f64, the fallback's in
+/// f32, and those few were not looked into further). Negative: looking up one texel over gives
+/// other colours on about a third of the texels.
 #[test]
 fn envmap_fallback_shades_what_the_colour_capture_stored() {
     for name in ["sphere-room", "bowl"] {
