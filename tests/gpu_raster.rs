@@ -396,12 +396,13 @@ fn capture_without_colour_keeps_ids_and_saves_memory() {
             assert!(ids[k].colour.iter().all(|&c| c == [0.0; 4]));
         }
         let texels = 6 * u64::from(size * size) * centres.len() as u64;
-        assert_eq!(both_bytes, colour_bytes + 4 * texels, "{name}");
+        // Colour only keeps a one-u32 placeholder for the IDs (composite binds them).
+        assert_eq!(both_bytes + 4, colour_bytes + 4 * texels, "{name}");
         // 4 B of ID per texel instead of 16 B of colour; the placeholder keeps one RGBA texel
         // per layer.
         let layers = 6 * centres.len() as u64;
         assert_eq!(
-            ids_bytes + 12 * texels,
+            ids_bytes + 12 * texels + 4,
             colour_bytes + 16 * layers,
             "{name}: ids only {ids_bytes} B, colour only {colour_bytes} B"
         );

@@ -75,13 +75,6 @@ fn nearest_cmo(p: vec3<f32>) -> u32 {
     return best;
 }
 
-// Environment-map lookup: the colour CMO `k` stores in direction `dir` (no parallax), or the
-// background where it captured nothing.
-fn envmap_colour(k: u32, dir: vec3<f32>) -> vec3<f32> {
-    let c = cmo_texel_colour(k, dir_to_texel(dir, trace_config.size));
-    return select(frame.background, c.xyz, c.w > 0.0);
-}
-
 // A triangle that covers the whole target.
 @vertex
 fn vs_fullscreen(@builtin(vertex_index) vertex: u32) -> @builtin(position) vec4<f32> {

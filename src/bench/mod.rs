@@ -588,8 +588,8 @@ fn check_memory(ctx: &GpuContext, cfg: &BenchConfig, prepared: &[(Scene, Camera)
         let device = cfg
             .methods
             .iter()
-            .filter_map(|m| m.kind.gpu())
-            .map(|g| {
+            .filter_map(|m| Some((m.kind.gpu()?, m.trace)))
+            .map(|(g, trace)| {
                 crate::vk::budget::device_bytes(
                     camera.width,
                     camera.height,
@@ -597,6 +597,7 @@ fn check_memory(ctx: &GpuContext, cfg: &BenchConfig, prepared: &[(Scene, Camera)
                     cmos,
                     scene.cmo.resolution,
                     scene.captures_reflectors(),
+                    &trace,
                 )
                 .total()
             })

@@ -11,8 +11,9 @@ use glam::Vec3;
 use super::CmoTracer;
 use super::multi::{MultiStatus, Verify, trace_cmos_verified};
 use super::options::{TraceOptions, trace_ray};
+use super::watertight::intersect;
 use crate::cubemap::Texel;
-use crate::cubemap::face::dir_to_texel;
+use crate::cubemap::face::{dir_to_texel, texel_centre_dir};
 
 /// The ray hit a captured surface.
 pub const RECORD_HIT: u32 = 0;
@@ -140,6 +141,44 @@ pub fn nearest_cmo(cmos: &[CmoTracer], p: Vec3) -> usize {
         }
     }
     best.0
+}
+
+/// `composite`'s environment-map fallback for an unresolved pixel's ray (`envmap_fallback` in
+/// `spirv/composite.wgsl`): in CMO `k` nearest to `origin`, the triangle that the texel in
+/// direction `dir` captured, met (watertight, [`super::watertight::intersect`]) by the ray from
+/// the CMO centre along `dir`, or failing that along the texel's centre direction (which the
+/// capture saw it along), and shaded there as the reference shades ([`HitShading`]); the
+/// background where the texel captured nothing or both rays miss. No captured colour is read.
+pub fn envmap_fallback(
+    cmos: &[CmoTracer],
+    origin: Vec3,
+    dir: Vec3,
+    background: Vec3,
+    shading: &HitShading,
+) -> Vec3 {
+    let cube = &cmos[nearest_cmo(cmos, origin)].cube;
+    let texel = dir_to_texel(dir, cube.size);
+    let id = cube
+        .triangle
+        .get(texel.index(cube.size))
+        .copied()
+        .unwrap_or(super::verify::NO_TRIANGLE);
+    let Some(&corners) = shading.corners.get(id as usize) else {
+        return background;
+    };
+    let hit = intersect(cube.centre, dir, corners)
+        .or_else(|| intersect(cube.centre, texel_centre_dir(texel, cube.size), corners));
+    let Some(h) = hit else {
+        return background;
+    };
+    let hit = crate::reference::Hit {
+        t: h.t,
+        position: cube.centre + dir * h.t,
+        triangle: id,
+        bary: glam::Vec2::new(h.bary[1], h.bary[2]),
+        error: 0.0,
+    };
+    shading.tracer.shade(shading.scene, &hit)
 }
 
 /// `envmap` for one pixel: the texel of the nearest CMO in the ray's direction, no parallax.

@@ -4,7 +4,8 @@
 //! size of the scene's files, small against frames and CMOs at the sizes where a refusal matters.
 
 use super::compute::AppendedRay;
-use super::frame::{GpuMethod, PixelRecord};
+use super::frame::{GpuMethod, PixelRecord, capture_contents};
+use crate::cpu::options::TraceOptions;
 use crate::cubemap::pyramid::{hier32_len, mip_len};
 
 /// Bytes per texel of one face of one CMO: f32 distances (`cmo_distance`), RGBA f32 colour
@@ -25,18 +26,6 @@ pub fn cmo_bytes_per_texel_with(
         + if contents.colour { 16 } else { 0 }
         + if contents.triangle_ids { 4 + 4 } else { 0 }
         + if self_reflections { 16 + 16 } else { 0 }
-}
-
-/// The most a frame of `method` captures (`GpuRenderer`'s choice is this or less): the tracers
-/// (fragment, compute) capture triangle IDs to verify hits with, and the colour unless neither
-/// their options nor the fallback need it (the default envmap fallback does: then both are
-/// captured, 8 B per texel more than before verified hits); the other methods the colour only.
-pub fn method_capture_contents(method: GpuMethod) -> super::cmo::CaptureContents {
-    let tracer = matches!(method, GpuMethod::Fragment | GpuMethod::Compute);
-    super::cmo::CaptureContents {
-        colour: true,
-        triangle_ids: tracer,
-    }
 }
 
 /// Bytes per frame pixel: the pixel records, the frame colour (RGBA f32), the G-buffer (colour,
@@ -76,7 +65,8 @@ impl DeviceBytes {
 }
 
 /// The device memory of one render of `width` x `height` pixels with `cmos` CMOs of
-/// `cube_size` texels per face side.
+/// `cube_size` texels per face side, capturing what [`capture_contents`] says for `method` and
+/// the tracer options `trace`.
 pub fn device_bytes(
     width: u32,
     height: u32,
@@ -84,6 +74,7 @@ pub fn device_bytes(
     cmos: u32,
     cube_size: u32,
     self_reflections: bool,
+    trace: &TraceOptions,
 ) -> DeviceBytes {
     let pixels = u64::from(width) * u64::from(height);
     let face = u64::from(cube_size) * u64::from(cube_size);
@@ -97,7 +88,7 @@ pub fn device_bytes(
     DeviceBytes {
         frame: pixels * frame_bytes_per_pixel(method),
         // The capture's depth target: one face at a time.
-        cmo: texels * cmo_bytes_per_texel_with(self_reflections, method_capture_contents(method))
+        cmo: texels * cmo_bytes_per_texel_with(self_reflections, capture_contents(method, trace))
             + face * 4
             + acceleration,
     }
@@ -124,21 +115,29 @@ mod tests {
 
     #[test]
     fn sizes_grow_with_what_they_depend_on() {
-        let base = device_bytes(160, 120, GpuMethod::Fragment, 1, 256, false);
-        // 6 * 256^2 texels of 24 bytes, plus the pyramid: about 9.4 MiB + 2.x MiB.
-        assert!(base.cmo > 6 * 256 * 256 * 24, "{base:?}");
-        assert!(base.cmo < 6 * 256 * 256 * 40, "{base:?}");
+        let exact = TraceOptions::default();
+        let base = device_bytes(160, 120, GpuMethod::Fragment, 1, 256, false, &exact);
+        // 6 * 256^2 texels of 16 bytes (distance and ID, each in the CMO and the capture's
+        // target), plus the pyramid: about 6.3 MiB + 2.x MiB.
+        assert!(base.cmo > 6 * 256 * 256 * 16, "{base:?}");
+        assert!(base.cmo < 6 * 256 * 256 * 24, "{base:?}");
         assert!(base.frame >= 160 * 120 * (96 + 16 + 52), "{base:?}");
         // Negative: each input changes the estimate the way it should.
-        let twice = device_bytes(160, 120, GpuMethod::Fragment, 2, 256, false);
+        let twice = device_bytes(160, 120, GpuMethod::Fragment, 2, 256, false, &exact);
         assert!(twice.cmo > 2 * base.cmo - 6 * 256 * 256);
-        let big = device_bytes(320, 240, GpuMethod::Fragment, 1, 256, false);
+        let big = device_bytes(320, 240, GpuMethod::Fragment, 1, 256, false, &exact);
         assert_eq!(big.frame, 4 * base.frame);
-        let selfr = device_bytes(160, 120, GpuMethod::Fragment, 1, 256, true);
+        let selfr = device_bytes(160, 120, GpuMethod::Fragment, 1, 256, true, &exact);
         assert!(selfr.cmo > base.cmo);
-        let compute = device_bytes(160, 120, GpuMethod::Compute, 1, 256, false);
+        let compute = device_bytes(160, 120, GpuMethod::Compute, 1, 256, false, &exact);
         assert!(compute.frame > base.frame);
-        let envmap = device_bytes(160, 120, GpuMethod::Envmap, 1, 256, false);
-        assert!(envmap.cmo < base.cmo);
+        let envmap = device_bytes(160, 120, GpuMethod::Envmap, 1, 256, false, &exact);
+        let threshold = TraceOptions {
+            criterion: crate::cpu::options::TraceCriterion::Threshold,
+            ..exact
+        };
+        let approx = device_bytes(160, 120, GpuMethod::Fragment, 1, 256, false, &threshold);
+        assert!(envmap.cmo < approx.cmo && base.cmo < approx.cmo);
+        assert_eq!(approx.cmo - base.cmo, 6 * 256 * 256 * 16, "the colour");
     }
 }

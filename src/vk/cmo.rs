@@ -8,7 +8,7 @@
 //! | 3 | `cmo_mip` | `mip_len(N)` `[min, max]` per CMO, `MipPyramid::flatten` | with a pyramid |
 //! | 4 | `cmo_colour` | texture array, layer `6 k + face`: linear RGBA (alpha 0 where empty) | with [`CaptureContents::colour`]; else a 1x1-texel placeholder per layer |
 //! | (none yet) | normal + mirror flag | `6 N N` RGBA per CMO | with self-reflections |
-//! | 5 | `cmo_triangle` | `6 N N` u32 per CMO: global triangle index, `u32::MAX` where empty | with [`CaptureContents::triangle_ids`] |
+//! | 5 | `cmo_triangle` | `6 N N` u32 per CMO: global triangle index, `u32::MAX` where empty | with [`CaptureContents::triangle_ids`]; else a one-u32 placeholder (composite binds it; never read) |
 //!
 //! The capture pass writes distance, colour and normals; the pyramid pass writes `cmo_mip`.
 //! Colour is an image, not a buffer: it is only ever looked up per texel, and an image has no
@@ -65,6 +65,9 @@ pub struct CmoData {
     colour: Image,
     normal: Option<Buffer>,
     triangle: Option<Buffer>,
+    /// `cmo_triangle` without triangle IDs: composite's environment-map fallback binds it, and
+    /// a frame that captures no IDs (the environment-map method) never has an unresolved pixel.
+    triangle_placeholder: Option<Buffer>,
     contents: CaptureContents,
 }
 
@@ -188,6 +191,11 @@ impl CmoData {
             } else {
                 None
             },
+            triangle_placeholder: if contents.triangle_ids {
+                None
+            } else {
+                Some(storage(ctx, "cmo_triangle placeholder", 4)?)
+            },
             contents,
         })
     }
@@ -292,10 +300,12 @@ impl CmoData {
         .sum::<u64>()
             + self.normal.as_ref().map_or(0, |b| b.size())
             + self.triangle.as_ref().map_or(0, |b| b.size())
+            + self.triangle_placeholder.as_ref().map_or(0, |b| b.size())
             + colour.layer_bytes().unwrap_or(0) * u64::from(colour.layers)
     }
 
-    /// Every `@group(1)` resource by binding number (`cmo_triangle` only where captured).
+    /// Every `@group(1)` resource by binding number (`cmo_triangle`: the placeholder where no
+    /// IDs are captured).
     pub fn resources(&self) -> Vec<(u32, Resource<'_>)> {
         let mut r = vec![
             (0, Resource::Buffer(&self.config_buf)),
@@ -310,7 +320,11 @@ impl CmoData {
                 },
             ),
         ];
-        if let Some(t) = &self.triangle {
+        if let Some(t) = self
+            .triangle
+            .as_ref()
+            .or(self.triangle_placeholder.as_ref())
+        {
             r.push((5, Resource::Buffer(t)));
         }
         r

@@ -10,7 +10,7 @@
 //! | or `append`, `dispatch_args`, `compute_trace` | G-buffer, CMO data, hierarchy, scene | the same records ([`super::compute`]) |
 //! | or `hiz`, `ssr` | G-buffer, its min pyramid | the same records ([`super::ssr`]) |
 //! | or `rp_search`, `rp_raster` | scene, G-buffer | the same records ([`super::reflection_point`]) |
-//! | `composite` | G-buffer, records, CMO colour | final colour |
+//! | `composite` | G-buffer, records, CMO triangle IDs + scene (environment-map fallback) | final colour |
 //!
 //! Each pass name is its WGSL file, its debug label and its timestamp scope, so
 //! [`GpuFrame::pass_times`] lines up with the benchmark tables. Everything a frame needs is
@@ -19,9 +19,10 @@
 //!
 //! Only what the options use is allocated: no pyramid for the environment map, no normal/mirror
 //! capture without self-reflections, the hierarchy and the ray queue for the compute path only,
-//! the Hi-Z pyramid for `ssr` only (which, like the environment map, uses the CMOs' colour for
-//! its fallback alone), the search textures, per-vertex buffer and virtual-object targets for
-//! `reflection-point` only (the same).
+//! the Hi-Z pyramid for `ssr` only (which uses the CMOs for its fallback alone), the search
+//! textures, per-vertex buffer and virtual-object targets for `reflection-point` only (the
+//! same); the CMOs' colour for the environment-map method and the approximate criteria only
+//! (the fallback shades from the triangle IDs).
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
@@ -96,7 +97,8 @@ impl GpuMethod {
 pub enum Fallback {
     /// A flag colour (magenta), to see where tracing gave up.
     Flag,
-    /// The environment-map lookup of the nearest CMO.
+    /// The environment-map lookup of the nearest CMO, shaded from the triangle its texel
+    /// captured (`composite.wgsl`, `cpu::fragment_trace::envmap_fallback`).
     #[default]
     Envmap,
     /// The scene's background.
@@ -125,6 +127,20 @@ impl Default for RenderOptions {
             ssr: SsrOptions::default(),
             reflection_point: RpOptions::default(),
         }
+    }
+}
+
+/// What the capture writes for a frame of `method` with tracer options `trace` (issue 10: CMO
+/// memory must not grow; the memory estimate, `super::budget`, uses the same rule). Triangle IDs
+/// for every method but the environment map: the fragment and compute passes verify hits with
+/// them, and composite's environment-map fallback shades from them, whatever the method. The
+/// colour only where a hit takes its texel's colour: the environment-map method and the
+/// thesis's approximate criteria (fragment path). No fallback needs it.
+pub fn capture_contents(method: GpuMethod, trace: &TraceOptions) -> CaptureContents {
+    CaptureContents {
+        colour: method == GpuMethod::Envmap
+            || (method == GpuMethod::Fragment && trace.approx().is_some()),
+        triangle_ids: method != GpuMethod::Envmap,
     }
 }
 
@@ -288,7 +304,7 @@ pub struct GpuRenderer {
     /// The passes of `ReflectionPoint`.
     rp: Option<ReflectionPointPasses>,
     composite: ComputePipeline,
-    composite_sets: [BindGroup; 2],
+    composite_sets: [BindGroup; 3],
     _params: Buffer,
     records: Buffer,
     frame_colour: Buffer,
@@ -347,18 +363,7 @@ impl GpuRenderer {
             }
             super::compute::check_device(ctx)?;
         }
-        // What the capture writes: triangle IDs where the trace pass verifies hits (the exact
-        // criterion of the fragment and compute paths; the fragment pass's general entry point
-        // binds them for every criterion), colour where a method or the fallback still takes a
-        // texel's colour.
-        let tracer_pass = matches!(options.method, GpuMethod::Fragment | GpuMethod::Compute);
-        let exact_only = super::trace_probe::exact_mip_only(&options.trace);
-        let contents = CaptureContents {
-            colour: !tracer_pass
-                || !(exact_only || options.method == GpuMethod::Compute)
-                || options.fallback == Fallback::Envmap,
-            triangle_ids: tracer_pass,
-        };
+        let contents = capture_contents(options.method, &options.trace);
         let cmo = CmoData::with_contents(
             ctx,
             &centres,
@@ -507,6 +512,8 @@ impl GpuRenderer {
                 ],
             )?,
             composite.bind_group(1, &cmo.resources_for(&COMPOSITE, "main"))?,
+            // The scene, for the environment-map fallback's shading.
+            composite.bind_group(2, &scene_buffers.resources())?,
         ];
         let timestamps = if ctx.report().timestamps_supported() {
             Some(Timestamps::new(ctx, 8)?)
@@ -639,7 +646,7 @@ impl GpuRenderer {
             rec.memory_barrier(SHADER_WRITE, SHADER_READ);
             scoped("composite", &mut || {
                 let groups = (self.width * self.height).div_ceil(64);
-                let sets = [&self.composite_sets[0], &self.composite_sets[1]];
+                let sets: Vec<&BindGroup> = self.composite_sets.iter().collect();
                 self.composite.dispatch(rec, &sets, [groups, 1, 1]);
                 Ok(())
             })?;
