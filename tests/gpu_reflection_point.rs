@@ -234,32 +234,43 @@ fn same_surface(scene: &Scene, reference: &Frame, frame: &GpuFrame) -> (usize, f
 }
 
 /// The paper's claim for a convex closed reflector, on `sphere-room` at 192x144: with the
-/// objects subdivided 3 times (4^3 triangles each) and the search textures at 4x the frame, the
-/// reflection shows the reference's surface on >= 98% of the interior pixels that show a
-/// non-reflector object, and >= 97% of all of them (the rest lie where two surfaces meet in the
-/// reflection or at the outline: the discrete reflection point moves those edges by a pixel).
-/// Unsubdivided, the room's walls (two triangles each) reflect as straight-edged polygons.
+/// objects subdivided 4 times (4^4 triangles each) and the search textures at 8x the frame, the
+/// reflection shows the reference's surface on >= 98% of the mirror pixels that show a
+/// non-reflector object. What keeps the rest from it, measured: every pixel is covered (no cap,
+/// no unresolved pixel left); the wrong ones lie on an edge between two objects in the
+/// reflection (the room's corners, the objects' outlines), mostly displaced by one pixel, and
+/// over half of them within two pixels of the mirror's outline, where one pixel spans a wide
+/// range of reflected directions. The reflection point is a texel, so the texture's resolution
+/// bounds how well those edges sit: subdivided 3 times, 95.1% at scale 1, 96.4% at 2, 97.3% at
+/// 4, 97.8% at 8; subdivided 4 times at scale 4, 97.4%. Unsubdivided, the room's walls (two
+/// triangles each) reflect as straight-edged polygons (41%).
 #[test]
 fn sphere_room_same_surface_when_tessellated() {
     let ctx = gpu_context();
     let size = (2 * WIDTH, 2 * HEIGHT);
     let mut results = Vec::new();
-    for (level, scale) in [(0, 1), (3, 4)] {
+    // (subdivision, search scale, iteration cap)
+    let runs = [(0, 1, None), (3, 4, None), (4, 8, None), (4, 8, Some(256))];
+    for (level, scale, cap) in runs {
         let mut scene = builtin::by_name("sphere-room").unwrap();
         subdivide_non_reflectors(&mut scene, level);
         let rp = RpOptions {
             search_scale: scale,
-            ..RpOptions::default()
+            max_iterations: cap,
         };
         let r = render_with(&ctx, &scene, size, rp);
         let reference = reference::render(&scene, &Tracer::new(&scene), &r.camera, 1);
         let (total, share, interior, interior_share) = same_surface(&scene, &reference, &r.frame);
+        let stats = r.frame.search.unwrap();
         eprintln!(
-            "sphere-room subdivided {level}, search scale {scale}: {} triangles, same surface on \
-             {:.2}% of {total} pixels, {:.2}% of {interior} interior ones",
+            "sphere-room subdivided {level}, search scale {scale}, cap {cap:?}: {} triangles, same \
+             surface on {:.2}% of {total} pixels, {:.2}% of {interior} interior ones; {} of {} \
+             searches capped",
             scene.world().triangles.len(),
             100.0 * share,
-            100.0 * interior_share
+            100.0 * interior_share,
+            stats.capped,
+            stats.searched,
         );
         // Negative: the same records shifted by 3 pixels to the right.
         let mut shifted = r.frame.clone();
@@ -269,17 +280,31 @@ fn sphere_room_same_surface_when_tessellated() {
         }
         let (_, shifted_share, _, shifted_interior) = same_surface(&scene, &reference, &shifted);
         assert!(
-            level == 0 || (shifted_share < share - 0.05 && shifted_interior < 0.95),
+            level == 0
+                || cap.is_some()
+                || (shifted_share < share - 0.05 && shifted_interior < interior_share - 0.03),
             "shifted: {shifted_share} {shifted_interior}"
         );
-        results.push((share, interior_share));
+        results.push((share, interior_share, stats.capped));
     }
     finish_gpu(ctx);
     assert!(results[0].0 < 0.6, "coarse: {:?}", results[0]);
     assert!(
-        results[1].0 >= 0.97 && results[1].1 >= 0.98,
-        "tessellated: {:?}",
+        results[1].0 >= 0.97 && results[1].0 < 0.98 && results[1].1 >= 0.98,
+        "subdivided 3 times, scale 4: {:?}",
         results[1]
+    );
+    assert!(
+        results[2].0 >= 0.98 && results[2].2 == 0,
+        "subdivided 4 times, scale 8: {:?}",
+        results[2]
+    );
+    // The former fixed cap of 256 steps gives up searches at scale 8: the default cap follows
+    // the textures' size.
+    assert!(
+        results[3].2 > 1000 && results[3].0 < 0.9,
+        "cap 256 at scale 8: {:?}",
+        results[3]
     );
 }
 

@@ -140,7 +140,7 @@ impl ReflectionPointPasses {
         let params = RpParams {
             view_proj: view_proj.to_cols_array_2d(),
             eye: camera.eye.to_array(),
-            max_iterations: options.max_iterations,
+            max_iterations: options.iteration_cap(sw, sh),
             start: start_texel(data, view_proj, sw, sh),
             width: sw,
             height: sh,
