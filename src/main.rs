@@ -648,7 +648,8 @@ struct BenchArgs {
     #[arg(long)]
     no_floor: bool,
     /// Cost curves instead of the grid: against cube size, screen size, CMO count and triangle
-    /// count (fragment, exact criterion with the pyramid).
+    /// count (fragment, exact criterion with the pyramid); then the reflection-point method's
+    /// error against the reference as the other objects are subdivided (the tessellation curve).
     #[arg(long)]
     scaling: bool,
     /// Scaling: the largest cube face size (powers of two from 32). The default stops at 1024:
@@ -693,10 +694,19 @@ fn bench(args: BenchArgs) -> Result<()> {
             frames: args.frames,
             warmup: args.warmup,
             out: args.out.clone(),
+            tessellation_series: bench::scaling::TESSELLATION_SERIES
+                .iter()
+                .map(|&(scene, scale)| (scene.to_string(), scale))
+                .collect(),
+            tessellation_levels: bench::scaling::TESSELLATION_LEVELS,
         };
         let report = bench::scaling::run(&ctx, &cfg, &bar)?;
         bar.finish_and_clear();
         println!("{}", bench::scaling::table(&report));
+        println!(
+            "{}",
+            bench::scaling::tessellation_table(&report.tessellation)
+        );
         bench::scaling::write(&report, &args.out)?
     } else {
         let defaults = bench::BenchConfig::default();

@@ -14,14 +14,14 @@ use cubetrace::cpu::reflection_point::{
     RpOptions, RpVertex, SearchStats, SearchTextures, Status, subdivide_non_reflectors,
 };
 use cubetrace::metrics;
-use cubetrace::reference::{self, Frame, NO_ID, Tracer};
+use cubetrace::reference::{self, Frame, Tracer};
 use cubetrace::scene::gpu_data::GpuSceneData;
 use cubetrace::scene::{Scene, builtin};
 use cubetrace::vk::GpuContext;
 use cubetrace::vk::frame::{
-    Fallback, GpuFrame, GpuMethod, GpuRenderer, RECORD_HIT, RECORD_UNRESOLVED, RenderOptions,
+    Fallback, GpuFrame, GpuMethod, GpuRenderer, RECORD_UNRESOLVED, RenderOptions,
 };
-use cubetrace::vk::reflection_point::{RpCamera, RpParams};
+use cubetrace::vk::reflection_point::{RpCamera, RpParams, shown_objects};
 use cubetrace::vk::shaders::{RP_RASTER, RP_SEARCH};
 use glam::Vec3;
 
@@ -191,46 +191,12 @@ fn twin_comparison_detects_perturbed_inputs() {
     finish_gpu(ctx);
 }
 
-/// Of the reference's mirror pixels whose reflected ray hits a non-reflector object, the share
-/// where the method shows that same object (`face` of a hit record is the object's index):
-/// over all of them, and over the "interior" ones, whose 3x3 neighbourhood in the reference is
-/// all mirror pixels hitting that same object (not at a junction of two surfaces in the
-/// reflection, nor at the mirror's outline).
+/// [`metrics::same_object`] of a reflection-point frame: (pixels, share, interior pixels,
+/// interior share).
 fn same_surface(scene: &Scene, reference: &Frame, frame: &GpuFrame) -> (usize, f64, usize, f64) {
-    let world = scene.world();
-    let (w, h) = (reference.width as i32, reference.height as i32);
-    let (mut total, mut same, mut interior, mut interior_same) = (0, 0, 0, 0);
-    for k in 0..reference.mask.len() {
-        let o = reference.object_id[k];
-        if reference.mask[k] == 0 || o == NO_ID || world.objects[o as usize].reflector {
-            continue;
-        }
-        let r = &frame.records[k];
-        let ok = frame.mask[k] != 0 && r.status == RECORD_HIT && r.face == o;
-        let (x, y) = ((k as i32) % w, (k as i32) / w);
-        let inner = (-1..=1).all(|dy| {
-            (-1..=1).all(|dx| {
-                let (xx, yy) = (x + dx, y + dy);
-                let j = (yy * w + xx) as usize;
-                xx >= 0
-                    && yy >= 0
-                    && xx < w
-                    && yy < h
-                    && reference.mask[j] != 0
-                    && reference.object_id[j] == o
-            })
-        });
-        total += 1;
-        same += usize::from(ok);
-        interior += usize::from(inner);
-        interior_same += usize::from(inner && ok);
-    }
-    (
-        total,
-        same as f64 / total.max(1) as f64,
-        interior,
-        interior_same as f64 / interior.max(1) as f64,
-    )
+    let reflector: Vec<bool> = scene.world().objects.iter().map(|o| o.reflector).collect();
+    let s = metrics::same_object(reference, &reflector, &shown_objects(frame));
+    (s.pixels, s.share, s.interior_pixels, s.interior_share)
 }
 
 /// The paper's claim for a convex closed reflector, on `sphere-room` at 192x144: with the
@@ -410,4 +376,80 @@ fn oversized_search_textures_are_refused() {
     );
     assert!(GpuRenderer::new(&ctx, &scene, &camera, options(5)).is_ok());
     finish_gpu(ctx);
+}
+
+/// `cubetrace bench --scaling`'s tessellation curve (here its first three levels, on a small
+/// frame): one point per scene and level, each against the reference, written to the JSON, the
+/// Markdown and the two plots. The points must measure the subdivided scenes: on `sphere-room` the
+/// uncovered share falls and the reference's object share rises to the level the tessellation
+/// test finds, which a curve that ignored the subdivision (or measured another frame) would not
+/// show; the concave `bowl` stays below the convex `sphere-room` at the same level.
+#[test]
+fn tessellation_curve_in_the_scaling_report() {
+    use cubetrace::bench::scaling::{self, ScalingConfig};
+    let ctx = gpu_context();
+    let out = tempfile::tempdir().expect("temp dir");
+    let cfg = ScalingConfig {
+        method: cubetrace::bench::MethodSpec::plain(cubetrace::bench::MethodKind::Fragment),
+        axes: Vec::new(),
+        max_cube: 32,
+        width: WIDTH,
+        height: HEIGHT,
+        frames: 1,
+        warmup: 0,
+        out: out.path().to_path_buf(),
+        tessellation_series: vec![("sphere-room".into(), 1), ("bowl".into(), 1)],
+        tessellation_levels: 2,
+    };
+    let report = scaling::run(&ctx, &cfg, &indicatif::ProgressBar::hidden()).expect("scaling");
+    finish_gpu(ctx);
+    let curve = &report.tessellation;
+    assert_eq!(curve.len(), 6);
+    let point = |scene: &str, level: u32| {
+        curve
+            .iter()
+            .find(|p| p.scene == scene && p.subdivide == level)
+            .unwrap()
+    };
+    for p in curve {
+        eprintln!(
+            "{} subdivided {}: {} triangles, unresolved {:.1}%, wrong surface {:.1}%, same object \
+             {:.1}%, PSNR {:.2} dB, rp_search {:.2} ms",
+            p.scene,
+            p.subdivide,
+            p.triangles,
+            100.0 * p.error.unresolved,
+            100.0 * p.error.wrong_surface,
+            100.0 * p.same_object.share,
+            p.error.psnr_db,
+            p.rp_search_ns.median * 1e-6
+        );
+        assert!(
+            p.error.psnr_db.is_finite() && p.search.searched > 0,
+            "{p:?}"
+        );
+        assert!(p.rp_search_ns.median > 0.0 && p.rp_raster_ns.median > 0.0);
+    }
+    // Each level splits the n non-reflector triangles into four: +3n, then +12n.
+    for scene in ["sphere-room", "bowl"] {
+        let t: Vec<usize> = (0..3).map(|l| point(scene, l).triangles).collect();
+        assert!(
+            t[1] > t[0] && t[2] - t[1] == 4 * (t[1] - t[0]),
+            "{scene}: {t:?}"
+        );
+    }
+    let (coarse, fine) = (point("sphere-room", 0), point("sphere-room", 2));
+    assert!(coarse.error.unresolved > 0.3 && fine.error.unresolved < 0.01);
+    assert!(coarse.same_object.share < 0.6 && fine.same_object.share > 0.85);
+    assert!(point("bowl", 2).same_object.share < fine.same_object.share);
+    scaling::write(&report, out.path()).expect("write");
+    let md = std::fs::read_to_string(out.path().join("scaling.md")).unwrap();
+    assert!(md.contains("## Reflection-point: tessellation curve"));
+    assert_eq!(md.matches("| sphere-room | 1 |").count(), 3, "{md}");
+    let json = std::fs::read_to_string(out.path().join("scaling.json")).unwrap();
+    assert!(json.contains("\"tessellation\"") && json.contains("\"same_object\""));
+    for svg in ["scaling-tessellation.svg", "scaling-tessellation-psnr.svg"] {
+        let doc = std::fs::read_to_string(out.path().join(svg)).unwrap();
+        assert!(doc.contains("bowl x1"), "{svg}");
+    }
 }

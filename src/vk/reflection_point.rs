@@ -384,3 +384,14 @@ impl ReflectionPointPasses {
         Ok(SearchStats::of(&self.read_vertices(ctx)?))
     }
 }
+
+/// The object a reflection-point frame shows at each pixel (its records' `face` on the mirror
+/// pixels it covered; `None` elsewhere), for [`crate::metrics::same_object`].
+pub fn shown_objects(frame: &super::frame::GpuFrame) -> Vec<Option<u32>> {
+    (0..frame.records.len())
+        .map(|k| {
+            let r = &frame.records[k];
+            (frame.mask[k] != 0 && r.status == super::frame::RECORD_HIT).then_some(r.face)
+        })
+        .collect()
+}
