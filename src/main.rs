@@ -209,6 +209,10 @@ struct TraceArgs {
     #[arg(long, default_value_t = cubetrace::cpu::reflection_point::DEFAULT_SEARCH_SCALE,
           value_parser = clap::value_parser!(u32).range(1..=8))]
     rp_scale: u32,
+    /// reflection-point: search on the reflectors as they are, not on the closed versions of
+    /// open ones (the paper's open/closed pair).
+    #[arg(long)]
+    rp_open: bool,
 }
 
 impl TraceArgs {
@@ -244,6 +248,7 @@ impl TraceArgs {
             reflection_point: cubetrace::cpu::reflection_point::RpOptions {
                 max_iterations: self.rp_iterations,
                 search_scale: self.rp_scale,
+                close_reflectors: !self.rp_open,
             },
         }
     }

@@ -104,7 +104,7 @@ fn shared_structs_match_naga_layout() {
             width,
             height,
             vertex_count,
-            pad0,
+            index_count,
             pad1,
             pad2
         ]
@@ -128,6 +128,12 @@ fn shared_structs_match_naga_layout() {
         )
         .unwrap();
     }
+    cubetrace::check_layout!(
+        cubetrace::cpu::closure::ClosureVertex,
+        RP_SEARCH.struct_layout("RpClosureVertex").unwrap(),
+        [position, object, normal, behind]
+    )
+    .unwrap();
     cubetrace::check_layout!(
         RpCamera,
         RP_RASTER.struct_layout("RpCamera").unwrap(),
@@ -223,6 +229,7 @@ fn sphere_room_same_surface_when_tessellated() {
         let rp = RpOptions {
             search_scale: scale,
             max_iterations: cap,
+            ..RpOptions::default()
         };
         let r = render_with(&ctx, &scene, size, rp);
         let reference = reference::render(&scene, &Tracer::new(&scene), &r.camera, 1);
@@ -452,4 +459,107 @@ fn tessellation_curve_in_the_scaling_report() {
         let doc = std::fs::read_to_string(out.path().join(svg)).unwrap();
         assert!(doc.contains("bowl x1"), "{svg}");
     }
+}
+
+/// `sphere-room` with the mirror sphere opened at both poles (the triangles of `rings` rings
+/// removed at each), its axis turned towards the camera: the camera sees the inside through the
+/// near hole and the room through both.
+fn open_sphere_room(rings: u32) -> Scene {
+    let mut scene = builtin::by_name("sphere-room").unwrap();
+    let mesh = scene.meshes.iter_mut().find(|m| m.reflector).unwrap();
+    let part = &mut mesh.parts[0];
+    // `uv_sphere(1.0, 64, 32)`: ring r spans polar angles r and r + 1 (of 32) times pi.
+    let ring = |t: &[u32; 3]| {
+        let y = t.iter().map(|&i| part.positions[i as usize].y).sum::<f32>() / 3.0;
+        (y.clamp(-1.0, 1.0).acos() / std::f32::consts::PI * 32.0) as u32
+    };
+    let kept: Vec<[u32; 3]> = part
+        .triangles
+        .iter()
+        .filter(|t| (rings..32 - rings).contains(&ring(t)))
+        .copied()
+        .collect();
+    part.triangles = kept;
+    // The eye (0, 1.8, 3.6) sees the centre (0, 1.2, 0) 9.46 degrees from above.
+    mesh.transform.rotate_deg = Vec3::new(90.0 - 9.46, 0.0, 0.0);
+    scene.name = "open-sphere-room".into();
+    scene
+}
+
+/// The closed version in the search (the paper's open/closed pair). On a sphere opened at both
+/// poles (its mirror outside), the caps enter the search textures with their own depth where the
+/// camera sees through the holes, fewer searches stop on an outline, and the reflection shows the
+/// reference's object more often; the mirror pixels stay the open reflector's. On the concave
+/// `bowl` (its mirror inside) the cap goes behind and the cup covers it: the search textures are
+/// exactly those of the open bowl.
+#[test]
+fn closed_version_in_the_search() {
+    let ctx = gpu_context();
+    let size = (2 * WIDTH, 2 * HEIGHT);
+    // Texels where the open reflector shows and the closed textures differ from it.
+    let changed = |a: &SearchTextures, b: &SearchTextures| {
+        (0..a.position.len())
+            .filter(|&k| a.position[k].w == 1.0)
+            .filter(|&k| a.position[k] != b.position[k] || a.normal[k] != b.normal[k])
+            .count()
+    };
+    let count = |t: &SearchTextures| t.position.iter().filter(|p| p.w == 1.0).count();
+    let outline = |r: &Rendered| SearchStats::with_outline(&r.vertices, &r.textures).on_outline;
+    let mut shares = Vec::new();
+    for scene in [open_sphere_room(6), builtin::by_name("bowl").unwrap()] {
+        let data = GpuSceneData::new(&scene);
+        let closure = cubetrace::cpu::closure::closing_triangles(&data);
+        let run = |close_reflectors| {
+            let rp = RpOptions {
+                close_reflectors,
+                ..RpOptions::default()
+            };
+            render_with(&ctx, &scene, size, rp)
+        };
+        let (open, closed) = (run(false), run(true));
+        assert_eq!(
+            open.frame.mask, closed.frame.mask,
+            "the stencil is the open reflector"
+        );
+        let reference = reference::render(&scene, &Tracer::new(&scene), &open.camera, 1);
+        let (_, open_share, _, _) = same_surface(&scene, &reference, &open.frame);
+        let (_, closed_share, _, _) = same_surface(&scene, &reference, &closed.frame);
+        let added = count(&closed.textures) as i64 - count(&open.textures) as i64;
+        let differ = changed(&open.textures, &closed.textures);
+        eprintln!(
+            "{}: {} closing triangles; {} reflector texels open, {added} added and {differ} \
+             changed by the caps; same object {:.1}% open, {:.1}% closed; searches ending on the \
+             outline {} open, {} closed",
+            scene.name,
+            closure.len() / 3,
+            count(&open.textures),
+            100.0 * open_share,
+            100.0 * closed_share,
+            outline(&open),
+            outline(&closed)
+        );
+        // The twin searches the closed textures as the GPU did.
+        let cpu = closed.textures.search_all(&data);
+        assert!(disagreements(&closed.vertices, &cpu).is_empty());
+        if scene.name == "bowl" {
+            assert_eq!(closure.len(), 64 * 3);
+            assert_eq!((added, differ), (0, 0));
+            assert_eq!(closed.vertices, open.vertices);
+            // Negative: one texel of the open reflector changed is seen.
+            let mut moved = closed.textures.clone();
+            let k = (0..moved.position.len())
+                .find(|&k| open.textures.position[k].w == 1.0)
+                .unwrap();
+            moved.normal[k].x += 0.01;
+            assert_eq!(changed(&open.textures, &moved), 1);
+        } else {
+            assert_eq!(closure.len(), 2 * 64 * 3, "two caps of 64 triangles");
+            assert!(added > 500 && differ > 500, "{added} {differ}");
+            assert!(outline(&closed) < outline(&open) / 4);
+            assert!(closed_share > open_share + 0.03);
+        }
+        shares.push((scene.name.clone(), open_share, closed_share));
+    }
+    eprintln!("{shares:?}");
+    finish_gpu(ctx);
 }

@@ -37,6 +37,9 @@ pub struct RpOptions {
     /// the reflection point is found to a texel, and near the outline of a curved reflector a
     /// texel spans a wide range of reflected directions.
     pub search_scale: u32,
+    /// Search on the closed version of open reflectors ([`crate::cpu::closure`], the paper's
+    /// open/closed pair); `false`: on the reflectors as they are.
+    pub close_reflectors: bool,
 }
 
 /// The default [`RpOptions::search_scale`].
@@ -47,6 +50,7 @@ impl Default for RpOptions {
         RpOptions {
             max_iterations: None,
             search_scale: DEFAULT_SEARCH_SCALE,
+            close_reflectors: true,
         }
     }
 }
