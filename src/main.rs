@@ -201,7 +201,7 @@ struct TraceArgs {
     #[arg(long, allow_negative_numbers = true, value_parser = positive_finite)]
     ssr_thickness: Option<f32>,
     /// reflection-point: steps of one search (forward or inverse) before the vertex is given up
-    /// (its triangles are then not drawn). Default: the search textures' larger side in texels.
+    /// (its triangles are then not drawn). Default: the search textures' width + height in texels.
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=65536))]
     rp_iterations: Option<u32>,
     /// reflection-point: the search textures (the reflector's positions and normals) have this

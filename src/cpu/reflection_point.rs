@@ -30,7 +30,7 @@ use crate::scene::{MeshPart, Scene};
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct RpOptions {
     /// Steps of one search (forward, and inverse) before it is given up (the vertex then has no
-    /// virtual vertex and its triangles are not drawn). `None`: the search textures' larger side
+    /// virtual vertex and its triangles are not drawn). `None`: the search textures' width + height
     /// ([`RpOptions::iteration_cap`]).
     pub max_iterations: Option<u32>,
     /// T_P and T_N have `search_scale` times the frame's width and height (same projection):
@@ -57,12 +57,14 @@ impl Default for RpOptions {
 
 impl RpOptions {
     /// The iteration cap for search textures of `width` x `height` texels: the explicit one, or
-    /// the larger side. A walk moves at most one texel per step along each axis, so from its start
-    /// it reaches any texel of the textures within that many steps when it heads for its maximum;
-    /// a fixed cap would cut the searches of larger textures (the steps grow with the search
-    /// scale: a cap of 256 gave up 19% of `sphere-room`'s vertices at scale 8, 192x144).
+    /// `width + height`. A step moves one texel along either axis or both, so a walk that heads
+    /// for its maximum reaches any texel within the larger side, and one that turns once (along
+    /// one axis, then the other) within the sum. The steps grow with the search scale, so a
+    /// fixed cap cuts the searches of larger textures: 256 gave up 19% of `sphere-room`'s
+    /// vertices at scale 8, 192x144 (at most 357 steps were needed there).
     pub fn iteration_cap(&self, width: u32, height: u32) -> u32 {
-        self.max_iterations.unwrap_or(width.max(height).max(1))
+        self.max_iterations
+            .unwrap_or(width.saturating_add(height).max(1))
     }
 }
 
