@@ -5,7 +5,10 @@
 // Two parts, both in this pass:
 // - `vs_reflector` / `fs_reflector`: the reflectors alone, from the camera, into the textures T_P
 //   (world position, w = 1 on a reflector texel, 0 elsewhere) and T_N (interpolated normal).
-//   Other objects are not drawn, so they do not hide the reflector from the search.
+//   Other objects are not drawn, so they do not hide the reflector from the search. After the
+//   scene's triangles come the closing triangles of open reflectors (`cpu::closure`, the paper's
+//   closed version), with their own depth, or behind every reflector surface where they cap the
+//   mirror's side (a concave mirror's opening).
 // - `search`: one invocation per scene vertex. Reflector vertices are skipped. From the start
 //   texel, each step scores the centre and its neighbours (the four of the crosshair on the first
 //   step, all eight afterwards) by `dot(N, B)`, B the bisector of the directions to the eye and to
@@ -31,9 +34,19 @@ struct RpParams {
     width: u32,
     height: u32,
     vertex_count: u32,
-    pad0: u32,
+    // The scene's index count: vertices of the reflector draw past it are closing ones.
+    index_count: u32,
     pad1: u32,
     pad2: u32,
+}
+
+// `cpu::closure::ClosureVertex`: a closing triangle's vertex (a triangle list).
+struct RpClosureVertex {
+    position: vec3<f32>,
+    object: u32,
+    normal: vec3<f32>,
+    // 1: drawn behind every reflector surface (a cap on the mirror's side).
+    behind: u32,
 }
 
 // One per scene vertex.
@@ -68,6 +81,13 @@ const RP_OFF: f32 = -4.0;
 @group(1) @binding(1) var reflector_position: texture_2d<f32>;
 @group(1) @binding(2) var reflector_normal: texture_2d<f32>;
 @group(1) @binding(3) var<storage, read_write> rp_vertices: array<RpVertex>;
+// At least one element; only the first (reflector draw count - index_count) are read.
+@group(1) @binding(4) var<storage, read> rp_closure: array<RpClosureVertex>;
+
+// A closing triangle drawn behind has its reversed depth times this: behind every reflector
+// surface (whose depth `near / distance` it could only exceed at 2^40 times the distance), in
+// front of the clear value 0, and in its own order among closing triangles.
+const RP_CLOSURE_BEHIND_SCALE: f32 = 9.094947e-13; // 2^-40
 
 struct ReflectorVarying {
     @builtin(position) clip: vec4<f32>,
@@ -77,8 +97,19 @@ struct ReflectorVarying {
 
 @vertex
 fn vs_reflector(@builtin(vertex_index) vertex: u32) -> ReflectorVarying {
-    let v = scene_vertices[scene_indices[vertex]];
     var out: ReflectorVarying;
+    if vertex >= rp.index_count {
+        let c = rp_closure[vertex - rp.index_count];
+        var clip = rp.view_proj * vec4<f32>(c.position, 1.0);
+        if c.behind != 0u {
+            clip.z = clip.z * RP_CLOSURE_BEHIND_SCALE;
+        }
+        out.clip = clip;
+        out.world = c.position;
+        out.normal = c.normal;
+        return out;
+    }
+    let v = scene_vertices[scene_indices[vertex]];
     // Other objects' triangles go outside the clip volume (x > w): no fragment.
     out.clip = select(vec4<f32>(2.0, 2.0, 0.5, 1.0), rp.view_proj * vec4<f32>(v.position, 1.0),
         scene_is_reflector(v.object));

@@ -203,15 +203,18 @@ struct TraceArgs {
     #[arg(long, allow_negative_numbers = true, value_parser = positive_finite)]
     ssr_thickness: Option<f32>,
     /// reflection-point: steps of one search (forward or inverse) before the vertex is given up
-    /// (its triangles are then not drawn).
-    #[arg(long, default_value_t = cubetrace::cpu::reflection_point::DEFAULT_MAX_ITERATIONS,
-          value_parser = clap::value_parser!(u32).range(1..=65536))]
-    rp_iterations: u32,
+    /// (its triangles are then not drawn). Default: the search textures' width + height in texels.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=65536))]
+    rp_iterations: Option<u32>,
     /// reflection-point: the search textures (the reflector's positions and normals) have this
     /// many times the frame's width and height.
     #[arg(long, default_value_t = cubetrace::cpu::reflection_point::DEFAULT_SEARCH_SCALE,
           value_parser = clap::value_parser!(u32).range(1..=8))]
     rp_scale: u32,
+    /// reflection-point: search on the reflectors as they are, not on the closed versions of
+    /// open ones (the paper's open/closed pair).
+    #[arg(long)]
+    rp_open: bool,
 }
 
 impl TraceArgs {
@@ -247,6 +250,7 @@ impl TraceArgs {
             reflection_point: cubetrace::cpu::reflection_point::RpOptions {
                 max_iterations: self.rp_iterations,
                 search_scale: self.rp_scale,
+                close_reflectors: !self.rp_open,
             },
         }
     }
@@ -652,7 +656,8 @@ struct BenchArgs {
     #[arg(long)]
     no_floor: bool,
     /// Cost curves instead of the grid: against cube size, screen size, CMO count and triangle
-    /// count (fragment, exact criterion with the pyramid).
+    /// count (fragment, exact criterion with the pyramid); then the reflection-point method's
+    /// error against the reference as the other objects are subdivided (the tessellation curve).
     #[arg(long)]
     scaling: bool,
     /// Scaling: the largest cube face size (powers of two from 32). The default stops at 1024:
@@ -697,10 +702,19 @@ fn bench(args: BenchArgs) -> Result<()> {
             frames: args.frames,
             warmup: args.warmup,
             out: args.out.clone(),
+            tessellation_series: bench::scaling::TESSELLATION_SERIES
+                .iter()
+                .map(|&(scene, scale)| (scene.to_string(), scale))
+                .collect(),
+            tessellation_levels: bench::scaling::TESSELLATION_LEVELS,
         };
         let report = bench::scaling::run(&ctx, &cfg, &bar)?;
         bar.finish_and_clear();
         println!("{}", bench::scaling::table(&report));
+        println!(
+            "{}",
+            bench::scaling::tessellation_table(&report.tessellation)
+        );
         bench::scaling::write(&report, &args.out)?
     } else {
         let defaults = bench::BenchConfig::default();

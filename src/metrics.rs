@@ -29,7 +29,7 @@
 
 use glam::{DVec3, Vec3};
 
-use crate::reference::Frame;
+use crate::reference::{Frame, NO_ID};
 
 /// How many texel footprints a hit may be off before it counts as the wrong surface. Two
 /// footprints allow for the texel the hit falls in plus one neighbour: the exact per-texel
@@ -289,6 +289,62 @@ pub fn compare(
         r.angular_p95_deg = angles[((angles.len() - 1) as f64 * 0.95).round() as usize];
     }
     r
+}
+
+/// The reflection-point method's accuracy measure (the paper's claim for a convex closed
+/// reflector): of the reference's mirror pixels whose reflected ray hits a non-reflector object,
+/// how many show that same object. `shown[k]` is the object a method shows at pixel `k` (`None`:
+/// no object, or not a mirror pixel of the method). "Interior" pixels are those whose 3x3
+/// neighbourhood in the reference is all mirror pixels hitting that same object: not on an edge
+/// between two surfaces in the reflection, nor at the mirror's outline.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct SameObject {
+    /// Mirror pixels of the reference that show a non-reflector object.
+    pub pixels: usize,
+    /// Share of them where the method shows the same object (NaN when there are none).
+    pub share: f64,
+    pub interior_pixels: usize,
+    /// The same share over the interior ones (NaN when there are none).
+    pub interior_share: f64,
+}
+
+/// [`SameObject`] of `shown` against `reference`; `reflector[o]` says whether object `o` is a
+/// reflector.
+pub fn same_object(reference: &Frame, reflector: &[bool], shown: &[Option<u32>]) -> SameObject {
+    let (w, h) = (reference.width as i64, reference.height as i64);
+    let shows = |k: usize, o: u32| reference.mask[k] != 0 && reference.object_id[k] == o;
+    let (mut total, mut same, mut interior, mut interior_same) = (0usize, 0usize, 0usize, 0usize);
+    for (k, &shown) in shown.iter().enumerate().take(reference.mask.len()) {
+        let o = reference.object_id[k];
+        if reference.mask[k] == 0 || o == NO_ID || reflector.get(o as usize).is_none_or(|&r| r) {
+            continue;
+        }
+        let ok = shown == Some(o);
+        let (x, y) = (k as i64 % w, k as i64 / w);
+        let inner = (-1..=1).all(|dy| {
+            (-1..=1).all(|dx| {
+                let (xx, yy) = (x + dx, y + dy);
+                xx >= 0 && yy >= 0 && xx < w && yy < h && shows((yy * w + xx) as usize, o)
+            })
+        });
+        total += 1;
+        same += usize::from(ok);
+        interior += usize::from(inner);
+        interior_same += usize::from(inner && ok);
+    }
+    let share = |n: usize, d: usize| {
+        if d == 0 {
+            f64::NAN
+        } else {
+            n as f64 / d as f64
+        }
+    };
+    SameObject {
+        pixels: total,
+        share: share(same, total),
+        interior_pixels: interior,
+        interior_share: share(interior_same, interior),
+    }
 }
 
 #[cfg(test)]

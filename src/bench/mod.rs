@@ -680,6 +680,18 @@ pub fn run_gpu(
         fallback: Fallback::Envmap,
         ..RenderOptions::default()
     };
+    run_gpu_with(ctx, scene, camera, options, warmup, frames)
+}
+
+/// [`run_gpu`] with all the render options given.
+pub fn run_gpu_with(
+    ctx: &GpuContext,
+    scene: &Scene,
+    camera: &Camera,
+    options: RenderOptions,
+    warmup: u32,
+    frames: u32,
+) -> Result<GpuRun> {
     let mut renderer = GpuRenderer::new(ctx, scene, camera, options)?;
     for _ in 0..warmup {
         renderer.render(ctx)?;

@@ -10,7 +10,21 @@
 //! | scene triangles | `sphere-room` plus one extra UV sphere beside the mirror | 8, 32, 128, 512 segments |
 //!
 //! Output: `scaling.json`, `scaling.md` and one `scaling-AXIS.svg` per axis (GPU ms per pass
-//! against the quantity, log-log). No error figures: this measures cost only.
+//! against the quantity, log-log). No error figures for the chosen method: this measures cost.
+//!
+//! The triangle axis has a second part, the **tessellation curve** of the reflection-point
+//! method ([`TessellationPoint`]): it reflects vertices, so its error depends on how finely the
+//! other objects are tessellated. Per series (by default [`TESSELLATION_SERIES`]: a built-in
+//! scene and a search scale), the non-reflector objects are subdivided 0 to
+//! [`TESSELLATION_LEVELS`] times
+//! ([`crate::cpu::reflection_point::subdivide_non_reflectors`]: the same surfaces, so the
+//! unsubdivided scene's reference serves every level) and the frame is measured against the exact
+//! reference: unresolved and wrong-surface shares, the share of the reference's object
+//! ([`metrics::same_object`], the paper's claim), PSNR, and the cost of its two passes. The
+//! convex `sphere-room` beside the concave `bowl` and the mixed `torus` shows the limitation of
+//! one reflection point per vertex. Output: the second table of `scaling.md`, `tessellation` in
+//! `scaling.json`, `scaling-tessellation.svg` (error shares) and
+//! `scaling-tessellation-psnr.svg`.
 //!
 //! Invariant: the tracing pass reads only the CMO data, so its cost can depend on the cube size,
 //! the screen and the CMO count, but not on the triangle count; the capture pass rasterises the
@@ -25,12 +39,16 @@ use serde::Serialize;
 use super::plot;
 use super::{
     Counters, DeviceInfo, MethodSpec, PassStats, Stats, frame_stats, git_commit, pass_stats,
-    prepare_scene, run_gpu,
+    prepare_scene, run_gpu, run_gpu_with, run_reference,
 };
+use crate::cpu::reflection_point::{RpOptions, SearchStats, subdivide_non_reflectors};
+use crate::metrics::{self, ErrorReport, SameObject};
 use crate::output::write_atomic;
 use crate::scene::shapes::uv_sphere;
 use crate::scene::{Material, MeshInstance, Scene, Transform};
 use crate::vk::GpuContext;
+use crate::vk::frame::{Fallback, GpuMethod, RenderOptions};
+use crate::vk::reflection_point::shown_objects;
 
 /// Which quantity a point varies.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -77,6 +95,10 @@ pub struct ScalingConfig {
     pub frames: u32,
     pub warmup: u32,
     pub out: PathBuf,
+    /// The reflection-point tessellation curve's series, (scene, search scale); none: no curve.
+    pub tessellation_series: Vec<(String, u32)>,
+    /// The curve's subdivision levels: 0 to this.
+    pub tessellation_levels: u32,
 }
 
 /// One measured point.
@@ -99,6 +121,37 @@ pub struct ScalingPoint {
     pub cmo_bytes: u64,
 }
 
+/// The tessellation curve's series: (built-in scene, search scale). `sphere-room` at scale 8
+/// is where the paper's claim is met (`tests/gpu_reflection_point.rs`).
+pub const TESSELLATION_SERIES: [(&str, u32); 4] = [
+    ("sphere-room", 1),
+    ("sphere-room", 8),
+    ("bowl", 1),
+    ("torus", 1),
+];
+
+/// The tessellation curve's subdivision levels: 0 to this.
+pub const TESSELLATION_LEVELS: u32 = 4;
+
+/// One point of the reflection-point method's tessellation curve.
+#[derive(Clone, Debug, Serialize)]
+pub struct TessellationPoint {
+    pub scene: String,
+    /// Times the non-reflector objects were split into four.
+    pub subdivide: u32,
+    pub search_scale: u32,
+    pub triangles: usize,
+    pub width: u32,
+    pub height: u32,
+    pub mirror_pixels: usize,
+    /// Against the unsubdivided scene's reference.
+    pub error: ErrorReport,
+    pub same_object: SameObject,
+    pub rp_search_ns: Stats,
+    pub rp_raster_ns: Stats,
+    pub search: SearchStats,
+}
+
 #[derive(Clone, Debug, Serialize)]
 pub struct ScalingReport {
     pub device: DeviceInfo,
@@ -107,6 +160,8 @@ pub struct ScalingReport {
     pub frames: u32,
     pub warmup: u32,
     pub points: Vec<ScalingPoint>,
+    /// The reflection-point method's tessellation curve (with the triangle axis).
+    pub tessellation: Vec<TessellationPoint>,
 }
 
 /// `sphere-room` with one extra diffuse UV sphere of `segments` x `segments / 2` quads beside
@@ -185,7 +240,9 @@ pub fn run(
         .iter()
         .map(|&a| Ok((a, plan(a, cfg)?)))
         .collect::<Result<_>>()?;
-    bar.set_length(plans.iter().map(|(_, p)| p.len() as u64).sum());
+    let curve_points =
+        cfg.tessellation_series.len() as u64 * u64::from(cfg.tessellation_levels + 1);
+    bar.set_length(plans.iter().map(|(_, p)| p.len() as u64).sum::<u64>() + curve_points);
     let mut points = Vec::new();
     for (axis, plan) in plans {
         for (x, scene, width, height) in plan {
@@ -224,6 +281,7 @@ pub fn run(
             super::check_validation(ctx)?;
         }
     }
+    let tessellation = tessellation_curve(ctx, cfg, bar)?;
     Ok(ScalingReport {
         device: DeviceInfo::of(ctx),
         git_commit: git_commit(),
@@ -231,7 +289,149 @@ pub fn run(
         frames: cfg.frames,
         warmup: cfg.warmup,
         points,
+        tessellation,
     })
+}
+
+/// The reflection-point method's error against the reference as the other objects are
+/// subdivided: every series of [`ScalingConfig::tessellation_series`], levels 0 to
+/// [`ScalingConfig::tessellation_levels`].
+fn tessellation_curve(
+    ctx: &GpuContext,
+    cfg: &ScalingConfig,
+    bar: &indicatif::ProgressBar,
+) -> Result<Vec<TessellationPoint>> {
+    let mut out = Vec::new();
+    let mut reference: Option<(String, crate::reference::Frame)> = None;
+    for (name, scale) in &cfg.tessellation_series {
+        let (name, scale) = (name.as_str(), *scale);
+        let (scene, camera) = prepare_scene(name, cfg.width, cfg.height, None, None)?;
+        if reference.as_ref().is_none_or(|(n, _)| n != name) {
+            bar.set_message(format!("tessellation: {name} reference"));
+            reference = Some((name.to_string(), run_reference(&scene, &camera, 0, 1).frame));
+        }
+        let refr = &reference.as_ref().expect("set above").1;
+        let centres = scene.cmo_centres();
+        let reflector: Vec<bool> = scene.world().objects.iter().map(|o| o.reflector).collect();
+        for level in 0..=cfg.tessellation_levels {
+            bar.set_message(format!("tessellation: {name} x{scale} subdivided {level}"));
+            let mut sub = scene.clone();
+            subdivide_non_reflectors(&mut sub, level);
+            let options = RenderOptions {
+                method: GpuMethod::ReflectionPoint,
+                fallback: Fallback::Envmap,
+                reflection_point: RpOptions {
+                    search_scale: scale,
+                    ..RpOptions::default()
+                },
+                ..RenderOptions::default()
+            };
+            let g = run_gpu_with(ctx, &sub, &camera, options, cfg.warmup, cfg.frames)?;
+            let traced = g.frame.traced();
+            let error = metrics::compare(
+                refr,
+                &traced,
+                &g.frame.surface_position,
+                &centres,
+                scene.cmo.resolution,
+            );
+            out.push(TessellationPoint {
+                scene: name.to_string(),
+                subdivide: level,
+                search_scale: scale,
+                triangles: sub.world().triangles.len(),
+                width: cfg.width,
+                height: cfg.height,
+                mirror_pixels: g.frame.mirror_pixels(),
+                error,
+                same_object: metrics::same_object(refr, &reflector, &shown_objects(&g.frame)),
+                rp_search_ns: frame_stats(&g.pass_ns, Some("rp_search")),
+                rp_raster_ns: frame_stats(&g.pass_ns, Some("rp_raster")),
+                search: g.frame.search.unwrap_or_default(),
+            });
+            bar.inc(1);
+            super::check_validation(ctx)?;
+        }
+    }
+    Ok(out)
+}
+
+/// The Markdown table of the tessellation curve.
+pub fn tessellation_table(points: &[TessellationPoint]) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::from(
+        "| scene | search scale | subdivide | triangles | frame | mirror px | unresolved % | wrong surface % | same object % | same object, interior % | angle mean deg | PSNR dB | rp_search ms | rp_raster ms | steps mean / max |\n\
+         |---|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+    );
+    for p in points {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {}x{} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.1} | {:.2} | {:.3} | {:.3} | {:.1} / {} |",
+            p.scene,
+            p.search_scale,
+            p.subdivide,
+            p.triangles,
+            p.width,
+            p.height,
+            p.mirror_pixels,
+            100.0 * p.error.unresolved,
+            100.0 * p.error.wrong_surface,
+            100.0 * p.same_object.share,
+            100.0 * p.same_object.interior_share,
+            p.error.angular_mean_deg,
+            p.error.psnr_db,
+            p.rp_search_ns.median * 1e-6,
+            p.rp_raster_ns.median * 1e-6,
+            p.search.mean_iterations,
+            p.search.max_iterations,
+        );
+    }
+    s
+}
+
+/// The tessellation curve's plots: error shares, and PSNR, against the triangle count; one line
+/// per series and figure.
+fn tessellation_plots(points: &[TessellationPoint]) -> Result<[String; 2]> {
+    let mut series: Vec<(String, u32)> = Vec::new();
+    for p in points {
+        if !series.contains(&(p.scene.clone(), p.search_scale)) {
+            series.push((p.scene.clone(), p.search_scale));
+        }
+    }
+    let line =
+        |(scene, scale): &(String, u32), what: &str, f: &dyn Fn(&TessellationPoint) -> f64| {
+            let v = points
+                .iter()
+                .filter(|p| p.scene == *scene && p.search_scale == *scale)
+                .map(|p| (p.triangles as f64, f(p)))
+                .collect();
+            (format!("{scene} x{scale} {what}"), v)
+        };
+    let mut shares = Vec::new();
+    let mut psnr = Vec::new();
+    for s in &series {
+        shares.push(line(s, "wrong surface %", &|p| {
+            100.0 * p.error.wrong_surface
+        }));
+        shares.push(line(s, "not the reference's object %", &|p| {
+            100.0 * (1.0 - p.same_object.share)
+        }));
+        psnr.push(line(s, "PSNR dB", &|p| p.error.psnr_db));
+    }
+    Ok([
+        plot::lines(
+            "reflection-point: error against the reference as the other objects are subdivided",
+            "triangles in the scene",
+            "% of mirror pixels (of those showing an object, for the object share)",
+            &shares,
+        )?,
+        plot::lines(
+            "reflection-point: PSNR of the mirror pixels as the other objects are subdivided",
+            "triangles in the scene",
+            "PSNR dB (mirror pixels)",
+            &psnr,
+        )?,
+    ])
 }
 
 /// The Markdown table of a scaling report.
@@ -279,7 +479,7 @@ pub fn write(report: &ScalingReport, dir: &Path) -> Result<Vec<PathBuf>> {
     write_atomic(&json, serde_json::to_string_pretty(report)?.as_bytes())?;
     paths.push(json);
     let md = dir.join("scaling.md");
-    let doc = format!(
+    let mut doc = format!(
         "# cubetrace bench --scaling\n\nDevice: {}; commit {}; method {}; {} timed frames after {} warm-up.\n\n{}",
         report.device.describe(),
         report.git_commit.as_deref().unwrap_or("unknown"),
@@ -288,6 +488,13 @@ pub fn write(report: &ScalingReport, dir: &Path) -> Result<Vec<PathBuf>> {
         report.warmup,
         table(report)
     );
+    if !report.tessellation.is_empty() {
+        doc.push_str(&format!(
+            "\n## Reflection-point: tessellation curve\n\nThe non-reflector objects subdivided 0 to {} times, against the unsubdivided scene's reference (same surfaces). Same object: of the reference's mirror pixels that show a non-reflector object, the share showing that object (interior: away from edges between objects and the mirror's outline).\n\n{}",
+            report.tessellation.iter().map(|p| p.subdivide).max().unwrap_or(0),
+            tessellation_table(&report.tessellation)
+        ));
+    }
     write_atomic(&md, doc.as_bytes())?;
     paths.push(md);
     for axis in Axis::ALL {
@@ -329,6 +536,17 @@ pub fn write(report: &ScalingReport, dir: &Path) -> Result<Vec<PathBuf>> {
         let path = dir.join(format!("scaling-{}.svg", axis.name()));
         write_atomic(&path, svg.as_bytes())?;
         paths.push(path);
+    }
+    if !report.tessellation.is_empty() {
+        let [shares, psnr] = tessellation_plots(&report.tessellation)?;
+        for (name, svg) in [
+            ("scaling-tessellation.svg", shares),
+            ("scaling-tessellation-psnr.svg", psnr),
+        ] {
+            let path = dir.join(name);
+            write_atomic(&path, svg.as_bytes())?;
+            paths.push(path);
+        }
     }
     Ok(paths)
 }

@@ -62,6 +62,7 @@
 
 pub mod alg3;
 pub mod approx;
+pub mod closure;
 pub mod fragment_trace;
 pub mod mip;
 pub mod multi;

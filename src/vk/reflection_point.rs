@@ -3,7 +3,7 @@
 //!
 //! | pass | reads | writes |
 //! |---|---|---|
-//! | `rp_search` | scene | the reflectors alone from the camera (T_P: position + mask, T_N: normal); then, one invocation per scene vertex, the local 3x3 search and the virtual vertex |
+//! | `rp_search` | scene | the reflectors alone from the camera, closed ([`crate::cpu::closure`]; T_P: position + mask, T_N: normal); then, one invocation per scene vertex, the local 3x3 search and the virtual vertex |
 //! | `rp_raster` | scene, virtual vertices, G-buffer | the virtual objects with depth, in the mirror pixels only (colour, original point); then one record per mirror pixel |
 //!
 //! The search is specified by its CPU twin [`crate::cpu::reflection_point`]; the shaders are
@@ -31,6 +31,7 @@ use super::scene_buffers::SceneBuffers;
 use super::shaders::{Pass, RP_RASTER, RP_SEARCH};
 use super::sync::{COLOUR_WRITE, SHADER_READ, SHADER_WRITE};
 use crate::camera::Camera;
+use crate::cpu::closure::{ClosureVertex, closing_triangles};
 use crate::cpu::reflection_point::{RpOptions, RpVertex, SearchStats, SearchTextures, start_texel};
 use crate::scene::gpu_data::GpuSceneData;
 
@@ -45,7 +46,8 @@ pub struct RpParams {
     pub width: u32,
     pub height: u32,
     pub vertex_count: u32,
-    pub pad0: u32,
+    /// The scene's index count: the reflector draw's vertices past it are closing ones.
+    pub index_count: u32,
     pub pad1: u32,
     pub pad2: u32,
 }
@@ -98,6 +100,9 @@ pub struct ReflectionPointPasses {
     resolve: ComputePipeline,
     resolve_set: BindGroup,
     _params: Buffer,
+    /// The closing triangles of open reflectors ([`crate::cpu::closure`]).
+    _closure: Buffer,
+    closure_vertices: u32,
     _camera: Buffer,
     vertices: Buffer,
     /// T_P: world position, w = 1 on a reflector texel.
@@ -140,12 +145,12 @@ impl ReflectionPointPasses {
         let params = RpParams {
             view_proj: view_proj.to_cols_array_2d(),
             eye: camera.eye.to_array(),
-            max_iterations: options.max_iterations,
+            max_iterations: options.iteration_cap(sw, sh),
             start: start_texel(data, view_proj, sw, sh),
             width: sw,
             height: sh,
             vertex_count: vertex_count as u32,
-            pad0: 0,
+            index_count: scene.index_count,
             pad1: 0,
             pad2: 0,
         };
@@ -164,6 +169,18 @@ impl ReflectionPointPasses {
             vk::BufferUsageFlags::UNIFORM_BUFFER,
             std::slice::from_ref(&cam),
         )?;
+        let mut closure = if options.close_reflectors {
+            closing_triangles(data)
+        } else {
+            Vec::new()
+        };
+        let closure_vertices = closure.len() as u32;
+        // A storage buffer cannot be empty; the shader reads only `closure_vertices`.
+        if closure.is_empty() {
+            closure.push(ClosureVertex::default());
+        }
+        let closure_buf =
+            ctx.create_buffer_init("rp closure", vk::BufferUsageFlags::STORAGE_BUFFER, &closure)?;
         let vertices = Buffer::new(
             ctx.device(),
             "rp vertices",
@@ -211,7 +228,13 @@ impl ReflectionPointPasses {
                 0,
                 &scene_resources(scene, &RP_SEARCH, &["vs_reflector", "fs_reflector"]),
             )?,
-            reflector.bind_group(1, &[(0, Resource::Buffer(&params_buf))])?,
+            reflector.bind_group(
+                1,
+                &[
+                    (0, Resource::Buffer(&params_buf)),
+                    (4, Resource::Buffer(&closure_buf)),
+                ],
+            )?,
         ];
         let search = ComputePipeline::new(ctx, &RP_SEARCH, "search", ComputeOptions::default())?;
         let search_sets = [
@@ -267,6 +290,8 @@ impl ReflectionPointPasses {
             resolve,
             resolve_set,
             _params: params_buf,
+            _closure: closure_buf,
+            closure_vertices,
             _camera: camera_buf,
             vertices,
             position,
@@ -330,7 +355,7 @@ impl ReflectionPointPasses {
             &self.reflector_sets,
             [&self.position, &self.normal],
             &self.reflector_depth,
-            self.index_count,
+            self.index_count + self.closure_vertices,
         )?;
         let sets = [&self.search_sets[0], &self.search_sets[1]];
         self.search.dispatch(rec, &sets, self.search_groups);
@@ -383,4 +408,15 @@ impl ReflectionPointPasses {
     pub fn read_stats(&self, ctx: &GpuContext) -> VkResult<SearchStats> {
         Ok(SearchStats::of(&self.read_vertices(ctx)?))
     }
+}
+
+/// The object a reflection-point frame shows at each pixel (its records' `face` on the mirror
+/// pixels it covered; `None` elsewhere), for [`crate::metrics::same_object`].
+pub fn shown_objects(frame: &super::frame::GpuFrame) -> Vec<Option<u32>> {
+    (0..frame.records.len())
+        .map(|k| {
+            let r = &frame.records[k];
+            (frame.mask[k] != 0 && r.status == super::frame::RECORD_HIT).then_some(r.face)
+        })
+        .collect()
 }
