@@ -60,16 +60,21 @@ pub enum MethodKind {
     /// Reflection-point search with virtual objects (Estalella et al. 2006); its iterations per
     /// vertex (mean, max) in the counters.
     ReflectionPoint,
+    /// Exact GPU ray tracing over a CWBVH (`--method bvh`): the peer a user would pick instead
+    /// of cubemap tracing; nodes visited per ray in the `cells` column, triangles tested in
+    /// `texels`.
+    Bvh,
 }
 
 impl MethodKind {
-    pub const ALL: [MethodKind; 6] = [
+    pub const ALL: [MethodKind; 7] = [
         MethodKind::Reference,
         MethodKind::Envmap,
         MethodKind::Fragment,
         MethodKind::Compute,
         MethodKind::Ssr,
         MethodKind::ReflectionPoint,
+        MethodKind::Bvh,
     ];
 
     pub fn name(self) -> &'static str {
@@ -80,6 +85,7 @@ impl MethodKind {
             MethodKind::Compute => "compute",
             MethodKind::Ssr => "ssr",
             MethodKind::ReflectionPoint => "reflection-point",
+            MethodKind::Bvh => "bvh",
         }
     }
 
@@ -96,6 +102,7 @@ impl MethodKind {
             MethodKind::Compute => Some(GpuMethod::Compute),
             MethodKind::Ssr => Some(GpuMethod::Ssr),
             MethodKind::ReflectionPoint => Some(GpuMethod::ReflectionPoint),
+            MethodKind::Bvh => Some(GpuMethod::Bvh),
         }
     }
 
@@ -423,6 +430,9 @@ pub struct SceneRatios {
     pub fragment_ns_per_ray: Option<f64>,
     pub compute_ns_per_ray: Option<f64>,
     pub ssr_ns_per_ray: Option<f64>,
+    pub bvh_ns_per_ray: Option<f64>,
+    /// The compute path's cost per ray over the BVH tracer's (above 1: the BVH is cheaper).
+    pub compute_over_bvh: Option<f64>,
     pub fragment_over_reference: Option<f64>,
     pub compute_over_reference: Option<f64>,
     pub compute_over_fragment: Option<f64>,
@@ -464,6 +474,8 @@ impl SceneRatios {
                     fragment_ns_per_ray: fragment,
                     compute_ns_per_ray: compute,
                     ssr_ns_per_ray: per_ray(MethodKind::Ssr),
+                    bvh_ns_per_ray: per_ray(MethodKind::Bvh),
+                    compute_over_bvh: ratio(compute, per_ray(MethodKind::Bvh)),
                     fragment_over_reference: ratio(fragment, refr),
                     compute_over_reference: ratio(compute, refr),
                     compute_over_fragment: ratio(compute, fragment),

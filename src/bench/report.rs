@@ -243,22 +243,24 @@ pub fn ratios_table(report: &BenchReport) -> String {
             format!("{}x{}", f.width, f.height)
         });
     let mut s = format!(
-        "| scene | reference ns/ray | envmap ns/ray | fragment ns/ray | compute ns/ray | ssr ns/ray | fragment / reference | compute / reference | compute / fragment | fragment floor ({floor} / full) | compute floor ({floor} / full) |\n\
-         |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n"
+        "| scene | reference ns/ray | envmap ns/ray | fragment ns/ray | compute ns/ray | ssr ns/ray | bvh ns/ray | fragment / reference | compute / reference | compute / fragment | compute / bvh | fragment floor ({floor} / full) | compute floor ({floor} / full) |\n\
+         |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n"
     );
     for r in &report.ratios {
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
             r.scene,
             opt(r.reference_ns_per_ray, 0),
             opt(r.envmap_ns_per_ray, 0),
             opt(r.fragment_ns_per_ray, 0),
             opt(r.compute_ns_per_ray, 0),
             opt(r.ssr_ns_per_ray, 0),
+            opt(r.bvh_ns_per_ray, 0),
             opt(r.fragment_over_reference, 3),
             opt(r.compute_over_reference, 3),
             opt(r.compute_over_fragment, 3),
+            opt(r.compute_over_bvh, 3),
             opt(r.fragment_floor, 3),
             opt(r.compute_floor, 3),
         );

@@ -10,6 +10,8 @@
 //! | or `append`, `dispatch_args`, `compute_trace` | G-buffer, CMO data, hierarchy, scene | the same records ([`super::compute`]) |
 //! | or `hiz`, `ssr` | G-buffer, its min pyramid | the same records ([`super::ssr`]) |
 //! | or `rp_search`, `rp_raster` | scene, G-buffer | the same records ([`super::reflection_point`]) |
+//! | or `bvh_queue`, `bvh_trace` | G-buffer, CWBVH, scene | the same records, traced exactly ([`super::bvh`]) |
+//! | `fallback` (`--fallback trace`) | G-buffer, records, CWBVH, scene | unresolved records finished by `bvh_queue` + `bvh_trace` |
 //! | `composite` | G-buffer, records, CMO colour | final colour |
 //!
 //! Each pass name is its WGSL file, its debug label and its timestamp scope, so
@@ -21,13 +23,15 @@
 //! capture without self-reflections, the hierarchy and the ray queue for the compute path only,
 //! the Hi-Z pyramid for `ssr` only (which, like the environment map, uses the CMOs' colour for
 //! its fallback alone), the search textures, per-vertex buffer and virtual-object targets for
-//! `reflection-point` only (the same).
+//! `reflection-point` only (the same), the CWBVH for `bvh` or `--fallback trace` only (`bvh`
+//! captures its CMOs at one texel per face: only an `envmap` fallback would read them).
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
 use gpu_allocator::MemoryLocation;
 
 use super::buffer::Buffer;
+use super::bvh::{AppendKind, BvhCounter, BvhPasses};
 use super::capture::Capture;
 use super::cmo::{CaptureContents, CmoData};
 use super::compute::{ComputePath, ComputeStats};
@@ -40,8 +44,8 @@ use super::pyramid::{Pyramid, PyramidBindings};
 use super::reflection_point::ReflectionPointPasses;
 use super::scene_buffers::SceneBuffers;
 use super::shaders::{
-    APPEND, COMPOSITE, COMPUTE_TRACE, DISPATCH_ARGS, ENVMAP, FRAGMENT_TRACE, HIER32, HIZ, Pass,
-    RP_RASTER, RP_SEARCH, SSR,
+    APPEND, BVH_QUEUE, BVH_TRACE, COMPOSITE, COMPUTE_TRACE, DISPATCH_ARGS, ENVMAP, FRAGMENT_TRACE,
+    HIER32, HIZ, Pass, RP_RASTER, RP_SEARCH, SSR,
 };
 use super::ssr::SsrPasses;
 use super::sync::{SHADER_READ, SHADER_WRITE};
@@ -72,6 +76,9 @@ pub enum GpuMethod {
     /// local search over the reflector's position and normal textures, then the virtual objects
     /// rasterised into the mirror pixels; the CMOs only feed the fallback.
     ReflectionPoint,
+    /// Exact ray tracing of the reflected rays against the triangles over a CWBVH built on the
+    /// CPU by `obvhs` ([`super::bvh`]): the peer a user would pick instead of cubemap tracing.
+    Bvh,
 }
 
 impl GpuMethod {
@@ -87,6 +94,7 @@ impl GpuMethod {
             GpuMethod::Compute => &COMPUTE_TRACE,
             GpuMethod::Ssr => &SSR,
             GpuMethod::ReflectionPoint => &RP_SEARCH,
+            GpuMethod::Bvh => &BVH_TRACE,
         }
     }
 }
@@ -101,6 +109,11 @@ pub enum Fallback {
     Envmap,
     /// The scene's background.
     Background,
+    /// The rays are finished exactly by the BVH tracer from their proven-empty prefix
+    /// (`t_done`): after the tracing pass, the `fallback` pass queues the unresolved records'
+    /// rays and traces them ([`super::bvh`]); such records get `fallback` = 1. A ray the BVH
+    /// loop's cap cut (none seen) stays unresolved and shows the flag colour.
+    Trace,
 }
 
 /// Options of a GPU render.
@@ -127,6 +140,10 @@ impl Default for RenderOptions {
         }
     }
 }
+
+/// The timestamp scope of [`Fallback::Trace`]'s passes (`bvh_queue`'s `append_unresolved` and
+/// `args`, then `bvh_trace`), timed apart from the tracing pass.
+pub const FALLBACK_PASS: &str = "fallback";
 
 /// The flag colour of [`Fallback::Flag`] (linear magenta).
 pub const FLAG_COLOUR: Vec3 = Vec3::new(1.0, 0.0, 1.0);
@@ -173,7 +190,9 @@ pub struct PixelRecord {
     /// 1 where the compute path's step loop ended before the ray did (the driver's loop limit:
     /// spirv/README.md, "Known defect"); such a ray is unresolved. 0 elsewhere.
     pub cut: u32,
-    pub pad0: u32,
+    /// 1 where [`Fallback::Trace`] finished the ray with the BVH tracer (`bvh_trace`); 0
+    /// elsewhere (then `cut` = 1 means the BVH loop's cap cut it too).
+    pub fallback: u32,
     pub pad1: u32,
     pub pad2: u32,
 }
@@ -195,6 +214,9 @@ pub struct GpuFrame {
     pub records: Vec<PixelRecord>,
     /// GPU time per pass, in recording order.
     pub pass_times: Vec<PassTime>,
+    /// The BVH queue's counter: rays traced and rays cut by the loop cap ([`GpuMethod::Bvh`]:
+    /// every mirror ray; [`Fallback::Trace`]: the fallback rays).
+    pub bvh: Option<BvhCounter>,
     /// Ray count, subgroup size and per-ray counters ([`GpuMethod::Compute`] only).
     pub compute: Option<ComputeStats>,
     /// Iteration counts of the searches ([`GpuMethod::ReflectionPoint`] only).
@@ -242,7 +264,19 @@ impl GpuFrame {
                         })
                         .collect()
                 }),
+            fallback: self.bvh.is_some().then(|| {
+                (0..self.records.len())
+                    .map(|k| u8::from(mirror(k) && self.records[k].fallback != 0))
+                    .collect()
+            }),
         }
+    }
+
+    /// Mirror pixels the `trace` fallback finished (0 without it).
+    pub fn fallback_pixels(&self) -> usize {
+        (0..self.records.len())
+            .filter(|&k| self.mask[k] != 0 && self.records[k].fallback != 0)
+            .count()
     }
 
     /// Mirror pixels.
@@ -287,6 +321,8 @@ pub struct GpuRenderer {
     ssr: Option<SsrPasses>,
     /// The passes of `ReflectionPoint`.
     rp: Option<ReflectionPointPasses>,
+    /// The passes of `Bvh` (the method's) or of [`Fallback::Trace`].
+    bvh: Option<BvhPasses>,
     composite: ComputePipeline,
     composite_sets: [BindGroup; 2],
     _params: Buffer,
@@ -330,7 +366,13 @@ impl GpuRenderer {
         if centres.is_empty() {
             return Err(usage("scene", "no CMO centres".into()));
         }
-        let size = scene.cmo.resolution;
+        // `bvh` traces without the CMOs: one texel per face keeps the capture (and the envmap
+        // fallback's binding) at no cost.
+        let size = if options.method == GpuMethod::Bvh {
+            1
+        } else {
+            scene.cmo.resolution
+        };
         let t_hi = ranges.t_hi;
         let data = GpuSceneData::new(scene);
         let scene_buffers = SceneBuffers::new(ctx, &data)?;
@@ -353,6 +395,7 @@ impl GpuRenderer {
         // texel's colour.
         let tracer_pass = matches!(options.method, GpuMethod::Fragment | GpuMethod::Compute);
         let exact_only = super::trace_probe::exact_mip_only(&options.trace);
+        // With `Fallback::Trace` unresolved rays are traced, never coloured from a texel.
         let contents = CaptureContents {
             colour: !tracer_pass
                 || !(exact_only || options.method == GpuMethod::Compute)
@@ -397,6 +440,7 @@ impl GpuRenderer {
                 Fallback::Flag => 0,
                 Fallback::Envmap => 1,
                 Fallback::Background => 2,
+                Fallback::Trace => 3,
             },
             ..FrameParams::default()
         };
@@ -423,6 +467,28 @@ impl GpuRenderer {
         };
         let mut ssr = None;
         let mut rp = None;
+        // The BVH: the method's own rays, or the fallback's (a method that cannot leave a record
+        // unresolved needs none: envmap, bvh itself).
+        let bvh_kind = if options.method == GpuMethod::Bvh {
+            Some(AppendKind::Mirror)
+        } else if options.fallback == Fallback::Trace && options.method != GpuMethod::Envmap {
+            Some(AppendKind::Unresolved)
+        } else {
+            None
+        };
+        let bvh = match bvh_kind {
+            Some(kind) => Some(BvhPasses::new(
+                ctx,
+                kind,
+                &data,
+                &scene_buffers,
+                &gbuffer,
+                &params_buf,
+                &records,
+                t_hi,
+            )?),
+            None => None,
+        };
         let (trace, compute) = if options.method == GpuMethod::Compute {
             let path = ComputePath::new(
                 ctx,
@@ -444,6 +510,8 @@ impl GpuRenderer {
                 &records,
                 &options.ssr,
             )?);
+            (None, None)
+        } else if options.method == GpuMethod::Bvh {
             (None, None)
         } else if options.method == GpuMethod::ReflectionPoint {
             rp = Some(ReflectionPointPasses::new(
@@ -509,7 +577,7 @@ impl GpuRenderer {
             composite.bind_group(1, &cmo.resources_for(&COMPOSITE, "main"))?,
         ];
         let timestamps = if ctx.report().timestamps_supported() {
-            Some(Timestamps::new(ctx, 8)?)
+            Some(Timestamps::new(ctx, 12)?)
         } else {
             log::info!("no timestamp queries on this device: pass times are not measured");
             None
@@ -528,6 +596,7 @@ impl GpuRenderer {
             compute,
             ssr,
             rp,
+            bvh,
             composite,
             composite_sets,
             _params: params_buf,
@@ -555,6 +624,11 @@ impl GpuRenderer {
     /// The reflection-point method's passes ([`GpuMethod::ReflectionPoint`] only).
     pub fn reflection_point_passes(&self) -> Option<&ReflectionPointPasses> {
         self.rp.as_ref()
+    }
+
+    /// The BVH passes ([`GpuMethod::Bvh`] or [`Fallback::Trace`]).
+    pub fn bvh_passes(&self) -> Option<&BvhPasses> {
+        self.bvh.as_ref()
     }
 
     /// The G-buffer (for reading it back in the tests).
@@ -636,6 +710,20 @@ impl GpuRenderer {
                 })?;
                 scoped(COMPUTE_TRACE.name, &mut || c.record_trace(rec))?;
             }
+            if let Some(b) = &self.bvh {
+                if self.options.method == GpuMethod::Bvh {
+                    scoped(BVH_QUEUE.name, &mut || {
+                        b.record_queue(rec);
+                        Ok(())
+                    })?;
+                    scoped(BVH_TRACE.name, &mut || b.record_trace(rec))?;
+                } else {
+                    scoped(FALLBACK_PASS, &mut || {
+                        b.record_queue(rec);
+                        b.record_trace(rec)
+                    })?;
+                }
+            }
             rec.memory_barrier(SHADER_WRITE, SHADER_READ);
             scoped("composite", &mut || {
                 let groups = (self.width * self.height).div_ceil(64);
@@ -662,6 +750,10 @@ impl GpuRenderer {
             Some(c) => Some(c.read_stats(ctx)?),
             None => None,
         };
+        let bvh = match &self.bvh {
+            Some(b) => Some(b.queue.read_counter(ctx)?),
+            None => None,
+        };
         let search = match &self.rp {
             Some(r) => Some(r.read_stats(ctx)?),
             None => None,
@@ -684,6 +776,7 @@ impl GpuRenderer {
                 .collect(),
             records: records[..n].to_vec(),
             pass_times,
+            bvh,
             compute,
             search,
         })
