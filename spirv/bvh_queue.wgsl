@@ -4,11 +4,16 @@
 //   ray (`mirror_ray`, the ray the cubemap paths trace) from t = 0, leaving the G-buffer's
 //   triangle (the start rule of shared/bvh.wgsl).
 // - `append_unresolved` (`--fallback trace`): every mirror pixel whose record another method left
-//   unresolved appends the record's ray from its proven-empty prefix, flagged BVH_RAY_FALLBACK.
-//   t_min = t_done (1 - FALLBACK_SLACK): the cubemap tracer computes t_done in f32 in a CMO's
-//   frame, and its "empty" is the texel model's (a surface inside a texel may stand in front of
-//   the texel's patch); the slack keeps a hit just before t_done (tests/gpu_bvh.rs counts the
-//   fallback pixels whose reference hit lies before t_done).
+//   unresolved appends the record's ray, flagged BVH_RAY_FALLBACK, from t = 0 under the start
+//   rule (leaving the G-buffer's triangle), as `append_mirror` would: the cubemap tracer's
+//   "proven-empty" prefix [0, t_done] is empty for its model, not for the triangles. Measured
+//   (tests/gpu_bvh.rs, built-in scenes at 160x120, compute path): 46 of 1065 fallback rays have
+//   the reference's hit before t_done, on a reflector the CMOs do not capture (self-reflections
+//   off: the sphere, teapot and torus seen in themselves near their outlines) or on a surface
+//   that stands in front of its texel's patch (0.2 to 3 % before t_done).
+// - `append_unresolved_from_t_done`: the same rays from t_min = t_done (1 - FALLBACK_SLACK), the
+//   rule the issue proposed; kept to show (in the tests) what it misses, not used by a render.
+//   The slack covers t_done's f32 rounding in a CMO's frame (a few ulps; 2^-10 is far above).
 // - `args`: one invocation; the `bvh_trace` dispatch from the count: ceil(n / 64) workgroups as
 //   x <= 65535 by y (zero rays: an empty dispatch).
 // Both appends run one invocation per pixel over a 2-D grid of 64-wide workgroups
@@ -49,9 +54,8 @@ fn append_mirror(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
     push(BvhRay(ray.origin, i, ray.dir, 0.0, tri, 0u, 0u, 0u));
 }
 
-@compute @workgroup_size(64)
-fn append_unresolved(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let i = pixel_index(gid, groups);
+// The unresolved record of pixel `i` as a fallback ray from `t_min(t_done)`.
+fn push_unresolved(i: u32, from_t_done: bool) {
     if i >= frame.width * frame.height {
         return;
     }
@@ -64,8 +68,21 @@ fn append_unresolved(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num
         return;
     }
     let tri = textureLoad(gbuffer_triangle, pixel, 0).x;
-    let t_min = max(r.t_done - r.t_done * FALLBACK_SLACK, 0.0);
+    var t_min = 0.0;
+    if from_t_done {
+        t_min = max(r.t_done - r.t_done * FALLBACK_SLACK, 0.0);
+    }
     push(BvhRay(r.origin, i, r.dir, t_min, tri, 0u, BVH_RAY_FALLBACK, 0u));
+}
+
+@compute @workgroup_size(64)
+fn append_unresolved(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    push_unresolved(pixel_index(gid, groups), false);
+}
+
+@compute @workgroup_size(64)
+fn append_unresolved_from_t_done(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    push_unresolved(pixel_index(gid, groups), true);
 }
 
 @compute @workgroup_size(1)

@@ -195,7 +195,7 @@ struct TraceArgs {
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
     cube_size: Option<u32>,
     /// What fills mirror pixels that no CMO could resolve.
-    #[arg(long, value_enum, default_value_t = FallbackArg::Envmap)]
+    #[arg(long, value_enum, default_value_t = FallbackArg::Trace)]
     fallback: FallbackArg,
     /// ssr: iterations of the Hi-Z ray march before a ray is given up (unresolved).
     #[arg(long, default_value_t = cubetrace::cpu::ssr::DEFAULT_MAX_ITERATIONS,

@@ -26,8 +26,8 @@ use cubetrace::vk::bvh::{
     BvhCounter, BvhData, BvhParams, BvhQueue, BvhRay, BvhTracer, NO_TRIANGLE,
 };
 use cubetrace::vk::frame::{
-    GpuMethod, GpuRenderer, PixelRecord, RECORD_ESCAPED, RECORD_HIT, RECORD_UNRESOLVED,
-    RenderOptions,
+    Fallback, GpuFrame, GpuMethod, GpuRenderer, PixelRecord, RECORD_ESCAPED, RECORD_HIT,
+    RECORD_UNRESOLVED, RenderOptions,
 };
 use cubetrace::vk::scene_buffers::SceneBuffers;
 use cubetrace::vk::shaders::{BVH_QUEUE, BVH_TRACE};
@@ -347,4 +347,186 @@ fn bvh_method_matches_the_reference_on_the_builtin_scenes() {
     );
     assert!(share >= 0.9999, "{share}");
     finish_gpu(ctx);
+}
+
+/// `--fallback trace` after the compute path on every built-in scene: no unresolved mirror pixel
+/// is left, one fallback ray per flagged pixel, the cubemap's fields kept, and the fallback
+/// pixels hit the reference's triangle.
+/// Negative: the same rays started at the cubemap's `t_done` (`Fallback::TraceFromTDone`, the
+/// rule the issue proposed) miss the reference's hit on some of them, each one before `t_done`:
+/// the prefix is empty for the cubemap's model, not for the triangles.
+#[test]
+fn fallback_trace_finishes_every_unresolved_ray() {
+    let ctx = gpu_context();
+    let (mut total, mut same, mut same_from_t_done, mut before_t_done) = (0, 0, 0, 0);
+    for name in SCENES {
+        // A small frame and cube (the suite's budget); unresolved pixels remain on every scene.
+        let (mut scene, camera) = load(name, 96, 72);
+        scene.cmo.resolution = 64;
+        let render = |fallback| {
+            let options = RenderOptions {
+                method: GpuMethod::Compute,
+                fallback,
+                ..RenderOptions::default()
+            };
+            let mut renderer = GpuRenderer::new(&ctx, &scene, &camera, options).unwrap();
+            renderer.render(&ctx).unwrap()
+        };
+        let traced = render(Fallback::Trace);
+        let from_t_done = render(Fallback::TraceFromTDone);
+        let unresolved = |f: &GpuFrame| {
+            (0..f.records.len())
+                .filter(|&k| f.mask[k] != 0 && f.records[k].status == RECORD_UNRESOLVED)
+                .count()
+        };
+        let fallback = traced.fallback_pixels();
+        for f in [&traced, &from_t_done] {
+            assert_eq!(unresolved(f), 0, "{name}: unresolved pixels left");
+            let counter = f.bvh.expect("the trace fallback's counter");
+            assert_eq!(counter.cut, 0, "{name}");
+            assert_eq!(
+                counter.count as usize, fallback,
+                "{name}: one ray per fallback pixel"
+            );
+            assert_eq!(f.fallback_pixels(), fallback, "{name}");
+        }
+        let tracer = Tracer::new(&scene);
+        let refr = reference::render(&scene, &tracer, &camera, 1);
+        let hit = |r: &PixelRecord| {
+            if r.status == RECORD_HIT {
+                r.triangle
+            } else {
+                NO_ID
+            }
+        };
+        for k in 0..traced.records.len() {
+            let (b, c) = (&traced.records[k], &from_t_done.records[k]);
+            if traced.mask[k] == 0 {
+                continue;
+            }
+            // The same pixels fall back whatever the start (the CLI test checks that they are
+            // the ones the method left unresolved); elsewhere the records are equal.
+            assert_eq!(b.fallback, c.fallback, "{name}: pixel {k}");
+            if b.fallback == 0 {
+                assert_eq!(b, c, "{name}: pixel {k} resolved by compute differs");
+                continue;
+            }
+            // The cubemap's fields are kept: it left the ray unresolved, with no CMO.
+            assert_eq!((b.cmo, c.cmo), (u32::MAX, u32::MAX), "{name}: pixel {k}");
+            assert_eq!(
+                (b.t_done, b.texels, b.cells),
+                (c.t_done, c.texels, c.cells),
+                "{name}: cubemap fields kept"
+            );
+            if refr.mask[k] == 0 {
+                continue;
+            }
+            total += 1;
+            let want = refr.triangle[k];
+            let ref_t = (refr.hit_position[k] - Vec3::from_array(b.origin)).length();
+            if hit(b) == want {
+                same += 1;
+            } else {
+                eprintln!(
+                    "{name}: fallback pixel ({}, {}): reference triangle {want} at t {ref_t}, GPU {} at t {}",
+                    k as u32 % camera.width,
+                    k as u32 / camera.width,
+                    hit(b),
+                    b.t
+                );
+            }
+            if hit(c) == want {
+                same_from_t_done += 1;
+            } else if ref_t < c.t_done {
+                before_t_done += 1;
+            }
+        }
+        eprintln!("{name}: {fallback} fallback rays");
+    }
+    eprintln!(
+        "fallback pixels on the reference's triangle: {same} of {total}; from t_done: \
+         {same_from_t_done}, {before_t_done} of the misses with the reference's hit before t_done"
+    );
+    assert!(total > 0, "no fallback pixel on any built-in scene");
+    assert!(same as f64 >= 0.999 * total as f64, "{same} of {total}");
+    // Negative: from t_done the comparison fails, and the misses lie before t_done.
+    assert!(
+        (same_from_t_done as f64) < 0.999 * total as f64,
+        "{same_from_t_done} of {total}"
+    );
+    assert!(before_t_done > 0);
+    finish_gpu(ctx);
+}
+
+/// The CLI's default fallback is `trace`: the EXR's `unresolved` channel is all 0 and its
+/// `fallback` channel marks the mirror pixels the BVH finished. Negative: `--fallback envmap`
+/// leaves unresolved pixels and writes no `fallback` channel.
+#[test]
+fn cli_default_fallback_is_trace_with_an_exr_channel() {
+    let dir = tempfile::tempdir().unwrap();
+    let render = |extra: &[&str], out: &str| {
+        let mut args = vec![
+            "render",
+            "teapot",
+            "--method",
+            "compute",
+            "--width",
+            "48",
+            "--height",
+            "36",
+            "--cube-size",
+            "64",
+            "-o",
+            out,
+        ];
+        args.extend_from_slice(extra);
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_cubetrace"))
+            .args(&args)
+            .current_dir(dir.path())
+            .env("XDG_RUNTIME_DIR", "/tmp")
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let exr = exr::prelude::read_all_flat_layers_from_file(dir.path().join(out)).unwrap();
+        let channels: Vec<(String, Vec<f32>)> = exr.layer_data[0]
+            .channel_data
+            .list
+            .iter()
+            .map(|c| {
+                let v = (0..48 * 36)
+                    .map(|i| c.sample_data.value_by_flat_index(i).to_f32())
+                    .collect();
+                (c.name.to_string(), v)
+            })
+            .collect();
+        channels
+    };
+    let get = |chs: &[(String, Vec<f32>)], n: &str| {
+        chs.iter().find(|(m, _)| m == n).map(|(_, v)| v.clone())
+    };
+    let traced = render(&[], "t.exr");
+    let mask = get(&traced, "mask").unwrap();
+    let fallback = get(&traced, "fallback").expect("a fallback channel");
+    assert!(
+        get(&traced, "unresolved")
+            .unwrap()
+            .iter()
+            .all(|&u| u == 0.0)
+    );
+    let n = fallback.iter().filter(|&&f| f == 1.0).count();
+    assert!(n > 0, "the teapot leaves pixels to the fallback");
+    assert!(
+        fallback
+            .iter()
+            .zip(&mask)
+            .all(|(&f, &m)| f == 0.0 || m == 1.0)
+    );
+    let envmap = render(&["--fallback", "envmap"], "e.exr");
+    assert!(get(&envmap, "fallback").is_none());
+    let unresolved = get(&envmap, "unresolved").unwrap();
+    // The same pixels: the fallback finished exactly those the method left.
+    assert_eq!(
+        unresolved.iter().map(|&u| u == 1.0).collect::<Vec<_>>(),
+        fallback.iter().map(|&f| f == 1.0).collect::<Vec<_>>()
+    );
 }

@@ -91,6 +91,12 @@ pub fn device_bytes(
     self_reflections: bool,
 ) -> DeviceBytes {
     let pixels = u64::from(width) * u64::from(height);
+    // `bvh` captures one texel per face (`GpuRenderer`): nothing reads its CMOs.
+    let cube_size = if method == GpuMethod::Bvh {
+        1
+    } else {
+        cube_size
+    };
     let face = u64::from(cube_size) * u64::from(cube_size);
     let texels = u64::from(cmos) * 6 * face;
     // [min, max] f32 pairs per cell.

@@ -5,7 +5,7 @@
 //! | pass | reads | writes |
 //! |---|---|---|
 //! | `bvh_queue` (`append_mirror`) | G-buffer (+ its triangle IDs) | one [`BvhRay`] per mirror pixel, from t = 0 |
-//! | `bvh_queue` (`append_unresolved`) | G-buffer, records | one [`BvhRay`] per unresolved mirror pixel, from its `t_done` |
+//! | `bvh_queue` (`append_unresolved`) | G-buffer, records | one [`BvhRay`] per unresolved mirror pixel, from t = 0 (why not from `t_done`: spirv/bvh_queue.wgsl) |
 //! | `bvh_queue` (`args`) | [`BvhCounter`] | the indirect dispatch of `bvh_trace` |
 //! | `bvh_trace` | queue, CWBVH, scene | `records[ray.pixel]` |
 //!
@@ -283,9 +283,12 @@ impl BvhQueue {
 pub enum AppendKind {
     /// Every mirror pixel's reflected ray from t = 0 (`append_mirror`: `--method bvh`).
     Mirror,
-    /// Every mirror pixel whose record is unresolved, from its `t_done` (`append_unresolved`:
-    /// `--fallback trace`).
+    /// Every mirror pixel whose record is unresolved, from t = 0 under the start rule
+    /// (`append_unresolved`: `--fallback trace`).
     Unresolved,
+    /// The same rays from their `t_done` (`append_unresolved_from_t_done`): misses hits before
+    /// `t_done` that the cubemap's model does not see (spirv/bvh_queue.wgsl); for the tests.
+    UnresolvedFromTDone,
 }
 
 /// A `bvh_queue` append pass over the frame's G-buffer (and records).
@@ -308,6 +311,7 @@ impl BvhAppend {
         let entry = match kind {
             AppendKind::Mirror => "append_mirror",
             AppendKind::Unresolved => "append_unresolved",
+            AppendKind::UnresolvedFromTDone => "append_unresolved_from_t_done",
         };
         let pipeline = ComputePipeline::new(ctx, &BVH_QUEUE, entry, ComputeOptions::default())?;
         let sampled = |img: &super::image::Image| Resource::Texture {
@@ -323,7 +327,7 @@ impl BvhAppend {
                 (2, Resource::Buffer(params)),
                 (8, sampled(&gbuffer.triangle)),
             ],
-            AppendKind::Unresolved => [
+            AppendKind::Unresolved | AppendKind::UnresolvedFromTDone => [
                 (0, sampled(&gbuffer.position)),
                 (2, Resource::Buffer(params)),
                 (3, Resource::Buffer(records)),

@@ -109,11 +109,17 @@ pub enum Fallback {
     Envmap,
     /// The scene's background.
     Background,
-    /// The rays are finished exactly by the BVH tracer from their proven-empty prefix
-    /// (`t_done`): after the tracing pass, the `fallback` pass queues the unresolved records'
-    /// rays and traces them ([`super::bvh`]); such records get `fallback` = 1. A ray the BVH
+    /// The rays are finished exactly by the BVH tracer: after the tracing pass, the `fallback`
+    /// pass queues the unresolved records' rays and traces them from their start under the
+    /// start rule ([`super::bvh`]; not from `t_done`: see [`Fallback::TraceFromTDone`]); such
+    /// records get `fallback` = 1 and keep the cubemap tracer's `t_done` and counters. A ray the BVH
     /// loop's cap cut (none seen) stays unresolved and shows the flag colour.
     Trace,
+    /// [`Fallback::Trace`] with the rays started at their `t_done` instead of 0: misses the hits
+    /// before `t_done` that the cubemap's model does not see (uncaptured reflectors, surfaces in
+    /// front of their texel's patch; spirv/bvh_queue.wgsl). Not offered by the CLI; the tests
+    /// show what it misses.
+    TraceFromTDone,
 }
 
 /// Options of a GPU render.
@@ -440,7 +446,7 @@ impl GpuRenderer {
                 Fallback::Flag => 0,
                 Fallback::Envmap => 1,
                 Fallback::Background => 2,
-                Fallback::Trace => 3,
+                Fallback::Trace | Fallback::TraceFromTDone => 3,
             },
             ..FrameParams::default()
         };
@@ -471,8 +477,12 @@ impl GpuRenderer {
         // unresolved needs none: envmap, bvh itself).
         let bvh_kind = if options.method == GpuMethod::Bvh {
             Some(AppendKind::Mirror)
-        } else if options.fallback == Fallback::Trace && options.method != GpuMethod::Envmap {
+        } else if options.method == GpuMethod::Envmap {
+            None
+        } else if options.fallback == Fallback::Trace {
             Some(AppendKind::Unresolved)
+        } else if options.fallback == Fallback::TraceFromTDone {
+            Some(AppendKind::UnresolvedFromTDone)
         } else {
             None
         };
