@@ -138,10 +138,17 @@ impl BvhData {
             return BvhData::default();
         }
         let mut time = std::time::Duration::ZERO;
+        let start = std::time::Instant::now();
         let bvh = obvhs::cwbvh::builder::build_cwbvh(
             &tris,
             obvhs::BvhBuildParams::medium_build(),
             &mut time,
+        );
+        log::info!(
+            "CWBVH: {} triangles, {} nodes, built in {:.2?} on the CPU",
+            tris.len(),
+            bvh.nodes.len(),
+            start.elapsed()
         );
         let nodes = bvh
             .nodes

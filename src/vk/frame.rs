@@ -24,7 +24,8 @@
 //! the Hi-Z pyramid for `ssr` only (which, like the environment map, uses the CMOs' colour for
 //! its fallback alone), the search textures, per-vertex buffer and virtual-object targets for
 //! `reflection-point` only (the same), the CWBVH for `bvh` or `--fallback trace` only (`bvh`
-//! captures its CMOs at one texel per face: only an `envmap` fallback would read them).
+//! captures its CMOs at one texel per face, in its first frame only: nothing reads them but
+//! the composite pass's binding).
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
@@ -335,6 +336,8 @@ pub struct GpuRenderer {
     records: Buffer,
     frame_colour: Buffer,
     timestamps: Option<Timestamps>,
+    /// Frames rendered so far (`bvh` captures its unused 1-texel CMOs in the first only).
+    frames: u64,
 }
 
 impl GpuRenderer {
@@ -613,6 +616,7 @@ impl GpuRenderer {
             records,
             frame_colour,
             timestamps,
+            frames: 0,
         })
     }
 
@@ -674,9 +678,14 @@ impl GpuRenderer {
                     }
                 }
             };
-            scoped("capture", &mut || {
-                self.capture.record(rec, &self.cmo, self.background)
-            })?;
+            // `bvh` reads no CMO: its 1-texel capture runs once, to leave the images the
+            // composite pass binds in their layout (it still rasterises the whole scene, which
+            // would cost every frame as much as a real capture's draw).
+            if self.options.method != GpuMethod::Bvh || self.frames == 0 {
+                scoped("capture", &mut || {
+                    self.capture.record(rec, &self.cmo, self.background)
+                })?;
+            }
             if let Some((p, b)) = &self.pyramid {
                 scoped("pyramid", &mut || p.record(rec, b, None))?;
                 rec.memory_barrier(SHADER_WRITE, SHADER_READ);
@@ -749,6 +758,7 @@ impl GpuRenderer {
         };
         self.timestamps = ts;
         recorded?;
+        self.frames += 1;
         let colour: Vec<[f32; 4]> = ctx.read_buffer(&self.frame_colour)?;
         let records: Vec<PixelRecord> = ctx.read_buffer(&self.records)?;
         let position = ctx.read_image(
