@@ -5,9 +5,9 @@
 //!   `Tracer::nearest(.., Some(&hit))` on >= 99.99 % of them, every difference printed;
 //! - `--method bvh` through the renderer against the reference on every built-in scene (320x240,
 //!   the size): the same
-//!   triangle on >= 99.99 % of the mirror pixels (differences printed: 3 of 87987 measured;
-//!   the ray-for-ray test has none, so they come from the G-buffer's start point and normal
-//!   differing from the reference's hit);
+//!   triangle on >= 99.99 % of the mirror pixels (differences printed: 3 of 87987 measured,
+//!   rays that nearly graze the mirror near its outline: from the G-buffer's start and normal
+//!   they meet the neighbouring mirror triangle, as the reference's tracer does on that ray);
 //! - `--fallback trace`: no unresolved pixel left, fallback pixels on the reference's triangle.
 //!
 //! Negative tests: a BVH whose triangle IDs are shifted, one whose child boxes are shrunk, and
