@@ -194,7 +194,8 @@ struct TraceArgs {
     /// Texels per cube face side (overrides the scene's; 1 to 4096).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
     cube_size: Option<u32>,
-    /// What fills mirror pixels that no CMO could resolve.
+    /// What fills mirror pixels that no CMO could resolve (the method left unresolved): `trace`
+    /// finishes their rays exactly with the BVH tracer of `--method bvh`.
     #[arg(long, value_enum, default_value_t = FallbackArg::Trace)]
     fallback: FallbackArg,
     /// ssr: iterations of the Hi-Z ray march before a ray is given up (unresolved).
