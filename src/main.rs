@@ -112,8 +112,8 @@ enum FallbackArg {
     Envmap,
     /// The scene's background colour.
     Background,
-    /// Finish the rays exactly: the BVH tracer traces them on from where the method proved the
-    /// ray empty (the EXR's `fallback` channel marks them).
+    /// Finish the rays exactly: the BVH tracer traces them from the mirror, as `--method bvh`
+    /// does (the EXR's `fallback` channel marks them).
     Trace,
 }
 
