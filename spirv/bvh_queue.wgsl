@@ -1,4 +1,4 @@
-// bvh_queue: the BVH tracer's ray queue (shared/bvh_rays.wgsl). Three entry points, each one
+// bvh_queue: the BVH tracer's ray queue (shared/bvh_rays.wgsl). Four entry points, each one
 // dispatch:
 // - `append_mirror` (the `bvh` method): every mirror pixel of the G-buffer appends its reflected
 //   ray (`mirror_ray`, the ray the cubemap paths trace) from t = 0, leaving the G-buffer's
@@ -7,8 +7,9 @@
 //   unresolved appends the record's ray, flagged BVH_RAY_FALLBACK, from t = 0 under the start
 //   rule (leaving the G-buffer's triangle), as `append_mirror` would: the cubemap tracer's
 //   "proven-empty" prefix [0, t_done] is empty for its model, not for the triangles. Measured
-//   (tests/gpu_bvh.rs, built-in scenes at 160x120, compute path): 46 of 1065 fallback rays have
-//   the reference's hit before t_done, on a reflector the CMOs do not capture (self-reflections
+//   (tests/gpu_bvh.rs, compute path, built-in scenes): 46 of 1065 fallback rays at 160x120 with
+//   the scenes' cube size 256, 26 of 410 at 96x72 with cube size 64, have the reference's hit
+//   before t_done, on a reflector the CMOs do not capture (self-reflections
 //   off: the sphere, teapot and torus seen in themselves near their outlines) or on a surface
 //   that stands in front of its texel's patch (0.2 to 3 % before t_done).
 // - `append_unresolved_from_t_done`: the same rays from t_min = t_done (1 - FALLBACK_SLACK), the
