@@ -1,6 +1,8 @@
 // composite: the final image. Mirror pixels take their record's colour (unresolved ones the
-// fallback: a flag colour, the environment map, or the background); other pixels the G-buffer's
-// shaded colour, or the background where nothing was drawn. Output: linear RGB, a = mirror mask.
+// fallback: a flag colour, the environment map, or the background; with the trace fallback the
+// BVH finished them before this pass, and a ray its loop cap cut shows the flag colour); other
+// pixels the G-buffer's shaded colour, or the background where nothing was drawn. Output: linear
+// RGB, a = mirror mask.
 //
 // The environment-map fallback shades from the capture's triangle IDs, not from a captured
 // colour (`envmap_fallback` below; CPU twin `cpu::fragment_trace::envmap_fallback`), so that no
@@ -57,7 +59,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var colour = r.colour;
     if r.status == RECORD_UNRESOLVED {
         switch frame.fallback {
-            case 0u: { colour = frame.flag_colour; }
+            case 0u, 3u: { colour = frame.flag_colour; }
             case 1u: { colour = envmap_fallback(nearest_cmo(r.origin), r.dir); }
             default: { colour = frame.background; }
         }

@@ -3,7 +3,9 @@
 // Per pixel: the shaded colour (alpha 1 where a surface is seen), the world position of the
 // surface (w = 1 where it is a reflector: the mirror mask; 0 on other surfaces; -1, the clear value,
 // where nothing is drawn), and the interpolated vertex normal as
-// stored (w = 1 where covered). The mirror's normal is left unnormalised here; tracers normalise
+// stored (w = 1 where covered), and the global index of the triangle seen (`vertex_index / 3`:
+// the draw is of every triangle in `WorldGeometry::triangles` order; u32::MAX, the clear value,
+// where nothing is drawn), which the BVH tracer's start rule reads. The mirror's normal is left unnormalised here; tracers normalise
 // it exactly as the CPU reference does (`normalize_or_zero` of the interpolated normal).
 
 // The scene's bind group (shared/scene.wgsl).
@@ -22,6 +24,7 @@ struct GbufferVarying {
     @location(1) normal: vec3<f32>,
     @location(2) uv: vec2<f32>,
     @location(3) @interpolate(flat) object: u32,
+    @location(4) @interpolate(flat) triangle: u32,
 }
 
 @vertex
@@ -33,6 +36,7 @@ fn vs_main(@builtin(vertex_index) vertex: u32) -> GbufferVarying {
     out.normal = v.normal;
     out.uv = v.uv;
     out.object = v.object;
+    out.triangle = vertex / 3u;
     return out;
 }
 
@@ -40,6 +44,7 @@ struct GbufferOut {
     @location(0) colour: vec4<f32>,
     @location(1) position_mirror: vec4<f32>,
     @location(2) normal: vec4<f32>,
+    @location(3) triangle: u32,
 }
 
 @fragment
@@ -49,5 +54,6 @@ fn fs_main(in: GbufferVarying) -> GbufferOut {
         vec4<f32>(scene_shade(in.object, in.uv, in.normal), 1.0),
         vec4<f32>(in.world, mirror),
         vec4<f32>(in.normal, 1.0),
+        in.triangle,
     );
 }

@@ -77,6 +77,9 @@ enum Method {
     /// vertex of the other objects, a local search over the reflector's position and normal
     /// textures; the virtual objects rasterised into the mirror; uncovered pixels get the fallback.
     ReflectionPoint,
+    /// Exact ray tracing of the reflected rays on the GPU: a compute pass over a compressed wide
+    /// BVH (obvhs), the same triangles and shading as the reference.
+    Bvh,
     /// Exact CPU ray tracing against the scene's triangles: the ground truth.
     Reference,
 }
@@ -109,6 +112,9 @@ enum FallbackArg {
     Envmap,
     /// The scene's background colour.
     Background,
+    /// Finish the rays exactly: the BVH tracer traces them from the mirror, as `--method bvh`
+    /// does (the EXR's `fallback` channel marks them).
+    Trace,
 }
 
 /// Vulkan device choice and validation.
@@ -190,8 +196,9 @@ struct TraceArgs {
     /// Texels per cube face side (overrides the scene's; 1 to 4096).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
     cube_size: Option<u32>,
-    /// What fills mirror pixels that no CMO could resolve.
-    #[arg(long, value_enum, default_value_t = FallbackArg::Envmap)]
+    /// What fills mirror pixels that no CMO could resolve (the method left unresolved): `trace`
+    /// finishes their rays exactly with the BVH tracer of `--method bvh`.
+    #[arg(long, value_enum, default_value_t = FallbackArg::Trace)]
     fallback: FallbackArg,
     /// ssr: iterations of the Hi-Z ray march before a ray is given up (unresolved).
     #[arg(long, default_value_t = cubetrace::cpu::ssr::DEFAULT_MAX_ITERATIONS,
@@ -242,6 +249,7 @@ impl TraceArgs {
                 FallbackArg::Flag => Fallback::Flag,
                 FallbackArg::Envmap => Fallback::Envmap,
                 FallbackArg::Background => Fallback::Background,
+                FallbackArg::Trace => Fallback::Trace,
             },
             ssr: cubetrace::cpu::ssr::SsrOptions {
                 max_iterations: self.ssr_iterations,
@@ -397,6 +405,7 @@ fn render(args: RenderArgs) -> Result<()> {
         Method::Compute => Some(GpuMethod::Compute),
         Method::Ssr => Some(GpuMethod::Ssr),
         Method::ReflectionPoint => Some(GpuMethod::ReflectionPoint),
+        Method::Bvh => Some(GpuMethod::Bvh),
         Method::Reference => None,
     };
     if let Some(m) = gpu_method {
@@ -479,6 +488,18 @@ fn render(args: RenderArgs) -> Result<()> {
                 backtracks.1
             );
         }
+        if let Some(b) = &frame.bvh {
+            log::info!(
+                "bvh: {} rays traced ({}), {} cut by the loop cap",
+                b.count,
+                if m == GpuMethod::Bvh {
+                    "every mirror ray"
+                } else {
+                    "the fallback's"
+                },
+                b.cut
+            );
+        }
         let unresolved = traced
             .mask
             .iter()
@@ -530,7 +551,8 @@ fn render(args: RenderArgs) -> Result<()> {
         | Method::Envmap
         | Method::Compute
         | Method::Ssr
-        | Method::ReflectionPoint => {
+        | Method::ReflectionPoint
+        | Method::Bvh => {
             unreachable!("GPU methods returned above")
         }
         Method::Reference => {
@@ -613,15 +635,16 @@ struct BenchArgs {
     /// Scenes: built-in names or .toml paths, comma-separated [default: every built-in scene].
     #[arg(long, value_delimiter = ',')]
     scenes: Vec<String>,
-    /// Methods: reference, envmap, fragment, compute, ssr, reflection-point (comma-separated);
+    /// Methods: reference, envmap, fragment, compute, ssr, reflection-point, bvh (comma-separated);
     /// fragment runs its parameter grid (criteria x sampling x acceleration x steps) unless
     /// --quick; compute has one setting (the exact criterion on its hierarchy), ssr its defaults
     /// (64 iterations, no thickness test), reflection-point its defaults (cap 256 steps, search
-    /// scale 1) as is and with the other objects subdivided twice (`reflection-point-sub2`).
+    /// scale 1) as is and with the other objects subdivided twice (`reflection-point-sub2`), bvh
+    /// (exact GPU ray tracing) its one setting.
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "reference,envmap,fragment,compute,ssr,reflection-point"
+        default_value = "reference,envmap,fragment,compute,ssr,reflection-point,bvh"
     )]
     methods: Vec<String>,
     /// Tracing methods: only the default options (exact criterion, pyramid) instead of the grid.

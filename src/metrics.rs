@@ -51,6 +51,9 @@ pub struct Traced {
     /// Global triangle index of the traced hit (`u32::MAX` where none), for tracers that know
     /// it; `None` for those that do not.
     pub triangle: Option<Vec<u32>>,
+    /// 1 where the `trace` fallback (the BVH tracer) finished the pixel's ray; `None` for frames
+    /// rendered without it.
+    pub fallback: Option<Vec<u8>>,
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
@@ -369,6 +372,7 @@ mod tests {
             hit_position: f.hit_position.clone(),
             resolved: vec![1; 4],
             triangle: Some(f.triangle.clone()),
+            fallback: None,
         };
         (f, t, vec![Vec3::ZERO; 4])
     }
@@ -407,6 +411,7 @@ mod tests {
             hit_position: f.hit_position.clone(),
             resolved: f.mask.clone(),
             triangle: None,
+            fallback: None,
         };
         (f, t, vec![Vec3::ZERO; n])
     }

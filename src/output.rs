@@ -250,7 +250,9 @@ pub fn frame_channels(frame: &Frame) -> Vec<(&'static str, Channel)> {
 /// `R`, `G`, `B`, `mask`, `P.X/Y/Z` (`surface_position`), `hit.X/Y/Z` (NaN where the ray left
 /// the scene or was unresolved), `unresolved` (1 on mirror pixels no CMO could decide) and, for
 /// methods that verify their hits (the tracers with the exact criterion), `primitive_id` (u32:
-/// the global triangle of the traced hit, 4294967295 where none, as the reference's).
+/// the global triangle of the traced hit, 4294967295 where none, as the reference's), and with
+/// the BVH tracer (`bvh`, `--fallback trace`) `fallback` (1 where the BVH finished the ray of a
+/// pixel the method left unresolved; `unresolved` is then 0 there).
 pub fn write_traced(path: &Path, traced: &Traced, surface_position: &[Vec3]) -> Result<()> {
     match Format::from_path(path)? {
         Format::Png => write_atomic(
@@ -278,6 +280,9 @@ pub fn write_traced(path: &Path, traced: &Traced, surface_position: &[Vec3]) -> 
             ];
             if let Some(ids) = &traced.triangle {
                 channels.push(("primitive_id", Channel::U32(ids.clone())));
+            }
+            if let Some(fb) = &traced.fallback {
+                channels.push(("fallback", f(&|k| f32::from(fb[k]))));
             }
             write_exr(path, traced.width, traced.height, channels)
         }

@@ -44,6 +44,42 @@ fn bench_reports_cost_per_ray_ratios_and_floor() {
             .iter()
             .all(|r| r.kind == MethodKind::ReflectionPoint || r.counters.search_max == 0)
     );
+    // Every GPU method renders with `--fallback trace`: nothing is left unresolved, and where
+    // the method left pixels the fallback's share and cost are reported apart and counted in
+    // the frame time. bvh needs no fallback and hits the reference's triangles.
+    for r in report
+        .runs
+        .iter()
+        .filter(|r| r.kind != MethodKind::Reference)
+    {
+        assert_eq!(r.error.unresolved, 0.0, "{}", r.method);
+        if r.fallback_share > 0.0 {
+            assert!(r.fallback_ns.median > 0.0, "{}", r.method);
+            assert!(
+                r.total_ns.median >= r.trace_ns.median + r.fallback_ns.median,
+                "{}",
+                r.method
+            );
+        }
+        // Methods that leave no pixel unresolved get no fallback pass.
+        if matches!(r.kind, MethodKind::Envmap | MethodKind::Bvh) {
+            assert_eq!(r.fallback_ns.median, 0.0, "{}", r.method);
+        }
+    }
+    let bvh = report
+        .runs
+        .iter()
+        .find(|r| r.kind == MethodKind::Bvh)
+        .expect("bvh row");
+    assert_eq!(bvh.fallback_share, 0.0);
+    assert!(bvh.error.same_triangle >= 0.999, "{:?}", bvh.error);
+    // Negative: the cubemap paths at cube size 32 do leave pixels to the fallback.
+    assert!(
+        report
+            .runs
+            .iter()
+            .any(|r| r.kind == MethodKind::Compute && r.fallback_share > 0.0)
+    );
     let refr = &report.runs[0];
     assert_eq!(refr.kind, MethodKind::Reference);
     assert!(refr.rays > 50 && refr.rays == refr.mirror_pixels);
@@ -99,5 +135,46 @@ fn bench_reports_cost_per_ray_ratios_and_floor() {
     assert!(report.runs.iter().all(|r| r.floor.is_none()));
     assert_eq!(report.ratios[0].compute_ns_per_ray, None);
     bench::check_validation(&ctx).expect("validation");
+    common::finish_gpu(ctx);
+}
+
+/// `--scaling`'s triangle axis runs the cubemap paths and bvh side by side at every point.
+#[test]
+fn scaling_triangle_axis_sets_bvh_beside_the_cubemap_paths() {
+    use cubetrace::bench::scaling::{self, Axis, ScalingConfig};
+    let ctx = common::gpu_context();
+    let out = tempfile::tempdir().expect("temp dir");
+    let cfg = ScalingConfig {
+        method: bench::MethodSpec::plain(MethodKind::Fragment),
+        axes: vec![Axis::Triangles],
+        max_cube: 32,
+        width: 24,
+        height: 18,
+        frames: 1,
+        warmup: 0,
+        out: out.path().to_path_buf(),
+        tessellation_series: Vec::new(),
+        tessellation_levels: 0,
+    };
+    let report = scaling::run(&ctx, &cfg, &indicatif::ProgressBar::hidden()).expect("scaling");
+    let methods: Vec<&str> = report.points.iter().map(|p| p.method.as_str()).collect();
+    for m in ["fragment-exact-mip", "compute", "bvh"] {
+        assert_eq!(
+            methods.iter().filter(|x| **x == m).count(),
+            4,
+            "{m}: {methods:?}"
+        );
+    }
+    let table = scaling::table(&report);
+    assert!(
+        table.contains("| triangles | ") && table.contains(" bvh "),
+        "{table}"
+    );
+    let files = scaling::write(&report, out.path()).expect("write");
+    let svg = std::fs::read_to_string(files.last().unwrap()).unwrap();
+    assert!(
+        svg.contains("bvh bvh_trace"),
+        "one series per method and pass"
+    );
     common::finish_gpu(ctx);
 }

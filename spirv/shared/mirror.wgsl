@@ -22,7 +22,8 @@ struct FrameParams {
     // Colour of unresolved pixels with the flag fallback.
     flag_colour: vec3<f32>,
     height: u32,
-    // 0 flag colour, 1 environment map, 2 background.
+    // 0 flag colour, 1 environment map, 2 background, 3 trace (the BVH finished the rays; a ray
+    // its loop cap cut gets the flag colour).
     fallback: u32,
     pad0: u32,
     pad1: u32,

@@ -27,7 +27,8 @@ struct PixelRecord {
     // 1 where the compute path's step loop ended before the ray did (`main_retrace` finishes
     // it); 0 elsewhere.
     cut: u32,
-    pad0: u32,
+    // 1 where `--fallback trace` finished the ray with the BVH (`bvh_trace`); 0 elsewhere.
+    fallback: u32,
     pad1: u32,
     pad2: u32,
 }

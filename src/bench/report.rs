@@ -28,6 +28,11 @@ pub struct Summary {
     pub scenes: usize,
     pub mirror_pixels: usize,
     pub trace_ns_per_mirror_px: f64,
+    /// Share of mirror pixels the `trace` fallback finished, and its cost per mirror pixel.
+    pub fallback_share: f64,
+    pub fallback_ns_per_mirror_px: f64,
+    /// All passes per mirror pixel (the frame's GPU time; the reference: its whole frame).
+    pub frame_ns_per_mirror_px: f64,
     pub cells: f64,
     pub texels: f64,
     pub mask_mismatch: f64,
@@ -92,6 +97,9 @@ pub fn summarise(runs: &[RunResult]) -> Vec<Summary> {
                 scenes: rs.len(),
                 mirror_pixels: px,
                 trace_ns_per_mirror_px: rs.iter().map(|r| r.trace_ns.median).sum::<f64>() / w,
+                fallback_share: weighted(&|r| r.fallback_share),
+                fallback_ns_per_mirror_px: rs.iter().map(|r| r.fallback_ns.median).sum::<f64>() / w,
+                frame_ns_per_mirror_px: rs.iter().map(|r| r.total_ns.median).sum::<f64>() / w,
                 cells: weighted(&|r| r.counters.cells),
                 texels: weighted(&|r| r.counters.texels),
                 mask_mismatch: weighted(&|r| r.error.mask_mismatch_fraction),
@@ -156,17 +164,20 @@ pub fn header(report: &BenchReport) -> String {
 pub fn summary_table(report: &BenchReport) -> String {
     let mut s = String::new();
     s.push_str(
-        "| method | scenes | mirror px | ns/mirror px | cells/ray | texels/ray | mask mismatch % | unresolved % | wrong surface % | angle mean deg | angle p95 deg | PSNR dB | PSNR resolved dB | PSNR frame dB | same triangle % | FLIP |\n\
-         |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+        "| method | scenes | mirror px | ns/mirror px | fallback % | fallback ns/mirror px | frame ns/mirror px | cells/ray | texels/ray | mask mismatch % | unresolved % | wrong surface % | angle mean deg | angle p95 deg | PSNR dB | PSNR resolved dB | PSNR frame dB | same triangle % | FLIP |\n\
+         |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
     );
     for m in summarise(&report.runs) {
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
             m.method,
             m.scenes,
             m.mirror_pixels,
             num(m.trace_ns_per_mirror_px, 0),
+            pct(m.fallback_share),
+            num(m.fallback_ns_per_mirror_px, 0),
+            num(m.frame_ns_per_mirror_px, 0),
             num(m.cells, 1),
             num(m.texels, 1),
             pct(m.mask_mismatch),
@@ -188,14 +199,14 @@ pub fn summary_table(report: &BenchReport) -> String {
 pub fn runs_table(report: &BenchReport) -> String {
     let mut s = String::new();
     s.push_str(
-        "| scene | method | mirror px | trace ms (median [min, max]) | ns/mirror px | frame GPU ms | cells/ray | texels/ray | traces/ray | CMO MiB | mask mismatch (ref only + method only) | unresolved % | wrong % | angle mean | angle p95 | PSNR dB | PSNR resolved dB | PSNR frame dB | same triangle % | FLIP |\n\
-         |---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+        "| scene | method | mirror px | trace ms (median [min, max]) | ns/mirror px | fallback % | fallback ms | frame GPU ms | cells/ray | texels/ray | traces/ray | CMO MiB | mask mismatch (ref only + method only) | unresolved % | wrong % | angle mean | angle p95 | PSNR dB | PSNR resolved dB | PSNR frame dB | same triangle % | FLIP |\n\
+         |---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
     );
     for r in &report.runs {
         let t = &r.trace_ns;
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {:.3} [{:.3}, {:.3}] | {} | {} | {} | {} | {} | {} | {} + {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {:.3} [{:.3}, {:.3}] | {} | {} | {} | {} | {} | {} | {} | {} | {} + {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
             r.scene,
             r.method,
             r.mirror_pixels,
@@ -203,6 +214,8 @@ pub fn runs_table(report: &BenchReport) -> String {
             t.min * 1e-6,
             t.max * 1e-6,
             num(r.trace_ns_per_mirror_px, 0),
+            pct(r.fallback_share),
+            num(r.fallback_ns.median * 1e-6, 3),
             if r.kind == MethodKind::Reference {
                 "-".into()
             } else {
@@ -243,22 +256,24 @@ pub fn ratios_table(report: &BenchReport) -> String {
             format!("{}x{}", f.width, f.height)
         });
     let mut s = format!(
-        "| scene | reference ns/ray | envmap ns/ray | fragment ns/ray | compute ns/ray | ssr ns/ray | fragment / reference | compute / reference | compute / fragment | fragment floor ({floor} / full) | compute floor ({floor} / full) |\n\
-         |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n"
+        "| scene | reference ns/ray | envmap ns/ray | fragment ns/ray | compute ns/ray | ssr ns/ray | bvh ns/ray | fragment / reference | compute / reference | compute / fragment | compute / bvh | fragment floor ({floor} / full) | compute floor ({floor} / full) |\n\
+         |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n"
     );
     for r in &report.ratios {
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
             r.scene,
             opt(r.reference_ns_per_ray, 0),
             opt(r.envmap_ns_per_ray, 0),
             opt(r.fragment_ns_per_ray, 0),
             opt(r.compute_ns_per_ray, 0),
             opt(r.ssr_ns_per_ray, 0),
+            opt(r.bvh_ns_per_ray, 0),
             opt(r.fragment_over_reference, 3),
             opt(r.compute_over_reference, 3),
             opt(r.compute_over_fragment, 3),
+            opt(r.compute_over_bvh, 3),
             opt(r.fragment_floor, 3),
             opt(r.compute_floor, 3),
         );
@@ -375,7 +390,9 @@ pub fn write(report: &BenchReport, dir: &Path) -> Result<Vec<PathBuf>> {
     write_atomic(&json, serde_json::to_string_pretty(report)?.as_bytes())?;
     let md = dir.join("bench.md");
     let doc = format!(
-        "# cubetrace bench\n\n{}\n## Summary per method\n\n{}\nCost: the tracing pass alone (reference: CPU wall time of its reflected-ray phase). \
+        "# cubetrace bench\n\n{}\n## Summary per method\n\n{}\nCost: the tracing pass alone (reference: CPU wall time of its reflected-ray phase); \
+         every GPU method renders with the render default `--fallback trace`: the mirror pixels it leaves unresolved are finished exactly by the BVH \
+         (fallback %: their share; fallback ns: that pass's cost, apart from the tracing pass; frame ns: all passes, capture and fallback included). \
          Error: against the exact CPU reference, over the mirror pixels of either frame (mask mismatch: a mirror pixel of one frame only; \
          PSNR frame: the whole image).\n\n## Cost per ray\n\n{}\nns/ray: the tracing pass's median time over the rays it traced (GPU: the method's mirror pixels; \
          reference: the CPU wall time of its reflected-ray phase over its first reflected rays, shading at the hit included). \
@@ -420,6 +437,8 @@ mod tests {
             passes: Vec::new(),
             trace_ns: Stats::default(),
             total_ns: Stats::default(),
+            fallback_share: 0.0,
+            fallback_ns: Stats::default(),
             trace_ns_per_mirror_px: 0.0,
             ns_per_ray: 0.0,
             floor: None,

@@ -9,6 +9,10 @@
 //! | number of CMOs | `default` | 1, 2, 4, 8 (automatic placement) |
 //! | scene triangles | `sphere-room` plus one extra UV sphere beside the mirror | 8, 32, 128, 512 segments |
 //!
+//! On the triangle axis the cubemap paths (the chosen method, and `compute` where that is
+//! another) stand beside `bvh`, exact GPU ray tracing: its trace cost grows with the triangles
+//! (a BVH's depth), theirs should not.
+//!
 //! Output: `scaling.json`, `scaling.md` and one `scaling-AXIS.svg` per axis (GPU ms per pass
 //! against the quantity, log-log). No error figures for the chosen method: this measures cost.
 //!
@@ -105,6 +109,8 @@ pub struct ScalingConfig {
 #[derive(Clone, Debug, Serialize)]
 pub struct ScalingPoint {
     pub axis: Axis,
+    /// The method's label ([`MethodSpec::label`]).
+    pub method: String,
     /// The quantity varied (texels, pixels, CMOs or triangles).
     pub x: f64,
     pub scene: String,
@@ -245,40 +251,48 @@ pub fn run(
     bar.set_length(plans.iter().map(|(_, p)| p.len() as u64).sum::<u64>() + curve_points);
     let mut points = Vec::new();
     for (axis, plan) in plans {
+        // The triangle axis also runs compute and bvh (each once).
+        let mut methods = vec![(cfg.method, gpu)];
+        if axis == Axis::Triangles {
+            for kind in [super::MethodKind::Compute, super::MethodKind::Bvh] {
+                let spec = MethodSpec::plain(kind);
+                if let (Some(g), true) = (kind.gpu(), methods.iter().all(|(m, _)| *m != spec)) {
+                    methods.push((spec, g));
+                }
+            }
+        }
+        bar.inc_length((plan.len() * (methods.len() - 1)) as u64);
         for (x, scene, width, height) in plan {
-            bar.set_message(format!("{}: {x}", axis.name()));
-            let mut camera = scene.cameras[0].clone();
-            camera.width = width;
-            camera.height = height;
-            let g = run_gpu(
-                ctx,
-                &scene,
-                &camera,
-                gpu,
-                cfg.method.trace,
-                cfg.warmup,
-                cfg.frames,
-            )?;
-            let mirror = g.frame.mirror_pixels();
-            let trace_ns = frame_stats(&g.pass_ns, Some(gpu.pass_name()));
-            points.push(ScalingPoint {
-                axis,
-                x,
-                scene: scene.name.clone(),
-                width,
-                height,
-                cube_size: scene.cmo.resolution,
-                cmos: scene.cmo_centres().len() as u32,
-                triangles: scene.world().triangles.len(),
-                mirror_pixels: mirror,
-                passes: pass_stats(&g.pass_ns),
-                trace_ns,
-                trace_ns_per_mirror_px: trace_ns.median / mirror.max(1) as f64,
-                counters: Counters::of(&g.frame),
-                cmo_bytes: g.cmo_bytes,
-            });
-            bar.inc(1);
-            super::check_validation(ctx)?;
+            for &(spec, gpu) in &methods {
+                bar.set_message(format!("{}: {x} {}", axis.name(), spec.label()));
+                let mut camera = scene.cameras[0].clone();
+                camera.width = width;
+                camera.height = height;
+                let g = run_gpu(
+                    ctx, &scene, &camera, gpu, spec.trace, cfg.warmup, cfg.frames,
+                )?;
+                let mirror = g.frame.mirror_pixels();
+                let trace_ns = frame_stats(&g.pass_ns, Some(gpu.pass_name()));
+                points.push(ScalingPoint {
+                    axis,
+                    method: spec.label(),
+                    x,
+                    scene: scene.name.clone(),
+                    width,
+                    height,
+                    cube_size: scene.cmo.resolution,
+                    cmos: scene.cmo_centres().len() as u32,
+                    triangles: scene.world().triangles.len(),
+                    mirror_pixels: mirror,
+                    passes: pass_stats(&g.pass_ns),
+                    trace_ns,
+                    trace_ns_per_mirror_px: trace_ns.median / mirror.max(1) as f64,
+                    counters: Counters::of(&g.frame),
+                    cmo_bytes: g.cmo_bytes,
+                });
+                bar.inc(1);
+                super::check_validation(ctx)?;
+            }
         }
     }
     let tessellation = tessellation_curve(ctx, cfg, bar)?;
@@ -438,8 +452,8 @@ fn tessellation_plots(points: &[TessellationPoint]) -> Result<[String; 2]> {
 pub fn table(report: &ScalingReport) -> String {
     use std::fmt::Write as _;
     let mut s = String::from(
-        "| axis | x | scene | frame | cube | CMOs | triangles | mirror px | capture ms | pyramid ms | trace ms | ns/mirror px | cells/ray | texels/ray | CMO MiB |\n\
-         |---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+        "| axis | x | method | scene | frame | cube | CMOs | triangles | mirror px | capture ms | pyramid ms | trace ms | ns/mirror px | cells/ray | texels/ray | CMO MiB |\n\
+         |---|---:|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
     );
     for p in &report.points {
         let pass = |name: &str| {
@@ -450,9 +464,10 @@ pub fn table(report: &ScalingReport) -> String {
         };
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {}x{} | {} | {} | {} | {} | {} | {} | {:.3} | {:.0} | {:.1} | {:.1} | {:.2} |",
+            "| {} | {} | {} | {} | {}x{} | {} | {} | {} | {} | {} | {} | {:.3} | {:.0} | {:.1} | {:.1} | {:.2} |",
             p.axis.name(),
             p.x,
+            p.method,
             p.scene,
             p.width,
             p.height,
@@ -502,25 +517,34 @@ pub fn write(report: &ScalingReport, dir: &Path) -> Result<Vec<PathBuf>> {
         if pts.is_empty() {
             continue;
         }
-        let mut names: Vec<String> = Vec::new();
+        // One series per (method, pass); the method is named where the axis has several.
+        let mut names: Vec<(String, String)> = Vec::new();
         for p in &pts {
             for q in &p.passes {
-                if !names.contains(&q.pass) {
-                    names.push(q.pass.clone());
+                let key = (p.method.clone(), q.pass.clone());
+                if !names.contains(&key) {
+                    names.push(key);
                 }
             }
         }
+        let several = pts.iter().any(|p| p.method != pts[0].method);
         let series: Vec<(String, Vec<(f64, f64)>)> = names
             .into_iter()
-            .map(|n| {
+            .map(|(m, n)| {
                 let v = pts
                     .iter()
+                    .filter(|p| p.method == m)
                     .filter_map(|p| {
                         let q = p.passes.iter().find(|q| q.pass == n)?;
                         Some((p.x, q.ns.median * 1e-6))
                     })
                     .collect();
-                (format!("{n} (ms)"), v)
+                let name = if several {
+                    format!("{m} {n} (ms)")
+                } else {
+                    format!("{n} (ms)")
+                };
+                (name, v)
             })
             .collect();
         let svg = plot::lines(

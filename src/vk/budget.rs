@@ -29,22 +29,27 @@ pub fn cmo_bytes_per_texel_with(
 }
 
 /// Bytes per frame pixel: the pixel records, the frame colour (RGBA f32), the G-buffer (colour,
-/// position, normal: RGBA f32 each; depth f32), and for the compute path the ray queue and the
-/// per-ray statistics; for ssr the Hi-Z pyramid.
+/// position, normal: RGBA f32 each; triangle ID u32; depth f32), and for the compute path the
+/// ray queue and the per-ray statistics; for ssr the Hi-Z pyramid; the BVH tracer's ray queue
+/// for `bvh` and for every method that can leave a pixel unresolved (the `trace` fallback's
+/// queue, counted whatever the fallback: an upper bound). The CWBVH itself is per triangle, like
+/// the scene's buffers, and not counted.
 pub fn frame_bytes_per_pixel(method: GpuMethod) -> u64 {
     let records = size_of::<PixelRecord>() as u64;
-    let gbuffer = 3 * 16 + 4;
+    let gbuffer = 3 * 16 + 4 + 4;
+    let bvh_queue = size_of::<super::bvh::BvhRay>() as u64;
     let method_bytes = match method {
-        GpuMethod::Compute => size_of::<AppendedRay>() as u64 + 16,
+        GpuMethod::Compute => size_of::<AppendedRay>() as u64 + 16 + bvh_queue,
         // The Hi-Z pyramid: f32 cells, about 4/3 per pixel over all levels (2 on a one-pixel-wide
         // frame; counted as 2), plus the ssr pass's parameters (per frame, negligible).
-        GpuMethod::Ssr => 2 * 4,
+        GpuMethod::Ssr => 2 * 4 + bvh_queue,
         // The reflection-point method: the reflector's position and normal textures, the
         // virtual objects' colour and point (RGBA f32 each) and two f32 depth buffers, at search
         // scale 1 (T_P, T_N and their depth grow with the scale's square: not counted); its
         // per-vertex buffer is per scene vertex (small beside these, not counted).
-        GpuMethod::ReflectionPoint => 4 * 16 + 2 * 4,
-        GpuMethod::Fragment | GpuMethod::Envmap => 0,
+        GpuMethod::ReflectionPoint => 4 * 16 + 2 * 4 + bvh_queue,
+        GpuMethod::Fragment | GpuMethod::Bvh => bvh_queue,
+        GpuMethod::Envmap => 0,
     };
     records + 16 + gbuffer + method_bytes
 }
@@ -77,13 +82,19 @@ pub fn device_bytes(
     trace: &TraceOptions,
 ) -> DeviceBytes {
     let pixels = u64::from(width) * u64::from(height);
+    // `bvh` captures one texel per face (`GpuRenderer`): nothing reads its CMOs.
+    let cube_size = if method == GpuMethod::Bvh {
+        1
+    } else {
+        cube_size
+    };
     let face = u64::from(cube_size) * u64::from(cube_size);
     let texels = u64::from(cmos) * 6 * face;
     // [min, max] f32 pairs per cell.
     let acceleration = match method {
         GpuMethod::Fragment => u64::from(cmos) * mip_len(cube_size) as u64 * 8,
         GpuMethod::Compute => u64::from(cmos) * hier32_len(cube_size) as u64 * 8,
-        GpuMethod::Envmap | GpuMethod::Ssr | GpuMethod::ReflectionPoint => 0,
+        GpuMethod::Envmap | GpuMethod::Ssr | GpuMethod::ReflectionPoint | GpuMethod::Bvh => 0,
     };
     DeviceBytes {
         frame: pixels * frame_bytes_per_pixel(method),

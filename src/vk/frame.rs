@@ -10,6 +10,8 @@
 //! | or `append`, `dispatch_args`, `compute_trace` | G-buffer, CMO data, hierarchy, scene | the same records ([`super::compute`]) |
 //! | or `hiz`, `ssr` | G-buffer, its min pyramid | the same records ([`super::ssr`]) |
 //! | or `rp_search`, `rp_raster` | scene, G-buffer | the same records ([`super::reflection_point`]) |
+//! | or `bvh_queue`, `bvh_trace` | G-buffer, CWBVH, scene | the same records, traced exactly ([`super::bvh`]) |
+//! | `fallback` (`--fallback trace`) | G-buffer, records, CWBVH, scene | unresolved records finished by `bvh_queue` + `bvh_trace` |
 //! | `composite` | G-buffer, records, CMO triangle IDs + scene (environment-map fallback) | final colour |
 //!
 //! Each pass name is its WGSL file, its debug label and its timestamp scope, so
@@ -22,13 +24,16 @@
 //! the Hi-Z pyramid for `ssr` only (which uses the CMOs for its fallback alone), the search
 //! textures, per-vertex buffer and virtual-object targets for `reflection-point` only (the
 //! same); the CMOs' colour for the environment-map method and the approximate criteria only
-//! (the fallback shades from the triangle IDs).
+//! (the fallback shades from the triangle IDs); the CWBVH for `bvh` or
+//! `--fallback trace` only (`bvh` captures its CMOs at one texel per face, in its first frame
+//! only: nothing reads them but the composite pass's binding).
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
 use gpu_allocator::MemoryLocation;
 
 use super::buffer::Buffer;
+use super::bvh::{AppendKind, BvhCounter, BvhPasses};
 use super::capture::Capture;
 use super::cmo::{CaptureContents, CmoData};
 use super::compute::{ComputePath, ComputeStats};
@@ -41,8 +46,8 @@ use super::pyramid::{Pyramid, PyramidBindings};
 use super::reflection_point::ReflectionPointPasses;
 use super::scene_buffers::SceneBuffers;
 use super::shaders::{
-    APPEND, COMPOSITE, COMPUTE_TRACE, DISPATCH_ARGS, ENVMAP, FRAGMENT_TRACE, HIER32, HIZ, Pass,
-    RP_RASTER, RP_SEARCH, SSR,
+    APPEND, BVH_QUEUE, BVH_TRACE, COMPOSITE, COMPUTE_TRACE, DISPATCH_ARGS, ENVMAP, FRAGMENT_TRACE,
+    HIER32, HIZ, Pass, RP_RASTER, RP_SEARCH, SSR,
 };
 use super::ssr::SsrPasses;
 use super::sync::{SHADER_READ, SHADER_WRITE};
@@ -73,6 +78,9 @@ pub enum GpuMethod {
     /// local search over the reflector's position and normal textures, then the virtual objects
     /// rasterised into the mirror pixels; the CMOs only feed the fallback.
     ReflectionPoint,
+    /// Exact ray tracing of the reflected rays against the triangles over a CWBVH built on the
+    /// CPU by `obvhs` ([`super::bvh`]): the peer a user would pick instead of cubemap tracing.
+    Bvh,
 }
 
 impl GpuMethod {
@@ -88,6 +96,7 @@ impl GpuMethod {
             GpuMethod::Compute => &COMPUTE_TRACE,
             GpuMethod::Ssr => &SSR,
             GpuMethod::ReflectionPoint => &RP_SEARCH,
+            GpuMethod::Bvh => &BVH_TRACE,
         }
     }
 }
@@ -103,6 +112,17 @@ pub enum Fallback {
     Envmap,
     /// The scene's background.
     Background,
+    /// The rays are finished exactly by the BVH tracer: after the tracing pass, the `fallback`
+    /// pass queues the unresolved records' rays and traces them from their start under the
+    /// start rule ([`super::bvh`]; not from `t_done`: see [`Fallback::TraceFromTDone`]); such
+    /// records get `fallback` = 1 and keep the cubemap tracer's `t_done` and counters. A ray the BVH
+    /// loop's cap cut (none seen) stays unresolved and shows the flag colour.
+    Trace,
+    /// [`Fallback::Trace`] with the rays started at their `t_done` instead of 0: misses the hits
+    /// before `t_done` that the cubemap's model does not see (uncaptured reflectors, surfaces in
+    /// front of their texel's patch; spirv/bvh_queue.wgsl). Not offered by the CLI; the tests
+    /// show what it misses.
+    TraceFromTDone,
 }
 
 /// Options of a GPU render.
@@ -143,6 +163,10 @@ pub fn capture_contents(method: GpuMethod, trace: &TraceOptions) -> CaptureConte
         triangle_ids: method != GpuMethod::Envmap,
     }
 }
+
+/// The timestamp scope of [`Fallback::Trace`]'s passes (`bvh_queue`'s `append_unresolved` and
+/// `args`, then `bvh_trace`), timed apart from the tracing pass.
+pub const FALLBACK_PASS: &str = "fallback";
 
 /// The flag colour of [`Fallback::Flag`] (linear magenta).
 pub const FLAG_COLOUR: Vec3 = Vec3::new(1.0, 0.0, 1.0);
@@ -189,7 +213,9 @@ pub struct PixelRecord {
     /// 1 where the compute path's step loop ended before the ray did (the driver's loop limit:
     /// spirv/README.md, "Known defect"); such a ray is unresolved. 0 elsewhere.
     pub cut: u32,
-    pub pad0: u32,
+    /// 1 where [`Fallback::Trace`] finished the ray with the BVH tracer (`bvh_trace`); 0
+    /// elsewhere (then `cut` = 1 means the BVH loop's cap cut it too).
+    pub fallback: u32,
     pub pad1: u32,
     pub pad2: u32,
 }
@@ -211,6 +237,9 @@ pub struct GpuFrame {
     pub records: Vec<PixelRecord>,
     /// GPU time per pass, in recording order.
     pub pass_times: Vec<PassTime>,
+    /// The BVH queue's counter: rays traced and rays cut by the loop cap ([`GpuMethod::Bvh`]:
+    /// every mirror ray; [`Fallback::Trace`]: the fallback rays).
+    pub bvh: Option<BvhCounter>,
     /// Ray count, subgroup size and per-ray counters ([`GpuMethod::Compute`] only).
     pub compute: Option<ComputeStats>,
     /// Iteration counts of the searches ([`GpuMethod::ReflectionPoint`] only).
@@ -258,7 +287,19 @@ impl GpuFrame {
                         })
                         .collect()
                 }),
+            fallback: self.bvh.is_some().then(|| {
+                (0..self.records.len())
+                    .map(|k| u8::from(mirror(k) && self.records[k].fallback != 0))
+                    .collect()
+            }),
         }
+    }
+
+    /// Mirror pixels the `trace` fallback finished (0 without it).
+    pub fn fallback_pixels(&self) -> usize {
+        (0..self.records.len())
+            .filter(|&k| self.mask[k] != 0 && self.records[k].fallback != 0)
+            .count()
     }
 
     /// Mirror pixels.
@@ -303,12 +344,16 @@ pub struct GpuRenderer {
     ssr: Option<SsrPasses>,
     /// The passes of `ReflectionPoint`.
     rp: Option<ReflectionPointPasses>,
+    /// The passes of `Bvh` (the method's) or of [`Fallback::Trace`].
+    bvh: Option<BvhPasses>,
     composite: ComputePipeline,
     composite_sets: [BindGroup; 3],
     _params: Buffer,
     records: Buffer,
     frame_colour: Buffer,
     timestamps: Option<Timestamps>,
+    /// Frames rendered so far (`bvh` captures its unused 1-texel CMOs in the first only).
+    frames: u64,
 }
 
 impl GpuRenderer {
@@ -346,7 +391,13 @@ impl GpuRenderer {
         if centres.is_empty() {
             return Err(usage("scene", "no CMO centres".into()));
         }
-        let size = scene.cmo.resolution;
+        // `bvh` traces without the CMOs: one texel per face keeps the capture (and the envmap
+        // fallback's binding) at no cost.
+        let size = if options.method == GpuMethod::Bvh {
+            1
+        } else {
+            scene.cmo.resolution
+        };
         let t_hi = ranges.t_hi;
         let data = GpuSceneData::new(scene);
         let scene_buffers = SceneBuffers::new(ctx, &data)?;
@@ -402,6 +453,7 @@ impl GpuRenderer {
                 Fallback::Flag => 0,
                 Fallback::Envmap => 1,
                 Fallback::Background => 2,
+                Fallback::Trace | Fallback::TraceFromTDone => 3,
             },
             ..FrameParams::default()
         };
@@ -428,6 +480,32 @@ impl GpuRenderer {
         };
         let mut ssr = None;
         let mut rp = None;
+        // The BVH: the method's own rays, or the fallback's (a method that cannot leave a record
+        // unresolved needs none: envmap, bvh itself).
+        let bvh_kind = if options.method == GpuMethod::Bvh {
+            Some(AppendKind::Mirror)
+        } else if options.method == GpuMethod::Envmap {
+            None
+        } else if options.fallback == Fallback::Trace {
+            Some(AppendKind::Unresolved)
+        } else if options.fallback == Fallback::TraceFromTDone {
+            Some(AppendKind::UnresolvedFromTDone)
+        } else {
+            None
+        };
+        let bvh = match bvh_kind {
+            Some(kind) => Some(BvhPasses::new(
+                ctx,
+                kind,
+                &data,
+                &scene_buffers,
+                &gbuffer,
+                &params_buf,
+                &records,
+                t_hi,
+            )?),
+            None => None,
+        };
         let (trace, compute) = if options.method == GpuMethod::Compute {
             let path = ComputePath::new(
                 ctx,
@@ -449,6 +527,8 @@ impl GpuRenderer {
                 &records,
                 &options.ssr,
             )?);
+            (None, None)
+        } else if options.method == GpuMethod::Bvh {
             (None, None)
         } else if options.method == GpuMethod::ReflectionPoint {
             rp = Some(ReflectionPointPasses::new(
@@ -516,7 +596,7 @@ impl GpuRenderer {
             composite.bind_group(2, &scene_buffers.resources())?,
         ];
         let timestamps = if ctx.report().timestamps_supported() {
-            Some(Timestamps::new(ctx, 8)?)
+            Some(Timestamps::new(ctx, 12)?)
         } else {
             log::info!("no timestamp queries on this device: pass times are not measured");
             None
@@ -535,12 +615,14 @@ impl GpuRenderer {
             compute,
             ssr,
             rp,
+            bvh,
             composite,
             composite_sets,
             _params: params_buf,
             records,
             frame_colour,
             timestamps,
+            frames: 0,
         })
     }
 
@@ -562,6 +644,11 @@ impl GpuRenderer {
     /// The reflection-point method's passes ([`GpuMethod::ReflectionPoint`] only).
     pub fn reflection_point_passes(&self) -> Option<&ReflectionPointPasses> {
         self.rp.as_ref()
+    }
+
+    /// The BVH passes ([`GpuMethod::Bvh`] or [`Fallback::Trace`]).
+    pub fn bvh_passes(&self) -> Option<&BvhPasses> {
+        self.bvh.as_ref()
     }
 
     /// The G-buffer (for reading it back in the tests).
@@ -597,9 +684,14 @@ impl GpuRenderer {
                     }
                 }
             };
-            scoped("capture", &mut || {
-                self.capture.record(rec, &self.cmo, self.background)
-            })?;
+            // `bvh` reads no CMO: its 1-texel capture runs once, to leave the images the
+            // composite pass binds in their layout (it still rasterises the whole scene, which
+            // would cost every frame as much as a real capture's draw).
+            if self.options.method != GpuMethod::Bvh || self.frames == 0 {
+                scoped("capture", &mut || {
+                    self.capture.record(rec, &self.cmo, self.background)
+                })?;
+            }
             if let Some((p, b)) = &self.pyramid {
                 scoped("pyramid", &mut || p.record(rec, b, None))?;
                 rec.memory_barrier(SHADER_WRITE, SHADER_READ);
@@ -643,6 +735,20 @@ impl GpuRenderer {
                 })?;
                 scoped(COMPUTE_TRACE.name, &mut || c.record_trace(rec))?;
             }
+            if let Some(b) = &self.bvh {
+                if self.options.method == GpuMethod::Bvh {
+                    scoped(BVH_QUEUE.name, &mut || {
+                        b.record_queue(rec);
+                        Ok(())
+                    })?;
+                    scoped(BVH_TRACE.name, &mut || b.record_trace(rec))?;
+                } else {
+                    scoped(FALLBACK_PASS, &mut || {
+                        b.record_queue(rec);
+                        b.record_trace(rec)
+                    })?;
+                }
+            }
             rec.memory_barrier(SHADER_WRITE, SHADER_READ);
             scoped("composite", &mut || {
                 let groups = (self.width * self.height).div_ceil(64);
@@ -658,6 +764,7 @@ impl GpuRenderer {
         };
         self.timestamps = ts;
         recorded?;
+        self.frames += 1;
         let colour: Vec<[f32; 4]> = ctx.read_buffer(&self.frame_colour)?;
         let records: Vec<PixelRecord> = ctx.read_buffer(&self.records)?;
         let position = ctx.read_image(
@@ -667,6 +774,10 @@ impl GpuRenderer {
         let position: &[[f32; 4]] = bytemuck::cast_slice(&position);
         let compute = match &self.compute {
             Some(c) => Some(c.read_stats(ctx)?),
+            None => None,
+        };
+        let bvh = match &self.bvh {
+            Some(b) => Some(b.queue.read_counter(ctx)?),
             None => None,
         };
         let search = match &self.rp {
@@ -691,6 +802,7 @@ impl GpuRenderer {
                 .collect(),
             records: records[..n].to_vec(),
             pass_times,
+            bvh,
             compute,
             search,
         })

@@ -10,7 +10,9 @@
 //! - Images are left in `SHADER_READ_ONLY_OPTIMAL` after [`Gbuffer::record`]: `colour` (rgb
 //!   shaded, a = 1 where covered), `position` (xyz world; w = 1 on a reflector, 0 elsewhere, -1
 //!   where nothing is drawn), `normal` (xyz the interpolated vertex normal, unnormalised; w = 1
-//!   where covered). Uncovered pixels hold the background with alpha 0, `(0, 0, 0, -1)` and zero.
+//!   where covered), `triangle` (R32_UINT: the global index of the triangle seen, in
+//!   `WorldGeometry::triangles` order). Uncovered pixels hold the background with alpha 0,
+//!   `(0, 0, 0, -1)`, zero and `u32::MAX`.
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
@@ -34,6 +36,7 @@ pub struct GbufferCamera {
 }
 
 const FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
+const TRIANGLE_FORMAT: vk::Format = vk::Format::R32_UINT;
 
 /// The G-buffer pass for one camera.
 pub struct Gbuffer {
@@ -49,6 +52,8 @@ pub struct Gbuffer {
     pub position: Image,
     /// Interpolated normal, w = 1 where covered.
     pub normal: Image,
+    /// Global triangle index (`u32::MAX` where nothing is drawn).
+    pub triangle: Image,
 }
 
 impl Gbuffer {
@@ -66,7 +71,7 @@ impl Gbuffer {
             &GraphicsDesc {
                 vertex: "vs_main",
                 fragment: "fs_main",
-                colour_formats: vec![FORMAT; 3],
+                colour_formats: vec![FORMAT, FORMAT, FORMAT, TRIANGLE_FORMAT],
                 depth: Some((vk::Format::D32_SFLOAT, DepthTest::Reversed)),
             },
         )?;
@@ -90,6 +95,10 @@ impl Gbuffer {
             colour: image("gbuffer colour")?,
             position: image("gbuffer position")?,
             normal: image("gbuffer normal")?,
+            triangle: Image::new(
+                dev,
+                ImageDesc::d2("gbuffer triangle", TRIANGLE_FORMAT, w, h, usage),
+            )?,
             depth: Image::new(
                 dev,
                 ImageDesc::d2(
@@ -115,15 +124,18 @@ impl Gbuffer {
 
     /// Records the draw and leaves the images readable by shaders.
     pub fn record(&self, rec: &Recorder<'_>, background: Vec3) -> VkResult<()> {
-        let images = [&self.colour, &self.position, &self.normal];
+        let images = [&self.colour, &self.position, &self.normal, &self.triangle];
         rec.prepare_render_targets(&images, Some(&self.depth), SHADER_READ);
         let clear = |v: Vec4| vk::ClearColorValue {
             float32: v.to_array(),
         };
         let clears = [
-            background.extend(0.0),
-            Vec4::new(0.0, 0.0, 0.0, -1.0),
-            Vec4::ZERO,
+            clear(background.extend(0.0)),
+            clear(Vec4::new(0.0, 0.0, 0.0, -1.0)),
+            clear(Vec4::ZERO),
+            vk::ClearColorValue {
+                uint32: [u32::MAX; 4],
+            },
         ];
         let (width, height) = self.extent();
         let target = RenderTarget {
@@ -134,7 +146,7 @@ impl Gbuffer {
                 .zip(clears)
                 .map(|(img, c)| ColourTarget {
                     view: img.view(),
-                    clear: clear(c),
+                    clear: c,
                 })
                 .collect(),
             depth: Some(self.depth.view()),

@@ -14,6 +14,7 @@
 //! - Every pass has one name: its WGSL file stem, its debug label and its timestamp key.
 pub mod budget;
 pub mod buffer;
+pub mod bvh;
 pub mod capture;
 pub mod cmo;
 pub mod compute;

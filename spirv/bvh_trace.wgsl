@@ -1,0 +1,59 @@
+// bvh_trace: traces the queued rays (shared/bvh_rays.wgsl) exactly against the scene's triangles
+// over the CWBVH (shared/bvh.wgsl), one ray per invocation, and writes `records[ray.pixel]`:
+// a hit gets the point, t, the triangle and the colour shaded there (`hit_shade`, as the verified
+// hits and the reference shade); no hit is escaped (the background, point at t_hi); a ray whose
+// loop reached its cap is unresolved with `cut` = 1 (and counted in `bvh_counter.cut`). A plain
+// ray writes the whole record (cmo = 0xffffffff, no texel, counters: `texels` = triangles tested,
+// `cells` = nodes visited, `t_done` = its t_min); a BVH_RAY_FALLBACK ray writes only the result
+// fields (status, point, colour, t, triangle, cut) and sets `fallback`, keeping the cubemap
+// tracer's texel, counters and t_done. The dispatch is `bvh_queue`'s `args`.
+//! import shared/record.wgsl
+//! import shared/bvh_rays.wgsl
+//! import shared/bvh.wgsl
+
+// The scene (shared/scene.wgsl); group 0 is the frame's records, 1 the BVH (shared/bvh.wgsl), 2
+// the queue.
+const SCENE_GROUP: u32 = 3u;
+
+@group(0) @binding(3) var<storage, read_write> records: array<PixelRecord>;
+@group(2) @binding(0) var<storage, read_write> bvh_counter: BvhCounter;
+@group(2) @binding(1) var<storage, read> bvh_rays: array<BvhRay>;
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = gid.x + gid.y * groups.x * BVH_GROUP_SIZE;
+    if i >= atomicLoad(&bvh_counter.count) {
+        return;
+    }
+    let ray = bvh_rays[i];
+    let h = bvh_nearest(ray.origin, ray.dir, ray.t_min, ray.from_triangle);
+    var status = RECORD_ESCAPED;
+    var t = bvh_params.t_hi;
+    var colour = scene_shading.background;
+    if h.cut {
+        status = RECORD_UNRESOLVED;
+        t = ray.t_min;
+        atomicAdd(&bvh_counter.cut, 1u);
+    } else if h.hit {
+        status = RECORD_HIT;
+        t = h.t;
+        colour = hit_shade(h.triangle, h.bary.yz);
+    }
+    let point = ray.origin + ray.dir * t;
+    let cut = select(0u, 1u, h.cut);
+    if (ray.flags & BVH_RAY_FALLBACK) != 0u {
+        records[ray.pixel].status = status;
+        records[ray.pixel].point = point;
+        records[ray.pixel].colour = colour;
+        records[ray.pixel].t = t;
+        records[ray.pixel].triangle = h.triangle;
+        records[ray.pixel].cut = cut;
+        records[ray.pixel].fallback = 1u;
+    } else {
+        records[ray.pixel] = PixelRecord(
+            ray.origin, status, ray.dir, 0xffffffffu, point, 0u, colour,
+            0u, 0u, 0u, h.tests, h.nodes, 1u, t, ray.t_min, h.triangle,
+            cut, 0u, 0u, 0u,
+        );
+    }
+}

@@ -1,0 +1,49 @@
+// The BVH tracer's ray queue (Rust twins: `cubetrace::vk::bvh::{BvhRay, BvhCounter}`, layouts
+// checked in tests/gpu_bvh.rs). A producer appends `BvhRay`s through the atomic
+// `BvhCounter.count`; `bvh_queue`'s `args` entry sizes the `bvh_trace` dispatch from the count;
+// `bvh_trace` traces each ray and writes `records[ray.pixel]`. Bindings are declared by each pass
+// (their access differs).
+
+// One queued ray.
+struct BvhRay {
+    // World origin and the pixel (j * width + i) whose record the result goes to.
+    origin: vec3<f32>,
+    pixel: u32,
+    // Unit direction.
+    dir: vec3<f32>,
+    // Start distance: hits at t < t_min are not taken (0: from the origin on).
+    t_min: f32,
+    // The triangle the ray leaves (the start rule in shared/bvh.wgsl), BVH_NO_TRIANGLE if none.
+    from_triangle: u32,
+    // Reflections already taken before this ray (0: the camera's first reflection).
+    bounce: u32,
+    // BVH_RAY_FALLBACK: the ray finishes a record another method left unresolved (only the
+    // result fields of the record are written, and its `fallback` flag set).
+    flags: u32,
+    pad0: u32,
+}
+
+const BVH_RAY_FALLBACK: u32 = 1u;
+const BVH_NO_TRIANGLE: u32 = 0xffffffffu;
+
+// Zeroed (vkCmdFillBuffer) before every append.
+struct BvhCounter {
+    // Rays appended.
+    count: atomic<u32>,
+    // Rays whose traversal loop reached its cap (`BVH_MAX_ITERATIONS`): left unresolved, `cut`.
+    cut: atomic<u32>,
+    pad0: u32,
+    pad1: u32,
+}
+
+// VkDispatchIndirectCommand.
+struct BvhDispatch {
+    x: u32,
+    y: u32,
+    z: u32,
+}
+
+// Rays per `bvh_trace` workgroup (its @workgroup_size).
+const BVH_GROUP_SIZE: u32 = 64u;
+// The largest workgroup count per dimension every Vulkan device accepts.
+const BVH_MAX_GROUPS_X: u32 = 65535u;
