@@ -53,7 +53,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         records[ray.pixel] = PixelRecord(
             ray.origin, status, ray.dir, 0xffffffffu, point, 0u, colour,
             0u, 0u, 0u, h.tests, h.nodes, 1u, t, ray.t_min, h.triangle,
-            cut, 0u, 0u, 0u,
+            cut, 0u, ray.bounce + 1u, 0u,
         );
     }
 }

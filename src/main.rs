@@ -253,6 +253,7 @@ impl TraceArgs {
                 max_iterations: self.rp_iterations,
                 search_scale: self.rp_scale,
             },
+            ..RenderOptions::default()
         }
     }
 
@@ -284,8 +285,9 @@ struct RenderArgs {
     /// Image height in pixels (default: the camera's).
     #[arg(long)]
     height: Option<u32>,
-    /// Maximum number of mirror reflections per path. After the last one, a mirror shows its
-    /// own material colour.
+    /// Maximum number of mirror reflections per path (0..=16). After the last one, a mirror
+    /// shows its own material colour. GPU methods: compute, bvh and fragment (exact criterion);
+    /// the reflections after the first are traced by the BVH.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(0..=16))]
     bounces: u32,
     /// Output file, .png or .exr [default: out/SCENE-METHOD.png].
@@ -402,13 +404,22 @@ fn render(args: RenderArgs) -> Result<()> {
         Method::Reference => None,
     };
     if let Some(m) = gpu_method {
-        if args.bounces != 1 {
+        if args.bounces != 1
+            && matches!(
+                m,
+                GpuMethod::Envmap | GpuMethod::Ssr | GpuMethod::ReflectionPoint
+            )
+        {
             anyhow::bail!(
-                "--bounces {}: the GPU methods trace one reflection (use --method reference)",
-                args.bounces
+                "--bounces {}: method {m:?} traces one reflection (its records do not name the \
+                 triangle hit); use compute, fragment, bvh or reference",
+                args.bounces,
             );
         }
-        let options = args.trace.options(m);
+        let options = RenderOptions {
+            bounces: args.bounces,
+            ..args.trace.options(m)
+        };
         let ctx = args.gpu.context()?;
         let device = cubetrace::vk::budget::device_bytes(
             camera.width,
@@ -518,7 +529,9 @@ fn render(args: RenderArgs) -> Result<()> {
         }
         if args.compare {
             let tracer = reference::Tracer::new(&scene);
-            let refr = reference::render(&scene, &tracer, &camera, 1);
+            // The GPU records hold each path's last hit (the first reflected one for one bounce).
+            let refr =
+                reference::render(&scene, &tracer, &camera, args.bounces).with_last_hits(&tracer);
             let r = metrics::compare(
                 &refr,
                 &traced,

@@ -250,6 +250,12 @@ impl BvhQueue {
         &self.counter
     }
 
+    /// The indirect dispatch `args` writes (`bvh_trace`'s; a pass over the queue's rays with
+    /// 64-wide workgroups may reuse it, as the bounce rounds do).
+    pub fn dispatch(&self) -> &Buffer {
+        &self.dispatch
+    }
+
     /// Zeroes the counter (before the producers).
     pub fn record_clear(&self, rec: &Recorder<'_>) {
         rec.fill_buffer(&self.counter, 0);
@@ -449,8 +455,30 @@ impl BvhTracer {
 
     /// The indirect dispatch over `queue` (after [`BvhQueue::record_args`]).
     pub fn record_trace(&self, rec: &Recorder<'_>, queue: &BvhQueue) -> VkResult<()> {
+        self.record_trace_with(rec, queue, &self.sets[2])
+    }
+
+    /// The queue group (set 2) of `bvh_trace` for another queue than the one the tracer was
+    /// made with: one BVH traces several queues (the bounce rounds, [`super::bounce`]).
+    pub fn queue_set(&self, queue: &BvhQueue) -> VkResult<BindGroup> {
+        self.pipeline.bind_group(
+            2,
+            &[
+                (0, Resource::Buffer(&queue.counter)),
+                (1, Resource::Buffer(&queue.rays)),
+            ],
+        )
+    }
+
+    /// [`BvhTracer::record_trace`] over `queue` bound as `queue_set` ([`BvhTracer::queue_set`]).
+    pub fn record_trace_with(
+        &self,
+        rec: &Recorder<'_>,
+        queue: &BvhQueue,
+        queue_set: &BindGroup,
+    ) -> VkResult<()> {
         rec.memory_barrier(SHADER_WRITE, INDIRECT_READ);
-        let sets = [&self.sets[0], &self.sets[1], &self.sets[2], &self.sets[3]];
+        let sets = [&self.sets[0], &self.sets[1], queue_set, &self.sets[3]];
         self.pipeline
             .dispatch_indirect(rec, &sets, &queue.dispatch, 0)
     }
