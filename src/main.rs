@@ -683,6 +683,11 @@ struct BenchArgs {
     /// columns of the cost-per-ray table).
     #[arg(long)]
     no_floor: bool,
+    /// Reflections per path for the reference and the methods that trace several (compute,
+    /// fragment with the exact criterion, bvh; the others are skipped when N != 1). Not used by
+    /// --scaling.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(0..=16))]
+    bounces: u32,
     /// Cost curves instead of the grid: against cube size, screen size, CMO count and triangle
     /// count (fragment, exact criterion with the pyramid).
     #[arg(long)]
@@ -752,6 +757,7 @@ fn bench(args: BenchArgs) -> Result<()> {
             flip: !args.no_flip,
             heatmaps: !args.no_heatmaps,
             floor: (!args.no_floor).then_some(bench::FLOOR_FRAME),
+            bounces: args.bounces,
             out: args.out.clone(),
         };
         let report = bench::run(&ctx, &cfg, &bar)?;
