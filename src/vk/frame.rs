@@ -12,6 +12,7 @@
 //! | or `rp_search`, `rp_raster` | scene, G-buffer | the same records ([`super::reflection_point`]) |
 //! | or `bvh_queue`, `bvh_trace` | G-buffer, CWBVH, scene | the same records, traced exactly ([`super::bvh`]) |
 //! | `fallback` (`--fallback trace`) | G-buffer, records, CWBVH, scene | unresolved records finished by `bvh_queue` + `bvh_trace` |
+//! | `bounce_append` (`--bounces N`, N != 1) | G-buffer, records, CWBVH, scene | N = 0: the mirrors' own material (instead of the tracing passes); N >= 2: rounds 2..=N, each `bounce_append` + `bvh_queue` (`args`) + `bvh_trace` ([`super::bounce`]) |
 //! | `composite` | G-buffer, records, CMO colour | final colour |
 //!
 //! Each pass name is its WGSL file, its debug label and its timestamp scope, so
@@ -23,8 +24,9 @@
 //! capture without self-reflections, the hierarchy and the ray queue for the compute path only,
 //! the Hi-Z pyramid for `ssr` only (which, like the environment map, uses the CMOs' colour for
 //! its fallback alone), the search textures, per-vertex buffer and virtual-object targets for
-//! `reflection-point` only (the same), the CWBVH for `bvh` or `--fallback trace` only (`bvh`
-//! captures its CMOs at one texel per face: only an `envmap` fallback would read them).
+//! `reflection-point` only (the same), the CWBVH for `bvh`, `--fallback trace` or
+//! `--bounces N >= 2` only (one BVH for all of them; `bvh` captures its CMOs at one texel per
+//! face: only an `envmap` fallback would read them), the bounce queues for N >= 2 only.
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
