@@ -429,6 +429,11 @@ fn render(args: RenderArgs) -> Result<()> {
             scene.cmo.resolution,
             scene.captures_reflectors(),
         );
+        let device = cubetrace::vk::budget::DeviceBytes {
+            frame: device.frame
+                + cubetrace::vk::budget::bounce_bytes(camera.width, camera.height, args.bounces),
+            ..device
+        };
         let mut host = memory::gpu_host_bytes(pixels, format, args.compare);
         if ctx.device_is_cpu() {
             // A CPU device's memory is the machine's.
