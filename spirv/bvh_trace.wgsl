@@ -4,7 +4,7 @@
 // hits and the reference shade); no hit is escaped (the background, point at t_hi); a ray whose
 // loop reached its cap is unresolved with `cut` = 1 (and counted in `bvh_counter.cut`). A plain
 // ray writes the whole record (cmo = 0xffffffff, no texel, counters: `texels` = triangles tested,
-// `cells` = nodes visited, `t_done` = its t_min); a BVH_RAY_FALLBACK ray writes only the result
+// `cells` = nodes visited, `t_done` = its t_min, `bounces` = its `bounce` + 1); a BVH_RAY_FALLBACK ray writes only the result
 // fields (status, point, colour, t, triangle, cut) and sets `fallback`, keeping the cubemap
 // tracer's texel, counters and t_done. The dispatch is `bvh_queue`'s `args`.
 //! import shared/record.wgsl
@@ -50,10 +50,16 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         records[ray.pixel].cut = cut;
         records[ray.pixel].fallback = 1u;
     } else {
+        // A bounce round's ray (`bounce` > 0, vk::bounce) keeps the pixel's `fallback` flag: its
+        // first round may have been finished by the fallback.
+        var fallback = 0u;
+        if ray.bounce > 0u {
+            fallback = records[ray.pixel].fallback;
+        }
         records[ray.pixel] = PixelRecord(
             ray.origin, status, ray.dir, 0xffffffffu, point, 0u, colour,
             0u, 0u, 0u, h.tests, h.nodes, 1u, t, ray.t_min, h.triangle,
-            cut, 0u, 0u, 0u,
+            cut, fallback, ray.bounce + 1u, 0u,
         );
     }
 }

@@ -473,7 +473,7 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
         records[st.pixel] = PixelRecord(
             st.origin, r.status, st.dir, r.cmo, r.point, r.riser, colour,
             r.face, r.x, r.y, r.texels, r.cells, r.traces, r.t, r.t_done, triangle,
-            select(0u, 1u, !st.finished), 0u, 0u, 0u,
+            select(0u, 1u, !st.finished), 0u, 1u, 0u,
         );
         ray_stats[st.pixel] = st.sums;
     }

@@ -25,6 +25,6 @@ fn fs_main(@builtin(position) position: vec4<f32>) {
     }
     records[pixel.y * frame.width + pixel.x] = PixelRecord(
         ray.origin, status, ray.dir, k, point, 0u, colour,
-        t.face, t.x, t.y, 1u, 0u, 1u, 0.0, 0.0, 0xffffffffu, 0u, 0u, 0u, 0u,
+        t.face, t.x, t.y, 1u, 0u, 1u, 0.0, 0.0, 0xffffffffu, 0u, 0u, 1u, 0u,
     );
 }

@@ -50,6 +50,6 @@ fn trace_pixel(position: vec4<f32>, variant: u32) {
     }
     records[pixel.y * frame.width + pixel.x] = PixelRecord(
         ray.origin, r.status, ray.dir, r.cmo, r.point, r.riser, colour,
-        r.face, r.x, r.y, r.texels, r.cells, r.traces, r.t, r.t_done, triangle, 0u, 0u, 0u, 0u,
+        r.face, r.x, r.y, r.texels, r.cells, r.traces, r.t, r.t_done, triangle, 0u, 0u, 1u, 0u,
     );
 }

@@ -133,6 +133,7 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
     r.triangle = 0xffffffffu;
     r.x = u32(pixel.x);
     r.y = u32(pixel.y);
+    r.bounces = 1u;
     if q.w == 1.0 {
         r.status = RECORD_HIT;
         r.point = q.xyz;

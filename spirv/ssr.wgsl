@@ -159,6 +159,6 @@ fn fs_main(@builtin(position) position: vec4<f32>) {
     }
     records[pixel.y * frame.width + pixel.x] = PixelRecord(
         ray.origin, status, ray.dir, 0xffffffffu, point, 0u, colour,
-        r.outcome, u32(r.pixel.x), u32(r.pixel.y), 0u, r.iterations, 0u, r.t, 0.0, 0xffffffffu, 0u, 0u, 0u, 0u,
+        r.outcome, u32(r.pixel.x), u32(r.pixel.y), 0u, r.iterations, 0u, r.t, 0.0, 0xffffffffu, 0u, 0u, 1u, 0u,
     );
 }

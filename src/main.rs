@@ -260,6 +260,7 @@ impl TraceArgs {
                 search_scale: self.rp_scale,
                 close_reflectors: !self.rp_open,
             },
+            ..RenderOptions::default()
         }
     }
 
@@ -291,8 +292,9 @@ struct RenderArgs {
     /// Image height in pixels (default: the camera's).
     #[arg(long)]
     height: Option<u32>,
-    /// Maximum number of mirror reflections per path. After the last one, a mirror shows its
-    /// own material colour.
+    /// Maximum number of mirror reflections per path (0..=16). After the last one, a mirror
+    /// shows its own material colour. GPU methods: compute, bvh and fragment (exact criterion);
+    /// the reflections after the first are traced by the BVH.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(0..=16))]
     bounces: u32,
     /// Output file, .png or .exr [default: out/SCENE-METHOD.png].
@@ -409,13 +411,22 @@ fn render(args: RenderArgs) -> Result<()> {
         Method::Reference => None,
     };
     if let Some(m) = gpu_method {
-        if args.bounces != 1 {
+        if args.bounces != 1
+            && matches!(
+                m,
+                GpuMethod::Envmap | GpuMethod::Ssr | GpuMethod::ReflectionPoint
+            )
+        {
             anyhow::bail!(
-                "--bounces {}: the GPU methods trace one reflection (use --method reference)",
-                args.bounces
+                "--bounces {}: method {m:?} traces one reflection (its records do not name the \
+                 triangle hit); use compute, fragment, bvh or reference",
+                args.bounces,
             );
         }
-        let options = args.trace.options(m);
+        let options = RenderOptions {
+            bounces: args.bounces,
+            ..args.trace.options(m)
+        };
         let ctx = args.gpu.context()?;
         let device = cubetrace::vk::budget::device_bytes(
             camera.width,
@@ -426,6 +437,11 @@ fn render(args: RenderArgs) -> Result<()> {
             scene.captures_reflectors(),
             &options.trace,
         );
+        let device = cubetrace::vk::budget::DeviceBytes {
+            frame: device.frame
+                + cubetrace::vk::budget::bounce_bytes(camera.width, camera.height, args.bounces),
+            ..device
+        };
         let mut host = memory::gpu_host_bytes(pixels, format, args.compare);
         if ctx.device_is_cpu() {
             // A CPU device's memory is the machine's.
@@ -526,7 +542,9 @@ fn render(args: RenderArgs) -> Result<()> {
         }
         if args.compare {
             let tracer = reference::Tracer::new(&scene);
-            let refr = reference::render(&scene, &tracer, &camera, 1);
+            // The GPU records hold each path's last hit (the first reflected one for one bounce).
+            let refr =
+                reference::render(&scene, &tracer, &camera, args.bounces).with_last_hits(&tracer);
             let r = metrics::compare(
                 &refr,
                 &traced,
@@ -678,6 +696,11 @@ struct BenchArgs {
     /// columns of the cost-per-ray table).
     #[arg(long)]
     no_floor: bool,
+    /// Reflections per path for the reference and the methods that trace several (compute,
+    /// fragment with the exact criterion, bvh; the others are skipped when N != 1). Not used by
+    /// --scaling.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(0..=16))]
+    bounces: u32,
     /// Cost curves instead of the grid: against cube size, screen size, CMO count and triangle
     /// count (fragment, exact criterion with the pyramid); then the reflection-point method's
     /// error against the reference as the other objects are subdivided (the tessellation curve).
@@ -757,6 +780,7 @@ fn bench(args: BenchArgs) -> Result<()> {
             flip: !args.no_flip,
             heatmaps: !args.no_heatmaps,
             floor: (!args.no_floor).then_some(bench::FLOOR_FRAME),
+            bounces: args.bounces,
             out: args.out.clone(),
         };
         let report = bench::run(&ctx, &cfg, &bar)?;

@@ -25,8 +25,9 @@ use crate::reference::PathResult;
 pub const LIMIT_ENV: &str = "CUBETRACE_MEMORY_LIMIT";
 
 /// Bytes per pixel of a [`crate::reference::Frame`]: colour, surface and hit positions, mask,
-/// object, primitive and global triangle ids, bounces.
-pub const REFERENCE_FRAME_BYTES: u64 = 3 * size_of::<Vec3>() as u64 + 1 + 4 + 4 + 4 + 1;
+/// object, primitive and global triangle ids, bounces, the last hit's position and triangle.
+pub const REFERENCE_FRAME_BYTES: u64 =
+    3 * size_of::<Vec3>() as u64 + 1 + 4 + 4 + 4 + 1 + size_of::<Vec3>() as u64 + 4;
 
 /// Bytes per pixel of writing an image: PNG: 8-bit RGB plus the encoded file (at most about the
 /// same again); EXR: `channels` 32-bit channels, built and then encoded into memory before the
@@ -55,8 +56,9 @@ pub fn gpu_host_bytes(pixels: u64, format: Format, compare: bool) -> u64 {
     let record = size_of::<crate::vk::frame::PixelRecord>() as u64;
     let frame = 2 * size_of::<Vec3>() as u64 + 1 + record;
     let readback = 16 + record + 16 + record;
-    let traced = 2 * size_of::<Vec3>() as u64 + 2;
-    let output = traced + output_bytes_per_pixel(format, 11);
+    // Colour, hit position, mask, resolved, bounces.
+    let traced = 2 * size_of::<Vec3>() as u64 + 2 + 4;
+    let output = traced + output_bytes_per_pixel(format, 12);
     let reference = if compare {
         traced
             + REFERENCE_FRAME_BYTES

@@ -54,6 +54,9 @@ pub struct Traced {
     /// 1 where the `trace` fallback (the BVH tracer) finished the pixel's ray; `None` for frames
     /// rendered without it.
     pub fallback: Option<Vec<u8>>,
+    /// Reflections each pixel's path took (0 off the mirrors), for tracers that count them
+    /// (the GPU frames' records); `None` for those that do not.
+    pub bounces: Option<Vec<u32>>,
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
@@ -373,6 +376,7 @@ mod tests {
             resolved: vec![1; 4],
             triangle: Some(f.triangle.clone()),
             fallback: None,
+            bounces: None,
         };
         (f, t, vec![Vec3::ZERO; 4])
     }
@@ -412,6 +416,7 @@ mod tests {
             resolved: f.mask.clone(),
             triangle: None,
             fallback: None,
+            bounces: None,
         };
         (f, t, vec![Vec3::ZERO; n])
     }

@@ -252,7 +252,8 @@ pub fn frame_channels(frame: &Frame) -> Vec<(&'static str, Channel)> {
 /// methods that verify their hits (the tracers with the exact criterion), `primitive_id` (u32:
 /// the global triangle of the traced hit, 4294967295 where none, as the reference's), and with
 /// the BVH tracer (`bvh`, `--fallback trace`) `fallback` (1 where the BVH finished the ray of a
-/// pixel the method left unresolved; `unresolved` is then 0 there).
+/// pixel the method left unresolved; `unresolved` is then 0 there), and where the frame counts
+/// them `bounces` (u32: the reflections the pixel's path took, as the reference's).
 pub fn write_traced(path: &Path, traced: &Traced, surface_position: &[Vec3]) -> Result<()> {
     match Format::from_path(path)? {
         Format::Png => write_atomic(
@@ -283,6 +284,9 @@ pub fn write_traced(path: &Path, traced: &Traced, surface_position: &[Vec3]) -> 
             }
             if let Some(fb) = &traced.fallback {
                 channels.push(("fallback", f(&|k| f32::from(fb[k]))));
+            }
+            if let Some(b) = &traced.bounces {
+                channels.push(("bounces", Channel::U32(b.clone())));
             }
             write_exr(path, traced.width, traced.height, channels)
         }

@@ -178,3 +178,55 @@ fn scaling_triangle_axis_sets_bvh_beside_the_cubemap_paths() {
     );
     common::finish_gpu(ctx);
 }
+
+/// `--bounces` in the bench: the reference and the GPU methods trace N reflections and are
+/// compared on each path's last hit; a method that traces one only is skipped. Negative: the
+/// same GPU frame against a one-bounce reference is not exact.
+#[test]
+fn bench_with_bounces() {
+    let ctx = common::gpu_context();
+    let out = tempfile::tempdir().expect("temp dir");
+    let cfg = BenchConfig {
+        scenes: vec!["teapot".into()],
+        methods: bench::method_grid(
+            &[MethodKind::Reference, MethodKind::Envmap, MethodKind::Bvh],
+            true,
+        ),
+        width: 48,
+        height: 36,
+        frames: 1,
+        warmup: 0,
+        flip: false,
+        heatmaps: false,
+        floor: None,
+        bounces: 3,
+        out: out.path().to_path_buf(),
+        ..BenchConfig::default()
+    };
+    let report = bench::run(&ctx, &cfg, &indicatif::ProgressBar::hidden()).expect("bench");
+    let kinds: Vec<MethodKind> = report.runs.iter().map(|r| r.kind).collect();
+    assert_eq!(kinds, [MethodKind::Reference, MethodKind::Bvh]);
+    assert_eq!(report.bounces, 3);
+    assert!(bench::report::header(&report).contains("3 bounces"));
+    let bvh = &report.runs[1].error;
+    assert!(bvh.same_triangle >= 0.99 && bvh.psnr_db >= 45.0, "{bvh:?}");
+    // Negative: one bounce for the reference (the teapot's spout and handle reflect twice).
+    let (scene, camera) = bench::prepare_scene("teapot", 48, 36, None, None).expect("scene");
+    let refr1 = bench::run_reference(&scene, &camera, 0, 1);
+    let options = cubetrace::vk::frame::RenderOptions {
+        method: cubetrace::vk::frame::GpuMethod::Bvh,
+        bounces: 3,
+        ..Default::default()
+    };
+    let g = bench::run_gpu_with(&ctx, &scene, &camera, options, 0, 1).expect("gpu");
+    let e = cubetrace::metrics::compare(
+        &refr1.frame,
+        &g.frame.traced(),
+        &g.frame.surface_position,
+        &scene.cmo_centres(),
+        scene.cmo.resolution,
+    );
+    assert!(e.same_triangle < bvh.same_triangle, "{e:?} against {bvh:?}");
+    bench::check_validation(&ctx).expect("validation");
+    common::finish_gpu(ctx);
+}

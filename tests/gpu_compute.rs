@@ -151,7 +151,7 @@ fn compute_struct_layouts_match_naga() {
         COMPUTE_TRACE.struct_layout("PixelRecord").unwrap(),
         [
             origin, status, dir, cmo, point, riser, colour, face, x, y, texels, cells, traces, t,
-            t_done, triangle, cut, fallback, pad1, pad2
+            t_done, triangle, cut, fallback, bounces, pad2
         ]
     )
     .unwrap();

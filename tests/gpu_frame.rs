@@ -83,7 +83,7 @@ fn shared_structs_match_naga_layout() {
         l("PixelRecord"),
         [
             origin, status, dir, cmo, point, riser, colour, face, x, y, texels, cells, traces, t,
-            t_done, triangle, cut, fallback, pad1, pad2
+            t_done, triangle, cut, fallback, bounces, pad2
         ]
     )
     .unwrap();

@@ -422,6 +422,31 @@ fn bounces_count_and_mask() {
             assert_eq!(zero.colour[k], three.colour[k]);
         }
     }
+    // The last hit: the mirror itself with no bounce, the first reflected hit with one, where
+    // the path ends with more (a reflector's triangle exactly where it ran out of bounces).
+    let one = reference::render(&s, &t, &cam, 1);
+    let (mut ended_on_mirror, mut moved) = (0, 0);
+    for k in 0..zero.mask.len() {
+        if zero.mask[k] == 0 {
+            continue;
+        }
+        assert!(t.is_reflector(zero.last_triangle[k]));
+        assert_eq!(zero.last_position[k], zero.surface_position[k]);
+        assert_eq!(one.last_triangle[k], one.triangle[k]);
+        assert_eq!(
+            one.with_last_hits(&t).hit_position[k]
+                .to_array()
+                .map(f32::to_bits),
+            one.hit_position[k].to_array().map(f32::to_bits)
+        );
+        let last = three.last_triangle[k];
+        if last != reference::NO_ID && t.is_reflector(last) {
+            assert_eq!(three.bounces[k], 3);
+            ended_on_mirror += 1;
+        }
+        moved += usize::from(last != three.triangle[k]);
+    }
+    assert!(moved > 0 && moved >= ended_on_mirror);
 }
 
 /// The sphere-room mirror's centre and object id (its one part).

@@ -29,7 +29,9 @@ struct PixelRecord {
     cut: u32,
     // 1 where `--fallback trace` finished the ray with the BVH (`bvh_trace`); 0 elsewhere.
     fallback: u32,
-    pad1: u32,
+    // Reflections the pixel's path took (`--bounces`): 1 from every method's own pass, k + 1
+    // from the bounce round that traced the path's k-th reflected ray, 0 with `--bounces 0`.
+    bounces: u32,
     pad2: u32,
 }
 

@@ -260,6 +260,10 @@ pub struct BenchConfig {
     /// per-pass cost (the "floor": small frame time / full frame time, near 0 when the pass
     /// costs per ray).
     pub floor: Option<(u32, u32)>,
+    /// Reflections per path (`--bounces`), for the reference and the GPU methods that trace
+    /// more than one (`compute`, `fragment` with the exact criterion, `bvh`); with N != 1 the
+    /// others are skipped, and the error figures compare each path's last hit.
+    pub bounces: u32,
     pub out: PathBuf,
 }
 
@@ -282,6 +286,7 @@ impl Default for BenchConfig {
             flip: true,
             heatmaps: true,
             floor: Some(FLOOR_FRAME),
+            bounces: 1,
             out: PathBuf::from("out/bench"),
         }
     }
@@ -544,6 +549,8 @@ pub struct BenchReport {
     pub cubetrace_version: &'static str,
     pub cpu_threads: usize,
     pub warmup: u32,
+    /// Reflections per path ([`BenchConfig::bounces`]).
+    pub bounces: u32,
     pub runs: Vec<RunResult>,
     /// Per scene: ns per ray of each method and the ratios between them ([`SceneRatios::of`]).
     pub ratios: Vec<SceneRatios>,
@@ -651,21 +658,34 @@ pub struct ReferenceRun {
 /// Renders the CPU reference `warmup + frames` times (one bounce, [`reference::render_phased`])
 /// and keeps the last frame.
 pub fn run_reference(scene: &Scene, camera: &Camera, warmup: u32, frames: u32) -> ReferenceRun {
+    run_reference_bounces(scene, camera, warmup, frames, 1)
+}
+
+/// [`run_reference`] with `bounces` reflections per path; the frame's hits are each path's last
+/// ([`Frame::with_last_hits`]: what the GPU records hold).
+pub fn run_reference_bounces(
+    scene: &Scene,
+    camera: &Camera,
+    warmup: u32,
+    frames: u32,
+    bounces: u32,
+) -> ReferenceRun {
     let tracer = reference::Tracer::new(scene);
-    let (mut frame, _) = reference::render_phased(scene, &tracer, camera, 1);
+    let (mut frame, _) = reference::render_phased(scene, &tracer, camera, bounces);
     for _ in 1..warmup {
-        frame = reference::render_phased(scene, &tracer, camera, 1).0;
+        frame = reference::render_phased(scene, &tracer, camera, bounces).0;
     }
     let (mut wall_ns, mut reflected_ns) = (Vec::new(), Vec::new());
     let mut reflected_rays = 0;
     for _ in 0..frames.max(1) {
         let start = Instant::now();
-        let (f, phases) = reference::render_phased(scene, &tracer, camera, 1);
+        let (f, phases) = reference::render_phased(scene, &tracer, camera, bounces);
         wall_ns.push(start.elapsed().as_secs_f64() * 1e9);
         reflected_ns.push(phases.reflected_ns);
         reflected_rays = phases.reflected_rays;
         frame = f;
     }
+    let frame = frame.with_last_hits(&tracer);
     ReferenceRun {
         frame,
         wall_ns,
@@ -831,7 +851,7 @@ pub fn run(
     for (name, (scene, camera)) in cfg.scenes.iter().zip(prepared) {
         bar.set_message(format!("{name}: reference"));
         // The reference is needed for every error figure, even when it is not a listed method.
-        let refr = run_reference(&scene, &camera, cfg.warmup, cfg.frames);
+        let refr = run_reference_bounces(&scene, &camera, cfg.warmup, cfg.frames, cfg.bounces);
         bar.inc(1);
         let centres = scene.cmo_centres();
         let triangles = scene.world().triangles.len();
@@ -887,6 +907,19 @@ pub fn run(
                 continue;
             };
             let label = spec.label();
+            let bounces_ok = match gpu {
+                GpuMethod::Compute | GpuMethod::Bvh => true,
+                GpuMethod::Fragment => spec.trace.criterion == TraceCriterion::Exact,
+                _ => false,
+            };
+            if cfg.bounces != 1 && !bounces_ok {
+                log::warn!(
+                    "{name}: {label} traces one reflection: skipped at --bounces {}",
+                    cfg.bounces
+                );
+                bar.inc(1);
+                continue;
+            }
             bar.set_message(format!("{name}: {label}"));
             let subdivided;
             let scene = if spec.subdivide > 0 {
@@ -897,7 +930,15 @@ pub fn run(
             } else {
                 &scene
             };
-            let g = run_gpu(ctx, scene, &camera, gpu, spec.trace, cfg.warmup, cfg.frames)
+            let options = RenderOptions {
+                method: gpu,
+                trace: spec.trace,
+                // As `run_gpu`: the CLI's default fallback.
+                fallback: Fallback::Trace,
+                bounces: cfg.bounces,
+                ..RenderOptions::default()
+            };
+            let g = run_gpu_with(ctx, scene, &camera, options, cfg.warmup, cfg.frames)
                 .with_context(|| format!("scene '{name}', method {label}"))?;
             let traced = g.frame.traced();
             let pixels = metrics::classify(
@@ -996,6 +1037,7 @@ pub fn run(
         cubetrace_version: env!("CARGO_PKG_VERSION"),
         cpu_threads: rayon::current_num_threads(),
         warmup: cfg.warmup,
+        bounces: cfg.bounces,
         ratios: SceneRatios::of(&runs),
         runs,
     })

@@ -147,7 +147,7 @@ pub fn header(report: &BenchReport) -> String {
     let r0 = report.runs.first();
     format!(
         "Device: {}; commit {}; cubetrace {}; {} CPU threads (reference).\n\
-         Frames: {}x{}, {} timed after {} warm-up; cube size {}.\n",
+         Frames: {}x{}, {} timed after {} warm-up; cube size {}{}.\n",
         report.device.describe(),
         report.git_commit.as_deref().unwrap_or("unknown"),
         report.cubetrace_version,
@@ -157,6 +157,13 @@ pub fn header(report: &BenchReport) -> String {
         r0.map_or(0, |r| r.frames),
         report.warmup,
         r0.map_or("?".into(), |r| r.cube_size.to_string()),
+        match report.bounces {
+            1 => String::new(),
+            n => format!(
+                "; {n} bounces (the methods' ns/ray: their own first round; the rounds after it \
+                 are the `bounce_append` pass)"
+            ),
+        },
     )
 }
 
@@ -464,6 +471,7 @@ mod tests {
             cubetrace_version: "0",
             cpu_threads: 1,
             warmup: 0,
+            bounces: 1,
             ratios: super::super::SceneRatios::of(&runs),
             runs,
         }

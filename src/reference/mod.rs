@@ -98,6 +98,12 @@ pub struct Frame {
     pub triangle: Vec<u32>,
     /// Number of reflections the pixel's path took.
     pub bounces: Vec<u8>,
+    /// The point whose colour the pixel shows: the last hit of its path (the primary hit on a
+    /// non-mirror or with no bounce; after the bounces, the last reflected ray's hit; NaN where
+    /// the path left the scene). What a GPU frame's records hold ([`Frame::with_last_hits`]).
+    pub last_position: Vec<Vec3>,
+    /// The global triangle of that hit ([`NO_ID`] where none).
+    pub last_triangle: Vec<u32>,
 }
 
 impl Frame {
@@ -114,7 +120,29 @@ impl Frame {
             primitive_id: vec![NO_ID; n],
             triangle: vec![NO_ID; n],
             bounces: vec![0; n],
+            last_position: vec![Vec3::NAN; n],
+            last_triangle: vec![NO_ID; n],
         }
+    }
+
+    /// This frame with each mirror pixel's reflected hit (`hit_position`, `triangle`,
+    /// `object_id`, `primitive_id`) replaced by its path's last hit: the same frame for one
+    /// bounce, and what a GPU frame's records hold for any bounce count (`--bounces`), so that
+    /// the metrics compare like with like.
+    pub fn with_last_hits(&self, tracer: &Tracer) -> Frame {
+        let mut f = self.clone();
+        for k in 0..f.mask.len() {
+            if f.mask[k] == 0 {
+                continue;
+            }
+            f.hit_position[k] = f.last_position[k];
+            f.triangle[k] = f.last_triangle[k];
+            (f.object_id[k], f.primitive_id[k]) = match f.last_triangle[k] {
+                NO_ID => (NO_ID, NO_ID),
+                t => tracer.ids(t),
+            };
+        }
+        f
     }
 
     pub fn index(&self, i: u32, j: u32) -> usize {
@@ -131,6 +159,8 @@ impl Frame {
         self.mask[k] = p.mirror as u8;
         self.surface_position[k] = p.surface.unwrap_or(Vec3::NAN);
         self.bounces[k] = p.bounces;
+        self.last_position[k] = p.last_position;
+        self.last_triangle[k] = p.last_triangle;
         if let Some(h) = p.first_reflected {
             self.hit_position[k] = h.position;
             let (o, prim) = tracer.ids(h.triangle);
@@ -514,6 +544,10 @@ pub struct PathResult {
     pub mirror: bool,
     pub first_reflected: Option<Hit>,
     pub bounces: u8,
+    /// The point and global triangle of the hit whose colour the path shows (NaN and
+    /// [`NO_ID`] where it left the scene).
+    pub last_position: Vec3,
+    pub last_triangle: u32,
 }
 
 /// Traces one path from `origin` along `dir` with up to `max_bounces` reflections.
@@ -549,6 +583,8 @@ pub fn finish_path(
         mirror: false,
         first_reflected: None,
         bounces: 0,
+        last_position: Vec3::NAN,
+        last_triangle: NO_ID,
     };
     let Some(mut hit) = first else {
         return out;
@@ -571,6 +607,8 @@ pub fn finish_path(
         hit = next;
     }
     out.colour = tracer.shade(scene, &hit);
+    out.last_position = hit.position;
+    out.last_triangle = hit.triangle;
     out
 }
 

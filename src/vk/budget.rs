@@ -105,10 +105,28 @@ pub fn device_bytes(
     }
 }
 
+/// The device bytes `--bounces N` adds to a render of `width` x `height` pixels: for N >= 2,
+/// two queues of one [`BvhRay`](super::bvh::BvhRay) per pixel (the rounds alternate between
+/// them); nothing otherwise. The BVH is per triangle and not counted, as above.
+pub fn bounce_bytes(width: u32, height: u32, bounces: u32) -> u64 {
+    if bounces < 2 {
+        return 0;
+    }
+    2 * u64::from(width) * u64::from(height) * size_of::<super::bvh::BvhRay>() as u64
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::vk::cmo::CaptureContents;
+
+    #[test]
+    fn bounce_queues_only_past_one_bounce() {
+        assert_eq!(bounce_bytes(160, 120, 0), 0);
+        assert_eq!(bounce_bytes(160, 120, 1), 0);
+        assert_eq!(bounce_bytes(160, 120, 2), 2 * 160 * 120 * 48);
+        assert_eq!(bounce_bytes(160, 120, 16), bounce_bytes(160, 120, 2));
+    }
 
     #[test]
     fn triangle_ids_replace_colour_at_less_memory() {

@@ -9,7 +9,8 @@
 //! | `bvh_queue` (`args`) | [`BvhCounter`] | the indirect dispatch of `bvh_trace` |
 //! | `bvh_trace` | queue, CWBVH, scene | `records[ray.pixel]` |
 //!
-//! Contract of [`BvhTracer`] (what a producer of rays must do; the bounce rounds reuse it):
+//! Contract of [`BvhTracer`] (what a producer of rays must do; the bounce rounds,
+//! [`super::bounce`], reuse it with queues of their own: [`BvhTracer::queue_set`]):
 //! - A queue is a [`BvhQueue`]: a buffer of [`BvhRay`] (capacity fixed at creation), a
 //!   [`BvhCounter`] whose `count` the producer increments atomically (`atomicAdd`) for each ray
 //!   it writes at that index, and an indirect dispatch. Record, in order:
@@ -18,8 +19,9 @@
 //!   count on the GPU), [`BvhTracer::record_trace`] (a barrier, then the indirect dispatch).
 //! - A ray carries its world origin, unit direction, the pixel whose record it writes, its start
 //!   distance `t_min` (hits at `t < t_min` are not taken), the triangle it leaves
-//!   (`from_triangle`, [`NO_TRIANGLE`] for none: the start rule below), its `bounce` (carried,
-//!   not read by the kernel) and `flags` ([`RAY_FALLBACK`]: write only the result fields of the
+//!   (`from_triangle`, [`NO_TRIANGLE`] for none: the start rule below), its `bounce` (the
+//!   reflections before it: the record's `bounces` is `bounce` + 1, and a ray with `bounce` > 0
+//!   keeps the record's `fallback` flag) and `flags` ([`RAY_FALLBACK`]: write only the result fields of the
 //!   record and set its `fallback` flag; otherwise the whole record).
 //! - Each pixel must appear at most once per queue (two rays of one pixel would race on its
 //!   record). The tracer writes records only; colour composition is the composite pass's.
@@ -76,7 +78,7 @@ pub struct BvhRay {
     pub t_min: f32,
     /// The triangle the ray leaves (start rule), [`NO_TRIANGLE`] for none.
     pub from_triangle: u32,
-    /// Reflections taken before this ray (carried for the producer; not read by the kernel).
+    /// Reflections taken before this ray (the record gets `bounce` + 1 as its `bounces`).
     pub bounce: u32,
     /// [`RAY_FALLBACK`] or 0.
     pub flags: u32,
@@ -255,6 +257,12 @@ impl BvhQueue {
     /// The counter (a producer binds it read-write).
     pub fn counter(&self) -> &Buffer {
         &self.counter
+    }
+
+    /// The indirect dispatch `args` writes (`bvh_trace`'s; a pass over the queue's rays with
+    /// 64-wide workgroups may reuse it, as the bounce rounds do).
+    pub fn dispatch(&self) -> &Buffer {
+        &self.dispatch
     }
 
     /// Zeroes the counter (before the producers).
@@ -460,8 +468,30 @@ impl BvhTracer {
 
     /// The indirect dispatch over `queue` (after [`BvhQueue::record_args`]).
     pub fn record_trace(&self, rec: &Recorder<'_>, queue: &BvhQueue) -> VkResult<()> {
+        self.record_trace_with(rec, queue, &self.sets[2])
+    }
+
+    /// The queue group (set 2) of `bvh_trace` for another queue than the one the tracer was
+    /// made with: one BVH traces several queues (the bounce rounds, [`super::bounce`]).
+    pub fn queue_set(&self, queue: &BvhQueue) -> VkResult<BindGroup> {
+        self.pipeline.bind_group(
+            2,
+            &[
+                (0, Resource::Buffer(&queue.counter)),
+                (1, Resource::Buffer(&queue.rays)),
+            ],
+        )
+    }
+
+    /// [`BvhTracer::record_trace`] over `queue` bound as `queue_set` ([`BvhTracer::queue_set`]).
+    pub fn record_trace_with(
+        &self,
+        rec: &Recorder<'_>,
+        queue: &BvhQueue,
+        queue_set: &BindGroup,
+    ) -> VkResult<()> {
         rec.memory_barrier(SHADER_WRITE, INDIRECT_READ);
-        let sets = [&self.sets[0], &self.sets[1], &self.sets[2], &self.sets[3]];
+        let sets = [&self.sets[0], &self.sets[1], queue_set, &self.sets[3]];
         self.pipeline
             .dispatch_indirect(rec, &sets, &queue.dispatch, 0)
     }

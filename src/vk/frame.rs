@@ -12,6 +12,7 @@
 //! | or `rp_search`, `rp_raster` | scene, G-buffer | the same records ([`super::reflection_point`]) |
 //! | or `bvh_queue`, `bvh_trace` | G-buffer, CWBVH, scene | the same records, traced exactly ([`super::bvh`]) |
 //! | `fallback` (`--fallback trace`) | G-buffer, records, CWBVH, scene | unresolved records finished by `bvh_queue` + `bvh_trace` |
+//! | `bounce_append` (`--bounces N`, N != 1) | G-buffer, records, CWBVH, scene | N = 0: the mirrors' own material (instead of the tracing passes); N >= 2: rounds 2..=N, each `bounce_append` + `bvh_queue` (`args`) + `bvh_trace` ([`super::bounce`]) |
 //! | `composite` | G-buffer, records, CMO triangle IDs + scene (environment-map fallback) | final colour |
 //!
 //! Each pass name is its WGSL file, its debug label and its timestamp scope, so
@@ -24,14 +25,16 @@
 //! the Hi-Z pyramid for `ssr` only (which uses the CMOs for its fallback alone), the search
 //! textures, per-vertex buffer and virtual-object targets for `reflection-point` only (the
 //! same); the CMOs' colour for the environment-map method and the approximate criteria only
-//! (the fallback shades from the triangle IDs); the CWBVH for `bvh` or
-//! `--fallback trace` only (`bvh` captures its CMOs at one texel per face, in its first frame
-//! only: nothing reads them but the composite pass's binding).
+//! (the fallback shades from the triangle IDs); the CWBVH for `bvh`, `--fallback trace` or
+//! `--bounces N >= 2` only (one BVH for all of them; `bvh` captures its CMOs at one texel per
+//! face, in its first frame only: only an `envmap` fallback would read them), the bounce queues
+//! for N >= 2 only.
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
 use gpu_allocator::MemoryLocation;
 
+use super::bounce::{BouncePasses, MAX_BOUNCES};
 use super::buffer::Buffer;
 use super::bvh::{AppendKind, BvhCounter, BvhPasses};
 use super::capture::Capture;
@@ -46,8 +49,8 @@ use super::pyramid::{Pyramid, PyramidBindings};
 use super::reflection_point::ReflectionPointPasses;
 use super::scene_buffers::SceneBuffers;
 use super::shaders::{
-    APPEND, BVH_QUEUE, BVH_TRACE, COMPOSITE, COMPUTE_TRACE, DISPATCH_ARGS, ENVMAP, FRAGMENT_TRACE,
-    HIER32, HIZ, Pass, RP_RASTER, RP_SEARCH, SSR,
+    APPEND, BOUNCE_APPEND, BVH_QUEUE, BVH_TRACE, COMPOSITE, COMPUTE_TRACE, DISPATCH_ARGS, ENVMAP,
+    FRAGMENT_TRACE, HIER32, HIZ, Pass, RP_RASTER, RP_SEARCH, SSR,
 };
 use super::ssr::SsrPasses;
 use super::sync::{SHADER_READ, SHADER_WRITE};
@@ -136,6 +139,10 @@ pub struct RenderOptions {
     pub ssr: SsrOptions,
     /// Options of `ReflectionPoint` (iteration cap).
     pub reflection_point: RpOptions,
+    /// Reflections per path, 0..=[`MAX_BOUNCES`] (the reference's `bounces`): the method traces
+    /// the first, the BVH the rest ([`super::bounce`]); 0 shows the mirrors' own material.
+    /// `Compute`, `Fragment` (exact criterion) and `Bvh` only; the other methods take 1.
+    pub bounces: u32,
 }
 
 impl Default for RenderOptions {
@@ -146,6 +153,7 @@ impl Default for RenderOptions {
             fallback: Fallback::default(),
             ssr: SsrOptions::default(),
             reflection_point: RpOptions::default(),
+            bounces: 1,
         }
     }
 }
@@ -216,7 +224,10 @@ pub struct PixelRecord {
     /// 1 where [`Fallback::Trace`] finished the ray with the BVH tracer (`bvh_trace`); 0
     /// elsewhere (then `cut` = 1 means the BVH loop's cap cut it too).
     pub fallback: u32,
-    pub pad1: u32,
+    /// Reflections the pixel's path took ([`RenderOptions::bounces`]; the reference's
+    /// `Frame::bounces`): 1 from every method's own pass, more from the bounce rounds
+    /// ([`super::bounce`]), 0 with no bounce.
+    pub bounces: u32,
     pub pad2: u32,
 }
 
@@ -292,6 +303,17 @@ impl GpuFrame {
                     .map(|k| u8::from(mirror(k) && self.records[k].fallback != 0))
                     .collect()
             }),
+            bounces: Some(
+                (0..self.records.len())
+                    .map(|k| {
+                        if mirror(k) {
+                            self.records[k].bounces
+                        } else {
+                            0
+                        }
+                    })
+                    .collect(),
+            ),
         }
     }
 
@@ -315,6 +337,43 @@ impl GpuFrame {
             .map(|(_, t)| t)
             .sum()
     }
+}
+
+/// Refuses a bounce count the method cannot trace: more than [`MAX_BOUNCES`], or other than 1
+/// for a method whose records do not name the hit triangle (`envmap`, `ssr`,
+/// `reflection-point`), and N >= 2 for `fragment` with another criterion than the exact one
+/// (no verified hits).
+fn check_bounces(options: &RenderOptions) -> VkResult<()> {
+    let n = options.bounces;
+    let refuse = |detail: String| {
+        Err(VkError::Usage {
+            what: "bounces".into(),
+            detail,
+        })
+    };
+    if n > MAX_BOUNCES {
+        return refuse(format!("{n}: at most {MAX_BOUNCES}"));
+    }
+    let named = match options.method {
+        GpuMethod::Compute | GpuMethod::Bvh => true,
+        GpuMethod::Fragment => {
+            n == 0 || options.trace.criterion == crate::cpu::options::TraceCriterion::Exact
+        }
+        GpuMethod::Envmap | GpuMethod::Ssr | GpuMethod::ReflectionPoint => false,
+    };
+    if n != 1 && !named {
+        return refuse(format!(
+            "{n}: method {:?}{} does not name the triangle it hits, so it traces one reflection \
+             only (use compute, bvh or fragment with the exact criterion)",
+            options.method,
+            if options.method == GpuMethod::Fragment {
+                format!(" with criterion {:?}", options.trace.criterion)
+            } else {
+                String::new()
+            }
+        ));
+    }
+    Ok(())
 }
 
 /// Depth range and ray length for a scene seen by a camera: `(near, far, t_hi)` of
@@ -346,6 +405,8 @@ pub struct GpuRenderer {
     rp: Option<ReflectionPointPasses>,
     /// The passes of `Bvh` (the method's) or of [`Fallback::Trace`].
     bvh: Option<BvhPasses>,
+    /// `bounces` != 1 ([`super::bounce`]).
+    bounce: Option<BouncePasses>,
     composite: ComputePipeline,
     composite_sets: [BindGroup; 3],
     _params: Buffer,
@@ -402,6 +463,7 @@ impl GpuRenderer {
         let data = GpuSceneData::new(scene);
         let scene_buffers = SceneBuffers::new(ctx, &data)?;
         let needs_pyramid = options.method == GpuMethod::Fragment;
+        check_bounces(&options)?;
         if options.method == GpuMethod::Compute {
             if options.trace.criterion != crate::cpu::options::TraceCriterion::Exact {
                 return Err(usage(
@@ -505,6 +567,21 @@ impl GpuRenderer {
                 t_hi,
             )?),
             None => None,
+        };
+        let bounce = if options.bounces == 1 {
+            None
+        } else {
+            Some(BouncePasses::new(
+                ctx,
+                options.bounces,
+                &data,
+                &scene_buffers,
+                &gbuffer,
+                &params_buf,
+                &records,
+                bvh.as_ref().map(|b| &b.tracer),
+                t_hi,
+            )?)
         };
         let (trace, compute) = if options.method == GpuMethod::Compute {
             let path = ComputePath::new(
@@ -616,6 +693,7 @@ impl GpuRenderer {
             ssr,
             rp,
             bvh,
+            bounce,
             composite,
             composite_sets,
             _params: params_buf,
@@ -716,7 +794,9 @@ impl GpuRenderer {
                 scoped(RP_SEARCH.name, &mut || r.record_search(rec))?;
                 scoped(RP_RASTER.name, &mut || r.record_raster(rec))?;
             }
-            if let Some((trace, sets)) = &self.trace {
+            // `--bounces 0`: no ray is traced.
+            let traced = self.options.bounces != 0;
+            if let Some((trace, sets)) = self.trace.as_ref().filter(|_| traced) {
                 scoped(self.options.method.pass_name(), &mut || {
                     let target = RenderTarget {
                         width: self.width,
@@ -727,7 +807,7 @@ impl GpuRenderer {
                     trace.draw(rec, &target, &sets.iter().collect::<Vec<_>>(), 3, 0)
                 })?;
             }
-            if let Some(c) = &self.compute {
+            if let Some(c) = self.compute.as_ref().filter(|_| traced) {
                 scoped(APPEND.name, &mut || c.record_append(rec))?;
                 scoped(DISPATCH_ARGS.name, &mut || {
                     c.record_dispatch_args(rec);
@@ -735,7 +815,7 @@ impl GpuRenderer {
                 })?;
                 scoped(COMPUTE_TRACE.name, &mut || c.record_trace(rec))?;
             }
-            if let Some(b) = &self.bvh {
+            if let Some(b) = self.bvh.as_ref().filter(|_| traced) {
                 if self.options.method == GpuMethod::Bvh {
                     scoped(BVH_QUEUE.name, &mut || {
                         b.record_queue(rec);
@@ -748,6 +828,12 @@ impl GpuRenderer {
                         b.record_trace(rec)
                     })?;
                 }
+            }
+            if let Some(b) = &self.bounce {
+                scoped(BOUNCE_APPEND.name, &mut || {
+                    b.record_own_material(rec);
+                    b.record_rounds(rec, self.bvh.as_ref().map(|p| &p.tracer))
+                })?;
             }
             rec.memory_barrier(SHADER_WRITE, SHADER_READ);
             scoped("composite", &mut || {
@@ -776,7 +862,8 @@ impl GpuRenderer {
             Some(c) => Some(c.read_stats(ctx)?),
             None => None,
         };
-        let bvh = match &self.bvh {
+        // With `--bounces 0` the BVH passes did not run.
+        let bvh = match self.bvh.as_ref().filter(|_| self.options.bounces != 0) {
             Some(b) => Some(b.queue.read_counter(ctx)?),
             None => None,
         };

@@ -12,6 +12,7 @@
 //!   `Arc<Instance>`. Nothing is destroyed while a child lives, and nothing leaks.
 //! - Coordinates are Vulkan's native ones: naga is told not to flip y.
 //! - Every pass has one name: its WGSL file stem, its debug label and its timestamp key.
+pub mod bounce;
 pub mod budget;
 pub mod buffer;
 pub mod bvh;
