@@ -282,22 +282,28 @@ fn handoff(st: ptr<function, RayState>) {
     }
 }
 
-// Starts traces until one needs a traversal or the ray is finished (a trace can end at once:
-// nothing left of the segment). At most MAX_ROUNDS * cmo_count traces run in all.
-fn begin_cmo(st: ptr<function, RayState>) {
+// After a single-CMO trace ended (`trace_done`: the handoff first) or before the first one:
+// starts traces until one needs a traversal or the ray is finished (a trace can end at once:
+// nothing left of the segment). At most MAX_ROUNDS * cmo_count traces run in all. This is the
+// only call site of `handoff` and `start_trace` (the driver inlines every call, so each extra
+// site would be another copy of the verification and the set-up to compile).
+fn settle(st: ptr<function, RayState>) {
     for (var i = 0u; i <= MAX_ROUNDS * trace_config.cmo_count; i++) {
+        if (*st).trace_done {
+            handoff(st);
+            if (*st).finished {
+                return;
+            }
+        }
         start_trace(st);
         if !(*st).trace_done {
-            return;
-        }
-        handoff(st);
-        if (*st).finished {
             return;
         }
     }
 }
 
-// One traversal step once the node's mask is known (`cpu::alg3::advance`).
+// One traversal step once the node's mask is known (`cpu::alg3::advance`). A trace that ends
+// here (`trace_done`) is handed off by `settle` at the top of the next step.
 fn advance(st: ptr<function, RayState>, pick: u32) {
     let top = hier_top();
     let lvl = (*st).level;
@@ -305,12 +311,6 @@ fn advance(st: ptr<function, RayState>, pick: u32) {
         if lvl == top {
             (*st).face += 1u;
             enter_face(st);
-            if (*st).trace_done {
-                handoff(st);
-                if !(*st).finished {
-                    begin_cmo(st);
-                }
-            }
         } else {
             (*st).level += 1u;
             (*st).backtracks += 1u;
@@ -331,10 +331,6 @@ fn advance(st: ptr<function, RayState>, pick: u32) {
         if o.kind != 0u {
             (*st).trace_done = true;
             (*st).result = finish((*st).seg, tex, o, (*st).result.counters);
-            handoff(st);
-            if !(*st).finished {
-                begin_cmo(st);
-            }
         }
         return;
     }
@@ -388,28 +384,51 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
         st.t_done = 0.0;
         st.triangle = VERIFY_NO_TRIANGLE;
         st.result = TraceResult(ONE_ESCAPED, 0.0, Texel(0u, 0u, 0u), false, vec3<f32>(0.0), Counters(0u, 0u));
-        begin_cmo(&st);
     }
-    var busy = valid && !st.finished;
+    var busy = valid;
+    // `settle` is due: the first trace, or the handoff of one that `advance` ended. Run at the
+    // top of the next step rather than inside `advance` (so that it has one call site); the
+    // loops run the same iterations as if it ran at the end of the step.
+    var pending = valid;
     for (var step = 0u; step < MAX_STEPS; step++) {
+        if pending {
+            settle(&st);
+            pending = false;
+            busy = !st.finished;
+        }
         if !subgroupAny(busy) {
             break;
         }
-        // Lane tests of the node's children, one ballot per round.
+        // Lane tests of the node's children, one ballot per round. With one lane per ray (`one`,
+        // a constant per entry point) the ray's 32 logical lanes are this lane's rounds, so its
+        // mask bits are its own tests: no ballot, and only the candidates' keys are kept (the
+        // others are never read).
         let testing = busy && st.need_mask;
         var mask = 0u;
         var nc: NodeCtx;
         if testing {
             nc = node_ctx(&st);
         }
-        for (var c = 0u; c < cells; c++) {
-            var cand = false;
+        if one {
             if testing {
-                let t = lane_test(&st, nc, lane + lanes * c);
-                cand = t.cand;
-                key_set(one, st.level, c, t.key);
+                for (var c = 0u; c < cells; c++) {
+                    let t = lane_test(&st, nc, c);
+                    if t.cand {
+                        mask |= 1u << c;
+                        key_set(one, st.level, c, t.key);
+                    }
+                }
             }
-            mask |= ray_bits(subgroupBallot(cand), half, lanes) << (lanes * c);
+        } else {
+            for (var c = 0u; c < cells; c++) {
+                var cand = false;
+                if testing {
+                    let t = lane_test(&st, nc, lane + lanes * c);
+                    cand = t.cand;
+                    key_set(one, st.level, c, t.key);
+                }
+                mask |= ray_bits(subgroupBallot(cand), half, lanes) << (lanes * c);
+            }
         }
         if testing {
             let g = child_grid(st.level);
@@ -425,32 +444,50 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
         // holding it (NaN keys never win; all NaN: the lowest candidate).
         let lvl = st.level;
         let m = select(0u, st.mask[lvl], busy);
-        var kmin = f32_inf();
-        for (var c = 0u; c < cells; c++) {
-            let key = key_get(one, lvl, c);
-            if ((m >> (lane + lanes * c)) & 1u) != 0u && key < kmin {
-                kmin = key;
-            }
-        }
-        for (var off = lanes / 2u; off > 0u; off /= 2u) {
-            let other = subgroupShuffleXor(kmin, off);
-            if other < kmin {
-                kmin = other;
-            }
-        }
-        var eq = 0u;
-        for (var c = 0u; c < cells; c++) {
-            let j = lane + lanes * c;
-            let holds = ((m >> j) & 1u) != 0u && key_get(one, lvl, c) == kmin;
-            eq |= ray_bits(subgroupBallot(holds), half, lanes) << (lanes * c);
-        }
         var pick = firstTrailingBit(m);
-        if eq != 0u {
-            pick = firstTrailingBit(eq);
+        if one {
+            // The same pick from the candidates' keys alone, in one pass over the set bits in
+            // increasing j: a strictly smaller key, or the first key equal to +inf, takes it.
+            var kmin = f32_inf();
+            var found = false;
+            var rest = m;
+            for (var i = 0u; i < cells && rest != 0u; i++) {
+                let c = firstTrailingBit(rest);
+                rest &= rest - 1u;
+                let key = key_get(one, lvl, c);
+                if key < kmin || (!found && key == kmin) {
+                    kmin = key;
+                    pick = c;
+                    found = true;
+                }
+            }
+        } else {
+            var kmin = f32_inf();
+            for (var c = 0u; c < cells; c++) {
+                let key = key_get(one, lvl, c);
+                if ((m >> (lane + lanes * c)) & 1u) != 0u && key < kmin {
+                    kmin = key;
+                }
+            }
+            for (var off = lanes / 2u; off > 0u; off /= 2u) {
+                let other = subgroupShuffleXor(kmin, off);
+                if other < kmin {
+                    kmin = other;
+                }
+            }
+            var eq = 0u;
+            for (var c = 0u; c < cells; c++) {
+                let j = lane + lanes * c;
+                let holds = ((m >> j) & 1u) != 0u && key_get(one, lvl, c) == kmin;
+                eq |= ray_bits(subgroupBallot(holds), half, lanes) << (lanes * c);
+            }
+            if eq != 0u {
+                pick = firstTrailingBit(eq);
+            }
         }
         if busy {
             advance(&st, pick);
-            busy = !st.finished;
+            pending = st.trace_done;
         }
     }
     if valid && lane == 0u {

@@ -439,6 +439,7 @@ impl ComputePath {
         // each on lavapipe): the retrace entry is compiled on a second thread meanwhile.
         let new_trace =
             |entry| ComputePipeline::new(ctx, &COMPUTE_TRACE, entry, ComputeOptions::default());
+        let compile_start = std::time::Instant::now();
         let (trace, retrace_pipeline) = std::thread::scope(|s| {
             let retrace = (lane_cap == 1).then(|| s.spawn(|| new_trace("main_retrace")));
             let trace = new_trace(entry);
@@ -446,6 +447,12 @@ impl ComputePath {
                 retrace.map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)));
             (trace, retrace)
         });
+        log::info!(
+            "{}: pipelines {entry}{} created in {:.0} ms",
+            COMPUTE_TRACE.name,
+            if lane_cap == 1 { " + main_retrace" } else { "" },
+            compile_start.elapsed().as_secs_f64() * 1e3
+        );
         let trace = trace?;
         let trace_sets = sets_for(&trace, entry)?;
         let retrace = match retrace_pipeline {
