@@ -91,7 +91,13 @@ struct RayState {
     pieces: Pieces,
     piece: u32,
     faces: FaceList,
+    // The piece whose faces `faces` holds (0xffffffff: none yet).
+    faces_piece: u32,
     face: u32,
+    // `start_trace` ran for the current trace; `advance` moved past a face (`settle` enters
+    // the next one).
+    started: bool,
+    next_face: bool,
     la: vec3<f32>,
     ld: vec3<f32>,
     // The face being searched and its piece's [lo, hi] (`faces.face[face]`,
@@ -190,13 +196,21 @@ fn lane_test(st: ptr<function, RayState>, nc: NodeCtx, j: u32) -> LaneTest {
 }
 
 // Sets up the search at the current (piece, face), advancing past exhausted ones; ends the
-// single-CMO trace as escaped when none is left (`cpu::alg3::enter_face`). At most 3 turns.
+// single-CMO trace as escaped when none is left (`cpu::alg3::enter_face`). A piece's faces are
+// found on its first visit (`faces_piece`), here only, so that `faces_crossed` (six frustum
+// intervals) has one call site. At most 3 turns: piece 0, piece 1, none left.
 fn enter_face(st: ptr<function, RayState>) {
     for (var turn = 0u; turn < 4u; turn++) {
         if (*st).piece >= (*st).pieces.count {
             (*st).trace_done = true;
             (*st).result = escaped((*st).seg, (*st).result.counters);
             return;
+        }
+        if (*st).faces_piece != (*st).piece {
+            let r = (*st).pieces.range[(*st).piece];
+            (*st).faces = faces_crossed((*st).seg, r.x, r.y, trace_config.size);
+            (*st).faces_piece = (*st).piece;
+            (*st).face = 0u;
         }
         if (*st).face < (*st).faces.count {
             let f = (*st).faces.face[(*st).face];
@@ -210,32 +224,25 @@ fn enter_face(st: ptr<function, RayState>) {
             return;
         }
         (*st).piece += 1u;
-        (*st).face = 0u;
-        if (*st).piece < (*st).pieces.count {
-            let r = (*st).pieces.range[(*st).piece];
-            (*st).faces = faces_crossed((*st).seg, r.x, r.y, trace_config.size);
-        }
     }
 }
 
-// Starts the single-CMO trace of CMO `k` over [t_done, t_hi] (`cpu::alg3::new_state`).
+// Starts the single-CMO trace of CMO `k` over [t_done, t_hi] (`cpu::alg3::new_state`); the
+// caller then enters its first face (`enter_face`).
 fn start_trace(st: ptr<function, RayState>) {
     let k = (*st).k;
     let seg = Segment((*st).origin - cmo_centres[k].xyz, (*st).dir, (*st).t_done, frame.t_hi);
     (*st).seg = seg;
     (*st).pieces = split_near_centre(seg, cmo_cut[k]);
-    (*st).faces.count = 0u;
-    if (*st).pieces.count > 0u {
-        (*st).faces = faces_crossed(seg, (*st).pieces.range[0].x, (*st).pieces.range[0].y, trace_config.size);
-    }
+    (*st).faces_piece = 0xffffffffu;
     (*st).piece = 0u;
     (*st).face = 0u;
+    (*st).started = true;
     (*st).trace_done = false;
     (*st).need_mask = false;
     (*st).result.counters = Counters(0u, 0u);
     (*st).descents = 0u;
     (*st).backtracks = 0u;
-    enter_face(st);
 }
 
 fn finish_ray(st: ptr<function, RayState>, status: u32, cmo: u32, point: vec3<f32>) {
@@ -282,20 +289,25 @@ fn handoff(st: ptr<function, RayState>) {
     }
 }
 
-// After a single-CMO trace ended (`trace_done`: the handoff first) or before the first one:
-// starts traces until one needs a traversal or the ray is finished (a trace can end at once:
-// nothing left of the segment). At most MAX_ROUNDS * cmo_count traces run in all. This is the
-// only call site of `handoff` and `start_trace` (the driver inlines every call, so each extra
-// site would be another copy of the verification and the set-up to compile).
+// What `advance` left due, or the start: the handoff of a single-CMO trace that ended
+// (`trace_done`), starting traces until one needs a traversal or the ray is finished (a trace
+// can end at once: nothing left of the segment), and entering the next face (`advance` moved
+// past a face). At most MAX_ROUNDS * cmo_count traces run in all. This is the only call site of
+// `handoff`, `start_trace` and `enter_face` (the driver inlines every call, so each extra site
+// would be another copy of the verification and the set-up to compile).
 fn settle(st: ptr<function, RayState>) {
-    for (var i = 0u; i <= MAX_ROUNDS * trace_config.cmo_count; i++) {
+    for (var i = 0u; i <= MAX_ROUNDS * trace_config.cmo_count + 1u; i++) {
         if (*st).trace_done {
             handoff(st);
             if (*st).finished {
                 return;
             }
+            (*st).started = false;
         }
-        start_trace(st);
+        if !(*st).started {
+            start_trace(st);
+        }
+        enter_face(st);
         if !(*st).trace_done {
             return;
         }
@@ -303,14 +315,16 @@ fn settle(st: ptr<function, RayState>) {
 }
 
 // One traversal step once the node's mask is known (`cpu::alg3::advance`). A trace that ends
-// here (`trace_done`) is handed off by `settle` at the top of the next step.
+// here (`trace_done`) or a face left (`next_face`) is settled by `settle` at the top of the next
+// step.
 fn advance(st: ptr<function, RayState>, pick: u32) {
     let top = hier_top();
     let lvl = (*st).level;
     if (*st).mask[lvl] == 0u {
         if lvl == top {
+            // The next face: `settle` enters it (`enter_face`).
             (*st).face += 1u;
-            enter_face(st);
+            (*st).next_face = true;
         } else {
             (*st).level += 1u;
             (*st).backtracks += 1u;
@@ -486,8 +500,9 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
             }
         }
         if busy {
+            st.next_face = false;
             advance(&st, pick);
-            pending = st.trace_done;
+            pending = st.trace_done || st.next_face;
         }
     }
     if valid && lane == 0u {
