@@ -3,7 +3,7 @@
 // the composite pass. CPU twin: `cubetrace::cpu::alg3::trace_alg3` (the traversal, loop for
 // loop) inside `cpu::multi::trace_cmos` (the occlusion handoff between CMOs).
 //
-// Lanes. `@workgroup_size(256)`, 1-D (naga rejects the subgroup builtins with a 2-D size). A ray
+// Lanes. `@workgroup_size(256)` (128 for the `_wg128` entry points), 1-D (naga rejects the subgroup builtins with a 2-D size). A ray
 // owns `lanes = min(S, 32, cap)` lanes of one subgroup of size S (cap: 32 for `main`, 1 for
 // `main_lanes1`); logical lane j in 0..32 (child j of the node being visited) lives on lane
 // `j % lanes`, round `j / lanes`, so with lanes < 32 each lane tests 32 / lanes children and the
@@ -57,8 +57,9 @@ const MAX_CELLS_ONE: u32 = 32u;
 // `TraceConfig::new` accepts; a ray that reached it would be reported unresolved.
 const MAX_STEPS: u32 = 0x80000000u;
 // Batches of the grid-stride loop over the queue. `dispatch_args` launches ceil(n / h) groups
-// with h = `rays_per_group` <= 64, and a group takes at least 8 rays per batch, so at most 8
-// batches are needed below the 65535-group cap, and at most 2^32 / (65535 * 8) < 2^14 above it.
+// with h = `rays_per_group` (4 to 256), and a group takes h rays per batch, so one batch is
+// needed below the 65535-group cap, and at most 2^32 / (65535 * 4) < 2^15 above it (the retrace
+// takes one batch per subgroup: fewer groups, same bound).
 const MAX_BATCHES: u32 = 65536u;
 
 @group(2) @binding(0) var<storage, read_write> ray_counter: RayCounter;
@@ -365,21 +366,23 @@ fn ray_bits(b: vec4<u32>, half: u32, lanes: u32) -> u32 {
     return bits;
 }
 
-// This lane's keys (its children's entry t): level l, round c at l * MAX_CELLS + c, or at
-// l * MAX_CELLS_ONE + c with one lane per ray (`one`, a constant per entry point: the driver
-// keeps only the array its entry point uses, so `main` does not carry the large one).
+// This lane's keys (its children's entry t): level l, round c at l * MAX_CELLS + c (`main`,
+// at least 4 lanes per ray), or at l * MAX_CELLS_ONE + c (`big`: `main_lanes1`, whose dispatches
+// run with 1 lane per ray or, retracing, with the thesis layout). `big` is a constant per entry
+// point: the driver keeps only the array its entry point uses, so `main` does not carry the
+// large one.
 var<private> keys_wide: array<f32, 72>;
 var<private> keys_one: array<f32, 288>;
 
-fn key_get(one: bool, lvl: u32, c: u32) -> f32 {
-    if one {
+fn key_get(big: bool, lvl: u32, c: u32) -> f32 {
+    if big {
         return keys_one[lvl * MAX_CELLS_ONE + c];
     }
     return keys_wide[lvl * MAX_CELLS + c];
 }
 
-fn key_set(one: bool, lvl: u32, c: u32, key: f32) {
-    if one {
+fn key_set(big: bool, lvl: u32, c: u32, key: f32) {
+    if big {
         keys_one[lvl * MAX_CELLS_ONE + c] = key;
     } else {
         keys_wide[lvl * MAX_CELLS + c] = key;
@@ -388,7 +391,9 @@ fn key_set(one: bool, lvl: u32, c: u32, key: f32) {
 
 // Traces queued ray `index` (absent when `valid` is false: the lanes still take part in the
 // subgroup operations) and writes its record. Called in subgroup-uniform control flow.
-fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells: u32, one: bool) {
+fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells: u32, big: bool) {
+    // One lane per ray (uniform over the dispatch).
+    let one = lanes == 1u;
     var st: RayState;
     if valid {
         let q = rays[index];
@@ -413,34 +418,28 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
         if !subgroupAny(busy) {
             break;
         }
-        // Lane tests of the node's children, one ballot per round. With one lane per ray (`one`,
-        // a constant per entry point) the ray's 32 logical lanes are this lane's rounds, so its
-        // mask bits are its own tests: no ballot, and only the candidates' keys are kept (the
-        // others are never read).
+        // Lane tests of the node's children, one ballot per round. With one lane per ray (`one`)
+        // the ray's 32 logical lanes are this lane's rounds (j = c), so its mask bits are its own
+        // tests: no ballot, the loop ends where no lane tests, and only the candidates' keys are
+        // kept (the others are never read). One call site of `lane_test` for both layouts.
         let testing = busy && st.need_mask;
         var mask = 0u;
         var nc: NodeCtx;
         if testing {
             nc = node_ctx(&st);
         }
-        if one {
+        for (var c = 0u; c < cells && (testing || !one); c++) {
+            var cand = false;
             if testing {
-                for (var c = 0u; c < cells; c++) {
-                    let t = lane_test(&st, nc, c);
-                    if t.cand {
-                        mask |= 1u << c;
-                        key_set(one, st.level, c, t.key);
-                    }
+                let t = lane_test(&st, nc, lane + lanes * c);
+                cand = t.cand;
+                if cand || !one {
+                    key_set(big, st.level, c, t.key);
                 }
             }
-        } else {
-            for (var c = 0u; c < cells; c++) {
-                var cand = false;
-                if testing {
-                    let t = lane_test(&st, nc, lane + lanes * c);
-                    cand = t.cand;
-                    key_set(one, st.level, c, t.key);
-                }
+            if one {
+                mask |= select(0u, 1u, cand) << c;
+            } else {
                 mask |= ray_bits(subgroupBallot(cand), half, lanes) << (lanes * c);
             }
         }
@@ -468,7 +467,7 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
             for (var i = 0u; i < cells && rest != 0u; i++) {
                 let c = firstTrailingBit(rest);
                 rest &= rest - 1u;
-                let key = key_get(one, lvl, c);
+                let key = key_get(big, lvl, c);
                 if key < kmin || (!found && key == kmin) {
                     kmin = key;
                     pick = c;
@@ -478,7 +477,7 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
         } else {
             var kmin = f32_inf();
             for (var c = 0u; c < cells; c++) {
-                let key = key_get(one, lvl, c);
+                let key = key_get(big, lvl, c);
                 if ((m >> (lane + lanes * c)) & 1u) != 0u && key < kmin {
                     kmin = key;
                 }
@@ -492,7 +491,7 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
             var eq = 0u;
             for (var c = 0u; c < cells; c++) {
                 let j = lane + lanes * c;
-                let holds = ((m >> j) & 1u) != 0u && key_get(one, lvl, c) == kmin;
+                let holds = ((m >> j) & 1u) != 0u && key_get(big, lvl, c) == kmin;
                 eq |= ray_bits(subgroupBallot(holds), half, lanes) << (lanes * c);
             }
             if eq != 0u {
@@ -531,11 +530,22 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
     }
 }
 
-// Entry points: the same kernel with at most `lane_cap` lanes per ray (a constant, folded by the
-// driver). `main`: the thesis layout, min(S, 32) lanes per ray. `main_lanes1`: 1 lane per ray
-// (its 32 logical lanes in 32 rounds of one-bit ballots), so S rays share a subgroup; chosen for
-// CPU devices (`vk::compute::ray_lanes`), where the per-ray work every lane of a ray repeats
-// costs in proportion to the lanes (spirv/README.md, "Performance on lavapipe").
+// Entry points: the same kernel with at most `lane_cap` lanes per ray. `main`: the thesis
+// layout, min(S, 32) lanes per ray (`lane_cap` a constant, folded by the driver). `main_lanes1`:
+// chosen for CPU devices (`vk::compute::ray_lanes`), where the per-ray work every lane of a ray
+// repeats costs in proportion to the lanes (spirv/README.md, "Performance on lavapipe"); its
+// layout is read from `trace_mode`, so that one pipeline (one compile) serves both of its
+// dispatches:
+// - `trace_mode` 0: 1 lane per ray (its 32 logical lanes in 32 rounds), S rays per subgroup;
+// - `trace_mode` 1: the thesis layout over the rays of the queue whose record the first
+//   dispatch flagged `cut`, the others left alone: it retraces from scratch the rays that the
+//   driver's loop limit cut (spirv/README.md, "Known defect"), one ray per subgroup (at S <= 32)
+//   with min(S, 32) lanes, so with far fewer loop iterations per step. Dispatched
+//   (`retrace_args`, sized by `dispatch_args`) with one batch per subgroup.
+// The `_wg128` twins run 128-invocation workgroups, for subgroups of 4 (lavapipe's
+// `maxComputeWorkgroupSubgroups` is 32: `vk::compute::workgroup_size`).
+@group(2) @binding(6) var<storage, read> trace_mode: u32;
+
 @compute @workgroup_size(256)
 fn main(
     @builtin(workgroup_id) wg: vec3<u32>,
@@ -544,7 +554,7 @@ fn main(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    trace_all(wg, groups, sg_size, sg_lane, sg_id, 32u, false);
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, 32u, false, false);
 }
 
 @compute @workgroup_size(256)
@@ -555,27 +565,36 @@ fn main_lanes1(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    trace_all(wg, groups, sg_size, sg_lane, sg_id, 1u, false);
+    let retrace = trace_mode != 0u;
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, select(1u, 32u, retrace), retrace, true);
 }
 
-// The thesis layout over the rays of the queue whose record is flagged `cut` (by an earlier
-// `main_lanes1` dispatch of the same frame), the others left alone: it retraces from scratch
-// the rays that the driver's loop limit cut (spirv/README.md, "Known defect"), one ray per
-// subgroup (at S <= 32) with min(S, 32) lanes, so 32 / min(S, 32) times fewer loop iterations
-// per step than `main_lanes1`. Dispatched (`retrace_args`, sized by `dispatch_args`) with one
-// batch per subgroup.
-@compute @workgroup_size(256)
-fn main_retrace(
+@compute @workgroup_size(128)
+fn main_wg128(
     @builtin(workgroup_id) wg: vec3<u32>,
     @builtin(num_workgroups) groups: vec3<u32>,
     @builtin(subgroup_size) sg_size: u32,
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    trace_all(wg, groups, sg_size, sg_lane, sg_id, 32u, true);
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, 32u, false, false);
 }
 
-fn trace_all(wg: vec3<u32>, groups: vec3<u32>, sg_size: u32, sg_lane: u32, sg_id: u32, lane_cap: u32, retrace: bool) {
+@compute @workgroup_size(128)
+fn main_lanes1_wg128(
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(subgroup_size) sg_size: u32,
+    @builtin(subgroup_invocation_id) sg_lane: u32,
+    @builtin(subgroup_id) sg_id: u32,
+) {
+    let retrace = trace_mode != 0u;
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, select(1u, 32u, retrace), retrace, true);
+}
+
+// `group_size`: the entry point's workgroup size (a constant); `big`: `main_lanes1`'s keys
+// (`key_get`, a constant).
+fn trace_all(wg: vec3<u32>, groups: vec3<u32>, sg_size: u32, sg_lane: u32, sg_id: u32, group_size: u32, lane_cap: u32, retrace: bool, big: bool) {
     let lanes = min(min(sg_size, 32u), lane_cap);
     if min(sg_size, 32u) < 4u {
         // Unsupported (refused on the Rust side); uniform over the whole dispatch.
@@ -584,7 +603,7 @@ fn trace_all(wg: vec3<u32>, groups: vec3<u32>, sg_size: u32, sg_lane: u32, sg_id
     let lane = sg_lane % lanes;
     let half = sg_lane / lanes;
     let cells = 32u / lanes;
-    let rays_per_group = 256u / lanes;
+    let rays_per_group = group_size / lanes;
     let slot = sg_id * (sg_size / lanes) + half;
     if sg_lane == 0u {
         atomicMax(&ray_counter.subgroup_max, sg_size);
@@ -606,6 +625,6 @@ fn trace_all(wg: vec3<u32>, groups: vec3<u32>, sg_size: u32, sg_lane: u32, sg_id
                 continue;
             }
         }
-        trace_queued(valid, index, lane, half, lanes, cells, lane_cap == 1u);
+        trace_queued(valid, index, lane, half, lanes, cells, big);
     }
 }
