@@ -510,7 +510,7 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
             // The step loop ended before the ray did: cut by the driver's loop limit (lavapipe:
             // 65535 loop iterations per invocation, all loops together; spirv/README.md, "Known
             // defect") or MAX_STEPS. Unresolved at the proven-empty prefix, flagged `cut` for
-            // `main_retrace`.
+            // the retrace (`trace_mode` 1).
             let t = st.t_done;
             let p = vec3<f32>(st.origin.x + prod(t, st.dir.x), st.origin.y + prod(t, st.dir.y), st.origin.z + prod(t, st.dir.z));
             r = trace_out(STATUS_UNRESOLVED, 0xffffffffu, st.result, p, t, st.traces);

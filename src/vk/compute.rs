@@ -17,7 +17,11 @@
 //!   (`classify` in spirv/shared/trace.wgsl), so [`GpuRenderer`](super::frame::GpuRenderer)
 //!   refuses other criteria for this method.
 //! - Subgroup sizes 4..=128 (powers of two) are supported; the kernel's docs say how lanes map
-//!   to rays and why no workgroup barrier is needed (there is none).
+//!   to rays and why no workgroup barrier is needed (there is none). Its workgroups have 256
+//!   invocations, or 128 where 256 would exceed `maxComputeWorkgroupSubgroups`
+//!   ([`workgroup_size`]).
+//! - One `compute_trace` pipeline per renderer: with `main_lanes1`, its two dispatches (the
+//!   1-lane layout, then the retrace of the rays it flagged `cut`) differ in `trace_mode` only.
 //! - The ray counter is zeroed (`vkCmdFillBuffer`) before `append` in every frame. One fragment
 //!   per pixel (no multisampling), so the queue holds at most `width * height` rays.
 //! - The dispatch is sized for the device's default subgroup size ([`DispatchParams`]); the
