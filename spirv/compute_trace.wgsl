@@ -175,25 +175,36 @@ fn lane_test(st: ptr<function, RayState>, nc: NodeCtx, j: u32) -> LaneTest {
     let range = (*st).range;
     let face = (*st).cur_face;
     let seg = (*st).seg;
-    if cl == 0u {
-        let iv = cell_interval((*st).la, (*st).ld, cell_rect_texel(face, cx, cy, n), range.x, range.y);
-        let d = distance_at((*st).k, Texel(face, cx, cy));
-        return LaneTest(texel_not_in_front(seg, iv, d), iv.t0);
-    }
+    // One frustum interval for both kinds of child: at the texel level (cl = 0) the span is
+    // 1 x 1 and cx < N, cy < N, so this is `cell_rect_texel(face, cx, cy, n)` field for field.
     let span = nc.span;
     let rect = CellRect(face, min(cx * span.x, n), min((cx + 1u) * span.x, n), min(cy * span.y, n), min((cy + 1u) * span.y, n), n);
     if rect.x0 >= rect.x1 || rect.y0 >= rect.y1 {
         return none;
     }
     let iv = cell_interval((*st).la, (*st).ld, rect, range.x, range.y);
-    let inf = inflated(iv, range.x, range.y);
-    if !inf.ok {
+    // Then one r_max over the range that counts, against the texel's distance or the cell's
+    // least distance: `texel_not_in_front` (crossed, `r_max >= D`) at the texel level, else the
+    // inflated interval and `r_bounds(..).y < min` (skip iff entirely in front; a NaN keeps the
+    // cell, conservative). The same operations as calling those, in one place for both kinds.
+    var ok = crosses(iv);
+    var lo = iv.t0;
+    var hi = iv.t1;
+    var bound: f32;
+    if cl == 0u {
+        bound = distance_at((*st).k, Texel(face, cx, cy));
+    } else {
+        let inf = inflated(iv, range.x, range.y);
+        ok = inf.ok;
+        lo = inf.lo;
+        hi = inf.hi;
+        bound = cmo_hier[(*st).k * hier_config.hier_len + cd.x + (face * cd.z + cy) * cd.y + cx].x;
+    }
+    if !ok {
         return none;
     }
-    let mm = cmo_hier[(*st).k * hier_config.hier_len + cd.x + (face * cd.z + cy) * cd.y + cx];
-    // Skip iff entirely in front; a NaN keeps the cell (conservative).
-    let in_front = r_bounds(seg.a, seg.d, inf.lo, inf.hi).y < mm.x;
-    return LaneTest(!in_front, iv.t0);
+    let r_max = max(r_at(seg.a, seg.d, lo), r_at(seg.a, seg.d, hi));
+    return LaneTest(select(!(r_max < bound), r_max >= bound, cl == 0u), iv.t0);
 }
 
 // Sets up the search at the current (piece, face), advancing past exhausted ones; ends the
