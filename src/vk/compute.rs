@@ -136,7 +136,8 @@ pub fn ray_lanes(ctx: &GpuContext) -> VkResult<(u32, &'static str)> {
 
 /// `compute_trace`'s workgroup size on a device: 256, or 128 where 256 invocations would be more
 /// subgroups than `maxComputeWorkgroupSubgroups` allows (lavapipe at subgroup size 4: 64 against
-/// 32; it aborted there on long traversals: spirv/README.md, "Known defect").
+/// 32). Not the cause of lavapipe's abort on the span scene at that size (spirv/README.md,
+/// "Known defect").
 pub fn workgroup_size(report: &DeviceReport) -> u32 {
     let subgroups = 256 / report.subgroup_size.max(1);
     match report.max_compute_workgroup_subgroups {
