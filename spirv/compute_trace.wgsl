@@ -3,7 +3,7 @@
 // the composite pass. CPU twin: `cubetrace::cpu::alg3::trace_alg3` (the traversal, loop for
 // loop) inside `cpu::multi::trace_cmos` (the occlusion handoff between CMOs).
 //
-// Lanes. `@workgroup_size(256)`, 1-D (naga rejects the subgroup builtins with a 2-D size). A ray
+// Lanes. `@workgroup_size(256)` (128 for the `_wg128` entry points), 1-D (naga rejects the subgroup builtins with a 2-D size). A ray
 // owns `lanes = min(S, 32, cap)` lanes of one subgroup of size S (cap: 32 for `main`, 1 for
 // `main_lanes1`); logical lane j in 0..32 (child j of the node being visited) lives on lane
 // `j % lanes`, round `j / lanes`, so with lanes < 32 each lane tests 32 / lanes children and the
@@ -57,8 +57,9 @@ const MAX_CELLS_ONE: u32 = 32u;
 // `TraceConfig::new` accepts; a ray that reached it would be reported unresolved.
 const MAX_STEPS: u32 = 0x80000000u;
 // Batches of the grid-stride loop over the queue. `dispatch_args` launches ceil(n / h) groups
-// with h = `rays_per_group` <= 64, and a group takes at least 8 rays per batch, so at most 8
-// batches are needed below the 65535-group cap, and at most 2^32 / (65535 * 8) < 2^14 above it.
+// with h = `rays_per_group` (4 to 256), and a group takes h rays per batch, so one batch is
+// needed below the 65535-group cap, and at most 2^32 / (65535 * 4) < 2^15 above it (the retrace
+// takes one batch per subgroup: fewer groups, same bound).
 const MAX_BATCHES: u32 = 65536u;
 
 @group(2) @binding(0) var<storage, read_write> ray_counter: RayCounter;
@@ -91,7 +92,13 @@ struct RayState {
     pieces: Pieces,
     piece: u32,
     faces: FaceList,
+    // The piece whose faces `faces` holds (0xffffffff: none yet).
+    faces_piece: u32,
     face: u32,
+    // `start_trace` ran for the current trace; `advance` moved past a face (`settle` enters
+    // the next one).
+    started: bool,
+    next_face: bool,
     la: vec3<f32>,
     ld: vec3<f32>,
     // The face being searched and its piece's [lo, hi] (`faces.face[face]`,
@@ -168,35 +175,54 @@ fn lane_test(st: ptr<function, RayState>, nc: NodeCtx, j: u32) -> LaneTest {
     let range = (*st).range;
     let face = (*st).cur_face;
     let seg = (*st).seg;
-    if cl == 0u {
-        let iv = cell_interval((*st).la, (*st).ld, cell_rect_texel(face, cx, cy, n), range.x, range.y);
-        let d = distance_at((*st).k, Texel(face, cx, cy));
-        return LaneTest(texel_not_in_front(seg, iv, d), iv.t0);
-    }
+    // One frustum interval for both kinds of child: at the texel level (cl = 0) the span is
+    // 1 x 1 and cx < N, cy < N, so this is `cell_rect_texel(face, cx, cy, n)` field for field.
     let span = nc.span;
     let rect = CellRect(face, min(cx * span.x, n), min((cx + 1u) * span.x, n), min(cy * span.y, n), min((cy + 1u) * span.y, n), n);
     if rect.x0 >= rect.x1 || rect.y0 >= rect.y1 {
         return none;
     }
     let iv = cell_interval((*st).la, (*st).ld, rect, range.x, range.y);
-    let inf = inflated(iv, range.x, range.y);
-    if !inf.ok {
+    // Then one r_max over the range that counts, against the texel's distance or the cell's
+    // least distance: `texel_not_in_front` (crossed, `r_max >= D`) at the texel level, else the
+    // inflated interval and `r_bounds(..).y < min` (skip iff entirely in front; a NaN keeps the
+    // cell, conservative). The same operations as calling those, in one place for both kinds.
+    var ok = crosses(iv);
+    var lo = iv.t0;
+    var hi = iv.t1;
+    var bound: f32;
+    if cl == 0u {
+        bound = distance_at((*st).k, Texel(face, cx, cy));
+    } else {
+        let inf = inflated(iv, range.x, range.y);
+        ok = inf.ok;
+        lo = inf.lo;
+        hi = inf.hi;
+        bound = cmo_hier[(*st).k * hier_config.hier_len + cd.x + (face * cd.z + cy) * cd.y + cx].x;
+    }
+    if !ok {
         return none;
     }
-    let mm = cmo_hier[(*st).k * hier_config.hier_len + cd.x + (face * cd.z + cy) * cd.y + cx];
-    // Skip iff entirely in front; a NaN keeps the cell (conservative).
-    let in_front = r_bounds(seg.a, seg.d, inf.lo, inf.hi).y < mm.x;
-    return LaneTest(!in_front, iv.t0);
+    let r_max = max(r_at(seg.a, seg.d, lo), r_at(seg.a, seg.d, hi));
+    return LaneTest(select(!(r_max < bound), r_max >= bound, cl == 0u), iv.t0);
 }
 
 // Sets up the search at the current (piece, face), advancing past exhausted ones; ends the
-// single-CMO trace as escaped when none is left (`cpu::alg3::enter_face`). At most 3 turns.
+// single-CMO trace as escaped when none is left (`cpu::alg3::enter_face`). A piece's faces are
+// found on its first visit (`faces_piece`), here only, so that `faces_crossed` (six frustum
+// intervals) has one call site. At most 3 turns: piece 0, piece 1, none left.
 fn enter_face(st: ptr<function, RayState>) {
     for (var turn = 0u; turn < 4u; turn++) {
         if (*st).piece >= (*st).pieces.count {
             (*st).trace_done = true;
             (*st).result = escaped((*st).seg, (*st).result.counters);
             return;
+        }
+        if (*st).faces_piece != (*st).piece {
+            let r = (*st).pieces.range[(*st).piece];
+            (*st).faces = faces_crossed((*st).seg, r.x, r.y, trace_config.size);
+            (*st).faces_piece = (*st).piece;
+            (*st).face = 0u;
         }
         if (*st).face < (*st).faces.count {
             let f = (*st).faces.face[(*st).face];
@@ -210,32 +236,25 @@ fn enter_face(st: ptr<function, RayState>) {
             return;
         }
         (*st).piece += 1u;
-        (*st).face = 0u;
-        if (*st).piece < (*st).pieces.count {
-            let r = (*st).pieces.range[(*st).piece];
-            (*st).faces = faces_crossed((*st).seg, r.x, r.y, trace_config.size);
-        }
     }
 }
 
-// Starts the single-CMO trace of CMO `k` over [t_done, t_hi] (`cpu::alg3::new_state`).
+// Starts the single-CMO trace of CMO `k` over [t_done, t_hi] (`cpu::alg3::new_state`); the
+// caller then enters its first face (`enter_face`).
 fn start_trace(st: ptr<function, RayState>) {
     let k = (*st).k;
     let seg = Segment((*st).origin - cmo_centres[k].xyz, (*st).dir, (*st).t_done, frame.t_hi);
     (*st).seg = seg;
     (*st).pieces = split_near_centre(seg, cmo_cut[k]);
-    (*st).faces.count = 0u;
-    if (*st).pieces.count > 0u {
-        (*st).faces = faces_crossed(seg, (*st).pieces.range[0].x, (*st).pieces.range[0].y, trace_config.size);
-    }
+    (*st).faces_piece = 0xffffffffu;
     (*st).piece = 0u;
     (*st).face = 0u;
+    (*st).started = true;
     (*st).trace_done = false;
     (*st).need_mask = false;
     (*st).result.counters = Counters(0u, 0u);
     (*st).descents = 0u;
     (*st).backtracks = 0u;
-    enter_face(st);
 }
 
 fn finish_ray(st: ptr<function, RayState>, status: u32, cmo: u32, point: vec3<f32>) {
@@ -282,35 +301,42 @@ fn handoff(st: ptr<function, RayState>) {
     }
 }
 
-// Starts traces until one needs a traversal or the ray is finished (a trace can end at once:
-// nothing left of the segment). At most MAX_ROUNDS * cmo_count traces run in all.
-fn begin_cmo(st: ptr<function, RayState>) {
-    for (var i = 0u; i <= MAX_ROUNDS * trace_config.cmo_count; i++) {
-        start_trace(st);
-        if !(*st).trace_done {
-            return;
+// What `advance` left due, or the start: the handoff of a single-CMO trace that ended
+// (`trace_done`), starting traces until one needs a traversal or the ray is finished (a trace
+// can end at once: nothing left of the segment), and entering the next face (`advance` moved
+// past a face). At most MAX_ROUNDS * cmo_count traces run in all. This is the only call site of
+// `handoff`, `start_trace` and `enter_face` (the driver inlines every call, so each extra site
+// would be another copy of the verification and the set-up to compile).
+fn settle(st: ptr<function, RayState>) {
+    for (var i = 0u; i <= MAX_ROUNDS * trace_config.cmo_count + 1u; i++) {
+        if (*st).trace_done {
+            handoff(st);
+            if (*st).finished {
+                return;
+            }
+            (*st).started = false;
         }
-        handoff(st);
-        if (*st).finished {
+        if !(*st).started {
+            start_trace(st);
+        }
+        enter_face(st);
+        if !(*st).trace_done {
             return;
         }
     }
 }
 
-// One traversal step once the node's mask is known (`cpu::alg3::advance`).
+// One traversal step once the node's mask is known (`cpu::alg3::advance`). A trace that ends
+// here (`trace_done`) or a face left (`next_face`) is settled by `settle` at the top of the next
+// step.
 fn advance(st: ptr<function, RayState>, pick: u32) {
     let top = hier_top();
     let lvl = (*st).level;
     if (*st).mask[lvl] == 0u {
         if lvl == top {
+            // The next face: `settle` enters it (`enter_face`).
             (*st).face += 1u;
-            enter_face(st);
-            if (*st).trace_done {
-                handoff(st);
-                if !(*st).finished {
-                    begin_cmo(st);
-                }
-            }
+            (*st).next_face = true;
         } else {
             (*st).level += 1u;
             (*st).backtracks += 1u;
@@ -331,10 +357,6 @@ fn advance(st: ptr<function, RayState>, pick: u32) {
         if o.kind != 0u {
             (*st).trace_done = true;
             (*st).result = finish((*st).seg, tex, o, (*st).result.counters);
-            handoff(st);
-            if !(*st).finished {
-                begin_cmo(st);
-            }
         }
         return;
     }
@@ -355,21 +377,23 @@ fn ray_bits(b: vec4<u32>, half: u32, lanes: u32) -> u32 {
     return bits;
 }
 
-// This lane's keys (its children's entry t): level l, round c at l * MAX_CELLS + c, or at
-// l * MAX_CELLS_ONE + c with one lane per ray (`one`, a constant per entry point: the driver
-// keeps only the array its entry point uses, so `main` does not carry the large one).
+// This lane's keys (its children's entry t): level l, round c at l * MAX_CELLS + c (`main`,
+// at least 4 lanes per ray), or at l * MAX_CELLS_ONE + c (`big`: `main_lanes1`, whose dispatches
+// run with 1 lane per ray or, retracing, with the thesis layout). `big` is a constant per entry
+// point: the driver keeps only the array its entry point uses, so `main` does not carry the
+// large one.
 var<private> keys_wide: array<f32, 72>;
 var<private> keys_one: array<f32, 288>;
 
-fn key_get(one: bool, lvl: u32, c: u32) -> f32 {
-    if one {
+fn key_get(big: bool, lvl: u32, c: u32) -> f32 {
+    if big {
         return keys_one[lvl * MAX_CELLS_ONE + c];
     }
     return keys_wide[lvl * MAX_CELLS + c];
 }
 
-fn key_set(one: bool, lvl: u32, c: u32, key: f32) {
-    if one {
+fn key_set(big: bool, lvl: u32, c: u32, key: f32) {
+    if big {
         keys_one[lvl * MAX_CELLS_ONE + c] = key;
     } else {
         keys_wide[lvl * MAX_CELLS + c] = key;
@@ -378,7 +402,9 @@ fn key_set(one: bool, lvl: u32, c: u32, key: f32) {
 
 // Traces queued ray `index` (absent when `valid` is false: the lanes still take part in the
 // subgroup operations) and writes its record. Called in subgroup-uniform control flow.
-fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells: u32, one: bool) {
+fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells: u32, big: bool) {
+    // One lane per ray (uniform over the dispatch).
+    let one = lanes == 1u;
     var st: RayState;
     if valid {
         let q = rays[index];
@@ -388,28 +414,45 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
         st.t_done = 0.0;
         st.triangle = VERIFY_NO_TRIANGLE;
         st.result = TraceResult(ONE_ESCAPED, 0.0, Texel(0u, 0u, 0u), false, vec3<f32>(0.0), Counters(0u, 0u));
-        begin_cmo(&st);
     }
-    var busy = valid && !st.finished;
+    var busy = valid;
+    // `settle` is due: the first trace, or the handoff of one that `advance` ended. Run at the
+    // top of the next step rather than inside `advance` (so that it has one call site); the
+    // loops run the same iterations as if it ran at the end of the step.
+    var pending = valid;
     for (var step = 0u; step < MAX_STEPS; step++) {
+        if pending {
+            settle(&st);
+            pending = false;
+            busy = !st.finished;
+        }
         if !subgroupAny(busy) {
             break;
         }
-        // Lane tests of the node's children, one ballot per round.
+        // Lane tests of the node's children, one ballot per round. With one lane per ray (`one`)
+        // the ray's 32 logical lanes are this lane's rounds (j = c), so its mask bits are its own
+        // tests: no ballot, the loop ends where no lane tests, and only the candidates' keys are
+        // kept (the others are never read). One call site of `lane_test` for both layouts.
         let testing = busy && st.need_mask;
         var mask = 0u;
         var nc: NodeCtx;
         if testing {
             nc = node_ctx(&st);
         }
-        for (var c = 0u; c < cells; c++) {
+        for (var c = 0u; c < cells && (testing || !one); c++) {
             var cand = false;
             if testing {
                 let t = lane_test(&st, nc, lane + lanes * c);
                 cand = t.cand;
-                key_set(one, st.level, c, t.key);
+                if cand || !one {
+                    key_set(big, st.level, c, t.key);
+                }
             }
-            mask |= ray_bits(subgroupBallot(cand), half, lanes) << (lanes * c);
+            if one {
+                mask |= select(0u, 1u, cand) << c;
+            } else {
+                mask |= ray_bits(subgroupBallot(cand), half, lanes) << (lanes * c);
+            }
         }
         if testing {
             let g = child_grid(st.level);
@@ -425,32 +468,51 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
         // holding it (NaN keys never win; all NaN: the lowest candidate).
         let lvl = st.level;
         let m = select(0u, st.mask[lvl], busy);
-        var kmin = f32_inf();
-        for (var c = 0u; c < cells; c++) {
-            let key = key_get(one, lvl, c);
-            if ((m >> (lane + lanes * c)) & 1u) != 0u && key < kmin {
-                kmin = key;
-            }
-        }
-        for (var off = lanes / 2u; off > 0u; off /= 2u) {
-            let other = subgroupShuffleXor(kmin, off);
-            if other < kmin {
-                kmin = other;
-            }
-        }
-        var eq = 0u;
-        for (var c = 0u; c < cells; c++) {
-            let j = lane + lanes * c;
-            let holds = ((m >> j) & 1u) != 0u && key_get(one, lvl, c) == kmin;
-            eq |= ray_bits(subgroupBallot(holds), half, lanes) << (lanes * c);
-        }
         var pick = firstTrailingBit(m);
-        if eq != 0u {
-            pick = firstTrailingBit(eq);
+        if one {
+            // The same pick from the candidates' keys alone, in one pass over the set bits in
+            // increasing j: a strictly smaller key, or the first key equal to +inf, takes it.
+            var kmin = f32_inf();
+            var found = false;
+            var rest = m;
+            for (var i = 0u; i < cells && rest != 0u; i++) {
+                let c = firstTrailingBit(rest);
+                rest &= rest - 1u;
+                let key = key_get(big, lvl, c);
+                if key < kmin || (!found && key == kmin) {
+                    kmin = key;
+                    pick = c;
+                    found = true;
+                }
+            }
+        } else {
+            var kmin = f32_inf();
+            for (var c = 0u; c < cells; c++) {
+                let key = key_get(big, lvl, c);
+                if ((m >> (lane + lanes * c)) & 1u) != 0u && key < kmin {
+                    kmin = key;
+                }
+            }
+            for (var off = lanes / 2u; off > 0u; off /= 2u) {
+                let other = subgroupShuffleXor(kmin, off);
+                if other < kmin {
+                    kmin = other;
+                }
+            }
+            var eq = 0u;
+            for (var c = 0u; c < cells; c++) {
+                let j = lane + lanes * c;
+                let holds = ((m >> j) & 1u) != 0u && key_get(big, lvl, c) == kmin;
+                eq |= ray_bits(subgroupBallot(holds), half, lanes) << (lanes * c);
+            }
+            if eq != 0u {
+                pick = firstTrailingBit(eq);
+            }
         }
         if busy {
+            st.next_face = false;
             advance(&st, pick);
-            busy = !st.finished;
+            pending = st.trace_done || st.next_face;
         }
     }
     if valid && lane == 0u {
@@ -459,7 +521,7 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
             // The step loop ended before the ray did: cut by the driver's loop limit (lavapipe:
             // 65535 loop iterations per invocation, all loops together; spirv/README.md, "Known
             // defect") or MAX_STEPS. Unresolved at the proven-empty prefix, flagged `cut` for
-            // `main_retrace`.
+            // the retrace (`trace_mode` 1).
             let t = st.t_done;
             let p = vec3<f32>(st.origin.x + prod(t, st.dir.x), st.origin.y + prod(t, st.dir.y), st.origin.z + prod(t, st.dir.z));
             r = trace_out(STATUS_UNRESOLVED, 0xffffffffu, st.result, p, t, st.traces);
@@ -479,11 +541,22 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
     }
 }
 
-// Entry points: the same kernel with at most `lane_cap` lanes per ray (a constant, folded by the
-// driver). `main`: the thesis layout, min(S, 32) lanes per ray. `main_lanes1`: 1 lane per ray
-// (its 32 logical lanes in 32 rounds of one-bit ballots), so S rays share a subgroup; chosen for
-// CPU devices (`vk::compute::ray_lanes`), where the per-ray work every lane of a ray repeats
-// costs in proportion to the lanes (spirv/README.md, "Performance on lavapipe").
+// Entry points: the same kernel with at most `lane_cap` lanes per ray. `main`: the thesis
+// layout, min(S, 32) lanes per ray (`lane_cap` a constant, folded by the driver). `main_lanes1`:
+// chosen for CPU devices (`vk::compute::ray_lanes`), where the per-ray work every lane of a ray
+// repeats costs in proportion to the lanes (spirv/README.md, "Performance on lavapipe"); its
+// layout is read from `trace_mode`, so that one pipeline (one compile) serves both of its
+// dispatches:
+// - `trace_mode` 0: 1 lane per ray (its 32 logical lanes in 32 rounds), S rays per subgroup;
+// - `trace_mode` 1: the thesis layout over the rays of the queue whose record the first
+//   dispatch flagged `cut`, the others left alone: it retraces from scratch the rays that the
+//   driver's loop limit cut (spirv/README.md, "Known defect"), one ray per subgroup (at S <= 32)
+//   with min(S, 32) lanes, so with far fewer loop iterations per step. Dispatched
+//   (`retrace_args`, sized by `dispatch_args`) with one batch per subgroup.
+// The `_wg128` twins run 128-invocation workgroups, for subgroups of 4 (lavapipe's
+// `maxComputeWorkgroupSubgroups` is 32: `vk::compute::workgroup_size`).
+@group(2) @binding(6) var<storage, read> trace_mode: u32;
+
 @compute @workgroup_size(256)
 fn main(
     @builtin(workgroup_id) wg: vec3<u32>,
@@ -492,7 +565,7 @@ fn main(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    trace_all(wg, groups, sg_size, sg_lane, sg_id, 32u, false);
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, 32u, false, false);
 }
 
 @compute @workgroup_size(256)
@@ -503,27 +576,36 @@ fn main_lanes1(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    trace_all(wg, groups, sg_size, sg_lane, sg_id, 1u, false);
+    let retrace = trace_mode != 0u;
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, select(1u, 32u, retrace), retrace, true);
 }
 
-// The thesis layout over the rays of the queue whose record is flagged `cut` (by an earlier
-// `main_lanes1` dispatch of the same frame), the others left alone: it retraces from scratch
-// the rays that the driver's loop limit cut (spirv/README.md, "Known defect"), one ray per
-// subgroup (at S <= 32) with min(S, 32) lanes, so 32 / min(S, 32) times fewer loop iterations
-// per step than `main_lanes1`. Dispatched (`retrace_args`, sized by `dispatch_args`) with one
-// batch per subgroup.
-@compute @workgroup_size(256)
-fn main_retrace(
+@compute @workgroup_size(128)
+fn main_wg128(
     @builtin(workgroup_id) wg: vec3<u32>,
     @builtin(num_workgroups) groups: vec3<u32>,
     @builtin(subgroup_size) sg_size: u32,
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    trace_all(wg, groups, sg_size, sg_lane, sg_id, 32u, true);
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, 32u, false, false);
 }
 
-fn trace_all(wg: vec3<u32>, groups: vec3<u32>, sg_size: u32, sg_lane: u32, sg_id: u32, lane_cap: u32, retrace: bool) {
+@compute @workgroup_size(128)
+fn main_lanes1_wg128(
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(subgroup_size) sg_size: u32,
+    @builtin(subgroup_invocation_id) sg_lane: u32,
+    @builtin(subgroup_id) sg_id: u32,
+) {
+    let retrace = trace_mode != 0u;
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, select(1u, 32u, retrace), retrace, true);
+}
+
+// `group_size`: the entry point's workgroup size (a constant); `big`: `main_lanes1`'s keys
+// (`key_get`, a constant).
+fn trace_all(wg: vec3<u32>, groups: vec3<u32>, sg_size: u32, sg_lane: u32, sg_id: u32, group_size: u32, lane_cap: u32, retrace: bool, big: bool) {
     let lanes = min(min(sg_size, 32u), lane_cap);
     if min(sg_size, 32u) < 4u {
         // Unsupported (refused on the Rust side); uniform over the whole dispatch.
@@ -532,7 +614,7 @@ fn trace_all(wg: vec3<u32>, groups: vec3<u32>, sg_size: u32, sg_lane: u32, sg_id
     let lane = sg_lane % lanes;
     let half = sg_lane / lanes;
     let cells = 32u / lanes;
-    let rays_per_group = 256u / lanes;
+    let rays_per_group = group_size / lanes;
     let slot = sg_id * (sg_size / lanes) + half;
     if sg_lane == 0u {
         atomicMax(&ray_counter.subgroup_max, sg_size);
@@ -554,6 +636,6 @@ fn trace_all(wg: vec3<u32>, groups: vec3<u32>, sg_size: u32, sg_lane: u32, sg_id
                 continue;
             }
         }
-        trace_queued(valid, index, lane, half, lanes, cells, lane_cap == 1u);
+        trace_queued(valid, index, lane, half, lanes, cells, big);
     }
 }

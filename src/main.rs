@@ -427,7 +427,9 @@ fn render(args: RenderArgs) -> Result<()> {
             bounces: args.bounces,
             ..args.trace.options(m)
         };
+        let loaded = start.elapsed();
         let ctx = args.gpu.context()?;
+        let device_ready = start.elapsed();
         let device = cubetrace::vk::budget::device_bytes(
             camera.width,
             camera.height,
@@ -466,10 +468,21 @@ fn render(args: RenderArgs) -> Result<()> {
             Some(memory::device_available(ctx.device_local_heap_bytes())?),
         )?;
         let mut renderer = GpuRenderer::new(&ctx, &scene, &camera, options)?;
+        let created = start.elapsed();
         let frame = renderer.render(&ctx)?;
         let render_time = start.elapsed();
         let traced = frame.traced();
         output::write_traced(&out, &traced, &frame.surface_position)?;
+        let written = start.elapsed();
+        log::info!(
+            "host: scene {:.0} ms, device {:.0} ms, passes and pipelines {:.0} ms, frame (submit, wait, read back) {:.0} ms, {} {:.0} ms",
+            loaded.as_secs_f64() * 1e3,
+            (device_ready - loaded).as_secs_f64() * 1e3,
+            (created - device_ready).as_secs_f64() * 1e3,
+            (render_time - created).as_secs_f64() * 1e3,
+            out.display(),
+            (written - render_time).as_secs_f64() * 1e3,
+        );
         let gpu_ms: f64 = frame.pass_times.iter().map(|(_, t)| t).sum::<f64>() * 1e-6;
         for (pass, ns) in &frame.pass_times {
             log::info!("{pass:>16}: {:9.3} ms", ns * 1e-6);

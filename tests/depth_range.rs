@@ -602,9 +602,9 @@ fn record_differences(a: &(Vec<u8>, Vec<PixelRecord>), b: &(Vec<u8>, Vec<PixelRe
 fn compute_lane_layouts_agree_on_the_span_scene() {
     // Subgroup size 8 (lavapipe's default) only. At 4 (`LP_NATIVE_VECTOR_WIDTH=128`) lavapipe
     // aborts inside its own worker thread ("double free or corruption") on this scene, with
-    // either layout and without the validation layer: a 256-invocation workgroup is then 64
-    // subgroups, above its `maxComputeWorkgroupSubgroups` of 32 (suspected; spirv/README.md,
-    // "Known defect"). The built-in scenes run at 4 in tests/gpu_compute.rs.
+    // either layout and without the validation layer, also with the 128-invocation workgroups
+    // (32 subgroups) that the kernel now runs there, so the workgroup size was not the cause
+    // (spirv/README.md, "Known defect"). The built-in scenes run at 4 in tests/gpu_compute.rs.
     {
         let bits = 256;
         let wide = span_records(32, bits, FAR);

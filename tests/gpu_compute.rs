@@ -33,6 +33,7 @@ use cubetrace::reference;
 use cubetrace::scene::{self, CmoPlacement, Scene};
 use cubetrace::vk::compute::{
     AppendedRay, DispatchArgs, DispatchParams, HierConfig, RAY_LANES_ENV, RayCounter, ray_lanes,
+    workgroup_size,
 };
 use cubetrace::vk::frame::{
     Fallback, GpuFrame, GpuMethod, GpuRenderer, PixelRecord, RenderOptions, scene_ranges,
@@ -787,4 +788,34 @@ fn subgroup_size_test_skips_only_off_lavapipe() {
     report.name = "NVIDIA GeForce RTX 4090".into();
     report.driver_name = Some("NVIDIA".into());
     assert!(!steerable_subgroup_size(&report));
+}
+
+/// The kernel's workgroup stays within `maxComputeWorkgroupSubgroups`: 128 invocations at
+/// subgroup size 4 on lavapipe (whose limit is 32 subgroups), 256 otherwise, and the dispatch is
+/// sized for it (reports taken from this device's, changed).
+#[test]
+fn workgroup_size_respects_the_subgroup_limit() {
+    let ctx = GpuContext::new(ContextOptions::for_tests()).unwrap_or_else(|e| panic!("{e}"));
+    let mut report = ctx.report().clone();
+    drop(ctx);
+    report.max_compute_workgroup_subgroups = Some(32);
+    report.subgroup_size = 8;
+    assert_eq!(workgroup_size(&report), 256);
+    report.subgroup_size = 4;
+    assert_eq!(workgroup_size(&report), 128);
+    // Negative: a device that allows 64 subgroups keeps 256, one that does not say keeps 256.
+    report.max_compute_workgroup_subgroups = Some(64);
+    assert_eq!(workgroup_size(&report), 256);
+    report.max_compute_workgroup_subgroups = None;
+    assert_eq!(workgroup_size(&report), 256);
+    assert_eq!(DispatchParams::for_group(128, 4, 1).rays_per_group, 128);
+    assert_eq!(
+        DispatchParams::for_group(128, 4, 1).retrace_rays_per_group,
+        32
+    );
+    assert_eq!(DispatchParams::for_group(128, 4, 32).rays_per_group, 32);
+    assert_eq!(
+        DispatchParams::for_group(256, 8, 1),
+        DispatchParams::for_lanes(8, 1)
+    );
 }

@@ -17,7 +17,11 @@
 //!   (`classify` in spirv/shared/trace.wgsl), so [`GpuRenderer`](super::frame::GpuRenderer)
 //!   refuses other criteria for this method.
 //! - Subgroup sizes 4..=128 (powers of two) are supported; the kernel's docs say how lanes map
-//!   to rays and why no workgroup barrier is needed (there is none).
+//!   to rays and why no workgroup barrier is needed (there is none). Its workgroups have 256
+//!   invocations, or 128 where 256 would exceed `maxComputeWorkgroupSubgroups`
+//!   ([`workgroup_size`]).
+//! - One `compute_trace` pipeline per renderer: with `main_lanes1`, its two dispatches (the
+//!   1-lane layout, then the retrace of the rays it flagged `cut`) differ in `trace_mode` only.
 //! - The ray counter is zeroed (`vkCmdFillBuffer`) before `append` in every frame. One fragment
 //!   per pixel (no multisampling), so the queue holds at most `width * height` rays.
 //! - The dispatch is sized for the device's default subgroup size ([`DispatchParams`]); the
@@ -34,6 +38,7 @@ use super::error::{VkError, VkResult};
 use super::gbuffer::Gbuffer;
 use super::graphics::{GraphicsDesc, GraphicsPipeline, RenderTarget};
 use super::hier32::{Hier32Bindings, Hier32Pass};
+use super::info::DeviceReport;
 use super::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
 use super::scene_buffers::SceneBuffers;
 use super::shaders::{APPEND, COMPUTE_TRACE, DISPATCH_ARGS};
@@ -87,8 +92,8 @@ pub struct DispatchParams {
     pub cmo_count: u32,
     /// Face size N of the CMOs.
     pub size: u32,
-    /// Rays per `main_retrace` workgroup (`256 / min(S, 32)`) with `lane_cap` 1; 0 otherwise
-    /// (no retrace dispatch).
+    /// Rays per retrace workgroup (`main_lanes1` with `trace_mode` 1: `256 / min(S, 32)`) with
+    /// `lane_cap` 1; 0 otherwise (no retrace dispatch).
     pub retrace_rays_per_group: u32,
 }
 
@@ -100,10 +105,11 @@ pub const RAY_LANES_ENV: &str = "CUBETRACE_RAY_LANES";
 /// (`main_lanes1`: S rays per subgroup, each lane running its ray's 32 logical lanes in rounds)
 /// on CPU devices, where every lane repeats the ray's per-ray work so that this layout measured
 /// fastest (spirv/README.md, "Performance on lavapipe"); 32 (`main`, thesis alg. 3: min(S, 32)
-/// lanes per ray) elsewhere. [`RAY_LANES_ENV`] overrides it. With `main_lanes1` the frame also
-/// runs `main_retrace`, which retraces with the thesis layout the rays whose step loop the
-/// driver's loop limit cut (lavapipe: 65535 loop iterations per invocation; spirv/README.md,
-/// "Known defect"), so both layouts give the same records.
+/// lanes per ray) elsewhere. [`RAY_LANES_ENV`] overrides it. With `main_lanes1` the frame
+/// dispatches the same pipeline a second time with `trace_mode` 1, which retraces with the
+/// thesis layout the rays whose step loop the driver's loop limit cut (lavapipe: 65535 loop
+/// iterations per invocation; spirv/README.md, "Known defect"), so both layouts give the same
+/// records. Where [`workgroup_size`] is 128, the `_wg128` twin of the entry point.
 pub fn ray_lanes(ctx: &GpuContext) -> VkResult<(u32, &'static str)> {
     let cap = match std::env::var(RAY_LANES_ENV) {
         Ok(v) => match v.trim() {
@@ -119,11 +125,25 @@ pub fn ray_lanes(ctx: &GpuContext) -> VkResult<(u32, &'static str)> {
         Err(_) if ctx.report().device_type == vk::PhysicalDeviceType::CPU => 1,
         Err(_) => 32,
     };
-    Ok(if cap == 1 {
-        (1, "main_lanes1")
-    } else {
-        (32, "main")
+    let small = workgroup_size(ctx.report()) == 128;
+    Ok(match (cap == 1, small) {
+        (true, false) => (1, "main_lanes1"),
+        (true, true) => (1, "main_lanes1_wg128"),
+        (false, false) => (32, "main"),
+        (false, true) => (32, "main_wg128"),
     })
+}
+
+/// `compute_trace`'s workgroup size on a device: 256, or 128 where 256 invocations would be more
+/// subgroups than `maxComputeWorkgroupSubgroups` allows (lavapipe at subgroup size 4: 64 against
+/// 32). Not the cause of lavapipe's abort on the span scene at that size (spirv/README.md,
+/// "Known defect").
+pub fn workgroup_size(report: &DeviceReport) -> u32 {
+    let subgroups = 256 / report.subgroup_size.max(1);
+    match report.max_compute_workgroup_subgroups {
+        Some(max) if subgroups > max => 128,
+        _ => 256,
+    }
 }
 
 impl DispatchParams {
@@ -137,10 +157,16 @@ impl DispatchParams {
     /// For subgroups of `subgroup_size` lanes and at most `lane_cap` lanes per ray
     /// ([`ray_lanes`]): `256 / min(S, 32, lane_cap)` rays per workgroup.
     pub fn for_lanes(subgroup_size: u32, lane_cap: u32) -> Self {
+        Self::for_group(256, subgroup_size, lane_cap)
+    }
+
+    /// [`DispatchParams::for_lanes`] with workgroups of `group_size` invocations
+    /// ([`workgroup_size`]): `group_size / min(S, 32, lane_cap)` rays per workgroup.
+    pub fn for_group(group_size: u32, subgroup_size: u32, lane_cap: u32) -> Self {
         DispatchParams {
-            rays_per_group: 256 / subgroup_size.clamp(4, 32).min(lane_cap.max(1)),
+            rays_per_group: group_size / subgroup_size.clamp(4, 32).min(lane_cap.max(1)),
             retrace_rays_per_group: if lane_cap == 1 {
-                256 / subgroup_size.clamp(4, 32)
+                group_size / subgroup_size.clamp(4, 32)
             } else {
                 0
             },
@@ -284,9 +310,11 @@ pub struct ComputePath {
     args_set: BindGroup,
     trace: ComputePipeline,
     trace_sets: [BindGroup; 4],
-    /// With `main_lanes1`: `main_retrace` and its sets (its dispatch: `retrace_args`).
-    retrace: Option<(ComputePipeline, [BindGroup; 4])>,
+    /// With `main_lanes1`: group 2 of its retrace dispatch (`trace_mode` 1; its dispatch:
+    /// `retrace_args`).
+    retrace_set: Option<BindGroup>,
     retrace_args: Buffer,
+    _trace_modes: Vec<Buffer>,
     _hier: Buffer,
     _hier_config: Buffer,
     _dispatch_params: Buffer,
@@ -353,7 +381,7 @@ impl ComputePath {
             vk::BufferUsageFlags::INDIRECT_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
         )?;
         let retrace_args = storage(
-            "main_retrace dispatch",
+            "retrace dispatch",
             size_of::<DispatchArgs>() as u64,
             vk::BufferUsageFlags::INDIRECT_BUFFER,
         )?;
@@ -390,10 +418,12 @@ impl ComputePath {
         let dispatch_params = ctx.create_buffer_init(
             "dispatch params",
             vk::BufferUsageFlags::STORAGE_BUFFER,
-            &[
-                DispatchParams::for_lanes(ctx.report().subgroup_size, lane_cap)
-                    .with_cmos(cmo.count(), size),
-            ],
+            &[DispatchParams::for_group(
+                workgroup_size(ctx.report()),
+                ctx.report().subgroup_size,
+                lane_cap,
+            )
+            .with_cmos(cmo.count(), size)],
         )?;
         let dispatch_args =
             ComputePipeline::new(ctx, &DISPATCH_ARGS, "main", ComputeOptions::default())?;
@@ -410,51 +440,63 @@ impl ComputePath {
                 (7, Resource::Buffer(&retrace_args)),
             ],
         )?;
-        let sets_for = |pipeline: &ComputePipeline, entry: &str| -> VkResult<[BindGroup; 4]> {
-            Ok([
-                pipeline.bind_group(
-                    0,
-                    &[
-                        (2, Resource::Buffer(params)),
-                        (3, Resource::Buffer(records)),
-                    ],
-                )?,
-                pipeline.bind_group(1, &cmo.resources_for(&COMPUTE_TRACE, entry))?,
-                pipeline.bind_group(
-                    2,
-                    &[
-                        (0, Resource::Buffer(&counter)),
-                        (1, Resource::Buffer(&rays)),
-                        (2, Resource::Buffer(&hier_config)),
-                        (3, Resource::Buffer(&hier)),
-                        (4, Resource::Buffer(&stats)),
-                        (5, Resource::Buffer(&cut)),
-                    ],
-                )?,
-                // The scene, for verified hits (compute_trace's SCENE_GROUP).
-                pipeline.bind_group(3, &scene.resources())?,
-            ])
+        // One pipeline (a CPU driver compiles it at creation: about 0.25 s on lavapipe); with
+        // `main_lanes1`, its two dispatches differ in `trace_mode` only.
+        let compile_start = std::time::Instant::now();
+        let trace = ComputePipeline::new(ctx, &COMPUTE_TRACE, entry, ComputeOptions::default())?;
+        log::info!(
+            "{}: pipeline {entry} created in {:.0} ms",
+            COMPUTE_TRACE.name,
+            compile_start.elapsed().as_secs_f64() * 1e3
+        );
+        let uses_mode = trace
+            .entry
+            .bindings
+            .iter()
+            .any(|b| b.group == 2 && b.binding == 6);
+        let trace_modes = if uses_mode {
+            (0u32..2)
+                .map(|mode| {
+                    ctx.create_buffer_init(
+                        "trace_mode",
+                        vk::BufferUsageFlags::STORAGE_BUFFER,
+                        &[mode],
+                    )
+                })
+                .collect::<VkResult<Vec<_>>>()?
+        } else {
+            Vec::new()
         };
-        // The kernel is large and a CPU driver compiles it at pipeline creation (about 0.6 s
-        // each on lavapipe): the retrace entry is compiled on a second thread meanwhile.
-        let new_trace =
-            |entry| ComputePipeline::new(ctx, &COMPUTE_TRACE, entry, ComputeOptions::default());
-        let (trace, retrace_pipeline) = std::thread::scope(|s| {
-            let retrace = (lane_cap == 1).then(|| s.spawn(|| new_trace("main_retrace")));
-            let trace = new_trace(entry);
-            let retrace =
-                retrace.map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)));
-            (trace, retrace)
-        });
-        let trace = trace?;
-        let trace_sets = sets_for(&trace, entry)?;
-        let retrace = match retrace_pipeline {
-            Some(pipeline) => {
-                let pipeline = pipeline?;
-                let sets = sets_for(&pipeline, "main_retrace")?;
-                Some((pipeline, sets))
+        let set2 = |mode: Option<&Buffer>| {
+            let mut resources = vec![
+                (0, Resource::Buffer(&counter)),
+                (1, Resource::Buffer(&rays)),
+                (2, Resource::Buffer(&hier_config)),
+                (3, Resource::Buffer(&hier)),
+                (4, Resource::Buffer(&stats)),
+                (5, Resource::Buffer(&cut)),
+            ];
+            if let Some(m) = mode {
+                resources.push((6, Resource::Buffer(m)));
             }
-            None => None,
+            trace.bind_group(2, &resources)
+        };
+        let trace_sets = [
+            trace.bind_group(
+                0,
+                &[
+                    (2, Resource::Buffer(params)),
+                    (3, Resource::Buffer(records)),
+                ],
+            )?,
+            trace.bind_group(1, &cmo.resources_for(&COMPUTE_TRACE, entry))?,
+            set2(trace_modes.first())?,
+            // The scene, for verified hits (compute_trace's SCENE_GROUP).
+            trace.bind_group(3, &scene.resources())?,
+        ];
+        let retrace_set = match trace_modes.get(1) {
+            Some(m) if lane_cap == 1 => Some(set2(Some(m))?),
+            _ => None,
         };
         Ok(ComputePath {
             width,
@@ -467,8 +509,9 @@ impl ComputePath {
             args_set,
             trace,
             trace_sets,
-            retrace,
+            retrace_set,
             retrace_args,
+            _trace_modes: trace_modes,
             _hier: hier,
             _hier_config: hier_config,
             _dispatch_params: dispatch_params,
@@ -507,8 +550,8 @@ impl ComputePath {
     }
 
     /// `compute_trace`: the indirect dispatch over the queue (after a barrier from
-    /// `dispatch_args`; the hierarchy must already be visible); with `main_lanes1`, then
-    /// `main_retrace` over the rays it flagged `cut`.
+    /// `dispatch_args`; the hierarchy must already be visible); with `main_lanes1`, then its
+    /// retrace (`trace_mode` 1) over the rays it flagged `cut`.
     pub fn record_trace(&self, rec: &Recorder<'_>) -> VkResult<()> {
         rec.memory_barrier(SHADER_WRITE, INDIRECT_READ);
         let sets = [
@@ -518,11 +561,11 @@ impl ComputePath {
             &self.trace_sets[3],
         ];
         self.trace.dispatch_indirect(rec, &sets, &self.args, 0)?;
-        if let Some((pipeline, sets)) = &self.retrace {
+        if let Some(set2) = &self.retrace_set {
             rec.memory_barrier(SHADER_WRITE, STORAGE_RW);
-            pipeline.dispatch_indirect(
+            self.trace.dispatch_indirect(
                 rec,
-                &[&sets[0], &sets[1], &sets[2], &sets[3]],
+                &[sets[0], sets[1], set2, sets[3]],
                 &self.retrace_args,
                 0,
             )?;
