@@ -297,6 +297,33 @@ pub fn compare(
     r
 }
 
+/// Wrong surfaces off the reflectors (the verified-hit target's measure): of the reference's
+/// mirror pixels whose reflected ray hits a non-reflector object, the share that `pixels` (the
+/// verdicts of [`classify`]) calls [`PixelClass::WrongSurface`]. A reflector seeing itself is
+/// left out: what it shows is its own reflection, which the CMOs capture only where it faces
+/// their centre. NaN when no such pixel exists. `reflector[o]` says whether object `o` is a
+/// reflector.
+pub fn wrong_surface_off_reflector(
+    reference: &Frame,
+    reflector: &[bool],
+    pixels: &[PixelError],
+) -> f64 {
+    let (mut total, mut wrong) = (0usize, 0usize);
+    for (k, p) in pixels.iter().enumerate().take(reference.mask.len()) {
+        let o = reference.object_id[k];
+        if reference.mask[k] == 0 || o == NO_ID || reflector.get(o as usize).is_none_or(|&r| r) {
+            continue;
+        }
+        total += 1;
+        wrong += usize::from(p.class == PixelClass::WrongSurface);
+    }
+    if total == 0 {
+        f64::NAN
+    } else {
+        wrong as f64 / total as f64
+    }
+}
+
 /// The reflection-point method's accuracy measure (the paper's claim for a convex closed
 /// reflector): of the reference's mirror pixels whose reflected ray hits a non-reflector object,
 /// how many show that same object. `shown[k]` is the object a method shows at pixel `k` (`None`:
@@ -392,6 +419,28 @@ mod tests {
         assert!(r.psnr_frame_db.is_infinite());
         assert_eq!((r.mask_mismatch, r.error), (0, 0.0));
         assert_eq!(r, ErrorReport::exact(3));
+    }
+
+    /// Wrong surfaces count only where the reference shows a non-reflector object: a wrong hit
+    /// where the reference sees the mirror itself is left out, one on the room is counted.
+    #[test]
+    fn wrong_surface_off_reflector_leaves_self_reflections_out() {
+        let (mut f, t, m) = pair();
+        // Object 0 is the mirror, object 1 the room: pixel 0 sees the mirror, 1 and 2 the room.
+        f.object_id = vec![0, 1, 1, NO_ID];
+        let reflector = [true, false];
+        let exact = classify(&f, &t, &m, &[Vec3::ZERO], 64);
+        assert_eq!(wrong_surface_off_reflector(&f, &reflector, &exact), 0.0);
+        // Negative: move the traced hits of pixels 0 and 1 far off: only pixel 1 counts.
+        let mut moved = t.clone();
+        moved.hit_position[0] = Vec3::new(50.0, 0.0, -10.0);
+        moved.hit_position[1] = Vec3::new(-50.0, 0.0, -10.0);
+        let wrong = classify(&f, &moved, &m, &[Vec3::ZERO], 64);
+        assert_eq!(wrong[0].class, PixelClass::WrongSurface);
+        assert_eq!(wrong[1].class, PixelClass::WrongSurface);
+        assert_eq!(wrong_surface_off_reflector(&f, &reflector, &wrong), 0.5);
+        // No pixel on a non-reflector: undefined.
+        assert!(wrong_surface_off_reflector(&f, &[true, true], &wrong).is_nan());
     }
 
     /// A larger pair: a 16 x 8 frame whose left half is a mirror with varied hits and colours.

@@ -414,6 +414,10 @@ pub struct RunResult {
     /// Bytes of GPU memory of the CMO data (0 for the reference).
     pub cmo_bytes: u64,
     pub error: ErrorReport,
+    /// [`metrics::wrong_surface_off_reflector`]: wrong surfaces among the mirror pixels whose
+    /// reference hit is a non-reflector object (the verified hits' target; 0 for the reference,
+    /// NaN where no such pixel exists).
+    pub wrong_off_reflector: f64,
     /// FLIP mean over mirror pixels (LDR, sRGB 8-bit, 67 pixels per degree), if computed.
     pub flip_mean: Option<f64>,
     /// The error heat map, relative to the output folder.
@@ -856,6 +860,7 @@ pub fn run(
         let centres = scene.cmo_centres();
         let triangles = scene.world().triangles.len();
         let mirror = refr.frame.mirror_pixels();
+        let reflector: Vec<bool> = scene.world().objects.iter().map(|o| o.reflector).collect();
         let base = |spec: &MethodSpec| RunResult {
             scene: scene.name.clone(),
             method: spec.label(),
@@ -888,6 +893,7 @@ pub fn run(
             counters: Counters::default(),
             cmo_bytes: 0,
             error: ErrorReport::default(),
+            wrong_off_reflector: 0.0,
             flip_mean: None,
             heatmap: None,
         };
@@ -1018,6 +1024,11 @@ pub fn run(
                 counters: Counters::of(&g.frame),
                 cmo_bytes: g.cmo_bytes,
                 error,
+                wrong_off_reflector: metrics::wrong_surface_off_reflector(
+                    &refr.frame,
+                    &reflector,
+                    &pixels,
+                ),
                 flip_mean: if cfg.flip {
                     flip_mean(&refr.frame, &traced)
                 } else {
@@ -1139,6 +1150,7 @@ mod tests {
             counters: Counters::default(),
             cmo_bytes: 0,
             error: ErrorReport::default(),
+            wrong_off_reflector: 0.0,
             flip_mean: None,
             heatmap: None,
         }

@@ -206,14 +206,14 @@ pub fn summary_table(report: &BenchReport) -> String {
 pub fn runs_table(report: &BenchReport) -> String {
     let mut s = String::new();
     s.push_str(
-        "| scene | method | mirror px | trace ms (median [min, max]) | ns/mirror px | fallback % | fallback ms | frame GPU ms | cells/ray | texels/ray | traces/ray | CMO MiB | mask mismatch (ref only + method only) | unresolved % | wrong % | angle mean | angle p95 | PSNR dB | PSNR resolved dB | PSNR frame dB | same triangle % | FLIP |\n\
-         |---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+        "| scene | method | mirror px | trace ms (median [min, max]) | ns/mirror px | fallback % | fallback ms | frame GPU ms | cells/ray | texels/ray | traces/ray | CMO MiB | mask mismatch (ref only + method only) | unresolved % | wrong % | wrong off-reflector % | angle mean | angle p95 | PSNR dB | PSNR resolved dB | PSNR frame dB | same triangle % | FLIP |\n\
+         |---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
     );
     for r in &report.runs {
         let t = &r.trace_ns;
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {:.3} [{:.3}, {:.3}] | {} | {} | {} | {} | {} | {} | {} | {} | {} + {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {:.3} [{:.3}, {:.3}] | {} | {} | {} | {} | {} | {} | {} | {} | {} + {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
             r.scene,
             r.method,
             r.mirror_pixels,
@@ -236,6 +236,7 @@ pub fn runs_table(report: &BenchReport) -> String {
             r.error.mask_extra,
             pct(r.error.unresolved),
             pct(r.error.wrong_surface),
+            pct_known(r.wrong_off_reflector),
             num(r.error.angular_mean_deg, 3),
             num(r.error.angular_p95_deg, 3),
             num(r.error.psnr_db, 2),
@@ -452,6 +453,7 @@ mod tests {
             counters: Counters::default(),
             cmo_bytes: 0,
             error,
+            wrong_off_reflector: 0.0,
             flip_mean: None,
             heatmap: None,
         }
