@@ -264,6 +264,8 @@ pub struct BenchConfig {
     /// more than one (`compute`, `fragment` with the exact criterion, `bvh`); with N != 1 the
     /// others are skipped, and the error figures compare each path's last hit.
     pub bounces: u32,
+    /// [`RenderOptions::reflector_check`] for the GPU runs (`--no-reflector-check`: off).
+    pub reflector_check: bool,
     pub out: PathBuf,
 }
 
@@ -287,6 +289,7 @@ impl Default for BenchConfig {
             heatmaps: true,
             floor: Some(FLOOR_FRAME),
             bounces: 1,
+            reflector_check: true,
             out: PathBuf::from("out/bench"),
         }
     }
@@ -942,6 +945,7 @@ pub fn run(
                 // As `run_gpu`: the CLI's default fallback.
                 fallback: Fallback::Trace,
                 bounces: cfg.bounces,
+                reflector_check: cfg.reflector_check,
                 ..RenderOptions::default()
             };
             let g = run_gpu_with(ctx, scene, &camera, options, cfg.warmup, cfg.frames)
