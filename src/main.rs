@@ -446,7 +446,14 @@ fn render(args: RenderArgs) -> Result<()> {
         );
         let device = cubetrace::vk::budget::DeviceBytes {
             frame: device.frame
-                + cubetrace::vk::budget::bounce_bytes(camera.width, camera.height, args.bounces),
+                + cubetrace::vk::budget::bounce_bytes(camera.width, camera.height, args.bounces)
+                + cubetrace::vk::budget::reflector_check_bytes(
+                    camera.width,
+                    camera.height,
+                    options.reflector_check
+                        && matches!(m, GpuMethod::Fragment | GpuMethod::Compute)
+                        && !scene.check_triangles().is_empty(),
+                ),
             ..device
         };
         let mut host = memory::gpu_host_bytes(pixels, format, args.compare);

@@ -7,7 +7,9 @@
 //! - every record's hit triangle is met by the record's own ray (f64), and a perturbed triangle
 //!   ID fails that test (its negative);
 //! - `default` and `sphere-room` (one convex reflector each): the check does not exist, nothing
-//!   is allocated and no pass runs.
+//!   is allocated and no pass runs;
+//! - the bench reports the share of records the check changed and its pass's time, apart from
+//!   the fallback's, and both are 0 with the check off.
 //!
 //! Runs under the validation layer when installed and fails on any error it reports.
 mod common;
@@ -237,5 +239,54 @@ fn one_convex_reflector_has_no_reflector_check() {
         .filter(|&t| world.objects[world.triangle_object[t as usize] as usize].reflector)
         .collect::<Vec<_>>();
     assert_eq!(torus.check_triangles(), reflector);
+    finish_gpu(ctx);
+}
+
+#[test]
+fn bench_reports_the_check_apart_from_the_fallback() {
+    use cubetrace::bench::{self, BenchConfig, MethodKind};
+    let ctx = gpu_context();
+    let out = tempfile::tempdir().expect("temp dir");
+    let cfg = BenchConfig {
+        scenes: vec!["torus".into()],
+        methods: bench::method_grid(&[MethodKind::Compute], true),
+        width: 48,
+        height: 36,
+        frames: 1,
+        warmup: 0,
+        cube_size: Some(64),
+        flip: false,
+        heatmaps: false,
+        floor: None,
+        out: out.path().to_path_buf(),
+        ..BenchConfig::default()
+    };
+    let on_report = bench::run(&ctx, &cfg, &indicatif::ProgressBar::hidden()).expect("bench");
+    let off = bench::run(
+        &ctx,
+        &BenchConfig {
+            reflector_check: false,
+            ..cfg.clone()
+        },
+        &indicatif::ProgressBar::hidden(),
+    )
+    .expect("bench");
+    let (on, off) = (&on_report.runs[0], &off.runs[0]);
+    assert_eq!(on.kind, MethodKind::Compute);
+    assert!(on.checked_share > 0.0, "{on:?}");
+    assert_eq!(off.checked_share, 0.0);
+    assert_eq!(off.check_ns.median, 0.0);
+    if !on.passes.is_empty() {
+        assert!(on.check_ns.median > 0.0, "{on:?}");
+        assert!(on.total_ns.median >= on.trace_ns.median + on.check_ns.median);
+    }
+    // The fallback's share is the unresolved rays', with or without the check.
+    assert_eq!(on.fallback_share, off.fallback_share);
+    assert!(
+        on.error.same_triangle > off.error.same_triangle,
+        "{on:?} {off:?}"
+    );
+    let md = bench::report::runs_table(&on_report);
+    assert!(md.contains("| check % | check ms |"), "{md}");
     finish_gpu(ctx);
 }
