@@ -29,7 +29,8 @@
 //! (the fallback shades from the triangle IDs); the CWBVH for `bvh`, `--fallback trace` or
 //! `--bounces N >= 2` only (one BVH for all of them; `bvh` captures its CMOs at one texel per
 //! face, in its first frame only: only an `envmap` fallback would read them), the bounce queues
-//! for N >= 2 only.
+//! for N >= 2 only; the reflector check's BVH and queue for `fragment` and `compute` only, and
+//! only where [`crate::scene::Scene::check_triangles`] is not empty.
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
