@@ -239,6 +239,25 @@ fn one_convex_reflector_has_no_reflector_check() {
         .filter(|&t| world.objects[world.triangle_object[t as usize] as usize].reflector)
         .collect::<Vec<_>>();
     assert_eq!(torus.check_triangles(), reflector);
+    // Two reflectors, both convex: each can see the other, so both are checked.
+    let (mut two, _) = load("sphere-room");
+    let k = two
+        .meshes
+        .iter()
+        .position(|m| !m.reflector && m.is_convex())
+        .expect("a convex non-reflector mesh");
+    two.meshes[k].reflector = true;
+    let world = two.world();
+    let reflectors = (0..world.triangles.len() as u32)
+        .filter(|&t| world.objects[world.triangle_object[t as usize] as usize].reflector)
+        .collect::<Vec<_>>();
+    assert!(
+        two.meshes
+            .iter()
+            .filter(|m| m.reflector)
+            .all(|m| m.is_convex())
+    );
+    assert_eq!(two.check_triangles(), reflectors);
     finish_gpu(ctx);
 }
 
