@@ -15,6 +15,10 @@
 // - `append_unresolved_from_t_done`: the same rays from t_min = t_done (1 - FALLBACK_SLACK), the
 //   rule the issue proposed; kept to show (in the tests) what it misses, not used by a render.
 //   The slack covers t_done's f32 rounding in a CMO's frame (a few ulps; 2^-10 is far above).
+// - `append_check` (the reflector check, vk::bvh::ReflectorCheck): every mirror pixel whose
+//   record the method resolved (hit or escaped) appends the record's ray, flagged BVH_RAY_CHECK,
+//   from t = 0 under the start rule (leaving the G-buffer's triangle, as `append_mirror`); the
+//   unresolved ones are the fallback's, which traces every triangle anyway.
 // - `args`: one invocation; the `bvh_trace` dispatch from the count: ceil(n / 64) workgroups as
 //   x <= 65535 by y (zero rays: an empty dispatch).
 // Both appends run one invocation per pixel over a 2-D grid of 64-wide workgroups
@@ -84,6 +88,24 @@ fn append_unresolved(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num
 @compute @workgroup_size(64)
 fn append_unresolved_from_t_done(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     push_unresolved(pixel_index(gid, groups), true);
+}
+
+@compute @workgroup_size(64)
+fn append_check(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let i = pixel_index(gid, groups);
+    if i >= frame.width * frame.height {
+        return;
+    }
+    let pixel = vec2<i32>(vec2<u32>(i % frame.width, i / frame.width));
+    if textureLoad(gbuffer_position, pixel, 0).w != 1.0 {
+        return;
+    }
+    let r = records[i];
+    if r.status == RECORD_UNRESOLVED {
+        return;
+    }
+    let tri = textureLoad(gbuffer_triangle, pixel, 0).x;
+    push(BvhRay(r.origin, i, r.dir, 0.0, tri, 0u, BVH_RAY_CHECK, 0u));
 }
 
 @compute @workgroup_size(1)

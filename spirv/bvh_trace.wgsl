@@ -6,7 +6,11 @@
 // ray writes the whole record (cmo = 0xffffffff, no texel, counters: `texels` = triangles tested,
 // `cells` = nodes visited, `t_done` = its t_min, `bounces` = its `bounce` + 1); a BVH_RAY_FALLBACK ray writes only the result
 // fields (status, point, colour, t, triangle, cut) and sets `fallback`, keeping the cubemap
-// tracer's texel, counters and t_done. The dispatch is `bvh_queue`'s `args`.
+// tracer's texel, counters and t_done. A BVH_RAY_CHECK ray (the reflector check, over the
+// reflectors' BVH) writes the same result fields and sets `checked` only when its hit is strictly
+// nearer than the record's `t` (any hit when the record escaped) and on another triangle than
+// the record's; otherwise (a miss, a farther hit, a cut loop) it leaves the record untouched.
+// The dispatch is `bvh_queue`'s `args`.
 //! import shared/record.wgsl
 //! import shared/bvh_rays.wgsl
 //! import shared/bvh.wgsl
@@ -41,7 +45,18 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     }
     let point = ray.origin + ray.dir * t;
     let cut = select(0u, 1u, h.cut);
-    if (ray.flags & BVH_RAY_FALLBACK) != 0u {
+    if (ray.flags & BVH_RAY_CHECK) != 0u {
+        let r = records[ray.pixel];
+        let nearer = r.status == RECORD_ESCAPED || (r.status == RECORD_HIT && h.t < r.t && h.triangle != r.triangle);
+        if h.hit && nearer {
+            records[ray.pixel].status = status;
+            records[ray.pixel].point = point;
+            records[ray.pixel].colour = colour;
+            records[ray.pixel].t = t;
+            records[ray.pixel].triangle = h.triangle;
+            records[ray.pixel].checked = 1u;
+        }
+    } else if (ray.flags & BVH_RAY_FALLBACK) != 0u {
         records[ray.pixel].status = status;
         records[ray.pixel].point = point;
         records[ray.pixel].colour = colour;
@@ -50,16 +65,19 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         records[ray.pixel].cut = cut;
         records[ray.pixel].fallback = 1u;
     } else {
-        // A bounce round's ray (`bounce` > 0, vk::bounce) keeps the pixel's `fallback` flag: its
-        // first round may have been finished by the fallback.
+        // A bounce round's ray (`bounce` > 0, vk::bounce) keeps the pixel's `fallback` and
+        // `checked` flags: its first round may have been finished by the fallback, or changed by
+        // the reflector check.
         var fallback = 0u;
+        var checked = 0u;
         if ray.bounce > 0u {
             fallback = records[ray.pixel].fallback;
+            checked = records[ray.pixel].checked;
         }
         records[ray.pixel] = PixelRecord(
             ray.origin, status, ray.dir, 0xffffffffu, point, 0u, colour,
             0u, 0u, 0u, h.tests, h.nodes, 1u, t, ray.t_min, h.triangle,
-            cut, fallback, ray.bounce + 1u, 0u,
+            cut, fallback, ray.bounce + 1u, checked,
         );
     }
 }

@@ -200,6 +200,10 @@ struct TraceArgs {
     /// finishes their rays exactly with the BVH tracer of `--method bvh`.
     #[arg(long, value_enum, default_value_t = FallbackArg::Trace)]
     fallback: FallbackArg,
+    /// fragment, compute: skip the reflector check (the exact trace, after the cubemap trace,
+    /// of the reflectors the CMOs do not capture: the torus or teapot seen in itself).
+    #[arg(long)]
+    no_reflector_check: bool,
     /// ssr: iterations of the Hi-Z ray march before a ray is given up (unresolved).
     #[arg(long, default_value_t = cubetrace::cpu::ssr::DEFAULT_MAX_ITERATIONS,
           value_parser = clap::value_parser!(u32).range(1..=65536))]
@@ -245,6 +249,7 @@ impl TraceArgs {
                 eps: self.eps,
                 ..TraceOptions::default()
             },
+            reflector_check: !self.no_reflector_check,
             fallback: match self.fallback {
                 FallbackArg::Flag => Fallback::Flag,
                 FallbackArg::Envmap => Fallback::Envmap,
@@ -441,7 +446,14 @@ fn render(args: RenderArgs) -> Result<()> {
         );
         let device = cubetrace::vk::budget::DeviceBytes {
             frame: device.frame
-                + cubetrace::vk::budget::bounce_bytes(camera.width, camera.height, args.bounces),
+                + cubetrace::vk::budget::bounce_bytes(camera.width, camera.height, args.bounces)
+                + cubetrace::vk::budget::reflector_check_bytes(
+                    camera.width,
+                    camera.height,
+                    options.reflector_check
+                        && matches!(m, GpuMethod::Fragment | GpuMethod::Compute)
+                        && !scene.check_triangles().is_empty(),
+                ),
             ..device
         };
         let mut host = memory::gpu_host_bytes(pixels, format, args.compare);
@@ -714,6 +726,9 @@ struct BenchArgs {
     /// --scaling.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(0..=16))]
     bounces: u32,
+    /// fragment, compute: skip the reflector check (to show what it changes and costs).
+    #[arg(long)]
+    no_reflector_check: bool,
     /// Cost curves instead of the grid: against cube size, screen size, CMO count and triangle
     /// count (fragment, exact criterion with the pyramid); then the reflection-point method's
     /// error against the reference as the other objects are subdivided (the tessellation curve).
@@ -794,6 +809,7 @@ fn bench(args: BenchArgs) -> Result<()> {
             heatmaps: !args.no_heatmaps,
             floor: (!args.no_floor).then_some(bench::FLOOR_FRAME),
             bounces: args.bounces,
+            reflector_check: !args.no_reflector_check,
             out: args.out.clone(),
         };
         let report = bench::run(&ctx, &cfg, &bar)?;

@@ -422,6 +422,46 @@ fn compare_reports_both_masks_and_the_whole_frame() {
     assert!(!line.contains("inf") && !line.contains("NaN"), "{line}");
 }
 
+/// `--no-reflector-check` turns the check off: on the torus (which the CMOs do not capture) the
+/// same triangle share drops below the default's.
+#[test]
+fn no_reflector_check_turns_the_check_off() {
+    let dir = tempfile::tempdir().unwrap();
+    let same = |out: &str, extra: &[&str]| {
+        let mut args = vec![
+            "render",
+            "torus",
+            "--width",
+            "48",
+            "--height",
+            "36",
+            "--compare",
+            "-o",
+            out,
+        ];
+        args.extend_from_slice(extra);
+        let o = run(&args, dir.path());
+        assert_eq!(o.code, Some(0), "{}", o.stderr);
+        let line = o
+            .stdout
+            .lines()
+            .find(|l| l.starts_with("against the reference"))
+            .unwrap_or_else(|| panic!("no comparison in: {}", o.stdout))
+            .to_string();
+        let tail = line
+            .split("same triangle ")
+            .nth(1)
+            .unwrap_or_else(|| panic!("{line}"));
+        tail.split('%').next().unwrap().parse::<f64>().unwrap()
+    };
+    let with = same("with.png", &[]);
+    let without = same("without.png", &["--no-reflector-check"]);
+    assert!(
+        with >= 99.0 && without < with - 1.0,
+        "{with} with, {without} without"
+    );
+}
+
 #[test]
 fn bench_outputs_carry_mask_mismatch_and_frame_psnr() {
     let dir = tempfile::tempdir().unwrap();

@@ -259,7 +259,7 @@ fn bounce_layouts_match_the_shaders() {
         l("PixelRecord"),
         [
             origin, status, dir, cmo, point, riser, colour, face, x, y, texels, cells, traces, t,
-            t_done, triangle, cut, fallback, bounces, pad2
+            t_done, triangle, cut, fallback, bounces, checked
         ]
     )
     .unwrap();

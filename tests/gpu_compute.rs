@@ -83,6 +83,9 @@ fn compute_render(
         method,
         trace: TraceOptions::default(),
         fallback: Fallback::Flag,
+        // The twins model the tracing pass alone; the reflector check, which runs after it, is
+        // judged in tests/reflector_check.rs.
+        reflector_check: false,
         ..RenderOptions::default()
     };
     let mut r = GpuRenderer::new(ctx, scene, camera, options).unwrap_or_else(|e| panic!("{e}"));
@@ -152,7 +155,7 @@ fn compute_struct_layouts_match_naga() {
         COMPUTE_TRACE.struct_layout("PixelRecord").unwrap(),
         [
             origin, status, dir, cmo, point, riser, colour, face, x, y, texels, cells, traces, t,
-            t_done, triangle, cut, fallback, bounces, pad2
+            t_done, triangle, cut, fallback, bounces, checked
         ]
     )
     .unwrap();

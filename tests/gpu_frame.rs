@@ -54,6 +54,9 @@ fn options(method: GpuMethod, trace: TraceOptions) -> RenderOptions {
     RenderOptions {
         method,
         trace,
+        // The twins model the tracing pass alone; the reflector check, which runs after it, is
+        // judged in tests/reflector_check.rs.
+        reflector_check: false,
         ..RenderOptions::default()
     }
 }
@@ -83,7 +86,7 @@ fn shared_structs_match_naga_layout() {
         l("PixelRecord"),
         [
             origin, status, dir, cmo, point, riser, colour, face, x, y, texels, cells, traces, t,
-            t_done, triangle, cut, fallback, bounces, pad2
+            t_done, triangle, cut, fallback, bounces, checked
         ]
     )
     .unwrap();

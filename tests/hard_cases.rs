@@ -125,6 +125,10 @@ fn render_with(
             method,
             trace,
             fallback: Fallback::Flag,
+            // The judge follows the cubemap trace's model (the non-reflector triangles); the
+            // reflector check, which adds hits on the reflectors, is judged against the whole
+            // reference in tests/reflector_check.rs.
+            reflector_check: false,
             ..RenderOptions::default()
         },
     )

@@ -18,12 +18,16 @@ struct BvhRay {
     // Reflections already taken before this ray (0: the camera's first reflection).
     bounce: u32,
     // BVH_RAY_FALLBACK: the ray finishes a record another method left unresolved (only the
-    // result fields of the record are written, and its `fallback` flag set).
+    // result fields of the record are written, and its `fallback` flag set). BVH_RAY_CHECK: the
+    // reflector check (vk::bvh::ReflectorCheck) re-traces a resolved record's ray against the
+    // reflectors' BVH; a hit replaces the record's result only if strictly nearer than its `t`
+    // (any hit when it escaped), on another triangle, and sets its `checked` flag.
     flags: u32,
     pad0: u32,
 }
 
 const BVH_RAY_FALLBACK: u32 = 1u;
+const BVH_RAY_CHECK: u32 = 2u;
 const BVH_NO_TRIANGLE: u32 = 0xffffffffu;
 
 // Zeroed (vkCmdFillBuffer) before every append.

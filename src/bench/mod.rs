@@ -264,6 +264,8 @@ pub struct BenchConfig {
     /// more than one (`compute`, `fragment` with the exact criterion, `bvh`); with N != 1 the
     /// others are skipped, and the error figures compare each path's last hit.
     pub bounces: u32,
+    /// [`RenderOptions::reflector_check`] for the GPU runs (`--no-reflector-check`: off).
+    pub reflector_check: bool,
     pub out: PathBuf,
 }
 
@@ -287,6 +289,7 @@ impl Default for BenchConfig {
             heatmaps: true,
             floor: Some(FLOOR_FRAME),
             bounces: 1,
+            reflector_check: true,
             out: PathBuf::from("out/bench"),
         }
     }
@@ -403,6 +406,12 @@ pub struct RunResult {
     pub fallback_share: f64,
     /// The `fallback` pass (queue + BVH trace of those rays), ns; zero where it did not run.
     pub fallback_ns: Stats,
+    /// Share of the traced rays whose record the reflector check changed (a nearer hit on a
+    /// reflector; [`crate::vk::bvh::ReflectorCheck`]); 0 where it did not run. Not part of
+    /// `fallback_share`.
+    pub checked_share: f64,
+    /// The `reflector_check` pass, ns; zero where it did not run.
+    pub check_ns: Stats,
     /// Median of `trace_ns` per mirror pixel of the reference.
     pub trace_ns_per_mirror_px: f64,
     /// Median of `trace_ns` per traced ray (`rays`).
@@ -887,6 +896,8 @@ pub fn run(
             total_ns: Stats::default(),
             fallback_share: 0.0,
             fallback_ns: Stats::default(),
+            checked_share: 0.0,
+            check_ns: Stats::default(),
             trace_ns_per_mirror_px: 0.0,
             ns_per_ray: 0.0,
             floor: None,
@@ -942,6 +953,7 @@ pub fn run(
                 // As `run_gpu`: the CLI's default fallback.
                 fallback: Fallback::Trace,
                 bounces: cfg.bounces,
+                reflector_check: cfg.reflector_check,
                 ..RenderOptions::default()
             };
             let g = run_gpu_with(ctx, scene, &camera, options, cfg.warmup, cfg.frames)
@@ -1011,12 +1023,21 @@ pub fn run(
                 Stats::default()
             };
             let fallback_share = g.frame.fallback_pixels() as f64 / rays.max(1) as f64;
+            let check = crate::vk::frame::REFLECTOR_CHECK_PASS;
+            let check_ns = if passes.iter().any(|p| p.pass == check) {
+                frame_stats(&g.pass_ns, Some(check))
+            } else {
+                Stats::default()
+            };
+            let checked_share = g.frame.checked_pixels() as f64 / rays.max(1) as f64;
             runs.push(RunResult {
                 passes,
                 trace_ns,
                 total_ns,
                 fallback_share,
                 fallback_ns,
+                checked_share,
+                check_ns,
                 trace_ns_per_mirror_px: trace_ns.median / mirror.max(1) as f64,
                 rays,
                 ns_per_ray: trace_ns.median / rays.max(1) as f64,
@@ -1138,6 +1159,8 @@ mod tests {
             total_ns: Stats::default(),
             fallback_share: 0.0,
             fallback_ns: Stats::default(),
+            checked_share: 0.0,
+            check_ns: Stats::default(),
             trace_ns_per_mirror_px: ns / rays as f64,
             ns_per_ray: ns / rays as f64,
             floor: floor.map(|ratio| FloorRun {

@@ -206,14 +206,14 @@ pub fn summary_table(report: &BenchReport) -> String {
 pub fn runs_table(report: &BenchReport) -> String {
     let mut s = String::new();
     s.push_str(
-        "| scene | method | mirror px | trace ms (median [min, max]) | ns/mirror px | fallback % | fallback ms | frame GPU ms | cells/ray | texels/ray | traces/ray | CMO MiB | mask mismatch (ref only + method only) | unresolved % | wrong % | wrong off-reflector % | angle mean | angle p95 | PSNR dB | PSNR resolved dB | PSNR frame dB | same triangle % | FLIP |\n\
-         |---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+        "| scene | method | mirror px | trace ms (median [min, max]) | ns/mirror px | fallback % | fallback ms | check % | check ms | frame GPU ms | cells/ray | texels/ray | traces/ray | CMO MiB | mask mismatch (ref only + method only) | unresolved % | wrong % | wrong off-reflector % | angle mean | angle p95 | PSNR dB | PSNR resolved dB | PSNR frame dB | same triangle % | FLIP |\n\
+         |---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
     );
     for r in &report.runs {
         let t = &r.trace_ns;
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {:.3} [{:.3}, {:.3}] | {} | {} | {} | {} | {} | {} | {} | {} | {} + {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {:.3} [{:.3}, {:.3}] | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} + {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
             r.scene,
             r.method,
             r.mirror_pixels,
@@ -223,6 +223,8 @@ pub fn runs_table(report: &BenchReport) -> String {
             num(r.trace_ns_per_mirror_px, 0),
             pct(r.fallback_share),
             num(r.fallback_ns.median * 1e-6, 3),
+            pct(r.checked_share),
+            num(r.check_ns.median * 1e-6, 3),
             if r.kind == MethodKind::Reference {
                 "-".into()
             } else {
@@ -447,6 +449,8 @@ mod tests {
             total_ns: Stats::default(),
             fallback_share: 0.0,
             fallback_ns: Stats::default(),
+            checked_share: 0.0,
+            check_ns: Stats::default(),
             trace_ns_per_mirror_px: 0.0,
             ns_per_ray: 0.0,
             floor: None,

@@ -95,6 +95,37 @@ impl Scene {
             .collect()
     }
 
+    /// Per mesh of [`Scene::meshes`]: whether a mirror ray can reach it as a reflector, so the
+    /// GPU's reflector check ([`crate::vk::frame::RenderOptions::reflector_check`]) traces its
+    /// triangles exactly after the cubemap trace: every reflector when the scene has more than
+    /// one, else the one reflector only when it is not convex (a convex one cannot see itself,
+    /// the rule [`SelfReflections::Auto`] applies in [`Scene::self_capture`]). Independent of
+    /// `self_reflections`: the reference traces every triangle whatever the capture draws.
+    pub fn check_reflectors(&self) -> Vec<bool> {
+        let reflectors = self.meshes.iter().filter(|m| m.reflector).count();
+        self.meshes
+            .iter()
+            .map(|mesh| mesh.reflector && (reflectors > 1 || !mesh.is_convex()))
+            .collect()
+    }
+
+    /// The global triangle indices (in [`WorldGeometry`] order: meshes, then their parts) of the
+    /// meshes [`Scene::check_reflectors`] selects; empty when none is.
+    pub fn check_triangles(&self) -> Vec<u32> {
+        let mut triangles = Vec::new();
+        let mut first = 0u32;
+        for (mesh, check) in self.meshes.iter().zip(self.check_reflectors()) {
+            for part in &mesh.parts {
+                let n = part.triangles.len() as u32;
+                if check {
+                    triangles.extend(first..first + n);
+                }
+                first += n;
+            }
+        }
+        triangles
+    }
+
     /// Whether some reflector captures itself: then the capture records the mirror mask and
     /// normals.
     pub fn captures_reflectors(&self) -> bool {

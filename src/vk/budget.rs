@@ -115,6 +115,16 @@ pub fn bounce_bytes(width: u32, height: u32, bounces: u32) -> u64 {
     2 * u64::from(width) * u64::from(height) * size_of::<super::bvh::BvhRay>() as u64
 }
 
+/// The device bytes the reflector check ([`super::bvh::ReflectorCheck`]) adds to a render of
+/// `width` x `height` pixels when it runs: one queue of one [`BvhRay`](super::bvh::BvhRay) per
+/// pixel; nothing otherwise. Its BVH is per triangle and not counted, as above.
+pub fn reflector_check_bytes(width: u32, height: u32, runs: bool) -> u64 {
+    if !runs {
+        return 0;
+    }
+    u64::from(width) * u64::from(height) * size_of::<super::bvh::BvhRay>() as u64
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

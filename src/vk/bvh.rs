@@ -6,6 +6,7 @@
 //! |---|---|---|
 //! | `bvh_queue` (`append_mirror`) | G-buffer (+ its triangle IDs) | one [`BvhRay`] per mirror pixel, from t = 0 |
 //! | `bvh_queue` (`append_unresolved`) | G-buffer, records | one [`BvhRay`] per unresolved mirror pixel, from t = 0 (why not from `t_done`: spirv/bvh_queue.wgsl) |
+//! | `bvh_queue` (`append_check`) | G-buffer, records | one [`BvhRay`] per mirror pixel whose record is a hit or escaped, flagged [`RAY_CHECK`], from t = 0 ([`ReflectorCheck`]) |
 //! | `bvh_queue` (`args`) | [`BvhCounter`] | the indirect dispatch of `bvh_trace` |
 //! | `bvh_trace` | queue, CWBVH, scene | `records[ray.pixel]` |
 //!
@@ -21,8 +22,10 @@
 //!   distance `t_min` (hits at `t < t_min` are not taken), the triangle it leaves
 //!   (`from_triangle`, [`NO_TRIANGLE`] for none: the start rule below), its `bounce` (the
 //!   reflections before it: the record's `bounces` is `bounce` + 1, and a ray with `bounce` > 0
-//!   keeps the record's `fallback` flag) and `flags` ([`RAY_FALLBACK`]: write only the result fields of the
-//!   record and set its `fallback` flag; otherwise the whole record).
+//!   keeps the record's `fallback` and `checked` flags) and `flags` ([`RAY_FALLBACK`]: write only the result fields of the
+//!   record and set its `fallback` flag; [`RAY_CHECK`]: the same with the `checked` flag, and
+//!   only for a hit strictly nearer than the record's `t`, any hit when it escaped, on another
+//!   triangle than the record's, else nothing; otherwise the whole record).
 //! - Each pixel must appear at most once per queue (two rays of one pixel would race on its
 //!   record). The tracer writes records only; colour composition is the composite pass's.
 //! - Result: the nearest hit with `t > 0`, `t >= t_min`, under the start rule, over the
@@ -62,6 +65,8 @@ use crate::scene::gpu_data::GpuSceneData;
 pub const NO_TRIANGLE: u32 = u32::MAX;
 /// `BVH_RAY_FALLBACK` in [`BvhRay::flags`].
 pub const RAY_FALLBACK: u32 = 1;
+/// `BVH_RAY_CHECK` in [`BvhRay::flags`]: the reflector check's ray ([`ReflectorCheck`]).
+pub const RAY_CHECK: u32 = 2;
 /// Rays per `bvh_trace` (and `bvh_queue` append) workgroup.
 pub const GROUP_SIZE: u32 = 64;
 
@@ -80,7 +85,7 @@ pub struct BvhRay {
     pub from_triangle: u32,
     /// Reflections taken before this ray (the record gets `bounce` + 1 as its `bounces`).
     pub bounce: u32,
-    /// [`RAY_FALLBACK`] or 0.
+    /// [`RAY_FALLBACK`], [`RAY_CHECK`] or 0.
     pub flags: u32,
     pub pad0: u32,
 }
@@ -130,11 +135,21 @@ impl obvhs::Boundable for Tri {
 impl BvhData {
     /// Builds the CWBVH over every triangle of `data` (single-threaded and deterministic).
     pub fn build(data: &GpuSceneData) -> Self {
+        let all: Vec<u32> = (0..(data.indices.len() / 3) as u32).collect();
+        Self::build_subset(data, &all)
+    }
+
+    /// Builds the CWBVH over the triangles `ids` of `data` only (global indices, kept in the
+    /// primitive slots: hits, records and shading name the scene's triangle); the reflector
+    /// check's BVH ([`ReflectorCheck`]).
+    pub fn build_subset(data: &GpuSceneData, ids: &[u32]) -> Self {
         let corner = |i: u32| Vec3::from_array(data.vertices[i as usize].position);
-        let tris: Vec<Tri> = data
-            .indices
-            .chunks_exact(3)
-            .map(|t| Tri([corner(t[0]), corner(t[1]), corner(t[2])]))
+        let tris: Vec<Tri> = ids
+            .iter()
+            .map(|&k| {
+                let t = &data.indices[3 * k as usize..3 * k as usize + 3];
+                Tri([corner(t[0]), corner(t[1]), corner(t[2])])
+            })
             .collect();
         if tris.is_empty() {
             return BvhData::default();
@@ -172,7 +187,7 @@ impl BvhData {
             .flat_map(|&k| {
                 let [a, b, c] = tris[k as usize].0;
                 [
-                    [a.x, a.y, a.z, f32::from_bits(k)],
+                    [a.x, a.y, a.z, f32::from_bits(ids[k as usize])],
                     [b.x, b.y, b.z, 0.0],
                     [c.x, c.y, c.z, 0.0],
                 ]
@@ -304,6 +319,9 @@ pub enum AppendKind {
     /// The same rays from their `t_done` (`append_unresolved_from_t_done`): misses hits before
     /// `t_done` that the cubemap's model does not see (spirv/bvh_queue.wgsl); for the tests.
     UnresolvedFromTDone,
+    /// Every mirror pixel whose record is a hit or escaped, flagged [`RAY_CHECK`], from t = 0
+    /// under the start rule (`append_check`: the reflector check, [`ReflectorCheck`]).
+    Check,
 }
 
 /// A `bvh_queue` append pass over the frame's G-buffer (and records).
@@ -327,6 +345,7 @@ impl BvhAppend {
             AppendKind::Mirror => "append_mirror",
             AppendKind::Unresolved => "append_unresolved",
             AppendKind::UnresolvedFromTDone => "append_unresolved_from_t_done",
+            AppendKind::Check => "append_check",
         };
         let pipeline = ComputePipeline::new(ctx, &BVH_QUEUE, entry, ComputeOptions::default())?;
         let sampled = |img: &super::image::Image| Resource::Texture {
@@ -342,7 +361,7 @@ impl BvhAppend {
                 (2, Resource::Buffer(params)),
                 (8, sampled(&gbuffer.triangle)),
             ],
-            AppendKind::Unresolved | AppendKind::UnresolvedFromTDone => [
+            AppendKind::Unresolved | AppendKind::UnresolvedFromTDone | AppendKind::Check => [
                 (0, sampled(&gbuffer.position)),
                 (2, Resource::Buffer(params)),
                 (3, Resource::Buffer(records)),
@@ -544,10 +563,26 @@ impl BvhPasses {
         records: &Buffer,
         t_hi: f32,
     ) -> VkResult<Self> {
+        let bvh = BvhData::build(data);
+        Self::with_bvh(ctx, kind, &bvh, scene, gbuffer, params, records, t_hi)
+    }
+
+    /// [`BvhPasses::new`] over a given BVH.
+    #[allow(clippy::too_many_arguments)]
+    pub fn with_bvh(
+        ctx: &GpuContext,
+        kind: AppendKind,
+        bvh: &BvhData,
+        scene: &SceneBuffers,
+        gbuffer: &Gbuffer,
+        params: &Buffer,
+        records: &Buffer,
+        t_hi: f32,
+    ) -> VkResult<Self> {
         let (w, h) = gbuffer.extent();
         let queue = BvhQueue::new(ctx, u64::from(w) * u64::from(h))?;
         let append = BvhAppend::new(ctx, kind, gbuffer, params, records, &queue)?;
-        let tracer = BvhTracer::new(ctx, data, scene, records, &queue, t_hi)?;
+        let tracer = BvhTracer::with_data(ctx, bvh, scene, records, &queue, t_hi)?;
         Ok(BvhPasses {
             queue,
             append,
@@ -565,5 +600,60 @@ impl BvhPasses {
     /// The trace (`bvh_trace`).
     pub fn record_trace(&self, rec: &Recorder<'_>) -> VkResult<()> {
         self.tracer.record_trace(rec, &self.queue)
+    }
+}
+
+/// The reflector check (`--no-reflector-check` turns it off): after the cubemap trace (fragment
+/// or compute) and before the fallback and the bounce rounds, every mirror pixel whose record
+/// is a hit or escaped re-traces its ray ([`AppendKind::Check`], from t = 0 under the start
+/// rule) against a second CWBVH over only the reflectors a mirror ray can reach
+/// ([`crate::scene::Scene::check_triangles`]: every reflector when the scene has several, else
+/// a non-convex one), with the global triangle indices. The CMOs do not capture those
+/// reflectors, or only their parts that face a CMO centre, so a ray that should meet one passes
+/// through it in the cubemap trace. A hit strictly nearer than the record's `t` (any hit when
+/// it escaped), on another triangle, replaces the record's result (status, point, colour shaded
+/// there, `t`, triangle) and sets its `checked` flag, keeping the method's counters, `t_done`
+/// and `fallback` = 0; a miss leaves the record untouched. The bounce rounds then continue from
+/// such a hit as from any reflector hit. Not built (nothing allocated) when no reflector
+/// qualifies: one convex reflector (the sphere room).
+pub struct ReflectorCheck {
+    pub passes: BvhPasses,
+}
+
+impl ReflectorCheck {
+    /// The check for `scene`'s reflectors ([`crate::scene::Scene::check_triangles`]), `None`
+    /// when there are none.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        ctx: &GpuContext,
+        triangles: &[u32],
+        data: &GpuSceneData,
+        scene: &SceneBuffers,
+        gbuffer: &Gbuffer,
+        params: &Buffer,
+        records: &Buffer,
+        t_hi: f32,
+    ) -> VkResult<Option<Self>> {
+        if triangles.is_empty() {
+            return Ok(None);
+        }
+        let bvh = BvhData::build_subset(data, triangles);
+        let passes = BvhPasses::with_bvh(
+            ctx,
+            AppendKind::Check,
+            &bvh,
+            scene,
+            gbuffer,
+            params,
+            records,
+            t_hi,
+        )?;
+        Ok(Some(ReflectorCheck { passes }))
+    }
+
+    /// Clear, append, size the dispatch, trace.
+    pub fn record(&self, rec: &Recorder<'_>) -> VkResult<()> {
+        self.passes.record_queue(rec);
+        self.passes.record_trace(rec)
     }
 }

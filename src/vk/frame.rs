@@ -11,6 +11,7 @@
 //! | or `hiz`, `ssr` | G-buffer, its min pyramid | the same records ([`super::ssr`]) |
 //! | or `rp_search`, `rp_raster` | scene, G-buffer | the same records ([`super::reflection_point`]) |
 //! | or `bvh_queue`, `bvh_trace` | G-buffer, CWBVH, scene | the same records, traced exactly ([`super::bvh`]) |
+//! | `reflector_check` (fragment, compute; off with `--no-reflector-check`) | G-buffer, records, reflectors' CWBVH, scene | resolved records whose ray meets a reflector nearer, traced exactly ([`super::bvh::ReflectorCheck`]) |
 //! | `fallback` (`--fallback trace`) | G-buffer, records, CWBVH, scene | unresolved records finished by `bvh_queue` + `bvh_trace` |
 //! | `bounce_append` (`--bounces N`, N != 1) | G-buffer, records, CWBVH, scene | N = 0: the mirrors' own material (instead of the tracing passes); N >= 2: rounds 2..=N, each `bounce_append` + `bvh_queue` (`args`) + `bvh_trace` ([`super::bounce`]) |
 //! | `composite` | G-buffer, records, CMO triangle IDs + scene (environment-map fallback) | final colour |
@@ -28,7 +29,8 @@
 //! (the fallback shades from the triangle IDs); the CWBVH for `bvh`, `--fallback trace` or
 //! `--bounces N >= 2` only (one BVH for all of them; `bvh` captures its CMOs at one texel per
 //! face, in its first frame only: only an `envmap` fallback would read them), the bounce queues
-//! for N >= 2 only.
+//! for N >= 2 only; the reflector check's BVH and queue for `fragment` and `compute` only, and
+//! only where [`crate::scene::Scene::check_triangles`] is not empty.
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
@@ -36,7 +38,7 @@ use gpu_allocator::MemoryLocation;
 
 use super::bounce::{BouncePasses, MAX_BOUNCES};
 use super::buffer::Buffer;
-use super::bvh::{AppendKind, BvhCounter, BvhPasses};
+use super::bvh::{AppendKind, BvhCounter, BvhPasses, ReflectorCheck};
 use super::capture::Capture;
 use super::cmo::{CaptureContents, CmoData};
 use super::compute::{ComputePath, ComputeStats};
@@ -143,6 +145,9 @@ pub struct RenderOptions {
     /// the first, the BVH the rest ([`super::bounce`]); 0 shows the mirrors' own material.
     /// `Compute`, `Fragment` (exact criterion) and `Bvh` only; the other methods take 1.
     pub bounces: u32,
+    /// The reflector check after the `Fragment` and `Compute` trace ([`ReflectorCheck`]): on by
+    /// default; ignored by the other methods and where the scene has no reflector to check.
+    pub reflector_check: bool,
 }
 
 impl Default for RenderOptions {
@@ -154,6 +159,7 @@ impl Default for RenderOptions {
             ssr: SsrOptions::default(),
             reflection_point: RpOptions::default(),
             bounces: 1,
+            reflector_check: true,
         }
     }
 }
@@ -175,6 +181,10 @@ pub fn capture_contents(method: GpuMethod, trace: &TraceOptions) -> CaptureConte
 /// The timestamp scope of [`Fallback::Trace`]'s passes (`bvh_queue`'s `append_unresolved` and
 /// `args`, then `bvh_trace`), timed apart from the tracing pass.
 pub const FALLBACK_PASS: &str = "fallback";
+
+/// The timestamp scope of the reflector check ([`ReflectorCheck`]: `bvh_queue`'s
+/// `append_check` and `args`, then `bvh_trace` over the reflectors' BVH).
+pub const REFLECTOR_CHECK_PASS: &str = "reflector_check";
 
 /// The flag colour of [`Fallback::Flag`] (linear magenta).
 pub const FLAG_COLOUR: Vec3 = Vec3::new(1.0, 0.0, 1.0);
@@ -228,7 +238,11 @@ pub struct PixelRecord {
     /// `Frame::bounces`): 1 from every method's own pass, more from the bounce rounds
     /// ([`super::bounce`]), 0 with no bounce.
     pub bounces: u32,
-    pub pad2: u32,
+    /// 1 where the reflector check ([`RenderOptions::reflector_check`],
+    /// [`super::bvh::ReflectorCheck`]) replaced the method's result with a nearer hit on a
+    /// reflector; 0 elsewhere. Such a record's `fallback` stays 0: the check is not the fallback,
+    /// and the fallback share does not count it.
+    pub checked: u32,
 }
 
 pub use crate::cpu::fragment_trace::{RECORD_ESCAPED, RECORD_HIT, RECORD_UNRESOLVED};
@@ -315,6 +329,13 @@ impl GpuFrame {
                     .collect(),
             ),
         }
+    }
+
+    /// Mirror pixels whose record the reflector check changed (0 without it).
+    pub fn checked_pixels(&self) -> usize {
+        (0..self.records.len())
+            .filter(|&k| self.mask[k] != 0 && self.records[k].checked != 0)
+            .count()
     }
 
     /// Mirror pixels the `trace` fallback finished (0 without it).
@@ -407,6 +428,8 @@ pub struct GpuRenderer {
     bvh: Option<BvhPasses>,
     /// `bounces` != 1 ([`super::bounce`]).
     bounce: Option<BouncePasses>,
+    /// [`RenderOptions::reflector_check`] where the method and the scene need it.
+    check: Option<ReflectorCheck>,
     composite: ComputePipeline,
     composite_sets: [BindGroup; 3],
     _params: Buffer,
@@ -568,6 +591,22 @@ impl GpuRenderer {
             )?),
             None => None,
         };
+        let check = if options.reflector_check
+            && matches!(options.method, GpuMethod::Fragment | GpuMethod::Compute)
+        {
+            ReflectorCheck::new(
+                ctx,
+                &scene.check_triangles(),
+                &data,
+                &scene_buffers,
+                &gbuffer,
+                &params_buf,
+                &records,
+                t_hi,
+            )?
+        } else {
+            None
+        };
         let bounce = if options.bounces == 1 {
             None
         } else {
@@ -694,6 +733,7 @@ impl GpuRenderer {
             rp,
             bvh,
             bounce,
+            check,
             composite,
             composite_sets,
             _params: params_buf,
@@ -727,6 +767,11 @@ impl GpuRenderer {
     /// The BVH passes ([`GpuMethod::Bvh`] or [`Fallback::Trace`]).
     pub fn bvh_passes(&self) -> Option<&BvhPasses> {
         self.bvh.as_ref()
+    }
+
+    /// The reflector check's passes, `None` where it does not run ([`ReflectorCheck`]).
+    pub fn reflector_check(&self) -> Option<&ReflectorCheck> {
+        self.check.as_ref()
     }
 
     /// The G-buffer (for reading it back in the tests).
@@ -814,6 +859,9 @@ impl GpuRenderer {
                     Ok(())
                 })?;
                 scoped(COMPUTE_TRACE.name, &mut || c.record_trace(rec))?;
+            }
+            if let Some(c) = self.check.as_ref().filter(|_| traced) {
+                scoped(REFLECTOR_CHECK_PASS, &mut || c.record(rec))?;
             }
             if let Some(b) = self.bvh.as_ref().filter(|_| traced) {
                 if self.options.method == GpuMethod::Bvh {
