@@ -16,7 +16,8 @@
 //   rule the issue proposed; kept to show (in the tests) what it misses, not used by a render.
 //   The slack covers t_done's f32 rounding in a CMO's frame (a few ulps; 2^-10 is far above).
 // - `append_check` (the reflector check, vk::bvh::ReflectorCheck): every mirror pixel whose
-//   record the method resolved (hit or escaped) appends the record's ray, flagged BVH_RAY_CHECK,
+//   record the method resolved (hit or escaped) and whose ray can meet a reflector
+//   (`frame.check_below`) appends the record's ray, flagged BVH_RAY_CHECK,
 //   from t = 0 under the start rule (leaving the G-buffer's triangle, as `append_mirror`); the
 //   unresolved ones are the fallback's, which traces every triangle anyway.
 // - `args`: one invocation; the `bvh_trace` dispatch from the count: ceil(n / 64) workgroups as
@@ -102,6 +103,11 @@ fn append_check(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     }
     let r = records[i];
     if r.status == RECORD_UNRESOLVED {
+        return;
+    }
+    // Only the rays that can meet a reflector (`Scene::check_below`); the normal as `mirror_ray`.
+    let n = normalize_glam(textureLoad(gbuffer_normal, pixel, 0).xyz);
+    if r.dir.x * n.x + r.dir.y * n.y + r.dir.z * n.z >= frame.check_below {
         return;
     }
     let tri = textureLoad(gbuffer_triangle, pixel, 0).x;

@@ -290,6 +290,8 @@ fn dispatch_is_sized_on_the_gpu_and_empty_without_mirror_pixels() {
                 "append",
                 "dispatch_args",
                 "compute_trace",
+                // The default scene's one convex reflector: its grazing rays are checked.
+                "reflector_check",
                 "composite"
             ]
         );

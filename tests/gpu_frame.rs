@@ -75,7 +75,7 @@ fn shared_structs_match_naga_layout() {
             flag_colour,
             height,
             fallback,
-            pad0,
+            check_below,
             pad1,
             pad2
         ]

@@ -25,7 +25,10 @@ struct FrameParams {
     // 0 flag colour, 1 environment map, 2 background, 3 trace (the BVH finished the rays; a ray
     // its loop cap cut gets the flag colour).
     fallback: u32,
-    pad0: u32,
+    // The reflector check traces the mirror rays `d` with `dot(d, n) < check_below`, `n` the
+    // normalised interpolated normal (`Scene::check_below`: 2, every ray, or a bound for the
+    // rays that leave a convex reflector below a face's plane).
+    check_below: f32,
     pad1: u32,
     pad2: u32,
 }

@@ -40,6 +40,32 @@ pub fn is_convex(positions: &[Vec3], normals: &[Vec3], triangles: &[[u32; 3]]) -
     })
 }
 
+/// The largest angle, in radians, between a face's geometric normal (oriented as in
+/// [`is_convex`]: towards its vertex normals) and one of its vertex normals, over the faces of
+/// the mesh (degenerate faces and zero normals skipped; 0 for a mesh without a face). Every
+/// interpolated normal of a face lies within this angle of the face's normal: a normalised
+/// convex combination of unit vectors inside a cone stays inside it.
+pub fn max_normal_deviation(positions: &[Vec3], normals: &[Vec3], triangles: &[[u32; 3]]) -> f64 {
+    triangles
+        .iter()
+        .filter_map(|t| {
+            let [a, b, c] = t.map(|i| positions[i as usize].as_dvec3());
+            let mut n = (b - a).cross(c - a).try_normalize()?;
+            let vertex: Vec<DVec3> = t
+                .iter()
+                .filter_map(|&i| normals[i as usize].as_dvec3().try_normalize())
+                .collect();
+            if n.dot(vertex.iter().sum::<DVec3>()) < 0.0 {
+                n = -n;
+            }
+            vertex
+                .iter()
+                .map(|v| n.dot(*v).clamp(-1.0, 1.0).acos())
+                .reduce(f64::max)
+        })
+        .fold(0.0, f64::max)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -47,6 +73,29 @@ mod tests {
 
     fn convex(part: &crate::scene::MeshPart) -> bool {
         is_convex(&part.positions, &part.normals, &part.triangles)
+    }
+
+    /// A flat quad with its face normal has no deviation; tilting one vertex normal by a known
+    /// angle shows exactly that angle.
+    #[test]
+    fn normal_deviation_of_a_flat_quad() {
+        let positions = vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+        ];
+        let triangles = [[0, 1, 2], [0, 2, 3]];
+        let flat = vec![Vec3::Z; 4];
+        assert_eq!(max_normal_deviation(&positions, &flat, &triangles), 0.0);
+        let mut tilted = flat.clone();
+        let angle = 0.1f32;
+        tilted[2] = Vec3::new(angle.sin(), 0.0, angle.cos());
+        let d = max_normal_deviation(&positions, &tilted, &triangles);
+        assert!((d - f64::from(angle)).abs() < 1e-6, "{d}");
+        // Winding does not matter.
+        let reversed = [[0, 2, 1], [0, 3, 2]];
+        assert!((max_normal_deviation(&positions, &tilted, &reversed) - d).abs() < 1e-12);
     }
 
     #[test]

@@ -95,18 +95,35 @@ impl Scene {
             .collect()
     }
 
-    /// Per mesh of [`Scene::meshes`]: whether a mirror ray can reach it as a reflector, so the
-    /// GPU's reflector check ([`crate::vk::frame::RenderOptions::reflector_check`]) traces its
-    /// triangles exactly after the cubemap trace: every reflector when the scene has more than
-    /// one, else the one reflector only when it is not convex (a convex one cannot see itself,
-    /// the rule [`SelfReflections::Auto`] applies in [`Scene::self_capture`]). Independent of
-    /// `self_reflections`: the reference traces every triangle whatever the capture draws.
+    /// Per mesh of [`Scene::meshes`]: whether the GPU's reflector check
+    /// ([`crate::vk::frame::RenderOptions::reflector_check`]) traces its triangles exactly after
+    /// the cubemap trace: every reflector, since a mirror ray can meet a reflector (another one,
+    /// or itself: a non-convex one anywhere, a convex one where the ray leaves below its face,
+    /// [`Scene::check_below`]). Independent of `self_reflections`: the reference traces every
+    /// triangle whatever the capture draws.
     pub fn check_reflectors(&self) -> Vec<bool> {
-        let reflectors = self.meshes.iter().filter(|m| m.reflector).count();
-        self.meshes
-            .iter()
-            .map(|mesh| mesh.reflector && (reflectors > 1 || !mesh.is_convex()))
-            .collect()
+        self.meshes.iter().map(|mesh| mesh.reflector).collect()
+    }
+
+    /// Which mirror rays the reflector check traces: those whose direction `d` has
+    /// `d . n < check_below` with `n` the pixel's normalised interpolated normal. 2 (every unit
+    /// ray) when the scene has several reflectors or a non-convex one. With one convex reflector
+    /// (every vertex on or behind every face's plane, [`convexity::is_convex`]) a ray that leaves
+    /// a face on the front of its plane (`d . n_face >= 0`) never meets the mesh again, and
+    /// `d . n_face < 0` implies `d . n < 2 sin(theta / 2)`, `theta` the largest angle between a
+    /// face's normal and its vertex normals ([`convexity::max_normal_deviation`]; the interpolated
+    /// normal lies within it): only the rays below that bound, plus a 2^-10 slack for the
+    /// rounding of the G-buffer's normal and of the convexity test's tolerance, are traced (the
+    /// grazing ones near the outline, which interpolated normals send into the mirror).
+    pub fn check_below(&self) -> f32 {
+        let reflectors: Vec<&MeshInstance> = self.meshes.iter().filter(|m| m.reflector).collect();
+        match reflectors.as_slice() {
+            [one] if one.is_convex() => {
+                let theta = one.max_normal_deviation();
+                (2.0 * (0.5 * theta).sin() + 1.0 / 1024.0) as f32
+            }
+            _ => 2.0,
+        }
     }
 
     /// The global triangle indices (in [`WorldGeometry`] order: meshes, then their parts) of the
@@ -136,6 +153,13 @@ impl Scene {
 impl MeshInstance {
     /// [`convexity::is_convex`] of all its parts together, in world space.
     pub fn is_convex(&self) -> bool {
+        let (positions, normals, triangles) = self.world_mesh();
+        convexity::is_convex(&positions, &normals, &triangles)
+    }
+
+    /// All its parts together in world space: positions, unit normals (one per position) and
+    /// triangles.
+    fn world_mesh(&self) -> (Vec<Vec3>, Vec<Vec3>, Vec<[u32; 3]>) {
         let m = self.transform.matrix();
         let nm = self.transform.normal_matrix();
         let mut positions = Vec::new();
@@ -147,7 +171,13 @@ impl MeshInstance {
             normals.extend(part.normals.iter().map(|&n| (nm * n).normalize_or_zero()));
             triangles.extend(part.triangles.iter().map(|t| t.map(|i| i + base)));
         }
-        convexity::is_convex(&positions, &normals, &triangles)
+        (positions, normals, triangles)
+    }
+
+    /// [`convexity::max_normal_deviation`] of all its parts together, in world space.
+    pub fn max_normal_deviation(&self) -> f64 {
+        let (positions, normals, triangles) = self.world_mesh();
+        convexity::max_normal_deviation(&positions, &normals, &triangles)
     }
 }
 

@@ -353,16 +353,23 @@ impl BvhAppend {
             layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
         };
         // The entry's own bindings: the mirror rays read the normal, the unresolved ones the
-        // records.
+        // records, the check both.
         let frame = match kind {
-            AppendKind::Mirror => [
+            AppendKind::Mirror => vec![
                 (0, sampled(&gbuffer.position)),
                 (1, sampled(&gbuffer.normal)),
                 (2, Resource::Buffer(params)),
                 (8, sampled(&gbuffer.triangle)),
             ],
-            AppendKind::Unresolved | AppendKind::UnresolvedFromTDone | AppendKind::Check => [
+            AppendKind::Unresolved | AppendKind::UnresolvedFromTDone => vec![
                 (0, sampled(&gbuffer.position)),
+                (2, Resource::Buffer(params)),
+                (3, Resource::Buffer(records)),
+                (8, sampled(&gbuffer.triangle)),
+            ],
+            AppendKind::Check => vec![
+                (0, sampled(&gbuffer.position)),
+                (1, sampled(&gbuffer.normal)),
                 (2, Resource::Buffer(params)),
                 (3, Resource::Buffer(records)),
                 (8, sampled(&gbuffer.triangle)),

@@ -200,7 +200,9 @@ pub struct FrameParams {
     pub flag_colour: [f32; 3],
     pub height: u32,
     pub fallback: u32,
-    pub pad0: u32,
+    /// The reflector check traces the mirror rays `d` with `d . n < check_below`
+    /// ([`Scene::check_below`]).
+    pub check_below: f32,
     pub pad1: u32,
     pub pad2: u32,
 }
@@ -540,6 +542,7 @@ impl GpuRenderer {
                 Fallback::Background => 2,
                 Fallback::Trace | Fallback::TraceFromTDone => 3,
             },
+            check_below: scene.check_below(),
             ..FrameParams::default()
         };
         let params_buf = ctx.create_buffer_init(
