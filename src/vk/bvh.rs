@@ -58,7 +58,7 @@ use super::gbuffer::Gbuffer;
 use super::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
 use super::scene_buffers::SceneBuffers;
 use super::shaders::{BVH_QUEUE, BVH_TRACE};
-use super::sync::{SHADER_WRITE, TRANSFER_WRITE};
+use super::sync::{INDIRECT_READ, SHADER_WRITE, STORAGE_RW, TRANSFER_WRITE};
 use crate::scene::gpu_data::GpuSceneData;
 
 /// `BVH_NO_TRIANGLE`: no triangle (a ray that leaves none, a record without a hit).
@@ -522,31 +522,6 @@ impl BvhTracer {
             .dispatch_indirect(rec, &sets, &queue.dispatch, 0)
     }
 }
-
-/// Storage reads and writes of compute and fragment shaders.
-const STORAGE_RW: (vk::PipelineStageFlags2, vk::AccessFlags2) = (
-    vk::PipelineStageFlags2::from_raw(
-        vk::PipelineStageFlags2::COMPUTE_SHADER.as_raw()
-            | vk::PipelineStageFlags2::FRAGMENT_SHADER.as_raw(),
-    ),
-    vk::AccessFlags2::from_raw(
-        vk::AccessFlags2::SHADER_STORAGE_READ.as_raw()
-            | vk::AccessFlags2::SHADER_STORAGE_WRITE.as_raw(),
-    ),
-);
-
-/// The indirect command read, plus the kernel's storage reads and writes.
-const INDIRECT_READ: (vk::PipelineStageFlags2, vk::AccessFlags2) = (
-    vk::PipelineStageFlags2::from_raw(
-        vk::PipelineStageFlags2::DRAW_INDIRECT.as_raw()
-            | vk::PipelineStageFlags2::COMPUTE_SHADER.as_raw(),
-    ),
-    vk::AccessFlags2::from_raw(
-        vk::AccessFlags2::INDIRECT_COMMAND_READ.as_raw()
-            | vk::AccessFlags2::SHADER_STORAGE_READ.as_raw()
-            | vk::AccessFlags2::SHADER_STORAGE_WRITE.as_raw(),
-    ),
-);
 
 /// One queue with one producer and the tracer: `--method bvh` ([`AppendKind::Mirror`]) or
 /// `--fallback trace` ([`AppendKind::Unresolved`]) in a frame.

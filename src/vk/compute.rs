@@ -42,7 +42,7 @@ use super::info::DeviceReport;
 use super::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
 use super::scene_buffers::SceneBuffers;
 use super::shaders::{APPEND, COMPUTE_TRACE, DISPATCH_ARGS};
-use super::sync::{SHADER_WRITE, TRANSFER_WRITE};
+use super::sync::{INDIRECT_READ, SHADER_WRITE, STORAGE_RW, TRANSFER_WRITE};
 
 use crate::cubemap::pyramid::{
     HIER_MAX_LEVELS, hier32_flat_layout, hier32_group, hier32_layout, hier32_len,
@@ -592,28 +592,3 @@ impl ComputePath {
         Ok(a.first().copied().unwrap_or_default())
     }
 }
-
-/// Storage reads and writes of the fragment and compute stages (the queue and its counter).
-const STORAGE_RW: (vk::PipelineStageFlags2, vk::AccessFlags2) = (
-    vk::PipelineStageFlags2::from_raw(
-        vk::PipelineStageFlags2::COMPUTE_SHADER.as_raw()
-            | vk::PipelineStageFlags2::FRAGMENT_SHADER.as_raw(),
-    ),
-    vk::AccessFlags2::from_raw(
-        vk::AccessFlags2::SHADER_STORAGE_READ.as_raw()
-            | vk::AccessFlags2::SHADER_STORAGE_WRITE.as_raw(),
-    ),
-);
-
-/// The indirect command read of `vkCmdDispatchIndirect`, plus the kernel's reads of the queue.
-const INDIRECT_READ: (vk::PipelineStageFlags2, vk::AccessFlags2) = (
-    vk::PipelineStageFlags2::from_raw(
-        vk::PipelineStageFlags2::DRAW_INDIRECT.as_raw()
-            | vk::PipelineStageFlags2::COMPUTE_SHADER.as_raw(),
-    ),
-    vk::AccessFlags2::from_raw(
-        vk::AccessFlags2::INDIRECT_COMMAND_READ.as_raw()
-            | vk::AccessFlags2::SHADER_STORAGE_READ.as_raw()
-            | vk::AccessFlags2::SHADER_STORAGE_WRITE.as_raw(),
-    ),
-);

@@ -75,3 +75,29 @@ pub const COMPUTE_READ: Access = (
     vk::PipelineStageFlags2::COMPUTE_SHADER,
     vk::AccessFlags2::SHADER_STORAGE_READ,
 );
+
+/// Storage reads and writes of the compute and fragment stages (ray queues and their counters).
+pub const STORAGE_RW: Access = (
+    vk::PipelineStageFlags2::from_raw(
+        vk::PipelineStageFlags2::COMPUTE_SHADER.as_raw()
+            | vk::PipelineStageFlags2::FRAGMENT_SHADER.as_raw(),
+    ),
+    vk::AccessFlags2::from_raw(
+        vk::AccessFlags2::SHADER_STORAGE_READ.as_raw()
+            | vk::AccessFlags2::SHADER_STORAGE_WRITE.as_raw(),
+    ),
+);
+
+/// The indirect command read of `vkCmdDispatchIndirect`, plus the kernel's storage reads and
+/// writes.
+pub const INDIRECT_READ: Access = (
+    vk::PipelineStageFlags2::from_raw(
+        vk::PipelineStageFlags2::DRAW_INDIRECT.as_raw()
+            | vk::PipelineStageFlags2::COMPUTE_SHADER.as_raw(),
+    ),
+    vk::AccessFlags2::from_raw(
+        vk::AccessFlags2::INDIRECT_COMMAND_READ.as_raw()
+            | vk::AccessFlags2::SHADER_STORAGE_READ.as_raw()
+            | vk::AccessFlags2::SHADER_STORAGE_WRITE.as_raw(),
+    ),
+);
