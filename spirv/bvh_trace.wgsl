@@ -47,6 +47,15 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     let cut = select(0u, 1u, h.cut);
     if (ray.flags & BVH_RAY_CHECK) != 0u {
         let r = records[ray.pixel];
+        // The method's hit is where the ray starts: the triangle it leaves, or a neighbour the
+        // start rule ignores (a self-captured reflector's own surface, verified at t ~ 0). That
+        // is no hit; the pixel is unresolved again (`checked` = 2) and the fallback, which runs
+        // next, traces the ray against every triangle.
+        if r.status == RECORD_HIT && bvh_start_hit(ray.origin, ray.from_triangle, r.triangle) {
+            records[ray.pixel].status = RECORD_UNRESOLVED;
+            records[ray.pixel].checked = 2u;
+            return;
+        }
         let nearer = r.status == RECORD_ESCAPED || (r.status == RECORD_HIT && h.t < r.t && h.triangle != r.triangle);
         if h.hit && nearer {
             records[ray.pixel].status = status;

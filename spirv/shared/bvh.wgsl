@@ -163,6 +163,32 @@ fn bvh_shares_corner(f0: vec3<f32>, f1: vec3<f32>, f2: vec3<f32>, a: vec3<f32>, 
         || bvh_same(f2, a) || bvh_same(f2, b) || bvh_same(f2, c);
 }
 
+// The start rule's `e` for a ray leaving the triangle (f0, f1, f2) at `o`.
+fn bvh_start_tolerance(o: vec3<f32>, f0: vec3<f32>, f1: vec3<f32>, f2: vec3<f32>) -> f32 {
+    let m = max(max(abs(o), abs(f0)), max(abs(f1), abs(f2)));
+    return 2.0 * bvh_plane_distance(o, f0, f1, f2) + BVH_START_ULPS * max(max(m.x, m.y), m.z);
+}
+
+// Whether the start rule ignores a hit on global triangle `tri` for a ray leaving global
+// triangle `from_tri` at `o` (the rule `bvh_nearest` applies; false where either is
+// BVH_NO_TRIANGLE).
+fn bvh_start_hit(o: vec3<f32>, from_tri: u32, tri: u32) -> bool {
+    if from_tri == BVH_NO_TRIANGLE || tri == BVH_NO_TRIANGLE {
+        return false;
+    }
+    if tri == from_tri {
+        return true;
+    }
+    let f0 = hit_vertex(from_tri, 0u).position;
+    let f1 = hit_vertex(from_tri, 1u).position;
+    let f2 = hit_vertex(from_tri, 2u).position;
+    let a = hit_vertex(tri, 0u).position;
+    let b = hit_vertex(tri, 1u).position;
+    let c = hit_vertex(tri, 2u).position;
+    return bvh_shares_corner(f0, f1, f2, a, b, c)
+        && bvh_plane_distance(o, a, b, c) <= bvh_start_tolerance(o, f0, f1, f2);
+}
+
 fn bvh_miss() -> BvhHit {
     return BvhHit(false, 0.0, BVH_NO_TRIANGLE, vec3<f32>(0.0), false, 0u, 0u);
 }
@@ -183,8 +209,7 @@ fn bvh_nearest(o: vec3<f32>, d: vec3<f32>, t_min: f32, from_tri: u32) -> BvhHit 
         f0 = hit_vertex(from_tri, 0u).position;
         f1 = hit_vertex(from_tri, 1u).position;
         f2 = hit_vertex(from_tri, 2u).position;
-        let m = max(max(abs(o), abs(f0)), max(abs(f1), abs(f2)));
-        e = 2.0 * bvh_plane_distance(o, f0, f1, f2) + BVH_START_ULPS * max(max(m.x, m.y), m.z);
+        e = bvh_start_tolerance(o, f0, f1, f2);
     }
     let inv = bvh_inv_dir(d);
     let oct = select(4u, 0u, inv.x < 0.0) | select(2u, 0u, inv.y < 0.0) | select(1u, 0u, inv.z < 0.0);

@@ -33,7 +33,9 @@ struct PixelRecord {
     // from the bounce round that traced the path's k-th reflected ray, 0 with `--bounces 0`.
     bounces: u32,
     // 1 where the reflector check (vk::bvh::ReflectorCheck) replaced the method's result with a
-    // nearer hit on a reflector (`fallback` stays 0: the check is not the fallback); 0 elsewhere.
+    // nearer hit on a reflector (`fallback` stays 0: the check is not the fallback); 2 where it
+    // found the method's hit at the ray's own start and left the pixel to the fallback; 0
+    // elsewhere.
     checked: u32,
 }
 

@@ -242,8 +242,10 @@ pub struct PixelRecord {
     pub bounces: u32,
     /// 1 where the reflector check ([`RenderOptions::reflector_check`],
     /// [`super::bvh::ReflectorCheck`]) replaced the method's result with a nearer hit on a
-    /// reflector; 0 elsewhere. Such a record's `fallback` stays 0: the check is not the fallback,
-    /// and the fallback share does not count it.
+    /// reflector (such a record's `fallback` stays 0: the check is not the fallback, and the
+    /// fallback share does not count it); 2 where it found the method's hit at the ray's own
+    /// start (the BVH start rule's triangles: a self-captured reflector's surface verified at
+    /// t ~ 0) and made the pixel unresolved again, for the fallback to trace in full; 0 elsewhere.
     pub checked: u32,
 }
 
@@ -337,6 +339,14 @@ impl GpuFrame {
     pub fn checked_pixels(&self) -> usize {
         (0..self.records.len())
             .filter(|&k| self.mask[k] != 0 && self.records[k].checked != 0)
+            .count()
+    }
+
+    /// Mirror pixels whose method hit the reflector check found at the ray's own start and
+    /// handed to the fallback (`checked` = 2).
+    pub fn start_hit_pixels(&self) -> usize {
+        (0..self.records.len())
+            .filter(|&k| self.mask[k] != 0 && self.records[k].checked == 2)
             .count()
     }
 
