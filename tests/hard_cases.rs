@@ -49,7 +49,7 @@
 //! (`strict_mode_removes_unseen_occluder_hits_at_cube_size_3`), so it stays; everywhere else it
 //! only adds unresolved pixels.
 mod common;
-use common::{finish_gpu, gpu_context};
+use common::{finish_gpu, gpu_context, meets};
 
 use cubetrace::cpu::multi::{MultiStatus, Traversal, Verify, trace_cmos_verified};
 use cubetrace::cpu::options::TraceOptions;
@@ -71,7 +71,7 @@ use cubetrace::vk::frame::{
 };
 use cubetrace::vk::hit_probe::{VerifyQuery, VerifyResult, verify_cpu, verify_gpu};
 use cubetrace::vk::scene_buffers::SceneBuffers;
-use glam::{DVec3, Vec2, Vec3};
+use glam::{Vec2, Vec3};
 
 /// Texel footprints a hit may be off (as `metrics::WRONG_SURFACE_FOOTPRINTS`): the texel the hit
 /// falls in plus one neighbour.
@@ -211,29 +211,6 @@ fn judge(scene: &Scene, frame: &GpuFrame, shift: Vec3) -> Verdicts {
         }
     }
     v
-}
-
-/// Where the ray `o + t d` meets global triangle `tri`, in f64 (Möller-Trumbore, the
-/// reference's test) with the barycentric bounds widened by `1e-6` (the f32 rounding of the
-/// data the GPU and the CPU twin read): `None` for a triangle the ray misses, a degenerate one
-/// (`det = 0`: zero area, or the ray in its plane) and `u32::MAX`.
-fn meets(tracer: &Tracer, o: Vec3, d: Vec3, tri: u32) -> Option<f64> {
-    const TOL: f64 = 1e-6;
-    let t = tracer.world.triangles.get(tri as usize)?;
-    let [a, b, c] = t.map(|i| tracer.world.positions[i as usize].as_dvec3());
-    let (o, d): (DVec3, DVec3) = (o.as_dvec3(), d.as_dvec3());
-    let (e1, e2) = (b - a, c - a);
-    let p = d.cross(e2);
-    let det = e1.dot(p);
-    if det == 0.0 || !det.is_finite() {
-        return None;
-    }
-    let s = o - a;
-    let u = s.dot(p) / det;
-    let q = s.cross(e1);
-    let v = d.dot(q) / det;
-    let t = e2.dot(q) / det;
-    (u >= -TOL && v >= -TOL && u + v <= 1.0 + TOL && t > 0.0).then_some(t)
 }
 
 /// The two tracers of the exact criterion whose hard cases this file runs.

@@ -13,7 +13,7 @@
 //!
 //! Runs under the validation layer when installed and fails on any error it reports.
 mod common;
-use common::{finish_gpu, gpu_context};
+use common::{finish_gpu, gpu_context, meets};
 
 use cubetrace::camera::Camera;
 use cubetrace::metrics;
@@ -24,7 +24,7 @@ use cubetrace::vk::frame::{
     Fallback, GpuFrame, GpuMethod, GpuRenderer, RECORD_HIT, RECORD_UNRESOLVED,
     REFLECTOR_CHECK_PASS, RenderOptions,
 };
-use glam::{DVec3, Vec3};
+use glam::Vec3;
 
 const SIZE: (u32, u32) = (96, 72);
 const PATHS: [GpuMethod; 2] = [GpuMethod::Compute, GpuMethod::Fragment];
@@ -75,29 +75,6 @@ fn same_triangle(scene: &Scene, refr: &Frame, frame: &GpuFrame) -> f64 {
         scene.cmo.resolution,
     )
     .same_triangle
-}
-
-/// Where the ray `o + t d` meets global triangle `tri`, in f64 (Moller-Trumbore, the reference's
-/// test, as `tests/hard_cases.rs`'s `meets`) with the barycentric bounds widened by `1e-6` (the
-/// f32 rounding of the data): `None` for a triangle the ray misses, a degenerate one and
-/// `u32::MAX`.
-fn meets(tracer: &Tracer, o: Vec3, d: Vec3, tri: u32) -> Option<f64> {
-    const TOL: f64 = 1e-6;
-    let t = tracer.world.triangles.get(tri as usize)?;
-    let [a, b, c] = t.map(|i| tracer.world.positions[i as usize].as_dvec3());
-    let (o, d): (DVec3, DVec3) = (o.as_dvec3(), d.as_dvec3());
-    let (e1, e2) = (b - a, c - a);
-    let p = d.cross(e2);
-    let det = e1.dot(p);
-    if det == 0.0 || !det.is_finite() {
-        return None;
-    }
-    let s = o - a;
-    let u = s.dot(p) / det;
-    let q = s.cross(e1);
-    let v = d.dot(q) / det;
-    let t = e2.dot(q) / det;
-    (u >= -TOL && v >= -TOL && u + v <= 1.0 + TOL && t > 0.0).then_some(t)
 }
 
 /// Hit records (mirror pixels) whose triangle, shifted by `shift` (0: as recorded), the record's

@@ -73,3 +73,26 @@ impl Rng {
         }
     }
 }
+
+/// Where the ray `o + t d` meets global triangle `tri`, in f64 (Möller-Trumbore, the
+/// reference's test) with the barycentric bounds widened by `1e-6` (the f32 rounding of the
+/// data the GPU and the CPU twin read): `None` for a triangle the ray misses, a degenerate one
+/// (`det = 0`: zero area, or the ray in its plane) and `u32::MAX`.
+pub fn meets(tracer: &cubetrace::reference::Tracer, o: Vec3, d: Vec3, tri: u32) -> Option<f64> {
+    const TOL: f64 = 1e-6;
+    let t = tracer.world.triangles.get(tri as usize)?;
+    let [a, b, c] = t.map(|i| tracer.world.positions[i as usize].as_dvec3());
+    let (o, d): (glam::DVec3, glam::DVec3) = (o.as_dvec3(), d.as_dvec3());
+    let (e1, e2) = (b - a, c - a);
+    let p = d.cross(e2);
+    let det = e1.dot(p);
+    if det == 0.0 || !det.is_finite() {
+        return None;
+    }
+    let s = o - a;
+    let u = s.dot(p) / det;
+    let q = s.cross(e1);
+    let v = d.dot(q) / det;
+    let t = e2.dot(q) / det;
+    (u >= -TOL && v >= -TOL && u + v <= 1.0 + TOL && t > 0.0).then_some(t)
+}
