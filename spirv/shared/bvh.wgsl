@@ -176,17 +176,24 @@ fn bvh_start_hit(o: vec3<f32>, from_tri: u32, tri: u32) -> bool {
     if from_tri == BVH_NO_TRIANGLE || tri == BVH_NO_TRIANGLE {
         return false;
     }
-    if tri == from_tri {
-        return true;
-    }
     let f0 = hit_vertex(from_tri, 0u).position;
     let f1 = hit_vertex(from_tri, 1u).position;
     let f2 = hit_vertex(from_tri, 2u).position;
     let a = hit_vertex(tri, 0u).position;
     let b = hit_vertex(tri, 1u).position;
     let c = hit_vertex(tri, 2u).position;
-    return bvh_shares_corner(f0, f1, f2, a, b, c)
-        && bvh_plane_distance(o, a, b, c) <= bvh_start_tolerance(o, f0, f1, f2);
+    return bvh_start_ignores(o, from_tri, f0, f1, f2, bvh_start_tolerance(o, f0, f1, f2), tri, a, b, c);
+}
+
+// The start rule itself: a ray leaving `from_tri` (corners f0, f1, f2; tolerance `e`) at `o`
+// ignores a hit on `tri` (corners a, b, c) when it is `from_tri` or a neighbour whose plane
+// passes within `e` of `o`.
+fn bvh_start_ignores(
+    o: vec3<f32>, from_tri: u32, f0: vec3<f32>, f1: vec3<f32>, f2: vec3<f32>, e: f32,
+    tri: u32, a: vec3<f32>, b: vec3<f32>, c: vec3<f32>,
+) -> bool {
+    return tri == from_tri
+        || (bvh_shares_corner(f0, f1, f2, a, b, c) && bvh_plane_distance(o, a, b, c) <= e);
 }
 
 fn bvh_miss() -> BvhHit {
@@ -241,8 +248,7 @@ fn bvh_nearest(o: vec3<f32>, d: vec3<f32>, t_min: f32, from_tri: u32) -> BvhHit 
             if w.hit && w.t >= t_lo && (w.t < best.t || !best.hit || (w.t == best.t && tri < best.triangle)) {
                 var start = false;
                 if e >= 0.0 {
-                    start = tri == from_tri
-                        || (bvh_shares_corner(f0, f1, f2, a, b, c) && bvh_plane_distance(o, a, b, c) <= e);
+                    start = bvh_start_ignores(o, from_tri, f0, f1, f2, e, tri, a, b, c);
                 }
                 if !start {
                     best.hit = true;
