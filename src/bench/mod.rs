@@ -867,9 +867,10 @@ pub fn run(
         let refr = run_reference_bounces(&scene, &camera, cfg.warmup, cfg.frames, cfg.bounces);
         bar.inc(1);
         let centres = scene.cmo_centres();
-        let triangles = scene.world().triangles.len();
+        let world = scene.world();
+        let triangles = world.triangles.len();
         let mirror = refr.frame.mirror_pixels();
-        let reflector: Vec<bool> = scene.world().objects.iter().map(|o| o.reflector).collect();
+        let reflector: Vec<bool> = world.objects.iter().map(|o| o.reflector).collect();
         let base = |spec: &MethodSpec| RunResult {
             scene: scene.name.clone(),
             method: spec.label(),

@@ -117,13 +117,15 @@ impl Scene {
     /// grazing ones near the outline, which interpolated normals send into the mirror).
     pub fn check_below(&self) -> f32 {
         let reflectors: Vec<&MeshInstance> = self.meshes.iter().filter(|m| m.reflector).collect();
-        match reflectors.as_slice() {
-            [one] if one.is_convex() => {
-                let theta = one.max_normal_deviation();
-                (2.0 * (0.5 * theta).sin() + 1.0 / 1024.0) as f32
-            }
-            _ => 2.0,
+        let [one] = reflectors.as_slice() else {
+            return 2.0;
+        };
+        let (positions, normals, triangles) = one.world_mesh();
+        if !convexity::is_convex(&positions, &normals, &triangles) {
+            return 2.0;
         }
+        let theta = convexity::max_normal_deviation(&positions, &normals, &triangles);
+        (2.0 * (0.5 * theta).sin() + 1.0 / 1024.0) as f32
     }
 
     /// The global triangle indices (in [`WorldGeometry`] order: meshes, then their parts) of the
@@ -172,12 +174,6 @@ impl MeshInstance {
             triangles.extend(part.triangles.iter().map(|t| t.map(|i| i + base)));
         }
         (positions, normals, triangles)
-    }
-
-    /// [`convexity::max_normal_deviation`] of all its parts together, in world space.
-    pub fn max_normal_deviation(&self) -> f64 {
-        let (positions, normals, triangles) = self.world_mesh();
-        convexity::max_normal_deviation(&positions, &normals, &triangles)
     }
 }
 
