@@ -1,7 +1,7 @@
 // gbuffer: the camera's view of the scene, deferred: what the tracing passes start from.
 //
 // Per pixel: the shaded colour (alpha 1 where a surface is seen), the world position of the
-// surface (w = 1 where it is a reflector: the mirror mask; 0 on other surfaces; -1, the clear value,
+// surface (where the pixel-centre ray meets the triangle's plane; see fs_main) (w = 1 where it is a reflector: the mirror mask; 0 on other surfaces; -1, the clear value,
 // where nothing is drawn), and the interpolated vertex normal as
 // stored (w = 1 where covered), and the global index of the triangle seen (`vertex_index / 3`:
 // the draw is of every triangle in `WorldGeometry::triangles` order; u32::MAX, the clear value,
@@ -11,9 +11,20 @@
 // The scene's bind group (shared/scene.wgsl).
 const SCENE_GROUP: u32 = 0u;
 //! import shared/scene.wgsl
+//! import shared/camera.wgsl
 
 struct GbufferCamera {
     view_proj: mat4x4<f32>,
+    // `Camera::ray`'s inputs, as the CPU computes them: the eye, the basis, tan(fov_y / 2), the
+    // aspect ratio and the frame size.
+    eye: vec3<f32>,
+    tan_half: f32,
+    right: vec3<f32>,
+    aspect: f32,
+    up: vec3<f32>,
+    width: f32,
+    back: vec3<f32>,
+    height: f32,
 }
 
 @group(1) @binding(0) var<uniform> gbuffer_camera: GbufferCamera;
@@ -47,13 +58,53 @@ struct GbufferOut {
     @location(3) triangle: u32,
 }
 
+// Where the ray `o + t d` meets the plane of (a, b, c): `(t, u, v)`, the barycentric weights of b
+// and c (Möller–Trumbore as `reference::intersect`, in f32 and without the edge tests: a pixel
+// centre the rasteriser gave this triangle may lie a snapping error outside it, and the plane's
+// point is then the better start). `t` is NaN or not positive where the ray misses the plane.
+fn gbuffer_plane_hit(o: vec3<f32>, d: vec3<f32>, a: vec3<f32>, b: vec3<f32>, c: vec3<f32>) -> vec3<f32> {
+    let e1 = b - a;
+    let e2 = c - a;
+    let p = cross(d, e2);
+    let det = dot(e1, p);
+    let inv = 1.0 / det;
+    let s = o - a;
+    let q = cross(s, e1);
+    return vec3<f32>(dot(e2, q) * inv, dot(s, p) * inv, dot(d, q) * inv);
+}
+
 @fragment
 fn fs_main(in: GbufferVarying) -> GbufferOut {
+    // The rasteriser interpolates the attributes from vertices snapped to its sub-pixel grid, so
+    // they stray from the pixel-centre ray by up to that grid's step. The reference's primary
+    // hit lies on the ray: recompute the hit on this triangle with the reference's ray and
+    // interpolate with its barycentrics. Where that fails (a ray in the triangle's plane, or a
+    // centre a quarter of the triangle outside it, which only a sub-pixel sliver gives), the
+    // rasteriser's values stay.
+    let pixel = vec2<u32>(in.clip.xy);
+    let o = gbuffer_camera.eye;
+    let c = gbuffer_camera;
+    let d = camera_ray_dir(pixel, c.width, c.height, c.tan_half, c.aspect, c.right, c.up, c.back);
+    let v0 = scene_vertices[scene_indices[3u * in.triangle]];
+    let v1 = scene_vertices[scene_indices[3u * in.triangle + 1u]];
+    let v2 = scene_vertices[scene_indices[3u * in.triangle + 2u]];
+    let h = gbuffer_plane_hit(o, d, v0.position, v1.position, v2.position);
+    var world = in.world;
+    var normal = in.normal;
+    var uv = in.uv;
+    let u = h.y;
+    let v = h.z;
+    let w = 1.0 - u - v;
+    if h.x > 0.0 && h.x < bitcast<f32>(0x7f800000u) && min(min(u, v), w) > -0.25 {
+        world = o + d * h.x;
+        normal = v0.normal * w + v1.normal * u + v2.normal * v;
+        uv = v0.uv * w + v1.uv * u + v2.uv * v;
+    }
     let mirror = select(0.0, 1.0, scene_is_reflector(in.object));
     return GbufferOut(
-        vec4<f32>(scene_shade(in.object, in.uv, in.normal), 1.0),
-        vec4<f32>(in.world, mirror),
-        vec4<f32>(in.normal, 1.0),
+        vec4<f32>(scene_shade(in.object, uv, normal), 1.0),
+        vec4<f32>(world, mirror),
+        vec4<f32>(normal, 1.0),
         in.triangle,
     );
 }

@@ -70,10 +70,16 @@ impl Camera {
         (right, up, back)
     }
 
+    /// `tan(fov_y / 2)`, as [`Camera::ray`] computes it.
+    pub fn tan_half_fov_y(&self) -> f32 {
+        (0.5 * self.fov_y_deg.to_radians()).tan()
+    }
+
     /// The primary ray through the centre of pixel `(i, j)`: origin and unit direction.
+    /// `camera_ray_dir` in `spirv/shared/camera.wgsl` repeats it operation for operation.
     pub fn ray(&self, i: u32, j: u32) -> (Vec3, Vec3) {
         let (right, up, back) = self.basis();
-        let tan = (0.5 * self.fov_y_deg.to_radians()).tan();
+        let tan = self.tan_half_fov_y();
         let x_ndc = 2.0 * (i as f32 + 0.5) / self.width as f32 - 1.0;
         let y_ndc = 2.0 * (j as f32 + 0.5) / self.height as f32 - 1.0;
         let x = x_ndc * tan * self.aspect();

@@ -23,10 +23,12 @@
 //! distance `d` from its centre; the smallest such footprint is at the nearest captured surface,
 //! `d_min`. With mirror points and CMO centres up to `X` from the world origin, the rounding must
 //! stay below 1/8 of that footprint: `X 2^-24 <= (2 d_min / N) / 8`, i.e.
-//! `X / d_min <= 2^22 / N` (16384 at N = 256). Measured on sphere-room (N = 256, `d_min` = 1.2)
-//! moved away from the origin: at `X / d_min` = 1.05e4 (1/13 of a footprint) 0.3% of the mirror
-//! pixels hit the wrong surface (0.15% at the origin); at 1.05e5 (3/4 of a footprint) 26%, and
-//! the image turns to noise. [`FrameRanges::check`] refuses such a scene with the numbers
+//! `X / d_min <= 2^22 / N` (16384 at N = 256). Measured on sphere-room (N = 256, `d_min` = 1.2,
+//! 64x48) moved away from the origin: at `X / d_min` = 1.05e4 (1/13 of a footprint) 0.15% of the
+//! mirror pixels hit the wrong surface; at 1.05e5 (3/4 of a footprint) 0.9%; at 2.1e5 2.8%, at
+//! 4.2e5 5.8%, and at 1.05e6 32%: the image turns to noise. (Before the G-buffer recomputed its
+//! start points on the pixel-centre ray, 1.05e5 was already 26%: the rasteriser's interpolated
+//! positions are coarser than f32 rounding.) [`FrameRanges::check`] refuses such a scene with the numbers
 //! (`tests/depth_range.rs`). Distances are squared in f32 by the tracer: an extent over 2^60 is
 //! refused too.
 use glam::Vec3;

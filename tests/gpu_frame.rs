@@ -76,8 +76,14 @@ fn shared_structs_match_naga_layout() {
             height,
             fallback,
             check_below,
+            tan_half,
+            aspect,
+            right,
             pad1,
-            pad2
+            up,
+            pad2,
+            back,
+            pad3
         ]
     )
     .unwrap();

@@ -2,8 +2,9 @@
 // record a method writes, the captured colours, and the full-screen triangle.
 //
 // Conventions:
-// - The reflected ray of a mirror pixel starts at the G-buffer's world position `p` and goes
-//   along `reflect(d, n)`, `d = normalize(p - eye)`, `n` the normalised interpolated vertex
+// - The reflected ray of a mirror pixel starts at the G-buffer's world position `p` (the
+//   pixel-centre ray's hit, spirv/gbuffer.wgsl) and goes along `reflect(d, n)`, `d` the camera's
+//   ray through the pixel centre (`camera_ray_dir`), `n` the normalised interpolated vertex
 //   normal, as the CPU reference reflects (`reference::reflect`, then normalised). `t` runs over
 //   [0, frame.t_hi] in world units (the direction is unit length); `t_hi` reaches past the scene.
 // - `records[j * width + i]` is pixel (i, j), row 0 at the top. Only mirror pixels are written;
@@ -12,6 +13,7 @@
 //   the surface; composite fills it with the fallback).
 //! import shared/trace.wgsl
 //! import shared/record.wgsl
+//! import shared/camera.wgsl
 
 struct FrameParams {
     eye: vec3<f32>,
@@ -29,8 +31,16 @@ struct FrameParams {
     // normalised interpolated normal (`Scene::check_below`: 2, every ray, or a bound for the
     // rays that leave a convex reflector below a face's plane).
     check_below: f32,
+    // `Camera::ray`'s inputs (`camera_ray_dir`): the mirror pixels' incoming direction is the
+    // reference's primary ray, bit for bit.
+    tan_half: f32,
+    aspect: f32,
+    right: vec3<f32>,
     pad1: u32,
+    up: vec3<f32>,
     pad2: u32,
+    back: vec3<f32>,
+    pad3: u32,
 }
 
 
@@ -53,7 +63,10 @@ fn mirror_ray(pixel: vec2<u32>) -> MirrorRay {
         return MirrorRay(false, vec3<f32>(0.0), vec3<f32>(0.0));
     }
     let n = normalize_glam(textureLoad(gbuffer_normal, vec2<i32>(pixel), 0).xyz);
-    let d = normalize_glam(p.xyz - frame.eye);
+    let d = camera_ray_dir(
+        pixel, f32(frame.width), f32(frame.height), frame.tan_half, frame.aspect,
+        frame.right, frame.up, frame.back,
+    );
     let dn = d.x * n.x + d.y * n.y + d.z * n.z;
     let r = normalize_glam(d - n * (2.0 * dn));
     return MirrorRay(true, p.xyz, r);

@@ -203,8 +203,16 @@ pub struct FrameParams {
     /// The reflector check traces the mirror rays `d` with `d . n < check_below`
     /// ([`Scene::check_below`]).
     pub check_below: f32,
+    /// [`Camera::ray`]'s inputs: the mirror pixels' incoming direction is the reference's
+    /// primary ray's (`camera_ray_dir` in `spirv/shared/camera.wgsl`).
+    pub tan_half: f32,
+    pub aspect: f32,
+    pub right: [f32; 3],
     pub pad1: u32,
+    pub up: [f32; 3],
     pub pad2: u32,
+    pub back: [f32; 3],
+    pub pad3: u32,
 }
 
 /// `PixelRecord` in `spirv/shared/mirror.wgsl`: what a method found for one mirror pixel.
@@ -539,6 +547,7 @@ impl GpuRenderer {
         };
         let gbuffer = Gbuffer::new(ctx, &scene_buffers, camera, ranges.near)?;
         let (width, height) = (camera.width, camera.height);
+        let (right, up, back) = camera.basis();
         let params = FrameParams {
             eye: camera.eye.to_array(),
             t_hi,
@@ -553,6 +562,11 @@ impl GpuRenderer {
                 Fallback::Trace | Fallback::TraceFromTDone => 3,
             },
             check_below: scene.check_below(),
+            tan_half: camera.tan_half_fov_y(),
+            aspect: camera.aspect(),
+            right: right.to_array(),
+            up: up.to_array(),
+            back: back.to_array(),
             ..FrameParams::default()
         };
         let params_buf = ctx.create_buffer_init(

@@ -7,6 +7,10 @@
 //!   `GREATER`, cleared to 0) with no far plane: D32_SFLOAT keeps f32's relative precision at
 //!   every distance, and only geometry nearer than `near` is clipped
 //!   ([`crate::ranges::FrameRanges`]).
+//! - Position, normal and uv are those of the pixel-centre ray's hit ([`Camera::ray`], the
+//!   reference's primary ray) on the rasterised triangle's plane, recomputed in the fragment
+//!   shader: the rasteriser's own interpolation strays from that ray by its sub-pixel snapping,
+//!   enough to turn a grazing reflected ray onto a neighbouring triangle.
 //! - Images are left in `SHADER_READ_ONLY_OPTIMAL` after [`Gbuffer::record`]: `colour` (rgb
 //!   shaded, a = 1 where covered), `position` (xyz world; w = 1 on a reflector, 0 elsewhere, -1
 //!   where nothing is drawn), `normal` (xyz the interpolated vertex normal, unnormalised; w = 1
@@ -33,6 +37,33 @@ use crate::camera::Camera;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GbufferCamera {
     pub view_proj: [[f32; 4]; 4],
+    pub eye: [f32; 3],
+    pub tan_half: f32,
+    pub right: [f32; 3],
+    pub aspect: f32,
+    pub up: [f32; 3],
+    pub width: f32,
+    pub back: [f32; 3],
+    pub height: f32,
+}
+
+impl GbufferCamera {
+    /// The pass's camera: `view_proj` for the rasteriser, and [`Camera::ray`]'s inputs for the
+    /// primary hit that the fragment shader recomputes on the pixel-centre ray.
+    pub fn new(camera: &Camera, near: f32) -> Self {
+        let (right, up, back) = camera.basis();
+        GbufferCamera {
+            view_proj: camera.view_proj(near).to_cols_array_2d(),
+            eye: camera.eye.to_array(),
+            tan_half: camera.tan_half_fov_y(),
+            right: right.to_array(),
+            aspect: camera.aspect(),
+            up: up.to_array(),
+            width: camera.width as f32,
+            back: back.to_array(),
+            height: camera.height as f32,
+        }
+    }
 }
 
 const FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
@@ -75,9 +106,7 @@ impl Gbuffer {
                 depth: Some((vk::Format::D32_SFLOAT, DepthTest::Reversed)),
             },
         )?;
-        let uniform = GbufferCamera {
-            view_proj: camera.view_proj(near).to_cols_array_2d(),
-        };
+        let uniform = GbufferCamera::new(camera, near);
         let camera_buf = ctx.create_buffer_init(
             "gbuffer camera",
             vk::BufferUsageFlags::UNIFORM_BUFFER,
