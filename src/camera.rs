@@ -70,6 +70,41 @@ impl Camera {
         (right, up, back)
     }
 
+    /// A pixel rectangle `[x0, x1) x [y0, y1)` that holds every pixel whose centre sees one of
+    /// the triangles with corners among `points` (world positions): their projections' bounding
+    /// box, widened by a pixel for the rasteriser's sub-pixel snapping and clamped to the frame.
+    /// `None` when it cannot be bounded that way: a point on or behind the eye's plane (a
+    /// triangle that crosses it projects to no bounded box), or one that is not finite.
+    pub fn screen_rect(
+        &self,
+        points: impl IntoIterator<Item = Vec3>,
+        near: f32,
+    ) -> Option<[u32; 4]> {
+        let vp = self.view_proj(near);
+        let (w, h) = (self.width as f32, self.height as f32);
+        let mut lo = glam::Vec2::splat(f32::INFINITY);
+        let mut hi = glam::Vec2::splat(f32::NEG_INFINITY);
+        for p in points {
+            let c = vp * p.extend(1.0);
+            if !(c.w > 0.0) || !c.is_finite() {
+                return None;
+            }
+            let px = glam::Vec2::new((c.x / c.w + 1.0) * 0.5 * w, (c.y / c.w + 1.0) * 0.5 * h);
+            lo = lo.min(px);
+            hi = hi.max(px);
+        }
+        if lo.x > hi.x {
+            return Some([0, 0, 0, 0]);
+        }
+        let clamp = |v: f32, n: f32| v.clamp(0.0, n) as u32;
+        Some([
+            clamp((lo.x - 1.0).floor(), w),
+            clamp((lo.y - 1.0).floor(), h),
+            clamp((hi.x + 1.0).ceil(), w),
+            clamp((hi.y + 1.0).ceil(), h),
+        ])
+    }
+
     /// `tan(fov_y / 2)`, as [`Camera::ray`] computes it.
     pub fn tan_half_fov_y(&self) -> f32 {
         (0.5 * self.fov_y_deg.to_radians()).tan()
@@ -103,6 +138,37 @@ mod tests {
             width: 64,
             height: 48,
         }
+    }
+
+    /// The rectangle holds the pixels whose centre ray meets a point of the set, including the
+    /// frame's corners; a point behind the eye gives none; an empty set an empty rectangle.
+    #[test]
+    fn screen_rect_holds_the_points_pixels() {
+        let c = cam();
+        let near = 0.1;
+        let pts: Vec<Vec3> = [(3, 5), (40, 7), (20, 31), (63, 47), (0, 0)]
+            .iter()
+            .map(|&(i, j)| {
+                let (o, d) = c.ray(i, j);
+                o + d * 4.0
+            })
+            .collect();
+        let r = c.screen_rect(pts.iter().copied(), near).unwrap();
+        assert_eq!(r, [0, 0, 64, 48]);
+        let r = c.screen_rect(pts[..3].iter().copied(), near).unwrap();
+        for &(i, j) in &[(3u32, 5u32), (40, 7), (20, 31)] {
+            assert!(
+                i >= r[0] && i < r[2] && j >= r[1] && j < r[3],
+                "{i},{j} outside {r:?}"
+            );
+        }
+        assert!(r[0] <= 3 && r[2] <= 43 && r[1] <= 5 && r[3] <= 34, "{r:?}");
+        // Negative: the rectangle of the first two points misses the third's pixel.
+        let r2 = c.screen_rect(pts[..2].iter().copied(), near).unwrap();
+        assert!(r2[3] <= 31, "{r2:?}");
+        let (_, _, back) = c.basis();
+        assert_eq!(c.screen_rect([c.eye + back], near), None);
+        assert_eq!(c.screen_rect([], near), Some([0, 0, 0, 0]));
     }
 
     /// A point on the ray through a pixel centre projects back to that pixel centre, at the

@@ -103,58 +103,63 @@ fn inflated(iv: Interval, t_lo: f32, t_hi: f32) -> Inflated {
 // [t0, t1] of `la + t ld`, t in [t_lo, t_hi] (face-local), inside the frustum of `cell`.
 fn cell_interval(la: vec3<f32>, ld: vec3<f32>, cell: CellRect, t_lo: f32, t_hi: f32) -> Interval {
     let n = cell.size;
-    let fx0 = face_coord(cell.x0, n);
-    let fx1 = face_coord(cell.x1, n);
-    let fy0 = face_coord(cell.y0, n);
-    let fy1 = face_coord(cell.y1, n);
     let edge = edge_inclusive_bits(cell.face);
     // Owned sides: interior lower sides yes, interior upper sides no, face edges by the tie rule.
-    var inc = array<bool, 5>(
+    let inc = vec4<bool>(
         select(true, (edge & 1u) != 0u, cell.x0 == 0u),
         select(false, (edge & 2u) != 0u, cell.x1 == n),
         select(true, (edge & 4u) != 0u, cell.y0 == 0u),
         select(false, (edge & 8u) != 0u, cell.y1 == n),
-        false,
     );
-    var alpha = array<f32, 5>(
-        la.x - prod(fx0, la.z),
-        prod(fx1, la.z) - la.x,
-        la.y - prod(fy0, la.z),
-        prod(fy1, la.z) - la.y,
-        la.z,
-    );
-    var beta = array<f32, 5>(
-        ld.x - prod(fx0, ld.z),
-        prod(fx1, ld.z) - ld.x,
-        ld.y - prod(fy0, ld.z),
-        prod(fy1, ld.z) - ld.y,
-        ld.z,
-    );
-    var iv = Interval(t_lo, t_hi, SIDE_SEGMENT, SIDE_SEGMENT);
-    var keep = true;
-    for (var k = 0u; k < 5u; k++) {
-        let al = alpha[k];
-        let be = beta[k];
-        if be > 0.0 {
-            let b = -al / be;
-            if b > iv.t0 {
-                iv.t0 = b;
-                iv.entry = k;
-            }
-        } else if be < 0.0 {
-            let b = -al / be;
-            if b < iv.t1 {
-                iv.t1 = b;
-                iv.exit = k;
-            }
-        } else if al < 0.0 || (al == 0.0 && !inc[k]) || is_nan_f32(al) {
-            keep = false;
-        }
-    }
-    if keep {
-        return iv;
+    let f = vec4<f32>(face_coord(cell.x0, n), face_coord(cell.x1, n), face_coord(cell.y0, n), face_coord(cell.y1, n));
+    return frustum_interval(la, ld, f, inc, t_lo, t_hi);
+}
+
+// `cell_interval` of the frustum with side planes at face coordinates `f` (x0, x1, y0, y1)
+// owning the sides `inc` says (the caller computes both, e.g. once for several cells).
+fn frustum_interval(la: vec3<f32>, ld: vec3<f32>, f: vec4<f32>, owned: vec4<bool>, t_lo: f32, t_hi: f32) -> Interval {
+    let fx0 = f.x;
+    let fx1 = f.y;
+    let fy0 = f.z;
+    let fy1 = f.w;
+    // The five planes in order, written out (a loop over arrays would keep them in memory).
+    var c = Clip(Interval(t_lo, t_hi, SIDE_SEGMENT, SIDE_SEGMENT), true);
+    c = clip_plane(c, la.x - prod(fx0, la.z), ld.x - prod(fx0, ld.z), owned.x, 0u);
+    c = clip_plane(c, prod(fx1, la.z) - la.x, prod(fx1, ld.z) - ld.x, owned.y, 1u);
+    c = clip_plane(c, la.y - prod(fy0, la.z), ld.y - prod(fy0, ld.z), owned.z, 2u);
+    c = clip_plane(c, prod(fy1, la.z) - la.y, prod(fy1, ld.z) - ld.y, owned.w, 3u);
+    c = clip_plane(c, la.z, ld.z, false, 4u);
+    if c.keep {
+        return c.iv;
     }
     return interval_empty();
+}
+
+// An interval being clipped by the planes `alpha + t beta >= 0` in turn.
+struct Clip {
+    iv: Interval,
+    keep: bool,
+}
+
+// Plane k: `alpha + t beta >= 0` (`inc`: whether the plane itself belongs to the cell).
+fn clip_plane(c: Clip, al: f32, be: f32, inc: bool, k: u32) -> Clip {
+    var out = c;
+    if be > 0.0 {
+        let b = -al / be;
+        if b > out.iv.t0 {
+            out.iv.t0 = b;
+            out.iv.entry = k;
+        }
+    } else if be < 0.0 {
+        let b = -al / be;
+        if b < out.iv.t1 {
+            out.iv.t1 = b;
+            out.iv.exit = k;
+        }
+    } else if al < 0.0 || (al == 0.0 && !inc) || is_nan_f32(al) {
+        out.keep = false;
+    }
+    return out;
 }
 
 // r(t) = |a + t d| on CMO-local vectors, summed in x, y, z order.

@@ -46,8 +46,8 @@ const SAMPLING_PER_TEXEL: u32 = 2u;
 // folds the constant and drops the code of the other methods (specialisation by entry point).
 // TRACE_ANY: every criterion, sampling and acceleration, chosen at run time by `trace_config`.
 const TRACE_ANY: u32 = 0u;
-// TRACE_EXACT_MIP: the exact criterion with the mip march only (`criterion` exact, `accel` 1;
-// the Rust side picks it only then: `vk::trace_probe::exact_mip_only`).
+// TRACE_EXACT_MIP: the exact criterion with the mip march only (`criterion` exact, `accel` 1,
+// `strict` 0; the Rust side picks it only then: `vk::trace_probe::exact_mip_only`).
 const TRACE_EXACT_MIP: u32 = 1u;
 
 const STATUS_HIT: u32 = 0u;
@@ -294,6 +294,12 @@ fn decisive_patch_hit(k: u32, seg: Segment, texel: Texel, iv: Interval, d: f32, 
 }
 
 fn classify(k: u32, seg: Segment, texel: Texel, iv: Interval) -> Outcome {
+    return classify_with(k, seg, texel, iv, true);
+}
+
+// `classify`; `strict_code` false (a constant) leaves `--strict` out: the production variant's
+// code (`TRACE_EXACT_MIP`, picked only without `--strict`: `vk::trace_probe::exact_mip_only`).
+fn classify_with(k: u32, seg: Segment, texel: Texel, iv: Interval, strict_code: bool) -> Outcome {
     let n = trace_config.size;
     let d = distance_at(k, texel);
     if !texel_not_in_front(seg, iv, d) {
@@ -307,7 +313,7 @@ fn classify(k: u32, seg: Segment, texel: Texel, iv: Interval) -> Outcome {
         let q = seg_at(seg, ts);
         let q2 = prod(q.x, q.x) + prod(q.y, q.y) + prod(q.z, q.z);
         let t = clamp_rust(ts + sqrt(max(prod(d, d) - q2, 0.0) / dd), iv.t0, iv.t1);
-        if trace_config.strict == 0u || decisive_patch_hit(k, seg, texel, iv, d, t) {
+        if !strict_code || trace_config.strict == 0u || decisive_patch_hit(k, seg, texel, iv, d, t) {
             return Outcome(1u, t, false);
         }
         return Outcome(2u, iv.t0, false);
@@ -341,18 +347,17 @@ struct Located {
     iv: Interval,
 }
 
-// The texel of `face` whose interval contains or follows t (`cpu::locate`).
-fn locate(seg: Segment, face: u32, t: f32, size: u32, lo: f32, hi: f32) -> Located {
-    let l = to_face_local(face, seg_at(seg, t));
-    var cx = size / 2u;
-    var cy = size / 2u;
-    if l.z > 0.0 {
-        cx = st_to_texel_coord(0.5 * (l.x / l.z + 1.0), size);
-        cy = st_to_texel_coord(0.5 * (l.y / l.z + 1.0), size);
-    }
+// The 3x3 texel search of `locate` and `next_texel`: of the texels of `face` around (cx, cy)
+// (with `ahead`, only the 8 neighbours on the ray's side of the centre, by the signs of `mx`,
+// `my`), the one crossed with the smallest entry among those whose interval ends after `t`
+// (the first in row order on ties).
+fn texel_search(seg: Segment, face: u32, cx: u32, cy: u32, ahead: bool, mx: f32, my: f32, t: f32, size: u32, lo: f32, hi: f32) -> Located {
     var best = Located(false, Texel(0u, 0u, 0u), interval_empty());
     for (var dy = -1; dy <= 1; dy++) {
         for (var dx = -1; dx <= 1; dx++) {
+            if ahead && ((dx == 0 && dy == 0) || f32(dx) * mx < 0.0 || f32(dy) * my < 0.0) {
+                continue;
+            }
             let x = i32(cx) + dx;
             let y = i32(cy) + dy;
             if x < 0 || y < 0 || x >= i32(size) || y >= i32(size) {
@@ -368,31 +373,34 @@ fn locate(seg: Segment, face: u32, t: f32, size: u32, lo: f32, hi: f32) -> Locat
     return best;
 }
 
+// The texel (x, y) of `face` around which `locate` searches for t: the one the point at t
+// projects to, or the face's middle where the point is not in front of the face.
+fn locate_centre(seg: Segment, face: u32, t: f32, size: u32) -> vec2<u32> {
+    let l = to_face_local(face, seg_at(seg, t));
+    var c = vec2<u32>(size / 2u, size / 2u);
+    if l.z > 0.0 {
+        c = vec2<u32>(st_to_texel_coord(0.5 * (l.x / l.z + 1.0), size), st_to_texel_coord(0.5 * (l.y / l.z + 1.0), size));
+    }
+    return c;
+}
+
+// `next_texel`'s direction of travel on the face: (mx, my), the signs that keep a neighbour.
+fn travel_signs(seg: Segment, face: u32) -> vec2<f32> {
+    let la = to_face_local(face, seg.a);
+    let ld = to_face_local(face, seg.d);
+    return vec2<f32>(prod(ld.x, la.z) - prod(la.x, ld.z), prod(ld.y, la.z) - prod(la.y, ld.z));
+}
+
+// The texel of `face` whose interval contains or follows t (`cpu::locate`).
+fn locate(seg: Segment, face: u32, t: f32, size: u32, lo: f32, hi: f32) -> Located {
+    let c = locate_centre(seg, face, t, size);
+    return texel_search(seg, face, c.x, c.y, false, 0.0, 0.0, t, size, lo, hi);
+}
+
 // The next texel after `cur` within its face (`cpu::next_texel`).
 fn next_texel(seg: Segment, cur: Texel, iv: Interval, size: u32, lo: f32, hi: f32) -> Located {
-    let la = to_face_local(cur.face, seg.a);
-    let ld = to_face_local(cur.face, seg.d);
-    let mx = prod(ld.x, la.z) - prod(la.x, ld.z);
-    let my = prod(ld.y, la.z) - prod(la.y, ld.z);
-    var best = Located(false, Texel(0u, 0u, 0u), interval_empty());
-    for (var dy = -1; dy <= 1; dy++) {
-        for (var dx = -1; dx <= 1; dx++) {
-            if (dx == 0 && dy == 0) || f32(dx) * mx < 0.0 || f32(dy) * my < 0.0 {
-                continue;
-            }
-            let x = i32(cur.x) + dx;
-            let y = i32(cur.y) + dy;
-            if x < 0 || y < 0 || x >= i32(size) || y >= i32(size) {
-                continue;
-            }
-            let tex = Texel(cur.face, u32(x), u32(y));
-            let niv = texel_interval(seg, tex, size, lo, hi);
-            if crosses(niv) && niv.t1 > iv.t1 && (!best.found || niv.t0 < best.iv.t0) {
-                best = Located(true, tex, niv);
-            }
-        }
-    }
-    return best;
+    let m = travel_signs(seg, cur.face);
+    return texel_search(seg, cur.face, cur.x, cur.y, true, m.x, m.y, iv.t1, size, lo, hi);
 }
 
 // Per-texel walk (`cpu::walk::trace_walk`).
@@ -425,8 +433,17 @@ fn mip_get(k: u32, l: u32, face: u32, x: u32, y: u32) -> vec2<f32> {
     return cmo_mip[k * trace_config.mip_len + lev.x + (face * lev.z + y) * lev.y + x];
 }
 
-// Thesis alg. 2 over the 2x2 pyramid (`cpu::mip::trace_mip`).
-fn trace_mip(k: u32, seg: Segment, cut: f32) -> TraceResult {
+// Thesis alg. 2 over the 2x2 pyramid (`cpu::mip::trace_mip`), the same decisions in the same
+// order, written for a CPU driver. Lavapipe runs a shader's lanes in lockstep: it executes the
+// body of every branch for all lanes, masked (an `if` costs its body whether any lane takes it or
+// not), and runs a loop until its last lane leaves (a loop body runs at least once). So the code
+// inside the hottest loop is what every turn pays: here the inner loop holds only the cell tests
+// (the pyramid, top down, around the current texel), and the texel search (`texel_search`:
+// `locate` after a skip, `next_texel` after a classified texel) and the classification run once
+// per turn of the outer loop, each from one place. (Written as the CPU twin's loops, with a
+// `locate` inside the level loop, a turn paid a search per pyramid level.) `variant`
+// (a constant) leaves `--strict` out of `TRACE_EXACT_MIP`.
+fn trace_mip(k: u32, seg: Segment, cut: f32, variant: u32) -> TraceResult {
     let n = trace_config.size;
     let top = trace_config.mip_top;
     let none = 0xffffffffu;
@@ -440,6 +457,7 @@ fn trace_mip(k: u32, seg: Segment, cut: f32) -> TraceResult {
             let face = faces.face[f];
             let la = to_face_local(face, seg.a);
             let ld = to_face_local(face, seg.d);
+            let signs = travel_signs(seg, face);
             // checked[l]: the level-l cell last found not skippable (none: 0xffffffff).
             var checked: array<vec2<u32>, TRACE_MIP_MAX_LEVELS>;
             for (var i = 0u; i < TRACE_MIP_MAX_LEVELS; i++) {
@@ -447,46 +465,85 @@ fn trace_mip(k: u32, seg: Segment, cut: f32) -> TraceResult {
             }
             // The cell skipped last (level, x, y), which the located texel may still touch.
             var last_skip = vec3<u32>(none, none, none);
-            var cur = locate(seg, face, faces.iv[f].t0, n, lo, hi);
-            for (var step = 0u; step < MAX_FACE_STEPS && cur.found; step++) {
-                let tex = cur.tex;
-                let iv = cur.iv;
-                var skipped = false;
-                for (var l = top; l >= 1u; l--) {
-                    let span = trace_config.mip_levels[l].w;
-                    let cx = tex.x / span;
-                    let cy = tex.y / span;
-                    if any(checked[l] != vec2<u32>(cx, cy)) {
-                        c.cells += 1u;
-                        let rect = CellRect(face, min(cx * span, n), min((cx + 1u) * span, n), min(cy * span, n), min((cy + 1u) * span, n), n);
-                        let civ = cell_interval(la, ld, rect, lo, hi);
-                        let inf = inflated(civ, lo, hi);
-                        var skip = false;
-                        if inf.ok {
-                            skip = any(last_skip != vec3<u32>(l, cx, cy)) && r_bounds(seg.a, seg.d, inf.lo, inf.hi).y < mip_get(k, l, face, cx, cy).x;
-                        }
-                        if skip {
-                            last_skip = vec3<u32>(l, cx, cy);
-                            var t_exit = iv.t1;
-                            if crosses(civ) {
-                                t_exit = civ.t1;
-                            }
-                            cur = locate(seg, face, max(t_exit, iv.t1), n, lo, hi);
-                            skipped = true;
-                            break;
-                        }
-                        checked[l] = vec2<u32>(cx, cy);
+            // The search due at the top of the next turn: `locate` at `search_t` (ahead false)
+            // or `next_texel` after `cur` (ahead true, search_t its exit).
+            var search = true;
+            var ahead = false;
+            var search_t = faces.iv[f].t0;
+            var cur = Located(false, Texel(0u, 0u, 0u), interval_empty());
+            // Steps as the CPU counts them: texels classified and cells skipped.
+            var step = 0u;
+            loop {
+                if step >= MAX_FACE_STEPS {
+                    break;
+                }
+                if search {
+                    var centre = vec2<u32>(cur.tex.x, cur.tex.y);
+                    if !ahead {
+                        centre = locate_centre(seg, face, search_t, n);
+                    }
+                    cur = texel_search(seg, face, centre.x, centre.y, ahead, signs.x, signs.y, search_t, n, lo, hi);
+                    search = false;
+                    if !cur.found {
+                        break;
                     }
                 }
+                let tex = cur.tex;
+                let iv = cur.iv;
+                // The cell tests around `tex`, top down, until one skips or every level is
+                // checked: the hot loop, kept small.
+                var skipped = false;
+                loop {
+                    // The highest level whose cell around `tex` is not checked yet (0: none).
+                    var level = 0u;
+                    var cell = vec2<u32>(0u, 0u);
+                    for (var l = top; l >= 1u; l--) {
+                        let cl = vec2<u32>(tex.x >> l, tex.y >> l);
+                        if any(checked[l] != cl) {
+                            level = l;
+                            cell = cl;
+                            break;
+                        }
+                    }
+                    if level == 0u {
+                        break;
+                    }
+                    c.cells += 1u;
+                    let span = 1u << level;
+                    let rect = CellRect(face, min(cell.x * span, n), min((cell.x + 1u) * span, n), min(cell.y * span, n), min((cell.y + 1u) * span, n), n);
+                    let civ = cell_interval(la, ld, rect, lo, hi);
+                    let inf = inflated(civ, lo, hi);
+                    var skip = false;
+                    if inf.ok {
+                        skip = any(last_skip != vec3<u32>(level, cell.x, cell.y)) && r_bounds(seg.a, seg.d, inf.lo, inf.hi).y < mip_get(k, level, face, cell.x, cell.y).x;
+                    }
+                    if skip {
+                        last_skip = vec3<u32>(level, cell.x, cell.y);
+                        var t_exit = iv.t1;
+                        if crosses(civ) {
+                            t_exit = civ.t1;
+                        }
+                        search_t = max(t_exit, iv.t1);
+                        skipped = true;
+                        break;
+                    }
+                    checked[level] = cell;
+                }
                 if skipped {
+                    search = true;
+                    ahead = false;
+                    step += 1u;
                     continue;
                 }
                 c.texels += 1u;
-                let o = classify(k, seg, tex, iv);
+                let o = classify_with(k, seg, tex, iv, variant != TRACE_EXACT_MIP);
                 if o.kind != 0u {
                     return finish(seg, tex, o, c);
                 }
-                cur = next_texel(seg, tex, iv, n, lo, hi);
+                search = true;
+                ahead = true;
+                search_t = iv.t1;
+                step += 1u;
             }
         }
     }
@@ -612,12 +669,12 @@ fn trace_sampled(k: u32, seg: Segment, cut: f32) -> TraceResult {
 fn trace_one(k: u32, seg: Segment, variant: u32) -> TraceResult {
     let cut = cut_radius(k);
     if variant == TRACE_EXACT_MIP {
-        return trace_mip(k, seg, cut);
+        return trace_mip(k, seg, cut, TRACE_EXACT_MIP);
     }
     if trace_config.criterion != CRITERION_EXACT {
         return trace_sampled(k, seg, cut);
     } else if trace_config.accel != 0u {
-        return trace_mip(k, seg, cut);
+        return trace_mip(k, seg, cut, TRACE_ANY);
     }
     return trace_walk(k, seg, cut);
 }

@@ -438,6 +438,10 @@ pub struct GpuRenderer {
     gbuffer: Gbuffer,
     /// The fragment pass of `Fragment` and `Envmap`.
     trace: Option<(GraphicsPipeline, Vec<BindGroup>)>,
+    /// The pixels `trace` shades: the reflectors' screen rectangle ([`Camera::screen_rect`];
+    /// `None`: the whole frame). A CPU driver runs a fragment shader's code for a group of
+    /// pixels even when none of them is a mirror pixel; outside the rectangle none is.
+    mirror_rect: Option<[u32; 4]>,
     /// The passes of `Compute`.
     compute: Option<ComputePath>,
     /// The passes of `Ssr`.
@@ -505,6 +509,13 @@ impl GpuRenderer {
         let t_hi = ranges.t_hi;
         let data = GpuSceneData::new(scene);
         let scene_buffers = SceneBuffers::new(ctx, &data)?;
+        let mirror_rect = camera.screen_rect(
+            data.vertices
+                .iter()
+                .filter(|v| data.objects[v.object as usize].reflector != 0)
+                .map(|v| Vec3::from_array(v.position)),
+            ranges.near,
+        );
         let needs_pyramid = options.method == GpuMethod::Fragment;
         check_bounces(&options)?;
         if options.method == GpuMethod::Compute {
@@ -755,6 +766,7 @@ impl GpuRenderer {
             pyramid,
             gbuffer,
             trace,
+            mirror_rect,
             compute,
             ssr,
             rp,
@@ -876,7 +888,8 @@ impl GpuRenderer {
                         colour: Vec::new(),
                         depth: None,
                     };
-                    trace.draw(rec, &target, &sets.iter().collect::<Vec<_>>(), 3, 0)
+                    let sets: Vec<&BindGroup> = sets.iter().collect();
+                    trace.draw_in(rec, &target, &sets, 3, 0, self.mirror_rect)
                 })?;
             }
             if let Some(c) = self.compute.as_ref().filter(|_| traced) {

@@ -8,8 +8,9 @@
 //! - Rasterisation is what the CPU reference assumes: triangle lists, no culling (the reference
 //!   hits both sides of a triangle), fill mode, no depth bias. Depth, when present, is tested with
 //!   writes ([`DepthTest`]), so the nearest surface along each pixel's ray wins.
-//! - Viewport and scissor are dynamic and always cover the whole target: pixel `(i, j)` has its
-//!   centre at `(i + 0.5, j + 0.5)`, row 0 at the top, as [`crate::camera`] defines.
+//! - Viewport and scissor are dynamic; the viewport always covers the whole target: pixel
+//!   `(i, j)` has its centre at `(i + 0.5, j + 0.5)`, row 0 at the top, as [`crate::camera`]
+//!   defines. The scissor does too, unless a draw narrows it ([`GraphicsPipeline::draw_in`]).
 //! - Attachments must be in `COLOR_ATTACHMENT_OPTIMAL` / `DEPTH_ATTACHMENT_OPTIMAL` when a draw is
 //!   recorded; callers transition them (see [`super::Recorder::image_barrier`]).
 use std::sync::Arc;
@@ -190,6 +191,21 @@ impl GraphicsPipeline {
         vertex_count: u32,
         instance: u32,
     ) -> VkResult<()> {
+        self.draw_in(rec, target, sets, vertex_count, instance, None)
+    }
+
+    /// [`GraphicsPipeline::draw`] with the fragments limited to the pixel rectangle `scissor`
+    /// (`[x0, y0, x1, y1)`, within the target; `None`: the whole target). The attachments are
+    /// still cleared whole.
+    pub fn draw_in(
+        &self,
+        rec: &Recorder<'_>,
+        target: &RenderTarget,
+        sets: &[&BindGroup],
+        vertex_count: u32,
+        instance: u32,
+        scissor: Option<[u32; 4]>,
+    ) -> VkResult<()> {
         if target.colour.len() != self.colour_count
             || target.depth.is_some() != self.depth.is_some()
         {
@@ -262,8 +278,22 @@ impl GraphicsPipeline {
         unsafe { dev.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.raw) };
         // SAFETY: viewport and scissor are dynamic states of this pipeline.
         unsafe { dev.cmd_set_viewport(cmd, 0, &viewport) };
-        // SAFETY: as above.
-        unsafe { dev.cmd_set_scissor(cmd, 0, &[area]) };
+        let scissor = scissor.map_or(area, |[x0, y0, x1, y1]| {
+            let (x1, y1) = (x1.min(target.width), y1.min(target.height));
+            let (x0, y0) = (x0.min(x1), y0.min(y1));
+            vk::Rect2D {
+                offset: vk::Offset2D {
+                    x: x0 as i32,
+                    y: y0 as i32,
+                },
+                extent: vk::Extent2D {
+                    width: x1 - x0,
+                    height: y1 - y0,
+                },
+            }
+        });
+        // SAFETY: as above; the scissor lies within the render area.
+        unsafe { dev.cmd_set_scissor(cmd, 0, &[scissor]) };
         if !raw_sets.is_empty() {
             // SAFETY: the sets were allocated with this pipeline's set layouts, in group order.
             unsafe {

@@ -186,16 +186,17 @@ pub struct ProbeResult {
     pub pad1: u32,
 }
 
-/// Whether `opts` select the exact criterion's mip march, the only method the specialised entry
-/// points carry (`fs_exact_mip` of `fragment_trace`, `main_exact_mip` of `trace_probe`; WGSL
-/// `TRACE_EXACT_MIP`). Every other option set needs the generic entry point.
+/// Whether `opts` select the exact criterion's mip march without `--strict`, the only method the
+/// specialised entry points carry (`fs_exact_mip` of `fragment_trace`, `main_exact_mip` of
+/// `trace_probe`; WGSL `TRACE_EXACT_MIP`). Every other option set needs the generic entry point.
 pub fn exact_mip_only(opts: &TraceOptions) -> bool {
-    opts.criterion == TraceCriterion::Exact && opts.accel
+    opts.criterion == TraceCriterion::Exact && opts.accel && !opts.strict
 }
 
-/// The same test on a built config (`criterion` exact and `accel` set, as `trace_one` decides).
+/// The same test on a built config (`criterion` exact, `accel` set and `strict` off, as
+/// `trace_one` and `classify` decide).
 fn config_exact_mip(config: &TraceConfig) -> bool {
-    config.criterion == 0 && config.accel != 0
+    config.criterion == 0 && config.accel != 0 && config.strict == 0
 }
 
 /// Workgroup size of `trace_probe` (fixed by the WGSL, checked against reflection).
