@@ -86,7 +86,7 @@ impl Camera {
         let mut hi = glam::Vec2::splat(f32::NEG_INFINITY);
         for p in points {
             let c = vp * p.extend(1.0);
-            if !(c.w > 0.0) || !c.is_finite() {
+            if !c.is_finite() || c.w <= 0.0 {
                 return None;
             }
             let px = glam::Vec2::new((c.x / c.w + 1.0) * 0.5 * w, (c.y / c.w + 1.0) * 0.5 * h);
