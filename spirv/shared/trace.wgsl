@@ -350,25 +350,76 @@ struct Located {
 // The 3x3 texel search of `locate` and `next_texel`: of the texels of `face` around (cx, cy)
 // (with `ahead`, only the 8 neighbours on the ray's side of the centre, by the signs of `mx`,
 // `my`), the one crossed with the smallest entry among those whose interval ends after `t`
-// (the first in row order on ties).
+// (the first in row order on ties). Each candidate's interval is `texel_interval`'s, bit for
+// bit, from the face-local ray and the four column and four row boundaries computed once.
 fn texel_search(seg: Segment, face: u32, cx: u32, cy: u32, ahead: bool, mx: f32, my: f32, t: f32, size: u32, lo: f32, hi: f32) -> Located {
+    var q: TexelSearch;
+    q.la = to_face_local(face, seg.a);
+    q.ld = to_face_local(face, seg.d);
+    q.face = face;
+    q.edge = edge_inclusive_bits(face);
+    q.c = vec2<i32>(i32(cx), i32(cy));
+    // Boundaries c - 1 .. c + 2 (the first is unused where c = 0: out of the face).
+    q.fx = vec4<f32>(face_coord(cx - 1u, size), face_coord(cx, size), face_coord(cx + 1u, size), face_coord(cx + 2u, size));
+    q.fy = vec4<f32>(face_coord(cy - 1u, size), face_coord(cy, size), face_coord(cy + 1u, size), face_coord(cy + 2u, size));
+    q.ahead = ahead;
+    q.m = vec2<f32>(mx, my);
+    q.t = t;
+    q.size = size;
+    q.lo = lo;
+    q.hi = hi;
     var best = Located(false, Texel(0u, 0u, 0u), interval_empty());
-    for (var dy = -1; dy <= 1; dy++) {
-        for (var dx = -1; dx <= 1; dx++) {
-            if ahead && ((dx == 0 && dy == 0) || f32(dx) * mx < 0.0 || f32(dy) * my < 0.0) {
-                continue;
-            }
-            let x = i32(cx) + dx;
-            let y = i32(cy) + dy;
-            if x < 0 || y < 0 || x >= i32(size) || y >= i32(size) {
-                continue;
-            }
-            let tex = Texel(face, u32(x), u32(y));
-            let iv = texel_interval(seg, tex, size, lo, hi);
-            if crosses(iv) && iv.t1 > t && (!best.found || iv.t0 < best.iv.t0) {
-                best = Located(true, tex, iv);
-            }
-        }
+    // Row order, written out: the offsets are constants in each copy.
+    best = search_candidate(q, best, -1, -1);
+    best = search_candidate(q, best, 0, -1);
+    best = search_candidate(q, best, 1, -1);
+    best = search_candidate(q, best, -1, 0);
+    best = search_candidate(q, best, 0, 0);
+    best = search_candidate(q, best, 1, 0);
+    best = search_candidate(q, best, -1, 1);
+    best = search_candidate(q, best, 0, 1);
+    best = search_candidate(q, best, 1, 1);
+    return best;
+}
+
+struct TexelSearch {
+    la: vec3<f32>,
+    ld: vec3<f32>,
+    face: u32,
+    edge: u32,
+    c: vec2<i32>,
+    fx: vec4<f32>,
+    fy: vec4<f32>,
+    ahead: bool,
+    m: vec2<f32>,
+    t: f32,
+    size: u32,
+    lo: f32,
+    hi: f32,
+}
+
+// Candidate (c.x + dx, c.y + dy) of `texel_search`: `best` or the candidate, whichever wins.
+fn search_candidate(q: TexelSearch, best: Located, dx: i32, dy: i32) -> Located {
+    if q.ahead && ((dx == 0 && dy == 0) || f32(dx) * q.m.x < 0.0 || f32(dy) * q.m.y < 0.0) {
+        return best;
+    }
+    let x = q.c.x + dx;
+    let y = q.c.y + dy;
+    let n = i32(q.size);
+    if x < 0 || y < 0 || x >= n || y >= n {
+        return best;
+    }
+    // `cell_interval` of the texel: its sides and their ownership.
+    let f = vec4<f32>(q.fx[dx + 1], q.fx[dx + 2], q.fy[dy + 1], q.fy[dy + 2]);
+    let owned = vec4<bool>(
+        select(true, (q.edge & 1u) != 0u, x == 0),
+        select(false, (q.edge & 2u) != 0u, x + 1 == n),
+        select(true, (q.edge & 4u) != 0u, y == 0),
+        select(false, (q.edge & 8u) != 0u, y + 1 == n),
+    );
+    let iv = frustum_interval(q.la, q.ld, f, owned, q.lo, q.hi);
+    if crosses(iv) && iv.t1 > q.t && (!best.found || iv.t0 < best.iv.t0) {
+        return Located(true, Texel(q.face, u32(x), u32(y)), iv);
     }
     return best;
 }
