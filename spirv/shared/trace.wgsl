@@ -510,12 +510,17 @@ fn trace_mip(k: u32, seg: Segment, cut: f32, variant: u32) -> TraceResult {
             let ld = to_face_local(face, seg.d);
             let signs = travel_signs(seg, face);
             // checked[l]: the level-l cell last found not skippable, packed `x | y << 16` (cells
-            // are under 2^11 for N <= TRACE_MAX_SIZE; none: 0xffffffff). Packed, the array costs
-            // half the lane-by-lane memory operations of a vec2 array.
+            // are under 2^11 for N <= TRACE_MAX_SIZE), valid where bit l of `written` is set
+            // (none before). Lavapipe keeps an array indexed by a variable in memory and reads it
+            // lane by lane, so the level scan works on bit masks instead: bit l of `valid` says
+            // checked[l] is the cell around `vtex` at level l, and is recomputed from the array
+            // only for the levels whose cell changed when the texel does.
             var checked: array<u32, TRACE_MIP_MAX_LEVELS>;
-            for (var i = 0u; i < TRACE_MIP_MAX_LEVELS; i++) {
-                checked[i] = none;
-            }
+            var written = 0u;
+            var valid = 0u;
+            var vtex = vec2<u32>(0u, 0u);
+            // Bits 1..=top: the pyramid's levels.
+            let levels = ((2u << top) - 1u) & ~1u;
             // The cell skipped last (level, x, y), which the located texel may still touch.
             var last_skip = vec3<u32>(none, none, none);
             // The search due at the top of the next turn: `locate` at `search_t` (ahead false)
@@ -543,24 +548,30 @@ fn trace_mip(k: u32, seg: Segment, cut: f32, variant: u32) -> TraceResult {
                 }
                 let tex = cur.tex;
                 let iv = cur.iv;
+                // The level-l cells around `tex` and `vtex` differ exactly for l <= the highest
+                // bit in which their coordinates differ.
+                let diff = (tex.x ^ vtex.x) | (tex.y ^ vtex.y);
+                if diff != 0u {
+                    let moved = min(firstLeadingBit(diff), top);
+                    valid &= ~((2u << moved) - 1u);
+                    for (var l = 1u; l <= moved; l++) {
+                        if ((written >> l) & 1u) != 0u && checked[l] == ((tex.x >> l) | ((tex.y >> l) << 16u)) {
+                            valid |= 1u << l;
+                        }
+                    }
+                    vtex = vec2<u32>(tex.x, tex.y);
+                }
                 // The cell tests around `tex`, top down, until one skips or every level is
                 // checked: the hot loop, kept small.
                 var skipped = false;
                 loop {
-                    // The highest level whose cell around `tex` is not checked yet (0: none).
-                    var level = 0u;
-                    var cell = vec2<u32>(0u, 0u);
-                    for (var l = top; l >= 1u; l--) {
-                        let cl = vec2<u32>(tex.x >> l, tex.y >> l);
-                        if checked[l] != (cl.x | (cl.y << 16u)) {
-                            level = l;
-                            cell = cl;
-                            break;
-                        }
-                    }
-                    if level == 0u {
+                    // The highest level whose cell around `tex` is not checked yet.
+                    let todo = levels & ~valid;
+                    if todo == 0u {
                         break;
                     }
+                    let level = firstLeadingBit(todo);
+                    let cell = vec2<u32>(tex.x >> level, tex.y >> level);
                     c.cells += 1u;
                     let span = 1u << level;
                     let rect = CellRect(face, min(cell.x * span, n), min((cell.x + 1u) * span, n), min(cell.y * span, n), min((cell.y + 1u) * span, n), n);
@@ -581,6 +592,8 @@ fn trace_mip(k: u32, seg: Segment, cut: f32, variant: u32) -> TraceResult {
                         break;
                     }
                     checked[level] = cell.x | (cell.y << 16u);
+                    written |= 1u << level;
+                    valid |= 1u << level;
                 }
                 if skipped {
                     search = true;
