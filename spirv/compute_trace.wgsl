@@ -420,7 +420,11 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
     // top of the next step rather than inside `advance` (so that it has one call site); the
     // loops run the same iterations as if it ran at the end of the step.
     var pending = valid;
-    for (var step = 0u; step < MAX_STEPS; step++) {
+    var step = 0u;
+    loop {
+        if step >= MAX_STEPS {
+            break;
+        }
         if pending {
             settle(&st);
             pending = false;
@@ -429,90 +433,103 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
         if !subgroupAny(busy) {
             break;
         }
-        // Lane tests of the node's children, one ballot per round. With one lane per ray (`one`)
-        // the ray's 32 logical lanes are this lane's rounds (j = c), so its mask bits are its own
-        // tests: no ballot, the loop ends where no lane tests, and only the candidates' keys are
-        // kept (the others are never read). One call site of `lane_test` for both layouts.
-        let testing = busy && st.need_mask;
-        var mask = 0u;
-        var nc: NodeCtx;
-        if testing {
-            nc = node_ctx(&st);
-        }
-        for (var c = 0u; c < cells && (testing || !one); c++) {
-            var cand = false;
+        // The steps until a ray of the subgroup has `settle` due: the hot loop, which leaves the
+        // set-up, handoff and verification code out (lavapipe runs the body of a branch for all
+        // lanes, masked, whether a lane takes it or not; spirv/README.md, "Third round"). The
+        // rays take the same steps as with `settle` inside: a ray that is not pending is left
+        // alone by it, and none turns idle without being pending. Entered and left by the whole
+        // subgroup (`subgroupAny`), so the ballots inside stay in uniform control flow.
+        loop {
+            // Lane tests of the node's children, one ballot per round. With one lane per ray (`one`)
+            // the ray's 32 logical lanes are this lane's rounds (j = c), so its mask bits are its own
+            // tests: no ballot, the loop ends where no lane tests, and only the candidates' keys are
+            // kept (the others are never read). One call site of `lane_test` for both layouts.
+            let testing = busy && st.need_mask;
+            var mask = 0u;
+            var nc: NodeCtx;
             if testing {
-                let t = lane_test(&st, nc, lane + lanes * c);
-                cand = t.cand;
-                if cand || !one {
-                    key_set(big, st.level, c, t.key);
+                nc = node_ctx(&st);
+            }
+            for (var c = 0u; c < cells && (testing || !one); c++) {
+                var cand = false;
+                if testing {
+                    let t = lane_test(&st, nc, lane + lanes * c);
+                    cand = t.cand;
+                    if cand || !one {
+                        key_set(big, st.level, c, t.key);
+                    }
+                }
+                if one {
+                    mask |= select(0u, 1u, cand) << c;
+                } else {
+                    mask |= ray_bits(subgroupBallot(cand), half, lanes) << (lanes * c);
                 }
             }
+            if testing {
+                let g = child_grid(st.level);
+                if st.level == 1u {
+                    st.result.counters.texels += g.x * g.y;
+                } else {
+                    st.result.counters.cells += g.x * g.y;
+                }
+                st.mask[st.level] = mask;
+                st.need_mask = false;
+            }
+            // The first candidate along the ray: min key over the ray's lanes, then the lowest j
+            // holding it (NaN keys never win; all NaN: the lowest candidate).
+            let lvl = st.level;
+            let m = select(0u, st.mask[lvl], busy);
+            var pick = firstTrailingBit(m);
             if one {
-                mask |= select(0u, 1u, cand) << c;
+                // The same pick from the candidates' keys alone, in one pass over the set bits in
+                // increasing j: a strictly smaller key, or the first key equal to +inf, takes it.
+                var kmin = f32_inf();
+                var found = false;
+                var rest = m;
+                for (var i = 0u; i < cells && rest != 0u; i++) {
+                    let c = firstTrailingBit(rest);
+                    rest &= rest - 1u;
+                    let key = key_get(big, lvl, c);
+                    if key < kmin || (!found && key == kmin) {
+                        kmin = key;
+                        pick = c;
+                        found = true;
+                    }
+                }
             } else {
-                mask |= ray_bits(subgroupBallot(cand), half, lanes) << (lanes * c);
-            }
-        }
-        if testing {
-            let g = child_grid(st.level);
-            if st.level == 1u {
-                st.result.counters.texels += g.x * g.y;
-            } else {
-                st.result.counters.cells += g.x * g.y;
-            }
-            st.mask[st.level] = mask;
-            st.need_mask = false;
-        }
-        // The first candidate along the ray: min key over the ray's lanes, then the lowest j
-        // holding it (NaN keys never win; all NaN: the lowest candidate).
-        let lvl = st.level;
-        let m = select(0u, st.mask[lvl], busy);
-        var pick = firstTrailingBit(m);
-        if one {
-            // The same pick from the candidates' keys alone, in one pass over the set bits in
-            // increasing j: a strictly smaller key, or the first key equal to +inf, takes it.
-            var kmin = f32_inf();
-            var found = false;
-            var rest = m;
-            for (var i = 0u; i < cells && rest != 0u; i++) {
-                let c = firstTrailingBit(rest);
-                rest &= rest - 1u;
-                let key = key_get(big, lvl, c);
-                if key < kmin || (!found && key == kmin) {
-                    kmin = key;
-                    pick = c;
-                    found = true;
+                var kmin = f32_inf();
+                for (var c = 0u; c < cells; c++) {
+                    let key = key_get(big, lvl, c);
+                    if ((m >> (lane + lanes * c)) & 1u) != 0u && key < kmin {
+                        kmin = key;
+                    }
+                }
+                for (var off = lanes / 2u; off > 0u; off /= 2u) {
+                    let other = subgroupShuffleXor(kmin, off);
+                    if other < kmin {
+                        kmin = other;
+                    }
+                }
+                var eq = 0u;
+                for (var c = 0u; c < cells; c++) {
+                    let j = lane + lanes * c;
+                    let holds = ((m >> j) & 1u) != 0u && key_get(big, lvl, c) == kmin;
+                    eq |= ray_bits(subgroupBallot(holds), half, lanes) << (lanes * c);
+                }
+                if eq != 0u {
+                    pick = firstTrailingBit(eq);
                 }
             }
-        } else {
-            var kmin = f32_inf();
-            for (var c = 0u; c < cells; c++) {
-                let key = key_get(big, lvl, c);
-                if ((m >> (lane + lanes * c)) & 1u) != 0u && key < kmin {
-                    kmin = key;
-                }
+            if busy {
+                st.next_face = false;
+                advance(&st, pick);
+                pending = st.trace_done || st.next_face;
             }
-            for (var off = lanes / 2u; off > 0u; off /= 2u) {
-                let other = subgroupShuffleXor(kmin, off);
-                if other < kmin {
-                    kmin = other;
-                }
+    
+            step += 1u;
+            if subgroupAny(pending) || step >= MAX_STEPS {
+                break;
             }
-            var eq = 0u;
-            for (var c = 0u; c < cells; c++) {
-                let j = lane + lanes * c;
-                let holds = ((m >> j) & 1u) != 0u && key_get(big, lvl, c) == kmin;
-                eq |= ray_bits(subgroupBallot(holds), half, lanes) << (lanes * c);
-            }
-            if eq != 0u {
-                pick = firstTrailingBit(eq);
-            }
-        }
-        if busy {
-            st.next_face = false;
-            advance(&st, pick);
-            pending = st.trace_done || st.next_face;
         }
     }
     if valid && lane == 0u {
