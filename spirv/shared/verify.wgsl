@@ -67,21 +67,19 @@ fn verify_corner(tri: u32, corner: u32) -> vec3<f32> {
 }
 
 // `cpu::verify::verify_hit` of the ray `a + t d` with proven-empty prefix up to `t_done`,
-// segment end `t_hi`, CMO centre `centre`, faces of `size` texels.
+// segment end `t_hi`, CMO centre `centre`, faces of `size` texels. Every valid ID is tested
+// once, at its first place in the neighbourhood; the nearest hit (then the lowest ID) wins, which
+// does not depend on the order. Written for lavapipe, which runs a loop until its last lane is
+// done and reads an array indexed by a variable lane by lane: the first places are found with
+// constant indices (`verify_first_places`), and the loop runs once per distinct ID, not 9 times.
 fn verify_hit(a: vec3<f32>, d: vec3<f32>, t_done: f32, t_hi: f32, centre: vec3<f32>, size: u32, h: VerifyHood) -> VerifiedHit {
     var best = VerifiedHit(false, VERIFY_NO_TRIANGLE, 0.0, vec3<f32>(0.0), vec3<f32>(0.0));
     let triangles = arrayLength(&scene_indices) / 3u;
-    for (var k = 0u; k < 9u; k++) {
-        let id = h.ids[k];
-        var seen = id == VERIFY_NO_TRIANGLE || id >= triangles;
-        for (var j = 0u; j < k; j++) {
-            if h.ids[j] == id {
-                seen = true;
-            }
-        }
-        if seen {
-            continue;
-        }
+    var todo = verify_first_places(h, triangles);
+    for (var n = 0u; n < 9u && todo != 0u; n++) {
+        let k = firstTrailingBit(todo);
+        todo &= todo - 1u;
+        let id = verify_id_at(h, k);
         let w = wt_intersect(a, d, verify_corner(id, 0u), verify_corner(id, 1u), verify_corner(id, 2u));
         if !w.hit || w.t < t_done || w.t > t_hi {
             continue;
@@ -95,4 +93,43 @@ fn verify_hit(a: vec3<f32>, d: vec3<f32>, t_done: f32, t_hi: f32, centre: vec3<f
         }
     }
     return best;
+}
+
+// Bit k set where `h.ids[k]` is a valid triangle ID (not VERIFY_NO_TRIANGLE, below `triangles`)
+// seen at no earlier place.
+fn verify_first_places(h: VerifyHood, triangles: u32) -> u32 {
+    let i0 = h.ids[0];
+    let i1 = h.ids[1];
+    let i2 = h.ids[2];
+    let i3 = h.ids[3];
+    let i4 = h.ids[4];
+    let i5 = h.ids[5];
+    let i6 = h.ids[6];
+    let i7 = h.ids[7];
+    let i8 = h.ids[8];
+    var first = 0u;
+    first |= select(0u, 1u, i0 < triangles);
+    first |= select(0u, 2u, i1 < triangles && i1 != i0);
+    first |= select(0u, 4u, i2 < triangles && i2 != i0 && i2 != i1);
+    first |= select(0u, 8u, i3 < triangles && i3 != i0 && i3 != i1 && i3 != i2);
+    first |= select(0u, 16u, i4 < triangles && i4 != i0 && i4 != i1 && i4 != i2 && i4 != i3);
+    first |= select(0u, 32u, i5 < triangles && i5 != i0 && i5 != i1 && i5 != i2 && i5 != i3 && i5 != i4);
+    first |= select(0u, 64u, i6 < triangles && i6 != i0 && i6 != i1 && i6 != i2 && i6 != i3 && i6 != i4 && i6 != i5);
+    first |= select(0u, 128u, i7 < triangles && i7 != i0 && i7 != i1 && i7 != i2 && i7 != i3 && i7 != i4 && i7 != i5 && i7 != i6);
+    first |= select(0u, 256u, i8 < triangles && i8 != i0 && i8 != i1 && i8 != i2 && i8 != i3 && i8 != i4 && i8 != i5 && i8 != i6 && i8 != i7);
+    return first;
+}
+
+// `h.ids[k]` by selects (no array read at a variable index).
+fn verify_id_at(h: VerifyHood, k: u32) -> u32 {
+    var id = h.ids[0];
+    id = select(id, h.ids[1], k == 1u);
+    id = select(id, h.ids[2], k == 2u);
+    id = select(id, h.ids[3], k == 3u);
+    id = select(id, h.ids[4], k == 4u);
+    id = select(id, h.ids[5], k == 5u);
+    id = select(id, h.ids[6], k == 6u);
+    id = select(id, h.ids[7], k == 7u);
+    id = select(id, h.ids[8], k == 8u);
+    return id;
 }
