@@ -1,8 +1,9 @@
 // gbuffer: the camera's view of the scene, deferred: what the tracing passes start from.
 //
 // Per pixel: the shaded colour (alpha 1 where a surface is seen), the world position of the
-// surface (where the pixel-centre ray meets the triangle's plane; see fs_main) (w = 1 where it is a reflector: the mirror mask; 0 on other surfaces; -1, the clear value,
-// where nothing is drawn), and the interpolated vertex normal as
+// surface, where the pixel-centre ray meets the triangle's plane (`fs_main`; w = 1 where it is a
+// reflector: the mirror mask; 0 on other surfaces; -1, the clear value, where nothing is drawn),
+// and the vertex normal interpolated there as
 // stored (w = 1 where covered), and the global index of the triangle seen (`vertex_index / 3`:
 // the draw is of every triangle in `WorldGeometry::triangles` order; u32::MAX, the clear value,
 // where nothing is drawn), which the BVH tracer's start rule reads. The mirror's normal is left unnormalised here; tracers normalise
@@ -82,8 +83,8 @@ fn fs_main(in: GbufferVarying) -> GbufferOut {
     // centre a quarter of the triangle outside it, which only a sub-pixel sliver gives), the
     // rasteriser's values stay.
     let pixel = vec2<u32>(in.clip.xy);
-    let o = gbuffer_camera.eye;
     let c = gbuffer_camera;
+    let o = c.eye;
     let d = camera_ray_dir(pixel, c.width, c.height, c.tan_half, c.aspect, c.right, c.up, c.back);
     let v0 = scene_vertices[scene_indices[3u * in.triangle]];
     let v1 = scene_vertices[scene_indices[3u * in.triangle + 1u]];

@@ -103,16 +103,21 @@ fn inflated(iv: Interval, t_lo: f32, t_hi: f32) -> Inflated {
 // [t0, t1] of `la + t ld`, t in [t_lo, t_hi] (face-local), inside the frustum of `cell`.
 fn cell_interval(la: vec3<f32>, ld: vec3<f32>, cell: CellRect, t_lo: f32, t_hi: f32) -> Interval {
     let n = cell.size;
-    let edge = edge_inclusive_bits(cell.face);
-    // Owned sides: interior lower sides yes, interior upper sides no, face edges by the tie rule.
-    let inc = vec4<bool>(
-        select(true, (edge & 1u) != 0u, cell.x0 == 0u),
-        select(false, (edge & 2u) != 0u, cell.x1 == n),
-        select(true, (edge & 4u) != 0u, cell.y0 == 0u),
-        select(false, (edge & 8u) != 0u, cell.y1 == n),
-    );
+    let inc = owned_sides(edge_inclusive_bits(cell.face), cell.x0, cell.x1, cell.y0, cell.y1, n);
     let f = vec4<f32>(face_coord(cell.x0, n), face_coord(cell.x1, n), face_coord(cell.y0, n), face_coord(cell.y1, n));
     return frustum_interval(la, ld, f, inc, t_lo, t_hi);
+}
+
+// Which sides x0, x1, y0, y1 of the cell [x0, x1) x [y0, y1) of a face of `n` texels (face edge
+// bits `edge`, `edge_inclusive_bits`) belong to it: interior lower sides yes, interior upper
+// sides no, face edges by the tie rule.
+fn owned_sides(edge: u32, x0: u32, x1: u32, y0: u32, y1: u32, n: u32) -> vec4<bool> {
+    return vec4<bool>(
+        select(true, (edge & 1u) != 0u, x0 == 0u),
+        select(false, (edge & 2u) != 0u, x1 == n),
+        select(true, (edge & 4u) != 0u, y0 == 0u),
+        select(false, (edge & 8u) != 0u, y1 == n),
+    );
 }
 
 // `cell_interval` of the frustum with side planes at face coordinates `f` (x0, x1, y0, y1)

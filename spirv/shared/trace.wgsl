@@ -411,12 +411,7 @@ fn search_candidate(q: TexelSearch, best: Located, dx: i32, dy: i32) -> Located 
     }
     // `cell_interval` of the texel: its sides and their ownership.
     let f = vec4<f32>(q.fx[dx + 1], q.fx[dx + 2], q.fy[dy + 1], q.fy[dy + 2]);
-    let owned = vec4<bool>(
-        select(true, (q.edge & 1u) != 0u, x == 0),
-        select(false, (q.edge & 2u) != 0u, x + 1 == n),
-        select(true, (q.edge & 4u) != 0u, y == 0),
-        select(false, (q.edge & 8u) != 0u, y + 1 == n),
-    );
+    let owned = owned_sides(q.edge, u32(x), u32(x + 1), u32(y), u32(y + 1), q.size);
     let iv = frustum_interval(q.la, q.ld, f, owned, q.lo, q.hi);
     if crosses(iv) && iv.t1 > q.t && (!best.found || iv.t0 < best.iv.t0) {
         return Located(true, Texel(q.face, u32(x), u32(y)), iv);
