@@ -446,21 +446,32 @@ fn read_rgba32f(ctx: &GpuContext, img: &cubetrace::vk::Image) -> Vec<Vec4> {
         .collect()
 }
 
+/// The G-buffer of `scene`'s first camera at `width` x `height`, rendered (with the scene's
+/// buffers, which it reads).
+fn gbuffer_of(
+    ctx: &GpuContext,
+    scene: &Scene,
+    width: u32,
+    height: u32,
+) -> (Camera, SceneBuffers, Gbuffer) {
+    let mut camera = scene.camera(None).unwrap().clone();
+    camera.width = width;
+    camera.height = height;
+    let near = FrameRanges::new(scene, &camera).near;
+    let buffers = SceneBuffers::new(ctx, &GpuSceneData::new(scene)).unwrap();
+    let gb = Gbuffer::new(ctx, &buffers, &camera, near).unwrap();
+    ctx.submit_and_wait("gbuffer", |rec| gb.record(rec, scene.background))
+        .unwrap();
+    (camera, buffers, gb)
+}
+
 #[test]
 fn gbuffer_matches_reference_primary_hits() {
     let ctx = gpu_context();
     for name in ["sphere-room", "torus"] {
         let scene = builtin::by_name(name).unwrap();
-        let mut camera = scene.camera(None).unwrap().clone();
-        camera.width = 64;
-        camera.height = 48;
         let extent = scene.world().extent();
-        let near = FrameRanges::new(&scene, &camera).near;
-        let data = GpuSceneData::new(&scene);
-        let buffers = SceneBuffers::new(&ctx, &data).unwrap();
-        let gb = Gbuffer::new(&ctx, &buffers, &camera, near).unwrap();
-        ctx.submit_and_wait("gbuffer", |rec| gb.record(rec, scene.background))
-            .unwrap();
+        let (camera, _buffers, gb) = gbuffer_of(&ctx, &scene, 64, 48);
         let position = read_rgba32f(&ctx, &gb.position);
         let colour = read_rgba32f(&ctx, &gb.colour);
         let tracer = Tracer::new(&scene);
@@ -567,15 +578,7 @@ fn gbuffer_starts_on_the_reference_ray() {
     let ctx = gpu_context();
     for name in ["default", "teapot", "torus"] {
         let scene = builtin::by_name(name).unwrap();
-        let mut camera = scene.camera(None).unwrap().clone();
-        camera.width = 80;
-        camera.height = 60;
-        let near = FrameRanges::new(&scene, &camera).near;
-        let data = GpuSceneData::new(&scene);
-        let buffers = SceneBuffers::new(&ctx, &data).unwrap();
-        let gb = Gbuffer::new(&ctx, &buffers, &camera, near).unwrap();
-        ctx.submit_and_wait("gbuffer", |rec| gb.record(rec, scene.background))
-            .unwrap();
+        let (camera, _buffers, gb) = gbuffer_of(&ctx, &scene, 80, 60);
         let position = read_rgba32f(&ctx, &gb.position);
         let normal = read_rgba32f(&ctx, &gb.normal);
         let triangle = read_u32(&ctx, &gb.triangle);
