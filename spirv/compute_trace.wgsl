@@ -207,6 +207,86 @@ fn lane_test(st: ptr<function, RayState>, nc: NodeCtx, j: u32) -> LaneTest {
     return LaneTest(select(!(r_max < bound), r_max >= bound, cl == 0u), iv.t0);
 }
 
+// The children of the ray's current node that pass `lane_test`'s interval test (all of its
+// conditions but the range test), as bits j: the 1-lane layout runs `lane_test` on these alone.
+// Exact, not an estimate: a child's `cell_interval` clips the piece's [lo, hi] by its column's
+// planes (x0, x1), its row's (y0, y1) and the face's (z), and whatever the order, `clip_plane`
+// leaves t0 = the largest entry bound and t1 = the smallest exit bound (comparisons skip a NaN
+// bound in every order; +0 and -0 compare equal) and drops the interval where any plane does.
+// So clipping [lo, hi] by each column's two planes and each row's two once, and combining them
+// per child with max / min, gives every comparison of `lane_test` the same outcome: 2 (gx + gy)
+// + 1 planes per node instead of 5 per child. The per-ray cost this saves: spirv/README.md,
+// "Fourth round".
+fn children_crossed(st: ptr<function, RayState>, nc: NodeCtx) -> u32 {
+    let n = trace_config.size;
+    let la = (*st).la;
+    let ld = (*st).ld;
+    let range = (*st).range;
+    let edge = edge_inclusive_bits((*st).cur_face);
+    let g = nc.g;
+    let start = Clip(Interval(range.x, range.y, SIDE_SEGMENT, SIDE_SEGMENT), true);
+    let z = clip_plane(start, la.z, ld.z, false, 4u);
+    // The rows, written out (a loop would keep them in an array, read lane by lane).
+    let row = array<Slab, 8>(
+        row_slab(start, la, ld, nc, edge, n, 0u),
+        row_slab(start, la, ld, nc, edge, n, 1u),
+        row_slab(start, la, ld, nc, edge, n, 2u),
+        row_slab(start, la, ld, nc, edge, n, 3u),
+        row_slab(start, la, ld, nc, edge, n, 4u),
+        row_slab(start, la, ld, nc, edge, n, 5u),
+        row_slab(start, la, ld, nc, edge, n, 6u),
+        row_slab(start, la, ld, nc, edge, n, 7u),
+    );
+    let texel = nc.cl == 0u;
+    var bits = 0u;
+    for (var ix = 0u; ix < 8u; ix++) {
+        let cx = nc.nd.x * g.x + ix;
+        let x0 = min(cx * nc.span.x, n);
+        let x1 = min((cx + 1u) * nc.span.x, n);
+        let fx0 = face_coord(x0, n);
+        let fx1 = face_coord(x1, n);
+        var c = clip_plane(start, la.x - prod(fx0, la.z), ld.x - prod(fx0, ld.z), select(true, (edge & 1u) != 0u, x0 == 0u), 0u);
+        c = clip_plane(c, prod(fx1, la.z) - la.x, prod(fx1, ld.z) - ld.x, select(false, (edge & 2u) != 0u, x1 == n), 1u);
+        let col = Slab(c.iv.t0, c.iv.t1, ix < g.x && cx < nc.cd.y && x0 < x1 && c.keep && z.keep);
+        bits |= pair_bit(col, row[0], z, texel, range) << ix;
+        bits |= pair_bit(col, row[1], z, texel, range) << ((ix + g.x) & 31u);
+        bits |= pair_bit(col, row[2], z, texel, range) << ((ix + 2u * g.x) & 31u);
+        bits |= pair_bit(col, row[3], z, texel, range) << ((ix + 3u * g.x) & 31u);
+        bits |= pair_bit(col, row[4], z, texel, range) << ((ix + 4u * g.x) & 31u);
+        bits |= pair_bit(col, row[5], z, texel, range) << ((ix + 5u * g.x) & 31u);
+        bits |= pair_bit(col, row[6], z, texel, range) << ((ix + 6u * g.x) & 31u);
+        bits |= pair_bit(col, row[7], z, texel, range) << ((ix + 7u * g.x) & 31u);
+    }
+    return bits;
+}
+
+// One column's or row's part of `children_crossed`: [t0, t1] clipped by its two planes, and
+// whether the child range there exists and is kept.
+struct Slab {
+    t0: f32,
+    t1: f32,
+    ok: bool,
+}
+
+fn row_slab(start: Clip, la: vec3<f32>, ld: vec3<f32>, nc: NodeCtx, edge: u32, n: u32, i: u32) -> Slab {
+    let cy = nc.nd.y * nc.g.y + i;
+    let y0 = min(cy * nc.span.y, n);
+    let y1 = min((cy + 1u) * nc.span.y, n);
+    let fy0 = face_coord(y0, n);
+    let fy1 = face_coord(y1, n);
+    var r = clip_plane(start, la.y - prod(fy0, la.z), ld.y - prod(fy0, ld.z), select(true, (edge & 4u) != 0u, y0 == 0u), 2u);
+    r = clip_plane(r, prod(fy1, la.z) - la.y, prod(fy1, ld.z) - ld.y, select(false, (edge & 8u) != 0u, y1 == n), 3u);
+    return Slab(r.iv.t0, r.iv.t1, i < nc.g.y && cy < nc.cd.z && y0 < y1 && r.keep);
+}
+
+// 1 where the child at (`col`, `row`) passes: `crosses` at the texel level, `inflated` above.
+fn pair_bit(col: Slab, row: Slab, z: Clip, texel: bool, range: vec2<f32>) -> u32 {
+    let t0 = max(max(col.t0, row.t0), z.iv.t0);
+    let t1 = min(min(col.t1, row.t1), z.iv.t1);
+    let ok = select(inflated(Interval(t0, t1, SIDE_SEGMENT, SIDE_SEGMENT), range.x, range.y).ok, t0 < t1, texel);
+    return select(0u, 1u, ok && col.ok && row.ok);
+}
+
 // Sets up the search at the current (piece, face), advancing past exhausted ones; ends the
 // single-CMO trace as escaped when none is left (`cpu::alg3::enter_face`). A piece's faces are
 // found on its first visit (`faces_piece`), here only, so that `faces_crossed` (six frustum
@@ -450,7 +530,21 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
             if testing {
                 nc = node_ctx(&st);
             }
-            for (var c = 0u; c < cells && (testing || !one); c++) {
+            // The rounds: with one lane per ray only the children `children_crossed` leaves (c
+            // their j), in increasing j; with more, all `cells` of them, uniformly.
+            var rest = 0xffffffffu;
+            if one {
+                rest = 0u;
+                if testing {
+                    rest = children_crossed(&st, nc);
+                }
+            }
+            for (var i = 0u; i < cells && rest != 0u; i++) {
+                var c = i;
+                if one {
+                    c = firstTrailingBit(rest);
+                    rest &= rest - 1u;
+                }
                 var cand = false;
                 if testing {
                     let t = lane_test(&st, nc, lane + lanes * c);
