@@ -241,13 +241,8 @@ fn children_crossed(st: ptr<function, RayState>, nc: NodeCtx) -> u32 {
     var bits = 0u;
     for (var ix = 0u; ix < 8u; ix++) {
         let cx = nc.nd.x * g.x + ix;
-        let x0 = min(cx * nc.span.x, n);
-        let x1 = min((cx + 1u) * nc.span.x, n);
-        let fx0 = face_coord(x0, n);
-        let fx1 = face_coord(x1, n);
-        var c = clip_plane(start, la.x - prod(fx0, la.z), ld.x - prod(fx0, ld.z), select(true, (edge & 1u) != 0u, x0 == 0u), 0u);
-        c = clip_plane(c, prod(fx1, la.z) - la.x, prod(fx1, ld.z) - ld.x, select(false, (edge & 2u) != 0u, x1 == n), 1u);
-        let col = Slab(c.iv.t0, c.iv.t1, ix < g.x && cx < nc.cd.y && x0 < x1 && c.keep && z.keep);
+        var col = slab(start, la.x, ld.x, la.z, ld.z, cx, nc.span.x, n, edge, SIDE_X0, ix < g.x && cx < nc.cd.y);
+        col.ok = col.ok && z.keep;
         bits |= pair_bit(col, row[0], z, texel, range) << ix;
         bits |= pair_bit(col, row[1], z, texel, range) << ((ix + g.x) & 31u);
         bits |= pair_bit(col, row[2], z, texel, range) << ((ix + 2u * g.x) & 31u);
@@ -268,15 +263,25 @@ struct Slab {
     ok: bool,
 }
 
+// Row `i` of the node's children.
 fn row_slab(start: Clip, la: vec3<f32>, ld: vec3<f32>, nc: NodeCtx, edge: u32, n: u32, i: u32) -> Slab {
     let cy = nc.nd.y * nc.g.y + i;
-    let y0 = min(cy * nc.span.y, n);
-    let y1 = min((cy + 1u) * nc.span.y, n);
-    let fy0 = face_coord(y0, n);
-    let fy1 = face_coord(y1, n);
-    var r = clip_plane(start, la.y - prod(fy0, la.z), ld.y - prod(fy0, ld.z), select(true, (edge & 4u) != 0u, y0 == 0u), 2u);
-    r = clip_plane(r, prod(fy1, la.z) - la.y, prod(fy1, ld.z) - ld.y, select(false, (edge & 8u) != 0u, y1 == n), 3u);
-    return Slab(r.iv.t0, r.iv.t1, i < nc.g.y && cy < nc.cd.z && y0 < y1 && r.keep);
+    return slab(start, la.y, ld.y, la.z, ld.z, cy, nc.span.y, n, edge >> 2u, SIDE_Y0, i < nc.g.y && cy < nc.cd.z);
+}
+
+// Column or row `c` (of cells `span` texels wide) on the axis whose face-local ray components
+// are `a`, `d` (`az`, `dz`: the z ones), with `cell_interval`'s planes and side rules: `edge`'s
+// bits 0 and 1 say whether the face's lower and upper edges on this axis belong to it
+// (`owned_sides`), `side` is the lower plane's index (SIDE_X0 or SIDE_Y0); `exists`: the child
+// index is in the node and the level.
+fn slab(start: Clip, a: f32, d: f32, az: f32, dz: f32, c: u32, span: u32, n: u32, edge: u32, side: u32, exists: bool) -> Slab {
+    let k0 = min(c * span, n);
+    let k1 = min((c + 1u) * span, n);
+    let f0 = face_coord(k0, n);
+    let f1 = face_coord(k1, n);
+    var r = clip_plane(start, a - prod(f0, az), d - prod(f0, dz), select(true, (edge & 1u) != 0u, k0 == 0u), side);
+    r = clip_plane(r, prod(f1, az) - a, prod(f1, dz) - d, select(false, (edge & 2u) != 0u, k1 == n), side + 1u);
+    return Slab(r.iv.t0, r.iv.t1, exists && k0 < k1 && r.keep);
 }
 
 // 1 where the child at (`col`, `row`) passes: `crosses` at the texel level, `inflated` above.

@@ -68,13 +68,24 @@ fn content_key(positions: &[Vec3], normals: &[Vec3], triangles: &[[u32; 3]]) -> 
 
 /// [`is_convex`] without the memo.
 fn test_convex(positions: &[Vec3], normals: &[Vec3], triangles: &[[u32; 3]]) -> bool {
+    faces_see_nothing(positions, normals, triangles, true)
+}
+
+/// The test itself; with `tree` false, every face against every vertex (the definition, which the
+/// tests compare the tree with).
+fn faces_see_nothing(
+    positions: &[Vec3],
+    normals: &[Vec3],
+    triangles: &[[u32; 3]],
+    tree: bool,
+) -> bool {
     let points: Vec<DVec3> = positions.iter().map(|p| p.as_dvec3()).collect();
     let magnitude = points
         .iter()
         .map(|p| p.abs().max_element())
         .fold(0.0f64, f64::max);
     let tolerance = RELATIVE_TOLERANCE * magnitude.max(f64::MIN_POSITIVE);
-    let tree = PointTree::new(&points, magnitude);
+    let tree = tree.then(|| PointTree::new(&points, magnitude));
     triangles.par_iter().all(|t| {
         let [a, b, c] = t.map(|i| points[i as usize]);
         let cross = (b - a).cross(c - a);
@@ -85,7 +96,10 @@ fn test_convex(positions: &[Vec3], normals: &[Vec3], triangles: &[[u32; 3]]) -> 
         if n.dot(shading) < 0.0 {
             n = -n;
         }
-        tree.all_behind(n, a, tolerance)
+        match &tree {
+            Some(tree) => tree.all_behind(n, a, tolerance),
+            None => points.iter().all(|&p| n.dot(p - a) <= tolerance),
+        }
     })
 }
 
@@ -298,28 +312,6 @@ mod tests {
         }
     }
 
-    /// The point-by-point test that [`is_convex`]'s tree stands for: every face against every
-    /// vertex.
-    fn convex_point_by_point(positions: &[Vec3], normals: &[Vec3], triangles: &[[u32; 3]]) -> bool {
-        let points: Vec<DVec3> = positions.iter().map(|p| p.as_dvec3()).collect();
-        let magnitude = points
-            .iter()
-            .map(|p| p.abs().max_element())
-            .fold(0.0f64, f64::max);
-        let tolerance = RELATIVE_TOLERANCE * magnitude.max(f64::MIN_POSITIVE);
-        triangles.iter().all(|t| {
-            let [a, b, c] = t.map(|i| points[i as usize]);
-            let Some(mut n) = (b - a).cross(c - a).try_normalize() else {
-                return true;
-            };
-            let shading: DVec3 = t.iter().map(|&i| normals[i as usize].as_dvec3()).sum();
-            if n.dot(shading) < 0.0 {
-                n = -n;
-            }
-            points.iter().all(|&p| n.dot(p - a) <= tolerance)
-        })
-    }
-
     /// The tree gives the point-by-point answer: on convex and non-convex meshes, and on a
     /// sphere whose one vertex is moved out along its normal by amounts around the tolerance
     /// (just inside it the mesh is convex, just outside it is not), at two offsets from the
@@ -328,7 +320,7 @@ mod tests {
     fn tree_agrees_with_the_point_by_point_test() {
         let check = |m: &crate::scene::MeshPart| {
             let fast = convex(m);
-            let slow = convex_point_by_point(&m.positions, &m.normals, &m.triangles);
+            let slow = faces_see_nothing(&m.positions, &m.normals, &m.triangles, false);
             assert_eq!(fast, slow);
             fast
         };
