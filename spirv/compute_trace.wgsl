@@ -241,8 +241,7 @@ fn children_crossed(st: ptr<function, RayState>, nc: NodeCtx) -> u32 {
     var bits = 0u;
     for (var ix = 0u; ix < 8u; ix++) {
         let cx = nc.nd.x * g.x + ix;
-        var col = slab(start, la.x, ld.x, la.z, ld.z, cx, nc.span.x, n, edge, SIDE_X0, ix < g.x && cx < nc.cd.y);
-        col.ok = col.ok && z.keep;
+        let col = slab(start, la.x, ld.x, la.z, ld.z, cx, nc.span.x, n, edge, SIDE_X0, ix < g.x && cx < nc.cd.y);
         bits |= pair_bit(col, row[0], z, texel, range) << ix;
         bits |= pair_bit(col, row[1], z, texel, range) << ((ix + g.x) & 31u);
         bits |= pair_bit(col, row[2], z, texel, range) << ((ix + 2u * g.x) & 31u);
@@ -284,12 +283,13 @@ fn slab(start: Clip, a: f32, d: f32, az: f32, dz: f32, c: u32, span: u32, n: u32
     return Slab(r.iv.t0, r.iv.t1, exists && k0 < k1 && r.keep);
 }
 
-// 1 where the child at (`col`, `row`) passes: `crosses` at the texel level, `inflated` above.
+// 1 where the child at (`col`, `row`) passes: `crosses` at the texel level, `inflated` above
+// (none where the face's plane `z` drops the interval).
 fn pair_bit(col: Slab, row: Slab, z: Clip, texel: bool, range: vec2<f32>) -> u32 {
     let t0 = max(max(col.t0, row.t0), z.iv.t0);
     let t1 = min(min(col.t1, row.t1), z.iv.t1);
     let ok = select(inflated(Interval(t0, t1, SIDE_SEGMENT, SIDE_SEGMENT), range.x, range.y).ok, t0 < t1, texel);
-    return select(0u, 1u, ok && col.ok && row.ok);
+    return select(0u, 1u, ok && col.ok && row.ok && z.keep);
 }
 
 // Sets up the search at the current (piece, face), advancing past exhausted ones; ends the

@@ -216,27 +216,28 @@ struct FaceList {
 // `crosses`). Written without the insertion loop, whose moves at a per-lane position lavapipe ran
 // lane by lane: ranks from pairwise comparisons, then each slot filled by the face of its rank
 // (spirv/README.md, "Fourth round": 8 to 12 % of the fragment and compute paths' cost per ray).
-// The six intervals stay in a loop: written out, they cost the pipelines ~60 to 350 ms more to
+// The six intervals stay in a loop: written out, they cost the pipelines 40 to 500 ms more to
 // create (this function is inlined at every call site), for no measurable gain per ray.
 fn faces_crossed(seg: Segment, lo: f32, hi: f32, size: u32) -> FaceList {
-    var iv: array<Interval, 6>;
-    for (var f = 0u; f < 6u; f++) {
+    var iv: array<Interval, FACE_COUNT>;
+    for (var f = 0u; f < FACE_COUNT; f++) {
         iv[f] = cell_interval(to_face_local(f, seg.a), to_face_local(f, seg.d), cell_rect_face(f, size), lo, hi);
     }
     var fl: FaceList;
     fl.count = 0u;
-    var rank: array<u32, 6>;
-    for (var f = 0u; f < 6u; f++) {
+    // rank[f]: the slot of face f (FACE_COUNT where not crossed).
+    var rank: array<u32, FACE_COUNT>;
+    for (var f = 0u; f < FACE_COUNT; f++) {
         var r = 0u;
-        for (var g = 0u; g < 6u; g++) {
+        for (var g = 0u; g < FACE_COUNT; g++) {
             let before = select(iv[g].t0 < iv[f].t0, iv[g].t0 <= iv[f].t0, g < f);
             r += select(0u, 1u, g != f && crosses(iv[g]) && before);
         }
-        rank[f] = select(6u, r, crosses(iv[f]));
+        rank[f] = select(FACE_COUNT, r, crosses(iv[f]));
         fl.count += select(0u, 1u, crosses(iv[f]));
     }
-    for (var k = 0u; k < 6u; k++) {
-        for (var f = 0u; f < 6u; f++) {
+    for (var k = 0u; k < FACE_COUNT; k++) {
+        for (var f = 0u; f < FACE_COUNT; f++) {
             if rank[f] == k {
                 fl.face[k] = f;
                 fl.iv[k] = iv[f];

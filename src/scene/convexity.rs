@@ -257,16 +257,21 @@ mod tests {
         is_convex(&part.positions, &part.normals, &part.triangles)
     }
 
-    /// A flat quad with its face normal has no deviation; tilting one vertex normal by a known
-    /// angle shows exactly that angle.
-    #[test]
-    fn normal_deviation_of_a_flat_quad() {
-        let positions = vec![
+    /// The corners of the unit square in the z = 0 plane, counter-clockwise from the origin.
+    fn unit_quad() -> Vec<Vec3> {
+        vec![
             Vec3::new(0.0, 0.0, 0.0),
             Vec3::new(1.0, 0.0, 0.0),
             Vec3::new(1.0, 1.0, 0.0),
             Vec3::new(0.0, 1.0, 0.0),
-        ];
+        ]
+    }
+
+    /// A flat quad with its face normal has no deviation; tilting one vertex normal by a known
+    /// angle shows exactly that angle.
+    #[test]
+    fn normal_deviation_of_a_flat_quad() {
+        let positions = unit_quad();
         let triangles = [[0, 1, 2], [0, 2, 3]];
         let flat = vec![Vec3::Z; 4];
         assert_eq!(max_normal_deviation(&positions, &flat, &triangles), 0.0);
@@ -282,12 +287,7 @@ mod tests {
 
     #[test]
     fn flat_quad_is_convex_and_folded_one_is_not() {
-        let positions = vec![
-            Vec3::new(0.0, 0.0, 0.0),
-            Vec3::new(1.0, 0.0, 0.0),
-            Vec3::new(1.0, 1.0, 0.0),
-            Vec3::new(0.0, 1.0, 0.0),
-        ];
+        let positions = unit_quad();
         let normals = vec![Vec3::Z; 4];
         let triangles = vec![[0, 1, 2], [0, 2, 3]];
         assert!(is_convex(&positions, &normals, &triangles));
