@@ -13,7 +13,7 @@
 
 use std::process::ExitCode;
 
-use cubetrace::bench::{self, BenchConfig, MethodKind};
+use cubetrace::bench::{self, BenchConfig, Method};
 use cubetrace::vk::{ContextOptions, GpuContext, Validation};
 
 fn main() -> ExitCode {
@@ -27,7 +27,7 @@ fn main() -> ExitCode {
             .into_iter()
             .filter(|s| filter.is_none_or(|f| s.contains(f.as_str())))
             .collect(),
-        methods: bench::method_grid(&MethodKind::ALL, true),
+        methods: bench::method_grid(&Method::ALL, true),
         frames: if full { 5 } else { 1 },
         flip: full,
         heatmaps: full,

@@ -1,6 +1,7 @@
 //! cubetrace: accurate mirror reflections on curved surfaces by cubemap tracing.
 //!
 //! Module map (everything outside [`vk`] forbids `unsafe`):
+//! - [`method`]: [`Method`], the one method type of the CLI, the harness and the renderer.
 //! - [`scene`]: scene files (TOML + OBJ/MTL/PNG), built-in scenes, mesh hygiene.
 //! - [`camera`]: the camera and its pixel convention (Vulkan's, pixel centres at +0.5).
 //! - [`shading`]: the view-independent shading shared by the capture and the reference.
@@ -19,6 +20,7 @@ pub mod camera;
 pub mod cpu;
 pub mod cubemap;
 pub mod memory;
+pub mod method;
 pub mod metrics;
 pub mod output;
 pub mod ranges;
@@ -26,3 +28,5 @@ pub mod reference;
 pub mod scene;
 pub mod shading;
 pub mod vk;
+
+pub use method::Method;

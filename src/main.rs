@@ -8,9 +8,10 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand, ValueEnum};
 
+use cubetrace::Method;
 use cubetrace::cpu::options::{TraceCriterion, TraceOptions, TraceSampling};
 use cubetrace::scene::{CmoPlacement, Scene};
-use cubetrace::vk::frame::{Fallback, GpuMethod, GpuRenderer, RenderOptions};
+use cubetrace::vk::frame::{Fallback, GpuRenderer, RenderOptions};
 use cubetrace::vk::{ContextOptions, GpuContext, Validation};
 use cubetrace::{memory, metrics, output, reference, scene};
 
@@ -59,29 +60,6 @@ enum SceneCommand {
         #[arg(long)]
         force: bool,
     },
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-enum Method {
-    /// Cubemap tracing in a compute pass on the GPU over the 8x4/4x8 hierarchy with subgroup
-    /// ballots (thesis alg. 3; exact criterion).
-    Compute,
-    /// Cubemap tracing in a deferred fragment pass on the GPU (thesis alg. 1, 2, 4).
-    Fragment,
-    /// One cube map lookup per pixel on the GPU, no parallax (the baseline).
-    Envmap,
-    /// Hi-Z screen-space reflections on the GPU (Uludag 2014): a min pyramid of the G-buffer's
-    /// depth and a hierarchical ray march; what leaves the screen goes to the fallback.
-    Ssr,
-    /// Reflection-point search with virtual objects on the GPU (Estalella et al. 2006): per
-    /// vertex of the other objects, a local search over the reflector's position and normal
-    /// textures; the virtual objects rasterised into the mirror; uncovered pixels get the fallback.
-    ReflectionPoint,
-    /// Exact ray tracing of the reflected rays on the GPU: a compute pass over a compressed wide
-    /// BVH (obvhs), the same triangles and shading as the reference.
-    Bvh,
-    /// Exact CPU ray tracing against the scene's triangles: the ground truth.
-    Reference,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -229,7 +207,7 @@ struct TraceArgs {
 }
 
 impl TraceArgs {
-    fn options(&self, method: GpuMethod) -> RenderOptions {
+    fn options(&self, method: Method) -> RenderOptions {
         RenderOptions {
             method,
             trace: TraceOptions {
@@ -406,28 +384,14 @@ fn render(args: RenderArgs) -> Result<()> {
         camera.width, camera.height
     );
 
-    let gpu_method = match args.method {
-        Method::Fragment => Some(GpuMethod::Fragment),
-        Method::Envmap => Some(GpuMethod::Envmap),
-        Method::Compute => Some(GpuMethod::Compute),
-        Method::Ssr => Some(GpuMethod::Ssr),
-        Method::ReflectionPoint => Some(GpuMethod::ReflectionPoint),
-        Method::Bvh => Some(GpuMethod::Bvh),
-        Method::Reference => None,
-    };
+    let gpu_method = args.method.is_gpu().then_some(args.method);
     if let Some(m) = gpu_method {
-        if args.bounces != 1
-            && matches!(
-                m,
-                GpuMethod::Envmap | GpuMethod::Ssr | GpuMethod::ReflectionPoint
-            )
-        {
-            anyhow::bail!(
-                "--bounces {}: method {m:?} traces one reflection (its records do not name the \
-                 triangle hit); use compute, fragment, bvh or reference",
-                args.bounces,
-            );
-        }
+        m.check_bounces(
+            args.bounces,
+            cubetrace::vk::bounce::MAX_BOUNCES,
+            &args.trace.options(m).trace,
+        )
+        .map_err(anyhow::Error::msg)?;
         let options = RenderOptions {
             bounces: args.bounces,
             ..args.trace.options(m)
@@ -435,27 +399,7 @@ fn render(args: RenderArgs) -> Result<()> {
         let loaded = start.elapsed();
         let ctx = args.gpu.context()?;
         let device_ready = start.elapsed();
-        let device = cubetrace::vk::budget::device_bytes(
-            camera.width,
-            camera.height,
-            m,
-            scene.cmo_centres().len() as u32,
-            scene.cmo.resolution,
-            scene.captures_reflectors(),
-            &options.trace,
-        );
-        let device = cubetrace::vk::budget::DeviceBytes {
-            frame: device.frame
-                + cubetrace::vk::budget::bounce_bytes(camera.width, camera.height, args.bounces)
-                + cubetrace::vk::budget::reflector_check_bytes(
-                    camera.width,
-                    camera.height,
-                    options.reflector_check
-                        && matches!(m, GpuMethod::Fragment | GpuMethod::Compute)
-                        && !scene.check_triangles().is_empty(),
-                ),
-            ..device
-        };
+        let device = cubetrace::vk::budget::estimate(&scene, &camera, &options);
         let mut host = memory::gpu_host_bytes(pixels, format, args.compare);
         if ctx.device_is_cpu() {
             // A CPU device's memory is the machine's.
@@ -499,7 +443,7 @@ fn render(args: RenderArgs) -> Result<()> {
         for (pass, ns) in &frame.pass_times {
             log::info!("{pass:>16}: {:9.3} ms", ns * 1e-6);
         }
-        if m == GpuMethod::Ssr {
+        if m == Method::Ssr {
             log::info!("ssr: {}", ssr_outcomes(&frame));
         }
         if let Some(s) = &frame.search {
@@ -533,7 +477,7 @@ fn render(args: RenderArgs) -> Result<()> {
             log::info!(
                 "bvh: {} rays traced ({}), {} cut by the loop cap",
                 b.count,
-                if m == GpuMethod::Bvh {
+                if m == Method::Bvh {
                     "every mirror ray"
                 } else {
                     "the fallback's"
@@ -589,40 +533,30 @@ fn render(args: RenderArgs) -> Result<()> {
         }
         return Ok(());
     }
-    let frame = match args.method {
-        Method::Fragment
-        | Method::Envmap
-        | Method::Compute
-        | Method::Ssr
-        | Method::ReflectionPoint
-        | Method::Bvh => {
-            unreachable!("GPU methods returned above")
+    let frame = {
+        memory::check(
+            &size,
+            memory::reference_bytes(pixels, format),
+            memory::host_available()?,
+        )?;
+        let tracer = reference::Tracer::new(&scene);
+        log::info!(
+            "{}: {} triangles, BVH built in {:.2?}",
+            scene.name,
+            tracer.world.triangles.len(),
+            start.elapsed()
+        );
+        let bar = indicatif::ProgressBar::new(0).with_style(
+            indicatif::ProgressStyle::with_template(
+                "reference {bar:40} {pos}/{len} rows {elapsed}",
+            )
+            .expect("the template is valid"),
+        );
+        // Small frames finish before a bar would help; indicatif hides it off a terminal.
+        if camera.width as u64 * camera.height as u64 * (args.bounces as u64 + 1) < 2_000_000 {
+            bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
         }
-        Method::Reference => {
-            memory::check(
-                &size,
-                memory::reference_bytes(pixels, format),
-                memory::host_available()?,
-            )?;
-            let tracer = reference::Tracer::new(&scene);
-            log::info!(
-                "{}: {} triangles, BVH built in {:.2?}",
-                scene.name,
-                tracer.world.triangles.len(),
-                start.elapsed()
-            );
-            let bar = indicatif::ProgressBar::new(0).with_style(
-                indicatif::ProgressStyle::with_template(
-                    "reference {bar:40} {pos}/{len} rows {elapsed}",
-                )
-                .expect("the template is valid"),
-            );
-            // Small frames finish before a bar would help; indicatif hides it off a terminal.
-            if camera.width as u64 * camera.height as u64 * (args.bounces as u64 + 1) < 2_000_000 {
-                bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
-            }
-            reference::render_with_progress(&scene, &tracer, &camera, args.bounces, &bar)
-        }
+        reference::render_with_progress(&scene, &tracer, &camera, args.bounces, &bar)
     };
     let render_time = start.elapsed();
     output::write_frame(&out, &frame)?;
@@ -746,13 +680,13 @@ struct BenchArgs {
 }
 
 fn bench(args: BenchArgs) -> Result<()> {
-    use cubetrace::bench::{self, MethodKind};
+    use cubetrace::bench;
     let kinds = args
         .methods
         .iter()
         .map(|m| {
-            MethodKind::from_name(m).ok_or_else(|| {
-                let known: Vec<&str> = MethodKind::ALL.iter().map(|k| k.name()).collect();
+            Method::from_name(m).ok_or_else(|| {
+                let known: Vec<&str> = Method::ALL.iter().map(|k| k.name()).collect();
                 anyhow::anyhow!(
                     "--methods: unknown method '{m}' (known: {})",
                     known.join(", ")
@@ -768,7 +702,7 @@ fn bench(args: BenchArgs) -> Result<()> {
     );
     let paths = if args.scaling {
         let cfg = bench::scaling::ScalingConfig {
-            method: bench::MethodSpec::plain(MethodKind::Fragment),
+            method: bench::MethodSpec::plain(Method::Fragment),
             axes: bench::scaling::Axis::ALL.to_vec(),
             max_cube: args.max_cube,
             width: args.width,

@@ -3,7 +3,7 @@
 
 mod common;
 
-use cubetrace::bench::{self, BenchConfig, MethodKind};
+use cubetrace::bench::{self, BenchConfig, Method};
 
 #[test]
 fn bench_reports_cost_per_ray_ratios_and_floor() {
@@ -11,7 +11,7 @@ fn bench_reports_cost_per_ray_ratios_and_floor() {
     let out = tempfile::tempdir().expect("temp dir");
     let cfg = BenchConfig {
         scenes: vec!["sphere-room".into()],
-        methods: bench::method_grid(&MethodKind::ALL, true),
+        methods: bench::method_grid(&Method::ALL, true),
         width: 40,
         height: 30,
         frames: 1,
@@ -24,13 +24,13 @@ fn bench_reports_cost_per_ray_ratios_and_floor() {
     };
     let report = bench::run(&ctx, &cfg, &indicatif::ProgressBar::hidden()).expect("bench");
     assert_eq!(report.runs.len(), cfg.methods.len());
-    assert_eq!(cfg.methods.len(), MethodKind::ALL.len() + 1);
+    assert_eq!(cfg.methods.len(), Method::ALL.len() + 1);
     // The reflection-point method runs plain and subdivided (more triangles, same reference),
     // with its search steps per vertex in the counters.
     let rp: Vec<_> = report
         .runs
         .iter()
-        .filter(|r| r.kind == MethodKind::ReflectionPoint)
+        .filter(|r| r.kind == Method::ReflectionPoint)
         .collect();
     let [plain, sub] = rp.as_slice() else {
         panic!("two reflection-point runs: {rp:?}")
@@ -42,16 +42,12 @@ fn bench_reports_cost_per_ray_ratios_and_floor() {
         report
             .runs
             .iter()
-            .all(|r| r.kind == MethodKind::ReflectionPoint || r.counters.search_max == 0)
+            .all(|r| r.kind == Method::ReflectionPoint || r.counters.search_max == 0)
     );
     // Every GPU method renders with `--fallback trace`: nothing is left unresolved, and where
     // the method left pixels the fallback's share and cost are reported apart and counted in
     // the frame time. bvh needs no fallback and hits the reference's triangles.
-    for r in report
-        .runs
-        .iter()
-        .filter(|r| r.kind != MethodKind::Reference)
-    {
+    for r in report.runs.iter().filter(|r| r.kind != Method::Reference) {
         assert_eq!(r.error.unresolved, 0.0, "{}", r.method);
         if r.fallback_share > 0.0 {
             assert!(r.fallback_ns.median > 0.0, "{}", r.method);
@@ -62,14 +58,14 @@ fn bench_reports_cost_per_ray_ratios_and_floor() {
             );
         }
         // Methods that leave no pixel unresolved get no fallback pass.
-        if matches!(r.kind, MethodKind::Envmap | MethodKind::Bvh) {
+        if matches!(r.kind, Method::Envmap | Method::Bvh) {
             assert_eq!(r.fallback_ns.median, 0.0, "{}", r.method);
         }
     }
     let bvh = report
         .runs
         .iter()
-        .find(|r| r.kind == MethodKind::Bvh)
+        .find(|r| r.kind == Method::Bvh)
         .expect("bvh row");
     assert_eq!(bvh.fallback_share, 0.0);
     assert!(bvh.error.same_triangle >= 0.999, "{:?}", bvh.error);
@@ -78,10 +74,10 @@ fn bench_reports_cost_per_ray_ratios_and_floor() {
         report
             .runs
             .iter()
-            .any(|r| r.kind == MethodKind::Compute && r.fallback_share > 0.0)
+            .any(|r| r.kind == Method::Compute && r.fallback_share > 0.0)
     );
     let refr = &report.runs[0];
-    assert_eq!(refr.kind, MethodKind::Reference);
+    assert_eq!(refr.kind, Method::Reference);
     assert!(refr.rays > 50 && refr.rays == refr.mirror_pixels);
     assert!(refr.trace_ns.median > 0.0 && refr.trace_ns.median <= refr.total_ns.median);
     for r in report.runs[1..]
@@ -127,7 +123,7 @@ fn bench_reports_cost_per_ray_ratios_and_floor() {
 
     // Without the floor runs, no floor figure is reported.
     let cfg = BenchConfig {
-        methods: bench::method_grid(&[MethodKind::Envmap], true),
+        methods: bench::method_grid(&[Method::Envmap], true),
         floor: None,
         ..cfg
     };
@@ -145,7 +141,7 @@ fn scaling_triangle_axis_sets_bvh_beside_the_cubemap_paths() {
     let ctx = common::gpu_context();
     let out = tempfile::tempdir().expect("temp dir");
     let cfg = ScalingConfig {
-        method: bench::MethodSpec::plain(MethodKind::Fragment),
+        method: bench::MethodSpec::plain(Method::Fragment),
         axes: vec![Axis::Triangles],
         max_cube: 32,
         width: 24,
@@ -188,10 +184,7 @@ fn bench_with_bounces() {
     let out = tempfile::tempdir().expect("temp dir");
     let cfg = BenchConfig {
         scenes: vec!["teapot".into()],
-        methods: bench::method_grid(
-            &[MethodKind::Reference, MethodKind::Envmap, MethodKind::Bvh],
-            true,
-        ),
+        methods: bench::method_grid(&[Method::Reference, Method::Envmap, Method::Bvh], true),
         width: 48,
         height: 36,
         frames: 1,
@@ -204,8 +197,8 @@ fn bench_with_bounces() {
         ..BenchConfig::default()
     };
     let report = bench::run(&ctx, &cfg, &indicatif::ProgressBar::hidden()).expect("bench");
-    let kinds: Vec<MethodKind> = report.runs.iter().map(|r| r.kind).collect();
-    assert_eq!(kinds, [MethodKind::Reference, MethodKind::Bvh]);
+    let kinds: Vec<Method> = report.runs.iter().map(|r| r.kind).collect();
+    assert_eq!(kinds, [Method::Reference, Method::Bvh]);
     assert_eq!(report.bounces, 3);
     assert!(bench::report::header(&report).contains("3 bounces"));
     let bvh = &report.runs[1].error;
@@ -214,7 +207,7 @@ fn bench_with_bounces() {
     let (scene, camera) = bench::prepare_scene("teapot", 48, 36, None, None).expect("scene");
     let refr1 = bench::run_reference(&scene, &camera, 0, 1);
     let options = cubetrace::vk::frame::RenderOptions {
-        method: cubetrace::vk::frame::GpuMethod::Bvh,
+        method: cubetrace::Method::Bvh,
         bounces: 3,
         ..Default::default()
     };

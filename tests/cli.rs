@@ -7,9 +7,10 @@ mod common;
 use std::path::Path;
 use std::process::Command;
 
+use cubetrace::Method;
 use cubetrace::scene::{builtin, export};
 use cubetrace::vk::budget;
-use cubetrace::vk::frame::{Fallback, GpuMethod, GpuRenderer, RenderOptions};
+use cubetrace::vk::frame::{Fallback, GpuRenderer, RenderOptions};
 
 struct Outcome {
     code: Option<i32>,
@@ -615,11 +616,11 @@ fn gpu_estimate_covers_the_cmo_allocation() {
     let mut camera = scene.cameras[0].clone();
     (camera.width, camera.height) = (16, 12);
     for method in [
-        GpuMethod::Fragment,
-        GpuMethod::Compute,
-        GpuMethod::Envmap,
-        GpuMethod::Ssr,
-        GpuMethod::ReflectionPoint,
+        Method::Fragment,
+        Method::Compute,
+        Method::Envmap,
+        Method::Ssr,
+        Method::ReflectionPoint,
     ] {
         let options = RenderOptions {
             method,

@@ -11,6 +11,7 @@ use common::{finish_gpu, gpu_context};
 
 use std::process::Command;
 
+use cubetrace::Method;
 use cubetrace::camera::Camera;
 use cubetrace::cpu::options::TraceOptions;
 use cubetrace::metrics::{self, ErrorReport, PixelClass};
@@ -21,8 +22,8 @@ use cubetrace::scene::{CmoPlacement, CmoSpec, Scene, SelfReflections, Transform,
 use cubetrace::shading::Shading;
 use cubetrace::vk::GpuContext;
 use cubetrace::vk::frame::{
-    Fallback, GpuFrame, GpuMethod, GpuRenderer, PixelRecord, RECORD_ESCAPED, RECORD_HIT,
-    RECORD_UNRESOLVED, RenderOptions,
+    Fallback, GpuFrame, GpuRenderer, PixelRecord, RECORD_ESCAPED, RECORD_HIT, RECORD_UNRESOLVED,
+    RenderOptions,
 };
 use glam::{Vec2, Vec3};
 
@@ -97,7 +98,7 @@ fn span_scene(far: f32) -> Scene {
     b.scene
 }
 
-fn options(method: GpuMethod) -> RenderOptions {
+fn options(method: Method) -> RenderOptions {
     RenderOptions {
         method,
         trace: TraceOptions::default(),
@@ -195,12 +196,7 @@ fn check_span(
     }
 }
 
-fn render_with(
-    ctx: &GpuContext,
-    scene: &Scene,
-    method: GpuMethod,
-    ranges: &FrameRanges,
-) -> GpuFrame {
+fn render_with(ctx: &GpuContext, scene: &Scene, method: Method, ranges: &FrameRanges) -> GpuFrame {
     let camera = &scene.cameras[0];
     let mut r = GpuRenderer::with_ranges(ctx, scene, camera, options(method), ranges)
         .unwrap_or_else(|e| panic!("{e}"));
@@ -223,7 +219,7 @@ fn scene_spanning_1e_minus_3_to_1e5_matches_the_reference() {
         "{ranges:?}"
     );
     let reference = reference::render(&scene, &Tracer::new(&scene), camera, 1);
-    for method in [GpuMethod::Fragment, GpuMethod::Compute] {
+    for method in [Method::Fragment, Method::Compute] {
         let mut r = GpuRenderer::new(&ctx, &scene, camera, options(method)).unwrap();
         let frame = r.render(&ctx).unwrap();
         let span = check_span(&scene, &reference, &frame, ranges.t_hi)
@@ -247,7 +243,7 @@ fn old_near_plane_and_short_rays_fail_the_span_check() {
         near: 1e-4 * ranges.far,
         ..ranges.clone()
     };
-    let frame = render_with(&ctx, &scene, GpuMethod::Fragment, &old);
+    let frame = render_with(&ctx, &scene, Method::Fragment, &old);
     let err = check_span(&scene, &reference, &frame, old.t_hi).expect_err("old near plane");
     eprintln!("old near plane: {err}");
     assert_eq!(frame.mirror_pixels(), 0, "{err}");
@@ -255,11 +251,11 @@ fn old_near_plane_and_short_rays_fail_the_span_check() {
         t_hi: 1e3,
         ..ranges.clone()
     };
-    let frame = render_with(&ctx, &scene, GpuMethod::Fragment, &short);
+    let frame = render_with(&ctx, &scene, Method::Fragment, &short);
     let err = check_span(&scene, &reference, &frame, short.t_hi).expect_err("short rays");
     eprintln!("short rays: {err}");
     // The same ranges as the renderer derives pass (the control of this negative test).
-    let frame = render_with(&ctx, &scene, GpuMethod::Fragment, &ranges);
+    let frame = render_with(&ctx, &scene, Method::Fragment, &ranges);
     check_span(&scene, &reference, &frame, ranges.t_hi).unwrap();
     finish_gpu(ctx);
 }
@@ -287,7 +283,7 @@ fn wrong_when_moved(ctx: &GpuContext, d: Vec3) -> f64 {
     let camera = &scene.cameras[0];
     let reference = reference::render(&scene, &Tracer::new(&scene), camera, 1);
     let ranges = FrameRanges::new(&scene, camera);
-    let frame = render_with(ctx, &scene, GpuMethod::Fragment, &ranges);
+    let frame = render_with(ctx, &scene, Method::Fragment, &ranges);
     let args = (
         &frame.surface_position,
         &scene.cmo_centres(),
@@ -310,7 +306,7 @@ fn a_scene_beyond_f32_precision_is_refused_and_would_be_wrong() {
     let d = Vec3::new(1e5, 3e4, -7e4);
     let scene = moved(builtin::sphere_room(), d);
     let camera = &scene.cameras[0];
-    let err = match GpuRenderer::new(&ctx, &scene, camera, options(GpuMethod::Compute)) {
+    let err = match GpuRenderer::new(&ctx, &scene, camera, options(Method::Compute)) {
         Ok(_) => panic!("a scene 1.24e5 from the origin was accepted"),
         Err(e) => e.to_string(),
     };
@@ -327,7 +323,7 @@ fn a_scene_beyond_f32_precision_is_refused_and_would_be_wrong() {
     let forced = wrong_when_moved(&ctx, d);
     let far = wrong_when_moved(&ctx, d * 10.0);
     let near = moved(builtin::sphere_room(), d / 10.0);
-    GpuRenderer::new(&ctx, &near, &near.cameras[0], options(GpuMethod::Compute))
+    GpuRenderer::new(&ctx, &near, &near.cameras[0], options(Method::Compute))
         .expect("1.24e4 from the origin is accepted");
     let control = wrong_when_moved(&ctx, d / 10.0);
     eprintln!("wrong surface: moved 1.24e6 {far}, 1.24e5 {forced}, 1.24e4 {control}");
@@ -415,7 +411,7 @@ fn eye_close_to_a_surface_clips_nothing() {
             .filter(|&&p| on_speck(p))
             .count()
     };
-    let frame = render_with(&ctx, &scene, GpuMethod::Fragment, &ranges);
+    let frame = render_with(&ctx, &scene, Method::Fragment, &ranges);
     let (mut mask_diff, mut pos_diff, mut covered) = (0, 0, 0);
     for k in 0..frame.mask.len() {
         mask_diff += usize::from(frame.mask[k] != reference.mask[k]);
@@ -445,7 +441,7 @@ fn eye_close_to_a_surface_clips_nothing() {
         near: 4e-3,
         ..ranges
     };
-    let frame = render_with(&ctx, &scene, GpuMethod::Fragment, &clipped);
+    let frame = render_with(&ctx, &scene, Method::Fragment, &clipped);
     eprintln!("near 4e-3: speck pixels {}", speck_pixels(&frame));
     assert!(speck_pixels(&frame) < reference_speck / 10);
     finish_gpu(ctx);
@@ -464,7 +460,7 @@ fn eye_on_a_surface_falls_back_to_a_tiny_near_plane() {
     assert_eq!(ranges.near, ranges.far / (1u64 << 40) as f32, "{ranges:?}");
     let reference = reference::render(&scene, &Tracer::new(&scene), &camera, 1);
     let mask_diff = |ranges: &FrameRanges| {
-        let frame = render_with(&ctx, &scene, GpuMethod::Fragment, ranges);
+        let frame = render_with(&ctx, &scene, Method::Fragment, ranges);
         (0..frame.mask.len())
             .filter(|&k| frame.mask[k] != reference.mask[k])
             .count()
@@ -557,7 +553,7 @@ fn span_records_child() {
     let ctx = gpu_context();
     let scene = span_scene(far);
     let camera = &scene.cameras[0];
-    let mut r = GpuRenderer::new(&ctx, &scene, camera, options(GpuMethod::Compute)).unwrap();
+    let mut r = GpuRenderer::new(&ctx, &scene, camera, options(Method::Compute)).unwrap();
     let frame = r.render(&ctx).unwrap();
     std::fs::write(format!("{out}.mask"), &frame.mask).unwrap();
     std::fs::write(

@@ -14,6 +14,7 @@
 mod common;
 use common::{finish_gpu, gpu_context};
 
+use cubetrace::Method;
 use cubetrace::camera::Camera;
 use cubetrace::check_layout;
 use cubetrace::reference::{self, NO_ID, Tracer};
@@ -23,7 +24,7 @@ use cubetrace::scene::{
 };
 use cubetrace::vk::GpuContext;
 use cubetrace::vk::frame::{
-    Fallback, GpuFrame, GpuMethod, GpuRenderer, PixelRecord, RECORD_HIT, RenderOptions,
+    Fallback, GpuFrame, GpuRenderer, PixelRecord, RECORD_HIT, RenderOptions,
 };
 use cubetrace::vk::shaders::{BOUNCE_APPEND, BVH_TRACE, COMPOSITE};
 use glam::{Quat, Vec2, Vec3};
@@ -127,7 +128,7 @@ fn render(
     ctx: &GpuContext,
     scene: &Scene,
     camera: &Camera,
-    method: GpuMethod,
+    method: Method,
     bounces: u32,
 ) -> GpuFrame {
     let options = RenderOptions {
@@ -275,10 +276,10 @@ fn bowl_three_bounces_match_the_reference() {
     scene.cameras[0].target = Vec3::new(-0.3, 1.2, -2.4);
     let camera = sized(&scene.cameras[0], 64, 48);
     let want = reference_frame(&scene, &camera, 3);
-    for method in [GpuMethod::Bvh, GpuMethod::Fragment, GpuMethod::Compute] {
+    for method in [Method::Bvh, Method::Fragment, Method::Compute] {
         // The cubemap paths capture the bowl, so their first round meets it again as the
         // reference does (unresolved rays are finished by the trace fallback).
-        scene.self_reflections = if method == GpuMethod::Bvh {
+        scene.self_reflections = if method == Method::Bvh {
             SelfReflections::Off
         } else {
             SelfReflections::On
@@ -286,7 +287,7 @@ fn bowl_three_bounces_match_the_reference() {
         let frame = render(&ctx, &scene, &camera, method, 3);
         let c = compare(&frame, &want);
         eprintln!("bowl N=3 {method:?}: {c:?}");
-        if method == GpuMethod::Bvh {
+        if method == Method::Bvh {
             assert!(c.passes(), "bowl N=3 {method:?}: {c:?}");
         } else {
             let first = compare(
@@ -297,7 +298,7 @@ fn bowl_three_bounces_match_the_reference() {
             assert!(c.passes_cubemap(&first), "bowl N=3 {method:?}: {c:?}");
         }
         assert!(c.multi * 3 >= c.mirror, "paths of 2+ bounces: {c:?}");
-        if method == GpuMethod::Bvh {
+        if method == Method::Bvh {
             // Negative: the reference of another N.
             for n in [1, 2] {
                 let other = compare(&frame, &reference_frame(&scene, &camera, n));
@@ -317,7 +318,7 @@ fn facing_mirrors_bounce_for_bounce() {
     let mut refs = Vec::new();
     for n in [1, 2, 5] {
         let want = reference_frame(&scene, &camera, n);
-        let frame = render(&ctx, &scene, &camera, GpuMethod::Bvh, n);
+        let frame = render(&ctx, &scene, &camera, Method::Bvh, n);
         let c = compare(&frame, &want);
         let deepest = (0..want.mask.len())
             .filter(|&k| want.mask[k] != 0 && u32::from(want.bounces[k]) == n)
@@ -345,9 +346,9 @@ fn facing_mirrors_bounce_for_bounce() {
     }
     // The compute path's first round (cubemap tracing) with the BVH's rounds after it.
     let (_, want, _) = &refs[2];
-    let c = compare(&render(&ctx, &scene, &camera, GpuMethod::Compute, 5), want);
+    let c = compare(&render(&ctx, &scene, &camera, Method::Compute, 5), want);
     let first = compare(
-        &render(&ctx, &scene, &camera, GpuMethod::Compute, 1),
+        &render(&ctx, &scene, &camera, Method::Compute, 1),
         &refs[0].1,
     );
     eprintln!("facing mirrors N=5 compute: {c:?}; N=1: {first:?}");
@@ -365,13 +366,13 @@ fn facing_mirrors_bounce_for_bounce() {
         }
     }
     let (_, want1, _) = &refs[0];
-    let c1 = compare(&render(&ctx, &turned, &camera, GpuMethod::Bvh, 1), want1);
+    let c1 = compare(&render(&ctx, &turned, &camera, Method::Bvh, 1), want1);
     eprintln!("turned second mirror, N=1: {c1:?}");
     assert!(
         c1.same_share() >= MIN_SAME,
         "N=1 sees no turned normal: {c1:?}"
     );
-    let c = compare(&render(&ctx, &turned, &camera, GpuMethod::Bvh, 5), want);
+    let c = compare(&render(&ctx, &turned, &camera, Method::Bvh, 5), want);
     eprintln!("turned second mirror, N=5: {c:?}");
     assert!(!c.passes(), "a turned normal must fail: {c:?}");
     finish_gpu(ctx);
@@ -383,7 +384,7 @@ fn zero_bounces_show_the_mirrors_own_material() {
     let scene = scene::builtin::bowl();
     let camera = sized(&scene.cameras[0], 64, 48);
     let want = reference_frame(&scene, &camera, 0);
-    for method in [GpuMethod::Bvh, GpuMethod::Compute, GpuMethod::Fragment] {
+    for method in [Method::Bvh, Method::Compute, Method::Fragment] {
         let frame = render(&ctx, &scene, &camera, method, 0);
         let passes: Vec<&str> = frame.pass_times.iter().map(|(n, _)| n.as_str()).collect();
         assert!(passes.contains(&"bounce_append"), "{passes:?}");
@@ -403,7 +404,7 @@ fn zero_bounces_show_the_mirrors_own_material() {
         );
     }
     // Negative: against one bounce.
-    let frame = render(&ctx, &scene, &camera, GpuMethod::Bvh, 0);
+    let frame = render(&ctx, &scene, &camera, Method::Bvh, 0);
     let c = compare(&frame, &reference_frame(&scene, &camera, 1));
     assert!(!c.passes(), "N=0 must not match N=1: {c:?}");
     finish_gpu(ctx);
@@ -414,11 +415,7 @@ fn methods_without_triangles_refuse_bounces() {
     let ctx = gpu_context();
     let scene = scene::builtin::bowl();
     let camera = sized(&scene.cameras[0], 16, 12);
-    for method in [
-        GpuMethod::Envmap,
-        GpuMethod::Ssr,
-        GpuMethod::ReflectionPoint,
-    ] {
+    for method in [Method::Envmap, Method::Ssr, Method::ReflectionPoint] {
         for bounces in [0, 2] {
             let options = RenderOptions {
                 method,
@@ -442,7 +439,7 @@ fn methods_without_triangles_refuse_bounces() {
         GpuRenderer::new(&ctx, &scene, &camera, options).unwrap();
     }
     let options = RenderOptions {
-        method: GpuMethod::Bvh,
+        method: Method::Bvh,
         bounces: cubetrace::vk::bounce::MAX_BOUNCES + 1,
         ..RenderOptions::default()
     };

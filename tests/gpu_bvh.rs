@@ -18,6 +18,7 @@ mod common;
 use common::{finish_gpu, gpu_context};
 
 use ash::vk;
+use cubetrace::Method;
 use cubetrace::camera::Camera;
 use cubetrace::check_layout;
 use cubetrace::metrics;
@@ -28,8 +29,8 @@ use cubetrace::vk::bvh::{
     BvhCounter, BvhData, BvhParams, BvhQueue, BvhRay, BvhTracer, NO_TRIANGLE,
 };
 use cubetrace::vk::frame::{
-    Fallback, GpuFrame, GpuMethod, GpuRenderer, PixelRecord, RECORD_ESCAPED, RECORD_HIT,
-    RECORD_UNRESOLVED, RenderOptions,
+    Fallback, GpuFrame, GpuRenderer, PixelRecord, RECORD_ESCAPED, RECORD_HIT, RECORD_UNRESOLVED,
+    RenderOptions,
 };
 use cubetrace::vk::scene_buffers::SceneBuffers;
 use cubetrace::vk::shaders::{BVH_QUEUE, BVH_TRACE, FRAGMENT_TRACE};
@@ -273,7 +274,7 @@ fn bvh_method_matches_the_reference_on_the_builtin_scenes() {
     for name in SCENES {
         let (scene, camera) = load(name, 320, 240);
         let options = RenderOptions {
-            method: GpuMethod::Bvh,
+            method: Method::Bvh,
             ..RenderOptions::default()
         };
         let mut renderer = GpuRenderer::new(&ctx, &scene, &camera, options).unwrap();
@@ -356,7 +357,7 @@ fn fallback_trace_finishes_every_unresolved_ray() {
         scene.cmo.resolution = 64;
         let render = |fallback| {
             let options = RenderOptions {
-                method: GpuMethod::Compute,
+                method: Method::Compute,
                 fallback,
                 // The fallback alone: the reflector check also hands the fallback the rays whose
                 // cubemap hit is at their own start (tests/reflector_check.rs).

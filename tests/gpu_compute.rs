@@ -18,6 +18,7 @@ use std::cell::Cell;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use cubetrace::Method;
 use cubetrace::camera::Camera;
 use cubetrace::check_layout;
 use cubetrace::cpu::alg3::trace_alg3;
@@ -36,7 +37,7 @@ use cubetrace::vk::compute::{
     workgroup_size,
 };
 use cubetrace::vk::frame::{
-    Fallback, GpuFrame, GpuMethod, GpuRenderer, PixelRecord, RenderOptions, scene_ranges,
+    Fallback, GpuFrame, GpuRenderer, PixelRecord, RenderOptions, scene_ranges,
 };
 use cubetrace::vk::hier32::{Hier32Params, build_hier_gpu, hier32_len};
 use cubetrace::vk::shaders::{APPEND, COMPUTE_TRACE, DISPATCH_ARGS, HIER32};
@@ -77,7 +78,7 @@ fn compute_render(
     ctx: &GpuContext,
     scene: &Scene,
     camera: &Camera,
-    method: GpuMethod,
+    method: Method,
 ) -> (GpuFrame, Vec<CubeMap>) {
     let options = RenderOptions {
         method,
@@ -246,7 +247,7 @@ fn dispatch_is_sized_on_the_gpu_and_empty_without_mirror_pixels() {
     let ctx = compute_context();
     let (scene, camera) = compute_scene("default", 32);
     let options = RenderOptions {
-        method: GpuMethod::Compute,
+        method: Method::Compute,
         ..RenderOptions::default()
     };
     let mut r = GpuRenderer::new(&ctx, &scene, &camera, options).unwrap_or_else(|e| panic!("{e}"));
@@ -467,8 +468,8 @@ fn compute_matches_fragment_cpu_twin_and_reference_on_every_scene() {
     for &(name, _) in scene::builtin::NAMES {
         let n = compute_cube_size(name);
         let (scene, camera) = compute_scene(name, n);
-        let (compute, cubes) = compute_render(&ctx, &scene, &camera, GpuMethod::Compute);
-        let (fragment, _) = compute_render(&ctx, &scene, &camera, GpuMethod::Fragment);
+        let (compute, cubes) = compute_render(&ctx, &scene, &camera, Method::Compute);
+        let (fragment, _) = compute_render(&ctx, &scene, &camera, Method::Fragment);
         let stats = compute.compute.as_ref().expect("compute stats");
         let mirror = compute.mirror_pixels();
         total += mirror;
@@ -542,7 +543,7 @@ fn compute_matches_fragment_cpu_twin_and_reference_on_every_scene() {
         let refr = reference::render(&scene, &tracer, &camera, 1);
         let rc = report(&scene, "compute", &refr, &compute);
         let rf = report(&scene, "fragment", &refr, &fragment);
-        let (envmap, _) = compute_render(&ctx, &scene, &camera, GpuMethod::Envmap);
+        let (envmap, _) = compute_render(&ctx, &scene, &camera, Method::Envmap);
         let re = report(&scene, "envmap", &refr, &envmap);
         assert!(
             as_accurate(&rc, &rf),
@@ -579,8 +580,8 @@ fn compute_matches_with_tiny_cubes_and_several_cmos() {
         if let Some(count) = cmos {
             scene.cmo.placement = CmoPlacement::Auto { count };
         }
-        let (compute, cubes) = compute_render(&ctx, &scene, &camera, GpuMethod::Compute);
-        let (fragment, _) = compute_render(&ctx, &scene, &camera, GpuMethod::Fragment);
+        let (compute, cubes) = compute_render(&ctx, &scene, &camera, Method::Compute);
+        let (fragment, _) = compute_render(&ctx, &scene, &camera, Method::Fragment);
         let mirror = compute.mirror_pixels();
         assert!(mirror > 50, "{name}: only {mirror} mirror pixels");
         let d = decision_disagreements(&compute, &fragment);
@@ -612,9 +613,9 @@ fn compute_matches_with_tiny_cubes_and_several_cmos() {
 fn fragment_comparison_detects_other_cmo_data() {
     let ctx = compute_context();
     let (scene, camera) = compute_scene("default", 64);
-    let (compute, _) = compute_render(&ctx, &scene, &camera, GpuMethod::Compute);
+    let (compute, _) = compute_render(&ctx, &scene, &camera, Method::Compute);
     let (scene32, _) = compute_scene("default", 32);
-    let (fragment, _) = compute_render(&ctx, &scene32, &camera, GpuMethod::Fragment);
+    let (fragment, _) = compute_render(&ctx, &scene32, &camera, Method::Fragment);
     let d = decision_disagreements(&compute, &fragment);
     eprintln!(
         "{} of {} mirror pixels disagree with N = 32",
@@ -631,7 +632,7 @@ fn compute_refuses_approximate_criteria() {
     let ctx = compute_context();
     let (scene, camera) = compute_scene("default", 16);
     let mut options = RenderOptions {
-        method: GpuMethod::Compute,
+        method: Method::Compute,
         ..RenderOptions::default()
     };
     options.trace.criterion = cubetrace::cpu::options::TraceCriterion::Threshold;

@@ -7,6 +7,7 @@
 mod common;
 use common::{finish_gpu, gpu_context};
 
+use cubetrace::Method;
 use cubetrace::camera::Camera;
 use cubetrace::check_layout;
 use cubetrace::cpu::CmoTracer;
@@ -23,8 +24,8 @@ use cubetrace::vk::GpuContext;
 use cubetrace::vk::budget;
 use cubetrace::vk::cmo::{CaptureContents, CmoData};
 use cubetrace::vk::frame::{
-    Fallback, FrameParams, GpuFrame, GpuMethod, GpuRenderer, PixelRecord, RECORD_HIT,
-    RECORD_UNRESOLVED, RenderOptions, capture_contents, scene_ranges,
+    Fallback, FrameParams, GpuFrame, GpuRenderer, PixelRecord, RECORD_HIT, RECORD_UNRESOLVED,
+    RenderOptions, capture_contents, scene_ranges,
 };
 use cubetrace::vk::shaders::{COMPOSITE, FRAGMENT_TRACE};
 use glam::{DVec3, Vec3};
@@ -50,7 +51,7 @@ fn render(ctx: &GpuContext, scene: &Scene, options: RenderOptions) -> (GpuFrame,
     (f, r)
 }
 
-fn options(method: GpuMethod, trace: TraceOptions) -> RenderOptions {
+fn options(method: Method, trace: TraceOptions) -> RenderOptions {
     RenderOptions {
         method,
         trace,
@@ -181,7 +182,7 @@ fn fragment_matches_cpu_twin_on_every_scene() {
                 strict,
                 ..TraceOptions::default()
             };
-            let (frame, r) = render(&ctx, &scene, options(GpuMethod::Fragment, opts));
+            let (frame, r) = render(&ctx, &scene, options(Method::Fragment, opts));
             let cmos = twins(&ctx, &r, &opts);
             if accel {
                 // The pyramid the GPU built is the CPU's, bit for bit.
@@ -220,7 +221,7 @@ fn envmap_matches_cpu_twin() {
     for name in ["default", "bowl"] {
         let scene = builtin::by_name(name).unwrap();
         let opts = TraceOptions::default();
-        let (frame, r) = render(&ctx, &scene, options(GpuMethod::Envmap, opts));
+        let (frame, r) = render(&ctx, &scene, options(Method::Envmap, opts));
         let cmos = twins(&ctx, &r, &opts);
         let bg = scene.background;
         let (compared, bad) = twin_disagreements(&frame, |o, d| envmap_pixel(&cmos, o, d, bg));
@@ -245,7 +246,7 @@ fn twin_comparison_detects_perturbed_data() {
     let scene = builtin::sphere_room();
     let (_, _, t_hi) = scene_ranges(&scene, &camera(&scene));
     let opts = TraceOptions::default();
-    let (frame, r) = render(&ctx, &scene, options(GpuMethod::Fragment, opts));
+    let (frame, r) = render(&ctx, &scene, options(Method::Fragment, opts));
     let bg = scene.background;
     let tracer = Tracer::new(&scene);
     let corners = triangle_corners(&scene.world());
@@ -356,12 +357,12 @@ fn fragment_accuracy_against_reference_with_envmap_for_contrast() {
         let (frag, _) = render(
             &ctx,
             &scene,
-            options(GpuMethod::Fragment, TraceOptions::default()),
+            options(Method::Fragment, TraceOptions::default()),
         );
         let (env, _) = render(
             &ctx,
             &scene,
-            options(GpuMethod::Envmap, TraceOptions::default()),
+            options(Method::Envmap, TraceOptions::default()),
         );
         let f = error_report(&scene, &frag, &reference);
         let e = error_report(&scene, &env, &reference);
@@ -407,7 +408,7 @@ fn accuracy_bounds_reject_perturbed_frames() {
     let (mut frame, _) = render(
         &ctx,
         &scene,
-        options(GpuMethod::Fragment, TraceOptions::default()),
+        options(Method::Fragment, TraceOptions::default()),
     );
     assert!(within(&error_report(&scene, &frame, &reference), bounds));
     let centre = scene.cmo_centres()[0];
@@ -428,7 +429,7 @@ fn accuracy_bounds_reject_perturbed_frames() {
     let (coarse, _) = render(
         &ctx,
         &coarse_scene,
-        options(GpuMethod::Fragment, TraceOptions::default()),
+        options(Method::Fragment, TraceOptions::default()),
     );
     // Measured against the fine footprint, as the bounds are.
     let coarse = error_report(&scene, &coarse, &reference);
@@ -548,7 +549,7 @@ fn gpu_reflected_rays_match_the_cpus_own() {
     let ctx = gpu_context();
     for name in ["default", "sphere-room", "bowl", "teapot", "torus"] {
         let scene = builtin::by_name(name).unwrap();
-        for method in [GpuMethod::Fragment, GpuMethod::Compute] {
+        for method in [Method::Fragment, Method::Compute] {
             let (frame, _) = render(&ctx, &scene, options(method, TraceOptions::default()));
             let r = gpu_rays_against_cpu(&scene, &frame, &camera(&scene), (0, 0), false);
             eprintln!("{name} {method:?}: {r:?}");
@@ -575,7 +576,7 @@ fn gpu_ray_comparison_rejects_a_shifted_pixel_and_face_normals() {
         let (frame, _) = render(
             &ctx,
             &scene,
-            options(GpuMethod::Fragment, TraceOptions::default()),
+            options(Method::Fragment, TraceOptions::default()),
         );
         for (offset, flat) in [((1, 0), false), ((0, 0), true)] {
             let r = gpu_rays_against_cpu(&scene, &frame, &camera(&scene), offset, flat);
@@ -599,9 +600,9 @@ fn gpu_ray_comparison_rejects_a_shifted_pixel_and_face_normals() {
 fn envmap_fallback_shades_from_triangle_ids_as_its_cpu_twin() {
     let ctx = gpu_context();
     for (name, method) in [
-        ("sphere-room", GpuMethod::Compute),
-        ("teapot", GpuMethod::Fragment),
-        ("sphere-room", GpuMethod::Ssr),
+        ("sphere-room", Method::Compute),
+        ("teapot", Method::Fragment),
+        ("sphere-room", Method::Ssr),
     ] {
         let scene = builtin::by_name(name).unwrap();
         let opts = RenderOptions {
@@ -672,13 +673,13 @@ fn exact_frames_take_no_more_cmo_memory_than_colour_and_distance() {
     let scene = builtin::default();
     let centres = scene.cmo_centres();
     let size = scene.cmo.resolution;
-    for method in [GpuMethod::Compute, GpuMethod::Fragment] {
+    for method in [Method::Compute, Method::Fragment] {
         let opts = RenderOptions {
             fallback: Fallback::Envmap,
             ..options(method, TraceOptions::default())
         };
         let (_, r) = render(&ctx, &scene, opts);
-        let pyramid = method == GpuMethod::Fragment;
+        let pyramid = method == Method::Fragment;
         let layout = |contents| {
             CmoData::with_contents(&ctx, &centres, size, false, pyramid, &opts.trace, contents)
                 .unwrap()
@@ -699,7 +700,7 @@ fn exact_frames_take_no_more_cmo_memory_than_colour_and_distance() {
         assert!(
             budget::cmo_bytes_per_texel_with(
                 s,
-                capture_contents(GpuMethod::Compute, &TraceOptions::default())
+                capture_contents(Method::Compute, &TraceOptions::default())
             ) < budget::cmo_bytes_per_texel(s)
         );
     }

@@ -9,6 +9,7 @@
 mod common;
 use common::{finish_gpu, gpu_context};
 
+use cubetrace::Method;
 use cubetrace::camera::Camera;
 use cubetrace::cpu::reflection_point::{
     RpOptions, RpVertex, SearchStats, SearchTextures, Status, subdivide_non_reflectors,
@@ -18,9 +19,7 @@ use cubetrace::reference::{self, Frame, Tracer};
 use cubetrace::scene::gpu_data::GpuSceneData;
 use cubetrace::scene::{Scene, builtin};
 use cubetrace::vk::GpuContext;
-use cubetrace::vk::frame::{
-    Fallback, GpuFrame, GpuMethod, GpuRenderer, RECORD_UNRESOLVED, RenderOptions,
-};
+use cubetrace::vk::frame::{Fallback, GpuFrame, GpuRenderer, RECORD_UNRESOLVED, RenderOptions};
 use cubetrace::vk::reflection_point::{RpCamera, RpParams, shown_objects};
 use cubetrace::vk::shaders::{RP_RASTER, RP_SEARCH};
 use glam::Vec3;
@@ -48,7 +47,7 @@ fn render(ctx: &GpuContext, scene: &Scene, size: (u32, u32)) -> Rendered {
 fn render_with(ctx: &GpuContext, scene: &Scene, size: (u32, u32), rp: RpOptions) -> Rendered {
     let camera = camera(scene, size);
     let options = RenderOptions {
-        method: GpuMethod::ReflectionPoint,
+        method: Method::ReflectionPoint,
         fallback: Fallback::Envmap,
         reflection_point: rp,
         ..RenderOptions::default()
@@ -366,7 +365,7 @@ fn oversized_search_textures_are_refused() {
     let scene = builtin::by_name("sphere-room").unwrap();
     let camera = camera(&scene, (3000, 20));
     let options = |search_scale| RenderOptions {
-        method: GpuMethod::ReflectionPoint,
+        method: Method::ReflectionPoint,
         reflection_point: RpOptions {
             search_scale,
             ..RpOptions::default()
@@ -397,7 +396,7 @@ fn tessellation_curve_in_the_scaling_report() {
     let ctx = gpu_context();
     let out = tempfile::tempdir().expect("temp dir");
     let cfg = ScalingConfig {
-        method: cubetrace::bench::MethodSpec::plain(cubetrace::bench::MethodKind::Fragment),
+        method: cubetrace::bench::MethodSpec::plain(cubetrace::bench::Method::Fragment),
         axes: Vec::new(),
         max_cube: 32,
         width: WIDTH,

@@ -9,6 +9,7 @@
 mod common;
 use common::{finish_gpu, gpu_context};
 
+use cubetrace::Method;
 use cubetrace::camera::Camera;
 use cubetrace::cpu::ssr::{self, Hiz, Outcome, SsrOptions};
 use cubetrace::metrics;
@@ -17,8 +18,8 @@ use cubetrace::scene::shapes::cuboid;
 use cubetrace::scene::{Material, MeshInstance, Scene, Transform, builtin};
 use cubetrace::vk::GpuContext;
 use cubetrace::vk::frame::{
-    Fallback, GpuFrame, GpuMethod, GpuRenderer, PixelRecord, RECORD_HIT, RECORD_UNRESOLVED,
-    RenderOptions, scene_ranges,
+    Fallback, GpuFrame, GpuRenderer, PixelRecord, RECORD_HIT, RECORD_UNRESOLVED, RenderOptions,
+    scene_ranges,
 };
 use cubetrace::vk::shaders::{HIZ, SSR};
 use cubetrace::vk::ssr::{HizLevelParams, SsrParams};
@@ -50,7 +51,7 @@ struct Rendered {
 fn render(ctx: &GpuContext, scene: &Scene, size: (u32, u32), ssr: SsrOptions) -> Rendered {
     let camera = camera(scene, size);
     let options = RenderOptions {
-        method: GpuMethod::Ssr,
+        method: Method::Ssr,
         fallback: Fallback::Envmap,
         ssr,
         ..RenderOptions::default()

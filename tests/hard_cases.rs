@@ -51,6 +51,7 @@
 mod common;
 use common::{finish_gpu, gpu_context, meets};
 
+use cubetrace::Method;
 use cubetrace::cpu::multi::{MultiStatus, Traversal, Verify, trace_cmos_verified};
 use cubetrace::cpu::options::TraceOptions;
 use cubetrace::cpu::verify::triangle_corners;
@@ -66,8 +67,8 @@ use cubetrace::scene::{
 };
 use cubetrace::vk::GpuContext;
 use cubetrace::vk::frame::{
-    Fallback, GpuFrame, GpuMethod, GpuRenderer, RECORD_ESCAPED, RECORD_HIT, RECORD_UNRESOLVED,
-    RenderOptions, scene_ranges,
+    Fallback, GpuFrame, GpuRenderer, RECORD_ESCAPED, RECORD_HIT, RECORD_UNRESOLVED, RenderOptions,
+    scene_ranges,
 };
 use cubetrace::vk::hit_probe::{VerifyQuery, VerifyResult, verify_cpu, verify_gpu};
 use cubetrace::vk::scene_buffers::SceneBuffers;
@@ -105,7 +106,7 @@ impl Verdicts {
 
 /// The fragment path's frame.
 fn render(ctx: &GpuContext, scene: &Scene, size: (u32, u32), trace: TraceOptions) -> GpuFrame {
-    render_with(ctx, scene, size, trace, GpuMethod::Fragment).0
+    render_with(ctx, scene, size, trace, Method::Fragment).0
 }
 
 fn render_with(
@@ -113,7 +114,7 @@ fn render_with(
     scene: &Scene,
     size: (u32, u32),
     trace: TraceOptions,
-    method: GpuMethod,
+    method: Method,
 ) -> (GpuFrame, GpuRenderer) {
     let mut camera = scene.cameras[0].clone();
     (camera.width, camera.height) = size;
@@ -214,7 +215,7 @@ fn judge(scene: &Scene, frame: &GpuFrame, shift: Vec3) -> Verdicts {
 }
 
 /// The two tracers of the exact criterion whose hard cases this file runs.
-const PATHS: [GpuMethod; 2] = [GpuMethod::Fragment, GpuMethod::Compute];
+const PATHS: [Method; 2] = [Method::Fragment, Method::Compute];
 
 /// The CPU twin of `frame` (rendered by `r` with `method`): the same rays traced by
 /// [`trace_cmos_verified`] over the captures read back from the GPU, with the traversal of the
@@ -225,7 +226,7 @@ fn twin_frame(
     scene: &Scene,
     frame: &GpuFrame,
     r: &GpuRenderer,
-    method: GpuMethod,
+    method: Method,
 ) -> GpuFrame {
     let cubes = r.cmo().read_back(ctx).unwrap_or_else(|e| panic!("{e}"));
     twin_frame_over(scene, frame, cubes, &r.options().trace, method)
@@ -237,7 +238,7 @@ fn twin_frame_over(
     frame: &GpuFrame,
     cubes: Vec<CubeMap>,
     opts: &TraceOptions,
-    method: GpuMethod,
+    method: Method,
 ) -> GpuFrame {
     let cmos: Vec<CmoTracer> = cubes
         .into_iter()
@@ -248,7 +249,7 @@ fn twin_frame_over(
     (camera.width, camera.height) = (frame.width, frame.height);
     let (_, _, t_hi) = scene_ranges(scene, &camera);
     let how = match method {
-        GpuMethod::Compute => Traversal::Alg3(8),
+        Method::Compute => Traversal::Alg3(8),
         _ => Traversal::Mip,
     };
     let verify = Some(Verify {
@@ -291,7 +292,7 @@ fn judge_runs(
     scene: &Scene,
     size: (u32, u32),
     trace: TraceOptions,
-    paths: &[GpuMethod],
+    paths: &[Method],
     twins: bool,
 ) -> Vec<(String, Verdicts)> {
     let mut out = Vec::new();
@@ -299,7 +300,7 @@ fn judge_runs(
         let (frame, r) = render_with(ctx, scene, size, trace, method);
         let gpu = judge(scene, &frame, Vec3::ZERO);
         explain(ctx, scene, &frame, &r, &gpu, 4);
-        let m = method.pass_name();
+        let m = cubetrace::vk::frame::pass_name(method);
         out.push((format!("{} {m} GPU", scene.name), gpu));
         if twins {
             let twin = judge(
@@ -342,7 +343,7 @@ fn assert_no_wrong_in_both_modes(
     let default = judge_paths(ctx, scene, size, exact());
     // Strict mode on the fragment path's GPU run only: it gave the same counts on all four runs
     // of every case (module docs), and its twins are checked in tests/gpu_frame.rs.
-    let strict = judge_runs(ctx, scene, size, strict(), &[GpuMethod::Fragment], false);
+    let strict = judge_runs(ctx, scene, size, strict(), &[Method::Fragment], false);
     for ((name, d), (_, s)) in default.iter().zip(&strict) {
         eprintln!(
             "{name}: default wrong {} (point {}, off {}, other {}) unresolved {} of {}; strict wrong {} (point {}, off {}, other {}) unresolved {}",
@@ -1222,7 +1223,7 @@ fn degenerate_triangle_ids_in_the_gpu_verification() {
         triangles_of(world, "panel"),
         triangles_of(world, "degenerate"),
     );
-    let (frame, r) = render_with(&ctx, &scene, (41, 31), exact(), GpuMethod::Fragment);
+    let (frame, r) = render_with(&ctx, &scene, (41, 31), exact(), Method::Fragment);
     let cube = &r.cmo().read_back(&ctx).unwrap_or_else(|e| panic!("{e}"))[0];
     let (n, centre) = (cube.size, cube.centre);
     let mut queries = Vec::new();

@@ -15,19 +15,20 @@
 mod common;
 use common::{finish_gpu, gpu_context, meets};
 
+use cubetrace::Method;
 use cubetrace::camera::Camera;
 use cubetrace::metrics;
 use cubetrace::reference::{self, Frame, Tracer};
 use cubetrace::scene::{self, Scene};
 use cubetrace::vk::GpuContext;
 use cubetrace::vk::frame::{
-    Fallback, GpuFrame, GpuMethod, GpuRenderer, RECORD_HIT, RECORD_UNRESOLVED,
-    REFLECTOR_CHECK_PASS, RenderOptions,
+    Fallback, GpuFrame, GpuRenderer, RECORD_HIT, RECORD_UNRESOLVED, REFLECTOR_CHECK_PASS,
+    RenderOptions,
 };
 use glam::Vec3;
 
 const SIZE: (u32, u32) = (96, 72);
-const PATHS: [GpuMethod; 2] = [GpuMethod::Compute, GpuMethod::Fragment];
+const PATHS: [Method; 2] = [Method::Compute, Method::Fragment];
 
 fn load(name: &str) -> (Scene, Camera) {
     let s = scene::load(name).unwrap_or_else(|e| panic!("{name}: {e}"));
@@ -42,7 +43,7 @@ fn render(
     ctx: &GpuContext,
     scene: &Scene,
     camera: &Camera,
-    method: GpuMethod,
+    method: Method,
     check: bool,
 ) -> (GpuFrame, Option<u32>) {
     let options = RenderOptions {
@@ -283,12 +284,12 @@ fn reflector_check_selection_rule() {
 
 #[test]
 fn bench_reports_the_check_apart_from_the_fallback() {
-    use cubetrace::bench::{self, BenchConfig, MethodKind};
+    use cubetrace::bench::{self, BenchConfig, Method};
     let ctx = gpu_context();
     let out = tempfile::tempdir().expect("temp dir");
     let cfg = BenchConfig {
         scenes: vec!["torus".into()],
-        methods: bench::method_grid(&[MethodKind::Compute], true),
+        methods: bench::method_grid(&[Method::Compute], true),
         width: 48,
         height: 36,
         frames: 1,
@@ -311,7 +312,7 @@ fn bench_reports_the_check_apart_from_the_fallback() {
     )
     .expect("bench");
     let (on, off) = (&on_report.runs[0], &off.runs[0]);
-    assert_eq!(on.kind, MethodKind::Compute);
+    assert_eq!(on.kind, Method::Compute);
     assert!(on.checked_share > 0.0, "{on:?}");
     assert_eq!(off.checked_share, 0.0);
     assert_eq!(off.check_ns.median, 0.0);

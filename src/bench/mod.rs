@@ -17,9 +17,9 @@
 //! Invariants:
 //! - Every figure comes from the frames of this run; nothing is extrapolated. Frames are
 //!   deterministic, so the last frame's error is every frame's error.
-//! - A method is a [`MethodKind`] plus tracer options; the grid ([`fragment_grid`]) sweeps the
-//!   options of every kind for which [`MethodKind::traces`] holds, so a new GPU method (compute)
-//!   is one enum variant here plus its [`GpuMethod`].
+//! - A method is a [`Method`] plus tracer options; the grid ([`fragment_grid`]) sweeps the
+//!   options of every kind for which [`Method::traces`] holds, so a new GPU method (compute)
+//!   is one [`Method`] variant.
 //! - "Cost" in the plot and in `ns/mirror px` is the tracing pass alone (`fragment_trace`,
 //!   `envmap`): capture, pyramid and G-buffer are listed per pass but are the same for every
 //!   tracing method of a scene and are not what the methods trade against error.
@@ -40,83 +40,16 @@ use crate::cpu::options::{TraceCriterion, TraceOptions, TraceSampling};
 use crate::metrics::{self, ErrorReport, PixelError, Traced};
 use crate::reference::{self, Frame};
 use crate::scene::{self, CmoPlacement, Scene};
-use crate::vk::frame::{Fallback, GpuFrame, GpuMethod, GpuRenderer, RenderOptions};
+use crate::vk::frame::{Fallback, GpuFrame, GpuRenderer, RenderOptions, pass_name};
 use crate::vk::{GpuContext, PassTime};
 
-/// The ways of computing reflections the harness knows.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum MethodKind {
-    /// The exact CPU ray tracer (ground truth).
-    Reference,
-    /// One cube-map lookup per pixel on the GPU.
-    Envmap,
-    /// Cubemap tracing in a deferred fragment pass.
-    Fragment,
-    /// Cubemap tracing in the compute path (thesis alg. 3; exact criterion only).
-    Compute,
-    /// Hi-Z screen-space reflections (its default options; iterations in the `cells` column).
-    Ssr,
-    /// Reflection-point search with virtual objects (Estalella et al. 2006); its iterations per
-    /// vertex (mean, max) in the counters.
-    ReflectionPoint,
-    /// Exact GPU ray tracing over a CWBVH (`--method bvh`): the peer a user would pick instead
-    /// of cubemap tracing; nodes visited per ray in the `cells` column, triangles tested in
-    /// `texels`.
-    Bvh,
-}
-
-impl MethodKind {
-    pub const ALL: [MethodKind; 7] = [
-        MethodKind::Reference,
-        MethodKind::Envmap,
-        MethodKind::Fragment,
-        MethodKind::Compute,
-        MethodKind::Ssr,
-        MethodKind::ReflectionPoint,
-        MethodKind::Bvh,
-    ];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            MethodKind::Reference => "reference",
-            MethodKind::Envmap => "envmap",
-            MethodKind::Fragment => "fragment",
-            MethodKind::Compute => "compute",
-            MethodKind::Ssr => "ssr",
-            MethodKind::ReflectionPoint => "reflection-point",
-            MethodKind::Bvh => "bvh",
-        }
-    }
-
-    pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|m| m.name() == name)
-    }
-
-    /// The GPU method, or `None` for the CPU reference.
-    pub fn gpu(self) -> Option<GpuMethod> {
-        match self {
-            MethodKind::Reference => None,
-            MethodKind::Envmap => Some(GpuMethod::Envmap),
-            MethodKind::Fragment => Some(GpuMethod::Fragment),
-            MethodKind::Compute => Some(GpuMethod::Compute),
-            MethodKind::Ssr => Some(GpuMethod::Ssr),
-            MethodKind::ReflectionPoint => Some(GpuMethod::ReflectionPoint),
-            MethodKind::Bvh => Some(GpuMethod::Bvh),
-        }
-    }
-
-    /// Whether the method runs the cubemap tracer, so that the tracer options matter.
-    pub fn traces(self) -> bool {
-        matches!(self, MethodKind::Fragment | MethodKind::Compute)
-    }
-}
+pub use crate::method::Method;
 
 /// One method with its parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MethodSpec {
-    pub kind: MethodKind,
-    /// Used when [`MethodKind::traces`].
+    pub kind: Method,
+    /// Used when [`Method::traces`].
     pub trace: TraceOptions,
     /// The non-reflector objects split into four this many times for this run
     /// ([`crate::cpu::reflection_point::subdivide_non_reflectors`]): the same surfaces, so the
@@ -128,11 +61,25 @@ pub struct MethodSpec {
 pub const RP_BENCH_SUBDIVIDE: u32 = 2;
 
 impl MethodSpec {
-    pub fn plain(kind: MethodKind) -> Self {
+    pub fn plain(kind: Method) -> Self {
         MethodSpec {
             kind,
             trace: TraceOptions::default(),
             subdivide: 0,
+        }
+    }
+
+    /// The renderer's options of this method in a bench run, with the CLI's default fallback
+    /// (`trace`: PSNR and FLIP measure the image a user would see; the fallback's share is
+    /// counted and timed apart).
+    pub fn render_options(&self, bounces: u32, reflector_check: bool) -> RenderOptions {
+        RenderOptions {
+            method: self.kind,
+            trace: self.trace,
+            fallback: Fallback::Trace,
+            bounces,
+            reflector_check,
+            ..RenderOptions::default()
         }
     }
 
@@ -147,7 +94,7 @@ impl MethodSpec {
             return format!("{}-sub{}", plain.label(), self.subdivide);
         }
         // The compute path has one setting: the exact criterion on its own hierarchy.
-        if !self.kind.traces() || self.kind == MethodKind::Compute {
+        if !self.kind.traces_cubemaps() || self.kind == Method::Compute {
             return self.kind.name().into();
         }
         let t = &self.trace;
@@ -173,7 +120,7 @@ impl MethodSpec {
 /// min/max pyramid and in strict mode, and the threshold and sign-change criteria with per-texel,
 /// 64 and 256 constant steps, and 256 constant-angle steps (`eps` stays at its default, 0.05
 /// world units: the built-in scenes are a few metres across).
-pub fn fragment_grid(kind: MethodKind) -> Vec<MethodSpec> {
+pub fn fragment_grid(kind: Method) -> Vec<MethodSpec> {
     let base = TraceOptions::default();
     let mut out = vec![
         TraceOptions {
@@ -214,18 +161,18 @@ pub fn fragment_grid(kind: MethodKind) -> Vec<MethodSpec> {
 }
 
 /// The full method list for the chosen kinds, in table order.
-pub fn method_grid(kinds: &[MethodKind], quick: bool) -> Vec<MethodSpec> {
+pub fn method_grid(kinds: &[Method], quick: bool) -> Vec<MethodSpec> {
     let mut out = Vec::new();
     for &kind in kinds {
-        if kind.traces() {
-            if quick || kind == MethodKind::Compute {
+        if kind.traces_cubemaps() {
+            if quick || kind == Method::Compute {
                 out.push(MethodSpec::plain(kind));
             } else {
                 out.extend(fragment_grid(kind));
             }
         } else {
             out.push(MethodSpec::plain(kind));
-            if kind == MethodKind::ReflectionPoint {
+            if kind == Method::ReflectionPoint {
                 out.push(MethodSpec {
                     subdivide: RP_BENCH_SUBDIVIDE,
                     ..MethodSpec::plain(kind)
@@ -278,7 +225,7 @@ impl Default for BenchConfig {
                 .iter()
                 .map(|(n, _)| n.to_string())
                 .collect(),
-            methods: method_grid(&MethodKind::ALL, false),
+            methods: method_grid(&Method::ALL, false),
             width: 160,
             height: 120,
             frames: 5,
@@ -379,7 +326,7 @@ impl Counters {
 pub struct RunResult {
     pub scene: String,
     pub method: String,
-    pub kind: MethodKind,
+    pub kind: Method,
     /// Tracer options as text (criterion, sampling, accel, steps, eps); empty for non-tracers.
     pub params: String,
     pub width: u32,
@@ -476,11 +423,11 @@ impl SceneRatios {
                 scenes.push(&r.scene);
             }
         }
-        let default_label = |kind: MethodKind| MethodSpec::plain(kind).label();
+        let default_label = |kind: Method| MethodSpec::plain(kind).label();
         scenes
             .into_iter()
             .map(|scene| {
-                let run = |kind: MethodKind| {
+                let run = |kind: Method| {
                     let label = default_label(kind);
                     runs.iter().find(|r| r.scene == scene && r.method == label)
                 };
@@ -488,24 +435,24 @@ impl SceneRatios {
                 let ratio = |a: Option<f64>, b: Option<f64>| Some(a? / b?);
                 let floor = |kind| run(kind).and_then(|r| r.floor).map(|f| f.ratio);
                 let (refr, fragment, compute) = (
-                    per_ray(MethodKind::Reference),
-                    per_ray(MethodKind::Fragment),
-                    per_ray(MethodKind::Compute),
+                    per_ray(Method::Reference),
+                    per_ray(Method::Fragment),
+                    per_ray(Method::Compute),
                 );
                 SceneRatios {
                     scene: scene.to_string(),
                     reference_ns_per_ray: refr,
-                    envmap_ns_per_ray: per_ray(MethodKind::Envmap),
+                    envmap_ns_per_ray: per_ray(Method::Envmap),
                     fragment_ns_per_ray: fragment,
                     compute_ns_per_ray: compute,
-                    ssr_ns_per_ray: per_ray(MethodKind::Ssr),
-                    bvh_ns_per_ray: per_ray(MethodKind::Bvh),
-                    compute_over_bvh: ratio(compute, per_ray(MethodKind::Bvh)),
+                    ssr_ns_per_ray: per_ray(Method::Ssr),
+                    bvh_ns_per_ray: per_ray(Method::Bvh),
+                    compute_over_bvh: ratio(compute, per_ray(Method::Bvh)),
                     fragment_over_reference: ratio(fragment, refr),
                     compute_over_reference: ratio(compute, refr),
                     compute_over_fragment: ratio(compute, fragment),
-                    fragment_floor: floor(MethodKind::Fragment),
-                    compute_floor: floor(MethodKind::Compute),
+                    fragment_floor: floor(Method::Fragment),
+                    compute_floor: floor(Method::Compute),
                 }
             })
             .collect()
@@ -627,18 +574,10 @@ fn check_memory(ctx: &GpuContext, cfg: &BenchConfig, prepared: &[(Scene, Camera)
         let device = cfg
             .methods
             .iter()
-            .filter_map(|m| Some((m.kind.gpu()?, m.trace)))
-            .map(|(g, trace)| {
-                crate::vk::budget::device_bytes(
-                    camera.width,
-                    camera.height,
-                    g,
-                    cmos,
-                    scene.cmo.resolution,
-                    scene.captures_reflectors(),
-                    &trace,
-                )
-                .total()
+            .filter(|m| m.kind.is_gpu())
+            .map(|m| {
+                let options = m.render_options(cfg.bounces, cfg.reflector_check);
+                crate::vk::budget::estimate(scene, camera, &options).total()
             })
             .max()
             .unwrap_or(0);
@@ -719,7 +658,7 @@ pub fn run_gpu(
     ctx: &GpuContext,
     scene: &Scene,
     camera: &Camera,
-    method: GpuMethod,
+    method: Method,
     trace: TraceOptions,
     warmup: u32,
     frames: u32,
@@ -837,16 +776,12 @@ pub fn run(
     if cfg.methods.is_empty() || cfg.scenes.is_empty() {
         bail!("nothing to run: no scenes or no methods chosen");
     }
-    let gpu_methods = cfg
-        .methods
-        .iter()
-        .filter(|m| m.kind.gpu().is_some())
-        .count();
+    let gpu_methods = cfg.methods.iter().filter(|m| m.kind.is_gpu()).count();
     let floor_runs = match cfg.floor {
         Some(_) => cfg
             .methods
             .iter()
-            .filter(|m| m.kind.gpu().is_some() && **m == MethodSpec::plain(m.kind))
+            .filter(|m| m.kind.is_gpu() && **m == MethodSpec::plain(m.kind))
             .count(),
         None => 0,
     };
@@ -875,7 +810,7 @@ pub fn run(
             scene: scene.name.clone(),
             method: spec.label(),
             kind: spec.kind,
-            params: if spec.kind.traces() {
+            params: if spec.kind.traces_cubemaps() {
                 let t = &spec.trace;
                 format!(
                     "criterion={:?} sampling={:?} accel={} steps={} eps={}",
@@ -910,7 +845,7 @@ pub fn run(
             heatmap: None,
         };
         for spec in &cfg.methods {
-            let Some(gpu) = spec.kind.gpu() else {
+            let Some(gpu) = spec.kind.is_gpu().then_some(spec.kind) else {
                 let wall = Stats::of(&refr.wall_ns).unwrap_or_default();
                 let reflected = Stats::of(&refr.reflected_ns).unwrap_or_default();
                 runs.push(RunResult {
@@ -925,12 +860,10 @@ pub fn run(
                 continue;
             };
             let label = spec.label();
-            let bounces_ok = match gpu {
-                GpuMethod::Compute | GpuMethod::Bvh => true,
-                GpuMethod::Fragment => spec.trace.criterion == TraceCriterion::Exact,
-                _ => false,
-            };
-            if cfg.bounces != 1 && !bounces_ok {
+            if gpu
+                .check_bounces(cfg.bounces, crate::vk::bounce::MAX_BOUNCES, &spec.trace)
+                .is_err()
+            {
                 log::warn!(
                     "{name}: {label} traces one reflection: skipped at --bounces {}",
                     cfg.bounces
@@ -948,15 +881,7 @@ pub fn run(
             } else {
                 &scene
             };
-            let options = RenderOptions {
-                method: gpu,
-                trace: spec.trace,
-                // As `run_gpu`: the CLI's default fallback.
-                fallback: Fallback::Trace,
-                bounces: cfg.bounces,
-                reflector_check: cfg.reflector_check,
-                ..RenderOptions::default()
-            };
+            let options = spec.render_options(cfg.bounces, cfg.reflector_check);
             let g = run_gpu_with(ctx, scene, &camera, options, cfg.warmup, cfg.frames)
                 .with_context(|| format!("scene '{name}', method {label}"))?;
             let traced = g.frame.traced();
@@ -975,7 +900,7 @@ pub fn run(
                 scene.cmo.resolution,
             );
             let passes = pass_stats(&g.pass_ns);
-            let trace_ns = frame_stats(&g.pass_ns, Some(gpu.pass_name()));
+            let trace_ns = frame_stats(&g.pass_ns, Some(pass_name(gpu)));
             let total_ns = frame_stats(&g.pass_ns, None);
             let floor = match cfg.floor {
                 Some((w, h)) if *spec == MethodSpec::plain(spec.kind) => {
@@ -987,7 +912,7 @@ pub fn run(
                     };
                     let f = run_gpu(ctx, scene, &small, gpu, spec.trace, cfg.warmup, cfg.frames)
                         .with_context(|| format!("scene '{name}', method {label} at {w}x{h}"))?;
-                    let small_ns = frame_stats(&f.pass_ns, Some(gpu.pass_name()));
+                    let small_ns = frame_stats(&f.pass_ns, Some(pass_name(gpu)));
                     bar.inc(1);
                     Some(FloorRun {
                         width: w,
@@ -1114,7 +1039,7 @@ mod tests {
 
     #[test]
     fn labels_are_unique_across_the_grid() {
-        let grid = method_grid(&MethodKind::ALL, false);
+        let grid = method_grid(&Method::ALL, false);
         let mut labels: Vec<String> = grid.iter().map(MethodSpec::label).collect();
         let n = labels.len();
         labels.sort();
@@ -1123,7 +1048,7 @@ mod tests {
         assert!(labels.contains(&"fragment-exact-mip".to_string()));
         assert!(labels.contains(&"fragment-sign-angle256".to_string()));
         // Negative: two specs differing only in steps must get different labels.
-        let a = fragment_grid(MethodKind::Fragment)[4];
+        let a = fragment_grid(Method::Fragment)[4];
         let mut b = a;
         b.trace.steps += 1;
         assert_ne!(a.label(), b.label());
@@ -1131,13 +1056,13 @@ mod tests {
 
     #[test]
     fn method_names_round_trip() {
-        for m in MethodKind::ALL {
-            assert_eq!(MethodKind::from_name(m.name()), Some(m));
+        for m in Method::ALL {
+            assert_eq!(Method::from_name(m.name()), Some(m));
         }
-        assert_eq!(MethodKind::from_name("raytrace"), None);
+        assert_eq!(Method::from_name("raytrace"), None);
     }
 
-    fn run(scene: &str, kind: MethodKind, ns: f64, rays: usize, floor: Option<f64>) -> RunResult {
+    fn run(scene: &str, kind: Method, ns: f64, rays: usize, floor: Option<f64>) -> RunResult {
         RunResult {
             scene: scene.into(),
             method: MethodSpec::plain(kind).label(),
@@ -1182,14 +1107,14 @@ mod tests {
 
     #[test]
     fn scene_ratios_pair_the_default_settings_per_scene() {
-        let mut strict = run("a", MethodKind::Fragment, 1.0, 100, None);
+        let mut strict = run("a", Method::Fragment, 1.0, 100, None);
         strict.method = "fragment-exact-mip-strict".into();
         let runs = vec![
-            run("a", MethodKind::Reference, 1000.0, 100, None),
+            run("a", Method::Reference, 1000.0, 100, None),
             strict,
-            run("a", MethodKind::Fragment, 4000.0, 100, Some(0.5)),
-            run("a", MethodKind::Compute, 2000.0, 50, Some(0.1)),
-            run("b", MethodKind::Compute, 1.0, 1, None),
+            run("a", Method::Fragment, 4000.0, 100, Some(0.5)),
+            run("a", Method::Compute, 2000.0, 50, Some(0.1)),
+            run("b", Method::Compute, 1.0, 1, None),
         ];
         let r = SceneRatios::of(&runs);
         assert_eq!(r.len(), 2);

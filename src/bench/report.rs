@@ -17,14 +17,14 @@ use std::path::{Path, PathBuf};
 use anyhow::Result;
 
 use super::plot::{self, Point};
-use super::{BenchReport, MethodKind, RunResult};
+use super::{BenchReport, Method, RunResult};
 use crate::output::write_atomic;
 
 /// One method pooled over the scenes of a report.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Summary {
     pub method: String,
-    pub kind: MethodKind,
+    pub kind: Method,
     pub scenes: usize,
     pub mirror_pixels: usize,
     pub trace_ns_per_mirror_px: f64,
@@ -225,7 +225,7 @@ pub fn runs_table(report: &BenchReport) -> String {
             num(r.fallback_ns.median * 1e-6, 3),
             pct(r.checked_share),
             num(r.check_ns.median * 1e-6, 3),
-            if r.kind == MethodKind::Reference {
+            if r.kind == Method::Reference {
                 "-".into()
             } else {
                 num(r.total_ns.median * 1e-6, 2)
@@ -320,7 +320,7 @@ pub const PLOT_FLOOR_PCT: f64 = 0.01;
 pub fn speed_error_svg(report: &BenchReport) -> Result<String> {
     let points: Vec<Point> = summarise(&report.runs)
         .into_iter()
-        .filter(|m| m.kind != MethodKind::Reference)
+        .filter(|m| m.kind != Method::Reference)
         .map(|m| Point {
             label: m.method,
             cost: m.trace_ns_per_mirror_px,
@@ -346,7 +346,7 @@ pub fn speed_error_scenes_svg(report: &BenchReport) -> Result<String> {
         .runs
         .iter()
         .filter(|r| {
-            r.kind != MethodKind::Reference && r.method == super::MethodSpec::plain(r.kind).label()
+            r.kind != Method::Reference && r.method == super::MethodSpec::plain(r.kind).label()
         })
         .map(|r| Point {
             label: format!("{}: {}", r.method, r.scene),
@@ -372,7 +372,7 @@ pub fn search_table(report: &BenchReport) -> String {
     let runs: Vec<&RunResult> = report
         .runs
         .iter()
-        .filter(|r| r.kind == MethodKind::ReflectionPoint)
+        .filter(|r| r.kind == Method::ReflectionPoint)
         .collect();
     if runs.is_empty() {
         return String::new();
@@ -434,7 +434,7 @@ mod tests {
         RunResult {
             scene: scene.into(),
             method: "envmap".into(),
-            kind: MethodKind::Envmap,
+            kind: Method::Envmap,
             params: String::new(),
             width: 10,
             height: 10,

@@ -46,12 +46,13 @@ use super::{
     prepare_scene, run_gpu, run_gpu_with, run_reference,
 };
 use crate::cpu::reflection_point::{RpOptions, SearchStats, subdivide_non_reflectors};
+use crate::method::Method;
 use crate::metrics::{self, ErrorReport, SameObject};
 use crate::output::write_atomic;
 use crate::scene::shapes::uv_sphere;
 use crate::scene::{Material, MeshInstance, Scene, Transform};
 use crate::vk::GpuContext;
-use crate::vk::frame::{Fallback, GpuMethod, RenderOptions};
+use crate::vk::frame::{Fallback, RenderOptions, pass_name};
 use crate::vk::reflection_point::shown_objects;
 
 /// Which quantity a point varies.
@@ -239,7 +240,8 @@ pub fn run(
     let gpu = cfg
         .method
         .kind
-        .gpu()
+        .is_gpu()
+        .then_some(cfg.method.kind)
         .ok_or_else(|| anyhow::anyhow!("--scaling measures a GPU method, not the reference"))?;
     let plans: Vec<(Axis, Vec<PlanPoint>)> = cfg
         .axes
@@ -254,9 +256,12 @@ pub fn run(
         // The triangle axis also runs compute and bvh (each once).
         let mut methods = vec![(cfg.method, gpu)];
         if axis == Axis::Triangles {
-            for kind in [super::MethodKind::Compute, super::MethodKind::Bvh] {
+            for kind in [super::Method::Compute, super::Method::Bvh] {
                 let spec = MethodSpec::plain(kind);
-                if let (Some(g), true) = (kind.gpu(), methods.iter().all(|(m, _)| *m != spec)) {
+                if let (Some(g), true) = (
+                    kind.is_gpu().then_some(kind),
+                    methods.iter().all(|(m, _)| *m != spec),
+                ) {
                     methods.push((spec, g));
                 }
             }
@@ -272,7 +277,7 @@ pub fn run(
                     ctx, &scene, &camera, gpu, spec.trace, cfg.warmup, cfg.frames,
                 )?;
                 let mirror = g.frame.mirror_pixels();
-                let trace_ns = frame_stats(&g.pass_ns, Some(gpu.pass_name()));
+                let trace_ns = frame_stats(&g.pass_ns, Some(pass_name(gpu)));
                 points.push(ScalingPoint {
                     axis,
                     method: spec.label(),
@@ -332,7 +337,7 @@ fn tessellation_curve(
             let mut sub = scene.clone();
             subdivide_non_reflectors(&mut sub, level);
             let options = RenderOptions {
-                method: GpuMethod::ReflectionPoint,
+                method: Method::ReflectionPoint,
                 fallback: Fallback::Envmap,
                 reflection_point: RpOptions {
                     search_scale: scale,

@@ -4,9 +4,12 @@
 //! size of the scene's files, small against frames and CMOs at the sizes where a refusal matters.
 
 use super::compute::AppendedRay;
-use super::frame::{GpuMethod, PixelRecord, capture_contents};
+use super::frame::{PixelRecord, RenderOptions, capture_contents};
+use crate::camera::Camera;
 use crate::cpu::options::TraceOptions;
 use crate::cubemap::pyramid::{hier32_len, mip_len};
+use crate::method::Method;
+use crate::scene::Scene;
 
 /// Bytes per texel of one face of one CMO: f32 distances (`cmo_distance`), RGBA f32 colour
 /// (`cmo_colour`), the capture pass's f32 distance target, and with self-reflections the
@@ -34,22 +37,22 @@ pub fn cmo_bytes_per_texel_with(
 /// for `bvh` and for every method that can leave a pixel unresolved (the `trace` fallback's
 /// queue, counted whatever the fallback: an upper bound). The CWBVH itself is per triangle, like
 /// the scene's buffers, and not counted.
-pub fn frame_bytes_per_pixel(method: GpuMethod) -> u64 {
+pub fn frame_bytes_per_pixel(method: Method) -> u64 {
     let records = size_of::<PixelRecord>() as u64;
     let gbuffer = 3 * 16 + 4 + 4;
     let bvh_queue = size_of::<super::bvh::BvhRay>() as u64;
     let method_bytes = match method {
-        GpuMethod::Compute => size_of::<AppendedRay>() as u64 + 16 + bvh_queue,
+        Method::Compute => size_of::<AppendedRay>() as u64 + 16 + bvh_queue,
         // The Hi-Z pyramid: f32 cells, about 4/3 per pixel over all levels (2 on a one-pixel-wide
         // frame; counted as 2), plus the ssr pass's parameters (per frame, negligible).
-        GpuMethod::Ssr => 2 * 4 + bvh_queue,
+        Method::Ssr => 2 * 4 + bvh_queue,
         // The reflection-point method: the reflector's position and normal textures, the
         // virtual objects' colour and point (RGBA f32 each) and two f32 depth buffers, at search
         // scale 1 (T_P, T_N and their depth grow with the scale's square: not counted); its
         // per-vertex buffer is per scene vertex (small beside these, not counted).
-        GpuMethod::ReflectionPoint => 4 * 16 + 2 * 4 + bvh_queue,
-        GpuMethod::Fragment | GpuMethod::Bvh => bvh_queue,
-        GpuMethod::Envmap => 0,
+        Method::ReflectionPoint => 4 * 16 + 2 * 4 + bvh_queue,
+        Method::Fragment | Method::Bvh => bvh_queue,
+        Method::Envmap | Method::Reference => 0,
     };
     records + 16 + gbuffer + method_bytes
 }
@@ -75,7 +78,7 @@ impl DeviceBytes {
 pub fn device_bytes(
     width: u32,
     height: u32,
-    method: GpuMethod,
+    method: Method,
     cmos: u32,
     cube_size: u32,
     self_reflections: bool,
@@ -83,18 +86,18 @@ pub fn device_bytes(
 ) -> DeviceBytes {
     let pixels = u64::from(width) * u64::from(height);
     // `bvh` captures one texel per face (`GpuRenderer`): nothing reads its CMOs.
-    let cube_size = if method == GpuMethod::Bvh {
-        1
-    } else {
-        cube_size
-    };
+    let cube_size = if method == Method::Bvh { 1 } else { cube_size };
     let face = u64::from(cube_size) * u64::from(cube_size);
     let texels = u64::from(cmos) * 6 * face;
     // [min, max] f32 pairs per cell.
     let acceleration = match method {
-        GpuMethod::Fragment => u64::from(cmos) * mip_len(cube_size) as u64 * 8,
-        GpuMethod::Compute => u64::from(cmos) * hier32_len(cube_size) as u64 * 8,
-        GpuMethod::Envmap | GpuMethod::Ssr | GpuMethod::ReflectionPoint | GpuMethod::Bvh => 0,
+        Method::Fragment => u64::from(cmos) * mip_len(cube_size) as u64 * 8,
+        Method::Compute => u64::from(cmos) * hier32_len(cube_size) as u64 * 8,
+        Method::Envmap
+        | Method::Ssr
+        | Method::ReflectionPoint
+        | Method::Bvh
+        | Method::Reference => 0,
     };
     DeviceBytes {
         frame: pixels * frame_bytes_per_pixel(method),
@@ -123,6 +126,31 @@ pub fn reflector_check_bytes(width: u32, height: u32, runs: bool) -> u64 {
         return 0;
     }
     u64::from(width) * u64::from(height) * size_of::<super::bvh::BvhRay>() as u64
+}
+
+/// The device memory of one render of `scene` seen by `camera` with `options`: the CMOs, the
+/// frame's buffers, the bounce queues and the reflector check's queue. The one estimate that
+/// `render` and `bench` check before anything is allocated.
+pub fn estimate(scene: &Scene, camera: &Camera, options: &RenderOptions) -> DeviceBytes {
+    let (width, height) = (camera.width, camera.height);
+    let base = device_bytes(
+        width,
+        height,
+        options.method,
+        scene.cmo_centres().len() as u32,
+        scene.cmo.resolution,
+        scene.captures_reflectors(),
+        &options.trace,
+    );
+    let check = options.reflector_check
+        && options.method.has_reflector_check()
+        && !scene.check_triangles().is_empty();
+    DeviceBytes {
+        frame: base.frame
+            + bounce_bytes(width, height, options.bounces)
+            + reflector_check_bytes(width, height, check),
+        ..base
+    }
 }
 
 #[cfg(test)]
@@ -155,27 +183,27 @@ mod tests {
     #[test]
     fn sizes_grow_with_what_they_depend_on() {
         let exact = TraceOptions::default();
-        let base = device_bytes(160, 120, GpuMethod::Fragment, 1, 256, false, &exact);
+        let base = device_bytes(160, 120, Method::Fragment, 1, 256, false, &exact);
         // 6 * 256^2 texels of 16 bytes (distance and ID, each in the CMO and the capture's
         // target), plus the pyramid: about 6.3 MiB + 2.x MiB.
         assert!(base.cmo > 6 * 256 * 256 * 16, "{base:?}");
         assert!(base.cmo < 6 * 256 * 256 * 24, "{base:?}");
         assert!(base.frame >= 160 * 120 * (96 + 16 + 52), "{base:?}");
         // Negative: each input changes the estimate the way it should.
-        let twice = device_bytes(160, 120, GpuMethod::Fragment, 2, 256, false, &exact);
+        let twice = device_bytes(160, 120, Method::Fragment, 2, 256, false, &exact);
         assert!(twice.cmo > 2 * base.cmo - 6 * 256 * 256);
-        let big = device_bytes(320, 240, GpuMethod::Fragment, 1, 256, false, &exact);
+        let big = device_bytes(320, 240, Method::Fragment, 1, 256, false, &exact);
         assert_eq!(big.frame, 4 * base.frame);
-        let selfr = device_bytes(160, 120, GpuMethod::Fragment, 1, 256, true, &exact);
+        let selfr = device_bytes(160, 120, Method::Fragment, 1, 256, true, &exact);
         assert!(selfr.cmo > base.cmo);
-        let compute = device_bytes(160, 120, GpuMethod::Compute, 1, 256, false, &exact);
+        let compute = device_bytes(160, 120, Method::Compute, 1, 256, false, &exact);
         assert!(compute.frame > base.frame);
-        let envmap = device_bytes(160, 120, GpuMethod::Envmap, 1, 256, false, &exact);
+        let envmap = device_bytes(160, 120, Method::Envmap, 1, 256, false, &exact);
         let threshold = TraceOptions {
             criterion: crate::cpu::options::TraceCriterion::Threshold,
             ..exact
         };
-        let approx = device_bytes(160, 120, GpuMethod::Fragment, 1, 256, false, &threshold);
+        let approx = device_bytes(160, 120, Method::Fragment, 1, 256, false, &threshold);
         assert!(envmap.cmo < approx.cmo && base.cmo < approx.cmo);
         assert_eq!(approx.cmo - base.cmo, 6 * 256 * 256 * 16, "the colour");
     }

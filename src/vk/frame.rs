@@ -61,49 +61,30 @@ use crate::camera::Camera;
 use crate::cpu::options::TraceOptions;
 use crate::cpu::reflection_point::{RpOptions, SearchStats};
 use crate::cpu::ssr::SsrOptions;
+use crate::method::Method;
 use crate::metrics::Traced;
 use crate::ranges::FrameRanges;
 use crate::scene::Scene;
 use crate::scene::gpu_data::GpuSceneData;
 
-/// How the GPU computes reflections.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum GpuMethod {
-    /// Cubemap tracing in a deferred fragment pass (thesis alg. 1, 2, 4).
-    Fragment,
-    /// One cubemap lookup per pixel, no parallax (the baseline).
-    Envmap,
-    /// Thesis alg. 3: mirror rays appended to a queue, traced by a compute pass over the
-    /// 8x4/4x8 hierarchy with subgroup ballots (exact criterion only).
-    Compute,
-    /// Hi-Z screen-space reflections (Uludag 2014): a min pyramid of the G-buffer's depth and
-    /// the chapter's hierarchical ray march; the CMOs only feed the fallback.
-    Ssr,
-    /// Reflection-point search with virtual objects (Estalella et al. 2006): per scene vertex a
-    /// local search over the reflector's position and normal textures, then the virtual objects
-    /// rasterised into the mirror pixels; the CMOs only feed the fallback.
-    ReflectionPoint,
-    /// Exact ray tracing of the reflected rays against the triangles over a CWBVH built on the
-    /// CPU by `obvhs` ([`super::bvh`]): the peer a user would pick instead of cubemap tracing.
-    Bvh,
-}
-
-impl GpuMethod {
-    /// The tracing pass's name.
-    pub fn pass_name(self) -> &'static str {
-        self.pass().name
-    }
-
-    fn pass(self) -> &'static Pass {
-        match self {
-            GpuMethod::Fragment => &FRAGMENT_TRACE,
-            GpuMethod::Envmap => &ENVMAP,
-            GpuMethod::Compute => &COMPUTE_TRACE,
-            GpuMethod::Ssr => &SSR,
-            GpuMethod::ReflectionPoint => &RP_SEARCH,
-            GpuMethod::Bvh => &BVH_TRACE,
+/// The tracing pass of a GPU method (its timestamp scope in the harness's tables).
+pub fn trace_pass(method: Method) -> &'static Pass {
+    match method {
+        Method::Fragment => &FRAGMENT_TRACE,
+        Method::Envmap => &ENVMAP,
+        Method::Compute => &COMPUTE_TRACE,
+        Method::Ssr => &SSR,
+        Method::ReflectionPoint => &RP_SEARCH,
+        Method::Bvh => &BVH_TRACE,
+        Method::Reference => {
+            unreachable!("the reference is no GPU method: GpuRenderer::new refuses it")
         }
     }
+}
+
+/// The tracing pass's name of a GPU method.
+pub fn pass_name(method: Method) -> &'static str {
+    trace_pass(method).name
 }
 
 /// What fills a mirror pixel whose ray no CMO could resolve.
@@ -133,7 +114,7 @@ pub enum Fallback {
 /// Options of a GPU render.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderOptions {
-    pub method: GpuMethod,
+    pub method: Method,
     /// Tracer options (criterion, sampling, acceleration, steps); used by `Fragment`.
     pub trace: TraceOptions,
     pub fallback: Fallback,
@@ -153,7 +134,7 @@ pub struct RenderOptions {
 impl Default for RenderOptions {
     fn default() -> Self {
         RenderOptions {
-            method: GpuMethod::Fragment,
+            method: Method::Fragment,
             trace: TraceOptions::default(),
             fallback: Fallback::default(),
             ssr: SsrOptions::default(),
@@ -170,11 +151,11 @@ impl Default for RenderOptions {
 /// them, and composite's environment-map fallback shades from them, whatever the method. The
 /// colour only where a hit takes its texel's colour: the environment-map method and the
 /// thesis's approximate criteria (fragment path). No fallback needs it.
-pub fn capture_contents(method: GpuMethod, trace: &TraceOptions) -> CaptureContents {
+pub fn capture_contents(method: Method, trace: &TraceOptions) -> CaptureContents {
     CaptureContents {
-        colour: method == GpuMethod::Envmap
-            || (method == GpuMethod::Fragment && trace.approx().is_some()),
-        triangle_ids: method != GpuMethod::Envmap,
+        colour: method == Method::Envmap
+            || (method == Method::Fragment && trace.approx().is_some()),
+        triangle_ids: method != Method::Envmap,
     }
 }
 
@@ -274,12 +255,12 @@ pub struct GpuFrame {
     pub records: Vec<PixelRecord>,
     /// GPU time per pass, in recording order.
     pub pass_times: Vec<PassTime>,
-    /// The BVH queue's counter: rays traced and rays cut by the loop cap ([`GpuMethod::Bvh`]:
+    /// The BVH queue's counter: rays traced and rays cut by the loop cap ([`Method::Bvh`]:
     /// every mirror ray; [`Fallback::Trace`]: the fallback rays).
     pub bvh: Option<BvhCounter>,
-    /// Ray count, subgroup size and per-ray counters ([`GpuMethod::Compute`] only).
+    /// Ray count, subgroup size and per-ray counters ([`Method::Compute`] only).
     pub compute: Option<ComputeStats>,
-    /// Iteration counts of the searches ([`GpuMethod::ReflectionPoint`] only).
+    /// Iteration counts of the searches ([`Method::ReflectionPoint`] only).
     pub search: Option<SearchStats>,
 }
 
@@ -380,39 +361,29 @@ impl GpuFrame {
     }
 }
 
-/// Refuses a bounce count the method cannot trace: more than [`MAX_BOUNCES`], or other than 1
-/// for a method whose records do not name the hit triangle (`envmap`, `ssr`,
-/// `reflection-point`), and N >= 2 for `fragment` with another criterion than the exact one
-/// (no verified hits).
-fn check_bounces(options: &RenderOptions) -> VkResult<()> {
-    let n = options.bounces;
-    let refuse = |detail: String| {
+/// Refuses what the method cannot do ([`Method::check_bounces`], [`Method::check_trace`]) and
+/// the reference, which is no GPU method.
+fn check_method(options: &RenderOptions) -> VkResult<()> {
+    let refuse = |what: &str, detail: String| {
         Err(VkError::Usage {
-            what: "bounces".into(),
+            what: what.into(),
             detail,
         })
     };
-    if n > MAX_BOUNCES {
-        return refuse(format!("{n}: at most {MAX_BOUNCES}"));
+    if !options.method.is_gpu() {
+        return refuse(
+            "method",
+            "--method reference runs on the CPU (crate::reference), not in the GPU renderer".into(),
+        );
     }
-    let named = match options.method {
-        GpuMethod::Compute | GpuMethod::Bvh => true,
-        GpuMethod::Fragment => {
-            n == 0 || options.trace.criterion == crate::cpu::options::TraceCriterion::Exact
-        }
-        GpuMethod::Envmap | GpuMethod::Ssr | GpuMethod::ReflectionPoint => false,
-    };
-    if n != 1 && !named {
-        return refuse(format!(
-            "{n}: method {:?}{} does not name the triangle it hits, so it traces one reflection \
-             only (use compute, bvh or fragment with the exact criterion)",
-            options.method,
-            if options.method == GpuMethod::Fragment {
-                format!(" with criterion {:?}", options.trace.criterion)
-            } else {
-                String::new()
-            }
-        ));
+    if let Err(e) = options
+        .method
+        .check_bounces(options.bounces, MAX_BOUNCES, &options.trace)
+    {
+        return refuse("bounces", e);
+    }
+    if let Err(e) = options.method.check_trace(&options.trace) {
+        return refuse("method", e);
     }
     Ok(())
 }
@@ -501,7 +472,7 @@ impl GpuRenderer {
         }
         // `bvh` traces without the CMOs: one texel per face keeps the capture (and the envmap
         // fallback's binding) at no cost.
-        let size = if options.method == GpuMethod::Bvh {
+        let size = if options.method == Method::Bvh {
             1
         } else {
             scene.cmo.resolution
@@ -516,18 +487,9 @@ impl GpuRenderer {
                 .map(|v| Vec3::from_array(v.position)),
             ranges.near,
         );
-        let needs_pyramid = options.method == GpuMethod::Fragment;
-        check_bounces(&options)?;
-        if options.method == GpuMethod::Compute {
-            if options.trace.criterion != crate::cpu::options::TraceCriterion::Exact {
-                return Err(usage(
-                    "compute method",
-                    format!(
-                        "criterion {:?}: the compute path implements the exact criterion only",
-                        options.trace.criterion
-                    ),
-                ));
-            }
+        let needs_pyramid = options.method == Method::Fragment;
+        check_method(&options)?;
+        if options.method == Method::Compute {
             super::compute::check_device(ctx)?;
         }
         let contents = capture_contents(options.method, &options.trace);
@@ -605,9 +567,9 @@ impl GpuRenderer {
         let mut rp = None;
         // The BVH: the method's own rays, or the fallback's (a method that cannot leave a record
         // unresolved needs none: envmap, bvh itself).
-        let bvh_kind = if options.method == GpuMethod::Bvh {
+        let bvh_kind = if options.method == Method::Bvh {
             Some(AppendKind::Mirror)
-        } else if options.method == GpuMethod::Envmap {
+        } else if options.method == Method::Envmap {
             None
         } else if options.fallback == Fallback::Trace {
             Some(AppendKind::Unresolved)
@@ -630,7 +592,7 @@ impl GpuRenderer {
             None => None,
         };
         let check = if options.reflector_check
-            && matches!(options.method, GpuMethod::Fragment | GpuMethod::Compute)
+            && matches!(options.method, Method::Fragment | Method::Compute)
         {
             ReflectorCheck::new(
                 ctx,
@@ -660,7 +622,7 @@ impl GpuRenderer {
                 t_hi,
             )?)
         };
-        let (trace, compute) = if options.method == GpuMethod::Compute {
+        let (trace, compute) = if options.method == Method::Compute {
             let path = ComputePath::new(
                 ctx,
                 &cmo,
@@ -671,7 +633,7 @@ impl GpuRenderer {
                 (width, height),
             )?;
             (None, Some(path))
-        } else if options.method == GpuMethod::Ssr {
+        } else if options.method == Method::Ssr {
             let view_proj = camera.view_proj(ranges.near);
             ssr = Some(SsrPasses::new(
                 ctx,
@@ -682,9 +644,9 @@ impl GpuRenderer {
                 &options.ssr,
             )?);
             (None, None)
-        } else if options.method == GpuMethod::Bvh {
+        } else if options.method == Method::Bvh {
             (None, None)
-        } else if options.method == GpuMethod::ReflectionPoint {
+        } else if options.method == Method::ReflectionPoint {
             rp = Some(ReflectionPointPasses::new(
                 ctx,
                 &data,
@@ -698,7 +660,7 @@ impl GpuRenderer {
             (None, None)
         } else {
             // The fragment pass's specialised entry point when the options allow it.
-            let entry = if options.method == GpuMethod::Fragment
+            let entry = if options.method == Method::Fragment
                 && super::trace_probe::exact_mip_only(&options.trace)
             {
                 "fs_exact_mip"
@@ -707,7 +669,7 @@ impl GpuRenderer {
             };
             let trace = GraphicsPipeline::new(
                 ctx,
-                options.method.pass(),
+                trace_pass(options.method),
                 &GraphicsDesc {
                     vertex: "vs_fullscreen",
                     fragment: entry,
@@ -725,9 +687,9 @@ impl GpuRenderer {
                         (3, Resource::Buffer(&records)),
                     ],
                 )?,
-                trace.bind_group(1, &cmo.resources_for(options.method.pass(), entry))?,
+                trace.bind_group(1, &cmo.resources_for(trace_pass(options.method), entry))?,
             ];
-            if options.method == GpuMethod::Fragment {
+            if options.method == Method::Fragment {
                 // The scene, for verified hits (fragment_trace's SCENE_GROUP).
                 trace_sets.push(trace.bind_group(2, &scene_buffers.resources())?);
             }
@@ -788,22 +750,22 @@ impl GpuRenderer {
         &self.cmo
     }
 
-    /// The compute path's passes ([`GpuMethod::Compute`] only).
+    /// The compute path's passes ([`Method::Compute`] only).
     pub fn compute_path(&self) -> Option<&ComputePath> {
         self.compute.as_ref()
     }
 
-    /// The screen-space method's passes ([`GpuMethod::Ssr`] only).
+    /// The screen-space method's passes ([`Method::Ssr`] only).
     pub fn ssr_passes(&self) -> Option<&SsrPasses> {
         self.ssr.as_ref()
     }
 
-    /// The reflection-point method's passes ([`GpuMethod::ReflectionPoint`] only).
+    /// The reflection-point method's passes ([`Method::ReflectionPoint`] only).
     pub fn reflection_point_passes(&self) -> Option<&ReflectionPointPasses> {
         self.rp.as_ref()
     }
 
-    /// The BVH passes ([`GpuMethod::Bvh`] or [`Fallback::Trace`]).
+    /// The BVH passes ([`Method::Bvh`] or [`Fallback::Trace`]).
     pub fn bvh_passes(&self) -> Option<&BvhPasses> {
         self.bvh.as_ref()
     }
@@ -849,7 +811,7 @@ impl GpuRenderer {
             // `bvh` reads no CMO: its 1-texel capture runs once, to leave the images the
             // composite pass binds in their layout (it still rasterises the whole scene, which
             // would cost every frame as much as a real capture's draw).
-            if self.options.method != GpuMethod::Bvh || self.frames == 0 {
+            if self.options.method != Method::Bvh || self.frames == 0 {
                 scoped("capture", &mut || {
                     self.capture.record(rec, &self.cmo, self.background)
                 })?;
@@ -881,7 +843,7 @@ impl GpuRenderer {
             // `--bounces 0`: no ray is traced.
             let traced = self.options.bounces != 0;
             if let Some((trace, sets)) = self.trace.as_ref().filter(|_| traced) {
-                scoped(self.options.method.pass_name(), &mut || {
+                scoped(pass_name(self.options.method), &mut || {
                     let target = RenderTarget {
                         width: self.width,
                         height: self.height,
@@ -904,7 +866,7 @@ impl GpuRenderer {
                 scoped(REFLECTOR_CHECK_PASS, &mut || c.record(rec))?;
             }
             if let Some(b) = self.bvh.as_ref().filter(|_| traced) {
-                if self.options.method == GpuMethod::Bvh {
+                if self.options.method == Method::Bvh {
                     scoped(BVH_QUEUE.name, &mut || {
                         b.record_queue(rec);
                         Ok(())
