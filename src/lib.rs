@@ -1,6 +1,7 @@
 //! cubetrace: accurate mirror reflections on curved surfaces by cubemap tracing.
 //!
 //! Module map (everything outside [`vk`] forbids `unsafe`):
+//! - [`app`]: the commands of the `cubetrace` binary (render, bench, scene export) as functions.
 //! - [`method`]: [`Method`], the one method type of the CLI, the harness and the renderer.
 //! - [`scene`]: scene files (TOML + OBJ/MTL/PNG), built-in scenes, mesh hygiene.
 //! - [`camera`]: the camera and its pixel convention (Vulkan's, pixel centres at +0.5).
@@ -15,6 +16,7 @@
 //! - [`vk`]: the Vulkan backend (ash); the only module tree that may use `unsafe`.
 #![deny(unsafe_op_in_unsafe_fn)]
 
+pub mod app;
 pub mod bench;
 pub mod camera;
 pub mod cpu;

@@ -167,6 +167,32 @@ pub fn device_available(heap: u64) -> Result<(u64, String)> {
     })
 }
 
+/// What a render may take: the host's and the device's memory, each with where the figure comes
+/// from. Render and bench hold their needs against one value of this, so that a test can set
+/// both figures without the machine's.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Limits {
+    /// [`host_available`]: `None` where nothing tells (nothing is refused on the host).
+    pub host: Option<(u64, String)>,
+    /// [`device_available`].
+    pub device: (u64, String),
+    /// The device's memory is the host's (a CPU driver such as lavapipe): the device's bytes
+    /// count against the host's limit too.
+    pub device_is_host: bool,
+}
+
+impl Limits {
+    /// The limits of this machine for a device whose largest device-local heap has `heap` bytes;
+    /// `device_is_cpu` as [`crate::vk::GpuContext::device_is_cpu`].
+    pub fn of_device(heap: u64, device_is_cpu: bool) -> Result<Self> {
+        Ok(Limits {
+            host: host_available()?,
+            device: device_available(heap)?,
+            device_is_host: device_is_cpu,
+        })
+    }
+}
+
 /// Refuses `need` bytes for `what` when they exceed `available` (bytes and where the figure
 /// comes from); `None` available refuses nothing.
 pub fn check(what: &str, need: u64, available: Option<(u64, String)>) -> Result<()> {

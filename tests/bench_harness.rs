@@ -3,6 +3,7 @@
 
 mod common;
 
+use cubetrace::app;
 use cubetrace::bench::{self, BenchConfig, Method};
 
 #[test]
@@ -222,4 +223,111 @@ fn bench_with_bounces() {
     assert!(e.same_triangle < bvh.same_triangle, "{e:?} against {bvh:?}");
     bench::check_validation(&ctx).expect("validation");
     common::finish_gpu(ctx);
+}
+
+/// `bench` refuses for memory what `render` refuses: both hold the one estimate
+/// (`vk::budget::estimate`: CMOs, frame, bounce queues, reflector check) against the same
+/// limits. Each case is a command line and the same with one queue added (the bounce queues of
+/// `--bounces 3`, the reflector check's queue on the torus, which the CMOs do not capture); the
+/// device limit sits halfway into that queue, so only the queue pushes the run over: with it
+/// both commands refuse, without it both accept. No device is made: the checks are arithmetic
+/// on the parsed command lines, with the limits given instead of read from the machine.
+#[test]
+fn bench_refuses_what_render_refuses_for_memory() {
+    use clap::Parser;
+    use cubetrace::app::{bench::BenchArgs, render::RenderArgs};
+    use cubetrace::memory::Limits;
+    use cubetrace::vk::budget;
+
+    #[derive(Parser)]
+    struct Render {
+        #[command(flatten)]
+        args: RenderArgs,
+    }
+    #[derive(Parser)]
+    struct Bench {
+        #[command(flatten)]
+        args: BenchArgs,
+    }
+    let (w, h) = (1024, 768);
+    let size = ["--width", "1024", "--height", "768"];
+    let render_args = |scene: &str, extra: &[&str]| {
+        let mut a = vec!["render", scene];
+        a.extend(size.iter().chain(extra));
+        Render::try_parse_from(a).expect("render arguments").args
+    };
+    // `render`'s verdict, by the steps the command takes.
+    let render = |scene: &str, extra: &[&str], limits: &Limits| {
+        let args = render_args(scene, extra);
+        let (scene, camera) = app::render::load_scene(&args).expect("scene");
+        let options = app::render::gpu_options(&args).expect("options");
+        let what = format!("a {w}x{h} frame with --method {}", args.method);
+        app::render::check_gpu_memory(
+            &what,
+            &scene,
+            &camera,
+            &options,
+            cubetrace::output::Format::Png,
+            false,
+            "the test device",
+            limits,
+        )
+    };
+    // `bench --methods compute`'s verdict, by the steps the command takes.
+    let bench = |scene: &str, extra: &[&str], limits: &Limits| {
+        let mut a = vec!["bench", "--scenes", scene, "--methods", "compute"];
+        a.extend(size.iter().chain(extra));
+        let args = Bench::try_parse_from(a).expect("bench arguments").args;
+        let methods = app::bench::parse_methods(&args.methods).expect("methods");
+        let cfg = app::bench::grid_config(&args, &methods);
+        let prepared: Vec<_> = cfg
+            .scenes
+            .iter()
+            .map(|s| bench::prepare_scene(s, cfg.width, cfg.height, cfg.cube_size, cfg.cmos))
+            .collect::<Result<_, _>>()
+            .expect("scenes");
+        bench::check_memory(&cfg, &prepared, limits)
+    };
+    let cases: [(&str, &[&str], &[&str], u64); 2] = [
+        (
+            "bowl",
+            &["--bounces", "3"],
+            &["--bounces", "1"],
+            budget::bounce_bytes(w, h, 3),
+        ),
+        (
+            "torus",
+            &[],
+            &["--no-reflector-check"],
+            budget::reflector_check_bytes(w, h, true),
+        ),
+    ];
+    for (scene, with, without, queue) in cases {
+        assert!(queue > 0, "{scene}: the queue costs memory");
+        // The limit: the run without the queue, plus half the queue.
+        let args = render_args(scene, without);
+        let (s, camera) = app::render::load_scene(&args).expect("scene");
+        let options = app::render::gpu_options(&args).expect("options");
+        let fits = budget::estimate(&s, &camera, &options).total();
+        let limits = Limits {
+            host: None,
+            device: (fits + queue / 2, "the test's limit".into()),
+            device_is_host: false,
+        };
+        let r = render(scene, with, &limits).expect_err("render refuses with the queue");
+        let b = bench(scene, with, &limits).expect_err("bench refuses with the queue");
+        let (r, b) = (r.to_string(), b.to_string());
+        assert!(
+            r.contains("--method compute") && r.contains("the test's limit"),
+            "{r}"
+        );
+        assert!(
+            b.contains(&format!("bench scene '{scene}' at {w}x{h}"))
+                && b.contains("the test's limit"),
+            "{b}"
+        );
+        // Negative: without the queue both accept under the same limit.
+        render(scene, without, &limits).expect("render accepts without the queue");
+        bench(scene, without, &limits).expect("bench accepts without the queue");
+    }
 }

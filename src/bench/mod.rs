@@ -37,7 +37,9 @@ use serde::Serialize;
 
 use crate::camera::Camera;
 use crate::cpu::options::{TraceCriterion, TraceOptions, TraceSampling};
+use crate::memory;
 use crate::metrics::{self, ErrorReport, PixelError, Traced};
+use crate::output::Format;
 use crate::reference::{self, Frame};
 use crate::scene::{self, CmoPlacement, Scene};
 use crate::vk::frame::{Fallback, GpuFrame, GpuRenderer, RenderOptions, pass_name};
@@ -560,21 +562,26 @@ pub fn prepare_scene(
     Ok((scene, camera))
 }
 
-/// Refuses, before anything renders, a grid whose largest run would not fit in memory
+/// Refuses, before anything renders, a grid whose largest run would not fit in `limits`
 /// ([`crate::memory`]): per scene, the reference frame (held through the scene's runs) beside
-/// the largest GPU method's device data and its read-back and comparison.
-fn check_memory(ctx: &GpuContext, cfg: &BenchConfig, prepared: &[(Scene, Camera)]) -> Result<()> {
-    use crate::memory;
-    use crate::output::Format;
-    let host_available = memory::host_available()?;
-    let device_available = memory::device_available(ctx.device_local_heap_bytes())?;
+/// the largest GPU run's device data ([`crate::vk::budget::estimate`], the estimate `render`
+/// checks: bounce queues and reflector check included) and its read-back and comparison. Runs
+/// that the bounce rule skips ([`Method::check_bounces`]) are not counted: they allocate
+/// nothing. The subdivided runs are estimated on the scene as loaded: subdivision splits the
+/// non-reflector objects only, and the estimate depends on the frame, the CMOs and the
+/// reflectors.
+pub fn check_memory(
+    cfg: &BenchConfig,
+    prepared: &[(Scene, Camera)],
+    limits: &memory::Limits,
+) -> Result<()> {
     for (scene, camera) in prepared {
         let pixels = u64::from(camera.width) * u64::from(camera.height);
         let cmos = scene.cmo_centres().len() as u32;
         let device = cfg
             .methods
             .iter()
-            .filter(|m| m.kind.is_gpu())
+            .filter(|m| m.kind.is_gpu() && runs_at(m, cfg.bounces))
             .map(|m| {
                 let options = m.render_options(cfg.bounces, cfg.reflector_check);
                 crate::vk::budget::estimate(scene, camera, &options).total()
@@ -583,17 +590,24 @@ fn check_memory(ctx: &GpuContext, cfg: &BenchConfig, prepared: &[(Scene, Camera)
             .unwrap_or(0);
         let mut host = memory::reference_bytes(pixels, Format::Png)
             + memory::gpu_host_bytes(pixels, Format::Png, true);
-        if ctx.device_is_cpu() {
+        if limits.device_is_host {
             host += device;
         }
         let what = format!(
             "bench scene '{}' at {}x{} ({cmos} CMOs of {}^2 texels per face)",
             scene.name, camera.width, camera.height, scene.cmo.resolution
         );
-        memory::check(&what, host, host_available.clone())?;
-        memory::check(&what, device, Some(device_available.clone()))?;
+        memory::check(&what, host, limits.host.clone())?;
+        memory::check(&what, device, Some(limits.device.clone()))?;
     }
     Ok(())
+}
+
+/// Whether a GPU spec runs at `bounces` ([`Method::check_bounces`]); the grid skips it otherwise.
+fn runs_at(spec: &MethodSpec, bounces: u32) -> bool {
+    spec.kind
+        .check_bounces(bounces, crate::vk::bounce::MAX_BOUNCES, &spec.trace)
+        .is_ok()
 }
 
 /// The reference frame of one scene, with its wall times per frame (ns).
@@ -776,6 +790,57 @@ pub fn run(
     if cfg.methods.is_empty() || cfg.scenes.is_empty() {
         bail!("nothing to run: no scenes or no methods chosen");
     }
+    bar.set_length(planned_steps(cfg));
+    // Every scene is loaded and checked before anything renders.
+    let prepared = cfg
+        .scenes
+        .iter()
+        .map(|name| prepare_scene(name, cfg.width, cfg.height, cfg.cube_size, cfg.cmos))
+        .collect::<Result<Vec<_>>>()?;
+    let limits = memory::Limits::of_device(ctx.device_local_heap_bytes(), ctx.device_is_cpu())?;
+    check_memory(cfg, &prepared, &limits)?;
+    let mut runs = Vec::new();
+    // Heat map paths given so far: two scenes of one (sanitised) name get their own files.
+    let mut heat_paths: Vec<String> = Vec::new();
+    for (name, (scene, camera)) in cfg.scenes.iter().zip(prepared) {
+        bar.set_message(format!("{name}: reference"));
+        // The reference is needed for every error figure, even when it is not a listed method.
+        let refr = run_reference_bounces(&scene, &camera, cfg.warmup, cfg.frames, cfg.bounces);
+        bar.inc(1);
+        let sc = SceneRuns::new(name, &scene, &camera, refr);
+        for spec in &cfg.methods {
+            if !spec.kind.is_gpu() {
+                runs.push(sc.reference_result(cfg, spec));
+                continue;
+            }
+            if !runs_at(spec, cfg.bounces) {
+                log::warn!(
+                    "{name}: {} traces one reflection: skipped at --bounces {}",
+                    spec.label(),
+                    cfg.bounces
+                );
+                bar.inc(1);
+                continue;
+            }
+            runs.push(sc.gpu_result(ctx, cfg, bar, spec, &mut heat_paths)?);
+            bar.inc(1);
+            check_validation(ctx)?;
+        }
+    }
+    Ok(BenchReport {
+        device: DeviceInfo::of(ctx),
+        git_commit: git_commit(),
+        cubetrace_version: env!("CARGO_PKG_VERSION"),
+        cpu_threads: rayon::current_num_threads(),
+        warmup: cfg.warmup,
+        bounces: cfg.bounces,
+        ratios: SceneRatios::of(&runs),
+        runs,
+    })
+}
+
+/// The progress bar's length: per scene the reference, each GPU run and each floor run.
+fn planned_steps(cfg: &BenchConfig) -> u64 {
     let gpu_methods = cfg.methods.iter().filter(|m| m.kind.is_gpu()).count();
     let floor_runs = match cfg.floor {
         Some(_) => cfg
@@ -785,29 +850,43 @@ pub fn run(
             .count(),
         None => 0,
     };
-    bar.set_length((cfg.scenes.len() * (1 + gpu_methods + floor_runs)) as u64);
-    // Every scene is loaded and checked before anything renders.
-    let prepared = cfg
-        .scenes
-        .iter()
-        .map(|name| prepare_scene(name, cfg.width, cfg.height, cfg.cube_size, cfg.cmos))
-        .collect::<Result<Vec<_>>>()?;
-    check_memory(ctx, cfg, &prepared)?;
-    let mut runs = Vec::new();
-    // Heat map paths given so far: two scenes of one (sanitised) name get their own files.
-    let mut heat_paths: Vec<String> = Vec::new();
-    for (name, (scene, camera)) in cfg.scenes.iter().zip(prepared) {
-        bar.set_message(format!("{name}: reference"));
-        // The reference is needed for every error figure, even when it is not a listed method.
-        let refr = run_reference_bounces(&scene, &camera, cfg.warmup, cfg.frames, cfg.bounces);
-        bar.inc(1);
-        let centres = scene.cmo_centres();
+    (cfg.scenes.len() * (1 + gpu_methods + floor_runs)) as u64
+}
+
+/// One scene's runs: the scene, its reference frame and the figures every run of it repeats.
+struct SceneRuns<'a> {
+    /// The name the scene was given by (`--scenes`), for messages.
+    name: &'a str,
+    scene: &'a Scene,
+    camera: &'a Camera,
+    refr: ReferenceRun,
+    centres: Vec<glam::Vec3>,
+    /// Per object of the scene's world: whether it is a reflector.
+    reflector: Vec<bool>,
+    triangles: usize,
+    /// The reference's mirror pixels.
+    mirror: usize,
+}
+
+impl<'a> SceneRuns<'a> {
+    fn new(name: &'a str, scene: &'a Scene, camera: &'a Camera, refr: ReferenceRun) -> Self {
         let world = scene.world();
-        let triangles = world.triangles.len();
-        let mirror = refr.frame.mirror_pixels();
-        let reflector: Vec<bool> = world.objects.iter().map(|o| o.reflector).collect();
-        let base = |spec: &MethodSpec| RunResult {
-            scene: scene.name.clone(),
+        SceneRuns {
+            name,
+            scene,
+            camera,
+            centres: scene.cmo_centres(),
+            reflector: world.objects.iter().map(|o| o.reflector).collect(),
+            triangles: world.triangles.len(),
+            mirror: refr.frame.mirror_pixels(),
+            refr,
+        }
+    }
+
+    /// The figures of a run that do not depend on its frames (the rest zero).
+    fn base(&self, cfg: &BenchConfig, spec: &MethodSpec) -> RunResult {
+        RunResult {
+            scene: self.scene.name.clone(),
             method: spec.label(),
             kind: spec.kind,
             params: if spec.kind.traces_cubemaps() {
@@ -821,10 +900,10 @@ pub fn run(
             },
             width: cfg.width,
             height: cfg.height,
-            cube_size: scene.cmo.resolution,
-            cmos: centres.len() as u32,
-            triangles,
-            mirror_pixels: mirror,
+            cube_size: self.scene.cmo.resolution,
+            cmos: self.centres.len() as u32,
+            triangles: self.triangles,
+            mirror_pixels: self.mirror,
             rays: 0,
             frames: cfg.frames.max(1),
             passes: Vec::new(),
@@ -843,162 +922,166 @@ pub fn run(
             wrong_off_reflector: 0.0,
             flip_mean: None,
             heatmap: None,
-        };
-        for spec in &cfg.methods {
-            let Some(gpu) = spec.kind.is_gpu().then_some(spec.kind) else {
-                let wall = Stats::of(&refr.wall_ns).unwrap_or_default();
-                let reflected = Stats::of(&refr.reflected_ns).unwrap_or_default();
-                runs.push(RunResult {
-                    rays: refr.reflected_rays,
-                    trace_ns: reflected,
-                    total_ns: wall,
-                    trace_ns_per_mirror_px: reflected.median / mirror.max(1) as f64,
-                    ns_per_ray: reflected.median / refr.reflected_rays.max(1) as f64,
-                    error: ErrorReport::exact(mirror),
-                    ..base(spec)
-                });
-                continue;
-            };
-            let label = spec.label();
-            if gpu
-                .check_bounces(cfg.bounces, crate::vk::bounce::MAX_BOUNCES, &spec.trace)
-                .is_err()
-            {
-                log::warn!(
-                    "{name}: {label} traces one reflection: skipped at --bounces {}",
-                    cfg.bounces
-                );
-                bar.inc(1);
-                continue;
-            }
-            bar.set_message(format!("{name}: {label}"));
-            let subdivided;
-            let scene = if spec.subdivide > 0 {
-                let mut s = scene.clone();
-                crate::cpu::reflection_point::subdivide_non_reflectors(&mut s, spec.subdivide);
-                subdivided = s;
-                &subdivided
-            } else {
-                &scene
-            };
-            let options = spec.render_options(cfg.bounces, cfg.reflector_check);
-            let g = run_gpu_with(ctx, scene, &camera, options, cfg.warmup, cfg.frames)
-                .with_context(|| format!("scene '{name}', method {label}"))?;
-            let traced = g.frame.traced();
-            let pixels = metrics::classify(
-                &refr.frame,
-                &traced,
-                &g.frame.surface_position,
-                &centres,
-                scene.cmo.resolution,
-            );
-            let error = metrics::compare(
-                &refr.frame,
-                &traced,
-                &g.frame.surface_position,
-                &centres,
-                scene.cmo.resolution,
-            );
-            let passes = pass_stats(&g.pass_ns);
-            let trace_ns = frame_stats(&g.pass_ns, Some(pass_name(gpu)));
-            let total_ns = frame_stats(&g.pass_ns, None);
-            let floor = match cfg.floor {
-                Some((w, h)) if *spec == MethodSpec::plain(spec.kind) => {
-                    bar.set_message(format!("{name}: {label} at {w}x{h}"));
-                    let small = Camera {
-                        width: w,
-                        height: h,
-                        ..camera.clone()
-                    };
-                    let f = run_gpu(ctx, scene, &small, gpu, spec.trace, cfg.warmup, cfg.frames)
-                        .with_context(|| format!("scene '{name}', method {label} at {w}x{h}"))?;
-                    let small_ns = frame_stats(&f.pass_ns, Some(pass_name(gpu)));
-                    bar.inc(1);
-                    Some(FloorRun {
-                        width: w,
-                        height: h,
-                        rays: f.frame.mirror_pixels(),
-                        trace_ns: small_ns,
-                        ratio: small_ns.median / trace_ns.median,
-                    })
-                }
-                _ => None,
-            };
-            let rays = g.frame.mirror_pixels();
-            let heatmap = if cfg.heatmaps {
-                // The scene's name comes from its file: only a sanitised form enters the path.
-                let stem = format!("{}-{label}", crate::output::safe_file_stem(&scene.name));
-                let mut rel = format!("heat/{stem}.png");
-                let mut k = 2;
-                while heat_paths.contains(&rel) {
-                    rel = format!("heat/{stem}-{k}.png");
-                    k += 1;
-                }
-                heat_paths.push(rel.clone());
-                heatmap::write(&cfg.out.join(&rel), &refr.frame, &pixels)?;
-                Some(rel)
-            } else {
-                None
-            };
-            let fallback_ns = if passes
-                .iter()
-                .any(|p| p.pass == crate::vk::frame::FALLBACK_PASS)
-            {
-                frame_stats(&g.pass_ns, Some(crate::vk::frame::FALLBACK_PASS))
-            } else {
-                Stats::default()
-            };
-            let fallback_share = g.frame.fallback_pixels() as f64 / rays.max(1) as f64;
-            let check = crate::vk::frame::REFLECTOR_CHECK_PASS;
-            let check_ns = if passes.iter().any(|p| p.pass == check) {
-                frame_stats(&g.pass_ns, Some(check))
-            } else {
-                Stats::default()
-            };
-            let checked_share = g.frame.checked_pixels() as f64 / rays.max(1) as f64;
-            runs.push(RunResult {
-                passes,
-                trace_ns,
-                total_ns,
-                fallback_share,
-                fallback_ns,
-                checked_share,
-                check_ns,
-                trace_ns_per_mirror_px: trace_ns.median / mirror.max(1) as f64,
-                rays,
-                ns_per_ray: trace_ns.median / rays.max(1) as f64,
-                floor,
-                counters: Counters::of(&g.frame),
-                cmo_bytes: g.cmo_bytes,
-                error,
-                wrong_off_reflector: metrics::wrong_surface_off_reflector(
-                    &refr.frame,
-                    &reflector,
-                    &pixels,
-                ),
-                flip_mean: if cfg.flip {
-                    flip_mean(&refr.frame, &traced)
-                } else {
-                    None
-                },
-                heatmap,
-                triangles: scene.world().triangles.len(),
-                ..base(spec)
-            });
-            bar.inc(1);
-            check_validation(ctx)?;
         }
     }
-    Ok(BenchReport {
-        device: DeviceInfo::of(ctx),
-        git_commit: git_commit(),
-        cubetrace_version: env!("CARGO_PKG_VERSION"),
-        cpu_threads: rayon::current_num_threads(),
-        warmup: cfg.warmup,
-        bounces: cfg.bounces,
-        ratios: SceneRatios::of(&runs),
-        runs,
-    })
+
+    /// The reference's row: its wall times, exact by definition.
+    fn reference_result(&self, cfg: &BenchConfig, spec: &MethodSpec) -> RunResult {
+        let refr = &self.refr;
+        let wall = Stats::of(&refr.wall_ns).unwrap_or_default();
+        let reflected = Stats::of(&refr.reflected_ns).unwrap_or_default();
+        RunResult {
+            rays: refr.reflected_rays,
+            trace_ns: reflected,
+            total_ns: wall,
+            trace_ns_per_mirror_px: reflected.median / self.mirror.max(1) as f64,
+            ns_per_ray: reflected.median / refr.reflected_rays.max(1) as f64,
+            error: ErrorReport::exact(self.mirror),
+            ..self.base(cfg, spec)
+        }
+    }
+
+    /// One GPU run of `spec` (on the subdivided scene where it asks for one): its timed frames,
+    /// the floor run, the error of its last frame against the reference and its heat map.
+    fn gpu_result(
+        &self,
+        ctx: &GpuContext,
+        cfg: &BenchConfig,
+        bar: &indicatif::ProgressBar,
+        spec: &MethodSpec,
+        heat_paths: &mut Vec<String>,
+    ) -> Result<RunResult> {
+        let (name, label) = (self.name, spec.label());
+        bar.set_message(format!("{name}: {label}"));
+        let subdivided;
+        let scene = if spec.subdivide > 0 {
+            let mut s = self.scene.clone();
+            crate::cpu::reflection_point::subdivide_non_reflectors(&mut s, spec.subdivide);
+            subdivided = s;
+            &subdivided
+        } else {
+            self.scene
+        };
+        let options = spec.render_options(cfg.bounces, cfg.reflector_check);
+        let g = run_gpu_with(ctx, scene, self.camera, options, cfg.warmup, cfg.frames)
+            .with_context(|| format!("scene '{name}', method {label}"))?;
+        let traced = g.frame.traced();
+        let refr = &self.refr.frame;
+        let (position, resolution) = (&g.frame.surface_position, scene.cmo.resolution);
+        let pixels = metrics::classify(refr, &traced, position, &self.centres, resolution);
+        let error = metrics::compare(refr, &traced, position, &self.centres, resolution);
+        let passes = pass_stats(&g.pass_ns);
+        let trace_ns = frame_stats(&g.pass_ns, Some(pass_name(spec.kind)));
+        let floor = self.floor_run(ctx, cfg, bar, scene, spec, trace_ns)?;
+        let rays = g.frame.mirror_pixels();
+        let heatmap = if cfg.heatmaps {
+            Some(write_heatmap(
+                cfg,
+                &scene.name,
+                &label,
+                refr,
+                &pixels,
+                heat_paths,
+            )?)
+        } else {
+            None
+        };
+        Ok(RunResult {
+            fallback_ns: optional_pass(&g.pass_ns, &passes, crate::vk::frame::FALLBACK_PASS),
+            check_ns: optional_pass(&g.pass_ns, &passes, crate::vk::frame::REFLECTOR_CHECK_PASS),
+            passes,
+            trace_ns,
+            total_ns: frame_stats(&g.pass_ns, None),
+            fallback_share: g.frame.fallback_pixels() as f64 / rays.max(1) as f64,
+            checked_share: g.frame.checked_pixels() as f64 / rays.max(1) as f64,
+            trace_ns_per_mirror_px: trace_ns.median / self.mirror.max(1) as f64,
+            rays,
+            ns_per_ray: trace_ns.median / rays.max(1) as f64,
+            floor,
+            counters: Counters::of(&g.frame),
+            cmo_bytes: g.cmo_bytes,
+            error,
+            wrong_off_reflector: metrics::wrong_surface_off_reflector(
+                refr,
+                &self.reflector,
+                &pixels,
+            ),
+            flip_mean: if cfg.flip {
+                flip_mean(refr, &traced)
+            } else {
+                None
+            },
+            heatmap,
+            triangles: scene.world().triangles.len(),
+            ..self.base(cfg, spec)
+        })
+    }
+
+    /// The floor run ([`BenchConfig::floor`]) of a GPU method's default setting, against the
+    /// full frame's tracing pass `trace_ns`; `None` for the other settings or without a floor.
+    fn floor_run(
+        &self,
+        ctx: &GpuContext,
+        cfg: &BenchConfig,
+        bar: &indicatif::ProgressBar,
+        scene: &Scene,
+        spec: &MethodSpec,
+        trace_ns: Stats,
+    ) -> Result<Option<FloorRun>> {
+        let Some((w, h)) = cfg.floor.filter(|_| *spec == MethodSpec::plain(spec.kind)) else {
+            return Ok(None);
+        };
+        let (name, label, gpu) = (self.name, spec.label(), spec.kind);
+        bar.set_message(format!("{name}: {label} at {w}x{h}"));
+        let small = Camera {
+            width: w,
+            height: h,
+            ..self.camera.clone()
+        };
+        let f = run_gpu(ctx, scene, &small, gpu, spec.trace, cfg.warmup, cfg.frames)
+            .with_context(|| format!("scene '{name}', method {label} at {w}x{h}"))?;
+        let small_ns = frame_stats(&f.pass_ns, Some(pass_name(gpu)));
+        bar.inc(1);
+        Ok(Some(FloorRun {
+            width: w,
+            height: h,
+            rays: f.frame.mirror_pixels(),
+            trace_ns: small_ns,
+            ratio: small_ns.median / trace_ns.median,
+        }))
+    }
+}
+
+/// Writes a run's heat map under `cfg.out` as `heat/SCENE-LABEL.png`, numbered (`-2`, `-3`, ...)
+/// where an earlier run of `heat_paths` took the name; returns the path relative to `cfg.out`.
+fn write_heatmap(
+    cfg: &BenchConfig,
+    scene_name: &str,
+    label: &str,
+    reference: &Frame,
+    pixels: &[PixelError],
+    heat_paths: &mut Vec<String>,
+) -> Result<String> {
+    // The scene's name comes from its file: only a sanitised form enters the path.
+    let stem = format!("{}-{label}", crate::output::safe_file_stem(scene_name));
+    let mut rel = format!("heat/{stem}.png");
+    let mut k = 2;
+    while heat_paths.contains(&rel) {
+        rel = format!("heat/{stem}-{k}.png");
+        k += 1;
+    }
+    heat_paths.push(rel.clone());
+    heatmap::write(&cfg.out.join(&rel), reference, pixels)?;
+    Ok(rel)
+}
+
+/// [`frame_stats`] of the pass `name` where it ran (it is in `passes`), else zero.
+fn optional_pass(pass_ns: &[Vec<PassTime>], passes: &[PassStats], name: &str) -> Stats {
+    if passes.iter().any(|p| p.pass == name) {
+        frame_stats(pass_ns, Some(name))
+    } else {
+        Stats::default()
+    }
 }
 
 /// Fails if the validation layer (when on) reported errors.

@@ -1,0 +1,197 @@
+#![forbid(unsafe_code)]
+//! `cubetrace bench`: the harness of [`crate::bench`] from the command line, either the grid
+//! (scenes x methods x parameters against the reference) or, with `--scaling`, the cost curves.
+//! Every method name and the output folder are checked before the device is created; the
+//! harness itself checks the scenes and the memory before anything renders.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+
+use super::GpuArgs;
+use crate::Method;
+use crate::bench;
+use crate::output;
+use crate::vk::GpuContext;
+
+#[derive(clap::Args)]
+pub struct BenchArgs {
+    /// Scenes: built-in names or .toml paths, comma-separated [default: every built-in scene].
+    #[arg(long, value_delimiter = ',')]
+    pub scenes: Vec<String>,
+    /// Methods: reference, envmap, fragment, compute, ssr, reflection-point, bvh (comma-separated);
+    /// fragment runs its parameter grid (criteria x sampling x acceleration x steps) unless
+    /// --quick; compute has one setting (the exact criterion on its hierarchy), ssr its defaults
+    /// (64 iterations, no thickness test), reflection-point its defaults (cap 256 steps, search
+    /// scale 1) as is and with the other objects subdivided twice (`reflection-point-sub2`), bvh
+    /// (exact GPU ray tracing) its one setting.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "reference,envmap,fragment,compute,ssr,reflection-point,bvh"
+    )]
+    pub methods: Vec<String>,
+    /// Tracing methods: only the default options (exact criterion, pyramid) instead of the grid.
+    #[arg(long)]
+    pub quick: bool,
+    /// Frame width in pixels.
+    #[arg(long, default_value_t = 160)]
+    pub width: u32,
+    /// Frame height in pixels.
+    #[arg(long, default_value_t = 120)]
+    pub height: u32,
+    /// Timed frames per run.
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    pub frames: u32,
+    /// Frames rendered and discarded before timing.
+    #[arg(long, default_value_t = 1)]
+    pub warmup: u32,
+    /// Texels per cube face side (overrides the scenes').
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub cube_size: Option<u32>,
+    /// Number of automatically placed CMOs (overrides the scenes').
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16))]
+    pub cmos: Option<u32>,
+    /// Skip the FLIP metric.
+    #[arg(long)]
+    pub no_flip: bool,
+    /// Skip the error heat maps.
+    #[arg(long)]
+    pub no_heatmaps: bool,
+    /// Skip timing each GPU method's default setting again at 16x12 (the fixed-cost "floor"
+    /// columns of the cost-per-ray table).
+    #[arg(long)]
+    pub no_floor: bool,
+    /// Reflections per path for the reference and the methods that trace several (compute,
+    /// fragment with the exact criterion, bvh; the others are skipped when N != 1). Not used by
+    /// --scaling.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(0..=16))]
+    pub bounces: u32,
+    /// fragment, compute: skip the reflector check (to show what it changes and costs).
+    #[arg(long)]
+    pub no_reflector_check: bool,
+    /// Cost curves instead of the grid: against cube size, screen size, CMO count and triangle
+    /// count (fragment, exact criterion with the pyramid); then the reflection-point method's
+    /// error against the reference as the other objects are subdivided (the tessellation curve).
+    #[arg(long)]
+    pub scaling: bool,
+    /// Scaling: the largest cube face size (powers of two from 32). The default stops at 1024:
+    /// at 2048 one CMO's colour buffer (384 MiB) exceeds lavapipe's maxStorageBufferRange.
+    #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(32..=4096))]
+    pub max_cube: u32,
+    /// Output folder.
+    #[arg(short, long, default_value = "out/bench")]
+    pub out: PathBuf,
+    #[command(flatten)]
+    pub gpu: GpuArgs,
+}
+
+/// `cubetrace bench`.
+pub fn bench(args: BenchArgs) -> Result<()> {
+    let methods = parse_methods(&args.methods)?;
+    output::check_folder(&args.out).context("-o")?;
+    let ctx = args.gpu.context()?;
+    let bar = indicatif::ProgressBar::new(0).with_style(
+        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} runs {elapsed} {msg}")
+            .expect("the template is valid"),
+    );
+    let paths = if args.scaling {
+        run_scaling(&args, &ctx, &bar)?
+    } else {
+        run_grid(&args, &methods, &ctx, &bar)?
+    };
+    bench::check_validation(&ctx)?;
+    for p in paths {
+        println!("wrote {}", p.display());
+    }
+    println!("heat maps (if any) in {}", args.out.join("heat").display());
+    Ok(())
+}
+
+/// `--methods`: the CLI's method names, an unknown one refused with the known ones.
+pub fn parse_methods(names: &[String]) -> Result<Vec<Method>> {
+    names
+        .iter()
+        .map(|m| {
+            Method::from_name(m).ok_or_else(|| {
+                let known: Vec<&str> = Method::ALL.iter().map(|k| k.name()).collect();
+                anyhow::anyhow!(
+                    "--methods: unknown method '{m}' (known: {})",
+                    known.join(", ")
+                )
+            })
+        })
+        .collect()
+}
+
+/// `--scaling`: the cost curves of `fragment`, printed and written; returns the files written.
+fn run_scaling(
+    args: &BenchArgs,
+    ctx: &GpuContext,
+    bar: &indicatif::ProgressBar,
+) -> Result<Vec<PathBuf>> {
+    let cfg = bench::scaling::ScalingConfig {
+        method: bench::MethodSpec::plain(Method::Fragment),
+        axes: bench::scaling::Axis::ALL.to_vec(),
+        max_cube: args.max_cube,
+        width: args.width,
+        height: args.height,
+        frames: args.frames,
+        warmup: args.warmup,
+        out: args.out.clone(),
+        tessellation_series: bench::scaling::TESSELLATION_SERIES
+            .iter()
+            .map(|&(scene, scale)| (scene.to_string(), scale))
+            .collect(),
+        tessellation_levels: bench::scaling::TESSELLATION_LEVELS,
+    };
+    let report = bench::scaling::run(ctx, &cfg, bar)?;
+    bar.finish_and_clear();
+    println!("{}", bench::scaling::table(&report));
+    println!(
+        "{}",
+        bench::scaling::tessellation_table(&report.tessellation)
+    );
+    bench::scaling::write(&report, &args.out)
+}
+
+/// The harness's configuration of a grid run from the arguments and the parsed methods.
+pub fn grid_config(args: &BenchArgs, methods: &[Method]) -> bench::BenchConfig {
+    let defaults = bench::BenchConfig::default();
+    bench::BenchConfig {
+        scenes: if args.scenes.is_empty() {
+            defaults.scenes
+        } else {
+            args.scenes.clone()
+        },
+        methods: bench::method_grid(methods, args.quick),
+        width: args.width,
+        height: args.height,
+        frames: args.frames,
+        warmup: args.warmup,
+        cube_size: args.cube_size,
+        cmos: args.cmos,
+        flip: !args.no_flip,
+        heatmaps: !args.no_heatmaps,
+        floor: (!args.no_floor).then_some(bench::FLOOR_FRAME),
+        bounces: args.bounces,
+        reflector_check: !args.no_reflector_check,
+        out: args.out.clone(),
+    }
+}
+
+/// The grid: runs it, prints the tables and writes the report; returns the files written.
+fn run_grid(
+    args: &BenchArgs,
+    methods: &[Method],
+    ctx: &GpuContext,
+    bar: &indicatif::ProgressBar,
+) -> Result<Vec<PathBuf>> {
+    let cfg = grid_config(args, methods);
+    let report = bench::run(ctx, &cfg, bar)?;
+    bar.finish_and_clear();
+    println!("{}", bench::report::header(&report));
+    println!("{}", bench::report::summary_table(&report));
+    println!("{}", bench::report::ratios_table(&report));
+    bench::report::write(&report, &args.out)
+}

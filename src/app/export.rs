@@ -1,0 +1,45 @@
+#![forbid(unsafe_code)]
+//! `cubetrace scene export`: a built-in scene written out as TOML + OBJ/MTL/PNG. An earlier
+//! export (a `scene.toml` in the folder) is kept unless `--force`; a name that is not a built-in
+//! scene gets the command to run instead.
+
+use std::path::Path;
+
+use anyhow::{Context, Result};
+
+use crate::scene;
+
+/// `cubetrace scene export NAME DIR [--force]`.
+pub fn export(name: &str, dir: &Path, force: bool) -> Result<()> {
+    let s = scene::builtin::by_name(name).ok_or_else(|| export_suggestion(name))?;
+    let toml = dir.join("scene.toml");
+    if !force && std::fs::symlink_metadata(&toml).is_ok() {
+        anyhow::bail!(
+            "{} already exists; pass --force to overwrite it (and the export's other files), or choose another folder",
+            toml.display()
+        );
+    }
+    let path = scene::export::export(&s, dir)
+        .with_context(|| format!("exporting scene '{name}' to {}", dir.display()))?;
+    println!("wrote {}", path.display());
+    Ok(())
+}
+
+/// The error of `scene export NAME` for a name that is not a built-in scene: what to run instead.
+fn export_suggestion(name: &str) -> anyhow::Error {
+    let known: Vec<&str> = scene::builtin::NAMES.iter().map(|(n, _)| *n).collect();
+    if name.ends_with(".toml") || Path::new(name).is_file() {
+        anyhow::anyhow!(
+            "scene export: '{name}' is a scene file, not a built-in scene; `scene export` writes a built-in scene out \
+             ({}). A scene file renders as it is: `cubetrace render {name}`",
+            known.join(", ")
+        )
+    } else {
+        anyhow::anyhow!(
+            "scene export: unknown scene '{name}'; the built-in scenes are {} (`cubetrace scenes` describes them). \
+             For example: `cubetrace scene export {} my-scene/`, then `cubetrace render my-scene/scene.toml`",
+            known.join(", "),
+            known.first().copied().unwrap_or("default")
+        )
+    }
+}

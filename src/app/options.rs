@@ -1,0 +1,182 @@
+#![forbid(unsafe_code)]
+//! The tracer and fallback options of `cubetrace render` ([`TraceArgs`]) and how they become the
+//! renderer's [`RenderOptions`] and the scene's CMO overrides. The command line's value enums
+//! mirror the library's option enums one to one (their doc comments are the `--help` text).
+
+use clap::ValueEnum;
+
+use crate::Method;
+use crate::cpu::options::{TraceCriterion, TraceOptions, TraceSampling};
+use crate::scene::{CmoPlacement, Scene};
+use crate::vk::frame::{Fallback, RenderOptions};
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum CriterionArg {
+    /// Exact per-texel surface (sphere patches, continuity rule): a silhouette is never a hit.
+    Exact,
+    /// The thesis's `|r - D| < eps` at samples.
+    Threshold,
+    /// The thesis's sign change of `r - D` between samples (fires at silhouettes too).
+    SignChange,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum SamplingArg {
+    /// `--steps` + 1 samples evenly spaced along the ray.
+    ConstantStep,
+    /// `--steps` + 1 samples evenly spaced in angle (between the endpoint directions).
+    ConstantAngle,
+    /// One sample per crossed texel.
+    PerTexel,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum FallbackArg {
+    /// Magenta: shows where tracing gave up.
+    Flag,
+    /// The environment-map lookup of the nearest CMO.
+    Envmap,
+    /// The scene's background colour.
+    Background,
+    /// Finish the rays exactly: the BVH tracer traces them from the mirror, as `--method bvh`
+    /// does (the EXR's `fallback` channel marks them).
+    Trace,
+}
+
+/// Parses a positive, finite distance (`--eps`, `--ssr-thickness`). Negative numbers reach this
+/// parser (the argument allows them), so that `--eps -1` gets this message rather than clap's
+/// "unexpected argument".
+pub fn positive_finite(s: &str) -> std::result::Result<f32, String> {
+    let v: f32 = s
+        .parse()
+        .map_err(|e| format!("'{s}' is not a number ({e})"))?;
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(format!(
+            "{s} is not allowed: it must be a positive, finite distance in world units"
+        ))
+    }
+}
+
+/// Options of the cubemap tracer (`--method compute|fragment`; compute: exact criterion only).
+#[derive(clap::Args)]
+pub struct TraceArgs {
+    /// Intersection criterion.
+    #[arg(long, value_enum, default_value_t = CriterionArg::Exact)]
+    pub criterion: CriterionArg,
+    /// Sample placement of the threshold and sign-change criteria.
+    #[arg(long, value_enum, default_value_t = SamplingArg::PerTexel)]
+    pub sampling: SamplingArg,
+    /// Turn off the min/max pyramid (exact criterion: walk every texel instead; same result).
+    #[arg(long)]
+    pub no_accel: bool,
+    /// Exact criterion: count a hit inside a texel only where the texel data decides it (the
+    /// ray gets behind the surface around the hit and no outline passes through the texel);
+    /// elsewhere the ray is handed on, so more pixels end unresolved.
+    ///
+    /// What the tests show (tests/hard_cases.rs): with verified hits the default mode has no
+    /// wrong hit or escape for the ray the GPU reflected on grazing rays, slabs thinner than a
+    /// texel, outlines right behind the rays, scales 1e-3 and 1e4, cube sizes 32 and 2048 and
+    /// the built-in scenes, and this mode none either; it removes wrong hits only at cube size 3
+    /// (2 of 5, behind an object no texel sees) and elsewhere only adds unresolved pixels. It
+    /// does not make surfaces the CMOs never captured (a reflector seeing itself) right: against
+    /// the reference those pixels stay wrong, as without it (see `cubetrace bench`).
+    #[arg(long)]
+    pub strict: bool,
+    /// Sample intervals along the ray for constant-step and constant-angle sampling.
+    #[arg(long, default_value_t = 400, value_parser = clap::value_parser!(u32).range(1..=65536))]
+    pub steps: u32,
+    /// Threshold of the threshold criterion, world units (positive).
+    #[arg(long, default_value_t = 0.05, allow_negative_numbers = true, value_parser = positive_finite)]
+    pub eps: f32,
+    /// Number of CMOs, placed automatically along the reflectors' longest axis (overrides the
+    /// scene's CMO centres).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16))]
+    pub cmos: Option<u32>,
+    /// Texels per cube face side (overrides the scene's; 1 to 4096).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub cube_size: Option<u32>,
+    /// What fills mirror pixels that no CMO could resolve (the method left unresolved): `trace`
+    /// finishes their rays exactly with the BVH tracer of `--method bvh`.
+    #[arg(long, value_enum, default_value_t = FallbackArg::Trace)]
+    pub fallback: FallbackArg,
+    /// fragment, compute: skip the reflector check (the exact trace, after the cubemap trace,
+    /// of the reflectors the CMOs do not capture: the torus or teapot seen in itself).
+    #[arg(long)]
+    pub no_reflector_check: bool,
+    /// ssr: iterations of the Hi-Z ray march before a ray is given up (unresolved).
+    #[arg(long, default_value_t = crate::cpu::ssr::DEFAULT_MAX_ITERATIONS,
+          value_parser = clap::value_parser!(u32).range(1..=65536))]
+    pub ssr_iterations: u32,
+    /// ssr: thickness test, world units along the view axis: a hit farther than this behind the
+    /// surface it lands on is unresolved. Default: none (the chapter's: every surface is
+    /// infinitely thick, so a ray passing behind a thin object hits it).
+    #[arg(long, allow_negative_numbers = true, value_parser = positive_finite)]
+    pub ssr_thickness: Option<f32>,
+    /// reflection-point: steps of one search (forward or inverse) before the vertex is given up
+    /// (its triangles are then not drawn). Default: the search textures' width + height in texels.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=65536))]
+    pub rp_iterations: Option<u32>,
+    /// reflection-point: the search textures (the reflector's positions and normals) have this
+    /// many times the frame's width and height.
+    #[arg(long, default_value_t = crate::cpu::reflection_point::DEFAULT_SEARCH_SCALE,
+          value_parser = clap::value_parser!(u32).range(1..=8))]
+    pub rp_scale: u32,
+    /// reflection-point: search on the reflectors as they are, not on the closed versions of
+    /// open ones (the paper's open/closed pair).
+    #[arg(long)]
+    pub rp_open: bool,
+}
+
+impl TraceArgs {
+    pub fn options(&self, method: Method) -> RenderOptions {
+        RenderOptions {
+            method,
+            trace: TraceOptions {
+                criterion: match self.criterion {
+                    CriterionArg::Exact => TraceCriterion::Exact,
+                    CriterionArg::Threshold => TraceCriterion::Threshold,
+                    CriterionArg::SignChange => TraceCriterion::SignChange,
+                },
+                sampling: match self.sampling {
+                    SamplingArg::ConstantStep => TraceSampling::ConstantStep,
+                    SamplingArg::ConstantAngle => TraceSampling::ConstantAngle,
+                    SamplingArg::PerTexel => TraceSampling::PerTexel,
+                },
+                accel: !self.no_accel,
+                strict: self.strict,
+                steps: self.steps,
+                eps: self.eps,
+                ..TraceOptions::default()
+            },
+            reflector_check: !self.no_reflector_check,
+            fallback: match self.fallback {
+                FallbackArg::Flag => Fallback::Flag,
+                FallbackArg::Envmap => Fallback::Envmap,
+                FallbackArg::Background => Fallback::Background,
+                FallbackArg::Trace => Fallback::Trace,
+            },
+            ssr: crate::cpu::ssr::SsrOptions {
+                max_iterations: self.ssr_iterations,
+                thickness: self.ssr_thickness,
+            },
+            reflection_point: crate::cpu::reflection_point::RpOptions {
+                max_iterations: self.rp_iterations,
+                search_scale: self.rp_scale,
+                close_reflectors: !self.rp_open,
+            },
+            ..RenderOptions::default()
+        }
+    }
+
+    /// Applies the CMO overrides to the scene.
+    pub fn apply(&self, scene: &mut Scene) {
+        if let Some(count) = self.cmos {
+            scene.cmo.placement = CmoPlacement::Auto { count };
+        }
+        if let Some(size) = self.cube_size {
+            scene.cmo.resolution = size;
+        }
+    }
+}
