@@ -344,7 +344,7 @@ fn render(args: RenderArgs) -> Result<()> {
         scene::CmoPlacement::Search { count } => count,
         _ => 0,
     };
-    if let Some(p) = scene.resolve_cmo_placement(&camera) {
+    if let Some(p) = cubetrace::placement::resolve(&mut scene, &camera) {
         log::info!(
             "cmo placement auto: {} reflected rays sampled; unresolved {:.2}% with {count} along the axis",
             p.rays,
@@ -361,7 +361,7 @@ fn render(args: RenderArgs) -> Result<()> {
             );
         }
     }
-    for problem in scene::diagnose(&scene) {
+    for problem in cubetrace::placement::diagnose(&scene) {
         log::warn!("{problem}");
     }
     let method = args
@@ -428,7 +428,7 @@ fn render(args: RenderArgs) -> Result<()> {
         let frame = renderer.render(&ctx)?;
         let render_time = start.elapsed();
         let traced = frame.traced();
-        output::write_traced(&out, &traced, &frame.surface_position)?;
+        output::write_traced(&out, &traced, &frame.surface_position, &scene.world())?;
         let written = start.elapsed();
         log::info!(
             "host: scene {:.0} ms, device {:.0} ms, passes and pipelines {:.0} ms, frame (submit, wait, read back) {:.0} ms, {} {:.0} ms",
@@ -559,7 +559,7 @@ fn render(args: RenderArgs) -> Result<()> {
         reference::render_with_progress(&scene, &tracer, &camera, args.bounces, &bar)
     };
     let render_time = start.elapsed();
-    output::write_frame(&out, &frame)?;
+    output::write_frame(&out, &frame, &scene.world())?;
     println!(
         "wrote {} ({}x{}, scene '{}', method {method}, {} mirror pixels) in {:.2?}",
         out.display(),
