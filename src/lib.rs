@@ -3,14 +3,17 @@
 //! Module map (everything outside [`vk`] forbids `unsafe`):
 //! - [`app`]: the commands of the `cubetrace` binary (render, bench, scene export) as functions.
 //! - [`method`]: [`Method`], the one method type of the CLI, the harness and the renderer.
-//! - [`scene`]: scene files (TOML + OBJ/MTL/PNG), built-in scenes, mesh hygiene.
+//! - [`scene`]: the scene as data: scene files (TOML + OBJ/MTL/PNG), built-in scenes, mesh
+//!   hygiene. It imports no algorithm (only the leaves [`camera`], [`shading`] and [`files`]).
+//! - [`placement`]: CMO placement search and set-up checks, algorithms over the scene.
 //! - [`camera`]: the camera and its pixel convention (Vulkan's, pixel centres at +0.5).
 //! - [`shading`]: the view-independent shading shared by the capture and the reference.
 //! - [`reference`]: the exact CPU ray tracer that every accuracy figure is measured against.
 //! - [`bench`]: the speed-against-error harness (`cubetrace bench`) and scaling curves.
 //! - [`metrics`]: error of a traced reflection against the reference.
 //! - [`ranges`]: depth ranges and ray length of a GPU frame, and the f32 precision check.
-//! - [`output`]: PNG and EXR writers (atomic: temporary file, then rename).
+//! - [`output`]: PNG and EXR writers, and the meaning of every EXR channel.
+//! - [`files`]: atomic file writes (temporary file, then rename) and safe file names.
 //! - [`cubemap`]: cube face mapping and distance hierarchies (pure data, no GPU).
 //! - [`cpu`]: CPU twins of the GPU passes, with the shaders' names and loop structure.
 //! - [`vk`]: the Vulkan backend (ash); the only module tree that may use `unsafe`.
@@ -21,10 +24,12 @@ pub mod bench;
 pub mod camera;
 pub mod cpu;
 pub mod cubemap;
+pub mod files;
 pub mod memory;
 pub mod method;
 pub mod metrics;
 pub mod output;
+pub mod placement;
 pub mod ranges;
 pub mod reference;
 pub mod scene;

@@ -1,13 +1,28 @@
 #![forbid(unsafe_code)]
-//! Image output: 8-bit sRGB PNG and 32-bit float EXR, always written atomically (a temporary
-//! file in the destination folder, then a rename), so that an error never leaves a half-written
-//! file behind.
+//! Image output: 8-bit sRGB PNG and 32-bit float EXR, always written atomically
+//! ([`crate::files`]), so that an error never leaves a half-written file behind.
 //!
-//! EXR channels of a [`Frame`]: `R`, `G`, `B` (linear colour, f32), `mask` (f32, 1 on reflector
-//! pixels), `P.X`, `P.Y`, `P.Z` (world position seen by the primary ray), `hit.X`, `hit.Y`, `hit.Z` (world position of the first reflected hit, f32, NaN where
-//! none), `object_id`, `primitive_id` (u32, 4294967295 where none) and `bounces` (u32).
+//! EXR channels, with one meaning on every method (the reference, [`write_frame`], and every GPU
+//! method, [`write_traced`]):
+//! - `R`, `G`, `B` (f32): linear colour.
+//! - `mask` (f32): 1 on mirror pixels (the primary ray hits a reflector).
+//! - `P.X`, `P.Y`, `P.Z` (f32): world position seen by the primary ray (NaN where none).
+//! - `hit.X`, `hit.Y`, `hit.Z` (f32): on mirror pixels, the hit whose colour the pixel shows:
+//!   its path's last hit, which is the first reflected hit for one bounce (the default) and the
+//!   mirror itself for `--bounces 0` (what a GPU record holds, [`Frame::shown_hit`]); NaN where
+//!   the path left the scene, off the mirrors, and where a GPU method left the pixel unresolved.
+//! - `object_id`, `primitive_id` (u32): the triangle of that same hit in the scene's one
+//!   numbering ([`crate::scene::WorldGeometry::ids`]): `object_id` is the index of the object
+//!   (a mesh part, in scene order: meshes, then their parts), `primitive_id` the triangle's
+//!   index within that object's triangle list as loaded; 4294967295 where there is no hit. GPU
+//!   records name a global triangle (an index into the scene's whole triangle list, the GPU
+//!   scene data's order); the writer maps it to these IDs. GPU methods that do not name the
+//!   triangle they hit (no exact criterion) write neither channel.
+//! - `bounces` (u32): the reflections the pixel's path took.
+//! - GPU frames only: `unresolved` (f32, 1 on mirror pixels no CMO could decide) and, with the
+//!   BVH tracer (`bvh`, `--fallback trace`), `fallback` (f32, 1 where the BVH finished the ray
+//!   of a pixel the method left unresolved; `unresolved` is then 0 there).
 
-use std::io::Write;
 use std::path::Path;
 
 use anyhow::{Context, Result, bail};
@@ -16,69 +31,12 @@ use glam::Vec3;
 
 use crate::metrics::Traced;
 use crate::reference::Frame;
+use crate::scene::WorldGeometry;
 use crate::shading::linear_to_srgb;
 
-/// Writes `bytes` to `path` through a temporary file in the same folder and a rename.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    write_atomic_with(path, |w| {
-        w.write_all(bytes)?;
-        Ok(())
-    })
-}
-
-/// Like [`write_atomic`], with a writer callback. The temporary file is removed if `write`
-/// fails.
-pub fn write_atomic_with(
-    path: &Path,
-    write: impl FnOnce(&mut std::io::BufWriter<&std::fs::File>) -> Result<()>,
-) -> Result<()> {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    let mut builder = tempfile::Builder::new();
-    builder.prefix(".cubetrace-").suffix(".tmp");
-    // A temporary file is private (0600); the finished file gets the usual 0644 (less the
-    // umask), as a plain create would.
-    #[cfg(unix)]
-    builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o644));
-    let tmp = builder
-        .tempfile_in(dir)
-        .with_context(|| format!("cannot create a temporary file in {}", dir.display()))?;
-    {
-        let mut w = std::io::BufWriter::new(tmp.as_file());
-        write(&mut w).with_context(|| format!("cannot write {}", path.display()))?;
-        w.flush()
-            .with_context(|| format!("cannot write {}", path.display()))?;
-    }
-    tmp.persist(path)
-        .with_context(|| format!("cannot move the finished file to {}", path.display()))?;
-    Ok(())
-}
-
-/// The longest file name part [`safe_file_stem`] returns, in bytes (file systems allow 255).
-pub const MAX_STEM: usize = 64;
-
-/// A file name part made from `name` (a scene or mesh name, which comes from a file and may hold
-/// anything): ASCII letters, digits, `-` and `_` are kept, every other character becomes `_`,
-/// so no `/`, `..`, control character or leading `-` can steer or break a path; at most
-/// [`MAX_STEM`] bytes; `unnamed` for an empty name.
-pub fn safe_file_stem(name: &str) -> String {
-    let s: String = name
-        .chars()
-        .take(MAX_STEM)
-        .enumerate()
-        .map(|(i, c)| {
-            if c.is_ascii_alphanumeric() || c == '_' || (c == '-' && i > 0) {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect();
-    if s.is_empty() { "unnamed".into() } else { s }
-}
+// The atomic writes live in the leaf module `files` (the scene export uses them too); they stay
+// reachable here, where the image writers' callers look for them.
+pub use crate::files::{MAX_STEM, safe_file_stem, write_atomic, write_atomic_with};
 
 /// The nearest folder of `path`'s ancestors that exists (`.` for a relative path with none).
 fn existing_ancestor(path: &Path) -> &Path {
@@ -223,10 +181,23 @@ pub fn write_exr(
     write_atomic(path, buf.get_ref())
 }
 
-/// The EXR channels of a reference frame (see the module docs).
-pub fn frame_channels(frame: &Frame) -> Vec<(&'static str, Channel)> {
-    let f = |g: &dyn Fn(usize) -> f32| Channel::F32((0..frame.colour.len()).map(g).collect());
-    vec![
+/// The `object_id` and `primitive_id` channels of a list of global triangles, in `world`'s
+/// numbering (see the module docs).
+fn id_channels(world: &WorldGeometry, triangles: &[u32]) -> [(&'static str, Channel); 2] {
+    let (objects, primitives) = triangles.iter().map(|&t| world.ids(t)).unzip();
+    [
+        ("object_id", Channel::U32(objects)),
+        ("primitive_id", Channel::U32(primitives)),
+    ]
+}
+
+/// The EXR channels of a reference frame of the scene whose geometry is `world` (see the module
+/// docs).
+pub fn frame_channels(frame: &Frame, world: &WorldGeometry) -> Vec<(&'static str, Channel)> {
+    let n = frame.colour.len();
+    let f = |g: &dyn Fn(usize) -> f32| Channel::F32((0..n).map(g).collect());
+    let (hits, triangles): (Vec<Vec3>, Vec<u32>) = (0..n).map(|k| frame.shown_hit(k)).unzip();
+    let mut channels = vec![
         ("R", f(&|k| frame.colour[k].x)),
         ("G", f(&|k| frame.colour[k].y)),
         ("B", f(&|k| frame.colour[k].z)),
@@ -234,70 +205,88 @@ pub fn frame_channels(frame: &Frame) -> Vec<(&'static str, Channel)> {
         ("P.X", f(&|k| frame.surface_position[k].x)),
         ("P.Y", f(&|k| frame.surface_position[k].y)),
         ("P.Z", f(&|k| frame.surface_position[k].z)),
-        ("hit.X", f(&|k| frame.hit_position[k].x)),
-        ("hit.Y", f(&|k| frame.hit_position[k].y)),
-        ("hit.Z", f(&|k| frame.hit_position[k].z)),
-        ("object_id", Channel::U32(frame.object_id.clone())),
-        ("primitive_id", Channel::U32(frame.primitive_id.clone())),
-        (
-            "bounces",
-            Channel::U32(frame.bounces.iter().map(|&b| b as u32).collect()),
-        ),
-    ]
+        ("hit.X", f(&|k| hits[k].x)),
+        ("hit.Y", f(&|k| hits[k].y)),
+        ("hit.Z", f(&|k| hits[k].z)),
+    ];
+    channels.extend(id_channels(world, &triangles));
+    channels.push((
+        "bounces",
+        Channel::U32(frame.bounces.iter().map(|&b| b as u32).collect()),
+    ));
+    channels
 }
 
-/// Writes a traced (GPU) frame as PNG or EXR, chosen by the extension of `path`. EXR channels:
-/// `R`, `G`, `B`, `mask`, `P.X/Y/Z` (`surface_position`), `hit.X/Y/Z` (NaN where the ray left
-/// the scene or was unresolved), `unresolved` (1 on mirror pixels no CMO could decide) and, for
-/// methods that verify their hits (the tracers with the exact criterion), `primitive_id` (u32:
-/// the global triangle of the traced hit, 4294967295 where none, as the reference's), and with
-/// the BVH tracer (`bvh`, `--fallback trace`) `fallback` (1 where the BVH finished the ray of a
-/// pixel the method left unresolved; `unresolved` is then 0 there), and where the frame counts
-/// them `bounces` (u32: the reflections the pixel's path took, as the reference's).
-pub fn write_traced(path: &Path, traced: &Traced, surface_position: &[Vec3]) -> Result<()> {
+/// The EXR channels of a traced (GPU) frame of the scene whose geometry is `world`, with the
+/// primary hits `surface_position` (see the module docs).
+pub fn traced_channels(
+    traced: &Traced,
+    surface_position: &[Vec3],
+    world: &WorldGeometry,
+) -> Vec<(&'static str, Channel)> {
+    let n = traced.colour.len();
+    let f = |g: &dyn Fn(usize) -> f32| Channel::F32((0..n).map(g).collect());
+    let mut channels = vec![
+        ("R", f(&|k| traced.colour[k].x)),
+        ("G", f(&|k| traced.colour[k].y)),
+        ("B", f(&|k| traced.colour[k].z)),
+        ("mask", f(&|k| traced.mask[k] as f32)),
+        ("P.X", f(&|k| surface_position[k].x)),
+        ("P.Y", f(&|k| surface_position[k].y)),
+        ("P.Z", f(&|k| surface_position[k].z)),
+        ("hit.X", f(&|k| traced.hit_position[k].x)),
+        ("hit.Y", f(&|k| traced.hit_position[k].y)),
+        ("hit.Z", f(&|k| traced.hit_position[k].z)),
+        (
+            "unresolved",
+            f(&|k| u8::from(traced.mask[k] != 0 && traced.resolved[k] == 0) as f32),
+        ),
+    ];
+    if let Some(triangles) = &traced.triangle {
+        channels.extend(id_channels(world, triangles));
+    }
+    if let Some(fb) = &traced.fallback {
+        channels.push(("fallback", f(&|k| f32::from(fb[k]))));
+    }
+    if let Some(b) = &traced.bounces {
+        channels.push(("bounces", Channel::U32(b.clone())));
+    }
+    channels
+}
+
+/// Writes a traced (GPU) frame of the scene whose geometry is `world` as PNG or EXR, chosen by
+/// the extension of `path` ([`traced_channels`]).
+pub fn write_traced(
+    path: &Path,
+    traced: &Traced,
+    surface_position: &[Vec3],
+    world: &WorldGeometry,
+) -> Result<()> {
     match Format::from_path(path)? {
         Format::Png => write_atomic(
             path,
             &png_bytes(traced.width, traced.height, &traced.colour)?,
         ),
-        Format::Exr => {
-            let n = traced.colour.len();
-            let f = |g: &dyn Fn(usize) -> f32| Channel::F32((0..n).map(g).collect());
-            let mut channels = vec![
-                ("R", f(&|k| traced.colour[k].x)),
-                ("G", f(&|k| traced.colour[k].y)),
-                ("B", f(&|k| traced.colour[k].z)),
-                ("mask", f(&|k| traced.mask[k] as f32)),
-                ("P.X", f(&|k| surface_position[k].x)),
-                ("P.Y", f(&|k| surface_position[k].y)),
-                ("P.Z", f(&|k| surface_position[k].z)),
-                ("hit.X", f(&|k| traced.hit_position[k].x)),
-                ("hit.Y", f(&|k| traced.hit_position[k].y)),
-                ("hit.Z", f(&|k| traced.hit_position[k].z)),
-                (
-                    "unresolved",
-                    f(&|k| u8::from(traced.mask[k] != 0 && traced.resolved[k] == 0) as f32),
-                ),
-            ];
-            if let Some(ids) = &traced.triangle {
-                channels.push(("primitive_id", Channel::U32(ids.clone())));
-            }
-            if let Some(fb) = &traced.fallback {
-                channels.push(("fallback", f(&|k| f32::from(fb[k]))));
-            }
-            if let Some(b) = &traced.bounces {
-                channels.push(("bounces", Channel::U32(b.clone())));
-            }
-            write_exr(path, traced.width, traced.height, channels)
-        }
+        Format::Exr => write_exr(
+            path,
+            traced.width,
+            traced.height,
+            traced_channels(traced, surface_position, world),
+        ),
     }
 }
 
-/// Writes a frame as PNG or EXR, chosen by the extension of `path`.
-pub fn write_frame(path: &Path, frame: &Frame) -> Result<()> {
+/// Writes a reference frame of the scene whose geometry is `world` as PNG or EXR, chosen by the
+/// extension of `path` ([`frame_channels`]).
+pub fn write_frame(path: &Path, frame: &Frame, world: &WorldGeometry) -> Result<()> {
     match Format::from_path(path)? {
         Format::Png => write_atomic(path, &png_bytes(frame.width, frame.height, &frame.colour)?),
-        Format::Exr => write_exr(path, frame.width, frame.height, frame_channels(frame)),
+        Format::Exr => write_exr(
+            path,
+            frame.width,
+            frame.height,
+            frame_channels(frame, world),
+        ),
     }
 }
 
@@ -310,19 +299,6 @@ mod tests {
             .unwrap()
             .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
             .collect()
-    }
-
-    #[test]
-    fn file_stems_are_safe() {
-        assert_eq!(safe_file_stem("sphere-room_2"), "sphere-room_2");
-        assert_eq!(safe_file_stem("../a/b"), "___a_b");
-        assert_eq!(safe_file_stem(".."), "__");
-        assert_eq!(safe_file_stem("-rf"), "_rf");
-        assert_eq!(safe_file_stem("a\u{0}\tb\u{7f}é"), "a__b__");
-        assert_eq!(safe_file_stem(""), "unnamed");
-        assert_eq!(safe_file_stem(&"x".repeat(300)).len(), MAX_STEM);
-        // Negative: a name with a separator is not kept as it is.
-        assert_ne!(safe_file_stem("a/b"), "a/b");
     }
 
     #[test]
@@ -347,34 +323,31 @@ mod tests {
         assert_eq!(entries(dir.path()), vec!["file".to_string()]);
     }
 
-    #[test]
-    fn failed_write_leaves_nothing() {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("x.png");
-        let r = write_atomic_with(&path, |w| {
-            w.write_all(b"half")?;
-            anyhow::bail!("disk on fire")
-        });
-        assert!(r.is_err());
-        assert!(entries(dir.path()).is_empty(), "{:?}", entries(dir.path()));
-        // Negative: the same call without the failure does leave the file.
-        write_atomic(&path, b"whole").unwrap();
-        assert_eq!(entries(dir.path()), vec!["x.png".to_string()]);
-        assert_eq!(std::fs::read(&path).unwrap(), b"whole");
+    /// Two objects of 2 and 3 triangles: global triangle 3 is object 1's primitive 1.
+    fn two_objects() -> WorldGeometry {
+        let object = |first_triangle, triangle_count| crate::scene::ObjectInfo {
+            name: "o".into(),
+            material: 0,
+            reflector: false,
+            captured: true,
+            first_triangle,
+            triangle_count,
+        };
+        WorldGeometry {
+            triangles: vec![[0, 0, 0]; 5],
+            triangle_object: vec![0, 0, 1, 1, 1],
+            objects: vec![object(0, 2), object(2, 3)],
+            ..WorldGeometry::default()
+        }
     }
 
-    /// The finished file has the mode a plain create gives (not the temporary file's 0600).
-    #[cfg(unix)]
-    #[test]
-    fn written_file_has_the_usual_mode() {
-        use std::os::unix::fs::PermissionsExt;
-        let dir = tempfile::tempdir().unwrap();
-        let plain = dir.path().join("plain");
-        std::fs::write(&plain, b"x").unwrap();
-        let atomic = dir.path().join("atomic.png");
-        write_atomic(&atomic, b"x").unwrap();
-        let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
-        assert_eq!(mode(&atomic), mode(&plain));
+    fn u32_channel(path: &Path, name: &str) -> Vec<u32> {
+        let img = exr::prelude::read_all_flat_layers_from_file(path).unwrap();
+        let ch = &img.layer_data[0].channel_data.list;
+        let c = ch.iter().find(|c| c.name.to_string() == name).unwrap();
+        (0..c.sample_data.len())
+            .map(|k| c.sample_data.value_by_flat_index(k).to_u32())
+            .collect()
     }
 
     #[test]
@@ -383,17 +356,58 @@ mod tests {
         let path = dir.path().join("f.exr");
         let mut f = Frame::new(3, 2);
         f.colour[4] = Vec3::new(0.25, 2.5, -1.0);
-        f.object_id[1] = 7;
-        write_frame(&path, &f).unwrap();
+        // A mirror pixel showing global triangle 3, and one that is no mirror (its last hit is
+        // the primary hit, which names no reflected hit).
+        f.mask[1] = 1;
+        f.last_triangle[1] = 3;
+        f.last_triangle[2] = 4;
+        write_frame(&path, &f, &two_objects()).unwrap();
         let img = exr::prelude::read_all_flat_layers_from_file(&path).unwrap();
         let ch = &img.layer_data[0].channel_data.list;
         let g = ch.iter().find(|c| c.name.to_string() == "G").unwrap();
         assert_eq!(g.sample_data.value_by_flat_index(4).to_f32(), 2.5);
-        let o = ch
+        let none = u32::MAX;
+        assert_eq!(
+            u32_channel(&path, "object_id"),
+            [none, 1, none, none, none, none]
+        );
+        assert_eq!(
+            u32_channel(&path, "primitive_id"),
+            [none, 1, none, none, none, none]
+        );
+    }
+
+    /// A GPU frame's global triangles are written in the same numbering as the reference's.
+    #[test]
+    fn traced_ids_are_mapped_to_object_and_primitive() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.exr");
+        let n = 4;
+        let mut traced = Traced {
+            width: 2,
+            height: 2,
+            colour: vec![Vec3::ZERO; n],
+            mask: vec![1; n],
+            hit_position: vec![Vec3::NAN; n],
+            resolved: vec![1; n],
+            triangle: Some(vec![0, 2, 4, u32::MAX]),
+            fallback: None,
+            bounces: None,
+        };
+        let world = two_objects();
+        write_traced(&path, &traced, &[Vec3::ZERO; 4], &world).unwrap();
+        assert_eq!(u32_channel(&path, "object_id"), [0, 1, 1, u32::MAX]);
+        assert_eq!(u32_channel(&path, "primitive_id"), [0, 0, 2, u32::MAX]);
+        // Negative: a frame that names no triangles writes no ID channel.
+        traced.triangle = None;
+        write_traced(&path, &traced, &[Vec3::ZERO; 4], &world).unwrap();
+        let img = exr::prelude::read_all_flat_layers_from_file(&path).unwrap();
+        let names: Vec<String> = img.layer_data[0]
+            .channel_data
+            .list
             .iter()
-            .find(|c| c.name.to_string() == "object_id")
-            .unwrap();
-        assert_eq!(o.sample_data.value_by_flat_index(1).to_u32(), 7);
-        assert_eq!(o.sample_data.value_by_flat_index(0).to_u32(), u32::MAX);
+            .map(|c| c.name.to_string())
+            .collect();
+        assert!(!names.iter().any(|c| c.ends_with("_id")), "{names:?}");
     }
 }

@@ -13,10 +13,11 @@
 //! Textures are sampled bilinearly with repeat addressing, in linear space after sRGB decoding,
 //! at `(u, 1 - v)` with texel centres at +0.5: what a Vulkan `LINEAR`/`REPEAT` sampler on an
 //! `R8G8B8A8_SRGB` image without mipmaps returns (up to its fixed-point filter weights).
+//!
+//! A leaf module: the scene holds [`Material`]s and [`Texture`]s (defined here, as the data this
+//! arithmetic reads), and nothing here reads a scene.
 
 use glam::{Vec2, Vec3};
-
-use crate::scene::{Material, Texture};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Shading {
@@ -72,6 +73,31 @@ pub fn linear_to_srgb(c: f32) -> u8 {
         1.055 * c.powf(1.0 / 2.4) - 0.055
     };
     (s * 255.0 + 0.5) as u8
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    /// Linear RGB diffuse colour (`Kd`).
+    pub diffuse: Vec3,
+    /// Index into the scene's texture list (`map_Kd`), multiplied with `diffuse`.
+    pub texture: Option<u32>,
+}
+
+/// An sRGB-encoded RGBA8 image, row 0 at the top.
+#[derive(Clone, PartialEq)]
+pub struct Texture {
+    /// File name used when the scene is exported (`NAME.png`).
+    pub name: String,
+    pub width: u32,
+    pub height: u32,
+    pub rgba8: Vec<u8>,
+}
+
+impl std::fmt::Debug for Texture {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Texture({} {}x{})", self.name, self.width, self.height)
+    }
 }
 
 impl Texture {

@@ -1,10 +1,10 @@
-//! `[cmo] placement = "auto"`: the greedy search for CMO centres (`scene::placement`), on a
+//! `[cmo] placement = "auto"`: the greedy search for CMO centres (`cubetrace::placement`), on a
 //! scene where the answer is known, and the scene-file field.
 
 use std::path::Path;
 
 use cubetrace::camera::Camera;
-use cubetrace::scene::placement::{PlacementOptions, search};
+use cubetrace::placement::{self, PlacementOptions, search};
 use cubetrace::scene::shapes::{self, SceneBuilder};
 use cubetrace::scene::{self, CmoPlacement, CmoSpec, Scene, SelfReflections, Transform, builtin};
 use cubetrace::shading::Shading;
@@ -112,6 +112,30 @@ fn greedy_moves_the_cmo_out_of_the_occluders_shadow() {
     assert!(p.unresolved.windows(2).all(|w| w[1] < w[0]));
     // Deterministic.
     assert_eq!(search(&scene, &scene.cameras[0], 2, &opts), p);
+}
+
+/// `placement::resolve` runs the search once for the render's camera and stores its centres in
+/// the scene; before that the scene (data, no search of its own) gives the axis placement.
+#[test]
+fn resolve_stores_the_searched_centres() {
+    let mut scene = occluded_mirror(true);
+    scene.cmo.placement = CmoPlacement::Search { count: 2 };
+    let camera = scene.cameras[0].clone();
+    assert_eq!(scene.cmo_centres(), scene.axis_centres(2));
+    let want = search(&scene, &camera, 2, &PlacementOptions::default());
+    let got = placement::resolve(&mut scene, &camera).expect("a search placement");
+    assert_eq!(got, want);
+    assert_eq!(
+        scene.cmo.placement,
+        CmoPlacement::Explicit(want.centres.clone())
+    );
+    assert_eq!(scene.cmo_centres(), want.centres);
+    // The search chose other centres than the axis (the box hides the axis centre's view).
+    assert_ne!(scene.cmo_centres(), scene.axis_centres(2));
+    // Negative: a resolved (or any non-search) placement is left alone.
+    let before = scene.clone();
+    assert_eq!(placement::resolve(&mut scene, &camera), None);
+    assert_eq!(scene, before);
 }
 
 /// Negative: without the box the axis centre sees the room, so the score above is the box's

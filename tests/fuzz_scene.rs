@@ -231,7 +231,7 @@ fn check(case: &Case, load: Loader, tally: &Mutex<Tally>) -> Result<(), String> 
     let path = d.join("scene.toml");
     let outcome = std::panic::catch_unwind(|| {
         load(&path).map(|(scene, _)| {
-            let problems = scene::diagnose(&scene);
+            let problems = cubetrace::placement::diagnose(&scene);
             (scene, problems)
         })
     });

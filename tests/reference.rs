@@ -294,7 +294,7 @@ fn sphere_check(centre: Vec3, radius: f32) -> SphereOutcome {
             if cos_b < 0.2 {
                 continue;
             }
-            let (expected_object, _) = env.ids(h.triangle);
+            let (expected_object, _) = env.world.ids(h.triangle);
             let got_object = frame.object_id[k];
             // Object ids differ between the two scenes only by the removed mirror mesh.
             let objects_before_mirror = scene
@@ -547,13 +547,13 @@ fn sphere_vertex_edge_rays(rule: Leaving) -> (usize, usize, usize) {
             missed += 1;
             continue;
         };
-        if tracer.ids(hit.triangle).0 != mirror || (hit.position - p).length() > 1e-4 {
+        if tracer.world.ids(hit.triangle).0 != mirror || (hit.position - p).length() > 1e-4 {
             missed += 1;
             continue;
         }
         let r = reflect(d, tracer.normal(&hit)).normalize();
         if let Some(h) = reflected_hit(&tracer, &hit, r, rule)
-            && tracer.ids(h.triangle).0 == mirror
+            && tracer.world.ids(h.triangle).0 == mirror
         {
             onto_itself += 1;
         }
@@ -669,7 +669,7 @@ fn teapot_seam_rays(rule: Leaving) -> (usize, usize) {
         }
         checked += 1;
         if let Some(h) = reflected_hit(&tracer, &hit, r, rule)
-            && tracer.ids(h.triangle).0 == teapot
+            && tracer.world.ids(h.triangle).0 == teapot
             && (h.position - hit.position).length() <= near
         {
             bad += 1;

@@ -416,10 +416,13 @@ fn cli_render_fragment_exr_channels() {
         })
         .count();
     assert!(hits > 10, "{hits} traced hits");
-    // The verified hit's triangle: present exactly where a hit is, and the hit point lies on it
-    // (a neighbouring index does not fit: the check can fail).
+    // The verified hit's triangle (object, and primitive within it): present exactly where a
+    // hit is, and the hit point lies on it (a neighbouring index does not fit: the check can
+    // fail).
     let prim = channel("primitive_id");
-    let corners = triangle_corners(&builtin::by_name("bowl").unwrap().world());
+    let object = channel("object_id");
+    let world = builtin::by_name("bowl").unwrap().world();
+    let corners = triangle_corners(&world);
     let at = |c: &exr::prelude::AnyChannel<exr::prelude::FlatSamples>, i: usize| {
         c.sample_data.value_by_flat_index(i).to_f32()
     };
@@ -433,17 +436,23 @@ fn cli_render_fragment_exr_channels() {
         })
     };
     let (mut on_tri, mut on_other) = (0, 0);
+    let id = |c: &exr::prelude::AnyChannel<exr::prelude::FlatSamples>, i: usize| match c
+        .sample_data
+        .value_by_flat_index(i)
+    {
+        exr::prelude::Sample::U32(v) => v,
+        s => panic!("{} is {s:?}, not u32", c.name),
+    };
     for i in 0..32 * 24 {
-        let id = match prim.sample_data.value_by_flat_index(i) {
-            exr::prelude::Sample::U32(v) => v,
-            s => panic!("primitive_id is {s:?}, not u32"),
-        };
+        let (o, id) = (id(object, i), id(prim, i));
         let p = Vec3::new(at(hit, i), at(channel("hit.Y"), i), at(channel("hit.Z"), i));
         let is_hit = at(mask, i) == 1.0 && p.x.is_finite();
         assert_eq!(id != u32::MAX, is_hit, "pixel {i}: id {id}, hit {p}");
+        assert_eq!(o != u32::MAX, is_hit, "pixel {i}: object {o}, hit {p}");
         if is_hit {
-            on_tri += usize::from(on(id, p));
-            on_other += usize::from(on(id ^ 1, p));
+            let tri = world.objects[o as usize].first_triangle + id;
+            on_tri += usize::from(on(tri, p));
+            on_other += usize::from(on(tri ^ 1, p));
         }
     }
     assert_eq!(on_tri, hits, "hits off their primitive_id's triangle");
@@ -451,7 +460,7 @@ fn cli_render_fragment_exr_channels() {
         on_other < hits / 2,
         "{on_other} of {hits} also on the neighbouring triangle"
     );
-    // Methods that do not verify write no primitive_id.
+    // Methods that do not verify write no triangle IDs.
     let o = run(
         &[
             "render", "bowl", "--method", "envmap", "--width", "32", "--height", "24", "-o",
@@ -462,5 +471,5 @@ fn cli_render_fragment_exr_channels() {
     assert_eq!(o.code, Some(0), "{}", o.stderr);
     let exr = exr::prelude::read_all_flat_layers_from_file(dir.path().join("e.exr")).unwrap();
     let list = &exr.layer_data[0].channel_data.list;
-    assert!(list.iter().all(|c| c.name.to_string() != "primitive_id"));
+    assert!(list.iter().all(|c| !c.name.to_string().ends_with("_id")));
 }

@@ -509,7 +509,7 @@ fn diagnose_scene(
     let dir = tempfile::tempdir().unwrap();
     let path = write_scene(dir.path(), "", meshes, None, tail);
     let scene = scene::load_scene_file(&path).unwrap();
-    let problems = scene::diagnose(&scene);
+    let problems = cubetrace::placement::diagnose(&scene);
     (dir, path, problems)
 }
 
@@ -517,7 +517,11 @@ fn diagnose_scene(
 fn diagnose_is_quiet_on_the_builtins() {
     for (name, _) in cubetrace::scene::builtin::NAMES {
         let s = cubetrace::scene::builtin::by_name(name).unwrap();
-        assert_eq!(scene::diagnose(&s), Vec::<String>::new(), "{name}");
+        assert_eq!(
+            cubetrace::placement::diagnose(&s),
+            Vec::<String>::new(),
+            "{name}"
+        );
     }
 }
 

@@ -103,7 +103,7 @@ pub fn load_scene(args: &RenderArgs) -> Result<(Scene, Camera)> {
         scene::CmoPlacement::Search { count } => count,
         _ => 0,
     };
-    if let Some(p) = scene.resolve_cmo_placement(&camera) {
+    if let Some(p) = crate::placement::resolve(&mut scene, &camera) {
         log::info!(
             "cmo placement auto: {} reflected rays sampled; unresolved {:.2}% with {count} along the axis",
             p.rays,
@@ -120,7 +120,7 @@ pub fn load_scene(args: &RenderArgs) -> Result<(Scene, Camera)> {
             );
         }
     }
-    for problem in scene::diagnose(&scene) {
+    for problem in crate::placement::diagnose(&scene) {
         log::warn!("{problem}");
     }
     Ok((scene, camera))
@@ -228,7 +228,7 @@ fn render_gpu(
     let frame = renderer.render(&ctx)?;
     let render_time = start.elapsed();
     let traced = frame.traced();
-    output::write_traced(&target.path, &traced, &frame.surface_position)?;
+    output::write_traced(&target.path, &traced, &frame.surface_position, &scene.world())?;
     let written = start.elapsed();
     log::info!(
         "host: scene {:.0} ms, device {:.0} ms, passes and pipelines {:.0} ms, frame (submit, wait, read back) {:.0} ms, {} {:.0} ms",
@@ -401,7 +401,7 @@ fn render_reference(
     }
     let frame = reference::render_with_progress(scene, &tracer, camera, args.bounces, &bar);
     let render_time = start.elapsed();
-    output::write_frame(&target.path, &frame)?;
+    output::write_frame(&target.path, &frame, &tracer.world)?;
     println!(
         "wrote {} ({}x{}, scene '{}', method {}, {} mirror pixels) in {:.2?}",
         target.path.display(),

@@ -557,7 +557,7 @@ pub fn prepare_scene(
     camera.width = width;
     camera.height = height;
     // A placement search runs once, for this camera, not in every `cmo_centres` call.
-    scene.resolve_cmo_placement(&camera);
+    crate::placement::resolve(&mut scene, &camera);
     scene::check_resolution(width, height).map_err(|e| anyhow::anyhow!("frame size: {e}"))?;
     Ok((scene, camera))
 }

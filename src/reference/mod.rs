@@ -73,8 +73,9 @@ use crate::camera::Camera;
 use crate::scene::{Scene, WorldGeometry};
 use crate::shading::albedo;
 
-/// "No object / no primitive" in [`Frame`] ids.
-pub const NO_ID: u32 = u32::MAX;
+/// "No object / no primitive / no triangle" in [`Frame`] ids (the scene's one numbering,
+/// [`WorldGeometry::ids`]).
+pub use crate::scene::NO_ID;
 
 /// The per-pixel result of a render, row-major, row 0 at the top.
 #[derive(Clone, Debug, PartialEq)]
@@ -126,23 +127,30 @@ impl Frame {
     }
 
     /// This frame with each mirror pixel's reflected hit (`hit_position`, `triangle`,
-    /// `object_id`, `primitive_id`) replaced by its path's last hit: the same frame for one
-    /// bounce, and what a GPU frame's records hold for any bounce count (`--bounces`), so that
-    /// the metrics compare like with like.
+    /// `object_id`, `primitive_id`) replaced by its path's last hit ([`Frame::shown_hit`]): the
+    /// same frame for one bounce, and what a GPU frame's records hold for any bounce count
+    /// (`--bounces`), so that the metrics compare like with like.
     pub fn with_last_hits(&self, tracer: &Tracer) -> Frame {
         let mut f = self.clone();
         for k in 0..f.mask.len() {
-            if f.mask[k] == 0 {
-                continue;
-            }
-            f.hit_position[k] = f.last_position[k];
-            f.triangle[k] = f.last_triangle[k];
-            (f.object_id[k], f.primitive_id[k]) = match f.last_triangle[k] {
-                NO_ID => (NO_ID, NO_ID),
-                t => tracer.ids(t),
-            };
+            let (position, triangle) = self.shown_hit(k);
+            f.hit_position[k] = position;
+            f.triangle[k] = triangle;
+            (f.object_id[k], f.primitive_id[k]) = tracer.world.ids(triangle);
         }
         f
+    }
+
+    /// The hit whose colour pixel `k` shows, as a GPU frame's record names it: on a mirror
+    /// pixel its path's last hit (point and global triangle; NaN and [`NO_ID`] where the path
+    /// left the scene), which is the first reflected hit for one bounce and the mirror itself
+    /// for none; elsewhere none (NaN, [`NO_ID`]).
+    pub fn shown_hit(&self, k: usize) -> (Vec3, u32) {
+        if self.mask[k] != 0 {
+            (self.last_position[k], self.last_triangle[k])
+        } else {
+            (self.hit_position[k], self.triangle[k])
+        }
     }
 
     pub fn index(&self, i: u32, j: u32) -> usize {
@@ -163,9 +171,7 @@ impl Frame {
         self.last_triangle[k] = p.last_triangle;
         if let Some(h) = p.first_reflected {
             self.hit_position[k] = h.position;
-            let (o, prim) = tracer.ids(h.triangle);
-            self.object_id[k] = o;
-            self.primitive_id[k] = prim;
+            (self.object_id[k], self.primitive_id[k]) = tracer.world.ids(h.triangle);
             self.triangle[k] = h.triangle;
         }
     }
@@ -507,12 +513,6 @@ impl Tracer {
             self.world.triangles[hit.triangle as usize].map(|i| self.world.uvs[i as usize]);
         let (u, v) = (hit.bary.x, hit.bary.y);
         a * (1.0 - u - v) + b * u + c * v
-    }
-
-    /// Object id and primitive id (within the object) of a global triangle index.
-    pub fn ids(&self, triangle: u32) -> (u32, u32) {
-        let o = self.world.triangle_object[triangle as usize];
-        (o, triangle - self.world.objects[o as usize].first_triangle)
     }
 
     pub fn is_reflector(&self, triangle: u32) -> bool {

@@ -11,8 +11,9 @@ use super::file::{
     CameraFile, CmoFile, MeshFile, ScaleFile, SceneFile, SelfReflectionsFile, ShadingFile,
     ShadingModel, TransformFile,
 };
-use super::{CmoPlacement, Scene, SelfReflections};
-use crate::output::{safe_file_stem as safe, write_atomic};
+use super::{CmoPlacement, CmoSpec, MeshInstance, Scene, SelfReflections};
+use crate::camera::Camera;
+use crate::files::{safe_file_stem as safe, write_atomic};
 use crate::shading::Shading;
 
 fn sp<T>(v: T) -> Spanned<T> {
@@ -39,7 +40,40 @@ fn unique(names: impl Iterator<Item = String>) -> Vec<String> {
 pub fn export(scene: &Scene, dir: &Path) -> anyhow::Result<PathBuf> {
     std::fs::create_dir_all(dir)
         .map_err(|e| anyhow::anyhow!("cannot create {}: {e}", dir.display()))?;
+    let tex_names = write_textures(scene, dir)?;
+    let mat_names = write_materials(scene, dir, &tex_names)?;
+    let mesh_names = unique(scene.meshes.iter().map(|m| m.name.clone()));
+    let mut meshes = Vec::new();
+    for (mesh, name) in scene.meshes.iter().zip(&mesh_names) {
+        let file = format!("{name}.obj");
+        write_atomic(&dir.join(&file), obj_text(mesh, &mat_names)?.as_bytes())?;
+        meshes.push(mesh_file(mesh, file));
+    }
+    let file = SceneFile {
+        name: Some(scene.name.clone()),
+        background: sp(scene.background.to_array()),
+        self_reflections: Some(sp(match scene.self_reflections {
+            SelfReflections::Auto => SelfReflectionsFile::Word("auto".into()),
+            SelfReflections::On => SelfReflectionsFile::Bool(true),
+            SelfReflections::Off => SelfReflectionsFile::Bool(false),
+        })),
+        shading: shading_file(scene.shading),
+        meshes,
+        cameras: scene.cameras.iter().map(camera_file).collect(),
+        cmo: Some(cmo_file(&scene.cmo)),
+    };
+    let toml_text = format!(
+        "# cubetrace scene '{}', written by `cubetrace scene export`.\n{}",
+        scene.name,
+        toml::to_string(&file)?
+    );
+    let path = dir.join("scene.toml");
+    write_atomic(&path, toml_text.as_bytes())?;
+    Ok(path)
+}
 
+/// Writes each texture as `NAME.png`; returns the names, in texture order.
+fn write_textures(scene: &Scene, dir: &Path) -> anyhow::Result<Vec<String>> {
     let tex_names = unique(scene.textures.iter().map(|t| t.name.clone()));
     for (t, name) in scene.textures.iter().zip(&tex_names) {
         let mut png = Vec::new();
@@ -53,7 +87,11 @@ pub fn export(scene: &Scene, dir: &Path) -> anyhow::Result<PathBuf> {
         )?;
         write_atomic(&dir.join(format!("{name}.png")), &png)?;
     }
+    Ok(tex_names)
+}
 
+/// Writes `materials.mtl`; returns the material names, in material order.
+fn write_materials(scene: &Scene, dir: &Path, tex_names: &[String]) -> anyhow::Result<Vec<String>> {
     let mat_names = unique(scene.materials.iter().map(|m| m.name.clone()));
     let mut mtl = String::from("# Written by cubetrace scene export. Kd is linear RGB.\n");
     for (m, name) in scene.materials.iter().zip(&mat_names) {
@@ -64,60 +102,64 @@ pub fn export(scene: &Scene, dir: &Path) -> anyhow::Result<PathBuf> {
         }
     }
     write_atomic(&dir.join("materials.mtl"), mtl.as_bytes())?;
+    Ok(mat_names)
+}
 
-    let mesh_names = unique(scene.meshes.iter().map(|m| m.name.clone()));
-    let mut meshes = Vec::new();
-    for (mesh, name) in scene.meshes.iter().zip(&mesh_names) {
-        let mut obj = String::from(
-            "# Written by cubetrace scene export (object space).\nmtllib materials.mtl\n",
-        );
-        let mut base = 1;
-        for part in &mesh.parts {
-            writeln!(obj, "o {}", safe(&part.name))?;
-            writeln!(obj, "usemtl {}", mat_names[part.material as usize])?;
-            for p in &part.positions {
-                writeln!(obj, "v {} {} {}", p.x, p.y, p.z)?;
-            }
-            for n in &part.normals {
-                writeln!(obj, "vn {} {} {}", n.x, n.y, n.z)?;
-            }
-            for t in &part.uvs {
-                writeln!(obj, "vt {} {}", t.x, t.y)?;
-            }
-            for tri in &part.triangles {
-                obj.push('f');
-                for &i in tri {
-                    let i = i as usize + base;
-                    if part.uvs.is_empty() {
-                        write!(obj, " {i}//{i}")?;
-                    } else {
-                        write!(obj, " {i}/{i}/{i}")?;
-                    }
-                }
-                obj.push('\n');
-            }
-            base += part.positions.len();
+/// A mesh as OBJ text in object space, one `o` per part.
+fn obj_text(mesh: &MeshInstance, mat_names: &[String]) -> Result<String, std::fmt::Error> {
+    let mut obj =
+        String::from("# Written by cubetrace scene export (object space).\nmtllib materials.mtl\n");
+    let mut base = 1;
+    for part in &mesh.parts {
+        writeln!(obj, "o {}", safe(&part.name))?;
+        writeln!(obj, "usemtl {}", mat_names[part.material as usize])?;
+        for p in &part.positions {
+            writeln!(obj, "v {} {} {}", p.x, p.y, p.z)?;
         }
-        let file = format!("{name}.obj");
-        write_atomic(&dir.join(&file), obj.as_bytes())?;
-        let t = &mesh.transform;
-        meshes.push(MeshFile {
-            name: Some(mesh.name.clone()),
-            obj: sp(PathBuf::from(file)),
-            reflector: mesh.reflector,
-            transform: TransformFile {
-                translate: sp(t.translate.to_array()),
-                rotate_deg: sp(t.rotate_deg.to_array()),
-                scale: sp(if t.scale.x == t.scale.y && t.scale.y == t.scale.z {
-                    ScaleFile::Uniform(t.scale.x)
+        for n in &part.normals {
+            writeln!(obj, "vn {} {} {}", n.x, n.y, n.z)?;
+        }
+        for t in &part.uvs {
+            writeln!(obj, "vt {} {}", t.x, t.y)?;
+        }
+        for tri in &part.triangles {
+            obj.push('f');
+            for &i in tri {
+                let i = i as usize + base;
+                if part.uvs.is_empty() {
+                    write!(obj, " {i}//{i}")?;
                 } else {
-                    ScaleFile::PerAxis(t.scale.to_array())
-                }),
-            },
-        });
+                    write!(obj, " {i}/{i}/{i}")?;
+                }
+            }
+            obj.push('\n');
+        }
+        base += part.positions.len();
     }
+    Ok(obj)
+}
 
-    let shading = match scene.shading {
+/// The `[[mesh]]` entry of a mesh written to `file`.
+fn mesh_file(mesh: &MeshInstance, file: String) -> MeshFile {
+    let t = &mesh.transform;
+    MeshFile {
+        name: Some(mesh.name.clone()),
+        obj: sp(PathBuf::from(file)),
+        reflector: mesh.reflector,
+        transform: TransformFile {
+            translate: sp(t.translate.to_array()),
+            rotate_deg: sp(t.rotate_deg.to_array()),
+            scale: sp(if t.scale.x == t.scale.y && t.scale.y == t.scale.z {
+                ScaleFile::Uniform(t.scale.x)
+            } else {
+                ScaleFile::PerAxis(t.scale.to_array())
+            }),
+        },
+    }
+}
+
+fn shading_file(shading: Shading) -> ShadingFile {
+    match shading {
         Shading::Unlit => ShadingFile {
             model: ShadingModel::Unlit,
             ..ShadingFile::default()
@@ -132,8 +174,22 @@ pub fn export(scene: &Scene, dir: &Path) -> anyhow::Result<PathBuf> {
             light_direction: Some(sp(light_direction.to_array())),
             light_intensity: Some(sp(light_intensity)),
         },
-    };
-    let (centres, count, placement) = match &scene.cmo.placement {
+    }
+}
+
+fn camera_file(c: &Camera) -> CameraFile {
+    CameraFile {
+        name: Some(c.name.clone()),
+        eye: sp(c.eye.to_array()),
+        target: sp(c.target.to_array()),
+        up: sp(c.up.to_array()),
+        fov_y_deg: sp(c.fov_y_deg),
+        resolution: sp([c.width, c.height]),
+    }
+}
+
+fn cmo_file(cmo: &CmoSpec) -> CmoFile {
+    let (centres, count, placement) = match &cmo.placement {
         CmoPlacement::Explicit(c) => (
             Some(sp(c.iter().map(|v| v.to_array()).collect())),
             None,
@@ -142,41 +198,10 @@ pub fn export(scene: &Scene, dir: &Path) -> anyhow::Result<PathBuf> {
         CmoPlacement::Auto { count } => (None, Some(sp(*count)), None),
         CmoPlacement::Search { count } => (None, Some(sp(*count)), Some(sp("auto".to_string()))),
     };
-    let file = SceneFile {
-        name: Some(scene.name.clone()),
-        background: sp(scene.background.to_array()),
-        self_reflections: Some(sp(match scene.self_reflections {
-            SelfReflections::Auto => SelfReflectionsFile::Word("auto".into()),
-            SelfReflections::On => SelfReflectionsFile::Bool(true),
-            SelfReflections::Off => SelfReflectionsFile::Bool(false),
-        })),
-        shading,
-        meshes,
-        cameras: scene
-            .cameras
-            .iter()
-            .map(|c| CameraFile {
-                name: Some(c.name.clone()),
-                eye: sp(c.eye.to_array()),
-                target: sp(c.target.to_array()),
-                up: sp(c.up.to_array()),
-                fov_y_deg: sp(c.fov_y_deg),
-                resolution: sp([c.width, c.height]),
-            })
-            .collect(),
-        cmo: Some(CmoFile {
-            centres,
-            count,
-            placement,
-            resolution: sp(scene.cmo.resolution),
-        }),
-    };
-    let toml_text = format!(
-        "# cubetrace scene '{}', written by `cubetrace scene export`.\n{}",
-        scene.name,
-        toml::to_string(&file)?
-    );
-    let path = dir.join("scene.toml");
-    write_atomic(&path, toml_text.as_bytes())?;
-    Ok(path)
+    CmoFile {
+        centres,
+        count,
+        placement,
+        resolution: sp(cmo.resolution),
+    }
 }

@@ -176,7 +176,7 @@ pub(crate) struct CmoFile {
     pub centres: Option<Spanned<Vec<[f32; 3]>>>,
     pub count: Option<Spanned<u32>>,
     /// With `count`: `"axis"` (the default: along the reflectors' longest axis) or `"auto"`
-    /// (searched for the camera, [`super::placement`]).
+    /// (searched for the camera by `cubetrace::placement`).
     pub placement: Option<Spanned<String>>,
     #[serde(default = "cube_res")]
     pub resolution: Spanned<u32>,
@@ -328,7 +328,9 @@ pub fn load_scene_file(path: &Path) -> Result<Scene, SceneError> {
 }
 
 /// Loads a scene file and everything it refers to, and returns the warnings: input that was
-/// accepted, but not as written (skipped elements, undefined materials, ...).
+/// accepted, but not as written (skipped elements, undefined materials, ...). The first error
+/// is reported, checking in this order: background, shading, self-reflections, meshes, cameras,
+/// CMOs.
 pub fn load_scene_file_report(path: &Path) -> Result<(Scene, LoadReport), SceneError> {
     let mut report = LoadReport::default();
     let text = std::fs::read_to_string(path).map_err(|e| SceneError::io(path, e))?;
@@ -355,100 +357,18 @@ pub fn load_scene_file_report(path: &Path) -> Result<(Scene, LoadReport), SceneE
         },
         background: src.finite(&file.background, "background")?,
         shading: shading(&src, &file.shading)?,
-        self_reflections: match &file.self_reflections {
-            None => SelfReflections::Auto,
-            Some(v) => match v.get_ref() {
-                SelfReflectionsFile::Bool(true) => SelfReflections::On,
-                SelfReflectionsFile::Bool(false) => SelfReflections::Off,
-                SelfReflectionsFile::Word(w) if w == "auto" => SelfReflections::Auto,
-                SelfReflectionsFile::Word(w) => {
-                    return Err(src.invalid(
-                        v,
-                        "self_reflections",
-                        format!("'{w}' is not one of true, false or \"auto\""),
-                    ));
-                }
-            },
-        },
+        self_reflections: self_reflections(&src, file.self_reflections.as_ref())?,
     };
 
     for (i, m) in file.meshes.iter().enumerate() {
-        let t = &m.transform;
-        let scale = match *t.scale.get_ref() {
-            ScaleFile::Uniform(s) => Vec3::splat(s),
-            ScaleFile::PerAxis(s) => Vec3::from_array(s),
-        };
-        let field = format!("mesh[{i}].transform.scale");
-        if !scale.is_finite() || scale.cmpeq(Vec3::ZERO).any() {
-            return Err(src.invalid(&t.scale, &field, "scale must be finite and non-zero"));
-        }
-        let transform = Transform {
-            translate: src.finite(&t.translate, &format!("mesh[{i}].transform.translate"))?,
-            rotate_deg: src.finite(&t.rotate_deg, &format!("mesh[{i}].transform.rotate_deg"))?,
-            scale,
-        };
-        let obj_path = dir.join(m.obj.get_ref());
-        let loaded = load_obj_file(&obj_path, &mut report)?;
-        let name = m.name.clone().unwrap_or_else(|| {
-            obj_path
-                .file_stem()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_else(|| format!("mesh{i}"))
-        });
-        if loaded.parts.is_empty() {
-            if m.reflector {
-                return Err(src.invalid(
-                    &m.obj,
-                    &format!("mesh[{i}].obj"),
-                    format!(
-                        "{} holds no triangles, so reflector '{name}' would be an invisible mirror",
-                        obj_path.display()
-                    ),
-                ));
-            }
-            report.warn(
-                WarningKind::EmptyMesh,
-                &obj_path,
-                None,
-                format!("mesh '{name}' holds no triangles"),
-            );
-        }
-        merge(&mut scene, name, loaded, transform, m.reflector);
+        load_mesh(&src, dir, i, m, &mut scene, &mut report)?;
     }
     if scene.meshes.is_empty() {
         report.warn(WarningKind::NoMeshes, path, None, "the scene has no meshes");
     }
 
     for (i, c) in file.cameras.iter().enumerate() {
-        let f = |s: &str| format!("camera[{i}].{s}");
-        let eye = src.finite(&c.eye, &f("eye"))?;
-        let target = src.finite(&c.target, &f("target"))?;
-        let up = src.finite(&c.up, &f("up"))?;
-        let fov_y_deg = src.scalar(&c.fov_y_deg, &f("fov_y_deg"))?;
-        if !(fov_y_deg > 0.0 && fov_y_deg < 180.0) {
-            return Err(src.invalid(&c.fov_y_deg, &f("fov_y_deg"), "must be in (0, 180) degrees"));
-        }
-        if (target - eye).length_squared() == 0.0
-            || (target - eye).cross(up).length_squared() == 0.0
-        {
-            return Err(src.invalid(
-                &c.eye,
-                &f("eye"),
-                "eye, target and up must span a view (eye != target, up not along the view)",
-            ));
-        }
-        let [width, height] = *c.resolution.get_ref();
-        check_resolution(width, height)
-            .map_err(|reason| src.invalid(&c.resolution, &f("resolution"), reason))?;
-        scene.cameras.push(Camera {
-            name: c.name.clone().unwrap_or_else(|| format!("camera{i}")),
-            eye,
-            target,
-            up,
-            fov_y_deg,
-            width,
-            height,
-        });
+        scene.cameras.push(camera(&src, i, c)?);
     }
     if scene.cameras.is_empty() {
         return Err(SceneError::Invalid {
@@ -459,65 +379,180 @@ pub fn load_scene_file_report(path: &Path) -> Result<(Scene, LoadReport), SceneE
     }
 
     if let Some(cmo) = &file.cmo {
-        let res = *cmo.resolution.get_ref();
-        if res == 0 || res > MAX_CUBE_SIZE {
-            return Err(src.invalid(
-                &cmo.resolution,
-                "cmo.resolution",
-                format!("{res} is out of range (1 to {MAX_CUBE_SIZE} texels)"),
-            ));
-        }
-        scene.cmo.resolution = res;
-        scene.cmo.placement = match (&cmo.centres, &cmo.count) {
-            (Some(_), Some(c)) => {
-                return Err(src.invalid(c, "cmo", "give either centres or count, not both"));
-            }
-            (Some(centres), None) => {
-                let mut out = Vec::new();
-                for (k, c) in centres.get_ref().iter().enumerate() {
-                    let v = Vec3::from_array(*c);
-                    if !v.is_finite() {
-                        return Err(src.invalid(
-                            centres,
-                            &format!("cmo.centres[{k}]"),
-                            "numbers must be finite",
-                        ));
-                    }
-                    out.push(v);
-                }
-                if out.is_empty() {
-                    return Err(src.invalid(centres, "cmo.centres", "needs at least one centre"));
-                }
-                CmoPlacement::Explicit(out)
-            }
-            (None, Some(count)) => {
-                let n = *count.get_ref();
-                if n == 0 || n > 64 {
-                    return Err(src.invalid(count, "cmo.count", "must be 1 to 64"));
-                }
-                match cmo.placement.as_ref().map(|p| (p, p.get_ref().as_str())) {
-                    None | Some((_, "axis")) => CmoPlacement::Auto { count: n },
-                    Some((_, "auto")) => CmoPlacement::Search { count: n },
-                    Some((p, other)) => {
-                        return Err(src.invalid(
-                            p,
-                            "cmo.placement",
-                            format!("'{other}' is not one of \"axis\" or \"auto\""),
-                        ));
-                    }
-                }
-            }
-            (None, None) => CmoPlacement::Auto { count: 1 },
-        };
-        if let (Some(p), Some(_)) = (&cmo.placement, &cmo.centres) {
-            return Err(src.invalid(
-                p,
-                "cmo.placement",
-                "applies to count, not to explicit centres",
-            ));
-        }
+        scene.cmo = cmo_spec(&src, cmo)?;
     }
     Ok((scene, report))
+}
+
+fn self_reflections(
+    src: &Source,
+    value: Option<&Spanned<SelfReflectionsFile>>,
+) -> Result<SelfReflections, SceneError> {
+    let Some(v) = value else {
+        return Ok(SelfReflections::Auto);
+    };
+    match v.get_ref() {
+        SelfReflectionsFile::Bool(true) => Ok(SelfReflections::On),
+        SelfReflectionsFile::Bool(false) => Ok(SelfReflections::Off),
+        SelfReflectionsFile::Word(w) if w == "auto" => Ok(SelfReflections::Auto),
+        SelfReflectionsFile::Word(w) => Err(src.invalid(
+            v,
+            "self_reflections",
+            format!("'{w}' is not one of true, false or \"auto\""),
+        )),
+    }
+}
+
+/// Mesh `i` of the file: its transform, its OBJ (relative to the scene file's folder `dir`),
+/// merged into `scene`.
+fn load_mesh(
+    src: &Source,
+    dir: &Path,
+    i: usize,
+    m: &MeshFile,
+    scene: &mut Scene,
+    report: &mut LoadReport,
+) -> Result<(), SceneError> {
+    let t = &m.transform;
+    let scale = match *t.scale.get_ref() {
+        ScaleFile::Uniform(s) => Vec3::splat(s),
+        ScaleFile::PerAxis(s) => Vec3::from_array(s),
+    };
+    let field = format!("mesh[{i}].transform.scale");
+    if !scale.is_finite() || scale.cmpeq(Vec3::ZERO).any() {
+        return Err(src.invalid(&t.scale, &field, "scale must be finite and non-zero"));
+    }
+    let transform = Transform {
+        translate: src.finite(&t.translate, &format!("mesh[{i}].transform.translate"))?,
+        rotate_deg: src.finite(&t.rotate_deg, &format!("mesh[{i}].transform.rotate_deg"))?,
+        scale,
+    };
+    let obj_path = dir.join(m.obj.get_ref());
+    let loaded = load_obj_file(&obj_path, report)?;
+    let name = m.name.clone().unwrap_or_else(|| {
+        obj_path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| format!("mesh{i}"))
+    });
+    if loaded.parts.is_empty() {
+        if m.reflector {
+            return Err(src.invalid(
+                &m.obj,
+                &format!("mesh[{i}].obj"),
+                format!(
+                    "{} holds no triangles, so reflector '{name}' would be an invisible mirror",
+                    obj_path.display()
+                ),
+            ));
+        }
+        report.warn(
+            WarningKind::EmptyMesh,
+            &obj_path,
+            None,
+            format!("mesh '{name}' holds no triangles"),
+        );
+    }
+    merge(scene, name, loaded, transform, m.reflector);
+    Ok(())
+}
+
+/// Camera `i` of the file.
+fn camera(src: &Source, i: usize, c: &CameraFile) -> Result<Camera, SceneError> {
+    let f = |s: &str| format!("camera[{i}].{s}");
+    let eye = src.finite(&c.eye, &f("eye"))?;
+    let target = src.finite(&c.target, &f("target"))?;
+    let up = src.finite(&c.up, &f("up"))?;
+    let fov_y_deg = src.scalar(&c.fov_y_deg, &f("fov_y_deg"))?;
+    if !(fov_y_deg > 0.0 && fov_y_deg < 180.0) {
+        return Err(src.invalid(&c.fov_y_deg, &f("fov_y_deg"), "must be in (0, 180) degrees"));
+    }
+    if (target - eye).length_squared() == 0.0 || (target - eye).cross(up).length_squared() == 0.0 {
+        return Err(src.invalid(
+            &c.eye,
+            &f("eye"),
+            "eye, target and up must span a view (eye != target, up not along the view)",
+        ));
+    }
+    let [width, height] = *c.resolution.get_ref();
+    check_resolution(width, height)
+        .map_err(|reason| src.invalid(&c.resolution, &f("resolution"), reason))?;
+    Ok(Camera {
+        name: c.name.clone().unwrap_or_else(|| format!("camera{i}")),
+        eye,
+        target,
+        up,
+        fov_y_deg,
+        width,
+        height,
+    })
+}
+
+/// The `[cmo]` table: face size, then centres or count (and how a count is placed).
+fn cmo_spec(src: &Source, cmo: &CmoFile) -> Result<CmoSpec, SceneError> {
+    let res = *cmo.resolution.get_ref();
+    if res == 0 || res > MAX_CUBE_SIZE {
+        return Err(src.invalid(
+            &cmo.resolution,
+            "cmo.resolution",
+            format!("{res} is out of range (1 to {MAX_CUBE_SIZE} texels)"),
+        ));
+    }
+    let placement = match (&cmo.centres, &cmo.count) {
+        (Some(_), Some(c)) => {
+            return Err(src.invalid(c, "cmo", "give either centres or count, not both"));
+        }
+        (Some(centres), None) => CmoPlacement::Explicit(cmo_centres(src, centres)?),
+        (None, Some(count)) => {
+            let n = *count.get_ref();
+            if n == 0 || n > 64 {
+                return Err(src.invalid(count, "cmo.count", "must be 1 to 64"));
+            }
+            match cmo.placement.as_ref().map(|p| (p, p.get_ref().as_str())) {
+                None | Some((_, "axis")) => CmoPlacement::Auto { count: n },
+                Some((_, "auto")) => CmoPlacement::Search { count: n },
+                Some((p, other)) => {
+                    return Err(src.invalid(
+                        p,
+                        "cmo.placement",
+                        format!("'{other}' is not one of \"axis\" or \"auto\""),
+                    ));
+                }
+            }
+        }
+        (None, None) => CmoPlacement::Auto { count: 1 },
+    };
+    if let (Some(p), Some(_)) = (&cmo.placement, &cmo.centres) {
+        return Err(src.invalid(
+            p,
+            "cmo.placement",
+            "applies to count, not to explicit centres",
+        ));
+    }
+    Ok(CmoSpec {
+        placement,
+        resolution: res,
+    })
+}
+
+/// `cmo.centres`: at least one, every coordinate finite.
+fn cmo_centres(src: &Source, centres: &Spanned<Vec<[f32; 3]>>) -> Result<Vec<Vec3>, SceneError> {
+    let mut out = Vec::new();
+    for (k, c) in centres.get_ref().iter().enumerate() {
+        let v = Vec3::from_array(*c);
+        if !v.is_finite() {
+            return Err(src.invalid(
+                centres,
+                &format!("cmo.centres[{k}]"),
+                "numbers must be finite",
+            ));
+        }
+        out.push(v);
+    }
+    if out.is_empty() {
+        return Err(src.invalid(centres, "cmo.centres", "needs at least one centre"));
+    }
+    Ok(out)
 }
 
 fn shading(src: &Source, s: &ShadingFile) -> Result<Shading, SceneError> {

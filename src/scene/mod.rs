@@ -15,29 +15,28 @@
 
 pub mod builtin;
 pub mod convexity;
-mod diagnose;
 mod error;
 pub mod export;
 mod file;
 pub mod gpu_data;
 mod obj;
-pub mod placement;
 mod report;
 pub mod shapes;
 mod world;
 
-pub use diagnose::diagnose;
 pub use error::SceneError;
 pub use file::{check_resolution, load_scene_file, load_scene_file_report};
 pub use obj::MAX_INPUT_BYTES;
 pub use report::{LoadReport, LoadWarning, WarningKind};
-pub use world::{ObjectInfo, WorldGeometry};
+pub use world::{NO_ID, ObjectInfo, WorldGeometry};
 
 use glam::{EulerRot, Mat3, Mat4, Quat, Vec2, Vec3};
 use std::path::Path;
 
 use crate::camera::Camera;
 use crate::shading::Shading;
+// Materials and textures are shading data; the scene holds them under its own name too.
+pub use crate::shading::{Material, Texture};
 
 /// Largest accepted image side, in pixels. Larger requests are rejected as absurd: a single
 /// 16384² frame already needs several GiB for the per-pixel outputs.
@@ -96,7 +95,7 @@ impl Scene {
     }
 
     /// Per mesh of [`Scene::meshes`]: whether the GPU's reflector check
-    /// ([`crate::vk::frame::RenderOptions::reflector_check`]) traces its triangles exactly after
+    /// (`RenderOptions::reflector_check` in `cubetrace::vk::frame`) traces its triangles exactly after
     /// the cubemap trace: every reflector, since a mirror ray can meet a reflector (another one,
     /// or itself: a non-convex one anywhere, a convex one where the ray leaves below its face,
     /// [`Scene::check_below`]). Independent of `self_reflections`: the reference traces every
@@ -201,31 +200,6 @@ pub struct MeshPart {
     pub material: u32,
 }
 
-#[derive(Clone, Debug, PartialEq)]
-pub struct Material {
-    pub name: String,
-    /// Linear RGB diffuse colour (`Kd`).
-    pub diffuse: Vec3,
-    /// Index into [`Scene::textures`] (`map_Kd`), multiplied with `diffuse`.
-    pub texture: Option<u32>,
-}
-
-/// An sRGB-encoded RGBA8 image, row 0 at the top.
-#[derive(Clone, PartialEq)]
-pub struct Texture {
-    /// File name used when the scene is exported (`NAME.png`).
-    pub name: String,
-    pub width: u32,
-    pub height: u32,
-    pub rgba8: Vec<u8>,
-}
-
-impl std::fmt::Debug for Texture {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "Texture({} {}x{})", self.name, self.width, self.height)
-    }
-}
-
 /// Object-to-world placement: scale, then rotate (Euler X, then Y, then Z, in degrees), then
 /// translate.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -280,10 +254,10 @@ pub enum CmoPlacement {
     Explicit(Vec<Vec3>),
     /// `count` centres spread along the longest axis of the reflectors' bounding box.
     Auto { count: u32 },
-    /// Up to `count` centres chosen by [`placement::search`] for a camera (`[cmo] placement =
-    /// "auto"`). `render` and the bench resolve it once for the camera they render
-    /// ([`Scene::resolve_cmo_placement`]); elsewhere [`Scene::cmo_centres`] searches for the
-    /// first camera.
+    /// Up to `count` centres chosen for a camera (`[cmo] placement = "auto"`) by the search in
+    /// `cubetrace::placement`. `render` and the bench resolve it once for the camera they
+    /// render (`placement::resolve`); unresolved, [`Scene::cmo_centres`] gives the axis
+    /// placement.
     Search { count: u32 },
 }
 
@@ -293,30 +267,16 @@ impl Scene {
         WorldGeometry::build(self)
     }
 
-    /// The CMO centres in world space, resolving automatic placement.
+    /// The CMO centres in world space. A [`CmoPlacement::Search`] not yet resolved for a camera
+    /// (`cubetrace::placement::resolve`, which `render` and the bench run first) gives the axis
+    /// placement of the same count: the scene is data and runs no search itself.
     pub fn cmo_centres(&self) -> Vec<Vec3> {
         match &self.cmo.placement {
             CmoPlacement::Explicit(c) => c.clone(),
-            CmoPlacement::Auto { count } => self.axis_centres(*count),
-            CmoPlacement::Search { count } => match self.cameras.first() {
-                Some(camera) => {
-                    placement::search(self, camera, *count, &Default::default()).centres
-                }
-                None => self.axis_centres(*count),
-            },
+            CmoPlacement::Auto { count } | CmoPlacement::Search { count } => {
+                self.axis_centres(*count)
+            }
         }
-    }
-
-    /// Runs the placement search of [`CmoPlacement::Search`] for `camera` once and keeps its
-    /// centres as the scene's ([`CmoPlacement::Explicit`]), so that later [`Scene::cmo_centres`]
-    /// calls (ranges, renderer, metrics) do not search again; `None` for other placements.
-    pub fn resolve_cmo_placement(&mut self, camera: &Camera) -> Option<placement::Placement> {
-        let CmoPlacement::Search { count } = self.cmo.placement else {
-            return None;
-        };
-        let p = placement::search(self, camera, count, &Default::default());
-        self.cmo.placement = CmoPlacement::Explicit(p.centres.clone());
-        Some(p)
     }
 
     /// `count` centres spread along the longest axis of the reflectors' bounding box (of the

@@ -352,7 +352,6 @@ fn validate_obj<'a>(
         let Some((key, args)) = keyword(text) else {
             continue;
         };
-        let part = obj.parts.len() - 1;
         match key {
             "v" => {
                 let v = numbers(args, 3, "vertex position (v)", path, line)?;
@@ -372,34 +371,7 @@ fn validate_obj<'a>(
                 obj.statements.push(Statement::Normal([v[0], v[1], v[2]]));
                 counts[2] += 1;
             }
-            "f" => {
-                let words: Vec<&str> = args.split_whitespace().collect();
-                if words.len() < 3 {
-                    report.warn(
-                        WarningKind::ShortFace,
-                        path,
-                        Some(line),
-                        "face (f) with fewer than 3 vertices skipped",
-                    );
-                    continue;
-                }
-                let corners = words
-                    .iter()
-                    .map(|a| corner(a, counts, path, line))
-                    .collect::<Result<Vec<_>, _>>()?;
-                let info = &mut obj.parts[part];
-                info.faces += 1;
-                if corners.iter().all(|c| c.1.is_none()) {
-                    info.faces_without_vt.push(line);
-                } else {
-                    info.any_vt = true;
-                }
-                info.corner_without_vt |= corners.iter().any(|c| c.1.is_none());
-                info.corner_without_vn |= corners.iter().any(|c| c.2.is_none());
-                info.any_vn |= corners.iter().any(|c| c.2.is_some());
-                obj.face_lines.push(line);
-                obj.statements.push(Statement::Face { corners, part });
-            }
+            "f" => obj.face(args, counts, path, line, report)?,
             "l" => report.warn(
                 WarningKind::LineElement,
                 path,
@@ -412,60 +384,129 @@ fn validate_obj<'a>(
                 Some(line),
                 "point element (p) skipped",
             ),
-            "o" | "g" => {
-                let name = if args.is_empty() { UNNAMED } else { args };
-                if obj.parts[part].faces == 0 {
-                    obj.parts[part].name = name.into();
-                } else {
-                    let material = obj.parts[part].material.clone();
-                    obj.parts.push(PartInfo::new(name.into(), material));
-                }
-                obj.statements.push(Statement::Name(key, args));
-            }
-            "usemtl" => {
-                if args.is_empty() {
-                    return Err(obj_err(path, line, "usemtl needs a material name"));
-                }
-                let current = &mut obj.parts[part];
-                if current.material.as_ref().map(|m| m.0.as_str()) != Some(args) {
-                    let material = Some((args.to_string(), line));
-                    if current.faces == 0 {
-                        current.material = material;
-                    } else {
-                        let name = current.name.clone();
-                        obj.parts.push(PartInfo::new(name, material));
-                    }
-                }
-                obj.statements.push(Statement::UseMtl(args));
-            }
-            "mtllib" => {
-                if args.is_empty() {
-                    return Err(obj_err(path, line, "mtllib needs a file name"));
-                }
-                // One name with spaces, or several names.
-                let files: Vec<&str> = if dir.join(args).is_file() {
-                    vec![args]
-                } else {
-                    args.split_whitespace().collect()
-                };
-                for f in files {
-                    let mtl = dir.join(f);
-                    if !mtl.is_file() {
-                        return Err(obj_err(
-                            path,
-                            line,
-                            format!("material library '{}' not found", mtl.display()),
-                        ));
-                    }
-                    if !obj.libraries.iter().any(|(p, _)| *p == mtl) {
-                        obj.libraries.push((mtl, line));
-                    }
-                }
-            }
+            "o" | "g" => obj.name_part(key, args),
+            "usemtl" => obj.use_material(args, path, line)?,
+            "mtllib" => obj.add_libraries(args, dir, path, line)?,
             _ => {}
         }
     }
     Ok(obj)
+}
+
+impl<'a> ObjPass<'a> {
+    /// The part that statements go to now: the last one (there is always one).
+    fn current(&mut self) -> &mut PartInfo {
+        let last = self.parts.len() - 1;
+        &mut self.parts[last]
+    }
+
+    /// An `f` statement; fewer than 3 corners are skipped with a warning. `counts`: the `v`,
+    /// `vt` and `vn` statements so far, which relative indices count back from.
+    fn face(
+        &mut self,
+        args: &str,
+        counts: [usize; 3],
+        path: &Path,
+        line: usize,
+        report: &mut LoadReport,
+    ) -> Result<(), SceneError> {
+        let words: Vec<&str> = args.split_whitespace().collect();
+        if words.len() < 3 {
+            report.warn(
+                WarningKind::ShortFace,
+                path,
+                Some(line),
+                "face (f) with fewer than 3 vertices skipped",
+            );
+            return Ok(());
+        }
+        let corners = words
+            .iter()
+            .map(|a| corner(a, counts, path, line))
+            .collect::<Result<Vec<_>, _>>()?;
+        let part = self.parts.len() - 1;
+        let info = self.current();
+        info.faces += 1;
+        if corners.iter().all(|c| c.1.is_none()) {
+            info.faces_without_vt.push(line);
+        } else {
+            info.any_vt = true;
+        }
+        info.corner_without_vt |= corners.iter().any(|c| c.1.is_none());
+        info.corner_without_vn |= corners.iter().any(|c| c.2.is_none());
+        info.any_vn |= corners.iter().any(|c| c.2.is_some());
+        self.face_lines.push(line);
+        self.statements.push(Statement::Face { corners, part });
+        Ok(())
+    }
+
+    /// An `o` or `g` statement: names the current part while it has no faces, else starts a
+    /// new part with the same material.
+    fn name_part(&mut self, key: &'a str, args: &'a str) {
+        let name = if args.is_empty() { UNNAMED } else { args };
+        let current = self.current();
+        if current.faces == 0 {
+            current.name = name.into();
+        } else {
+            let material = current.material.clone();
+            self.parts.push(PartInfo::new(name.into(), material));
+        }
+        self.statements.push(Statement::Name(key, args));
+    }
+
+    /// A `usemtl` statement: a material change starts a new part (unless the current one has
+    /// no faces yet).
+    fn use_material(&mut self, args: &'a str, path: &Path, line: usize) -> Result<(), SceneError> {
+        if args.is_empty() {
+            return Err(obj_err(path, line, "usemtl needs a material name"));
+        }
+        let current = self.current();
+        if current.material.as_ref().map(|m| m.0.as_str()) != Some(args) {
+            let material = Some((args.to_string(), line));
+            if current.faces == 0 {
+                current.material = material;
+            } else {
+                let name = current.name.clone();
+                self.parts.push(PartInfo::new(name, material));
+            }
+        }
+        self.statements.push(Statement::UseMtl(args));
+        Ok(())
+    }
+
+    /// An `mtllib` statement: every library it names (relative to `dir`) must exist; each is
+    /// kept once, with the line that first names it.
+    fn add_libraries(
+        &mut self,
+        args: &str,
+        dir: &Path,
+        path: &Path,
+        line: usize,
+    ) -> Result<(), SceneError> {
+        if args.is_empty() {
+            return Err(obj_err(path, line, "mtllib needs a file name"));
+        }
+        // One name with spaces, or several names.
+        let files: Vec<&str> = if dir.join(args).is_file() {
+            vec![args]
+        } else {
+            args.split_whitespace().collect()
+        };
+        for f in files {
+            let mtl = dir.join(f);
+            if !mtl.is_file() {
+                return Err(obj_err(
+                    path,
+                    line,
+                    format!("material library '{}' not found", mtl.display()),
+                ));
+            }
+            if !self.libraries.iter().any(|(p, _)| *p == mtl) {
+                self.libraries.push((mtl, line));
+            }
+        }
+        Ok(())
+    }
 }
 
 /// Writes the normalised OBJ text `tobj` reads: `mtllib 0` to `mtllib {libraries - 1}` first
@@ -917,8 +958,63 @@ pub(crate) fn parse_obj_str(text: &str, path: &Path) -> Result<(Vec<MeshPart>, u
 pub(crate) fn load_obj_file(path: &Path, report: &mut LoadReport) -> Result<LoadedObj, SceneError> {
     let bytes = read_input(path)?;
     let obj = validate_obj(&bytes, path, report)?;
+    let (mtl_texts, origin) = read_libraries(&obj, report)?;
+    let (models, materials) = parse_with_tobj(&obj, &mtl_texts, path)?;
+    let raw_parts = triangulate_models(&obj, models, path)?;
 
-    // Each library checked and normalised; `origin[k]` is the MTL file of tobj's material k.
+    let mut out = LoadedObj {
+        parts: Vec::new(),
+        materials: Vec::new(),
+        textures: Vec::new(),
+    };
+    // tobj's materials past those of the libraries declare undefined names.
+    let defined = origin.len();
+    if materials.len() < defined {
+        return Err(tobj_failed(path, tobj::LoadError::GenericFailure));
+    }
+    load_materials(&materials, &origin, &mut out)?;
+
+    let mut dropped = 0;
+    let mut default_material = None;
+    for raw in raw_parts {
+        let info = &obj.parts[raw.part];
+        let found = raw.material_id.filter(|&id| id < defined);
+        if let (None, Some((name, line))) = (found, &info.material) {
+            warn_undefined_material(&obj, name, *line, path, report);
+        }
+        let material = match found {
+            Some(id) => id as u32,
+            None => *default_material.get_or_insert_with(|| {
+                out.materials.push(Material {
+                    name: "default".into(),
+                    diffuse: Vec3::splat(0.8),
+                    texture: None,
+                });
+                (out.materials.len() - 1) as u32
+            }),
+        };
+        let (p, d) = finish_part(info, raw, material, path, report);
+        dropped += d;
+        if !p.triangles.is_empty() {
+            out.parts.push(p);
+        }
+    }
+    report.warn_count(
+        WarningKind::DegenerateTriangles,
+        path,
+        dropped,
+        "degenerate triangles (a repeated vertex or zero area) dropped",
+    );
+    Ok(out)
+}
+
+/// Each material library of `obj` read, checked and normalised for `tobj`; with the MTL file of
+/// each of tobj's materials, in order. A material defined again is warned about (the later one
+/// is used).
+fn read_libraries<'a>(
+    obj: &'a ObjPass,
+    report: &mut LoadReport,
+) -> Result<(Vec<String>, Vec<&'a Path>), SceneError> {
     let mut mtl_texts = Vec::with_capacity(obj.libraries.len());
     let mut origin: Vec<&Path> = Vec::new();
     let mut previous: HashMap<String, (PathBuf, usize)> = HashMap::new();
@@ -943,21 +1039,18 @@ pub(crate) fn load_obj_file(path: &Path, report: &mut LoadReport) -> Result<Load
         }
         mtl_texts.push(normalised_mtl(&entries));
     }
-    let (models, materials) = parse_with_tobj(&obj, &mtl_texts, path)?;
-    let raw_parts = triangulate_models(&obj, models, path)?;
+    Ok((mtl_texts, origin))
+}
 
-    let mut out = LoadedObj {
-        parts: Vec::new(),
-        materials: Vec::new(),
-        textures: Vec::new(),
-    };
-    // tobj's materials past those of the libraries declare undefined names.
-    let defined = origin.len();
-    if materials.len() < defined {
-        return Err(tobj_failed(path, tobj::LoadError::GenericFailure));
-    }
+/// tobj's materials (`origin[k]`: the MTL file of material k) into `out`, each `map_Kd` texture
+/// loaded once (relative to its MTL file).
+fn load_materials(
+    materials: &[tobj::Material],
+    origin: &[&Path],
+    out: &mut LoadedObj,
+) -> Result<(), SceneError> {
     let mut texture_ids: HashMap<PathBuf, u32> = HashMap::new();
-    for (m, mtl_path) in materials.iter().zip(&origin) {
+    for (m, mtl_path) in materials.iter().zip(origin) {
         let texture = match &m.diffuse_texture {
             None => None,
             Some(t) => {
@@ -984,62 +1077,39 @@ pub(crate) fn load_obj_file(path: &Path, report: &mut LoadReport) -> Result<Load
             texture,
         });
     }
+    Ok(())
+}
 
-    let mut dropped = 0;
-    let mut default_material = None;
-    for raw in raw_parts {
-        let info = &obj.parts[raw.part];
-        let found = raw.material_id.filter(|&id| id < defined);
-        if let (None, Some((name, line))) = (found, &info.material) {
-            if obj.libraries.is_empty() {
-                report.warn(
-                    WarningKind::NoMaterialLibrary,
-                    path,
-                    Some(*line),
-                    format!(
-                        "usemtl '{name}' in a file without mtllib: the default material is used"
-                    ),
-                );
-            } else {
-                report.warn(
-                    WarningKind::UndefinedMaterial,
-                    path,
-                    Some(*line),
-                    format!(
-                        "material '{name}' is not defined in {}: the default material is used",
-                        obj.libraries
-                            .iter()
-                            .map(|(p, _)| p.display().to_string())
-                            .collect::<Vec<_>>()
-                            .join(", ")
-                    ),
-                );
-            }
-        }
-        let material = match found {
-            Some(id) => id as u32,
-            None => *default_material.get_or_insert_with(|| {
-                out.materials.push(Material {
-                    name: "default".into(),
-                    diffuse: Vec3::splat(0.8),
-                    texture: None,
-                });
-                (out.materials.len() - 1) as u32
-            }),
-        };
-        let (p, d) = finish_part(info, raw, material, path, report);
-        dropped += d;
-        if !p.triangles.is_empty() {
-            out.parts.push(p);
-        }
+/// The warning for a part whose `usemtl` (at `line`) names no defined material.
+fn warn_undefined_material(
+    obj: &ObjPass,
+    name: &str,
+    line: usize,
+    path: &Path,
+    report: &mut LoadReport,
+) {
+    if obj.libraries.is_empty() {
+        report.warn(
+            WarningKind::NoMaterialLibrary,
+            path,
+            Some(line),
+            format!("usemtl '{name}' in a file without mtllib: the default material is used"),
+        );
+    } else {
+        report.warn(
+            WarningKind::UndefinedMaterial,
+            path,
+            Some(line),
+            format!(
+                "material '{name}' is not defined in {}: the default material is used",
+                obj.libraries
+                    .iter()
+                    .map(|(p, _)| p.display().to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        );
     }
-    report.warn_count(
-        WarningKind::DegenerateTriangles,
-        path,
-        dropped,
-        "degenerate triangles (a repeated vertex or zero area) dropped",
-    );
-    Ok(out)
 }
 
 fn load_texture(path: &Path) -> Result<Texture, String> {

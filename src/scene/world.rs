@@ -19,10 +19,16 @@ pub struct ObjectInfo {
     pub triangle_count: u32,
 }
 
+/// "No object / no primitive / no triangle" in every ID of a frame or an EXR.
+pub const NO_ID: u32 = u32::MAX;
+
 /// All triangles of a scene in world space, in a flat layout a GPU buffer can take as is.
 ///
-/// Object ids are indices into `objects`, in scene order (meshes, then their parts). A
-/// primitive id is the triangle's index *within its object*.
+/// The one numbering of the IDs every method writes ([`WorldGeometry::ids`]): a *global
+/// triangle* is an index into `triangles` (what the GPU scene data and the reference's BVH
+/// name); an *object id* is an index into `objects`, in scene order (meshes, then their parts);
+/// a *primitive id* is the triangle's index within its object (its part's triangle list as
+/// loaded).
 #[derive(Clone, Debug, Default)]
 pub struct WorldGeometry {
     pub positions: Vec<Vec3>,
@@ -71,6 +77,15 @@ impl WorldGeometry {
             }
         }
         w
+    }
+
+    /// The object id and primitive id of global triangle `triangle` (see the type docs);
+    /// `(NO_ID, NO_ID)` for [`NO_ID`] or any index that names no triangle of this scene.
+    pub fn ids(&self, triangle: u32) -> (u32, u32) {
+        match self.triangle_object.get(triangle as usize) {
+            Some(&o) => (o, triangle - self.objects[o as usize].first_triangle),
+            None => (NO_ID, NO_ID),
+        }
     }
 
     /// Bounding box of the objects selected by `keep` (empty: `lo > hi`).

@@ -4,8 +4,8 @@
 
 use glam::Vec3;
 
-use super::Scene;
 use crate::reference::Tracer;
+use crate::scene::Scene;
 
 /// How many points of the reflectors each CMO centre looks at.
 const SAMPLES: usize = 512;
@@ -82,7 +82,7 @@ pub fn diagnose(scene: &Scene) -> Vec<String> {
         if !sees {
             let by = blocker
                 .map(|t| {
-                    let (object, _) = tracer.ids(t);
+                    let (object, _) = world.ids(t);
                     format!(" ('{}' is in the way)", world.objects[object as usize].name)
                 })
                 .unwrap_or_default();

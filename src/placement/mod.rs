@@ -1,4 +1,10 @@
-//! `[cmo] placement = "auto"`: CMO centres chosen greedily to minimise the unresolved share of
+#![forbid(unsafe_code)]
+//! CMO placement, an algorithm over the scene (the scene itself is data and imports none):
+//! [`resolve`] runs the search of `[cmo] placement = "auto"` ([`CmoPlacement::Search`]) for the
+//! camera a render uses and stores its centres in the scene; [`diagnose`] finds set-ups that
+//! load fine but cannot give a useful mirror image.
+//!
+//! The search: CMO centres chosen greedily to minimise the unresolved share of
 //! a CPU sample of the camera's reflected rays.
 //!
 //! The sample: the camera's mirror pixels on a coarse grid, a few hundred of them evenly spread,
@@ -14,12 +20,16 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::Scene;
 use crate::camera::Camera;
 use crate::cpu::CmoTracer;
 use crate::cpu::multi::MultiStatus;
 use crate::cpu::options::{TraceOptions, trace_ray};
 use crate::reference::{self, Tracer};
+use crate::scene::{CmoPlacement, Scene};
+
+mod diagnose;
+
+pub use diagnose::diagnose;
 
 /// How much work the search does.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -184,4 +194,16 @@ pub fn search(scene: &Scene, camera: &Camera, count: u32, opts: &PlacementOption
         axis_unresolved,
         rays: rays.len(),
     }
+}
+
+/// Runs the search of [`CmoPlacement::Search`] for `camera` once and keeps its centres as the
+/// scene's ([`CmoPlacement::Explicit`]), so that later [`Scene::cmo_centres`] calls (ranges,
+/// renderer, metrics) read them; `None` (and the scene unchanged) for other placements.
+pub fn resolve(scene: &mut Scene, camera: &Camera) -> Option<Placement> {
+    let CmoPlacement::Search { count } = scene.cmo.placement else {
+        return None;
+    };
+    let p = search(scene, camera, count, &PlacementOptions::default());
+    scene.cmo.placement = CmoPlacement::Explicit(p.centres.clone());
+    Some(p)
 }
