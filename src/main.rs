@@ -388,7 +388,7 @@ fn render(args: RenderArgs) -> Result<()> {
     if let Some(m) = gpu_method {
         m.check_bounces(
             args.bounces,
-            cubetrace::vk::bounce::MAX_BOUNCES,
+            cubetrace::vk::passes::bounce::MAX_BOUNCES,
             &args.trace.options(m).trace,
         )
         .map_err(anyhow::Error::msg)?;

@@ -1,4 +1,4 @@
-// What the two passes of the screen-space method share (`hiz` builds the pyramid, `ssr`
+// What the two passes of the screen-space method share (`ssr_hiz` builds the pyramid, `ssr`
 // traverses it); the CPU twin is `src/cpu/ssr.rs`.
 //
 // Depth: the pyramid stores `q = -1 / w` per pixel, `w` the clip-space w of the G-buffer's world

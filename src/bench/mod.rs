@@ -354,7 +354,7 @@ pub struct RunResult {
     /// The `fallback` pass (queue + BVH trace of those rays), ns; zero where it did not run.
     pub fallback_ns: Stats,
     /// Share of the traced rays whose record the reflector check changed (a nearer hit on a
-    /// reflector; [`crate::vk::bvh::ReflectorCheck`]); 0 where it did not run. Not part of
+    /// reflector; [`crate::vk::passes::bvh::ReflectorCheck`]); 0 where it did not run. Not part of
     /// `fallback_share`.
     pub checked_share: f64,
     /// The `reflector_check` pass, ns; zero where it did not run.
@@ -861,7 +861,11 @@ pub fn run(
             };
             let label = spec.label();
             if gpu
-                .check_bounces(cfg.bounces, crate::vk::bounce::MAX_BOUNCES, &spec.trace)
+                .check_bounces(
+                    cfg.bounces,
+                    crate::vk::passes::bounce::MAX_BOUNCES,
+                    &spec.trace,
+                )
                 .is_err()
             {
                 log::warn!(

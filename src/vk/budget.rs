@@ -3,8 +3,8 @@
 //! call. The scene's own buffers (vertices, indices, textures) are not counted: they are the
 //! size of the scene's files, small against frames and CMOs at the sizes where a refusal matters.
 
-use super::compute::AppendedRay;
 use super::frame::{PixelRecord, RenderOptions, capture_contents};
+use super::methods::compute::AppendedRay;
 use crate::camera::Camera;
 use crate::cpu::options::TraceOptions;
 use crate::cubemap::pyramid::{hier32_len, mip_len};
@@ -15,7 +15,10 @@ use crate::scene::Scene;
 /// (`cmo_colour`), the capture pass's f32 distance target, and with self-reflections the
 /// capture's normal target and `cmo_normal` (RGBA f32 each).
 pub fn cmo_bytes_per_texel(self_reflections: bool) -> u64 {
-    cmo_bytes_per_texel_with(self_reflections, super::cmo::CaptureContents::default())
+    cmo_bytes_per_texel_with(
+        self_reflections,
+        super::passes::cmo::CaptureContents::default(),
+    )
 }
 
 /// [`cmo_bytes_per_texel`] for the chosen capture contents: the colour (16 B) only where
@@ -23,7 +26,7 @@ pub fn cmo_bytes_per_texel(self_reflections: bool) -> u64 {
 /// each). IDs without colour take 8 B less per texel than colour without IDs.
 pub fn cmo_bytes_per_texel_with(
     self_reflections: bool,
-    contents: super::cmo::CaptureContents,
+    contents: super::passes::cmo::CaptureContents,
 ) -> u64 {
     4 + 4
         + if contents.colour { 16 } else { 0 }
@@ -40,7 +43,7 @@ pub fn cmo_bytes_per_texel_with(
 pub fn frame_bytes_per_pixel(method: Method) -> u64 {
     let records = size_of::<PixelRecord>() as u64;
     let gbuffer = 3 * 16 + 4 + 4;
-    let bvh_queue = size_of::<super::bvh::BvhRay>() as u64;
+    let bvh_queue = size_of::<super::passes::bvh::BvhRay>() as u64;
     let method_bytes = match method {
         Method::Compute => size_of::<AppendedRay>() as u64 + 16 + bvh_queue,
         // The Hi-Z pyramid: f32 cells, about 4/3 per pixel over all levels (2 on a one-pixel-wide
@@ -109,23 +112,23 @@ pub fn device_bytes(
 }
 
 /// The device bytes `--bounces N` adds to a render of `width` x `height` pixels: for N >= 2,
-/// two queues of one [`BvhRay`](super::bvh::BvhRay) per pixel (the rounds alternate between
+/// two queues of one [`BvhRay`](super::passes::bvh::BvhRay) per pixel (the rounds alternate between
 /// them); nothing otherwise. The BVH is per triangle and not counted, as above.
 pub fn bounce_bytes(width: u32, height: u32, bounces: u32) -> u64 {
     if bounces < 2 {
         return 0;
     }
-    2 * u64::from(width) * u64::from(height) * size_of::<super::bvh::BvhRay>() as u64
+    2 * u64::from(width) * u64::from(height) * size_of::<super::passes::bvh::BvhRay>() as u64
 }
 
-/// The device bytes the reflector check ([`super::bvh::ReflectorCheck`]) adds to a render of
-/// `width` x `height` pixels when it runs: one queue of one [`BvhRay`](super::bvh::BvhRay) per
+/// The device bytes the reflector check ([`super::passes::bvh::ReflectorCheck`]) adds to a render of
+/// `width` x `height` pixels when it runs: one queue of one [`BvhRay`](super::passes::bvh::BvhRay) per
 /// pixel; nothing otherwise. Its BVH is per triangle and not counted, as above.
 pub fn reflector_check_bytes(width: u32, height: u32, runs: bool) -> u64 {
     if !runs {
         return 0;
     }
-    u64::from(width) * u64::from(height) * size_of::<super::bvh::BvhRay>() as u64
+    u64::from(width) * u64::from(height) * size_of::<super::passes::bvh::BvhRay>() as u64
 }
 
 /// The device memory of one render of `scene` seen by `camera` with `options`: the CMOs, the
@@ -156,7 +159,7 @@ pub fn estimate(scene: &Scene, camera: &Camera, options: &RenderOptions) -> Devi
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::vk::cmo::CaptureContents;
+    use crate::vk::passes::cmo::CaptureContents;
 
     #[test]
     fn bounce_queues_only_past_one_bounce() {

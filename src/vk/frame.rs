@@ -7,13 +7,13 @@
 //! | `hier32` | CMO distance | CMO 8x4/4x8 min/max hierarchy (compute path only) |
 //! | `gbuffer` | scene | G-buffer colour, position + mirror mask, normal |
 //! | `fragment_trace` or `envmap` | G-buffer, CMO data (+ scene: verified hits) | one record per mirror pixel |
-//! | or `append`, `dispatch_args`, `compute_trace` | G-buffer, CMO data, hierarchy, scene | the same records ([`super::compute`]) |
-//! | or `hiz`, `ssr` | G-buffer, its min pyramid | the same records ([`super::ssr`]) |
-//! | or `rp_search`, `rp_raster` | scene, G-buffer | the same records ([`super::reflection_point`]) |
-//! | or `bvh_queue`, `bvh_trace` | G-buffer, CWBVH, scene | the same records, traced exactly ([`super::bvh`]) |
-//! | `reflector_check` (fragment, compute; off with `--no-reflector-check`) | G-buffer, records, reflectors' CWBVH, scene | resolved records whose ray meets a reflector nearer, traced exactly ([`super::bvh::ReflectorCheck`]) |
+//! | or `append`, `dispatch_args`, `compute_trace` | G-buffer, CMO data, hierarchy, scene | the same records ([`super::methods::compute`]) |
+//! | or `ssr_hiz`, `ssr` | G-buffer, its min pyramid | the same records ([`super::methods::ssr`]) |
+//! | or `reflection_point_search`, `reflection_point_raster` | scene, G-buffer | the same records ([`super::methods::reflection_point`]) |
+//! | or `bvh_queue`, `bvh_trace` | G-buffer, CWBVH, scene | the same records, traced exactly ([`super::passes::bvh`]) |
+//! | `reflector_check` (fragment, compute; off with `--no-reflector-check`) | G-buffer, records, reflectors' CWBVH, scene | resolved records whose ray meets a reflector nearer, traced exactly ([`super::passes::bvh::ReflectorCheck`]) |
 //! | `fallback` (`--fallback trace`) | G-buffer, records, CWBVH, scene | unresolved records finished by `bvh_queue` + `bvh_trace` |
-//! | `bounce_append` (`--bounces N`, N != 1) | G-buffer, records, CWBVH, scene | N = 0: the mirrors' own material (instead of the tracing passes); N >= 2: rounds 2..=N, each `bounce_append` + `bvh_queue` (`args`) + `bvh_trace` ([`super::bounce`]) |
+//! | `bounce_append` (`--bounces N`, N != 1) | G-buffer, records, CWBVH, scene | N = 0: the mirrors' own material (instead of the tracing passes); N >= 2: rounds 2..=N, each `bounce_append` + `bvh_queue` (`args`) + `bvh_trace` ([`super::passes::bounce`]) |
 //! | `composite` | G-buffer, records, CMO triangle IDs + scene (environment-map fallback) | final colour |
 //!
 //! Each pass name is its WGSL file, its debug label and its timestamp scope, so
@@ -36,27 +36,27 @@ use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
 use gpu_allocator::MemoryLocation;
 
-use super::bounce::{BouncePasses, MAX_BOUNCES};
-use super::buffer::Buffer;
-use super::bvh::{AppendKind, BvhCounter, BvhPasses, ReflectorCheck};
-use super::capture::Capture;
-use super::cmo::{CaptureContents, CmoData};
-use super::compute::{ComputePath, ComputeStats};
-use super::context::GpuContext;
-use super::error::{VkError, VkResult};
-use super::gbuffer::Gbuffer;
-use super::graphics::{GraphicsDesc, GraphicsPipeline, RenderTarget};
-use super::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
-use super::pyramid::{Pyramid, PyramidBindings};
-use super::reflection_point::ReflectionPointPasses;
-use super::scene_buffers::SceneBuffers;
-use super::shaders::{
+use super::backend::buffer::Buffer;
+use super::backend::context::GpuContext;
+use super::backend::error::{VkError, VkResult};
+use super::backend::graphics::{GraphicsDesc, GraphicsPipeline, RenderTarget};
+use super::backend::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
+use super::backend::shaders::{
     APPEND, BOUNCE_APPEND, BVH_QUEUE, BVH_TRACE, COMPOSITE, COMPUTE_TRACE, DISPATCH_ARGS, ENVMAP,
-    FRAGMENT_TRACE, HIER32, HIZ, Pass, RP_RASTER, RP_SEARCH, SSR,
+    FRAGMENT_TRACE, HIER32, Pass, REFLECTION_POINT_RASTER, REFLECTION_POINT_SEARCH, SSR, SSR_HIZ,
 };
-use super::ssr::SsrPasses;
-use super::sync::{SHADER_READ, SHADER_WRITE};
-use super::timestamps::{PassTime, Timestamps};
+use super::backend::sync::{SHADER_READ, SHADER_WRITE};
+use super::backend::timestamps::{PassTime, Timestamps};
+use super::methods::compute::{ComputePath, ComputeStats};
+use super::methods::reflection_point::ReflectionPointPasses;
+use super::methods::ssr::SsrPasses;
+use super::passes::bounce::{BouncePasses, MAX_BOUNCES};
+use super::passes::bvh::{AppendKind, BvhCounter, BvhPasses, ReflectorCheck};
+use super::passes::capture::Capture;
+use super::passes::cmo::{CaptureContents, CmoData};
+use super::passes::gbuffer::Gbuffer;
+use super::passes::pyramid::{Pyramid, PyramidBindings};
+use super::passes::scene_buffers::SceneBuffers;
 use crate::camera::Camera;
 use crate::cpu::options::TraceOptions;
 use crate::cpu::reflection_point::{RpOptions, SearchStats};
@@ -74,7 +74,7 @@ pub fn trace_pass(method: Method) -> &'static Pass {
         Method::Envmap => &ENVMAP,
         Method::Compute => &COMPUTE_TRACE,
         Method::Ssr => &SSR,
-        Method::ReflectionPoint => &RP_SEARCH,
+        Method::ReflectionPoint => &REFLECTION_POINT_SEARCH,
         Method::Bvh => &BVH_TRACE,
         Method::Reference => {
             unreachable!("the reference is no GPU method: GpuRenderer::new refuses it")
@@ -93,14 +93,14 @@ pub enum Fallback {
     /// A flag colour (magenta), to see where tracing gave up.
     Flag,
     /// The environment-map lookup of the nearest CMO, shaded from the triangle its texel
-    /// captured (`composite.wgsl`, `cpu::fragment_trace::envmap_fallback`).
+    /// captured (`composite.wgsl`, `cpu::fragment::envmap_fallback`).
     #[default]
     Envmap,
     /// The scene's background.
     Background,
     /// The rays are finished exactly by the BVH tracer: after the tracing pass, the `fallback`
     /// pass queues the unresolved records' rays and traces them from their start under the
-    /// start rule ([`super::bvh`]; not from `t_done`: see [`Fallback::TraceFromTDone`]); such
+    /// start rule ([`super::passes::bvh`]; not from `t_done`: see [`Fallback::TraceFromTDone`]); such
     /// records get `fallback` = 1 and keep the cubemap tracer's `t_done` and counters. A ray the BVH
     /// loop's cap cut (none seen) stays unresolved and shows the flag colour.
     Trace,
@@ -123,7 +123,7 @@ pub struct RenderOptions {
     /// Options of `ReflectionPoint` (iteration cap).
     pub reflection_point: RpOptions,
     /// Reflections per path, 0..=[`MAX_BOUNCES`] (the reference's `bounces`): the method traces
-    /// the first, the BVH the rest ([`super::bounce`]); 0 shows the mirrors' own material.
+    /// the first, the BVH the rest ([`super::passes::bounce`]); 0 shows the mirrors' own material.
     /// `Compute`, `Fragment` (exact criterion) and `Bvh` only; the other methods take 1.
     pub bounces: u32,
     /// The reflector check after the `Fragment` and `Compute` trace ([`ReflectorCheck`]): on by
@@ -227,10 +227,10 @@ pub struct PixelRecord {
     pub fallback: u32,
     /// Reflections the pixel's path took ([`RenderOptions::bounces`]; the reference's
     /// `Frame::bounces`): 1 from every method's own pass, more from the bounce rounds
-    /// ([`super::bounce`]), 0 with no bounce.
+    /// ([`super::passes::bounce`]), 0 with no bounce.
     pub bounces: u32,
     /// 1 where the reflector check ([`RenderOptions::reflector_check`],
-    /// [`super::bvh::ReflectorCheck`]) replaced the method's result with a nearer hit on a
+    /// [`super::passes::bvh::ReflectorCheck`]) replaced the method's result with a nearer hit on a
     /// reflector (such a record's `fallback` stays 0: the check is not the fallback, and the
     /// fallback share does not count it); 2 where it found the method's hit at the ray's own
     /// start (the BVH start rule's triangles: a self-captured reflector's surface verified at
@@ -238,7 +238,7 @@ pub struct PixelRecord {
     pub checked: u32,
 }
 
-pub use crate::cpu::fragment_trace::{RECORD_ESCAPED, RECORD_HIT, RECORD_UNRESOLVED};
+pub use crate::cpu::fragment::{RECORD_ESCAPED, RECORD_HIT, RECORD_UNRESOLVED};
 
 /// A rendered frame read back from the GPU, row-major, row 0 at the top.
 #[derive(Clone, Debug)]
@@ -421,7 +421,7 @@ pub struct GpuRenderer {
     rp: Option<ReflectionPointPasses>,
     /// The passes of `Bvh` (the method's) or of [`Fallback::Trace`].
     bvh: Option<BvhPasses>,
-    /// `bounces` != 1 ([`super::bounce`]).
+    /// `bounces` != 1 ([`super::passes::bounce`]).
     bounce: Option<BouncePasses>,
     /// [`RenderOptions::reflector_check`] where the method and the scene need it.
     check: Option<ReflectorCheck>,
@@ -490,7 +490,7 @@ impl GpuRenderer {
         let needs_pyramid = options.method == Method::Fragment;
         check_method(&options)?;
         if options.method == Method::Compute {
-            super::compute::check_device(ctx)?;
+            super::methods::compute::check_device(ctx)?;
         }
         let contents = capture_contents(options.method, &options.trace);
         let cmo = CmoData::with_contents(
@@ -559,7 +559,7 @@ impl GpuRenderer {
         };
         let records = storage("pixel records", pixels * size_of::<PixelRecord>() as u64)?;
         let frame_colour = storage("frame colour", pixels * 16)?;
-        let sampled = |img: &super::image::Image| Resource::Texture {
+        let sampled = |img: &super::backend::image::Image| Resource::Texture {
             view: img.view(),
             layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
         };
@@ -661,7 +661,7 @@ impl GpuRenderer {
         } else {
             // The fragment pass's specialised entry point when the options allow it.
             let entry = if options.method == Method::Fragment
-                && super::trace_probe::exact_mip_only(&options.trace)
+                && super::passes::cmo::exact_mip_only(&options.trace)
             {
                 "fs_exact_mip"
             } else {
@@ -829,7 +829,7 @@ impl GpuRenderer {
             }
             scoped("gbuffer", &mut || self.gbuffer.record(rec, self.background))?;
             if let Some(s) = &self.ssr {
-                scoped(HIZ.name, &mut || {
+                scoped(SSR_HIZ.name, &mut || {
                     s.record_hiz(rec);
                     Ok(())
                 })?;
@@ -837,8 +837,8 @@ impl GpuRenderer {
                 scoped(SSR.name, &mut || s.record_trace(rec))?;
             }
             if let Some(r) = &self.rp {
-                scoped(RP_SEARCH.name, &mut || r.record_search(rec))?;
-                scoped(RP_RASTER.name, &mut || r.record_raster(rec))?;
+                scoped(REFLECTION_POINT_SEARCH.name, &mut || r.record_search(rec))?;
+                scoped(REFLECTION_POINT_RASTER.name, &mut || r.record_raster(rec))?;
             }
             // `--bounces 0`: no ray is traced.
             let traced = self.options.bounces != 0;
@@ -944,4 +944,15 @@ impl GpuRenderer {
             search,
         })
     }
+}
+
+/// The object a reflection-point frame shows at each pixel (its records' `face` on the mirror
+/// pixels it covered; `None` elsewhere), for [`crate::metrics::same_object`].
+pub fn shown_objects(frame: &GpuFrame) -> Vec<Option<u32>> {
+    (0..frame.records.len())
+        .map(|k| {
+            let r = &frame.records[k];
+            (frame.mask[k] != 0 && r.status == RECORD_HIT).then_some(r.face)
+        })
+        .collect()
 }

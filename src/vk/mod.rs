@@ -12,44 +12,22 @@
 //!   `Arc<Instance>`. Nothing is destroyed while a child lives, and nothing leaks.
 //! - Coordinates are Vulkan's native ones: naga is told not to flip y.
 //! - Every pass has one name: its WGSL file stem, its debug label and its timestamp key.
-pub mod bounce;
+pub mod backend;
 pub mod budget;
-pub mod buffer;
-pub mod bvh;
-pub mod capture;
-pub mod cmo;
-pub mod compute;
-pub mod context;
-pub mod conv;
-pub mod device;
-pub mod error;
 pub mod frame;
-pub mod gbuffer;
-pub mod graphics;
-pub mod hier32;
-pub mod hit_probe;
-pub mod image;
-pub mod info;
-pub mod instance;
-pub mod pipeline;
-pub mod pyramid;
-pub mod reflection_point;
-pub mod scene_buffers;
-pub mod selftest;
-pub mod shaders;
-pub mod ssr;
-pub mod sync;
-pub mod timestamps;
-pub mod trace_probe;
+pub mod methods;
+pub mod passes;
 
-pub use buffer::Buffer;
-pub use context::{ContextOptions, GpuContext, Recorder};
-pub use device::{Device, EnabledFeatures};
-pub use error::{VkError, VkResult};
-pub use graphics::{ColourTarget, DepthTest, GraphicsDesc, GraphicsPipeline, RenderTarget};
-pub use image::{Image, ImageDesc};
-pub use info::DeviceReport;
-pub use instance::{Validation, ValidationLog};
-pub use pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
-pub use shaders::Pass;
-pub use timestamps::{PassTime, Timestamps};
+pub use backend::buffer::Buffer;
+pub use backend::context::{ContextOptions, GpuContext, Recorder};
+pub use backend::device::{Device, EnabledFeatures};
+pub use backend::error::{VkError, VkResult};
+pub use backend::graphics::{
+    ColourTarget, DepthTest, GraphicsDesc, GraphicsPipeline, RenderTarget,
+};
+pub use backend::image::{Image, ImageDesc};
+pub use backend::info::DeviceReport;
+pub use backend::instance::{Validation, ValidationLog};
+pub use backend::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
+pub use backend::shaders::Pass;
+pub use backend::timestamps::{PassTime, Timestamps};

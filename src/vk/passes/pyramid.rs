@@ -18,17 +18,17 @@
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
-use super::buffer::Buffer;
-use super::context::{GpuContext, Recorder};
-use super::error::{VkError, VkResult};
-use super::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
-use super::shaders::PYRAMID;
-use super::sync::{COMPUTE_READ, COMPUTE_WRITE};
-use super::timestamps::Timestamps;
 use crate::cubemap::CubeMap;
 use crate::cubemap::face::FACE_COUNT;
 use crate::cubemap::pyramid::mip_flat_layout;
 pub use crate::cubemap::pyramid::mip_len;
+use crate::vk::backend::buffer::Buffer;
+use crate::vk::backend::context::{GpuContext, Recorder};
+use crate::vk::backend::error::{VkError, VkResult};
+use crate::vk::backend::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
+use crate::vk::backend::shaders::PYRAMID;
+use crate::vk::backend::sync::{COMPUTE_READ, COMPUTE_WRITE};
+use crate::vk::backend::timestamps::Timestamps;
 
 /// WGSL `PyramidParams` (read-only storage buffer, one per level). Layout checked against naga's in the tests.
 #[repr(C)]

@@ -2,32 +2,32 @@
 //!
 //! | pass | reads | writes |
 //! |---|---|---|
-//! | `hiz` | G-buffer position | the min pyramid of the depth key, one dispatch per level |
+//! | `ssr_hiz` | G-buffer position | the min pyramid of the depth key, one dispatch per level |
 //! | `ssr` | G-buffer, pyramid | one record per mirror pixel (hit pixel's colour and position, iterations) |
 //!
 //! The traversal and the pyramid are specified by their CPU twin [`crate::cpu::ssr`]; the
-//! shaders are `spirv/hiz.wgsl`, `spirv/ssr.wgsl` and `spirv/shared/ssr.wgsl`. Unresolved
+//! shaders are `spirv/ssr_hiz.wgsl`, `spirv/ssr.wgsl` and `spirv/shared/ssr.wgsl`. Unresolved
 //! records (towards the camera, off screen, iteration cap, thickness) go to the frame's
 //! fallback in `composite`, as for the CMO methods.
 //!
 //! Invariants: the pyramid buffer holds [`hiz_len`] f32 cells in the [`hiz_levels`] layout and is
 //! fully rewritten every frame; consecutive levels are separated by a compute-write ->
-//! compute-read barrier recorded here; the barriers before `hiz` (the G-buffer's) and between
-//! `hiz` and `ssr` belong to the caller ([`super::frame::GpuRenderer`]).
+//! compute-read barrier recorded here; the barriers before `ssr_hiz` (the G-buffer's) and between
+//! `ssr_hiz` and `ssr` belong to the caller ([`crate::vk::frame::GpuRenderer`]).
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::Mat4;
 use gpu_allocator::MemoryLocation;
 
-use super::buffer::Buffer;
-use super::context::{GpuContext, Recorder};
-use super::error::{VkError, VkResult};
-use super::gbuffer::Gbuffer;
-use super::graphics::{GraphicsDesc, GraphicsPipeline, RenderTarget};
-use super::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
-use super::shaders::{HIZ, SSR};
-use super::sync::{COMPUTE_READ, COMPUTE_WRITE};
 use crate::cpu::ssr::{CROSS_EPSILON, MAX_LEVELS, SsrOptions, hiz_len, hiz_levels};
+use crate::vk::backend::buffer::Buffer;
+use crate::vk::backend::context::{GpuContext, Recorder};
+use crate::vk::backend::error::{VkError, VkResult};
+use crate::vk::backend::graphics::{GraphicsDesc, GraphicsPipeline, RenderTarget};
+use crate::vk::backend::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
+use crate::vk::backend::shaders::{SSR, SSR_HIZ};
+use crate::vk::backend::sync::{COMPUTE_READ, COMPUTE_WRITE};
+use crate::vk::passes::gbuffer::Gbuffer;
 
 /// `SsrParams` in `spirv/shared/ssr.wgsl`.
 #[repr(C)]
@@ -78,7 +78,7 @@ impl SsrParams {
     }
 }
 
-/// `HizLevel` in `spirv/hiz.wgsl`.
+/// `HizLevel` in `spirv/ssr_hiz.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
 pub struct HizLevelParams {
@@ -129,12 +129,12 @@ impl SsrPasses {
             vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
             MemoryLocation::GpuOnly,
         )?;
-        let sampled = |img: &super::image::Image| Resource::Texture {
+        let sampled = |img: &crate::vk::backend::image::Image| Resource::Texture {
             view: img.view(),
             layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
         };
-        let hiz = ComputePipeline::new(ctx, &HIZ, "main", ComputeOptions::default())?;
-        let wg = HIZ
+        let hiz = ComputePipeline::new(ctx, &SSR_HIZ, "main", ComputeOptions::default())?;
+        let wg = SSR_HIZ
             .entry_point("main")
             .map_or(64, |e| e.workgroup_size[0].max(1));
         let mut levels = Vec::new();
@@ -200,7 +200,7 @@ impl SsrPasses {
         })
     }
 
-    /// Records the `hiz` pass: one dispatch per level, level 0 from the G-buffer.
+    /// Records the `ssr_hiz` pass: one dispatch per level, level 0 from the G-buffer.
     pub fn record_hiz(&self, rec: &Recorder<'_>) {
         for (i, (set, _, groups)) in self.hiz_levels.iter().enumerate() {
             if i > 0 {

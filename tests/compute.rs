@@ -3,7 +3,7 @@
 //! - the GPU-sized dispatch (ray count, indirect arguments, zero mirror pixels);
 //! - per built-in scene at 96x72 (reduced cube sizes, some not a power of two): compute against
 //!   fragment (same status, CMO, hit texel and riser on every mirror pixel), against the CPU
-//!   twin `cpu::alg3` over the GPU's own capture (every field bit for bit, counters included),
+//!   twin `cpu::compute` over the GPU's own capture (every field bit for bit, counters included),
 //!   and against the reference (the fragment path's accuracy);
 //! - subgroup sizes 4, 8 and 16 (`LP_NATIVE_VECTOR_WIDTH` = 128, 256, 512, in child processes)
 //!   give byte-identical EXR output (skipped, with the reason, on drivers other than lavapipe,
@@ -21,7 +21,7 @@ use std::process::Command;
 use cubetrace::Method;
 use cubetrace::camera::Camera;
 use cubetrace::check_layout;
-use cubetrace::cpu::alg3::trace_alg3;
+use cubetrace::cpu::compute::trace_alg3;
 use cubetrace::cpu::multi::{MultiStatus, Verify, trace_cmos_verified_by};
 use cubetrace::cpu::options::TraceOptions;
 use cubetrace::cpu::verify::triangle_corners;
@@ -32,15 +32,15 @@ use cubetrace::cubemap::pyramid::Hier32;
 use cubetrace::metrics::{self, ErrorReport};
 use cubetrace::reference;
 use cubetrace::scene::{self, CmoPlacement, Scene};
-use cubetrace::vk::compute::{
-    AppendedRay, DispatchArgs, DispatchParams, HierConfig, RAY_LANES_ENV, RayCounter, ray_lanes,
-    workgroup_size,
-};
+use cubetrace::vk::backend::shaders::{APPEND, COMPUTE_TRACE, DISPATCH_ARGS, HIER32};
 use cubetrace::vk::frame::{
     Fallback, GpuFrame, GpuRenderer, PixelRecord, RenderOptions, scene_ranges,
 };
-use cubetrace::vk::hier32::{Hier32Params, build_hier_gpu, hier32_len};
-use cubetrace::vk::shaders::{APPEND, COMPUTE_TRACE, DISPATCH_ARGS, HIER32};
+use cubetrace::vk::methods::compute::{
+    AppendedRay, DispatchArgs, DispatchParams, HierConfig, RAY_LANES_ENV, RayCounter, ray_lanes,
+    workgroup_size,
+};
+use cubetrace::vk::passes::hier32::{Hier32Params, build_hier_gpu, hier32_len};
 use cubetrace::vk::{ContextOptions, GpuContext};
 use glam::Vec3;
 
@@ -356,7 +356,7 @@ fn gpu_fields(r: &PixelRecord, stats: [u32; 4]) -> Vec<u32> {
     v
 }
 
-/// The CPU twin's fields for the same ray (`cpu::alg3` with `subgroup` lanes inside the
+/// The CPU twin's fields for the same ray (`cpu::compute` with `subgroup` lanes inside the
 /// handoff of `cpu::multi`), in [`gpu_fields`]' order.
 fn cpu_fields(
     tracers: &[CmoTracer],

@@ -1,4 +1,4 @@
-// rp_search: the reflection-point search of Estalella et al. 2006 ("A GPU-driven Algorithm for
+// reflection_point_search: the reflection-point search of Estalella et al. 2006 ("A GPU-driven Algorithm for
 // Accurate Interactive Reflections on Curved Objects"), sections 4 and 5.1. CPU twin:
 // `cubetrace::cpu::reflection_point` (same loop, same arithmetic).
 //
@@ -60,7 +60,7 @@ struct RpVertex {
     iterations: u32,
     inverse_iterations: u32,
     // The reflected path's length |O - R| + |R - V|: the virtual vertex's distance for the
-    // depth test (see rp_raster.wgsl).
+    // depth test (see reflection_point_raster.wgsl).
     path: f32,
     pad0: u32,
     pad1: u32,

@@ -4,12 +4,12 @@
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
-use super::buffer::Buffer;
-use super::context::GpuContext;
-use super::error::VkResult;
-use super::pipeline::{ComputeOptions, ComputePipeline, Resource};
-use super::shaders::SELFTEST;
-use super::timestamps::{PassTime, Timestamps};
+use cubetrace::vk::backend::buffer::Buffer;
+use cubetrace::vk::backend::context::GpuContext;
+use cubetrace::vk::backend::error::VkResult;
+use cubetrace::vk::backend::pipeline::{ComputeOptions, ComputePipeline, Resource};
+use cubetrace::vk::backend::shaders::SELFTEST;
+use cubetrace::vk::backend::timestamps::{PassTime, Timestamps};
 
 /// WGSL `SelftestParams` (uniform). Layout checked against naga's in the tests.
 #[repr(C)]

@@ -25,15 +25,15 @@ use cubetrace::metrics;
 use cubetrace::reference::{self, NO_ID, Tracer, reflect};
 use cubetrace::scene::gpu_data::GpuSceneData;
 use cubetrace::scene::{self, Scene};
-use cubetrace::vk::bvh::{
-    BvhCounter, BvhData, BvhParams, BvhQueue, BvhRay, BvhTracer, NO_TRIANGLE,
-};
+use cubetrace::vk::backend::shaders::{BVH_QUEUE, BVH_TRACE, FRAGMENT_TRACE};
 use cubetrace::vk::frame::{
     Fallback, GpuFrame, GpuRenderer, PixelRecord, RECORD_ESCAPED, RECORD_HIT, RECORD_UNRESOLVED,
     RenderOptions,
 };
-use cubetrace::vk::scene_buffers::SceneBuffers;
-use cubetrace::vk::shaders::{BVH_QUEUE, BVH_TRACE, FRAGMENT_TRACE};
+use cubetrace::vk::passes::bvh::{
+    BvhCounter, BvhData, BvhParams, BvhQueue, BvhRay, BvhTracer, NO_TRIANGLE,
+};
+use cubetrace::vk::passes::scene_buffers::SceneBuffers;
 use cubetrace::vk::{Buffer, GpuContext};
 use glam::{Quat, Vec3};
 use gpu_allocator::MemoryLocation;

@@ -1,20 +1,20 @@
 //! The `hit_probe` pass (`spirv/hit_probe.wgsl`): the verified-hit building blocks run on given
 //! inputs, so that the tests can compare them with their CPU twins.
 //! - [`watertight_gpu`]: `wt_intersect` (`spirv/shared/watertight.wgsl`) per query; twin:
-//!   [`crate::cpu::watertight::intersect`], bit for bit.
+//!   [`cubetrace::cpu::watertight::intersect`], bit for bit.
 //! - [`shade_gpu`]: `hit_shade` (`spirv/shared/hit.wgsl`) per (triangle, barycentrics); twin:
-//!   [`crate::reference::Tracer::shade`], within a stated tolerance.
+//!   [`cubetrace::reference::Tracer::shade`], within a stated tolerance.
 //! - [`verify_gpu`]: `verify_hit` (`spirv/shared/verify.wgsl`) per query over one CMO's
-//!   triangle IDs; twin: [`crate::cpu::verify::verify_hit`] ([`verify_cpu`]), bit for bit.
+//!   triangle IDs; twin: [`cubetrace::cpu::verify::verify_hit`] ([`verify_cpu`]), bit for bit.
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
-use super::buffer::Buffer;
-use super::context::GpuContext;
-use super::error::VkResult;
-use super::pipeline::{ComputeOptions, ComputePipeline, Resource};
-use super::scene_buffers::SceneBuffers;
-use super::shaders::HIT_PROBE;
+use cubetrace::vk::backend::buffer::Buffer;
+use cubetrace::vk::backend::context::GpuContext;
+use cubetrace::vk::backend::error::VkResult;
+use cubetrace::vk::backend::pipeline::{ComputeOptions, ComputePipeline, Resource};
+use cubetrace::vk::backend::shaders::HIT_PROBE;
+use cubetrace::vk::passes::scene_buffers::SceneBuffers;
 
 /// WGSL `WatertightQuery`: a ray and a triangle. Layout checked against naga's in the tests.
 #[repr(C)]
@@ -45,7 +45,7 @@ pub struct WatertightResult {
 }
 
 /// WGSL `ShadeQuery`: a global triangle index and the barycentric weights of its vertices 1
-/// and 2 (as [`crate::reference::Hit::bary`]).
+/// and 2 (as [`cubetrace::reference::Hit::bary`]).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct ShadeQuery {
@@ -85,12 +85,12 @@ pub struct VerifyResult {
     pub _pad2: u32,
 }
 
-/// What the CPU twin gives for a query over `ids` (one CMO, [`crate::cubemap::CubeMap`]'s
+/// What the CPU twin gives for a query over `ids` (one CMO, [`cubetrace::cubemap::CubeMap`]'s
 /// layout) and the triangles' corners, in the GPU's result layout.
 pub fn verify_cpu(q: &VerifyQuery, ids: &[u32], triangles: &[[glam::Vec3; 3]]) -> VerifyResult {
-    use crate::cpu::verify::{Neighbourhood, VerifyRay, verify_hit};
+    use cubetrace::cpu::verify::{Neighbourhood, VerifyRay, verify_hit};
     use glam::Vec3;
-    let texel = crate::cubemap::Texel {
+    let texel = cubetrace::cubemap::Texel {
         face: q.face,
         x: q.x,
         y: q.y,
@@ -135,7 +135,8 @@ impl WatertightQuery {
 pub fn watertight_cpu(q: &WatertightQuery) -> WatertightResult {
     use glam::Vec3;
     let p = [q.p0, q.p1, q.p2].map(Vec3::from_array);
-    match crate::cpu::watertight::intersect(Vec3::from_array(q.org), Vec3::from_array(q.dir), p) {
+    match cubetrace::cpu::watertight::intersect(Vec3::from_array(q.org), Vec3::from_array(q.dir), p)
+    {
         Some(h) => WatertightResult {
             bary: h.bary,
             t: h.t,

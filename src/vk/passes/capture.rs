@@ -23,16 +23,18 @@ use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
-use super::buffer::Buffer;
 use super::cmo::{CaptureContents, CmoData};
-use super::context::{GpuContext, Recorder};
-use super::error::{VkError, VkResult};
-use super::graphics::{ColourTarget, DepthTest, GraphicsDesc, GraphicsPipeline, RenderTarget};
-use super::image::{Image, ImageDesc};
-use super::pipeline::{BindGroup, Resource};
 use super::scene_buffers::SceneBuffers;
-use super::shaders::CAPTURE;
-use super::sync::{
+use crate::vk::backend::buffer::Buffer;
+use crate::vk::backend::context::{GpuContext, Recorder};
+use crate::vk::backend::error::{VkError, VkResult};
+use crate::vk::backend::graphics::{
+    ColourTarget, DepthTest, GraphicsDesc, GraphicsPipeline, RenderTarget,
+};
+use crate::vk::backend::image::{Image, ImageDesc};
+use crate::vk::backend::pipeline::{BindGroup, Resource};
+use crate::vk::backend::shaders::CAPTURE;
+use crate::vk::backend::sync::{
     ALL_READS, COLOUR_WRITE, DEPTH_WRITE, SHADER_READ, TRANSFER_READ, TRANSFER_WRITE,
 };
 

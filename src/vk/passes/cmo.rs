@@ -16,20 +16,134 @@
 //! Buffers larger than the device can bind are refused when bound ([`super::VkError::Limit`]).
 //! Without a pyramid `cmo_mip` is a one-cell placeholder (a binding cannot be empty), and the
 //! config says so: `mip_top = 0` makes the tracer read texels only.
+//!
+//! [`TraceConfig`] carries the tracer's options (`spirv/shared/trace.wgsl`, the GPU twin of
+//! [`crate::cpu::options::trace_ray`]); the near-centre cut radius is computed on the GPU from
+//! the data, never passed in.
 use ash::vk;
 use glam::Vec3;
 use gpu_allocator::MemoryLocation;
 
-use super::buffer::Buffer;
-use super::context::GpuContext;
-use super::error::{VkError, VkResult};
-use super::image::{Image, ImageDesc};
-use super::pipeline::Resource;
-use super::shaders::Pass;
-use super::trace_probe::TraceConfig;
-use crate::cpu::options::TraceOptions;
+use crate::cpu::options::{TraceCriterion, TraceOptions, TraceSampling};
 use crate::cubemap::CubeMap;
-use crate::cubemap::pyramid::{EMPTY_CELL, MipPyramid};
+use crate::cubemap::pyramid::{EMPTY_CELL, MipPyramid, mip_flat_layout};
+use crate::vk::backend::buffer::Buffer;
+use crate::vk::backend::context::GpuContext;
+use crate::vk::backend::error::{VkError, VkResult};
+use crate::vk::backend::image::{Image, ImageDesc};
+use crate::vk::backend::pipeline::Resource;
+use crate::vk::backend::shaders::Pass;
+
+/// Entries of [`TraceConfig::mip_levels`] (index 0 unused: level 0 is the texels).
+pub const TRACE_MIP_MAX_LEVELS: usize = 16;
+
+/// Largest face size the GPU tracer accepts (its per-face step cap, `MAX_FACE_STEPS` in
+/// `spirv/shared/trace.wgsl`, is provably not reached up to here).
+pub const TRACE_MAX_SIZE: u32 = 4096;
+
+/// Most sample steps of constant-step / constant-angle sampling (`MAX_SAMPLE_STEPS`).
+pub const TRACE_MAX_STEPS: u32 = 65536;
+
+/// WGSL `TraceConfig` (uniform, `@group(1) @binding(0)`). Layout checked against naga's in
+/// `tests/gpu_twin.rs`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct TraceConfig {
+    /// Number of CMOs K.
+    pub cmo_count: u32,
+    /// Face size N.
+    pub size: u32,
+    /// 0 exact, 1 threshold, 2 sign change.
+    pub criterion: u32,
+    /// 0 constant step, 1 constant angle, 2 per texel.
+    pub sampling: u32,
+    /// 0 per-texel walk, 1 mip march (exact criterion).
+    pub accel: u32,
+    /// Sample intervals of constant-step / constant-angle sampling.
+    pub steps: u32,
+    /// Threshold (world units).
+    pub eps: f32,
+    /// `k` of the continuity rule.
+    pub continuity_k: f32,
+    /// Pyramid levels above the texels (0 for N = 1).
+    pub mip_top: u32,
+    /// Cells per CMO in the mip buffer.
+    pub mip_len: u32,
+    /// 1: exact criterion with decisive patch hits only (`TraceOptions::strict`).
+    pub strict: u32,
+    /// Padding.
+    pub pad1: u32,
+    /// Level `l` in `1..=mip_top`: `[offset, width, height, span]` (offset in cells within a
+    /// CMO's block, span in texels).
+    pub mip_levels: [[u32; 4]; TRACE_MIP_MAX_LEVELS],
+}
+
+/// Total cells of one CMO's flattened 2x2 pyramid for face size `size` (`mip_len(N)`).
+pub fn mip_len(size: u32) -> u32 {
+    mip_flat_layout(size)
+        .iter()
+        .map(|l| 6 * l.width * l.height)
+        .sum()
+}
+
+impl TraceConfig {
+    /// The config for `cmo_count` CMOs of face size `size` traced with `opts`. Fails outside
+    /// the ranges where the shader's loop caps are provably never reached (so that it gives the
+    /// CPU twin's results): `size` in `1..=`[`TRACE_MAX_SIZE`], `opts.steps` at most
+    /// [`TRACE_MAX_STEPS`].
+    pub fn new(cmo_count: u32, size: u32, opts: &TraceOptions) -> VkResult<TraceConfig> {
+        let err = |detail: String| VkError::Usage {
+            what: "trace config".into(),
+            detail,
+        };
+        if size == 0 || size > TRACE_MAX_SIZE {
+            return Err(err(format!(
+                "face size {size} is not in 1..={TRACE_MAX_SIZE}"
+            )));
+        }
+        if opts.steps > TRACE_MAX_STEPS {
+            return Err(err(format!(
+                "{} sample steps, at most {TRACE_MAX_STEPS}",
+                opts.steps
+            )));
+        }
+        let layout = mip_flat_layout(size);
+        let mut mip_levels = [[0u32; 4]; TRACE_MIP_MAX_LEVELS];
+        for (i, l) in layout.iter().enumerate() {
+            mip_levels[i + 1] = [l.offset, l.width, l.height, 1 << (i + 1)];
+        }
+        Ok(TraceConfig {
+            cmo_count,
+            size,
+            criterion: match opts.criterion {
+                TraceCriterion::Exact => 0,
+                TraceCriterion::Threshold => 1,
+                TraceCriterion::SignChange => 2,
+            },
+            sampling: match opts.sampling {
+                TraceSampling::ConstantStep => 0,
+                TraceSampling::ConstantAngle => 1,
+                TraceSampling::PerTexel => 2,
+            },
+            accel: u32::from(opts.accel),
+            steps: opts.steps,
+            eps: opts.eps,
+            continuity_k: opts.continuity_k,
+            mip_top: layout.len() as u32,
+            mip_len: mip_len(size),
+            strict: u32::from(opts.strict),
+            pad1: 0,
+            mip_levels,
+        })
+    }
+}
+
+/// Whether `opts` select the exact criterion's mip march without `--strict`, the only method the
+/// specialised entry points carry (`fs_exact_mip` of `fragment_trace`, `main_exact_mip` of
+/// `trace_probe`; WGSL `TRACE_EXACT_MIP`). Every other option set needs the generic entry point.
+pub fn exact_mip_only(opts: &TraceOptions) -> bool {
+    opts.criterion == TraceCriterion::Exact && opts.accel && !opts.strict
+}
 
 /// What the capture stores per texel besides the distance (and, with self-reflections, the
 /// normal). [`Default`] is the colour without IDs: what the tracers read today.

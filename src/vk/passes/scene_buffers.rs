@@ -5,11 +5,11 @@
 //! so a draw's `vertex_index / 3` is the global triangle index.
 use ash::vk;
 
-use super::buffer::Buffer;
-use super::context::GpuContext;
-use super::error::VkResult;
-use super::pipeline::Resource;
 use crate::scene::gpu_data::GpuSceneData;
+use crate::vk::backend::buffer::Buffer;
+use crate::vk::backend::context::GpuContext;
+use crate::vk::backend::error::VkResult;
+use crate::vk::backend::pipeline::Resource;
 
 /// Uploaded scene data.
 pub struct SceneBuffers {

@@ -3,10 +3,10 @@
 //!
 //! | pass | reads | writes |
 //! |---|---|---|
-//! | `hier32` | CMO distance | `cmo_hier`: the 8x4/4x8 `[min, max]` hierarchy ([`super::hier32`]) |
+//! | `hier32` | CMO distance | `cmo_hier`: the 8x4/4x8 `[min, max]` hierarchy ([`crate::vk::passes::hier32`]) |
 //! | `append` | G-buffer | ray queue + its atomic count (a fragment pass, one ray per mirror pixel) |
 //! | `dispatch_args` | ray count, hierarchy | `VkDispatchIndirectCommand` (no CPU round trip), the CMOs' cut radii |
-//! | `compute_trace` | queue, CMO data, `cmo_hier` | one [`PixelRecord`](super::frame::PixelRecord) per queued ray, per-ray counters |
+//! | `compute_trace` | queue, CMO data, `cmo_hier` | one [`PixelRecord`](crate::vk::frame::PixelRecord) per queued ray, per-ray counters |
 //!
 //! Invariants:
 //! - The queued ray of a mirror pixel is `mirror_ray`'s (spirv/shared/mirror.wgsl), the ray the
@@ -14,7 +14,7 @@
 //! - `compute_trace` writes `records[pixel]` for exactly the queued pixels, i.e. the mirror pixels
 //!   (`position.w == 1`, the composite pass's own test), and `ray_stats[pixel]` likewise.
 //! - The surface model and the classification are the fragment path's exact criterion
-//!   (`classify` in spirv/shared/trace.wgsl), so [`GpuRenderer`](super::frame::GpuRenderer)
+//!   (`classify` in spirv/shared/trace.wgsl), so [`GpuRenderer`](crate::vk::frame::GpuRenderer)
 //!   refuses other criteria for this method.
 //! - Subgroup sizes 4..=128 (powers of two) are supported; the kernel's docs say how lanes map
 //!   to rays and why no workgroup barrier is needed (there is none). Its workgroups have 256
@@ -31,18 +31,18 @@ use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use gpu_allocator::MemoryLocation;
 
-use super::buffer::Buffer;
-use super::cmo::CmoData;
-use super::context::{GpuContext, Recorder};
-use super::error::{VkError, VkResult};
-use super::gbuffer::Gbuffer;
-use super::graphics::{GraphicsDesc, GraphicsPipeline, RenderTarget};
-use super::hier32::{Hier32Bindings, Hier32Pass};
-use super::info::DeviceReport;
-use super::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
-use super::scene_buffers::SceneBuffers;
-use super::shaders::{APPEND, COMPUTE_TRACE, DISPATCH_ARGS};
-use super::sync::{INDIRECT_READ, SHADER_WRITE, STORAGE_RW, TRANSFER_WRITE};
+use crate::vk::backend::buffer::Buffer;
+use crate::vk::backend::context::{GpuContext, Recorder};
+use crate::vk::backend::error::{VkError, VkResult};
+use crate::vk::backend::graphics::{GraphicsDesc, GraphicsPipeline, RenderTarget};
+use crate::vk::backend::info::DeviceReport;
+use crate::vk::backend::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
+use crate::vk::backend::shaders::{APPEND, COMPUTE_TRACE, DISPATCH_ARGS};
+use crate::vk::backend::sync::{INDIRECT_READ, SHADER_WRITE, STORAGE_RW, TRANSFER_WRITE};
+use crate::vk::passes::cmo::CmoData;
+use crate::vk::passes::gbuffer::Gbuffer;
+use crate::vk::passes::hier32::{Hier32Bindings, Hier32Pass};
+use crate::vk::passes::scene_buffers::SceneBuffers;
 
 use crate::cubemap::pyramid::{
     HIER_MAX_LEVELS, hier32_flat_layout, hier32_group, hier32_layout, hier32_len,
@@ -391,7 +391,7 @@ impl ComputePath {
             u64::from(cmo.count()) * 4,
             vk::BufferUsageFlags::TRANSFER_SRC,
         )?;
-        let sampled = |img: &super::image::Image| Resource::Texture {
+        let sampled = |img: &crate::vk::backend::image::Image| Resource::Texture {
             view: img.view(),
             layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
         };

@@ -17,12 +17,12 @@ use cubetrace::reference::{self, Tracer};
 use cubetrace::scene::shapes::cuboid;
 use cubetrace::scene::{Material, MeshInstance, Scene, Transform, builtin};
 use cubetrace::vk::GpuContext;
+use cubetrace::vk::backend::shaders::{SSR, SSR_HIZ};
 use cubetrace::vk::frame::{
     Fallback, GpuFrame, GpuRenderer, PixelRecord, RECORD_HIT, RECORD_UNRESOLVED, RenderOptions,
     scene_ranges,
 };
-use cubetrace::vk::shaders::{HIZ, SSR};
-use cubetrace::vk::ssr::{HizLevelParams, SsrParams};
+use cubetrace::vk::methods::ssr::{HizLevelParams, SsrParams};
 use glam::{Mat4, Vec3, Vec4};
 
 const WIDTH: u32 = 96;
@@ -169,10 +169,10 @@ fn shared_structs_match_naga_layout() {
         ]
     )
     .unwrap();
-    assert_eq!(HIZ.struct_layout("SsrParams"), Some(l));
+    assert_eq!(SSR_HIZ.struct_layout("SsrParams"), Some(l));
     cubetrace::check_layout!(
         HizLevelParams,
-        HIZ.struct_layout("HizLevel").unwrap(),
+        SSR_HIZ.struct_layout("HizLevel").unwrap(),
         [level, pad0, pad1, pad2]
     )
     .unwrap();

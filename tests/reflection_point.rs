@@ -19,9 +19,10 @@ use cubetrace::reference::{self, Frame, Tracer};
 use cubetrace::scene::gpu_data::GpuSceneData;
 use cubetrace::scene::{Scene, builtin};
 use cubetrace::vk::GpuContext;
+use cubetrace::vk::backend::shaders::{REFLECTION_POINT_RASTER, REFLECTION_POINT_SEARCH};
 use cubetrace::vk::frame::{Fallback, GpuFrame, GpuRenderer, RECORD_UNRESOLVED, RenderOptions};
-use cubetrace::vk::reflection_point::{RpCamera, RpParams, shown_objects};
-use cubetrace::vk::shaders::{RP_RASTER, RP_SEARCH};
+use cubetrace::vk::frame::shown_objects;
+use cubetrace::vk::methods::reflection_point::{RpCamera, RpParams};
 use glam::Vec3;
 
 const WIDTH: u32 = 96;
@@ -94,7 +95,7 @@ fn disagreements(gpu: &[RpVertex], cpu: &[RpVertex]) -> Vec<String> {
 fn shared_structs_match_naga_layout() {
     cubetrace::check_layout!(
         RpParams,
-        RP_SEARCH.struct_layout("RpParams").unwrap(),
+        REFLECTION_POINT_SEARCH.struct_layout("RpParams").unwrap(),
         [
             view_proj,
             eye,
@@ -109,7 +110,7 @@ fn shared_structs_match_naga_layout() {
         ]
     )
     .unwrap();
-    for pass in [&RP_SEARCH, &RP_RASTER] {
+    for pass in [&REFLECTION_POINT_SEARCH, &REFLECTION_POINT_RASTER] {
         cubetrace::check_layout!(
             RpVertex,
             pass.struct_layout("RpVertex").unwrap(),
@@ -129,13 +130,15 @@ fn shared_structs_match_naga_layout() {
     }
     cubetrace::check_layout!(
         cubetrace::cpu::closure::ClosureVertex,
-        RP_SEARCH.struct_layout("RpClosureVertex").unwrap(),
+        REFLECTION_POINT_SEARCH
+            .struct_layout("RpClosureVertex")
+            .unwrap(),
         [position, object, normal, behind]
     )
     .unwrap();
     cubetrace::check_layout!(
         RpCamera,
-        RP_RASTER.struct_layout("RpCamera").unwrap(),
+        REFLECTION_POINT_RASTER.struct_layout("RpCamera").unwrap(),
         [view_proj, eye, near]
     )
     .unwrap();
@@ -420,7 +423,7 @@ fn tessellation_curve_in_the_scaling_report() {
     for p in curve {
         eprintln!(
             "{} subdivided {}: {} triangles, unresolved {:.1}%, wrong surface {:.1}%, same object \
-             {:.1}%, PSNR {:.2} dB, rp_search {:.2} ms",
+             {:.1}%, PSNR {:.2} dB, reflection_point_search {:.2} ms",
             p.scene,
             p.subdivide,
             p.triangles,

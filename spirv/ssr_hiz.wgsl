@@ -1,4 +1,4 @@
-// hiz: the min Hi-Z pyramid of the G-buffer's depth (Uludag 2014, section 4.4.1 and Listing 4.3),
+// ssr_hiz: the min Hi-Z pyramid of the G-buffer's depth (Uludag 2014, section 4.4.1 and Listing 4.3),
 // one dispatch per level. Level 0 converts the G-buffer's world positions to the depth key of
 // shared/ssr.wgsl; level l > 0 takes the min over the (up to) 2 x 2 cells of level l - 1 below
 // each cell, children outside the finer level skipped, visited row-major from child (0, 0)

@@ -34,16 +34,16 @@
 //! the frame's own BVH passes when it has them (`bvh`, `--fallback trace`).
 use ash::vk;
 
-use super::buffer::Buffer;
 use super::bvh::{BvhQueue, BvhTracer, pixel_groups};
-use super::context::{GpuContext, Recorder};
-use super::error::VkResult;
 use super::gbuffer::Gbuffer;
-use super::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
 use super::scene_buffers::SceneBuffers;
-use super::shaders::BOUNCE_APPEND;
-use super::sync::ALL;
 use crate::scene::gpu_data::GpuSceneData;
+use crate::vk::backend::buffer::Buffer;
+use crate::vk::backend::context::{GpuContext, Recorder};
+use crate::vk::backend::error::VkResult;
+use crate::vk::backend::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
+use crate::vk::backend::shaders::BOUNCE_APPEND;
+use crate::vk::backend::sync::ALL;
 
 /// The most reflections per path a render takes (`--bounces`): each costs a round of two small
 /// dispatches and a trace; the reference stores the count in a `u8`.
@@ -91,7 +91,7 @@ impl BouncePasses {
         t_hi: f32,
     ) -> VkResult<Self> {
         let (width, height) = gbuffer.extent();
-        let sampled = |img: &super::image::Image| Resource::Texture {
+        let sampled = |img: &crate::vk::backend::image::Image| Resource::Texture {
             view: img.view(),
             layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
         };
@@ -213,7 +213,7 @@ impl BouncePasses {
         let tracer = match (&r.tracer, shared) {
             (Some(t), _) | (None, Some(t)) => t,
             (None, None) => {
-                return Err(super::error::VkError::Usage {
+                return Err(crate::vk::backend::error::VkError::Usage {
                     what: "bounce rounds".into(),
                     detail: "no BVH tracer".into(),
                 });

@@ -15,17 +15,17 @@
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
-use super::buffer::Buffer;
-use super::context::{GpuContext, Recorder};
-use super::error::{VkError, VkResult};
-use super::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
 use super::pyramid::reduce_on_gpu;
-use super::shaders::HIER32;
-use super::sync::{COMPUTE_READ, COMPUTE_WRITE};
 use crate::cubemap::CubeMap;
 use crate::cubemap::face::FACE_COUNT;
 pub use crate::cubemap::pyramid::{Hier32, hier32_flat_layout, hier32_len};
 use crate::cubemap::pyramid::{hier32_group, hier32_layout};
+use crate::vk::backend::buffer::Buffer;
+use crate::vk::backend::context::{GpuContext, Recorder};
+use crate::vk::backend::error::{VkError, VkResult};
+use crate::vk::backend::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
+use crate::vk::backend::shaders::HIER32;
+use crate::vk::backend::sync::{COMPUTE_READ, COMPUTE_WRITE};
 
 /// WGSL `Hier32Params` (read-only storage buffer, one per level). Layout checked against naga's in the tests.
 #[repr(C)]

@@ -1,6 +1,6 @@
 //! Exact GPU ray tracing over a compressed wide BVH (`--method bvh`, `--fallback trace`): the
 //! reusable pass that traces any queue of rays into the frame's
-//! [`PixelRecord`](super::frame::PixelRecord)s.
+//! [`PixelRecord`](crate::vk::frame::PixelRecord)s.
 //!
 //! | pass | reads | writes |
 //! |---|---|---|
@@ -51,15 +51,15 @@ use glam::{Vec3, Vec3A};
 use gpu_allocator::MemoryLocation;
 use obvhs::aabb::Aabb;
 
-use super::buffer::Buffer;
-use super::context::{GpuContext, Recorder};
-use super::error::VkResult;
 use super::gbuffer::Gbuffer;
-use super::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
 use super::scene_buffers::SceneBuffers;
-use super::shaders::{BVH_QUEUE, BVH_TRACE};
-use super::sync::{INDIRECT_READ, SHADER_WRITE, STORAGE_RW, TRANSFER_WRITE};
 use crate::scene::gpu_data::GpuSceneData;
+use crate::vk::backend::buffer::Buffer;
+use crate::vk::backend::context::{GpuContext, Recorder};
+use crate::vk::backend::error::VkResult;
+use crate::vk::backend::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
+use crate::vk::backend::shaders::{BVH_QUEUE, BVH_TRACE};
+use crate::vk::backend::sync::{INDIRECT_READ, SHADER_WRITE, STORAGE_RW, TRANSFER_WRITE};
 
 /// `BVH_NO_TRIANGLE`: no triangle (a ray that leaves none, a record without a hit).
 pub const NO_TRIANGLE: u32 = u32::MAX;
@@ -348,7 +348,7 @@ impl BvhAppend {
             AppendKind::Check => "append_check",
         };
         let pipeline = ComputePipeline::new(ctx, &BVH_QUEUE, entry, ComputeOptions::default())?;
-        let sampled = |img: &super::image::Image| Resource::Texture {
+        let sampled = |img: &crate::vk::backend::image::Image| Resource::Texture {
             view: img.view(),
             layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
         };

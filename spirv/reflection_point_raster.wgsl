@@ -1,8 +1,8 @@
-// rp_raster: the virtual objects of the reflection-point method (Estalella et al. 2006,
+// reflection_point_raster: the virtual objects of the reflection-point method (Estalella et al. 2006,
 // section 3), then one record per mirror pixel.
 //
 // - `vs_virtual` / `fs_virtual`: every non-reflector triangle drawn at its virtual vertices
-//   (from `rp_search`), with reversed depth of the reflected path's length, into the reflector's pixels only: the fragment
+//   (from `reflection_point_search`), with reversed depth of the reflected path's length, into the reflector's pixels only: the fragment
 //   shader discards pixels where the G-buffer's mirror mask is not set (the paper's stencil).
 //   A triangle with a vertex whose search gave no virtual vertex (cap, no reflector on screen)
 //   is dropped. The colour is the shared shading at the original vertex attributes
@@ -12,7 +12,7 @@
 // - `resolve`: per mirror pixel, a hit record (point = the original surface point, colour)
 //   and `face` = the object's index) where a virtual object covers it, else an unresolved record
 //   (the frame's fallback fills it). `cmo` is 0xffffffff; `texels`, `cells`, `traces`, `riser`,
-//   `t`, `t_done` are 0 (the search's counts are per vertex, read from `rp_search`'s buffer).
+//   `t`, `t_done` are 0 (the search's counts are per vertex, read from `reflection_point_search`'s buffer).
 
 // The scene's bind group (shared/scene.wgsl).
 const SCENE_GROUP: u32 = 0u;
@@ -26,7 +26,7 @@ struct RpCamera {
     near: f32,
 }
 
-// `RpVertex` of rp_search.wgsl.
+// `RpVertex` of reflection_point_search.wgsl.
 struct RpVertex {
     position: vec3<f32>,
     status: u32,

@@ -11,7 +11,7 @@ use cubetrace::Method;
 use cubetrace::camera::Camera;
 use cubetrace::check_layout;
 use cubetrace::cpu::CmoTracer;
-use cubetrace::cpu::fragment_trace::{
+use cubetrace::cpu::fragment::{
     HitShading, PixelResult, envmap_fallback, envmap_pixel, trace_pixel_verified,
 };
 use cubetrace::cpu::options::TraceOptions;
@@ -21,13 +21,13 @@ use cubetrace::metrics::{self, ErrorReport};
 use cubetrace::reference::{self, Tracer};
 use cubetrace::scene::{Scene, builtin};
 use cubetrace::vk::GpuContext;
+use cubetrace::vk::backend::shaders::{COMPOSITE, FRAGMENT_TRACE};
 use cubetrace::vk::budget;
-use cubetrace::vk::cmo::{CaptureContents, CmoData};
 use cubetrace::vk::frame::{
     Fallback, FrameParams, GpuFrame, GpuRenderer, PixelRecord, RECORD_HIT, RECORD_UNRESOLVED,
     RenderOptions, capture_contents, scene_ranges,
 };
-use cubetrace::vk::shaders::{COMPOSITE, FRAGMENT_TRACE};
+use cubetrace::vk::passes::cmo::{CaptureContents, CmoData};
 use glam::{DVec3, Vec3};
 
 /// Frame size of these tests: big enough for about a thousand mirror pixels per scene, small
@@ -591,7 +591,7 @@ fn gpu_ray_comparison_rejects_a_shifted_pixel_and_face_normals() {
 
 /// Issue 10, item 1: composite's environment-map fallback shades from the capture's triangle IDs
 /// (`envmap_fallback` in `spirv/composite.wgsl`) as its CPU twin does
-/// (`cpu::fragment_trace::envmap_fallback`), on every unresolved mirror pixel of frames whose
+/// (`cpu::fragment::envmap_fallback`), on every unresolved mirror pixel of frames whose
 /// capture holds no colour: the compute and fragment paths (exact criterion) and screen-space
 /// reflections, whose unresolved pixels are many. Colours within 1e-5 per channel (the shading
 /// of a hit agrees to 2.4e-7: tests/gpu_verify.rs). Negative: a twin reading IDs shifted by one

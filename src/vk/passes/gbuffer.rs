@@ -21,16 +21,18 @@ use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
 
-use super::buffer::Buffer;
-use super::context::{GpuContext, Recorder};
-use super::error::VkResult;
-use super::graphics::{ColourTarget, DepthTest, GraphicsDesc, GraphicsPipeline, RenderTarget};
-use super::image::{Image, ImageDesc};
-use super::pipeline::{BindGroup, Resource};
 use super::scene_buffers::SceneBuffers;
-use super::shaders::GBUFFER;
-use super::sync::{COLOUR_WRITE, SHADER_READ};
 use crate::camera::Camera;
+use crate::vk::backend::buffer::Buffer;
+use crate::vk::backend::context::{GpuContext, Recorder};
+use crate::vk::backend::error::VkResult;
+use crate::vk::backend::graphics::{
+    ColourTarget, DepthTest, GraphicsDesc, GraphicsPipeline, RenderTarget,
+};
+use crate::vk::backend::image::{Image, ImageDesc};
+use crate::vk::backend::pipeline::{BindGroup, Resource};
+use crate::vk::backend::shaders::GBUFFER;
+use crate::vk::backend::sync::{COLOUR_WRITE, SHADER_READ};
 
 /// `GbufferCamera` in `spirv/gbuffer.wgsl`.
 #[repr(C)]

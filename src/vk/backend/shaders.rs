@@ -213,7 +213,7 @@ pub fn check_struct_layout(
 #[macro_export]
 macro_rules! check_layout {
     ($ty:ty, $layout:expr, [$($field:ident),* $(,)?]) => {
-        $crate::vk::shaders::check_struct_layout(
+        $crate::vk::backend::shaders::check_struct_layout(
             $layout,
             stringify!($ty),
             ::core::mem::size_of::<$ty>(),

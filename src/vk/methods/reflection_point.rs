@@ -3,39 +3,41 @@
 //!
 //! | pass | reads | writes |
 //! |---|---|---|
-//! | `rp_search` | scene | the reflectors alone from the camera, closed ([`crate::cpu::closure`]; T_P: position + mask, T_N: normal); then, one invocation per scene vertex, the local 3x3 search and the virtual vertex |
-//! | `rp_raster` | scene, virtual vertices, G-buffer | the virtual objects with depth, in the mirror pixels only (colour, original point); then one record per mirror pixel |
+//! | `reflection_point_search` | scene | the reflectors alone from the camera, closed ([`crate::cpu::closure`]; T_P: position + mask, T_N: normal); then, one invocation per scene vertex, the local 3x3 search and the virtual vertex |
+//! | `reflection_point_raster` | scene, virtual vertices, G-buffer | the virtual objects with depth, in the mirror pixels only (colour, original point); then one record per mirror pixel |
 //!
 //! The search is specified by its CPU twin [`crate::cpu::reflection_point`]; the shaders are
-//! `spirv/rp_search.wgsl` and `spirv/rp_raster.wgsl`. Mirror pixels that no virtual object covers
+//! `spirv/reflection_point_search.wgsl` and `spirv/reflection_point_raster.wgsl`. Mirror pixels that no virtual object covers
 //! get an unresolved record, filled by the frame's fallback in `composite` (the environment map
 //! by default), and are counted as unresolved by the metrics.
 //!
 //! Invariants: every image and buffer here is fully rewritten every frame; the barriers inside
-//! each pass are recorded here; the one between the G-buffer and `rp_raster` (which reads its
+//! each pass are recorded here; the one between the G-buffer and `reflection_point_raster` (which reads its
 //! mirror mask) and the one before `composite` belong to the caller
-//! ([`super::frame::GpuRenderer`]).
+//! ([`crate::vk::frame::GpuRenderer`]).
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
 use gpu_allocator::MemoryLocation;
 
-use super::buffer::Buffer;
-use super::context::{GpuContext, Recorder};
-use super::error::{VkError, VkResult};
-use super::gbuffer::Gbuffer;
-use super::graphics::{ColourTarget, DepthTest, GraphicsDesc, GraphicsPipeline, RenderTarget};
-use super::image::{Image, ImageDesc};
-use super::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
-use super::scene_buffers::SceneBuffers;
-use super::shaders::{Pass, RP_RASTER, RP_SEARCH};
-use super::sync::{COLOUR_WRITE, SHADER_READ, SHADER_WRITE};
 use crate::camera::Camera;
 use crate::cpu::closure::{ClosureVertex, closing_triangles};
 use crate::cpu::reflection_point::{RpOptions, RpVertex, SearchStats, SearchTextures, start_texel};
 use crate::scene::gpu_data::GpuSceneData;
+use crate::vk::backend::buffer::Buffer;
+use crate::vk::backend::context::{GpuContext, Recorder};
+use crate::vk::backend::error::{VkError, VkResult};
+use crate::vk::backend::graphics::{
+    ColourTarget, DepthTest, GraphicsDesc, GraphicsPipeline, RenderTarget,
+};
+use crate::vk::backend::image::{Image, ImageDesc};
+use crate::vk::backend::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
+use crate::vk::backend::shaders::{Pass, REFLECTION_POINT_RASTER, REFLECTION_POINT_SEARCH};
+use crate::vk::backend::sync::{COLOUR_WRITE, SHADER_READ, SHADER_WRITE};
+use crate::vk::passes::gbuffer::Gbuffer;
+use crate::vk::passes::scene_buffers::SceneBuffers;
 
-/// `RpParams` in `spirv/rp_search.wgsl`.
+/// `RpParams` in `spirv/reflection_point_search.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct RpParams {
@@ -52,7 +54,7 @@ pub struct RpParams {
     pub pad2: u32,
 }
 
-/// `RpCamera` in `spirv/rp_raster.wgsl`.
+/// `RpCamera` in `spirv/reflection_point_raster.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct RpCamera {
@@ -221,12 +223,19 @@ impl ReflectionPointPasses {
             colour_formats: vec![FORMAT; 2],
             depth: Some((vk::Format::D32_SFLOAT, DepthTest::Reversed)),
         };
-        let reflector =
-            GraphicsPipeline::new(ctx, &RP_SEARCH, &desc("vs_reflector", "fs_reflector"))?;
+        let reflector = GraphicsPipeline::new(
+            ctx,
+            &REFLECTION_POINT_SEARCH,
+            &desc("vs_reflector", "fs_reflector"),
+        )?;
         let reflector_sets = [
             reflector.bind_group(
                 0,
-                &scene_resources(scene, &RP_SEARCH, &["vs_reflector", "fs_reflector"]),
+                &scene_resources(
+                    scene,
+                    &REFLECTION_POINT_SEARCH,
+                    &["vs_reflector", "fs_reflector"],
+                ),
             )?,
             reflector.bind_group(
                 1,
@@ -236,9 +245,17 @@ impl ReflectionPointPasses {
                 ],
             )?,
         ];
-        let search = ComputePipeline::new(ctx, &RP_SEARCH, "search", ComputeOptions::default())?;
+        let search = ComputePipeline::new(
+            ctx,
+            &REFLECTION_POINT_SEARCH,
+            "search",
+            ComputeOptions::default(),
+        )?;
         let search_sets = [
-            search.bind_group(0, &scene_resources(scene, &RP_SEARCH, &["search"]))?,
+            search.bind_group(
+                0,
+                &scene_resources(scene, &REFLECTION_POINT_SEARCH, &["search"]),
+            )?,
             search.bind_group(
                 1,
                 &[
@@ -251,12 +268,19 @@ impl ReflectionPointPasses {
         ];
         let groups = (vertex_count as u32).div_ceil(64).max(1);
         let x = groups.min(MAX_GROUPS_X);
-        let virtual_draw =
-            GraphicsPipeline::new(ctx, &RP_RASTER, &desc("vs_virtual", "fs_virtual"))?;
+        let virtual_draw = GraphicsPipeline::new(
+            ctx,
+            &REFLECTION_POINT_RASTER,
+            &desc("vs_virtual", "fs_virtual"),
+        )?;
         let virtual_sets = [
             virtual_draw.bind_group(
                 0,
-                &scene_resources(scene, &RP_RASTER, &["vs_virtual", "fs_virtual"]),
+                &scene_resources(
+                    scene,
+                    &REFLECTION_POINT_RASTER,
+                    &["vs_virtual", "fs_virtual"],
+                ),
             )?,
             virtual_draw.bind_group(
                 1,
@@ -267,7 +291,12 @@ impl ReflectionPointPasses {
                 ],
             )?,
         ];
-        let resolve = ComputePipeline::new(ctx, &RP_RASTER, "resolve", ComputeOptions::default())?;
+        let resolve = ComputePipeline::new(
+            ctx,
+            &REFLECTION_POINT_RASTER,
+            "resolve",
+            ComputeOptions::default(),
+        )?;
         let resolve_set = resolve.bind_group(
             0,
             &[
@@ -347,7 +376,7 @@ impl ReflectionPointPasses {
         Ok(())
     }
 
-    /// Records `rp_search`: the reflector textures, then one search per scene vertex.
+    /// Records `reflection_point_search`: the reflector textures, then one search per scene vertex.
     pub fn record_search(&self, rec: &Recorder<'_>) -> VkResult<()> {
         self.draw_into(
             rec,
@@ -362,7 +391,7 @@ impl ReflectionPointPasses {
         Ok(())
     }
 
-    /// Records `rp_raster`: the virtual objects in the mirror pixels, then the records.
+    /// Records `reflection_point_raster`: the virtual objects in the mirror pixels, then the records.
     pub fn record_raster(&self, rec: &Recorder<'_>) -> VkResult<()> {
         rec.memory_barrier(SHADER_WRITE, SHADER_READ);
         self.draw_into(
@@ -408,15 +437,4 @@ impl ReflectionPointPasses {
     pub fn read_stats(&self, ctx: &GpuContext) -> VkResult<SearchStats> {
         Ok(SearchStats::of(&self.read_vertices(ctx)?))
     }
-}
-
-/// The object a reflection-point frame shows at each pixel (its records' `face` on the mirror
-/// pixels it covered; `None` elsewhere), for [`crate::metrics::same_object`].
-pub fn shown_objects(frame: &super::frame::GpuFrame) -> Vec<Option<u32>> {
-    (0..frame.records.len())
-        .map(|k| {
-            let r = &frame.records[k];
-            (frame.mask[k] != 0 && r.status == super::frame::RECORD_HIT).then_some(r.face)
-        })
-        .collect()
 }

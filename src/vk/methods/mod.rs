@@ -1,0 +1,4 @@
+//! One file per GPU method.
+pub mod compute;
+pub mod reflection_point;
+pub mod ssr;

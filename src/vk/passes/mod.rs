@@ -1,0 +1,9 @@
+//! The stages a frame shares between methods: what a method needs but does not own.
+pub mod bounce;
+pub mod bvh;
+pub mod capture;
+pub mod cmo;
+pub mod gbuffer;
+pub mod hier32;
+pub mod pyramid;
+pub mod scene_buffers;
