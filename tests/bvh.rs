@@ -1,4 +1,4 @@
-//! The BVH tracer (`src/vk/bvh.rs`, `spirv/shared/bvh.wgsl`) on lavapipe:
+//! The BVH tracer (`src/vk/passes/bvh.rs`, `spirv/shared/bvh.wgsl`) on lavapipe:
 //! - the shared structs against naga's layout;
 //! - the tracer on the reference's own reflected rays (origin, direction and the triangle left,
 //!   from `reference::Tracer`), ray for ray: the same nearest triangle as
@@ -70,7 +70,7 @@ fn bvh_layouts_match_the_shaders() {
     }
     check_layout!(BvhCounter, l("BvhCounter"), [count, cut, pad0, pad1]).unwrap();
     check_layout!(BvhParams, l("BvhParams"), [node_count, t_hi, pad0, pad1]).unwrap();
-    // `PixelRecord` is checked field by field against `fragment_trace`'s in tests/gpu_frame.rs.
+    // `PixelRecord` is checked field by field against `fragment_trace`'s in tests/fragment.rs.
     assert_eq!(
         Some(l("PixelRecord")),
         FRAGMENT_TRACE.struct_layout("PixelRecord")

@@ -1,4 +1,4 @@
-//! `--bounces N` on the GPU (`src/vk/bounce.rs`, `spirv/bounce_append.wgsl`) against the CPU
+//! `--bounces N` on the GPU (`src/vk/passes/bounce.rs`, `spirv/bounce_append.wgsl`) against the CPU
 //! reference (`reference::finish_path`), bounce for bounce, on small frames:
 //! - per mirror pixel, the GPU record's final triangle against the reference path's last one
 //!   (`Frame::last_triangle`; none where the path left the scene), and where they match, the

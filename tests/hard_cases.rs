@@ -342,7 +342,7 @@ fn assert_no_wrong_in_both_modes(
 ) {
     let default = judge_paths(ctx, scene, size, exact());
     // Strict mode on the fragment path's GPU run only: it gave the same counts on all four runs
-    // of every case (module docs), and its twins are checked in tests/gpu_frame.rs.
+    // of every case (module docs), and its twins are checked in tests/fragment.rs.
     let strict = judge_runs(ctx, scene, size, strict(), &[Method::Fragment], false);
     for ((name, d), (_, s)) in default.iter().zip(&strict) {
         eprintln!(

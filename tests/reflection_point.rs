@@ -20,8 +20,8 @@ use cubetrace::scene::gpu_data::GpuSceneData;
 use cubetrace::scene::{Scene, builtin};
 use cubetrace::vk::GpuContext;
 use cubetrace::vk::backend::shaders::{REFLECTION_POINT_RASTER, REFLECTION_POINT_SEARCH};
-use cubetrace::vk::frame::{Fallback, GpuFrame, GpuRenderer, RECORD_UNRESOLVED, RenderOptions};
 use cubetrace::vk::frame::shown_objects;
+use cubetrace::vk::frame::{Fallback, GpuFrame, GpuRenderer, RECORD_UNRESOLVED, RenderOptions};
 use cubetrace::vk::methods::reflection_point::{RpCamera, RpParams};
 use glam::Vec3;
 

@@ -52,8 +52,8 @@ use crate::output::write_atomic;
 use crate::scene::shapes::uv_sphere;
 use crate::scene::{Material, MeshInstance, Scene, Transform};
 use crate::vk::GpuContext;
-use crate::vk::frame::{Fallback, RenderOptions, pass_name};
 use crate::vk::frame::shown_objects;
+use crate::vk::frame::{Fallback, RenderOptions, pass_name};
 
 /// Which quantity a point varies.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -129,7 +129,7 @@ pub struct ScalingPoint {
 }
 
 /// The tessellation curve's series: (built-in scene, search scale). `sphere-room` at scale 8
-/// is where the paper's claim is met (`tests/gpu_reflection_point.rs`).
+/// is where the paper's claim is met (`tests/reflection_point.rs`).
 pub const TESSELLATION_SERIES: [(&str, u32); 4] = [
     ("sphere-room", 1),
     ("sphere-room", 8),

@@ -23,7 +23,7 @@
 //! takes its 32 bits of the 64-bit ballot. No barrier is needed: all communication is ballots.
 //!
 //! GPU: `spirv/compute_trace.wgsl` (the `compute_trace` pass), checked against this twin field
-//! for field, counters included, in `tests/gpu_compute.rs`.
+//! for field, counters included, in `tests/compute.rs`.
 
 use glam::Vec3;
 

@@ -1,7 +1,7 @@
 //! Hi-Z screen-space reflections (Uludag 2014, GPU Pro 5, "Hi-Z Screen-Space Cone-Traced
 //! Reflections"), mirror rays only: the CPU twin of `spirv/ssr_hiz.wgsl` and `spirv/ssr.wgsl`, the
 //! same loops with the same f32 arithmetic in the same order, so that the GPU's records can be
-//! checked pixel by pixel (`tests/gpu_ssr.rs`).
+//! checked pixel by pixel (`tests/ssr.rs`).
 //!
 //! - [`build_hiz`]: the min pyramid of the depth key (`spirv/shared/ssr.wgsl`: `q = -1 / w`, an
 //!   affine function of the post-projective depth, nearer = smaller, 0 where nothing was drawn),

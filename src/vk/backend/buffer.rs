@@ -4,7 +4,7 @@
 //! it is always destroyed before the device. Host access (`write`/`read`) is only for buffers in
 //! host-visible memory (`CpuToGpu`, `GpuToCpu`); gpu-allocator picks host-coherent memory there,
 //! so no flush or invalidate is needed. Device-local buffers go through staging in
-//! [`GpuContext`](super::GpuContext).
+//! [`GpuContext`](crate::vk::GpuContext).
 use std::sync::Arc;
 
 use ash::vk;

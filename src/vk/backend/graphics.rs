@@ -12,7 +12,7 @@
 //!   `(i, j)` has its centre at `(i + 0.5, j + 0.5)`, row 0 at the top, as [`crate::camera`]
 //!   defines. The scissor does too, unless a draw narrows it ([`GraphicsPipeline::draw_in`]).
 //! - Attachments must be in `COLOR_ATTACHMENT_OPTIMAL` / `DEPTH_ATTACHMENT_OPTIMAL` when a draw is
-//!   recorded; callers transition them (see [`super::Recorder::image_barrier`]).
+//!   recorded; callers transition them (see [`crate::vk::Recorder::image_barrier`]).
 use std::sync::Arc;
 
 use ash::vk;

@@ -19,6 +19,7 @@ use super::context::{GpuContext, Recorder};
 use super::conv;
 use super::device::Device;
 use super::error::{VkError, VkResult, call_err};
+use super::image::Image;
 use super::shaders::{Binding, BindingKind, EntryPoint, Pass, Stage};
 
 /// Set layouts and the pipeline layout for some entry points of a pass.
@@ -297,6 +298,16 @@ pub enum Resource<'a> {
     Sampler(vk::Sampler),
 }
 
+impl Resource<'_> {
+    /// `image` sampled in `SHADER_READ_ONLY_OPTIMAL`, where every pass leaves what it wrote.
+    pub fn sampled(image: &Image) -> Resource<'_> {
+        Resource::Texture {
+            view: image.view(),
+            layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+        }
+    }
+}
+
 /// One descriptor set, with its own small pool.
 pub struct BindGroup {
     device: Arc<Device>,
@@ -323,65 +334,20 @@ impl BindGroup {
             .ok_or_else(|| err(format!("no @group({group})")))?;
         let empty = Vec::new();
         let reflected = layout.groups.get(&group).unwrap_or(&empty);
-        for b in reflected {
-            let Some((_, r)) = resources.iter().find(|(i, _)| *i == b.binding) else {
-                return Err(err(format!(
-                    "binding `{}` (@group({group}) @binding({})) not supplied",
-                    b.name, b.binding
-                )));
-            };
-            let ok = match (b.kind, r) {
-                (
-                    BindingKind::UniformBuffer | BindingKind::StorageBuffer { .. },
-                    Resource::Buffer(buf),
-                ) => {
-                    if buf.size() < u64::from(b.min_size) {
-                        return Err(err(format!(
-                            "buffer `{}` ({} bytes) is smaller than `{}` needs ({} bytes)",
-                            buf.name(),
-                            buf.size(),
-                            b.name,
-                            b.min_size
-                        )));
-                    }
-                    // Whole buffers are bound: the device's range limit applies to the size.
-                    let (limit, limit_name) = match b.kind {
-                        BindingKind::UniformBuffer => (
-                            device.report.max_uniform_buffer_range,
-                            "maxUniformBufferRange",
-                        ),
-                        _ => (
-                            device.report.max_storage_buffer_range,
-                            "maxStorageBufferRange",
-                        ),
-                    };
-                    if buf.size() > u64::from(limit) {
-                        return Err(VkError::Limit {
-                            device: device.report.name.clone(),
-                            what: format!("buffer `{}` ({} MiB)", buf.name(), buf.size() >> 20),
-                            limit: format!("{limit_name} = {} MiB", limit >> 20),
-                        });
-                    }
-                    true
-                }
-                (BindingKind::SampledTexture { .. }, Resource::Texture { .. })
-                | (BindingKind::StorageTexture { .. }, Resource::StorageTexture(_))
-                | (BindingKind::Sampler { .. }, Resource::Sampler(_)) => true,
-                _ => false,
-            };
-            if !ok {
-                return Err(err(format!("binding `{}` expects {:?}", b.name, b.kind)));
-            }
-        }
-        if let Some((i, _)) = resources
-            .iter()
-            .find(|(i, _)| !reflected.iter().any(|b| b.binding == *i))
-        {
-            return Err(err(format!(
-                "@group({group}) @binding({i}) is not used by the shader"
-            )));
-        }
+        check_resources(device, pass, group, reflected, resources)?;
+        let bg = Self::allocate(device, pass, set_layout, group, reflected)?;
+        bg.write(reflected, resources);
+        Ok(bg)
+    }
 
+    /// An empty set of `set_layout` in a pool sized for the reflected bindings.
+    fn allocate(
+        device: &Arc<Device>,
+        pass: &Pass,
+        set_layout: vk::DescriptorSetLayout,
+        group: u32,
+        reflected: &[Binding],
+    ) -> VkResult<Self> {
         let mut counts: BTreeMap<i32, u32> = BTreeMap::new();
         for b in reflected {
             *counts
@@ -415,6 +381,11 @@ impl BindGroup {
         bg.set = unsafe { device.raw.allocate_descriptor_sets(&alloc) }
             .map_err(call_err("vkAllocateDescriptorSets", pass.name))?[0];
 
+        Ok(bg)
+    }
+
+    /// Writes `resources` (checked by [`check_resources`]) into the set.
+    fn write(&self, reflected: &[Binding], resources: &[(u32, Resource<'_>)]) {
         let mut buffer_infos = Vec::new();
         let mut image_infos = Vec::new();
         for b in reflected {
@@ -449,7 +420,7 @@ impl BindGroup {
         for (b, info) in &buffer_infos {
             writes.push(
                 vk::WriteDescriptorSet::default()
-                    .dst_set(bg.set)
+                    .dst_set(self.set)
                     .dst_binding(b.binding)
                     .descriptor_type(conv::descriptor_type(b.kind))
                     .buffer_info(info),
@@ -458,16 +429,91 @@ impl BindGroup {
         for (b, info) in &image_infos {
             writes.push(
                 vk::WriteDescriptorSet::default()
-                    .dst_set(bg.set)
+                    .dst_set(self.set)
                     .dst_binding(b.binding)
                     .descriptor_type(conv::descriptor_type(b.kind))
                     .image_info(info),
             );
         }
         // SAFETY: every write targets a binding of this set with its reflected type; resources are alive.
-        unsafe { device.raw.update_descriptor_sets(&writes, &[]) };
-        Ok(bg)
+        unsafe { self.device.raw.update_descriptor_sets(&writes, &[]) };
     }
+}
+
+/// Refuses resources that do not match the reflected bindings of `@group(group)`: a missing or
+/// extra binding, a kind the shader does not declare, a buffer smaller than the shader's type or
+/// larger than the device can bind.
+fn check_resources(
+    device: &Device,
+    pass: &Pass,
+    group: u32,
+    reflected: &[Binding],
+    resources: &[(u32, Resource<'_>)],
+) -> VkResult<()> {
+    let err = |detail: String| VkError::Shader {
+        pass: pass.name.into(),
+        detail,
+    };
+    for b in reflected {
+        let Some((_, r)) = resources.iter().find(|(i, _)| *i == b.binding) else {
+            return Err(err(format!(
+                "binding `{}` (@group({group}) @binding({})) not supplied",
+                b.name, b.binding
+            )));
+        };
+        let ok = match (b.kind, r) {
+            (
+                BindingKind::UniformBuffer | BindingKind::StorageBuffer { .. },
+                Resource::Buffer(buf),
+            ) => {
+                if buf.size() < u64::from(b.min_size) {
+                    return Err(err(format!(
+                        "buffer `{}` ({} bytes) is smaller than `{}` needs ({} bytes)",
+                        buf.name(),
+                        buf.size(),
+                        b.name,
+                        b.min_size
+                    )));
+                }
+                // Whole buffers are bound: the device's range limit applies to the size.
+                let (limit, limit_name) = match b.kind {
+                    BindingKind::UniformBuffer => (
+                        device.report.max_uniform_buffer_range,
+                        "maxUniformBufferRange",
+                    ),
+                    _ => (
+                        device.report.max_storage_buffer_range,
+                        "maxStorageBufferRange",
+                    ),
+                };
+                if buf.size() > u64::from(limit) {
+                    return Err(VkError::Limit {
+                        device: device.report.name.clone(),
+                        what: format!("buffer `{}` ({} MiB)", buf.name(), buf.size() >> 20),
+                        limit: format!("{limit_name} = {} MiB", limit >> 20),
+                    });
+                }
+                true
+            }
+            (BindingKind::SampledTexture { .. }, Resource::Texture { .. })
+            | (BindingKind::StorageTexture { .. }, Resource::StorageTexture(_))
+            | (BindingKind::Sampler { .. }, Resource::Sampler(_)) => true,
+            _ => false,
+        };
+        if !ok {
+            return Err(err(format!("binding `{}` expects {:?}", b.name, b.kind)));
+        }
+    }
+    if let Some((i, _)) = resources
+        .iter()
+        .find(|(i, _)| !reflected.iter().any(|b| b.binding == *i))
+    {
+        return Err(err(format!(
+            "@group({group}) @binding({i}) is not used by the shader"
+        )));
+    }
+
+    Ok(())
 }
 
 impl BindGroup {

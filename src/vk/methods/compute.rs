@@ -27,6 +27,7 @@
 //! - The dispatch is sized for the device's default subgroup size ([`DispatchParams`]); the
 //!   kernel strides over the queue with the rays per workgroup it really has, so a device that
 //!   picks another size still traces every ray.
+
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use gpu_allocator::MemoryLocation;
@@ -37,13 +38,19 @@ use crate::vk::backend::error::{VkError, VkResult};
 use crate::vk::backend::graphics::{GraphicsDesc, GraphicsPipeline, RenderTarget};
 use crate::vk::backend::info::DeviceReport;
 use crate::vk::backend::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
-use crate::vk::backend::shaders::{APPEND, COMPUTE_TRACE, DISPATCH_ARGS};
-use crate::vk::backend::sync::{INDIRECT_READ, SHADER_WRITE, STORAGE_RW, TRANSFER_WRITE};
-use crate::vk::passes::cmo::CmoData;
+use crate::vk::backend::shaders::{APPEND, COMPUTE_TRACE, DISPATCH_ARGS, HIER32, Pass};
+use crate::vk::backend::sync::{
+    INDIRECT_READ, SHADER_READ, SHADER_WRITE, STORAGE_RW, TRANSFER_WRITE,
+};
+use crate::vk::passes::cmo::{CaptureContents, CmoData};
 use crate::vk::passes::gbuffer::Gbuffer;
 use crate::vk::passes::hier32::{Hier32Bindings, Hier32Pass};
 use crate::vk::passes::scene_buffers::SceneBuffers;
 
+pub use super::technique::ComputeStats;
+use super::technique::{FrameInputs, MethodSpec, MethodStats, Needs, Scope, Technique};
+
+use crate::cpu::options::TraceOptions;
 use crate::cubemap::pyramid::{
     HIER_MAX_LEVELS, hier32_flat_layout, hier32_group, hier32_layout, hier32_len,
 };
@@ -265,81 +272,22 @@ pub fn check_device(ctx: &GpuContext) -> VkResult<()> {
     }
 }
 
-/// Per-ray work of one frame, read back. Always recorded: the kernel keeps the counters anyway
-/// (they are the CPU twin's) and writes 16 bytes per ray, which is lost in the noise of the
-/// pass's time on lavapipe, so no option turns them off.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct ComputeStats {
-    /// Rays the append pass queued.
-    pub rays: u32,
-    /// `(min, max)` subgroup size `compute_trace` ran with (`(0, 0)` when no workgroup ran).
-    pub subgroup_size: (u32, u32),
-    /// Per pixel (meaningful on mirror pixels): texels tested, cells tested, descents,
-    /// backtracks, summed over the ray's single-CMO traces.
-    pub per_pixel: Vec<[u32; 4]>,
-}
-
-impl ComputeStats {
-    /// Mean and max of each counter over the mirror pixels `mask` marks.
-    pub fn summary(&self, mask: &[u8]) -> [(f64, u32); 4] {
-        let mut out = [(0.0, 0u32); 4];
-        let mut n = 0usize;
-        for (c, _) in self.per_pixel.iter().zip(mask).filter(|(_, m)| **m != 0) {
-            n += 1;
-            for i in 0..4 {
-                out[i].0 += f64::from(c[i]);
-                out[i].1 = out[i].1.max(c[i]);
-            }
-        }
-        for o in &mut out {
-            o.0 /= n.max(1) as f64;
-        }
-        out
-    }
-}
-
-/// The compute path's buffers and pipelines for one renderer.
-pub struct ComputePath {
-    width: u32,
-    height: u32,
-    hier_pass: Hier32Pass,
-    hier_bindings: Hier32Bindings,
-    append: GraphicsPipeline,
-    append_set: BindGroup,
-    dispatch_args: ComputePipeline,
-    args_set: BindGroup,
-    trace: ComputePipeline,
-    trace_sets: [BindGroup; 4],
-    /// With `main_lanes1`: group 2 of its retrace dispatch (`trace_mode` 1; its dispatch:
-    /// `retrace_args`).
-    retrace_set: Option<BindGroup>,
-    retrace_args: Buffer,
-    _trace_modes: Vec<Buffer>,
-    _hier: Buffer,
-    _hier_config: Buffer,
-    _dispatch_params: Buffer,
-    _cut: Buffer,
-    _rays: Buffer,
+/// The compute path's buffers, each allocated once.
+struct ComputeBuffers {
+    hier: Buffer,
+    hier_config: Buffer,
+    dispatch_params: Buffer,
+    cut: Buffer,
+    rays: Buffer,
     counter: Buffer,
     args: Buffer,
+    retrace_args: Buffer,
     stats: Buffer,
 }
 
-impl ComputePath {
-    /// Allocates the hierarchy, the queue and the pipelines. `params` is the frame's
-    /// `FrameParams` uniform and `records` its per-pixel record buffer; `scene` is bound for
-    /// verified hits (`cmo` must carry the triangle IDs).
-    pub fn new(
-        ctx: &GpuContext,
-        cmo: &CmoData,
-        scene: &SceneBuffers,
-        gbuffer: &Gbuffer,
-        params: &Buffer,
-        records: &Buffer,
-        (width, height): (u32, u32),
-    ) -> VkResult<Self> {
-        check_device(ctx)?;
-        let (lane_cap, entry) = ray_lanes(ctx)?;
+impl ComputeBuffers {
+    /// For `cmo`'s CMOs and a frame of `pixels` pixels; `lane_cap` as [`ray_lanes`] says.
+    fn new(ctx: &GpuContext, cmo: &CmoData, pixels: u64, lane_cap: u32) -> VkResult<Self> {
         let size = cmo.size();
         let config = HierConfig::new(size)?;
         let storage = |name: &str, bytes: u64, extra: vk::BufferUsageFlags| {
@@ -352,94 +300,76 @@ impl ComputePath {
             )
         };
         let cells = u64::from(cmo.count()) * hier32_len(size) as u64;
-        let hier = storage(
-            "cmo_hier",
-            cells.max(1) * 8,
-            vk::BufferUsageFlags::TRANSFER_SRC,
-        )?;
-        let hier_pass = Hier32Pass::new(ctx)?;
-        let hier_bindings = hier_pass.bind(ctx, cmo.distance(), &hier, cmo.count(), size)?;
-        let hier_config = ctx.create_buffer_init(
-            "hier_config",
-            vk::BufferUsageFlags::STORAGE_BUFFER,
-            std::slice::from_ref(&config),
-        )?;
-        let pixels = u64::from(width) * u64::from(height);
-        let rays = storage(
-            "ray queue",
-            pixels * size_of::<AppendedRay>() as u64,
-            vk::BufferUsageFlags::empty(),
-        )?;
-        let counter = storage(
-            "ray counter",
-            size_of::<RayCounter>() as u64,
-            vk::BufferUsageFlags::TRANSFER_DST | vk::BufferUsageFlags::TRANSFER_SRC,
-        )?;
-        let args = storage(
-            "compute_trace dispatch",
-            size_of::<DispatchArgs>() as u64,
-            vk::BufferUsageFlags::INDIRECT_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
-        )?;
-        let retrace_args = storage(
-            "retrace dispatch",
-            size_of::<DispatchArgs>() as u64,
-            vk::BufferUsageFlags::INDIRECT_BUFFER,
-        )?;
-        let stats = storage("ray stats", pixels * 16, vk::BufferUsageFlags::TRANSFER_SRC)?;
-        let cut = storage(
-            "cmo_cut",
-            u64::from(cmo.count()) * 4,
-            vk::BufferUsageFlags::TRANSFER_SRC,
-        )?;
-        let sampled = |img: &crate::vk::backend::image::Image| Resource::Texture {
-            view: img.view(),
-            layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
-        };
-        let append = GraphicsPipeline::new(
-            ctx,
-            &APPEND,
-            &GraphicsDesc {
-                vertex: "vs_fullscreen",
-                fragment: "fs_main",
-                colour_formats: Vec::new(),
-                depth: None,
-            },
-        )?;
-        let append_set = append.bind_group(
-            0,
-            &[
-                (0, sampled(&gbuffer.position)),
-                (1, sampled(&gbuffer.normal)),
-                (2, Resource::Buffer(params)),
-                (6, Resource::Buffer(&counter)),
-                (7, Resource::Buffer(&rays)),
-            ],
-        )?;
-        let dispatch_params = ctx.create_buffer_init(
-            "dispatch params",
-            vk::BufferUsageFlags::STORAGE_BUFFER,
-            &[DispatchParams::for_group(
-                workgroup_size(ctx.report()),
-                ctx.report().subgroup_size,
-                lane_cap,
-            )
-            .with_cmos(cmo.count(), size)],
-        )?;
-        let dispatch_args =
-            ComputePipeline::new(ctx, &DISPATCH_ARGS, "main", ComputeOptions::default())?;
-        let args_set = dispatch_args.bind_group(
-            0,
-            &[
-                (0, Resource::Buffer(&counter)),
-                (1, Resource::Buffer(&args)),
-                (2, Resource::Buffer(&dispatch_params)),
-                (3, Resource::Buffer(&cut)),
-                (4, Resource::Buffer(&hier_config)),
-                (5, Resource::Buffer(&hier)),
-                (6, Resource::Buffer(cmo.distance())),
-                (7, Resource::Buffer(&retrace_args)),
-            ],
-        )?;
+        let dispatch = DispatchParams::for_group(
+            workgroup_size(ctx.report()),
+            ctx.report().subgroup_size,
+            lane_cap,
+        )
+        .with_cmos(cmo.count(), size);
+        let transfer_src = vk::BufferUsageFlags::TRANSFER_SRC;
+        let indirect = vk::BufferUsageFlags::INDIRECT_BUFFER;
+        Ok(ComputeBuffers {
+            hier: storage("cmo_hier", cells.max(1) * 8, transfer_src)?,
+            hier_config: ctx.create_buffer_init(
+                "hier_config",
+                vk::BufferUsageFlags::STORAGE_BUFFER,
+                std::slice::from_ref(&config),
+            )?,
+            rays: storage(
+                "ray queue",
+                pixels * size_of::<AppendedRay>() as u64,
+                vk::BufferUsageFlags::empty(),
+            )?,
+            counter: storage(
+                "ray counter",
+                size_of::<RayCounter>() as u64,
+                vk::BufferUsageFlags::TRANSFER_DST | transfer_src,
+            )?,
+            args: storage(
+                "compute_trace dispatch",
+                size_of::<DispatchArgs>() as u64,
+                indirect | transfer_src,
+            )?,
+            retrace_args: storage(
+                "retrace dispatch",
+                size_of::<DispatchArgs>() as u64,
+                indirect,
+            )?,
+            stats: storage("ray stats", pixels * 16, transfer_src)?,
+            cut: storage("cmo_cut", u64::from(cmo.count()) * 4, transfer_src)?,
+            dispatch_params: ctx.create_buffer_init(
+                "dispatch params",
+                vk::BufferUsageFlags::STORAGE_BUFFER,
+                &[dispatch],
+            )?,
+        })
+    }
+}
+
+/// The `compute_trace` pipeline through `entry` and its groups: 0 (`params`, `records`), 1 (the
+/// CMO data), 2 (the queue and the hierarchy, with `trace_mode` 0 where the entry reads it), 3
+/// (the scene, for verified hits: compute_trace's SCENE_GROUP).
+struct TracePass {
+    pipeline: ComputePipeline,
+    sets: [BindGroup; 4],
+    /// With `main_lanes1`: group 2 of its retrace dispatch (`trace_mode` 1; its dispatch:
+    /// `retrace_args`).
+    retrace_set: Option<BindGroup>,
+    _trace_modes: Vec<Buffer>,
+}
+
+impl TracePass {
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        ctx: &GpuContext,
+        entry: &str,
+        lane_cap: u32,
+        b: &ComputeBuffers,
+        cmo: &CmoData,
+        scene: &SceneBuffers,
+        params: &Buffer,
+        records: &Buffer,
+    ) -> VkResult<Self> {
         // One pipeline (a CPU driver compiles it at creation: about 0.25 s on lavapipe); with
         // `main_lanes1`, its two dispatches differ in `trace_mode` only.
         let compile_start = std::time::Instant::now();
@@ -469,19 +399,19 @@ impl ComputePath {
         };
         let set2 = |mode: Option<&Buffer>| {
             let mut resources = vec![
-                (0, Resource::Buffer(&counter)),
-                (1, Resource::Buffer(&rays)),
-                (2, Resource::Buffer(&hier_config)),
-                (3, Resource::Buffer(&hier)),
-                (4, Resource::Buffer(&stats)),
-                (5, Resource::Buffer(&cut)),
+                (0, Resource::Buffer(&b.counter)),
+                (1, Resource::Buffer(&b.rays)),
+                (2, Resource::Buffer(&b.hier_config)),
+                (3, Resource::Buffer(&b.hier)),
+                (4, Resource::Buffer(&b.stats)),
+                (5, Resource::Buffer(&b.cut)),
             ];
             if let Some(m) = mode {
                 resources.push((6, Resource::Buffer(m)));
             }
             trace.bind_group(2, &resources)
         };
-        let trace_sets = [
+        let sets = [
             trace.bind_group(
                 0,
                 &[
@@ -491,13 +421,91 @@ impl ComputePath {
             )?,
             trace.bind_group(1, &cmo.resources_for(&COMPUTE_TRACE, entry))?,
             set2(trace_modes.first())?,
-            // The scene, for verified hits (compute_trace's SCENE_GROUP).
             trace.bind_group(3, &scene.resources())?,
         ];
         let retrace_set = match trace_modes.get(1) {
             Some(m) if lane_cap == 1 => Some(set2(Some(m))?),
             _ => None,
         };
+        Ok(TracePass {
+            pipeline: trace,
+            sets,
+            retrace_set,
+            _trace_modes: trace_modes,
+        })
+    }
+}
+
+/// The compute path's buffers and pipelines for one renderer.
+pub struct ComputePath {
+    width: u32,
+    height: u32,
+    hier_pass: Hier32Pass,
+    hier_bindings: Hier32Bindings,
+    append: GraphicsPipeline,
+    append_set: BindGroup,
+    dispatch_args: ComputePipeline,
+    args_set: BindGroup,
+    trace: TracePass,
+    buffers: ComputeBuffers,
+}
+
+impl ComputePath {
+    /// Allocates the hierarchy, the queue and the pipelines. `params` is the frame's
+    /// `FrameParams` uniform and `records` its per-pixel record buffer; `scene` is bound for
+    /// verified hits (`cmo` must carry the triangle IDs).
+    pub fn new(
+        ctx: &GpuContext,
+        cmo: &CmoData,
+        scene: &SceneBuffers,
+        gbuffer: &Gbuffer,
+        params: &Buffer,
+        records: &Buffer,
+        (width, height): (u32, u32),
+    ) -> VkResult<Self> {
+        check_device(ctx)?;
+        let (lane_cap, entry) = ray_lanes(ctx)?;
+        let pixels = u64::from(width) * u64::from(height);
+        let b = ComputeBuffers::new(ctx, cmo, pixels, lane_cap)?;
+        let hier_pass = Hier32Pass::new(ctx)?;
+        let hier_bindings =
+            hier_pass.bind(ctx, cmo.distance(), &b.hier, cmo.count(), cmo.size())?;
+        let append = GraphicsPipeline::new(
+            ctx,
+            &APPEND,
+            &GraphicsDesc {
+                vertex: "vs_fullscreen",
+                fragment: "fs_main",
+                colour_formats: Vec::new(),
+                depth: None,
+            },
+        )?;
+        let append_set = append.bind_group(
+            0,
+            &[
+                (0, Resource::sampled(&gbuffer.position)),
+                (1, Resource::sampled(&gbuffer.normal)),
+                (2, Resource::Buffer(params)),
+                (6, Resource::Buffer(&b.counter)),
+                (7, Resource::Buffer(&b.rays)),
+            ],
+        )?;
+        let dispatch_args =
+            ComputePipeline::new(ctx, &DISPATCH_ARGS, "main", ComputeOptions::default())?;
+        let args_set = dispatch_args.bind_group(
+            0,
+            &[
+                (0, Resource::Buffer(&b.counter)),
+                (1, Resource::Buffer(&b.args)),
+                (2, Resource::Buffer(&b.dispatch_params)),
+                (3, Resource::Buffer(&b.cut)),
+                (4, Resource::Buffer(&b.hier_config)),
+                (5, Resource::Buffer(&b.hier)),
+                (6, Resource::Buffer(cmo.distance())),
+                (7, Resource::Buffer(&b.retrace_args)),
+            ],
+        )?;
+        let trace = TracePass::new(ctx, entry, lane_cap, &b, cmo, scene, params, records)?;
         Ok(ComputePath {
             width,
             height,
@@ -508,18 +516,7 @@ impl ComputePath {
             dispatch_args,
             args_set,
             trace,
-            trace_sets,
-            retrace_set,
-            retrace_args,
-            _trace_modes: trace_modes,
-            _hier: hier,
-            _hier_config: hier_config,
-            _dispatch_params: dispatch_params,
-            _cut: cut,
-            _rays: rays,
-            counter,
-            args,
-            stats,
+            buffers: b,
         })
     }
 
@@ -531,7 +528,7 @@ impl ComputePath {
 
     /// `append`: zeroes the counter, then queues one ray per mirror pixel of the G-buffer.
     pub fn record_append(&self, rec: &Recorder<'_>) -> VkResult<()> {
-        rec.fill_buffer(&self.counter, 0);
+        rec.fill_buffer(&self.buffers.counter, 0);
         rec.memory_barrier(TRANSFER_WRITE, STORAGE_RW);
         let target = RenderTarget {
             width: self.width,
@@ -554,19 +551,16 @@ impl ComputePath {
     /// retrace (`trace_mode` 1) over the rays it flagged `cut`.
     pub fn record_trace(&self, rec: &Recorder<'_>) -> VkResult<()> {
         rec.memory_barrier(SHADER_WRITE, INDIRECT_READ);
-        let sets = [
-            &self.trace_sets[0],
-            &self.trace_sets[1],
-            &self.trace_sets[2],
-            &self.trace_sets[3],
-        ];
-        self.trace.dispatch_indirect(rec, &sets, &self.args, 0)?;
-        if let Some(set2) = &self.retrace_set {
+        let t = &self.trace;
+        let sets = [&t.sets[0], &t.sets[1], &t.sets[2], &t.sets[3]];
+        t.pipeline
+            .dispatch_indirect(rec, &sets, &self.buffers.args, 0)?;
+        if let Some(set2) = &t.retrace_set {
             rec.memory_barrier(SHADER_WRITE, STORAGE_RW);
-            self.trace.dispatch_indirect(
+            t.pipeline.dispatch_indirect(
                 rec,
                 &[sets[0], sets[1], set2, sets[3]],
-                &self.retrace_args,
+                &self.buffers.retrace_args,
                 0,
             )?;
         }
@@ -575,9 +569,9 @@ impl ComputePath {
 
     /// The ray count, subgroup sizes and per-pixel counters of the last frame.
     pub fn read_stats(&self, ctx: &GpuContext) -> VkResult<ComputeStats> {
-        let counter: Vec<RayCounter> = ctx.read_buffer(&self.counter)?;
+        let counter: Vec<RayCounter> = ctx.read_buffer(&self.buffers.counter)?;
         let c = counter.first().copied().unwrap_or_default();
-        let mut per_pixel: Vec<[u32; 4]> = ctx.read_buffer(&self.stats)?;
+        let mut per_pixel: Vec<[u32; 4]> = ctx.read_buffer(&self.buffers.stats)?;
         per_pixel.truncate((self.width * self.height) as usize);
         Ok(ComputeStats {
             rays: c.count,
@@ -588,7 +582,82 @@ impl ComputePath {
 
     /// The dispatch the GPU computed in the last frame (tests).
     pub fn read_dispatch_args(&self, ctx: &GpuContext) -> VkResult<DispatchArgs> {
-        let a: Vec<DispatchArgs> = ctx.read_buffer(&self.args)?;
+        let a: Vec<DispatchArgs> = ctx.read_buffer(&self.buffers.args)?;
         Ok(a.first().copied().unwrap_or_default())
+    }
+}
+
+/// The compute method.
+pub struct Compute;
+
+impl MethodSpec for Compute {
+    fn trace_pass(&self) -> &'static Pass {
+        &COMPUTE_TRACE
+    }
+
+    /// Triangle IDs (verified hits, the environment-map fallback), no colour, no pyramid: the
+    /// hierarchy is the method's own ([`ComputePath`]).
+    fn needs(&self, _trace: &TraceOptions) -> Needs {
+        Needs {
+            capture: true,
+            contents: CaptureContents {
+                colour: false,
+                triangle_ids: true,
+            },
+            pyramid: false,
+        }
+    }
+
+    /// The ray queue and the per-ray statistics.
+    fn bytes_per_pixel(&self) -> u64 {
+        size_of::<AppendedRay>() as u64 + 16
+    }
+
+    /// The 8x4/4x8 hierarchy: `[min, max]` f32 pairs per cell.
+    fn cmo_bytes(&self, cmos: u32, size: u32) -> u64 {
+        u64::from(cmos) * hier32_len(size) as u64 * 8
+    }
+
+    fn check_device(&self, ctx: &GpuContext) -> VkResult<()> {
+        check_device(ctx)
+    }
+
+    fn create(&self, i: &FrameInputs<'_>) -> VkResult<Box<dyn Technique>> {
+        Ok(Box::new(ComputePath::new(
+            i.ctx,
+            i.cmo,
+            i.scene,
+            i.gbuffer,
+            i.params,
+            i.records,
+            i.gbuffer.extent(),
+        )?))
+    }
+}
+
+impl Technique for ComputePath {
+    fn record_cmo_stage(&self, rec: &Recorder<'_>, scope: &mut Scope<'_>) -> VkResult<()> {
+        scope(HIER32.name, &mut || {
+            self.record_hier(rec);
+            Ok(())
+        })?;
+        rec.memory_barrier(SHADER_WRITE, SHADER_READ);
+        Ok(())
+    }
+
+    fn record(&self, rec: &Recorder<'_>, scope: &mut Scope<'_>) -> VkResult<()> {
+        scope(APPEND.name, &mut || self.record_append(rec))?;
+        scope(DISPATCH_ARGS.name, &mut || {
+            self.record_dispatch_args(rec);
+            Ok(())
+        })?;
+        scope(COMPUTE_TRACE.name, &mut || self.record_trace(rec))
+    }
+
+    fn read_stats(&self, ctx: &GpuContext) -> VkResult<MethodStats> {
+        Ok(MethodStats {
+            compute: Some(ComputePath::read_stats(self, ctx)?),
+            search: None,
+        })
     }
 }

@@ -22,6 +22,7 @@ use gpu_allocator::MemoryLocation;
 
 use crate::camera::Camera;
 use crate::cpu::closure::{ClosureVertex, closing_triangles};
+use crate::cpu::options::TraceOptions;
 use crate::cpu::reflection_point::{RpOptions, RpVertex, SearchStats, SearchTextures, start_texel};
 use crate::scene::gpu_data::GpuSceneData;
 use crate::vk::backend::buffer::Buffer;
@@ -34,8 +35,11 @@ use crate::vk::backend::image::{Image, ImageDesc};
 use crate::vk::backend::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
 use crate::vk::backend::shaders::{Pass, REFLECTION_POINT_RASTER, REFLECTION_POINT_SEARCH};
 use crate::vk::backend::sync::{COLOUR_WRITE, SHADER_READ, SHADER_WRITE};
+use crate::vk::passes::cmo::CaptureContents;
 use crate::vk::passes::gbuffer::Gbuffer;
 use crate::vk::passes::scene_buffers::SceneBuffers;
+
+use super::technique::{FrameInputs, MethodSpec, MethodStats, Needs, Scope, Technique};
 
 /// `RpParams` in `spirv/reflection_point_search.wgsl`.
 #[repr(C)]
@@ -52,6 +56,40 @@ pub struct RpParams {
     pub index_count: u32,
     pub pad1: u32,
     pub pad2: u32,
+}
+
+impl RpParams {
+    /// The search's parameters for a frame of `width` x `height` pixels seen by `camera`
+    /// (near plane `near`) over `data`, whose index buffer holds `index_count` indices. Refuses
+    /// a search scale whose textures exceed the largest resolution.
+    fn for_frame(
+        data: &GpuSceneData,
+        index_count: u32,
+        camera: &Camera,
+        near: f32,
+        options: &RpOptions,
+        (width, height): (u32, u32),
+    ) -> VkResult<Self> {
+        let scale = options.search_scale.max(1);
+        let (sw, sh) = (width.saturating_mul(scale), height.saturating_mul(scale));
+        crate::scene::check_resolution(sw, sh).map_err(|e| VkError::Usage {
+            what: "reflection-point search scale".into(),
+            detail: format!("{width}x{height} times {scale}: the search textures' {e}"),
+        })?;
+        let view_proj = camera.view_proj(near);
+        Ok(RpParams {
+            view_proj: view_proj.to_cols_array_2d(),
+            eye: camera.eye.to_array(),
+            max_iterations: options.iteration_cap(sw, sh),
+            start: start_texel(data, view_proj, sw, sh),
+            width: sw,
+            height: sh,
+            vertex_count: data.vertices.len() as u32,
+            index_count,
+            pad1: 0,
+            pad2: 0,
+        })
+    }
 }
 
 /// `RpCamera` in `spirv/reflection_point_raster.wgsl`.
@@ -89,6 +127,183 @@ fn scene_resources<'a>(
 const FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
 /// Workgroups per dispatch row (the smallest `maxComputeWorkGroupCount[0]` Vulkan guarantees).
 const MAX_GROUPS_X: u32 = 65_535;
+
+/// The closing triangles of open reflectors ([`crate::cpu::closure`]) as a buffer, and their
+/// vertex count (the buffer holds one default vertex when there are none: a storage buffer
+/// cannot be empty; the shader reads only the count).
+fn closure_buffer(
+    ctx: &GpuContext,
+    data: &GpuSceneData,
+    options: &RpOptions,
+) -> VkResult<(Buffer, u32)> {
+    let mut closure = if options.close_reflectors {
+        closing_triangles(data)
+    } else {
+        Vec::new()
+    };
+    let closure_vertices = closure.len() as u32;
+    if closure.is_empty() {
+        closure.push(ClosureVertex::default());
+    }
+    let buffer =
+        ctx.create_buffer_init("rp closure", vk::BufferUsageFlags::STORAGE_BUFFER, &closure)?;
+    Ok((buffer, closure_vertices))
+}
+
+/// The search textures T_P and T_N and their depth at the search size `search`, then the
+/// virtual objects' colour, point and depth at the frame size `frame`.
+fn images(ctx: &GpuContext, search: (u32, u32), frame: (u32, u32)) -> VkResult<[Image; 6]> {
+    let dev = ctx.device();
+    let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT
+        | vk::ImageUsageFlags::SAMPLED
+        | vk::ImageUsageFlags::TRANSFER_SRC;
+    let image =
+        |name: &str, (w, h): (u32, u32)| Image::new(dev, ImageDesc::d2(name, FORMAT, w, h, usage));
+    let depth = |name: &str, (w, h): (u32, u32)| {
+        Image::new(
+            dev,
+            ImageDesc::d2(
+                name,
+                vk::Format::D32_SFLOAT,
+                w,
+                h,
+                vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+            ),
+        )
+    };
+    Ok([
+        image("rp reflector position", search)?,
+        image("rp reflector normal", search)?,
+        depth("rp reflector depth", search)?,
+        image("rp virtual colour", frame)?,
+        image("rp virtual point", frame)?,
+        depth("rp virtual depth", frame)?,
+    ])
+}
+
+/// The colour formats and depth test of both passes' draws.
+fn draw_desc(vertex: &'static str, fragment: &'static str) -> GraphicsDesc {
+    GraphicsDesc {
+        vertex,
+        fragment,
+        colour_formats: vec![FORMAT; 2],
+        depth: Some((vk::Format::D32_SFLOAT, DepthTest::Reversed)),
+    }
+}
+
+/// `reflection_point_search`'s pipelines: the reflectors' draw into T_P / T_N, the per-vertex
+/// search.
+struct SearchPipelines {
+    reflector: GraphicsPipeline,
+    reflector_sets: [BindGroup; 2],
+    search: ComputePipeline,
+    search_sets: [BindGroup; 2],
+}
+
+impl SearchPipelines {
+    fn new(
+        ctx: &GpuContext,
+        scene: &SceneBuffers,
+        params: &Buffer,
+        closure: &Buffer,
+        position: &Image,
+        normal: &Image,
+        vertices: &Buffer,
+    ) -> VkResult<Self> {
+        let pass = &REFLECTION_POINT_SEARCH;
+        let reflector =
+            GraphicsPipeline::new(ctx, pass, &draw_desc("vs_reflector", "fs_reflector"))?;
+        let reflector_sets = [
+            reflector.bind_group(
+                0,
+                &scene_resources(scene, pass, &["vs_reflector", "fs_reflector"]),
+            )?,
+            reflector.bind_group(
+                1,
+                &[
+                    (0, Resource::Buffer(params)),
+                    (4, Resource::Buffer(closure)),
+                ],
+            )?,
+        ];
+        let search = ComputePipeline::new(ctx, pass, "search", ComputeOptions::default())?;
+        let search_sets = [
+            search.bind_group(0, &scene_resources(scene, pass, &["search"]))?,
+            search.bind_group(
+                1,
+                &[
+                    (0, Resource::Buffer(params)),
+                    (1, Resource::sampled(position)),
+                    (2, Resource::sampled(normal)),
+                    (3, Resource::Buffer(vertices)),
+                ],
+            )?,
+        ];
+        Ok(SearchPipelines {
+            reflector,
+            reflector_sets,
+            search,
+            search_sets,
+        })
+    }
+}
+
+/// `reflection_point_raster`'s pipelines: the virtual objects' draw, the records' resolve.
+struct RasterPipelines {
+    virtual_draw: GraphicsPipeline,
+    virtual_sets: [BindGroup; 2],
+    resolve: ComputePipeline,
+    resolve_set: BindGroup,
+}
+
+impl RasterPipelines {
+    /// `targets`: the virtual objects' colour and point.
+    fn new(
+        ctx: &GpuContext,
+        scene: &SceneBuffers,
+        camera: &Buffer,
+        vertices: &Buffer,
+        gbuffer: &Gbuffer,
+        [virtual_colour, virtual_point]: [&Image; 2],
+        records: &Buffer,
+    ) -> VkResult<Self> {
+        let pass = &REFLECTION_POINT_RASTER;
+        let virtual_draw =
+            GraphicsPipeline::new(ctx, pass, &draw_desc("vs_virtual", "fs_virtual"))?;
+        let virtual_sets = [
+            virtual_draw.bind_group(
+                0,
+                &scene_resources(scene, pass, &["vs_virtual", "fs_virtual"]),
+            )?,
+            virtual_draw.bind_group(
+                1,
+                &[
+                    (0, Resource::Buffer(camera)),
+                    (1, Resource::Buffer(vertices)),
+                    (2, Resource::sampled(&gbuffer.position)),
+                ],
+            )?,
+        ];
+        let resolve = ComputePipeline::new(ctx, pass, "resolve", ComputeOptions::default())?;
+        let resolve_set = resolve.bind_group(
+            0,
+            &[
+                (8, Resource::Buffer(camera)),
+                (9, Resource::sampled(&gbuffer.position)),
+                (10, Resource::sampled(&gbuffer.normal)),
+                (11, Resource::sampled(virtual_colour)),
+                (12, Resource::sampled(virtual_point)),
+                (13, Resource::Buffer(records)),
+            ],
+        )?;
+        Ok(RasterPipelines {
+            virtual_draw,
+            virtual_sets,
+            resolve,
+            resolve_set,
+        })
+    }
+}
 
 /// The two passes of the reflection-point method for one scene and camera, allocated once.
 pub struct ReflectionPointPasses {
@@ -136,26 +351,16 @@ impl ReflectionPointPasses {
         options: &RpOptions,
     ) -> VkResult<Self> {
         let (width, height) = gbuffer.extent();
-        let scale = options.search_scale.max(1);
-        let (sw, sh) = (width.saturating_mul(scale), height.saturating_mul(scale));
-        crate::scene::check_resolution(sw, sh).map_err(|e| VkError::Usage {
-            what: "reflection-point search scale".into(),
-            detail: format!("{width}x{height} times {scale}: the search textures' {e}"),
-        })?;
-        let view_proj = camera.view_proj(near);
         let vertex_count = data.vertices.len();
-        let params = RpParams {
-            view_proj: view_proj.to_cols_array_2d(),
-            eye: camera.eye.to_array(),
-            max_iterations: options.iteration_cap(sw, sh),
-            start: start_texel(data, view_proj, sw, sh),
-            width: sw,
-            height: sh,
-            vertex_count: vertex_count as u32,
-            index_count: scene.index_count,
-            pad1: 0,
-            pad2: 0,
-        };
+        let params = RpParams::for_frame(
+            data,
+            scene.index_count,
+            camera,
+            near,
+            options,
+            (width, height),
+        )?;
+        let (sw, sh) = (params.width, params.height);
         let params_buf = ctx.create_buffer_init(
             "rp params",
             vk::BufferUsageFlags::UNIFORM_BUFFER,
@@ -171,18 +376,7 @@ impl ReflectionPointPasses {
             vk::BufferUsageFlags::UNIFORM_BUFFER,
             std::slice::from_ref(&cam),
         )?;
-        let mut closure = if options.close_reflectors {
-            closing_triangles(data)
-        } else {
-            Vec::new()
-        };
-        let closure_vertices = closure.len() as u32;
-        // A storage buffer cannot be empty; the shader reads only `closure_vertices`.
-        if closure.is_empty() {
-            closure.push(ClosureVertex::default());
-        }
-        let closure_buf =
-            ctx.create_buffer_init("rp closure", vk::BufferUsageFlags::STORAGE_BUFFER, &closure)?;
+        let (closure_buf, closure_vertices) = closure_buffer(ctx, data, options)?;
         let vertices = Buffer::new(
             ctx.device(),
             "rp vertices",
@@ -190,123 +384,43 @@ impl ReflectionPointPasses {
             vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
             MemoryLocation::GpuOnly,
         )?;
-        let dev = ctx.device();
-        let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT
-            | vk::ImageUsageFlags::SAMPLED
-            | vk::ImageUsageFlags::TRANSFER_SRC;
-        let image = |name: &str, (w, h): (u32, u32)| {
-            Image::new(dev, ImageDesc::d2(name, FORMAT, w, h, usage))
-        };
-        let depth = |name: &str, (w, h): (u32, u32)| {
-            Image::new(
-                dev,
-                ImageDesc::d2(
-                    name,
-                    vk::Format::D32_SFLOAT,
-                    w,
-                    h,
-                    vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
-                ),
-            )
-        };
-        let position = image("rp reflector position", (sw, sh))?;
-        let normal = image("rp reflector normal", (sw, sh))?;
-        let virtual_colour = image("rp virtual colour", (width, height))?;
-        let virtual_point = image("rp virtual point", (width, height))?;
-        let sampled = |img: &Image| Resource::Texture {
-            view: img.view(),
-            layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
-        };
-        let desc = |vertex, fragment| GraphicsDesc {
-            vertex,
-            fragment,
-            colour_formats: vec![FORMAT; 2],
-            depth: Some((vk::Format::D32_SFLOAT, DepthTest::Reversed)),
-        };
-        let reflector = GraphicsPipeline::new(
+        let [
+            position,
+            normal,
+            reflector_depth,
+            virtual_colour,
+            virtual_point,
+            virtual_depth,
+        ] = images(ctx, (sw, sh), (width, height))?;
+        let SearchPipelines {
+            reflector,
+            reflector_sets,
+            search,
+            search_sets,
+        } = SearchPipelines::new(
             ctx,
-            &REFLECTION_POINT_SEARCH,
-            &desc("vs_reflector", "fs_reflector"),
+            scene,
+            &params_buf,
+            &closure_buf,
+            &position,
+            &normal,
+            &vertices,
         )?;
-        let reflector_sets = [
-            reflector.bind_group(
-                0,
-                &scene_resources(
-                    scene,
-                    &REFLECTION_POINT_SEARCH,
-                    &["vs_reflector", "fs_reflector"],
-                ),
-            )?,
-            reflector.bind_group(
-                1,
-                &[
-                    (0, Resource::Buffer(&params_buf)),
-                    (4, Resource::Buffer(&closure_buf)),
-                ],
-            )?,
-        ];
-        let search = ComputePipeline::new(
-            ctx,
-            &REFLECTION_POINT_SEARCH,
-            "search",
-            ComputeOptions::default(),
-        )?;
-        let search_sets = [
-            search.bind_group(
-                0,
-                &scene_resources(scene, &REFLECTION_POINT_SEARCH, &["search"]),
-            )?,
-            search.bind_group(
-                1,
-                &[
-                    (0, Resource::Buffer(&params_buf)),
-                    (1, sampled(&position)),
-                    (2, sampled(&normal)),
-                    (3, Resource::Buffer(&vertices)),
-                ],
-            )?,
-        ];
         let groups = (vertex_count as u32).div_ceil(64).max(1);
         let x = groups.min(MAX_GROUPS_X);
-        let virtual_draw = GraphicsPipeline::new(
+        let RasterPipelines {
+            virtual_draw,
+            virtual_sets,
+            resolve,
+            resolve_set,
+        } = RasterPipelines::new(
             ctx,
-            &REFLECTION_POINT_RASTER,
-            &desc("vs_virtual", "fs_virtual"),
-        )?;
-        let virtual_sets = [
-            virtual_draw.bind_group(
-                0,
-                &scene_resources(
-                    scene,
-                    &REFLECTION_POINT_RASTER,
-                    &["vs_virtual", "fs_virtual"],
-                ),
-            )?,
-            virtual_draw.bind_group(
-                1,
-                &[
-                    (0, Resource::Buffer(&camera_buf)),
-                    (1, Resource::Buffer(&vertices)),
-                    (2, sampled(&gbuffer.position)),
-                ],
-            )?,
-        ];
-        let resolve = ComputePipeline::new(
-            ctx,
-            &REFLECTION_POINT_RASTER,
-            "resolve",
-            ComputeOptions::default(),
-        )?;
-        let resolve_set = resolve.bind_group(
-            0,
-            &[
-                (8, Resource::Buffer(&camera_buf)),
-                (9, sampled(&gbuffer.position)),
-                (10, sampled(&gbuffer.normal)),
-                (11, sampled(&virtual_colour)),
-                (12, sampled(&virtual_point)),
-                (13, Resource::Buffer(records)),
-            ],
+            scene,
+            &camera_buf,
+            &vertices,
+            gbuffer,
+            [&virtual_colour, &virtual_point],
+            records,
         )?;
         Ok(ReflectionPointPasses {
             reflector,
@@ -325,10 +439,10 @@ impl ReflectionPointPasses {
             vertices,
             position,
             normal,
-            reflector_depth: depth("rp reflector depth", (sw, sh))?,
+            reflector_depth,
             virtual_colour,
             virtual_point,
-            virtual_depth: depth("rp virtual depth", (width, height))?,
+            virtual_depth,
             index_count: scene.index_count,
             vertex_count,
             params,
@@ -436,5 +550,65 @@ impl ReflectionPointPasses {
     /// The iteration counts of the last frame.
     pub fn read_stats(&self, ctx: &GpuContext) -> VkResult<SearchStats> {
         Ok(SearchStats::of(&self.read_vertices(ctx)?))
+    }
+}
+
+/// The reflection-point method.
+pub struct ReflectionPoint;
+
+impl MethodSpec for ReflectionPoint {
+    fn trace_pass(&self) -> &'static Pass {
+        &REFLECTION_POINT_SEARCH
+    }
+
+    /// The CMOs for the environment-map fallback alone: triangle IDs, no colour.
+    fn needs(&self, _trace: &TraceOptions) -> Needs {
+        Needs {
+            capture: true,
+            contents: CaptureContents {
+                colour: false,
+                triangle_ids: true,
+            },
+            pyramid: false,
+        }
+    }
+
+    /// The reflector's position and normal textures, the virtual objects' colour and point
+    /// (RGBA f32 each) and two f32 depth buffers, at search scale 1 (T_P, T_N and their depth
+    /// grow with the scale's square: not counted); the per-vertex buffer is per scene vertex
+    /// (small beside these, not counted).
+    fn bytes_per_pixel(&self) -> u64 {
+        4 * 16 + 2 * 4
+    }
+
+    fn create(&self, i: &FrameInputs<'_>) -> VkResult<Box<dyn Technique>> {
+        Ok(Box::new(ReflectionPointPasses::new(
+            i.ctx,
+            i.data,
+            i.scene,
+            i.gbuffer,
+            i.camera,
+            i.near,
+            i.records,
+            &i.options.reflection_point,
+        )?))
+    }
+}
+
+impl Technique for ReflectionPointPasses {
+    fn record(&self, rec: &Recorder<'_>, scope: &mut Scope<'_>) -> VkResult<()> {
+        scope(REFLECTION_POINT_SEARCH.name, &mut || {
+            self.record_search(rec)
+        })?;
+        scope(REFLECTION_POINT_RASTER.name, &mut || {
+            self.record_raster(rec)
+        })
+    }
+
+    fn read_stats(&self, ctx: &GpuContext) -> VkResult<MethodStats> {
+        Ok(MethodStats {
+            compute: None,
+            search: Some(ReflectionPointPasses::read_stats(self, ctx)?),
+        })
     }
 }

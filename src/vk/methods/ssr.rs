@@ -19,15 +19,19 @@ use bytemuck::{Pod, Zeroable};
 use glam::Mat4;
 use gpu_allocator::MemoryLocation;
 
+use crate::cpu::options::TraceOptions;
 use crate::cpu::ssr::{CROSS_EPSILON, MAX_LEVELS, SsrOptions, hiz_len, hiz_levels};
 use crate::vk::backend::buffer::Buffer;
 use crate::vk::backend::context::{GpuContext, Recorder};
 use crate::vk::backend::error::{VkError, VkResult};
 use crate::vk::backend::graphics::{GraphicsDesc, GraphicsPipeline, RenderTarget};
 use crate::vk::backend::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
-use crate::vk::backend::shaders::{SSR, SSR_HIZ};
-use crate::vk::backend::sync::{COMPUTE_READ, COMPUTE_WRITE};
+use crate::vk::backend::shaders::{Pass, SSR, SSR_HIZ};
+use crate::vk::backend::sync::{COMPUTE_READ, COMPUTE_WRITE, SHADER_READ, SHADER_WRITE};
+use crate::vk::passes::cmo::CaptureContents;
 use crate::vk::passes::gbuffer::Gbuffer;
+
+use super::technique::{FrameInputs, MethodSpec, Needs, Scope, Technique};
 
 /// `SsrParams` in `spirv/shared/ssr.wgsl`.
 #[repr(C)]
@@ -226,5 +230,54 @@ impl SsrPasses {
         let mut cells: Vec<f32> = ctx.read_buffer(&self.pyramid)?;
         cells.truncate(hiz_len(self.width, self.height));
         Ok(cells)
+    }
+}
+
+/// The screen-space method.
+pub struct Ssr;
+
+impl MethodSpec for Ssr {
+    fn trace_pass(&self) -> &'static Pass {
+        &SSR
+    }
+
+    /// The CMOs for the environment-map fallback alone: triangle IDs, no colour.
+    fn needs(&self, _trace: &TraceOptions) -> Needs {
+        Needs {
+            capture: true,
+            contents: CaptureContents {
+                colour: false,
+                triangle_ids: true,
+            },
+            pyramid: false,
+        }
+    }
+
+    /// The Hi-Z pyramid: f32 cells, about 4/3 per pixel over all levels (2 on a one-pixel-wide
+    /// frame; counted as 2), plus the pass's parameters (per frame, negligible).
+    fn bytes_per_pixel(&self) -> u64 {
+        2 * 4
+    }
+
+    fn create(&self, i: &FrameInputs<'_>) -> VkResult<Box<dyn Technique>> {
+        Ok(Box::new(SsrPasses::new(
+            i.ctx,
+            i.gbuffer,
+            i.camera.view_proj(i.near),
+            i.params,
+            i.records,
+            &i.options.ssr,
+        )?))
+    }
+}
+
+impl Technique for SsrPasses {
+    fn record(&self, rec: &Recorder<'_>, scope: &mut Scope<'_>) -> VkResult<()> {
+        scope(SSR_HIZ.name, &mut || {
+            self.record_hiz(rec);
+            Ok(())
+        })?;
+        rec.memory_barrier(SHADER_WRITE, SHADER_READ);
+        scope(SSR.name, &mut || self.record_trace(rec))
     }
 }

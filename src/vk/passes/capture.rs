@@ -70,6 +70,52 @@ const DISTANCE_FORMAT: vk::Format = vk::Format::R32_SFLOAT;
 const COLOUR_FORMAT: vk::Format = super::cmo::COLOUR_FORMAT;
 const TRIANGLE_FORMAT: vk::Format = vk::Format::R32_UINT;
 
+/// The capture pipeline for what is captured, and its fragment entry point.
+fn capture_pipeline(
+    ctx: &GpuContext,
+    self_reflections: bool,
+    contents: CaptureContents,
+) -> VkResult<(GraphicsPipeline, &'static str)> {
+    // Attachment order = the entry point's output locations: colour, distance, normal,
+    // triangle, each only where captured.
+    let mut formats = Vec::new();
+    if contents.colour {
+        formats.push(COLOUR_FORMAT);
+    }
+    formats.push(DISTANCE_FORMAT);
+    if self_reflections {
+        formats.push(COLOUR_FORMAT);
+    }
+    if contents.triangle_ids {
+        formats.push(TRIANGLE_FORMAT);
+    }
+    let fragment = match (self_reflections, contents.colour, contents.triangle_ids) {
+        (false, true, false) => "fs_main",
+        (true, true, false) => "fs_self",
+        (false, true, true) => "fs_main_ids",
+        (true, true, true) => "fs_self_ids",
+        (false, false, true) => "fs_ids_only",
+        (true, false, true) => "fs_self_ids_only",
+        (_, false, false) => {
+            return Err(VkError::Usage {
+                what: "capture".into(),
+                detail: "neither colour nor triangle IDs captured".into(),
+            });
+        }
+    };
+    let pipeline = GraphicsPipeline::new(
+        ctx,
+        &CAPTURE,
+        &GraphicsDesc {
+            vertex: "vs_main",
+            fragment,
+            colour_formats: formats,
+            depth: Some((vk::Format::D32_SFLOAT, DepthTest::Reversed)),
+        },
+    )?;
+    Ok((pipeline, fragment))
+}
+
 impl Capture {
     /// Prepares the capture of CMOs at `centres` with faces of `size` texels. Geometry nearer
     /// than `near` to a centre (along a face axis) is clipped. Captures colour, no triangle IDs
@@ -112,43 +158,7 @@ impl Capture {
                 ),
             });
         }
-        // Attachment order = the entry point's output locations: colour, distance, normal,
-        // triangle, each only where captured.
-        let mut formats = Vec::new();
-        if contents.colour {
-            formats.push(COLOUR_FORMAT);
-        }
-        formats.push(DISTANCE_FORMAT);
-        if self_reflections {
-            formats.push(COLOUR_FORMAT);
-        }
-        if contents.triangle_ids {
-            formats.push(TRIANGLE_FORMAT);
-        }
-        let fragment = match (self_reflections, contents.colour, contents.triangle_ids) {
-            (false, true, false) => "fs_main",
-            (true, true, false) => "fs_self",
-            (false, true, true) => "fs_main_ids",
-            (true, true, true) => "fs_self_ids",
-            (false, false, true) => "fs_ids_only",
-            (true, false, true) => "fs_self_ids_only",
-            (_, false, false) => {
-                return Err(VkError::Usage {
-                    what: "capture".into(),
-                    detail: "neither colour nor triangle IDs captured".into(),
-                });
-            }
-        };
-        let pipeline = GraphicsPipeline::new(
-            ctx,
-            &CAPTURE,
-            &GraphicsDesc {
-                vertex: "vs_main",
-                fragment,
-                colour_formats: formats,
-                depth: Some((vk::Format::D32_SFLOAT, DepthTest::Reversed)),
-            },
-        )?;
+        let (pipeline, fragment) = capture_pipeline(ctx, self_reflections, contents)?;
         let views: Vec<CaptureView> = centres
             .iter()
             .flat_map(|c| {

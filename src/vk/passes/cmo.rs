@@ -13,7 +13,7 @@
 //! The capture pass writes distance, colour and normals; the pyramid pass writes `cmo_mip`.
 //! Colour is an image, not a buffer: it is only ever looked up per texel, and an image has no
 //! `maxStorageBufferRange` (128 MiB on lavapipe, less than one 2048-texel RGBA32F capture).
-//! Buffers larger than the device can bind are refused when bound ([`super::VkError::Limit`]).
+//! Buffers larger than the device can bind are refused when bound ([`crate::vk::VkError::Limit`]).
 //! Without a pyramid `cmo_mip` is a one-cell placeholder (a binding cannot be empty), and the
 //! config says so: `mip_top = 0` makes the tracer read texels only.
 //!
@@ -28,11 +28,12 @@ use crate::cpu::options::{TraceCriterion, TraceOptions, TraceSampling};
 use crate::cubemap::CubeMap;
 use crate::cubemap::pyramid::{EMPTY_CELL, MipPyramid, mip_flat_layout};
 use crate::vk::backend::buffer::Buffer;
-use crate::vk::backend::context::GpuContext;
+use crate::vk::backend::context::{GpuContext, Recorder};
 use crate::vk::backend::error::{VkError, VkResult};
 use crate::vk::backend::image::{Image, ImageDesc};
 use crate::vk::backend::pipeline::Resource;
 use crate::vk::backend::shaders::Pass;
+use crate::vk::backend::sync::{ALL_READS, SHADER_READ, TRANSFER_WRITE};
 
 /// Entries of [`TraceConfig::mip_levels`] (index 0 unused: level 0 is the texels).
 pub const TRACE_MIP_MAX_LEVELS: usize = 16;
@@ -312,6 +313,24 @@ impl CmoData {
             },
             contents,
         })
+    }
+
+    /// Records the contents of an empty capture without one: `+inf` distances, no triangle
+    /// (`u32::MAX`), the colour image readable (its texels undefined: no method that reads
+    /// colour goes without a capture). For data that passes bind but no capture fills.
+    pub fn record_clear(&self, rec: &Recorder<'_>) {
+        rec.fill_buffer(&self.distance, f32::INFINITY.to_bits());
+        if let Some(t) = &self.triangle {
+            rec.fill_buffer(t, u32::MAX);
+        }
+        rec.image_barrier(
+            &self.colour,
+            vk::ImageLayout::UNDEFINED,
+            vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+            TRANSFER_WRITE,
+            SHADER_READ,
+        );
+        rec.memory_barrier(TRANSFER_WRITE, ALL_READS);
     }
 
     /// Uploads CPU captures (all of one face size), with their pyramids built on the CPU.
