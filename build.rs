@@ -1,5 +1,5 @@
 //! Compiles every `spirv/*.wgsl` (one file per pass) to SPIR-V 1.3 with naga and writes
-//! `$OUT_DIR/shaders.rs`, a typed table `include!`d by `src/vk/shaders.rs`.
+//! `$OUT_DIR/shaders.rs`, a typed table `include!`d by `src/vk/backend/shaders.rs`.
 //!
 //! # Import directive
 //! WGSL has no include. A line of the exact form

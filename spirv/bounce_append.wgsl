@@ -1,4 +1,4 @@
-// bounce_append: the producers of `--bounces N`'s wavefront (`vk::bounce`). Three entry points:
+// bounce_append: the producers of `--bounces N`'s wavefront (`vk::passes::bounce`). Three entry points:
 // - `own_material` (N = 0): no ray is traced; every mirror pixel's record is the mirror surface
 //   itself, shaded with its own material as any surface the camera sees (the G-buffer's colour),
 //   `bounces` = 0, status hit at the G-buffer's point and triangle.

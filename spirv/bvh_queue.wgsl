@@ -7,7 +7,7 @@
 //   unresolved appends the record's ray, flagged BVH_RAY_FALLBACK, from t = 0 under the start
 //   rule (leaving the G-buffer's triangle), as `append_mirror` would: the cubemap tracer's
 //   "proven-empty" prefix [0, t_done] is empty for its model, not for the triangles. Measured
-//   (tests/gpu_bvh.rs, compute path, built-in scenes): 46 of 1065 fallback rays at 160x120 with
+//   (tests/bvh.rs, compute path, built-in scenes): 46 of 1065 fallback rays at 160x120 with
 //   the scenes' cube size 256, 26 of 410 at 96x72 with cube size 64, have the reference's hit
 //   before t_done, on a reflector the CMOs do not capture (self-reflections
 //   off: the sphere, teapot and torus seen in themselves near their outlines) or on a surface
@@ -15,7 +15,7 @@
 // - `append_unresolved_from_t_done`: the same rays from t_min = t_done (1 - FALLBACK_SLACK), the
 //   rule the issue proposed; kept to show (in the tests) what it misses, not used by a render.
 //   The slack covers t_done's f32 rounding in a CMO's frame (a few ulps; 2^-10 is far above).
-// - `append_check` (the reflector check, vk::bvh::ReflectorCheck): every mirror pixel whose
+// - `append_check` (the reflector check, vk::passes::bvh::ReflectorCheck): every mirror pixel whose
 //   record the method resolved (hit or escaped) and whose ray can meet a reflector
 //   (`frame.check_below`) appends the record's ray, flagged BVH_RAY_CHECK,
 //   from t = 0 under the start rule (leaving the G-buffer's triangle, as `append_mirror`); the
@@ -23,7 +23,7 @@
 // - `args`: one invocation; the `bvh_trace` dispatch from the count: ceil(n / 64) workgroups as
 //   x <= 65535 by y (zero rays: an empty dispatch).
 // Both appends run one invocation per pixel over a 2-D grid of 64-wide workgroups
-// (`vk::bvh::pixel_groups`); the order of the queue is the atomic's and nothing depends on it.
+// (`vk::passes::bvh::pixel_groups`); the order of the queue is the atomic's and nothing depends on it.
 //! import shared/mirror.wgsl
 //! import shared/bvh_rays.wgsl
 

@@ -74,7 +74,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         records[ray.pixel].cut = cut;
         records[ray.pixel].fallback = 1u;
     } else {
-        // A bounce round's ray (`bounce` > 0, vk::bounce) keeps the pixel's `fallback` and
+        // A bounce round's ray (`bounce` > 0, vk::passes::bounce) keeps the pixel's `fallback` and
         // `checked` flags: its first round may have been finished by the fallback, or changed by
         // the reflector check.
         var fallback = 0u;

@@ -5,7 +5,7 @@
 // RGB, a = mirror mask.
 //
 // The environment-map fallback shades from the capture's triangle IDs, not from a captured
-// colour (`envmap_fallback` below; CPU twin `cpu::fragment_trace::envmap_fallback`), so that no
+// colour (`envmap_fallback` below; CPU twin `cpu::fragment::envmap_fallback`), so that no
 // frame of a tracer captures colour for it (`GpuRenderer::new`, `CaptureContents`).
 //! import shared/mirror.wgsl
 //! import shared/trace_verified.wgsl

@@ -659,7 +659,7 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
 
 // Entry points: the same kernel with at most `lane_cap` lanes per ray. `main`: the thesis
 // layout, min(S, 32) lanes per ray (`lane_cap` a constant, folded by the driver). `main_lanes1`:
-// chosen for CPU devices (`vk::compute::ray_lanes`), where the per-ray work every lane of a ray
+// chosen for CPU devices (`vk::methods::compute::ray_lanes`), where the per-ray work every lane of a ray
 // repeats costs in proportion to the lanes (spirv/README.md, "Performance on lavapipe"); its
 // layout is read from `trace_mode`, so that one pipeline (one compile) serves both of its
 // dispatches:
@@ -670,7 +670,7 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
 //   with min(S, 32) lanes, so with far fewer loop iterations per step. Dispatched
 //   (`retrace_args`, sized by `dispatch_args`) with one batch per subgroup.
 // The `_wg128` twins run 128-invocation workgroups, for subgroups of 4 (lavapipe's
-// `maxComputeWorkgroupSubgroups` is 32: `vk::compute::workgroup_size`).
+// `maxComputeWorkgroupSubgroups` is 32: `vk::methods::compute::workgroup_size`).
 @group(2) @binding(6) var<storage, read> trace_mode: u32;
 
 @compute @workgroup_size(256)

@@ -8,7 +8,7 @@
 //
 // Two entry points, the same code specialised: `fs_main` carries every criterion, sampling and
 // acceleration (chosen at run time by `trace_config`); `fs_exact_mip` only the exact criterion's
-// mip march, the default options' path (`vk::trace_probe::exact_mip_only` picks it).
+// mip march, the default options' path (`vk::passes::cmo::exact_mip_only` picks it).
 //! import shared/mirror.wgsl
 //! import shared/trace_verified.wgsl
 

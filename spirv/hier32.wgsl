@@ -14,7 +14,7 @@
 // row-major. Level 1 reads the texels (a texel d is the cell [d, d]); level l > 1 reads level
 // l - 1 of the same block. No barrier in this shader.
 
-// Shared with Rust as `vk::hier32::Hier32Params`; layout checked by tests/gpu_compute.rs.
+// Shared with Rust as `vk::passes::hier32::Hier32Params`; layout checked by tests/compute.rs.
 struct Hier32Params {
     // Number of CMOs K.
     cmo_count: u32,

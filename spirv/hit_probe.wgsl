@@ -1,5 +1,5 @@
 // hit_probe: runs the verified-hit building blocks on given inputs, for the tests against their
-// CPU twins (`src/vk/hit_probe.rs`). `watertight_main`: one watertight ray-triangle test per
+// CPU twins (`tests/common/hit_probe.rs`). `watertight_main`: one watertight ray-triangle test per
 // query (shared/watertight.wgsl). `shade_main`: shading at (triangle, barycentrics) per query
 // (shared/hit.wgsl). `verify_main`: the verified-hit rule per query (shared/verify.wgsl), with
 // the neighbourhood's IDs read from one CMO's ID cube.
@@ -10,7 +10,7 @@ const SCENE_GROUP: u32 = 0u;
 //! import shared/watertight.wgsl
 //! import shared/verify.wgsl
 
-// Shared with Rust as `vk::hit_probe::WatertightQuery`.
+// Shared with Rust as `tests/common/hit_probe.rs`'s `WatertightQuery`.
 struct WatertightQuery {
     org: vec3<f32>,
     _pad0: u32,
@@ -24,7 +24,7 @@ struct WatertightQuery {
     _pad4: u32,
 }
 
-// Shared with Rust as `vk::hit_probe::WatertightResult`.
+// Shared with Rust as `tests/common/hit_probe.rs`'s `WatertightResult`.
 struct WatertightResult {
     bary: vec3<f32>,
     t: f32,
@@ -34,14 +34,14 @@ struct WatertightResult {
     _pad2: u32,
 }
 
-// Shared with Rust as `vk::hit_probe::ShadeQuery`.
+// Shared with Rust as `tests/common/hit_probe.rs`'s `ShadeQuery`.
 struct ShadeQuery {
     bary: vec2<f32>,
     triangle: u32,
     _pad: u32,
 }
 
-// Shared with Rust as `vk::hit_probe::VerifyQuery`: the ray, its prefix and end, the CMO centre
+// Shared with Rust as `tests/common/hit_probe.rs`'s `VerifyQuery`: the ray, its prefix and end, the CMO centre
 // and face size, and the deciding texel.
 struct VerifyQuery {
     a: vec3<f32>,
@@ -56,7 +56,7 @@ struct VerifyQuery {
     _pad: u32,
 }
 
-// Shared with Rust as `vk::hit_probe::VerifyResult`.
+// Shared with Rust as `tests/common/hit_probe.rs`'s `VerifyResult`.
 struct VerifyResult {
     bary: vec3<f32>,
     t: f32,

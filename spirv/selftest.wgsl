@@ -3,14 +3,14 @@
 // and the number of odd inputs, whatever the subgroup size, so a CPU check is exact.
 //! import shared/bits.wgsl
 
-// Shared with Rust as `vk::selftest::SelftestParams`; layout checked by tests/vk_backbone.rs.
+// Shared with Rust as `tests/common/selftest.rs`'s `SelftestParams`; layout checked by tests/vk_backbone.rs.
 struct SelftestParams {
     count: u32,
     scale: u32,
     bias: vec2<u32>,
 }
 
-// One per workgroup. Shared with Rust as `vk::selftest::SelftestOut`.
+// One per workgroup. Shared with Rust as `tests/common/selftest.rs`'s `SelftestOut`.
 struct SelftestOut {
     sum: u32,
     odd: u32,

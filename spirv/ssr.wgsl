@@ -1,6 +1,6 @@
 // ssr: Hi-Z screen-space reflections (Uludag 2014, "Hi-Z Screen-Space Cone-Traced Reflections",
 // GPU Pro 5), the mirror (non-glossy) part: the Hi-Z traversal of Listing 4.2 / 4.5 over the
-// pyramid of the `hiz` pass. A deferred full-screen fragment pass; every mirror pixel writes its
+// pyramid of the `ssr_hiz` pass. A deferred full-screen fragment pass; every mirror pixel writes its
 // record. CPU twin: `cubetrace::cpu::ssr::trace` (same loop, same arithmetic).
 //
 // Screen space: x, y in pixels (pixel (i, j) covers [i, i + 1) x [j, j + 1)), z the depth key q of

@@ -4,7 +4,7 @@
 // Group 0: the rays and results; group 1: the CMO data declared by `shared/trace.wgsl`.
 //! import shared/trace.wgsl
 
-// One ray (Rust `vk::trace_probe::ProbeRay`): origin + t dir, t in [t_lo, t_hi].
+// One ray (Rust: `tests/common/trace_probe.rs`'s `ProbeRay`): origin + t dir, t in [t_lo, t_hi].
 struct ProbeRay {
     origin: vec3<f32>,
     t_lo: f32,

@@ -6,8 +6,8 @@ mod common;
 use common::Rng;
 use common::analytic::{Aabb, enter_box, exit_box};
 
-use cubetrace::cpu::alg3::{SUBGROUP_SIZES, trace_alg3};
 use cubetrace::cpu::approx::{Criterion, Sampling, trace_sampled};
+use cubetrace::cpu::compute::{SUBGROUP_SIZES, trace_alg3};
 use cubetrace::cpu::mip::trace_mip;
 use cubetrace::cpu::multi::{MultiStatus, Traversal, trace_cmos};
 use cubetrace::cpu::walk::{trace_brute, trace_walk};

@@ -1,4 +1,4 @@
-//! `--bounces N` on the GPU (`src/vk/bounce.rs`, `spirv/bounce_append.wgsl`) against the CPU
+//! `--bounces N` on the GPU (`src/vk/passes/bounce.rs`, `spirv/bounce_append.wgsl`) against the CPU
 //! reference (`reference::finish_path`), bounce for bounce, on small frames:
 //! - per mirror pixel, the GPU record's final triangle against the reference path's last one
 //!   (`Frame::last_triangle`; none where the path left the scene), and where they match, the
@@ -23,10 +23,10 @@ use cubetrace::scene::{
     self, CmoPlacement, Material, MeshInstance, Scene, SelfReflections, Transform,
 };
 use cubetrace::vk::GpuContext;
+use cubetrace::vk::backend::shaders::{BOUNCE_APPEND, BVH_TRACE, COMPOSITE};
 use cubetrace::vk::frame::{
     Fallback, GpuFrame, GpuRenderer, PixelRecord, RECORD_HIT, RenderOptions,
 };
-use cubetrace::vk::shaders::{BOUNCE_APPEND, BVH_TRACE, COMPOSITE};
 use glam::{Quat, Vec2, Vec3};
 
 /// Largest colour difference (any channel) of a pixel whose final triangle matches.
@@ -440,7 +440,7 @@ fn methods_without_triangles_refuse_bounces() {
     }
     let options = RenderOptions {
         method: Method::Bvh,
-        bounces: cubetrace::vk::bounce::MAX_BOUNCES + 1,
+        bounces: cubetrace::vk::passes::bounce::MAX_BOUNCES + 1,
         ..RenderOptions::default()
     };
     assert!(GpuRenderer::new(&ctx, &scene, &camera, options).is_err());

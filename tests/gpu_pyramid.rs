@@ -9,10 +9,10 @@ use cubetrace::check_layout;
 use cubetrace::cubemap::CubeMap;
 use cubetrace::cubemap::face::FACE_COUNT;
 use cubetrace::cubemap::pyramid::{MipPyramid, mip_flat_layout};
-use cubetrace::vk::pyramid::{
+use cubetrace::vk::backend::shaders::PYRAMID;
+use cubetrace::vk::passes::pyramid::{
     MAX_GROUPS_X, PyramidParams, WORKGROUP, build_mip_gpu, level_params, mip_len,
 };
-use cubetrace::vk::shaders::PYRAMID;
 use glam::Vec3;
 
 const SIZES: [u32; 8] = [1, 2, 3, 5, 16, 32, 33, 64];
@@ -216,7 +216,7 @@ fn mismatched_sizes_and_empty_input_are_refused() {
 #[test]
 fn record_with_timestamps_and_refuse_small_buffers() {
     use ash::vk;
-    use cubetrace::vk::pyramid::Pyramid;
+    use cubetrace::vk::passes::pyramid::Pyramid;
     use cubetrace::vk::{Buffer, Timestamps};
     use gpu_allocator::MemoryLocation;
 
@@ -282,7 +282,7 @@ fn record_with_timestamps_and_refuse_small_buffers() {
 #[test]
 fn multi_row_dispatch_equals_cpu() {
     use ash::vk;
-    use cubetrace::vk::pyramid::Pyramid;
+    use cubetrace::vk::passes::pyramid::Pyramid;
 
     let ctx = gpu_context();
     let size = 17u32;

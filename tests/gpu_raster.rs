@@ -20,11 +20,11 @@ use cubetrace::scene::gpu_data::{
 use cubetrace::scene::shapes::uv_sphere;
 use cubetrace::scene::{MeshInstance, Scene, SelfReflections, Transform, builtin};
 use cubetrace::vk::GpuContext;
-use cubetrace::vk::capture::{Capture, CaptureView};
-use cubetrace::vk::cmo::{CaptureContents, CmoData};
-use cubetrace::vk::gbuffer::{Gbuffer, GbufferCamera};
-use cubetrace::vk::scene_buffers::SceneBuffers;
-use cubetrace::vk::shaders::{CAPTURE, GBUFFER};
+use cubetrace::vk::backend::shaders::{CAPTURE, GBUFFER};
+use cubetrace::vk::passes::capture::{Capture, CaptureView};
+use cubetrace::vk::passes::cmo::{CaptureContents, CmoData};
+use cubetrace::vk::passes::gbuffer::{Gbuffer, GbufferCamera};
+use cubetrace::vk::passes::scene_buffers::SceneBuffers;
 use glam::{Vec3, Vec4};
 
 /// Captures the scene's CMOs on the GPU and reads them back: colour and triangle IDs.

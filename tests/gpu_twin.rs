@@ -11,17 +11,16 @@ mod common;
 use common::analytic::{Aabb, enter_box, enter_sphere, exit_box, sphere_roots};
 use common::{Rng, finish_gpu, gpu_context};
 
+use common::trace_probe::{ProbeParams, ProbeRay, ProbeResult, trace_probe, trace_probe_entry};
 use cubetrace::check_layout;
 use cubetrace::cpu::multi::{MultiResult, MultiStatus};
 use cubetrace::cpu::options::{TraceCriterion, TraceOptions, TraceSampling, trace_ray};
 use cubetrace::cpu::{CmoTracer, Status};
 use cubetrace::cubemap::CubeMap;
 use cubetrace::vk::GpuContext;
-use cubetrace::vk::cmo::CmoData;
-use cubetrace::vk::shaders::TRACE_PROBE;
-use cubetrace::vk::trace_probe::{
-    ProbeParams, ProbeRay, ProbeResult, TraceConfig, exact_mip_only, trace_probe, trace_probe_entry,
-};
+use cubetrace::vk::backend::shaders::TRACE_PROBE;
+use cubetrace::vk::passes::cmo::CmoData;
+use cubetrace::vk::passes::cmo::{TraceConfig, exact_mip_only};
 use glam::Vec3;
 
 // ---------------------------------------------------------------------------------------------

@@ -6,6 +6,10 @@
 mod common;
 use common::{finish_gpu, gpu_context};
 
+use common::hit_probe::{
+    ShadeQuery, VerifyQuery, VerifyResult, WatertightQuery, WatertightResult, shade_gpu,
+    verify_cpu, verify_gpu, watertight_cpu, watertight_gpu,
+};
 use cubetrace::check_layout;
 use cubetrace::cpu::verify::triangle_corners;
 use cubetrace::cubemap::face::dir_to_texel;
@@ -13,12 +17,8 @@ use cubetrace::reference;
 use cubetrace::reference::{Hit, Tracer};
 use cubetrace::scene::builtin;
 use cubetrace::scene::gpu_data::GpuSceneData;
-use cubetrace::vk::hit_probe::{
-    ShadeQuery, VerifyQuery, VerifyResult, WatertightQuery, WatertightResult, shade_gpu,
-    verify_cpu, verify_gpu, watertight_cpu, watertight_gpu,
-};
-use cubetrace::vk::scene_buffers::SceneBuffers;
-use cubetrace::vk::shaders::HIT_PROBE;
+use cubetrace::vk::backend::shaders::HIT_PROBE;
+use cubetrace::vk::passes::scene_buffers::SceneBuffers;
 use glam::{Vec2, Vec3};
 
 /// Deterministic xorshift in [0, 1).

@@ -51,6 +51,7 @@
 mod common;
 use common::{finish_gpu, gpu_context, meets};
 
+use common::hit_probe::{VerifyQuery, VerifyResult, verify_cpu, verify_gpu};
 use cubetrace::Method;
 use cubetrace::cpu::multi::{MultiStatus, Traversal, Verify, trace_cmos_verified};
 use cubetrace::cpu::options::TraceOptions;
@@ -70,8 +71,7 @@ use cubetrace::vk::frame::{
     Fallback, GpuFrame, GpuRenderer, RECORD_ESCAPED, RECORD_HIT, RECORD_UNRESOLVED, RenderOptions,
     scene_ranges,
 };
-use cubetrace::vk::hit_probe::{VerifyQuery, VerifyResult, verify_cpu, verify_gpu};
-use cubetrace::vk::scene_buffers::SceneBuffers;
+use cubetrace::vk::passes::scene_buffers::SceneBuffers;
 use glam::{Vec2, Vec3};
 
 /// Texel footprints a hit may be off (as `metrics::WRONG_SURFACE_FOOTPRINTS`): the texel the hit
@@ -342,7 +342,7 @@ fn assert_no_wrong_in_both_modes(
 ) {
     let default = judge_paths(ctx, scene, size, exact());
     // Strict mode on the fragment path's GPU run only: it gave the same counts on all four runs
-    // of every case (module docs), and its twins are checked in tests/gpu_frame.rs.
+    // of every case (module docs), and its twins are checked in tests/fragment.rs.
     let strict = judge_runs(ctx, scene, size, strict(), &[Method::Fragment], false);
     for ((name, d), (_, s)) in default.iter().zip(&strict) {
         eprintln!(

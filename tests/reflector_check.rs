@@ -1,4 +1,4 @@
-//! The reflector check (`vk::bvh::ReflectorCheck`, on by default, `--no-reflector-check`): after
+//! The reflector check (`vk::passes::bvh::ReflectorCheck`, on by default, `--no-reflector-check`): after
 //! the cubemap trace, each resolved mirror ray is traced exactly against the reflectors the CMOs
 //! do not capture (or capture only where they face a centre), and a nearer hit replaces the
 //! record's. Judged against the exact CPU reference at 96x72, on both cubemap paths:

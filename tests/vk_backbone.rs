@@ -7,10 +7,10 @@ mod common;
 use common::{finish_gpu, gpu_context};
 
 use ash::vk;
+use common::selftest::{SelftestOut, SelftestParams, selftest_cpu, selftest_gpu};
 use cubetrace::check_layout;
-use cubetrace::vk::instance::VALIDATION_ENV;
-use cubetrace::vk::selftest::{SelftestOut, SelftestParams, selftest_cpu, selftest_gpu};
-use cubetrace::vk::shaders::{BindingKind, PASSES, SELFTEST, Stage, StructLayout};
+use cubetrace::vk::backend::instance::VALIDATION_ENV;
+use cubetrace::vk::backend::shaders::{BindingKind, PASSES, SELFTEST, Stage, StructLayout};
 use cubetrace::vk::{ContextOptions, GpuContext, Image, ImageDesc, Validation};
 
 /// Deterministic input (no RNG): a simple LCG.

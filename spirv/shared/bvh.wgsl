@@ -1,6 +1,6 @@
 // Exact ray tracing of the scene's triangles over a compressed wide BVH (CWBVH, Ylitie, Karras
 // and Laine 2017, "Efficient incoherent ray traversal on GPUs through compressed wide BVHs"),
-// built on the CPU by `obvhs` (`vk::bvh::BvhData`). Our own traversal of obvhs's 80-byte
+// built on the CPU by `obvhs` (`vk::passes::bvh::BvhData`). Our own traversal of obvhs's 80-byte
 // `CwBvhNode` layout; the node order and octant trick follow the paper.
 //
 // Data, @group(1) (a file that imports this one keeps group 1 for it):

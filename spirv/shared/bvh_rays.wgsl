@@ -1,5 +1,5 @@
-// The BVH tracer's ray queue (Rust twins: `cubetrace::vk::bvh::{BvhRay, BvhCounter}`, layouts
-// checked in tests/gpu_bvh.rs). A producer appends `BvhRay`s through the atomic
+// The BVH tracer's ray queue (Rust twins: `cubetrace::vk::passes::bvh::{BvhRay, BvhCounter}`, layouts
+// checked in tests/bvh.rs). A producer appends `BvhRay`s through the atomic
 // `BvhCounter.count`; `bvh_queue`'s `args` entry sizes the `bvh_trace` dispatch from the count;
 // `bvh_trace` traces each ray and writes `records[ray.pixel]`. Bindings are declared by each pass
 // (their access differs).
@@ -19,7 +19,7 @@ struct BvhRay {
     bounce: u32,
     // BVH_RAY_FALLBACK: the ray finishes a record another method left unresolved (only the
     // result fields of the record are written, and its `fallback` flag set). BVH_RAY_CHECK: the
-    // reflector check (vk::bvh::ReflectorCheck) re-traces a resolved record's ray against the
+    // reflector check (vk::passes::bvh::ReflectorCheck) re-traces a resolved record's ray against the
     // reflectors' BVH; a hit replaces the record's result only if strictly nearer than its `t`
     // (any hit when it escaped), on another triangle, and sets its `checked` flag.
     flags: u32,

@@ -1,8 +1,8 @@
 // The compute path's ray queue: the `append` pass writes one `AppendedRay` per mirror pixel
 // through the atomic `RayCounter.count`; `dispatch_args` sizes the `compute_trace` dispatch from
 // that count on the GPU; `compute_trace` traces each queued ray and writes `records[pixel]`.
-// Rust twins: `cubetrace::vk::compute::{AppendedRay, RayCounter, DispatchArgs}` (layouts checked
-// in tests/gpu_compute.rs). Bindings are declared by each pass (their access differs).
+// Rust twins: `cubetrace::vk::methods::compute::{AppendedRay, RayCounter, DispatchArgs}` (layouts checked
+// in tests/compute.rs). Bindings are declared by each pass (their access differs).
 
 // One queued mirror ray.
 struct AppendedRay {
@@ -35,7 +35,7 @@ struct DispatchArgs {
     z: u32,
 }
 
-// Sizing of the `compute_trace` dispatch (Rust `cubetrace::vk::compute::DispatchParams`).
+// Sizing of the `compute_trace` dispatch (Rust `cubetrace::vk::methods::compute::DispatchParams`).
 struct DispatchParams {
     // Rays one `compute_trace` workgroup takes per batch at the device's subgroup size S:
     // 256 / min(S, 32). The kernel strides over the queue with the rays per workgroup it really
@@ -51,7 +51,7 @@ struct DispatchParams {
 // The largest workgroup count per dimension every Vulkan device accepts.
 const MAX_GROUPS_X: u32 = 65535u;
 
-// The hierarchy layout (Rust `cubetrace::vk::compute::HierConfig`).
+// The hierarchy layout (Rust `cubetrace::vk::methods::compute::HierConfig`).
 struct HierConfig {
     // Index of the root level (0 when the texels are the root, N <= 4).
     root: u32,

@@ -32,7 +32,7 @@ struct PixelRecord {
     // Reflections the pixel's path took (`--bounces`): 1 from every method's own pass, k + 1
     // from the bounce round that traced the path's k-th reflected ray, 0 with `--bounces 0`.
     bounces: u32,
-    // 1 where the reflector check (vk::bvh::ReflectorCheck) replaced the method's result with a
+    // 1 where the reflector check (vk::passes::bvh::ReflectorCheck) replaced the method's result with a
     // nearer hit on a reflector (`fallback` stays 0: the check is not the fallback); 2 where it
     // found the method's hit at the ray's own start and left the pixel to the fallback; 0
     // elsewhere.

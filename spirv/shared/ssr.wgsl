@@ -1,4 +1,4 @@
-// What the two passes of the screen-space method share (`hiz` builds the pyramid, `ssr`
+// What the two passes of the screen-space method share (`ssr_hiz` builds the pyramid, `ssr`
 // traverses it); the CPU twin is `src/cpu/ssr.rs`.
 //
 // Depth: the pyramid stores `q = -1 / w` per pixel, `w` the clip-space w of the G-buffer's world
@@ -15,7 +15,7 @@
 // Products are written as plain `a * b`: lavapipe never fuses them (see `prod` in
 // shared/frustum.wgsl), which keeps the CPU twin bit-identical.
 
-// Shared with Rust as `vk::ssr::SsrParams` (layout checked in tests/gpu_ssr.rs).
+// Shared with Rust as `vk::methods::ssr::SsrParams` (layout checked in tests/ssr.rs).
 struct SsrParams {
     view_proj: mat4x4<f32>,
     levels: array<vec4<u32>, 16>,

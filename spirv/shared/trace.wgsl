@@ -8,7 +8,7 @@
 // mip march (the production path), for options with `criterion` exact and `accel` set.
 //
 // Data (all passes that import this file bind the same @group(1)):
-// - binding 0 `trace_config`: `TraceConfig` (Rust `cubetrace::vk::trace_probe::TraceConfig`).
+// - binding 0 `trace_config`: `TraceConfig` (Rust `cubetrace::vk::passes::cmo::TraceConfig`).
 // - binding 1 `cmo_centres`: CMO k's centre in `.xyz` (w unused).
 // - binding 2 `cmo_distance`: CMO k's texels at `k * 6 * N * N`, index `(face * N + y) * N + x`.
 // - binding 3 `cmo_mip`: CMO k's 2x2 pyramid (levels 1..) at `k * mip_len`, `[min, max]`.
@@ -47,7 +47,7 @@ const SAMPLING_PER_TEXEL: u32 = 2u;
 // TRACE_ANY: every criterion, sampling and acceleration, chosen at run time by `trace_config`.
 const TRACE_ANY: u32 = 0u;
 // TRACE_EXACT_MIP: the exact criterion with the mip march only (`criterion` exact, `accel` 1,
-// `strict` 0; the Rust side picks it only then: `vk::trace_probe::exact_mip_only`).
+// `strict` 0; the Rust side picks it only then: `vk::passes::cmo::exact_mip_only`).
 const TRACE_EXACT_MIP: u32 = 1u;
 
 const STATUS_HIT: u32 = 0u;
@@ -312,7 +312,7 @@ fn classify(k: u32, seg: Segment, texel: Texel, iv: Interval) -> Outcome {
 }
 
 // `classify`; `strict_code` false (a constant) leaves `--strict` out: the production variant's
-// code (`TRACE_EXACT_MIP`, picked only without `--strict`: `vk::trace_probe::exact_mip_only`).
+// code (`TRACE_EXACT_MIP`, picked only without `--strict`: `vk::passes::cmo::exact_mip_only`).
 fn classify_with(k: u32, seg: Segment, texel: Texel, iv: Interval, strict_code: bool) -> Outcome {
     let n = trace_config.size;
     let d = distance_at(k, texel);

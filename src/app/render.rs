@@ -191,7 +191,7 @@ pub fn check_gpu_memory(
 pub fn gpu_options(args: &RenderArgs) -> Result<RenderOptions> {
     let m = args.method;
     let options = args.trace.options(m);
-    m.check_bounces(args.bounces, crate::vk::bounce::MAX_BOUNCES, &options.trace)
+    m.check_bounces(args.bounces, crate::vk::passes::bounce::MAX_BOUNCES, &options.trace)
         .map_err(anyhow::Error::msg)?;
     Ok(RenderOptions {
         bounces: args.bounces,

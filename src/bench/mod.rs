@@ -356,7 +356,7 @@ pub struct RunResult {
     /// The `fallback` pass (queue + BVH trace of those rays), ns; zero where it did not run.
     pub fallback_ns: Stats,
     /// Share of the traced rays whose record the reflector check changed (a nearer hit on a
-    /// reflector; [`crate::vk::bvh::ReflectorCheck`]); 0 where it did not run. Not part of
+    /// reflector; [`crate::vk::passes::bvh::ReflectorCheck`]); 0 where it did not run. Not part of
     /// `fallback_share`.
     pub checked_share: f64,
     /// The `reflector_check` pass, ns; zero where it did not run.
@@ -606,7 +606,7 @@ pub fn check_memory(
 /// Whether a GPU spec runs at `bounces` ([`Method::check_bounces`]); the grid skips it otherwise.
 fn runs_at(spec: &MethodSpec, bounces: u32) -> bool {
     spec.kind
-        .check_bounces(bounces, crate::vk::bounce::MAX_BOUNCES, &spec.trace)
+        .check_bounces(bounces, crate::vk::passes::bounce::MAX_BOUNCES, &spec.trace)
         .is_ok()
 }
 

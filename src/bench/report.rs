@@ -390,7 +390,7 @@ pub fn search_table(report: &BenchReport) -> String {
             r.counters.search_max
         );
     }
-    s.push_str("\nCost: `rp_search` (the reflector textures and the per-vertex search) and `rp_raster` (the virtual objects and the records) in the per-pass table.\n");
+    s.push_str("\nCost: `reflection_point_search` (the reflector textures and the per-vertex search) and `reflection_point_raster` (the virtual objects and the records) in the per-pass table.\n");
     s
 }
 

@@ -52,8 +52,8 @@ use crate::output::write_atomic;
 use crate::scene::shapes::uv_sphere;
 use crate::scene::{Material, MeshInstance, Scene, Transform};
 use crate::vk::GpuContext;
+use crate::vk::frame::shown_objects;
 use crate::vk::frame::{Fallback, RenderOptions, pass_name};
-use crate::vk::reflection_point::shown_objects;
 
 /// Which quantity a point varies.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -129,7 +129,7 @@ pub struct ScalingPoint {
 }
 
 /// The tessellation curve's series: (built-in scene, search scale). `sphere-room` at scale 8
-/// is where the paper's claim is met (`tests/gpu_reflection_point.rs`).
+/// is where the paper's claim is met (`tests/reflection_point.rs`).
 pub const TESSELLATION_SERIES: [(&str, u32); 4] = [
     ("sphere-room", 1),
     ("sphere-room", 8),
@@ -364,8 +364,8 @@ fn tessellation_curve(
                 mirror_pixels: g.frame.mirror_pixels(),
                 error,
                 same_object: metrics::same_object(refr, &reflector, &shown_objects(&g.frame)),
-                rp_search_ns: frame_stats(&g.pass_ns, Some("rp_search")),
-                rp_raster_ns: frame_stats(&g.pass_ns, Some("rp_raster")),
+                rp_search_ns: frame_stats(&g.pass_ns, Some("reflection_point_search")),
+                rp_raster_ns: frame_stats(&g.pass_ns, Some("reflection_point_raster")),
                 search: g.frame.search.unwrap_or_default(),
             });
             bar.inc(1);
@@ -379,7 +379,7 @@ fn tessellation_curve(
 pub fn tessellation_table(points: &[TessellationPoint]) -> String {
     use std::fmt::Write as _;
     let mut s = String::from(
-        "| scene | search scale | subdivide | triangles | frame | mirror px | unresolved % | wrong surface % | same object % | same object, interior % | angle mean deg | PSNR dB | rp_search ms | rp_raster ms | steps mean / max |\n\
+        "| scene | search scale | subdivide | triangles | frame | mirror px | unresolved % | wrong surface % | same object % | same object, interior % | angle mean deg | PSNR dB | reflection_point_search ms | reflection_point_raster ms | steps mean / max |\n\
          |---|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
     );
     for p in points {

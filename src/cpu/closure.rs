@@ -31,7 +31,7 @@ use crate::scene::gpu_data::GpuSceneData;
 /// Positions closer than this times the reflector's bounding-box diagonal are one vertex.
 pub const WELD_RELATIVE: f32 = 1e-5;
 
-/// `RpClosureVertex` in `spirv/rp_search.wgsl`: one vertex of a closing triangle (a triangle
+/// `RpClosureVertex` in `spirv/reflection_point_search.wgsl`: one vertex of a closing triangle (a triangle
 /// list, three per triangle).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]

@@ -53,17 +53,17 @@
 //! - [`walk`]: per-texel walk across the faces (faces in order of entry `t`).
 //! - [`mip`]: thesis alg. 2 over the 2x2 [`crate::cubemap::pyramid::MipPyramid`], with cell
 //!   boundaries from the frustum inequalities (alg. 4) and the skip test `rmax < min` (fact 3).
-//! - [`alg3`]: depth-first traversal of the [`crate::cubemap::pyramid::Hier32`] with an emulated
+//! - [`compute`]: depth-first traversal of the [`crate::cubemap::pyramid::Hier32`] with an emulated
 //!   subgroup ballot, for subgroup sizes 4..64.
 //! - [`walk::trace_brute`]: every texel tested, the first along `t` kept (the definition).
 //! - [`multi`]: several CMOs with the occlusion handoff.
-//! - [`fragment_trace`]: the per-pixel twins of the `fragment_trace` and `envmap` passes.
+//! - [`fragment`]: the per-pixel twins of the `fragment_trace` and `envmap` passes.
 //! - [`options`]: the method options ([`options::TraceOptions`]) shared with the GPU tracer.
 
-pub mod alg3;
 pub mod approx;
 pub mod closure;
-pub mod fragment_trace;
+pub mod compute;
+pub mod fragment;
 pub mod mip;
 pub mod multi;
 pub mod options;

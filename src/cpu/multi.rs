@@ -26,7 +26,7 @@
 use glam::Vec3;
 
 use super::verify::{Neighbourhood, VerifyRay, verify_hit};
-use super::{CmoTracer, Segment, Status, TraceResult, alg3, mip, texel_interval, walk};
+use super::{CmoTracer, Segment, Status, TraceResult, compute, mip, texel_interval, walk};
 
 /// Cap on rounds over the CMOs.
 pub const MAX_ROUNDS: u32 = 16;
@@ -38,7 +38,7 @@ pub enum Traversal {
     Walk,
     /// [`mip::trace_mip`].
     Mip,
-    /// [`alg3::trace_alg3`] with this subgroup size.
+    /// [`compute::trace_alg3`] with this subgroup size.
     Alg3(u32),
     /// [`walk::trace_brute`] (tests).
     Brute,
@@ -49,7 +49,7 @@ pub fn trace_one(tr: &CmoTracer, seg: &Segment, how: Traversal) -> TraceResult {
     match how {
         Traversal::Walk => walk::trace_walk(tr, seg),
         Traversal::Mip => mip::trace_mip(tr, seg),
-        Traversal::Alg3(s) => alg3::trace_alg3(tr, std::slice::from_ref(seg), s)[0],
+        Traversal::Alg3(s) => compute::trace_alg3(tr, std::slice::from_ref(seg), s)[0],
         Traversal::Brute => walk::trace_brute(tr, seg),
     }
 }

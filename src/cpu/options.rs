@@ -1,6 +1,6 @@
 //! The tracer's method options, as the CLI exposes them and as both tracers read them: the CPU
 //! twins here, the GPU tracer (`spirv/shared/trace.wgsl`) through
-//! [`crate::vk::trace_probe::TraceConfig`], built from the same [`TraceOptions`].
+//! [`crate::vk::passes::cmo::TraceConfig`], built from the same [`TraceOptions`].
 //!
 //! Invariant: [`trace_ray`] is the CPU twin of the WGSL `trace_ray`: for the same CMOs (built
 //! with [`TraceOptions::params`]) and the same options, the GPU must give the same status, CMO,

@@ -1,4 +1,4 @@
-//! CPU twin of the reflection-point search (`spirv/rp_search.wgsl`, Estalella et al. 2006,
+//! CPU twin of the reflection-point search (`spirv/reflection_point_search.wgsl`, Estalella et al. 2006,
 //! sections 4 and 5.1): the same loop over the same textures (read back from the GPU), with the
 //! same arithmetic, so that the GPU's per-vertex results can be checked one by one.
 //!
@@ -68,7 +68,7 @@ impl RpOptions {
     }
 }
 
-/// What the search did for one vertex (`RP_*` in `spirv/rp_search.wgsl`).
+/// What the search did for one vertex (`RP_*` in `spirv/reflection_point_search.wgsl`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(u32)]
 pub enum Status {
@@ -84,7 +84,7 @@ pub enum Status {
     NoReflector = 4,
 }
 
-/// `RpVertex` in `spirv/rp_search.wgsl`: the result for one scene vertex.
+/// `RpVertex` in `spirv/reflection_point_search.wgsl`: the result for one scene vertex.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct RpVertex {

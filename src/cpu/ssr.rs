@@ -1,7 +1,7 @@
 //! Hi-Z screen-space reflections (Uludag 2014, GPU Pro 5, "Hi-Z Screen-Space Cone-Traced
-//! Reflections"), mirror rays only: the CPU twin of `spirv/hiz.wgsl` and `spirv/ssr.wgsl`, the
+//! Reflections"), mirror rays only: the CPU twin of `spirv/ssr_hiz.wgsl` and `spirv/ssr.wgsl`, the
 //! same loops with the same f32 arithmetic in the same order, so that the GPU's records can be
-//! checked pixel by pixel (`tests/gpu_ssr.rs`).
+//! checked pixel by pixel (`tests/ssr.rs`).
 //!
 //! - [`build_hiz`]: the min pyramid of the depth key (`spirv/shared/ssr.wgsl`: `q = -1 / w`, an
 //!   affine function of the post-projective depth, nearer = smaller, 0 where nothing was drawn),
@@ -237,7 +237,7 @@ fn cross_cell(o: Vec3, d: Vec3, cell: [i32; 2], level: i32, step: Vec2, offset: 
     o + d * tx.min(ty)
 }
 
-/// Traces the reflected ray `origin + s dir` (world) of mirror pixel `pixel` through `hiz`.
+/// Traces the reflected ray `origin + s dir` (world) of mirror pixel `pixel` through `ssr_hiz`.
 pub fn trace(
     hiz: &Hiz<'_>,
     options: &SsrOptions,

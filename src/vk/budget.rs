@@ -1,13 +1,17 @@
 //! GPU memory of a render, estimated before anything is allocated, from the sizes that
-//! [`super::frame::GpuRenderer::new`] and the objects it creates use. Pure arithmetic: no Vulkan
+//! [`super::frame::GpuRenderer::new`] and the objects it creates use: the shared stages' here,
+//! each method's from its [`MethodSpec`]. Pure arithmetic: no Vulkan
 //! call. The scene's own buffers (vertices, indices, textures) are not counted: they are the
 //! size of the scene's files, small against frames and CMOs at the sizes where a refusal matters.
 
-use super::compute::AppendedRay;
-use super::frame::{PixelRecord, RenderOptions, capture_contents};
+use super::methods::{self, MethodSpec};
+use super::options::RenderOptions;
+use super::passes::bvh::BvhRay;
+use super::passes::cmo::CaptureContents;
+use super::passes::records::PixelRecord;
 use crate::camera::Camera;
 use crate::cpu::options::TraceOptions;
-use crate::cubemap::pyramid::{hier32_len, mip_len};
+use crate::cubemap::pyramid::mip_len;
 use crate::method::Method;
 use crate::scene::Scene;
 
@@ -15,16 +19,13 @@ use crate::scene::Scene;
 /// (`cmo_colour`), the capture pass's f32 distance target, and with self-reflections the
 /// capture's normal target and `cmo_normal` (RGBA f32 each).
 pub fn cmo_bytes_per_texel(self_reflections: bool) -> u64 {
-    cmo_bytes_per_texel_with(self_reflections, super::cmo::CaptureContents::default())
+    cmo_bytes_per_texel_with(self_reflections, CaptureContents::default())
 }
 
 /// [`cmo_bytes_per_texel`] for the chosen capture contents: the colour (16 B) only where
 /// captured, and with triangle IDs the capture's u32 target and `CmoData`'s ID buffer (4 B
 /// each). IDs without colour take 8 B less per texel than colour without IDs.
-pub fn cmo_bytes_per_texel_with(
-    self_reflections: bool,
-    contents: super::cmo::CaptureContents,
-) -> u64 {
+pub fn cmo_bytes_per_texel_with(self_reflections: bool, contents: CaptureContents) -> u64 {
     4 + 4
         + if contents.colour { 16 } else { 0 }
         + if contents.triangle_ids { 4 + 4 } else { 0 }
@@ -32,29 +33,21 @@ pub fn cmo_bytes_per_texel_with(
 }
 
 /// Bytes per frame pixel: the pixel records, the frame colour (RGBA f32), the G-buffer (colour,
-/// position, normal: RGBA f32 each; triangle ID u32; depth f32), and for the compute path the
-/// ray queue and the per-ray statistics; for ssr the Hi-Z pyramid; the BVH tracer's ray queue
-/// for `bvh` and for every method that can leave a pixel unresolved (the `trace` fallback's
-/// queue, counted whatever the fallback: an upper bound). The CWBVH itself is per triangle, like
-/// the scene's buffers, and not counted.
+/// position, normal: RGBA f32 each; triangle ID u32; depth f32), the method's own
+/// ([`MethodSpec::bytes_per_pixel`]), and the trace fallback's ray queue for every method that
+/// can leave a pixel unresolved (counted whatever the fallback: an upper bound). The CWBVH
+/// itself is per triangle, like the scene's buffers, and not counted. The reference allocates
+/// no frame on the GPU but is counted as one without a method's own bytes.
 pub fn frame_bytes_per_pixel(method: Method) -> u64 {
     let records = size_of::<PixelRecord>() as u64;
     let gbuffer = 3 * 16 + 4 + 4;
-    let bvh_queue = size_of::<super::bvh::BvhRay>() as u64;
-    let method_bytes = match method {
-        Method::Compute => size_of::<AppendedRay>() as u64 + 16 + bvh_queue,
-        // The Hi-Z pyramid: f32 cells, about 4/3 per pixel over all levels (2 on a one-pixel-wide
-        // frame; counted as 2), plus the ssr pass's parameters (per frame, negligible).
-        Method::Ssr => 2 * 4 + bvh_queue,
-        // The reflection-point method: the reflector's position and normal textures, the
-        // virtual objects' colour and point (RGBA f32 each) and two f32 depth buffers, at search
-        // scale 1 (T_P, T_N and their depth grow with the scale's square: not counted); its
-        // per-vertex buffer is per scene vertex (small beside these, not counted).
-        Method::ReflectionPoint => 4 * 16 + 2 * 4 + bvh_queue,
-        Method::Fragment | Method::Bvh => bvh_queue,
-        Method::Envmap | Method::Reference => 0,
+    let own = methods::spec(method).map_or(0, |s| s.bytes_per_pixel());
+    let fallback_queue = if method.can_leave_unresolved() {
+        size_of::<BvhRay>() as u64
+    } else {
+        0
     };
-    records + 16 + gbuffer + method_bytes
+    records + 16 + gbuffer + own + fallback_queue
 }
 
 /// What a render allocates on the device, in bytes.
@@ -73,8 +66,9 @@ impl DeviceBytes {
 }
 
 /// The device memory of one render of `width` x `height` pixels with `cmos` CMOs of
-/// `cube_size` texels per face side, capturing what [`capture_contents`] says for `method` and
-/// the tracer options `trace`.
+/// `cube_size` texels per face side, capturing what the method needs
+/// ([`MethodSpec::needs`]) with the tracer options `trace`. The reference, which allocates
+/// no CMO on the GPU, counts none.
 pub fn device_bytes(
     width: u32,
     height: u32,
@@ -85,47 +79,60 @@ pub fn device_bytes(
     trace: &TraceOptions,
 ) -> DeviceBytes {
     let pixels = u64::from(width) * u64::from(height);
-    // `bvh` captures one texel per face (`GpuRenderer`): nothing reads its CMOs.
-    let cube_size = if method == Method::Bvh { 1 } else { cube_size };
-    let face = u64::from(cube_size) * u64::from(cube_size);
-    let texels = u64::from(cmos) * 6 * face;
-    // [min, max] f32 pairs per cell.
-    let acceleration = match method {
-        Method::Fragment => u64::from(cmos) * mip_len(cube_size) as u64 * 8,
-        Method::Compute => u64::from(cmos) * hier32_len(cube_size) as u64 * 8,
-        Method::Envmap
-        | Method::Ssr
-        | Method::ReflectionPoint
-        | Method::Bvh
-        | Method::Reference => 0,
-    };
     DeviceBytes {
         frame: pixels * frame_bytes_per_pixel(method),
-        // The capture's depth target: one face at a time.
-        cmo: texels * cmo_bytes_per_texel_with(self_reflections, capture_contents(method, trace))
-            + face * 4
-            + acceleration,
+        cmo: methods::spec(method).map_or(0, |s| {
+            cmo_bytes(s, cmos, cube_size, self_reflections, trace)
+        }),
     }
 }
 
+/// The CMO bytes of a method: captured, the data and the capture's targets (its depth target
+/// one face at a time), the pyramid where it needs one, and its own per-CMO data; without a
+/// capture, the one-texel placeholder (distance, triangle ID and a colour texel per face).
+fn cmo_bytes(
+    spec: &dyn MethodSpec,
+    cmos: u32,
+    cube_size: u32,
+    self_reflections: bool,
+    trace: &TraceOptions,
+) -> u64 {
+    let needs = spec.needs(trace);
+    if !needs.capture {
+        return u64::from(cmos) * 6 * (4 + 4 + 16);
+    }
+    let face = u64::from(cube_size) * u64::from(cube_size);
+    let texels = u64::from(cmos) * 6 * face;
+    // [min, max] f32 pairs per cell.
+    let pyramid = if needs.pyramid {
+        u64::from(cmos) * mip_len(cube_size) as u64 * 8
+    } else {
+        0
+    };
+    texels * cmo_bytes_per_texel_with(self_reflections, needs.contents)
+        + face * 4
+        + pyramid
+        + spec.cmo_bytes(cmos, cube_size)
+}
+
 /// The device bytes `--bounces N` adds to a render of `width` x `height` pixels: for N >= 2,
-/// two queues of one [`BvhRay`](super::bvh::BvhRay) per pixel (the rounds alternate between
+/// two queues of one [`BvhRay`] per pixel (the rounds alternate between
 /// them); nothing otherwise. The BVH is per triangle and not counted, as above.
 pub fn bounce_bytes(width: u32, height: u32, bounces: u32) -> u64 {
     if bounces < 2 {
         return 0;
     }
-    2 * u64::from(width) * u64::from(height) * size_of::<super::bvh::BvhRay>() as u64
+    2 * u64::from(width) * u64::from(height) * size_of::<BvhRay>() as u64
 }
 
-/// The device bytes the reflector check ([`super::bvh::ReflectorCheck`]) adds to a render of
-/// `width` x `height` pixels when it runs: one queue of one [`BvhRay`](super::bvh::BvhRay) per
+/// The device bytes the reflector check ([`ReflectorCheck`](super::passes::bvh::ReflectorCheck)) adds to a render of
+/// `width` x `height` pixels when it runs: one queue of one [`BvhRay`] per
 /// pixel; nothing otherwise. Its BVH is per triangle and not counted, as above.
 pub fn reflector_check_bytes(width: u32, height: u32, runs: bool) -> u64 {
     if !runs {
         return 0;
     }
-    u64::from(width) * u64::from(height) * size_of::<super::bvh::BvhRay>() as u64
+    u64::from(width) * u64::from(height) * size_of::<BvhRay>() as u64
 }
 
 /// The device memory of one render of `scene` seen by `camera` with `options`: the CMOs, the
@@ -156,7 +163,6 @@ pub fn estimate(scene: &Scene, camera: &Camera, options: &RenderOptions) -> Devi
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::vk::cmo::CaptureContents;
 
     #[test]
     fn bounce_queues_only_past_one_bounce() {

@@ -4,6 +4,9 @@
 #![allow(dead_code)]
 
 pub mod analytic;
+pub mod hit_probe;
+pub mod selftest;
+pub mod trace_probe;
 
 use cubetrace::vk::{ContextOptions, GpuContext};
 use glam::Vec3;

@@ -1,0 +1,663 @@
+//! The compute path (thesis alg. 3, `--method compute`): four passes between the G-buffer and
+//! the composite pass of a frame.
+//!
+//! | pass | reads | writes |
+//! |---|---|---|
+//! | `hier32` | CMO distance | `cmo_hier`: the 8x4/4x8 `[min, max]` hierarchy ([`crate::vk::passes::hier32`]) |
+//! | `append` | G-buffer | ray queue + its atomic count (a fragment pass, one ray per mirror pixel) |
+//! | `dispatch_args` | ray count, hierarchy | `VkDispatchIndirectCommand` (no CPU round trip), the CMOs' cut radii |
+//! | `compute_trace` | queue, CMO data, `cmo_hier` | one [`PixelRecord`](crate::vk::frame::PixelRecord) per queued ray, per-ray counters |
+//!
+//! Invariants:
+//! - The queued ray of a mirror pixel is `mirror_ray`'s (spirv/shared/mirror.wgsl), the ray the
+//!   fragment path traces, so both paths trace bit-identical rays.
+//! - `compute_trace` writes `records[pixel]` for exactly the queued pixels, i.e. the mirror pixels
+//!   (`position.w == 1`, the composite pass's own test), and `ray_stats[pixel]` likewise.
+//! - The surface model and the classification are the fragment path's exact criterion
+//!   (`classify` in spirv/shared/trace.wgsl), so [`GpuRenderer`](crate::vk::frame::GpuRenderer)
+//!   refuses other criteria for this method.
+//! - Subgroup sizes 4..=128 (powers of two) are supported; the kernel's docs say how lanes map
+//!   to rays and why no workgroup barrier is needed (there is none). Its workgroups have 256
+//!   invocations, or 128 where 256 would exceed `maxComputeWorkgroupSubgroups`
+//!   ([`workgroup_size`]).
+//! - One `compute_trace` pipeline per renderer: with `main_lanes1`, its two dispatches (the
+//!   1-lane layout, then the retrace of the rays it flagged `cut`) differ in `trace_mode` only.
+//! - The ray counter is zeroed (`vkCmdFillBuffer`) before `append` in every frame. One fragment
+//!   per pixel (no multisampling), so the queue holds at most `width * height` rays.
+//! - The dispatch is sized for the device's default subgroup size ([`DispatchParams`]); the
+//!   kernel strides over the queue with the rays per workgroup it really has, so a device that
+//!   picks another size still traces every ray.
+
+use ash::vk;
+use bytemuck::{Pod, Zeroable};
+use gpu_allocator::MemoryLocation;
+
+use crate::vk::backend::buffer::Buffer;
+use crate::vk::backend::context::{GpuContext, Recorder};
+use crate::vk::backend::error::{VkError, VkResult};
+use crate::vk::backend::graphics::{GraphicsDesc, GraphicsPipeline, RenderTarget};
+use crate::vk::backend::info::DeviceReport;
+use crate::vk::backend::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
+use crate::vk::backend::shaders::{APPEND, COMPUTE_TRACE, DISPATCH_ARGS, HIER32, Pass};
+use crate::vk::backend::sync::{
+    INDIRECT_READ, SHADER_READ, SHADER_WRITE, STORAGE_RW, TRANSFER_WRITE,
+};
+use crate::vk::passes::cmo::{CaptureContents, CmoData};
+use crate::vk::passes::gbuffer::Gbuffer;
+use crate::vk::passes::hier32::{Hier32Bindings, Hier32Pass};
+use crate::vk::passes::scene_buffers::SceneBuffers;
+
+pub use super::technique::ComputeStats;
+use super::technique::{FrameInputs, MethodSpec, MethodStats, Needs, Scope, Technique};
+
+use crate::cpu::options::TraceOptions;
+use crate::cubemap::pyramid::{
+    HIER_MAX_LEVELS, hier32_flat_layout, hier32_group, hier32_layout, hier32_len,
+};
+
+/// WGSL `AppendedRay` (spirv/shared/compute_rays.wgsl): one queued mirror ray.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct AppendedRay {
+    pub origin: [f32; 3],
+    /// `j * width + i`.
+    pub pixel: u32,
+    pub dir: [f32; 3],
+    /// Reflections taken before this ray (0 today).
+    pub bounce: u32,
+}
+
+/// WGSL `RayCounter`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct RayCounter {
+    /// Rays appended.
+    pub count: u32,
+    /// Largest subgroup size `compute_trace` ran with.
+    pub subgroup_max: u32,
+    /// `!min` subgroup size.
+    pub subgroup_min_not: u32,
+    pub pad0: u32,
+}
+
+/// WGSL `DispatchArgs` (= `VkDispatchIndirectCommand`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct DispatchArgs {
+    pub x: u32,
+    pub y: u32,
+    pub z: u32,
+}
+
+/// WGSL `DispatchParams` of `dispatch_args`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct DispatchParams {
+    /// Rays per `compute_trace` workgroup at the device's subgroup size: `256 / min(S, 32)`.
+    pub rays_per_group: u32,
+    /// Number of CMOs K whose cut radii `dispatch_args` computes (0: none).
+    pub cmo_count: u32,
+    /// Face size N of the CMOs.
+    pub size: u32,
+    /// Rays per retrace workgroup (`main_lanes1` with `trace_mode` 1: `256 / min(S, 32)`) with
+    /// `lane_cap` 1; 0 otherwise (no retrace dispatch).
+    pub retrace_rays_per_group: u32,
+}
+
+/// Environment variable that overrides [`ray_lanes`]'s cap: `32` (the thesis layout, entry
+/// `main`) or `1` (entry `main_lanes1`). Anything else is refused.
+pub const RAY_LANES_ENV: &str = "CUBETRACE_RAY_LANES";
+
+/// The most lanes `compute_trace` gives one ray, and the entry point that does it: 1
+/// (`main_lanes1`: S rays per subgroup, each lane running its ray's 32 logical lanes in rounds)
+/// on CPU devices, where every lane repeats the ray's per-ray work so that this layout measured
+/// fastest (spirv/README.md, "Performance on lavapipe"); 32 (`main`, thesis alg. 3: min(S, 32)
+/// lanes per ray) elsewhere. [`RAY_LANES_ENV`] overrides it. With `main_lanes1` the frame
+/// dispatches the same pipeline a second time with `trace_mode` 1, which retraces with the
+/// thesis layout the rays whose step loop the driver's loop limit cut (lavapipe: 65535 loop
+/// iterations per invocation; spirv/README.md, "Known defect"), so both layouts give the same
+/// records. Where [`workgroup_size`] is 128, the `_wg128` twin of the entry point.
+pub fn ray_lanes(ctx: &GpuContext) -> VkResult<(u32, &'static str)> {
+    let cap = match std::env::var(RAY_LANES_ENV) {
+        Ok(v) => match v.trim() {
+            "32" => 32,
+            "1" => 1,
+            other => {
+                return Err(VkError::Usage {
+                    what: RAY_LANES_ENV.into(),
+                    detail: format!("`{other}`: expected 32 or 1"),
+                });
+            }
+        },
+        Err(_) if ctx.report().device_type == vk::PhysicalDeviceType::CPU => 1,
+        Err(_) => 32,
+    };
+    let small = workgroup_size(ctx.report()) == 128;
+    Ok(match (cap == 1, small) {
+        (true, false) => (1, "main_lanes1"),
+        (true, true) => (1, "main_lanes1_wg128"),
+        (false, false) => (32, "main"),
+        (false, true) => (32, "main_wg128"),
+    })
+}
+
+/// `compute_trace`'s workgroup size on a device: 256, or 128 where 256 invocations would be more
+/// subgroups than `maxComputeWorkgroupSubgroups` allows (lavapipe at subgroup size 4: 64 against
+/// 32). Not the cause of lavapipe's abort on the span scene at that size (spirv/README.md,
+/// "Known defect").
+pub fn workgroup_size(report: &DeviceReport) -> u32 {
+    let subgroups = 256 / report.subgroup_size.max(1);
+    match report.max_compute_workgroup_subgroups {
+        Some(max) if subgroups > max => 128,
+        _ => 256,
+    }
+}
+
+impl DispatchParams {
+    /// For a device whose compute shaders run with subgroups of `subgroup_size` lanes and the
+    /// thesis layout (entry `main`; the kernel is correct with any value, this one launches no
+    /// idle workgroup on that device).
+    pub fn for_subgroup_size(subgroup_size: u32) -> Self {
+        Self::for_lanes(subgroup_size, 32)
+    }
+
+    /// For subgroups of `subgroup_size` lanes and at most `lane_cap` lanes per ray
+    /// ([`ray_lanes`]): `256 / min(S, 32, lane_cap)` rays per workgroup.
+    pub fn for_lanes(subgroup_size: u32, lane_cap: u32) -> Self {
+        Self::for_group(256, subgroup_size, lane_cap)
+    }
+
+    /// [`DispatchParams::for_lanes`] with workgroups of `group_size` invocations
+    /// ([`workgroup_size`]): `group_size / min(S, 32, lane_cap)` rays per workgroup.
+    pub fn for_group(group_size: u32, subgroup_size: u32, lane_cap: u32) -> Self {
+        DispatchParams {
+            rays_per_group: group_size / subgroup_size.clamp(4, 32).min(lane_cap.max(1)),
+            retrace_rays_per_group: if lane_cap == 1 {
+                group_size / subgroup_size.clamp(4, 32)
+            } else {
+                0
+            },
+            ..DispatchParams::default()
+        }
+    }
+
+    /// With the cut radii of `cmo_count` CMOs of face size `size` to compute.
+    pub fn with_cmos(self, cmo_count: u32, size: u32) -> Self {
+        DispatchParams {
+            cmo_count,
+            size,
+            ..self
+        }
+    }
+}
+
+/// WGSL `HierConfig` of `compute_trace`: the [`Hier32`](crate::cubemap::pyramid::Hier32)
+/// layout for face size N.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct HierConfig {
+    /// Root level index (0 when the texels are the root).
+    pub root: u32,
+    /// `hier32_len(N)`.
+    pub hier_len: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+    /// Level l: `(offset in cells (l >= 1), width, height, 0)`.
+    pub dims: [[u32; 4]; HIER_MAX_LEVELS],
+    /// Level l: `(gx, gy, span x, span y)`.
+    pub shape: [[u32; 4]; HIER_MAX_LEVELS],
+}
+
+impl HierConfig {
+    /// The layout for face size `size`; fails where the hierarchy has more than
+    /// [`HIER_MAX_LEVELS`] levels (N above 4096 is refused by `TraceConfig` anyway).
+    pub fn new(size: u32) -> VkResult<Self> {
+        let dims = hier32_layout(size);
+        if dims.len() > HIER_MAX_LEVELS {
+            return Err(VkError::Usage {
+                what: COMPUTE_TRACE.name.into(),
+                detail: format!("face size {size} needs {} hierarchy levels", dims.len()),
+            });
+        }
+        let flat = hier32_flat_layout(size);
+        let mut c = HierConfig {
+            root: (dims.len() - 1) as u32,
+            hier_len: hier32_len(size) as u32,
+            ..HierConfig::default()
+        };
+        let mut span = (1u32, 1u32);
+        for (l, &(w, h)) in dims.iter().enumerate() {
+            let offset = if l == 0 { 0 } else { flat[l - 1].offset };
+            let group = if l == 0 { (1, 1) } else { hier32_group(l) };
+            span = (span.0 * group.0, span.1 * group.1);
+            c.dims[l] = [offset, w, h, 0];
+            c.shape[l] = [group.0, group.1, span.0, span.1];
+        }
+        Ok(c)
+    }
+}
+
+/// Subgroup sizes the kernel supports.
+pub const SUBGROUP_SIZES: std::ops::RangeInclusive<u32> = 4..=128;
+
+/// Checks that the device can run the compute path: subgroup ballot, vote and shuffle in compute
+/// shaders, and a supported subgroup size.
+pub fn check_device(ctx: &GpuContext) -> VkResult<()> {
+    let r = ctx.report();
+    let need = vk::SubgroupFeatureFlags::BASIC
+        | vk::SubgroupFeatureFlags::VOTE
+        | vk::SubgroupFeatureFlags::BALLOT
+        | vk::SubgroupFeatureFlags::SHUFFLE;
+    let problem = if !r.subgroup_stages.contains(vk::ShaderStageFlags::COMPUTE) {
+        Some("no subgroup operations in compute shaders".to_string())
+    } else if !r.subgroup_ops.contains(need) {
+        Some(format!(
+            "subgroup operations {:?}, need basic, vote, ballot and shuffle",
+            r.subgroup_ops
+        ))
+    } else if !SUBGROUP_SIZES.contains(&r.subgroup_size) || !r.subgroup_size.is_power_of_two() {
+        Some(format!(
+            "subgroup size {}, the kernel supports powers of two in {SUBGROUP_SIZES:?}",
+            r.subgroup_size
+        ))
+    } else {
+        None
+    };
+    match problem {
+        Some(detail) => Err(VkError::Usage {
+            what: format!("{} on {}", COMPUTE_TRACE.name, r.name),
+            detail: format!("{detail} (use --method fragment)"),
+        }),
+        None => Ok(()),
+    }
+}
+
+/// The compute path's buffers, each allocated once.
+struct ComputeBuffers {
+    hier: Buffer,
+    hier_config: Buffer,
+    dispatch_params: Buffer,
+    cut: Buffer,
+    rays: Buffer,
+    counter: Buffer,
+    args: Buffer,
+    retrace_args: Buffer,
+    stats: Buffer,
+}
+
+impl ComputeBuffers {
+    /// For `cmo`'s CMOs and a frame of `pixels` pixels; `lane_cap` as [`ray_lanes`] says.
+    fn new(ctx: &GpuContext, cmo: &CmoData, pixels: u64, lane_cap: u32) -> VkResult<Self> {
+        let size = cmo.size();
+        let config = HierConfig::new(size)?;
+        let storage = |name: &str, bytes: u64, extra: vk::BufferUsageFlags| {
+            Buffer::new(
+                ctx.device(),
+                name,
+                bytes,
+                vk::BufferUsageFlags::STORAGE_BUFFER | extra,
+                MemoryLocation::GpuOnly,
+            )
+        };
+        let cells = u64::from(cmo.count()) * hier32_len(size) as u64;
+        let dispatch = DispatchParams::for_group(
+            workgroup_size(ctx.report()),
+            ctx.report().subgroup_size,
+            lane_cap,
+        )
+        .with_cmos(cmo.count(), size);
+        let transfer_src = vk::BufferUsageFlags::TRANSFER_SRC;
+        let indirect = vk::BufferUsageFlags::INDIRECT_BUFFER;
+        Ok(ComputeBuffers {
+            hier: storage("cmo_hier", cells.max(1) * 8, transfer_src)?,
+            hier_config: ctx.create_buffer_init(
+                "hier_config",
+                vk::BufferUsageFlags::STORAGE_BUFFER,
+                std::slice::from_ref(&config),
+            )?,
+            rays: storage(
+                "ray queue",
+                pixels * size_of::<AppendedRay>() as u64,
+                vk::BufferUsageFlags::empty(),
+            )?,
+            counter: storage(
+                "ray counter",
+                size_of::<RayCounter>() as u64,
+                vk::BufferUsageFlags::TRANSFER_DST | transfer_src,
+            )?,
+            args: storage(
+                "compute_trace dispatch",
+                size_of::<DispatchArgs>() as u64,
+                indirect | transfer_src,
+            )?,
+            retrace_args: storage(
+                "retrace dispatch",
+                size_of::<DispatchArgs>() as u64,
+                indirect,
+            )?,
+            stats: storage("ray stats", pixels * 16, transfer_src)?,
+            cut: storage("cmo_cut", u64::from(cmo.count()) * 4, transfer_src)?,
+            dispatch_params: ctx.create_buffer_init(
+                "dispatch params",
+                vk::BufferUsageFlags::STORAGE_BUFFER,
+                &[dispatch],
+            )?,
+        })
+    }
+}
+
+/// The `compute_trace` pipeline through `entry` and its groups: 0 (`params`, `records`), 1 (the
+/// CMO data), 2 (the queue and the hierarchy, with `trace_mode` 0 where the entry reads it), 3
+/// (the scene, for verified hits: compute_trace's SCENE_GROUP).
+struct TracePass {
+    pipeline: ComputePipeline,
+    sets: [BindGroup; 4],
+    /// With `main_lanes1`: group 2 of its retrace dispatch (`trace_mode` 1; its dispatch:
+    /// `retrace_args`).
+    retrace_set: Option<BindGroup>,
+    _trace_modes: Vec<Buffer>,
+}
+
+impl TracePass {
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        ctx: &GpuContext,
+        entry: &str,
+        lane_cap: u32,
+        b: &ComputeBuffers,
+        cmo: &CmoData,
+        scene: &SceneBuffers,
+        params: &Buffer,
+        records: &Buffer,
+    ) -> VkResult<Self> {
+        // One pipeline (a CPU driver compiles it at creation: about 0.25 s on lavapipe); with
+        // `main_lanes1`, its two dispatches differ in `trace_mode` only.
+        let compile_start = std::time::Instant::now();
+        let trace = ComputePipeline::new(ctx, &COMPUTE_TRACE, entry, ComputeOptions::default())?;
+        log::info!(
+            "{}: pipeline {entry} created in {:.0} ms",
+            COMPUTE_TRACE.name,
+            compile_start.elapsed().as_secs_f64() * 1e3
+        );
+        let uses_mode = trace
+            .entry
+            .bindings
+            .iter()
+            .any(|b| b.group == 2 && b.binding == 6);
+        let trace_modes = if uses_mode {
+            (0u32..2)
+                .map(|mode| {
+                    ctx.create_buffer_init(
+                        "trace_mode",
+                        vk::BufferUsageFlags::STORAGE_BUFFER,
+                        &[mode],
+                    )
+                })
+                .collect::<VkResult<Vec<_>>>()?
+        } else {
+            Vec::new()
+        };
+        let set2 = |mode: Option<&Buffer>| {
+            let mut resources = vec![
+                (0, Resource::Buffer(&b.counter)),
+                (1, Resource::Buffer(&b.rays)),
+                (2, Resource::Buffer(&b.hier_config)),
+                (3, Resource::Buffer(&b.hier)),
+                (4, Resource::Buffer(&b.stats)),
+                (5, Resource::Buffer(&b.cut)),
+            ];
+            if let Some(m) = mode {
+                resources.push((6, Resource::Buffer(m)));
+            }
+            trace.bind_group(2, &resources)
+        };
+        let sets = [
+            trace.bind_group(
+                0,
+                &[
+                    (2, Resource::Buffer(params)),
+                    (3, Resource::Buffer(records)),
+                ],
+            )?,
+            trace.bind_group(1, &cmo.resources_for(&COMPUTE_TRACE, entry))?,
+            set2(trace_modes.first())?,
+            trace.bind_group(3, &scene.resources())?,
+        ];
+        let retrace_set = match trace_modes.get(1) {
+            Some(m) if lane_cap == 1 => Some(set2(Some(m))?),
+            _ => None,
+        };
+        Ok(TracePass {
+            pipeline: trace,
+            sets,
+            retrace_set,
+            _trace_modes: trace_modes,
+        })
+    }
+}
+
+/// The compute path's buffers and pipelines for one renderer.
+pub struct ComputePath {
+    width: u32,
+    height: u32,
+    hier_pass: Hier32Pass,
+    hier_bindings: Hier32Bindings,
+    append: GraphicsPipeline,
+    append_set: BindGroup,
+    dispatch_args: ComputePipeline,
+    args_set: BindGroup,
+    trace: TracePass,
+    buffers: ComputeBuffers,
+}
+
+impl ComputePath {
+    /// Allocates the hierarchy, the queue and the pipelines. `params` is the frame's
+    /// `FrameParams` uniform and `records` its per-pixel record buffer; `scene` is bound for
+    /// verified hits (`cmo` must carry the triangle IDs).
+    pub fn new(
+        ctx: &GpuContext,
+        cmo: &CmoData,
+        scene: &SceneBuffers,
+        gbuffer: &Gbuffer,
+        params: &Buffer,
+        records: &Buffer,
+        (width, height): (u32, u32),
+    ) -> VkResult<Self> {
+        check_device(ctx)?;
+        let (lane_cap, entry) = ray_lanes(ctx)?;
+        let pixels = u64::from(width) * u64::from(height);
+        let b = ComputeBuffers::new(ctx, cmo, pixels, lane_cap)?;
+        let hier_pass = Hier32Pass::new(ctx)?;
+        let hier_bindings =
+            hier_pass.bind(ctx, cmo.distance(), &b.hier, cmo.count(), cmo.size())?;
+        let append = GraphicsPipeline::new(
+            ctx,
+            &APPEND,
+            &GraphicsDesc {
+                vertex: "vs_fullscreen",
+                fragment: "fs_main",
+                colour_formats: Vec::new(),
+                depth: None,
+            },
+        )?;
+        let append_set = append.bind_group(
+            0,
+            &[
+                (0, Resource::sampled(&gbuffer.position)),
+                (1, Resource::sampled(&gbuffer.normal)),
+                (2, Resource::Buffer(params)),
+                (6, Resource::Buffer(&b.counter)),
+                (7, Resource::Buffer(&b.rays)),
+            ],
+        )?;
+        let dispatch_args =
+            ComputePipeline::new(ctx, &DISPATCH_ARGS, "main", ComputeOptions::default())?;
+        let args_set = dispatch_args.bind_group(
+            0,
+            &[
+                (0, Resource::Buffer(&b.counter)),
+                (1, Resource::Buffer(&b.args)),
+                (2, Resource::Buffer(&b.dispatch_params)),
+                (3, Resource::Buffer(&b.cut)),
+                (4, Resource::Buffer(&b.hier_config)),
+                (5, Resource::Buffer(&b.hier)),
+                (6, Resource::Buffer(cmo.distance())),
+                (7, Resource::Buffer(&b.retrace_args)),
+            ],
+        )?;
+        let trace = TracePass::new(ctx, entry, lane_cap, &b, cmo, scene, params, records)?;
+        Ok(ComputePath {
+            width,
+            height,
+            hier_pass,
+            hier_bindings,
+            append,
+            append_set,
+            dispatch_args,
+            args_set,
+            trace,
+            buffers: b,
+        })
+    }
+
+    /// `hier32`: the hierarchy from the captured distances (the caller orders it after the
+    /// capture and before [`ComputePath::record_trace`]).
+    pub fn record_hier(&self, rec: &Recorder<'_>) {
+        self.hier_pass.record(rec, &self.hier_bindings);
+    }
+
+    /// `append`: zeroes the counter, then queues one ray per mirror pixel of the G-buffer.
+    pub fn record_append(&self, rec: &Recorder<'_>) -> VkResult<()> {
+        rec.fill_buffer(&self.buffers.counter, 0);
+        rec.memory_barrier(TRANSFER_WRITE, STORAGE_RW);
+        let target = RenderTarget {
+            width: self.width,
+            height: self.height,
+            colour: Vec::new(),
+            depth: None,
+        };
+        self.append.draw(rec, &target, &[&self.append_set], 3, 0)
+    }
+
+    /// `dispatch_args`: the workgroup count from the ray count (after a barrier from `append`).
+    pub fn record_dispatch_args(&self, rec: &Recorder<'_>) {
+        rec.memory_barrier(SHADER_WRITE, STORAGE_RW);
+        self.dispatch_args
+            .dispatch(rec, &[&self.args_set], [1, 1, 1]);
+    }
+
+    /// `compute_trace`: the indirect dispatch over the queue (after a barrier from
+    /// `dispatch_args`; the hierarchy must already be visible); with `main_lanes1`, then its
+    /// retrace (`trace_mode` 1) over the rays it flagged `cut`.
+    pub fn record_trace(&self, rec: &Recorder<'_>) -> VkResult<()> {
+        rec.memory_barrier(SHADER_WRITE, INDIRECT_READ);
+        let t = &self.trace;
+        let sets = [&t.sets[0], &t.sets[1], &t.sets[2], &t.sets[3]];
+        t.pipeline
+            .dispatch_indirect(rec, &sets, &self.buffers.args, 0)?;
+        if let Some(set2) = &t.retrace_set {
+            rec.memory_barrier(SHADER_WRITE, STORAGE_RW);
+            t.pipeline.dispatch_indirect(
+                rec,
+                &[sets[0], sets[1], set2, sets[3]],
+                &self.buffers.retrace_args,
+                0,
+            )?;
+        }
+        Ok(())
+    }
+
+    /// The ray count, subgroup sizes and per-pixel counters of the last frame.
+    pub fn read_stats(&self, ctx: &GpuContext) -> VkResult<ComputeStats> {
+        let counter: Vec<RayCounter> = ctx.read_buffer(&self.buffers.counter)?;
+        let c = counter.first().copied().unwrap_or_default();
+        let mut per_pixel: Vec<[u32; 4]> = ctx.read_buffer(&self.buffers.stats)?;
+        per_pixel.truncate((self.width * self.height) as usize);
+        Ok(ComputeStats {
+            rays: c.count,
+            subgroup_size: (!c.subgroup_min_not, c.subgroup_max),
+            per_pixel,
+        })
+    }
+
+    /// The dispatch the GPU computed in the last frame (tests).
+    pub fn read_dispatch_args(&self, ctx: &GpuContext) -> VkResult<DispatchArgs> {
+        let a: Vec<DispatchArgs> = ctx.read_buffer(&self.buffers.args)?;
+        Ok(a.first().copied().unwrap_or_default())
+    }
+}
+
+/// The compute method.
+pub struct Compute;
+
+impl MethodSpec for Compute {
+    fn trace_pass(&self) -> &'static Pass {
+        &COMPUTE_TRACE
+    }
+
+    /// Triangle IDs (verified hits, the environment-map fallback), no colour, no pyramid: the
+    /// hierarchy is the method's own ([`ComputePath`]).
+    fn needs(&self, _trace: &TraceOptions) -> Needs {
+        Needs {
+            capture: true,
+            contents: CaptureContents {
+                colour: false,
+                triangle_ids: true,
+            },
+            pyramid: false,
+        }
+    }
+
+    /// The ray queue and the per-ray statistics.
+    fn bytes_per_pixel(&self) -> u64 {
+        size_of::<AppendedRay>() as u64 + 16
+    }
+
+    /// The 8x4/4x8 hierarchy: `[min, max]` f32 pairs per cell.
+    fn cmo_bytes(&self, cmos: u32, size: u32) -> u64 {
+        u64::from(cmos) * hier32_len(size) as u64 * 8
+    }
+
+    fn check_device(&self, ctx: &GpuContext) -> VkResult<()> {
+        check_device(ctx)
+    }
+
+    fn create(&self, i: &FrameInputs<'_>) -> VkResult<Box<dyn Technique>> {
+        Ok(Box::new(ComputePath::new(
+            i.ctx,
+            i.cmo,
+            i.scene,
+            i.gbuffer,
+            i.params,
+            i.records,
+            i.gbuffer.extent(),
+        )?))
+    }
+}
+
+impl Technique for ComputePath {
+    fn record_cmo_stage(&self, rec: &Recorder<'_>, scope: &mut Scope<'_>) -> VkResult<()> {
+        scope(HIER32.name, &mut || {
+            self.record_hier(rec);
+            Ok(())
+        })?;
+        rec.memory_barrier(SHADER_WRITE, SHADER_READ);
+        Ok(())
+    }
+
+    fn record(&self, rec: &Recorder<'_>, scope: &mut Scope<'_>) -> VkResult<()> {
+        scope(APPEND.name, &mut || self.record_append(rec))?;
+        scope(DISPATCH_ARGS.name, &mut || {
+            self.record_dispatch_args(rec);
+            Ok(())
+        })?;
+        scope(COMPUTE_TRACE.name, &mut || self.record_trace(rec))
+    }
+
+    fn read_stats(&self, ctx: &GpuContext) -> VkResult<MethodStats> {
+        Ok(MethodStats {
+            compute: Some(ComputePath::read_stats(self, ctx)?),
+            search: None,
+        })
+    }
+}

@@ -1,0 +1,614 @@
+//! `--method reflection-point`: the reflection-point search with virtual objects of Estalella et
+//! al. 2006, two named passes after the G-buffer:
+//!
+//! | pass | reads | writes |
+//! |---|---|---|
+//! | `reflection_point_search` | scene | the reflectors alone from the camera, closed ([`crate::cpu::closure`]; T_P: position + mask, T_N: normal); then, one invocation per scene vertex, the local 3x3 search and the virtual vertex |
+//! | `reflection_point_raster` | scene, virtual vertices, G-buffer | the virtual objects with depth, in the mirror pixels only (colour, original point); then one record per mirror pixel |
+//!
+//! The search is specified by its CPU twin [`crate::cpu::reflection_point`]; the shaders are
+//! `spirv/reflection_point_search.wgsl` and `spirv/reflection_point_raster.wgsl`. Mirror pixels that no virtual object covers
+//! get an unresolved record, filled by the frame's fallback in `composite` (the environment map
+//! by default), and are counted as unresolved by the metrics.
+//!
+//! Invariants: every image and buffer here is fully rewritten every frame; the barriers inside
+//! each pass are recorded here; the one between the G-buffer and `reflection_point_raster` (which reads its
+//! mirror mask) and the one before `composite` belong to the caller
+//! ([`crate::vk::frame::GpuRenderer`]).
+use ash::vk;
+use bytemuck::{Pod, Zeroable};
+use glam::{Vec3, Vec4};
+use gpu_allocator::MemoryLocation;
+
+use crate::camera::Camera;
+use crate::cpu::closure::{ClosureVertex, closing_triangles};
+use crate::cpu::options::TraceOptions;
+use crate::cpu::reflection_point::{RpOptions, RpVertex, SearchStats, SearchTextures, start_texel};
+use crate::scene::gpu_data::GpuSceneData;
+use crate::vk::backend::buffer::Buffer;
+use crate::vk::backend::context::{GpuContext, Recorder};
+use crate::vk::backend::error::{VkError, VkResult};
+use crate::vk::backend::graphics::{
+    ColourTarget, DepthTest, GraphicsDesc, GraphicsPipeline, RenderTarget,
+};
+use crate::vk::backend::image::{Image, ImageDesc};
+use crate::vk::backend::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
+use crate::vk::backend::shaders::{Pass, REFLECTION_POINT_RASTER, REFLECTION_POINT_SEARCH};
+use crate::vk::backend::sync::{COLOUR_WRITE, SHADER_READ, SHADER_WRITE};
+use crate::vk::passes::cmo::CaptureContents;
+use crate::vk::passes::gbuffer::Gbuffer;
+use crate::vk::passes::scene_buffers::SceneBuffers;
+
+use super::technique::{FrameInputs, MethodSpec, MethodStats, Needs, Scope, Technique};
+
+/// `RpParams` in `spirv/reflection_point_search.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct RpParams {
+    pub view_proj: [[f32; 4]; 4],
+    pub eye: [f32; 3],
+    pub max_iterations: u32,
+    pub start: [i32; 2],
+    pub width: u32,
+    pub height: u32,
+    pub vertex_count: u32,
+    /// The scene's index count: the reflector draw's vertices past it are closing ones.
+    pub index_count: u32,
+    pub pad1: u32,
+    pub pad2: u32,
+}
+
+impl RpParams {
+    /// The search's parameters for a frame of `width` x `height` pixels seen by `camera`
+    /// (near plane `near`) over `data`, whose index buffer holds `index_count` indices. Refuses
+    /// a search scale whose textures exceed the largest resolution.
+    fn for_frame(
+        data: &GpuSceneData,
+        index_count: u32,
+        camera: &Camera,
+        near: f32,
+        options: &RpOptions,
+        (width, height): (u32, u32),
+    ) -> VkResult<Self> {
+        let scale = options.search_scale.max(1);
+        let (sw, sh) = (width.saturating_mul(scale), height.saturating_mul(scale));
+        crate::scene::check_resolution(sw, sh).map_err(|e| VkError::Usage {
+            what: "reflection-point search scale".into(),
+            detail: format!("{width}x{height} times {scale}: the search textures' {e}"),
+        })?;
+        let view_proj = camera.view_proj(near);
+        Ok(RpParams {
+            view_proj: view_proj.to_cols_array_2d(),
+            eye: camera.eye.to_array(),
+            max_iterations: options.iteration_cap(sw, sh),
+            start: start_texel(data, view_proj, sw, sh),
+            width: sw,
+            height: sh,
+            vertex_count: data.vertices.len() as u32,
+            index_count,
+            pad1: 0,
+            pad2: 0,
+        })
+    }
+}
+
+/// `RpCamera` in `spirv/reflection_point_raster.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct RpCamera {
+    pub view_proj: [[f32; 4]; 4],
+    pub eye: [f32; 3],
+    pub near: f32,
+}
+
+/// The scene's group-0 resources that `entries` of `pass` use (a bind group must not supply
+/// more than its layout declares).
+fn scene_resources<'a>(
+    scene: &'a SceneBuffers,
+    pass: &Pass,
+    entries: &[&str],
+) -> Vec<(u32, Resource<'a>)> {
+    let used = |binding: u32| {
+        entries.iter().any(|name| {
+            pass.entry_point(name).is_some_and(|e| {
+                e.bindings
+                    .iter()
+                    .any(|b| b.group == 0 && b.binding == binding)
+            })
+        })
+    };
+    scene
+        .resources()
+        .into_iter()
+        .filter(|(b, _)| used(*b))
+        .collect()
+}
+
+const FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
+/// Workgroups per dispatch row (the smallest `maxComputeWorkGroupCount[0]` Vulkan guarantees).
+const MAX_GROUPS_X: u32 = 65_535;
+
+/// The closing triangles of open reflectors ([`crate::cpu::closure`]) as a buffer, and their
+/// vertex count (the buffer holds one default vertex when there are none: a storage buffer
+/// cannot be empty; the shader reads only the count).
+fn closure_buffer(
+    ctx: &GpuContext,
+    data: &GpuSceneData,
+    options: &RpOptions,
+) -> VkResult<(Buffer, u32)> {
+    let mut closure = if options.close_reflectors {
+        closing_triangles(data)
+    } else {
+        Vec::new()
+    };
+    let closure_vertices = closure.len() as u32;
+    if closure.is_empty() {
+        closure.push(ClosureVertex::default());
+    }
+    let buffer =
+        ctx.create_buffer_init("rp closure", vk::BufferUsageFlags::STORAGE_BUFFER, &closure)?;
+    Ok((buffer, closure_vertices))
+}
+
+/// The search textures T_P and T_N and their depth at the search size `search`, then the
+/// virtual objects' colour, point and depth at the frame size `frame`.
+fn images(ctx: &GpuContext, search: (u32, u32), frame: (u32, u32)) -> VkResult<[Image; 6]> {
+    let dev = ctx.device();
+    let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT
+        | vk::ImageUsageFlags::SAMPLED
+        | vk::ImageUsageFlags::TRANSFER_SRC;
+    let image =
+        |name: &str, (w, h): (u32, u32)| Image::new(dev, ImageDesc::d2(name, FORMAT, w, h, usage));
+    let depth = |name: &str, (w, h): (u32, u32)| {
+        Image::new(
+            dev,
+            ImageDesc::d2(
+                name,
+                vk::Format::D32_SFLOAT,
+                w,
+                h,
+                vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+            ),
+        )
+    };
+    Ok([
+        image("rp reflector position", search)?,
+        image("rp reflector normal", search)?,
+        depth("rp reflector depth", search)?,
+        image("rp virtual colour", frame)?,
+        image("rp virtual point", frame)?,
+        depth("rp virtual depth", frame)?,
+    ])
+}
+
+/// The colour formats and depth test of both passes' draws.
+fn draw_desc(vertex: &'static str, fragment: &'static str) -> GraphicsDesc {
+    GraphicsDesc {
+        vertex,
+        fragment,
+        colour_formats: vec![FORMAT; 2],
+        depth: Some((vk::Format::D32_SFLOAT, DepthTest::Reversed)),
+    }
+}
+
+/// `reflection_point_search`'s pipelines: the reflectors' draw into T_P / T_N, the per-vertex
+/// search.
+struct SearchPipelines {
+    reflector: GraphicsPipeline,
+    reflector_sets: [BindGroup; 2],
+    search: ComputePipeline,
+    search_sets: [BindGroup; 2],
+}
+
+impl SearchPipelines {
+    fn new(
+        ctx: &GpuContext,
+        scene: &SceneBuffers,
+        params: &Buffer,
+        closure: &Buffer,
+        position: &Image,
+        normal: &Image,
+        vertices: &Buffer,
+    ) -> VkResult<Self> {
+        let pass = &REFLECTION_POINT_SEARCH;
+        let reflector =
+            GraphicsPipeline::new(ctx, pass, &draw_desc("vs_reflector", "fs_reflector"))?;
+        let reflector_sets = [
+            reflector.bind_group(
+                0,
+                &scene_resources(scene, pass, &["vs_reflector", "fs_reflector"]),
+            )?,
+            reflector.bind_group(
+                1,
+                &[
+                    (0, Resource::Buffer(params)),
+                    (4, Resource::Buffer(closure)),
+                ],
+            )?,
+        ];
+        let search = ComputePipeline::new(ctx, pass, "search", ComputeOptions::default())?;
+        let search_sets = [
+            search.bind_group(0, &scene_resources(scene, pass, &["search"]))?,
+            search.bind_group(
+                1,
+                &[
+                    (0, Resource::Buffer(params)),
+                    (1, Resource::sampled(position)),
+                    (2, Resource::sampled(normal)),
+                    (3, Resource::Buffer(vertices)),
+                ],
+            )?,
+        ];
+        Ok(SearchPipelines {
+            reflector,
+            reflector_sets,
+            search,
+            search_sets,
+        })
+    }
+}
+
+/// `reflection_point_raster`'s pipelines: the virtual objects' draw, the records' resolve.
+struct RasterPipelines {
+    virtual_draw: GraphicsPipeline,
+    virtual_sets: [BindGroup; 2],
+    resolve: ComputePipeline,
+    resolve_set: BindGroup,
+}
+
+impl RasterPipelines {
+    /// `targets`: the virtual objects' colour and point.
+    fn new(
+        ctx: &GpuContext,
+        scene: &SceneBuffers,
+        camera: &Buffer,
+        vertices: &Buffer,
+        gbuffer: &Gbuffer,
+        [virtual_colour, virtual_point]: [&Image; 2],
+        records: &Buffer,
+    ) -> VkResult<Self> {
+        let pass = &REFLECTION_POINT_RASTER;
+        let virtual_draw =
+            GraphicsPipeline::new(ctx, pass, &draw_desc("vs_virtual", "fs_virtual"))?;
+        let virtual_sets = [
+            virtual_draw.bind_group(
+                0,
+                &scene_resources(scene, pass, &["vs_virtual", "fs_virtual"]),
+            )?,
+            virtual_draw.bind_group(
+                1,
+                &[
+                    (0, Resource::Buffer(camera)),
+                    (1, Resource::Buffer(vertices)),
+                    (2, Resource::sampled(&gbuffer.position)),
+                ],
+            )?,
+        ];
+        let resolve = ComputePipeline::new(ctx, pass, "resolve", ComputeOptions::default())?;
+        let resolve_set = resolve.bind_group(
+            0,
+            &[
+                (8, Resource::Buffer(camera)),
+                (9, Resource::sampled(&gbuffer.position)),
+                (10, Resource::sampled(&gbuffer.normal)),
+                (11, Resource::sampled(virtual_colour)),
+                (12, Resource::sampled(virtual_point)),
+                (13, Resource::Buffer(records)),
+            ],
+        )?;
+        Ok(RasterPipelines {
+            virtual_draw,
+            virtual_sets,
+            resolve,
+            resolve_set,
+        })
+    }
+}
+
+/// The two passes of the reflection-point method for one scene and camera, allocated once.
+pub struct ReflectionPointPasses {
+    reflector: GraphicsPipeline,
+    reflector_sets: [BindGroup; 2],
+    search: ComputePipeline,
+    search_sets: [BindGroup; 2],
+    search_groups: [u32; 3],
+    virtual_draw: GraphicsPipeline,
+    virtual_sets: [BindGroup; 2],
+    resolve: ComputePipeline,
+    resolve_set: BindGroup,
+    _params: Buffer,
+    /// The closing triangles of open reflectors ([`crate::cpu::closure`]).
+    _closure: Buffer,
+    closure_vertices: u32,
+    _camera: Buffer,
+    vertices: Buffer,
+    /// T_P: world position, w = 1 on a reflector texel.
+    pub position: Image,
+    /// T_N: the interpolated normal (unnormalised), w = 1 on a reflector texel.
+    pub normal: Image,
+    reflector_depth: Image,
+    virtual_colour: Image,
+    virtual_point: Image,
+    virtual_depth: Image,
+    index_count: u32,
+    vertex_count: usize,
+    params: RpParams,
+    width: u32,
+    height: u32,
+}
+
+impl ReflectionPointPasses {
+    /// Creates both passes; `records` is the frame's record buffer.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        ctx: &GpuContext,
+        data: &GpuSceneData,
+        scene: &SceneBuffers,
+        gbuffer: &Gbuffer,
+        camera: &Camera,
+        near: f32,
+        records: &Buffer,
+        options: &RpOptions,
+    ) -> VkResult<Self> {
+        let (width, height) = gbuffer.extent();
+        let vertex_count = data.vertices.len();
+        let params = RpParams::for_frame(
+            data,
+            scene.index_count,
+            camera,
+            near,
+            options,
+            (width, height),
+        )?;
+        let (sw, sh) = (params.width, params.height);
+        let params_buf = ctx.create_buffer_init(
+            "rp params",
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            std::slice::from_ref(&params),
+        )?;
+        let cam = RpCamera {
+            view_proj: params.view_proj,
+            eye: params.eye,
+            near,
+        };
+        let camera_buf = ctx.create_buffer_init(
+            "rp camera",
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            std::slice::from_ref(&cam),
+        )?;
+        let (closure_buf, closure_vertices) = closure_buffer(ctx, data, options)?;
+        let vertices = Buffer::new(
+            ctx.device(),
+            "rp vertices",
+            (vertex_count.max(1) * size_of::<RpVertex>()) as u64,
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::GpuOnly,
+        )?;
+        let [
+            position,
+            normal,
+            reflector_depth,
+            virtual_colour,
+            virtual_point,
+            virtual_depth,
+        ] = images(ctx, (sw, sh), (width, height))?;
+        let SearchPipelines {
+            reflector,
+            reflector_sets,
+            search,
+            search_sets,
+        } = SearchPipelines::new(
+            ctx,
+            scene,
+            &params_buf,
+            &closure_buf,
+            &position,
+            &normal,
+            &vertices,
+        )?;
+        let groups = (vertex_count as u32).div_ceil(64).max(1);
+        let x = groups.min(MAX_GROUPS_X);
+        let RasterPipelines {
+            virtual_draw,
+            virtual_sets,
+            resolve,
+            resolve_set,
+        } = RasterPipelines::new(
+            ctx,
+            scene,
+            &camera_buf,
+            &vertices,
+            gbuffer,
+            [&virtual_colour, &virtual_point],
+            records,
+        )?;
+        Ok(ReflectionPointPasses {
+            reflector,
+            reflector_sets,
+            search,
+            search_sets,
+            search_groups: [x, groups.div_ceil(x), 1],
+            virtual_draw,
+            virtual_sets,
+            resolve,
+            resolve_set,
+            _params: params_buf,
+            _closure: closure_buf,
+            closure_vertices,
+            _camera: camera_buf,
+            vertices,
+            position,
+            normal,
+            reflector_depth,
+            virtual_colour,
+            virtual_point,
+            virtual_depth,
+            index_count: scene.index_count,
+            vertex_count,
+            params,
+            width,
+            height,
+        })
+    }
+
+    fn draw_into(
+        &self,
+        rec: &Recorder<'_>,
+        pipeline: &GraphicsPipeline,
+        sets: &[BindGroup; 2],
+        images: [&Image; 2],
+        depth: &Image,
+        vertex_count: u32,
+    ) -> VkResult<()> {
+        let (width, height) = (depth.desc().width, depth.desc().height);
+        rec.prepare_render_targets(&images, Some(depth), SHADER_READ);
+        let clear = |v: Vec4| vk::ClearColorValue {
+            float32: v.to_array(),
+        };
+        let target = RenderTarget {
+            width,
+            height,
+            colour: images
+                .iter()
+                .map(|img| ColourTarget {
+                    view: img.view(),
+                    clear: clear(Vec4::ZERO),
+                })
+                .collect(),
+            depth: Some(depth.view()),
+        };
+        pipeline.draw(rec, &target, &[&sets[0], &sets[1]], vertex_count, 0)?;
+        for img in images {
+            rec.image_barrier(
+                img,
+                vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+                vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+                COLOUR_WRITE,
+                SHADER_READ,
+            );
+        }
+        Ok(())
+    }
+
+    /// Records `reflection_point_search`: the reflector textures, then one search per scene vertex.
+    pub fn record_search(&self, rec: &Recorder<'_>) -> VkResult<()> {
+        self.draw_into(
+            rec,
+            &self.reflector,
+            &self.reflector_sets,
+            [&self.position, &self.normal],
+            &self.reflector_depth,
+            self.index_count + self.closure_vertices,
+        )?;
+        let sets = [&self.search_sets[0], &self.search_sets[1]];
+        self.search.dispatch(rec, &sets, self.search_groups);
+        Ok(())
+    }
+
+    /// Records `reflection_point_raster`: the virtual objects in the mirror pixels, then the records.
+    pub fn record_raster(&self, rec: &Recorder<'_>) -> VkResult<()> {
+        rec.memory_barrier(SHADER_WRITE, SHADER_READ);
+        self.draw_into(
+            rec,
+            &self.virtual_draw,
+            &self.virtual_sets,
+            [&self.virtual_colour, &self.virtual_point],
+            &self.virtual_depth,
+            self.index_count,
+        )?;
+        let groups = (self.width * self.height).div_ceil(64);
+        self.resolve
+            .dispatch(rec, &[&self.resolve_set], [groups, 1, 1]);
+        Ok(())
+    }
+
+    /// The per-vertex results of the last frame, one per scene vertex.
+    pub fn read_vertices(&self, ctx: &GpuContext) -> VkResult<Vec<RpVertex>> {
+        let mut v: Vec<RpVertex> = ctx.read_buffer(&self.vertices)?;
+        v.truncate(self.vertex_count);
+        Ok(v)
+    }
+
+    /// The search's textures T_P and T_N of the last frame, and its parameters.
+    pub fn read_textures(&self, ctx: &GpuContext) -> VkResult<SearchTextures> {
+        let read = |img: &Image| -> VkResult<Vec<Vec4>> {
+            let bytes = ctx.read_image(img, vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)?;
+            let px: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
+            Ok(px.iter().map(|p| Vec4::from_array(*p)).collect())
+        };
+        Ok(SearchTextures {
+            width: self.params.width,
+            height: self.params.height,
+            position: read(&self.position)?,
+            normal: read(&self.normal)?,
+            eye: Vec3::from_array(self.params.eye),
+            start: self.params.start,
+            max_iterations: self.params.max_iterations,
+        })
+    }
+
+    /// The iteration counts of the last frame.
+    pub fn read_stats(&self, ctx: &GpuContext) -> VkResult<SearchStats> {
+        Ok(SearchStats::of(&self.read_vertices(ctx)?))
+    }
+}
+
+/// The reflection-point method.
+pub struct ReflectionPoint;
+
+impl MethodSpec for ReflectionPoint {
+    fn trace_pass(&self) -> &'static Pass {
+        &REFLECTION_POINT_SEARCH
+    }
+
+    /// The CMOs for the environment-map fallback alone: triangle IDs, no colour.
+    fn needs(&self, _trace: &TraceOptions) -> Needs {
+        Needs {
+            capture: true,
+            contents: CaptureContents {
+                colour: false,
+                triangle_ids: true,
+            },
+            pyramid: false,
+        }
+    }
+
+    /// The reflector's position and normal textures, the virtual objects' colour and point
+    /// (RGBA f32 each) and two f32 depth buffers, at search scale 1 (T_P, T_N and their depth
+    /// grow with the scale's square: not counted); the per-vertex buffer is per scene vertex
+    /// (small beside these, not counted).
+    fn bytes_per_pixel(&self) -> u64 {
+        4 * 16 + 2 * 4
+    }
+
+    fn create(&self, i: &FrameInputs<'_>) -> VkResult<Box<dyn Technique>> {
+        Ok(Box::new(ReflectionPointPasses::new(
+            i.ctx,
+            i.data,
+            i.scene,
+            i.gbuffer,
+            i.camera,
+            i.near,
+            i.records,
+            &i.options.reflection_point,
+        )?))
+    }
+}
+
+impl Technique for ReflectionPointPasses {
+    fn record(&self, rec: &Recorder<'_>, scope: &mut Scope<'_>) -> VkResult<()> {
+        scope(REFLECTION_POINT_SEARCH.name, &mut || {
+            self.record_search(rec)
+        })?;
+        scope(REFLECTION_POINT_RASTER.name, &mut || {
+            self.record_raster(rec)
+        })
+    }
+
+    fn read_stats(&self, ctx: &GpuContext) -> VkResult<MethodStats> {
+        Ok(MethodStats {
+            compute: None,
+            search: Some(ReflectionPointPasses::read_stats(self, ctx)?),
+        })
+    }
+}

@@ -1,0 +1,283 @@
+//! `--method ssr`: Hi-Z screen-space reflections (Uludag 2014), two passes after the G-buffer:
+//!
+//! | pass | reads | writes |
+//! |---|---|---|
+//! | `ssr_hiz` | G-buffer position | the min pyramid of the depth key, one dispatch per level |
+//! | `ssr` | G-buffer, pyramid | one record per mirror pixel (hit pixel's colour and position, iterations) |
+//!
+//! The traversal and the pyramid are specified by their CPU twin [`crate::cpu::ssr`]; the
+//! shaders are `spirv/ssr_hiz.wgsl`, `spirv/ssr.wgsl` and `spirv/shared/ssr.wgsl`. Unresolved
+//! records (towards the camera, off screen, iteration cap, thickness) go to the frame's
+//! fallback in `composite`, as for the CMO methods.
+//!
+//! Invariants: the pyramid buffer holds [`hiz_len`] f32 cells in the [`hiz_levels`] layout and is
+//! fully rewritten every frame; consecutive levels are separated by a compute-write ->
+//! compute-read barrier recorded here; the barriers before `ssr_hiz` (the G-buffer's) and between
+//! `ssr_hiz` and `ssr` belong to the caller ([`crate::vk::frame::GpuRenderer`]).
+use ash::vk;
+use bytemuck::{Pod, Zeroable};
+use glam::Mat4;
+use gpu_allocator::MemoryLocation;
+
+use crate::cpu::options::TraceOptions;
+use crate::cpu::ssr::{CROSS_EPSILON, MAX_LEVELS, SsrOptions, hiz_len, hiz_levels};
+use crate::vk::backend::buffer::Buffer;
+use crate::vk::backend::context::{GpuContext, Recorder};
+use crate::vk::backend::error::{VkError, VkResult};
+use crate::vk::backend::graphics::{GraphicsDesc, GraphicsPipeline, RenderTarget};
+use crate::vk::backend::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
+use crate::vk::backend::shaders::{Pass, SSR, SSR_HIZ};
+use crate::vk::backend::sync::{COMPUTE_READ, COMPUTE_WRITE, SHADER_READ, SHADER_WRITE};
+use crate::vk::passes::cmo::CaptureContents;
+use crate::vk::passes::gbuffer::Gbuffer;
+
+use super::technique::{FrameInputs, MethodSpec, Needs, Scope, Technique};
+
+/// `SsrParams` in `spirv/shared/ssr.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct SsrParams {
+    pub view_proj: [[f32; 4]; 4],
+    /// Per level: first cell, width, height, 0.
+    pub levels: [[u32; 4]; MAX_LEVELS],
+    pub width: u32,
+    pub height: u32,
+    pub level_count: u32,
+    pub max_iterations: u32,
+    pub thickness: f32,
+    pub thickness_on: u32,
+    pub cross_epsilon: f32,
+    pub pad0: u32,
+}
+
+impl SsrParams {
+    /// The parameters of a `width x height` frame seen through `view_proj`.
+    pub fn new(view_proj: Mat4, width: u32, height: u32, options: &SsrOptions) -> VkResult<Self> {
+        let levels = hiz_levels(width, height);
+        if levels.len() > MAX_LEVELS {
+            return Err(VkError::Usage {
+                what: SSR.name.into(),
+                detail: format!(
+                    "{width}x{height} needs {} pyramid levels, at most {MAX_LEVELS} are supported",
+                    levels.len()
+                ),
+            });
+        }
+        let mut table = [[0u32; 4]; MAX_LEVELS];
+        for (t, l) in table.iter_mut().zip(&levels) {
+            *t = [l.offset, l.width, l.height, 0];
+        }
+        Ok(SsrParams {
+            view_proj: view_proj.to_cols_array_2d(),
+            levels: table,
+            width,
+            height,
+            level_count: levels.len() as u32,
+            max_iterations: options.max_iterations,
+            thickness: options.thickness.unwrap_or(0.0),
+            thickness_on: u32::from(options.thickness.is_some()),
+            cross_epsilon: CROSS_EPSILON,
+            pad0: 0,
+        })
+    }
+}
+
+/// `HizLevel` in `spirv/ssr_hiz.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct HizLevelParams {
+    pub level: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+    pub pad2: u32,
+}
+
+/// Workgroups per dispatch row (the smallest `maxComputeWorkGroupCount[0]` Vulkan guarantees).
+const MAX_GROUPS_X: u32 = 65_535;
+
+/// The two passes of the screen-space method for one frame size, allocated once.
+pub struct SsrPasses {
+    hiz: ComputePipeline,
+    /// Per level: descriptor set, parameter buffer (kept alive for the set), dispatch size.
+    hiz_levels: Vec<(BindGroup, Buffer, [u32; 3])>,
+    trace: GraphicsPipeline,
+    trace_set: BindGroup,
+    _params: Buffer,
+    pyramid: Buffer,
+    width: u32,
+    height: u32,
+}
+
+impl SsrPasses {
+    /// Creates both passes over `gbuffer`, writing `records` (`frame_params` is the frame's
+    /// `FrameParams` uniform).
+    pub fn new(
+        ctx: &GpuContext,
+        gbuffer: &Gbuffer,
+        view_proj: Mat4,
+        frame_params: &Buffer,
+        records: &Buffer,
+        options: &SsrOptions,
+    ) -> VkResult<Self> {
+        let (width, height) = gbuffer.extent();
+        let params = SsrParams::new(view_proj, width, height, options)?;
+        let params_buf = ctx.create_buffer_init(
+            "ssr params",
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            std::slice::from_ref(&params),
+        )?;
+        let pyramid = Buffer::new(
+            ctx.device(),
+            "hiz pyramid",
+            hiz_len(width, height) as u64 * 4,
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::GpuOnly,
+        )?;
+        let sampled = |img: &crate::vk::backend::image::Image| Resource::Texture {
+            view: img.view(),
+            layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+        };
+        let hiz = ComputePipeline::new(ctx, &SSR_HIZ, "main", ComputeOptions::default())?;
+        let wg = SSR_HIZ
+            .entry_point("main")
+            .map_or(64, |e| e.workgroup_size[0].max(1));
+        let mut levels = Vec::new();
+        for (l, level) in hiz_levels(width, height).into_iter().enumerate() {
+            let mut buf = Buffer::new(
+                ctx.device(),
+                &format!("hiz level {l}"),
+                size_of::<HizLevelParams>() as u64,
+                vk::BufferUsageFlags::STORAGE_BUFFER,
+                MemoryLocation::CpuToGpu,
+            )?;
+            buf.write(
+                0,
+                &[HizLevelParams {
+                    level: l as u32,
+                    ..HizLevelParams::default()
+                }],
+            )?;
+            let set = hiz.bind_group(
+                0,
+                &[
+                    (0, sampled(&gbuffer.position)),
+                    (1, Resource::Buffer(&params_buf)),
+                    (2, Resource::Buffer(&pyramid)),
+                    (3, Resource::Buffer(&buf)),
+                ],
+            )?;
+            let groups = (level.width * level.height).div_ceil(wg).max(1);
+            let x = groups.min(MAX_GROUPS_X);
+            levels.push((set, buf, [x, groups.div_ceil(x), 1]));
+        }
+        let trace = GraphicsPipeline::new(
+            ctx,
+            &SSR,
+            &GraphicsDesc {
+                vertex: "vs_fullscreen",
+                fragment: "fs_main",
+                colour_formats: Vec::new(),
+                depth: None,
+            },
+        )?;
+        let trace_set = trace.bind_group(
+            0,
+            &[
+                (0, sampled(&gbuffer.position)),
+                (1, sampled(&gbuffer.normal)),
+                (2, Resource::Buffer(frame_params)),
+                (3, Resource::Buffer(records)),
+                (4, sampled(&gbuffer.colour)),
+                (5, Resource::Buffer(&pyramid)),
+                (6, Resource::Buffer(&params_buf)),
+            ],
+        )?;
+        Ok(SsrPasses {
+            hiz,
+            hiz_levels: levels,
+            trace,
+            trace_set,
+            _params: params_buf,
+            pyramid,
+            width,
+            height,
+        })
+    }
+
+    /// Records the `ssr_hiz` pass: one dispatch per level, level 0 from the G-buffer.
+    pub fn record_hiz(&self, rec: &Recorder<'_>) {
+        for (i, (set, _, groups)) in self.hiz_levels.iter().enumerate() {
+            if i > 0 {
+                rec.memory_barrier(COMPUTE_WRITE, COMPUTE_READ);
+            }
+            self.hiz.dispatch(rec, &[set], *groups);
+        }
+    }
+
+    /// Records the `ssr` pass (a full-screen draw without attachments).
+    pub fn record_trace(&self, rec: &Recorder<'_>) -> VkResult<()> {
+        let target = RenderTarget {
+            width: self.width,
+            height: self.height,
+            colour: Vec::new(),
+            depth: None,
+        };
+        self.trace.draw(rec, &target, &[&self.trace_set], 3, 0)
+    }
+
+    /// The pyramid as the GPU built it ([`hiz_len`] cells, [`hiz_levels`] layout).
+    pub fn read_pyramid(&self, ctx: &GpuContext) -> VkResult<Vec<f32>> {
+        let mut cells: Vec<f32> = ctx.read_buffer(&self.pyramid)?;
+        cells.truncate(hiz_len(self.width, self.height));
+        Ok(cells)
+    }
+}
+
+/// The screen-space method.
+pub struct Ssr;
+
+impl MethodSpec for Ssr {
+    fn trace_pass(&self) -> &'static Pass {
+        &SSR
+    }
+
+    /// The CMOs for the environment-map fallback alone: triangle IDs, no colour.
+    fn needs(&self, _trace: &TraceOptions) -> Needs {
+        Needs {
+            capture: true,
+            contents: CaptureContents {
+                colour: false,
+                triangle_ids: true,
+            },
+            pyramid: false,
+        }
+    }
+
+    /// The Hi-Z pyramid: f32 cells, about 4/3 per pixel over all levels (2 on a one-pixel-wide
+    /// frame; counted as 2), plus the pass's parameters (per frame, negligible).
+    fn bytes_per_pixel(&self) -> u64 {
+        2 * 4
+    }
+
+    fn create(&self, i: &FrameInputs<'_>) -> VkResult<Box<dyn Technique>> {
+        Ok(Box::new(SsrPasses::new(
+            i.ctx,
+            i.gbuffer,
+            i.camera.view_proj(i.near),
+            i.params,
+            i.records,
+            &i.options.ssr,
+        )?))
+    }
+}
+
+impl Technique for SsrPasses {
+    fn record(&self, rec: &Recorder<'_>, scope: &mut Scope<'_>) -> VkResult<()> {
+        scope(SSR_HIZ.name, &mut || {
+            self.record_hiz(rec);
+            Ok(())
+        })?;
+        rec.memory_barrier(SHADER_WRITE, SHADER_READ);
+        scope(SSR.name, &mut || self.record_trace(rec))
+    }
+}

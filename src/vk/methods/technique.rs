@@ -1,0 +1,161 @@
+//! The interface between a frame and its method: [`MethodSpec`], what a method is before
+//! anything is allocated (what it needs from the shared stages, its device memory, how to create
+//! it), and [`Technique`], the method's allocated passes in a frame (how to record them, what
+//! they report).
+//!
+//! Invariants every method keeps:
+//! - It writes one [`PixelRecord`](crate::vk::passes::records::PixelRecord) per mirror pixel into
+//!   the frame's record buffer ([`FrameInputs::records`]) and nothing else the frame shares; the
+//!   composite pass, the reflector check, the fallback and the bounce rounds read those records.
+//! - Each of its passes is recorded in a timestamp scope named after its WGSL file, in a fixed
+//!   order, so that the harness's tables line up frame after frame.
+//! - Everything it records reads only what the shared stages before it wrote: the capture, the
+//!   CMO pyramid (when [`Needs::pyramid`]) and the G-buffer, made visible by the frame's barriers.
+//! - Its rules (bounces, fallback, reflector check, criteria) are [`crate::Method`]'s, not its
+//!   own: a method file holds the passes only.
+use std::any::Any;
+
+use crate::camera::Camera;
+use crate::cpu::options::TraceOptions;
+use crate::cpu::reflection_point::SearchStats;
+use crate::scene::gpu_data::GpuSceneData;
+use crate::vk::backend::buffer::Buffer;
+use crate::vk::backend::context::{GpuContext, Recorder};
+use crate::vk::backend::error::VkResult;
+use crate::vk::backend::shaders::Pass;
+use crate::vk::options::RenderOptions;
+use crate::vk::passes::bvh::BvhPasses;
+use crate::vk::passes::cmo::{CaptureContents, CmoData};
+use crate::vk::passes::gbuffer::Gbuffer;
+use crate::vk::passes::scene_buffers::SceneBuffers;
+
+/// What a method needs from the frame's shared stages.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Needs {
+    /// Whether the `capture` pass runs. Without it the CMO data is a one-texel placeholder,
+    /// initialised once, that only composite binds (its environment-map fallback, for a record
+    /// the method left unresolved).
+    pub capture: bool,
+    /// What the capture stores per texel.
+    pub contents: CaptureContents,
+    /// Whether the 2x2 min/max pyramid of the CMO distances is built (`pyramid` pass).
+    pub pyramid: bool,
+}
+
+/// Records one named pass: its timestamp scope (or its debug label without timestamps)
+/// around `f`.
+pub type Scope<'a> = dyn FnMut(&str, &mut dyn FnMut() -> VkResult<()>) -> VkResult<()> + 'a;
+
+/// What the frame's shared stages give a method to create its passes from.
+pub struct FrameInputs<'a> {
+    pub ctx: &'a GpuContext,
+    pub camera: &'a Camera,
+    pub options: &'a RenderOptions,
+    /// The G-buffer's near plane.
+    pub near: f32,
+    /// The length of an escaped ray.
+    pub t_hi: f32,
+    /// The scene as uploaded.
+    pub data: &'a GpuSceneData,
+    pub scene: &'a SceneBuffers,
+    pub cmo: &'a CmoData,
+    pub gbuffer: &'a Gbuffer,
+    /// The frame's `FrameParams` buffer.
+    pub params: &'a Buffer,
+    /// The frame's per-pixel records: what the method writes.
+    pub records: &'a Buffer,
+    /// The reflectors' screen rectangle (`None`: the whole frame): no mirror pixel lies outside.
+    pub mirror_rect: Option<[u32; 4]>,
+}
+
+/// What a method is before it is allocated: one per GPU method, in `super::spec`.
+pub trait MethodSpec: Sync {
+    /// The method's tracing pass: its timestamp scope in the harness's tables.
+    fn trace_pass(&self) -> &'static Pass;
+
+    /// What it needs from the shared stages, with tracer options `trace`.
+    fn needs(&self, trace: &TraceOptions) -> Needs;
+
+    /// Device bytes per frame pixel of the method's own buffers and images.
+    fn bytes_per_pixel(&self) -> u64;
+
+    /// Device bytes of the method's own per-CMO data for `cmos` CMOs of face size `size` (the
+    /// compute path's hierarchy); none by default.
+    fn cmo_bytes(&self, _cmos: u32, _size: u32) -> u64 {
+        0
+    }
+
+    /// Refuses a device the method cannot run on, before anything is allocated.
+    fn check_device(&self, _ctx: &GpuContext) -> VkResult<()> {
+        Ok(())
+    }
+
+    /// Allocates the method's passes for one frame.
+    fn create(&self, inputs: &FrameInputs<'_>) -> VkResult<Box<dyn Technique>>;
+}
+
+/// Per-frame statistics a method reports besides its records.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MethodStats {
+    /// The compute path's ray count, subgroup sizes and per-ray counters.
+    pub compute: Option<ComputeStats>,
+    /// The reflection-point method's iteration counts.
+    pub search: Option<SearchStats>,
+}
+
+/// Per-ray work of one frame, read back. Always recorded: the kernel keeps the counters anyway
+/// (they are the CPU twin's) and writes 16 bytes per ray, which is lost in the noise of the
+/// pass's time on lavapipe, so no option turns them off.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ComputeStats {
+    /// Rays the append pass queued.
+    pub rays: u32,
+    /// `(min, max)` subgroup size `compute_trace` ran with (`(0, 0)` when no workgroup ran).
+    pub subgroup_size: (u32, u32),
+    /// Per pixel (meaningful on mirror pixels): texels tested, cells tested, descents,
+    /// backtracks, summed over the ray's single-CMO traces.
+    pub per_pixel: Vec<[u32; 4]>,
+}
+
+impl ComputeStats {
+    /// Mean and max of each counter over the mirror pixels `mask` marks.
+    pub fn summary(&self, mask: &[u8]) -> [(f64, u32); 4] {
+        let mut out = [(0.0, 0u32); 4];
+        let mut n = 0usize;
+        for (c, _) in self.per_pixel.iter().zip(mask).filter(|(_, m)| **m != 0) {
+            n += 1;
+            for i in 0..4 {
+                out[i].0 += f64::from(c[i]);
+                out[i].1 = out[i].1.max(c[i]);
+            }
+        }
+        for o in &mut out {
+            o.0 /= n.max(1) as f64;
+        }
+        out
+    }
+}
+
+/// A method's passes, allocated once for a frame size, recorded every frame. `Any`, so that
+/// the renderer's typed accessors can hand a test the method's own type.
+pub trait Technique: Any {
+    /// Passes between the CMO stages and the G-buffer (the compute path's `hier32`); none by
+    /// default.
+    fn record_cmo_stage(&self, _rec: &Recorder<'_>, _scope: &mut Scope<'_>) -> VkResult<()> {
+        Ok(())
+    }
+
+    /// The method's passes after the G-buffer, each in its scope; they write the records.
+    fn record(&self, rec: &Recorder<'_>, scope: &mut Scope<'_>) -> VkResult<()>;
+
+    /// The statistics of the last frame; none by default.
+    fn read_stats(&self, _ctx: &GpuContext) -> VkResult<MethodStats> {
+        Ok(MethodStats::default())
+    }
+
+    /// The method's own BVH passes (`bvh`): the bounce rounds share its tracer and the frame
+    /// reports its counter.
+    fn bvh(&self) -> Option<&BvhPasses> {
+        None
+    }
+}

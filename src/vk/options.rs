@@ -1,0 +1,63 @@
+//! The options of a GPU render: the method and what it may use.
+use crate::cpu::options::TraceOptions;
+use crate::cpu::reflection_point::RpOptions;
+use crate::cpu::ssr::SsrOptions;
+use crate::method::Method;
+
+/// What fills a mirror pixel whose ray no CMO could resolve.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Fallback {
+    /// A flag colour (magenta), to see where tracing gave up.
+    Flag,
+    /// The environment-map lookup of the nearest CMO, shaded from the triangle its texel
+    /// captured (`composite.wgsl`, `cpu::fragment::envmap_fallback`).
+    #[default]
+    Envmap,
+    /// The scene's background.
+    Background,
+    /// The rays are finished exactly by the BVH tracer: after the tracing pass, the `fallback`
+    /// pass queues the unresolved records' rays and traces them from their start under the
+    /// start rule ([`crate::vk::passes::bvh`]; not from `t_done`: see [`Fallback::TraceFromTDone`]); such
+    /// records get `fallback` = 1 and keep the cubemap tracer's `t_done` and counters. A ray the BVH
+    /// loop's cap cut (none seen) stays unresolved and shows the flag colour.
+    Trace,
+    /// [`Fallback::Trace`] with the rays started at their `t_done` instead of 0: misses the hits
+    /// before `t_done` that the cubemap's model does not see (uncaptured reflectors, surfaces in
+    /// front of their texel's patch; spirv/bvh_queue.wgsl). Not offered by the CLI; the tests
+    /// show what it misses.
+    TraceFromTDone,
+}
+
+/// Options of a GPU render.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RenderOptions {
+    pub method: Method,
+    /// Tracer options (criterion, sampling, acceleration, steps); used by `Fragment`.
+    pub trace: TraceOptions,
+    pub fallback: Fallback,
+    /// Options of `Ssr` (iteration cap, thickness).
+    pub ssr: SsrOptions,
+    /// Options of `ReflectionPoint` (iteration cap).
+    pub reflection_point: RpOptions,
+    /// Reflections per path, 0..=[`MAX_BOUNCES`](crate::vk::passes::bounce::MAX_BOUNCES) (the reference's `bounces`): the method traces
+    /// the first, the BVH the rest ([`crate::vk::passes::bounce`]); 0 shows the mirrors' own material.
+    /// `Compute`, `Fragment` (exact criterion) and `Bvh` only; the other methods take 1.
+    pub bounces: u32,
+    /// The reflector check after the `Fragment` and `Compute` trace ([`ReflectorCheck`](crate::vk::passes::bvh::ReflectorCheck)): on by
+    /// default; ignored by the other methods and where the scene has no reflector to check.
+    pub reflector_check: bool,
+}
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        RenderOptions {
+            method: Method::Fragment,
+            trace: TraceOptions::default(),
+            fallback: Fallback::default(),
+            ssr: SsrOptions::default(),
+            reflection_point: RpOptions::default(),
+            bounces: 1,
+            reflector_check: true,
+        }
+    }
+}

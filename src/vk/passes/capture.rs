@@ -1,0 +1,360 @@
+//! The `capture` pass: rasterises each cubemap object's six faces (colour and distance, plus
+//! normals and the mirror mask when the scene has self-reflections on) into [`CmoData`]: colour
+//! straight into its colour image, distance (and normals) into the flat buffers the tracers read.
+//!
+//! Invariants:
+//! - A layer of every capture image is one face (`layer = 6 k + face`, faces in Vulkan's order),
+//!   so an image-to-buffer copy of all layers is [`crate::cubemap::CubeMap`]'s layout:
+//!   CMO-major, then `(face * N + y) * N + x`.
+//! - Distance is the f32 world distance to the CMO centre, `+inf` where nothing was drawn (the
+//!   clear value); colour is linear RGBA with alpha 1 on surfaces and the background with alpha 0
+//!   elsewhere, as [`crate::reference::capture`] (the CPU check of this pass) produces.
+//! - Reflectors are drawn only with self-reflections on, and only then are the normal/mirror
+//!   image and buffer allocated.
+//! - With [`CaptureContents::triangle_ids`] the pass also writes each texel's global triangle
+//!   index (`u32::MAX` where empty, the clear value) into the CMO's triangle buffer; without
+//!   [`CaptureContents::colour`] it writes no colour (the CMO's colour image is a placeholder,
+//!   left readable). The scene's index buffer is in global triangle order and every triangle is
+//!   drawn (the vertex shader culls the reflectors' when self-reflections are off), so
+//!   `vertex_index / 3` is the global triangle index. (Drawing only the runs of non-reflector
+//!   triangles, with several draws and `firstVertex > 0`, crashed lavapipe at 128-bit vectors:
+//!   `malloc(): invalid size`.)
+use ash::vk;
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+
+use super::cmo::{CaptureContents, CmoData};
+use super::scene_buffers::SceneBuffers;
+use crate::vk::backend::buffer::Buffer;
+use crate::vk::backend::context::{GpuContext, Recorder};
+use crate::vk::backend::error::{VkError, VkResult};
+use crate::vk::backend::graphics::{
+    ColourTarget, DepthTest, GraphicsDesc, GraphicsPipeline, RenderTarget,
+};
+use crate::vk::backend::image::{Image, ImageDesc};
+use crate::vk::backend::pipeline::{BindGroup, Resource};
+use crate::vk::backend::shaders::CAPTURE;
+use crate::vk::backend::sync::{
+    ALL_READS, COLOUR_WRITE, DEPTH_WRITE, SHADER_READ, TRANSFER_READ, TRANSFER_WRITE,
+};
+
+/// One face of one CMO, as `capture_views[k]` in `spirv/capture.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct CaptureView {
+    pub centre: [f32; 3],
+    pub face: u32,
+    /// Near plane along the face axis (world units): nearer geometry is clipped.
+    pub near: f32,
+    /// 1: draw the reflectors (self-reflections on); 0: cull them in the vertex shader.
+    pub reflectors: u32,
+    pub _pad2: [u32; 2],
+}
+
+/// The capture pass for one scene: pipeline and targets.
+pub struct Capture {
+    pipeline: GraphicsPipeline,
+    scene_set: BindGroup,
+    view_set: BindGroup,
+    _views: Buffer,
+    distance: Image,
+    normal: Option<Image>,
+    triangle: Option<Image>,
+    depth: Image,
+    draw_indices: u32,
+    size: u32,
+    contents: CaptureContents,
+}
+
+const DISTANCE_FORMAT: vk::Format = vk::Format::R32_SFLOAT;
+const COLOUR_FORMAT: vk::Format = super::cmo::COLOUR_FORMAT;
+const TRIANGLE_FORMAT: vk::Format = vk::Format::R32_UINT;
+
+/// The capture pipeline for what is captured, and its fragment entry point.
+fn capture_pipeline(
+    ctx: &GpuContext,
+    self_reflections: bool,
+    contents: CaptureContents,
+) -> VkResult<(GraphicsPipeline, &'static str)> {
+    // Attachment order = the entry point's output locations: colour, distance, normal,
+    // triangle, each only where captured.
+    let mut formats = Vec::new();
+    if contents.colour {
+        formats.push(COLOUR_FORMAT);
+    }
+    formats.push(DISTANCE_FORMAT);
+    if self_reflections {
+        formats.push(COLOUR_FORMAT);
+    }
+    if contents.triangle_ids {
+        formats.push(TRIANGLE_FORMAT);
+    }
+    let fragment = match (self_reflections, contents.colour, contents.triangle_ids) {
+        (false, true, false) => "fs_main",
+        (true, true, false) => "fs_self",
+        (false, true, true) => "fs_main_ids",
+        (true, true, true) => "fs_self_ids",
+        (false, false, true) => "fs_ids_only",
+        (true, false, true) => "fs_self_ids_only",
+        (_, false, false) => {
+            return Err(VkError::Usage {
+                what: "capture".into(),
+                detail: "neither colour nor triangle IDs captured".into(),
+            });
+        }
+    };
+    let pipeline = GraphicsPipeline::new(
+        ctx,
+        &CAPTURE,
+        &GraphicsDesc {
+            vertex: "vs_main",
+            fragment,
+            colour_formats: formats,
+            depth: Some((vk::Format::D32_SFLOAT, DepthTest::Reversed)),
+        },
+    )?;
+    Ok((pipeline, fragment))
+}
+
+impl Capture {
+    /// Prepares the capture of CMOs at `centres` with faces of `size` texels. Geometry nearer
+    /// than `near` to a centre (along a face axis) is clipped. Captures colour, no triangle IDs
+    /// ([`CaptureContents`]'s default).
+    pub fn new(
+        ctx: &GpuContext,
+        scene: &SceneBuffers,
+        centres: &[Vec3],
+        size: u32,
+        self_reflections: bool,
+        near: f32,
+    ) -> VkResult<Self> {
+        Self::with_contents(
+            ctx,
+            scene,
+            centres,
+            size,
+            self_reflections,
+            near,
+            CaptureContents::default(),
+        )
+    }
+
+    /// [`Self::new`] capturing `contents` (the [`CmoData`] it records into must have the same).
+    pub fn with_contents(
+        ctx: &GpuContext,
+        scene: &SceneBuffers,
+        centres: &[Vec3],
+        size: u32,
+        self_reflections: bool,
+        near: f32,
+        contents: CaptureContents,
+    ) -> VkResult<Self> {
+        if centres.is_empty() || size == 0 {
+            return Err(VkError::Usage {
+                what: "capture".into(),
+                detail: format!(
+                    "{} CMOs of size {size}: need at least one CMO of size >= 1",
+                    centres.len()
+                ),
+            });
+        }
+        let (pipeline, fragment) = capture_pipeline(ctx, self_reflections, contents)?;
+        let views: Vec<CaptureView> = centres
+            .iter()
+            .flat_map(|c| {
+                (0..6).map(move |face| CaptureView {
+                    centre: c.to_array(),
+                    face,
+                    near,
+                    reflectors: u32::from(self_reflections),
+                    ..CaptureView::default()
+                })
+            })
+            .collect();
+        let views_buf = ctx.create_buffer_init(
+            "capture views",
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            &views,
+        )?;
+        // Only the scene bindings the two entry points use (the IDs-only entry points shade
+        // nothing, and a bind group may not supply a binding its shaders do not use).
+        let used = |b: u32| {
+            ["vs_main", fragment].iter().any(|e| {
+                CAPTURE
+                    .entry_point(e)
+                    .is_some_and(|e| e.bindings.iter().any(|u| u.group == 0 && u.binding == b))
+            })
+        };
+        let scene_resources: Vec<_> = scene
+            .resources()
+            .into_iter()
+            .filter(|(b, _)| used(*b))
+            .collect();
+        let scene_set = pipeline.bind_group(0, &scene_resources)?;
+        let view_set = pipeline.bind_group(1, &[(0, Resource::Buffer(&views_buf))])?;
+        let layers = 6 * centres.len() as u32;
+        let target_usage =
+            vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC;
+        let layered = |name: &str, format| ImageDesc {
+            name: name.into(),
+            format,
+            width: size,
+            height: size,
+            layers,
+            cube: false,
+            usage: target_usage,
+        };
+        let dev = ctx.device();
+        let distance = Image::new(dev, layered("capture distance", DISTANCE_FORMAT))?;
+        let normal = if self_reflections {
+            Some(Image::new(dev, layered("capture normal", COLOUR_FORMAT))?)
+        } else {
+            None
+        };
+        let triangle = if contents.triangle_ids {
+            Some(Image::new(
+                dev,
+                layered("capture triangle", TRIANGLE_FORMAT),
+            )?)
+        } else {
+            None
+        };
+        let depth = Image::new(
+            dev,
+            ImageDesc::d2(
+                "capture depth",
+                vk::Format::D32_SFLOAT,
+                size,
+                size,
+                vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+            ),
+        )?;
+        Ok(Capture {
+            pipeline,
+            scene_set,
+            view_set,
+            _views: views_buf,
+            distance,
+            normal,
+            triangle,
+            depth,
+            draw_indices: scene.index_count,
+            size,
+            contents,
+        })
+    }
+
+    /// Records the capture of every face of every CMO into `cmo`: colour straight into its
+    /// colour image (left readable by shaders), distance (and normals) through this pass's
+    /// images into its buffers, then a barrier that makes everything readable by any later
+    /// pass. `background` fills the colour of empty texels (alpha 0).
+    pub fn record(&self, rec: &Recorder<'_>, cmo: &CmoData, background: Vec3) -> VkResult<()> {
+        let normal = match (&self.normal, cmo.normal()) {
+            (None, _) => None,
+            (Some(img), Some(b)) => Some((img, b)),
+            (Some(_), None) => {
+                return Err(VkError::Usage {
+                    what: "capture".into(),
+                    detail: "self-reflections on, but the CMO data has no normal buffer".into(),
+                });
+            }
+        };
+        if cmo.colour().desc().layers != self.distance.desc().layers {
+            return Err(VkError::Usage {
+                what: "capture".into(),
+                detail: "the CMO data was made for another number of CMOs".into(),
+            });
+        }
+        if cmo.contents() != self.contents {
+            return Err(VkError::Usage {
+                what: "capture".into(),
+                detail: format!(
+                    "the CMO data holds {:?}, the capture writes {:?}",
+                    cmo.contents(),
+                    self.contents
+                ),
+            });
+        }
+        let triangle = match (&self.triangle, cmo.triangle()) {
+            (Some(img), Some(b)) => Some((img, b)),
+            _ => None,
+        };
+        let bg = background.to_array();
+        let mut images: Vec<&Image> = Vec::new();
+        let mut clears = Vec::new();
+        if self.contents.colour {
+            images.push(cmo.colour());
+            clears.push(vk::ClearColorValue {
+                float32: [bg[0], bg[1], bg[2], 0.0],
+            });
+        }
+        images.push(&self.distance);
+        clears.push(vk::ClearColorValue {
+            float32: [f32::INFINITY, 0.0, 0.0, 0.0],
+        });
+        if let Some((img, _)) = normal {
+            images.push(img);
+            clears.push(vk::ClearColorValue { float32: [0.0; 4] });
+        }
+        if let Some((img, _)) = triangle {
+            images.push(img);
+            clears.push(vk::ClearColorValue {
+                uint32: [u32::MAX; 4],
+            });
+        }
+        rec.prepare_render_targets(&images, Some(&self.depth), ALL_READS);
+        let sets = [&self.scene_set, &self.view_set];
+        for layer in 0..self.distance.desc().layers {
+            let mut colour = Vec::with_capacity(images.len());
+            for (img, clear) in images.iter().zip(clears.iter().copied()) {
+                let view = img.layer_view(layer).ok_or_else(|| VkError::Usage {
+                    what: img.desc().name.clone(),
+                    detail: format!("no layer {layer}"),
+                })?;
+                colour.push(ColourTarget { view, clear });
+            }
+            let target = RenderTarget {
+                width: self.size,
+                height: self.size,
+                colour,
+                depth: Some(self.depth.view()),
+            };
+            if layer > 0 {
+                // The depth image is cleared again for every face: order that after the last
+                // face's depth writes.
+                rec.memory_barrier(DEPTH_WRITE, DEPTH_WRITE);
+            }
+            // With nothing to draw this is an empty draw that still clears the face.
+            self.pipeline
+                .draw(rec, &target, &sets, self.draw_indices, layer)?;
+        }
+        // The colour image (or, without colour, its placeholder, never written) ends readable.
+        rec.image_barrier(
+            cmo.colour(),
+            if self.contents.colour {
+                vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL
+            } else {
+                vk::ImageLayout::UNDEFINED
+            },
+            vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+            COLOUR_WRITE,
+            SHADER_READ,
+        );
+        let copies = [(&self.distance, cmo.distance())]
+            .into_iter()
+            .chain(normal)
+            .chain(triangle);
+        for (img, buf) in copies {
+            rec.image_barrier(
+                img,
+                vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                COLOUR_WRITE,
+                TRANSFER_READ,
+            );
+            rec.copy_image_to_buffer(img, buf)?;
+        }
+        rec.memory_barrier(TRANSFER_WRITE, ALL_READS);
+        Ok(())
+    }
+}

@@ -1,0 +1,62 @@
+//! The scene's GPU buffers: `@group(0)` of every pass that imports `spirv/shared/scene.wgsl`.
+//!
+//! Invariants: the contents are [`GpuSceneData`] as is (layouts checked against naga's in
+//! tests/gpu_raster.rs); `indices` is in global triangle order (`WorldGeometry::triangles`),
+//! so a draw's `vertex_index / 3` is the global triangle index.
+use ash::vk;
+
+use crate::scene::gpu_data::GpuSceneData;
+use crate::vk::backend::buffer::Buffer;
+use crate::vk::backend::context::GpuContext;
+use crate::vk::backend::error::VkResult;
+use crate::vk::backend::pipeline::Resource;
+
+/// Uploaded scene data.
+pub struct SceneBuffers {
+    vertices: Buffer,
+    indices: Buffer,
+    objects: Buffer,
+    materials: Buffer,
+    textures: Buffer,
+    texels: Buffer,
+    srgb: Buffer,
+    shading: Buffer,
+    /// Indices of every triangle.
+    pub index_count: u32,
+}
+
+impl SceneBuffers {
+    /// Uploads `data`.
+    pub fn new(ctx: &GpuContext, data: &GpuSceneData) -> VkResult<Self> {
+        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        Ok(SceneBuffers {
+            vertices: ctx.create_buffer_init("scene vertices", storage, &data.vertices)?,
+            indices: ctx.create_buffer_init("scene indices", storage, &data.indices)?,
+            objects: ctx.create_buffer_init("scene objects", storage, &data.objects)?,
+            materials: ctx.create_buffer_init("scene materials", storage, &data.materials)?,
+            textures: ctx.create_buffer_init("scene textures", storage, &data.textures)?,
+            texels: ctx.create_buffer_init("scene texels", storage, &data.texels)?,
+            srgb: ctx.create_buffer_init("sRGB table", storage, &data.srgb_to_linear)?,
+            shading: ctx.create_buffer_init(
+                "scene shading",
+                vk::BufferUsageFlags::STORAGE_BUFFER,
+                std::slice::from_ref(&data.shading),
+            )?,
+            index_count: data.indices.len() as u32,
+        })
+    }
+
+    /// The `(binding, resource)` list of `@group(0)`.
+    pub fn resources(&self) -> [(u32, Resource<'_>); 8] {
+        [
+            (0, Resource::Buffer(&self.vertices)),
+            (1, Resource::Buffer(&self.indices)),
+            (2, Resource::Buffer(&self.objects)),
+            (3, Resource::Buffer(&self.materials)),
+            (4, Resource::Buffer(&self.textures)),
+            (5, Resource::Buffer(&self.texels)),
+            (6, Resource::Buffer(&self.srgb)),
+            (7, Resource::Buffer(&self.shading)),
+        ]
+    }
+}
