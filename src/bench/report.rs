@@ -394,12 +394,12 @@ pub fn search_table(report: &BenchReport) -> String {
     s
 }
 
-/// Writes `bench.json`, `bench.md` and `speed-error.svg` into `dir`; returns the paths.
-pub fn write(report: &BenchReport, dir: &Path) -> Result<Vec<PathBuf>> {
-    let json = dir.join("bench.json");
-    write_atomic(&json, serde_json::to_string_pretty(report)?.as_bytes())?;
-    let md = dir.join("bench.md");
-    let doc = format!(
+/// The Markdown document of `bench.md`: the header, then the summary, cost-per-ray (ratios),
+/// runs and per-pass tables, each under its own heading, each the same text that
+/// [`summary_table`], [`ratios_table`], [`runs_table`] and [`passes_table`] return (so the
+/// tables a reader finds in `benches/results/` are the ones the bench printed, never retyped).
+pub fn markdown(report: &BenchReport) -> String {
+    format!(
         "# cubetrace bench\n\n{}\n## Summary per method\n\n{}\nCost: the tracing pass alone (reference: CPU wall time of its reflected-ray phase); \
          every GPU method renders with the render default `--fallback trace`: the mirror pixels it leaves unresolved are finished exactly by the BVH \
          (fallback %: their share; fallback ns: that pass's cost, apart from the tracing pass; frame ns: all passes, capture and fallback included). \
@@ -415,8 +415,17 @@ pub fn write(report: &BenchReport, dir: &Path) -> Result<Vec<PathBuf>> {
         runs_table(report),
         passes_table(report),
         search_table(report)
-    );
-    write_atomic(&md, doc.as_bytes())?;
+    )
+}
+
+/// Writes `bench.json`, `bench.md` ([`markdown`]: the tables, next to the JSON they come
+/// from), `speed-error.svg` and `speed-error-scenes.svg` into `dir`; returns the paths, the
+/// Markdown file's second, for the caller to print.
+pub fn write(report: &BenchReport, dir: &Path) -> Result<Vec<PathBuf>> {
+    let json = dir.join("bench.json");
+    write_atomic(&json, serde_json::to_string_pretty(report)?.as_bytes())?;
+    let md = dir.join("bench.md");
+    write_atomic(&md, markdown(report).as_bytes())?;
     let svg = dir.join("speed-error.svg");
     write_atomic(&svg, speed_error_svg(report)?.as_bytes())?;
     let scenes_svg = dir.join("speed-error-scenes.svg");
@@ -540,5 +549,78 @@ mod tests {
         let summary = summary_table(&report(vec![run("a", good)]));
         assert_eq!(cell(&summary, "mask mismatch %"), "0.00");
         assert_eq!(cell(&summary, "PSNR frame dB"), "30.00");
+    }
+
+    /// A fresh, empty folder under the system's temporary folder.
+    fn scratch(name: &str) -> PathBuf {
+        let dir =
+            std::env::temp_dir().join(format!("cubetrace-report-{}-{name}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    /// A run of `scene` whose frame has one timed pass.
+    fn timed_run(scene: &str, pass: &str, median_ns: f64) -> RunResult {
+        let ns = Stats {
+            median: median_ns,
+            min: median_ns,
+            max: median_ns,
+        };
+        RunResult {
+            passes: vec![super::super::PassStats {
+                pass: pass.into(),
+                ns,
+            }],
+            trace_ns: ns,
+            ..run(scene, ErrorReport::exact(100))
+        }
+    }
+
+    #[test]
+    fn bench_writes_its_tables_as_markdown_next_to_the_json() {
+        let dir = scratch("tables");
+        let r = report(vec![
+            timed_run("room", "envmap", 2.0e6),
+            timed_run("bowl", "envmap", 3.0e6),
+        ]);
+        let paths = write(&r, &dir).unwrap();
+        assert_eq!(paths[0], dir.join("bench.json"));
+        assert_eq!(paths[1], dir.join("bench.md"), "the caller prints paths[1]");
+        let md = std::fs::read_to_string(&paths[1]).unwrap();
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&paths[0]).unwrap()).unwrap();
+        assert_eq!(json["runs"].as_array().unwrap().len(), 2);
+        for (heading, table) in [
+            ("# cubetrace bench", header(&r)),
+            ("## Summary per method", summary_table(&r)),
+            ("## Cost per ray", ratios_table(&r)),
+            ("## Runs", runs_table(&r)),
+            ("## GPU time per pass", passes_table(&r)),
+        ] {
+            let at = md
+                .find(heading)
+                .unwrap_or_else(|| panic!("{heading} missing:\n{md}"));
+            assert!(md[at..].contains(&table), "{heading}: table missing:\n{md}");
+        }
+        // Every run and every timed pass has its row (the tables are not empty shells).
+        for scene in ["room", "bowl"] {
+            assert!(md.contains(&format!("| {scene} | envmap | 100 |")), "{md}");
+            assert!(
+                md.contains(&format!("| {scene} | envmap | envmap |")),
+                "{md}"
+            );
+        }
+        assert!(md.contains("| envmap | 2 | 200 |"), "summary row: {md}");
+        // Negative: another report's tables are not in this file, and writing it replaces the
+        // file (no stale tables from the first run).
+        let other = report(vec![timed_run("torus", "envmap", 5.0e6)]);
+        assert!(!md.contains(&runs_table(&other)));
+        assert!(!md.contains(&summary_table(&other)));
+        write(&other, &dir).unwrap();
+        let md = std::fs::read_to_string(dir.join("bench.md")).unwrap();
+        assert!(md.contains(&runs_table(&other)), "{md}");
+        assert!(!md.contains("| room |"), "stale row: {md}");
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }
