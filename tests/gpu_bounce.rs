@@ -415,7 +415,7 @@ fn analytic_end(eye: Vec3, d: Vec3, n: u32, half: f32) -> (Option<Vec3>, u32) {
     for k in 1..=n + 1 {
         let plane = d.x.signum() * (2 * k - 1) as f32 * half;
         let t = (plane - eye.x) / d.x;
-        if !(t < t_surface) {
+        if t.is_nan() || t >= t_surface {
             return (surface.map(fold), k - 1);
         }
         let p = eye + t * d;
