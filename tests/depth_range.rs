@@ -555,6 +555,8 @@ fn span_records_child() {
     let camera = &scene.cameras[0];
     let mut r = GpuRenderer::new(&ctx, &scene, camera, options(Method::Compute)).unwrap();
     let frame = r.render(&ctx).unwrap();
+    let (lo, hi) = frame.compute.as_ref().expect("compute stats").subgroup_size;
+    std::fs::write(format!("{out}.subgroup"), format!("{lo} {hi}")).unwrap();
     std::fs::write(format!("{out}.mask"), &frame.mask).unwrap();
     std::fs::write(
         &out,
@@ -565,14 +567,15 @@ fn span_records_child() {
 }
 
 /// The span scene's compute records with `lanes` lanes per ray (`CUBETRACE_RAY_LANES`) at
-/// native vector width `bits` (lavapipe's subgroup size: bits / 32), far cube at `far`.
+/// native vector width `bits` (lavapipe's subgroup size: bits / 32), far cube at `far`, and the
+/// `(min, max)` subgroup size `compute_trace` ran with in the child (its `ComputeStats`).
 ///
 /// At 128 bits the child runs with `GALLIUM_OVERRIDE_CPU_CAPS=avx`: Mesa 22.3's llvmpipe with
 /// 128-bit vectors on a CPU with AVX2 / AVX-512 corrupts its heap ("double free or corruption",
 /// in its own queue thread) on this scene and on the bowl and torus, for every method, the
 /// envmap baseline included; limited to AVX it runs, and its records equal the 256-bit ones
 /// (spirv/README.md, "Known defect").
-fn span_records(lanes: u32, bits: u32, far: f32) -> (Vec<u8>, Vec<PixelRecord>) {
+fn span_records(lanes: u32, bits: u32, far: f32) -> ((Vec<u8>, Vec<PixelRecord>), (u32, u32)) {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("records");
     let mut child = Command::new(std::env::current_exe().unwrap());
@@ -592,7 +595,15 @@ fn span_records(lanes: u32, bits: u32, far: f32) -> (Vec<u8>, Vec<PixelRecord>) 
     assert!(o.status.success(), "child failed:\n{text}");
     let mask = std::fs::read(format!("{}.mask", out.display())).unwrap();
     let bytes = std::fs::read(&out).unwrap();
-    (mask, bytemuck::pod_collect_to_vec(&bytes))
+    let ran: Vec<u32> = std::fs::read_to_string(format!("{}.subgroup", out.display()))
+        .unwrap()
+        .split(' ')
+        .map(|v| v.parse().unwrap())
+        .collect();
+    (
+        (mask, bytemuck::pod_collect_to_vec(&bytes)),
+        (ran[0], ran[1]),
+    )
 }
 
 /// Mirror pixels of `a` whose record differs from `b`'s (or whose mask does).
@@ -604,7 +615,8 @@ fn record_differences(a: &(Vec<u8>, Vec<PixelRecord>), b: &(Vec<u8>, Vec<PixelRe
 }
 
 /// `main_lanes1` (1 lane per ray) gives the same records as `main` (the thesis layout) on the
-/// span scene, at subgroup sizes 4 and 8, and the two sizes give the same records. Before `main_retrace`, lavapipe's loop limit (65535
+/// span scene, at subgroup sizes 4 and 8 (each child reports the size `compute_trace` ran at,
+/// checked against the one asked for), and the two sizes give the same records. Before `main_retrace`, lavapipe's loop limit (65535
 /// iterations per invocation, spirv/README.md "Known defect") cut 1004 of its 2570 mirror rays
 /// at 560 steps there (unresolved, `t_done` 0), where `main` needs up to 1581 steps but runs 8
 /// times fewer loop iterations per step. Negative tests: a record changed as a cut ray would
@@ -613,9 +625,14 @@ fn record_differences(a: &(Vec<u8>, Vec<PixelRecord>), b: &(Vec<u8>, Vec<PixelRe
 fn compute_lane_layouts_agree_on_the_span_scene() {
     // Subgroup sizes 4 (with lavapipe's CPU caps limited to AVX: `span_records`) and 8.
     let mut by_width = Vec::new();
+    let mut ran_at = Vec::new();
     for bits in [128, 256] {
-        let wide = span_records(32, bits, FAR);
-        let one = span_records(1, bits, FAR);
+        let (wide, wide_ran) = span_records(32, bits, FAR);
+        let (one, one_ran) = span_records(1, bits, FAR);
+        // The child ran at the subgroup size asked for: every workgroup of both layouts.
+        assert_eq!(wide_ran, (bits / 32, bits / 32), "width {bits}");
+        assert_eq!(one_ran, wide_ran, "width {bits}");
+        ran_at.push(wide_ran);
         let mirror = wide.0.iter().filter(|&&m| m == 1).count();
         let unresolved = (0..wide.1.len())
             .filter(|&k| wide.0[k] == 1 && wide.1[k].status == RECORD_UNRESOLVED)
@@ -645,11 +662,14 @@ fn compute_lane_layouts_agree_on_the_span_scene() {
         assert_eq!(record_differences(&perturbed, &wide), 1);
         by_width.push(wide);
     }
+    // Negative: the check above tells the sizes apart (a child that ignored
+    // `LP_NATIVE_VECTOR_WIDTH` would report 8 at 128 bits and fail it).
+    assert_ne!(ran_at[0], ran_at[1]);
     // And the sizes agree record for record.
     let d = record_differences(&by_width[0], &by_width[1]);
     assert_eq!(d, 0, "subgroup sizes 4 and 8: {d} records differ");
-    let moved = span_records(32, 256, 0.5 * FAR);
-    let wide = span_records(32, 256, FAR);
+    let (moved, _) = span_records(32, 256, 0.5 * FAR);
+    let (wide, _) = span_records(32, 256, FAR);
     let d = record_differences(&moved, &wide);
     assert!(d > 100, "moving the far cube changed {d} records");
 }

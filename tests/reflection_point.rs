@@ -263,9 +263,10 @@ fn sphere_room_same_surface_when_tessellated() {
         results.push((share, interior_share, stats.capped));
     }
     finish_gpu(ctx);
-    assert!(results[0].0 < 0.6, "coarse: {:?}", results[0]);
+    // Lower bounds only: the unsubdivided share (41%, walls as straight-edged polygons) is
+    // printed, not pinned, so a method that does better there passes.
     assert!(
-        results[1].0 >= 0.97 && results[1].0 < 0.98 && results[1].1 >= 0.98,
+        results[1].0 >= 0.97 && results[1].1 >= 0.98,
         "subdivided 3 times, scale 4: {:?}",
         results[1]
     );
@@ -274,24 +275,49 @@ fn sphere_room_same_surface_when_tessellated() {
         "subdivided 4 times, scale 8: {:?}",
         results[2]
     );
-    // The former fixed cap of 256 steps gives up searches at scale 8: the default cap follows
-    // the textures' size.
+    // The former fixed cap of 256 steps gives up searches at scale 8 and loses pixels the
+    // default cap (which follows the textures' size) keeps.
     assert!(
-        results[3].2 > 1000 && results[3].0 < 0.9,
+        results[3].2 > 1000 && results[3].0 < results[2].0,
         "cap 256 at scale 8: {:?}",
         results[3]
     );
 }
 
+/// Least `(share correct, PSNR dB)` per scene and subdivision level at 96x72, lower bounds
+/// only (a method that does better passes): 80% of the measured share correct and the measured
+/// PSNR less 1 dB (teapot level 2: see there). Measured on lavapipe (Mesa 22.3.6), levels 0 and 2: default 1.07%, 14.60 dB
+/// and 2.55%, 15.33 dB; sphere-room 1.05%, 14.96 dB and 2.63%, 15.00 dB; teapot 0.78%, 12.81 dB
+/// and 0.29%, 11.14 dB; torus 0%, 15.93 dB and 0.04%, 15.13 dB; bowl 0.51%, 13.66 dB and
+/// 0.25%, 13.84 dB. The share correct is small because the metric's wrong surface allows two
+/// CMO texel footprints and a reflection point is a search texel; `same object` (below) is
+/// this method's measure.
+fn rp_bounds(name: &str, level: u32) -> (f64, f64) {
+    match (name, level) {
+        ("default", 0) => (0.0085, 13.6),
+        ("default", 2) => (0.020, 14.3),
+        ("sphere-room", 0) => (0.0084, 13.9),
+        ("sphere-room", 2) => (0.021, 14.0),
+        ("teapot", 0) => (0.0062, 11.8),
+        // Less 0.34 dB only: its reflection black measures 10.56 dB.
+        ("teapot", 2) => (0.0023, 10.8),
+        ("torus", 0) => (0.0, 14.9),
+        ("torus", 2) => (0.0003, 14.1),
+        ("bowl", 0) => (0.0040, 12.6),
+        ("bowl", 2) => (0.0020, 12.8),
+        other => panic!("no bounds for {other:?}"),
+    }
+}
+
 /// The error against the reference on every built-in scene, unsubdivided and subdivided twice
-/// (printed for the README; the bounds only catch a broken method), and the concave and mixed
-/// reflectors' limitation: a vertex with several reflection points gets one virtual vertex, so
-/// the `bowl` and `torus` stay further from the reference than the convex `sphere-room` and
-/// `default` at the same subdivision.
+/// (printed for the README), held to per-scene lower bounds ([`rp_bounds`]). The concave and
+/// mixed reflectors' limitation (a vertex with several reflection points gets one virtual
+/// vertex, so the `bowl` and `torus` stay further from the reference than the convex
+/// `sphere-room`) shows in their bounds, not in a pin that a better method would fail.
 #[test]
 fn error_against_the_reference_per_builtin_scene() {
     let ctx = gpu_context();
-    let mut same = Vec::new();
+    let mut failures = Vec::new();
     for (name, _) in builtin::NAMES {
         for level in [0, 2] {
             let mut scene = builtin::by_name(name).unwrap();
@@ -328,7 +354,24 @@ fn error_against_the_reference_per_builtin_scene() {
                 stats.searched
             );
             assert!((report.unresolved - unresolved).abs() < 0.02, "{name}");
-            assert!(report.psnr_db.is_finite() && report.psnr_db > 5.0, "{name}");
+            let least = rp_bounds(name, level);
+            let got = common::quality(&report);
+            eprintln!("{name} subdivided {level}: correct {:.2}%", 100.0 * got.0);
+            if got.0 < least.0 || got.1 < least.1 {
+                failures.push(format!("{name} {level}: {got:?} below {least:?}"));
+            }
+            // Negative: the reflection black falls below the PSNR bound.
+            let dim = metrics::compare(
+                &reference,
+                &common::blacked(&traced),
+                &r.frame.surface_position,
+                &scene.cmo_centres(),
+                scene.cmo.resolution,
+            );
+            eprintln!("{name} {level}: black PSNR {:.2} dB", dim.psnr_db);
+            if dim.psnr_db >= least.1 {
+                failures.push(format!("{name} {level}: black passes: {}", dim.psnr_db));
+            }
             if level == 2 && (*name == "default" || *name == "sphere-room") {
                 assert!(share > 0.85, "{name}: {share}");
             }
@@ -348,16 +391,13 @@ fn error_against_the_reference_per_builtin_scene() {
                 bad.unresolved + bad.wrong_surface > 0.999,
                 "{name}: {bad:?}"
             );
-            if level == 2 {
-                same.push((*name, share));
+            if least.0 > 0.0 && common::quality(&bad).0 >= least.0 {
+                failures.push(format!("{name} {level}: moved hit points pass: {bad:?}"));
             }
         }
     }
     finish_gpu(ctx);
-    let of = |n: &str| same.iter().find(|(s, _)| *s == n).unwrap().1;
-    assert!(of("bowl") < of("sphere-room"), "{same:?}");
-    assert!(of("torus") < of("sphere-room"), "{same:?}");
-    assert!(of("teapot") < of("sphere-room"), "{same:?}");
+    assert!(failures.is_empty(), "{failures:#?}");
 }
 
 /// A search scale whose textures would exceed the largest image side is refused with a message
@@ -391,8 +431,8 @@ fn oversized_search_textures_are_refused() {
 /// frame): one point per scene and level, each against the reference, written to the JSON, the
 /// Markdown and the two plots. The points must measure the subdivided scenes: on `sphere-room` the
 /// uncovered share falls and the reference's object share rises to the level the tessellation
-/// test finds, which a curve that ignored the subdivision (or measured another frame) would not
-/// show; the concave `bowl` stays below the convex `sphere-room` at the same level.
+/// test finds, and above the coarse level's, which a curve that ignored the subdivision (or
+/// measured another frame) would not show.
 #[test]
 fn tessellation_curve_in_the_scaling_report() {
     use cubetrace::bench::scaling::{self, ScalingConfig};
@@ -448,9 +488,10 @@ fn tessellation_curve_in_the_scaling_report() {
         );
     }
     let (coarse, fine) = (point("sphere-room", 0), point("sphere-room", 2));
-    assert!(coarse.error.unresolved > 0.3 && fine.error.unresolved < 0.01);
-    assert!(coarse.same_object.share < 0.6 && fine.same_object.share > 0.85);
-    assert!(point("bowl", 2).same_object.share < fine.same_object.share);
+    // Subdividing is what resolves the sphere's reflection; the coarse level's error and the
+    // bowl's (concave: one virtual vertex per vertex) are printed above, not pinned.
+    assert!(fine.error.unresolved < 0.01 && fine.error.unresolved < coarse.error.unresolved);
+    assert!(fine.same_object.share > 0.85 && fine.same_object.share > coarse.same_object.share);
     scaling::write(&report, out.path()).expect("write");
     let md = std::fs::read_to_string(out.path().join("scaling.md")).unwrap();
     assert!(md.contains("## Reflection-point: tessellation curve"));

@@ -243,17 +243,43 @@ unsafe extern "system" fn debug_callback(
 mod tests {
     use super::*;
 
+    /// Whether `CUBETRACE_VALIDATION=1` asks for the layer (CI does): then a missing loader,
+    /// layer or debug utils fails these tests instead of skipping them.
+    fn required() -> bool {
+        std::env::var(VALIDATION_ENV).as_deref() == Ok("1")
+    }
+
+    /// An instance with the validation layer and its messenger, or `None` (with a note) where
+    /// the loader, the layer or debug utils is missing and validation is not required.
+    fn validated_instance() -> Option<Instance> {
+        let missing = |why: String| {
+            assert!(!required(), "{VALIDATION_ENV}=1: {why}");
+            eprintln!("skipped: {why}");
+            None
+        };
+        let instance = match Instance::new(Validation::IfAvailable) {
+            Ok(i) => i,
+            Err(e) => return missing(e.to_string()),
+        };
+        if !instance.validation {
+            return missing("the validation layer is not installed".into());
+        }
+        if instance.messenger.is_none() {
+            return missing("no VK_EXT_debug_utils".into());
+        }
+        Some(instance)
+    }
+
     /// The messenger path records errors: inject one with vkSubmitDebugUtilsMessageEXT.
-    /// Skips (with a note) where no loader or no debug utils is available.
     #[test]
     fn messenger_records_injected_error() {
-        let instance = match Instance::new(Validation::Off) {
-            Ok(i) => i,
-            Err(e) => return eprintln!("skipped: {e}"),
+        let Some(instance) = validated_instance() else {
+            return;
         };
         let Some(m) = &instance.messenger else {
-            return eprintln!("skipped: no VK_EXT_debug_utils");
+            unreachable!("validated_instance checks the messenger")
         };
+        assert!(instance.validation_log().errors().is_empty());
         let data =
             vk::DebugUtilsMessengerCallbackDataEXT::default().message(c"injected test error");
         // SAFETY: the instance and its messenger are alive; `data` outlives the call.
@@ -267,5 +293,47 @@ mod tests {
         let errors = instance.validation_log().errors();
         assert_eq!(errors.len(), 1, "{errors:?}");
         assert!(errors[0].contains("injected test error"));
+    }
+
+    /// A real misuse reaches the log: `vkGetPhysicalDeviceImageFormatProperties` with no usage
+    /// bit breaks VUID-vkGetPhysicalDeviceImageFormatProperties-usage-requiredbitmask, which the
+    /// layer's parameter validation reports. Negative: the same query with a usage bit is
+    /// valid and records nothing, so the error is the misuse's, not noise.
+    #[test]
+    fn validation_layer_reports_a_real_misuse() {
+        let Some(instance) = validated_instance() else {
+            return;
+        };
+        // SAFETY: the instance is alive.
+        let devices = unsafe { instance.raw.enumerate_physical_devices() }
+            .expect("vkEnumeratePhysicalDevices");
+        let Some(&device) = devices.first() else {
+            assert!(!required(), "{VALIDATION_ENV}=1: no physical device");
+            return eprintln!("skipped: no physical device");
+        };
+        let query = |usage: vk::ImageUsageFlags| {
+            // SAFETY: `device` comes from this live instance; the layer checks the arguments
+            // before the driver sees them (an empty usage is the misuse under test).
+            let _ = unsafe {
+                instance.raw.get_physical_device_image_format_properties(
+                    device,
+                    vk::Format::R8G8B8A8_UNORM,
+                    vk::ImageType::TYPE_2D,
+                    vk::ImageTiling::OPTIMAL,
+                    usage,
+                    vk::ImageCreateFlags::empty(),
+                )
+            };
+            instance.validation_log().errors()
+        };
+        let valid = query(vk::ImageUsageFlags::SAMPLED);
+        assert!(valid.is_empty(), "a valid query reported {valid:?}");
+        let misuse = query(vk::ImageUsageFlags::empty());
+        assert!(
+            misuse
+                .iter()
+                .any(|e| e.contains("VUID-vkGetPhysicalDeviceImageFormatProperties-usage")),
+            "the layer did not report an empty usage: {misuse:?}"
+        );
     }
 }
