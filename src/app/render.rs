@@ -191,8 +191,12 @@ pub fn check_gpu_memory(
 pub fn gpu_options(args: &RenderArgs) -> Result<RenderOptions> {
     let m = args.method;
     let options = args.trace.options(m);
-    m.check_bounces(args.bounces, crate::vk::passes::bounce::MAX_BOUNCES, &options.trace)
-        .map_err(anyhow::Error::msg)?;
+    m.check_bounces(
+        args.bounces,
+        crate::vk::passes::bounce::MAX_BOUNCES,
+        &options.trace,
+    )
+    .map_err(anyhow::Error::msg)?;
     Ok(RenderOptions {
         bounces: args.bounces,
         ..options
@@ -228,7 +232,12 @@ fn render_gpu(
     let frame = renderer.render(&ctx)?;
     let render_time = start.elapsed();
     let traced = frame.traced();
-    output::write_traced(&target.path, &traced, &frame.surface_position, &scene.world())?;
+    output::write_traced(
+        &target.path,
+        &traced,
+        &frame.surface_position,
+        &scene.world(),
+    )?;
     let written = start.elapsed();
     log::info!(
         "host: scene {:.0} ms, device {:.0} ms, passes and pipelines {:.0} ms, frame (submit, wait, read back) {:.0} ms, {} {:.0} ms",

@@ -15,6 +15,81 @@
 //! each pass are recorded here; the one between the G-buffer and `reflection_point_raster` (which reads its
 //! mirror mask) and the one before `composite` belong to the caller
 //! ([`crate::vk::frame::GpuRenderer`]).
+//!
+//! # How it works
+//!
+//! Reflection-point search with virtual objects, after Estalella, Martin, Drettakis and Tost, "A
+//! GPU-driven Algorithm for Accurate Interactive Reflections on Curved Objects" (EGSR 2006). Passes
+//! `reflection_point_search` and `reflection_point_raster`; the CPU twin of the search is
+//! `cpu::reflection_point`.
+//!
+//! - Textures (section 4): the reflectors alone, from the camera, into T_P (world position + mask)
+//!   and T_N (normal), at `--rp-scale` times the frame's size (default 1). Other objects are not
+//!   drawn there, so they do not hide the reflector from the search.
+//! - Search, one compute invocation per scene vertex (reflector vertices skipped): start at the
+//!   projected centre of the reflectors' bounding box (off the reflector: the nearest reflector
+//!   texel along the crosshair's arms); the first step tests the four crosshair neighbours, later
+//!   steps all eight; move to the best `dot(N, B)` until the centre wins, or stop at
+//!   `--rp-iterations` (default: the textures' width + height, so a walk can cross them; the
+//!   vertex's triangles are then not drawn). A fixed cap of 256 gave up 19 % of `sphere-room`'s
+//!   searches at `--rp-scale 8`.
+//! - Region C (section 5.1): a vertex behind the plane of the texel found takes the inverse search
+//!   from there, scoring the mirror image of the vertex in each texel's plane. The virtual vertex is
+//!   the vertex mirrored in the final texel's plane; its depth in the virtual pass is the reflected
+//!   path's length `|O - R| + |R - V|`, not its own (a hidden vertex's mirror image lies in front of
+//!   the mirror and would hide the true reflections near the outline).
+//! - Leaving the reflector: texels off it never win, so a search whose maximum lies beyond the
+//!   outline stops on the outline. The paper's wider search frustum (5.2) and frame-to-frame
+//!   coherence (5.3) are not implemented: reflection points off screen end on the frame's border.
+//! - Closed versions (5.1, the paper's open/closed pair; `cpu::closure`): the search runs on a
+//!   watertight version of every open reflector (boundary loops capped by a fan from their
+//!   centroid); the mirror mask stays the open one; `--rp-open` searches the reflectors as they are.
+//!   Where the mirror is the inside (the concave `bowl`), the cap is drawn behind every reflector
+//!   surface, since a cap in front would make it a plane mirror (40 % -> 0 % of the reference's
+//!   object). Limitation: an open reflector whose mirror is its inside can only be searched where
+//!   the camera sees it.
+//! - Virtual objects (`reflection_point_raster`): every non-reflector triangle at its virtual
+//!   vertices, depth tested, drawn only where the mirror mask is set, shaded at the original vertex
+//!   attributes; the record's hit point is the original surface point and `face` the object.
+//!   Uncovered mirror pixels are unresolved. Reflectors are not reflected (no self-reflections).
+//!   Several reflectors share one pair of textures and one virtual scene (the paper: one each).
+//!
+//! Invariants: GPU and twin agree on every vertex of every built-in scene exactly (status, texel,
+//! steps) and to 1e-4 on the virtual vertex, also on closed search textures; a moved eye, a lower
+//! cap or one turned normal shows. Every built-in reflector's closed version is watertight.
+//!
+//! Tessellation dependence. The method reflects vertices and joins them by straight edges: a coarse
+//! object reflects as a polygon, a wall of two triangles barely at all. `--subdivide N` splits every
+//! non-reflector triangle into four N times (same surfaces, same reference); `bench --scaling`
+//! measures the curve (`scaling.md`, "tessellation"). The paper's measure, same object (of the
+//! reference's mirror pixels showing a non-reflector object, the share where the method shows it),
+//! at 160x120 (commit 5127659):
+//!
+//! | scene | scale | subdivide 0 / 1 / 2 / 3 / 4: same object % |
+//! |---|---:|---|
+//! | sphere-room | 1 | 49.2 / 94.3 / 94.3 / 94.7 / 95.5 |
+//! | sphere-room | 8 | 42.4 / 93.8 / 97.6 / 98.3 / 98.5 |
+//! | bowl | 1 | 3.0 / 33.9 / 40.3 / 59.3 / 67.8 |
+//! | torus | 1 | 5.9 / 10.5 / 10.9 / 14.4 / 18.8 |
+//!
+//! On the convex sphere, beyond one level the search texture's resolution bounds it (a reflection
+//! point is a texel, and near the outline a texel spans a wide range of directions): the paper's
+//! >= 98 % needs both a fine tessellation and a fine texture (192x144, `--subdivide 4 --rp-scale 8`:
+//! 98.4 %, tested). A vertex with several reflection points gets one virtual vertex (the paper's
+//! stated limitation) and the local search stops at the first maximum: the concave bowl and the
+//! mixed torus stay far below (the torus's vertices are seen in both rings). PSNR hardly moves (15
+//! to 18 dB): the floor's checkerboard reflects finer than a pixel, so a hit millimetres off flips a
+//! check. Cost: steps grow with the texture's side (25 per vertex at scale 1, 192 at 8), time with
+//! the vertex count (`reflection_point_search` 2.5 to 4.2 ms at 400 vertices, 2.3 to 3.5 s at 74k
+//! and scale 8).
+//!
+//! Where it wins: a convex reflector and few, well-tessellated objects. It needs no per-pixel
+//! tracing: 3.7 ms for search and rasterisation at 5k vertices on sphere-room at 160x120, against
+//! 14 and 20 ms for the fragment and compute tracing passes. It loses on large flat objects, on
+//! concave and mixed reflectors, on self-reflections, and near the outline. In the bench (160x120,
+//! commit 0b66ea7) it leaves 62.5 % of the mirror pixels to the fallback as is and 23.8 %
+//! subdivided twice, where 74 % are then on the wrong surface (`teapot`, `torus`, `bowl` show wrong
+//! reflections where they showed the fallback).
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};

@@ -14,6 +14,51 @@
 //! fully rewritten every frame; consecutive levels are separated by a compute-write ->
 //! compute-read barrier recorded here; the barriers before `ssr_hiz` (the G-buffer's) and between
 //! `ssr_hiz` and `ssr` belong to the caller ([`crate::vk::frame::GpuRenderer`]).
+//!
+//! # How it works
+//!
+//! Hi-Z screen-space reflections, the peer method most engines ship, after Uludag, "Hi-Z
+//! Screen-Space Cone-Traced Reflections" (GPU Pro 5, 2014), mirror part only. Passes `ssr_hiz` and
+//! `ssr` (`spirv/ssr_hiz.wgsl`, `spirv/ssr.wgsl`, `spirv/shared/ssr.wgsl`); CPU twin `cpu::ssr`.
+//!
+//! - Hi-Z (section 4.4.1, Listing 4.3): per pixel the depth key `-1 / w` of the G-buffer's world
+//!   position (affine in post-projective depth, so it interpolates linearly in screen space, and
+//!   unlike `z / w` with our near plane it keeps f32 resolution at every distance), then levels of
+//!   2x2 minima down to 1x1 (odd sizes: missing children skipped); one dispatch per level.
+//! - Traversal (Listings 4.2, 4.5): the ray is `o + d t` in (pixel x, pixel y, depth key) with
+//!   `d.z = 1`. It first leaves its own pixel; then each iteration moves it to the cell's minimum
+//!   depth plane if it is in front of it; if that leaves the cell it stops at the cell boundary
+//!   (plus 1/128 pixel) and goes up a level, else down a level; it hits when it goes down from
+//!   level 0, and takes the colour and position of the G-buffer pixel it lands on.
+//! - Unresolved (left to the `--fallback`): rays towards the camera or parallel to the screen (a
+//!   min pyramid cannot trace them, section 4.6.7), rays that leave the screen, rays that reach
+//!   `--ssr-iterations` (default 64) and, with `--ssr-thickness T` (world units along the view
+//!   axis), hits more than T behind the surface they land on. The default has no thickness test,
+//!   as the chapter's listing: every surface is infinitely thick, so a ray passing behind a thin
+//!   object or a silhouette hits it. The record keeps the outcome (`face`) and the iteration count
+//!   (`cells`).
+//!
+//! Invariants: the GPU's depth keys, pyramid and records equal the twin's bit for bit on every
+//! mirror pixel of every built-in scene (outcome, hit pixel, iterations, final depth, colour,
+//! point); a perturbed pyramid, cap or thickness shows. Rays reported off screen have their exact
+//! hit off screen. A thin panel in front of a wall gives 19 false hits without a thickness test, 3
+//! with 0.1 m (which leaves 53 pixels unresolved instead).
+//!
+//! What screen space cannot see, at 96x72: 58 to 98 % of a curved mirror's rays go towards the
+//! camera (940 of 1489 mirror pixels in `default`, 1544 of 1578 in the concave `bowl`) and another
+//! 0.4 to 22 % leave the frame, so 72 to 98 % of the mirror pixels are unresolved against 4.8 % for
+//! the exact cubemap tracers. Of its hits on other surfaces, 78 to 91 % lie within two pixel
+//! footprints of the exact hit; most of the rest are thickness failures.
+//!
+//! Measured (lavapipe, 2 cores, commit 0b66ea7, bench 160x120, `benches/results/lavapipe-bench.json`):
+//! 210 ns per mirror pixel for `ssr` (plus 0.4 to 4 ms per frame for `ssr_hiz`), 84 % of mirror
+//! pixels left to the fallback; with `--fallback trace` finishing those exactly, 9.7 % wrong surface
+//! and 22.5 dB. It still pays the CMO capture (14 to 34 ms per frame at 160x120).
+//!
+//! Not implemented: glossy reflections. The chapter's cone tracing needs a roughness per material
+//! (scene format and G-buffer), a pre-convolved colour mip chain (4.4.4), a pre-integrated
+//! visibility pyramid (a max Hi-Z beside the min one, 4.4.2), the cone-tracing pass (4.4.5), and a
+//! reference that integrates the lobe to measure it against.
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::Mat4;

@@ -32,6 +32,39 @@
 //! criterion) take `bounces` = 1 only. Two queues (each one ray per pixel at most) alternate
 //! between the rounds; they and the BVH are allocated only for N ≥ 2, and the BVH is shared with
 //! the frame's own BVH passes when it has them (`bvh`, `--fallback trace`).
+//!
+//! # Several reflections, as a wavefront
+//!
+//! Several reflections per path (`--bounces N`, 0 to 16, default 1), as a wavefront. The reference
+//! reflects a path up to N times about the hit triangle's interpolated normal and shades a reflector
+//! met after the last bounce with its own material; the GPU does the same. The method traces the
+//! camera's reflected rays (round 1). For each round k = 2..=N, recorded in the frame's one command
+//! buffer, `bounce_append` appends the next reflected ray of every record that hit a reflector
+//! (from the hit point, about the normal interpolated there, leaving that triangle under the BVH
+//! start rule) to a queue through an atomic counter, and `bvh_trace` traces the queue over an
+//! indirect dispatch sized on the GPU. Entry points: `own_material` (N = 0), `append_first` (one
+//! invocation per pixel) and `append_next` (one per ray of the previous round, dispatched with that
+//! queue's own `bvh_trace` arguments).
+//!
+//! Invariants:
+//! - A record keeps the final hit of its pixel's path and its `bounces` count (the EXR channel).
+//! - Rounds >= 2 are always traced by the BVH, whatever the method: those rays start anywhere in
+//!   the scene, far from the CMO centres placed for the camera's rays; the cubemap methods keep
+//!   round 1. So the target is the reference's image, bounce for bounce.
+//! - N = 0 traces nothing: mirror pixels show their own material (the G-buffer's colour).
+//! - The two alternating queues and the BVH exist only for N >= 2 (the BVH shared with `bvh` or
+//!   `--fallback trace`).
+//! - Methods whose records name no triangle (`envmap`, `ssr`, `reflection-point`, and the
+//!   approximate criteria) refuse N != 1 (`Method::check_bounces`).
+//!
+//! Checked against the reference per mirror pixel: the same final triangle, and there the colour
+//! within 1e-3 and the same bounce count. `bvh` on the bowl seen from above its rim (N = 3, 1235 of
+//! 2465 paths reflect 2 or 3 times at 64x48): 2465 of 2465; two facing flat mirrors (N = 1, 2, 5):
+//! 2772 of 2772 each; N = 0: all but the silhouette's 4 of 698. The cubemap paths lose nothing to
+//! the bounces beyond their own first round (bowl: same triangle 91.6 % at N = 3, 90.1 % at N = 1,
+//! self-capture on). Negative: each frame against the reference of another N, and the second
+//! mirror's normals turned by 0.5 degrees, fail. At 320x240 (`render --compare`, commit 3432b34):
+//! teapot N = 3, `bvh`, `compute` and `fragment` 53.2 dB over mirror pixels; bowl N = 3 103.6 dB.
 use ash::vk;
 
 use super::bvh::{BvhQueue, BvhTracer, pixel_groups};
