@@ -8,8 +8,8 @@
 //! - [`placement`]: CMO placement search and set-up checks, algorithms over the scene.
 //! - [`camera`]: the camera and its pixel convention (Vulkan's, pixel centres at +0.5).
 //! - [`shading`]: the view-independent shading shared by the capture and the reference.
-//! - [`reference`]: the exact CPU ray tracer that every accuracy figure is measured against.
-//! - [`bench`]: the speed-against-error harness (`cubetrace bench`) and scaling curves.
+//! - [`reference`](mod@reference): the exact CPU ray tracer that every accuracy figure is measured against.
+//! - [`bench`](mod@bench): the speed-against-error harness (`cubetrace bench`) and scaling curves.
 //! - [`metrics`]: error of a traced reflection against the reference.
 //! - [`ranges`]: depth ranges and ray length of a GPU frame, and the f32 precision check.
 //! - [`output`]: PNG and EXR writers, and the meaning of every EXR channel.

@@ -4,7 +4,7 @@
 //!
 //! - [`render`]: `cubetrace render` (one frame of one method, optionally compared with the
 //!   reference).
-//! - [`bench`]: `cubetrace bench` (the harness of [`crate::bench`] and its scaling curves).
+//! - [`bench`](mod@bench): `cubetrace bench` (the harness of [`crate::bench`] and its scaling curves).
 //! - [`export`]: `cubetrace scene export`.
 //! - [`info`], [`scenes`]: the two listing commands.
 //!

@@ -18,7 +18,7 @@
 //! - Every figure comes from the frames of this run; nothing is extrapolated. Frames are
 //!   deterministic, so the last frame's error is every frame's error.
 //! - A method is a [`Method`] plus tracer options; the grid ([`fragment_grid`]) sweeps the
-//!   options of every kind for which [`Method::traces`] holds, so a new GPU method (compute)
+//!   options of every kind for which [`Method::traces_cubemaps`] holds, so a new GPU method (compute)
 //!   is one [`Method`] variant.
 //! - "Cost" in the plot and in `ns/mirror px` is the tracing pass alone (`fragment_trace`,
 //!   `envmap`): capture, pyramid and G-buffer are listed per pass but are the same for every
@@ -51,7 +51,7 @@ pub use crate::method::Method;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MethodSpec {
     pub kind: Method,
-    /// Used when [`Method::traces`].
+    /// Used when [`Method::traces_cubemaps`].
     pub trace: TraceOptions,
     /// The non-reflector objects split into four this many times for this run
     /// ([`crate::cpu::reflection_point::subdivide_non_reflectors`]): the same surfaces, so the
