@@ -590,7 +590,7 @@ fn methods_without_triangles_refuse_bounces() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success(), "{stderr}");
     assert!(
-        stderr.contains("--bounces 2") && stderr.contains("Ssr"),
+        stderr.contains("--bounces 2") && stderr.contains("--method ssr"),
         "{stderr}"
     );
     assert!(

@@ -74,7 +74,7 @@
 //!
 //! On the convex sphere, beyond one level the search texture's resolution bounds it (a reflection
 //! point is a texel, and near the outline a texel spans a wide range of directions): the paper's
-//! >= 98 % needs both a fine tessellation and a fine texture (192x144, `--subdivide 4 --rp-scale 8`:
+//! 98 % or more needs both a fine tessellation and a fine texture (192x144, `--subdivide 4 --rp-scale 8`:
 //! 98.4 %, tested). A vertex with several reflection points gets one virtual vertex (the paper's
 //! stated limitation) and the local search stops at the first maximum: the concave bowl and the
 //! mixed torus stay far below (the torus's vertices are seen in both rings). PSNR hardly moves (15

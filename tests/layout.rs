@@ -1,0 +1,369 @@
+//! The source tree keeps the shape the README's "Layout" section promises:
+//! - no import circle: no module uses, directly or through others, a module that uses it back
+//!   (at every depth of the module path: `vk`, `vk::passes`, `vk::passes::bvh`);
+//! - Vulkan stays in `src/vk/`: no `ash::` path and no `unsafe` outside it;
+//! - no function in `src/` is longer than 120 lines.
+//!
+//! The checks read the sources as text (paths written `crate::a::b` or `super::a`, and
+//! `use` groups `crate::{a, b}`), which is how this crate writes its imports. Each check has a
+//! negative on a made-up tree that must fail it.
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+/// Every `.rs` file under `src/` but `main.rs` (the binary, which only uses the library), with
+/// its module path (`vk::passes::bvh`; `lib.rs` is the root, "").
+fn sources() -> Vec<(String, String)> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    let mut stack = vec![root.clone()];
+    while let Some(dir) = stack.pop() {
+        for e in std::fs::read_dir(&dir).expect("src is readable") {
+            let p = e.expect("entry").path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.extension().is_some_and(|x| x == "rs") && !p.ends_with("main.rs") {
+                files.push(p);
+            }
+        }
+    }
+    files.sort();
+    files
+        .into_iter()
+        .map(|p| {
+            (
+                module_of(&root, &p),
+                std::fs::read_to_string(&p).expect("readable"),
+            )
+        })
+        .collect()
+}
+
+fn module_of(root: &Path, file: &Path) -> String {
+    let rel: PathBuf = file
+        .strip_prefix(root)
+        .expect("under src")
+        .with_extension("");
+    let mut parts: Vec<String> = rel.iter().map(|s| s.to_string_lossy().into()).collect();
+    if parts.last().is_some_and(|l| l == "mod" || l == "lib") {
+        parts.pop();
+    }
+    parts.join("::")
+}
+
+/// The source without comments and string literals (so that prose naming a module is no edge).
+fn code_only(src: &str) -> String {
+    let mut out = String::with_capacity(src.len());
+    for line in src.lines() {
+        let mut in_str = false;
+        let mut prev = ' ';
+        let mut kept = String::new();
+        let chars: Vec<char> = line.chars().collect();
+        let mut i = 0;
+        while i < chars.len() {
+            let c = chars[i];
+            if !in_str && c == '/' && chars.get(i + 1) == Some(&'/') {
+                break;
+            }
+            if c == '"' && prev != '\\' {
+                in_str = !in_str;
+            } else if !in_str {
+                kept.push(c);
+            }
+            prev = c;
+            i += 1;
+        }
+        out.push_str(&kept);
+        out.push('\n');
+    }
+    out
+}
+
+/// Module paths a file refers to: `crate::a::b::c` and `super::x` (resolved against `module`),
+/// and each item of a `crate::{a, b::{c, d}}` group.
+fn references(module: &str, src: &str) -> Vec<String> {
+    let code = code_only(src);
+    let mut out = Vec::new();
+    for (prefix, base) in [("crate::", String::new()), ("super::", parent(module))] {
+        let mut rest = code.as_str();
+        while let Some(k) = rest.find(prefix) {
+            let before = rest[..k].chars().last();
+            rest = &rest[k + prefix.len()..];
+            if before.is_some_and(is_path_char) {
+                continue;
+            }
+            for path in expand(rest) {
+                let path = path.trim_matches(':');
+                out.push(if base.is_empty() {
+                    path.to_string()
+                } else {
+                    format!("{base}::{path}")
+                });
+            }
+        }
+    }
+    out
+}
+
+fn is_path_char(c: char) -> bool {
+    c.is_ascii_alphanumeric() || c == '_' || c == ':'
+}
+
+/// The paths at the start of `text`: `a::b` alone, or `a::{b, c::{d}}` as `a::b`, `a::c::d`.
+fn expand(text: &str) -> Vec<String> {
+    let head: String = text.chars().take_while(|&c| is_path_char(c)).collect();
+    let rest = &text[head.len()..];
+    if !rest.starts_with('{') {
+        return vec![head];
+    }
+    // The group's items, split at the commas outside nested braces.
+    let (mut depth, mut items, mut item) = (0, Vec::new(), String::new());
+    for c in rest[1..].chars() {
+        match c {
+            '{' => depth += 1,
+            '}' if depth == 0 => break,
+            '}' => depth -= 1,
+            ',' if depth == 0 => {
+                items.push(std::mem::take(&mut item));
+                continue;
+            }
+            _ => {}
+        }
+        item.push(c);
+    }
+    items.push(item);
+    items
+        .iter()
+        .flat_map(|i| expand(i.trim()))
+        .filter(|p| !p.is_empty())
+        .map(|p| format!("{head}{p}"))
+        .collect()
+}
+
+/// The module `super` names inside `module` (in `a/b.rs` and in `a/b/mod.rs` alike: `a`).
+fn parent(module: &str) -> String {
+    match module.rfind("::") {
+        Some(k) => module[..k].to_string(),
+        None => String::new(),
+    }
+}
+
+/// The first `depth` segments of a module path.
+fn prefix(path: &str, depth: usize) -> String {
+    path.split("::").take(depth).collect::<Vec<_>>().join("::")
+}
+
+/// The module graph at `depth`: an edge a -> b where a file of a refers to a path in b.
+fn graph(files: &[(String, String)], depth: usize) -> BTreeMap<String, BTreeSet<String>> {
+    let known: BTreeSet<String> = files.iter().map(|(m, _)| prefix(m, depth)).collect();
+    let mut edges: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    for (module, src) in files {
+        let a = prefix(module, depth);
+        for r in references(module, src) {
+            let b = prefix(&r, depth);
+            if b != a && !b.is_empty() && known.contains(&b) {
+                edges.entry(a.clone()).or_default().insert(b);
+            }
+        }
+    }
+    edges
+}
+
+/// A cycle of the graph, if there is one (depth-first search for a back edge).
+fn find_cycle(edges: &BTreeMap<String, BTreeSet<String>>) -> Option<Vec<String>> {
+    fn visit(
+        v: &str,
+        edges: &BTreeMap<String, BTreeSet<String>>,
+        state: &mut BTreeMap<String, u8>,
+        path: &mut Vec<String>,
+    ) -> Option<Vec<String>> {
+        state.insert(v.to_string(), 1);
+        path.push(v.to_string());
+        for w in edges.get(v).into_iter().flatten() {
+            match state.get(w.as_str()).copied().unwrap_or(0) {
+                1 => {
+                    let start = path.iter().position(|p| p == w).expect("on the path");
+                    let mut cycle = path[start..].to_vec();
+                    cycle.push(w.clone());
+                    return Some(cycle);
+                }
+                0 => {
+                    if let Some(c) = visit(w, edges, state, path) {
+                        return Some(c);
+                    }
+                }
+                _ => {}
+            }
+        }
+        path.pop();
+        state.insert(v.to_string(), 2);
+        None
+    }
+    let mut state = BTreeMap::new();
+    for v in edges.keys() {
+        if state.get(v.as_str()).copied().unwrap_or(0) == 0 {
+            let mut path = Vec::new();
+            if let Some(c) = visit(v, edges, &mut state, &mut path) {
+                return Some(c);
+            }
+        }
+    }
+    None
+}
+
+fn cycles_of(files: &[(String, String)]) -> Vec<String> {
+    (1..=4)
+        .filter_map(|d| {
+            find_cycle(&graph(files, d)).map(|c| format!("depth {d}: {}", c.join(" -> ")))
+        })
+        .collect()
+}
+
+#[test]
+fn no_module_imports_one_that_imports_it_back() {
+    let files = sources();
+    assert!(files.len() > 50, "the sources were found: {}", files.len());
+    let cycles = cycles_of(&files);
+    assert!(cycles.is_empty(), "import circles:\n{}", cycles.join("\n"));
+}
+
+/// Negative: a made-up tree in which `scene` uses `placement`, which uses `scene` back, and one
+/// in which `vk::a` reaches itself through `super::` paths, are caught; the same trees without
+/// the back edge are not.
+#[test]
+fn an_import_circle_is_found() {
+    let file = |m: &str, src: &str| (m.to_string(), src.to_string());
+    let circle = vec![
+        file("scene", "use crate::placement::resolve;"),
+        file("placement", "use crate::{camera::Camera, scene::Scene};"),
+        file("camera", ""),
+    ];
+    let cycles = cycles_of(&circle);
+    assert!(
+        cycles.len() == 1
+            && cycles[0].starts_with("depth 1: ")
+            && cycles[0].contains("scene -> placement")
+            && cycles[0].contains("placement -> scene"),
+        "{cycles:?}"
+    );
+    let fine = vec![
+        file(
+            "scene",
+            "// crate::placement in a comment is no edge\nlet s = \"crate::placement\";",
+        ),
+        file("placement", "use crate::{camera::Camera, scene::Scene};"),
+        file("camera", ""),
+    ];
+    assert!(cycles_of(&fine).is_empty());
+    let nested = vec![
+        file("vk::a", "use super::b::X;"),
+        file("vk::b", "use super::c::Y;"),
+        file("vk::c", "use crate::vk::a::Z;"),
+    ];
+    let cycles = cycles_of(&nested);
+    assert!(
+        cycles.iter().any(|c| c.starts_with("depth 2")),
+        "{cycles:?}"
+    );
+}
+
+/// Lines of each `fn` in `src` (from its line to the line closing its body), rough but enough:
+/// braces in strings and comments are skipped by [`code_only`].
+fn function_lengths(src: &str) -> Vec<(usize, String, usize)> {
+    let code = code_only(src);
+    let lines: Vec<&str> = code.lines().collect();
+    let mut out = Vec::new();
+    for (n, line) in lines.iter().enumerate() {
+        let t = line.trim_start();
+        let Some(k) = t.find("fn ") else { continue };
+        let head = &t[..k];
+        let is_fn = head.split_whitespace().all(|w| {
+            matches!(w, "pub" | "const" | "async" | "unsafe" | "extern") || w.starts_with("pub(")
+        });
+        if !is_fn {
+            continue;
+        }
+        let name: String = t[k + 3..]
+            .chars()
+            .take_while(|c| c.is_alphanumeric() || *c == '_')
+            .collect();
+        let mut depth = 0i32;
+        let mut started = false;
+        'outer: for (m, l) in lines.iter().enumerate().skip(n) {
+            for c in l.chars() {
+                match c {
+                    '{' => {
+                        depth += 1;
+                        started = true;
+                    }
+                    '}' => depth -= 1,
+                    ';' if !started => break 'outer,
+                    _ => {}
+                }
+            }
+            if started && depth == 0 {
+                out.push((m - n + 1, name.clone(), n + 1));
+                break;
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn no_function_is_longer_than_120_lines() {
+    let mut long = Vec::new();
+    for (module, src) in sources() {
+        for (len, name, line) in function_lengths(&src) {
+            if len > 120 {
+                long.push(format!("{module}:{line} {name}: {len} lines"));
+            }
+        }
+    }
+    assert!(long.is_empty(), "split these:\n{}", long.join("\n"));
+}
+
+/// Negative: a 121-line function is measured as such, a 3-line one too.
+#[test]
+fn a_long_function_is_measured() {
+    let body = "    let x = 1;\n".repeat(119);
+    let src = format!("pub fn long() {{\n{body}}}\nfn short() {{\n    1;\n}}\n");
+    let lengths = function_lengths(&src);
+    assert_eq!(lengths[0], (121, "long".to_string(), 1), "{lengths:?}");
+    assert_eq!(lengths[1], (3, "short".to_string(), 122), "{lengths:?}");
+}
+
+/// Files outside `vk` that name `ash::` or contain `unsafe` code.
+fn vulkan_outside_vk(files: &[(String, String)]) -> Vec<String> {
+    files
+        .iter()
+        .filter(|(m, _)| m != "vk" && !m.starts_with("vk::") && !m.is_empty())
+        .filter(|(_, src)| {
+            let code = code_only(src);
+            let word = |w: &str| {
+                code.match_indices(w).any(|(k, _)| {
+                    let before = code[..k].chars().last();
+                    !before.is_some_and(|c| c.is_ascii_alphanumeric() || c == '_')
+                })
+            };
+            word("ash::") || word("unsafe {") || word("unsafe fn") || word("unsafe impl")
+        })
+        .map(|(m, _)| m.clone())
+        .collect()
+}
+
+#[test]
+fn vulkan_stays_in_its_module_tree() {
+    let files = sources();
+    let outside = vulkan_outside_vk(&files);
+    assert!(
+        outside.is_empty(),
+        "ash or unsafe outside src/vk: {outside:?}"
+    );
+    // Negative: the same check flags a module outside `vk` that calls ash.
+    let mut bad = files.clone();
+    bad.push((
+        "scene::gpu".into(),
+        "fn f() { let _ = ash::vk::Format::UNDEFINED; }".into(),
+    ));
+    assert_eq!(vulkan_outside_vk(&bad), vec!["scene::gpu".to_string()]);
+}
