@@ -97,7 +97,7 @@ fn records_are_unchanged() {
     assert!(files > 0, "no EXR in {}", dirs[0]);
     assert!(
         diffs.is_empty(),
-        "{} of {files} files differ:\n{}",
+        "{} differences in {files} files:\n{}",
         diffs.len(),
         diffs.join("\n")
     );
