@@ -11,6 +11,17 @@ use crate::vk::backend::context::GpuContext;
 use crate::vk::backend::error::VkResult;
 use crate::vk::backend::pipeline::Resource;
 
+/// `data`, or one zeroed element where it is empty (a scene without meshes or materials): a
+/// storage buffer must hold at least one element of its binding's type. No pass reads it, since
+/// [`SceneBuffers::index_count`] stays that of `data`.
+fn at_least_one<T: bytemuck::Pod>(data: &[T]) -> std::borrow::Cow<'_, [T]> {
+    if data.is_empty() {
+        vec![T::zeroed()].into()
+    } else {
+        data.into()
+    }
+}
+
 /// Uploaded scene data.
 pub struct SceneBuffers {
     vertices: Buffer,
@@ -30,10 +41,26 @@ impl SceneBuffers {
     pub fn new(ctx: &GpuContext, data: &GpuSceneData) -> VkResult<Self> {
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
         Ok(SceneBuffers {
-            vertices: ctx.create_buffer_init("scene vertices", storage, &data.vertices)?,
-            indices: ctx.create_buffer_init("scene indices", storage, &data.indices)?,
-            objects: ctx.create_buffer_init("scene objects", storage, &data.objects)?,
-            materials: ctx.create_buffer_init("scene materials", storage, &data.materials)?,
+            vertices: ctx.create_buffer_init(
+                "scene vertices",
+                storage,
+                &at_least_one(&data.vertices),
+            )?,
+            indices: ctx.create_buffer_init(
+                "scene indices",
+                storage,
+                &at_least_one(&data.indices),
+            )?,
+            objects: ctx.create_buffer_init(
+                "scene objects",
+                storage,
+                &at_least_one(&data.objects),
+            )?,
+            materials: ctx.create_buffer_init(
+                "scene materials",
+                storage,
+                &at_least_one(&data.materials),
+            )?,
             textures: ctx.create_buffer_init("scene textures", storage, &data.textures)?,
             texels: ctx.create_buffer_init("scene texels", storage, &data.texels)?,
             srgb: ctx.create_buffer_init("sRGB table", storage, &data.srgb_to_linear)?,
