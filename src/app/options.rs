@@ -92,7 +92,7 @@ pub struct TraceArgs {
     pub eps: f32,
     /// Number of CMOs, placed automatically along the reflectors' longest axis (overrides the
     /// scene's CMO centres).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16))]
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(crate::scene::MAX_CMOS)))]
     pub cmos: Option<u32>,
     /// Texels per cube face side (overrides the scene's; 1 to 4096).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]

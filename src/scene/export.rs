@@ -143,7 +143,7 @@ fn obj_text(mesh: &MeshInstance, mat_names: &[String]) -> Result<String, std::fm
 fn mesh_file(mesh: &MeshInstance, file: String) -> MeshFile {
     let t = &mesh.transform;
     MeshFile {
-        name: Some(mesh.name.clone()),
+        name: Some(sp(mesh.name.clone())),
         obj: sp(PathBuf::from(file)),
         reflector: mesh.reflector,
         transform: TransformFile {
@@ -179,7 +179,7 @@ fn shading_file(shading: Shading) -> ShadingFile {
 
 fn camera_file(c: &Camera) -> CameraFile {
     CameraFile {
-        name: Some(c.name.clone()),
+        name: Some(sp(c.name.clone())),
         eye: sp(c.eye.to_array()),
         target: sp(c.target.to_array()),
         up: sp(c.up.to_array()),

@@ -47,8 +47,8 @@ use toml::Spanned;
 use super::obj::load_obj_file;
 use super::report::{LoadReport, WarningKind};
 use super::{
-    CmoPlacement, CmoSpec, MAX_CUBE_SIZE, MAX_IMAGE_SIDE, MeshInstance, Scene, SceneError,
-    SelfReflections, Transform,
+    CmoPlacement, CmoSpec, MAX_CMOS, MAX_COLOUR, MAX_COORDINATE, MAX_CUBE_SIZE, MAX_IMAGE_SIDE,
+    MeshInstance, Scene, SceneError, SelfReflections, Transform,
 };
 use crate::camera::Camera;
 use crate::shading::Shading;
@@ -103,7 +103,7 @@ pub(crate) struct ShadingFile {
 #[derive(Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub(crate) struct MeshFile {
-    pub name: Option<String>,
+    pub name: Option<Spanned<String>>,
     pub obj: Spanned<PathBuf>,
     #[serde(default)]
     pub reflector: bool,
@@ -149,7 +149,7 @@ impl Default for TransformFile {
 #[derive(Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub(crate) struct CameraFile {
-    pub name: Option<String>,
+    pub name: Option<Spanned<String>>,
     #[serde(deserialize_with = "exact")]
     pub eye: Spanned<[f32; 3]>,
     #[serde(deserialize_with = "exact")]
@@ -253,13 +253,13 @@ fn scale_value<'de, D: Deserializer<'de>>(d: D) -> Result<Spanned<ScaleFile>, D:
 }
 
 /// Resolves byte spans to `file:line` for messages.
-struct Source<'a> {
+pub(super) struct Source<'a> {
     path: &'a Path,
     text: &'a str,
 }
 
 impl Source<'_> {
-    fn at<T>(&self, value: &Spanned<T>) -> String {
+    pub(super) fn at<T>(&self, value: &Spanned<T>) -> String {
         let span = value.span();
         if span.end == 0 {
             return self.path.display().to_string();
@@ -271,7 +271,12 @@ impl Source<'_> {
         format!("{}:{line}", self.path.display())
     }
 
-    fn invalid<T>(&self, value: &Spanned<T>, field: &str, reason: impl Into<String>) -> SceneError {
+    pub(super) fn invalid<T>(
+        &self,
+        value: &Spanned<T>,
+        field: &str,
+        reason: impl Into<String>,
+    ) -> SceneError {
         SceneError::Invalid {
             file: self.at(value),
             field: field.to_string(),
@@ -296,6 +301,38 @@ impl Source<'_> {
         }
         let v = value.get_ref();
         Ok(Vec3::new(v[0], v[1], *v.get(2).unwrap_or(&0.0)))
+    }
+
+    /// A linear RGB colour: finite, each component in `[0, MAX_COLOUR]`.
+    fn colour(&self, value: &Spanned<[f32; 3]>, field: &str) -> Result<Vec3, SceneError> {
+        let v = self.finite(value, field)?;
+        if let Some(c) = (0..3).find(|&c| !(0.0..=MAX_COLOUR).contains(&v[c])) {
+            return Err(self.invalid(
+                value,
+                field,
+                format!(
+                    "component {c} is {} (linear RGB components lie in [0, {MAX_COLOUR}])",
+                    v[c]
+                ),
+            ));
+        }
+        Ok(v)
+    }
+
+    /// A point: finite, each coordinate within `MAX_COORDINATE`.
+    fn point(&self, value: &Spanned<[f32; 3]>, field: &str) -> Result<Vec3, SceneError> {
+        let v = self.finite(value, field)?;
+        if let Some(c) = (0..3).find(|&c| v[c].abs() > MAX_COORDINATE) {
+            return Err(self.invalid(
+                value,
+                field,
+                format!(
+                    "component {c} is {:e}, beyond the {MAX_COORDINATE:e} (2^60) a coordinate may reach",
+                    v[c]
+                ),
+            ));
+        }
+        Ok(v)
     }
 
     fn scalar(&self, value: &Spanned<f32>, field: &str) -> Result<f32, SceneError> {
@@ -330,7 +367,7 @@ pub fn load_scene_file(path: &Path) -> Result<Scene, SceneError> {
 /// Loads a scene file and everything it refers to, and returns the warnings: input that was
 /// accepted, but not as written (skipped elements, undefined materials, ...). The first error
 /// is reported, checking in this order: background, shading, self-reflections, meshes, cameras,
-/// CMOs.
+/// CMOs, then the names and the meshes' sizes (`limits`).
 pub fn load_scene_file_report(path: &Path) -> Result<(Scene, LoadReport), SceneError> {
     let mut report = LoadReport::default();
     let text = std::fs::read_to_string(path).map_err(|e| SceneError::io(path, e))?;
@@ -355,7 +392,7 @@ pub fn load_scene_file_report(path: &Path) -> Result<(Scene, LoadReport), SceneE
             placement: CmoPlacement::Auto { count: 1 },
             resolution: 256,
         },
-        background: src.finite(&file.background, "background")?,
+        background: src.colour(&file.background, "background")?,
         shading: shading(&src, &file.shading)?,
         self_reflections: self_reflections(&src, file.self_reflections.as_ref())?,
     };
@@ -381,6 +418,8 @@ pub fn load_scene_file_report(path: &Path) -> Result<(Scene, LoadReport), SceneE
     if let Some(cmo) = &file.cmo {
         scene.cmo = cmo_spec(&src, cmo)?;
     }
+    super::limits::check_names(&src, &file, &mut scene)?;
+    super::limits::check_mesh_sizes(&src, &file, &scene)?;
     Ok((scene, report))
 }
 
@@ -422,19 +461,34 @@ fn load_mesh(
     if !scale.is_finite() || scale.cmpeq(Vec3::ZERO).any() {
         return Err(src.invalid(&t.scale, &field, "scale must be finite and non-zero"));
     }
+    let rotate_deg = src.finite(&t.rotate_deg, &format!("mesh[{i}].transform.rotate_deg"))?;
+    if let Some(c) = (0..3).find(|&c| rotate_deg[c].abs() > 360.0) {
+        return Err(src.invalid(
+            &t.rotate_deg,
+            &format!("mesh[{i}].transform.rotate_deg"),
+            format!(
+                "component {c} is {} (angles lie in [-360, 360] degrees)",
+                rotate_deg[c]
+            ),
+        ));
+    }
     let transform = Transform {
-        translate: src.finite(&t.translate, &format!("mesh[{i}].transform.translate"))?,
-        rotate_deg: src.finite(&t.rotate_deg, &format!("mesh[{i}].transform.rotate_deg"))?,
+        translate: src.point(&t.translate, &format!("mesh[{i}].transform.translate"))?,
+        rotate_deg,
         scale,
     };
     let obj_path = dir.join(m.obj.get_ref());
     let loaded = load_obj_file(&obj_path, report)?;
-    let name = m.name.clone().unwrap_or_else(|| {
-        obj_path
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_else(|| format!("mesh{i}"))
-    });
+    let name = m
+        .name
+        .as_ref()
+        .map(|n| n.get_ref().clone())
+        .unwrap_or_else(|| {
+            obj_path
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_else(|| format!("mesh{i}"))
+        });
     if loaded.parts.is_empty() {
         if m.reflector {
             return Err(src.invalid(
@@ -460,8 +514,8 @@ fn load_mesh(
 /// Camera `i` of the file.
 fn camera(src: &Source, i: usize, c: &CameraFile) -> Result<Camera, SceneError> {
     let f = |s: &str| format!("camera[{i}].{s}");
-    let eye = src.finite(&c.eye, &f("eye"))?;
-    let target = src.finite(&c.target, &f("target"))?;
+    let eye = src.point(&c.eye, &f("eye"))?;
+    let target = src.point(&c.target, &f("target"))?;
     let up = src.finite(&c.up, &f("up"))?;
     let fov_y_deg = src.scalar(&c.fov_y_deg, &f("fov_y_deg"))?;
     if !(fov_y_deg > 0.0 && fov_y_deg < 180.0) {
@@ -478,7 +532,10 @@ fn camera(src: &Source, i: usize, c: &CameraFile) -> Result<Camera, SceneError> 
     check_resolution(width, height)
         .map_err(|reason| src.invalid(&c.resolution, &f("resolution"), reason))?;
     Ok(Camera {
-        name: c.name.clone().unwrap_or_else(|| format!("camera{i}")),
+        name: c
+            .name
+            .as_ref()
+            .map_or_else(|| format!("camera{i}"), |n| n.get_ref().clone()),
         eye,
         target,
         up,
@@ -505,8 +562,12 @@ fn cmo_spec(src: &Source, cmo: &CmoFile) -> Result<CmoSpec, SceneError> {
         (Some(centres), None) => CmoPlacement::Explicit(cmo_centres(src, centres)?),
         (None, Some(count)) => {
             let n = *count.get_ref();
-            if n == 0 || n > 64 {
-                return Err(src.invalid(count, "cmo.count", "must be 1 to 64"));
+            if n == 0 || n > MAX_CMOS {
+                return Err(src.invalid(
+                    count,
+                    "cmo.count",
+                    format!("{n} is out of range (1 to {MAX_CMOS} CMOs)"),
+                ));
             }
             match cmo.placement.as_ref().map(|p| (p, p.get_ref().as_str())) {
                 None | Some((_, "axis")) => CmoPlacement::Auto { count: n },
@@ -547,10 +608,24 @@ fn cmo_centres(src: &Source, centres: &Spanned<Vec<[f32; 3]>>) -> Result<Vec<Vec
                 "numbers must be finite",
             ));
         }
+        if v.abs().max_element() > MAX_COORDINATE {
+            return Err(src.invalid(
+                centres,
+                &format!("cmo.centres[{k}]"),
+                format!("{v} lies beyond the {MAX_COORDINATE:e} (2^60) a coordinate may reach"),
+            ));
+        }
         out.push(v);
     }
     if out.is_empty() {
         return Err(src.invalid(centres, "cmo.centres", "needs at least one centre"));
+    }
+    if out.len() > MAX_CMOS as usize {
+        return Err(src.invalid(
+            centres,
+            "cmo.centres",
+            format!("{} centres, at most {MAX_CMOS} CMOs", out.len()),
+        ));
     }
     Ok(out)
 }
@@ -582,7 +657,19 @@ fn shading(src: &Source, s: &ShadingFile) -> Result<Shading, SceneError> {
                 None => ambient,
             };
             let light_intensity = match &s.light_intensity {
-                Some(a) => src.scalar(a, "shading.light_intensity")?,
+                Some(a) => {
+                    let v = src.scalar(a, "shading.light_intensity")?;
+                    if !(0.0..=MAX_COLOUR).contains(&v) {
+                        return Err(src.invalid(
+                            a,
+                            "shading.light_intensity",
+                            format!(
+                                "{v} is outside [0, {MAX_COLOUR}] (the light's share of the albedo)"
+                            ),
+                        ));
+                    }
+                    v
+                }
                 None => light_intensity,
             };
             let light_direction = match &s.light_direction {

@@ -19,6 +19,7 @@ mod error;
 pub mod export;
 mod file;
 pub mod gpu_data;
+mod limits;
 mod obj;
 mod report;
 pub mod shapes;
@@ -44,6 +45,30 @@ pub const MAX_IMAGE_SIDE: u32 = 16384;
 
 /// Largest accepted cubemap face size (texels per side).
 pub const MAX_CUBE_SIZE: u32 = 4096;
+
+/// Most CMOs a scene may have (`[cmo] count`, the number of `[cmo] centres`, `render --cmos`).
+/// The GPU code is proven for this many: the compute path's step cap `MAX_STEPS` in
+/// `spirv/compute_trace.wgsl` holds `MAX_ROUNDS * 16` traces of a ray, and `6 * 16 = 96`
+/// cube faces stay within the 256 image array layers every Vulkan device offers.
+pub const MAX_CMOS: u32 = 16;
+
+/// Largest magnitude of a coordinate a scene may hold, 2^60 (about 1.15e18): a vertex in an
+/// OBJ file (object space), a mesh's vertex after its transform (world space), a camera's
+/// `eye` and `target`, a CMO centre. The tracer squares distances in f32, and `(4 * 2^60)^2` is
+/// still finite; `cubetrace::ranges::MAX_EXTENT` refuses a larger frame with the same bound.
+pub const MAX_COORDINATE: f32 = (1u64 << 60) as f32;
+
+/// Largest linear colour value a scene may hold: 65504, the largest half float (an EXR viewer
+/// or a 16-bit float pipeline can hold every colour a scene gives). `background`, MTL `Kd` and
+/// `light_intensity` lie in `[0, MAX_COLOUR]`.
+pub const MAX_COLOUR: f32 = 65504.0;
+
+/// A mesh must span, in world space, at least `2^-16` of the largest coordinate that meets it:
+/// its own farthest vertex from the origin, a camera's eye, a CMO centre. Coordinates round to
+/// `2^-24` of their magnitude in f32, so a mesh above the bound spans at least 256 rounding
+/// steps (its shape holds to 1/256 of its size); a smaller one collapses (`scale = 1e-20`
+/// turns the teapot into a point) and is refused, naming its transform.
+pub const MIN_RELATIVE_SIZE: f32 = 1.0 / 65536.0;
 
 /// A complete scene.
 #[derive(Clone, Debug, PartialEq)]

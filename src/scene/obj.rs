@@ -54,7 +54,7 @@ use std::path::{Path, PathBuf};
 use glam::{DVec2, Vec2, Vec3};
 
 use super::report::{LoadReport, WarningKind};
-use super::{Material, MeshPart, SceneError, Texture};
+use super::{MAX_COORDINATE, Material, MeshPart, SceneError, Texture};
 
 /// Largest OBJ or MTL file accepted, in bytes. Everything the loader holds grows at most in
 /// proportion to the file (a polygon corner needs at least two bytes), so this bounds memory.
@@ -167,6 +167,26 @@ fn numbers<'a>(
             )),
         })
         .collect()
+}
+
+/// Refuses a vertex position with a coordinate beyond [`MAX_COORDINATE`] (tokens already
+/// parsed as finite `f32` by [`numbers`]), naming the line and the bound.
+fn within_coordinate_bound(v: &[&str], path: &Path, line: usize) -> Result<(), SceneError> {
+    for (axis, a) in ["x", "y", "z"].iter().zip(v) {
+        let x: f32 = a.parse().unwrap_or(f32::INFINITY);
+        if !(x.abs() <= MAX_COORDINATE) {
+            return Err(obj_err(
+                path,
+                line,
+                format!(
+                    "vertex position (v) has {axis} = {a}, beyond the {MAX_COORDINATE:e} (2^60) \
+                     a coordinate may reach (the tracer squares distances in f32); \
+                     scale the mesh in its [mesh.transform] instead"
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// One face corner: 0-based position, texture coordinate and normal indices.
@@ -355,6 +375,7 @@ fn validate_obj<'a>(
         match key {
             "v" => {
                 let v = numbers(args, 3, "vertex position (v)", path, line)?;
+                within_coordinate_bound(&v[..3], path, line)?;
                 obj.statements.push(Statement::Position([v[0], v[1], v[2]]));
                 counts[0] += 1;
             }
@@ -886,7 +907,9 @@ fn finish_part(
     let mut triangles = Vec::with_capacity(raw.triangles.len());
     let mut dropped = 0;
     for &t in &raw.triangles {
-        let [a, b, c] = t.map(|i| positions[i as usize]);
+        // In f64: f32 overflows for sides over ~1e19 and underflows under ~1e-19, both of
+        // which a valid vertex may give (coordinates reach 2^60).
+        let [a, b, c] = t.map(|i| positions[i as usize].as_dvec3());
         let area2 = (b - a).cross(c - a).length_squared();
         if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || area2 == 0.0 || !area2.is_finite() {
             dropped += 1;
@@ -896,28 +919,27 @@ fn finish_part(
     }
     // Corners without a normal have the zero one here, replaced by the computed normal below.
     let given = raw.normals;
-    // Normals already of unit length (to f32 precision) are kept bit for bit.
+    // Normals already of unit length (to f32 precision) are kept bit for bit; others are
+    // normalised in f32, or in f64 where their squared length leaves f32's normal range (a
+    // `vn 1e30 0 0` gave the zero vector, a `vn 1e-30 0 0` was taken for a missing normal).
     let unit = |n: Vec3| {
-        if (n.length_squared() - 1.0).abs() < 1e-6 {
+        let l2 = n.length_squared();
+        if (l2 - 1.0).abs() < 1e-6 {
             n
-        } else {
+        } else if l2.is_normal() {
             n.normalize()
+        } else {
+            n.as_dvec3().normalize().as_vec3()
         }
     };
     let normals = if given.is_empty() {
         smooth_normals(&positions, &triangles)
-    } else if given.iter().any(|n| n.length_squared() == 0.0) {
+    } else if given.iter().any(|&n| n == Vec3::ZERO) {
         let smooth = smooth_normals(&positions, &triangles);
         given
             .iter()
             .zip(smooth)
-            .map(|(&n, s)| {
-                if n.length_squared() == 0.0 {
-                    s
-                } else {
-                    unit(n)
-                }
-            })
+            .map(|(&n, s)| if n == Vec3::ZERO { s } else { unit(n) })
             .collect()
     } else {
         given.iter().map(|&n| unit(n)).collect()
@@ -1137,16 +1159,27 @@ pub fn smooth_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> {
         .enumerate()
         .map(|(i, &p)| *weld.entry(key(p)).or_insert(i))
         .collect();
+    // Summed in f32 (the normals of every mesh so far), and in f64 for the vertices where f32
+    // overflows or underflows (sides over ~1e19 or under ~1e-19: coordinates reach 2^60).
     let mut sum = vec![Vec3::ZERO; positions.len()];
+    let mut wide = vec![glam::DVec3::ZERO; positions.len()];
     for t in triangles {
         let [a, b, c] = t.map(|i| positions[i as usize]);
         let n = (b - a).cross(c - a);
+        let [a, b, c] = [a, b, c].map(Vec3::as_dvec3);
+        let w = (b - a).cross(c - a);
         for &i in t {
             sum[rep[i as usize]] += n;
+            wide[rep[i as usize]] += w;
         }
     }
     rep.iter()
-        .map(|&r| sum[r].try_normalize().unwrap_or(Vec3::Y))
+        .map(|&r| {
+            sum[r]
+                .try_normalize()
+                .or_else(|| wide[r].try_normalize().map(|n| n.as_vec3()))
+                .unwrap_or(Vec3::Y)
+        })
         .collect()
 }
 
