@@ -52,7 +52,9 @@ enum SceneCommand {
         name: String,
         /// Output folder (created if needed).
         dir: PathBuf,
-        /// Overwrite the files of an earlier export (a `scene.toml` already in DIR).
+        /// Replace an earlier export in DIR: the files it wrote (its `scene.toml` and the OBJ,
+        /// MTL and PNG files named from there, recognised by the comment cubetrace writes) are
+        /// removed or overwritten; other files in DIR are never touched.
         #[arg(long)]
         force: bool,
     },

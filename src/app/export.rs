@@ -1,7 +1,10 @@
 #![forbid(unsafe_code)]
 //! `cubetrace scene export`: a built-in scene written out as TOML + OBJ/MTL/PNG. An earlier
-//! export (a `scene.toml` in the folder) is kept unless `--force`; a name that is not a built-in
-//! scene gets the command to run instead.
+//! export (a `scene.toml` in the folder) is kept unless `--force`, which replaces it: the
+//! folder then holds the new export's files, the earlier export's files that the new one does
+//! not write are removed (those `scene::export::exported_files` recognises: its `scene.toml`,
+//! and the OBJ, MTL and PNG files named from there that an export wrote), and every other file
+//! is left alone. A name that is not a built-in scene gets the command to run instead.
 
 use std::path::Path;
 
@@ -15,13 +18,40 @@ pub fn export(name: &str, dir: &Path, force: bool) -> Result<()> {
     let toml = dir.join("scene.toml");
     if !force && std::fs::symlink_metadata(&toml).is_ok() {
         anyhow::bail!(
-            "{} already exists; pass --force to overwrite it (and the export's other files), or choose another folder",
+            "{} already exists; pass --force to replace that export (its files are removed, other files kept), or choose another folder",
             toml.display()
         );
     }
+    // An earlier export's files, found before the new export overwrites its MTL.
+    let earlier = if force {
+        scene::export::exported_files(dir)
+    } else {
+        Vec::new()
+    };
     let path = scene::export::export(&s, dir)
         .with_context(|| format!("exporting scene '{name}' to {}", dir.display()))?;
-    println!("wrote {}", path.display());
+    let written = scene::export::exported_files(dir);
+    let stale: Vec<_> = earlier.iter().filter(|f| !written.contains(f)).collect();
+    for f in &stale {
+        match std::fs::remove_file(f) {
+            Ok(()) => {}
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+            Err(e) => anyhow::bail!(
+                "wrote {}, but cannot remove {}, a file of the earlier export: {e}",
+                path.display(),
+                f.display()
+            ),
+        }
+    }
+    if stale.is_empty() {
+        println!("wrote {}", path.display());
+    } else {
+        println!(
+            "wrote {} (and removed {} files of the earlier export)",
+            path.display(),
+            stale.len()
+        );
+    }
     Ok(())
 }
 

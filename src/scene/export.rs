@@ -1,6 +1,12 @@
 //! Writes a scene out as `scene.toml` plus one OBJ per mesh, one MTL and PNG textures. Floats
 //! are written in Rust's shortest round-trip form, so loading the export gives back the same
-//! numbers bit for bit.
+//! numbers bit for bit (tests/scene_export.rs renders every built-in and its export and finds
+//! the frames byte-identical).
+//!
+//! Each file is written atomically (a temporary file renamed into place), `scene.toml` last, so
+//! an interrupted export leaves no `scene.toml` naming a file not yet written. Every text file
+//! starts with a comment holding [`MARK`]; [`exported_files`] finds an earlier export's files by
+//! it, so that `scene export --force` can remove them and nothing else.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -15,6 +21,9 @@ use super::{CmoPlacement, CmoSpec, MeshInstance, Scene, SelfReflections};
 use crate::camera::Camera;
 use crate::files::{safe_file_stem as safe, write_atomic};
 use crate::shading::Shading;
+
+/// In the first line of every text file an export writes (`scene.toml`, the OBJs, the MTL).
+pub const MARK: &str = "cubetrace scene export";
 
 fn sp<T>(v: T) -> Spanned<T> {
     Spanned::new(0..0, v)
@@ -63,7 +72,7 @@ pub fn export(scene: &Scene, dir: &Path) -> anyhow::Result<PathBuf> {
         cmo: Some(cmo_file(&scene.cmo)),
     };
     let toml_text = format!(
-        "# cubetrace scene '{}', written by `cubetrace scene export`.\n{}",
+        "# cubetrace scene '{}', written by `{MARK}`.\n{}",
         scene.name,
         toml::to_string(&file)?
     );
@@ -93,7 +102,7 @@ fn write_textures(scene: &Scene, dir: &Path) -> anyhow::Result<Vec<String>> {
 /// Writes `materials.mtl`; returns the material names, in material order.
 fn write_materials(scene: &Scene, dir: &Path, tex_names: &[String]) -> anyhow::Result<Vec<String>> {
     let mat_names = unique(scene.materials.iter().map(|m| m.name.clone()));
-    let mut mtl = String::from("# Written by cubetrace scene export. Kd is linear RGB.\n");
+    let mut mtl = format!("# Written by {MARK}. Kd is linear RGB.\n");
     for (m, name) in scene.materials.iter().zip(&mat_names) {
         let d = m.diffuse;
         writeln!(mtl, "\nnewmtl {name}\nKd {} {} {}", d.x, d.y, d.z)?;
@@ -107,8 +116,7 @@ fn write_materials(scene: &Scene, dir: &Path, tex_names: &[String]) -> anyhow::R
 
 /// A mesh as OBJ text in object space, one `o` per part.
 fn obj_text(mesh: &MeshInstance, mat_names: &[String]) -> Result<String, std::fmt::Error> {
-    let mut obj =
-        String::from("# Written by cubetrace scene export (object space).\nmtllib materials.mtl\n");
+    let mut obj = format!("# Written by {MARK} (object space).\nmtllib materials.mtl\n");
     let mut base = 1;
     for part in &mesh.parts {
         writeln!(obj, "o {}", safe(&part.name))?;
@@ -204,4 +212,90 @@ fn cmo_file(cmo: &CmoSpec) -> CmoFile {
         placement,
         resolution: sp(cmo.resolution),
     }
+}
+
+/// The files of the export in `dir`: its `scene.toml` when that file's first line holds
+/// [`MARK`], the OBJ files that `scene.toml` names and the MTL files those name (each a plain
+/// file name in `dir` whose first line holds [`MARK`]), and the textures those MTL files name
+/// (plain names in `dir`). Empty when `dir` holds no `scene.toml` written by an export. Files
+/// that do not exist are left out.
+pub fn exported_files(dir: &Path) -> Vec<PathBuf> {
+    let toml_path = dir.join("scene.toml");
+    if !marked(&toml_path) {
+        return Vec::new();
+    }
+    let mut out = vec![toml_path.clone()];
+    let table: toml::Table = std::fs::read_to_string(&toml_path)
+        .ok()
+        .and_then(|t| t.parse().ok())
+        .unwrap_or_default();
+    let objs = table
+        .get("mesh")
+        .and_then(|m| m.as_array())
+        .into_iter()
+        .flatten()
+        .filter_map(|m| m.get("obj")?.as_str());
+    for obj in objs {
+        let Some(obj) = push_marked(&mut out, dir, obj) else {
+            continue;
+        };
+        for mtl in statements(&obj, "mtllib") {
+            let Some(mtl) = push_marked(&mut out, dir, &mtl) else {
+                continue;
+            };
+            for texture in statements(&mtl, "map_Kd") {
+                if let Some(name) = plain(&texture) {
+                    let path = dir.join(name);
+                    if path.is_file() && !out.contains(&path) {
+                        out.push(path);
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+/// `name` when it is a plain file name (no folder, not `.` or `..`).
+fn plain(name: &str) -> Option<&str> {
+    let mut c = Path::new(name).components();
+    match (c.next(), c.next()) {
+        (Some(std::path::Component::Normal(_)), None) => Some(name),
+        _ => None,
+    }
+}
+
+/// Whether the file's first line holds [`MARK`].
+fn marked(path: &Path) -> bool {
+    use std::io::{BufRead as _, Read as _};
+    let Ok(f) = std::fs::File::open(path) else {
+        return false;
+    };
+    let mut line = String::new();
+    let mut reader = std::io::BufReader::new(f).take(4096);
+    reader.read_line(&mut line).is_ok() && line.starts_with('#') && line.contains(MARK)
+}
+
+/// Adds `dir/name` to `out` when `name` is plain and the file is [`marked`]; returns its path.
+fn push_marked(out: &mut Vec<PathBuf>, dir: &Path, name: &str) -> Option<PathBuf> {
+    let path = dir.join(plain(name)?);
+    if !marked(&path) {
+        return None;
+    }
+    if !out.contains(&path) {
+        out.push(path.clone());
+    }
+    Some(path)
+}
+
+/// The arguments of each `keyword ARG` line of a text file (the names an export writes have no
+/// spaces).
+fn statements(path: &Path, keyword: &str) -> Vec<String> {
+    let text = std::fs::read_to_string(path).unwrap_or_default();
+    text.lines()
+        .filter_map(|l| {
+            let mut w = l.split_whitespace();
+            (w.next() == Some(keyword)).then(|| w.last().map(str::to_string))?
+        })
+        .collect()
 }

@@ -37,7 +37,9 @@
 //!   with a warning); other statements are ignored. Errors name the MTL file and line.
 //!
 //! Every error names the file and the line: numbers that do not parse or are not finite (NaN,
-//! inf), face indices out of range, a missing material library or texture. Errors are found in
+//! inf), a vertex coordinate beyond 2^60 ([`MAX_COORDINATE`]: scale a mesh in its transform
+//! instead), a `Kd` outside `[0, 65504]` ([`MAX_COLOUR`]), face indices out of range, a
+//! missing material library or texture. Errors are found in
 //! this order: the OBJ pass, the MTL passes, then polygons (so of a bad index and a
 //! self-intersecting polygon, the index is named even when it comes later in the file).
 //!
@@ -54,7 +56,7 @@ use std::path::{Path, PathBuf};
 use glam::{DVec2, Vec2, Vec3};
 
 use super::report::{LoadReport, WarningKind};
-use super::{MAX_COORDINATE, Material, MeshPart, SceneError, Texture};
+use super::{MAX_COLOUR, MAX_COORDINATE, Material, MeshPart, SceneError, Texture};
 
 /// Largest OBJ or MTL file accepted, in bytes. Everything the loader holds grows at most in
 /// proportion to the file (a polygon corner needs at least two bytes), so this bounds memory.
@@ -645,6 +647,16 @@ fn validate_mtl<'a>(
                 continue;
             }
             let v = numbers(args, 1, "diffuse colour (Kd)", path, line)?;
+            if let Some(a) = v.iter().find(|a| {
+                let x: f32 = a.parse().unwrap_or(f32::NAN);
+                !(0.0..=MAX_COLOUR).contains(&x)
+            }) {
+                return Err(obj_err(
+                    path,
+                    line,
+                    format!("diffuse colour (Kd) has {a}, outside [0, {MAX_COLOUR}] (linear RGB)"),
+                ));
+            }
             current.diffuse = Some(match v[..] {
                 [g] => [g; 3],
                 [r, g, b] => [r, g, b],
