@@ -73,7 +73,7 @@ fn a_transform_that_collapses_or_overflows_a_mesh_is_refused() {
         "",
         &t("1e-20"),
         "",
-        &["scene.toml:5", "mesh[0].transform.scale", "1e-20", "2^-16"],
+        &["scene.toml:5", "mesh[0].transform.scale", "1e-20", "2^-21"],
     );
     refused(
         MIRROR_OBJ,

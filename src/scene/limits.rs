@@ -186,7 +186,7 @@ fn check_mesh_size(
             &at,
             &field,
             format!(
-                "{what} is {size:.3e} across in world space, below 2^-16 of {scale:.3e} (the \
+                "{what} is {size:.3e} across in world space, below 2^-21 of {scale:.3e} (the \
                  largest coordinate of the mesh, the cameras' eyes and the CMO centres): f32 \
                  rounds coordinates there to {:.1e}, so the mesh would collapse. It must be at \
                  least {least:.3e} across",

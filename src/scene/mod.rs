@@ -63,12 +63,13 @@ pub const MAX_COORDINATE: f32 = (1u64 << 60) as f32;
 /// `light_intensity` lie in `[0, MAX_COLOUR]`.
 pub const MAX_COLOUR: f32 = 65504.0;
 
-/// A mesh must span, in world space, at least `2^-16` of the largest coordinate that meets it:
+/// A mesh must span, in world space, at least `2^-21` of the largest coordinate that meets it:
 /// its own farthest vertex from the origin, a camera's eye, a CMO centre. Coordinates round to
-/// `2^-24` of their magnitude in f32, so a mesh above the bound spans at least 256 rounding
-/// steps (its shape holds to 1/256 of its size); a smaller one collapses (`scale = 1e-20`
-/// turns the teapot into a point) and is refused, naming its transform.
-pub const MIN_RELATIVE_SIZE: f32 = 1.0 / 65536.0;
+/// `2^-24` of their magnitude in f32, so above the bound that rounding stays within 1/8 of the
+/// mesh's size (the share `cubetrace::ranges` allows of a texel's footprint); a smaller mesh
+/// collapses (`scale = 1e-20` turns the teapot into a point) and is refused, naming its
+/// transform. (How well a mirror is resolved against the CMOs is `ranges`' finer check.)
+pub const MIN_RELATIVE_SIZE: f32 = 1.0 / (1u32 << 21) as f32;
 
 /// A complete scene.
 #[derive(Clone, Debug, PartialEq)]
