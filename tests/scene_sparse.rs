@@ -88,7 +88,7 @@ fn differing(a: &[[u32; 3]], b: &[[u32; 3]], tolerance: f32) -> usize {
     let unlike = |x: &[u32; 3], y: &[u32; 3]| {
         (0..3).any(|c| {
             let (p, q) = (f32::from_bits(x[c]), f32::from_bits(y[c]));
-            x[c] != y[c] && !((p - q).abs() <= tolerance)
+            x[c] != y[c] && ((p - q).abs() > tolerance || p.is_nan() || q.is_nan())
         })
     };
     a.iter().zip(b).filter(|(x, y)| unlike(x, y)).count()

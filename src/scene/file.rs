@@ -56,8 +56,10 @@ use serde::de::Error as _;
 use serde::{Deserialize, Deserializer, Serialize};
 use toml::Spanned;
 
+use super::limits;
 use super::obj::load_obj_file;
 use super::report::{LoadReport, WarningKind};
+use super::source::Source;
 use super::{
     CmoPlacement, CmoSpec, MAX_CMOS, MAX_COLOUR, MAX_COORDINATE, MAX_CUBE_SIZE, MAX_IMAGE_SIDE,
     MeshInstance, Scene, SceneError, SelfReflections, Transform,
@@ -264,98 +266,6 @@ fn scale_value<'de, D: Deserializer<'de>>(d: D) -> Result<Spanned<ScaleFile>, D:
     ))
 }
 
-/// Resolves byte spans to `file:line` for messages.
-pub(super) struct Source<'a> {
-    path: &'a Path,
-    text: &'a str,
-}
-
-impl Source<'_> {
-    pub(super) fn at<T>(&self, value: &Spanned<T>) -> String {
-        let span = value.span();
-        if span.end == 0 {
-            return self.path.display().to_string();
-        }
-        let line = self.text[..span.start.min(self.text.len())]
-            .matches('\n')
-            .count()
-            + 1;
-        format!("{}:{line}", self.path.display())
-    }
-
-    pub(super) fn invalid<T>(
-        &self,
-        value: &Spanned<T>,
-        field: &str,
-        reason: impl Into<String>,
-    ) -> SceneError {
-        SceneError::Invalid {
-            file: self.at(value),
-            field: field.to_string(),
-            reason: reason.into(),
-        }
-    }
-
-    fn finite<const N: usize>(
-        &self,
-        value: &Spanned<[f32; N]>,
-        field: &str,
-    ) -> Result<Vec3, SceneError> {
-        if let Some(c) = value.get_ref().iter().position(|v| !v.is_finite()) {
-            return Err(self.invalid(
-                value,
-                field,
-                format!(
-                    "component {c} is {} (numbers must be finite)",
-                    value.get_ref()[c]
-                ),
-            ));
-        }
-        let v = value.get_ref();
-        Ok(Vec3::new(v[0], v[1], *v.get(2).unwrap_or(&0.0)))
-    }
-
-    /// A linear RGB colour: finite, each component in `[0, MAX_COLOUR]`.
-    fn colour(&self, value: &Spanned<[f32; 3]>, field: &str) -> Result<Vec3, SceneError> {
-        let v = self.finite(value, field)?;
-        if let Some(c) = (0..3).find(|&c| !(0.0..=MAX_COLOUR).contains(&v[c])) {
-            return Err(self.invalid(
-                value,
-                field,
-                format!(
-                    "component {c} is {} (linear RGB components lie in [0, {MAX_COLOUR}])",
-                    v[c]
-                ),
-            ));
-        }
-        Ok(v)
-    }
-
-    /// A point: finite, each coordinate within `MAX_COORDINATE`.
-    fn point(&self, value: &Spanned<[f32; 3]>, field: &str) -> Result<Vec3, SceneError> {
-        let v = self.finite(value, field)?;
-        if let Some(c) = (0..3).find(|&c| v[c].abs() > MAX_COORDINATE) {
-            return Err(self.invalid(
-                value,
-                field,
-                format!(
-                    "component {c} is {:e}, beyond the {MAX_COORDINATE:e} (2^60) a coordinate may reach",
-                    v[c]
-                ),
-            ));
-        }
-        Ok(v)
-    }
-
-    fn scalar(&self, value: &Spanned<f32>, field: &str) -> Result<f32, SceneError> {
-        let v = *value.get_ref();
-        if !v.is_finite() {
-            return Err(self.invalid(value, field, format!("{v} is not a finite number")));
-        }
-        Ok(v)
-    }
-}
-
 /// Checks an image size: both sides in `1..=MAX_IMAGE_SIDE`.
 pub fn check_resolution(width: u32, height: u32) -> Result<(), String> {
     for (what, v) in [("width", width), ("height", height)] {
@@ -430,8 +340,14 @@ pub fn load_scene_file_report(path: &Path) -> Result<(Scene, LoadReport), SceneE
     if let Some(cmo) = &file.cmo {
         scene.cmo = cmo_spec(&src, cmo)?;
     }
-    super::limits::check_names(&src, &file, &mut scene)?;
-    super::limits::check_mesh_sizes(&src, &file, &scene)?;
+    let given = |n: &Option<Spanned<String>>| n.as_ref().map(|n| n.span());
+    let meshes: Vec<_> = file.meshes.iter().map(|m| given(&m.name)).collect();
+    let cameras: Vec<_> = file.cameras.iter().map(|c| given(&c.name)).collect();
+    limits::check_names(&src, &meshes, &cameras, &mut scene)?;
+    let transforms: Vec<_> = (file.meshes.iter())
+        .map(|m| (m.transform.scale.span(), m.transform.translate.span()))
+        .collect();
+    limits::check_mesh_sizes(&src, &transforms, &scene)?;
     Ok((scene, report))
 }
 

@@ -12,49 +12,48 @@
 use glam::Vec3;
 use toml::Spanned;
 
-use super::file::{SceneFile, Source, TransformFile};
+use super::source::Source;
 use super::{CmoPlacement, MAX_COORDINATE, MIN_RELATIVE_SIZE, MeshInstance, Scene, SceneError};
 
-/// One entry's name: the name, whether the file gave it, and the entry's field and location.
-struct Named<'a> {
+/// A byte range of the scene file (0..0: a default the file does not state).
+type Span = std::ops::Range<usize>;
+
+/// One entry's name: the name, where the file gave it (`None`: derived), and the entry's field.
+struct Named {
     name: String,
-    given: Option<&'a Spanned<String>>,
+    given: Option<Span>,
     field: String,
 }
 
 /// The name checks of the module docs, for meshes then cameras; renames derived mesh names
-/// that repeat.
+/// that repeat. `meshes` and `cameras`: where the file gave each entry's name.
 pub(super) fn check_names(
     src: &Source,
-    file: &SceneFile,
+    meshes: &[Option<Span>],
+    cameras: &[Option<Span>],
     scene: &mut Scene,
 ) -> Result<(), SceneError> {
-    let meshes: Vec<Named> = scene
-        .meshes
-        .iter()
-        .zip(&file.meshes)
+    let named = |names: Vec<String>, given: &[Option<Span>], what: &str| -> Vec<Named> {
+        names
+            .into_iter()
+            .zip(given)
+            .enumerate()
+            .map(|(i, (name, given))| Named {
+                name,
+                given: given.clone(),
+                field: format!("{what}[{i}].name"),
+            })
+            .collect()
+    };
+    let names = scene.meshes.iter().map(|m| m.name.clone()).collect();
+    for (i, name) in unique_names(src, &named(names, meshes, "mesh"))?
+        .into_iter()
         .enumerate()
-        .map(|(i, (m, f))| Named {
-            name: m.name.clone(),
-            given: f.name.as_ref(),
-            field: format!("mesh[{i}].name"),
-        })
-        .collect();
-    for (i, name) in unique_names(src, &meshes)?.into_iter().enumerate() {
+    {
         scene.meshes[i].name = name;
     }
-    let cameras: Vec<Named> = scene
-        .cameras
-        .iter()
-        .zip(&file.cameras)
-        .enumerate()
-        .map(|(i, (c, f))| Named {
-            name: c.name.clone(),
-            given: f.name.as_ref(),
-            field: format!("camera[{i}].name"),
-        })
-        .collect();
-    unique_names(src, &cameras)?;
+    let names = scene.cameras.iter().map(|c| c.name.clone()).collect();
+    unique_names(src, &named(names, cameras, "camera"))?;
     Ok(())
 }
 
@@ -65,15 +64,16 @@ fn unique_names(src: &Source, entries: &[Named]) -> Result<Vec<String>, SceneErr
         let Some(a) = entries[..j].iter().find(|a| a.name == b.name) else {
             continue;
         };
-        let Some(at) = b.given.or(a.given) else {
+        let Some(at) = b.given.clone().or(a.given.clone()) else {
             continue;
         };
-        let place = |e: &Named| match e.given {
-            Some(g) => format!("{} ({})", e.field, src.at(g)),
+        let at = Spanned::new(at, ());
+        let place = |e: &Named| match &e.given {
+            Some(g) => format!("{} ({})", e.field, src.at(&Spanned::new(g.clone(), ()))),
             None => format!("{} (derived from its file name)", e.field),
         };
         return Err(src.invalid(
-            at,
+            &at,
             &b.field,
             format!(
                 "'{}' names both {} and {}; names must be unique",
@@ -102,10 +102,11 @@ fn magnitude(p: Vec3) -> f32 {
     p.abs().max_element()
 }
 
-/// The mesh size checks of the module docs.
+/// The mesh size checks of the module docs; `transforms`: the spans of each mesh's `scale` and
+/// `translate`.
 pub(super) fn check_mesh_sizes(
     src: &Source,
-    file: &SceneFile,
+    transforms: &[(Span, Span)],
     scene: &Scene,
 ) -> Result<(), SceneError> {
     let mut viewpoints = scene
@@ -119,8 +120,8 @@ pub(super) fn check_mesh_sizes(
             .map(|&c| magnitude(c))
             .fold(viewpoints, f32::max);
     }
-    for (i, (mesh, f)) in scene.meshes.iter().zip(&file.meshes).enumerate() {
-        check_mesh_size(src, i, mesh, &f.transform, viewpoints)?;
+    for (i, (mesh, spans)) in scene.meshes.iter().zip(transforms).enumerate() {
+        check_mesh_size(src, i, mesh, spans, viewpoints)?;
     }
     Ok(())
 }
@@ -131,7 +132,7 @@ fn check_mesh_size(
     src: &Source,
     i: usize,
     mesh: &MeshInstance,
-    t: &TransformFile,
+    (scale, translate): &(Span, Span),
     viewpoints: f32,
 ) -> Result<(), SceneError> {
     let m = mesh.transform.matrix();
@@ -149,10 +150,10 @@ fn check_mesh_size(
         return Ok(()); // no triangle (a non-reflector may be empty, with a warning)
     }
     // Name the scale unless the file left it at its default (then the translation).
-    let (span, field) = if t.scale.span().end > 0 || t.translate.span().end == 0 {
-        (t.scale.span(), format!("mesh[{i}].transform.scale"))
+    let (span, field) = if scale.end > 0 || translate.end == 0 {
+        (scale.clone(), format!("mesh[{i}].transform.scale"))
     } else {
-        (t.translate.span(), format!("mesh[{i}].transform.translate"))
+        (translate.clone(), format!("mesh[{i}].transform.translate"))
     };
     let at = Spanned::new(span, ());
     let tr = &mesh.transform;
@@ -168,7 +169,7 @@ fn check_mesh_size(
         tr.translate
     );
     let reach = magnitude(lo).max(magnitude(hi));
-    if !(reach <= MAX_COORDINATE) {
+    if !reach.is_finite() || reach > MAX_COORDINATE {
         return Err(src.invalid(
             &at,
             &field,
@@ -181,7 +182,7 @@ fn check_mesh_size(
     let size = (hi - lo).length();
     let scale = reach.max(viewpoints);
     let least = scale * MIN_RELATIVE_SIZE;
-    if !(size >= least) {
+    if size.is_nan() || size < least {
         return Err(src.invalid(
             &at,
             &field,

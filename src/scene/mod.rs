@@ -23,6 +23,7 @@ mod limits;
 mod obj;
 mod report;
 pub mod shapes;
+mod source;
 mod world;
 
 pub use error::SceneError;

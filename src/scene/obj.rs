@@ -176,7 +176,7 @@ fn numbers<'a>(
 fn within_coordinate_bound(v: &[&str], path: &Path, line: usize) -> Result<(), SceneError> {
     for (axis, a) in ["x", "y", "z"].iter().zip(v) {
         let x: f32 = a.parse().unwrap_or(f32::INFINITY);
-        if !(x.abs() <= MAX_COORDINATE) {
+        if x.abs() > MAX_COORDINATE {
             return Err(obj_err(
                 path,
                 line,
@@ -946,7 +946,7 @@ fn finish_part(
     };
     let normals = if given.is_empty() {
         smooth_normals(&positions, &triangles)
-    } else if given.iter().any(|&n| n == Vec3::ZERO) {
+    } else if given.contains(&Vec3::ZERO) {
         let smooth = smooth_normals(&positions, &triangles);
         given
             .iter()
