@@ -26,6 +26,7 @@
 const SCENE_GROUP: u32 = 0u;
 //! import shared/scene.wgsl
 //! import shared/cube.wgsl
+//! import shared/eye_plane.wgsl
 
 struct CaptureView {
     centre: vec3<f32>,
@@ -59,6 +60,15 @@ fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) view: u3
         // All three vertices of a culled triangle (its object's: a reflector that does not see
         // itself, or every reflector in a capture without reflectors) go to one point outside
         // the clip volume: the triangle is culled, and the index buffer keeps its global order.
+        out.clip = vec4<f32>(2.0, 2.0, 0.0, 1.0);
+    }
+    // A triangle whose plane passes through the centre is seen edge-on (shared/eye_plane.wgsl):
+    // culled the same way.
+    let t = 3u * (vertex / 3u);
+    let a = scene_vertices[scene_indices[t]].position;
+    let b = scene_vertices[scene_indices[t + 1u]].position;
+    let c = scene_vertices[scene_indices[t + 2u]].position;
+    if eye_plane_holds(cv.centre, a, b, c) {
         out.clip = vec4<f32>(2.0, 2.0, 0.0, 1.0);
     }
     out.world = v.position;

@@ -15,7 +15,11 @@
 //!   inside the box has left it by then).
 //!
 //! Where nothing bounds a near plane (the eye or a CMO centre on a triangle) it is the scene's
-//! far extent times 2^-40: the depth `near / z` stays a normal f32 at every distance.
+//! far extent (at least 1) times 2^-100: the near plane and the depth `near / z` stay normal f32
+//! at every distance, and no geometry is clipped. (It was the far extent times 2^-40, which
+//! with a vertex at 1e13 put the near plane 9 units out and clipped the whole room; the
+//! triangles that touch the eye lie in planes through it, which the passes cull:
+//! `spirv/shared/eye_plane.wgsl`.)
 //!
 //! # What f32 cannot hold
 //! Reflected rays start at G-buffer positions and CMO-local coordinates are `x - c`, both in f32
@@ -34,7 +38,7 @@
 use glam::Vec3;
 
 use crate::camera::Camera;
-use crate::scene::Scene;
+use crate::scene::{ObjectInfo, Scene, WorldGeometry, closest_point_on_triangle};
 
 /// `X / d_min` may be at most `PRECISION_BUDGET / N` (module docs): `2^22`.
 pub const PRECISION_BUDGET: f64 = (1u64 << 22) as f64;
@@ -42,8 +46,8 @@ pub const PRECISION_BUDGET: f64 = (1u64 << 22) as f64;
 /// Largest scene extent whose squared distances (up to `(4 extent)^2`) stay finite in f32.
 pub const MAX_EXTENT: f64 = (1u64 << 60) as f64;
 
-/// Fraction of the far extent below which no near plane goes (module docs).
-const NEAR_FLOOR: f32 = 1.0 / (1u64 << 40) as f32;
+/// Fraction of the far extent (at least 1) below which no near plane goes (module docs): 2^-100.
+const NEAR_FLOOR: f32 = 1.0 / (1u128 << 100) as f32;
 
 /// The nearest triangle to a point: distance, object name.
 #[derive(Clone, Debug, PartialEq)]
@@ -72,6 +76,64 @@ pub struct FrameRanges {
     pub coordinates: f32,
     /// Texels per face side.
     pub cube_size: u32,
+    /// A triangle whose plane passes within rounding of the eye or a CMO centre, but not
+    /// exactly through it, where the reference sees it ([`edge_on`]).
+    pub edge_on: Option<EdgeOn>,
+}
+
+/// A viewpoint (the eye, a CMO centre) that f32 cannot place on either side of a triangle's
+/// plane ([`edge_on`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct EdgeOn {
+    /// `the eye of camera `NAME`` or `CMO k's centre`.
+    pub viewpoint: String,
+    pub object: String,
+    /// Distance of the viewpoint from the triangle's plane (f64).
+    pub distance: f64,
+    /// Distance below which the GPU passes treat the viewpoint as in the plane.
+    pub bound: f64,
+}
+
+/// The first triangle (of the objects `keep` keeps) whose plane passes so near `p` that the
+/// GPU passes cull it as seen edge-on (`spirv/shared/eye_plane.wgsl`, twice its bound for the
+/// f32 test's own error), while the reference, whose f64 primary test puts `p` off the plane,
+/// sees it: within 2^12 culling bounds of `p` (rays from a point that near a plane meet it near
+/// `p`'s foot, or at a grazing angle under 2^-12) and, where `towards` is given (the eye's
+/// frame corners), from a side some ray of the frame heads to. Exactly in the plane, every ray
+/// meets it at `t = 0` and the reference sees nothing: no conflict.
+fn edge_on(
+    world: &WorldGeometry,
+    p: Vec3,
+    keep: &dyn Fn(&ObjectInfo) -> bool,
+    towards: &[Vec3],
+) -> Option<(f64, f64, String)> {
+    let pd = p.as_dvec3();
+    for (t, &o) in world.triangles.iter().zip(&world.triangle_object) {
+        let object = &world.objects[o as usize];
+        if !keep(object) {
+            continue;
+        }
+        let tri = t.map(|i| world.positions[i as usize]);
+        let (offset, bound, sin) = crate::camera::eye_plane_offset(p, &tri);
+        if !(offset <= 2.0 * bound) {
+            continue;
+        }
+        // The reference's numerator of `t` (`reference::intersect`, the same operations).
+        let [a, b, c] = tri.map(|v| v.as_dvec3());
+        let (e1, e2, s) = (b - a, c - a, pd - a);
+        let side = e2.dot(s.cross(e1));
+        let n = e1.cross(e2);
+        if side == 0.0 || n.length() == 0.0 {
+            continue;
+        }
+        let cull = 2.0 * bound / sin;
+        let near = (closest_point_on_triangle(pd, a, b, c) - pd).length() <= 4096.0 * cull;
+        let seen = towards.is_empty() || towards.iter().any(|d| d.as_dvec3().dot(n) * side < 0.0);
+        if near && seen {
+            return Some((side.abs() / n.length(), cull, object.name.clone()));
+        }
+    }
+    None
 }
 
 /// The scene cannot be rendered in f32 (see the module docs).
@@ -97,6 +159,19 @@ pub enum RangeError {
         cube_size: u32,
         rounding: f64,
         footprint: f64,
+    },
+    #[error(
+        "scene `{scene}`: {viewpoint} lies {distance:.3e} from the plane of a triangle of \
+         `{object}`, nearer than f32 can tell from in the plane ({bound:.3e}); the GPU passes \
+         would not see that triangle where the reference does. Move it onto the plane or at \
+         least {bound:.3e} away from it"
+    )]
+    EdgeOn {
+        scene: String,
+        viewpoint: String,
+        object: String,
+        distance: f64,
+        bound: f64,
     },
     #[error(
         "scene `{scene}` is beyond f32 range: its extent {extent:.3e} exceeds 2^60 = \
@@ -132,7 +207,7 @@ impl FrameRanges {
             }
         }
         let far = 1.01 * far.max(diagonal);
-        let floor = far * NEAR_FLOOR;
+        let floor = far.max(1.0) * NEAR_FLOOR;
         let clearance = |p: Vec3, keep: &dyn Fn(&crate::scene::ObjectInfo) -> bool| {
             world.nearest_triangle(p, keep).map(|(d, id)| Clearance {
                 distance: d as f32,
@@ -161,7 +236,27 @@ impl FrameRanges {
                 }
             }
         }
+        let corners = [(0, 0), (1, 0), (0, 1), (1, 1)].map(|(i, j)| {
+            camera
+                .ray(i * (camera.width - 1), j * (camera.height - 1))
+                .1
+        });
+        let all = |_: &ObjectInfo| true;
+        let edge_on = edge_on(&world, camera.eye, &all, &corners)
+            .map(|e| (format!("the eye of camera `{}`", camera.name), e))
+            .or_else(|| {
+                centres.iter().enumerate().find_map(|(k, &c)| {
+                    edge_on(&world, c, &captured, &[]).map(|e| (format!("CMO {k}'s centre"), e))
+                })
+            })
+            .map(|(viewpoint, (distance, bound, object))| EdgeOn {
+                viewpoint,
+                object,
+                distance,
+                bound,
+            });
         FrameRanges {
+            edge_on,
             near,
             capture_near,
             far,
@@ -182,6 +277,15 @@ impl FrameRanges {
                 scene: scene.name.clone(),
                 extent,
                 max: MAX_EXTENT,
+            });
+        }
+        if let Some(e) = &self.edge_on {
+            return Err(RangeError::EdgeOn {
+                scene: scene.name.clone(),
+                viewpoint: e.viewpoint.clone(),
+                object: e.object.clone(),
+                distance: e.distance,
+                bound: e.bound,
             });
         }
         if let Some((k, c)) = &self.cmo {
