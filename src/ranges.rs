@@ -21,6 +21,16 @@
 //! triangles that touch the eye lie in planes through it, which the passes cull:
 //! `spirv/shared/eye_plane.wgsl`.)
 //!
+//! # Viewpoints in a surface's plane
+//! A triangle whose plane holds the eye (or a CMO centre) is seen edge-on: the reference meets
+//! it at `t = 0` only and never shows it. The rasteriser sees it through rounded vertices whose
+//! plane misses the eye by a rounding error and, seen from there, drew it over half the frame
+//! (the built-in `default` camera lies in the front wall's plane: 0 mirror pixels for a target
+//! at z = -2e4). The G-buffer and capture passes cull such triangles
+//! (`spirv/shared/eye_plane.wgsl`). A viewpoint within that rounding bound of a plane but off
+//! it, in f64, sees the triangle in the reference where the passes cull it: refused
+//! ([`RangeError::EdgeOn`], with the distance to move it).
+//!
 //! # What f32 cannot hold
 //! Reflected rays start at G-buffer positions and CMO-local coordinates are `x - c`, both in f32
 //! world coordinates, rounded to `|x| 2^-24`. A texel of a face of `N` texels spans `2 d / N` at
@@ -92,6 +102,40 @@ pub struct EdgeOn {
     pub distance: f64,
     /// Distance below which the GPU passes treat the viewpoint as in the plane.
     pub bound: f64,
+}
+
+/// [`WorldGeometry::nearest_triangle`] as the GPU passes see it: where that triangle touches
+/// `p` (nearer than the edge-on test's scale), the nearest one not culled as edge-on (half the
+/// bound of `spirv/shared/eye_plane.wgsl`, which the f32 test surely culls) instead. The eye or
+/// a CMO centre in a wall's plane then keeps a near plane and a precision bound from what is
+/// drawn.
+fn nearest_seen(
+    world: &WorldGeometry,
+    p: Vec3,
+    keep: &dyn Fn(&ObjectInfo) -> bool,
+) -> Option<(f64, u32)> {
+    let first = world.nearest_triangle(p, keep)?;
+    if first.0 > crate::camera::EYE_PLANE_BOUND * (f64::from(p.length()) + 1.0) {
+        return Some(first);
+    }
+    let pd = p.as_dvec3();
+    let mut best: Option<(f64, u32)> = None;
+    for (t, &o) in world.triangles.iter().zip(&world.triangle_object) {
+        if !keep(&world.objects[o as usize]) {
+            continue;
+        }
+        let tri = t.map(|i| world.positions[i as usize]);
+        let [a, b, c] = tri.map(|v| v.as_dvec3());
+        let d = (closest_point_on_triangle(pd, a, b, c) - pd).length();
+        if best.is_some_and(|(bd, _)| d >= bd) {
+            continue;
+        }
+        let (offset, bound, _) = crate::camera::eye_plane_offset(p, &tri);
+        if !(offset <= 0.5 * bound) {
+            best = Some((d, o));
+        }
+    }
+    best
 }
 
 /// The first triangle (of the objects `keep` keeps) whose plane passes so near `p` that the
@@ -209,7 +253,7 @@ impl FrameRanges {
         let far = 1.01 * far.max(diagonal);
         let floor = far.max(1.0) * NEAR_FLOOR;
         let clearance = |p: Vec3, keep: &dyn Fn(&crate::scene::ObjectInfo) -> bool| {
-            world.nearest_triangle(p, keep).map(|(d, id)| Clearance {
+            nearest_seen(&world, p, keep).map(|(d, id)| Clearance {
                 distance: d as f32,
                 object: world.objects[id as usize].name.clone(),
             })
