@@ -104,6 +104,18 @@ pub struct EdgeOn {
     pub bound: f64,
 }
 
+/// [`crate::camera::eye_plane_offset`] of `p` and `tri` as the pass computes it: in world
+/// coordinates (the G-buffer, whose view matrix rounds to the coordinates' scale), or with
+/// `local` relative to `p` (the capture, whose CMO-local coordinates `v - p` round to their own
+/// scale; `spirv/capture.wgsl`).
+fn plane_offset(p: Vec3, tri: &[Vec3; 3], local: bool) -> (f64, f64, f64) {
+    if local {
+        crate::camera::eye_plane_offset(Vec3::ZERO, &tri.map(|v| v - p))
+    } else {
+        crate::camera::eye_plane_offset(p, tri)
+    }
+}
+
 /// [`WorldGeometry::nearest_triangle`] as the GPU passes see it: where that triangle touches
 /// `p` (nearer than the edge-on test's scale), the nearest one not culled as edge-on (half the
 /// bound of `spirv/shared/eye_plane.wgsl`, which the f32 test surely culls) instead. The eye or
@@ -113,6 +125,7 @@ fn nearest_seen(
     world: &WorldGeometry,
     p: Vec3,
     keep: &dyn Fn(&ObjectInfo) -> bool,
+    local: bool,
 ) -> Option<(f64, u32)> {
     let first = world.nearest_triangle(p, keep)?;
     if first.0 > crate::camera::EYE_PLANE_BOUND * (f64::from(p.length()) + 1.0) {
@@ -130,7 +143,7 @@ fn nearest_seen(
         if best.is_some_and(|(bd, _)| d >= bd) {
             continue;
         }
-        let (offset, bound, _) = crate::camera::eye_plane_offset(p, &tri);
+        let (offset, bound, _) = plane_offset(p, &tri, local);
         if !(offset <= 0.5 * bound) {
             best = Some((d, o));
         }
@@ -150,6 +163,7 @@ fn edge_on(
     p: Vec3,
     keep: &dyn Fn(&ObjectInfo) -> bool,
     towards: &[Vec3],
+    local: bool,
 ) -> Option<(f64, f64, String)> {
     let pd = p.as_dvec3();
     for (t, &o) in world.triangles.iter().zip(&world.triangle_object) {
@@ -158,7 +172,7 @@ fn edge_on(
             continue;
         }
         let tri = t.map(|i| world.positions[i as usize]);
-        let (offset, bound, sin) = crate::camera::eye_plane_offset(p, &tri);
+        let (offset, bound, sin) = plane_offset(p, &tri, local);
         if !(offset <= 2.0 * bound) {
             continue;
         }
@@ -252,13 +266,13 @@ impl FrameRanges {
         }
         let far = 1.01 * far.max(diagonal);
         let floor = far.max(1.0) * NEAR_FLOOR;
-        let clearance = |p: Vec3, keep: &dyn Fn(&crate::scene::ObjectInfo) -> bool| {
-            nearest_seen(&world, p, keep).map(|(d, id)| Clearance {
+        let clearance = |p: Vec3, keep: &dyn Fn(&ObjectInfo) -> bool, local: bool| {
+            nearest_seen(&world, p, keep, local).map(|(d, id)| Clearance {
                 distance: d as f32,
                 object: world.objects[id as usize].name.clone(),
             })
         };
-        let eye = clearance(camera.eye, &|_| true);
+        let eye = clearance(camera.eye, &|_| true, false);
         let near = eye.as_ref().map_or(floor, |c| {
             (0.5 * c.distance * camera.corner_cos()).max(floor)
         });
@@ -267,7 +281,7 @@ impl FrameRanges {
         let cmo = centres
             .iter()
             .enumerate()
-            .filter_map(|(k, &c)| clearance(c, &captured).map(|cl| (k, cl)))
+            .filter_map(|(k, &c)| clearance(c, &captured, true).map(|cl| (k, cl)))
             .min_by(|a, b| a.1.distance.total_cmp(&b.1.distance));
         let capture_near = cmo
             .as_ref()
@@ -286,11 +300,12 @@ impl FrameRanges {
                 .1
         });
         let all = |_: &ObjectInfo| true;
-        let edge_on = edge_on(&world, camera.eye, &all, &corners)
+        let edge_on = edge_on(&world, camera.eye, &all, &corners, false)
             .map(|e| (format!("the eye of camera `{}`", camera.name), e))
             .or_else(|| {
                 centres.iter().enumerate().find_map(|(k, &c)| {
-                    edge_on(&world, c, &captured, &[]).map(|e| (format!("CMO {k}'s centre"), e))
+                    edge_on(&world, c, &captured, &[], true)
+                        .map(|e| (format!("CMO {k}'s centre"), e))
                 })
             })
             .map(|(viewpoint, (distance, bound, object))| EdgeOn {
@@ -323,15 +338,6 @@ impl FrameRanges {
                 max: MAX_EXTENT,
             });
         }
-        if let Some(e) = &self.edge_on {
-            return Err(RangeError::EdgeOn {
-                scene: scene.name.clone(),
-                viewpoint: e.viewpoint.clone(),
-                object: e.object.clone(),
-                distance: e.distance,
-                bound: e.bound,
-            });
-        }
         if let Some((k, c)) = &self.cmo {
             let n = f64::from(self.cube_size.max(1));
             let limit = PRECISION_BUDGET / n;
@@ -352,6 +358,15 @@ impl FrameRanges {
                     footprint: 2.0 * distance / n,
                 });
             }
+        }
+        if let Some(e) = &self.edge_on {
+            return Err(RangeError::EdgeOn {
+                scene: scene.name.clone(),
+                viewpoint: e.viewpoint.clone(),
+                object: e.object.clone(),
+                distance: e.distance,
+                bound: e.bound,
+            });
         }
         Ok(())
     }

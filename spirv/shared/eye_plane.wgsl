@@ -1,5 +1,5 @@
-// Triangles seen edge-on: whose plane passes through the viewpoint (the G-buffer's eye, a CMO
-// centre) within f32 rounding. `Camera::plane_holds_viewpoint` (src/camera.rs) is the host's twin
+// Triangles seen edge-on: whose plane passes through the viewpoint (the G-buffer's eye, in world
+// coordinates; a CMO centre, the origin of CMO-local ones) within f32 rounding. `Camera::plane_holds_viewpoint` (src/camera.rs) is the host's twin
 // of this test, with the same bound (`EYE_PLANE_BOUND`).
 //
 // In exact arithmetic such a triangle projects to a line and covers no pixel centre: every ray
