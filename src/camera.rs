@@ -124,8 +124,8 @@ impl Camera {
     }
 }
 
-/// `EYE_PLANE_BOUND` of `spirv/shared/eye_plane.wgsl`: 2^-18.
-pub const EYE_PLANE_BOUND: f64 = 1.0 / (1u64 << 18) as f64;
+/// `EYE_PLANE_BOUND` of `spirv/shared/eye_plane.wgsl`: 2^-19.
+pub const EYE_PLANE_BOUND: f64 = 1.0 / (1u64 << 19) as f64;
 
 /// How far the plane of triangle `tri` passes from the viewpoint `p` (an eye or a CMO centre),
 /// in the terms of `eye_plane_holds` (`spirv/shared/eye_plane.wgsl`), computed in f64: `(offset,
