@@ -124,16 +124,16 @@ impl Camera {
     }
 }
 
-/// `EYE_PLANE_BOUND` of `spirv/shared/eye_plane.wgsl`: 2^-19.
-pub const EYE_PLANE_BOUND: f64 = 1.0 / (1u64 << 19) as f64;
+/// `EYE_PLANE_BOUND` of `spirv/shared/eye_plane.wgsl`: 2^-21.
+pub const EYE_PLANE_BOUND: f64 = 1.0 / (1u64 << 21) as f64;
 
 /// How far the plane of triangle `tri` passes from the viewpoint `p` (an eye or a CMO centre),
 /// in the terms of `eye_plane_holds` (`spirv/shared/eye_plane.wgsl`), computed in f64: `(offset,
 /// bound)`, `offset = |(p - o) . m|` and `bound = EYE_PLANE_BOUND (|p| + |o| + |p - o|)`, with
 /// `o` the vertex nearest `p` and `m` the cross product of the unit edges from it; and `|m|`,
 /// the sine of the angle at `o` (`p` is `offset / |m|` from the plane). The GPU culls the
-/// triangle (seen edge-on) where `offset <= bound` in f32; the two differ by some 2^-21 of
-/// `bound`'s scale. A degenerate triangle gives a NaN offset.
+/// triangle (seen edge-on) where `offset <= bound` in f32; the two differ by some 2^-22 of
+/// `bound`'s scale (half the bound). A degenerate triangle gives a NaN offset.
 pub fn eye_plane_offset(p: Vec3, tri: &[Vec3; 3]) -> (f64, f64, f64) {
     let p = p.as_dvec3();
     let v = tri.map(|v| v.as_dvec3());

@@ -10,18 +10,20 @@
 // wall, got the wall over the whole frame for some targets). So the vertex shaders cull it.
 //
 // The test, with `o` the vertex nearest the viewpoint `p`, `u1`, `u2` the unit edges from `o` and
-// `m = u1 x u2` (length sin(angle at o)): `|(p - o) . m| <= 2^-19 (|p| + |o| + |p - o|)`, i.e. the
-// distance of `p` from the plane is at most 2^-19 (|p| + |o| + |p - o|) / sin(angle at o). The
-// rasteriser's clip coordinates err by some 2^-21 of the coordinates (a few roundings of the
-// view matrix's products), which moves a triangle's plane by about that over sin(angle), and this
-// test's own arithmetic errs by some 2^-21 of the right-hand side's scale: a plane that is not
-// culled lies at least 3 of those rounding errors from the viewpoint, whose depth stays within a
-// quarter of the true one (the near plane is at most half of it). A larger bound (2^-18 was
-// tried) culled thin triangles of `sphere-room`'s mirror when the scene is moved 6000 from the
-// origin, well inside the precision check's limit. Unit edges keep every product finite up to
-// the coordinates `FrameRanges::check` allows.
+// `m = u1 x u2` (length sin(angle at o)): `|(p - o) . m| <= 2^-21 (|p| + |o| + |p - o|)`, i.e. the
+// distance of `p` from the plane is at most 2^-21 (|p| + |o| + |p - o|) / sin(angle at o). That
+// is the worst case of the rasteriser's error: its clip w is `-back . p + back . eye`, three
+// products and three sums in f32 (2^-22 (sqrt 3 |p| + |eye|)) plus the rounding of `back . eye`
+// on the host (2^-23 |eye|), and a vertex moved by e moves the plane at the foot of `p` by about
+// e / sin(angle) where the foot lies outside the triangle. A plane that is not culled therefore
+// cannot appear on the other side of the viewpoint. Larger bounds cull real geometry: at 2^-18
+// and 2^-19 the silhouette triangles of `sphere-room`'s mirror (planes 0.3 to 0.4 from the eye),
+// with the scene moved 6000 and 12400 from the origin, well inside the precision check's limit.
+// This test's own arithmetic errs by some 2^-22 of the right-hand side's scale (half the bound),
+// which the host's twin allows for. Unit edges keep every product finite up to the coordinates
+// `FrameRanges::check` allows.
 
-const EYE_PLANE_BOUND: f32 = 1.9073486328125e-6; // 2^-19
+const EYE_PLANE_BOUND: f32 = 4.76837158203125e-7; // 2^-21
 
 fn eye_plane_holds(p: vec3<f32>, a: vec3<f32>, b: vec3<f32>, c: vec3<f32>) -> bool {
     let da = length(a - p);
