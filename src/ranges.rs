@@ -145,7 +145,7 @@ fn nearest_seen(
             continue;
         }
         let (offset, bound, _) = plane_offset(p, &tri, local);
-        if !(offset <= 0.25 * bound) {
+        if offset.is_nan() || offset > 0.25 * bound {
             best = Some((d, o));
         }
     }
@@ -174,7 +174,7 @@ fn edge_on(
         }
         let tri = t.map(|i| world.positions[i as usize]);
         let (offset, bound, sin) = plane_offset(p, &tri, local);
-        if !(offset <= 2.0 * bound) {
+        if offset.is_nan() || offset > 2.0 * bound {
             continue;
         }
         // The reference's numerator of `t` (`reference::intersect`, the same operations).
