@@ -26,6 +26,7 @@
 const SCENE_GROUP: u32 = 0u;
 //! import shared/scene.wgsl
 //! import shared/cube.wgsl
+//! import shared/eye_plane.wgsl
 
 struct CaptureView {
     centre: vec3<f32>,
@@ -59,6 +60,16 @@ fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) view: u3
         // All three vertices of a culled triangle (its object's: a reflector that does not see
         // itself, or every reflector in a capture without reflectors) go to one point outside
         // the clip volume: the triangle is culled, and the index buffer keeps its global order.
+        out.clip = vec4<f32>(2.0, 2.0, 0.0, 1.0);
+    }
+    // A triangle whose plane passes through the centre is seen edge-on (shared/eye_plane.wgsl):
+    // culled the same way. Tested in CMO-local coordinates, which round to their own scale (the
+    // projection above uses them).
+    let t = 3u * (vertex / 3u);
+    let a = scene_vertices[scene_indices[t]].position - cv.centre;
+    let b = scene_vertices[scene_indices[t + 1u]].position - cv.centre;
+    let c = scene_vertices[scene_indices[t + 2u]].position - cv.centre;
+    if eye_plane_holds(vec3<f32>(0.0), a, b, c) {
         out.clip = vec4<f32>(2.0, 2.0, 0.0, 1.0);
     }
     out.world = v.position;

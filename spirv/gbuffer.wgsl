@@ -13,6 +13,7 @@
 const SCENE_GROUP: u32 = 0u;
 //! import shared/scene.wgsl
 //! import shared/camera.wgsl
+//! import shared/eye_plane.wgsl
 
 struct GbufferCamera {
     view_proj: mat4x4<f32>,
@@ -44,6 +45,15 @@ fn vs_main(@builtin(vertex_index) vertex: u32) -> GbufferVarying {
     let v = scene_vertices[scene_indices[vertex]];
     var out: GbufferVarying;
     out.clip = gbuffer_camera.view_proj * vec4<f32>(v.position, 1.0);
+    // A triangle whose plane passes through the eye is seen edge-on (shared/eye_plane.wgsl):
+    // all three vertices go to one point outside the clip volume, and it covers no pixel.
+    let t = 3u * (vertex / 3u);
+    let a = scene_vertices[scene_indices[t]].position;
+    let b = scene_vertices[scene_indices[t + 1u]].position;
+    let c = scene_vertices[scene_indices[t + 2u]].position;
+    if eye_plane_holds(gbuffer_camera.eye, a, b, c) {
+        out.clip = vec4<f32>(2.0, 2.0, 0.0, 1.0);
+    }
     out.world = v.position;
     out.normal = v.normal;
     out.uv = v.uv;

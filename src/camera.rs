@@ -124,6 +124,37 @@ impl Camera {
     }
 }
 
+/// `EYE_PLANE_BOUND` of `spirv/shared/eye_plane.wgsl`: 2^-21.
+pub const EYE_PLANE_BOUND: f64 = 1.0 / (1u64 << 21) as f64;
+
+/// How far the plane of triangle `tri` passes from the viewpoint `p` (an eye or a CMO centre),
+/// in the terms of `eye_plane_holds` (`spirv/shared/eye_plane.wgsl`), computed in f64: `(offset,
+/// bound)`, `offset = |(p - o) . m|` and `bound = EYE_PLANE_BOUND (|p| + |o| + |p - o|)`, with
+/// `o` the vertex nearest `p` and `m` the cross product of the unit edges from it; and `|m|`,
+/// the sine of the angle at `o` (`p` is `offset / |m|` from the plane). The GPU culls the
+/// triangle (seen edge-on) where `offset <= bound` in f32; the two differ by some 2^-22 of
+/// `bound`'s scale (half the bound). A degenerate triangle gives a NaN offset.
+pub fn eye_plane_offset(p: Vec3, tri: &[Vec3; 3]) -> (f64, f64, f64) {
+    let p = p.as_dvec3();
+    let v = tri.map(|v| v.as_dvec3());
+    let d = v.map(|v| (v - p).length());
+    let k = if d[1] < d[0] && d[1] <= d[2] {
+        1
+    } else if d[2] < d[0] && d[2] < d[1] {
+        2
+    } else {
+        0
+    };
+    let (o, x, y) = (v[k], v[(k + 1) % 3], v[(k + 2) % 3]);
+    let m = (x - o).normalize().cross((y - o).normalize());
+    let s = p - o;
+    (
+        s.dot(m).abs(),
+        EYE_PLANE_BOUND * (p.length() + o.length() + s.length()),
+        m.length(),
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

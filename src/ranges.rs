@@ -15,7 +15,21 @@
 //!   inside the box has left it by then).
 //!
 //! Where nothing bounds a near plane (the eye or a CMO centre on a triangle) it is the scene's
-//! far extent times 2^-40: the depth `near / z` stays a normal f32 at every distance.
+//! far extent (at least 1) times 2^-100: the near plane and the depth `near / z` stay normal f32
+//! at every distance, and no geometry is clipped. (It was the far extent times 2^-40, which
+//! with a vertex at 1e13 put the near plane 9 units out and clipped the whole room; the
+//! triangles that touch the eye lie in planes through it, which the passes cull:
+//! `spirv/shared/eye_plane.wgsl`.)
+//!
+//! # Viewpoints in a surface's plane
+//! A triangle whose plane holds the eye (or a CMO centre) is seen edge-on: the reference meets
+//! it at `t = 0` only and never shows it. The rasteriser sees it through rounded vertices whose
+//! plane misses the eye by a rounding error and, seen from there, drew it over half the frame
+//! (the built-in `default` camera lies in the front wall's plane: 0 mirror pixels for a target
+//! at z = -2e4). The G-buffer and capture passes cull such triangles
+//! (`spirv/shared/eye_plane.wgsl`). A viewpoint within that rounding bound of a plane but off
+//! it, in f64, sees the triangle in the reference where the passes cull it: refused
+//! ([`RangeError::EdgeOn`], with the distance to move it).
 //!
 //! # What f32 cannot hold
 //! Reflected rays start at G-buffer positions and CMO-local coordinates are `x - c`, both in f32
@@ -34,7 +48,7 @@
 use glam::Vec3;
 
 use crate::camera::Camera;
-use crate::scene::Scene;
+use crate::scene::{ObjectInfo, Scene, WorldGeometry, closest_point_on_triangle};
 
 /// `X / d_min` may be at most `PRECISION_BUDGET / N` (module docs): `2^22`.
 pub const PRECISION_BUDGET: f64 = (1u64 << 22) as f64;
@@ -42,8 +56,8 @@ pub const PRECISION_BUDGET: f64 = (1u64 << 22) as f64;
 /// Largest scene extent whose squared distances (up to `(4 extent)^2`) stay finite in f32.
 pub const MAX_EXTENT: f64 = (1u64 << 60) as f64;
 
-/// Fraction of the far extent below which no near plane goes (module docs).
-const NEAR_FLOOR: f32 = 1.0 / (1u64 << 40) as f32;
+/// Fraction of the far extent (at least 1) below which no near plane goes (module docs): 2^-100.
+const NEAR_FLOOR: f32 = 1.0 / (1u128 << 100) as f32;
 
 /// The nearest triangle to a point: distance, object name.
 #[derive(Clone, Debug, PartialEq)]
@@ -72,6 +86,116 @@ pub struct FrameRanges {
     pub coordinates: f32,
     /// Texels per face side.
     pub cube_size: u32,
+    /// A triangle whose plane passes within rounding of the eye or a CMO centre, but not
+    /// exactly through it, where the reference sees it ([`edge_on`]).
+    pub edge_on: Option<EdgeOn>,
+}
+
+/// A viewpoint (the eye, a CMO centre) that f32 cannot place on either side of a triangle's
+/// plane ([`edge_on`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct EdgeOn {
+    /// `the eye of camera `NAME`` or `CMO k's centre`.
+    pub viewpoint: String,
+    pub object: String,
+    /// Distance of the viewpoint from the triangle's plane (f64).
+    pub distance: f64,
+    /// Distance below which the GPU passes treat the viewpoint as in the plane.
+    pub bound: f64,
+}
+
+/// [`crate::camera::eye_plane_offset`] of `p` and `tri` as the pass computes it: in world
+/// coordinates (the G-buffer, whose view matrix rounds to the coordinates' scale), or with
+/// `local` relative to `p` (the capture, whose CMO-local coordinates `v - p` round to their own
+/// scale; `spirv/capture.wgsl`).
+fn plane_offset(p: Vec3, tri: &[Vec3; 3], local: bool) -> (f64, f64, f64) {
+    if local {
+        crate::camera::eye_plane_offset(Vec3::ZERO, &tri.map(|v| v - p))
+    } else {
+        crate::camera::eye_plane_offset(p, tri)
+    }
+}
+
+/// [`WorldGeometry::nearest_triangle`] as the GPU passes see it: where that triangle touches
+/// `p` (nearer than the edge-on test's scale), the nearest one not culled as edge-on (within
+/// a quarter of the bound of `spirv/shared/eye_plane.wgsl`, which the f32 test surely culls)
+/// instead. The eye or
+/// a CMO centre in a wall's plane then keeps a near plane and a precision bound from what is
+/// drawn.
+fn nearest_seen(
+    world: &WorldGeometry,
+    p: Vec3,
+    keep: &dyn Fn(&ObjectInfo) -> bool,
+    local: bool,
+) -> Option<(f64, u32)> {
+    let first = world.nearest_triangle(p, keep)?;
+    if first.0 > crate::camera::EYE_PLANE_BOUND * (f64::from(p.length()) + 1.0) {
+        return Some(first);
+    }
+    let pd = p.as_dvec3();
+    let mut best: Option<(f64, u32)> = None;
+    for (t, &o) in world.triangles.iter().zip(&world.triangle_object) {
+        if !keep(&world.objects[o as usize]) {
+            continue;
+        }
+        let tri = t.map(|i| world.positions[i as usize]);
+        let [a, b, c] = tri.map(|v| v.as_dvec3());
+        let d = (closest_point_on_triangle(pd, a, b, c) - pd).length();
+        if best.is_some_and(|(bd, _)| d >= bd) {
+            continue;
+        }
+        let (offset, bound, _) = plane_offset(p, &tri, local);
+        if offset.is_nan() || offset > 0.25 * bound {
+            best = Some((d, o));
+        }
+    }
+    best
+}
+
+/// The first triangle (of the objects `keep` keeps) whose plane passes so near `p` that the
+/// GPU passes may cull it as seen edge-on (`spirv/shared/eye_plane.wgsl`, twice its bound for
+/// the f32 test's own error, some 2^-22 of the scale), while the reference, whose f64 primary
+/// test puts `p` off the plane, sees it over a wide angle: `p` lies within that culling
+/// distance of the triangle itself and, where `towards` is given (the eye's frame corners), on
+/// a side some ray of the frame heads to. Exactly in the plane, every ray meets it at `t = 0`
+/// and the reference sees nothing: no conflict. A triangle farther away whose plane passes
+/// that near `p` is a sliver in the reference (the silhouette triangles of a tessellated
+/// sphere in a scene 1e4 from the origin): the passes may cull it, losing at most about a
+/// pixel along its edge.
+fn edge_on(
+    world: &WorldGeometry,
+    p: Vec3,
+    keep: &dyn Fn(&ObjectInfo) -> bool,
+    towards: &[Vec3],
+    local: bool,
+) -> Option<(f64, f64, String)> {
+    let pd = p.as_dvec3();
+    for (t, &o) in world.triangles.iter().zip(&world.triangle_object) {
+        let object = &world.objects[o as usize];
+        if !keep(object) {
+            continue;
+        }
+        let tri = t.map(|i| world.positions[i as usize]);
+        let (offset, bound, sin) = plane_offset(p, &tri, local);
+        if offset.is_nan() || offset > 2.0 * bound {
+            continue;
+        }
+        // The reference's numerator of `t` (`reference::intersect`, the same operations).
+        let [a, b, c] = tri.map(|v| v.as_dvec3());
+        let (e1, e2, s) = (b - a, c - a, pd - a);
+        let side = e2.dot(s.cross(e1));
+        let n = e1.cross(e2);
+        if side == 0.0 || n.length() == 0.0 {
+            continue;
+        }
+        let cull = 2.0 * bound / sin;
+        let near = (closest_point_on_triangle(pd, a, b, c) - pd).length() <= cull;
+        let seen = towards.is_empty() || towards.iter().any(|d| d.as_dvec3().dot(n) * side < 0.0);
+        if near && seen {
+            return Some((side.abs() / n.length(), cull, object.name.clone()));
+        }
+    }
+    None
 }
 
 /// The scene cannot be rendered in f32 (see the module docs).
@@ -97,6 +221,19 @@ pub enum RangeError {
         cube_size: u32,
         rounding: f64,
         footprint: f64,
+    },
+    #[error(
+        "scene `{scene}`: {viewpoint} lies {distance:.3e} from the plane of a triangle of \
+         `{object}`, nearer than f32 can tell from in the plane ({bound:.3e}); the GPU passes \
+         would not see that triangle where the reference does. Move it onto the plane or at \
+         least {bound:.3e} away from it"
+    )]
+    EdgeOn {
+        scene: String,
+        viewpoint: String,
+        object: String,
+        distance: f64,
+        bound: f64,
     },
     #[error(
         "scene `{scene}` is beyond f32 range: its extent {extent:.3e} exceeds 2^60 = \
@@ -132,14 +269,14 @@ impl FrameRanges {
             }
         }
         let far = 1.01 * far.max(diagonal);
-        let floor = far * NEAR_FLOOR;
-        let clearance = |p: Vec3, keep: &dyn Fn(&crate::scene::ObjectInfo) -> bool| {
-            world.nearest_triangle(p, keep).map(|(d, id)| Clearance {
+        let floor = far.max(1.0) * NEAR_FLOOR;
+        let clearance = |p: Vec3, keep: &dyn Fn(&ObjectInfo) -> bool, local: bool| {
+            nearest_seen(&world, p, keep, local).map(|(d, id)| Clearance {
                 distance: d as f32,
                 object: world.objects[id as usize].name.clone(),
             })
         };
-        let eye = clearance(camera.eye, &|_| true);
+        let eye = clearance(camera.eye, &|_| true, false);
         let near = eye.as_ref().map_or(floor, |c| {
             (0.5 * c.distance * camera.corner_cos()).max(floor)
         });
@@ -148,7 +285,7 @@ impl FrameRanges {
         let cmo = centres
             .iter()
             .enumerate()
-            .filter_map(|(k, &c)| clearance(c, &captured).map(|cl| (k, cl)))
+            .filter_map(|(k, &c)| clearance(c, &captured, true).map(|cl| (k, cl)))
             .min_by(|a, b| a.1.distance.total_cmp(&b.1.distance));
         let capture_near = cmo
             .as_ref()
@@ -161,7 +298,28 @@ impl FrameRanges {
                 }
             }
         }
+        let corners = [(0, 0), (1, 0), (0, 1), (1, 1)].map(|(i, j)| {
+            camera
+                .ray(i * (camera.width - 1), j * (camera.height - 1))
+                .1
+        });
+        let all = |_: &ObjectInfo| true;
+        let edge_on = edge_on(&world, camera.eye, &all, &corners, false)
+            .map(|e| (format!("the eye of camera `{}`", camera.name), e))
+            .or_else(|| {
+                centres.iter().enumerate().find_map(|(k, &c)| {
+                    edge_on(&world, c, &captured, &[], true)
+                        .map(|e| (format!("CMO {k}'s centre"), e))
+                })
+            })
+            .map(|(viewpoint, (distance, bound, object))| EdgeOn {
+                viewpoint,
+                object,
+                distance,
+                bound,
+            });
         FrameRanges {
+            edge_on,
             near,
             capture_near,
             far,
@@ -204,6 +362,15 @@ impl FrameRanges {
                     footprint: 2.0 * distance / n,
                 });
             }
+        }
+        if let Some(e) = &self.edge_on {
+            return Err(RangeError::EdgeOn {
+                scene: scene.name.clone(),
+                viewpoint: e.viewpoint.clone(),
+                object: e.object.clone(),
+                distance: e.distance,
+                bound: e.bound,
+            });
         }
         Ok(())
     }

@@ -30,7 +30,7 @@ pub use error::SceneError;
 pub use file::{check_resolution, load_scene_file, load_scene_file_report};
 pub use obj::MAX_INPUT_BYTES;
 pub use report::{LoadReport, LoadWarning, WarningKind};
-pub use world::{NO_ID, ObjectInfo, WorldGeometry};
+pub use world::{NO_ID, ObjectInfo, WorldGeometry, closest_point_on_triangle};
 
 use glam::{EulerRot, Mat3, Mat4, Quat, Vec2, Vec3};
 use std::path::Path;
