@@ -120,7 +120,11 @@ impl Scene {
             return 2.0;
         };
         let (positions, normals, triangles) = one.world_mesh();
-        if !convexity::is_convex(&positions, &normals, &triangles) {
+        // Normals pointing into a closed mesh (`convexity::normals_inward`): the bound holds for
+        // the outward normal, and the G-buffer's is the other one, so every ray is traced.
+        if !convexity::is_convex(&positions, &normals, &triangles)
+            || convexity::normals_inward(&positions, &normals, &triangles)
+        {
             return 2.0;
         }
         let theta = convexity::max_normal_deviation(&positions, &normals, &triangles);
@@ -156,6 +160,13 @@ impl MeshInstance {
     pub fn is_convex(&self) -> bool {
         let (positions, normals, triangles) = self.world_mesh();
         convexity::is_convex(&positions, &normals, &triangles)
+    }
+
+    /// [`convexity::normals_inward`] of all its parts together, in world space: a closed mesh
+    /// whose vertex normals point into it.
+    pub fn normals_inward(&self) -> bool {
+        let (positions, normals, triangles) = self.world_mesh();
+        convexity::normals_inward(&positions, &normals, &triangles)
     }
 
     /// All its parts together in world space: positions, unit normals (one per position) and
