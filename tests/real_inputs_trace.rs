@@ -270,18 +270,12 @@ fn inward_normals_render_like_outward_ones() {
     let (scene, camera) = default_scene(32);
     let flipped = inward(&scene);
     assert_eq!(scene.self_capture(), flipped.self_capture());
-    assert!(
-        flipped
-            .meshes
-            .iter()
-            .any(|m| m.reflector && m.normals_inward())
-    );
-    assert!(
-        !scene
-            .meshes
-            .iter()
-            .any(|m| m.reflector && m.normals_inward())
-    );
+    assert!(flipped.meshes.iter().any(|m| flipped.front_turned(m)));
+    assert!(!scene.meshes.iter().any(|m| scene.front_turned(m)));
+    // A camera inside the closed mesh (a mirror room seen from inside) keeps the normals.
+    let mut inside = flipped.clone();
+    inside.cameras[0].eye = Vec3::new(0.0, 1.0, 0.0);
+    assert!(!inside.meshes.iter().any(|m| inside.front_turned(m)));
     let methods = [
         Method::Compute,
         Method::Fragment,

@@ -14,9 +14,9 @@ pub struct ObjectInfo {
     /// Whether the cubemap capture draws it: a non-reflector, or a reflector that sees itself
     /// ([`Scene::self_capture`]).
     pub captured: bool,
-    /// A reflector whose vertex normals point into its closed mesh
-    /// ([`super::convexity::normals_inward`]): its front, the side a reflected ray can come
-    /// from, is against its normals (the capture's "faces the centre" test). False otherwise.
+    /// A reflector whose front, the side a reflected ray can come from, is against its vertex
+    /// normals ([`Scene::front_turned`]: they point into its closed mesh, seen from outside),
+    /// for the capture's "faces the centre" test. False otherwise.
     pub normals_inward: bool,
     /// Range of this object's triangles in [`WorldGeometry::triangles`].
     pub first_triangle: u32,
@@ -51,7 +51,7 @@ impl WorldGeometry {
         let mut w = WorldGeometry::default();
         let self_capture = scene.self_capture();
         for (mesh, &self_capture) in scene.meshes.iter().zip(&self_capture) {
-            let normals_inward = mesh.reflector && mesh.normals_inward();
+            let normals_inward = scene.front_turned(mesh);
             let m = mesh.transform.matrix();
             let nm = mesh.transform.normal_matrix();
             for part in &mesh.parts {
