@@ -36,11 +36,14 @@ pub fn is_convex_front(
     if turned { turned_round } else { as_is }
 }
 
+/// [`analyse`]'s answer: `(is_convex, normals_inward, is_convex_front turned)`.
+type Analysis = (bool, bool, bool);
+
 /// `(is_convex, normals_inward, is_convex with the fronts turned round)`, kept per mesh
 /// content: a scene asks this of each reflector several times per frame (every
 /// `Scene::world`, the reflector check's bound). The last is only computed for a mesh whose
 /// normals point inward (else it is the first).
-fn analyse(positions: &[Vec3], normals: &[Vec3], triangles: &[[u32; 3]]) -> (bool, bool, bool) {
+fn analyse(positions: &[Vec3], normals: &[Vec3], triangles: &[[u32; 3]]) -> Analysis {
     let key = content_key(positions, normals, triangles);
     if let Some(&(_, answer)) = lock_memo().iter().find(|(k, _)| *k == key) {
         return answer;
@@ -65,9 +68,9 @@ fn analyse(positions: &[Vec3], normals: &[Vec3], triangles: &[[u32; 3]]) -> (boo
 const MEMO_ENTRIES: usize = 64;
 
 /// [`is_convex`]'s answers by [`content_key`].
-static MEMO: std::sync::Mutex<Vec<(u128, (bool, bool, bool))>> = std::sync::Mutex::new(Vec::new());
+static MEMO: std::sync::Mutex<Vec<(u128, Analysis)>> = std::sync::Mutex::new(Vec::new());
 
-fn lock_memo() -> std::sync::MutexGuard<'static, Vec<(u128, (bool, bool, bool))>> {
+fn lock_memo() -> std::sync::MutexGuard<'static, Vec<(u128, Analysis)>> {
     // A panic elsewhere while holding the lock leaves a valid list (push / remove only).
     MEMO.lock().unwrap_or_else(|e| e.into_inner())
 }
