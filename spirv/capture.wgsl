@@ -102,15 +102,15 @@ fn fs_main(in: CaptureVarying) -> CaptureOut {
     return CaptureOut(vec4<f32>(scene_shade(in.object, in.uv, in.normal), 1.0), capture_distance(in));
 }
 
-// With self-reflections a reflector is captured only where it faces the CMO centre (its normal
-// points towards the centre). A CMO sits inside or near its reflector; the reflector's far side
+// With self-reflections a reflector is captured only where it faces the CMO centre (its normal,
+// turned to its front by `scene_front_normal`, points towards the centre). A CMO sits inside or near its reflector; the reflector's far side
 // would otherwise hide the whole scene from it, and every ray leaving the reflector would start
 // behind its own surface. A reflected ray leaves the surface along the outward side, so the
 // reflector parts it can meet face back towards the reflector, and so towards the centre.
 @fragment
 fn fs_self(in: CaptureVarying) -> CaptureSelfOut {
     let reflector = scene_is_reflector(in.object);
-    if reflector && dot(in.normal, in.world - capture_views[in.view].centre) > 0.0 {
+    if reflector && dot(scene_front_normal(in.object, in.normal), in.world - capture_views[in.view].centre) > 0.0 {
         discard;
     }
     let mirror = select(0.0, 1.0, reflector);
@@ -123,7 +123,7 @@ fn fs_self(in: CaptureVarying) -> CaptureSelfOut {
 
 // Whether the fragment is kept with self-reflections on (`fs_self`'s test).
 fn capture_self_keeps(in: CaptureVarying) -> bool {
-    return !(scene_is_reflector(in.object) && dot(in.normal, in.world - capture_views[in.view].centre) > 0.0);
+    return !(scene_is_reflector(in.object) && dot(scene_front_normal(in.object, in.normal), in.world - capture_views[in.view].centre) > 0.0);
 }
 
 fn capture_normal_mirror(in: CaptureVarying) -> vec4<f32> {

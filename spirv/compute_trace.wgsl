@@ -194,7 +194,7 @@ fn lane_test(st: ptr<function, RayState>, nc: NodeCtx, j: u32) -> LaneTest {
     if cl == 0u {
         bound = distance_at((*st).k, Texel(face, cx, cy));
     } else {
-        let inf = inflated(iv, range.x, range.y);
+        let inf = inflated(iv, range.x, range.y, seg_reach(seg.a, seg.d));
         ok = inf.ok;
         lo = inf.lo;
         hi = inf.hi;
@@ -238,18 +238,19 @@ fn children_crossed(st: ptr<function, RayState>, nc: NodeCtx) -> u32 {
         row_slab(start, la, ld, nc, edge, n, 7u),
     );
     let texel = nc.cl == 0u;
+    let reach = seg_reach((*st).seg.a, (*st).seg.d);
     var bits = 0u;
     for (var ix = 0u; ix < 8u; ix++) {
         let cx = nc.nd.x * g.x + ix;
         let col = slab(start, la.x, ld.x, la.z, ld.z, cx, nc.span.x, n, edge, SIDE_X0, ix < g.x && cx < nc.cd.y);
-        bits |= pair_bit(col, row[0], z, texel, range) << ix;
-        bits |= pair_bit(col, row[1], z, texel, range) << ((ix + g.x) & 31u);
-        bits |= pair_bit(col, row[2], z, texel, range) << ((ix + 2u * g.x) & 31u);
-        bits |= pair_bit(col, row[3], z, texel, range) << ((ix + 3u * g.x) & 31u);
-        bits |= pair_bit(col, row[4], z, texel, range) << ((ix + 4u * g.x) & 31u);
-        bits |= pair_bit(col, row[5], z, texel, range) << ((ix + 5u * g.x) & 31u);
-        bits |= pair_bit(col, row[6], z, texel, range) << ((ix + 6u * g.x) & 31u);
-        bits |= pair_bit(col, row[7], z, texel, range) << ((ix + 7u * g.x) & 31u);
+        bits |= pair_bit(col, row[0], z, texel, range, reach) << ix;
+        bits |= pair_bit(col, row[1], z, texel, range, reach) << ((ix + g.x) & 31u);
+        bits |= pair_bit(col, row[2], z, texel, range, reach) << ((ix + 2u * g.x) & 31u);
+        bits |= pair_bit(col, row[3], z, texel, range, reach) << ((ix + 3u * g.x) & 31u);
+        bits |= pair_bit(col, row[4], z, texel, range, reach) << ((ix + 4u * g.x) & 31u);
+        bits |= pair_bit(col, row[5], z, texel, range, reach) << ((ix + 5u * g.x) & 31u);
+        bits |= pair_bit(col, row[6], z, texel, range, reach) << ((ix + 6u * g.x) & 31u);
+        bits |= pair_bit(col, row[7], z, texel, range, reach) << ((ix + 7u * g.x) & 31u);
     }
     return bits;
 }
@@ -285,10 +286,10 @@ fn slab(start: Clip, a: f32, d: f32, az: f32, dz: f32, c: u32, span: u32, n: u32
 
 // 1 where the child at (`col`, `row`) passes: `crosses` at the texel level, `inflated` above
 // (none where the face's plane `z` drops the interval).
-fn pair_bit(col: Slab, row: Slab, z: Clip, texel: bool, range: vec2<f32>) -> u32 {
+fn pair_bit(col: Slab, row: Slab, z: Clip, texel: bool, range: vec2<f32>, reach: f32) -> u32 {
     let t0 = max(max(col.t0, row.t0), z.iv.t0);
     let t1 = min(min(col.t1, row.t1), z.iv.t1);
-    let ok = select(inflated(Interval(t0, t1, SIDE_SEGMENT, SIDE_SEGMENT), range.x, range.y).ok, t0 < t1, texel);
+    let ok = select(inflated(Interval(t0, t1, SIDE_SEGMENT, SIDE_SEGMENT), range.x, range.y, reach).ok, t0 < t1, texel);
     return select(0u, 1u, ok && col.ok && row.ok && z.keep);
 }
 

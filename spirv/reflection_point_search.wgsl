@@ -114,7 +114,8 @@ fn vs_reflector(@builtin(vertex_index) vertex: u32) -> ReflectorVarying {
     out.clip = select(vec4<f32>(2.0, 2.0, 0.5, 1.0), rp.view_proj * vec4<f32>(v.position, 1.0),
         scene_is_reflector(v.object));
     out.world = v.position;
-    out.normal = v.normal;
+    // T_N on the mirror's side: turned round where the normals point into a closed mesh.
+    out.normal = scene_front_normal(v.object, v.normal);
     return out;
 }
 

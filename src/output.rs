@@ -330,6 +330,7 @@ mod tests {
             material: 0,
             reflector: false,
             captured: true,
+            normals_inward: false,
             first_triangle,
             triangle_count,
         };

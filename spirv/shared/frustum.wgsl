@@ -14,7 +14,8 @@ const SIDE_Y1: u32 = 3u;
 const SIDE_Z: u32 = 4u;
 const SIDE_SEGMENT: u32 = 5u;
 
-// Relative widening of hierarchy cell intervals (`CELL_INFLATE` = 2^-12).
+// Relative widening of hierarchy cell intervals (`CELL_INFLATE` = 2^-12 of the cell's own t
+// scale, `inflated`).
 const CELL_INFLATE: f32 = 0.000244140625;
 
 // +inf and -inf from bits (WGSL has no infinity literal; naga folds these to the same bits).
@@ -90,14 +91,21 @@ struct Inflated {
     hi: f32,
 }
 
-fn inflated(iv: Interval, t_lo: f32, t_hi: f32) -> Inflated {
+fn inflated(iv: Interval, t_lo: f32, t_hi: f32, reach: f32) -> Inflated {
     if !(iv.t0 <= F32_MAX && iv.t1 >= -F32_MAX) {
         return Inflated(false, 0.0, 0.0);
     }
-    let e = CELL_INFLATE * ((t_hi - t_lo) + abs(t_lo) + abs(t_hi));
+    // The cell's own t scale (`Interval::inflated`): its far end te, in [t_lo, t_hi].
+    let te = min(max(iv.t0, iv.t1), t_hi);
+    let e = CELL_INFLATE * ((((te - t_lo) + abs(t_lo)) + abs(te)) + reach);
     let lo = max(iv.t0 - e, t_lo);
     let hi = min(iv.t1 + e, t_hi);
     return Inflated(lo <= hi, lo, hi);
+}
+
+// `cubemap::frustum::seg_reach`: |a|_1 / |d|_1, summed in x, y, z order.
+fn seg_reach(a: vec3<f32>, d: vec3<f32>) -> f32 {
+    return ((abs(a.x) + abs(a.y)) + abs(a.z)) / ((abs(d.x) + abs(d.y)) + abs(d.z));
 }
 
 // [t0, t1] of `la + t ld`, t in [t_lo, t_hi] (face-local), inside the frustum of `cell`.

@@ -18,7 +18,8 @@ struct GpuVertex {
 
 struct GpuObject {
     material: u32,
-    // 1 for a reflector.
+    // Bit 0: a reflector; bit 1: its vertex normals point into its closed mesh
+    // (`ObjectInfo::normals_inward`): `scene_front_normal` turns them round.
     reflector: u32,
     // 1 where the cubemap capture draws the object: a non-reflector, or a reflector that sees
     // itself (Scene::self_capture).
@@ -133,4 +134,13 @@ fn scene_is_captured(object: u32) -> bool {
 
 fn scene_is_reflector(object: u32) -> bool {
     return scene_objects[object].reflector != 0u;
+}
+
+// A reflector's normal `n` turned to its front, the side a reflected ray can come from: `-n`
+// where its normals point into its closed mesh (`ObjectInfo::normals_inward`), else `n`.
+fn scene_front_normal(object: u32, n: vec3<f32>) -> vec3<f32> {
+    if (scene_objects[object].reflector & 2u) != 0u {
+        return -n;
+    }
+    return n;
 }

@@ -509,6 +509,7 @@ fn trace_mip(k: u32, seg: Segment, cut: f32, variant: u32) -> TraceResult {
     let none = 0xffffffffu;
     var c = Counters(0u, 0u);
     let pieces = split_near_centre(seg, cut);
+    let reach = seg_reach(seg.a, seg.d);
     for (var p = 0u; p < pieces.count; p++) {
         let lo = pieces.range[p].x;
         let hi = pieces.range[p].y;
@@ -585,7 +586,7 @@ fn trace_mip(k: u32, seg: Segment, cut: f32, variant: u32) -> TraceResult {
                     let span = 1u << level;
                     let rect = CellRect(face, min(cell.x * span, n), min((cell.x + 1u) * span, n), min(cell.y * span, n), min((cell.y + 1u) * span, n), n);
                     let civ = cell_interval(la, ld, rect, lo, hi);
-                    let inf = inflated(civ, lo, hi);
+                    let inf = inflated(civ, lo, hi, reach);
                     var skip = false;
                     if inf.ok {
                         skip = any(last_skip != vec3<u32>(level, cell.x, cell.y)) && r_bounds(seg.a, seg.d, inf.lo, inf.hi).y < mip_get(k, level, face, cell.x, cell.y).x;

@@ -32,7 +32,7 @@ use super::{
     finish, split_near_centre,
 };
 use crate::cubemap::face::{Texel, to_face_local};
-use crate::cubemap::frustum::{CellRect, cell_interval, r_at, r_bounds};
+use crate::cubemap::frustum::{CellRect, cell_interval, r_at, r_bounds, seg_reach};
 use crate::cubemap::pyramid::HIER_MAX_LEVELS;
 
 /// Supported subgroup sizes.
@@ -96,7 +96,7 @@ fn lane_test(tr: &CmoTracer, st: &RayState, j: u32) -> (bool, f32) {
         return (false, f32::INFINITY);
     }
     let iv = cell_interval(st.la, st.ld, &rect, lo, hi);
-    match iv.inflated(lo, hi) {
+    match iv.inflated(lo, hi, seg_reach(st.seg.a, st.seg.d)) {
         Some((a, b)) => {
             // Skip iff entirely in front; a NaN keeps the cell (conservative).
             let in_front = r_bounds(st.seg.a, st.seg.d, a, b).1 < child.get(face, cx, cy)[0];

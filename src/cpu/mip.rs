@@ -11,7 +11,7 @@ use super::{
     next_texel, split_near_centre,
 };
 use crate::cubemap::face::to_face_local;
-use crate::cubemap::frustum::{cell_interval, r_bounds};
+use crate::cubemap::frustum::{cell_interval, r_bounds, seg_reach};
 
 /// Most pyramid levels (N = 2048 has 12).
 pub const MIP_MAX_LEVELS: usize = 16;
@@ -22,6 +22,7 @@ pub fn trace_mip(tr: &CmoTracer, seg: &Segment) -> TraceResult {
     let top = tr.mip.levels.len() - 1;
     let mut c = Counters::default();
     let pieces = split_near_centre(seg, tr.cut_radius);
+    let reach = seg_reach(seg.a, seg.d);
     for p in 0..pieces.count as usize {
         let [lo, hi] = pieces.range[p];
         let faces = faces_crossed(seg, lo, hi, n);
@@ -43,7 +44,7 @@ pub fn trace_mip(tr: &CmoTracer, seg: &Segment) -> TraceResult {
                     if checked[l] != (cx, cy) {
                         c.cells += 1;
                         let civ = cell_interval(la, ld, &lev.rect(face, cx, cy, n), lo, hi);
-                        let skip = match civ.inflated(lo, hi) {
+                        let skip = match civ.inflated(lo, hi, reach) {
                             Some((a, b)) => {
                                 (last_skip != (l, cx, cy))
                                     && r_bounds(seg.a, seg.d, a, b).1 < lev.get(face, cx, cy)[0]

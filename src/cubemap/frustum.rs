@@ -98,10 +98,20 @@ pub struct Interval {
     pub exit: u32,
 }
 
-/// Relative widening of hierarchy cell intervals, as a fraction of the segment's `t` scale.
-/// Rounding in `t` is a few ulps (`~1e-7`) of that scale once near-centre rays are split off
-/// (see `cpu::trace`); `2^-12` is far above it and costs at most a neighbouring cell.
+/// Relative widening of hierarchy cell intervals, as a fraction of the cell's own `t` scale
+/// ([`Interval::inflated`]). Rounding in `t` is a few ulps (`~1e-7`) of that scale once
+/// near-centre rays are split off (see `cpu::trace`); `2^-12` is far above it and costs at most
+/// a neighbouring cell.
 pub const CELL_INFLATE: f32 = 1.0 / 4096.0;
+
+/// The origin's share of the `t` scale of a segment `a + t d` ([`Interval::inflated`]):
+/// `|a|_1 / |d|_1`, the `t` it takes to travel as far as the origin lies from the centre. A side
+/// plane's crossing `t = -alpha / beta` rounds by ulps of `|a|` over `|beta|` plus ulps of
+/// `|t|`; this covers the first part where `t` itself is small. Summed in x, y, z order (the
+/// shaders must match).
+pub fn seg_reach(a: Vec3, d: Vec3) -> f32 {
+    (a.x.abs() + a.y.abs() + a.z.abs()) / (d.x.abs() + d.y.abs() + d.z.abs())
+}
 
 impl Interval {
     /// The empty interval.
@@ -118,13 +128,23 @@ impl Interval {
     }
 
     /// A conservative superset for hierarchy cells, clamped to `[t_lo, t_hi]`: widened by
-    /// [`CELL_INFLATE`] times `t_hi - t_lo + |t_lo| + |t_hi|`. Returns `None` when even the
-    /// widened interval is empty.
-    pub fn inflated(&self, t_lo: f32, t_hi: f32) -> Option<(f32, f32)> {
+    /// [`CELL_INFLATE`] times the cell's own `t` scale, `te - t_lo + |t_lo| + |te| + reach`,
+    /// where `te` is the cell's far end (`max(t0, t1)` clamped to `[t_lo, t_hi]`) and `reach`
+    /// the segment's [`seg_reach`]. Returns `None` when even the widened interval is empty.
+    ///
+    /// The scale is the cell's, not the segment's: with `t_hi` (the scene's diagonal) in it, one
+    /// far vertex (a large ground plane) widened every cell near the start of the ray to the
+    /// whole segment, so that no cell was ever skipped and the compute path's depth-first search
+    /// walked every cell whose planes the ray crossed anywhere (issue 21: 11,489 texels per ray
+    /// instead of 40). A crossing `t` rounds by ulps of its own magnitude (and of the origin's,
+    /// `reach`), which the local scale still covers `2^11` times over.
+    pub fn inflated(&self, t_lo: f32, t_hi: f32, reach: f32) -> Option<(f32, f32)> {
         if !(self.t0 <= f32::MAX && self.t1 >= -f32::MAX) {
             return None;
         }
-        let e = CELL_INFLATE * ((t_hi - t_lo) + t_lo.abs() + t_hi.abs());
+        // t0 >= t_lo (it starts there and only grows), so te lies in [t_lo, t_hi].
+        let te = self.t0.max(self.t1).min(t_hi);
+        let e = CELL_INFLATE * ((te - t_lo) + t_lo.abs() + te.abs() + reach);
         let lo = (self.t0 - e).max(t_lo);
         let hi = (self.t1 + e).min(t_hi);
         if lo <= hi { Some((lo, hi)) } else { None }

@@ -732,8 +732,12 @@ pub fn capture(scene: &Scene, tracer: &Tracer, centre: Vec3, size: u32) -> crate
             let hit = tracer.nearest_accepting(centre, dir, None, |h| {
                 let object = &tracer.world.objects
                     [tracer.world.triangle_object[h.triangle as usize] as usize];
+                // A reflector's front: against its normals where they point into its closed
+                // mesh (`ObjectInfo::normals_inward`), as `scene_front_normal` in the capture.
+                let sign = if object.normals_inward { -1.0 } else { 1.0 };
                 object.captured
-                    && (!object.reflector || tracer.normal(h).dot(h.position - centre) <= 0.0)
+                    && (!object.reflector
+                        || (sign * tracer.normal(h)).dot(h.position - centre) <= 0.0)
             });
             match hit {
                 Some(h) => {

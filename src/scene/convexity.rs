@@ -18,31 +18,59 @@ const RELATIVE_TOLERANCE: f64 = 1e-5;
 /// another: every vertex lies on or behind every face's plane, within a tolerance of
 /// [`RELATIVE_TOLERANCE`] times the largest coordinate magnitude. A face's front is the side of
 /// its geometric normal that agrees with its vertex normals (the side a mirror reflects to), so
-/// the winding order does not matter. Degenerate faces (no area) are skipped; a mesh without a
+/// the winding order does not matter ([`is_convex_front`] turns it round). Degenerate faces (no area) are skipped; a mesh without a
 /// face is convex.
 pub fn is_convex(positions: &[Vec3], normals: &[Vec3], triangles: &[[u32; 3]]) -> bool {
-    // A scene asks this of each reflector several times per frame (every `Scene::world`, the
-    // reflector check's bound); the answer is kept per mesh content.
+    analyse(positions, normals, triangles).0
+}
+
+/// [`is_convex`] with every face's front turned round where `turned` (a mesh whose normals
+/// point into it, [`normals_inward`], seen from outside: its front is its outside).
+pub fn is_convex_front(
+    positions: &[Vec3],
+    normals: &[Vec3],
+    triangles: &[[u32; 3]],
+    turned: bool,
+) -> bool {
+    let (as_is, _, turned_round) = analyse(positions, normals, triangles);
+    if turned { turned_round } else { as_is }
+}
+
+/// [`analyse`]'s answer: `(is_convex, normals_inward, is_convex_front turned)`.
+type Analysis = (bool, bool, bool);
+
+/// `(is_convex, normals_inward, is_convex with the fronts turned round)`, kept per mesh
+/// content: a scene asks this of each reflector several times per frame (every
+/// `Scene::world`, the reflector check's bound). The last is only computed for a mesh whose
+/// normals point inward (else it is the first).
+fn analyse(positions: &[Vec3], normals: &[Vec3], triangles: &[[u32; 3]]) -> Analysis {
     let key = content_key(positions, normals, triangles);
-    if let Some(&(_, convex)) = lock_memo().iter().find(|(k, _)| *k == key) {
-        return convex;
+    if let Some(&(_, answer)) = lock_memo().iter().find(|(k, _)| *k == key) {
+        return answer;
     }
-    let convex = test_convex(positions, normals, triangles);
+    let as_is = faces_see_nothing(positions, normals, triangles, true, false);
+    let inward = test_inward(positions, normals, triangles);
+    let turned = if inward {
+        faces_see_nothing(positions, normals, triangles, true, true)
+    } else {
+        as_is
+    };
+    let answer = (as_is, inward, turned);
     let mut memo = lock_memo();
     if memo.len() >= MEMO_ENTRIES {
         memo.remove(0);
     }
-    memo.push((key, convex));
-    convex
+    memo.push((key, answer));
+    answer
 }
 
 /// Meshes whose [`is_convex`] answer is kept (the oldest is dropped first).
 const MEMO_ENTRIES: usize = 64;
 
 /// [`is_convex`]'s answers by [`content_key`].
-static MEMO: std::sync::Mutex<Vec<(u128, bool)>> = std::sync::Mutex::new(Vec::new());
+static MEMO: std::sync::Mutex<Vec<(u128, Analysis)>> = std::sync::Mutex::new(Vec::new());
 
-fn lock_memo() -> std::sync::MutexGuard<'static, Vec<(u128, bool)>> {
+fn lock_memo() -> std::sync::MutexGuard<'static, Vec<(u128, Analysis)>> {
     // A panic elsewhere while holding the lock leaves a valid list (push / remove only).
     MEMO.lock().unwrap_or_else(|e| e.into_inner())
 }
@@ -66,9 +94,107 @@ fn content_key(positions: &[Vec3], normals: &[Vec3], triangles: &[[u32; 3]]) -> 
     (u128::from(hash(0x9e37_79b9_7f4a_7c15)) << 64) | u128::from(hash(0x2545_f491_4f6c_dd1d))
 }
 
-/// [`is_convex`] without the memo.
-fn test_convex(positions: &[Vec3], normals: &[Vec3], triangles: &[[u32; 3]]) -> bool {
-    faces_see_nothing(positions, normals, triangles, true)
+/// Whether the vertex normals of a closed mesh point into it (common in exported files): the
+/// mesh is closed (every edge, its ends welded by position within [`RELATIVE_TOLERANCE`] of the
+/// largest coordinate magnitude, belongs to exactly two faces) and the volume its faces enclose,
+/// each face turned to the side its vertex normals agree with (as [`is_convex`] turns it), is
+/// negative. A mirror reflects on the side the ray comes from, whatever its normals say, and a
+/// camera outside a closed mesh sees only its outside: `Scene::front_turned` then takes the
+/// outside as a reflector's front (for [`is_convex_front`] and the capture's "faces the
+/// centre"), unless a camera lies inside ([`encloses`]: a mirror room). False for an open mesh
+/// (a bowl, a flat mirror), whose normals alone say which side is the mirror, and for a mesh
+/// without a face.
+pub fn normals_inward(positions: &[Vec3], normals: &[Vec3], triangles: &[[u32; 3]]) -> bool {
+    analyse(positions, normals, triangles).1
+}
+
+/// [`normals_inward`] without the memo.
+fn test_inward(positions: &[Vec3], normals: &[Vec3], triangles: &[[u32; 3]]) -> bool {
+    let id = weld(positions);
+    let mut edges: std::collections::HashMap<(u32, u32), u32> = Default::default();
+    let mut volume = 0.0f64;
+    for t in triangles {
+        let [i, j, k] = t.map(|v| id[v as usize]);
+        if i == j || j == k || k == i {
+            continue;
+        }
+        for (u, v) in [(i, j), (j, k), (k, i)] {
+            *edges.entry((u.min(v), u.max(v))).or_insert(0) += 1;
+        }
+        let [a, b, c] = t.map(|v| positions[v as usize].as_dvec3());
+        let cross = (b - a).cross(c - a);
+        let shading: DVec3 = t.iter().map(|&v| normals[v as usize].as_dvec3()).sum();
+        let sign = if cross.dot(shading) < 0.0 { -1.0 } else { 1.0 };
+        volume += sign * a.dot(cross);
+    }
+    !edges.is_empty() && edges.values().all(|&n| n == 2) && volume < 0.0
+}
+
+/// Whether `point` lies inside the closed mesh: an odd number of its triangles cross a ray
+/// from `point` in a fixed direction that no axis-aligned or diagonal face contains (f64
+/// Möller–Trumbore, `t > 0`).
+pub fn encloses(positions: &[Vec3], triangles: &[[u32; 3]], point: Vec3) -> bool {
+    let o = point.as_dvec3();
+    let d = DVec3::new(0.577_215_664_9, 0.618_033_988_7, 0.532_088_886_2).normalize();
+    let crossings = triangles
+        .iter()
+        .filter(|t| {
+            let [a, b, c] = t.map(|i| positions[i as usize].as_dvec3());
+            let (e1, e2) = (b - a, c - a);
+            let p = d.cross(e2);
+            let det = e1.dot(p);
+            if det == 0.0 {
+                return false;
+            }
+            let s = o - a;
+            let u = s.dot(p) / det;
+            let q = s.cross(e1);
+            let v = d.dot(q) / det;
+            let t = e2.dot(q) / det;
+            u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > 0.0
+        })
+        .count();
+    crossings % 2 == 1
+}
+
+/// One id per position, equal for positions within [`RELATIVE_TOLERANCE`] of the largest
+/// coordinate magnitude of each other (per coordinate; the first such position names the
+/// group): a UV sphere's seam and poles, whose copies differ by rounding, become one vertex.
+fn weld(positions: &[Vec3]) -> Vec<u32> {
+    let points: Vec<DVec3> = positions.iter().map(|p| p.as_dvec3()).collect();
+    let magnitude = points
+        .iter()
+        .map(|p| p.abs().max_element())
+        .fold(0.0f64, f64::max);
+    let g = RELATIVE_TOLERANCE * magnitude.max(f64::MIN_POSITIVE);
+    let cell = |p: DVec3| (p / g).floor().as_i64vec3();
+    let mut grid: std::collections::HashMap<glam::I64Vec3, Vec<u32>> = Default::default();
+    let mut id = Vec::with_capacity(points.len());
+    for (k, &p) in points.iter().enumerate() {
+        let c = cell(p);
+        let mut found = None;
+        'search: for dz in -1..=1 {
+            for dy in -1..=1 {
+                for dx in -1..=1 {
+                    let key = c + glam::I64Vec3::new(dx, dy, dz);
+                    for &q in grid.get(&key).map(Vec::as_slice).unwrap_or(&[]) {
+                        if (points[q as usize] - p).abs().max_element() <= g {
+                            found = Some(id[q as usize]);
+                            break 'search;
+                        }
+                    }
+                }
+            }
+        }
+        match found {
+            Some(i) => id.push(i),
+            None => {
+                id.push(k as u32);
+                grid.entry(c).or_default().push(k as u32);
+            }
+        }
+    }
+    id
 }
 
 /// The test itself; with `tree` false, every face against every vertex (the definition, which the
@@ -78,6 +204,7 @@ fn faces_see_nothing(
     normals: &[Vec3],
     triangles: &[[u32; 3]],
     tree: bool,
+    inward: bool,
 ) -> bool {
     let points: Vec<DVec3> = positions.iter().map(|p| p.as_dvec3()).collect();
     let magnitude = points
@@ -93,7 +220,8 @@ fn faces_see_nothing(
             return true;
         };
         let shading: DVec3 = t.iter().map(|&i| normals[i as usize].as_dvec3()).sum();
-        if n.dot(shading) < 0.0 {
+        // The front: the side the vertex normals agree with, the other where they point inward.
+        if (n.dot(shading) < 0.0) != inward {
             n = -n;
         }
         match &tree {
@@ -320,7 +448,7 @@ mod tests {
     fn tree_agrees_with_the_point_by_point_test() {
         let check = |m: &crate::scene::MeshPart| {
             let fast = convex(m);
-            let slow = faces_see_nothing(&m.positions, &m.normals, &m.triangles, false);
+            let slow = faces_see_nothing(&m.positions, &m.normals, &m.triangles, false, false);
             assert_eq!(fast, slow);
             fast
         };
@@ -417,5 +545,67 @@ mod tests {
         assert!(!convex(&shapes::torus(1.0, 0.35, 96, 32, 0)));
         assert!(!convex(&shapes::bowl(2.0, 50.0, 64, 24, 0)));
         assert!(!convex(&crate::scene::builtin::teapot_part(0)));
+    }
+
+    /// Issue 21, case 4: a closed mesh whose vertex normals point inward is told apart from one
+    /// whose normals point outward, and stays convex (the outside is its front); an open mesh
+    /// (the bowl) is never "inward", either way round, and stays non-convex with its mirror
+    /// side's normals. Negatives: the outward sphere, the bowl with its normals negated.
+    #[test]
+    fn inward_normals_of_a_closed_mesh() {
+        let sphere = shapes::uv_sphere(1.0, 32, 16, 0);
+        let mut flipped = sphere.clone();
+        for n in &mut flipped.normals {
+            *n = -*n;
+        }
+        assert!(!normals_inward(
+            &sphere.positions,
+            &sphere.normals,
+            &sphere.triangles
+        ));
+        assert!(normals_inward(
+            &flipped.positions,
+            &flipped.normals,
+            &flipped.triangles
+        ));
+        assert!(convex(&sphere) && !convex(&flipped));
+        let front = |m: &crate::scene::MeshPart| {
+            is_convex_front(&m.positions, &m.normals, &m.triangles, true)
+        };
+        assert!(front(&flipped));
+        assert!(encloses(
+            &sphere.positions,
+            &sphere.triangles,
+            Vec3::new(0.1, 0.2, 0.3)
+        ));
+        assert!(!encloses(
+            &sphere.positions,
+            &sphere.triangles,
+            Vec3::new(0.1, 2.0, 0.3)
+        ));
+        // Without the orientation, the flipped sphere's faces would all see each other.
+        assert!(!faces_see_nothing(
+            &flipped.positions,
+            &flipped.normals,
+            &flipped.triangles,
+            false,
+            false
+        ));
+        let bowl = shapes::bowl(2.0, 50.0, 32, 12, 0);
+        let mut back = bowl.clone();
+        for n in &mut back.normals {
+            *n = -*n;
+        }
+        assert!(!normals_inward(
+            &bowl.positions,
+            &bowl.normals,
+            &bowl.triangles
+        ));
+        assert!(!normals_inward(
+            &back.positions,
+            &back.normals,
+            &back.triangles
+        ));
+        assert!(!convex(&bowl));
     }
 }

@@ -28,7 +28,9 @@ pub struct GpuVertex {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuObject {
     pub material: u32,
-    /// 1 for a reflector.
+    /// Bit 0: a reflector; bit 1: its normals point into its closed mesh
+    /// ([`crate::scene::ObjectInfo::normals_inward`]; the capture and the reflection-point
+    /// search turn them round).
     pub reflector: u32,
     /// 1 where the cubemap capture draws the object: a non-reflector, or a reflector that sees
     /// itself ([`crate::scene::Scene::self_capture`]).
@@ -159,7 +161,7 @@ impl GpuSceneData {
                 .iter()
                 .map(|o| GpuObject {
                     material: o.material,
-                    reflector: o.reflector as u32,
+                    reflector: o.reflector as u32 | (o.normals_inward as u32) << 1,
                     captured: o.captured as u32,
                 })
                 .collect(),

@@ -115,7 +115,11 @@ impl Scene {
                     && match self.self_reflections {
                         SelfReflections::On => true,
                         SelfReflections::Off => false,
-                        SelfReflections::Auto => !mesh.is_convex(),
+                        SelfReflections::Auto => {
+                            let (positions, normals, triangles) = mesh.world_mesh();
+                            let turned = self.front_turned(mesh);
+                            !convexity::is_convex_front(&positions, &normals, &triangles, turned)
+                        }
                     }
             })
             .collect()
@@ -147,7 +151,10 @@ impl Scene {
             return 2.0;
         };
         let (positions, normals, triangles) = one.world_mesh();
-        if !convexity::is_convex(&positions, &normals, &triangles) {
+        // A front against the normals (`front_turned`): the bound holds for the outward normal,
+        // and the G-buffer's is the other one, so every ray is traced.
+        let turned = self.front_turned(one);
+        if turned || !convexity::is_convex_front(&positions, &normals, &triangles, turned) {
             return 2.0;
         }
         let theta = convexity::max_normal_deviation(&positions, &normals, &triangles);
@@ -176,6 +183,23 @@ impl Scene {
     pub fn captures_reflectors(&self) -> bool {
         self.self_capture().into_iter().any(|c| c)
     }
+
+    /// Whether a reflector's front, the side a reflected ray can come from, is against its
+    /// vertex normals: they point into its closed mesh ([`convexity::normals_inward`], common
+    /// in exported files) and no camera of the scene lies inside it ([`convexity::encloses`];
+    /// a mirror room seen from inside keeps its normals). The reference, which reflects on
+    /// either side, needs no such rule; the capture's self test, the convexity test and the
+    /// reflection-point search use it (issue 21, case 4).
+    pub fn front_turned(&self, mesh: &MeshInstance) -> bool {
+        if !mesh.reflector || !mesh.normals_inward() {
+            return false;
+        }
+        let (positions, _, triangles) = mesh.world_mesh();
+        !self
+            .cameras
+            .iter()
+            .any(|c| convexity::encloses(&positions, &triangles, c.eye))
+    }
 }
 
 impl MeshInstance {
@@ -183,6 +207,13 @@ impl MeshInstance {
     pub fn is_convex(&self) -> bool {
         let (positions, normals, triangles) = self.world_mesh();
         convexity::is_convex(&positions, &normals, &triangles)
+    }
+
+    /// [`convexity::normals_inward`] of all its parts together, in world space: a closed mesh
+    /// whose vertex normals point into it.
+    pub fn normals_inward(&self) -> bool {
+        let (positions, normals, triangles) = self.world_mesh();
+        convexity::normals_inward(&positions, &normals, &triangles)
     }
 
     /// All its parts together in world space: positions, unit normals (one per position) and

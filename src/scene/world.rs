@@ -14,6 +14,10 @@ pub struct ObjectInfo {
     /// Whether the cubemap capture draws it: a non-reflector, or a reflector that sees itself
     /// ([`Scene::self_capture`]).
     pub captured: bool,
+    /// A reflector whose front, the side a reflected ray can come from, is against its vertex
+    /// normals ([`Scene::front_turned`]: they point into its closed mesh, seen from outside),
+    /// for the capture's "faces the centre" test. False otherwise.
+    pub normals_inward: bool,
     /// Range of this object's triangles in [`WorldGeometry::triangles`].
     pub first_triangle: u32,
     pub triangle_count: u32,
@@ -47,6 +51,7 @@ impl WorldGeometry {
         let mut w = WorldGeometry::default();
         let self_capture = scene.self_capture();
         for (mesh, &self_capture) in scene.meshes.iter().zip(&self_capture) {
+            let normals_inward = scene.front_turned(mesh);
             let m = mesh.transform.matrix();
             let nm = mesh.transform.normal_matrix();
             for part in &mesh.parts {
@@ -67,6 +72,7 @@ impl WorldGeometry {
                     material: part.material,
                     reflector: mesh.reflector,
                     captured: !mesh.reflector || self_capture,
+                    normals_inward,
                     first_triangle: w.triangles.len() as u32,
                     triangle_count: part.triangles.len() as u32,
                 });
