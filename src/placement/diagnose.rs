@@ -20,6 +20,13 @@ const SAMPLES: usize = 512;
 ///   cubemap shows the blocking surfaces, every reflected ray starts behind them, and the mirror
 ///   pixels it serves end unresolved (filled by the fallback).
 pub fn diagnose(scene: &Scene) -> Vec<String> {
+    diagnose_for(scene, true)
+}
+
+/// [`diagnose`], with the CMO centres' check (which builds a BVH of the whole scene) only when
+/// `cmos` is set: the methods that capture no CMO (bvh, the reference) have no use for it, and
+/// on a scene of millions of triangles it costs seconds.
+pub fn diagnose_for(scene: &Scene, cmos: bool) -> Vec<String> {
     let mut out = Vec::new();
     // Meshes without triangles (an empty OBJ) neither reflect nor get reflected.
     let meshes: Vec<_> = scene
@@ -52,6 +59,9 @@ pub fn diagnose(scene: &Scene) -> Vec<String> {
         ));
     }
 
+    if !cmos {
+        return out;
+    }
     let tracer = Tracer::new(scene);
     let world = &tracer.world;
     let mut points: Vec<Vec3> = Vec::new();
