@@ -178,10 +178,7 @@ pub fn load_scene(args: &RenderArgs) -> Result<(Scene, Camera)> {
     timed("reflector convexity", || {
         scene.self_capture();
     });
-    let cmos = args.method.captures_cmos();
-    for problem in timed("scene check", || {
-        crate::placement::diagnose_for(&scene, cmos)
-    }) {
+    for problem in timed("scene check", || crate::placement::diagnose(&scene)) {
         log::warn!("{problem}");
     }
     Ok((scene, camera))

@@ -29,7 +29,7 @@ use crate::scene::{CmoPlacement, Scene};
 
 mod diagnose;
 
-pub use diagnose::{diagnose, diagnose_for};
+pub use diagnose::diagnose;
 
 /// How much work the search does.
 #[derive(Clone, Copy, Debug, PartialEq)]
