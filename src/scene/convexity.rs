@@ -463,8 +463,9 @@ mod tests {
     }
 
     /// Points tested one by one per face of a convex sphere, at two tessellations 16 times
-    /// apart in vertices: with the oriented boxes about the same (O(log n) nodes per face);
-    /// with axis-aligned boxes alone (the negative) about sqrt(16) = 4 times more.
+    /// apart in vertices: with the oriented boxes about the same (O(log n) nodes per face;
+    /// measured 52 -> 76); with axis-aligned boxes alone (the negative) about sqrt(16) = 4
+    /// times more (measured 113 -> 539).
     #[test]
     fn tests_per_face_stay_flat_as_the_sphere_gets_finer() {
         let per_face = |m: &crate::scene::MeshPart, oriented: bool| {
@@ -491,9 +492,9 @@ mod tests {
         let (oc, of) = (per_face(&coarse, true), per_face(&fine, true));
         let (ac, af) = (per_face(&coarse, false), per_face(&fine, false));
         eprintln!("points per face: oriented {oc:.1} -> {of:.1}, axis-aligned {ac:.1} -> {af:.1}");
-        assert!(of < 1.6 * oc, "oriented: {oc} -> {of}");
+        assert!(of < 2.0 * oc, "oriented: {oc} -> {of}");
         // Negative: the axis-aligned boxes alone grow with the tessellation.
-        assert!(af > 2.5 * ac, "axis-aligned: {ac} -> {af}");
+        assert!(af > 3.0 * ac, "axis-aligned: {ac} -> {af}");
     }
 
     #[test]
