@@ -150,7 +150,7 @@ pub fn largest_items(
         ),
     ]);
     items.retain(|(_, b)| *b >= 1024);
-    items.sort_by(|a, b| b.1.cmp(&a.1));
+    items.sort_by_key(|item| std::cmp::Reverse(item.1));
     items
 }
 
