@@ -28,6 +28,11 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene to an image (PNG: 8-bit sRGB; EXR: 32-bit float with per-pixel data).
+    ///
+    /// The summary line counts the mirror pixels, those the fallback finished (with their share)
+    /// and those left unresolved; when the method leaves more than 10 % of the mirror pixels to
+    /// the fallback, a warning names the likely cause (CMO placement, inward normals, the
+    /// method's known limits). Options the chosen method does not read are refused.
     Render(RenderArgs),
     /// List the built-in scenes, one line each.
     Scenes,

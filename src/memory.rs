@@ -193,18 +193,56 @@ impl Limits {
     }
 }
 
+/// What [`check`] suggests: the frame's and the CMOs' knobs.
+pub const FRAME_ADVICE: &str = "use a smaller --width/--height (or --cube-size, fewer CMOs)";
+
 /// Refuses `need` bytes for `what` when they exceed `available` (bytes and where the figure
-/// comes from); `None` available refuses nothing.
+/// comes from); `None` available refuses nothing. The message ends in [`FRAME_ADVICE`].
 pub fn check(what: &str, need: u64, available: Option<(u64, String)>) -> Result<()> {
+    check_with(what, need, available, FRAME_ADVICE)
+}
+
+/// [`check`] with the refusal's own `advice` (what takes the memory and what would fix it).
+pub fn check_with(
+    what: &str,
+    need: u64,
+    available: Option<(u64, String)>,
+    advice: &str,
+) -> Result<()> {
     match available {
         Some((have, from)) if need > have => bail!(
             "{what} needs about {} of memory, more than the {} this machine can give ({from}); \
-             use a smaller --width/--height (or --cube-size, fewer CMOs)",
+             {advice}",
             human(need),
             human(have)
         ),
         _ => Ok(()),
     }
+}
+
+/// The advice of a refusal from what takes the memory, largest first (`(name, bytes)`, as
+/// `vk::budget::largest_items` lists them): the three largest with their sizes, then what
+/// would shrink the largest (a texture: a smaller image; CMO data: --cube-size or fewer CMOs;
+/// the frame: --width/--height; geometry: fewer triangles).
+pub fn advice(items: &[(String, u64)]) -> String {
+    let Some((first, _)) = items.first() else {
+        return FRAME_ADVICE.to_string();
+    };
+    let listed: Vec<String> = items
+        .iter()
+        .take(3)
+        .map(|(name, bytes)| format!("{name}: {}", human(*bytes)))
+        .collect();
+    let fix = if first.starts_with("texture") {
+        "scale that texture down (each halving of its sides takes 3/4 off)"
+    } else if first.starts_with("CMO") {
+        "use a smaller --cube-size or fewer CMOs (--cmos)"
+    } else if first.starts_with("frame") {
+        "use a smaller --width/--height"
+    } else {
+        "use a mesh with fewer triangles"
+    };
+    format!("the largest items: {}; to fit, {fix}", listed.join(", "))
 }
 
 #[cfg(test)]
@@ -243,6 +281,30 @@ mod tests {
         // Negative: what fits, or where nothing is known, passes.
         check("a frame", 1 << 30, Some((1 << 30, "test".into()))).unwrap();
         check("a frame", u64::MAX, None).unwrap();
+    }
+
+    #[test]
+    fn advice_names_the_largest_item_and_its_fix() {
+        let items = vec![
+            ("texture 'floor' 8192x8192".to_string(), 256u64 << 20),
+            (
+                "CMO data (2 CMOs of 256^2 texels per face)".to_string(),
+                30 << 20,
+            ),
+            (
+                "frame buffers (64x48, --method compute)".to_string(),
+                1 << 20,
+            ),
+            ("scene geometry (12 triangles)".to_string(), 2 << 10),
+        ];
+        let a = advice(&items);
+        assert!(a.contains("texture 'floor' 8192x8192: 256.0 MiB"), "{a}");
+        assert!(a.contains("scale that texture down"), "{a}");
+        assert!(!a.contains("scene geometry"), "three items only: {a}");
+        // Negative: with the CMOs first, the advice is theirs, not the texture's.
+        let a = advice(&items[1..]);
+        assert!(a.contains("--cube-size") && !a.contains("texture"), "{a}");
+        assert_eq!(advice(&[]), FRAME_ADVICE);
     }
 
     #[test]

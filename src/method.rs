@@ -148,6 +148,26 @@ impl Method {
         Ok(())
     }
 
+    /// Whether the method captures CMOs (every GPU method but bvh), so that `--cmos` and
+    /// `--cube-size` matter.
+    pub fn captures_cmos(self) -> bool {
+        self.is_gpu() && self != Method::Bvh
+    }
+
+    /// Refuses the first option of `given` (flags as typed, those of [`METHOD_OPTIONS`]) that
+    /// this method with the tracer options `trace` does not read, then what
+    /// [`Method::check_trace`] refuses. A flag not in the table is every method's.
+    pub fn check_options(self, given: &[&str], trace: &TraceOptions) -> Result<(), Refusal> {
+        for flag in given {
+            if let Some(o) = method_option(flag)
+                && !(o.applies)(self, trace)
+            {
+                return Err(o.refusal(self));
+            }
+        }
+        self.check_trace(trace)
+    }
+
     /// Refuses tracer options the method does not implement (compute: the exact criterion only).
     pub fn check_trace(self, trace: &TraceOptions) -> Result<(), Refusal> {
         if self == Method::Compute && trace.criterion != TraceCriterion::Exact {
@@ -159,6 +179,241 @@ impl Method {
         }
         Ok(())
     }
+}
+
+/// A command-line option that only some methods read (`render`'s and `bench`'s): the one table
+/// from which both commands refuse an option the chosen method would ignore.
+#[derive(Clone, Copy, Debug)]
+pub struct MethodOption {
+    /// The flag as typed: `--ssr-iterations`.
+    pub flag: &'static str,
+    /// Whether `method` with the tracer options `trace` reads the option.
+    pub applies: fn(Method, &TraceOptions) -> bool,
+    /// The condition on the tracer options, in the CLI's words, for the refusal (empty when
+    /// the method alone decides): ` with --criterion threshold`.
+    pub condition: &'static str,
+    /// The methods that read it in the CLI's words where the list of their names would say
+    /// less (`the GPU methods`); empty: the list of [`MethodOption::methods`].
+    pub methods_text: &'static str,
+    /// Why a method outside the list ignores it, for the refusal (` (it runs on the CPU)`);
+    /// may be empty.
+    pub why: &'static str,
+}
+
+/// The tracer options of every criterion and sampling (the defaults otherwise): the settings
+/// over which [`MethodOption::methods`] asks whether a method can read an option.
+fn every_trace_setting() -> impl Iterator<Item = TraceOptions> {
+    use crate::cpu::options::TraceSampling;
+    [
+        TraceCriterion::Exact,
+        TraceCriterion::Threshold,
+        TraceCriterion::SignChange,
+    ]
+    .into_iter()
+    .flat_map(|criterion| {
+        [
+            TraceSampling::PerTexel,
+            TraceSampling::ConstantStep,
+            TraceSampling::ConstantAngle,
+        ]
+        .map(|sampling| TraceOptions {
+            criterion,
+            sampling,
+            ..TraceOptions::default()
+        })
+    })
+}
+
+impl MethodOption {
+    /// The methods that read the option under some tracer setting, in [`Method::ALL`] order.
+    pub fn methods(&self) -> Vec<Method> {
+        Method::ALL
+            .into_iter()
+            .filter(|&m| every_trace_setting().any(|t| (self.applies)(m, &t)))
+            .collect()
+    }
+
+    /// `--ssr-iterations applies only to --method ssr`, `... to --method compute or fragment
+    /// with ...`: the refusal of the option with a method that ignores it.
+    pub fn refusal(&self, method: Method) -> Refusal {
+        let flag = self.flag;
+        if self.methods().contains(&method) {
+            // The method reads it, but not under the tracer options given.
+            return format!(
+                "{flag} applies to --method {method} only{}: leave {flag} out or set that",
+                self.condition
+            );
+        }
+        let names: Vec<&str> = self.methods().iter().map(|m| m.name()).collect();
+        let list = if !self.methods_text.is_empty() {
+            self.methods_text.to_string()
+        } else {
+            match names.split_last() {
+                Some((last, [])) => format!("--method {last}"),
+                Some((last, rest)) => format!("--method {} or {last}", rest.join(", ")),
+                None => "no method".into(),
+            }
+        };
+        format!(
+            "{flag} applies only to {list}{}, not to --method {method}{}: leave it out",
+            self.condition, self.why
+        )
+    }
+}
+
+fn fragment_exact(m: Method, t: &TraceOptions) -> bool {
+    m == Method::Fragment && t.criterion == TraceCriterion::Exact
+}
+
+fn fragment_approx(m: Method, t: &TraceOptions) -> bool {
+    m == Method::Fragment && t.criterion != TraceCriterion::Exact
+}
+
+/// Every method-specific option of `render` and `bench`. Options every method reads
+/// (`--width`, `--bounces`, `--subdivide`, ...) are not listed; `--bounces` has its own rule
+/// ([`Method::check_bounces`]), and so has `--criterion` with compute ([`Method::check_trace`]).
+pub const METHOD_OPTIONS: &[MethodOption] = &[
+    MethodOption {
+        flag: "--criterion",
+        applies: |m, _| m.traces_cubemaps(),
+        condition: "",
+        methods_text: "",
+        why: "",
+    },
+    MethodOption {
+        flag: "--sampling",
+        applies: fragment_approx,
+        condition: " with --criterion threshold or sign-change",
+        methods_text: "",
+        why: "",
+    },
+    MethodOption {
+        flag: "--steps",
+        applies: |m, t| {
+            fragment_approx(m, t) && t.sampling != crate::cpu::options::TraceSampling::PerTexel
+        },
+        condition: " with --criterion threshold or sign-change and --sampling constant-step or \
+                    constant-angle",
+        methods_text: "",
+        why: "",
+    },
+    MethodOption {
+        flag: "--eps",
+        applies: |m, t| m == Method::Fragment && t.criterion == TraceCriterion::Threshold,
+        condition: " with --criterion threshold",
+        methods_text: "",
+        why: "",
+    },
+    MethodOption {
+        flag: "--no-accel",
+        applies: fragment_exact,
+        condition: " with the exact criterion (the default)",
+        methods_text: "",
+        why: "",
+    },
+    MethodOption {
+        flag: "--strict",
+        applies: fragment_exact,
+        condition: " with the exact criterion (the default)",
+        methods_text: "",
+        why: "",
+    },
+    MethodOption {
+        flag: "--quick",
+        applies: |m, _| m == Method::Fragment,
+        condition: " (its parameter grid)",
+        methods_text: "",
+        why: "",
+    },
+    MethodOption {
+        flag: "--cmos",
+        applies: |m, _| m.captures_cmos(),
+        condition: "",
+        methods_text: "",
+        why: "",
+    },
+    MethodOption {
+        flag: "--cube-size",
+        applies: |m, _| m.captures_cmos(),
+        condition: "",
+        methods_text: "",
+        why: "",
+    },
+    MethodOption {
+        flag: "--fallback",
+        applies: |m, _| m.can_leave_unresolved(),
+        condition: "",
+        methods_text: "",
+        why: "",
+    },
+    MethodOption {
+        flag: "--no-reflector-check",
+        applies: |m, _| m.has_reflector_check(),
+        condition: "",
+        methods_text: "",
+        why: "",
+    },
+    MethodOption {
+        flag: "--ssr-iterations",
+        applies: |m, _| m == Method::Ssr,
+        condition: "",
+        methods_text: "",
+        why: "",
+    },
+    MethodOption {
+        flag: "--ssr-thickness",
+        applies: |m, _| m == Method::Ssr,
+        condition: "",
+        methods_text: "",
+        why: "",
+    },
+    MethodOption {
+        flag: "--rp-iterations",
+        applies: |m, _| m == Method::ReflectionPoint,
+        condition: "",
+        methods_text: "",
+        why: "",
+    },
+    MethodOption {
+        flag: "--rp-scale",
+        applies: |m, _| m == Method::ReflectionPoint,
+        condition: "",
+        methods_text: "",
+        why: "",
+    },
+    MethodOption {
+        flag: "--rp-open",
+        applies: |m, _| m == Method::ReflectionPoint,
+        condition: "",
+        methods_text: "",
+        why: "",
+    },
+    MethodOption {
+        flag: "--compare",
+        applies: |m, _| m.is_gpu(),
+        condition: "",
+        methods_text: "the GPU methods",
+        why: " (it would compare the reference with itself)",
+    },
+    MethodOption {
+        flag: "--device",
+        applies: |m, _| m.is_gpu(),
+        condition: "",
+        methods_text: "the GPU methods",
+        why: " (it runs on the CPU)",
+    },
+    MethodOption {
+        flag: "--validate",
+        applies: |m, _| m.is_gpu(),
+        condition: "",
+        methods_text: "the GPU methods",
+        why: " (it runs on the CPU)",
+    },
+];
+
+/// The entry of [`METHOD_OPTIONS`] for `flag`.
+pub fn method_option(flag: &str) -> Option<&'static MethodOption> {
+    METHOD_OPTIONS.iter().find(|o| o.flag == flag)
 }
 
 impl std::fmt::Display for Method {
@@ -173,6 +428,16 @@ pub fn criterion_name(c: TraceCriterion) -> &'static str {
         TraceCriterion::Exact => "exact",
         TraceCriterion::Threshold => "threshold",
         TraceCriterion::SignChange => "sign-change",
+    }
+}
+
+/// The CLI's name of a sampling.
+pub fn sampling_name(s: crate::cpu::options::TraceSampling) -> &'static str {
+    use crate::cpu::options::TraceSampling;
+    match s {
+        TraceSampling::ConstantStep => "constant-step",
+        TraceSampling::ConstantAngle => "constant-angle",
+        TraceSampling::PerTexel => "per-texel",
     }
 }
 
@@ -194,6 +459,97 @@ mod tests {
         assert_eq!(Method::from_name("Compute"), None);
         assert_eq!(Method::GPU.len() + 1, Method::ALL.len());
         assert!(Method::GPU.iter().all(|m| m.is_gpu()));
+    }
+
+    /// The issue's cases, then every option of the table against every method and tracer
+    /// setting: refused exactly where its rule says the method ignores it.
+    #[test]
+    fn method_options_are_refused_where_ignored() {
+        let exact = TraceOptions::default();
+        let e = Method::Compute
+            .check_options(&["--ssr-iterations"], &exact)
+            .unwrap_err();
+        assert!(
+            e.starts_with("--ssr-iterations applies only to --method ssr, not to --method compute"),
+            "{e}"
+        );
+        for flag in ["--strict", "--no-accel", "--steps"] {
+            let e = Method::Bvh.check_options(&[flag], &exact).unwrap_err();
+            assert!(
+                e.starts_with(flag) && e.contains("not to --method bvh"),
+                "{e}"
+            );
+        }
+        let e = Method::Reference
+            .check_options(&["--compare"], &exact)
+            .unwrap_err();
+        assert!(e.contains("compare the reference with itself"), "{e}");
+        for o in METHOD_OPTIONS {
+            for m in Method::ALL {
+                for t in every_trace_setting() {
+                    if m.check_trace(&t).is_err() {
+                        continue;
+                    }
+                    let refused = m.check_options(&[o.flag], &t).is_err();
+                    assert_eq!(refused, !(o.applies)(m, &t), "{} {m} {t:?}", o.flag);
+                }
+            }
+        }
+        // The table against what the methods are known to read (written out, not derived).
+        let fragment_compute = vec![Method::Fragment, Method::Compute];
+        assert_eq!(
+            method_option("--no-reflector-check").unwrap().methods(),
+            fragment_compute
+        );
+        assert_eq!(
+            method_option("--fallback").unwrap().methods(),
+            [
+                Method::Fragment,
+                Method::Compute,
+                Method::Ssr,
+                Method::ReflectionPoint
+            ]
+        );
+        assert_eq!(
+            method_option("--strict").unwrap().methods(),
+            [Method::Fragment]
+        );
+        assert!(
+            !method_option("--cube-size")
+                .unwrap()
+                .methods()
+                .contains(&Method::Bvh)
+        );
+        // Negative: each method keeps the options it reads, and flags outside the table pass.
+        assert!(
+            Method::Ssr
+                .check_options(&["--ssr-iterations"], &exact)
+                .is_ok()
+        );
+        assert!(
+            Method::Fragment
+                .check_options(&["--strict", "--no-accel"], &exact)
+                .is_ok()
+        );
+        let threshold = TraceOptions {
+            criterion: TraceCriterion::Threshold,
+            ..exact
+        };
+        assert!(
+            Method::Fragment
+                .check_options(&["--eps", "--sampling"], &threshold)
+                .is_ok()
+        );
+        assert!(
+            Method::Bvh
+                .check_options(&["--width", "--bounces"], &exact)
+                .is_ok()
+        );
+        // With the method right but the tracer setting wrong, the message says which setting.
+        let e = Method::Fragment
+            .check_options(&["--eps"], &exact)
+            .unwrap_err();
+        assert!(e.contains("only with --criterion threshold"), "{e}");
     }
 
     #[test]

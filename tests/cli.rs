@@ -135,7 +135,20 @@ fn negative_eps_gets_our_message() {
     }
     // Negative: a positive value passes the parser (and the command then fails on the output
     // extension, which shows that the value was accepted without rendering anything).
-    let o = run(&["render", "--eps", "0.1", "-o", "x.jpg"], dir.path());
+    let o = run(
+        &[
+            "render",
+            "--method",
+            "fragment",
+            "--criterion",
+            "threshold",
+            "--eps",
+            "0.1",
+            "-o",
+            "x.jpg",
+        ],
+        dir.path(),
+    );
     assert_clean_failure(&o, &["x.jpg", "unsupported extension"]);
 }
 
@@ -701,4 +714,401 @@ fn reflection_point_renders_and_refuses_oversized_search_textures() {
     let o = run(&["render", "--subdivide", "9"], dir.path());
     assert_eq!(o.code, Some(2), "{}", o.stderr);
     assert!(o.stderr.contains("--subdivide"), "{}", o.stderr);
+}
+
+// ---- Issue 21: the summary, method options, frame size, output names, textures, phases ----
+
+/// The `N finished by the fallback (x%)` and `M unresolved` counts of a GPU summary line.
+fn summary_counts(stdout: &str) -> (usize, usize) {
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with("wrote "))
+        .unwrap_or_else(|| panic!("no summary in: {stdout}"));
+    let number_before = |needle: &str| -> usize {
+        let head = line.split(needle).next().unwrap();
+        head.rsplit(' ').next().unwrap().parse().unwrap()
+    };
+    (
+        number_before(" finished by the fallback"),
+        number_before(" unresolved"),
+    )
+}
+
+/// The summary counts the fallback's pixels: with `--fallback trace` as many as the same frame
+/// leaves unresolved with `--fallback flag` (two ways of counting the method's misses); above
+/// 10 % a warning names the cause, and inward normals are named as such.
+#[test]
+fn the_summary_shows_the_fallback_share_and_warns_above_the_threshold() {
+    let dir = tempfile::tempdir().unwrap();
+    let size = ["--width", "48", "--height", "36"];
+    let render = |scene: &str, extra: &[&str]| {
+        let mut args = vec!["render", scene, "--method", "compute", "-o", "x.png"];
+        args.extend(size);
+        args.extend_from_slice(extra);
+        let o = run(&args, dir.path());
+        assert_eq!(o.code, Some(0), "{}", o.stderr);
+        o
+    };
+    let traced = render("teapot", &[]);
+    let (fallback, unresolved) = summary_counts(&traced.stdout);
+    assert_eq!(unresolved, 0, "{}", traced.stdout);
+    let flagged = render("teapot", &["--fallback", "flag"]);
+    let (none, left) = summary_counts(&flagged.stdout);
+    assert_eq!((none, left), (0, fallback), "{}", flagged.stdout);
+    // The teapot's compute frame leaves about 30 % to the fallback: above the threshold.
+    assert!(fallback > 0, "{}", traced.stdout);
+    assert!(traced.stderr.contains("resolved only"), "{}", traced.stderr);
+    assert!(traced.stderr.contains("likely cause"), "{}", traced.stderr);
+    // Negative: the built-in default leaves under 10 %: no warning.
+    let default = render("default", &[]);
+    assert!(
+        !default.stderr.contains("resolved only"),
+        "{}",
+        default.stderr
+    );
+    // Inward normals: the default scene exported with its reflector's `vn` lines negated.
+    let export = dir.path().join("inward");
+    export::export(&builtin::by_name("default").unwrap(), &export).unwrap();
+    let obj = export.join("mirror-ellipsoid.obj");
+    let flipped: String = std::fs::read_to_string(&obj)
+        .unwrap()
+        .lines()
+        .map(|l| match l.strip_prefix("vn ") {
+            Some(rest) => {
+                let v: Vec<f32> = rest
+                    .split_whitespace()
+                    .map(|x| x.parse().unwrap())
+                    .collect();
+                format!("vn {} {} {}\n", -v[0], -v[1], -v[2])
+            }
+            None => format!("{l}\n"),
+        })
+        .collect();
+    std::fs::write(&obj, flipped).unwrap();
+    let inward = render(export.join("scene.toml").to_str().unwrap(), &[]);
+    assert!(
+        inward
+            .stderr
+            .contains("reflector 'mirror-ellipsoid' point inward"),
+        "{}",
+        inward.stderr
+    );
+    // Negative: the teapot's warning (open mesh, outward normals) does not blame the normals.
+    assert!(!traced.stderr.contains("point inward"), "{}", traced.stderr);
+}
+
+/// Options the method ignores are refused before anything runs, in the CLI's words; the same
+/// options with a method that reads them run.
+#[test]
+fn options_the_method_ignores_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases: [(&[&str], &str); 6] = [
+        (
+            &["--method", "compute", "--ssr-iterations", "5"],
+            "--ssr-iterations applies only to --method ssr",
+        ),
+        (&["--method", "bvh", "--strict"], "--strict applies only to"),
+        (
+            &["--method", "bvh", "--no-accel"],
+            "--no-accel applies only to",
+        ),
+        (
+            &["--method", "bvh", "--steps", "5"],
+            "--steps applies only to",
+        ),
+        (
+            &["--method", "envmap", "--fallback", "flag"],
+            "--fallback applies only to",
+        ),
+        (
+            &["--method", "reference", "--compare"],
+            "compare the reference with itself",
+        ),
+    ];
+    for (extra, needle) in cases {
+        let mut args = vec!["render", "bowl", "-o", "x.png"];
+        args.extend_from_slice(extra);
+        let o = run_env(&args, dir.path(), &INFO);
+        assert_clean_failure(&o, &[needle]);
+        // In the CLI's words, and before the device or the reference's BVH.
+        for internal in ["Compute", "Bvh", "Envmap", "Reference", "`method`"] {
+            assert!(!o.stderr.contains(internal), "{internal}: {}", o.stderr);
+        }
+        assert!(!o.stderr.contains(DEVICE_CREATED), "{}", o.stderr);
+        assert!(!o.stderr.contains(REFERENCE_STARTED), "{}", o.stderr);
+    }
+    assert!(files(dir.path()).is_empty(), "{:?}", files(dir.path()));
+    // Negative: with a method that reads them, the same options run.
+    for extra in [
+        &["--method", "ssr", "--ssr-iterations", "5"][..],
+        &["--method", "fragment", "--strict", "--cube-size", "16"],
+    ] {
+        let mut args = vec![
+            "render", "bowl", "-o", "x.png", "--width", "4", "--height", "3",
+        ];
+        args.extend_from_slice(extra);
+        let o = run(&args, dir.path());
+        assert_eq!(o.code, Some(0), "{extra:?}: {}", o.stderr);
+    }
+}
+
+/// Every flag of the table is one of `render`'s or `bench`'s, and every `render` flag outside
+/// it is one every method reads (a new method-specific flag must enter the table).
+#[test]
+fn every_method_specific_flag_is_in_the_table() {
+    use clap::CommandFactory;
+    #[derive(clap::Parser)]
+    struct Render {
+        #[command(flatten)]
+        args: cubetrace::app::render::RenderArgs,
+    }
+    #[derive(clap::Parser)]
+    struct Bench {
+        #[command(flatten)]
+        args: cubetrace::app::bench::BenchArgs,
+    }
+    let flags = |c: clap::Command| -> Vec<String> {
+        c.get_arguments()
+            .filter_map(|a| a.get_long().map(|l| format!("--{l}")))
+            .collect()
+    };
+    let render = flags(Render::command());
+    let bench = flags(Bench::command());
+    let table: Vec<&str> = cubetrace::method::METHOD_OPTIONS
+        .iter()
+        .map(|o| o.flag)
+        .collect();
+    for flag in &table {
+        assert!(
+            render.iter().chain(&bench).any(|f| f == flag),
+            "{flag} is no flag of render or bench"
+        );
+    }
+    let every_method = [
+        "--method",
+        "--camera",
+        "--width",
+        "--height",
+        "--bounces",
+        "--output",
+        "--subdivide",
+        "--help",
+    ];
+    for flag in &render {
+        assert!(
+            table.contains(&flag.as_str()) || every_method.contains(&flag.as_str()),
+            "render's {flag} is neither in METHOD_OPTIONS nor read by every method"
+        );
+    }
+    // Negative: a flag that is not there is found missing.
+    assert!(!render.iter().chain(&bench).any(|f| f == "--ssr-iteration"));
+}
+
+/// `bench` holds its method-specific options against the chosen methods, by the same table.
+#[test]
+fn bench_refuses_options_no_chosen_method_reads() {
+    use clap::Parser;
+    #[derive(Parser)]
+    struct Bench {
+        #[command(flatten)]
+        args: cubetrace::app::bench::BenchArgs,
+    }
+    let check = |extra: &[&str]| {
+        let mut a = vec!["bench"];
+        a.extend_from_slice(extra);
+        let args = Bench::try_parse_from(a).unwrap().args;
+        let methods = cubetrace::app::bench::parse_methods(&args.methods).unwrap();
+        cubetrace::app::bench::check_options(&args, &methods).map_err(|e| e.to_string())
+    };
+    let e = check(&["--methods", "envmap,bvh", "--quick"]).unwrap_err();
+    assert!(
+        e.contains("--quick applies only to --method fragment"),
+        "{e}"
+    );
+    let e = check(&["--methods", "bvh", "--cube-size", "64"]).unwrap_err();
+    assert!(e.contains("--cube-size"), "{e}");
+    let e = check(&["--scaling", "--cmos", "2"]).unwrap_err();
+    assert!(e.contains("--scaling"), "{e}");
+    // Negative: one chosen method that reads the option is enough.
+    check(&["--methods", "envmap,fragment", "--quick"]).unwrap();
+    check(&[
+        "--methods",
+        "bvh,compute",
+        "--cube-size",
+        "64",
+        "--no-reflector-check",
+    ])
+    .unwrap();
+}
+
+/// The PNG's width and height, from its header.
+fn png_size(path: &Path) -> (u32, u32) {
+    let bytes = std::fs::read(path).unwrap();
+    let be = |k: usize| u32::from_be_bytes(bytes[k..k + 4].try_into().unwrap());
+    (be(16), be(20))
+}
+
+#[test]
+fn one_frame_side_keeps_the_camera_aspect() {
+    use cubetrace::app::render::frame_size;
+    assert_eq!(frame_size((640, 480), None, Some(60)), (80, 60));
+    assert_eq!(frame_size((640, 480), Some(100), None), (100, 75));
+    assert_eq!(frame_size((640, 480), Some(3), None), (3, 2));
+    assert_eq!(frame_size((640, 480), None, Some(1)), (1, 1));
+    assert_eq!(frame_size((1, 1000), Some(1), None), (1, 1000));
+    assert_eq!(frame_size((1000, 1), Some(10), None), (10, 1), "at least 1");
+    // Negative: both sides, or neither, are taken as they are.
+    assert_eq!(frame_size((640, 480), Some(64), Some(64)), (64, 64));
+    assert_eq!(frame_size((640, 480), None, None), (640, 480));
+    let dir = tempfile::tempdir().unwrap();
+    let o = run(
+        &[
+            "render",
+            "--method",
+            "reference",
+            "--height",
+            "30",
+            "-o",
+            "h.png",
+        ],
+        dir.path(),
+    );
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+    assert_eq!(png_size(&dir.path().join("h.png")), (40, 30));
+    let o = run(&["render", "--help"], dir.path());
+    assert!(o.stdout.contains("camera's aspect ratio"), "{}", o.stdout);
+}
+
+#[test]
+fn a_file_name_too_long_is_refused_before_the_render() {
+    let dir = tempfile::tempdir().unwrap();
+    let long = format!("{}.png", "a".repeat(300));
+    for (method, started) in [
+        ("reference", REFERENCE_STARTED),
+        ("compute", DEVICE_CREATED),
+    ] {
+        for out in [long.clone(), format!("new/{long}"), format!("{long}/x.png")] {
+            let args = ["render", "bowl", "--method", method, "-o", &out];
+            let o = run_env(&args, dir.path(), &INFO);
+            assert_clean_failure(&o, &["bytes long", "255"]);
+            assert!(!o.stderr.contains(started), "{method}: {}", o.stderr);
+        }
+    }
+    assert!(files(dir.path()).is_empty(), "{:?}", files(dir.path()));
+    // Negative: 255 bytes are allowed, and written.
+    let ok = format!("{}.png", "b".repeat(251));
+    let o = run(
+        &[
+            "render",
+            "bowl",
+            "--method",
+            "reference",
+            "--width",
+            "4",
+            "--height",
+            "3",
+            "-o",
+            &ok,
+        ],
+        dir.path(),
+    );
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+    assert_eq!(files(dir.path()), [ok]);
+}
+
+/// A texture counts in the memory estimate and is named, with its size and the fix, when it
+/// does not fit: the device's memory, or the one buffer the textures share.
+#[test]
+fn a_large_texture_is_named_in_the_refusal() {
+    use clap::Parser;
+    use cubetrace::memory::Limits;
+    #[derive(Parser)]
+    struct Render {
+        #[command(flatten)]
+        args: cubetrace::app::render::RenderArgs,
+    }
+    let args = Render::try_parse_from(["render", "default", "--width", "64", "--height", "48"])
+        .unwrap()
+        .args;
+    let (mut scene, camera) = cubetrace::app::render::load_scene(&args).unwrap();
+    let options = cubetrace::app::render::gpu_options(&args).unwrap();
+    let before = budget::estimate(&scene, &camera, &options).total();
+    scene.textures.push(cubetrace::scene::Texture {
+        name: "floor-8k".into(),
+        width: 8192,
+        height: 8192,
+        rgba8: Vec::new(),
+    });
+    let limits = Limits {
+        host: None,
+        device: (before + (128 << 20), "the test's limit".into()),
+        device_is_host: false,
+    };
+    let check = |scene: &cubetrace::scene::Scene| {
+        cubetrace::app::render::check_gpu_memory(
+            "a 64x48 frame with --method compute",
+            scene,
+            &camera,
+            &options,
+            cubetrace::output::Format::Png,
+            false,
+            "the test device",
+            &limits,
+        )
+    };
+    let e = check(&scene).unwrap_err().to_string();
+    for needle in [
+        "texture 'floor-8k' 8192x8192: 256.0 MiB",
+        "scale that texture down",
+        "the test's limit",
+    ] {
+        assert!(e.contains(needle), "'{needle}' in: {e}");
+    }
+    let e = cubetrace::app::render::check_textures(&scene, 128 << 20, "lavapipe")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("texture 'floor-8k' 8192x8192: 256.0 MiB"), "{e}");
+    assert!(e.contains("maxStorageBufferRange = 128.0 MiB"), "{e}");
+    assert!(!e.contains("--cube-size"), "not the cube size's fault: {e}");
+    // Negative: at 4096^2 (64 MiB) the texture fits both.
+    scene.textures.last_mut().unwrap().width = 4096;
+    scene.textures.last_mut().unwrap().height = 4096;
+    check(&scene).unwrap();
+    cubetrace::app::render::check_textures(&scene, 128 << 20, "lavapipe").unwrap();
+}
+
+/// The host phases are logged each under its own name (the reference's BVH no longer takes
+/// the time of loading and checking the scene).
+#[test]
+fn host_phases_are_logged_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    for method in ["reference", "bvh"] {
+        let o = run_env(
+            &[
+                "render", "bowl", "--method", method, "--width", "8", "--height", "6", "-o",
+                "x.png",
+            ],
+            dir.path(),
+            &INFO,
+        );
+        assert_eq!(o.code, Some(0), "{}", o.stderr);
+        for phase in ["scene load: ", "reflector convexity: ", "scene check: "] {
+            assert!(o.stderr.contains(phase), "{method} {phase}: {}", o.stderr);
+        }
+    }
+    // The scene check traces the CMO centres' lines of sight against the other geometry only
+    // (no BVH over a reflector of millions of triangles): a centre outside the room is still
+    // found, behind the wall.
+    let mut scene = builtin::by_name("default").unwrap();
+    let at = |z: f32| vec![glam::Vec3::new(0.0, 1.0, z)];
+    scene.cmo.placement = cubetrace::scene::CmoPlacement::Explicit(at(50.0));
+    let blind = |scene: &cubetrace::scene::Scene| {
+        cubetrace::placement::diagnose(scene)
+            .iter()
+            .any(|p| p.contains("sees none of the reflectors") && p.contains("'room"))
+    };
+    assert!(blind(&scene));
+    // Negative: a centre inside the room sees the mirror.
+    scene.cmo.placement = cubetrace::scene::CmoPlacement::Explicit(at(0.0));
+    assert!(!blind(&scene));
 }

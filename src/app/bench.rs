@@ -31,7 +31,7 @@ pub struct BenchArgs {
         default_value = "reference,envmap,fragment,compute,ssr,reflection-point,bvh"
     )]
     pub methods: Vec<String>,
-    /// Tracing methods: only the default options (exact criterion, pyramid) instead of the grid.
+    /// fragment: only the default options (exact criterion, pyramid) instead of its grid.
     #[arg(long)]
     pub quick: bool,
     /// Frame width in pixels.
@@ -46,10 +46,10 @@ pub struct BenchArgs {
     /// Frames rendered and discarded before timing.
     #[arg(long, default_value_t = 1)]
     pub warmup: u32,
-    /// Texels per cube face side (overrides the scenes').
+    /// Every GPU method but bvh: texels per cube face side (overrides the scenes').
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub cube_size: Option<u32>,
-    /// Number of automatically placed CMOs (overrides the scenes').
+    /// Every GPU method but bvh: number of automatically placed CMOs (overrides the scenes').
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16))]
     pub cmos: Option<u32>,
     /// Skip the FLIP metric.
@@ -86,9 +86,46 @@ pub struct BenchArgs {
     pub gpu: GpuArgs,
 }
 
+/// Refuses the method-specific options no chosen method reads: the rules of `render`
+/// ([`crate::method::METHOD_OPTIONS`]), held against every method of `--methods` (an option
+/// passes when one of them reads it under some setting of the grid); with `--scaling`, which
+/// runs its own fragment curves, the grid's options.
+pub fn check_options(args: &BenchArgs, methods: &[Method]) -> Result<()> {
+    let given = [
+        ("--quick", args.quick),
+        ("--no-reflector-check", args.no_reflector_check),
+        ("--cmos", args.cmos.is_some()),
+        ("--cube-size", args.cube_size.is_some()),
+    ];
+    for (flag, on) in given {
+        if !on {
+            continue;
+        }
+        if args.scaling {
+            anyhow::bail!(
+                "{flag} does not apply to --scaling (its curves set the cube size, CMO count and \
+                 tracer options themselves): leave it out"
+            );
+        }
+        let option = crate::method::method_option(flag).expect("bench's options are in the table");
+        let readers = option.methods();
+        if !methods.iter().any(|m| readers.contains(m)) {
+            let chosen: Vec<&str> = methods.iter().map(|m| m.name()).collect();
+            let first = methods.first().copied().unwrap_or(Method::Reference);
+            anyhow::bail!(
+                "--methods {}: none of them reads {flag} ({})",
+                chosen.join(","),
+                option.refusal(first)
+            );
+        }
+    }
+    Ok(())
+}
+
 /// `cubetrace bench`.
 pub fn bench(args: BenchArgs) -> Result<()> {
     let methods = parse_methods(&args.methods)?;
+    check_options(&args, &methods)?;
     output::check_folder(&args.out).context("-o")?;
     let ctx = args.gpu.context()?;
     let bar = indicatif::ProgressBar::new(0).with_style(

@@ -3,7 +3,7 @@
 //! line (clap) into the argument structs defined here and calls one function per command.
 //!
 //! - [`render`]: `cubetrace render` (one frame of one method, optionally compared with the
-//!   reference).
+//!   reference); [`summary`]: its summary line and the fallback's warning.
 //! - [`bench`](mod@bench): `cubetrace bench` (the harness of [`crate::bench`] and its scaling curves).
 //! - [`export`]: `cubetrace scene export`.
 //! - [`info`], [`scenes`]: the two listing commands.
@@ -17,6 +17,7 @@ pub mod bench;
 pub mod export;
 pub mod options;
 pub mod render;
+pub mod summary;
 
 use anyhow::Result;
 

@@ -62,16 +62,18 @@ pub fn positive_finite(s: &str) -> std::result::Result<f32, String> {
 /// Options of the cubemap tracer (`--method compute|fragment`; compute: exact criterion only).
 #[derive(clap::Args)]
 pub struct TraceArgs {
-    /// Intersection criterion.
-    #[arg(long, value_enum, default_value_t = CriterionArg::Exact)]
-    pub criterion: CriterionArg,
-    /// Sample placement of the threshold and sign-change criteria.
-    #[arg(long, value_enum, default_value_t = SamplingArg::PerTexel)]
-    pub sampling: SamplingArg,
-    /// Turn off the min/max pyramid (exact criterion: walk every texel instead; same result).
+    /// fragment, compute: intersection criterion [default: exact] (compute: exact only).
+    #[arg(long, value_enum)]
+    pub criterion: Option<CriterionArg>,
+    /// fragment with --criterion threshold or sign-change: sample placement [default:
+    /// per-texel].
+    #[arg(long, value_enum)]
+    pub sampling: Option<SamplingArg>,
+    /// fragment, exact criterion: turn off the min/max pyramid (walk every texel instead; same
+    /// result).
     #[arg(long)]
     pub no_accel: bool,
-    /// Exact criterion: count a hit inside a texel only where the texel data decides it (the
+    /// fragment, exact criterion: count a hit inside a texel only where the texel data decides it (the
     /// ray gets behind the surface around the hit and no outline passes through the texel);
     /// elsewhere the ray is handed on, so more pixels end unresolved.
     ///
@@ -84,31 +86,34 @@ pub struct TraceArgs {
     /// the reference those pixels stay wrong, as without it (see `cubetrace bench`).
     #[arg(long)]
     pub strict: bool,
-    /// Sample intervals along the ray for constant-step and constant-angle sampling.
-    #[arg(long, default_value_t = 400, value_parser = clap::value_parser!(u32).range(1..=65536))]
-    pub steps: u32,
-    /// Threshold of the threshold criterion, world units (positive).
-    #[arg(long, default_value_t = 0.05, allow_negative_numbers = true, value_parser = positive_finite)]
-    pub eps: f32,
-    /// Number of CMOs, placed automatically along the reflectors' longest axis (overrides the
-    /// scene's CMO centres).
+    /// fragment with --sampling constant-step or constant-angle: sample intervals along the ray
+    /// [default: 400].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=65536))]
+    pub steps: Option<u32>,
+    /// fragment with --criterion threshold: the threshold, world units (positive) [default:
+    /// 0.05].
+    #[arg(long, allow_negative_numbers = true, value_parser = positive_finite)]
+    pub eps: Option<f32>,
+    /// Every GPU method but bvh: number of CMOs, placed automatically along the reflectors'
+    /// longest axis (overrides the scene's CMO centres).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(crate::scene::MAX_CMOS)))]
     pub cmos: Option<u32>,
-    /// Texels per cube face side (overrides the scene's; 1 to 4096).
+    /// Every GPU method but bvh: texels per cube face side (overrides the scene's; 1 to 4096).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub cube_size: Option<u32>,
-    /// What fills mirror pixels that no CMO could resolve (the method left unresolved): `trace`
-    /// finishes their rays exactly with the BVH tracer of `--method bvh`.
-    #[arg(long, value_enum, default_value_t = FallbackArg::Trace)]
-    pub fallback: FallbackArg,
+    /// compute, fragment, ssr, reflection-point: what fills mirror pixels the method left
+    /// unresolved [default: trace]: `trace` finishes their rays exactly with the BVH tracer of
+    /// `--method bvh` (the summary line counts them; see `--help` of `render`).
+    #[arg(long, value_enum)]
+    pub fallback: Option<FallbackArg>,
     /// fragment, compute: skip the reflector check (the exact trace, after the cubemap trace,
     /// of the reflectors the CMOs do not capture: the torus or teapot seen in itself).
     #[arg(long)]
     pub no_reflector_check: bool,
-    /// ssr: iterations of the Hi-Z ray march before a ray is given up (unresolved).
-    #[arg(long, default_value_t = crate::cpu::ssr::DEFAULT_MAX_ITERATIONS,
-          value_parser = clap::value_parser!(u32).range(1..=65536))]
-    pub ssr_iterations: u32,
+    /// ssr: iterations of the Hi-Z ray march before a ray is given up (unresolved) [default:
+    /// 64].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=65536))]
+    pub ssr_iterations: Option<u32>,
     /// ssr: thickness test, world units along the view axis: a hit farther than this behind the
     /// surface it lands on is unresolved. Default: none (the chapter's: every surface is
     /// infinitely thick, so a ray passing behind a thin object hits it).
@@ -119,10 +124,9 @@ pub struct TraceArgs {
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=65536))]
     pub rp_iterations: Option<u32>,
     /// reflection-point: the search textures (the reflector's positions and normals) have this
-    /// many times the frame's width and height.
-    #[arg(long, default_value_t = crate::cpu::reflection_point::DEFAULT_SEARCH_SCALE,
-          value_parser = clap::value_parser!(u32).range(1..=8))]
-    pub rp_scale: u32,
+    /// many times the frame's width and height [default: 1].
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=8))]
+    pub rp_scale: Option<u32>,
     /// reflection-point: search on the reflectors as they are, not on the closed versions of
     /// open ones (the paper's open/closed pair).
     #[arg(long)]
@@ -130,44 +134,74 @@ pub struct TraceArgs {
 }
 
 impl TraceArgs {
+    /// The renderer's options: what was given, the defaults (the library's) elsewhere.
     pub fn options(&self, method: Method) -> RenderOptions {
+        let defaults = RenderOptions::default();
+        let trace = TraceOptions::default();
         RenderOptions {
             method,
             trace: TraceOptions {
-                criterion: match self.criterion {
+                criterion: self.criterion.map_or(trace.criterion, |c| match c {
                     CriterionArg::Exact => TraceCriterion::Exact,
                     CriterionArg::Threshold => TraceCriterion::Threshold,
                     CriterionArg::SignChange => TraceCriterion::SignChange,
-                },
-                sampling: match self.sampling {
+                }),
+                sampling: self.sampling.map_or(trace.sampling, |s| match s {
                     SamplingArg::ConstantStep => TraceSampling::ConstantStep,
                     SamplingArg::ConstantAngle => TraceSampling::ConstantAngle,
                     SamplingArg::PerTexel => TraceSampling::PerTexel,
-                },
+                }),
                 accel: !self.no_accel,
                 strict: self.strict,
-                steps: self.steps,
-                eps: self.eps,
-                ..TraceOptions::default()
+                steps: self.steps.unwrap_or(trace.steps),
+                eps: self.eps.unwrap_or(trace.eps),
+                ..trace
             },
             reflector_check: !self.no_reflector_check,
-            fallback: match self.fallback {
+            fallback: self.fallback.map_or(Fallback::Trace, |f| match f {
                 FallbackArg::Flag => Fallback::Flag,
                 FallbackArg::Envmap => Fallback::Envmap,
                 FallbackArg::Background => Fallback::Background,
                 FallbackArg::Trace => Fallback::Trace,
-            },
+            }),
             ssr: crate::cpu::ssr::SsrOptions {
-                max_iterations: self.ssr_iterations,
+                max_iterations: self.ssr_iterations.unwrap_or(defaults.ssr.max_iterations),
                 thickness: self.ssr_thickness,
             },
             reflection_point: crate::cpu::reflection_point::RpOptions {
                 max_iterations: self.rp_iterations,
-                search_scale: self.rp_scale,
+                search_scale: self
+                    .rp_scale
+                    .unwrap_or(defaults.reflection_point.search_scale),
                 close_reflectors: !self.rp_open,
             },
-            ..RenderOptions::default()
+            ..defaults
         }
+    }
+
+    /// The method-specific options given on the command line, as typed
+    /// ([`crate::method::METHOD_OPTIONS`] decides which methods read them).
+    pub fn given(&self) -> Vec<&'static str> {
+        [
+            ("--criterion", self.criterion.is_some()),
+            ("--sampling", self.sampling.is_some()),
+            ("--no-accel", self.no_accel),
+            ("--strict", self.strict),
+            ("--steps", self.steps.is_some()),
+            ("--eps", self.eps.is_some()),
+            ("--cmos", self.cmos.is_some()),
+            ("--cube-size", self.cube_size.is_some()),
+            ("--fallback", self.fallback.is_some()),
+            ("--no-reflector-check", self.no_reflector_check),
+            ("--ssr-iterations", self.ssr_iterations.is_some()),
+            ("--ssr-thickness", self.ssr_thickness.is_some()),
+            ("--rp-iterations", self.rp_iterations.is_some()),
+            ("--rp-scale", self.rp_scale.is_some()),
+            ("--rp-open", self.rp_open),
+        ]
+        .into_iter()
+        .filter_map(|(flag, given)| given.then_some(flag))
+        .collect()
     }
 
     /// Applies the CMO overrides to the scene.

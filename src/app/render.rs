@@ -15,6 +15,7 @@ use anyhow::Result;
 
 use super::GpuArgs;
 use super::options::TraceArgs;
+use super::summary::{self, FallbackCount};
 use crate::Method;
 use crate::camera::Camera;
 use crate::memory;
@@ -36,10 +37,12 @@ pub struct RenderArgs {
     /// Camera of the scene, by name or index (default: the first).
     #[arg(long)]
     pub camera: Option<String>,
-    /// Image width in pixels (default: the camera's).
+    /// Image width in pixels (default: the camera's). Given alone, the height follows the
+    /// camera's aspect ratio (rounded, at least 1).
     #[arg(long)]
     pub width: Option<u32>,
-    /// Image height in pixels (default: the camera's).
+    /// Image height in pixels (default: the camera's). Given alone, the width follows the
+    /// camera's aspect ratio (rounded, at least 1).
     #[arg(long)]
     pub height: Option<u32>,
     /// Maximum number of mirror reflections per path (0..=16). After the last one, a mirror
@@ -53,7 +56,8 @@ pub struct RenderArgs {
     /// Also render the reference and print the error of the method against it, over the mirror
     /// pixels of either image: mask mismatch (a mirror pixel of one image only, counted both
     /// ways), unresolved, wrong surface, angular error; PSNR over mirror pixels and over the
-    /// whole frame.
+    /// whole frame. GPU methods only: with --method reference it is refused (the reference
+    /// would be compared with itself).
     #[arg(long)]
     pub compare: bool,
     /// Split every triangle of the non-reflector objects into four, N times, before rendering
@@ -76,9 +80,54 @@ struct Target {
     size: String,
 }
 
+impl RenderArgs {
+    /// The method-specific options given on the command line, as typed: the tracer's
+    /// ([`TraceArgs::given`]), `--compare`, `--device` and `--validate`.
+    pub fn given(&self) -> Vec<&'static str> {
+        let mut given = self.trace.given();
+        for (flag, on) in [
+            ("--compare", self.compare),
+            ("--device", self.gpu.device.is_some()),
+            ("--validate", self.gpu.validate),
+        ] {
+            if on {
+                given.push(flag);
+            }
+        }
+        given
+    }
+
+    /// Refuses the options the chosen method would ignore and the settings it cannot trace
+    /// ([`Method::check_options`], the one table of [`crate::method::METHOD_OPTIONS`];
+    /// [`Method::check_bounces`]).
+    pub fn check_method(&self) -> Result<()> {
+        let m = self.method;
+        let trace = self.trace.options(m).trace;
+        m.check_options(&self.given(), &trace)
+            .and_then(|()| {
+                m.check_bounces(self.bounces, crate::vk::passes::bounce::MAX_BOUNCES, &trace)
+            })
+            .map_err(anyhow::Error::msg)
+    }
+}
+
+/// The frame size: the camera's, or `--width`/`--height`; one of them alone keeps the camera's
+/// aspect ratio (the other side rounded, at least 1).
+pub fn frame_size(camera: (u32, u32), width: Option<u32>, height: Option<u32>) -> (u32, u32) {
+    let (w, h) = (f64::from(camera.0), f64::from(camera.1));
+    let other = |given: u32, ratio: f64| ((f64::from(given) * ratio).round().max(1.0)) as u32;
+    match (width, height) {
+        (Some(x), Some(y)) => (x, y),
+        (Some(x), None) => (x, other(x, h / w)),
+        (None, Some(y)) => (other(y, w / h), y),
+        (None, None) => camera,
+    }
+}
+
 /// `cubetrace render`.
 pub fn render(args: RenderArgs) -> Result<()> {
     let start = Instant::now();
+    args.check_method()?;
     let (scene, camera) = load_scene(&args)?;
     let target = check_target(&args, &scene, &camera)?;
     if args.method.is_gpu() {
@@ -91,19 +140,25 @@ pub fn render(args: RenderArgs) -> Result<()> {
 /// Loads the scene, applies the CMO overrides, the subdivision and the frame size to it and its
 /// camera, resolves a CMO placement search for that camera and logs the scene's problems.
 pub fn load_scene(args: &RenderArgs) -> Result<(Scene, Camera)> {
-    let mut scene = scene::load(&args.scene)?;
+    let mut scene = timed("scene load", || scene::load(&args.scene))?;
     args.trace.apply(&mut scene);
-    crate::cpu::reflection_point::subdivide_non_reflectors(&mut scene, args.subdivide);
+    if args.subdivide > 0 {
+        timed("subdivision", || {
+            crate::cpu::reflection_point::subdivide_non_reflectors(&mut scene, args.subdivide)
+        });
+    }
     let mut camera = scene.camera(args.camera.as_deref())?.clone();
-    camera.width = args.width.unwrap_or(camera.width);
-    camera.height = args.height.unwrap_or(camera.height);
+    (camera.width, camera.height) =
+        frame_size((camera.width, camera.height), args.width, args.height);
     scene::check_resolution(camera.width, camera.height)
         .map_err(|e| anyhow::anyhow!("--width/--height: {e}"))?;
     let requested = match scene.cmo.placement {
         scene::CmoPlacement::Search { count } => count,
         _ => 0,
     };
-    if let Some(p) = crate::placement::resolve(&mut scene, &camera) {
+    if let Some(p) = timed("CMO placement", || {
+        crate::placement::resolve(&mut scene, &camera)
+    }) {
         log::info!(
             "cmo placement auto: {} reflected rays sampled; unresolved {:.2}% with {count} along the axis",
             p.rays,
@@ -120,10 +175,22 @@ pub fn load_scene(args: &RenderArgs) -> Result<(Scene, Camera)> {
             );
         }
     }
-    for problem in crate::placement::diagnose(&scene) {
+    timed("reflector convexity", || {
+        scene.self_capture();
+    });
+    for problem in timed("scene check", || crate::placement::diagnose(&scene)) {
         log::warn!("{problem}");
     }
     Ok((scene, camera))
+}
+
+/// Runs one host phase of the command and logs its name and time (info; `-v`), so that no
+/// phase's time is credited to another.
+pub fn timed<T>(phase: &str, f: impl FnOnce() -> T) -> T {
+    let start = Instant::now();
+    let out = f();
+    log::info!("{phase}: {:.2?}", start.elapsed());
+    out
 }
 
 /// The output path (`-o`, else `out/SCENE-METHOD.png`), checked before any time is spent on the
@@ -138,11 +205,58 @@ fn check_target(args: &RenderArgs, scene: &Scene, camera: &Camera) -> Result<Tar
         ))
     });
     let format = output::check_output(&path)?;
+    check_file_name(&path)?;
     let size = format!(
         "a {}x{} frame with --method {method}",
         camera.width, camera.height
     );
     Ok(Target { path, format, size })
+}
+
+/// The longest file or folder name, in bytes, that Linux file systems take (`NAME_MAX`).
+pub const NAME_MAX: usize = 255;
+
+/// Checks, before the render, that the output file can be created under its name: no part of
+/// the path longer than [`NAME_MAX`] bytes, and where its folder exists and the file does not,
+/// the file system takes the name (the file is created and removed at once; an existing file
+/// is replaced by the atomic write, so its name is known to be good).
+pub fn check_file_name(path: &Path) -> Result<()> {
+    for part in path.iter() {
+        let len = part.as_encoded_bytes().len();
+        if len > NAME_MAX {
+            anyhow::bail!(
+                "output {}: the name '{}...' is {len} bytes long, more than the {NAME_MAX} a file \
+                 system allows; choose a shorter name",
+                path.display(),
+                part.to_string_lossy().chars().take(24).collect::<String>()
+            );
+        }
+    }
+    if std::fs::symlink_metadata(path).is_ok() {
+        return Ok(());
+    }
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    if !dir.is_dir() {
+        // Created by the write; the folder check (`output::check_output`) has passed.
+        return Ok(());
+    }
+    match std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(path)
+    {
+        Ok(_) => std::fs::remove_file(path)
+            .map_err(|e| anyhow::anyhow!("cannot remove the test file {}: {e}", path.display())),
+        // Another process made it in between: the name is good.
+        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => Ok(()),
+        Err(e) => anyhow::bail!(
+            "output {}: cannot create a file of this name: {e}",
+            path.display()
+        ),
+    }
 }
 
 /// Refuses a GPU render that would not fit: the host bytes (the read-back, the output and with
@@ -175,28 +289,58 @@ pub fn check_gpu_memory(
         scene.cmo.resolution,
         memory::human(estimate.total())
     );
-    memory::check(&gpu_size, host, limits.host.clone())?;
-    memory::check(
+    let advice = memory::advice(&crate::vk::budget::largest_items(scene, camera, options));
+    memory::check_with(&gpu_size, host, limits.host.clone(), &advice)?;
+    memory::check_with(
         &format!(
-            "{size} ({} of CMO data, {} per frame) on {device}",
+            "{size} ({} of CMO data, {} per frame, {} of scene data) on {device}",
             memory::human(estimate.cmo),
             memory::human(estimate.frame),
+            memory::human(estimate.scene),
         ),
         estimate.total(),
         Some(limits.device.clone()),
+        &advice,
+    )
+}
+
+/// Refuses a scene whose textures do not fit the one storage buffer that holds them all
+/// (`maxStorageBufferRange` of the device, `limit` bytes), naming the largest textures.
+pub fn check_textures(scene: &Scene, limit: u64, device: &str) -> Result<()> {
+    let need = crate::vk::budget::texel_buffer_bytes(scene);
+    if need <= limit {
+        return Ok(());
+    }
+    let mut textures: Vec<_> = scene.textures.iter().collect();
+    textures.sort_by_key(|t| std::cmp::Reverse(crate::vk::budget::texture_bytes(t)));
+    let listed: Vec<String> = textures
+        .iter()
+        .take(3)
+        .map(|t| {
+            format!(
+                "texture '{}' {}x{}: {}",
+                t.name,
+                t.width,
+                t.height,
+                memory::human(crate::vk::budget::texture_bytes(t))
+            )
+        })
+        .collect();
+    anyhow::bail!(
+        "scene '{}': its textures take {} in one GPU buffer, more than {device} can bind \
+         (maxStorageBufferRange = {}); the largest: {}; scale them down (each halving of a \
+         texture's sides takes 3/4 off)",
+        scene.name,
+        memory::human(need),
+        memory::human(limit),
+        listed.join(", ")
     )
 }
 
 /// The renderer's options of a GPU render, refused where the method cannot trace `--bounces`.
 pub fn gpu_options(args: &RenderArgs) -> Result<RenderOptions> {
-    let m = args.method;
-    let options = args.trace.options(m);
-    m.check_bounces(
-        args.bounces,
-        crate::vk::passes::bounce::MAX_BOUNCES,
-        &options.trace,
-    )
-    .map_err(anyhow::Error::msg)?;
+    args.check_method()?;
+    let options = args.trace.options(args.method);
     Ok(RenderOptions {
         bounces: args.bounces,
         ..options
@@ -216,6 +360,11 @@ fn render_gpu(
     let loaded = start.elapsed();
     let ctx = args.gpu.context()?;
     let device_ready = start.elapsed();
+    check_textures(
+        scene,
+        u64::from(ctx.report().max_storage_buffer_range),
+        &ctx.report().name,
+    )?;
     let limits = memory::Limits::of_device(ctx.device_local_heap_bytes(), ctx.device_is_cpu())?;
     check_gpu_memory(
         &target.size,
@@ -227,7 +376,9 @@ fn render_gpu(
         &ctx.report().name,
         &limits,
     )?;
-    let mut renderer = GpuRenderer::new(&ctx, scene, camera, options)?;
+    let mut renderer = timed("GPU renderer (passes, pipelines, BVHs)", || {
+        GpuRenderer::new(&ctx, scene, camera, options)
+    })?;
     let created = start.elapsed();
     let frame = renderer.render(&ctx)?;
     let render_time = start.elapsed();
@@ -249,6 +400,10 @@ fn render_gpu(
         (written - render_time).as_secs_f64() * 1e3,
     );
     log_gpu_frame(&frame, args.method);
+    let count = FallbackCount::of(&frame, &traced);
+    if let Some(warning) = summary::fallback_warning(args.method, scene, &count) {
+        log::warn!("{warning}");
+    }
     println!(
         "{}",
         gpu_summary(
@@ -256,7 +411,7 @@ fn render_gpu(
             args.method,
             scene,
             &frame,
-            &traced,
+            &count,
             render_time,
             &ctx
         )
@@ -323,26 +478,19 @@ fn gpu_summary(
     method: Method,
     scene: &Scene,
     frame: &GpuFrame,
-    traced: &Traced,
+    count: &FallbackCount,
     render_time: Duration,
     ctx: &GpuContext,
 ) -> String {
-    let unresolved = traced
-        .mask
-        .iter()
-        .zip(&traced.resolved)
-        .filter(|(m, r)| **m != 0 && **r == 0)
-        .count();
     let gpu_ms: f64 = frame.pass_times.iter().map(|(_, t)| t).sum::<f64>() * 1e-6;
     format!(
-        "wrote {} ({}x{}, scene '{}', method {}, {} mirror pixels, {} unresolved) in {:.2?} ({gpu_ms:.2} ms GPU on {})",
+        "wrote {} ({}x{}, scene '{}', method {}, {}) in {:.2?} ({gpu_ms:.2} ms GPU on {})",
         path.display(),
         frame.width,
         frame.height,
         scene.name,
         method,
-        frame.mirror_pixels(),
-        unresolved,
+        summary::counts(method, count),
         render_time,
         ctx.report().name,
     )
@@ -393,11 +541,13 @@ fn render_reference(
         memory::reference_bytes(pixels, target.format),
         memory::host_available()?,
     )?;
+    let bvh_start = Instant::now();
     let tracer = reference::Tracer::new(scene);
     log::info!(
-        "{}: {} triangles, BVH built in {:.2?}",
+        "{}: {} triangles, BVH built in {:.2?} ({:.2?} since the start)",
         scene.name,
         tracer.world.triangles.len(),
+        bvh_start.elapsed(),
         start.elapsed()
     );
     let bar = indicatif::ProgressBar::new(0).with_style(

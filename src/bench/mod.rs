@@ -892,8 +892,12 @@ impl<'a> SceneRuns<'a> {
             params: if spec.kind.traces_cubemaps() {
                 let t = &spec.trace;
                 format!(
-                    "criterion={:?} sampling={:?} accel={} steps={} eps={}",
-                    t.criterion, t.sampling, t.accel, t.steps, t.eps
+                    "criterion={} sampling={} accel={} steps={} eps={}",
+                    crate::method::criterion_name(t.criterion),
+                    crate::method::sampling_name(t.sampling),
+                    t.accel,
+                    t.steps,
+                    t.eps
                 )
             } else {
                 String::new()

@@ -52,17 +52,27 @@ pub fn diagnose(scene: &Scene) -> Vec<String> {
         ));
     }
 
-    let tracer = Tracer::new(scene);
+    // Only the other geometry can block a line of sight: its BVH alone (a reflector of
+    // millions of triangles is no blocker, and its BVH cost seconds here before the render).
+    let others = Scene {
+        name: scene.name.clone(),
+        meshes: scene
+            .meshes
+            .iter()
+            .filter(|m| !m.reflector)
+            .cloned()
+            .collect(),
+        materials: scene.materials.clone(),
+        textures: Vec::new(),
+        cameras: scene.cameras.clone(),
+        cmo: scene.cmo.clone(),
+        background: scene.background,
+        shading: scene.shading,
+        self_reflections: scene.self_reflections,
+    };
+    let tracer = Tracer::new(&others);
     let world = &tracer.world;
-    let mut points: Vec<Vec3> = Vec::new();
-    for (k, t) in world.triangles.iter().enumerate() {
-        if tracer.is_reflector(k as u32) {
-            let [a, b, c] = t.map(|i| world.positions[i as usize]);
-            points.extend([a, b, c, (a + b + c) / 3.0]);
-        }
-    }
-    let step = points.len().div_ceil(SAMPLES).max(1);
-    let samples: Vec<Vec3> = points.into_iter().step_by(step).collect();
+    let samples = reflector_samples(scene);
     for (k, centre) in scene.cmo_centres().into_iter().enumerate() {
         let mut blocker = None;
         let sees = samples.iter().any(|&p| {
@@ -71,7 +81,7 @@ pub fn diagnose(scene: &Scene) -> Vec<String> {
             if dist == 0.0 || !dist.is_finite() {
                 return true;
             }
-            match tracer.nearest_where(centre, d / dist, None, |t| !tracer.is_reflector(t)) {
+            match tracer.nearest(centre, d / dist, None) {
                 Some(h) if h.t < dist * (1.0 - 1e-4) => {
                     blocker.get_or_insert(h.triangle);
                     false
@@ -93,6 +103,37 @@ pub fn diagnose(scene: &Scene) -> Vec<String> {
                  or inside the reflector",
                 scene.name, centre.x, centre.y, centre.z
             ));
+        }
+    }
+    out
+}
+
+/// About [`SAMPLES`] points of the reflectors, in world space: of the list of each reflector
+/// triangle's corners and centre (in the scene's triangle order: meshes, then parts), every
+/// k-th, k chosen to give at most [`SAMPLES`].
+fn reflector_samples(scene: &Scene) -> Vec<Vec3> {
+    let reflectors: Vec<_> = scene.meshes.iter().filter(|m| m.reflector).collect();
+    let total: usize = reflectors
+        .iter()
+        .flat_map(|m| &m.parts)
+        .map(|p| 4 * p.triangles.len())
+        .sum();
+    let step = total.div_ceil(SAMPLES).max(1);
+    let mut out = Vec::new();
+    let mut index = 0usize;
+    for mesh in reflectors {
+        let matrix = mesh.transform.matrix();
+        for part in &mesh.parts {
+            let n = 4 * part.triangles.len();
+            // The list's indices in this part that are multiples of `step`.
+            let mut k = (index.div_ceil(step) * step) - index;
+            while k < n {
+                let t = part.triangles[k / 4];
+                let [a, b, c] = t.map(|i| matrix.transform_point3(part.positions[i as usize]));
+                out.push([a, b, c, (a + b + c) / 3.0][k % 4]);
+                k += step;
+            }
+            index += n;
         }
     }
     out

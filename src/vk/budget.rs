@@ -1,8 +1,10 @@
 //! GPU memory of a render, estimated before anything is allocated, from the sizes that
 //! [`super::frame::GpuRenderer::new`] and the objects it creates use: the shared stages' here,
 //! each method's from its [`MethodSpec`]. Pure arithmetic: no Vulkan
-//! call. The scene's own buffers (vertices, indices, textures) are not counted: they are the
-//! size of the scene's files, small against frames and CMOs at the sizes where a refusal matters.
+//! call. The scene's own buffers are counted too ([`scene_bytes`]: vertices, indices and the
+//! textures' texels, which one 8192^2 texture makes 256 MiB), and [`largest_items`] names what
+//! takes the most, so that a refusal can say what to shrink. The BVHs are per triangle and not
+//! counted.
 
 use super::methods::{self, MethodSpec};
 use super::options::RenderOptions;
@@ -57,12 +59,99 @@ pub struct DeviceBytes {
     pub frame: u64,
     /// CMO data (distances, colours, capture targets, pyramid or hierarchy).
     pub cmo: u64,
+    /// The scene's buffers ([`scene_bytes`]; 0 from [`device_bytes`], which has no scene).
+    pub scene: u64,
 }
 
 impl DeviceBytes {
     pub fn total(&self) -> u64 {
-        self.frame + self.cmo
+        self.frame + self.cmo + self.scene
     }
+}
+
+/// Bytes of one texture's texels on the device (RGBA8).
+pub fn texture_bytes(texture: &crate::shading::Texture) -> u64 {
+    4 * u64::from(texture.width) * u64::from(texture.height)
+}
+
+/// The scene's buffers on the device ([`crate::scene::gpu_data::GpuSceneData`]): one vertex
+/// record per position, three indices per triangle, the textures' texels (one buffer for all of
+/// them) and the small per-object and per-material tables.
+pub fn scene_bytes(scene: &Scene) -> u64 {
+    use crate::scene::gpu_data::{GpuMaterial, GpuObject, GpuTexture, GpuVertex};
+    let parts = scene.meshes.iter().flat_map(|m| &m.parts);
+    let (vertices, triangles) = parts.fold((0u64, 0u64), |(v, t), p| {
+        (v + p.positions.len() as u64, t + p.triangles.len() as u64)
+    });
+    let objects = scene
+        .meshes
+        .iter()
+        .map(|m| m.parts.len() as u64)
+        .sum::<u64>();
+    vertices * size_of::<GpuVertex>() as u64
+        + triangles * 12
+        + texel_buffer_bytes(scene)
+        + objects * size_of::<GpuObject>() as u64
+        + scene.materials.len() as u64 * size_of::<GpuMaterial>() as u64
+        + scene.textures.len() as u64 * size_of::<GpuTexture>() as u64
+}
+
+/// The one buffer that holds every texture's texels (at least one texel: buffers cannot be
+/// empty); the device binds it whole, so it must fit `maxStorageBufferRange`.
+pub fn texel_buffer_bytes(scene: &Scene) -> u64 {
+    scene.textures.iter().map(texture_bytes).sum::<u64>().max(4)
+}
+
+/// What the render's device memory goes to, largest first: each texture (`texture 'floor'
+/// 8192x8192`), the CMO data, the frame's buffers and the scene's geometry, with their bytes
+/// (parts of [`estimate`]); items under 1 KiB are left out.
+pub fn largest_items(
+    scene: &Scene,
+    camera: &Camera,
+    options: &RenderOptions,
+) -> Vec<(String, u64)> {
+    let e = estimate(scene, camera, options);
+    let textures: u64 = scene.textures.iter().map(texture_bytes).sum();
+    let mut items: Vec<(String, u64)> = scene
+        .textures
+        .iter()
+        .map(|t| {
+            (
+                format!("texture '{}' {}x{}", t.name, t.width, t.height),
+                texture_bytes(t),
+            )
+        })
+        .collect();
+    let triangles: usize = scene
+        .meshes
+        .iter()
+        .flat_map(|m| &m.parts)
+        .map(|p| p.triangles.len())
+        .sum();
+    items.extend([
+        (
+            format!(
+                "CMO data ({} CMOs of {}^2 texels per face)",
+                scene.cmo_centres().len(),
+                scene.cmo.resolution
+            ),
+            e.cmo,
+        ),
+        (
+            format!(
+                "frame buffers ({}x{}, --method {})",
+                camera.width, camera.height, options.method
+            ),
+            e.frame,
+        ),
+        (
+            format!("scene geometry ({triangles} triangles)"),
+            e.scene.saturating_sub(textures),
+        ),
+    ]);
+    items.retain(|(_, b)| *b >= 1024);
+    items.sort_by_key(|item| std::cmp::Reverse(item.1));
+    items
 }
 
 /// The device memory of one render of `width` x `height` pixels with `cmos` CMOs of
@@ -84,6 +173,7 @@ pub fn device_bytes(
         cmo: methods::spec(method).map_or(0, |s| {
             cmo_bytes(s, cmos, cube_size, self_reflections, trace)
         }),
+        scene: 0,
     }
 }
 
@@ -136,8 +226,9 @@ pub fn reflector_check_bytes(width: u32, height: u32, runs: bool) -> u64 {
 }
 
 /// The device memory of one render of `scene` seen by `camera` with `options`: the CMOs, the
-/// frame's buffers, the bounce queues and the reflector check's queue. The one estimate that
-/// `render` and `bench` check before anything is allocated.
+/// frame's buffers, the bounce queues, the reflector check's queue and the scene's buffers
+/// ([`scene_bytes`]). The one estimate that `render` and `bench` check before anything is
+/// allocated.
 pub fn estimate(scene: &Scene, camera: &Camera, options: &RenderOptions) -> DeviceBytes {
     let (width, height) = (camera.width, camera.height);
     let base = device_bytes(
@@ -156,6 +247,7 @@ pub fn estimate(scene: &Scene, camera: &Camera, options: &RenderOptions) -> Devi
         frame: base.frame
             + bounce_bytes(width, height, options.bounces)
             + reflector_check_bytes(width, height, check),
+        scene: scene_bytes(scene),
         ..base
     }
 }
@@ -163,6 +255,35 @@ pub fn estimate(scene: &Scene, camera: &Camera, options: &RenderOptions) -> Devi
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A texture counts with its texels and is named first when it is the largest item.
+    #[test]
+    fn textures_count_and_are_named() {
+        let mut scene = crate::scene::builtin::by_name("default").unwrap();
+        let mut camera = scene.cameras[0].clone();
+        (camera.width, camera.height) = (64, 48);
+        let options = RenderOptions {
+            method: Method::Compute,
+            ..RenderOptions::default()
+        };
+        let before = estimate(&scene, &camera, &options);
+        assert!(before.scene > 0, "{before:?}");
+        let big = crate::shading::Texture {
+            name: "huge".into(),
+            width: 8192,
+            height: 8192,
+            rgba8: Vec::new(),
+        };
+        scene.textures.push(big);
+        let after = estimate(&scene, &camera, &options);
+        assert!(after.total() - before.total() >= 256 << 20, "{after:?}");
+        let items = largest_items(&scene, &camera, &options);
+        assert_eq!(items[0], ("texture 'huge' 8192x8192".into(), 256 << 20));
+        // Negative: without the texture, the largest item is something else.
+        scene.textures.pop();
+        let items = largest_items(&scene, &camera, &options);
+        assert!(!items[0].0.contains("huge"), "{items:?}");
+    }
 
     #[test]
     fn bounce_queues_only_past_one_bounce() {
