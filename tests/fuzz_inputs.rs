@@ -44,10 +44,11 @@
 //! - **nothing passes in silence** where the category says so: a vanishing reflector must be
 //!   named (`mirror` or `scale`) in some message of each run.
 //!
-//! The judges are plain functions of frames and messages: `judges_reject_bad_frames_and_bad_
-//! refusals` shows each rejects what it must (a perturbed frame, a wrong reference, an empty
-//! frame, a changed twin, a panic, a message naming nothing, a left file, a runaway counter, a
-//! hung process). The pass reports every failing case with its category and draws, then fails.
+//! The judges are plain functions of frames and messages:
+//! `judges_reject_bad_frames_and_bad_refusals` shows each rejects what it must (a perturbed
+//! frame, a wrong reference, an empty frame, a changed twin, a panic, a message naming nothing,
+//! a left file, a runaway counter, a hung process). The pass prints every case with its
+//! category and draws, reports every failing one, then fails.
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -601,9 +602,18 @@ fn judge_case(
 
 #[test]
 fn every_method_agrees_with_the_reference_or_refuses() {
-    let cases = cases(CASES);
-    let root = tempfile::tempdir().expect("temp dir");
-    let root = root.path();
+    // `CUBETRACE_FUZZ_CASES=2,16` runs those cases only; `CUBETRACE_FUZZ_DIR=DIR` writes them
+    // (scenes, EXRs, logs) into DIR and keeps them.
+    let only: Option<Vec<usize>> = std::env::var("CUBETRACE_FUZZ_CASES")
+        .ok()
+        .map(|v| v.split(',').filter_map(|x| x.trim().parse().ok()).collect());
+    let cases: Vec<Case> = cases(CASES)
+        .into_iter()
+        .filter(|c| only.as_ref().is_none_or(|o| o.contains(&c.index)))
+        .collect();
+    let temp = tempfile::tempdir().expect("temp dir");
+    let keep = std::env::var_os("CUBETRACE_FUZZ_DIR").map(PathBuf::from);
+    let root = keep.as_deref().unwrap_or(temp.path());
     for c in &cases {
         c.write(&case_dir(root, c, false), false);
         if c.twin.is_some() {

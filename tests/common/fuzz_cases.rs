@@ -601,7 +601,13 @@ pub fn generate(index: usize, category: Category, occurrence: usize, words: Vec<
             });
         }
         BeyondLimit => {
-            let k = d.int(19, 37);
+            // The first draw: past 1e19.5, where the squared edge lengths overflow f32 (the
+            // issue's 1e30 in a reflector).
+            let k = if occurrence == 0 {
+                d.int(20, 37)
+            } else {
+                d.int(19, 37)
+            };
             let at = match occurrence % 3 {
                 0 => {
                     // The reflector is that one triangle (in world units: scale 1, no offset).
