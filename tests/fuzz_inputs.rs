@@ -352,8 +352,9 @@ pub fn read_exr(path: &Path) -> Result<Exr, String> {
 
 /// Whether two colours differ by more than [`COLOUR_TOL`] in a channel (NaN differs).
 fn differ(a: Vec3, b: Vec3) -> bool {
+    // glam's clamp and max drop NaN: test it first.
     let d = (a.clamp(Vec3::ZERO, Vec3::ONE) - b.clamp(Vec3::ZERO, Vec3::ONE)).abs();
-    !(d.max_element() <= COLOUR_TOL)
+    a.is_nan() || b.is_nan() || d.max_element() > COLOUR_TOL
 }
 
 /// Whether the method must hit the reference's surfaces.
@@ -831,6 +832,9 @@ fn judges_reject_bad_frames_and_bad_refusals() {
     }
     fell_back.fallback = Some(flags);
     assert!(judge_twin(&fell_back, &t.traced).is_err());
+    // A NaN colour differs from every colour.
+    assert!(differ(Vec3::new(f32::NAN, 0.5, 0.5), Vec3::splat(0.5)));
+    assert!(!differ(Vec3::splat(0.5), Vec3::splat(0.51)));
 
     // Refusals.
     let anchors = vec!["mirror.obj:7".to_string(), "extent".to_string()];
