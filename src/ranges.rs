@@ -270,13 +270,11 @@ impl FrameRanges {
         }
         let far = 1.01 * far.max(diagonal);
         let floor = far.max(1.0) * NEAR_FLOOR;
-        let clearance = |p: Vec3, keep: &dyn Fn(&ObjectInfo) -> bool, local: bool| {
-            nearest_seen(&world, p, keep, local).map(|(d, id)| Clearance {
-                distance: d as f32,
-                object: world.objects[id as usize].name.clone(),
-            })
+        let named = |(d, id): (f64, u32)| Clearance {
+            distance: d as f32,
+            object: world.objects[id as usize].name.clone(),
         };
-        let eye = clearance(camera.eye, &|_| true, false);
+        let eye = nearest_seen(&world, camera.eye, &|_| true, false).map(named);
         let near = eye.as_ref().map_or(floor, |c| {
             (0.5 * c.distance * camera.corner_cos()).max(floor)
         });
@@ -285,7 +283,11 @@ impl FrameRanges {
         let cmo = centres
             .iter()
             .enumerate()
-            .filter_map(|(k, &c)| clearance(c, &captured, true).map(|cl| (k, cl)))
+            // Every captured triangle, those in a plane through the centre too: the CMO cannot
+            // capture a surface it lies in, which mirror rays may still meet, so a centre on
+            // one is refused by the precision check (distance ~0), unlike the eye, which sees
+            // nothing of that surface in the reference either.
+            .filter_map(|(k, &c)| world.nearest_triangle(c, &captured).map(|n| (k, named(n))))
             .min_by(|a, b| a.1.distance.total_cmp(&b.1.distance));
         let capture_near = cmo
             .as_ref()

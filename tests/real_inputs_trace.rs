@@ -233,7 +233,8 @@ fn mirror_differences(scene: &Scene, a: &GpuFrame, b: &GpuFrame) -> usize {
     // An ssr record: no CMO, no triangle, the screen pixel it hit in (x, y).
     let screen_mirror = |f: &GpuFrame, k: usize| {
         let r = &f.records[k];
-        let at = (r.y * f.width + r.x) as usize;
+        // u64: records of non-mirror pixels hold leftover contents.
+        let at = (u64::from(r.y) * u64::from(f.width) + u64::from(r.x)) as usize;
         r.status == 0 && r.cmo == u32::MAX && at < f.mask.len() && f.mask[at] != 0
     };
     (0..a.mask.len())

@@ -4,8 +4,7 @@
 //! the fallback did much of the work.
 //!
 //! With `--fallback trace` (the default) no mirror pixel is left unresolved: the BVH finishes
-//! every ray the method gave up, so "0 unresolved" alone would hide a misplaced CMO or inward
-//! normals. The summary line therefore counts the fallback's pixels with their share of the
+//! every ray the method gave up, so "0 unresolved" alone would hide a misplaced CMO. The summary line therefore counts the fallback's pixels with their share of the
 //! mirror pixels, and [`fallback_warning`] warns when the method left more than
 //! [`WARN_SHARE`] of them to the fallback (finished by it, or left unresolved and filled by the
 //! flag, environment map or background).
@@ -13,11 +12,10 @@
 //! The threshold, 10 %: on the built-in scenes the cubemap tracers (compute, fragment) hand
 //! 0.4 to 2.5 % of their mirror pixels to the fallback (bench at 160x120), except the teapot
 //! (31.6 %: its spout and handle seen in the body, the reflector check's start hits); a
-//! misplaced CMO or inward normals raise it to 30-100 %. ssr (71-98 %) and reflection-point
+//! misplaced CMO raises it to 30-100 % (as inward reflector normals did before closed
+//! reflectors seen from outside had their front turned, `Scene::front_turned`). ssr (71-98 %) and reflection-point
 //! (36-88 %) are above it on every built-in scene: that is their known limit, and the warning
 //! says so.
-
-use glam::{DVec3, Vec3};
 
 use crate::Method;
 use crate::metrics::Traced;
@@ -111,8 +109,9 @@ pub fn fallback_warning(method: Method, scene: &Scene, c: &FallbackCount) -> Opt
     let inward = inward_reflectors(scene);
     let cause = if !inward.is_empty() {
         format!(
-            "likely cause: the vertex normals of reflector {} point inward (as some exporters \
-             write them); flip them (negate the OBJ's `vn` lines) or export with outward normals",
+            "likely cause: the vertex normals of reflector {} point into it and a camera lies \
+             inside it, so its inside is taken as the mirror (a mirror room); if it is seen from \
+             outside, move the camera out or flip its normals (negate the OBJ's `vn` lines)",
             inward.join(", ")
         )
     } else {
@@ -134,127 +133,31 @@ pub fn fallback_warning(method: Method, scene: &Scene, c: &FallbackCount) -> Opt
             ),
             _ => "likely causes: the CMOs do not see what these rays hit: a CMO centre placed \
                   away from the reflector or behind other geometry, or too few CMOs for its \
-                  extent (try [cmo] placement = \"auto\" in the scene file, or --cmos N); or the \
-                  reflector's normals facing inward"
+                  extent (try [cmo] placement = \"auto\" in the scene file, or --cmos N); or an \
+                  open reflector's vertex normals facing away from the side it is seen from"
                 .into(),
         }
     };
     Some(format!("{head}; {cause}"))
 }
 
-/// The reflectors whose vertex normals point into the solid they bound: closed meshes (every
-/// edge of the welded positions shared by exactly two triangles) whose volume, each triangle
-/// oriented by its vertex normals, is negative. Open meshes (a flat mirror, a bowl, whose
-/// concave side a mirror may well face) are never named.
+/// The reflectors whose vertex normals point into the closed mesh they bound
+/// ([`MeshInstance::normals_inward`](crate::scene::MeshInstance::normals_inward)) and whose
+/// front was not turned round for it ([`Scene::front_turned`]): a camera lies inside, so the
+/// inside is taken as the mirror (a mirror room). Where that is wrong, these normals are the
+/// likely cause; a closed reflector seen from outside is turned and never named.
 pub fn inward_reflectors(scene: &Scene) -> Vec<String> {
     scene
         .meshes
         .iter()
-        .filter(|m| m.reflector)
-        .filter(|m| {
-            let matrix = m.transform.matrix();
-            let normal = m.transform.normal_matrix();
-            let mut positions = Vec::new();
-            let mut normals = Vec::new();
-            let mut triangles = Vec::new();
-            for part in &m.parts {
-                let base = positions.len() as u32;
-                positions.extend(part.positions.iter().map(|&p| matrix.transform_point3(p)));
-                normals.extend(part.normals.iter().map(|&n| normal * n));
-                triangles.extend(part.triangles.iter().map(|t| t.map(|i| i + base)));
-            }
-            normals_point_inward(&positions, &normals, &triangles)
-        })
+        .filter(|m| m.reflector && m.normals_inward() && !scene.front_turned(m))
         .map(|m| format!("'{}'", m.name))
         .collect()
-}
-
-/// Whether a closed mesh's vertex normals point inward (see [`inward_reflectors`]); false for
-/// an open mesh or one without volume.
-pub fn normals_point_inward(positions: &[Vec3], normals: &[Vec3], triangles: &[[u32; 3]]) -> bool {
-    if triangles.is_empty() || !is_closed(positions, triangles) {
-        return false;
-    }
-    let centre = positions.iter().map(|p| p.as_dvec3()).sum::<DVec3>() / positions.len() as f64;
-    let volume: f64 = triangles
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|i| positions[i as usize].as_dvec3() - centre);
-            let cross = (b - a).cross(c - a);
-            let shading: DVec3 = t.iter().map(|&i| normals[i as usize].as_dvec3()).sum();
-            let side = if cross.dot(shading) < 0.0 { -1.0 } else { 1.0 };
-            side * a.dot(b.cross(c))
-        })
-        .sum();
-    volume < 0.0
-}
-
-/// Whether every edge of the mesh, its vertices welded by position (to 1e-6 of the largest
-/// coordinate magnitude: exporters write a seam's vertices twice, a rounding apart), has
-/// exactly two triangles.
-fn is_closed(positions: &[Vec3], triangles: &[[u32; 3]]) -> bool {
-    use std::collections::HashMap;
-    let magnitude = positions
-        .iter()
-        .map(|p| p.abs().max_element())
-        .fold(0.0f32, f32::max);
-    let grid = f64::from(magnitude.max(f32::MIN_POSITIVE)) * 1e-6;
-    let mut weld: HashMap<[i64; 3], u32> = HashMap::new();
-    let ids: Vec<u32> = positions
-        .iter()
-        .map(|p| {
-            let next = weld.len() as u32;
-            let key = p.as_dvec3().to_array().map(|c| (c / grid).round() as i64);
-            *weld.entry(key).or_insert(next)
-        })
-        .collect();
-    let mut edges: HashMap<(u32, u32), u32> = HashMap::with_capacity(3 * triangles.len());
-    for t in triangles {
-        let v = t.map(|i| ids[i as usize]);
-        for (a, b) in [(v[0], v[1]), (v[1], v[2]), (v[2], v[0])] {
-            if a == b {
-                continue;
-            }
-            *edges.entry((a.min(b), a.max(b))).or_insert(0) += 1;
-        }
-    }
-    !edges.is_empty() && edges.values().all(|&n| n == 2)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// A closed octahedron with outward normals is not named; the same with negated normals is;
-    /// an open half (a bowl-like cap) with either is not.
-    #[test]
-    fn inward_normals_of_closed_meshes_only() {
-        let positions = vec![
-            Vec3::X,
-            Vec3::NEG_X,
-            Vec3::Y,
-            Vec3::NEG_Y,
-            Vec3::Z,
-            Vec3::NEG_Z,
-        ];
-        let outward = positions.clone();
-        let inward: Vec<Vec3> = positions.iter().map(|&p| -p).collect();
-        let mut triangles = Vec::new();
-        for &(x, y) in &[(0, 2), (2, 1), (1, 3), (3, 0)] {
-            triangles.push([x, y, 4]);
-            triangles.push([y, x, 5]);
-        }
-        assert!(!normals_point_inward(&positions, &outward, &triangles));
-        assert!(normals_point_inward(&positions, &inward, &triangles));
-        // The winding does not matter: the normals decide.
-        let reversed: Vec<[u32; 3]> = triangles.iter().map(|t| [t[0], t[2], t[1]]).collect();
-        assert!(normals_point_inward(&positions, &inward, &reversed));
-        assert!(!normals_point_inward(&positions, &outward, &reversed));
-        // Negative: open (the top half only), neither orientation is named.
-        let top: Vec<[u32; 3]> = triangles.iter().copied().filter(|t| t[2] == 4).collect();
-        assert!(!normals_point_inward(&positions, &inward, &top));
-        assert!(!normals_point_inward(&positions, &outward, &top));
-    }
 
     #[test]
     fn the_warning_needs_the_threshold_and_names_the_cause() {

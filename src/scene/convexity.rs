@@ -95,8 +95,8 @@ fn content_key(positions: &[Vec3], normals: &[Vec3], triangles: &[[u32; 3]]) -> 
 }
 
 /// Whether the vertex normals of a closed mesh point into it (common in exported files): the
-/// mesh is closed (every edge, its ends welded by position within [`RELATIVE_TOLERANCE`] of the
-/// largest coordinate magnitude, belongs to exactly two faces) and the volume its faces enclose,
+/// mesh is closed (every edge, its ends welded by position as [`weld`] does, belongs to
+/// exactly two faces) and the volume its faces enclose,
 /// each face turned to the side its vertex normals agree with (as [`is_convex`] turns it), is
 /// negative. A mirror reflects on the side the ray comes from, whatever its normals say, and a
 /// camera outside a closed mesh sees only its outside: `Scene::front_turned` then takes the
@@ -157,16 +157,29 @@ pub fn encloses(positions: &[Vec3], triangles: &[[u32; 3]], point: Vec3) -> bool
     crossings % 2 == 1
 }
 
-/// One id per position, equal for positions within [`RELATIVE_TOLERANCE`] of the largest
-/// coordinate magnitude of each other (per coordinate; the first such position names the
-/// group): a UV sphere's seam and poles, whose copies differ by rounding, become one vertex.
+/// f32 rounding steps of the largest coordinate within which [`weld`] joins positions, however
+/// small the mesh is against its distance from the origin.
+const WELD_ULPS: f64 = 8.0;
+
+/// One id per position, equal for positions within [`RELATIVE_TOLERANCE`] of the mesh's extent
+/// (or [`WELD_ULPS`] rounding steps of its largest coordinate, if more) of each other (per
+/// coordinate; the first such position names the group): a UV sphere's seam and poles, whose
+/// copies differ by rounding, become one vertex. The extent, not the distance from the origin,
+/// sets the scale: a sphere moved 1e5 away must not weld into a few points.
 fn weld(positions: &[Vec3]) -> Vec<u32> {
     let points: Vec<DVec3> = positions.iter().map(|p| p.as_dvec3()).collect();
     let magnitude = points
         .iter()
         .map(|p| p.abs().max_element())
         .fold(0.0f64, f64::max);
-    let g = RELATIVE_TOLERANCE * magnitude.max(f64::MIN_POSITIVE);
+    let (lo, hi) = points.iter().fold(
+        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |(lo, hi), &p| (lo.min(p), hi.max(p)),
+    );
+    let extent = (hi - lo).max_element().max(0.0);
+    let g = (RELATIVE_TOLERANCE * extent)
+        .max(WELD_ULPS * f64::from(f32::EPSILON) * magnitude)
+        .max(f64::MIN_POSITIVE);
     let cell = |p: DVec3| (p / g).floor().as_i64vec3();
     let mut grid: std::collections::HashMap<glam::I64Vec3, Vec<u32>> = Default::default();
     let mut id = Vec::with_capacity(points.len());
