@@ -276,8 +276,15 @@ fn error_zero_or_absurd_resolution() {
     expect_failure(
         dir.path(),
         "default",
-        &["--height", "100000"],
+        &["--width", "64", "--height", "100000"],
         &["height 100000"],
+    );
+    // Alone, --height keeps the camera's 4:3 aspect: the width it implies is out of range too.
+    expect_failure(
+        dir.path(),
+        "default",
+        &["--height", "100000"],
+        &["width 133333"],
     );
     let (dir, toml) = exported();
     let broken = toml.replacen("resolution = [640, 480]", "resolution = [0, 480]", 1);

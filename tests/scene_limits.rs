@@ -252,8 +252,9 @@ fn cmo_count_has_one_limit_in_files_and_on_the_command_line() {
     let dir = tempfile::tempdir().unwrap();
     let cli = |n: u32| {
         Command::new(env!("CARGO_BIN_EXE_cubetrace"))
-            .args(["render", "default", "--method", "reference", "--width", "4"])
-            .args(["--height", "3", "-o", "x.png", "--cmos", &n.to_string()])
+            .args(["render", "default", "--method", "compute", "--width", "4"])
+            .args(["--height", "3", "--cube-size", "8", "-o", "x.png"])
+            .args(["--cmos", &n.to_string()])
             .current_dir(dir.path())
             .env("XDG_RUNTIME_DIR", std::env::temp_dir())
             .output()
