@@ -287,7 +287,7 @@ impl FrameRanges {
             // capture a surface it lies in, which mirror rays may still meet, so a centre on
             // one is refused by the precision check (distance ~0), unlike the eye, which sees
             // nothing of that surface in the reference either.
-            .filter_map(|(k, &c)| world.nearest_triangle(c, &captured).map(|n| (k, named(n))))
+            .filter_map(|(k, &c)| world.nearest_triangle(c, captured).map(|n| (k, named(n))))
             .min_by(|a, b| a.1.distance.total_cmp(&b.1.distance));
         let capture_near = cmo
             .as_ref()
