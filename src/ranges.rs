@@ -29,7 +29,9 @@
 //! at z = -2e4). The G-buffer and capture passes cull such triangles
 //! (`spirv/shared/eye_plane.wgsl`). A viewpoint within that rounding bound of a plane but off
 //! it, in f64, sees the triangle in the reference where the passes cull it: refused
-//! ([`RangeError::EdgeOn`], with the distance to move it).
+//! ([`RangeError::EdgeOn`], with the distance to move it). A CMO centre in the plane of a
+//! surface it captures is refused outright (the precision check, its nearest surface at
+//! distance ~0): the CMO cannot capture that surface, and mirror rays may still meet it.
 //!
 //! # What f32 cannot hold
 //! Reflected rays start at G-buffer positions and CMO-local coordinates are `x - c`, both in f32
@@ -116,17 +118,15 @@ fn plane_offset(p: Vec3, tri: &[Vec3; 3], local: bool) -> (f64, f64, f64) {
     }
 }
 
-/// [`WorldGeometry::nearest_triangle`] as the GPU passes see it: where that triangle touches
-/// `p` (nearer than the edge-on test's scale), the nearest one not culled as edge-on (within
-/// a quarter of the bound of `spirv/shared/eye_plane.wgsl`, which the f32 test surely culls)
-/// instead. The eye or
-/// a CMO centre in a wall's plane then keeps a near plane and a precision bound from what is
-/// drawn.
+/// [`WorldGeometry::nearest_triangle`] as the G-buffer sees it from the eye `p`: where that
+/// triangle touches `p` (nearer than the edge-on test's scale), the nearest one not culled as
+/// edge-on (within a quarter of the bound of `spirv/shared/eye_plane.wgsl`, which the f32 test
+/// surely culls) instead. An eye in a wall's plane then keeps a near plane from what is drawn.
+/// (A CMO centre takes every captured triangle: one in a surface's plane is refused.)
 fn nearest_seen(
     world: &WorldGeometry,
     p: Vec3,
     keep: &dyn Fn(&ObjectInfo) -> bool,
-    local: bool,
 ) -> Option<(f64, u32)> {
     let first = world.nearest_triangle(p, keep)?;
     if first.0 > crate::camera::EYE_PLANE_BOUND * (f64::from(p.length()) + 1.0) {
@@ -144,7 +144,7 @@ fn nearest_seen(
         if best.is_some_and(|(bd, _)| d >= bd) {
             continue;
         }
-        let (offset, bound, _) = plane_offset(p, &tri, local);
+        let (offset, bound, _) = plane_offset(p, &tri, false);
         if offset.is_nan() || offset > 0.25 * bound {
             best = Some((d, o));
         }
@@ -274,7 +274,7 @@ impl FrameRanges {
             distance: d as f32,
             object: world.objects[id as usize].name.clone(),
         };
-        let eye = nearest_seen(&world, camera.eye, &|_| true, false).map(named);
+        let eye = nearest_seen(&world, camera.eye, &|_| true).map(named);
         let near = eye.as_ref().map_or(floor, |c| {
             (0.5 * c.distance * camera.corner_cos()).max(floor)
         });
