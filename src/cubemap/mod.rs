@@ -8,6 +8,7 @@
 //! - [`frustum`] gives the `t` interval of a ray segment in a cell's frustum; [`pyramid`] the
 //!   `[min, max]` hierarchies (2x2 mips and the alternating 8x4/4x8 one).
 
+pub mod bounds;
 pub mod face;
 pub mod frustum;
 pub mod pyramid;
