@@ -447,7 +447,9 @@ pub fn texel_bound(
         d_min = d_min.min(dot3(q.p[i], w));
         r_max = r_max.max(dot3(q.p[i], q.p[i]).sqrt());
     }
-    Some(((d_min - rect.e).max(0.0), r_max + rect.e))
+    // `lo > 0 ? lo : 0`: no -0.0 (the GPU orders `lo` by its bits) and a NaN is 0.
+    let lo = d_min - rect.e;
+    Some((if lo > 0.0 { lo } else { 0.0 }, r_max + rect.e))
 }
 
 /// Step 6 for one texel: sorts `list` by `(lo, triangle)`, keeps `depth`, returns
