@@ -736,6 +736,23 @@ mod tests {
         }
     }
 
+    /// Möller-Trumbore from the origin along `d` (edges inclusive): the hit's `t`.
+    fn ray_hits(d: Vec3, p: [Vec3; 3]) -> Option<f32> {
+        let e1 = p[1] - p[0];
+        let e2 = p[2] - p[0];
+        let h = d.cross(e2);
+        let a = e1.dot(h);
+        if a == 0.0 {
+            return None;
+        }
+        let s = -p[0];
+        let u = s.dot(h) / a;
+        let q = s.cross(e1);
+        let v = d.dot(q) / a;
+        let t = e2.dot(q) / a;
+        (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > 0.0).then_some(t)
+    }
+
     /// Captured by the centre rays only (the `exact` criterion's capture): a triangle is in a
     /// texel's list when the texel's centre ray hits it.
     fn centre_sampled(tris: &[[Vec3; 3]], centre: Vec3, size: u32) -> TexelLists {
@@ -745,11 +762,11 @@ mod tests {
             let d = texel_centre_dir(Texel::from_index(i, size), size).normalize();
             for (t, tri) in tris.iter().enumerate() {
                 let p = [tri[0] - centre, tri[1] - centre, tri[2] - centre];
-                if let Some(h) = crate::cpu::watertight::intersect(Vec3::ZERO, d, p) {
+                if let Some(t_hit) = ray_hits(d, p) {
                     list.push(Entry {
                         triangle: t as u32,
-                        lo: h.t,
-                        hi: h.t,
+                        lo: t_hit,
+                        hi: t_hit,
                     });
                 }
             }

@@ -37,6 +37,7 @@ use crate::vk::backend::error::{VkError, VkResult};
 use crate::vk::backend::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
 use crate::vk::backend::shaders::CAPTURE_LISTS;
 use crate::vk::backend::sync::{ALL, ALL_READS, COMPUTE_READ, COMPUTE_WRITE, TRANSFER_WRITE};
+use crate::vk::backend::timestamps::{Scope, Timestamps};
 
 /// WGSL `ListsParams`.
 #[repr(C)]
@@ -164,6 +165,52 @@ fn linear_groups(invocations: u64) -> [u32; 3] {
     [x, invocations.div_ceil(u64::from(ROW)).max(1) as u32, 1]
 }
 
+/// `(K, texels, triangles)` of a [`CaptureLists::new`] call, or why it cannot run.
+fn check_inputs(
+    scene: &SceneBuffers,
+    size: u32,
+    depth: u32,
+    cmos: &[(Vec3, bool)],
+    capacity: PoolBound,
+    distance: Option<&Buffer>,
+) -> VkResult<(u64, u64, u64)> {
+    let usage = |detail: String| VkError::Usage {
+        what: CAPTURE_LISTS.name.into(),
+        detail,
+    };
+    let k = cmos.len() as u64;
+    let texels = k * u64::from(FACE_COUNT) * u64::from(size) * u64::from(size);
+    if k == 0 || size == 0 || size > 2048 || depth == 0 || depth > MAX_DEPTH {
+        return Err(usage(format!(
+            "{k} CMOs of size {size}, depth {depth}: need at least one CMO, 1 <= N <= 2048 \
+             and 1 <= depth <= {MAX_DEPTH}"
+        )));
+    }
+    let triangles = u64::from(scene.index_count / 3);
+    if texels > u64::from(u32::MAX / 2)
+        || triangles * 6 * k > u64::from(u32::MAX / 2)
+        || capacity.jobs > u64::from(u32::MAX / 2)
+        || capacity.nodes > u64::from(u32::MAX / 2)
+    {
+        return Err(usage(format!(
+            "{k} CMOs of size {size}, {triangles} triangles, {} jobs, {} nodes overflow the \
+             shader's u32 indices",
+            capacity.jobs, capacity.nodes
+        )));
+    }
+    if let Some(d) = distance
+        && d.size() < texels * 4
+    {
+        return Err(usage(format!(
+            "distance buffer `{}` has {} bytes, {texels} texels need {}",
+            d.name(),
+            d.size(),
+            texels * 4
+        )));
+    }
+    Ok((k, texels, triangles))
+}
+
 /// The three pipelines, their bindings and buffers for one scene and CMO set.
 pub struct CaptureLists {
     jobs: ComputePipeline,
@@ -212,40 +259,7 @@ impl CaptureLists {
         capacity: PoolBound,
         distance: Option<&Buffer>,
     ) -> VkResult<Self> {
-        let usage = |detail: String| VkError::Usage {
-            what: CAPTURE_LISTS.name.into(),
-            detail,
-        };
-        let k = cmos.len() as u64;
-        let texels = k * u64::from(FACE_COUNT) * u64::from(size) * u64::from(size);
-        if k == 0 || size == 0 || size > 2048 || depth == 0 || depth > MAX_DEPTH {
-            return Err(usage(format!(
-                "{k} CMOs of size {size}, depth {depth}: need at least one CMO, 1 <= N <= 2048 \
-                 and 1 <= depth <= {MAX_DEPTH}"
-            )));
-        }
-        let triangles = u64::from(scene.index_count / 3);
-        if texels > u64::from(u32::MAX / 2)
-            || triangles * 6 * k > u64::from(u32::MAX / 2)
-            || capacity.jobs > u64::from(u32::MAX / 2)
-            || capacity.nodes > u64::from(u32::MAX / 2)
-        {
-            return Err(usage(format!(
-                "{k} CMOs of size {size}, {triangles} triangles, {} jobs, {} nodes overflow the \
-                 shader's u32 indices",
-                capacity.jobs, capacity.nodes
-            )));
-        }
-        if let Some(d) = distance
-            && d.size() < texels * 4
-        {
-            return Err(usage(format!(
-                "distance buffer `{}` has {} bytes, {texels} texels need {}",
-                d.name(),
-                d.size(),
-                texels * 4
-            )));
-        }
+        let (k, texels, triangles) = check_inputs(scene, size, depth, cmos, capacity, distance)?;
         let params = ListsParams {
             size,
             depth,
@@ -342,7 +356,26 @@ impl CaptureLists {
     /// Records the capture: clears, `jobs`, `texels`, `resolve`, with barriers between them and
     /// one after (compute writes -> every later read). The barrier before (after whatever last
     /// read the buffers) is `ALL -> TRANSFER_WRITE`, recorded here too.
-    pub fn record(&self, rec: &Recorder<'_>) {
+    pub fn record(&self, rec: &Recorder<'_>) -> VkResult<()> {
+        self.record_timed(rec, None)
+    }
+
+    /// [`CaptureLists::record`] with one timestamp scope per pass (`capture_lists.jobs`,
+    /// `capture_lists.texels`, `capture_lists.resolve`; the clears go with `jobs`).
+    pub fn record_timed(
+        &self,
+        rec: &Recorder<'_>,
+        mut ts: Option<&mut Timestamps>,
+    ) -> VkResult<()> {
+        let scope = |ts: &mut Option<&mut Timestamps>, name: &str| -> VkResult<_> {
+            ts.as_deref_mut().map(|t| t.begin(rec, name)).transpose()
+        };
+        let end = |ts: &mut Option<&mut Timestamps>, s: Option<Scope>| {
+            if let (Some(t), Some(s)) = (ts.as_deref_mut(), s) {
+                t.end(rec, s);
+            }
+        };
+        let s = scope(&mut ts, "capture_lists.jobs")?;
         rec.memory_barrier(ALL, TRANSFER_WRITE);
         rec.fill_buffer(&self.heads, NIL);
         rec.fill_buffer(&self.overflow, f32::INFINITY.to_bits());
@@ -352,13 +385,19 @@ impl CaptureLists {
         let rw = (COMPUTE_READ.0, COMPUTE_READ.1 | COMPUTE_WRITE.1);
         let (s0, s1) = &self.sets[0];
         self.jobs.dispatch(rec, &[s0, s1], self.jobs_groups);
+        end(&mut ts, s);
         rec.memory_barrier(COMPUTE_WRITE, rw);
+        let s = scope(&mut ts, "capture_lists.texels")?;
         let (s0, s1) = &self.sets[1];
         self.texels.dispatch(rec, &[s0, s1], self.texels_groups);
+        end(&mut ts, s);
         rec.memory_barrier(COMPUTE_WRITE, rw);
+        let s = scope(&mut ts, "capture_lists.resolve")?;
         let (s0, s1) = &self.sets[2];
         self.resolve.dispatch(rec, &[s0, s1], self.resolve_groups);
+        end(&mut ts, s);
         rec.memory_barrier(COMPUTE_WRITE, ALL_READS);
+        Ok(())
     }
 
     /// Per texel `[head, bits(complete_to), bits(hi), count_kept]` (module docs).
@@ -474,6 +513,9 @@ mod tests {
         )
         .unwrap();
         check_layout!(ListNode, l("ListsNode"), [triangle, lo, hi, next]).unwrap();
+        // Negative: a field missing or another struct's layout.
+        assert!(check_layout!(ListNode, l("ListsNode"), [triangle, lo, hi]).is_err());
+        assert!(check_layout!(ListNode, l("ListsView"), [triangle, lo, hi, next]).is_err());
         check_layout!(
             ListCounters,
             l("ListsCounters"),
@@ -483,7 +525,9 @@ mod tests {
                 nodes,
                 nodes_dropped,
                 walks_capped,
-                tiles_capped
+                tiles_capped,
+                _pad0,
+                _pad1
             ]
         )
         .unwrap();
