@@ -55,7 +55,24 @@ fn cb_lerp(pi: vec3<f32>, po: vec3<f32>, s: f32) -> vec3<f32> {
     return vec3<f32>(pi.x + prod(po.x - pi.x, s), pi.y + prod(po.y - pi.y, s), pi.z + prod(po.z - pi.z, s));
 }
 
-// `clip`: Sutherland-Hodgman against `cb_plane_value(., kind, k) >= 0`.
+// Appends `v` to `out` (or flags the overflow). The store goes through constant indices (a
+// loop the compiler unrolls): lavapipe turns a store at a per-lane index into a loop over lanes.
+fn cb_push(out: ptr<function, CbPoly>, v: vec3<f32>) {
+    let n = (*out).n;
+    if n < CB_MAX_POLY {
+        for (var k = 0u; k < CB_MAX_POLY; k++) {
+            if k == n {
+                (*out).p[k] = v;
+            }
+        }
+        (*out).n = n + 1u;
+    } else {
+        (*out).overflow = 1u;
+    }
+}
+
+// `clip`: Sutherland-Hodgman against `cb_plane_value(., kind, k) >= 0`. The vertex loop has a
+// constant trip count (unrolled; constant indices) and skips the unused slots.
 fn cb_clip(poly: CbPoly, kind: u32, k: f32) -> CbPoly {
     var out: CbPoly;
     out.n = 0u;
@@ -63,42 +80,40 @@ fn cb_clip(poly: CbPoly, kind: u32, k: f32) -> CbPoly {
     if poly.n == 0u {
         return out;
     }
-    var a = poly.p[poly.n - 1u];
+    // The last vertex, through constant indices.
+    var a = poly.p[0];
+    for (var i = 1u; i < CB_MAX_POLY; i++) {
+        if i == poly.n - 1u {
+            a = poly.p[i];
+        }
+    }
     var fa = cb_plane_value(a, kind, k);
-    for (var i = 0u; i < poly.n; i++) {
-        let b = poly.p[i];
-        let fb = cb_plane_value(b, kind, k);
-        let a_in = fa >= 0.0;
-        let b_in = fb >= 0.0;
-        if a_in != b_in {
-            var pi = b;
-            var fi = fb;
-            var po = a;
-            var fo = fa;
-            if a_in {
-                pi = a;
-                fi = fa;
-                po = b;
-                fo = fb;
+    for (var i = 0u; i < CB_MAX_POLY; i++) {
+        if i < poly.n {
+            let b = poly.p[i];
+            let fb = cb_plane_value(b, kind, k);
+            let a_in = fa >= 0.0;
+            let b_in = fb >= 0.0;
+            if a_in != b_in {
+                var pi = b;
+                var fi = fb;
+                var po = a;
+                var fo = fa;
+                if a_in {
+                    pi = a;
+                    fi = fa;
+                    po = b;
+                    fo = fb;
+                }
+                let s = min(fi / (fi - fo), 1.0);
+                cb_push(&out, cb_lerp(pi, po, s));
             }
-            let s = min(fi / (fi - fo), 1.0);
-            if out.n < CB_MAX_POLY {
-                out.p[out.n] = cb_lerp(pi, po, s);
-                out.n += 1u;
-            } else {
-                out.overflow = 1u;
+            if b_in {
+                cb_push(&out, b);
             }
+            a = b;
+            fa = fb;
         }
-        if b_in {
-            if out.n < CB_MAX_POLY {
-                out.p[out.n] = b;
-                out.n += 1u;
-            } else {
-                out.overflow = 1u;
-            }
-        }
-        a = b;
-        fa = fb;
     }
     return out;
 }
