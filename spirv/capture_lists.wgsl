@@ -6,7 +6,8 @@
 //   fit the job buffer (or a rect of more than `LISTS_TILE_CAP` tiles) sets its face's
 //   `lists_face_overflow` to 0: every texel of that face is then unknown from distance 0 (sound).
 // - `texels`: 16x16 workgroups over the jobs (grid-stride); an invocation tests its texel of the
-//   job's tile (step 5, `cb_texel_bound`) and pushes a node `{triangle, lo, hi, next}` onto the
+//   job's tile (step 5: the column's u clips once per column in workgroup memory, then the v
+//   clips, `cb_texel_column` + `cb_texel_finish`) and pushes a node `{triangle, lo, hi, next}` onto the
 //   texel's list (`lists_heads`, atomicExchange). With the node pool full the texel's
 //   `lists_overflow` takes the atomicMin of the lost entry's `lo` bits (non-negative floats
 //   order as u32) and `nodes_dropped` counts it.
@@ -154,6 +155,12 @@ fn jobs(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
 }
 
+// The 16 column polygons of the current job's tile (step 5's u clips, shared by a column's 16
+// texels: `cb_texel_column`, computed by the invocations of row 0).
+var<workgroup> lists_columns: array<CbPoly, 16>;
+
+// Every loop and barrier here is in control flow uniform over the workgroup: the job loop
+// depends on the workgroup ID and the job count (fixed since the `jobs` pass), nothing else.
 @compute @workgroup_size(16, 16)
 fn texels(
     @builtin(local_invocation_id) lid: vec3<u32>,
@@ -167,14 +174,19 @@ fn texels(
         let job = lists_jobs[j];
         let x = (job.rect_x & 0xffffu) + (job.tile & 0xffffu) * CB_TILE + lid.x;
         let y = (job.rect_y & 0xffffu) + (job.tile >> 16u) * CB_TILE + lid.y;
+        let cmo = job.cmo_face / 6u;
+        let face = job.cmo_face % 6u;
+        let centre = lists_views[cmo].centre;
+        let l0 = to_face_local(face, lists_vertex(job.triangle, 0u) - centre);
+        let l1 = to_face_local(face, lists_vertex(job.triangle, 1u) - centre);
+        let l2 = to_face_local(face, lists_vertex(job.triangle, 2u) - centre);
+        let whole = job.whole != 0u;
+        if lid.y == 0u && x <= (job.rect_x >> 16u) {
+            lists_columns[lid.x] = cb_texel_column(l0, l1, l2, whole, job.m, x, size);
+        }
+        workgroupBarrier();
         if x <= (job.rect_x >> 16u) && y <= (job.rect_y >> 16u) {
-            let cmo = job.cmo_face / 6u;
-            let face = job.cmo_face % 6u;
-            let centre = lists_views[cmo].centre;
-            let l0 = to_face_local(face, lists_vertex(job.triangle, 0u) - centre);
-            let l1 = to_face_local(face, lists_vertex(job.triangle, 1u) - centre);
-            let l2 = to_face_local(face, lists_vertex(job.triangle, 2u) - centre);
-            let b = cb_texel_bound(l0, l1, l2, job.whole != 0u, job.m, job.e, x, y, size);
+            let b = cb_texel_finish(lists_columns[lid.x], l0, l1, l2, whole, job.m, job.e, x, y, size);
             if b.hit {
                 let texel = (job.cmo_face * size + y) * size + x;
                 let node = atomicAdd(&lists_counters.nodes, 1u);
@@ -189,6 +201,8 @@ fn texels(
                 }
             }
         }
+        // The next job overwrites the columns.
+        workgroupBarrier();
     }
 }
 

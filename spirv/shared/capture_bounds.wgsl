@@ -224,11 +224,21 @@ struct CbBound {
     hit: bool,
 }
 
-fn cb_texel_bound(l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>, whole: bool, m: f32, e: f32, x: u32, y: u32, size: u32) -> CbBound {
+// Step 5's first half: the triangle clipped to column x's planes (widened by m); the whole
+// triangle for a `whole` rect.
+fn cb_texel_column(l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>, whole: bool, m: f32, x: u32, size: u32) -> CbPoly {
     var q = cb_triangle(l0, l1, l2);
     if !whole {
         q = cb_clip(q, CB_PLANE_U_MIN, face_coord(x, size) - m);
         q = cb_clip(q, CB_PLANE_U_MAX, face_coord(x + 1u, size) + m);
+    }
+    return q;
+}
+
+// Step 5's second half, from the column polygon `column` (`cb_texel_column`).
+fn cb_texel_finish(column: CbPoly, l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>, whole: bool, m: f32, e: f32, x: u32, y: u32, size: u32) -> CbBound {
+    var q = column;
+    if !whole {
         q = cb_clip(q, CB_PLANE_V_MIN, face_coord(y, size) - m);
         q = cb_clip(q, CB_PLANE_V_MAX, face_coord(y + 1u, size) + m);
         if q.overflow != 0u {
@@ -240,10 +250,17 @@ fn cb_texel_bound(l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>, whole: bool, m: f
     let w = cb_texel_centre_unit(x, y, size);
     var d_min = f32_inf();
     var r_max = 0.0;
-    for (var i = 0u; i < q.n; i++) {
-        d_min = min(d_min, cb_dot(q.p[i], w));
-        r_max = max(r_max, sqrt(cb_dot(q.p[i], q.p[i])));
+    for (var i = 0u; i < CB_MAX_POLY; i++) {
+        if i < q.n {
+            d_min = min(d_min, cb_dot(q.p[i], w));
+            r_max = max(r_max, sqrt(cb_dot(q.p[i], q.p[i])));
+        }
     }
     let lo = d_min - e;
     return CbBound(select(0.0, lo, lo > 0.0), r_max + e, true);
+}
+
+// `texel_bound`: (lo, hi, hit) of the face-local triangle in texel (x, y).
+fn cb_texel_bound(l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>, whole: bool, m: f32, e: f32, x: u32, y: u32, size: u32) -> CbBound {
+    return cb_texel_finish(cb_texel_column(l0, l1, l2, whole, m, x, size), l0, l1, l2, whole, m, e, x, y, size);
 }
