@@ -2,10 +2,10 @@
 // `src/cubemap/bounds.rs`, whose module docs derive the bounds; `src/vk/passes/capture_lists.rs`
 // records the three passes, each over every CMO in one dispatch):
 // - `jobs`: one invocation per (triangle, CMO, face): steps 1-4 (`cb_face_rect`), then one job
-//   per 16x16 tile of the texel rect, appended through `lists_counters.jobs`. A job that does not
+//   per 8x8 tile of the texel rect, appended through `lists_counters.jobs`. A job that does not
 //   fit the job buffer (or a rect of more than `LISTS_TILE_CAP` tiles) sets its face's
 //   `lists_face_overflow` to 0: every texel of that face is then unknown from distance 0 (sound).
-// - `texels`: 16x16 workgroups over the jobs (grid-stride); an invocation tests its texel of the
+// - `texels`: 8x8 workgroups over the jobs (grid-stride); an invocation tests its texel of the
 //   job's tile (step 5: the column's u clips once per column in workgroup memory, then the v
 //   clips, `cb_texel_column` + `cb_texel_finish`) and pushes a node `{triangle, lo, hi, next}` onto the
 //   texel's list (`lists_heads`, atomicExchange). With the node pool full the texel's
@@ -28,9 +28,9 @@ const SCENE_GROUP: u32 = 0u;
 //! import shared/capture_bounds.wgsl
 
 const LISTS_NIL: u32 = 0xffffffffu;
-// Tiles one (triangle, face) may emit: a whole face of N = 2048 (the loop stays far below
-// lavapipe's 65535 back-edges).
-const LISTS_TILE_CAP: u32 = 16384u;
+// Tiles one (triangle, face) may emit (its loop stays below lavapipe's 65535 back-edges per
+// invocation): a whole face up to N = 1952; beyond, such a face is unknown (`tiles_capped`).
+const LISTS_TILE_CAP: u32 = 60000u;
 
 struct ListsParams {
     size: u32,
@@ -155,13 +155,13 @@ fn jobs(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
 }
 
-// The 16 column polygons of the current job's tile (step 5's u clips, shared by a column's 16
+// The 8 column polygons of the current job's tile (step 5's u clips, shared by a column's 8
 // texels: `cb_texel_column`, computed by the invocations of row 0).
-var<workgroup> lists_columns: array<CbPoly, 16>;
+var<workgroup> lists_columns: array<CbPoly, 8>;
 
 // Every loop and barrier here is in control flow uniform over the workgroup: the job loop
 // depends on the workgroup ID and the job count (fixed since the `jobs` pass), nothing else.
-@compute @workgroup_size(16, 16)
+@compute @workgroup_size(8, 8)
 fn texels(
     @builtin(local_invocation_id) lid: vec3<u32>,
     @builtin(workgroup_id) wid: vec3<u32>,

@@ -9,7 +9,7 @@ const CB_E_SCALE: f32 = 0.000003814697265625; // 2^-18
 const CB_FACE_DILATION: f32 = 0.0078125; // 2^-7
 const CB_MARGIN_FLOOR: f32 = 0.00000095367431640625; // 2^-20
 const CB_NEAR_BOX: f32 = 1024.0;
-const CB_TILE: u32 = 16u;
+const CB_TILE: u32 = 8u;
 
 const CB_PLANE_U_MIN: u32 = 0u;
 const CB_PLANE_U_MAX: u32 = 1u;

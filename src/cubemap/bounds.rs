@@ -85,7 +85,7 @@
 //! `A`, perimeter `L`) dilated by `r = sqrt(2) (2 m + 2 / N)` (the margin, P's own error `<= m`,
 //! the texel's diagonal), whose area is `<= A + L r + pi r^2` (Steiner, P convex); divided by
 //! the texel area `(2 / N)^2`, widened by `(1 + 2^-10)` and `+ 4` for rounding, and capped by the
-//! rect's texel count. The GPU's job buffer holds one job per 16x16 tile of every rect.
+//! rect's texel count. The GPU's job buffer holds one job per 8x8 tile of every rect.
 //!
 //! # Capacity
 //! A convex polygon clipped by k planes has at most `3 + k` vertices (7 after four); rounding
@@ -258,7 +258,7 @@ impl FaceRect {
         u64::from(self.x1 - self.x0 + 1) * u64::from(self.y1 - self.y0 + 1)
     }
 
-    /// 16x16 tiles covering the rect (the GPU's jobs), aligned to the rect's corner.
+    /// 8x8 tiles covering the rect (the GPU's jobs), aligned to the rect's corner.
     pub fn tiles(&self) -> u64 {
         u64::from((self.x1 - self.x0) / TILE + 1) * u64::from((self.y1 - self.y0) / TILE + 1)
     }
@@ -278,8 +278,8 @@ impl FaceRect {
     }
 }
 
-/// Texels per side of a GPU job tile.
-pub const TILE: u32 = 16;
+/// Texels per side of a GPU job tile (the `texels` pass's workgroup is TILE x TILE).
+pub const TILE: u32 = 8;
 
 /// The triangle in the face's local frame, CMO-local: `to_face_local(face, v_i - centre)`.
 pub fn face_local(tri: &[Vec3; 3], centre: Vec3, face: u32) -> [Vec3; 3] {
@@ -537,7 +537,7 @@ pub fn capture_lists_with(
     out
 }
 
-/// Capacities one CMO's capture needs: GPU jobs (16x16 tiles of every rect) and nodes (the
+/// Capacities one CMO's capture needs: GPU jobs (8x8 tiles of every rect) and nodes (the
 /// Steiner bound, summed).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct PoolBound {

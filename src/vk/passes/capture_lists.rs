@@ -4,7 +4,7 @@
 //!
 //! Invariants:
 //! - Three dispatches over every CMO at once: `jobs` (one invocation per (triangle, CMO, face),
-//!   one job per 16x16 tile of its texel rect), `texels` (a node per touched texel, pushed onto
+//!   one job per 8x8 tile of its texel rect), `texels` (a node per touched texel, pushed onto
 //!   the texel's linked list), `resolve` (the `depth` smallest `(lo, triangle)` sorted at the
 //!   head of each list, then the per-texel record and `lo`). [`CaptureLists::record`] clears the
 //!   heads, overflows and counters first and records the barriers between the passes and one
@@ -16,10 +16,10 @@
 //!   distance buffer ([`CaptureLists::distance`], or the caller's, e.g. the CMO distance, see
 //!   [`CaptureLists::new`]). Meanings: [`crate::cubemap::bounds::TexelLists`].
 //! - Capacities come from the CPU ([`capacity`], the same f32 rect as the GPU's, so the job
-//!   buffer never fills on a conforming driver). A full job buffer (or a rect over 16384 tiles)
-//!   makes its whole face unknown (`complete_to = 0`); a full node pool lowers the texel's
-//!   `complete_to` to the lost entry's `lo`; a list walk capped at `walk_cap` node visits
-//!   (lavapipe's loop limit) sets `complete_to = 0`. All three are counted ([`ListCounters`]).
+//!   buffer never fills on a conforming driver). A full job buffer (or a rect over 60000 tiles:
+//!   a whole face beyond N = 1952) makes its whole face unknown (`complete_to = 0`); a full
+//!   node pool lowers the texel's `complete_to` to the lost entry's `lo`; a list walk capped at
+//!   `walk_cap` node visits (lavapipe's loop limit) sets `complete_to = 0`. All three are counted ([`ListCounters`]).
 //! - Which triangles: captured objects' (`GpuObject::captured`), reflectors only for a CMO with
 //!   `reflectors` set (the capture's rule), with no facing cull.
 use ash::vk;
