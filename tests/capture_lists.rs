@@ -3,7 +3,7 @@
 //!   the near box, two CMOs, one capturing the reflectors) and a built-in scene at N = 16 and
 //!   32: per texel the same entries (ids in order, `lo`/`hi` bits equal), the same `complete_to`,
 //!   texel `lo` (the distance buffer) and `hi`, nothing dropped;
-//! - tiny node pools and job buffers: what the GPU keeps is the CPU's, and `complete_to` is at
+//! - tiny node pools, job buffers and list walks: what the GPU keeps is the CPU's, and `complete_to` is at
 //!   most every entry the GPU lost; the loss is counted;
 //! - the capture's cost on a built-in scene at N = 64 and 256 (printed, not asserted).
 //!
@@ -372,6 +372,36 @@ fn tiny_pools_stay_sound() {
         bad.complete_to[i] = f32::INFINITY;
         assert!(check_sound(&bad, &full[0]).is_err());
     }
+    finish_gpu(ctx);
+}
+
+/// A walk cap of 2 node visits: the capped texels are unknown from 0 (sound) and counted.
+#[test]
+fn capped_walks_stay_sound() {
+    let ctx = gpu_context();
+    let (data, cmos) = builtin("sphere-room");
+    let size = 16;
+    let scene = SceneBuffers::new(&ctx, &data).unwrap();
+    let cap = full_capacity(&data, &cmos[..1], size);
+    let mut lists = CaptureLists::new(&ctx, &scene, size, 16, &cmos[..1], cap, None).unwrap();
+    lists.set_walk_cap(&ctx, 2).unwrap();
+    ctx.submit_and_wait("capture_lists", |rec| lists.record(rec))
+        .unwrap();
+    let g = lists.read_back(&ctx, None).unwrap();
+    eprintln!("walk cap 2: {:?}", g.counters);
+    assert!(g.counters.walks_capped > 0);
+    let full = cpu_lists(&data, &cmos[..1], size, u32::MAX);
+    check_sound(&g.cmos[0], &full[0]).unwrap();
+    let zeros = g.cmos[0].complete_to.iter().filter(|&&c| c == 0.0).count();
+    assert_eq!(zeros, g.counters.walks_capped as usize);
+    // Negative: the capped texels' complete_to back at +inf.
+    let mut bad = g.cmos[0].clone();
+    for c in bad.complete_to.iter_mut().filter(|c| **c == 0.0) {
+        *c = f32::INFINITY;
+    }
+    assert!(check_sound(&bad, &full[0]).is_err());
+    drop(lists);
+    drop(scene);
     finish_gpu(ctx);
 }
 

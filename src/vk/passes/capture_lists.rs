@@ -217,7 +217,7 @@ pub struct CaptureLists {
     texels: ComputePipeline,
     resolve: ComputePipeline,
     sets: [(BindGroup, BindGroup); 3],
-    _params: Buffer,
+    params_buf: Buffer,
     _views: Buffer,
     _job_buf: Buffer,
     nodes: Buffer,
@@ -336,7 +336,7 @@ impl CaptureLists {
             texels: texels_pipe,
             resolve,
             sets,
-            _params: params_buf,
+            params_buf,
             _views: views_buf,
             _job_buf: job_buf,
             nodes,
@@ -398,6 +398,13 @@ impl CaptureLists {
         end(&mut ts, s);
         rec.memory_barrier(COMPUTE_WRITE, ALL_READS);
         Ok(())
+    }
+
+    /// Sets the resolve pass's cap on node visits per texel (tests: the capped path).
+    #[doc(hidden)]
+    pub fn set_walk_cap(&mut self, ctx: &GpuContext, walk_cap: u32) -> VkResult<()> {
+        self.params.walk_cap = walk_cap.min(WALK_CAP);
+        ctx.write_buffer(&self.params_buf, &[self.params])
     }
 
     /// Per texel `[head, bits(complete_to), bits(hi), count_kept]` (module docs).
