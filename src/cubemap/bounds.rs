@@ -28,7 +28,8 @@
 //! 4. The rect: the bbox of P's `(x / z, y / z)` widened by `m`, to texels by [`texel_floor`].
 //! 5. Per texel of the rect ([`texel_bound`]): clip the *triangle* (not P: four clips instead
 //!    of eight, half the error) to the texel's cone widened by `m` -> Q; empty: not touched.
-//!    With `w` the f32 unit texel-centre direction, `lo = max(0, min_i dot(q_i, w) - E)`,
+//!    With `w` the f32 unit texel-centre direction, `lo = max(0, min_i dot(q_i, w) - E)`
+//!    (written `lo > 0 ? lo : 0`),
 //!    `hi = max_i |q_i| + E`: `|p| >= dot(p, w)` (Cauchy-Schwarz, `|w| <= 1` up to 2 ulps),
 //!    a linear function's min over a polygon is at a vertex, and `|p|` is convex.
 //! 6. [`resolve_texel`]: sort by `(lo, triangle)`, keep `depth`, `complete_to` = the smallest
@@ -77,8 +78,26 @@
 //! - Step 5's clip of more than [`MAX_POLY`] vertices falls back to the whole triangle for that
 //!   texel.
 //! - Inputs must be finite (the scene loader refuses others); `R` in the normal range.
+//! - Other drivers: Vulkan lets division round to 2.5 ulp and `sqrt` inherit `inversesqrt`'s
+//!   precision, and a driver may fuse `a * b + c`. The GPU's bits may then differ from this
+//!   twin's (lavapipe's do not: `tests/capture_lists.rs`), but the bounds stay sound: a few ulps
+//!   more in `s` (a shifted plane), in `u = x / z` (inside `2^-20`) and in `|w|` (`<= 9 u R`)
+//!   still fit the `16 u R` left in `E`.
 //! - The error terms above are first-order (products of two `u` are dropped); the budget keeps a
 //!   factor `64 / 48` for them.
+//!
+//! # Where this departs from the design (`design22.md`), and why
+//! - `E = 2^-18 R`, not `2^-20 R`: the error chain above needs `48 u R`; `2^-20 R` is `16 u R`.
+//! - Face dilation `2^-7`, not `2^-10`: the face clip is sound only for points with
+//!   `D z > 2 E`, so the near box must be `2 E / D` or larger; with `2^-10` it would be
+//!   `2^-5 R`, with `2^-7` it is `2^-8 R` (the rect grows by `N 2^-8` texels a side, which
+//!   step 5 rejects).
+//! - The near box (step 1) is new: the design's `z_min <= 4 E` test alone does not catch a
+//!   triangle whose part near the centre the face clip itself lost.
+//! - Step 5 clips the triangle (four clips), not P (eight): half the error, same result up to it.
+//! - `lo` is `lo > 0 ? lo : 0` (no `-0.0`, which the GPU's ordering by bits would misplace).
+//! - The pool's `r` is `sqrt(2) (2 m + 2 / N)`: a square margin `m` reaches `sqrt(2) m`, and P's
+//!   own error adds another `m`.
 //!
 //! # Pool
 //! [`pool_bound`]: per (triangle, face), a texel touched lies in P (projected, face units, area
