@@ -124,7 +124,8 @@ pub fn scene_triangles(data: &GpuSceneData, reflectors: bool) -> (Vec<[Vec3; 3]>
         let v = |i: u32| Vec3::from_array(data.vertices[i as usize].position);
         tris.push([v(t[0]), v(t[1]), v(t[2])]);
         let o = &data.objects[data.vertices[t[0] as usize].object as usize];
-        flags.push(o.captured != 0 && (reflectors || o.reflector & 1 == 0));
+        // `scene_is_reflector`: any bit of `reflector` (as the shader tests it).
+        flags.push(o.captured != 0 && (reflectors || o.reflector == 0));
     }
     (tris, flags)
 }
