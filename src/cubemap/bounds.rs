@@ -12,11 +12,582 @@
 //!   the cone is nearer. This is what the CMO's distance (and so its pyramids) holds.
 //! - `hi`: the largest kept `hi` when nothing was dropped, `+inf` when something was, `-inf`
 //!   for an empty texel.
+//!
+//! # Capture (the CPU twin of `spirv/capture_lists.wgsl`)
+//!
+//! Written like a shader (fixed arrays, f32, the same operations in the same order as the WGSL;
+//! every product rounded on its own, see `prod` in `spirv/shared/frustum.wgsl`). Per (triangle,
+//! face), `l_i = to_face_local(face, v_i - centre)` (the permutation is exact):
+//! 1. `R = max(max_i |l_i|_inf, max_i |v_i|_inf, |centre|_inf)`, `E = 2^-18 R` ([`E_SCALE`]).
+//!    A triangle meeting the box `|p|_inf <= 2^10 E` around the centre ([`near_centre`]) gets
+//!    every texel of every face, each with the whole triangle's bounds (below).
+//! 2. [`clip`] the triangle to the face frustum dilated to `u, v in [-1 - 2^-7, 1 + 2^-7]`
+//!    (planes `x - k z >= 0`, `k z - x >= 0`, same in y) -> P. Empty: skip the face.
+//! 3. `z_min = min z over P`; `z_min <= 4 E`: the whole face (cannot happen after 1, kept as a
+//!    guard); else the texel margin `m = 2^-20 + 4 E / z_min` (face units).
+//! 4. The rect: the bbox of P's `(x / z, y / z)` widened by `m`, to texels by [`texel_floor`].
+//! 5. Per texel of the rect ([`texel_bound`]): clip the *triangle* (not P: four clips instead
+//!    of eight, half the error) to the texel's cone widened by `m` -> Q; empty: not touched.
+//!    With `w` the f32 unit texel-centre direction, `lo = max(0, min_i dot(q_i, w) - E)`
+//!    (written `lo > 0 ? lo : 0`),
+//!    `hi = max_i |q_i| + E`: `|p| >= dot(p, w)` (Cauchy-Schwarz, `|w| <= 1` up to 2 ulps),
+//!    a linear function's min over a polygon is at a vertex, and `|p|` is convex.
+//! 6. [`resolve_texel`]: sort by `(lo, triangle)`, keep `depth`, `complete_to` = the smallest
+//!    dropped `lo`.
+//!
+//! # Error budget (why `E = 2^-18 R`; the design's `2^-20 R` is too small for this chain)
+//!
+//! Unit roundoff `u = 2^-24`, absolute errors per component. Every point the capture computes
+//! lies (up to the errors below) in the triangle's hull, so its coordinates are `<= R`, and
+//! differences of two of them `<= 2R`.
+//! - `v_i - centre`: `<= u R` (the exact difference's coordinates are `<= R` by the choice of
+//!   `R`; rounding is relative to the result).
+//! - One clip point `i + (o - i) s` with `s` in `[0, 1]` (clamped): the subtraction `<= 2uR s`-ish,
+//!   the product and the sum `<= 2uR s + uR`, at most `5 u R` in all. An error in `s` itself
+//!   only moves the point *along* the segment (it stays on the triangle): it acts as a shifted
+//!   plane, which the margin covers (next item). Errors of the ends carry over as a convex
+//!   combination, so after the four clips of step 5 a vertex of Q is within `e = 21 u R` per
+//!   component of a point `q'` of the exact triangle (`sqrt(3) e < 37 u R` in length).
+//! - `lo`: `dot(q', w) >= dot(q, w) - 37 u R - 6 u R` (the 3-term dot product rounds by at most
+//!   `3 u sqrt(3) R`), and `|w| <= 1 + 2u` costs `<= 4 u R` more: `< 48 u R < E = 64 u R`.
+//!   `hi`: `|q'| <= |q| + 37 u R` plus the rounding of `sqrt(dot)` (`<= 3 u sqrt(3) R`): `< E`.
+//!
+//! # Why the margin makes inclusion sound
+//!
+//! Sutherland-Hodgman with rounded plane values `f` drops only the region between the computed
+//! chord and the outside vertices; the exact points of that region have `f <= err_f`, where
+//! `err_f` is the plane value's rounding at a clip point (`x - k z` with `|k| <= 3`: `<= 7 u R`)
+//! plus the chord's position error through the plane (`(1 + |k|) e`), below `2 E` in all. A
+//! point `p` of the texel's (closed) cone has `f = (u - x0 + m) z >= m z` for the widened plane,
+//! so it is kept when `m z > 2 E`. Every point of the exact P lies `>= z_min - e` along z, so
+//! `m = 4 E / z_min` (with `z_min >> e`) gives `m z > 2 E`. The `2^-20` in `m` covers the
+//! rounding of the plane constants `x0 - m` (face units `<= 3`, so `<= 2^-22`), of `x / z` and of
+//! [`texel_floor`] (relative `2^-24` of values `<= N`). The rect (step 4) contains every texel
+//! the exact P reaches: `u` of a point moves by `<= e (1 + |u|) / z <= m` under a position error
+//! `e`, and the perspective image of a convex polygon is the hull of its vertices' images.
+//! The face clip of step 2 (dilation `D = 2^-7`) drops no point of the undilated face when
+//! every point there has `D z > 2 E`: true once the triangle misses the near box (a point in the
+//! face cone has `|p|_inf = z > 2^10 E / (1 + D)`).
+//!
+//! # Where it stops being sound, and what is done there
+//! - Near the centre: within the box `|p|_inf <= 2^10 E = 2^-8 R` plane values through the centre
+//!   lose their relative precision. Such a triangle gets every texel of all six faces with
+//!   `lo = max(0, min_i dot(l_i, w) - E)`, `hi = max_i |l_i| + E` over its own three vertices
+//!   (sound for any point of the triangle, however coarse). So does a face whose `z_min <= 4 E`
+//!   or whose clip produced more than [`MAX_POLY`] vertices (only from rounding).
+//! - Step 5's clip of more than [`MAX_POLY`] vertices falls back to the whole triangle for that
+//!   texel.
+//! - Inputs must be finite (the scene loader refuses others); `R` in the normal range.
+//! - Other drivers: Vulkan lets division round to 2.5 ulp and `sqrt` inherit `inversesqrt`'s
+//!   precision, and a driver may fuse `a * b + c`. The GPU's bits may then differ from this
+//!   twin's (lavapipe's do not: `tests/capture_lists.rs`), but the bounds stay sound: a few ulps
+//!   more in `s` (a shifted plane), in `u = x / z` (inside `2^-20`) and in `|w|` (`<= 9 u R`)
+//!   still fit the `16 u R` left in `E`.
+//! - The error terms above are first-order (products of two `u` are dropped); the budget keeps a
+//!   factor `64 / 48` for them.
+//!
+//! # Where this departs from the design (`design22.md`), and why
+//! - `E = 2^-18 R`, not `2^-20 R`: the error chain above needs `48 u R`; `2^-20 R` is `16 u R`.
+//! - Face dilation `2^-7`, not `2^-10`: the face clip is sound only for points with
+//!   `D z > 2 E`, so the near box must be `2 E / D` or larger; with `2^-10` it would be
+//!   `2^-5 R`, with `2^-7` it is `2^-8 R` (the rect grows by `N 2^-8` texels a side, which
+//!   step 5 rejects).
+//! - The near box (step 1) is new: the design's `z_min <= 4 E` test alone does not catch a
+//!   triangle whose part near the centre the face clip itself lost.
+//! - Step 5 clips the triangle (four clips), not P (eight): half the error, same result up to it.
+//! - `lo` is `lo > 0 ? lo : 0` (no `-0.0`, which the GPU's ordering by bits would misplace).
+//! - The pool's `r` is `sqrt(2) (2 m + 2 / N)`: a square margin `m` reaches `sqrt(2) m`, and P's
+//!   own error adds another `m`.
+//!
+//! # Pool
+//! [`pool_bound`]: per (triangle, face), a texel touched lies in P (projected, face units, area
+//! `A`, perimeter `L`) dilated by `r = sqrt(2) (2 m + 2 / N)` (the margin, P's own error `<= m`,
+//! the texel's diagonal), whose area is `<= A + L r + pi r^2` (Steiner, P convex); divided by
+//! the texel area `(2 / N)^2`, widened by `(1 + 2^-10)` and `+ 4` for rounding, and capped by the
+//! rect's texel count. The GPU's job buffer holds one job per 8x8 tile of every rect.
+//!
+//! # Capacity
+//! A convex polygon clipped by k planes has at most `3 + k` vertices (7 after four); rounding
+//! can make a computed polygon slightly non-convex, hence [`MAX_POLY`] = 8 and the overflow
+//! fallbacks above.
 
-use super::face::Texel;
+use glam::Vec3;
+
+use super::face::{FACE_COUNT, Texel, face_coord, to_face_local};
 
 /// Entries kept per texel by default.
 pub const DEFAULT_DEPTH: u32 = 16;
+
+/// Vertices a clipped polygon holds (fixed arrays, as in a shader): a triangle clipped by four
+/// planes has at most 7; one more for rounding (module docs, "Capacity").
+pub const MAX_POLY: usize = 8;
+
+/// `E / R` (module docs, "Error budget").
+pub const E_SCALE: f32 = 1.0 / 262_144.0; // 2^-18
+/// Dilation of the face frustum for the rect (`u, v in [-1 - D, 1 + D]`).
+pub const FACE_DILATION: f32 = 1.0 / 128.0; // 2^-7
+/// Face-unit floor of the texel margin: covers the rounding of plane constants and indices.
+pub const MARGIN_FLOOR: f32 = 1.0 / 1_048_576.0; // 2^-20
+/// Half-size of the box around the centre, in units of `E`, inside which a triangle gets every
+/// texel of every face with its whole-triangle bounds ("Near the centre").
+pub const NEAR_BOX: f32 = 1024.0; // 2^10
+
+/// Rounding knobs: the sound capture, or every margin zero (the negative tests show that the
+/// latter misses triangles). Not a user setting.
+#[doc(hidden)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Margins {
+    /// The derived margins (module docs).
+    Sound,
+    /// `E = 0`, no face dilation, no texel margin, no near-centre rule.
+    Zero,
+}
+
+/// A convex polygon of at most [`MAX_POLY`] vertices; `overflow` when a clip produced more
+/// (only from rounding on a degenerate polygon: the caller falls back to the whole triangle).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Poly {
+    pub p: [Vec3; MAX_POLY],
+    pub n: u32,
+    pub overflow: bool,
+}
+
+impl Poly {
+    /// The triangle as a polygon.
+    pub fn triangle(t: &[Vec3; 3]) -> Poly {
+        let mut p = [Vec3::ZERO; MAX_POLY];
+        p[0] = t[0];
+        p[1] = t[1];
+        p[2] = t[2];
+        Poly {
+            p,
+            n: 3,
+            overflow: false,
+        }
+    }
+
+    fn push(&mut self, v: Vec3) {
+        if (self.n as usize) < MAX_POLY {
+            self.p[self.n as usize] = v;
+            self.n += 1;
+        } else {
+            self.overflow = true;
+        }
+    }
+}
+
+/// Plane kinds of [`plane_value`]: face-local `u >= k`, `u <= k`, `v >= k`, `v <= k` (through
+/// the centre), then the axis box `x <= k`, `x >= -k`, `y <= k`, `y >= -k`, `z <= k`, `z >= -k`.
+pub const PLANE_U_MIN: u32 = 0;
+pub const PLANE_U_MAX: u32 = 1;
+pub const PLANE_V_MIN: u32 = 2;
+pub const PLANE_V_MAX: u32 = 3;
+pub const PLANE_BOX: u32 = 4;
+
+/// The plane function (`>= 0` inside) of kind `kind` with constant `k` at `p`; a product is
+/// rounded on its own (WGSL `prod`).
+pub fn plane_value(p: Vec3, kind: u32, k: f32) -> f32 {
+    match kind {
+        PLANE_U_MIN => p.x - k * p.z,
+        PLANE_U_MAX => k * p.z - p.x,
+        PLANE_V_MIN => p.y - k * p.z,
+        PLANE_V_MAX => k * p.z - p.y,
+        4 => k - p.x,
+        5 => p.x + k,
+        6 => k - p.y,
+        7 => p.y + k,
+        8 => k - p.z,
+        _ => p.z + k,
+    }
+}
+
+/// Sutherland-Hodgman: `poly` clipped to `plane_value(., kind, k) >= 0`. A crossing edge's new
+/// vertex is interpolated from its inside end: `i + (o - i) s`, `s = min(f_i / (f_i - f_o), 1)`.
+pub fn clip(poly: &Poly, kind: u32, k: f32) -> Poly {
+    let mut out = Poly {
+        p: [Vec3::ZERO; MAX_POLY],
+        n: 0,
+        overflow: poly.overflow,
+    };
+    if poly.n == 0 {
+        return out;
+    }
+    let mut a = poly.p[poly.n as usize - 1];
+    let mut fa = plane_value(a, kind, k);
+    for i in 0..poly.n as usize {
+        let b = poly.p[i];
+        let fb = plane_value(b, kind, k);
+        let a_in = fa >= 0.0;
+        let b_in = fb >= 0.0;
+        if a_in != b_in {
+            let (pi, fi, po, fo) = if a_in { (a, fa, b, fb) } else { (b, fb, a, fa) };
+            let s = (fi / (fi - fo)).min(1.0);
+            out.push(pi + (po - pi) * s);
+        }
+        if b_in {
+            out.push(b);
+        }
+        a = b;
+        fa = fb;
+    }
+    out
+}
+
+/// `dot(a, b)` in the shader's order, each product rounded on its own.
+pub fn dot3(a: Vec3, b: Vec3) -> f32 {
+    a.x * b.x + a.y * b.y + a.z * b.z
+}
+
+fn max_abs(v: Vec3) -> f32 {
+    v.x.abs().max(v.y.abs()).max(v.z.abs())
+}
+
+/// Texel column (row) holding face coordinate `u`, clamped: `floor((u + 1) N / 2)` in
+/// `[0, N - 1]`.
+pub fn texel_floor(u: f32, size: u32) -> u32 {
+    let k = ((u + 1.0) * size as f32 * 0.5).floor();
+    k.max(0.0).min((size - 1) as f32) as u32
+}
+
+/// Steps 1-4 for one (triangle, face): what the texels of the face need (module docs).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FaceRect {
+    pub face: u32,
+    /// Texel rect, inclusive: columns `x0..=x1`, rows `y0..=y1`.
+    pub x0: u32,
+    pub x1: u32,
+    pub y0: u32,
+    pub y1: u32,
+    /// Texel margin in face units.
+    pub m: f32,
+    /// Absolute error budget `E`.
+    pub e: f32,
+    /// The triangle passes near the centre (or `z_min <= 4 E`): every texel of the face, each
+    /// with the whole triangle's bounds.
+    pub whole: bool,
+    /// Area and perimeter of the face-clipped polygon P in face units (`(u, v)`), for the pool
+    /// bound; 0 when `whole`.
+    pub area: f32,
+    pub perimeter: f32,
+}
+
+impl FaceRect {
+    /// Texels in the rect.
+    pub fn texels(&self) -> u64 {
+        u64::from(self.x1 - self.x0 + 1) * u64::from(self.y1 - self.y0 + 1)
+    }
+
+    /// 8x8 tiles covering the rect (the GPU's jobs), aligned to the rect's corner.
+    pub fn tiles(&self) -> u64 {
+        u64::from((self.x1 - self.x0) / TILE + 1) * u64::from((self.y1 - self.y0) / TILE + 1)
+    }
+
+    /// The Steiner bound of the texels this (triangle, face) can touch (module docs, "Pool").
+    pub fn steiner(&self, size: u32) -> u64 {
+        if self.whole {
+            return self.texels();
+        }
+        let n = f64::from(size);
+        let r = std::f64::consts::SQRT_2 * (2.0 * f64::from(self.m) + 2.0 / n);
+        let area =
+            f64::from(self.area) + f64::from(self.perimeter) * r + std::f64::consts::PI * r * r;
+        let texel = (2.0 / n) * (2.0 / n);
+        let bound = (area / texel * (1.0 + 1.0 / 1024.0) + 4.0).ceil();
+        (bound as u64).min(self.texels())
+    }
+}
+
+/// Texels per side of a GPU job tile (the `texels` pass's workgroup is TILE x TILE).
+pub const TILE: u32 = 8;
+
+/// The triangle in the face's local frame, CMO-local: `to_face_local(face, v_i - centre)`.
+pub fn face_local(tri: &[Vec3; 3], centre: Vec3, face: u32) -> [Vec3; 3] {
+    [
+        to_face_local(face, tri[0] - centre),
+        to_face_local(face, tri[1] - centre),
+        to_face_local(face, tri[2] - centre),
+    ]
+}
+
+/// Step 1: `E = 2^-18 R`, `R = max(max_i |l_i|_inf, max_i |v_i|_inf, |centre|_inf)`.
+pub fn error_budget(tri: &[Vec3; 3], local: &[Vec3; 3], centre: Vec3) -> f32 {
+    let mut r = max_abs(centre);
+    for i in 0..3 {
+        r = r.max(max_abs(local[i])).max(max_abs(tri[i]));
+    }
+    E_SCALE * r
+}
+
+/// Whether the triangle meets the box `|p|_inf <= NEAR_BOX E` around the centre (clipped by
+/// its six planes; face-independent, the box is symmetric).
+pub fn near_centre(local: &[Vec3; 3], e: f32) -> bool {
+    let h = NEAR_BOX * e;
+    let mut p = Poly::triangle(local);
+    for kind in PLANE_BOX..PLANE_BOX + 6 {
+        p = clip(&p, kind, h);
+    }
+    p.n > 0 || p.overflow
+}
+
+fn whole_face(face: u32, size: u32, e: f32) -> FaceRect {
+    FaceRect {
+        face,
+        x0: 0,
+        x1: size - 1,
+        y0: 0,
+        y1: size - 1,
+        m: 2.0,
+        e,
+        whole: true,
+        area: 0.0,
+        perimeter: 0.0,
+    }
+}
+
+/// Steps 1-4 for one (triangle, face): `None` when the triangle misses the (dilated) face.
+pub fn face_rect(tri: &[Vec3; 3], centre: Vec3, face: u32, size: u32) -> Option<FaceRect> {
+    face_rect_with(tri, centre, face, size, Margins::Sound)
+}
+
+#[doc(hidden)]
+pub fn face_rect_with(
+    tri: &[Vec3; 3],
+    centre: Vec3,
+    face: u32,
+    size: u32,
+    margins: Margins,
+) -> Option<FaceRect> {
+    let l = face_local(tri, centre, face);
+    let sound = margins == Margins::Sound;
+    let e = if sound {
+        error_budget(tri, &l, centre)
+    } else {
+        0.0
+    };
+    if sound && near_centre(&l, e) {
+        return Some(whole_face(face, size, e));
+    }
+    let d = if sound { 1.0 + FACE_DILATION } else { 1.0 };
+    let mut p = Poly::triangle(&l);
+    p = clip(&p, PLANE_U_MIN, -d);
+    p = clip(&p, PLANE_U_MAX, d);
+    p = clip(&p, PLANE_V_MIN, -d);
+    p = clip(&p, PLANE_V_MAX, d);
+    if p.overflow {
+        return Some(whole_face(face, size, e));
+    }
+    if p.n == 0 {
+        return None;
+    }
+    let mut z_min = p.p[0].z;
+    for i in 1..p.n as usize {
+        z_min = z_min.min(p.p[i].z);
+    }
+    if z_min <= 4.0 * e {
+        return Some(whole_face(face, size, e));
+    }
+    let m = if sound {
+        MARGIN_FLOOR + 4.0 * e / z_min
+    } else {
+        0.0
+    };
+    let mut u_lo = f32::INFINITY;
+    let mut u_hi = -f32::INFINITY;
+    let mut v_lo = f32::INFINITY;
+    let mut v_hi = -f32::INFINITY;
+    let mut area = 0.0;
+    let mut perimeter = 0.0;
+    let last = p.p[p.n as usize - 1];
+    let mut prev = (last.x / last.z, last.y / last.z);
+    for i in 0..p.n as usize {
+        let u = p.p[i].x / p.p[i].z;
+        let v = p.p[i].y / p.p[i].z;
+        u_lo = u_lo.min(u);
+        u_hi = u_hi.max(u);
+        v_lo = v_lo.min(v);
+        v_hi = v_hi.max(v);
+        area += prev.0 * v - u * prev.1;
+        perimeter += ((u - prev.0) * (u - prev.0) + (v - prev.1) * (v - prev.1)).sqrt();
+        prev = (u, v);
+    }
+    Some(FaceRect {
+        face,
+        x0: texel_floor(u_lo - m, size),
+        x1: texel_floor(u_hi + m, size),
+        y0: texel_floor(v_lo - m, size),
+        y1: texel_floor(v_hi + m, size),
+        m,
+        e,
+        whole: false,
+        area: 0.5 * area.abs(),
+        perimeter,
+    })
+}
+
+/// The f32 unit direction through a texel's centre, face-local: `d / sqrt(dot(d, d))` as
+/// `d * (1 / sqrt(..))`.
+pub fn texel_centre_unit(x: u32, y: u32, size: u32) -> Vec3 {
+    let n = size as f32;
+    let d = Vec3::new(
+        (2 * x + 1) as f32 / n - 1.0,
+        (2 * y + 1) as f32 / n - 1.0,
+        1.0,
+    );
+    let inv = 1.0 / dot3(d, d).sqrt();
+    d * inv
+}
+
+/// Step 5: `(lo, hi)` of the face-local triangle `local` in texel `(x, y)` of `rect`'s face, or
+/// `None` when it does not touch the texel's cone widened by `rect.m`.
+pub fn texel_bound(
+    local: &[Vec3; 3],
+    rect: &FaceRect,
+    x: u32,
+    y: u32,
+    size: u32,
+) -> Option<(f32, f32)> {
+    let mut q = Poly::triangle(local);
+    if !rect.whole {
+        let m = rect.m;
+        q = clip(&q, PLANE_U_MIN, face_coord(x, size) - m);
+        q = clip(&q, PLANE_U_MAX, face_coord(x + 1, size) + m);
+        q = clip(&q, PLANE_V_MIN, face_coord(y, size) - m);
+        q = clip(&q, PLANE_V_MAX, face_coord(y + 1, size) + m);
+        if q.overflow {
+            q = Poly::triangle(local);
+        } else if q.n == 0 {
+            return None;
+        }
+    }
+    let w = texel_centre_unit(x, y, size);
+    let mut d_min = f32::INFINITY;
+    let mut r_max = 0.0f32;
+    for i in 0..q.n as usize {
+        d_min = d_min.min(dot3(q.p[i], w));
+        r_max = r_max.max(dot3(q.p[i], q.p[i]).sqrt());
+    }
+    // `lo > 0 ? lo : 0`: no -0.0 (the GPU orders `lo` by its bits) and a NaN is 0.
+    let lo = d_min - rect.e;
+    Some((if lo > 0.0 { lo } else { 0.0 }, r_max + rect.e))
+}
+
+/// Step 6 for one texel: sorts `list` by `(lo, triangle)`, keeps `depth`, returns
+/// `(lo, hi, complete_to)` of the texel (module docs).
+pub fn resolve_texel(list: &mut Vec<Entry>, depth: u32) -> (f32, f32, f32) {
+    list.sort_by(|a, b| a.lo.total_cmp(&b.lo).then(a.triangle.cmp(&b.triangle)));
+    let complete_to = list.get(depth as usize).map_or(f32::INFINITY, |e| e.lo);
+    list.truncate(depth as usize);
+    texel_summary(list, complete_to)
+}
+
+/// `(lo, hi, complete_to)` of a texel from its kept (sorted) entries and `complete_to`.
+pub fn texel_summary(kept: &[Entry], complete_to: f32) -> (f32, f32, f32) {
+    let first = kept.first().map_or(f32::INFINITY, |e| e.lo);
+    let hi = if complete_to < f32::INFINITY {
+        f32::INFINITY
+    } else {
+        kept.iter().fold(-f32::INFINITY, |h, e| h.max(e.hi))
+    };
+    (first.min(complete_to), hi, complete_to)
+}
+
+/// Steps 1-6 for one CMO: every triangle `t` with `captured[t]`, every face.
+pub fn capture_lists(
+    triangles: &[[Vec3; 3]],
+    captured: &[bool],
+    centre: Vec3,
+    size: u32,
+    depth: u32,
+) -> TexelLists {
+    capture_lists_with(triangles, captured, centre, size, depth, Margins::Sound)
+}
+
+#[doc(hidden)]
+pub fn capture_lists_with(
+    triangles: &[[Vec3; 3]],
+    captured: &[bool],
+    centre: Vec3,
+    size: u32,
+    depth: u32,
+    margins: Margins,
+) -> TexelLists {
+    let n = size as usize;
+    let mut lists: Vec<Vec<Entry>> = vec![Vec::new(); 6 * n * n];
+    for (t, tri) in triangles.iter().enumerate() {
+        if !captured.get(t).copied().unwrap_or(false) {
+            continue;
+        }
+        for face in 0..FACE_COUNT {
+            let Some(rect) = face_rect_with(tri, centre, face, size, margins) else {
+                continue;
+            };
+            let local = face_local(tri, centre, face);
+            for y in rect.y0..=rect.y1 {
+                for x in rect.x0..=rect.x1 {
+                    if let Some((lo, hi)) = texel_bound(&local, &rect, x, y, size) {
+                        let i = Texel { face, x, y }.index(size);
+                        lists[i].push(Entry {
+                            triangle: t as u32,
+                            lo,
+                            hi,
+                        });
+                    }
+                }
+            }
+        }
+    }
+    let mut out = TexelLists {
+        size,
+        depth,
+        lo: Vec::with_capacity(lists.len()),
+        hi: Vec::with_capacity(lists.len()),
+        complete_to: Vec::with_capacity(lists.len()),
+        offsets: vec![0],
+        entries: Vec::new(),
+    };
+    for mut list in lists {
+        let (lo, hi, complete_to) = resolve_texel(&mut list, depth);
+        out.lo.push(lo);
+        out.hi.push(hi);
+        out.complete_to.push(complete_to);
+        out.entries.extend_from_slice(&list);
+        out.offsets.push(out.entries.len() as u32);
+    }
+    out
+}
+
+/// Capacities one CMO's capture needs: GPU jobs (8x8 tiles of every rect) and nodes (the
+/// Steiner bound, summed).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct PoolBound {
+    pub jobs: u64,
+    pub nodes: u64,
+    /// Texels of every rect (the nodes' trivial bound).
+    pub rect_texels: u64,
+}
+
+/// [`PoolBound`] of one CMO at `centre`.
+pub fn pool_bound(
+    triangles: &[[Vec3; 3]],
+    captured: &[bool],
+    centre: Vec3,
+    size: u32,
+) -> PoolBound {
+    let mut b = PoolBound::default();
+    for (t, tri) in triangles.iter().enumerate() {
+        if !captured.get(t).copied().unwrap_or(false) {
+            continue;
+        }
+        for face in 0..FACE_COUNT {
+            if let Some(rect) = face_rect(tri, centre, face, size) {
+                b.jobs += rect.tiles();
+                b.nodes += rect.steiner(size);
+                b.rect_texels += rect.texels();
+            }
+        }
+    }
+    b
+}
 
 /// One candidate of a texel.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -59,5 +630,348 @@ impl TexelLists {
     pub fn bounds_at(&self, t: Texel) -> (f32, f32, f32) {
         let i = t.index(self.size);
         (self.lo[i], self.hi[i], self.complete_to[i])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cubemap::face::{dir_to_texel, from_face_local, texel_centre_dir};
+
+    /// splitmix64, fixed seed.
+    struct Rng(u64);
+    impl Rng {
+        fn next(&mut self) -> f32 {
+            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = self.0;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
+        }
+        fn range(&mut self, lo: f32, hi: f32) -> f32 {
+            lo + (hi - lo) * self.next()
+        }
+        fn vec(&mut self, s: f32) -> Vec3 {
+            Vec3::new(self.range(-s, s), self.range(-s, s), self.range(-s, s))
+        }
+    }
+
+    /// Small triangles around `centre`: ordinary, thin (a sliver), edge-on (the centre in the
+    /// plane), crossing behind the centre, and near the centre.
+    fn test_triangles(rng: &mut Rng, centre: Vec3, count: usize) -> Vec<[Vec3; 3]> {
+        let mut out = Vec::new();
+        for i in 0..count {
+            let c = centre + rng.vec(3.0);
+            let t = match i % 5 {
+                0 => [c, c + rng.vec(0.6), c + rng.vec(0.6)],
+                1 => {
+                    let a = c + rng.vec(0.8);
+                    let b = c + rng.vec(0.8);
+                    [a, b, a.lerp(b, 0.5) + rng.vec(0.002)]
+                }
+                2 => {
+                    // Edge-on: two directions from the centre span the plane.
+                    let d0 = rng.vec(1.0);
+                    let d1 = rng.vec(1.0);
+                    let p = |s: f32, t: f32| centre + d0 * s + d1 * t;
+                    [p(1.0, 0.1), p(1.2, 0.3), p(0.8, 0.25)]
+                }
+                3 => {
+                    let d = rng.vec(1.0);
+                    [
+                        centre + d * 2.0 + rng.vec(0.3),
+                        centre - d * 1.5,
+                        centre - d + rng.vec(0.5),
+                    ]
+                }
+                _ => {
+                    let d = rng.vec(0.01);
+                    [centre + d, centre + rng.vec(0.5), centre + rng.vec(0.5)]
+                }
+            };
+            out.push(t);
+        }
+        out
+    }
+
+    /// Points of a triangle on a barycentric grid (`k` steps per edge, corners and edges
+    /// included).
+    fn samples(t: &[Vec3; 3], k: u32) -> Vec<Vec3> {
+        let mut out = Vec::new();
+        for i in 0..=k {
+            for j in 0..=k - i {
+                let b1 = i as f32 / k as f32;
+                let b2 = j as f32 / k as f32;
+                let b0 = 1.0 - b1 - b2;
+                out.push(t[0] * b0 + t[1] * b1 + t[2] * b2);
+            }
+        }
+        out
+    }
+
+    /// The brute-force check: every sample point `p` of every triangle lies in the texel its
+    /// direction maps to, that texel's list holds the triangle with `lo <= |p| <= hi`, and
+    /// the texel's `lo <= |p|`. Returns the number of failures.
+    fn brute_force_misses(lists: &TexelLists, triangles: &[[Vec3; 3]], centre: Vec3) -> usize {
+        let mut misses = 0;
+        for (t, tri) in triangles.iter().enumerate() {
+            for p in samples(tri, 40) {
+                let r = p - centre;
+                if r == Vec3::ZERO {
+                    continue;
+                }
+                let d = r.length();
+                let texel = dir_to_texel(r, lists.size);
+                let entry = lists
+                    .entries_at(texel)
+                    .iter()
+                    .find(|e| e.triangle == t as u32);
+                let (lo, _, _) = lists.bounds_at(texel);
+                let ok = entry.is_some_and(|e| e.lo <= d && d <= e.hi) && lo <= d;
+                if !ok {
+                    misses += 1;
+                }
+            }
+        }
+        misses
+    }
+
+    fn all(n: usize) -> Vec<bool> {
+        vec![true; n]
+    }
+
+    #[test]
+    fn every_sampled_point_is_in_its_texels_list() {
+        let mut rng = Rng(22);
+        for (size, centre) in [
+            (4u32, Vec3::ZERO),
+            (16, Vec3::new(0.5, -2.0, 7.0)),
+            (64, Vec3::new(100.0, 3.0, -40.0)),
+        ] {
+            let tris = test_triangles(&mut rng, centre, 40);
+            let lists = capture_lists(&tris, &all(tris.len()), centre, size, 1000);
+            assert_eq!(brute_force_misses(&lists, &tris, centre), 0, "N = {size}");
+            assert!(lists.entries.len() > tris.len(), "N = {size}: no entries");
+        }
+    }
+
+    /// Möller-Trumbore from the origin along `d` (edges inclusive): the hit's `t`.
+    fn ray_hits(d: Vec3, p: [Vec3; 3]) -> Option<f32> {
+        let e1 = p[1] - p[0];
+        let e2 = p[2] - p[0];
+        let h = d.cross(e2);
+        let a = e1.dot(h);
+        if a == 0.0 {
+            return None;
+        }
+        let s = -p[0];
+        let u = s.dot(h) / a;
+        let q = s.cross(e1);
+        let v = d.dot(q) / a;
+        let t = e2.dot(q) / a;
+        (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > 0.0).then_some(t)
+    }
+
+    /// Captured by the centre rays only (the `exact` criterion's capture): a triangle is in a
+    /// texel's list when the texel's centre ray hits it.
+    fn centre_sampled(tris: &[[Vec3; 3]], centre: Vec3, size: u32) -> TexelLists {
+        let n = size as usize;
+        let mut lists: Vec<Vec<Entry>> = vec![Vec::new(); 6 * n * n];
+        for (i, list) in lists.iter_mut().enumerate() {
+            let d = texel_centre_dir(Texel::from_index(i, size), size).normalize();
+            for (t, tri) in tris.iter().enumerate() {
+                let p = [tri[0] - centre, tri[1] - centre, tri[2] - centre];
+                if let Some(t_hit) = ray_hits(d, p) {
+                    list.push(Entry {
+                        triangle: t as u32,
+                        lo: t_hit,
+                        hi: t_hit,
+                    });
+                }
+            }
+        }
+        let mut out = TexelLists {
+            size,
+            depth: 1000,
+            lo: Vec::new(),
+            hi: Vec::new(),
+            complete_to: Vec::new(),
+            offsets: vec![0],
+            entries: Vec::new(),
+        };
+        for mut list in lists {
+            let (lo, hi, c) = resolve_texel(&mut list, 1000);
+            out.lo.push(lo);
+            out.hi.push(hi);
+            out.complete_to.push(c);
+            out.entries.extend_from_slice(&list);
+            out.offsets.push(out.entries.len() as u32);
+        }
+        out
+    }
+
+    #[test]
+    fn negative_centre_sampling_misses_thin_triangles() {
+        let mut rng = Rng(23);
+        let centre = Vec3::new(0.5, -2.0, 7.0);
+        let tris = test_triangles(&mut rng, centre, 20);
+        let lists = centre_sampled(&tris, centre, 16);
+        assert!(brute_force_misses(&lists, &tris, centre) > 0);
+    }
+
+    /// Thin triangles hugging texel boundaries (and face edges): with every margin zero the
+    /// clip's rounding drops some of them from texels their points map to.
+    #[test]
+    fn negative_zero_margins_miss_boundary_triangles() {
+        let mut rng = Rng(24);
+        let size = 16;
+        let centre = Vec3::new(0.3, 0.7, -0.2);
+        let mut tris = Vec::new();
+        for i in 0..400u32 {
+            let face = i % 6;
+            let k = (i / 6) % (size + 1);
+            let u = face_coord(k, size);
+            let on = |z: f32, v: f32, du: f32| {
+                centre + from_face_local(face, Vec3::new((u + du) * z, v * z, z))
+            };
+            let z0 = rng.range(0.5, 5.0);
+            let z1 = rng.range(0.5, 5.0);
+            let v0 = rng.range(-1.0, 1.0);
+            let v1 = rng.range(-1.0, 1.0);
+            tris.push([on(z0, v0, 0.0), on(z1, v1, 0.0), on(z0, v1, 1e-7)]);
+        }
+        let sound = capture_lists(&tris, &all(tris.len()), centre, size, 1000);
+        assert_eq!(brute_force_misses(&sound, &tris, centre), 0);
+        let zero = capture_lists_with(&tris, &all(tris.len()), centre, size, 1000, Margins::Zero);
+        let misses = brute_force_misses(&zero, &tris, centre);
+        eprintln!("zero margins: {misses} sample points missed");
+        assert!(misses > 0);
+    }
+
+    /// The docs' rules of a truncated texel against the full list; `Err` names the first
+    /// difference.
+    fn check_truncation(full: &TexelLists, cut: &TexelLists) -> Result<(), String> {
+        for i in 0..full.lo.len() {
+            let t = Texel::from_index(i, full.size);
+            let all = full.entries_at(t);
+            let kept = cut.entries_at(t);
+            let depth = cut.depth as usize;
+            if kept != &all[..all.len().min(depth)] {
+                return Err(format!(
+                    "{t:?}: kept entries are not the full list's prefix"
+                ));
+            }
+            let (lo, hi, complete_to) = cut.bounds_at(t);
+            for dropped in &all[kept.len()..] {
+                if complete_to > dropped.lo {
+                    return Err(format!(
+                        "{t:?}: complete_to {complete_to} > dropped {dropped:?}"
+                    ));
+                }
+            }
+            let want_c = all.get(depth).map_or(f32::INFINITY, |e| e.lo);
+            if complete_to != want_c {
+                return Err(format!("{t:?}: complete_to {complete_to}, want {want_c}"));
+            }
+            let (full_lo, full_hi, _) = full.bounds_at(t);
+            if lo != full_lo {
+                return Err(format!("{t:?}: lo {lo}, full {full_lo}"));
+            }
+            let want_hi = if all.len() > depth {
+                f32::INFINITY
+            } else {
+                full_hi
+            };
+            if hi != want_hi {
+                return Err(format!("{t:?}: hi {hi}, want {want_hi}"));
+            }
+        }
+        Ok(())
+    }
+
+    #[test]
+    fn depth_truncation_keeps_complete_to_sound() {
+        let mut rng = Rng(25);
+        let centre = Vec3::new(1.0, 2.0, 3.0);
+        // Many overlapping triangles: deep lists.
+        let mut tris = test_triangles(&mut rng, centre, 30);
+        for _ in 0..30 {
+            let d = rng.vec(1.0).normalize_or(Vec3::X) * rng.range(1.0, 4.0);
+            tris.push([
+                centre + d + rng.vec(0.8),
+                centre + d + rng.vec(0.8),
+                centre + d + rng.vec(0.8),
+            ]);
+        }
+        let flags = all(tris.len());
+        let full = capture_lists(&tris, &flags, centre, 8, u32::MAX);
+        let cut = capture_lists(&tris, &flags, centre, 8, 3);
+        assert!(
+            (0..full.lo.len()).any(|i| full.offsets[i + 1] - full.offsets[i] > 3),
+            "no list deeper than 3"
+        );
+        check_truncation(&full, &cut).unwrap();
+        // Negative: complete_to raised past a dropped entry, a kept entry's lo perturbed.
+        let i = (0..cut.lo.len())
+            .find(|&i| cut.complete_to[i].is_finite())
+            .unwrap();
+        let mut bad = cut.clone();
+        bad.complete_to[i] = f32::from_bits(bad.complete_to[i].to_bits() + 1);
+        assert!(check_truncation(&full, &bad).is_err());
+        let mut bad = cut.clone();
+        bad.entries[0].lo = f32::from_bits(bad.entries[0].lo.to_bits() + 1);
+        assert!(check_truncation(&full, &bad).is_err());
+    }
+
+    #[test]
+    fn pool_bound_covers_the_entries() {
+        let mut rng = Rng(26);
+        for (size, centre) in [
+            (4u32, Vec3::ZERO),
+            (16, Vec3::new(0.5, -2.0, 7.0)),
+            (64, Vec3::ONE),
+        ] {
+            let tris = test_triangles(&mut rng, centre, 40);
+            let flags = all(tris.len());
+            let lists = capture_lists(&tris, &flags, centre, size, u32::MAX);
+            let b = pool_bound(&tris, &flags, centre, size);
+            let used = lists.entries.len() as u64;
+            eprintln!(
+                "N = {size}: {used} entries, bound {} of {} rect texels",
+                b.nodes, b.rect_texels
+            );
+            assert!(used <= b.nodes && b.nodes <= b.rect_texels, "N = {size}");
+            assert!(b.jobs >= 1);
+        }
+        // Negative: the area alone (no Steiner terms) undercounts a thin triangle's texels.
+        let centre = Vec3::ZERO;
+        let tri = [
+            Vec3::new(-0.9, 0.01, 1.0),
+            Vec3::new(0.9, 0.0101, 1.0),
+            Vec3::new(0.0, 0.0102, 1.0),
+        ];
+        let rect = face_rect(&tri, centre, 4, 64).unwrap();
+        let lists = capture_lists(&[tri], &[true], centre, 64, u32::MAX);
+        let area_only = (f64::from(rect.area) / (2.0f64 / 64.0).powi(2)).ceil() as usize;
+        assert!(lists.entries.len() > area_only);
+        assert!(lists.entries.len() as u64 <= rect.steiner(64));
+    }
+
+    #[test]
+    fn near_centre_gets_the_whole_face() {
+        let centre = Vec3::new(10.0, 0.0, 0.0);
+        // Passes 1e-4 from the centre.
+        let tri = [
+            centre + Vec3::new(-1.0, 1e-4, 1.0),
+            centre + Vec3::new(1.0, 1e-4, 1.0),
+            centre + Vec3::new(0.0, 1e-4, -1.0),
+        ];
+        for face in 0..FACE_COUNT {
+            let r = face_rect(&tri, centre, face, 8).unwrap();
+            assert!(r.whole && r.texels() == 64, "face {face}");
+        }
+        // Negative: far from the centre it is not.
+        let far = tri.map(|v| v + Vec3::new(0.0, 1.0, 0.0));
+        assert!((0..FACE_COUNT).all(|f| face_rect(&far, centre, f, 8).is_none_or(|r| !r.whole)));
     }
 }

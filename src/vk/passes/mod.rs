@@ -2,6 +2,7 @@
 pub mod bounce;
 pub mod bvh;
 pub mod capture;
+pub mod capture_lists;
 pub mod cmo;
 pub mod composite;
 pub mod gbuffer;

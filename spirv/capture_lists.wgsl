@@ -1,0 +1,289 @@
+// capture_lists: the sound per-texel bounds and candidate lists of issue 22 (the GPU of
+// `src/cubemap/bounds.rs`, whose module docs derive the bounds; `src/vk/passes/capture_lists.rs`
+// records the three passes, each over every CMO in one dispatch):
+// - `jobs`: one invocation per (triangle, CMO, face): steps 1-4 (`cb_face_rect`), then one job
+//   per 8x8 tile of the texel rect, appended through `lists_counters.jobs`. A job that does not
+//   fit the job buffer (or a rect of more than `LISTS_TILE_CAP` tiles) sets its face's
+//   `lists_face_overflow` to 0: every texel of that face is then unknown from distance 0 (sound).
+// - `texels`: 8x8 workgroups over the jobs (grid-stride); an invocation tests its texel of the
+//   job's tile (step 5: the column's u clips once per column in workgroup memory, then the v
+//   clips, `cb_texel_column` + `cb_texel_finish`) and pushes a node `{triangle, lo, hi, next}` onto the
+//   texel's list (`lists_heads`, atomicExchange). With the node pool full the texel's
+//   `lists_overflow` takes the atomicMin of the lost entry's `lo` bits (non-negative floats
+//   order as u32) and `nodes_dropped` counts it.
+// - `resolve`: one invocation per texel: selection of the `depth` smallest `(lo, triangle)` by
+//   payload swapping along the list (the first `count_kept` nodes from the head end up sorted),
+//   `complete_to = min(overflow, face overflow, smallest lo beyond depth)`, then the record
+//   `vec4(head, bits(complete_to), bits(hi), count_kept)` and `lo` into `lists_distance`
+//   (CMO-major, `(face N + y) N + x`, like the CMO distance buffer). The walk is capped at
+//   `walk_cap` node visits (lavapipe's 65535 back-edges per invocation): a capped texel gets
+//   `complete_to = 0` and is counted in `walks_capped`.
+// Which triangles: those of captured objects (`scene_is_captured`), reflectors only where the
+// CMO captures reflectors (`ListsView.reflectors`, the capture's vertex-shader rule), all of
+// them (no facing cull).
+
+const SCENE_GROUP: u32 = 0u;
+//! import shared/scene.wgsl
+//! import shared/cube.wgsl
+//! import shared/capture_bounds.wgsl
+
+const LISTS_NIL: u32 = 0xffffffffu;
+// Tiles one (triangle, face) may emit (its loop stays below lavapipe's 65535 back-edges per
+// invocation): a whole face up to N = 1952; beyond, such a face is unknown (`tiles_capped`).
+const LISTS_TILE_CAP: u32 = 60000u;
+
+struct ListsParams {
+    size: u32,
+    depth: u32,
+    cmo_count: u32,
+    triangle_count: u32,
+    job_capacity: u32,
+    node_capacity: u32,
+    walk_cap: u32,
+    // Invocations per dispatch row of `jobs` and `resolve` (64 x groups in x).
+    row: u32,
+}
+
+// One CMO: its centre and whether it captures the reflectors.
+struct ListsView {
+    centre: vec3<f32>,
+    reflectors: u32,
+}
+
+struct ListsJob {
+    triangle: u32,
+    // 6 cmo + face.
+    cmo_face: u32,
+    // x0 | x1 << 16 and y0 | y1 << 16 (inclusive).
+    rect_x: u32,
+    rect_y: u32,
+    // Tile tx | ty << 16.
+    tile: u32,
+    m: f32,
+    e: f32,
+    whole: u32,
+}
+
+struct ListsNode {
+    triangle: u32,
+    lo: u32,
+    hi: u32,
+    next: u32,
+}
+
+struct ListsCounters {
+    jobs: atomic<u32>,
+    jobs_dropped: atomic<u32>,
+    nodes: atomic<u32>,
+    nodes_dropped: atomic<u32>,
+    walks_capped: atomic<u32>,
+    tiles_capped: atomic<u32>,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+@group(1) @binding(0) var<storage, read> lists_params: ListsParams;
+@group(1) @binding(1) var<storage, read> lists_views: array<ListsView>;
+@group(1) @binding(2) var<storage, read_write> lists_jobs: array<ListsJob>;
+@group(1) @binding(3) var<storage, read_write> lists_nodes: array<ListsNode>;
+@group(1) @binding(4) var<storage, read_write> lists_heads: array<atomic<u32>>;
+@group(1) @binding(5) var<storage, read_write> lists_overflow: array<atomic<u32>>;
+@group(1) @binding(6) var<storage, read_write> lists_face_overflow: array<atomic<u32>>;
+@group(1) @binding(7) var<storage, read_write> lists_counters: ListsCounters;
+@group(1) @binding(8) var<storage, read_write> lists_records: array<vec4<u32>>;
+@group(1) @binding(9) var<storage, read_write> lists_distance: array<f32>;
+
+fn lists_vertex(t: u32, corner: u32) -> vec3<f32> {
+    return scene_vertices[scene_indices[3u * t + corner]].position;
+}
+
+@compute @workgroup_size(64)
+fn jobs(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x + gid.y * lists_params.row;
+    let per_triangle = 6u * lists_params.cmo_count;
+    if i >= lists_params.triangle_count * per_triangle {
+        return;
+    }
+    let t = i / per_triangle;
+    let cmo_face = i % per_triangle;
+    let cmo = cmo_face / 6u;
+    let face = cmo_face % 6u;
+    let view = lists_views[cmo];
+    let object = scene_vertices[scene_indices[3u * t]].object;
+    if !scene_is_captured(object) || (view.reflectors == 0u && scene_is_reflector(object)) {
+        return;
+    }
+    let w0 = lists_vertex(t, 0u);
+    let w1 = lists_vertex(t, 1u);
+    let w2 = lists_vertex(t, 2u);
+    let l0 = to_face_local(face, w0 - view.centre);
+    let l1 = to_face_local(face, w1 - view.centre);
+    let l2 = to_face_local(face, w2 - view.centre);
+    let size = lists_params.size;
+    let r = cb_face_rect(w0, w1, w2, l0, l1, l2, view.centre, size);
+    if r.hit == 0u {
+        return;
+    }
+    let tiles_x = (r.x1 - r.x0) / CB_TILE + 1u;
+    let tiles = tiles_x * ((r.y1 - r.y0) / CB_TILE + 1u);
+    if tiles > LISTS_TILE_CAP {
+        atomicMin(&lists_face_overflow[cmo_face], 0u);
+        atomicAdd(&lists_counters.tiles_capped, 1u);
+        return;
+    }
+    let base = atomicAdd(&lists_counters.jobs, tiles);
+    let cap = lists_params.job_capacity;
+    if base + tiles > cap || base + tiles < base {
+        atomicMin(&lists_face_overflow[cmo_face], 0u);
+        atomicAdd(&lists_counters.jobs_dropped, tiles);
+    }
+    for (var k = 0u; k < tiles; k++) {
+        let j = base + k;
+        if j >= cap || j < base {
+            break;
+        }
+        lists_jobs[j] = ListsJob(
+            t,
+            cmo_face,
+            r.x0 | (r.x1 << 16u),
+            r.y0 | (r.y1 << 16u),
+            (k % tiles_x) | ((k / tiles_x) << 16u),
+            r.m,
+            r.e,
+            r.whole,
+        );
+    }
+}
+
+// The 8 column polygons of the current job's tile (step 5's u clips, shared by a column's 8
+// texels: `cb_texel_column`, computed by the invocations of row 0).
+var<workgroup> lists_columns: array<CbPoly, 8>;
+
+// Every loop and barrier here is in control flow uniform over the workgroup: the job loop
+// depends on the workgroup ID and the job count (fixed since the `jobs` pass), nothing else.
+@compute @workgroup_size(8, 8)
+fn texels(
+    @builtin(local_invocation_id) lid: vec3<u32>,
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+) {
+    let count = min(atomicLoad(&lists_counters.jobs), lists_params.job_capacity);
+    let size = lists_params.size;
+    let stride = nwg.x * nwg.y;
+    for (var j = wid.x + wid.y * nwg.x; j < count; j += stride) {
+        let job = lists_jobs[j];
+        let x = (job.rect_x & 0xffffu) + (job.tile & 0xffffu) * CB_TILE + lid.x;
+        let y = (job.rect_y & 0xffffu) + (job.tile >> 16u) * CB_TILE + lid.y;
+        let cmo = job.cmo_face / 6u;
+        let face = job.cmo_face % 6u;
+        let centre = lists_views[cmo].centre;
+        let l0 = to_face_local(face, lists_vertex(job.triangle, 0u) - centre);
+        let l1 = to_face_local(face, lists_vertex(job.triangle, 1u) - centre);
+        let l2 = to_face_local(face, lists_vertex(job.triangle, 2u) - centre);
+        let whole = job.whole != 0u;
+        if lid.y == 0u && x <= (job.rect_x >> 16u) {
+            lists_columns[lid.x] = cb_texel_column(l0, l1, l2, whole, job.m, x, size);
+        }
+        workgroupBarrier();
+        if x <= (job.rect_x >> 16u) && y <= (job.rect_y >> 16u) {
+            let b = cb_texel_finish(lists_columns[lid.x], l0, l1, l2, whole, job.m, job.e, x, y, size);
+            if b.hit {
+                let texel = (job.cmo_face * size + y) * size + x;
+                let node = atomicAdd(&lists_counters.nodes, 1u);
+                if node < lists_params.node_capacity {
+                    lists_nodes[node].triangle = job.triangle;
+                    lists_nodes[node].lo = bitcast<u32>(b.lo);
+                    lists_nodes[node].hi = bitcast<u32>(b.hi);
+                    lists_nodes[node].next = atomicExchange(&lists_heads[texel], node);
+                } else {
+                    atomicMin(&lists_overflow[texel], bitcast<u32>(b.lo));
+                    atomicAdd(&lists_counters.nodes_dropped, 1u);
+                }
+            }
+        }
+        // The next job overwrites the columns.
+        workgroupBarrier();
+    }
+}
+
+// Whether node a sorts before node b: (lo, triangle), lo by its bits (never -0.0 or NaN).
+fn lists_before(a: ListsNode, b: ListsNode) -> bool {
+    return a.lo < b.lo || (a.lo == b.lo && a.triangle < b.triangle);
+}
+
+@compute @workgroup_size(64)
+fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let texel = gid.x + gid.y * lists_params.row;
+    let size = lists_params.size;
+    let per_face = size * size;
+    if texel >= lists_params.cmo_count * 6u * per_face {
+        return;
+    }
+    let head = atomicLoad(&lists_heads[texel]);
+    let over = min(atomicLoad(&lists_overflow[texel]), atomicLoad(&lists_face_overflow[texel / per_face]));
+    var complete = bitcast<f32>(over);
+    var node = head;
+    var kept = 0u;
+    var steps = 0u;
+    var capped = false;
+    var hi = -f32_inf();
+    var rest = f32_inf();
+    let depth = lists_params.depth;
+    for (var i = 0u; i <= depth; i++) {
+        if node == LISTS_NIL {
+            break;
+        }
+        let cur = lists_nodes[node];
+        var best = node;
+        var bn = cur;
+        var j = cur.next;
+        loop {
+            if j == LISTS_NIL {
+                break;
+            }
+            steps += 1u;
+            if steps > lists_params.walk_cap {
+                capped = true;
+                break;
+            }
+            let nj = lists_nodes[j];
+            if lists_before(nj, bn) {
+                best = j;
+                bn = nj;
+            }
+            j = nj.next;
+        }
+        if capped {
+            break;
+        }
+        if i == depth {
+            rest = bitcast<f32>(bn.lo);
+            break;
+        }
+        if best != node {
+            lists_nodes[best].triangle = cur.triangle;
+            lists_nodes[best].lo = cur.lo;
+            lists_nodes[best].hi = cur.hi;
+            lists_nodes[node].triangle = bn.triangle;
+            lists_nodes[node].lo = bn.lo;
+            lists_nodes[node].hi = bn.hi;
+        }
+        hi = max(hi, bitcast<f32>(bn.hi));
+        kept += 1u;
+        node = cur.next;
+    }
+    if capped {
+        complete = 0.0;
+        atomicAdd(&lists_counters.walks_capped, 1u);
+    }
+    complete = min(complete, rest);
+    if complete < f32_inf() {
+        hi = f32_inf();
+    }
+    var lo = complete;
+    if kept > 0u {
+        lo = min(bitcast<f32>(lists_nodes[head].lo), complete);
+    }
+    lists_records[texel] = vec4<u32>(head, bitcast<u32>(complete), bitcast<u32>(hi), kept);
+    lists_distance[texel] = lo;
+}

@@ -1,0 +1,543 @@
+//! The `capture_lists` passes (issue 22): sound per-texel bounds and candidate lists of every
+//! CMO, on the GPU (`spirv/capture_lists.wgsl`; CPU twin [`crate::cubemap::bounds`], whose module
+//! docs derive the bounds).
+//!
+//! Invariants:
+//! - Three dispatches over every CMO at once: `jobs` (one invocation per (triangle, CMO, face),
+//!   one job per 8x8 tile of its texel rect), `texels` (a node per touched texel, pushed onto
+//!   the texel's linked list), `resolve` (the `depth` smallest `(lo, triangle)` sorted at the
+//!   head of each list, then the per-texel record and `lo`). [`CaptureLists::record`] clears the
+//!   heads, overflows and counters first and records the barriers between the passes and one
+//!   after (compute writes -> any shader read).
+//! - Per texel, CMO-major, `(face N + y) N + x` (like [`CmoData`](super::cmo::CmoData)'s
+//!   distance): the record `[head, bits(complete_to), bits(hi), count_kept]`
+//!   ([`TexelRecord`]) in [`CaptureLists::records`]; the first `count_kept` nodes from `head`
+//!   ([`ListNode`], [`CaptureLists::nodes`]) are the texel's entries in order; `lo` in the
+//!   distance buffer ([`CaptureLists::distance`], or the caller's, e.g. the CMO distance, see
+//!   [`CaptureLists::new`]). Meanings: [`crate::cubemap::bounds::TexelLists`].
+//! - Capacities come from the CPU ([`capacity`], the same f32 rect as the GPU's, so the job
+//!   buffer never fills on a conforming driver). A full job buffer (or a rect over 60000 tiles:
+//!   a whole face beyond N = 1952) makes its whole face unknown (`complete_to = 0`); a full
+//!   node pool lowers the texel's `complete_to` to the lost entry's `lo`; a list walk capped at
+//!   `walk_cap` node visits (lavapipe's loop limit) sets `complete_to = 0`. All three are counted ([`ListCounters`]).
+//! - Which triangles: captured objects' (`GpuObject::captured`), reflectors only for a CMO with
+//!   `reflectors` set (the capture's rule), with no facing cull.
+use ash::vk;
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+use gpu_allocator::MemoryLocation;
+
+use super::scene_buffers::SceneBuffers;
+use crate::cubemap::bounds::{self, Entry, PoolBound, TexelLists};
+use crate::cubemap::face::FACE_COUNT;
+use crate::scene::gpu_data::GpuSceneData;
+use crate::vk::backend::buffer::Buffer;
+use crate::vk::backend::context::{GpuContext, Recorder};
+use crate::vk::backend::error::{VkError, VkResult};
+use crate::vk::backend::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
+use crate::vk::backend::shaders::CAPTURE_LISTS;
+use crate::vk::backend::sync::{ALL, ALL_READS, COMPUTE_READ, COMPUTE_WRITE, TRANSFER_WRITE};
+use crate::vk::backend::timestamps::{Scope, Timestamps};
+
+/// WGSL `ListsParams`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct ListsParams {
+    pub size: u32,
+    pub depth: u32,
+    pub cmo_count: u32,
+    pub triangle_count: u32,
+    pub job_capacity: u32,
+    pub node_capacity: u32,
+    pub walk_cap: u32,
+    pub row: u32,
+}
+
+/// WGSL `ListsView`: one CMO.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct ListsView {
+    pub centre: [f32; 3],
+    /// 1: the CMO captures the reflectors (self-reflections on).
+    pub reflectors: u32,
+}
+
+/// WGSL `ListsJob`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct ListsJob {
+    pub triangle: u32,
+    pub cmo_face: u32,
+    pub rect_x: u32,
+    pub rect_y: u32,
+    pub tile: u32,
+    pub m: f32,
+    pub e: f32,
+    pub whole: u32,
+}
+
+/// WGSL `ListsNode`: one entry; `next` is the next node of the texel's list (`u32::MAX`: end).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct ListNode {
+    pub triangle: u32,
+    pub lo: u32,
+    pub hi: u32,
+    pub next: u32,
+}
+
+/// WGSL `ListsCounters`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Pod, Zeroable)]
+pub struct ListCounters {
+    /// Jobs appended (may exceed the capacity: the excess was dropped).
+    pub jobs: u32,
+    pub jobs_dropped: u32,
+    /// Nodes appended (may exceed the capacity).
+    pub nodes: u32,
+    pub nodes_dropped: u32,
+    pub walks_capped: u32,
+    pub tiles_capped: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+}
+
+/// Per texel: `[head, bits(complete_to), bits(hi), count_kept]`.
+pub type TexelRecord = [u32; 4];
+
+/// End of a list.
+pub const NIL: u32 = u32::MAX;
+/// Node visits per texel in `resolve` before the walk gives up (lavapipe: 65535 back-edges per
+/// invocation, shared by every loop).
+pub const WALK_CAP: u32 = 60_000;
+/// Largest `depth` accepted.
+pub const MAX_DEPTH: u32 = 1024;
+const WORKGROUP: u32 = 64;
+const MAX_GROUPS_X: u32 = 65_535;
+
+/// The world triangles and per-triangle capture flags of a scene for one CMO (the shader's
+/// rule: captured objects, reflectors only with `reflectors`).
+pub fn scene_triangles(data: &GpuSceneData, reflectors: bool) -> (Vec<[Vec3; 3]>, Vec<bool>) {
+    let mut tris = Vec::with_capacity(data.indices.len() / 3);
+    let mut flags = Vec::with_capacity(data.indices.len() / 3);
+    for t in data.indices.chunks_exact(3) {
+        let v = |i: u32| Vec3::from_array(data.vertices[i as usize].position);
+        tris.push([v(t[0]), v(t[1]), v(t[2])]);
+        let o = &data.objects[data.vertices[t[0] as usize].object as usize];
+        // `scene_is_reflector`: any bit of `reflector` (as the shader tests it).
+        flags.push(o.captured != 0 && (reflectors || o.reflector == 0));
+    }
+    (tris, flags)
+}
+
+/// Job and node capacities of the capture of `cmos` (`(centre, reflectors)`) at face size
+/// `size`: [`bounds::pool_bound`] summed over the CMOs.
+pub fn capacity(data: &GpuSceneData, cmos: &[(Vec3, bool)], size: u32) -> PoolBound {
+    let mut sum = PoolBound::default();
+    for &(centre, reflectors) in cmos {
+        let (tris, flags) = scene_triangles(data, reflectors);
+        let b = bounds::pool_bound(&tris, &flags, centre, size);
+        sum.jobs += b.jobs;
+        sum.nodes += b.nodes;
+        sum.rect_texels += b.rect_texels;
+    }
+    sum
+}
+
+fn storage(ctx: &GpuContext, name: &str, bytes: u64) -> VkResult<Buffer> {
+    Buffer::new(
+        ctx.device(),
+        name,
+        bytes,
+        vk::BufferUsageFlags::STORAGE_BUFFER
+            | vk::BufferUsageFlags::TRANSFER_DST
+            | vk::BufferUsageFlags::TRANSFER_SRC,
+        MemoryLocation::GpuOnly,
+    )
+}
+
+/// Invocations per dispatch row of `jobs` and `resolve` (`ListsParams::row`).
+const ROW: u32 = WORKGROUP * MAX_GROUPS_X;
+
+/// Workgroups for `invocations` linearised as `gid.x + gid.y * ROW`.
+fn linear_groups(invocations: u64) -> [u32; 3] {
+    let groups = invocations.div_ceil(u64::from(WORKGROUP)).max(1);
+    let x = groups.min(u64::from(MAX_GROUPS_X)) as u32;
+    [x, invocations.div_ceil(u64::from(ROW)).max(1) as u32, 1]
+}
+
+/// `(K, texels, triangles)` of a [`CaptureLists::new`] call, or why it cannot run.
+fn check_inputs(
+    scene: &SceneBuffers,
+    size: u32,
+    depth: u32,
+    cmos: &[(Vec3, bool)],
+    capacity: PoolBound,
+    distance: Option<&Buffer>,
+) -> VkResult<(u64, u64, u64)> {
+    let usage = |detail: String| VkError::Usage {
+        what: CAPTURE_LISTS.name.into(),
+        detail,
+    };
+    let k = cmos.len() as u64;
+    let texels = k * u64::from(FACE_COUNT) * u64::from(size) * u64::from(size);
+    if k == 0 || size == 0 || size > 2048 || depth == 0 || depth > MAX_DEPTH {
+        return Err(usage(format!(
+            "{k} CMOs of size {size}, depth {depth}: need at least one CMO, 1 <= N <= 2048 \
+             and 1 <= depth <= {MAX_DEPTH}"
+        )));
+    }
+    let triangles = u64::from(scene.index_count / 3);
+    if texels > u64::from(u32::MAX / 2)
+        || triangles * 6 * k > u64::from(u32::MAX / 2)
+        || capacity.jobs > u64::from(u32::MAX / 2)
+        || capacity.nodes > u64::from(u32::MAX / 2)
+    {
+        return Err(usage(format!(
+            "{k} CMOs of size {size}, {triangles} triangles, {} jobs, {} nodes overflow the \
+             shader's u32 indices",
+            capacity.jobs, capacity.nodes
+        )));
+    }
+    if let Some(d) = distance
+        && d.size() < texels * 4
+    {
+        return Err(usage(format!(
+            "distance buffer `{}` has {} bytes, {texels} texels need {}",
+            d.name(),
+            d.size(),
+            texels * 4
+        )));
+    }
+    Ok((k, texels, triangles))
+}
+
+/// The three pipelines, their bindings and buffers for one scene and CMO set.
+pub struct CaptureLists {
+    jobs: ComputePipeline,
+    texels: ComputePipeline,
+    resolve: ComputePipeline,
+    sets: [(BindGroup, BindGroup); 3],
+    params_buf: Buffer,
+    _views: Buffer,
+    _job_buf: Buffer,
+    nodes: Buffer,
+    heads: Buffer,
+    overflow: Buffer,
+    face_overflow: Buffer,
+    counters: Buffer,
+    records: Buffer,
+    distance: Option<Buffer>,
+    params: ListsParams,
+    jobs_groups: [u32; 3],
+    texels_groups: [u32; 3],
+    resolve_groups: [u32; 3],
+}
+
+/// One readback: per CMO the lists as the CPU twin holds them, plus the counters.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GpuLists {
+    pub cmos: Vec<TexelLists>,
+    pub counters: ListCounters,
+    /// The raw records (per texel, CMO-major).
+    pub records: Vec<TexelRecord>,
+}
+
+impl CaptureLists {
+    /// Prepares the capture of the CMOs `cmos` (`(centre, reflectors)`) of the scene in `scene`
+    /// (`triangle_count` triangles, its index buffer in global order) at face size `size`,
+    /// keeping `depth` entries per texel, with room for `capacity.jobs` jobs and
+    /// `capacity.nodes` nodes (from [`capacity`]; a smaller pool is sound, see the module docs).
+    /// `distance`: where `lo` goes (K blocks of `6 N N` f32, e.g. the CMO distance buffer);
+    /// `None` allocates [`CaptureLists::distance`].
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        ctx: &GpuContext,
+        scene: &SceneBuffers,
+        size: u32,
+        depth: u32,
+        cmos: &[(Vec3, bool)],
+        capacity: PoolBound,
+        distance: Option<&Buffer>,
+    ) -> VkResult<Self> {
+        let (k, texels, triangles) = check_inputs(scene, size, depth, cmos, capacity, distance)?;
+        let params = ListsParams {
+            size,
+            depth,
+            cmo_count: k as u32,
+            triangle_count: triangles as u32,
+            job_capacity: capacity.jobs as u32,
+            node_capacity: capacity.nodes as u32,
+            walk_cap: WALK_CAP,
+            row: ROW,
+        };
+        let pipe = |e| ComputePipeline::new(ctx, &CAPTURE_LISTS, e, ComputeOptions::default());
+        let (jobs, texels_pipe, resolve) = (pipe("jobs")?, pipe("texels")?, pipe("resolve")?);
+        let views: Vec<ListsView> = cmos
+            .iter()
+            .map(|&(c, r)| ListsView {
+                centre: c.to_array(),
+                reflectors: u32::from(r),
+            })
+            .collect();
+        let st = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let params_buf = ctx.create_buffer_init("capture_lists params", st, &[params])?;
+        let views_buf = ctx.create_buffer_init("capture_lists views", st, &views)?;
+        let job_buf = storage(ctx, "capture_lists jobs", capacity.jobs.max(1) * 32)?;
+        let nodes = storage(ctx, "capture_lists nodes", capacity.nodes.max(1) * 16)?;
+        let heads = storage(ctx, "capture_lists heads", texels * 4)?;
+        let overflow = storage(ctx, "capture_lists overflow", texels * 4)?;
+        let face_overflow = storage(ctx, "capture_lists face overflow", k * 6 * 4)?;
+        let counters = storage(
+            ctx,
+            "capture_lists counters",
+            size_of::<ListCounters>() as u64,
+        )?;
+        let records = storage(ctx, "capture_lists records", texels * 16)?;
+        let own_distance = match distance {
+            Some(_) => None,
+            None => Some(storage(ctx, "capture_lists distance", texels * 4)?),
+        };
+        let dist = distance.or(own_distance.as_ref()).expect("one of the two");
+        let all = [
+            (0, Resource::Buffer(&params_buf)),
+            (1, Resource::Buffer(&views_buf)),
+            (2, Resource::Buffer(&job_buf)),
+            (3, Resource::Buffer(&nodes)),
+            (4, Resource::Buffer(&heads)),
+            (5, Resource::Buffer(&overflow)),
+            (6, Resource::Buffer(&face_overflow)),
+            (7, Resource::Buffer(&counters)),
+            (8, Resource::Buffer(&records)),
+            (9, Resource::Buffer(dist)),
+        ];
+        let sets_for = |p: &ComputePipeline| -> VkResult<(BindGroup, BindGroup)> {
+            let used = |g: u32, b: u32| {
+                p.entry
+                    .bindings
+                    .iter()
+                    .any(|u| u.group == g && u.binding == b)
+            };
+            let scene_res: Vec<_> = scene
+                .resources()
+                .into_iter()
+                .filter(|(b, _)| used(0, *b))
+                .collect();
+            let own: Vec<_> = all.iter().copied().filter(|(b, _)| used(1, *b)).collect();
+            Ok((p.bind_group(0, &scene_res)?, p.bind_group(1, &own)?))
+        };
+        let sets = [
+            sets_for(&jobs)?,
+            sets_for(&texels_pipe)?,
+            sets_for(&resolve)?,
+        ];
+        let texels_groups = [capacity.jobs.clamp(1, u64::from(MAX_GROUPS_X)) as u32, 1, 1];
+        Ok(CaptureLists {
+            jobs,
+            texels: texels_pipe,
+            resolve,
+            sets,
+            params_buf,
+            _views: views_buf,
+            _job_buf: job_buf,
+            nodes,
+            heads,
+            overflow,
+            face_overflow,
+            counters,
+            records,
+            distance: own_distance,
+            params,
+            jobs_groups: linear_groups(triangles * 6 * k),
+            texels_groups,
+            resolve_groups: linear_groups(texels),
+        })
+    }
+
+    /// Records the capture: clears, `jobs`, `texels`, `resolve`, with barriers between them and
+    /// one after (compute writes -> every later read). The barrier before (after whatever last
+    /// read the buffers) is `ALL -> TRANSFER_WRITE`, recorded here too.
+    pub fn record(&self, rec: &Recorder<'_>) -> VkResult<()> {
+        self.record_timed(rec, None)
+    }
+
+    /// [`CaptureLists::record`] with one timestamp scope per pass (`capture_lists.jobs`,
+    /// `capture_lists.texels`, `capture_lists.resolve`; the clears go with `jobs`).
+    pub fn record_timed(
+        &self,
+        rec: &Recorder<'_>,
+        mut ts: Option<&mut Timestamps>,
+    ) -> VkResult<()> {
+        let scope = |ts: &mut Option<&mut Timestamps>, name: &str| -> VkResult<_> {
+            ts.as_deref_mut().map(|t| t.begin(rec, name)).transpose()
+        };
+        let end = |ts: &mut Option<&mut Timestamps>, s: Option<Scope>| {
+            if let (Some(t), Some(s)) = (ts.as_deref_mut(), s) {
+                t.end(rec, s);
+            }
+        };
+        let s = scope(&mut ts, "capture_lists.jobs")?;
+        rec.memory_barrier(ALL, TRANSFER_WRITE);
+        rec.fill_buffer(&self.heads, NIL);
+        rec.fill_buffer(&self.overflow, f32::INFINITY.to_bits());
+        rec.fill_buffer(&self.face_overflow, f32::INFINITY.to_bits());
+        rec.fill_buffer(&self.counters, 0);
+        rec.memory_barrier(TRANSFER_WRITE, COMPUTE_READ);
+        let rw = (COMPUTE_READ.0, COMPUTE_READ.1 | COMPUTE_WRITE.1);
+        let (s0, s1) = &self.sets[0];
+        self.jobs.dispatch(rec, &[s0, s1], self.jobs_groups);
+        end(&mut ts, s);
+        rec.memory_barrier(COMPUTE_WRITE, rw);
+        let s = scope(&mut ts, "capture_lists.texels")?;
+        let (s0, s1) = &self.sets[1];
+        self.texels.dispatch(rec, &[s0, s1], self.texels_groups);
+        end(&mut ts, s);
+        rec.memory_barrier(COMPUTE_WRITE, rw);
+        let s = scope(&mut ts, "capture_lists.resolve")?;
+        let (s0, s1) = &self.sets[2];
+        self.resolve.dispatch(rec, &[s0, s1], self.resolve_groups);
+        end(&mut ts, s);
+        rec.memory_barrier(COMPUTE_WRITE, ALL_READS);
+        Ok(())
+    }
+
+    /// Sets the resolve pass's cap on node visits per texel (tests: the capped path).
+    #[doc(hidden)]
+    pub fn set_walk_cap(&mut self, ctx: &GpuContext, walk_cap: u32) -> VkResult<()> {
+        self.params.walk_cap = walk_cap.min(WALK_CAP);
+        ctx.write_buffer(&self.params_buf, &[self.params])
+    }
+
+    /// Per texel `[head, bits(complete_to), bits(hi), count_kept]` (module docs).
+    pub fn records(&self) -> &Buffer {
+        &self.records
+    }
+
+    /// The node pool ([`ListNode`]).
+    pub fn nodes(&self) -> &Buffer {
+        &self.nodes
+    }
+
+    /// The distance buffer this pass allocated (`None` when it writes the caller's).
+    pub fn distance(&self) -> Option<&Buffer> {
+        self.distance.as_ref()
+    }
+
+    /// The counters ([`ListCounters`]).
+    pub fn counters(&self) -> &Buffer {
+        &self.counters
+    }
+
+    /// The parameters the pass runs with.
+    pub fn params(&self) -> &ListsParams {
+        &self.params
+    }
+
+    /// Reads everything back (after a submission of [`CaptureLists::record`]): per CMO the
+    /// lists as [`TexelLists`] (entries from the first `count_kept` nodes of each list, `lo`
+    /// from `distance`: the buffer given to [`CaptureLists::new`] or this pass's own).
+    pub fn read_back(&self, ctx: &GpuContext, distance: Option<&Buffer>) -> VkResult<GpuLists> {
+        let records: Vec<TexelRecord> = ctx.read_buffer(&self.records)?;
+        let nodes: Vec<ListNode> = ctx.read_buffer(&self.nodes)?;
+        let counters: Vec<ListCounters> = ctx.read_buffer(&self.counters)?;
+        let dist_buf = distance
+            .or(self.distance.as_ref())
+            .ok_or_else(|| VkError::Usage {
+                what: CAPTURE_LISTS.name.into(),
+                detail: "read_back needs the distance buffer the pass writes".into(),
+            })?;
+        let dist: Vec<f32> = ctx.read_buffer(dist_buf)?;
+        let n = self.params.size as usize;
+        let per_cmo = 6 * n * n;
+        let mut cmos = Vec::new();
+        for c in 0..self.params.cmo_count as usize {
+            let mut l = TexelLists {
+                size: self.params.size,
+                depth: self.params.depth,
+                lo: dist[c * per_cmo..(c + 1) * per_cmo].to_vec(),
+                hi: Vec::with_capacity(per_cmo),
+                complete_to: Vec::with_capacity(per_cmo),
+                offsets: vec![0],
+                entries: Vec::new(),
+            };
+            for r in &records[c * per_cmo..(c + 1) * per_cmo] {
+                l.complete_to.push(f32::from_bits(r[1]));
+                l.hi.push(f32::from_bits(r[2]));
+                let mut node = r[0];
+                for _ in 0..r[3] {
+                    let Some(nd) = nodes.get(node as usize) else {
+                        return Err(VkError::Usage {
+                            what: CAPTURE_LISTS.name.into(),
+                            detail: format!("list node {node} out of the pool"),
+                        });
+                    };
+                    l.entries.push(Entry {
+                        triangle: nd.triangle,
+                        lo: f32::from_bits(nd.lo),
+                        hi: f32::from_bits(nd.hi),
+                    });
+                    node = nd.next;
+                }
+                l.offsets.push(l.entries.len() as u32);
+            }
+            cmos.push(l);
+        }
+        Ok(GpuLists {
+            cmos,
+            counters: counters[0],
+            records,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::check_layout;
+
+    #[test]
+    fn layouts_match_the_shader() {
+        let l = |n| CAPTURE_LISTS.struct_layout(n).unwrap();
+        check_layout!(
+            ListsParams,
+            l("ListsParams"),
+            [
+                size,
+                depth,
+                cmo_count,
+                triangle_count,
+                job_capacity,
+                node_capacity,
+                walk_cap,
+                row
+            ]
+        )
+        .unwrap();
+        check_layout!(ListsView, l("ListsView"), [centre, reflectors]).unwrap();
+        check_layout!(
+            ListsJob,
+            l("ListsJob"),
+            [triangle, cmo_face, rect_x, rect_y, tile, m, e, whole]
+        )
+        .unwrap();
+        check_layout!(ListNode, l("ListsNode"), [triangle, lo, hi, next]).unwrap();
+        // Negative: a field missing or another struct's layout.
+        assert!(check_layout!(ListNode, l("ListsNode"), [triangle, lo, hi]).is_err());
+        assert!(check_layout!(ListNode, l("ListsView"), [triangle, lo, hi, next]).is_err());
+        check_layout!(
+            ListCounters,
+            l("ListsCounters"),
+            [
+                jobs,
+                jobs_dropped,
+                nodes,
+                nodes_dropped,
+                walks_capped,
+                tiles_capped,
+                _pad0,
+                _pad1
+            ]
+        )
+        .unwrap();
+    }
+}

@@ -1,0 +1,446 @@
+//! The `capture_lists` passes against their CPU twin (`cubemap::bounds::capture_lists`):
+//! - tiny scenes (a thin and an edge-on triangle; one crossing behind the centre and one through
+//!   the near box, two CMOs, one capturing the reflectors) and a built-in scene at N = 16 and
+//!   32: per texel the same entries (ids in order, `lo`/`hi` bits equal), the same `complete_to`,
+//!   texel `lo` (the distance buffer) and `hi`, nothing dropped;
+//! - tiny node pools, job buffers and list walks: what the GPU keeps is the CPU's, and `complete_to` is at
+//!   most every entry the GPU lost; the loss is counted;
+//! - the capture's cost on a built-in scene at N = 64 and 256 (printed, not asserted).
+//!
+//! Every comparison has a negative (one CPU value perturbed by one ulp, one `complete_to`
+//! raised: the check fails). Runs under the validation layer when installed.
+mod common;
+use common::{finish_gpu, gpu_context};
+
+use std::time::Instant;
+
+use cubetrace::cubemap::bounds::{PoolBound, TexelLists, capture_lists};
+use cubetrace::scene::gpu_data::{GpuMaterial, GpuObject, GpuSceneData, GpuVertex};
+use cubetrace::vk::GpuContext;
+use cubetrace::vk::backend::timestamps::Timestamps;
+use cubetrace::vk::passes::capture_lists::{CaptureLists, GpuLists, capacity, scene_triangles};
+use cubetrace::vk::passes::scene_buffers::SceneBuffers;
+use glam::Vec3;
+
+/// A scene of `objects` (triangles, reflector flag), every object captured.
+fn tiny_scene(objects: &[(&[[Vec3; 3]], bool)]) -> GpuSceneData {
+    let mut d = GpuSceneData {
+        materials: vec![GpuMaterial::default()],
+        srgb_to_linear: vec![0.0; 256],
+        texels: vec![0],
+        textures: vec![Default::default()],
+        ..Default::default()
+    };
+    for (o, (tris, reflector)) in objects.iter().enumerate() {
+        d.objects.push(GpuObject {
+            material: 0,
+            reflector: u32::from(*reflector),
+            captured: 1,
+        });
+        for t in tris.iter() {
+            for v in t {
+                d.indices.push(d.vertices.len() as u32);
+                d.vertices.push(GpuVertex {
+                    position: v.to_array(),
+                    object: o as u32,
+                    ..Default::default()
+                });
+            }
+        }
+    }
+    d.capture_index_count = d.indices.len() as u32;
+    d
+}
+
+/// Runs the passes once; returns the readback and the wall time of the submission.
+fn run(
+    ctx: &GpuContext,
+    data: &GpuSceneData,
+    cmos: &[(Vec3, bool)],
+    size: u32,
+    depth: u32,
+    cap: PoolBound,
+) -> (GpuLists, f64) {
+    let scene = SceneBuffers::new(ctx, data).unwrap();
+    let lists = CaptureLists::new(ctx, &scene, size, depth, cmos, cap, None).unwrap();
+    let t0 = Instant::now();
+    ctx.submit_and_wait("capture_lists", |rec| lists.record(rec))
+        .unwrap();
+    let secs = t0.elapsed().as_secs_f64();
+    (lists.read_back(ctx, None).unwrap(), secs)
+}
+
+/// The CPU twin's lists of every CMO.
+fn cpu_lists(data: &GpuSceneData, cmos: &[(Vec3, bool)], size: u32, depth: u32) -> Vec<TexelLists> {
+    cmos.iter()
+        .map(|&(centre, reflectors)| {
+            let (tris, flags) = scene_triangles(data, reflectors);
+            capture_lists(&tris, &flags, centre, size, depth)
+        })
+        .collect()
+}
+
+fn bits(v: &[f32]) -> Vec<u32> {
+    v.iter().map(|x| x.to_bits()).collect()
+}
+
+/// Bit-for-bit equality of the GPU's and the CPU's lists; `Err` names the first difference.
+fn compare(gpu: &TexelLists, cpu: &TexelLists) -> Result<(), String> {
+    for i in 0..cpu.lo.len() {
+        let (a, b) = (
+            &gpu.entries[gpu.offsets[i] as usize..gpu.offsets[i + 1] as usize],
+            &cpu.entries[cpu.offsets[i] as usize..cpu.offsets[i + 1] as usize],
+        );
+        let key = |e: &[cubetrace::cubemap::bounds::Entry]| {
+            e.iter()
+                .map(|e| (e.triangle, e.lo.to_bits(), e.hi.to_bits()))
+                .collect::<Vec<_>>()
+        };
+        if key(a) != key(b) {
+            return Err(format!("texel {i}: GPU entries {a:?}, CPU {b:?}"));
+        }
+        for (what, g, c) in [
+            ("lo", gpu.lo[i], cpu.lo[i]),
+            ("hi", gpu.hi[i], cpu.hi[i]),
+            ("complete_to", gpu.complete_to[i], cpu.complete_to[i]),
+        ] {
+            if g.to_bits() != c.to_bits() {
+                return Err(format!("texel {i}: {what} GPU {g}, CPU {c}"));
+            }
+        }
+    }
+    if bits(&gpu.lo) != bits(&cpu.lo) {
+        return Err("lo differs".into());
+    }
+    Ok(())
+}
+
+/// Compares every CMO, with the negatives on the first CMO holding an entry.
+fn compare_all(gpu: &GpuLists, cpu: &[TexelLists]) {
+    assert_eq!(gpu.cmos.len(), cpu.len());
+    for (k, (g, c)) in gpu.cmos.iter().zip(cpu).enumerate() {
+        compare(g, c).unwrap_or_else(|e| panic!("CMO {k}: {e}"));
+    }
+    let c = cpu
+        .iter()
+        .find(|c| !c.entries.is_empty())
+        .expect("some entry");
+    let g = &gpu.cmos[cpu.iter().position(|x| std::ptr::eq(x, c)).unwrap()];
+    let mut bad = c.clone();
+    bad.entries[0].lo = f32::from_bits(bad.entries[0].lo.to_bits() + 1);
+    assert!(compare(g, &bad).is_err(), "negative: a perturbed lo");
+    let mut bad = c.clone();
+    let last = bad.entries.len() - 1;
+    bad.entries[last].hi = f32::from_bits(bad.entries[last].hi.to_bits() + 1);
+    assert!(compare(g, &bad).is_err(), "negative: a perturbed hi");
+    let mut bad = c.clone();
+    let i = bad.offsets.windows(2).position(|w| w[1] > w[0]).unwrap();
+    bad.complete_to[i] = 0.0;
+    assert!(
+        compare(g, &bad).is_err(),
+        "negative: a perturbed complete_to"
+    );
+}
+
+fn full_capacity(data: &GpuSceneData, cmos: &[(Vec3, bool)], size: u32) -> PoolBound {
+    capacity(data, cmos, size)
+}
+
+fn assert_nothing_dropped(g: &GpuLists) {
+    let c = g.counters;
+    assert_eq!(
+        (
+            c.jobs_dropped,
+            c.nodes_dropped,
+            c.walks_capped,
+            c.tiles_capped
+        ),
+        (0, 0, 0, 0),
+        "{c:?}"
+    );
+}
+
+fn small_triangles() -> Vec<[Vec3; 3]> {
+    let c = Vec3::new(0.25, -0.5, 0.75);
+    vec![
+        // Ordinary.
+        [
+            Vec3::new(2.0, 0.3, 0.1),
+            Vec3::new(2.2, 1.1, -0.4),
+            Vec3::new(1.9, -0.2, 0.9),
+        ],
+        // Thin: a sliver between texel centres.
+        [
+            Vec3::new(-1.0, 2.0, -0.3),
+            Vec3::new(1.0, 2.1, 0.4),
+            Vec3::new(0.0, 2.05, 0.05001),
+        ],
+        // Edge-on: the centre in its plane (spanned by two directions from the centre).
+        [
+            c + Vec3::new(1.0, 1.0, 0.0),
+            c + Vec3::new(2.0, 2.0, 1.0),
+            c + Vec3::new(1.5, 1.5, -1.0),
+        ],
+        // A face edge: spans +Z and +X.
+        [
+            Vec3::new(1.5, 0.0, 1.4),
+            Vec3::new(1.2, 0.4, 1.6),
+            Vec3::new(1.8, -0.3, 1.7),
+        ],
+    ]
+}
+
+#[test]
+fn gpu_matches_the_cpu_twin_on_tiny_scenes() {
+    let ctx = gpu_context();
+    // Scene A: thin, edge-on, face edges.
+    let a = small_triangles();
+    let data = tiny_scene(&[(&a, false)]);
+    let cmos = [(Vec3::new(0.25, -0.5, 0.75), false)];
+    for (size, depth) in [(8, 16), (16, 2)] {
+        let (g, _) = run(
+            &ctx,
+            &data,
+            &cmos,
+            size,
+            depth,
+            full_capacity(&data, &cmos, size),
+        );
+        assert_nothing_dropped(&g);
+        compare_all(&g, &cpu_lists(&data, &cmos, size, depth));
+    }
+    // Bad inputs are refused with the reason.
+    let scene = SceneBuffers::new(&ctx, &data).unwrap();
+    let cap = full_capacity(&data, &cmos, 8);
+    for (size, depth, k) in [(8, 0, 1), (0, 16, 1), (8, 16, 0)] {
+        let e = CaptureLists::new(&ctx, &scene, size, depth, &cmos[..k], cap, None)
+            .err()
+            .unwrap_or_else(|| panic!("N = {size}, depth {depth}, {k} CMOs accepted"));
+        assert!(e.to_string().contains("depth"), "{e}");
+    }
+    assert!(CaptureLists::new(&ctx, &scene, 8, 16, &cmos, cap, None).is_ok());
+    drop(scene);
+    // Scene B: a triangle crossing behind the centre, one through the near box, a reflector
+    // (captured only by the second CMO).
+    let behind = [
+        [
+            Vec3::new(-3.0, -1.0, -3.0),
+            Vec3::new(3.0, -1.0, -3.0),
+            Vec3::new(0.0, -1.2, 4.0),
+        ],
+        [
+            Vec3::new(-1.0, 1e-6, -1.0),
+            Vec3::new(1.0, 1e-6, -1.0),
+            Vec3::new(0.0, 1e-6, 1.0),
+        ],
+    ];
+    let mirror = [[
+        Vec3::new(0.5, 0.5, 2.0),
+        Vec3::new(-0.5, 0.5, 2.0),
+        Vec3::new(0.0, -0.5, 2.0),
+    ]];
+    let data = tiny_scene(&[(&behind, false), (&a, false), (&mirror, true)]);
+    let cmos = [(Vec3::ZERO, false), (Vec3::new(0.1, 0.2, 0.3), true)];
+    let size = 16;
+    let (g, _) = run(
+        &ctx,
+        &data,
+        &cmos,
+        size,
+        16,
+        full_capacity(&data, &cmos, size),
+    );
+    assert_nothing_dropped(&g);
+    let cpu = cpu_lists(&data, &cmos, size, 16);
+    compare_all(&g, &cpu);
+    // The reflector (triangle 6) is in CMO 1's lists only.
+    let has = |l: &TexelLists, t: u32| l.entries.iter().any(|e| e.triangle == t);
+    assert!(!has(&g.cmos[0], 6) && has(&g.cmos[1], 6));
+    // The near-box triangle (1) is in every texel of CMO 0.
+    assert!((0..6 * size * size).all(|i| {
+        let l = &g.cmos[0];
+        l.entries[l.offsets[i as usize] as usize..l.offsets[i as usize + 1] as usize]
+            .iter()
+            .any(|e| e.triangle == 1)
+            || l.complete_to[i as usize] < f32::INFINITY
+    }));
+    finish_gpu(ctx);
+}
+
+fn builtin(name: &str) -> (GpuSceneData, Vec<(Vec3, bool)>) {
+    let s = cubetrace::scene::load(name).unwrap();
+    let world = s.world();
+    let (lo, hi) = world.bounds(|o| o.reflector);
+    let c = (lo + hi) * 0.5;
+    let data = GpuSceneData::new(&s);
+    (
+        data,
+        vec![(c, false), (c + Vec3::new(0.01, 0.02, -0.03), true)],
+    )
+}
+
+#[test]
+fn gpu_matches_the_cpu_twin_on_a_builtin_scene() {
+    let ctx = gpu_context();
+    let (data, cmos) = builtin("sphere-room");
+    for size in [16, 32] {
+        let cap = full_capacity(&data, &cmos, size);
+        let (g, secs) = run(&ctx, &data, &cmos, size, 16, cap);
+        eprintln!(
+            "sphere-room N = {size}: {cap:?}, {:?}, {secs:.3} s",
+            g.counters
+        );
+        assert_nothing_dropped(&g);
+        assert!(u64::from(g.counters.nodes) <= cap.nodes);
+        compare_all(&g, &cpu_lists(&data, &cmos, size, 16));
+    }
+    finish_gpu(ctx);
+}
+
+/// What the GPU kept is the CPU's (full lists) and `complete_to` bounds what it lost; `Err`
+/// names the first texel where not.
+fn check_sound(gpu: &TexelLists, full: &TexelLists) -> Result<(), String> {
+    for i in 0..full.lo.len() {
+        let kept = &gpu.entries[gpu.offsets[i] as usize..gpu.offsets[i + 1] as usize];
+        let all = &full.entries[full.offsets[i] as usize..full.offsets[i + 1] as usize];
+        for e in kept {
+            if !all
+                .iter()
+                .any(|f| f.triangle == e.triangle && f.lo.to_bits() == e.lo.to_bits())
+            {
+                return Err(format!("texel {i}: kept {e:?} is not the CPU's"));
+            }
+        }
+        for f in all {
+            if !kept.iter().any(|e| e.triangle == f.triangle) && gpu.complete_to[i] > f.lo {
+                return Err(format!(
+                    "texel {i}: lost {f:?} below complete_to {}",
+                    gpu.complete_to[i]
+                ));
+            }
+        }
+        if gpu.lo[i] > full.lo[i] {
+            return Err(format!(
+                "texel {i}: lo {} above the CPU's {}",
+                gpu.lo[i], full.lo[i]
+            ));
+        }
+    }
+    Ok(())
+}
+
+#[test]
+fn tiny_pools_stay_sound() {
+    let ctx = gpu_context();
+    let a = small_triangles();
+    let data = tiny_scene(&[(&a, false)]);
+    let cmos = [(Vec3::new(0.25, -0.5, 0.75), false)];
+    let size = 16;
+    let cap = full_capacity(&data, &cmos, size);
+    let full = cpu_lists(&data, &cmos, size, u32::MAX);
+    for (what, tiny) in [
+        (
+            "nodes",
+            PoolBound {
+                nodes: cap.nodes / 3,
+                ..cap
+            },
+        ),
+        (
+            "jobs",
+            PoolBound {
+                jobs: cap.jobs / 2,
+                ..cap
+            },
+        ),
+    ] {
+        let (g, _) = run(&ctx, &data, &cmos, size, 16, tiny);
+        eprintln!("tiny {what}: {:?}", g.counters);
+        match what {
+            "nodes" => assert!(g.counters.nodes_dropped > 0),
+            _ => assert!(g.counters.jobs_dropped > 0),
+        }
+        check_sound(&g.cmos[0], &full[0]).unwrap();
+        // Negative: a texel that lost an entry with complete_to raised to +inf.
+        let i = (0..full[0].lo.len())
+            .find(|&i| {
+                g.cmos[0].offsets[i + 1] - g.cmos[0].offsets[i]
+                    < full[0].offsets[i + 1] - full[0].offsets[i]
+            })
+            .expect("some texel lost an entry");
+        let mut bad = g.cmos[0].clone();
+        bad.complete_to[i] = f32::INFINITY;
+        assert!(check_sound(&bad, &full[0]).is_err());
+    }
+    finish_gpu(ctx);
+}
+
+/// A walk cap of 2 node visits: the capped texels are unknown from 0 (sound) and counted.
+#[test]
+fn capped_walks_stay_sound() {
+    let ctx = gpu_context();
+    let (data, cmos) = builtin("sphere-room");
+    let size = 16;
+    let scene = SceneBuffers::new(&ctx, &data).unwrap();
+    let cap = full_capacity(&data, &cmos[..1], size);
+    let mut lists = CaptureLists::new(&ctx, &scene, size, 16, &cmos[..1], cap, None).unwrap();
+    lists.set_walk_cap(&ctx, 2).unwrap();
+    ctx.submit_and_wait("capture_lists", |rec| lists.record(rec))
+        .unwrap();
+    let g = lists.read_back(&ctx, None).unwrap();
+    eprintln!("walk cap 2: {:?}", g.counters);
+    assert!(g.counters.walks_capped > 0);
+    let full = cpu_lists(&data, &cmos[..1], size, u32::MAX);
+    check_sound(&g.cmos[0], &full[0]).unwrap();
+    let zeros = g.cmos[0].complete_to.iter().filter(|&&c| c == 0.0).count();
+    assert_eq!(zeros, g.counters.walks_capped as usize);
+    // Negative: the capped texels' complete_to back at +inf.
+    let mut bad = g.cmos[0].clone();
+    for c in bad.complete_to.iter_mut().filter(|c| **c == 0.0) {
+        *c = f32::INFINITY;
+    }
+    assert!(check_sound(&bad, &full[0]).is_err());
+    drop(lists);
+    drop(scene);
+    finish_gpu(ctx);
+}
+
+#[test]
+fn capture_cost_on_a_builtin_scene() {
+    let ctx = gpu_context();
+    let (data, cmos) = builtin("sphere-room");
+    let scene = SceneBuffers::new(&ctx, &data).unwrap();
+    for size in [64, 256] {
+        let t0 = Instant::now();
+        let cap = full_capacity(&data, &cmos[..1], size);
+        let cpu_bound = t0.elapsed().as_secs_f64();
+        let lists = CaptureLists::new(&ctx, &scene, size, 16, &cmos[..1], cap, None).unwrap();
+        // Twice: the first run includes the driver's compilation at the first dispatch.
+        for run in 0..2 {
+            let mut ts = Timestamps::new(&ctx, 4).unwrap();
+            let t0 = Instant::now();
+            ctx.submit_and_wait("capture_lists", |rec| {
+                ts.reset(rec);
+                lists.record_timed(rec, Some(&mut ts))
+            })
+            .unwrap();
+            let wall = t0.elapsed().as_secs_f64();
+            let times: Vec<String> = ts
+                .results()
+                .unwrap()
+                .iter()
+                .map(|(n, ns)| format!("{n} {:.1} ms", ns / 1e6))
+                .collect();
+            eprintln!(
+                "COST sphere-room, 1 CMO, N = {size}, run {run}: {wall:.3} s wall; {}; pool \
+                 bound on the CPU {cpu_bound:.3} s",
+                times.join(", ")
+            );
+        }
+        let g = lists.read_back(&ctx, None).unwrap();
+        eprintln!("COST N = {size}: {cap:?}; {:?}", g.counters);
+        assert_nothing_dropped(&g);
+    }
+    drop(scene);
+    finish_gpu(ctx);
+}
