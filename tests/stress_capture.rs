@@ -8,15 +8,20 @@
 //!   behind on every pixel whose first hit was thin.
 //! - `exact_capture_misses_thin_geometry`: the `exact` criterion (centre-sampled capture,
 //!   verified hits) reports hits behind the first hit: the old capture fails the new target.
-//!   Asserted on the fence and the wire grid at every size and CMO count; the rest is logged.
+//!   Asserted on the five thin scenes (fence, wire grid, chain link, foliage, edge-on fins) at
+//!   every size and CMO count; the relief and the bunny are logged (at cube 64 the exact
+//!   capture finds their first hits: 0 or 1 behind).
 //! - `bounded_capture_finds_the_first_hit` (ignored until `quality::bounded_twin` is switched
 //!   on at the issue 22 merge): no hit behind the first beyond the tolerance, no hit in front,
 //!   the same triangle on >= 99.9 % of resolved pixels, at cube sizes 16 and 64 with 1 to 3
 //!   CMOs on every scene and 256 on the fence. Negative: lists without the thin part's entries
 //!   are judged behind.
+//! - `drop_entries_drops_only_the_named_triangles`: the bounded negative's perturbation.
+//! - `stress_scenes_export_and_load_back` (ignored; `STRESS_EXPORT_DIR=dir`): writes every
+//!   stress scene as a scene file (`scene export`'s format) for the CLI and the GPU checks, and
+//!   checks that each loads back to the same scene.
 //!
-//! Numbers of the exact criterion (from this test's log) are in the module docs of
-//! `tests/common/stress.rs`' report, the test's `--nocapture` output.
+//! Run with `--nocapture` for the per-run table (behind count, same triangle %, unresolved %).
 
 mod common;
 #[path = "common/quality.rs"]
@@ -55,7 +60,10 @@ fn stress_scenes_put_thin_geometry_in_the_mirror() {
         let judged: Vec<_> = b
             .probes
             .iter()
-            .filter(|p| p.reference.is_none_or(|h| !b.tracer.is_reflector(h.triangle)))
+            .filter(|p| {
+                p.reference
+                    .is_none_or(|h| !b.tracer.is_reflector(h.triangle))
+            })
             .collect();
         let on_thin = judged
             .iter()
@@ -73,7 +81,11 @@ fn stress_scenes_put_thin_geometry_in_the_mirror() {
             without.line()
         );
         assert!(triangles <= 5000, "{name}: {triangles} triangles");
-        assert!(b.probes.len() >= 600, "{name}: {} mirror pixels", b.probes.len());
+        assert!(
+            b.probes.len() >= 600,
+            "{name}: {} mirror pixels",
+            b.probes.len()
+        );
         assert!(
             on_thin * 50 >= judged.len(),
             "{name}: only {on_thin} of {} reflected rays meet the thin part first",
@@ -126,15 +138,19 @@ fn exact_capture_misses_thin_geometry() {
             failing += 1;
         }
         // The negative of issue 22: the old capture must fail the new target where the
-        // geometry is thinner than a texel.
-        if name == "fence" || name == "wire-grid" {
+        // geometry is thinner than a texel (the relief and the bunny are logged only: at 64
+        // the exact capture resolves them).
+        if name != "relief" && name != "bunny" {
             assert!(
                 q.behind > 0,
                 "{name} N {cube} CMOs {cmos}: the exact criterion found every first hit"
             );
         }
     }
-    eprintln!("exact: hits behind the first in {failing} of {} runs", runs.len());
+    eprintln!(
+        "exact: hits behind the first in {failing} of {} runs",
+        runs.len()
+    );
 }
 
 #[test]
@@ -161,7 +177,72 @@ fn bounded_capture_finds_the_first_hit() {
             let bad = bounded_twin(&b, cube, &|l| drop_entries(l, &range)).expect("switched on");
             let q = b.judge(&bad);
             log(name, cube, cmos, "dropped", &q);
-            assert!(q.behind > 0, "{at}: lists without the thin part judged sound");
+            assert!(
+                q.behind > 0,
+                "{at}: lists without the thin part judged sound"
+            );
         }
+    }
+}
+
+#[test]
+fn drop_entries_drops_only_the_named_triangles() {
+    use cubetrace::cubemap::bounds::{Entry, TexelLists};
+    let e = |triangle, lo| Entry {
+        triangle,
+        lo,
+        hi: lo + 1.0,
+    };
+    // Size 1: six texels, with 2, 0, 3, 1, 0, 1 entries.
+    let lists = TexelLists {
+        size: 1,
+        depth: 4,
+        lo: vec![0.0; 6],
+        hi: vec![9.0; 6],
+        complete_to: vec![f32::INFINITY; 6],
+        offsets: vec![0, 2, 2, 5, 6, 6, 7],
+        entries: vec![
+            e(7, 1.0),
+            e(3, 2.0),
+            e(3, 0.5),
+            e(4, 0.6),
+            e(9, 0.7),
+            e(4, 1.0),
+            e(1, 1.0),
+        ],
+    };
+    let mut cut = lists.clone();
+    drop_entries(&mut cut, &(3..5));
+    assert_eq!(cut.offsets, vec![0, 1, 1, 2, 2, 2, 3]);
+    let kept: Vec<u32> = cut.entries.iter().map(|e| e.triangle).collect();
+    assert_eq!(kept, vec![7, 9, 1]);
+    assert_eq!(
+        (cut.lo, cut.hi, cut.complete_to),
+        (
+            lists.lo.clone(),
+            lists.hi.clone(),
+            lists.complete_to.clone()
+        )
+    );
+    // Negative: an empty range drops nothing.
+    let mut same = lists.clone();
+    drop_entries(&mut same, &(3..3));
+    assert_eq!(same, lists);
+}
+
+#[test]
+#[ignore = "writes files: STRESS_EXPORT_DIR=dir cargo test --test stress_capture -- --ignored export"]
+fn stress_scenes_export_and_load_back() {
+    let dir = std::env::var("STRESS_EXPORT_DIR").expect("STRESS_EXPORT_DIR");
+    for &name in STRESS {
+        let scene = stress_scene(name, WIDTH, HEIGHT, 64, 1);
+        let path = cubetrace::scene::export::export(&scene, &std::path::Path::new(&dir).join(name))
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        let back = cubetrace::scene::load(path.to_str().expect("UTF-8 path"))
+            .unwrap_or_else(|e| panic!("{e}"));
+        scene
+            .compare_content(&back)
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        eprintln!("{name}: {}", path.display());
     }
 }

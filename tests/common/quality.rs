@@ -36,8 +36,8 @@
 use cubetrace::cpu::multi::{MultiStatus, Traversal, Verify, trace_cmos_verified};
 use cubetrace::cpu::verify::triangle_corners;
 use cubetrace::cpu::{CmoTracer, TraceParams};
-use cubetrace::reference::{Hit, Tracer, capture, reflect};
 use cubetrace::cubemap::bounds::TexelLists;
+use cubetrace::reference::{Hit, Tracer, capture, reflect};
 use cubetrace::scene::Scene;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -124,7 +124,9 @@ impl Bench {
             .collect();
         assert!(!objects.is_empty(), "no mesh {name}");
         let first = objects[0].first_triangle;
-        let last = objects.last().map_or(first, |o| o.first_triangle + o.triangle_count);
+        let last = objects
+            .last()
+            .map_or(first, |o| o.first_triangle + o.triangle_count);
         first..last
     }
 
@@ -132,16 +134,18 @@ impl Bench {
     /// `reference` (module docs).
     pub fn tolerance(&self, p: &Probe, reference: &Hit, triangle: u32, point: Vec3) -> f64 {
         let inf = |v: Vec3| v.abs().max_element() as f64;
-        let r = self
-            .centres
-            .iter()
-            .map(|&c| inf(c))
-            .fold(inf(p.origin).max(inf(point)).max(inf(reference.position)), f64::max);
+        let r = self.centres.iter().map(|&c| inf(c)).fold(
+            inf(p.origin).max(inf(point)).max(inf(reference.position)),
+            f64::max,
+        );
         let cos = self
             .corners
             .get(triangle as usize)
             .map_or(1.0, |&[a, b, c]| {
-                let n = (b - a).as_dvec3().cross((c - a).as_dvec3()).normalize_or_zero();
+                let n = (b - a)
+                    .as_dvec3()
+                    .cross((c - a).as_dvec3())
+                    .normalize_or_zero();
                 n.dot(p.dir.as_dvec3()).abs()
             });
         reference.error + 2f64.powi(-20) * r / cos.max(2f64.powi(-10))
@@ -319,7 +323,6 @@ pub fn exact_twin(bench: &Bench, size: u32) -> Twin<'_> {
         }
     })
 }
-
 
 /// The `bounded` criterion's CPU twin (`--criterion bounded`, issue 22): THE SWITCH for the
 /// merge. `cpu::bounded` (the lead's) and `cubemap::bounds::capture_lists` (another helper's)

@@ -247,7 +247,9 @@ fn relief(m: u32) -> MeshPart {
     let mut rng = Rng(0x5eed_4e11);
     let n = 28usize;
     for wall in [false, true] {
-        let h: Vec<f32> = (0..(n + 1) * (n + 1)).map(|_| rng.range(0.0, 0.06)).collect();
+        let h: Vec<f32> = (0..(n + 1) * (n + 1))
+            .map(|_| rng.range(0.0, 0.06))
+            .collect();
         let at = |i: usize, j: usize| {
             let (a, b) = (-1.4 + 0.1 * i as f32, -1.4 + 0.1 * j as f32);
             let e = h[j * (n + 1) + i];
