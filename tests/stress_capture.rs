@@ -4,8 +4,9 @@
 //!
 //! - `stress_scenes_put_thin_geometry_in_the_mirror`: each scene is what it claims (a few
 //!   thousand triangles; many reflected rays meet its thin part first) and the harness judges
-//!   the reference itself perfect. Negative: the reference without the thin part is judged
-//!   behind on every pixel whose first hit was thin.
+//!   the reference itself perfect, and the ideal f32 twin (the watertight test over every
+//!   triangle in CMO-local f32: what `bounded` must equal) within the targets. Negative: the
+//!   reference without the thin part is judged behind on every pixel whose first hit was thin.
 //! - `exact_capture_misses_thin_geometry`: the `exact` criterion (centre-sampled capture,
 //!   verified hits) reports hits behind the first hit: the old capture fails the new target.
 //!   Asserted on the five thin scenes (fence, wire grid, chain link, foliage, edge-on fins) at
@@ -29,7 +30,10 @@ mod quality;
 #[path = "common/stress.rs"]
 mod stress;
 
-use quality::{Bench, Quality, bounded_twin, drop_entries, exact_twin, reference_twin};
+use quality::{
+    Bench, Found, Quality, Verdict, bounded_twin, drop_entries, exact_twin, reference_twin,
+    watertight_twin,
+};
 use stress::{STRESS, bunny_scene, stress_scene};
 
 const WIDTH: u32 = 64;
@@ -71,14 +75,16 @@ fn stress_scenes_put_thin_geometry_in_the_mirror() {
             .count();
         let all = b.judge(&reference_twin(&b, |_| true));
         let without = b.judge(&reference_twin(&b, |t| !range.contains(&t)));
+        let f32s = b.judge(&watertight_twin(&b, b.centres[0]));
         eprintln!(
             "{name:10}: {triangles} triangles ({} thin), {} mirror pixels, {on_thin} of {} \
-             judged first meet the thin part\n  reference  : {}\n  without it : {}",
+             judged first meet the thin part\n  reference  : {}\n  without it : {}\n  ideal f32  : {}",
             range.len(),
             b.probes.len(),
             judged.len(),
             all.line(),
-            without.line()
+            without.line(),
+            f32s.line()
         );
         assert!(triangles <= 5000, "{name}: {triangles} triangles");
         assert!(
@@ -98,6 +104,13 @@ fn stress_scenes_put_thin_geometry_in_the_mirror() {
             "{name}: the reference judged against itself"
         );
         assert_eq!(all.same, all.judged(), "{name}");
+        // The targets hold for f32 arithmetic: the watertight test over every triangle.
+        assert_eq!(
+            (f32s.behind, f32s.in_front),
+            (0, 0),
+            "{name}: the ideal f32 twin"
+        );
+        assert!(f32s.same_share() >= 0.999, "{name}: ideal f32 twin");
         // Negative: without the thin part, every pixel whose first hit was thin is behind.
         assert!(
             without.behind >= on_thin && without.behind > 0,
@@ -245,4 +258,45 @@ fn stress_scenes_export_and_load_back() {
             .unwrap_or_else(|e| panic!("{name}: {e}"));
         eprintln!("{name}: {}", path.display());
     }
+}
+
+/// The tolerance separates a tie (another triangle at the reference's distance, to f32 data)
+/// from a hit behind: a wrong triangle half the tolerance away is a tie, twice it away behind
+/// (or in front); and the tolerance is tiny against the gaps a missed thin object leaves.
+#[test]
+fn tolerance_separates_ties_from_hits_behind() {
+    let b = bench("fence", 16, 1);
+    let mut checked = 0;
+    let mut largest: f64 = 0.0;
+    for p in &b.probes {
+        let Some(h) = p.reference.filter(|h| !b.tracer.is_reflector(h.triangle)) else {
+            continue;
+        };
+        let other = h.triangle ^ 1;
+        let tol = b.tolerance(p, &h, other, h.position);
+        largest = largest.max(tol);
+        let at = |k: f64| Found::Hit {
+            triangle: other,
+            point: h.position + p.dir * (k * tol) as f32,
+        };
+        // Moving the point changes R and the tolerance by a few ulps only: 0.5 and 2 are far
+        // from the boundary.
+        assert_eq!(b.verdict(p, at(0.5)), Verdict::Tie);
+        assert_eq!(b.verdict(p, at(-0.5)), Verdict::Tie);
+        assert!(matches!(b.verdict(p, at(2.0)), Verdict::Behind(_)));
+        assert_eq!(b.verdict(p, at(-2.0)), Verdict::InFront);
+        // The same triangle is never wrong, however far.
+        let same = Found::Hit {
+            triangle: h.triangle,
+            point: h.position + p.dir,
+        };
+        assert_eq!(b.verdict(p, same), Verdict::Same);
+        checked += 1;
+    }
+    eprintln!("{checked} probes, largest tolerance {largest:.3e}");
+    assert!(checked > 500);
+    assert!(
+        largest < 1e-4,
+        "tolerance {largest}: too lax to see thin geometry"
+    );
 }

@@ -35,6 +35,7 @@
 //! (0.1 to 3 units here; `tol` is some 1e-6): [`Quality::min_behind`] shows the gap.
 use cubetrace::cpu::multi::{MultiStatus, Traversal, Verify, trace_cmos_verified};
 use cubetrace::cpu::verify::triangle_corners;
+use cubetrace::cpu::watertight::intersect;
 use cubetrace::cpu::{CmoTracer, TraceParams};
 use cubetrace::cubemap::bounds::TexelLists;
 use cubetrace::reference::{Hit, Tracer, capture, reflect};
@@ -179,7 +180,8 @@ impl Bench {
         q
     }
 
-    fn verdict(&self, p: &Probe, found: Found) -> Verdict {
+    /// How one pixel is judged (module docs).
+    pub fn verdict(&self, p: &Probe, found: Found) -> Verdict {
         let along = |x: Vec3| (x.as_dvec3() - p.origin.as_dvec3()).dot(p.dir.as_dvec3());
         if let Some(h) = &p.reference
             && self.tracer.is_reflector(h.triangle)
@@ -209,7 +211,9 @@ impl Bench {
     }
 }
 
-enum Verdict {
+/// One pixel's judgement ([`Bench::verdict`]); `Behind` holds the gap `t' - t`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Verdict {
     ReflectorFirst,
     Unresolved,
     Same,
@@ -287,6 +291,43 @@ pub fn reference_twin<'a>(bench: &'a Bench, keep: impl Fn(u32) -> bool + Sync + 
             Some(h) => Found::Hit {
                 triangle: h.triangle,
                 point: h.position,
+            },
+            None => Found::Escaped,
+        }
+    })
+}
+
+/// The ideal f32 twin of a CMO at `centre`: every captured triangle tested with the
+/// watertight test (`cpu::watertight::intersect`, what `bounded` runs on its candidates) in
+/// CMO-local coordinates (the origin and the corners minus the centre, in f32), the nearest
+/// `t > 0` kept (ties: the lower triangle), the point `centre + (a + t d)`. What `bounded`
+/// must equal when its lists hold every triangle the ray meets; the harness's check that its
+/// tolerance and the targets hold for f32 arithmetic, not only for the reference's f64.
+/// Reflectors are left out (the scenes' mirror is convex: `bounded` holds it only when the CMO
+/// captures reflectors).
+pub fn watertight_twin(bench: &Bench, centre: Vec3) -> Twin<'_> {
+    let local: Vec<(u32, [Vec3; 3])> = bench
+        .corners
+        .iter()
+        .enumerate()
+        .filter(|&(k, _)| !bench.tracer.is_reflector(k as u32))
+        .map(|(k, c)| (k as u32, c.map(|v| v - centre)))
+        .collect();
+    Box::new(move |p| {
+        let a = p.origin - centre;
+        let mut best: Option<(f32, u32)> = None;
+        for &(k, tri) in &local {
+            let Some(h) = intersect(a, p.dir, tri) else {
+                continue;
+            };
+            if h.t <= bench.t_hi && best.is_none_or(|(t, _)| h.t < t) {
+                best = Some((h.t, k));
+            }
+        }
+        match best {
+            Some((t, triangle)) => Found::Hit {
+                triangle,
+                point: centre + (a + t * p.dir),
             },
             None => Found::Escaped,
         }
