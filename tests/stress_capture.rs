@@ -31,8 +31,8 @@ mod quality;
 mod stress;
 
 use quality::{
-    Bench, Found, Quality, Verdict, bounded_twin, drop_entries, exact_twin, reference_twin,
-    watertight_twin,
+    Bench, Found, Quality, Verdict, bounded_twin, captured_flags, drop_entries, exact_twin,
+    reference_twin, watertight_twin,
 };
 use stress::{STRESS, bunny_scene, stress_scene};
 
@@ -87,6 +87,12 @@ fn stress_scenes_put_thin_geometry_in_the_mirror() {
             f32s.line()
         );
         assert!(triangles <= 5000, "{name}: {triangles} triangles");
+        // What `bounded` captures: everything but the convex mirror (not self-captured).
+        let mirror = b.mesh_triangles("mirror");
+        let captured = captured_flags(&b);
+        for (t, &c) in captured.iter().enumerate() {
+            assert_eq!(c, !mirror.contains(&(t as u32)), "{name}: triangle {t}");
+        }
         assert!(
             b.probes.len() >= 600,
             "{name}: {} mirror pixels",

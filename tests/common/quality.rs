@@ -33,7 +33,7 @@
 //! closer than `tol` along the ray are the same surface to f32 data (a shared edge, coplanar
 //! pieces): neither behind nor in front. A missed thin object puts the twin's hit a wall away
 //! (0.1 to 3 units here; `tol` is some 1e-6): [`Quality::min_behind`] shows the gap.
-use cubetrace::cpu::multi::{MultiStatus, Traversal, Verify, trace_cmos_verified};
+use cubetrace::cpu::multi::{MultiResult, MultiStatus, Traversal, Verify, trace_cmos_verified};
 use cubetrace::cpu::verify::triangle_corners;
 use cubetrace::cpu::watertight::intersect;
 use cubetrace::cpu::{CmoTracer, TraceParams};
@@ -353,15 +353,15 @@ pub fn exact_twin(bench: &Bench, size: u32) -> Twin<'_> {
             triangles: &bench.corners,
         };
         let (o, d, t_hi) = (p.origin, p.dir, bench.t_hi);
-        let r = trace_cmos_verified(&cmos, o, d, 0.0, t_hi, Traversal::Mip, Some(verify));
-        match r.status {
-            MultiStatus::Hit => Found::Hit {
-                triangle: r.triangle,
-                point: r.point,
-            },
-            MultiStatus::Escaped => Found::Escaped,
-            MultiStatus::Unresolved => Found::Unresolved,
-        }
+        found(&trace_cmos_verified(
+            &cmos,
+            o,
+            d,
+            0.0,
+            t_hi,
+            Traversal::Mip,
+            Some(verify),
+        ))
     })
 }
 
@@ -369,36 +369,65 @@ pub fn exact_twin(bench: &Bench, size: u32) -> Twin<'_> {
 /// merge. `cpu::bounded` (the lead's) and `cubemap::bounds::capture_lists` (another helper's)
 /// are not on this branch, so this returns `None` and the `bounded` tests of
 /// `tests/stress_capture.rs` (ignored until then) fail naming this function. At the merge,
-/// replace the body with the twin, built as design22 says (names to adjust to the merged API):
+/// replace the body with the block below (written against the API as it stands in the lead's
+/// and the capture helper's trees: `capture_lists(triangles, captured, centre, size, depth)`,
+/// `CmoTracer::bounded(centre, lists, corners, params)`, `WorldRay`, `trace_world_ray`),
+/// add the imports it names, and remove the `#[ignore]` of `bounded_capture_finds_the_first_hit`.
 ///
 /// ```ignore
-/// let lists: Vec<TexelLists> = bench.centres.iter().map(|&c| {
-///     let mut l = cubetrace::cubemap::bounds::capture_lists(
-///         &bench.scene, &bench.tracer.world, c, size, DEFAULT_DEPTH);
-///     perturb(&mut l);
-///     l
-/// }).collect();
+/// let captured = captured_flags(bench);
+/// let cmos: Vec<CmoTracer> = bench
+///     .centres
+///     .iter()
+///     .map(|&c| {
+///         let mut lists = capture_lists(&bench.corners, &captured, c, size, DEFAULT_DEPTH);
+///         perturb(&mut lists);
+///         CmoTracer::bounded(c, lists, bench.corners.clone(), TraceParams::default())
+///     })
+///     .collect();
 /// Some(Box::new(move |p| {
-///     // the multi-CMO layer over the lists, the ray leaving p.from.triangle (the start rule)
-///     let r = cubetrace::cpu::bounded::trace_cmos(&lists, &bench.corners, p.origin, p.dir,
-///         0.0, bench.t_hi, p.from.triangle);
-///     match r.status {
-///         MultiStatus::Hit => Found::Hit { triangle: r.triangle, point: r.point },
-///         MultiStatus::Escaped => Found::Escaped,
-///         MultiStatus::Unresolved => Found::Unresolved,
-///     }
+///     let ray = WorldRay {
+///         origin: p.origin,
+///         dir: p.dir,
+///         from: p.from.triangle, // the mirror triangle the ray leaves: the start rule
+///         t_lo: 0.0,
+///         t_hi: bench.t_hi,
+///     };
+///     found(&trace_world_ray(&cmos, &ray, None, |tr, s| trace_one(tr, s, Traversal::Mip)))
 /// }))
 /// ```
 ///
 /// `perturb` edits each CMO's lists before tracing (the tests' negative drops the thin
-/// geometry's entries); the identity for the real check.
+/// geometry's entries, [`drop_entries`]); the identity for the real check.
 pub fn bounded_twin<'a>(
     bench: &'a Bench,
     size: u32,
     perturb: &dyn Fn(&mut TexelLists),
 ) -> Option<Twin<'a>> {
-    let _ = (bench, size, perturb);
+    let _ = (bench, size, perturb, captured_flags);
     None
+}
+
+/// Per global triangle, whether the capture takes it (design22, "Which triangles": every
+/// triangle of a captured object; a reflector's only when it captures itself).
+pub fn captured_flags(bench: &Bench) -> Vec<bool> {
+    let w = &bench.tracer.world;
+    w.triangle_object
+        .iter()
+        .map(|&o| w.objects[o as usize].captured)
+        .collect()
+}
+
+/// A multi-CMO result as the harness reads it.
+pub fn found(r: &MultiResult) -> Found {
+    match r.status {
+        MultiStatus::Hit => Found::Hit {
+            triangle: r.triangle,
+            point: r.point,
+        },
+        MultiStatus::Escaped => Found::Escaped,
+        MultiStatus::Unresolved => Found::Unresolved,
+    }
 }
 
 /// Drops every entry of the triangles in `drop` from the lists, leaving each texel's `lo`,
