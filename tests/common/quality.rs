@@ -366,13 +366,12 @@ pub fn exact_twin(bench: &Bench, size: u32) -> Twin<'_> {
 }
 
 /// The `bounded` criterion's CPU twin (`--criterion bounded`, issue 22): THE SWITCH for the
-/// merge. `cpu::bounded` (the lead's) and `cubemap::bounds::capture_lists` (another helper's)
-/// are not on this branch, so this returns `None` and the `bounded` tests of
-/// `tests/stress_capture.rs` (ignored until then) fail naming this function. At the merge,
-/// replace the body with the block below (written against the API as it stands in the lead's
-/// and the capture helper's trees: `capture_lists(triangles, captured, centre, size, depth)`,
-/// `CmoTracer::bounded(centre, lists, corners, params)`, `WorldRay`, `trace_world_ray`),
-/// add the imports it names, and remove the `#[ignore]` of `bounded_capture_finds_the_first_hit`.
+/// merge. `cpu::bounded` (the lead's, main 399688b) and `cubemap::bounds::capture_lists` (the
+/// capture helper's, i22-capture e6d31a5) are not on this branch, so this returns `None` and
+/// the `bounded` test of `tests/stress_capture.rs` (ignored until then) fails naming this
+/// function. At the merge, replace the body's two lines with the block below (verbatim: it was
+/// run on a scratch merge of the three branches, where the test passed) and remove the
+/// `#[ignore]` of `bounded_capture_finds_the_first_hit`.
 ///
 /// ```ignore
 /// let captured = captured_flags(bench);
@@ -380,20 +379,31 @@ pub fn exact_twin(bench: &Bench, size: u32) -> Twin<'_> {
 ///     .centres
 ///     .iter()
 ///     .map(|&c| {
-///         let mut lists = capture_lists(&bench.corners, &captured, c, size, DEFAULT_DEPTH);
+///         let mut lists = cubetrace::cubemap::bounds::capture_lists(
+///             &bench.corners,
+///             &captured,
+///             c,
+///             size,
+///             cubetrace::cubemap::bounds::DEFAULT_DEPTH,
+///         );
 ///         perturb(&mut lists);
 ///         CmoTracer::bounded(c, lists, bench.corners.clone(), TraceParams::default())
 ///     })
 ///     .collect();
 /// Some(Box::new(move |p| {
-///     let ray = WorldRay {
+///     let ray = cubetrace::cpu::multi::WorldRay {
 ///         origin: p.origin,
 ///         dir: p.dir,
 ///         from: p.from.triangle, // the mirror triangle the ray leaves: the start rule
 ///         t_lo: 0.0,
 ///         t_hi: bench.t_hi,
 ///     };
-///     found(&trace_world_ray(&cmos, &ray, None, |tr, s| trace_one(tr, s, Traversal::Mip)))
+///     found(&cubetrace::cpu::multi::trace_world_ray(
+///         &cmos,
+///         &ray,
+///         None,
+///         |tr, s| cubetrace::cpu::multi::trace_one(tr, s, Traversal::Mip),
+///     ))
 /// }))
 /// ```
 ///
