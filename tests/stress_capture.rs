@@ -1,0 +1,324 @@
+//! Issue 22, deliverable 4: thin and small geometry around a mirror (the stress scenes of
+//! `tests/common/stress.rs`, and the Stanford bunny of `tests/scenes/bunny/`), judged by the
+//! quality harness of `tests/common/quality.rs` against the exact reference, per mirror pixel.
+//!
+//! - `stress_scenes_put_thin_geometry_in_the_mirror`: each scene is what it claims (a few
+//!   thousand triangles; many reflected rays meet its thin part first) and the harness judges
+//!   the reference itself perfect, and the ideal f32 twin (the watertight test over every
+//!   triangle in CMO-local f32: what `bounded` must equal) within the targets. Negative: the
+//!   reference without the thin part is judged behind on every pixel whose first hit was thin.
+//! - `exact_capture_misses_thin_geometry`: the `exact` criterion (centre-sampled capture,
+//!   verified hits) reports hits behind the first hit: the old capture fails the new target.
+//!   Asserted on the five thin scenes (fence, wire grid, chain link, foliage, edge-on fins) at
+//!   every size and CMO count; the relief and the bunny are logged (at cube 64 the exact
+//!   capture finds their first hits: 0 or 1 behind).
+//! - `bounded_capture_finds_the_first_hit` (ignored until `quality::bounded_twin` is switched
+//!   on at the issue 22 merge): no hit behind the first beyond the tolerance, no hit in front,
+//!   the same triangle on >= 99.9 % of resolved pixels, at cube sizes 16 and 64 with 1 to 3
+//!   CMOs on every scene and 256 on the fence. Negative: lists without the thin part's entries
+//!   are judged behind.
+//! - `drop_entries_drops_only_the_named_triangles`: the bounded negative's perturbation.
+//! - `stress_scenes_export_and_load_back` (ignored; `STRESS_EXPORT_DIR=dir`): writes every
+//!   stress scene as a scene file (`scene export`'s format) for the CLI and the GPU checks, and
+//!   checks that each loads back to the same scene.
+//!
+//! Run with `--nocapture` for the per-run table (behind count, same triangle %, unresolved %).
+//!
+//! Measured (64 x 48, about 800 to 1100 mirror pixels a scene), pixels behind the first hit at
+//! N = 16 | N = 64 for 1, 2, 3 CMOs:
+//!
+//! | scene | exact | `bounded` (scratch merge of issue 22's branches) |
+//! | --- | --- | --- |
+//! | fence | 63 73 70 \| 37 66 63; 16 at N = 256 | 0 everywhere; unresolved 51/39/30 % at 16, 0 at 64 |
+//! | wire-grid | 54 54 54 \| 54 54 54 | 0; unresolved 31/24/7 % at 16, <= 1.5 % at 64 |
+//! | chain-link | 44 46 47 \| 20 35 40 | 0; unresolved <= 5 % |
+//! | foliage | 26 32 31 \| 11 14 19 | 0; unresolved 0 |
+//! | relief | 45 51 58 \| 0 0 1 | 0; unresolved <= 9 % at 16, 0 at 64 |
+//! | edge-on | 255 170 259 \| 251 119 259 | 0; unresolved 0 |
+//! | bunny | 0 1 6 \| 0 0 0 | 0; unresolved 9/7/6 % at 16, 3/1/1 % at 64 |
+//!
+//! `bounded` had the same triangle on 100 % of resolved pixels in every run; the exact
+//! criterion 67 to 100 %.
+
+mod common;
+#[path = "common/quality.rs"]
+mod quality;
+#[path = "common/stress.rs"]
+mod stress;
+
+use quality::{
+    Bench, Found, Quality, Verdict, bounded_twin, captured_flags, drop_entries, exact_twin,
+    reference_twin, watertight_twin,
+};
+use stress::{STRESS, bunny_scene, stress_scene};
+
+const WIDTH: u32 = 64;
+const HEIGHT: u32 = 48;
+
+/// Every scene by name with the name of its thin mesh.
+fn scenes() -> Vec<(&'static str, &'static str)> {
+    let mut v: Vec<_> = STRESS.iter().map(|&s| (s, s)).collect();
+    v.push(("bunny", "bunny"));
+    v
+}
+
+fn bench(name: &str, cube: u32, cmos: u32) -> Bench {
+    let scene = if name == "bunny" {
+        bunny_scene(WIDTH, HEIGHT, cube, cmos)
+    } else {
+        stress_scene(name, WIDTH, HEIGHT, cube, cmos)
+    };
+    Bench::new(scene)
+}
+
+#[test]
+fn stress_scenes_put_thin_geometry_in_the_mirror() {
+    for (name, thin) in scenes() {
+        let b = bench(name, 16, 1);
+        let triangles = b.tracer.world.triangles.len();
+        let range = b.mesh_triangles(thin);
+        let judged: Vec<_> = b
+            .probes
+            .iter()
+            .filter(|p| {
+                p.reference
+                    .is_none_or(|h| !b.tracer.is_reflector(h.triangle))
+            })
+            .collect();
+        let on_thin = judged
+            .iter()
+            .filter(|p| p.reference.is_some_and(|h| range.contains(&h.triangle)))
+            .count();
+        let all = b.judge(&reference_twin(&b, |_| true));
+        let without = b.judge(&reference_twin(&b, |t| !range.contains(&t)));
+        let f32s = b.judge(&watertight_twin(&b, b.centres[0]));
+        eprintln!(
+            "{name:10}: {triangles} triangles ({} thin), {} mirror pixels, {on_thin} of {} \
+             judged first meet the thin part\n  reference  : {}\n  without it : {}\n  ideal f32  : {}",
+            range.len(),
+            b.probes.len(),
+            judged.len(),
+            all.line(),
+            without.line(),
+            f32s.line()
+        );
+        assert!(triangles <= 5000, "{name}: {triangles} triangles");
+        // What `bounded` captures: everything but the convex mirror (not self-captured).
+        let mirror = b.mesh_triangles("mirror");
+        let captured = captured_flags(&b);
+        for (t, &c) in captured.iter().enumerate() {
+            assert_eq!(c, !mirror.contains(&(t as u32)), "{name}: triangle {t}");
+        }
+        assert!(
+            b.probes.len() >= 600,
+            "{name}: {} mirror pixels",
+            b.probes.len()
+        );
+        assert!(
+            on_thin * 50 >= judged.len(),
+            "{name}: only {on_thin} of {} reflected rays meet the thin part first",
+            judged.len()
+        );
+        // The harness on the reference itself: nothing wrong.
+        assert_eq!(
+            (all.behind, all.in_front, all.tie, all.unresolved),
+            (0, 0, 0, 0),
+            "{name}: the reference judged against itself"
+        );
+        assert_eq!(all.same, all.judged(), "{name}");
+        // The targets hold for f32 arithmetic: the watertight test over every triangle.
+        assert_eq!(
+            (f32s.behind, f32s.in_front),
+            (0, 0),
+            "{name}: the ideal f32 twin"
+        );
+        assert!(f32s.same_share() >= 0.999, "{name}: ideal f32 twin");
+        // Negative: without the thin part, every pixel whose first hit was thin is behind.
+        assert!(
+            without.behind >= on_thin && without.behind > 0,
+            "{name}: without the thin part {} behind, {on_thin} first hits were thin",
+            without.behind
+        );
+    }
+}
+
+/// `(scene, cube size, CMOs)` runs of the exact and bounded checks: sizes 16 and 64 with 1 to
+/// 3 CMOs on every scene, and 256 with one CMO on the fence.
+fn runs() -> Vec<(&'static str, &'static str, u32, u32)> {
+    let mut v = Vec::new();
+    for (name, thin) in scenes() {
+        for cube in [16, 64] {
+            for cmos in 1..=3 {
+                v.push((name, thin, cube, cmos));
+            }
+        }
+    }
+    v.push(("fence", "fence", 256, 1));
+    v
+}
+
+fn log(name: &str, cube: u32, cmos: u32, what: &str, q: &Quality) {
+    eprintln!("{name:10} N {cube:4} CMOs {cmos} {what:8}: {}", q.line());
+}
+
+#[test]
+fn exact_capture_misses_thin_geometry() {
+    let mut failing = 0;
+    let runs = runs();
+    for &(name, _, cube, cmos) in &runs {
+        let b = bench(name, cube, cmos);
+        let q = b.judge(&exact_twin(&b, cube));
+        log(name, cube, cmos, "exact", &q);
+        if q.behind > 0 {
+            failing += 1;
+        }
+        // The negative of issue 22: the old capture must fail the new target where the
+        // geometry is thinner than a texel (the relief and the bunny are logged only: at 64
+        // the exact capture resolves them).
+        if name != "relief" && name != "bunny" {
+            assert!(
+                q.behind > 0,
+                "{name} N {cube} CMOs {cmos}: the exact criterion found every first hit"
+            );
+        }
+    }
+    eprintln!(
+        "exact: hits behind the first in {failing} of {} runs",
+        runs.len()
+    );
+}
+
+#[test]
+#[ignore = "needs cpu::bounded (issue 22 merge): switch on quality::bounded_twin"]
+fn bounded_capture_finds_the_first_hit() {
+    for &(name, thin, cube, cmos) in &runs() {
+        let b = bench(name, cube, cmos);
+        let twin = bounded_twin(&b, cube, &|_| {})
+            .expect("quality::bounded_twin is not switched on (issue 22 merge)");
+        let q = b.judge(&twin);
+        log(name, cube, cmos, "bounded", &q);
+        let at = format!("{name} N {cube} CMOs {cmos}");
+        assert_eq!(q.behind, 0, "{at}: hits behind the first hit");
+        assert_eq!(q.in_front, 0, "{at}: hits in front of the first hit");
+        assert!(
+            q.same_share() >= 0.999,
+            "{at}: same triangle on {:.3} % of resolved pixels",
+            100.0 * q.same_share()
+        );
+        // Negative: lists without the thin part's entries (bounds untouched) are unsound,
+        // and the harness sees it.
+        if cmos == 1 && cube == 64 {
+            let range = b.mesh_triangles(thin);
+            let bad = bounded_twin(&b, cube, &|l| drop_entries(l, &range)).expect("switched on");
+            let q = b.judge(&bad);
+            log(name, cube, cmos, "dropped", &q);
+            assert!(
+                q.behind > 0,
+                "{at}: lists without the thin part judged sound"
+            );
+        }
+    }
+}
+
+#[test]
+fn drop_entries_drops_only_the_named_triangles() {
+    use cubetrace::cubemap::bounds::{Entry, TexelLists};
+    let e = |triangle, lo| Entry {
+        triangle,
+        lo,
+        hi: lo + 1.0,
+    };
+    // Size 1: six texels, with 2, 0, 3, 1, 0, 1 entries.
+    let lists = TexelLists {
+        size: 1,
+        depth: 4,
+        lo: vec![0.0; 6],
+        hi: vec![9.0; 6],
+        complete_to: vec![f32::INFINITY; 6],
+        offsets: vec![0, 2, 2, 5, 6, 6, 7],
+        entries: vec![
+            e(7, 1.0),
+            e(3, 2.0),
+            e(3, 0.5),
+            e(4, 0.6),
+            e(9, 0.7),
+            e(4, 1.0),
+            e(1, 1.0),
+        ],
+    };
+    let mut cut = lists.clone();
+    drop_entries(&mut cut, &(3..5));
+    assert_eq!(cut.offsets, vec![0, 1, 1, 2, 2, 2, 3]);
+    let kept: Vec<u32> = cut.entries.iter().map(|e| e.triangle).collect();
+    assert_eq!(kept, vec![7, 9, 1]);
+    assert_eq!(
+        (cut.lo, cut.hi, cut.complete_to),
+        (
+            lists.lo.clone(),
+            lists.hi.clone(),
+            lists.complete_to.clone()
+        )
+    );
+    // Negative: an empty range drops nothing.
+    let mut same = lists.clone();
+    drop_entries(&mut same, &(3..3));
+    assert_eq!(same, lists);
+}
+
+#[test]
+#[ignore = "writes files: STRESS_EXPORT_DIR=dir cargo test --test stress_capture -- --ignored export"]
+fn stress_scenes_export_and_load_back() {
+    let dir = std::env::var("STRESS_EXPORT_DIR").expect("STRESS_EXPORT_DIR");
+    for &name in STRESS {
+        let scene = stress_scene(name, WIDTH, HEIGHT, 64, 1);
+        let path = cubetrace::scene::export::export(&scene, &std::path::Path::new(&dir).join(name))
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        let back = cubetrace::scene::load(path.to_str().expect("UTF-8 path"))
+            .unwrap_or_else(|e| panic!("{e}"));
+        scene
+            .compare_content(&back)
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        eprintln!("{name}: {}", path.display());
+    }
+}
+
+/// The tolerance separates a tie (another triangle at the reference's distance, to f32 data)
+/// from a hit behind: a wrong triangle half the tolerance away is a tie, twice it away behind
+/// (or in front); and the tolerance is tiny against the gaps a missed thin object leaves.
+#[test]
+fn tolerance_separates_ties_from_hits_behind() {
+    let b = bench("fence", 16, 1);
+    let mut checked = 0;
+    let mut largest: f64 = 0.0;
+    for p in &b.probes {
+        let Some(h) = p.reference.filter(|h| !b.tracer.is_reflector(h.triangle)) else {
+            continue;
+        };
+        let other = h.triangle ^ 1;
+        let tol = b.tolerance(p, &h, other, h.position);
+        largest = largest.max(tol);
+        let at = |k: f64| Found::Hit {
+            triangle: other,
+            point: h.position + p.dir * (k * tol) as f32,
+        };
+        // Moving the point changes R and the tolerance by a few ulps only: 0.5 and 2 are far
+        // from the boundary.
+        assert_eq!(b.verdict(p, at(0.5)), Verdict::Tie);
+        assert_eq!(b.verdict(p, at(-0.5)), Verdict::Tie);
+        assert!(matches!(b.verdict(p, at(2.0)), Verdict::Behind(_)));
+        assert_eq!(b.verdict(p, at(-2.0)), Verdict::InFront);
+        // The same triangle is never wrong, however far.
+        let same = Found::Hit {
+            triangle: h.triangle,
+            point: h.position + p.dir,
+        };
+        assert_eq!(b.verdict(p, same), Verdict::Same);
+        checked += 1;
+    }
+    eprintln!("{checked} probes, largest tolerance {largest:.3e}");
+    assert!(checked > 500);
+    assert!(
+        largest < 1e-4,
+        "tolerance {largest}: too lax to see thin geometry"
+    );
+}
