@@ -120,7 +120,7 @@ fn jobs(@builtin(global_invocation_id) gid: vec3<u32>) {
     let l1 = to_face_local(face, w1 - view.centre);
     let l2 = to_face_local(face, w2 - view.centre);
     let size = lists_params.size;
-    let r = cb_face_rect(w0, w1, w2, l0, l1, l2, view.centre, size);
+    let r = cb_face_rect(l0, l1, l2, size);
     if r.hit == 0u {
         return;
     }

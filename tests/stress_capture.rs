@@ -12,8 +12,7 @@
 //!   Asserted on the five thin scenes (fence, wire grid, chain link, foliage, edge-on fins) at
 //!   every size and CMO count; the relief and the bunny are logged (at cube 64 the exact
 //!   capture finds their first hits: 0 or 1 behind).
-//! - `bounded_capture_finds_the_first_hit` (ignored until `quality::bounded_twin` is switched
-//!   on at the issue 22 merge): no hit behind the first beyond the tolerance, no hit in front,
+//! - `bounded_capture_finds_the_first_hit`: the `bounded` criterion's CPU twin: no hit behind the first beyond the tolerance, no hit in front,
 //!   the same triangle on >= 99.9 % of resolved pixels, at cube sizes 16 and 64 with 1 to 3
 //!   CMOs on every scene and 256 on the fence. Negative: lists without the thin part's entries
 //!   are judged behind.
@@ -189,7 +188,6 @@ fn exact_capture_misses_thin_geometry() {
 }
 
 #[test]
-#[ignore = "needs cpu::bounded (issue 22 merge): switch on quality::bounded_twin"]
 fn bounded_capture_finds_the_first_hit() {
     for &(name, thin, cube, cmos) in &runs() {
         let b = bench(name, cube, cmos);

@@ -133,12 +133,9 @@ fn cb_texel_floor(u: f32, size: u32) -> u32 {
     return u32(min(max(k, 0.0), f32(size - 1u)));
 }
 
-// `error_budget`: E from the world triangle, its local copy and the centre.
-fn cb_error_budget(w0: vec3<f32>, w1: vec3<f32>, w2: vec3<f32>, l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>, centre: vec3<f32>) -> f32 {
-    var r = cb_max_abs(centre);
-    r = max(max(r, cb_max_abs(l0)), cb_max_abs(w0));
-    r = max(max(r, cb_max_abs(l1)), cb_max_abs(w1));
-    r = max(max(r, cb_max_abs(l2)), cb_max_abs(w2));
+// `error_budget`: E from the CMO-local triangle.
+fn cb_error_budget(l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>) -> f32 {
+    let r = max(max(cb_max_abs(l0), cb_max_abs(l1)), cb_max_abs(l2));
     return CB_E_SCALE * r;
 }
 
@@ -168,9 +165,9 @@ fn cb_whole_face(size: u32, e: f32) -> CbRect {
     return CbRect(0u, size - 1u, 0u, size - 1u, 2.0, e, 1u, 1u);
 }
 
-// `face_rect` of the face-local triangle `l*` (world `w*`, CMO centre `centre`).
-fn cb_face_rect(w0: vec3<f32>, w1: vec3<f32>, w2: vec3<f32>, l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>, centre: vec3<f32>, size: u32) -> CbRect {
-    let e = cb_error_budget(w0, w1, w2, l0, l1, l2, centre);
+// `face_rect` of the face-local triangle `l*` (CMO-local).
+fn cb_face_rect(l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>, size: u32) -> CbRect {
+    let e = cb_error_budget(l0, l1, l2);
     if cb_near_centre(l0, l1, l2, e) {
         return cb_whole_face(size, e);
     }

@@ -18,7 +18,11 @@
 //! Written like a shader (fixed arrays, f32, the same operations in the same order as the WGSL;
 //! every product rounded on its own, see `prod` in `spirv/shared/frustum.wgsl`). Per (triangle,
 //! face), `l_i = to_face_local(face, v_i - centre)` (the permutation is exact):
-//! 1. `R = max(max_i |l_i|_inf, max_i |v_i|_inf, |centre|_inf)`, `E = 2^-18 R` ([`E_SCALE`]).
+//! 1. `R = max_i |l_i|_inf`, `E = 2^-18 R` ([`E_SCALE`]). `R` is CMO-local on purpose: the
+//!    tracer intersects the same rounded local corners (`corner - centre`), so the bounds are
+//!    sound for what is traced, and a scene far from the world's origin keeps the precision of
+//!    its own extent (a world-scale `R` would make every triangle near a CMO at `1e5` "near the
+//!    centre"). The local corners differ from the world triangle by `<= u R`, inside `E`.
 //!    A triangle meeting the box `|p|_inf <= 2^10 E` around the centre ([`near_centre`]) gets
 //!    every texel of every face, each with the whole triangle's bounds (below).
 //! 2. [`clip`] the triangle to the face frustum dilated to `u, v in [-1 - 2^-7, 1 + 2^-7]`
@@ -40,8 +44,8 @@
 //! Unit roundoff `u = 2^-24`, absolute errors per component. Every point the capture computes
 //! lies (up to the errors below) in the triangle's hull, so its coordinates are `<= R`, and
 //! differences of two of them `<= 2R`.
-//! - `v_i - centre`: `<= u R` (the exact difference's coordinates are `<= R` by the choice of
-//!   `R`; rounding is relative to the result).
+//! - `v_i - centre`: `<= u R` from the world triangle (rounding is relative to the result,
+//!   whose coordinates are `<= R`); the tracer uses these rounded corners itself.
 //! - One clip point `i + (o - i) s` with `s` in `[0, 1]` (clamped): the subtraction `<= 2uR s`-ish,
 //!   the product and the sum `<= 2uR s + uR`, at most `5 u R` in all. An error in `s` itself
 //!   only moves the point *along* the segment (it stays on the triangle): it acts as a shifted
@@ -309,11 +313,12 @@ pub fn face_local(tri: &[Vec3; 3], centre: Vec3, face: u32) -> [Vec3; 3] {
     ]
 }
 
-/// Step 1: `E = 2^-18 R`, `R = max(max_i |l_i|_inf, max_i |v_i|_inf, |centre|_inf)`.
-pub fn error_budget(tri: &[Vec3; 3], local: &[Vec3; 3], centre: Vec3) -> f32 {
-    let mut r = max_abs(centre);
-    for i in 0..3 {
-        r = r.max(max_abs(local[i])).max(max_abs(tri[i]));
+/// Step 1: `E = 2^-18 R`, `R = max_i |l_i|_inf` (CMO-local: a scene far from the world's
+/// origin keeps the precision of its own extent, module docs).
+pub fn error_budget(local: &[Vec3; 3]) -> f32 {
+    let mut r = max_abs(local[0]);
+    for l in &local[1..] {
+        r = r.max(max_abs(*l));
     }
     E_SCALE * r
 }
@@ -360,7 +365,7 @@ pub fn face_rect_with(
     let l = face_local(tri, centre, face);
     let sound = margins == Margins::Sound;
     let e = if sound {
-        error_budget(tri, &l, centre)
+        error_budget(&l)
     } else {
         0.0
     };

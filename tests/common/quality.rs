@@ -365,57 +365,47 @@ pub fn exact_twin(bench: &Bench, size: u32) -> Twin<'_> {
     })
 }
 
-/// The `bounded` criterion's CPU twin (`--criterion bounded`, issue 22): THE SWITCH for the
-/// merge. `cpu::bounded` (the lead's, main 399688b) and `cubemap::bounds::capture_lists` (the
-/// capture helper's, i22-capture e6d31a5) are not on this branch, so this returns `None` and
-/// the `bounded` test of `tests/stress_capture.rs` (ignored until then) fails naming this
-/// function. At the merge, replace the body's two lines with the block below (verbatim: it was
-/// run on a scratch merge of the three branches, where the test passed) and remove the
-/// `#[ignore]` of `bounded_capture_finds_the_first_hit`.
-///
-/// ```ignore
-/// let captured = captured_flags(bench);
-/// let cmos: Vec<CmoTracer> = bench
-///     .centres
-///     .iter()
-///     .map(|&c| {
-///         let mut lists = cubetrace::cubemap::bounds::capture_lists(
-///             &bench.corners,
-///             &captured,
-///             c,
-///             size,
-///             cubetrace::cubemap::bounds::DEFAULT_DEPTH,
-///         );
-///         perturb(&mut lists);
-///         CmoTracer::bounded(c, lists, bench.corners.clone(), TraceParams::default())
-///     })
-///     .collect();
-/// Some(Box::new(move |p| {
-///     let ray = cubetrace::cpu::multi::WorldRay {
-///         origin: p.origin,
-///         dir: p.dir,
-///         from: p.from.triangle, // the mirror triangle the ray leaves: the start rule
-///         t_lo: 0.0,
-///         t_hi: bench.t_hi,
-///     };
-///     found(&cubetrace::cpu::multi::trace_world_ray(
-///         &cmos,
-///         &ray,
-///         None,
-///         |tr, s| cubetrace::cpu::multi::trace_one(tr, s, Traversal::Mip),
-///     ))
-/// }))
-/// ```
-///
-/// `perturb` edits each CMO's lists before tracing (the tests' negative drops the thin
-/// geometry's entries, [`drop_entries`]); the identity for the real check.
+/// The `bounded` criterion's CPU twin (`--criterion bounded`, issue 22): the CMOs' lists from
+/// `cubemap::bounds::capture_lists`, traced by `cpu::bounded` over the 2x2 pyramid, the ray
+/// leaving the mirror triangle (the start rule). `perturb` edits each CMO's lists before tracing
+/// (the tests' negative drops the thin geometry's entries, [`drop_entries`]); the identity for
+/// the real check.
 pub fn bounded_twin<'a>(
     bench: &'a Bench,
     size: u32,
     perturb: &dyn Fn(&mut TexelLists),
 ) -> Option<Twin<'a>> {
-    let _ = (bench, size, perturb, captured_flags);
-    None
+    let captured = captured_flags(bench);
+    let cmos: Vec<CmoTracer> = bench
+        .centres
+        .iter()
+        .map(|&c| {
+            let mut lists = cubetrace::cubemap::bounds::capture_lists(
+                &bench.corners,
+                &captured,
+                c,
+                size,
+                cubetrace::cubemap::bounds::DEFAULT_DEPTH,
+            );
+            perturb(&mut lists);
+            CmoTracer::bounded(c, lists, bench.corners.clone(), TraceParams::default())
+        })
+        .collect();
+    Some(Box::new(move |p| {
+        let ray = cubetrace::cpu::multi::WorldRay {
+            origin: p.origin,
+            dir: p.dir,
+            from: p.from.triangle,
+            t_lo: 0.0,
+            t_hi: bench.t_hi,
+        };
+        found(&cubetrace::cpu::multi::trace_world_ray(
+            &cmos,
+            &ray,
+            None,
+            |tr, s| cubetrace::cpu::multi::trace_one(tr, s, Traversal::Mip),
+        ))
+    }))
 }
 
 /// Per global triangle, whether the capture takes it (design22, "Which triangles": every
