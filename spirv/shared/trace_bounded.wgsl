@@ -1,0 +1,221 @@
+// The `bounded` criterion (issue 22): the WGSL twin of `cpu::bounded` (classification) and of
+// its multi-CMO layer. A CMO holds per texel sound bounds and a sorted candidate list
+// (`cubemap::bounds::TexelLists`, module docs there); a hit is the nearest intersection of the
+// ray with a listed triangle inside the part of the texel the list is known to be complete for,
+// so it is the first along the ray (up to the capture's f32 tolerance). No 3x3 verification:
+// the triangle and barycentrics come from the classification itself.
+//
+// Data (@group(1), besides shared/trace.wgsl's; Rust `cubetrace::vk::passes::lists`):
+// - binding 2 `cmo_distance`: the texel's `lo` (so the pyramids, cut radius and skip tests of
+//   the exact criterion work unchanged);
+// - binding 6 `cmo_lists`: per texel of CMO k at `k * 6 N N + texel_index`:
+//   `vec4<u32>(head, bits(complete_to), bits(hi), count_kept)`;
+// - binding 7 `cmo_nodes`: the node pool of all CMOs, `vec4<u32>(triangle, bits(lo), bits(hi),
+//   next)`; the first `count_kept` nodes from `head` along `next` are the texel's entries sorted
+//   by (lo, triangle). BOUNDED_NO_NODE ends a list.
+// The triangles' corners come from the scene (shared/hit.wgsl, @group(SCENE_GROUP)).
+//
+// Texel T crossed over [t0, t1] (`rmin, rmax` of r over it):
+// - `rmax < lo` or `rmin > hi`: nothing here (kind 0, the traversal goes on);
+// - complete_to finite: `r(t0) >= complete_to` is behind at t0; else the list is known up to
+//   t_known = min(t1, the larger root of r(t) = complete_to) (t_known = t1 when +inf);
+// - candidates: the entries in order until one has `lo > rmax`; the watertight intersection of
+//   the CMO-local ray with the triangle's corners minus the centre, kept where
+//   `seg.t_lo <= t <= t_known` and not ignored by the start rule (shared/start.wgsl, in
+//   CMO-local coordinates, for a ray leaving `seg.from_tri` at `seg.a`); nearest wins, ties to
+//   the lower triangle: a hit;
+// - else behind at t_known when t_known < t1, else nothing.
+// A list whose chain ends before `count_kept` nodes (a capture defect) is behind at t0: nothing
+// is claimed from it.
+//
+// Loop caps: `count_kept` entries at most, and at most BOUNDED_MAX_ENTRIES; the texel walk is
+// trace.wgsl's (MAX_FACE_STEPS).
+//! import shared/trace_verified.wgsl
+//! import shared/watertight.wgsl
+//! import shared/hit.wgsl
+//! import shared/start.wgsl
+
+@group(1) @binding(6) var<storage, read> cmo_lists: array<vec4<u32>>;
+@group(1) @binding(7) var<storage, read> cmo_nodes: array<vec4<u32>>;
+
+const BOUNDED_NO_NODE: u32 = 0xffffffffu;
+// Most entries read per texel (the capture keeps `depth` <= this; more are not read, which
+// only makes the texel's known part end at the last one read: see `classify_bounded_pick`).
+const BOUNDED_MAX_ENTRIES: u32 = 1024u;
+
+// The nearest candidate of a classification (found false: none).
+struct BoundedPick {
+    found: bool,
+    t: f32,
+    triangle: u32,
+    bary: vec3<f32>,
+}
+
+fn bounded_no_pick() -> BoundedPick {
+    return BoundedPick(false, 0.0, TRACE_NO_TRIANGLE, vec3<f32>(0.0));
+}
+
+// The start rule in CMO-local coordinates for a ray leaving `from_tri` at `o`: its corners
+// and tolerance (`e` < 0: no start triangle).
+struct BoundedStart {
+    f0: vec3<f32>,
+    f1: vec3<f32>,
+    f2: vec3<f32>,
+    e: f32,
+}
+
+fn bounded_start(o: vec3<f32>, from_tri: u32, centre: vec3<f32>) -> BoundedStart {
+    if from_tri == TRACE_NO_TRIANGLE {
+        return BoundedStart(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), -1.0);
+    }
+    let f0 = hit_vertex(from_tri, 0u).position - centre;
+    let f1 = hit_vertex(from_tri, 1u).position - centre;
+    let f2 = hit_vertex(from_tri, 2u).position - centre;
+    return BoundedStart(f0, f1, f2, bvh_start_tolerance(o, f0, f1, f2));
+}
+
+// Outcome of a texel (shared/trace.wgsl's kinds: 0 none, 1 hit, 2 behind) and, for a hit, its
+// triangle and barycentrics.
+struct BoundedOutcome {
+    o: Outcome,
+    pick: BoundedPick,
+}
+
+// The larger root of |a + t d| = r (as `classify_with`'s patch hit), unclamped.
+fn bounded_root(seg: Segment, r: f32) -> f32 {
+    let dd = prod(seg.d.x, seg.d.x) + prod(seg.d.y, seg.d.y) + prod(seg.d.z, seg.d.z);
+    let ts = -(prod(seg.a.x, seg.d.x) + prod(seg.a.y, seg.d.y) + prod(seg.a.z, seg.d.z)) / dd;
+    let q = seg_at(seg, ts);
+    let q2 = prod(q.x, q.x) + prod(q.y, q.y) + prod(q.z, q.z);
+    return ts + sqrt(max(prod(r, r) - q2, 0.0) / dd);
+}
+
+// `cpu::bounded::classify_bounded` of `texel` of CMO k crossed over `iv` (module docs).
+fn classify_bounded_pick(k: u32, seg: Segment, texel: Texel, iv: Interval) -> BoundedOutcome {
+    let none = BoundedOutcome(Outcome(0u, 0.0, false), bounded_no_pick());
+    if !crosses(iv) {
+        return none;
+    }
+    let n = trace_config.size;
+    let i = k * 6u * n * n + texel_index(texel, n);
+    let lo = cmo_distance[i];
+    let rec = cmo_lists[i];
+    let hi = bitcast<f32>(rec.z);
+    let rb = r_bounds(seg.a, seg.d, iv.t0, iv.t1);
+    if rb.y < lo || rb.x > hi {
+        return none;
+    }
+    let behind_t0 = BoundedOutcome(Outcome(2u, iv.t0, false), bounded_no_pick());
+    var t_known = iv.t1;
+    let complete_to = bitcast<f32>(rec.y);
+    if is_finite_f32(complete_to) {
+        if r_at(seg.a, seg.d, iv.t0) >= complete_to {
+            return behind_t0;
+        }
+        t_known = min(iv.t1, bounded_root(seg, complete_to));
+    }
+    let centre = cmo_centres[k].xyz;
+    let start = bounded_start(seg.a, seg.from_tri, centre);
+    var best = bounded_no_pick();
+    var node = rec.x;
+    let count = min(rec.w, BOUNDED_MAX_ENTRIES);
+    for (var j = 0u; j < count; j++) {
+        if node == BOUNDED_NO_NODE {
+            return behind_t0;
+        }
+        let e = cmo_nodes[node];
+        node = e.w;
+        if bitcast<f32>(e.y) > rb.y {
+            break;
+        }
+        let tri = e.x;
+        let a = hit_vertex(tri, 0u).position - centre;
+        let b = hit_vertex(tri, 1u).position - centre;
+        let c = hit_vertex(tri, 2u).position - centre;
+        let w = wt_intersect(seg.a, seg.d, a, b, c);
+        if !w.hit || w.t < seg.t_lo || w.t > t_known {
+            continue;
+        }
+        if best.found && (w.t > best.t || (w.t == best.t && tri > best.triangle)) {
+            continue;
+        }
+        if start.e >= 0.0 && bvh_start_ignores(seg.a, seg.from_tri, start.f0, start.f1, start.f2, start.e, tri, a, b, c) {
+            continue;
+        }
+        best = BoundedPick(true, w.t, tri, w.bary);
+    }
+    if best.found {
+        return BoundedOutcome(Outcome(1u, best.t, false), best);
+    }
+    if t_known < iv.t1 {
+        return BoundedOutcome(Outcome(2u, t_known, false), bounded_no_pick());
+    }
+    return none;
+}
+
+// A single-CMO trace with the pick of its deciding texel.
+struct BoundedResult {
+    r: TraceResult,
+    pick: BoundedPick,
+}
+
+// Per-texel walk with the bounded classification (trace.wgsl's `trace_walk`, loop for loop).
+fn trace_walk_bounded(k: u32, seg: Segment, cut: f32) -> BoundedResult {
+    let n = trace_config.size;
+    var c = Counters(0u, 0u);
+    let pieces = split_near_centre(seg, cut);
+    for (var p = 0u; p < pieces.count; p++) {
+        let lo = pieces.range[p].x;
+        let hi = pieces.range[p].y;
+        let faces = faces_crossed(seg, lo, hi, n);
+        for (var f = 0u; f < faces.count; f++) {
+            var cur = locate(seg, faces.face[f], faces.iv[f].t0, n, lo, hi);
+            for (var step = 0u; step < MAX_FACE_STEPS && cur.found; step++) {
+                c.texels += 1u;
+                let b = classify_bounded_pick(k, seg, cur.tex, cur.iv);
+                if b.o.kind != 0u {
+                    return BoundedResult(finish(seg, cur.tex, b.o, c), b.pick);
+                }
+                cur = next_texel(seg, cur.tex, cur.iv, n, lo, hi);
+            }
+        }
+    }
+    return BoundedResult(escaped(seg, c), bounded_no_pick());
+}
+
+// The world ray origin + t dir, t in [t_lo, t_hi], leaving global triangle `from_tri`
+// (TRACE_NO_TRIANGLE: none), over the CMOs with the occlusion handoff (`trace_ray_variant`'s
+// loops) and the bounded criterion; a hit's triangle and barycentrics are its deciding texel's
+// nearest candidate, its point the CMO-local `seg_at(t)` plus the centre (`VerifiedOut` as
+// shared/trace_verified.wgsl's `trace_ray_verified` gives it).
+fn trace_ray_bounded(origin: vec3<f32>, dir: vec3<f32>, t_lo: f32, t_hi: f32, from_tri: u32) -> VerifiedOut {
+    var t_done = t_lo;
+    var traces = 0u;
+    var last = TraceResult(ONE_ESCAPED, 0.0, Texel(0u, 0u, 0u), false, vec3<f32>(0.0), Counters(0u, 0u));
+    for (var round = 0u; round < MAX_ROUNDS; round++) {
+        var progress = false;
+        for (var k = 0u; k < trace_config.cmo_count; k++) {
+            let centre = cmo_centres[k].xyz;
+            let seg = Segment(origin - centre, dir, t_done, t_hi, from_tri);
+            let b = trace_walk_bounded(k, seg, cut_radius(k));
+            let r = b.r;
+            traces += 1u;
+            last = r;
+            if r.status == ONE_HIT {
+                return VerifiedOut(trace_out(STATUS_HIT, k, r, r.point + centre, t_done, traces), b.pick.triangle, b.pick.bary);
+            }
+            if r.status == ONE_ESCAPED {
+                return VerifiedOut(trace_out(STATUS_ESCAPED, k, r, r.point + centre, t_done, traces), TRACE_NO_TRIANGLE, vec3<f32>(0.0));
+            }
+            if r.t > t_done {
+                t_done = r.t;
+                progress = true;
+            }
+        }
+        if !progress {
+            break;
+        }
+    }
+    let p = vec3<f32>(origin.x + prod(t_done, dir.x), origin.y + prod(t_done, dir.y), origin.z + prod(t_done, dir.z));
+    return VerifiedOut(trace_out(STATUS_UNRESOLVED, 0xffffffffu, last, p, t_done, traces), TRACE_NO_TRIANGLE, vec3<f32>(0.0));
+}
