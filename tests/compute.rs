@@ -129,7 +129,7 @@ fn compute_struct_layouts_match_naga() {
         check_layout!(
             AppendedRay,
             pass.struct_layout("AppendedRay").unwrap(),
-            [origin, pixel, dir, bounce]
+            [origin, pixel, dir, bounce, from_triangle, pad0, pad1, pad2]
         )
         .unwrap();
     }

@@ -57,7 +57,7 @@
 //! 16x12 floor 0.018 to 0.028 of the full frame; 14 cells and under 2 texels per ray (the texel
 //! walk: 116). Same triangle 99.98 to 100 % and PSNR over resolved mirror pixels 52 to 104 dB per
 //! built-in scene. Why it is not cheaper on this driver is in `spirv/README.md`.
-use crate::cpu::options::TraceOptions;
+use crate::cpu::options::{TraceCriterion, TraceOptions};
 use crate::vk::backend::context::Recorder;
 use crate::vk::backend::error::VkResult;
 use crate::vk::backend::graphics::{GraphicsDesc, GraphicsPipeline, RenderTarget};
@@ -96,6 +96,8 @@ impl MethodSpec for Fragment {
         // The pass's specialised entry point where the options allow it.
         let entry = if exact_mip_only(&inputs.options.trace) {
             "fs_exact_mip"
+        } else if inputs.options.trace.criterion == TraceCriterion::Bounded {
+            "fs_bounded"
         } else {
             "fs_main"
         };
@@ -141,16 +143,19 @@ impl DeferredTrace {
             },
         )?;
         let gbuffer = inputs.gbuffer;
+        let mut frame = vec![
+            (0, Resource::sampled(&gbuffer.position)),
+            (1, Resource::sampled(&gbuffer.normal)),
+            (2, Resource::Buffer(inputs.params)),
+            (3, Resource::Buffer(inputs.records)),
+        ];
+        // The G-buffer's triangle IDs where the entry reads them (`fs_bounded`: the start rule).
+        let used = pass.entry_point(entry).map_or(&[][..], |e| e.bindings);
+        if used.iter().any(|b| b.group == 0 && b.binding == 8) {
+            frame.push((8, Resource::sampled(&gbuffer.triangle)));
+        }
         let mut sets = vec![
-            pipeline.bind_group(
-                0,
-                &[
-                    (0, Resource::sampled(&gbuffer.position)),
-                    (1, Resource::sampled(&gbuffer.normal)),
-                    (2, Resource::Buffer(inputs.params)),
-                    (3, Resource::Buffer(inputs.records)),
-                ],
-            )?,
+            pipeline.bind_group(0, &frame)?,
             pipeline.bind_group(1, &inputs.cmo.resources_for(pass, entry))?,
         ];
         if scene {
