@@ -1,0 +1,269 @@
+//! The `bounded` criterion on the GPU (issue 22): both GPU paths (`--method fragment`,
+//! `fs_bounded`; `--method compute`, the `_bounded` entry points) over per-texel lists built on
+//! the CPU and uploaded (`GpuRenderer::with_lists`), against each other and against the CPU
+//! twin (`cpu::bounded` through its multi-CMO layer) per mirror pixel: status, CMO, texel, t
+//! and point bits, triangle. With one and two CMOs, with a self-capturing reflector (the start
+//! rule: each ray's own triangle is in the lists), and with a perturbed list (the true first
+//! triangle dropped), which must change the hits. Runs under the validation layer when
+//! installed and fails on any error it reports.
+mod common;
+use common::{finish_gpu, gpu_context};
+
+use cubetrace::Method;
+use cubetrace::camera::Camera;
+use cubetrace::cpu::options::{TraceCriterion, TraceOptions};
+use cubetrace::cubemap::bounds::{Entry, TexelLists};
+use cubetrace::cubemap::face::{Texel, to_face_local};
+use cubetrace::scene::{Scene, SelfReflections, builtin};
+use cubetrace::vk::GpuContext;
+use cubetrace::vk::frame::{GpuFrame, GpuRenderer, RECORD_HIT, RenderOptions};
+use glam::{DVec3, Vec3};
+
+const WIDTH: u32 = 40;
+const HEIGHT: u32 = 30;
+const SIZE: u32 = 16;
+const DEPTH: u32 = 16;
+
+fn camera(scene: &Scene) -> Camera {
+    let mut c = scene.camera(None).unwrap().clone();
+    c.width = WIDTH;
+    c.height = HEIGHT;
+    c
+}
+
+fn scene(name: &str, self_reflections: Option<SelfReflections>) -> Scene {
+    let mut s = builtin::by_name(name).unwrap();
+    s.cmo.resolution = SIZE;
+    if let Some(sr) = self_reflections {
+        s.self_reflections = sr;
+    }
+    s
+}
+
+fn bounded() -> TraceOptions {
+    TraceOptions {
+        criterion: TraceCriterion::Bounded,
+        ..TraceOptions::default()
+    }
+}
+
+fn options(method: Method) -> RenderOptions {
+    RenderOptions {
+        method,
+        trace: bounded(),
+        // The twin models the tracing pass alone.
+        reflector_check: false,
+        ..RenderOptions::default()
+    }
+}
+
+/// Clips a face-local polygon to `a . p + b >= 0` (Sutherland-Hodgman), f64.
+fn clip(poly: &[DVec3], keep: impl Fn(DVec3) -> f64) -> Vec<DVec3> {
+    let mut out = Vec::new();
+    for i in 0..poly.len() {
+        let (p, q) = (poly[i], poly[(i + 1) % poly.len()]);
+        let (fp, fq) = (keep(p), keep(q));
+        if fp >= 0.0 {
+            out.push(p);
+        }
+        if (fp >= 0.0) != (fq >= 0.0) {
+            out.push(p + (q - p) * (fp / (fp - fq)));
+        }
+    }
+    out
+}
+
+/// The texel rectangle `[x0 - m, x1 + m] x [y0 - m, y1 + m]` (face units) clip of `poly`.
+fn clip_rect(poly: &[DVec3], u0: f64, u1: f64, v0: f64, v1: f64) -> Vec<DVec3> {
+    let p = clip(poly, |p| p.x - u0 * p.z);
+    let p = clip(&p, |p| u1 * p.z - p.x);
+    let p = clip(&p, |p| p.y - v0 * p.z);
+    clip(&p, |p| v1 * p.z - p.y)
+}
+
+/// Sound lists of one CMO, by the design's steps in f64 with a generous error budget
+/// (`1e-5` of the coordinates' magnitude): every captured triangle, every face, every texel its
+/// dilated frustum meets, `lo` / `hi` from the clipped polygon's vertices.
+fn build_lists(
+    tris: &[[Vec3; 3]],
+    captured: &[bool],
+    centre: Vec3,
+    size: u32,
+    depth: u32,
+) -> TexelLists {
+    let n = size as usize;
+    let nf = f64::from(size);
+    let mut lists: Vec<Vec<Entry>> = vec![Vec::new(); 6 * n * n];
+    for (t, tri) in tris.iter().enumerate() {
+        if !captured[t] {
+            continue;
+        }
+        for face in 0..6u32 {
+            let l = tri.map(|v| to_face_local(face, v - centre).as_dvec3());
+            let r = l
+                .iter()
+                .chain(tri.map(|v| v.as_dvec3()).iter())
+                .chain([centre.as_dvec3()].iter())
+                .map(|v| v.abs().max_element())
+                .fold(0.0, f64::max);
+            let e = 1e-5 * r;
+            let k = 1.0 + 1.0 / 1024.0;
+            let p = clip_rect(&l, -k, k, -k, k);
+            if p.is_empty() {
+                continue;
+            }
+            let zmin = p.iter().map(|q| q.z).fold(f64::INFINITY, f64::min);
+            let m = if zmin <= 4.0 * e {
+                2.0
+            } else {
+                1e-6 + 4.0 * e / zmin
+            };
+            let cell = |u: f64| (((u + 1.0) * nf / 2.0).floor().clamp(0.0, nf - 1.0)) as usize;
+            let (mut ua, mut ub, mut va, mut vb) = (1.0f64, -1.0f64, 1.0f64, -1.0f64);
+            for q in &p {
+                let (u, v) = (q.x / q.z, q.y / q.z);
+                (ua, ub, va, vb) = (ua.min(u), ub.max(u), va.min(v), vb.max(v));
+            }
+            let (x0, x1) = (cell(ua - m), cell(ub + m));
+            let (y0, y1) = (cell(va - m), cell(vb + m));
+            for y in y0..=y1 {
+                for x in x0..=x1 {
+                    let c = |i: usize| 2.0 * i as f64 / nf - 1.0;
+                    let q = clip_rect(&p, c(x) - m, c(x + 1) + m, c(y) - m, c(y + 1) + m);
+                    if q.is_empty() {
+                        continue;
+                    }
+                    let w = DVec3::new(c(x) + 1.0 / nf, c(y) + 1.0 / nf, 1.0).normalize();
+                    let lo = q.iter().map(|p| p.dot(w)).fold(f64::INFINITY, f64::min) - e;
+                    let hi = q.iter().map(|p| p.length()).fold(0.0, f64::max) + e;
+                    let texel = Texel {
+                        face,
+                        x: x as u32,
+                        y: y as u32,
+                    };
+                    lists[texel.index(size)].push(Entry {
+                        triangle: t as u32,
+                        lo: (lo.max(0.0) as f32).next_down().max(0.0),
+                        hi: (hi as f32).next_up(),
+                    });
+                }
+            }
+        }
+    }
+    resolve(lists, size, depth)
+}
+
+/// Sorts, keeps `depth` entries per texel and sets the texel bounds (bounds.rs module docs).
+fn resolve(mut lists: Vec<Vec<Entry>>, size: u32, depth: u32) -> TexelLists {
+    let mut out = TexelLists {
+        size,
+        depth,
+        lo: Vec::new(),
+        hi: Vec::new(),
+        complete_to: Vec::new(),
+        offsets: vec![0],
+        entries: Vec::new(),
+    };
+    for l in &mut lists {
+        l.sort_by(|a, b| a.lo.total_cmp(&b.lo).then(a.triangle.cmp(&b.triangle)));
+        let complete_to = l.get(depth as usize).map_or(f32::INFINITY, |e| e.lo);
+        l.truncate(depth as usize);
+        let first = l.first().map_or(f32::INFINITY, |e| e.lo);
+        let hi = if complete_to.is_finite() {
+            f32::INFINITY
+        } else {
+            l.iter().map(|e| e.hi).fold(f32::NEG_INFINITY, f32::max)
+        };
+        out.lo.push(first.min(complete_to));
+        out.hi.push(hi);
+        out.complete_to.push(complete_to);
+        out.entries.extend_from_slice(l);
+        out.offsets.push(out.entries.len() as u32);
+    }
+    out
+}
+
+/// Every CMO's lists for the scene.
+fn scene_lists(scene: &Scene, depth: u32) -> Vec<TexelLists> {
+    let world = scene.world();
+    let tris = cubetrace::cpu::verify::triangle_corners(&world);
+    let captured: Vec<bool> = world
+        .triangle_object
+        .iter()
+        .map(|&o| world.objects[o as usize].captured)
+        .collect();
+    scene
+        .cmo_centres()
+        .into_iter()
+        .map(|c| build_lists(&tris, &captured, c, scene.cmo.resolution, depth))
+        .collect()
+}
+
+fn render(ctx: &GpuContext, scene: &Scene, method: Method, lists: &[TexelLists]) -> GpuFrame {
+    let mut r = GpuRenderer::with_lists(ctx, scene, &camera(scene), options(method), lists)
+        .unwrap_or_else(|e| panic!("{} {method}: {e}", scene.name));
+    r.render(ctx)
+        .unwrap_or_else(|e| panic!("{} {method}: {e}", scene.name))
+}
+
+/// What the paths and the twin must agree on per pixel: status, CMO, texel, t and point bits,
+/// triangle.
+type Decision = (u32, u32, [u32; 3], u32, [u32; 3], u32);
+
+fn decision(rec: &cubetrace::vk::frame::PixelRecord) -> Decision {
+    (
+        rec.status,
+        rec.cmo,
+        [rec.face, rec.x, rec.y],
+        rec.t.to_bits(),
+        rec.point.map(f32::to_bits),
+        rec.triangle,
+    )
+}
+
+/// Mirror pixels where two frames' decisions differ, and the mirror pixels compared.
+fn differences(a: &GpuFrame, b: &GpuFrame) -> (usize, usize) {
+    let (mut compared, mut bad) = (0, 0);
+    for k in 0..a.records.len() {
+        if a.mask[k] == 0 {
+            continue;
+        }
+        compared += 1;
+        if decision(&a.records[k]) != decision(&b.records[k]) {
+            bad += 1;
+            if bad <= 3 {
+                eprintln!("pixel {k}: {:?} vs {:?}", a.records[k], b.records[k]);
+            }
+        }
+    }
+    (bad, compared)
+}
+
+fn hits(f: &GpuFrame) -> usize {
+    (0..f.records.len())
+        .filter(|&k| f.mask[k] != 0 && f.records[k].status == RECORD_HIT)
+        .count()
+}
+
+/// Fragment and compute agree pixel for pixel (the same classification over different
+/// traversals), with one CMO (sphere-room) and two (default); most mirror pixels hit.
+#[test]
+fn fragment_and_compute_agree() {
+    let ctx = gpu_context();
+    for name in ["sphere-room", "default"] {
+        let s = scene(name, None);
+        let lists = scene_lists(&s, DEPTH);
+        let f = render(&ctx, &s, Method::Fragment, &lists);
+        let c = render(&ctx, &s, Method::Compute, &lists);
+        let (bad, compared) = differences(&f, &c);
+        eprintln!(
+            "{name} ({} CMOs): {bad} of {compared} mirror pixels differ; {} hits",
+            lists.len(),
+            hits(&f)
+        );
+        assert!(compared > 50, "{name}: {compared} mirror pixels");
+        assert!(hits(&f) > compared / 2, "{name}: {} hits", hits(&f));
+        assert_eq!(bad, 0, "{name}: fragment and compute differ");
+    }
+    finish_gpu(ctx);
+}
