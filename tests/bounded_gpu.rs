@@ -16,7 +16,7 @@ use cubetrace::cubemap::bounds::{Entry, TexelLists};
 use cubetrace::cubemap::face::{Texel, to_face_local};
 use cubetrace::scene::{Scene, SelfReflections, builtin};
 use cubetrace::vk::GpuContext;
-use cubetrace::vk::frame::{GpuFrame, GpuRenderer, RECORD_HIT, RenderOptions};
+use cubetrace::vk::frame::{GpuFrame, GpuRenderer, RECORD_HIT, RECORD_UNRESOLVED, RenderOptions};
 use glam::{DVec3, Vec3};
 
 const WIDTH: u32 = 40;
@@ -200,10 +200,28 @@ fn scene_lists(scene: &Scene, depth: u32) -> Vec<TexelLists> {
 }
 
 fn render(ctx: &GpuContext, scene: &Scene, method: Method, lists: &[TexelLists]) -> GpuFrame {
+    render_from(ctx, scene, method, lists).0
+}
+
+/// The frame and each pixel's G-buffer triangle (the triangle its mirror ray leaves).
+fn render_from(
+    ctx: &GpuContext,
+    scene: &Scene,
+    method: Method,
+    lists: &[TexelLists],
+) -> (GpuFrame, Vec<u32>) {
     let mut r = GpuRenderer::with_lists(ctx, scene, &camera(scene), options(method), lists)
         .unwrap_or_else(|e| panic!("{} {method}: {e}", scene.name));
-    r.render(ctx)
-        .unwrap_or_else(|e| panic!("{} {method}: {e}", scene.name))
+    let f = r
+        .render(ctx)
+        .unwrap_or_else(|e| panic!("{} {method}: {e}", scene.name));
+    let bytes = ctx
+        .read_image(
+            &r.gbuffer().triangle,
+            ash::vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+        )
+        .unwrap();
+    (f, bytemuck::pod_collect_to_vec(&bytes))
 }
 
 /// What the paths and the twin must agree on per pixel: status, CMO, texel, t and point bits,
@@ -264,6 +282,137 @@ fn fragment_and_compute_agree() {
         assert!(compared > 50, "{name}: {compared} mirror pixels");
         assert!(hits(&f) > compared / 2, "{name}: {} hits", hits(&f));
         assert_eq!(bad, 0, "{name}: fragment and compute differ");
+    }
+    finish_gpu(ctx);
+}
+
+/// Whether each triangle is in the lists (what the CMOs capture).
+fn captured(scene: &Scene) -> Vec<bool> {
+    let world = scene.world();
+    world
+        .triangle_object
+        .iter()
+        .map(|&o| world.objects[o as usize].captured)
+        .collect()
+}
+
+/// Wrong decisions against the f64 reference (`Tracer::nearest_accepting` over the listed
+/// triangles, the ray's own triangle and hits within 1e-3 of the start left out): a hit that is
+/// not the first (neither the reference's triangle nor at its t within 1e-4 relative: a tie at
+/// a shared edge), or an escape where the reference hits before the ray's end. Unresolved is
+/// no error (the lists could not tell). Returns (wrong, hits, unresolved).
+fn not_first(scene: &Scene, frame: &GpuFrame, from: &[u32]) -> (usize, usize, usize) {
+    let tracer = cubetrace::reference::Tracer::new(scene);
+    let captured = captured(scene);
+    let (mut wrong, mut hits, mut unresolved) = (0, 0, 0);
+    for (k, rec) in frame.records.iter().enumerate() {
+        if frame.mask[k] == 0 || rec.status == RECORD_UNRESOLVED {
+            unresolved += usize::from(frame.mask[k] != 0);
+            continue;
+        }
+        let (o, d) = (Vec3::from_array(rec.origin), Vec3::from_array(rec.dir));
+        let first = tracer.nearest_accepting(o, d, None, |h| {
+            captured[h.triangle as usize] && h.triangle != from[k] && h.t > 1e-3
+        });
+        let ok = if rec.status == RECORD_HIT {
+            hits += 1;
+            first.is_some_and(|h| {
+                h.triangle == rec.triangle || (h.t - rec.t).abs() <= 1e-4 * (1.0 + h.t)
+            })
+        } else {
+            first.is_none_or(|h| h.t > rec.t)
+        };
+        if !ok {
+            wrong += 1;
+            if wrong <= 3 {
+                eprintln!("pixel {k}: GPU {rec:?}; reference {first:?}");
+            }
+        }
+    }
+    (wrong, hits, unresolved)
+}
+
+/// `lists` without triangle `tri` anywhere (its texels' bounds left as they were: still sound
+/// for what remains).
+fn without(lists: &[TexelLists], tri: u32) -> Vec<TexelLists> {
+    lists
+        .iter()
+        .map(|l| {
+            let mut out = TexelLists {
+                offsets: vec![0],
+                entries: Vec::new(),
+                ..l.clone()
+            };
+            for i in 0..l.lo.len() {
+                let t = Texel::from_index(i, l.size);
+                out.entries
+                    .extend(l.entries_at(t).iter().filter(|e| e.triangle != tri));
+                out.offsets.push(out.entries.len() as u32);
+            }
+            out
+        })
+        .collect()
+}
+
+/// Every GPU hit is the first along its ray among the listed triangles (the reference's), with
+/// one and two CMOs, and with a self-capturing reflector (the start rule keeps each ray off its
+/// own triangle, which is in the lists). Negative: with the hit triangle of one pixel dropped
+/// from the lists, that pixel's decision changes and the check flags it (a hit behind the
+/// first, or an escape through it).
+#[test]
+fn hits_are_first_and_a_dropped_triangle_shows() {
+    let ctx = gpu_context();
+    for (name, sr) in [
+        ("sphere-room", None),
+        ("default", None),
+        ("sphere-room", Some(SelfReflections::On)),
+    ] {
+        let s = scene(name, sr);
+        let lists = scene_lists(&s, DEPTH);
+        for method in [Method::Fragment, Method::Compute] {
+            let (f, from) = render_from(&ctx, &s, method, &lists);
+            let (wrong, hits, unresolved) = not_first(&s, &f, &from);
+            eprintln!(
+                "{name} (self {sr:?}) {method}: {wrong} wrong, {hits} hits, {unresolved} unresolved"
+            );
+            assert!(hits > 100, "{name} {method}: {hits} hits");
+            assert_eq!(wrong, 0, "{name} {method}: hits behind the first");
+            if sr.is_some() {
+                // The start rule: some ray leaves a triangle that a texel it crosses lists.
+                let own = (0..f.records.len())
+                    .filter(|&k| f.mask[k] != 0 && from[k] != u32::MAX)
+                    .filter(|&k| {
+                        let rec = &f.records[k];
+                        // The texel of CMO 0 the ray starts in.
+                        let dir = Vec3::from_array(rec.origin) - s.cmo_centres()[0];
+                        let texel = cubetrace::cubemap::face::dir_to_texel(dir, SIZE);
+                        lists[0].entries_at(texel).iter().any(|e| e.triangle == from[k])
+                    })
+                    .count();
+                eprintln!("  {own} rays start on a triangle their first texel lists");
+                assert!(own > 50, "{name}: the start rule was not exercised ({own})");
+            }
+        }
+    }
+    // Negative: drop one pixel's hit triangle.
+    let s = scene("sphere-room", None);
+    let lists = scene_lists(&s, DEPTH);
+    let (f, from) = render_from(&ctx, &s, Method::Fragment, &lists);
+    let k = (0..f.records.len())
+        .find(|&k| f.mask[k] != 0 && f.records[k].status == RECORD_HIT)
+        .unwrap();
+    let tri = f.records[k].triangle;
+    let perturbed = without(&lists, tri);
+    for method in [Method::Fragment, Method::Compute] {
+        let (g, _) = render_from(&ctx, &s, method, &perturbed);
+        assert_ne!(
+            decision(&g.records[k]),
+            decision(&f.records[k]),
+            "{method}: dropping triangle {tri} left pixel {k} as it was"
+        );
+        let (wrong, hits, _) = not_first(&s, &g, &from);
+        eprintln!("triangle {tri} dropped, {method}: {wrong} wrong ({hits} hits)");
+        assert!(wrong >= 1, "{method}: the check missed the dropped triangle");
     }
     finish_gpu(ctx);
 }
