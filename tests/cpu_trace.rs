@@ -73,6 +73,7 @@ fn segment(tr: &CmoTracer, o: Vec3, d: Vec3) -> Segment {
         d,
         t_lo: 0.0,
         t_hi: T_HI,
+        from: cubetrace::cpu::bounded::NO_TRIANGLE,
     }
 }
 

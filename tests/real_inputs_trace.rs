@@ -157,6 +157,7 @@ fn room_rays(tr: &CmoTracer, t_hi: f32) -> Vec<Segment> {
                 d,
                 t_lo: 0.0,
                 t_hi,
+                from: cubetrace::cpu::bounded::NO_TRIANGLE,
             }
         })
         .collect()

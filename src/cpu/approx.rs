@@ -71,6 +71,7 @@ fn sample(
             riser: false,
             point: p,
             counters: *c,
+            ..TraceResult::default()
         })
     } else {
         None

@@ -61,6 +61,7 @@
 //! - [`options`]: the method options ([`options::TraceOptions`]) shared with the GPU tracer.
 
 pub mod approx;
+pub mod bounded;
 pub mod closure;
 pub mod compute;
 pub mod fragment;
@@ -95,6 +96,9 @@ pub struct Segment {
     pub t_lo: f32,
     /// Last parameter.
     pub t_hi: f32,
+    /// The triangle the ray leaves ([`bounded::NO_TRIANGLE`]: none), for the `bounded`
+    /// criterion's start rule ([`bounded`]); the other criteria ignore it.
+    pub from: u32,
 }
 
 impl Segment {
@@ -134,7 +138,7 @@ pub struct Counters {
 }
 
 /// What one ray found in one CMO.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TraceResult {
     /// Hit, behind or escaped.
     pub status: Status,
@@ -148,6 +152,25 @@ pub struct TraceResult {
     pub point: Vec3,
     /// Work done.
     pub counters: Counters,
+    /// The `bounded` criterion's hit: the triangle ([`bounded::NO_TRIANGLE`] otherwise) and
+    /// its barycentric weights.
+    pub triangle: u32,
+    pub bary: [f32; 3],
+}
+
+impl Default for TraceResult {
+    fn default() -> Self {
+        TraceResult {
+            status: Status::default(),
+            t: 0.0,
+            texel: Texel::default(),
+            riser: false,
+            point: Vec3::ZERO,
+            counters: Counters::default(),
+            triangle: bounded::NO_TRIANGLE,
+            bary: [0.0; 3],
+        }
+    }
 }
 
 /// Tracer options.
@@ -183,6 +206,9 @@ pub struct CmoTracer {
     pub cut_radius: f32,
     /// Options.
     pub params: TraceParams,
+    /// The `bounded` criterion's lists ([`bounded`]): with them every texel is classified by
+    /// [`bounded::classify_bounded`], and `cube.distance` holds the texels' lower bounds.
+    pub bounded: Option<Box<bounded::Bounded>>,
 }
 
 impl CmoTracer {
@@ -202,7 +228,23 @@ impl CmoTracer {
             hier,
             cut_radius,
             params,
+            bounded: None,
         }
+    }
+
+    /// A tracer of the `bounded` criterion: the capture's lists with the scene's triangle
+    /// corners (world space, global order); the distance is the lists' per-texel lower bound.
+    pub fn bounded(
+        centre: Vec3,
+        lists: crate::cubemap::bounds::TexelLists,
+        corners: Vec<[Vec3; 3]>,
+        params: TraceParams,
+    ) -> CmoTracer {
+        let mut cube = CubeMap::new(lists.size, centre);
+        cube.distance.clone_from(&lists.lo);
+        let mut tr = CmoTracer::new(cube, params);
+        tr.bounded = Some(Box::new(bounded::Bounded { lists, corners }));
+        tr
     }
 }
 
@@ -361,11 +403,16 @@ pub enum Outcome {
         /// Ray parameter.
         t: f32,
     },
+    /// The `bounded` criterion's hit on a candidate triangle ([`bounded`]).
+    Candidate(bounded::BoundedHit),
 }
 
 /// Classifies texel `texel` crossed over `iv` (see module docs); `None` if it is entirely in
 /// front, or not crossed.
 pub fn classify(tr: &CmoTracer, seg: &Segment, texel: Texel, iv: &Interval) -> Option<Outcome> {
+    if let Some(b) = &tr.bounded {
+        return bounded::classify_bounded(tr, b, seg, texel, iv);
+    }
     let d = tr.cube.distance_at(texel);
     if !texel_not_in_front(seg, iv, d) {
         return None;
@@ -402,6 +449,11 @@ pub fn finish(seg: &Segment, texel: Texel, o: Outcome, counters: Counters) -> Tr
     let (status, t, riser) = match o {
         Outcome::Hit { t, riser } => (Status::Hit, t, riser),
         Outcome::Behind { t } => (Status::Behind, t, false),
+        Outcome::Candidate(h) => (Status::Hit, h.t, false),
+    };
+    let (triangle, bary) = match o {
+        Outcome::Candidate(h) => (h.triangle, h.bary),
+        _ => (bounded::NO_TRIANGLE, [0.0; 3]),
     };
     TraceResult {
         status,
@@ -410,6 +462,8 @@ pub fn finish(seg: &Segment, texel: Texel, o: Outcome, counters: Counters) -> Tr
         riser,
         point: seg.at(t),
         counters,
+        triangle,
+        bary,
     }
 }
 
@@ -418,10 +472,9 @@ pub fn escaped(seg: &Segment, counters: Counters) -> TraceResult {
     TraceResult {
         status: Status::Escaped,
         t: seg.t_hi,
-        texel: Texel::default(),
-        riser: false,
         point: seg.at(seg.t_hi),
         counters,
+        ..TraceResult::default()
     }
 }
 

@@ -146,6 +146,42 @@ pub fn trace_cmos_verified_by(
     verify: Option<Verify>,
     trace: impl Fn(&CmoTracer, &Segment) -> TraceResult,
 ) -> MultiResult {
+    let ray = WorldRay {
+        origin,
+        dir,
+        from: super::bounded::NO_TRIANGLE,
+        t_lo,
+        t_hi,
+    };
+    trace_world_ray(cmos, &ray, verify, trace)
+}
+
+/// A world ray `origin + t dir`, `t in [t_lo, t_hi]`, leaving triangle `from`
+/// ([`super::bounded::NO_TRIANGLE`]: none; the `bounded` criterion's start rule).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WorldRay {
+    pub origin: Vec3,
+    pub dir: Vec3,
+    pub from: u32,
+    pub t_lo: f32,
+    pub t_hi: f32,
+}
+
+/// [`trace_cmos_verified_by`] on a [`WorldRay`]. With CMOs of the `bounded` criterion
+/// ([`CmoTracer::bounded`]) a hit names its triangle itself and is not verified again.
+pub fn trace_world_ray(
+    cmos: &[CmoTracer],
+    ray: &WorldRay,
+    verify: Option<Verify>,
+    trace: impl Fn(&CmoTracer, &Segment) -> TraceResult,
+) -> MultiResult {
+    let WorldRay {
+        origin,
+        dir,
+        from,
+        t_lo,
+        t_hi,
+    } = *ray;
     let mut t_done = t_lo;
     let mut traces = 0;
     let mut last = TraceResult::default();
@@ -157,13 +193,21 @@ pub fn trace_cmos_verified_by(
                 d: dir,
                 t_lo: t_done,
                 t_hi,
+                from,
             };
             let r = trace(tr, &seg);
             traces += 1;
             last = r;
             let mut r = r;
             let mut verified = None;
-            if let (Status::Hit, Some(v)) = (r.status, verify) {
+            if r.status == Status::Hit && tr.bounded.is_some() {
+                verified = Some(super::verify::VerifiedHit {
+                    triangle: r.triangle,
+                    t: r.t,
+                    position: origin + dir * r.t,
+                    bary: r.bary,
+                });
+            } else if let (Status::Hit, Some(v)) = (r.status, verify) {
                 let size = tr.cube.size;
                 let hood = Neighbourhood::around(r.texel, size, &tr.cube.triangle);
                 let ray = VerifyRay {

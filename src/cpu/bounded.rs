@@ -1,0 +1,407 @@
+//! The `bounded` criterion (issue 22): first hits proven over sound per-texel bounds and
+//! complete candidate lists ([`crate::cubemap::bounds`]), the CPU twin of `classify_bounded` in
+//! `spirv/shared/trace.wgsl`.
+//!
+//! # The rule
+//! The traversals ([`super::walk`], [`super::mip`], [`super::compute`]) are unchanged: they take
+//! the texels the ray crosses in order of `t`, skip every cell and texel with `rmax < lo` (the
+//! CMO's distance is the texel lower bound `lo`), and hand each remaining texel `T`, crossed over
+//! `[t0, t1]`, to [`classify_bounded`]:
+//! 1. `rmax < lo` or `rmin > hi` (`r_bounds` over `[t0, t1]`): the ray is in front of, or beyond,
+//!    everything `T` holds: nothing here, the traversal goes on.
+//! 2. The known part: with `complete_to = L` finite, the list holds every triangle nearer than
+//!    `L` only. `r(t0) >= L`: nothing of `T` is known: **behind** at `t0`. Otherwise the known
+//!    part ends at `t_known = min(t1, the larger root of r(t) = L)` (`r` is convex and
+//!    `r(t0) < L`, so `{r < L}` holds `[t0, root)`).
+//! 3. Candidates: every kept entry with `lo <= rmax`, in list order: the watertight
+//!    intersection ([`super::watertight`]) of the CMO-local ray `a + t d` with the triangle's
+//!    corners minus the CMO centre, kept when `t_lo <= t <= t_known` and not at the ray's start
+//!    ([`start_ignores`]). The nearest kept one (ties: lower triangle) is the **hit**.
+//! 4. No candidate: **behind** at `t_known` when the known part ended inside `T`
+//!    (`t_known < t1`: the next CMO, then the fallback, take the ray from there), else nothing
+//!    here: the traversal goes on.
+//!
+//! # Proof sketch: the hit is the first
+//! Bounds (the capture's module docs derive their rounding): every surface point `p` in `T`'s
+//! cone has `|p| >= lo(T)`, and every triangle touching the cone with a point nearer than
+//! `complete_to(T)` is among `T`'s entries, with `lo(entry) <=` its distance there.
+//! 1. **Skipped stretches are empty.** A cell or texel is skipped only where the ray's largest
+//!    distance from the centre over its interval is below the smallest `lo` of its texels: no
+//!    surface point in those cones is that near, so the ray meets nothing there. Step 1's
+//!    `rmin > hi` skip needs `complete_to = +inf`, so `hi` bounds every triangle of `T`.
+//! 2. **Texels decide in order.** Let the ray's true first hit be at `t*`, on triangle `X`, in
+//!    texel `T*`'s cone. Every texel before `T*` along the ray either was skipped (empty by 1),
+//!    or tested its candidates: any hit it reports is a real intersection at `t >= t_lo`, so
+//!    `t >= t*` (in exact arithmetic it is `t*` itself); or it ended the CMO's trace by going
+//!    behind at a point before which the ray is empty in that CMO (steps 2, 4). At `T*`, `X`
+//!    touches the cone at `p(t*)`, `|p(t*)| = r(t*) <= rmax`, so `X` is an entry with
+//!    `lo <= rmax` unless it lies at or beyond `complete_to`, where step 2 stops before `t*`.
+//!    So `T*` reports `X` (or a tie at `t*`), or the CMO hands the ray on before `t*`.
+//! 3. **Several CMOs.** A CMO that goes behind at `t_b` has shown `[t_lo, t_b]` empty (the
+//!    handoff's `t_done`); the next traces from there. A hit is only ever a candidate's
+//!    intersection, so it is never on a triangle the ray does not meet, and never past a nearer
+//!    one that a CMO could know of.
+//!
+//! Rounding: the watertight test and `r_bounds` are f32; a hit may lie a few ulps of `t` from
+//! the exact first hit, and two surfaces closer than that along the ray can swap. The capture's
+//! margin covers the texel boundaries (a triangle within rounding of `T`'s cone is `T`'s entry).
+
+use glam::Vec3;
+
+use super::watertight::{intersect_sheared, shear};
+use super::{CmoTracer, Outcome, Segment};
+use crate::cubemap::bounds::TexelLists;
+use crate::cubemap::face::Texel;
+use crate::cubemap::frustum::{Interval, r_at, r_bounds};
+
+/// "No triangle": a ray that leaves none (the start rule is off).
+pub const NO_TRIANGLE: u32 = u32::MAX;
+
+/// The start rule's ulps of the coordinates (`BVH_START_ULPS` in `spirv/shared/bvh.wgsl`).
+const START_ULPS: f32 = 3.814_697_3e-6; // 2^-18
+
+/// A CMO's `bounded` data: its lists and the scene's triangle corners (world space, global
+/// index order) that the entries name.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Bounded {
+    pub lists: TexelLists,
+    pub corners: Vec<[Vec3; 3]>,
+}
+
+/// A candidate hit: the triangle, the ray parameter and the barycentric weights.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BoundedHit {
+    pub triangle: u32,
+    pub t: f32,
+    pub bary: [f32; 3],
+}
+
+/// Step 1 to 4 of the module docs for texel `texel` crossed over `iv`.
+pub fn classify_bounded(
+    tr: &CmoTracer,
+    b: &Bounded,
+    seg: &Segment,
+    texel: Texel,
+    iv: &Interval,
+) -> Option<Outcome> {
+    if !iv.crosses() {
+        return None;
+    }
+    let (lo, hi, complete_to) = b.lists.bounds_at(texel);
+    let (rmin, rmax) = r_bounds(seg.a, seg.d, iv.t0, iv.t1);
+    if rmax < lo || rmin > hi {
+        return None;
+    }
+    let mut t_known = iv.t1;
+    let mut cut = false;
+    if complete_to < f32::INFINITY {
+        if r_at(seg.a, seg.d, iv.t0) >= complete_to {
+            return Some(Outcome::Behind { t: iv.t0 });
+        }
+        let root = larger_root(seg, complete_to);
+        if root < iv.t1 {
+            t_known = root.max(iv.t0);
+            cut = true;
+        }
+    }
+    match nearest_candidate(tr, b, seg, texel, rmax, t_known) {
+        Some(h) => Some(Outcome::Candidate(h)),
+        None if cut => Some(Outcome::Behind { t: t_known }),
+        None => None,
+    }
+}
+
+/// The larger root of `|a + t d| = radius` (the same operations as the exact criterion's patch
+/// hit in [`super::classify`]).
+fn larger_root(seg: &Segment, radius: f32) -> f32 {
+    let dd = seg.d.x * seg.d.x + seg.d.y * seg.d.y + seg.d.z * seg.d.z;
+    let ts = -(seg.a.x * seg.d.x + seg.a.y * seg.d.y + seg.a.z * seg.d.z) / dd;
+    let q = seg.at(ts);
+    let q2 = q.x * q.x + q.y * q.y + q.z * q.z;
+    ts + ((radius * radius - q2).max(0.0) / dd).sqrt()
+}
+
+/// Step 3: the nearest kept candidate of `texel` with `t_lo <= t <= t_max`.
+fn nearest_candidate(
+    tr: &CmoTracer,
+    b: &Bounded,
+    seg: &Segment,
+    texel: Texel,
+    rmax: f32,
+    t_max: f32,
+) -> Option<BoundedHit> {
+    let sh = shear(seg.d)?;
+    let centre = tr.cube.centre;
+    let start = StartRule::new(b, seg, centre);
+    let mut best: Option<BoundedHit> = None;
+    for e in b.lists.entries_at(texel) {
+        if e.lo > rmax {
+            break;
+        }
+        let Some(world) = b.corners.get(e.triangle as usize) else {
+            continue;
+        };
+        let local = world.map(|p| p - centre);
+        let Some(h) = intersect_sheared(seg.a, &sh, local) else {
+            continue;
+        };
+        if h.t < seg.t_lo || h.t > t_max || start.ignores(e.triangle, world, local) {
+            continue;
+        }
+        if best.is_none_or(|x| h.t < x.t || (h.t == x.t && e.triangle < x.triangle)) {
+            best = Some(BoundedHit {
+                triangle: e.triangle,
+                t: h.t,
+                bary: h.bary,
+            });
+        }
+    }
+    best
+}
+
+/// The start rule of `spirv/shared/bvh.wgsl` (`bvh_start_ignores`) in CMO-local coordinates: a
+/// ray that leaves triangle F at `o` ignores hits on F and on F's neighbours (a corner at a
+/// bit-identical world position) whose plane passes within
+/// `e = 2 |s_F(o)| + 2^-18 max(|o|_inf, |F's corners|_inf)` of `o`.
+struct StartRule {
+    from: u32,
+    o: Vec3,
+    world: [Vec3; 3],
+    e: f32,
+}
+
+impl StartRule {
+    fn new(b: &Bounded, seg: &Segment, centre: Vec3) -> StartRule {
+        let o = seg.a;
+        match b.corners.get(seg.from as usize) {
+            Some(&world) => {
+                let f = world.map(|p| p - centre);
+                let m = o.abs().max(f[0].abs()).max(f[1].abs().max(f[2].abs()));
+                let e = 2.0 * plane_distance(o, f) + START_ULPS * m.max_element();
+                StartRule {
+                    from: seg.from,
+                    o,
+                    world,
+                    e,
+                }
+            }
+            None => StartRule {
+                from: NO_TRIANGLE,
+                o,
+                world: [Vec3::NAN; 3],
+                e: -1.0,
+            },
+        }
+    }
+
+    fn ignores(&self, tri: u32, world: &[Vec3; 3], local: [Vec3; 3]) -> bool {
+        if self.from == NO_TRIANGLE {
+            return false;
+        }
+        tri == self.from
+            || (shares_corner(&self.world, world) && plane_distance(self.o, local) <= self.e)
+    }
+}
+
+/// Distance of `p` from the plane of `t` (infinite for a degenerate triangle).
+fn plane_distance(p: Vec3, t: [Vec3; 3]) -> f32 {
+    let n = (t[1] - t[0]).cross(t[2] - t[0]);
+    let l = n.length();
+    if l.is_nan() || l <= 0.0 {
+        return f32::INFINITY;
+    }
+    (p - t[0]).dot(n).abs() / l
+}
+
+fn shares_corner(a: &[Vec3; 3], b: &[Vec3; 3]) -> bool {
+    let bits = |v: &Vec3| v.to_array().map(f32::to_bits);
+    a.iter().any(|p| b.iter().any(|q| bits(p) == bits(q)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cpu::multi::{MultiStatus, Traversal, WorldRay, trace_one, trace_world_ray};
+    use crate::cpu::watertight::intersect;
+    use crate::cpu::{Status, TraceParams};
+    use crate::cubemap::bounds::Entry;
+
+    const N: u32 = 4;
+
+    /// Lists that hold every triangle in every texel with trivial bounds (`lo = 0`, `hi = inf`):
+    /// sound by construction, so the tracer must find the brute-force first hit.
+    fn everything(tris: &[[Vec3; 3]], drop: Option<u32>) -> TexelLists {
+        let texels = (6 * N * N) as usize;
+        let mut offsets = vec![0u32];
+        let mut entries = Vec::new();
+        for _ in 0..texels {
+            for k in 0..tris.len() as u32 {
+                if drop != Some(k) {
+                    entries.push(Entry {
+                        triangle: k,
+                        lo: 0.0,
+                        hi: f32::INFINITY,
+                    });
+                }
+            }
+            offsets.push(entries.len() as u32);
+        }
+        TexelLists {
+            size: N,
+            depth: tris.len() as u32,
+            lo: vec![0.0; texels],
+            hi: vec![f32::INFINITY; texels],
+            complete_to: vec![f32::INFINITY; texels],
+            offsets,
+            entries,
+        }
+    }
+
+    /// A few random triangles and rays (a fixed LCG).
+    fn soup() -> (Vec<[Vec3; 3]>, Vec<(Vec3, Vec3)>) {
+        let mut s = 0x2545_f491_u32;
+        let mut f = move || {
+            s = s.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (s >> 8) as f32 / (1u32 << 24) as f32 * 2.0 - 1.0
+        };
+        let mut v = || Vec3::new(f(), f(), f()) * 4.0;
+        let tris = (0..60)
+            .map(|_| {
+                let c = v();
+                [c + v() * 0.5, c + v() * 0.5, c + v() * 0.5]
+            })
+            .collect();
+        let rays = (0..300).map(|_| (v() * 0.2, v().normalize())).collect();
+        (tris, rays)
+    }
+
+    fn brute(tris: &[[Vec3; 3]], o: Vec3, d: Vec3) -> Option<(u32, f32)> {
+        let mut best: Option<(u32, f32)> = None;
+        for (k, t) in tris.iter().enumerate() {
+            if let Some(h) = intersect(o, d, *t)
+                && h.t <= 100.0
+                && best.is_none_or(|b| h.t < b.1)
+            {
+                best = Some((k as u32, h.t));
+            }
+        }
+        best
+    }
+
+    fn trace(tr: &CmoTracer, o: Vec3, d: Vec3, how: Traversal) -> (MultiStatus, u32, f32) {
+        let ray = WorldRay {
+            origin: o,
+            dir: d,
+            from: NO_TRIANGLE,
+            t_lo: 0.0,
+            t_hi: 100.0,
+        };
+        let m = trace_world_ray(std::slice::from_ref(tr), &ray, None, |tr, s| {
+            trace_one(tr, s, how)
+        });
+        (m.status, m.triangle, m.result.t)
+    }
+
+    #[test]
+    fn sound_lists_give_the_first_hit_in_every_traversal() {
+        let (tris, rays) = soup();
+        let tr = CmoTracer::bounded(
+            Vec3::ZERO,
+            everything(&tris, None),
+            tris.clone(),
+            TraceParams::default(),
+        );
+        let mut hits = 0;
+        for &(o, d) in &rays {
+            let want = brute(&tris, o, d);
+            for how in [Traversal::Walk, Traversal::Mip, Traversal::Alg3(8)] {
+                let got = trace(&tr, o, d, how);
+                match want {
+                    Some((k, t)) => assert_eq!(got, (MultiStatus::Hit, k, t), "{o} {d} {how:?}"),
+                    None => assert_eq!(got.0, MultiStatus::Escaped, "{o} {d} {how:?}"),
+                }
+            }
+            hits += want.is_some() as u32;
+        }
+        assert!(hits > 30, "only {hits} rays hit: the test would say little");
+    }
+
+    #[test]
+    fn a_missing_candidate_is_passed_through() {
+        // Negative of the test above: drop the first hit's triangle from the lists, and the
+        // tracer reports a farther triangle or none. (A texel's candidates may hit before the
+        // texel's own interval, so dropping it from one texel only is caught by the texels
+        // after it: the lists of this test hold everything everywhere.)
+        let (tris, rays) = soup();
+        let (o, d, k) = rays
+            .iter()
+            .find_map(|&(o, d)| brute(&tris, o, d).map(|(k, _)| (o, d, k)))
+            .expect("a ray that hits");
+        let lists = everything(&tris, Some(k));
+        let tr = CmoTracer::bounded(Vec3::ZERO, lists, tris.clone(), TraceParams::default());
+        let got = trace(&tr, o, d, Traversal::Walk);
+        assert!(got.1 != k, "{got:?}");
+    }
+
+    #[test]
+    fn beyond_complete_to_the_ray_goes_behind() {
+        let (tris, rays) = soup();
+        let mut lists = everything(&tris, None);
+        lists.complete_to.iter_mut().for_each(|c| *c = 0.5);
+        let tr = CmoTracer::bounded(Vec3::ZERO, lists, tris.clone(), TraceParams::default());
+        for &(o, d) in &rays {
+            let seg = Segment {
+                a: o,
+                d,
+                t_lo: 0.0,
+                t_hi: 100.0,
+                from: NO_TRIANGLE,
+            };
+            let r = trace_one(&tr, &seg, Traversal::Walk);
+            // Every hit lies within r < 0.5, and every ray that leaves that ball goes behind
+            // where it does.
+            match r.status {
+                Status::Hit => assert!(r.point.length() < 0.5 + 1e-5, "{r:?}"),
+                Status::Behind => {
+                    assert!((r.point.length() - 0.5).abs() < 1e-4 || r.t == 0.0, "{r:?}")
+                }
+                Status::Escaped => panic!("escaped past complete_to: {r:?}"),
+            }
+        }
+    }
+
+    #[test]
+    fn the_start_rule_ignores_the_triangle_left() {
+        let tri = [
+            Vec3::new(-1.0, -1.0, 2.0),
+            Vec3::new(1.0, -1.0, 2.0),
+            Vec3::new(0.0, 1.0, 2.0),
+        ];
+        let tris = vec![tri];
+        let tr = CmoTracer::bounded(
+            Vec3::ZERO,
+            everything(&tris, None),
+            tris.clone(),
+            TraceParams::default(),
+        );
+        // A ray starting on the triangle (at a point rounded off its plane) and leaving it
+        // towards the centre: without the start rule it meets its own triangle at t ~ 0.
+        let o = Vec3::new(0.1, 0.0, 2.000_000_3);
+        let d = Vec3::new(0.0, 0.0, -1.0);
+        let mut ray = WorldRay {
+            origin: o,
+            dir: d,
+            from: NO_TRIANGLE,
+            t_lo: 0.0,
+            t_hi: 100.0,
+        };
+        let run = |ray: &WorldRay| {
+            trace_world_ray(std::slice::from_ref(&tr), ray, None, |tr, s| {
+                trace_one(tr, s, Traversal::Walk)
+            })
+        };
+        assert_eq!(run(&ray).status, MultiStatus::Hit);
+        ray.from = 0;
+        assert_eq!(run(&ray).status, MultiStatus::Escaped);
+    }
+}
