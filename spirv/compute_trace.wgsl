@@ -366,7 +366,7 @@ fn handoff(st: ptr<function, RayState>, bounded: bool) {
     var t_b = r.t;
     if bounded && r.status == ONE_HIT {
         // `advance` kept the deciding texel's nearest candidate.
-        finish_ray(st, STATUS_HIT, k, r.point + cmo_centres[k].xyz);
+        finish_ray(st, STATUS_HIT, k, bounded_point((*st).origin, (*st).dir, r.t));
         return;
     } else if r.status == ONE_HIT {
         let v = verify_decision(k, (*st).seg, r.texel, (*st).origin, (*st).dir, (*st).t_done, frame.t_hi);

@@ -18,7 +18,7 @@
 // Texel T crossed over [t0, t1] (`rmin, rmax` of r over it):
 // - `rmax < lo` or `rmin > hi`: nothing here (kind 0, the traversal goes on);
 // - complete_to finite: `r(t0) >= complete_to` is behind at t0; else the list is known up to
-//   t_known = min(t1, the larger root of r(t) = complete_to) (t_known = t1 when +inf);
+//   t_known = the larger root of r(t) = complete_to, clamped to [t0, t1] (t1 when +inf);
 // - candidates: the entries in order until one has `lo > rmax`; the watertight intersection of
 //   the CMO-local ray with the triangle's corners minus the centre, kept where
 //   `seg.t_lo <= t <= t_known` and not ignored by the start rule (shared/start.wgsl, in
@@ -112,7 +112,10 @@ fn classify_bounded_pick(k: u32, seg: Segment, texel: Texel, iv: Interval) -> Bo
         if r_at(seg.a, seg.d, iv.t0) >= complete_to {
             return behind_t0;
         }
-        t_known = min(iv.t1, bounded_root(seg, complete_to));
+        let root = bounded_root(seg, complete_to);
+        if root < iv.t1 {
+            t_known = max(root, iv.t0);
+        }
     }
     let centre = cmo_centres[k].xyz;
     let start = bounded_start(seg.a, seg.from_tri, centre);
@@ -153,6 +156,11 @@ fn classify_bounded_pick(k: u32, seg: Segment, texel: Texel, iv: Interval) -> Bo
     return none;
 }
 
+// The world point of a bounded hit at t (`cpu::multi::trace_world_ray`: origin + dir * t).
+fn bounded_point(origin: vec3<f32>, dir: vec3<f32>, t: f32) -> vec3<f32> {
+    return vec3<f32>(origin.x + prod(dir.x, t), origin.y + prod(dir.y, t), origin.z + prod(dir.z, t));
+}
+
 // A single-CMO trace with the pick of its deciding texel.
 struct BoundedResult {
     r: TraceResult,
@@ -186,8 +194,8 @@ fn trace_walk_bounded(k: u32, seg: Segment, cut: f32) -> BoundedResult {
 // The world ray origin + t dir, t in [t_lo, t_hi], leaving global triangle `from_tri`
 // (TRACE_NO_TRIANGLE: none), over the CMOs with the occlusion handoff (`trace_ray_variant`'s
 // loops) and the bounded criterion; a hit's triangle and barycentrics are its deciding texel's
-// nearest candidate, its point the CMO-local `seg_at(t)` plus the centre (`VerifiedOut` as
-// shared/trace_verified.wgsl's `trace_ray_verified` gives it).
+// nearest candidate, its point `origin + t dir` in world space (`VerifiedOut` as
+// shared/trace_verified.wgsl's `trace_ray_verified` gives it; `cpu::multi::trace_world_ray`).
 fn trace_ray_bounded(origin: vec3<f32>, dir: vec3<f32>, t_lo: f32, t_hi: f32, from_tri: u32) -> VerifiedOut {
     var t_done = t_lo;
     var traces = 0u;
@@ -202,7 +210,7 @@ fn trace_ray_bounded(origin: vec3<f32>, dir: vec3<f32>, t_lo: f32, t_hi: f32, fr
             traces += 1u;
             last = r;
             if r.status == ONE_HIT {
-                return VerifiedOut(trace_out(STATUS_HIT, k, r, r.point + centre, t_done, traces), b.pick.triangle, b.pick.bary);
+                return VerifiedOut(trace_out(STATUS_HIT, k, r, bounded_point(origin, dir, r.t), t_done, traces), b.pick.triangle, b.pick.bary);
             }
             if r.status == ONE_ESCAPED {
                 return VerifiedOut(trace_out(STATUS_ESCAPED, k, r, r.point + centre, t_done, traces), TRACE_NO_TRIANGLE, vec3<f32>(0.0));
