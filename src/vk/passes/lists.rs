@@ -199,8 +199,9 @@ mod tests {
 
     #[test]
     fn pack_refuses_mixed_sizes_and_bad_offsets() {
-        let l = lists(1, &[&[]; 6]);
-        let mut other = lists(2, &[&[]; 24]);
+        let none: &[Entry] = &[];
+        let l = lists(1, &[none; 6]);
+        let mut other = lists(2, &[none; 24]);
         assert!(pack(&[l.clone(), other.clone()]).unwrap_err().contains("CMO 1"));
         other = l.clone();
         other.offsets[3] = 5;
