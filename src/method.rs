@@ -581,4 +581,32 @@ mod tests {
         assert!(Method::Fragment.check_bounces(0, 16, &threshold).is_ok());
         assert!(Method::Compute.check_bounces(17, 16, &exact).is_err());
     }
+
+    #[test]
+    fn bounded_criterion_rules() {
+        let bounded = TraceOptions {
+            criterion: TraceCriterion::Bounded,
+            ..TraceOptions::default()
+        };
+        // Both cubemap tracers implement it and name their hits (so further bounces trace on).
+        for m in [Method::Compute, Method::Fragment] {
+            assert!(m.check_options(&["--criterion"], &bounded).is_ok(), "{m}");
+            assert!(m.check_bounces(3, 16, &bounded).is_ok(), "{m}");
+        }
+        assert_eq!(criterion_name(TraceCriterion::Bounded), "bounded");
+        // The exact criterion's and the approximate criteria's options do not apply to it.
+        for flag in ["--strict", "--no-accel", "--sampling", "--steps", "--eps"] {
+            let e = Method::Fragment
+                .check_options(&[flag], &bounded)
+                .unwrap_err();
+            assert!(e.starts_with(flag), "{e}");
+        }
+        // Negative: compute still refuses the approximate criteria.
+        let threshold = TraceOptions {
+            criterion: TraceCriterion::Threshold,
+            ..bounded
+        };
+        let e = Method::Compute.check_trace(&threshold).unwrap_err();
+        assert!(e.contains("exact and bounded"), "{e}");
+    }
 }
