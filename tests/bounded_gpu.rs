@@ -364,7 +364,10 @@ fn gpu_paths_match_the_cpu_twin() {
         .unwrap();
     let perturbed = Twin::new(&s, &without(&lists, f.records[k].triangle));
     let (bad, _) = perturbed.differences(&f, &from, true);
-    eprintln!("twin without triangle {}: {bad} pixels differ", f.records[k].triangle);
+    eprintln!(
+        "twin without triangle {}: {bad} pixels differ",
+        f.records[k].triangle
+    );
     assert!(bad > 0, "the comparison missed a dropped triangle");
     finish_gpu(ctx);
 }
@@ -469,7 +472,10 @@ fn hits_are_first_and_a_dropped_triangle_shows() {
                         // The texel of CMO 0 the ray starts in.
                         let dir = Vec3::from_array(rec.origin) - s.cmo_centres()[0];
                         let texel = cubetrace::cubemap::face::dir_to_texel(dir, SIZE);
-                        lists[0].entries_at(texel).iter().any(|e| e.triangle == from[k])
+                        lists[0]
+                            .entries_at(texel)
+                            .iter()
+                            .any(|e| e.triangle == from[k])
                     })
                     .count();
                 eprintln!("  {own} rays start on a triangle their first texel lists");
@@ -495,7 +501,10 @@ fn hits_are_first_and_a_dropped_triangle_shows() {
         );
         let (wrong, hits, _) = not_first(&s, &g, &from);
         eprintln!("triangle {tri} dropped, {method}: {wrong} wrong ({hits} hits)");
-        assert!(wrong >= 1, "{method}: the check missed the dropped triangle");
+        assert!(
+            wrong >= 1,
+            "{method}: the check missed the dropped triangle"
+        );
     }
     finish_gpu(ctx);
 }

@@ -357,7 +357,11 @@ mod tests {
         for m in [Method::Fragment, Method::Compute] {
             let b = device_bytes(160, 120, m, 2, 256, false, &bounded);
             let e = device_bytes(160, 120, m, 2, 256, false, &exact);
-            assert_eq!(b.cmo - e.cmo, 2 * 6 * 256 * 256 * 16, "{m}: the lists' records");
+            assert_eq!(
+                b.cmo - e.cmo,
+                2 * 6 * 256 * 256 * 16,
+                "{m}: the lists' records"
+            );
         }
     }
 

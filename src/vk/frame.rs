@@ -4,6 +4,7 @@
 //! | pass | reads | writes |
 //! |---|---|---|
 //! | `capture` (where [`Needs::capture`]: every method but `bvh`) | scene | CMO distance, colour and/or triangle IDs (+ normal/mirror with self-reflections) |
+//! | (`--criterion bounded`: no `capture`; the per-texel lists are uploaded at creation, [`GpuRenderer::with_lists`]; the GPU capture of the lists plugs in here) | CPU lists | CMO distance (`lo`), `cmo_lists`, `cmo_nodes` ([`super::passes::lists`]) |
 //! | `pyramid` (where [`Needs::pyramid`]: `fragment`) | CMO distance | CMO 2x2 min/max pyramid |
 //! | the method's CMO stage: `hier32` (`compute`) | CMO distance | its 8x4/4x8 min/max hierarchy |
 //! | `gbuffer` | scene | G-buffer colour, position + mirror mask, normal |
@@ -112,8 +113,8 @@ use super::passes::pyramid::{Pyramid, PyramidBindings};
 use super::passes::scene_buffers::SceneBuffers;
 use crate::camera::Camera;
 use crate::cpu::options::{TraceCriterion, TraceOptions};
-use crate::cubemap::bounds::TexelLists;
 use crate::cpu::reflection_point::SearchStats;
+use crate::cubemap::bounds::TexelLists;
 use crate::method::Method;
 use crate::metrics::Traced;
 use crate::ranges::FrameRanges;

@@ -14,8 +14,11 @@
 //! - `compute_trace` writes `records[pixel]` for exactly the queued pixels, i.e. the mirror pixels
 //!   (`position.w == 1`, the composite pass's own test), and `ray_stats[pixel]` likewise.
 //! - The surface model and the classification are the fragment path's exact criterion
-//!   (`classify` in spirv/shared/trace.wgsl), so [`GpuRenderer`](crate::vk::frame::GpuRenderer)
-//!   refuses other criteria for this method.
+//!   (`classify` in spirv/shared/trace.wgsl), or with `--criterion bounded` its bounded one
+//!   (`classify_bounded_pick` in spirv/shared/trace_bounded.wgsl, through the `_bounded` twin of
+//!   each entry point, [`bounded_entry`]; the queued ray carries its G-buffer triangle for the
+//!   start rule), so [`GpuRenderer`](crate::vk::frame::GpuRenderer) refuses the approximate
+//!   criteria for this method.
 //! - Subgroup sizes 4..=128 (powers of two) are supported; the kernel's docs say how lanes map
 //!   to rays and why no workgroup barrier is needed (there is none). Its workgroups have 256
 //!   invocations, or 128 where 256 would exceed `maxComputeWorkgroupSubgroups`

@@ -36,6 +36,14 @@
 //! behind a box no texel sees) and none elsewhere, at 1.5x to 7x the unresolved pixels; the
 //! production entry point `fs_exact_mip` carries no strict code, the generic one does.
 //!
+//! `--criterion bounded` (issue 22) runs the entry point `fs_bounded`: per-texel sound bounds and
+//! candidate lists (`cubemap::bounds`, uploaded by `vk::passes::lists`, their `lo` as the CMO
+//! distance) instead of a centre-sampled capture; the hit is the nearest listed triangle the
+//! ray meets where the list is complete (`spirv/shared/trace_bounded.wgsl`, CPU twin
+//! `cpu::bounded`), the ray leaving its G-buffer triangle (the start rule). It walks the texels
+//! (the pyramid march is the exact criterion's, in `fs_exact_mip`/`fs_main`, whose bindings stay
+//! free of the lists); `--no-accel` and `--strict` do not apply to it.
+//!
 //! The thesis's approximate criteria (`--criterion threshold|sign-change`, `--sampling`,
 //! `--steps`, `--eps`) are kept to measure against: they report "escaped" where no sample fires and
 //! cannot name a triangle, so `--bounces` refuses them. In the bench (160x120, commit 0b66ea7)

@@ -355,11 +355,7 @@ impl CmoData {
             detail,
         };
         if all.len() != self.count as usize {
-            return Err(err(format!(
-                "{} lists for {} CMOs",
-                all.len(),
-                self.count
-            )));
+            return Err(err(format!("{} lists for {} CMOs", all.len(), self.count)));
         }
         let packed = lists::pack(all).map_err(err)?;
         if packed.size != self.size {

@@ -68,7 +68,9 @@ pub fn pack(lists: &[TexelLists]) -> Result<PackedLists, String> {
             && l.complete_to.len() == per
             && l.offsets.len() == per + 1
             && l.offsets.windows(2).all(|w| w[0] <= w[1])
-            && l.offsets.last().is_some_and(|&e| e as usize == l.entries.len());
+            && l.offsets
+                .last()
+                .is_some_and(|&e| e as usize == l.entries.len());
         if !ok {
             return Err(format!(
                 "CMO {k}: lists malformed (want {per} texels and offsets 0..={} ascending)",
@@ -202,7 +204,11 @@ mod tests {
         let none: &[Entry] = &[];
         let l = lists(1, &[none; 6]);
         let mut other = lists(2, &[none; 24]);
-        assert!(pack(&[l.clone(), other.clone()]).unwrap_err().contains("CMO 1"));
+        assert!(
+            pack(&[l.clone(), other.clone()])
+                .unwrap_err()
+                .contains("CMO 1")
+        );
         other = l.clone();
         other.offsets[3] = 5;
         assert!(pack(&[other]).unwrap_err().contains("malformed"));
