@@ -39,12 +39,13 @@ fn fs_bounded(@builtin(position) position: vec4<f32>) {
         return;
     }
     let from_tri = textureLoad(gbuffer_triangle, vec2<i32>(pixel), 0).x;
-    let v = trace_ray_bounded(ray.origin, ray.dir, 0.0, frame.t_hi, from_tri);
+    let b = trace_ray_bounded(ray.origin, ray.dir, 0.0, frame.t_hi, from_tri);
+    let v = b.v;
     var colour = frame.background;
     if v.out.status == STATUS_HIT {
         colour = hit_shade(v.triangle, v.bary.yz);
     }
-    write_record(pixel, ray, v.out, colour, v.triangle);
+    write_record(pixel, ray, v.out, colour, v.triangle, select(0u, 1u, b.cut));
 }
 
 // Traces the mirror pixel at `position` with `variant` (a constant, see `trace_ray_variant`).
@@ -70,12 +71,13 @@ fn trace_pixel(position: vec4<f32>, variant: u32) {
             colour = cmo_texel_colour(r.cmo, Texel(r.face, r.x, r.y)).xyz;
         }
     }
-    write_record(pixel, ray, r, colour, triangle);
+    write_record(pixel, ray, r, colour, triangle, 0u);
 }
 
-fn write_record(pixel: vec2<u32>, ray: MirrorRay, r: TraceOut, colour: vec3<f32>, triangle: u32) {
+// `cut`: 1 where the bounded trace stopped at its back-edge cap (shared/trace_bounded.wgsl).
+fn write_record(pixel: vec2<u32>, ray: MirrorRay, r: TraceOut, colour: vec3<f32>, triangle: u32, cut: u32) {
     records[pixel.y * frame.width + pixel.x] = PixelRecord(
         ray.origin, r.status, ray.dir, r.cmo, r.point, r.riser, colour,
-        r.face, r.x, r.y, r.texels, r.cells, r.traces, r.t, r.t_done, triangle, 0u, 0u, 1u, 0u,
+        r.face, r.x, r.y, r.texels, r.cells, r.traces, r.t, r.t_done, triangle, cut, 0u, 1u, 0u,
     );
 }

@@ -29,7 +29,12 @@
 // is claimed from it.
 //
 // Loop caps: `count_kept` entries at most, and at most BOUNDED_MAX_ENTRIES; the texel walk is
-// trace.wgsl's (MAX_FACE_STEPS).
+// trace.wgsl's (MAX_FACE_STEPS). lavapipe ends every loop of an invocation after 65535
+// back-edges in all (spirv/README.md, "Known defect"), which would end a walk early as if the
+// ray had escaped: `trace_ray_bounded` counts the back-edges it takes (one per texel and per
+// entry read, BOUNDED_TRACE_EDGES per single-CMO trace for its fixed loops) and stops at
+// BOUNDED_MAX_EDGES with the ray unresolved at its proven-empty prefix and `cut` set (sound:
+// nothing is claimed; the CPU twin has no such cap, so it differs only on such rays).
 //! import shared/trace_verified.wgsl
 //! import shared/watertight.wgsl
 //! import shared/hit.wgsl
@@ -42,6 +47,12 @@ const BOUNDED_NO_NODE: u32 = 0xffffffffu;
 // Most entries read per texel (the capture keeps `depth` <= this; more are not read, which
 // only makes the texel's known part end at the last one read: see `classify_bounded_pick`).
 const BOUNDED_MAX_ENTRIES: u32 = 1024u;
+
+// Back-edges a ray may take before `trace_ray_bounded` stops it (below lavapipe's 65535).
+const BOUNDED_MAX_EDGES: u32 = 60000u;
+// Back-edges of one single-CMO trace outside the texel walk: `faces_crossed` (78 per piece),
+// `cut_radius` (6 cells of the top level, or 6 texels), the piece and face loops.
+const BOUNDED_TRACE_EDGES: u32 = 200u;
 
 // The nearest candidate of a classification (found false: none).
 struct BoundedPick {
@@ -79,6 +90,8 @@ fn bounded_start(o: vec3<f32>, from_tri: u32, centre: vec3<f32>) -> BoundedStart
 struct BoundedOutcome {
     o: Outcome,
     pick: BoundedPick,
+    // Entries read (back-edges of the candidate loop).
+    read: u32,
 }
 
 // The larger root of |a + t d| = r (as `classify_with`'s patch hit), unclamped.
@@ -92,7 +105,7 @@ fn bounded_root(seg: Segment, r: f32) -> f32 {
 
 // `cpu::bounded::classify_bounded` of `texel` of CMO k crossed over `iv` (module docs).
 fn classify_bounded_pick(k: u32, seg: Segment, texel: Texel, iv: Interval) -> BoundedOutcome {
-    let none = BoundedOutcome(Outcome(0u, 0.0, false), bounded_no_pick());
+    let none = BoundedOutcome(Outcome(0u, 0.0, false), bounded_no_pick(), 0u);
     if !crosses(iv) {
         return none;
     }
@@ -105,7 +118,7 @@ fn classify_bounded_pick(k: u32, seg: Segment, texel: Texel, iv: Interval) -> Bo
     if rb.y < lo || rb.x > hi {
         return none;
     }
-    let behind_t0 = BoundedOutcome(Outcome(2u, iv.t0, false), bounded_no_pick());
+    let behind_t0 = BoundedOutcome(Outcome(2u, iv.t0, false), bounded_no_pick(), 0u);
     var t_known = iv.t1;
     let complete_to = bitcast<f32>(rec.y);
     if is_finite_f32(complete_to) {
@@ -122,9 +135,10 @@ fn classify_bounded_pick(k: u32, seg: Segment, texel: Texel, iv: Interval) -> Bo
     var best = bounded_no_pick();
     var node = rec.x;
     let count = min(rec.w, BOUNDED_MAX_ENTRIES);
-    for (var j = 0u; j < count; j++) {
+    var j = 0u;
+    for (; j < count; j++) {
         if node == BOUNDED_NO_NODE {
-            return behind_t0;
+            return BoundedOutcome(behind_t0.o, behind_t0.pick, j);
         }
         let e = cmo_nodes[node];
         node = e.w;
@@ -148,12 +162,12 @@ fn classify_bounded_pick(k: u32, seg: Segment, texel: Texel, iv: Interval) -> Bo
         best = BoundedPick(true, w.t, tri, w.bary);
     }
     if best.found {
-        return BoundedOutcome(Outcome(1u, best.t, false), best);
+        return BoundedOutcome(Outcome(1u, best.t, false), best, j);
     }
     if t_known < iv.t1 {
-        return BoundedOutcome(Outcome(2u, t_known, false), bounded_no_pick());
+        return BoundedOutcome(Outcome(2u, t_known, false), bounded_no_pick(), j);
     }
-    return none;
+    return BoundedOutcome(none.o, none.pick, j);
 }
 
 // The world point of a bounded hit at t (`cpu::multi::trace_world_ray`: origin + dir * t).
@@ -161,16 +175,19 @@ fn bounded_point(origin: vec3<f32>, dir: vec3<f32>, t: f32) -> vec3<f32> {
     return vec3<f32>(origin.x + prod(dir.x, t), origin.y + prod(dir.y, t), origin.z + prod(dir.z, t));
 }
 
-// A single-CMO trace with the pick of its deciding texel.
+// A single-CMO trace with the pick of its deciding texel; `cut`: stopped at the back-edge cap.
 struct BoundedResult {
     r: TraceResult,
     pick: BoundedPick,
+    cut: bool,
 }
 
-// Per-texel walk with the bounded classification (trace.wgsl's `trace_walk`, loop for loop).
-fn trace_walk_bounded(k: u32, seg: Segment, cut: f32) -> BoundedResult {
+// Per-texel walk with the bounded classification (trace.wgsl's `trace_walk`, loop for loop);
+// `edges` counts the back-edges (module docs, "Loop caps").
+fn trace_walk_bounded(k: u32, seg: Segment, cut: f32, edges: ptr<function, u32>) -> BoundedResult {
     let n = trace_config.size;
     var c = Counters(0u, 0u);
+    *edges += BOUNDED_TRACE_EDGES;
     let pieces = split_near_centre(seg, cut);
     for (var p = 0u; p < pieces.count; p++) {
         let lo = pieces.range[p].x;
@@ -181,14 +198,24 @@ fn trace_walk_bounded(k: u32, seg: Segment, cut: f32) -> BoundedResult {
             for (var step = 0u; step < MAX_FACE_STEPS && cur.found; step++) {
                 c.texels += 1u;
                 let b = classify_bounded_pick(k, seg, cur.tex, cur.iv);
+                *edges += 1u + b.read;
+                if *edges > BOUNDED_MAX_EDGES {
+                    return BoundedResult(finish(seg, cur.tex, b.o, c), bounded_no_pick(), true);
+                }
                 if b.o.kind != 0u {
-                    return BoundedResult(finish(seg, cur.tex, b.o, c), b.pick);
+                    return BoundedResult(finish(seg, cur.tex, b.o, c), b.pick, false);
                 }
                 cur = next_texel(seg, cur.tex, cur.iv, n, lo, hi);
             }
         }
     }
-    return BoundedResult(escaped(seg, c), bounded_no_pick());
+    return BoundedResult(escaped(seg, c), bounded_no_pick(), false);
+}
+
+// `trace_ray_bounded`'s result: `cut` where it stopped at the back-edge cap (then unresolved).
+struct BoundedOut {
+    v: VerifiedOut,
+    cut: bool,
 }
 
 // The world ray origin + t dir, t in [t_lo, t_hi], leaving global triangle `from_tri`
@@ -196,34 +223,43 @@ fn trace_walk_bounded(k: u32, seg: Segment, cut: f32) -> BoundedResult {
 // loops) and the bounded criterion; a hit's triangle and barycentrics are its deciding texel's
 // nearest candidate, its point `origin + t dir` in world space (`VerifiedOut` as
 // shared/trace_verified.wgsl's `trace_ray_verified` gives it; `cpu::multi::trace_world_ray`).
-fn trace_ray_bounded(origin: vec3<f32>, dir: vec3<f32>, t_lo: f32, t_hi: f32, from_tri: u32) -> VerifiedOut {
+fn trace_ray_bounded(origin: vec3<f32>, dir: vec3<f32>, t_lo: f32, t_hi: f32, from_tri: u32) -> BoundedOut {
     var t_done = t_lo;
     var traces = 0u;
+    var edges = 0u;
+    var cut = false;
     var last = TraceResult(ONE_ESCAPED, 0.0, Texel(0u, 0u, 0u), false, vec3<f32>(0.0), Counters(0u, 0u));
     for (var round = 0u; round < MAX_ROUNDS; round++) {
         var progress = false;
         for (var k = 0u; k < trace_config.cmo_count; k++) {
             let centre = cmo_centres[k].xyz;
             let seg = Segment(origin - centre, dir, t_done, t_hi, from_tri);
-            let b = trace_walk_bounded(k, seg, cut_radius(k));
+            let b = trace_walk_bounded(k, seg, cut_radius(k), &edges);
             let r = b.r;
             traces += 1u;
             last = r;
+            if b.cut {
+                cut = true;
+                break;
+            }
             if r.status == ONE_HIT {
-                return VerifiedOut(trace_out(STATUS_HIT, k, r, bounded_point(origin, dir, r.t), t_done, traces), b.pick.triangle, b.pick.bary);
+                let v = VerifiedOut(trace_out(STATUS_HIT, k, r, bounded_point(origin, dir, r.t), t_done, traces), b.pick.triangle, b.pick.bary);
+                return BoundedOut(v, false);
             }
             if r.status == ONE_ESCAPED {
-                return VerifiedOut(trace_out(STATUS_ESCAPED, k, r, r.point + centre, t_done, traces), TRACE_NO_TRIANGLE, vec3<f32>(0.0));
+                let v = VerifiedOut(trace_out(STATUS_ESCAPED, k, r, r.point + centre, t_done, traces), TRACE_NO_TRIANGLE, vec3<f32>(0.0));
+                return BoundedOut(v, false);
             }
             if r.t > t_done {
                 t_done = r.t;
                 progress = true;
             }
         }
-        if !progress {
+        if !progress || cut {
             break;
         }
     }
     let p = vec3<f32>(origin.x + prod(t_done, dir.x), origin.y + prod(t_done, dir.y), origin.z + prod(t_done, dir.z));
-    return VerifiedOut(trace_out(STATUS_UNRESOLVED, 0xffffffffu, last, p, t_done, traces), TRACE_NO_TRIANGLE, vec3<f32>(0.0));
+    let v = VerifiedOut(trace_out(STATUS_UNRESOLVED, 0xffffffffu, last, p, t_done, traces), TRACE_NO_TRIANGLE, vec3<f32>(0.0));
+    return BoundedOut(v, cut);
 }
