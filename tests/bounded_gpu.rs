@@ -24,6 +24,7 @@ use cubetrace::vk::frame::{
     GpuFrame, GpuRenderer, PixelRecord, RECORD_ESCAPED, RECORD_HIT, RECORD_UNRESOLVED,
     RenderOptions, scene_ranges,
 };
+use cubetrace::vk::passes::lists::{NO_NODE, PackedLists, pack};
 use glam::{DVec3, Vec3};
 
 const WIDTH: u32 = 40;
@@ -212,6 +213,16 @@ fn render_from(
     scene: &Scene,
     method: Method,
     lists: &[TexelLists],
+) -> (GpuFrame, Vec<u32>) {
+    render_packed(ctx, scene, method, &pack(lists).unwrap())
+}
+
+/// `render_from` of lists in the GPU layout.
+fn render_packed(
+    ctx: &GpuContext,
+    scene: &Scene,
+    method: Method,
+    lists: &PackedLists,
 ) -> (GpuFrame, Vec<u32>) {
     let mut r = GpuRenderer::with_lists(ctx, scene, &camera(scene), options(method), lists)
         .unwrap_or_else(|e| panic!("{} {method}: {e}", scene.name));
@@ -506,5 +517,70 @@ fn hits_are_first_and_a_dropped_triangle_shows() {
             "{method}: the check missed the dropped triangle"
         );
     }
+    finish_gpu(ctx);
+}
+
+/// The fragment path's back-edge cap (lavapipe ends every loop after 65535 back-edges): every
+/// texel of a 128^2 CMO lists the same 1024 entries (lo 0, one triangle the mirror rays do not
+/// meet, shared in one chain), so each texel crossed reads all of them and long rays reach the
+/// cap; they end unresolved with `cut` = 1, and no record claims a hit or an escape it did not
+/// finish. Negative: with 8 entries per texel no ray reaches it, and every ray escapes.
+#[test]
+fn the_fragment_walk_stops_at_its_back_edge_cap() {
+    const CAP_SIZE: u32 = 128;
+    let ctx = gpu_context();
+    let mut s = scene("sphere-room", None);
+    s.cmo.resolution = CAP_SIZE;
+    let world = s.world();
+    // A reflector's triangle: not captured, so no mirror ray of the convex sphere meets it
+    // but at its own start (which the start rule skips).
+    let mirror = (0..world.triangle_object.len())
+        .find(|&t| world.objects[world.triangle_object[t] as usize].reflector)
+        .unwrap() as u32;
+    let texels = 6 * CAP_SIZE as usize * CAP_SIZE as usize;
+    let chain = |count: u32| PackedLists {
+        size: CAP_SIZE,
+        lo: vec![0.0; texels],
+        records: vec![[0, f32::INFINITY.to_bits(), f32::INFINITY.to_bits(), count]; texels],
+        nodes: (0..count)
+            .map(|i| {
+                let next = if i + 1 < count { i + 1 } else { NO_NODE };
+                [mirror, 0.0f32.to_bits(), f32::INFINITY.to_bits(), next]
+            })
+            .collect(),
+    };
+    let (f, _) = render_packed(&ctx, &s, Method::Fragment, &chain(1024));
+    let mirror_pixels = f.mask.iter().filter(|&&m| m != 0).count();
+    let cut: Vec<&PixelRecord> = (0..f.records.len())
+        .filter(|&k| f.mask[k] != 0 && f.records[k].cut != 0)
+        .map(|k| &f.records[k])
+        .collect();
+    let most = (0..f.records.len())
+        .filter(|&k| f.mask[k] != 0)
+        .map(|k| f.records[k].texels)
+        .max();
+    let statuses: Vec<u32> = (0..4)
+        .map(|st| {
+            (0..f.records.len())
+                .filter(|&k| f.mask[k] != 0 && f.records[k].status == st)
+                .count() as u32
+        })
+        .collect();
+    eprintln!(
+        "1024 entries per texel: {} of {mirror_pixels} rays cut (most texels {most:?}, statuses {statuses:?})",
+        cut.len()
+    );
+    assert!(!cut.is_empty(), "no ray reached the cap");
+    assert!(
+        cut.iter().all(|r| r.status == RECORD_UNRESOLVED),
+        "a cut ray was decided"
+    );
+    let (g, _) = render_packed(&ctx, &s, Method::Fragment, &chain(8));
+    let escaped = (0..g.records.len())
+        .filter(|&k| g.mask[k] != 0)
+        .filter(|&k| g.records[k].cut == 0 && g.records[k].status == RECORD_ESCAPED)
+        .count();
+    eprintln!("8 entries per texel: {escaped} of {mirror_pixels} rays escaped, none cut");
+    assert_eq!(escaped, mirror_pixels);
     finish_gpu(ctx);
 }

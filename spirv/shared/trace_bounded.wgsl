@@ -44,8 +44,8 @@
 @group(1) @binding(7) var<storage, read> cmo_nodes: array<vec4<u32>>;
 
 const BOUNDED_NO_NODE: u32 = 0xffffffffu;
-// Most entries read per texel (the capture keeps `depth` <= this; more are not read, which
-// only makes the texel's known part end at the last one read: see `classify_bounded_pick`).
+// Most entries read per texel (the capture's `depth`, 16 by default, stays below it): a texel
+// with more is unknown, behind at its entry (sound; the CPU twin reads them all).
 const BOUNDED_MAX_ENTRIES: u32 = 1024u;
 
 // Back-edges a ray may take before `trace_ray_bounded` stops it (below lavapipe's 65535).
@@ -130,11 +130,15 @@ fn classify_bounded_pick(k: u32, seg: Segment, texel: Texel, iv: Interval) -> Bo
             t_known = max(root, iv.t0);
         }
     }
+    // More entries than the loop reads: the texel is unknown (as `complete_to` = 0).
+    if rec.w > BOUNDED_MAX_ENTRIES {
+        return behind_t0;
+    }
     let centre = cmo_centres[k].xyz;
     let start = bounded_start(seg.a, seg.from_tri, centre);
     var best = bounded_no_pick();
     var node = rec.x;
-    let count = min(rec.w, BOUNDED_MAX_ENTRIES);
+    let count = rec.w;
     var j = 0u;
     for (; j < count; j++) {
         if node == BOUNDED_NO_NODE {

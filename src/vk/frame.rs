@@ -109,12 +109,12 @@ use super::passes::capture::Capture;
 use super::passes::cmo::{CaptureContents, CmoData};
 use super::passes::composite::Composite;
 use super::passes::gbuffer::Gbuffer;
+use super::passes::lists::PackedLists;
 use super::passes::pyramid::{Pyramid, PyramidBindings};
 use super::passes::scene_buffers::SceneBuffers;
 use crate::camera::Camera;
 use crate::cpu::options::{TraceCriterion, TraceOptions};
 use crate::cpu::reflection_point::SearchStats;
-use crate::cubemap::bounds::TexelLists;
 use crate::method::Method;
 use crate::metrics::Traced;
 use crate::ranges::FrameRanges;
@@ -358,7 +358,7 @@ impl CmoStages {
         needs: &Needs,
         trace: &TraceOptions,
         capture_near: f32,
-        lists: Option<&[TexelLists]>,
+        lists: Option<&PackedLists>,
     ) -> VkResult<Self> {
         let centres = scene.cmo_centres();
         if trace.criterion == TraceCriterion::Bounded {
@@ -425,7 +425,7 @@ impl CmoStages {
         scene: &Scene,
         needs: &Needs,
         trace: &TraceOptions,
-        lists: Option<&[TexelLists]>,
+        lists: Option<&PackedLists>,
     ) -> VkResult<Self> {
         let Some(lists) = lists else {
             return Err(VkError::Usage {
@@ -591,14 +591,16 @@ impl GpuRenderer {
     }
 
     /// [`GpuRenderer::new`] for `--criterion bounded` with the per-texel lists built on the
-    /// CPU, one [`TexelLists`] per CMO in [`Scene::cmo_centres`] order, of the scene's face
-    /// size (uploaded instead of a capture: [`CmoData::upload_lists`]).
+    /// CPU in the GPU layout (`vk::passes::lists::pack` of one
+    /// [`TexelLists`](crate::cubemap::bounds::TexelLists) per CMO in [`Scene::cmo_centres`]
+    /// order, of the scene's face size), uploaded instead of a capture
+    /// ([`CmoData::upload_lists`]).
     pub fn with_lists(
         ctx: &GpuContext,
         scene: &Scene,
         camera: &Camera,
         options: RenderOptions,
-        lists: &[TexelLists],
+        lists: &PackedLists,
     ) -> VkResult<Self> {
         let ranges = FrameRanges::new(scene, camera);
         ranges.check(scene).map_err(|e| VkError::Usage {
@@ -614,7 +616,7 @@ impl GpuRenderer {
         camera: &Camera,
         options: RenderOptions,
         ranges: &FrameRanges,
-        lists: Option<&[TexelLists]>,
+        lists: Option<&PackedLists>,
     ) -> VkResult<Self> {
         if scene.cmo_centres().is_empty() {
             return Err(VkError::Usage {

@@ -28,7 +28,6 @@ use gpu_allocator::MemoryLocation;
 
 use crate::cpu::options::{TraceCriterion, TraceOptions, TraceSampling};
 use crate::cubemap::CubeMap;
-use crate::cubemap::bounds::TexelLists;
 use crate::cubemap::pyramid::{EMPTY_CELL, MipPyramid, mip_flat_layout};
 use crate::vk::backend::buffer::Buffer;
 use crate::vk::backend::context::{GpuContext, Recorder};
@@ -38,7 +37,7 @@ use crate::vk::backend::pipeline::Resource;
 use crate::vk::backend::shaders::Pass;
 use crate::vk::backend::sync::{ALL_READS, SHADER_READ, TRANSFER_WRITE};
 
-use super::lists;
+use super::lists::{self, PackedLists};
 
 /// Entries of [`TraceConfig::mip_levels`] (index 0 unused: level 0 is the texels).
 pub const TRACE_MIP_MAX_LEVELS: usize = 16;
@@ -345,24 +344,24 @@ impl CmoData {
         Ok(())
     }
 
-    /// Uploads lists built on the CPU ([`lists::pack`] of one [`TexelLists`] per CMO, in CMO
-    /// order): their `lo` into the distance buffer, the records and nodes into buffers
-    /// allocated to fit ([`CmoData::alloc_lists`]). The pyramids are the pyramid passes' to
-    /// build from the distances (or [`CmoData::upload`]'s on the CPU).
-    pub fn upload_lists(&mut self, ctx: &GpuContext, all: &[TexelLists]) -> VkResult<()> {
-        let err = |detail: String| VkError::Usage {
-            what: "CMO lists".into(),
-            detail,
-        };
-        if all.len() != self.count as usize {
-            return Err(err(format!("{} lists for {} CMOs", all.len(), self.count)));
-        }
-        let packed = lists::pack(all).map_err(err)?;
-        if packed.size != self.size {
-            return Err(err(format!(
-                "lists of face size {} for CMOs of face size {}",
-                packed.size, self.size
-            )));
+    /// Uploads lists in the GPU layout ([`lists::pack`] of one [`TexelLists`] per CMO, in CMO
+    /// order, or built so): their `lo` into the distance buffer, the records and nodes into
+    /// buffers allocated to fit ([`CmoData::alloc_lists`]). The pyramids are the pyramid
+    /// passes' to build from the distances (or [`CmoData::upload`]'s on the CPU). Fails where
+    /// the face size or the texel count is not the CMOs'.
+    pub fn upload_lists(&mut self, ctx: &GpuContext, packed: &PackedLists) -> VkResult<()> {
+        let texels = self.count as usize * 6 * self.size as usize * self.size as usize;
+        if packed.size != self.size || packed.records.len() != texels || packed.lo.len() != texels {
+            return Err(VkError::Usage {
+                what: "CMO lists".into(),
+                detail: format!(
+                    "{} records of face size {} for {} CMOs of face size {} ({texels} texels)",
+                    packed.records.len(),
+                    packed.size,
+                    self.count,
+                    self.size
+                ),
+            });
         }
         self.alloc_lists(ctx, packed.nodes.len() as u64)?;
         ctx.write_buffer(&self.distance, &packed.lo)?;
