@@ -430,8 +430,8 @@ impl CmoStages {
         let Some(lists) = lists else {
             return Err(VkError::Usage {
                 what: "--criterion bounded".into(),
-                detail: "needs the per-texel candidate lists, which no capture builds yet \
-                         (GpuRenderer::with_lists takes lists built on the CPU)"
+                detail: "its per-texel candidate lists have no capture yet, so it cannot \
+                         render from the command line (issue 22)"
                     .into(),
             });
         };
