@@ -8,6 +8,8 @@
 
 @group(0) @binding(6) var<storage, read_write> ray_counter: RayCounter;
 @group(0) @binding(7) var<storage, read_write> rays: array<AppendedRay>;
+// The G-buffer's global triangle ID: the triangle each ray leaves.
+@group(0) @binding(8) var gbuffer_triangle: texture_2d<u32>;
 
 @fragment
 fn fs_main(@builtin(position) position: vec4<f32>) {
@@ -17,5 +19,6 @@ fn fs_main(@builtin(position) position: vec4<f32>) {
         return;
     }
     let i = atomicAdd(&ray_counter.count, 1u);
-    rays[i] = AppendedRay(ray.origin, pixel.y * frame.width + pixel.x, ray.dir, 0u);
+    let from_tri = textureLoad(gbuffer_triangle, vec2<i32>(pixel), 0).x;
+    rays[i] = AppendedRay(ray.origin, pixel.y * frame.width + pixel.x, ray.dir, 0u, from_tri, 0u, 0u, 0u);
 }

@@ -25,6 +25,12 @@
 // `trace_ray_verified` does for the fragment path): the record gets the verified point, the
 // triangle and the colour shaded there; a failed verification counts as behind at the texel's
 // entry and the handoff goes on. Verification is per-ray work: it runs inside `if busy` blocks.
+// The `_bounded` entry points classify with the `bounded` criterion instead
+// (`classify_bounded_pick`, shared/trace_bounded.wgsl: the candidate lists, the ray leaving its
+// G-buffer triangle `from_triangle`); a hit's triangle and barycentrics are its deciding texel's
+// nearest candidate, kept in the ray state, and nothing is verified. `bounded` is a constant
+// threaded down from the entry point (folded by the driver: the other entry points run none of
+// it, though they bind the lists, as naga counts a binding used by any reachable function).
 //
 // Uniformity (reviewed; naga and lavapipe would not catch a mistake): there is NO workgroup
 // barrier in this shader. Every subgroup operation (ballot, shuffle, any) sits in control flow
@@ -39,6 +45,7 @@
 //! import shared/mirror.wgsl
 //! import shared/compute_rays.wgsl
 //! import shared/trace_verified.wgsl
+//! import shared/trace_bounded.wgsl
 
 // The scene's bind group (shared/scene.wgsl): groups 0..2 are the frame's, the CMOs' and this
 // pass's own.
@@ -76,6 +83,8 @@ struct RayState {
     origin: vec3<f32>,
     dir: vec3<f32>,
     pixel: u32,
+    // The triangle it leaves (the `bounded` criterion's start rule).
+    from_tri: u32,
     // Handoff (`trace_ray`): current CMO, round, proven-empty prefix, traces run.
     k: u32,
     round: u32,
@@ -329,7 +338,7 @@ fn enter_face(st: ptr<function, RayState>) {
 // caller then enters its first face (`enter_face`).
 fn start_trace(st: ptr<function, RayState>) {
     let k = (*st).k;
-    let seg = Segment((*st).origin - cmo_centres[k].xyz, (*st).dir, (*st).t_done, frame.t_hi);
+    let seg = Segment((*st).origin - cmo_centres[k].xyz, (*st).dir, (*st).t_done, frame.t_hi, (*st).from_tri);
     (*st).seg = seg;
     (*st).pieces = split_near_centre(seg, cmo_cut[k]);
     (*st).faces_piece = 0xffffffffu;
@@ -349,13 +358,17 @@ fn finish_ray(st: ptr<function, RayState>, status: u32, cmo: u32, point: vec3<f3
 }
 
 // The handoff after a single-CMO trace ended (`trace_ray`, one CMO step of its loops).
-fn handoff(st: ptr<function, RayState>) {
+fn handoff(st: ptr<function, RayState>, bounded: bool) {
     let r = (*st).result;
     (*st).traces += 1u;
     (*st).sums += vec4<u32>(r.counters.texels, r.counters.cells, (*st).descents, (*st).backtracks);
     let k = (*st).k;
     var t_b = r.t;
-    if r.status == ONE_HIT {
+    if bounded && r.status == ONE_HIT {
+        // `advance` kept the deciding texel's nearest candidate.
+        finish_ray(st, STATUS_HIT, k, bounded_point((*st).origin, (*st).dir, r.t));
+        return;
+    } else if r.status == ONE_HIT {
         let v = verify_decision(k, (*st).seg, r.texel, (*st).origin, (*st).dir, (*st).t_done, frame.t_hi);
         if v.hit.hit {
             (*st).triangle = v.hit.triangle;
@@ -393,10 +406,10 @@ fn handoff(st: ptr<function, RayState>) {
 // past a face). At most MAX_ROUNDS * cmo_count traces run in all. This is the only call site of
 // `handoff`, `start_trace` and `enter_face` (the driver inlines every call, so each extra site
 // would be another copy of the verification and the set-up to compile).
-fn settle(st: ptr<function, RayState>) {
+fn settle(st: ptr<function, RayState>, bounded: bool) {
     for (var i = 0u; i <= MAX_ROUNDS * trace_config.cmo_count + 1u; i++) {
         if (*st).trace_done {
-            handoff(st);
+            handoff(st, bounded);
             if (*st).finished {
                 return;
             }
@@ -415,7 +428,7 @@ fn settle(st: ptr<function, RayState>) {
 // One traversal step once the node's mask is known (`cpu::alg3::advance`). A trace that ends
 // here (`trace_done`) or a face left (`next_face`) is settled by `settle` at the top of the next
 // step.
-fn advance(st: ptr<function, RayState>, pick: u32) {
+fn advance(st: ptr<function, RayState>, pick: u32, bounded: bool) {
     let top = hier_top();
     let lvl = (*st).level;
     if (*st).mask[lvl] == 0u {
@@ -439,7 +452,15 @@ fn advance(st: ptr<function, RayState>, pick: u32) {
         let face = (*st).cur_face;
         let tex = Texel(face, cx, cy);
         let iv = cell_interval((*st).la, (*st).ld, cell_rect_texel(face, cx, cy, trace_config.size), range.x, range.y);
-        let o = classify((*st).k, (*st).seg, tex, iv);
+        var o: Outcome;
+        if bounded {
+            let b = classify_bounded_pick((*st).k, (*st).seg, tex, iv);
+            o = b.o;
+            (*st).triangle = b.pick.triangle;
+            (*st).bary = b.pick.bary;
+        } else {
+            o = classify((*st).k, (*st).seg, tex, iv);
+        }
         if o.kind != 0u {
             (*st).trace_done = true;
             (*st).result = finish((*st).seg, tex, o, (*st).result.counters);
@@ -488,7 +509,7 @@ fn key_set(big: bool, lvl: u32, c: u32, key: f32) {
 
 // Traces queued ray `index` (absent when `valid` is false: the lanes still take part in the
 // subgroup operations) and writes its record. Called in subgroup-uniform control flow.
-fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells: u32, big: bool) {
+fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells: u32, big: bool, bounded: bool) {
     // One lane per ray (uniform over the dispatch).
     let one = lanes == 1u;
     var st: RayState;
@@ -497,6 +518,7 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
         st.origin = q.origin;
         st.dir = q.dir;
         st.pixel = q.pixel;
+        st.from_tri = q.from_triangle;
         st.t_done = 0.0;
         st.triangle = VERIFY_NO_TRIANGLE;
         st.result = TraceResult(ONE_ESCAPED, 0.0, Texel(0u, 0u, 0u), false, vec3<f32>(0.0), Counters(0u, 0u));
@@ -512,7 +534,7 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
             break;
         }
         if pending {
-            settle(&st);
+            settle(&st, bounded);
             pending = false;
             busy = !st.finished;
         }
@@ -622,7 +644,7 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
             }
             if busy {
                 st.next_face = false;
-                advance(&st, pick);
+                advance(&st, pick, bounded);
                 pending = st.trace_done || st.next_face;
             }
     
@@ -682,7 +704,7 @@ fn main(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, 32u, false, false);
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, 32u, false, false, false);
 }
 
 @compute @workgroup_size(256)
@@ -694,7 +716,7 @@ fn main_lanes1(
     @builtin(subgroup_id) sg_id: u32,
 ) {
     let retrace = trace_mode != 0u;
-    trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, select(1u, 32u, retrace), retrace, true);
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, select(1u, 32u, retrace), retrace, true, false);
 }
 
 @compute @workgroup_size(128)
@@ -705,7 +727,7 @@ fn main_wg128(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, 32u, false, false);
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, 32u, false, false, false);
 }
 
 @compute @workgroup_size(128)
@@ -717,12 +739,59 @@ fn main_lanes1_wg128(
     @builtin(subgroup_id) sg_id: u32,
 ) {
     let retrace = trace_mode != 0u;
-    trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, select(1u, 32u, retrace), retrace, true);
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, select(1u, 32u, retrace), retrace, true, false);
+}
+
+// The same four with the `bounded` criterion.
+@compute @workgroup_size(256)
+fn main_bounded(
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(subgroup_size) sg_size: u32,
+    @builtin(subgroup_invocation_id) sg_lane: u32,
+    @builtin(subgroup_id) sg_id: u32,
+) {
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, 32u, false, false, true);
+}
+
+@compute @workgroup_size(256)
+fn main_lanes1_bounded(
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(subgroup_size) sg_size: u32,
+    @builtin(subgroup_invocation_id) sg_lane: u32,
+    @builtin(subgroup_id) sg_id: u32,
+) {
+    let retrace = trace_mode != 0u;
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, select(1u, 32u, retrace), retrace, true, true);
+}
+
+@compute @workgroup_size(128)
+fn main_wg128_bounded(
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(subgroup_size) sg_size: u32,
+    @builtin(subgroup_invocation_id) sg_lane: u32,
+    @builtin(subgroup_id) sg_id: u32,
+) {
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, 32u, false, false, true);
+}
+
+@compute @workgroup_size(128)
+fn main_lanes1_wg128_bounded(
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(subgroup_size) sg_size: u32,
+    @builtin(subgroup_invocation_id) sg_lane: u32,
+    @builtin(subgroup_id) sg_id: u32,
+) {
+    let retrace = trace_mode != 0u;
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, select(1u, 32u, retrace), retrace, true, true);
 }
 
 // `group_size`: the entry point's workgroup size (a constant); `big`: `main_lanes1`'s keys
-// (`key_get`, a constant).
-fn trace_all(wg: vec3<u32>, groups: vec3<u32>, sg_size: u32, sg_lane: u32, sg_id: u32, group_size: u32, lane_cap: u32, retrace: bool, big: bool) {
+// (`key_get`, a constant); `bounded`: the `bounded` criterion (a constant).
+fn trace_all(wg: vec3<u32>, groups: vec3<u32>, sg_size: u32, sg_lane: u32, sg_id: u32, group_size: u32, lane_cap: u32, retrace: bool, big: bool, bounded: bool) {
     let lanes = min(min(sg_size, 32u), lane_cap);
     if min(sg_size, 32u) < 4u {
         // Unsupported (refused on the Rust side); uniform over the whole dispatch.
@@ -753,6 +822,6 @@ fn trace_all(wg: vec3<u32>, groups: vec3<u32>, sg_size: u32, sg_lane: u32, sg_id
                 continue;
             }
         }
-        trace_queued(valid, index, lane, half, lanes, cells, big);
+        trace_queued(valid, index, lane, half, lanes, cells, big, bounded);
     }
 }

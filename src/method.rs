@@ -17,7 +17,7 @@ use crate::cpu::options::{TraceCriterion, TraceOptions};
 #[serde(rename_all = "kebab-case")]
 pub enum Method {
     /// Cubemap tracing in a compute pass on the GPU over the 8x4/4x8 hierarchy with subgroup
-    /// ballots (thesis alg. 3; exact criterion).
+    /// ballots (thesis alg. 3; exact or bounded criterion).
     Compute,
     /// Cubemap tracing in a deferred fragment pass on the GPU (thesis alg. 1, 2, 4).
     Fragment,
@@ -110,11 +110,13 @@ impl Method {
 
     /// Whether the method's records name the triangle they hit (verified hits), so that further
     /// reflections can be traced from them: compute, bvh, the reference, and fragment with the
-    /// exact criterion.
+    /// exact or bounded criterion.
     pub fn names_hits(self, criterion: TraceCriterion) -> bool {
         match self {
             Method::Compute | Method::Bvh | Method::Reference => true,
-            Method::Fragment => criterion == TraceCriterion::Exact,
+            Method::Fragment => {
+                matches!(criterion, TraceCriterion::Exact | TraceCriterion::Bounded)
+            }
             Method::Envmap | Method::Ssr | Method::ReflectionPoint => false,
         }
     }
@@ -141,7 +143,7 @@ impl Method {
             return Err(format!(
                 "--bounces {bounces}: --method {}{with} does not name the triangle it hits, so it \
                  traces one reflection only (use compute, bvh, reference or fragment with the \
-                 exact criterion)",
+                 exact or bounded criterion)",
                 self.name()
             ));
         }
@@ -168,12 +170,13 @@ impl Method {
         self.check_trace(trace)
     }
 
-    /// Refuses tracer options the method does not implement (compute: the exact criterion only).
+    /// Refuses tracer options the method does not implement (compute: the exact and bounded
+    /// criteria only).
     pub fn check_trace(self, trace: &TraceOptions) -> Result<(), Refusal> {
-        if self == Method::Compute && trace.criterion != TraceCriterion::Exact {
+        if self == Method::Compute && trace.approx().is_some() {
             return Err(format!(
-                "--criterion {}: --method compute implements the exact criterion only (use \
-                 --method fragment for the approximate criteria)",
+                "--criterion {}: --method compute implements the exact and bounded criteria only \
+                 (use --method fragment for the approximate criteria)",
                 criterion_name(trace.criterion)
             ));
         }
@@ -208,6 +211,7 @@ fn every_trace_setting() -> impl Iterator<Item = TraceOptions> {
         TraceCriterion::Exact,
         TraceCriterion::Threshold,
         TraceCriterion::SignChange,
+        TraceCriterion::Bounded,
     ]
     .into_iter()
     .flat_map(|criterion| {
@@ -266,7 +270,7 @@ fn fragment_exact(m: Method, t: &TraceOptions) -> bool {
 }
 
 fn fragment_approx(m: Method, t: &TraceOptions) -> bool {
-    m == Method::Fragment && t.criterion != TraceCriterion::Exact
+    m == Method::Fragment && t.approx().is_some()
 }
 
 /// Every method-specific option of `render` and `bench`. Options every method reads
@@ -428,6 +432,7 @@ pub fn criterion_name(c: TraceCriterion) -> &'static str {
         TraceCriterion::Exact => "exact",
         TraceCriterion::Threshold => "threshold",
         TraceCriterion::SignChange => "sign-change",
+        TraceCriterion::Bounded => "bounded",
     }
 }
 
@@ -575,5 +580,33 @@ mod tests {
         assert!(Method::Fragment.check_bounces(2, 16, &threshold).is_err());
         assert!(Method::Fragment.check_bounces(0, 16, &threshold).is_ok());
         assert!(Method::Compute.check_bounces(17, 16, &exact).is_err());
+    }
+
+    #[test]
+    fn bounded_criterion_rules() {
+        let bounded = TraceOptions {
+            criterion: TraceCriterion::Bounded,
+            ..TraceOptions::default()
+        };
+        // Both cubemap tracers implement it and name their hits (so further bounces trace on).
+        for m in [Method::Compute, Method::Fragment] {
+            assert!(m.check_options(&["--criterion"], &bounded).is_ok(), "{m}");
+            assert!(m.check_bounces(3, 16, &bounded).is_ok(), "{m}");
+        }
+        assert_eq!(criterion_name(TraceCriterion::Bounded), "bounded");
+        // The exact criterion's and the approximate criteria's options do not apply to it.
+        for flag in ["--strict", "--no-accel", "--sampling", "--steps", "--eps"] {
+            let e = Method::Fragment
+                .check_options(&[flag], &bounded)
+                .unwrap_err();
+            assert!(e.starts_with(flag), "{e}");
+        }
+        // Negative: compute still refuses the approximate criteria.
+        let threshold = TraceOptions {
+            criterion: TraceCriterion::Threshold,
+            ..bounded
+        };
+        let e = Method::Compute.check_trace(&threshold).unwrap_err();
+        assert!(e.contains("exact and bounded"), "{e}");
     }
 }

@@ -129,7 +129,7 @@ fn compute_struct_layouts_match_naga() {
         check_layout!(
             AppendedRay,
             pass.struct_layout("AppendedRay").unwrap(),
-            [origin, pixel, dir, bounce]
+            [origin, pixel, dir, bounce, from_triangle, pad0, pad1, pad2]
         )
         .unwrap();
     }
@@ -626,7 +626,8 @@ fn fragment_comparison_detects_other_cmo_data() {
     finish_gpu(ctx);
 }
 
-/// The compute method refuses the approximate criteria (it implements the exact one only).
+/// The compute method refuses the approximate criteria (it implements the exact and bounded
+/// ones only).
 #[test]
 fn compute_refuses_approximate_criteria() {
     let ctx = compute_context();
@@ -638,7 +639,7 @@ fn compute_refuses_approximate_criteria() {
     options.trace.criterion = cubetrace::cpu::options::TraceCriterion::Threshold;
     let err = GpuRenderer::new(&ctx, &scene, &camera, options).err();
     assert!(
-        err.is_some_and(|e| e.to_string().contains("exact criterion")),
+        err.is_some_and(|e| e.to_string().contains("exact and bounded criteria")),
         "the threshold criterion was accepted"
     );
     finish_gpu(ctx);

@@ -40,6 +40,7 @@
 //! import shared/bvh_rays.wgsl
 //! import shared/watertight.wgsl
 //! import shared/hit.wgsl
+//! import shared/start.wgsl
 
 struct BvhParams {
     // Nodes in `bvh_nodes` (0: an empty scene, every ray escapes).
@@ -60,7 +61,6 @@ const BVH_MAX_ITERATIONS: u32 = 7000u;
 const BVH_STACK: u32 = 32u;
 // Relative widening of the slab distances (see "Exactness").
 const BVH_PAD: f32 = 9.5367431640625e-7; // 2^-20
-const BVH_START_ULPS: f32 = 3.814697265625e-6; // 2^-18
 
 struct BvhHit {
     hit: bool,
@@ -143,32 +143,6 @@ fn bvh_corner(k: u32) -> vec3<f32> {
     return bvh_tris[k].xyz;
 }
 
-// Distance of `p` from the plane of (a, b, c) (infinite for a degenerate triangle).
-fn bvh_plane_distance(p: vec3<f32>, a: vec3<f32>, b: vec3<f32>, c: vec3<f32>) -> f32 {
-    let n = cross(b - a, c - a);
-    let l = length(n);
-    if !(l > 0.0) {
-        return bitcast<f32>(0x7f800000u);
-    }
-    return abs(dot(p - a, n)) / l;
-}
-
-fn bvh_same(a: vec3<f32>, b: vec3<f32>) -> bool {
-    return all(bitcast<vec3<u32>>(a) == bitcast<vec3<u32>>(b));
-}
-
-fn bvh_shares_corner(f0: vec3<f32>, f1: vec3<f32>, f2: vec3<f32>, a: vec3<f32>, b: vec3<f32>, c: vec3<f32>) -> bool {
-    return bvh_same(f0, a) || bvh_same(f0, b) || bvh_same(f0, c)
-        || bvh_same(f1, a) || bvh_same(f1, b) || bvh_same(f1, c)
-        || bvh_same(f2, a) || bvh_same(f2, b) || bvh_same(f2, c);
-}
-
-// The start rule's `e` for a ray leaving the triangle (f0, f1, f2) at `o`.
-fn bvh_start_tolerance(o: vec3<f32>, f0: vec3<f32>, f1: vec3<f32>, f2: vec3<f32>) -> f32 {
-    let m = max(max(abs(o), abs(f0)), max(abs(f1), abs(f2)));
-    return 2.0 * bvh_plane_distance(o, f0, f1, f2) + BVH_START_ULPS * max(max(m.x, m.y), m.z);
-}
-
 // Whether the start rule ignores a hit on global triangle `tri` for a ray leaving global
 // triangle `from_tri` at `o` (the rule `bvh_nearest` applies; false where either is
 // BVH_NO_TRIANGLE).
@@ -183,17 +157,6 @@ fn bvh_start_hit(o: vec3<f32>, from_tri: u32, tri: u32) -> bool {
     let b = hit_vertex(tri, 1u).position;
     let c = hit_vertex(tri, 2u).position;
     return bvh_start_ignores(o, from_tri, f0, f1, f2, bvh_start_tolerance(o, f0, f1, f2), tri, a, b, c);
-}
-
-// The start rule itself: a ray leaving `from_tri` (corners f0, f1, f2; tolerance `e`) at `o`
-// ignores a hit on `tri` (corners a, b, c) when it is `from_tri` or a neighbour whose plane
-// passes within `e` of `o`.
-fn bvh_start_ignores(
-    o: vec3<f32>, from_tri: u32, f0: vec3<f32>, f1: vec3<f32>, f2: vec3<f32>, e: f32,
-    tri: u32, a: vec3<f32>, b: vec3<f32>, c: vec3<f32>,
-) -> bool {
-    return tri == from_tri
-        || (bvh_shares_corner(f0, f1, f2, a, b, c) && bvh_plane_distance(o, a, b, c) <= e);
 }
 
 fn bvh_miss() -> BvhHit {

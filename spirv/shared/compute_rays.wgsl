@@ -15,6 +15,12 @@ struct AppendedRay {
     // Reflections already taken before this ray (0: the camera's first bounce, the only one
     // the GPU methods trace today).
     bounce: u32,
+    // The global triangle the ray leaves (the G-buffer's ID; 0xffffffff: none), for the
+    // `bounded` criterion's start rule.
+    from_triangle: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
 }
 
 // Zeroed (vkCmdFillBuffer) before `append` every frame.

@@ -38,6 +38,9 @@ const MAX_SAMPLE_STEPS: u32 = 65536u;
 const CRITERION_EXACT: u32 = 0u;
 const CRITERION_THRESHOLD: u32 = 1u;
 const CRITERION_SIGN_CHANGE: u32 = 2u;
+// Sound per-texel bounds and candidate lists (shared/trace_bounded.wgsl; `trace_one` never
+// sees it: the bounded entry points call `trace_ray_bounded`).
+const CRITERION_BOUNDED: u32 = 3u;
 const SAMPLING_CONSTANT_STEP: u32 = 0u;
 const SAMPLING_CONSTANT_ANGLE: u32 = 1u;
 const SAMPLING_PER_TEXEL: u32 = 2u;
@@ -64,7 +67,7 @@ struct TraceConfig {
     cmo_count: u32,
     // Face size N (same for every CMO).
     size: u32,
-    // 0 exact, 1 threshold, 2 sign change.
+    // 0 exact, 1 threshold, 2 sign change, 3 bounded.
     criterion: u32,
     // Approximate criteria only: 0 constant step, 1 constant angle, 2 per texel.
     sampling: u32,
@@ -125,7 +128,13 @@ struct Segment {
     d: vec3<f32>,
     t_lo: f32,
     t_hi: f32,
+    // The global triangle the ray leaves at t = 0 (TRACE_NO_TRIANGLE: none): the `bounded`
+    // criterion's start rule (shared/trace_bounded.wgsl); the other criteria ignore it.
+    from_tri: u32,
 }
+
+// No triangle (`Segment::from_tri`; Rust `Segment::from`, a word WGSL reserves).
+const TRACE_NO_TRIANGLE: u32 = 0xffffffffu;
 
 fn seg_at(seg: Segment, t: f32) -> vec3<f32> {
     return vec3<f32>(seg.a.x + prod(t, seg.d.x), seg.a.y + prod(t, seg.d.y), seg.a.z + prod(t, seg.d.z));
@@ -774,7 +783,7 @@ fn trace_ray_variant(origin: vec3<f32>, dir: vec3<f32>, t_lo: f32, t_hi: f32, va
         var progress = false;
         for (var k = 0u; k < trace_config.cmo_count; k++) {
             let centre = cmo_centres[k].xyz;
-            let seg = Segment(origin - centre, dir, t_done, t_hi);
+            let seg = Segment(origin - centre, dir, t_done, t_hi, TRACE_NO_TRIANGLE);
             let r = trace_one(k, seg, variant);
             traces += 1u;
             last = r;

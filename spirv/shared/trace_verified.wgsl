@@ -49,7 +49,7 @@ fn trace_ray_verified(origin: vec3<f32>, dir: vec3<f32>, t_lo: f32, t_hi: f32, v
         var progress = false;
         for (var k = 0u; k < trace_config.cmo_count; k++) {
             let centre = cmo_centres[k].xyz;
-            let seg = Segment(origin - centre, dir, t_done, t_hi);
+            let seg = Segment(origin - centre, dir, t_done, t_hi, TRACE_NO_TRIANGLE);
             var r = trace_one(k, seg, variant);
             traces += 1u;
             last = r;

@@ -18,6 +18,9 @@ pub enum CriterionArg {
     Threshold,
     /// The thesis's sign change of `r - D` between samples (fires at silhouettes too).
     SignChange,
+    /// Sound per-texel bounds and candidate lists: the hit is the nearest listed triangle the
+    /// ray meets where the list is complete, provably the first along the ray.
+    Bounded,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -59,10 +62,11 @@ pub fn positive_finite(s: &str) -> std::result::Result<f32, String> {
     }
 }
 
-/// Options of the cubemap tracer (`--method compute|fragment`; compute: exact criterion only).
+/// Options of the cubemap tracer (`--method compute|fragment`; compute: the exact and bounded
+/// criteria only).
 #[derive(clap::Args)]
 pub struct TraceArgs {
-    /// fragment, compute: intersection criterion [default: exact] (compute: exact only).
+    /// fragment, compute: intersection criterion [default: exact] (compute: exact or bounded).
     #[arg(long, value_enum)]
     pub criterion: Option<CriterionArg>,
     /// fragment with --criterion threshold or sign-change: sample placement [default:
@@ -145,6 +149,7 @@ impl TraceArgs {
                     CriterionArg::Exact => TraceCriterion::Exact,
                     CriterionArg::Threshold => TraceCriterion::Threshold,
                     CriterionArg::SignChange => TraceCriterion::SignChange,
+                    CriterionArg::Bounded => TraceCriterion::Bounded,
                 }),
                 sampling: self.sampling.map_or(trace.sampling, |s| match s {
                     SamplingArg::ConstantStep => TraceSampling::ConstantStep,

@@ -114,6 +114,7 @@ impl MethodSpec {
             ),
             TraceCriterion::Threshold => format!("{}-threshold-{sampling}", self.kind.name()),
             TraceCriterion::SignChange => format!("{}-sign-{sampling}", self.kind.name()),
+            TraceCriterion::Bounded => format!("{}-bounded", self.kind.name()),
         }
     }
 }

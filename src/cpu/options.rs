@@ -23,6 +23,10 @@ pub enum TraceCriterion {
     Threshold,
     /// `r - D` changes sign between samples ([`Criterion::SignChange`]).
     SignChange,
+    /// Sound per-texel bounds and candidate lists ([`crate::cubemap::bounds`]): a hit is the
+    /// nearest intersection with a listed triangle where the list is complete, provably the
+    /// first along the ray (issue 22). Not approximate: [`TraceOptions::approx`] is `None`.
+    Bounded,
 }
 
 /// Sample placement of the approximate criteria (ignored by [`TraceCriterion::Exact`]).
@@ -95,7 +99,7 @@ impl TraceOptions {
     /// The approximate criterion and sampling, or `None` for the exact criterion.
     pub fn approx(&self) -> Option<(Criterion, Sampling)> {
         let criterion = match self.criterion {
-            TraceCriterion::Exact => return None,
+            TraceCriterion::Exact | TraceCriterion::Bounded => return None,
             TraceCriterion::Threshold => Criterion::Threshold(self.eps),
             TraceCriterion::SignChange => Criterion::SignChange,
         };

@@ -177,8 +177,19 @@ pub fn device_bytes(
     }
 }
 
+/// Bytes of the `bounded` criterion's lists ([`super::passes::lists`]) for `cmos` CMOs of
+/// `cube_size` texels per face side with a node pool of `pool_capacity` nodes: 16 B per texel
+/// record and 16 B per node (`lo` is the CMO distance, counted with the CMO data). The pool's
+/// capacity comes from the capture (the sum over triangles and faces of the texels each may
+/// touch), which [`estimate`] does not know: it counts the records only
+/// (`pool_capacity` 0), and a caller that knows the capacity adds [`lists_bytes`] of it.
+pub fn lists_bytes(cmos: u32, cube_size: u32, pool_capacity: u64) -> u64 {
+    super::passes::lists::lists_bytes(cmos, cube_size, pool_capacity)
+}
+
 /// The CMO bytes of a method: captured, the data and the capture's targets (its depth target
-/// one face at a time), the pyramid where it needs one, and its own per-CMO data; without a
+/// one face at a time), the pyramid where it needs one, its own per-CMO data, and with the
+/// `bounded` criterion the lists' records ([`lists_bytes`] without the pool); without a
 /// capture, the one-texel placeholder (distance, triangle ID and a colour texel per face).
 fn cmo_bytes(
     spec: &dyn MethodSpec,
@@ -199,10 +210,16 @@ fn cmo_bytes(
     } else {
         0
     };
+    let lists = if trace.criterion == crate::cpu::options::TraceCriterion::Bounded {
+        lists_bytes(cmos, cube_size, 0)
+    } else {
+        0
+    };
     texels * cmo_bytes_per_texel_with(self_reflections, needs.contents)
         + face * 4
         + pyramid
         + spec.cmo_bytes(cmos, cube_size)
+        + lists
 }
 
 /// The device bytes `--bounces N` adds to a render of `width` x `height` pixels: for N >= 2,
@@ -333,5 +350,27 @@ mod tests {
         let approx = device_bytes(160, 120, Method::Fragment, 1, 256, false, &threshold);
         assert!(envmap.cmo < approx.cmo && base.cmo < approx.cmo);
         assert_eq!(approx.cmo - base.cmo, 6 * 256 * 256 * 16, "the colour");
+        let bounded = TraceOptions {
+            criterion: crate::cpu::options::TraceCriterion::Bounded,
+            ..exact
+        };
+        for m in [Method::Fragment, Method::Compute] {
+            let b = device_bytes(160, 120, m, 2, 256, false, &bounded);
+            let e = device_bytes(160, 120, m, 2, 256, false, &exact);
+            assert_eq!(
+                b.cmo - e.cmo,
+                2 * 6 * 256 * 256 * 16,
+                "{m}: the lists' records"
+            );
+        }
+    }
+
+    #[test]
+    fn lists_take_16_bytes_per_texel_and_per_node() {
+        assert_eq!(lists_bytes(1, 2, 0), 6 * 4 * 16);
+        assert_eq!(lists_bytes(3, 2, 100) - lists_bytes(3, 2, 0), 1600);
+        // Negative: more CMOs or a bigger face cost more.
+        assert!(lists_bytes(2, 2, 0) > lists_bytes(1, 2, 0));
+        assert!(lists_bytes(1, 3, 0) > lists_bytes(1, 2, 0));
     }
 }

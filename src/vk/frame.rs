@@ -4,6 +4,7 @@
 //! | pass | reads | writes |
 //! |---|---|---|
 //! | `capture` (where [`Needs::capture`]: every method but `bvh`) | scene | CMO distance, colour and/or triangle IDs (+ normal/mirror with self-reflections) |
+//! | (`--criterion bounded`: no `capture`; the per-texel lists are uploaded at creation, [`GpuRenderer::with_lists`]; the GPU capture of the lists plugs in here) | CPU lists | CMO distance (`lo`), `cmo_lists`, `cmo_nodes` ([`super::passes::lists`]) |
 //! | `pyramid` (where [`Needs::pyramid`]: `fragment`) | CMO distance | CMO 2x2 min/max pyramid |
 //! | the method's CMO stage: `hier32` (`compute`) | CMO distance | its 8x4/4x8 min/max hierarchy |
 //! | `gbuffer` | scene | G-buffer colour, position + mirror mask, normal |
@@ -108,10 +109,11 @@ use super::passes::capture::Capture;
 use super::passes::cmo::{CaptureContents, CmoData};
 use super::passes::composite::Composite;
 use super::passes::gbuffer::Gbuffer;
+use super::passes::lists::PackedLists;
 use super::passes::pyramid::{Pyramid, PyramidBindings};
 use super::passes::scene_buffers::SceneBuffers;
 use crate::camera::Camera;
-use crate::cpu::options::TraceOptions;
+use crate::cpu::options::{TraceCriterion, TraceOptions};
 use crate::cpu::reflection_point::SearchStats;
 use crate::method::Method;
 use crate::metrics::Traced;
@@ -356,8 +358,12 @@ impl CmoStages {
         needs: &Needs,
         trace: &TraceOptions,
         capture_near: f32,
+        lists: Option<&PackedLists>,
     ) -> VkResult<Self> {
         let centres = scene.cmo_centres();
+        if trace.criterion == TraceCriterion::Bounded {
+            return Self::bounded(ctx, scene, needs, trace, lists);
+        }
         if !needs.capture {
             // One texel per face and no capture: composite binds the data, nothing reads it
             // but the environment-map fallback of a ray the BVH loop's cap cut.
@@ -403,6 +409,58 @@ impl CmoStages {
         Ok(CmoStages {
             cmo,
             capture: Some(capture),
+            pyramid,
+        })
+    }
+}
+
+impl CmoStages {
+    /// `--criterion bounded`: the CMO data with the per-texel lists uploaded (their `lo` as the
+    /// distances), the pyramid where the method needs one, no capture pass (it would overwrite
+    /// the distances). The lists come from the CPU for now; the GPU capture
+    /// (`passes::capture_lists`, issue 22) plugs in here: allocate with
+    /// [`CmoData::alloc_lists`] and record it where `capture` runs.
+    fn bounded(
+        ctx: &GpuContext,
+        scene: &Scene,
+        needs: &Needs,
+        trace: &TraceOptions,
+        lists: Option<&PackedLists>,
+    ) -> VkResult<Self> {
+        let Some(lists) = lists else {
+            return Err(VkError::Usage {
+                what: "--criterion bounded".into(),
+                detail: "its per-texel candidate lists have no capture yet, so it cannot \
+                         render from the command line (issue 22)"
+                    .into(),
+            });
+        };
+        let centres = scene.cmo_centres();
+        let size = scene.cmo.resolution;
+        let mut cmo = CmoData::with_contents(
+            ctx,
+            &centres,
+            size,
+            scene.captures_reflectors(),
+            needs.pyramid,
+            trace,
+            needs.contents,
+        )?;
+        ctx.submit_and_wait("cmo clear", |rec| {
+            cmo.record_clear(rec);
+            Ok(())
+        })?;
+        cmo.upload_lists(ctx, lists)?;
+        let pyramid = if needs.pyramid {
+            let p = Pyramid::new(ctx)?;
+            let b = p.bind(ctx, cmo.distance(), cmo.mip(), centres.len() as u32, size)?;
+            Some((p, b))
+        } else {
+            None
+        };
+        Ok(CmoStages {
+            cmo,
+            capture: None,
             pyramid,
         })
     }
@@ -529,6 +587,37 @@ impl GpuRenderer {
         options: RenderOptions,
         ranges: &FrameRanges,
     ) -> VkResult<Self> {
+        Self::create(ctx, scene, camera, options, ranges, None)
+    }
+
+    /// [`GpuRenderer::new`] for `--criterion bounded` with the per-texel lists built on the
+    /// CPU in the GPU layout (`vk::passes::lists::pack` of one
+    /// [`TexelLists`](crate::cubemap::bounds::TexelLists) per CMO in [`Scene::cmo_centres`]
+    /// order, of the scene's face size), uploaded instead of a capture
+    /// ([`CmoData::upload_lists`]).
+    pub fn with_lists(
+        ctx: &GpuContext,
+        scene: &Scene,
+        camera: &Camera,
+        options: RenderOptions,
+        lists: &PackedLists,
+    ) -> VkResult<Self> {
+        let ranges = FrameRanges::new(scene, camera);
+        ranges.check(scene).map_err(|e| VkError::Usage {
+            what: "depth range".into(),
+            detail: e.to_string(),
+        })?;
+        Self::create(ctx, scene, camera, options, &ranges, Some(lists))
+    }
+
+    fn create(
+        ctx: &GpuContext,
+        scene: &Scene,
+        camera: &Camera,
+        options: RenderOptions,
+        ranges: &FrameRanges,
+        lists: Option<&PackedLists>,
+    ) -> VkResult<Self> {
         if scene.cmo_centres().is_empty() {
             return Err(VkError::Usage {
                 what: "scene".into(),
@@ -547,6 +636,7 @@ impl GpuRenderer {
             &needs,
             &options.trace,
             ranges.capture_near,
+            lists,
         )?;
         let gbuffer = Gbuffer::new(ctx, &scene_buffers, camera, ranges.near)?;
         let params = ctx.create_buffer_init(

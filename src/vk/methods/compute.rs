@@ -14,8 +14,11 @@
 //! - `compute_trace` writes `records[pixel]` for exactly the queued pixels, i.e. the mirror pixels
 //!   (`position.w == 1`, the composite pass's own test), and `ray_stats[pixel]` likewise.
 //! - The surface model and the classification are the fragment path's exact criterion
-//!   (`classify` in spirv/shared/trace.wgsl), so [`GpuRenderer`](crate::vk::frame::GpuRenderer)
-//!   refuses other criteria for this method.
+//!   (`classify` in spirv/shared/trace.wgsl), or with `--criterion bounded` its bounded one
+//!   (`classify_bounded_pick` in spirv/shared/trace_bounded.wgsl, through the `_bounded` twin of
+//!   each entry point, [`bounded_entry`]; the queued ray carries its G-buffer triangle for the
+//!   start rule), so [`GpuRenderer`](crate::vk::frame::GpuRenderer) refuses the approximate
+//!   criteria for this method.
 //! - Subgroup sizes 4..=128 (powers of two) are supported; the kernel's docs say how lanes map
 //!   to rays and why no workgroup barrier is needed (there is none). Its workgroups have 256
 //!   invocations, or 128 where 256 would exceed `maxComputeWorkgroupSubgroups`
@@ -88,7 +91,7 @@ use crate::vk::backend::shaders::{APPEND, COMPUTE_TRACE, DISPATCH_ARGS, HIER32, 
 use crate::vk::backend::sync::{
     INDIRECT_READ, SHADER_READ, SHADER_WRITE, STORAGE_RW, TRANSFER_WRITE,
 };
-use crate::vk::passes::cmo::{CaptureContents, CmoData};
+use crate::vk::passes::cmo::{CaptureContents, CmoData, TraceConfig};
 use crate::vk::passes::gbuffer::Gbuffer;
 use crate::vk::passes::hier32::{Hier32Bindings, Hier32Pass};
 use crate::vk::passes::scene_buffers::SceneBuffers;
@@ -111,6 +114,12 @@ pub struct AppendedRay {
     pub dir: [f32; 3],
     /// Reflections taken before this ray (0 today).
     pub bounce: u32,
+    /// The global triangle the ray leaves (the G-buffer's ID, `u32::MAX` for none): the
+    /// `bounded` criterion's start rule.
+    pub from_triangle: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+    pub pad2: u32,
 }
 
 /// WGSL `RayCounter`.
@@ -185,6 +194,18 @@ pub fn ray_lanes(ctx: &GpuContext) -> VkResult<(u32, &'static str)> {
         (false, false) => (32, "main"),
         (false, true) => (32, "main_wg128"),
     })
+}
+
+/// The `bounded` criterion's twin of a `compute_trace` entry point of [`ray_lanes`] (the same
+/// kernel classifying with the candidate lists: spirv/shared/trace_bounded.wgsl).
+pub fn bounded_entry(entry: &'static str) -> &'static str {
+    match entry {
+        "main" => "main_bounded",
+        "main_lanes1" => "main_lanes1_bounded",
+        "main_wg128" => "main_wg128_bounded",
+        "main_lanes1_wg128" => "main_lanes1_wg128_bounded",
+        other => other,
+    }
 }
 
 /// `compute_trace`'s workgroup size on a device: 256, or 128 where 256 invocations would be more
@@ -511,6 +532,11 @@ impl ComputePath {
     ) -> VkResult<Self> {
         check_device(ctx)?;
         let (lane_cap, entry) = ray_lanes(ctx)?;
+        let entry = if cmo.config().criterion == TraceConfig::CRITERION_BOUNDED {
+            bounded_entry(entry)
+        } else {
+            entry
+        };
         let pixels = u64::from(width) * u64::from(height);
         let b = ComputeBuffers::new(ctx, cmo, pixels, lane_cap)?;
         let hier_pass = Hier32Pass::new(ctx)?;
@@ -534,6 +560,7 @@ impl ComputePath {
                 (2, Resource::Buffer(params)),
                 (6, Resource::Buffer(&b.counter)),
                 (7, Resource::Buffer(&b.rays)),
+                (8, Resource::sampled(&gbuffer.triangle)),
             ],
         )?;
         let dispatch_args =

@@ -36,6 +36,14 @@
 //! behind a box no texel sees) and none elsewhere, at 1.5x to 7x the unresolved pixels; the
 //! production entry point `fs_exact_mip` carries no strict code, the generic one does.
 //!
+//! `--criterion bounded` (issue 22) runs the entry point `fs_bounded`: per-texel sound bounds and
+//! candidate lists (`cubemap::bounds`, uploaded by `vk::passes::lists`, their `lo` as the CMO
+//! distance) instead of a centre-sampled capture; the hit is the nearest listed triangle the
+//! ray meets where the list is complete (`spirv/shared/trace_bounded.wgsl`, CPU twin
+//! `cpu::bounded`), the ray leaving its G-buffer triangle (the start rule). It walks the texels
+//! (the pyramid march is the exact criterion's, in `fs_exact_mip`/`fs_main`, whose bindings stay
+//! free of the lists); `--no-accel` and `--strict` do not apply to it.
+//!
 //! The thesis's approximate criteria (`--criterion threshold|sign-change`, `--sampling`,
 //! `--steps`, `--eps`) are kept to measure against: they report "escaped" where no sample fires and
 //! cannot name a triangle, so `--bounces` refuses them. In the bench (160x120, commit 0b66ea7)
@@ -57,7 +65,7 @@
 //! 16x12 floor 0.018 to 0.028 of the full frame; 14 cells and under 2 texels per ray (the texel
 //! walk: 116). Same triangle 99.98 to 100 % and PSNR over resolved mirror pixels 52 to 104 dB per
 //! built-in scene. Why it is not cheaper on this driver is in `spirv/README.md`.
-use crate::cpu::options::TraceOptions;
+use crate::cpu::options::{TraceCriterion, TraceOptions};
 use crate::vk::backend::context::Recorder;
 use crate::vk::backend::error::VkResult;
 use crate::vk::backend::graphics::{GraphicsDesc, GraphicsPipeline, RenderTarget};
@@ -96,6 +104,8 @@ impl MethodSpec for Fragment {
         // The pass's specialised entry point where the options allow it.
         let entry = if exact_mip_only(&inputs.options.trace) {
             "fs_exact_mip"
+        } else if inputs.options.trace.criterion == TraceCriterion::Bounded {
+            "fs_bounded"
         } else {
             "fs_main"
         };
@@ -141,16 +151,19 @@ impl DeferredTrace {
             },
         )?;
         let gbuffer = inputs.gbuffer;
+        let mut frame = vec![
+            (0, Resource::sampled(&gbuffer.position)),
+            (1, Resource::sampled(&gbuffer.normal)),
+            (2, Resource::Buffer(inputs.params)),
+            (3, Resource::Buffer(inputs.records)),
+        ];
+        // The G-buffer's triangle IDs where the entry reads them (`fs_bounded`: the start rule).
+        let used = pass.entry_point(entry).map_or(&[][..], |e| e.bindings);
+        if used.iter().any(|b| b.group == 0 && b.binding == 8) {
+            frame.push((8, Resource::sampled(&gbuffer.triangle)));
+        }
         let mut sets = vec![
-            pipeline.bind_group(
-                0,
-                &[
-                    (0, Resource::sampled(&gbuffer.position)),
-                    (1, Resource::sampled(&gbuffer.normal)),
-                    (2, Resource::Buffer(inputs.params)),
-                    (3, Resource::Buffer(inputs.records)),
-                ],
-            )?,
+            pipeline.bind_group(0, &frame)?,
             pipeline.bind_group(1, &inputs.cmo.resources_for(pass, entry))?,
         ];
         if scene {

@@ -9,6 +9,8 @@
 //! | 4 | `cmo_colour` | texture array, layer `6 k + face`: linear RGBA (alpha 0 where empty) | with [`CaptureContents::colour`]; else a 1x1-texel placeholder per layer |
 //! | (none yet) | normal + mirror flag | `6 N N` RGBA per CMO | with self-reflections |
 //! | 5 | `cmo_triangle` | `6 N N` u32 per CMO: global triangle index, `u32::MAX` where empty | with [`CaptureContents::triangle_ids`]; else a one-u32 placeholder (composite binds it; never read) |
+//! | 6 | `cmo_lists` | `6 N N` `[head, complete_to, hi, count]` per CMO ([`super::lists`]) | with [`CmoData::alloc_lists`]; else a one-record placeholder (`compute_trace` binds it; only its `_bounded` entry points read it) |
+//! | 7 | `cmo_nodes` | the lists' node pool ([`super::lists`]) | likewise |
 //!
 //! The capture pass writes distance, colour and normals; the pyramid pass writes `cmo_mip`.
 //! Colour is an image, not a buffer: it is only ever looked up per texel, and an image has no
@@ -35,6 +37,8 @@ use crate::vk::backend::pipeline::Resource;
 use crate::vk::backend::shaders::Pass;
 use crate::vk::backend::sync::{ALL_READS, SHADER_READ, TRANSFER_WRITE};
 
+use super::lists::{self, PackedLists};
+
 /// Entries of [`TraceConfig::mip_levels`] (index 0 unused: level 0 is the texels).
 pub const TRACE_MIP_MAX_LEVELS: usize = 16;
 
@@ -54,7 +58,7 @@ pub struct TraceConfig {
     pub cmo_count: u32,
     /// Face size N.
     pub size: u32,
-    /// 0 exact, 1 threshold, 2 sign change.
+    /// 0 exact, 1 threshold, 2 sign change, 3 bounded.
     pub criterion: u32,
     /// 0 constant step, 1 constant angle, 2 per texel.
     pub sampling: u32,
@@ -88,6 +92,9 @@ pub fn mip_len(size: u32) -> u32 {
 }
 
 impl TraceConfig {
+    /// [`TraceConfig::criterion`] of [`TraceCriterion::Bounded`] (WGSL `CRITERION_BOUNDED`).
+    pub const CRITERION_BOUNDED: u32 = 3;
+
     /// The config for `cmo_count` CMOs of face size `size` traced with `opts`. Fails outside
     /// the ranges where the shader's loop caps are provably never reached (so that it gives the
     /// CPU twin's results): `size` in `1..=`[`TRACE_MAX_SIZE`], `opts.steps` at most
@@ -120,6 +127,7 @@ impl TraceConfig {
                 TraceCriterion::Exact => 0,
                 TraceCriterion::Threshold => 1,
                 TraceCriterion::SignChange => 2,
+                TraceCriterion::Bounded => Self::CRITERION_BOUNDED,
             },
             sampling: match opts.sampling {
                 TraceSampling::ConstantStep => 0,
@@ -184,6 +192,11 @@ pub struct CmoData {
     /// a frame that captures no IDs (the environment-map method) never has an unresolved pixel.
     triangle_placeholder: Option<Buffer>,
     contents: CaptureContents,
+    /// `cmo_lists` and `cmo_nodes` (placeholders of one record / node until
+    /// [`CmoData::alloc_lists`]), and the pool's capacity in nodes (0 for the placeholders).
+    lists: Buffer,
+    nodes: Buffer,
+    pool_capacity: u64,
 }
 
 /// Format of the colour capture: linear RGBA, f32 so that the CPU twins read the same bits.
@@ -312,7 +325,62 @@ impl CmoData {
                 Some(storage(ctx, "cmo_triangle placeholder", 4)?)
             },
             contents,
+            lists: storage(ctx, "cmo_lists placeholder", lists::RECORD_BYTES)?,
+            nodes: storage(ctx, "cmo_nodes placeholder", lists::NODE_BYTES)?,
+            pool_capacity: 0,
         })
+    }
+
+    /// Allocates the `bounded` criterion's lists (uninitialised): a record per texel and a pool
+    /// of `pool_capacity` nodes (at least 1: a binding cannot be empty). The GPU capture or
+    /// [`CmoData::upload_lists`] fills them. Call before creating the passes that bind
+    /// `@group(1)` (their bind groups name these buffers).
+    pub fn alloc_lists(&mut self, ctx: &GpuContext, pool_capacity: u64) -> VkResult<()> {
+        let texels = u64::from(self.count) * 6 * u64::from(self.size) * u64::from(self.size);
+        let capacity = pool_capacity.max(1);
+        self.lists = storage(ctx, "cmo_lists", texels * lists::RECORD_BYTES)?;
+        self.nodes = storage(ctx, "cmo_nodes", capacity * lists::NODE_BYTES)?;
+        self.pool_capacity = capacity;
+        Ok(())
+    }
+
+    /// Uploads lists in the GPU layout ([`lists::pack`] of one [`TexelLists`] per CMO, in CMO
+    /// order, or built so): their `lo` into the distance buffer, the records and nodes into
+    /// buffers allocated to fit ([`CmoData::alloc_lists`]). The pyramids are the pyramid
+    /// passes' to build from the distances (or [`CmoData::upload`]'s on the CPU). Fails where
+    /// the face size or the texel count is not the CMOs'.
+    pub fn upload_lists(&mut self, ctx: &GpuContext, packed: &PackedLists) -> VkResult<()> {
+        let texels = self.count as usize * 6 * self.size as usize * self.size as usize;
+        if packed.size != self.size || packed.records.len() != texels || packed.lo.len() != texels {
+            return Err(VkError::Usage {
+                what: "CMO lists".into(),
+                detail: format!(
+                    "{} records of face size {} for {} CMOs of face size {} ({texels} texels)",
+                    packed.records.len(),
+                    packed.size,
+                    self.count,
+                    self.size
+                ),
+            });
+        }
+        self.alloc_lists(ctx, packed.nodes.len() as u64)?;
+        ctx.write_buffer(&self.distance, &packed.lo)?;
+        ctx.write_buffer(&self.lists, &packed.records)?;
+        ctx.write_buffer(&self.nodes, &packed.nodes)?;
+        Ok(())
+    }
+
+    /// `cmo_lists` (binding 6).
+    pub fn lists(&self) -> &Buffer {
+        &self.lists
+    }
+    /// `cmo_nodes` (binding 7).
+    pub fn nodes(&self) -> &Buffer {
+        &self.nodes
+    }
+    /// Nodes the pool holds (0: the placeholders, no lists allocated).
+    pub fn pool_capacity(&self) -> u64 {
+        self.pool_capacity
     }
 
     /// Records the contents of an empty capture without one: `+inf` distances, no triangle
@@ -434,6 +502,8 @@ impl CmoData {
             + self.normal.as_ref().map_or(0, |b| b.size())
             + self.triangle.as_ref().map_or(0, |b| b.size())
             + self.triangle_placeholder.as_ref().map_or(0, |b| b.size())
+            + self.lists.size()
+            + self.nodes.size()
             + colour.layer_bytes().unwrap_or(0) * u64::from(colour.layers)
     }
 
@@ -460,6 +530,8 @@ impl CmoData {
         {
             r.push((5, Resource::Buffer(t)));
         }
+        r.push((6, Resource::Buffer(&self.lists)));
+        r.push((7, Resource::Buffer(&self.nodes)));
         r
     }
 

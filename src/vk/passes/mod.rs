@@ -7,6 +7,7 @@ pub mod cmo;
 pub mod composite;
 pub mod gbuffer;
 pub mod hier32;
+pub mod lists;
 pub mod pyramid;
 pub mod records;
 pub mod scene_buffers;

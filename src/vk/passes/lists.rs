@@ -1,0 +1,217 @@
+//! The `bounded` criterion's per-texel bounds and candidate lists on the GPU (issue 22): the
+//! layout `spirv/shared/trace_bounded.wgsl` reads, and its upload from the CPU
+//! [`TexelLists`] (a valid path for small scenes, and the tracer's test input until the GPU
+//! capture, `capture_lists`, fills the same buffers).
+//!
+//! | binding (`@group(1)`) | WGSL name | contents |
+//! |---|---|---|
+//! | 2 | `cmo_distance` | per texel its `lo` (so pyramids, cut radius and skips work unchanged) |
+//! | 6 | `cmo_lists` | per texel of CMO k at `k * 6 N N + index`: `[head, bits(complete_to), bits(hi), count_kept]` |
+//! | 7 | `cmo_nodes` | the node pool of all CMOs: `[triangle, bits(lo), bits(hi), next]` |
+//!
+//! A texel's entries are the first `count_kept` nodes from `head` along `next`, sorted by
+//! `(lo, triangle)`; [`NO_NODE`] ends a chain (and is `head` of an empty texel). Node indices
+//! are global over the pool (one pool for every CMO). The upload writes each texel's entries
+//! as consecutive nodes; the GPU capture links them through its pool in any order.
+use crate::cubemap::bounds::{Entry, TexelLists};
+
+/// No node (`BOUNDED_NO_NODE`).
+pub const NO_NODE: u32 = u32::MAX;
+
+/// Bytes of one per-texel record and of one node.
+pub const RECORD_BYTES: u64 = 16;
+/// Bytes of one node of the pool.
+pub const NODE_BYTES: u64 = 16;
+
+/// Bytes the lists of `cmos` CMOs of face size `size` take on the GPU with a pool of
+/// `pool_capacity` nodes (the records and the pool; `lo` is the CMO distance buffer, counted
+/// with the CMO data).
+pub fn lists_bytes(cmos: u32, size: u32, pool_capacity: u64) -> u64 {
+    u64::from(cmos) * 6 * u64::from(size) * u64::from(size) * RECORD_BYTES
+        + pool_capacity * NODE_BYTES
+}
+
+/// [`TexelLists`] of every CMO in the GPU layout (module docs).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PackedLists {
+    /// Face size N.
+    pub size: u32,
+    /// Per texel of every CMO: `lo` (the CMO distance buffer's contents).
+    pub lo: Vec<f32>,
+    /// Per texel of every CMO: `[head, bits(complete_to), bits(hi), count_kept]`.
+    pub records: Vec<[u32; 4]>,
+    /// The node pool: `[triangle, bits(lo), bits(hi), next]`.
+    pub nodes: Vec<[u32; 4]>,
+}
+
+/// Packs the CMOs' lists (in CMO order) into the GPU layout. Fails, naming the CMO, where the
+/// face sizes differ or a list is malformed (offsets not covering the entries, a texel count
+/// other than `6 N N`), or where the pool would need more than `u32::MAX - 1` nodes.
+pub fn pack(lists: &[TexelLists]) -> Result<PackedLists, String> {
+    let size = lists.first().map_or(0, |l| l.size);
+    let per = 6 * size as usize * size as usize;
+    let mut out = PackedLists {
+        size,
+        lo: Vec::with_capacity(per * lists.len()),
+        records: Vec::with_capacity(per * lists.len()),
+        nodes: Vec::new(),
+    };
+    for (k, l) in lists.iter().enumerate() {
+        if l.size != size {
+            return Err(format!(
+                "CMO {k}: face size {} where CMO 0 has {size} (all must match)",
+                l.size
+            ));
+        }
+        let ok = l.lo.len() == per
+            && l.hi.len() == per
+            && l.complete_to.len() == per
+            && l.offsets.len() == per + 1
+            && l.offsets.windows(2).all(|w| w[0] <= w[1])
+            && l.offsets
+                .last()
+                .is_some_and(|&e| e as usize == l.entries.len());
+        if !ok {
+            return Err(format!(
+                "CMO {k}: lists malformed (want {per} texels and offsets 0..={} ascending)",
+                l.entries.len()
+            ));
+        }
+        for i in 0..per {
+            let entries = &l.entries[l.offsets[i] as usize..l.offsets[i + 1] as usize];
+            let first = out.nodes.len();
+            if first + entries.len() >= NO_NODE as usize {
+                return Err(format!("CMO {k}: more than {} nodes", NO_NODE - 1));
+            }
+            for (j, e) in entries.iter().enumerate() {
+                let next = if j + 1 < entries.len() {
+                    (first + j + 1) as u32
+                } else {
+                    NO_NODE
+                };
+                out.nodes
+                    .push([e.triangle, e.lo.to_bits(), e.hi.to_bits(), next]);
+            }
+            let head = if entries.is_empty() {
+                NO_NODE
+            } else {
+                first as u32
+            };
+            out.records.push([
+                head,
+                l.complete_to[i].to_bits(),
+                l.hi[i].to_bits(),
+                entries.len() as u32,
+            ]);
+            out.lo.push(l.lo[i]);
+        }
+    }
+    if out.nodes.is_empty() {
+        // A binding cannot be empty.
+        out.nodes.push([NO_NODE; 4]);
+    }
+    Ok(out)
+}
+
+/// The per-texel entries the GPU layout holds: texel `i`'s first `count_kept` nodes from
+/// `head`, as [`Entry`]s, or an error naming the texel where a chain ends early or loops past
+/// the pool. For tests of the capture and of [`pack`].
+pub fn walk(records: &[[u32; 4]], nodes: &[[u32; 4]], i: usize) -> Result<Vec<Entry>, String> {
+    let [head, _, _, count] = records[i];
+    let mut out = Vec::with_capacity(count as usize);
+    let mut n = head;
+    for j in 0..count {
+        let Some(node) = nodes.get(n as usize) else {
+            return Err(format!(
+                "texel {i}: node {j} of {count} is {n:#x}, past the pool ({})",
+                nodes.len()
+            ));
+        };
+        out.push(Entry {
+            triangle: node[0],
+            lo: f32::from_bits(node[1]),
+            hi: f32::from_bits(node[2]),
+        });
+        n = node[3];
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lists(size: u32, per_texel: &[&[Entry]]) -> TexelLists {
+        let mut offsets = vec![0];
+        let mut entries = Vec::new();
+        for e in per_texel {
+            entries.extend_from_slice(e);
+            offsets.push(entries.len() as u32);
+        }
+        let n = per_texel.len();
+        TexelLists {
+            size,
+            depth: 16,
+            lo: (0..n).map(|i| i as f32).collect(),
+            hi: (0..n).map(|i| 10.0 + i as f32).collect(),
+            complete_to: vec![f32::INFINITY; n],
+            offsets,
+            entries,
+        }
+    }
+
+    #[test]
+    fn pack_links_each_texels_entries_in_order() {
+        let e = |t, lo| Entry {
+            triangle: t,
+            lo,
+            hi: lo + 1.0,
+        };
+        let a: &[Entry] = &[e(3, 1.0), e(1, 2.0)];
+        let b: &[Entry] = &[e(7, 0.5)];
+        let mut texels: Vec<&[Entry]> = vec![&[]; 6];
+        texels[0] = a;
+        texels[4] = b;
+        let l0 = lists(1, &texels);
+        let mut l1 = l0.clone();
+        l1.complete_to[2] = 4.0;
+        let p = pack(&[l0.clone(), l1.clone()]).unwrap();
+        assert_eq!(p.records.len(), 12);
+        assert_eq!(p.lo[6..], l1.lo[..]);
+        for (k, l) in [&l0, &l1].into_iter().enumerate() {
+            for i in 0..6 {
+                let t = crate::cubemap::face::Texel {
+                    face: i as u32,
+                    x: 0,
+                    y: 0,
+                };
+                let got = walk(&p.records, &p.nodes, k * 6 + i).unwrap();
+                assert_eq!(got, l.entries_at(t), "CMO {k} texel {i}");
+                let r = p.records[k * 6 + i];
+                assert_eq!(f32::from_bits(r[1]), l.complete_to[i]);
+                assert_eq!(f32::from_bits(r[2]), l.hi[i]);
+            }
+        }
+        assert_eq!(p.records[1][0], NO_NODE);
+        // Negative: a record claiming more nodes than its chain holds is reported.
+        let mut bad = p.records.clone();
+        bad[4][3] = 2;
+        assert!(walk(&bad, &p.nodes, 4).is_err());
+    }
+
+    #[test]
+    fn pack_refuses_mixed_sizes_and_bad_offsets() {
+        let none: &[Entry] = &[];
+        let l = lists(1, &[none; 6]);
+        let mut other = lists(2, &[none; 24]);
+        assert!(
+            pack(&[l.clone(), other.clone()])
+                .unwrap_err()
+                .contains("CMO 1")
+        );
+        other = l.clone();
+        other.offsets[3] = 5;
+        assert!(pack(&[other]).unwrap_err().contains("malformed"));
+        assert_eq!(lists_bytes(2, 4, 10), 2 * 6 * 16 * 16 + 160);
+    }
+}
