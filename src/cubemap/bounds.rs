@@ -364,11 +364,7 @@ pub fn face_rect_with(
 ) -> Option<FaceRect> {
     let l = face_local(tri, centre, face);
     let sound = margins == Margins::Sound;
-    let e = if sound {
-        error_budget(&l)
-    } else {
-        0.0
-    };
+    let e = if sound { error_budget(&l) } else { 0.0 };
     if sound && near_centre(&l, e) {
         return Some(whole_face(face, size, e));
     }

@@ -106,6 +106,7 @@ use super::methods::{self, FrameInputs, MethodSpec, Needs, Scope, Technique};
 use super::passes::bounce::{BouncePasses, MAX_BOUNCES};
 use super::passes::bvh::{AppendKind, BvhCounter, BvhPasses, ReflectorCheck};
 use super::passes::capture::Capture;
+use super::passes::capture_lists::{self, CaptureLists, ListTargets};
 use super::passes::cmo::{CaptureContents, CmoData};
 use super::passes::composite::Composite;
 use super::passes::gbuffer::Gbuffer;
@@ -115,6 +116,7 @@ use super::passes::scene_buffers::SceneBuffers;
 use crate::camera::Camera;
 use crate::cpu::options::{TraceCriterion, TraceOptions};
 use crate::cpu::reflection_point::SearchStats;
+use crate::cubemap::bounds::DEFAULT_DEPTH;
 use crate::method::Method;
 use crate::metrics::Traced;
 use crate::ranges::FrameRanges;
@@ -326,7 +328,7 @@ pub struct GpuRenderer {
     cmo: CmoData,
     /// `None` where the method reads no CMO ([`Needs::capture`]): the CMO data is then a
     /// one-texel placeholder, initialised at creation.
-    capture: Option<Capture>,
+    capture: Option<CmoCapture>,
     pyramid: Option<(Pyramid, PyramidBindings)>,
     gbuffer: Gbuffer,
     method: Box<dyn Technique>,
@@ -346,23 +348,32 @@ pub struct GpuRenderer {
 /// pyramid, as the method's [`Needs`] say.
 struct CmoStages {
     cmo: CmoData,
-    capture: Option<Capture>,
+    capture: Option<CmoCapture>,
     pyramid: Option<(Pyramid, PyramidBindings)>,
 }
 
+/// The pass that fills the CMO data: the rasterised capture, or (`--criterion bounded`) the
+/// capture of the per-texel bounds and candidate lists.
+enum CmoCapture {
+    Raster(Capture),
+    Lists(CaptureLists),
+}
+
 impl CmoStages {
+    /// `gpu`: the scene's data and its buffers.
     fn new(
         ctx: &GpuContext,
         scene: &Scene,
-        scene_buffers: &SceneBuffers,
+        gpu: (&GpuSceneData, &SceneBuffers),
         needs: &Needs,
         trace: &TraceOptions,
         capture_near: f32,
         lists: Option<&PackedLists>,
     ) -> VkResult<Self> {
         let centres = scene.cmo_centres();
+        let scene_buffers = gpu.1;
         if trace.criterion == TraceCriterion::Bounded {
-            return Self::bounded(ctx, scene, needs, trace, lists);
+            return Self::bounded(ctx, scene, gpu, needs, trace, lists);
         }
         if !needs.capture {
             // One texel per face and no capture: composite binds the data, nothing reads it
@@ -408,49 +419,67 @@ impl CmoStages {
         };
         Ok(CmoStages {
             cmo,
-            capture: Some(capture),
+            capture: Some(CmoCapture::Raster(capture)),
             pyramid,
         })
     }
 }
 
 impl CmoStages {
-    /// `--criterion bounded`: the CMO data with the per-texel lists uploaded (their `lo` as the
-    /// distances), the pyramid where the method needs one, no capture pass (it would overwrite
-    /// the distances). The lists come from the CPU for now; the GPU capture
-    /// (`passes::capture_lists`, issue 22) plugs in here: allocate with
-    /// [`CmoData::alloc_lists`] and record it where `capture` runs.
+    /// `--criterion bounded`: the CMO data with the per-texel bounds and lists (their `lo` as
+    /// the distances), filled by the lists' capture (`passes::capture_lists`, node pool sized
+    /// by its CPU bound) or, for tests, uploaded from lists built on the CPU (`lists`); the
+    /// pyramid where the method needs one.
     fn bounded(
         ctx: &GpuContext,
         scene: &Scene,
+        (data, scene_buffers): (&GpuSceneData, &SceneBuffers),
         needs: &Needs,
         trace: &TraceOptions,
         lists: Option<&PackedLists>,
     ) -> VkResult<Self> {
-        let Some(lists) = lists else {
-            return Err(VkError::Usage {
-                what: "--criterion bounded".into(),
-                detail: "its per-texel candidate lists have no capture yet, so it cannot \
-                         render from the command line (issue 22)"
-                    .into(),
-            });
-        };
         let centres = scene.cmo_centres();
         let size = scene.cmo.resolution;
+        let self_reflections = scene.captures_reflectors();
         let mut cmo = CmoData::with_contents(
             ctx,
             &centres,
             size,
-            scene.captures_reflectors(),
+            self_reflections,
             needs.pyramid,
             trace,
             needs.contents,
         )?;
-        ctx.submit_and_wait("cmo clear", |rec| {
-            cmo.record_clear(rec);
-            Ok(())
-        })?;
-        cmo.upload_lists(ctx, lists)?;
+        let capture = match lists {
+            Some(lists) => {
+                ctx.submit_and_wait("cmo clear", |rec| {
+                    cmo.record_clear(rec);
+                    Ok(())
+                })?;
+                cmo.upload_lists(ctx, lists)?;
+                None
+            }
+            None => {
+                let views: Vec<(Vec3, bool)> =
+                    centres.iter().map(|&c| (c, self_reflections)).collect();
+                let capacity = capture_lists::capacity(data, &views, size);
+                cmo.alloc_lists(ctx, capacity.nodes)?;
+                let targets = ListTargets {
+                    distance: cmo.distance(),
+                    records: cmo.lists(),
+                    nodes: cmo.nodes(),
+                };
+                Some(CmoCapture::Lists(CaptureLists::new(
+                    ctx,
+                    scene_buffers,
+                    size,
+                    DEFAULT_DEPTH,
+                    &views,
+                    capacity,
+                    Some(targets),
+                )?))
+            }
+        };
         let pyramid = if needs.pyramid {
             let p = Pyramid::new(ctx)?;
             let b = p.bind(ctx, cmo.distance(), cmo.mip(), centres.len() as u32, size)?;
@@ -460,7 +489,7 @@ impl CmoStages {
         };
         Ok(CmoStages {
             cmo,
-            capture: None,
+            capture,
             pyramid,
         })
     }
@@ -632,7 +661,7 @@ impl GpuRenderer {
         let stages = CmoStages::new(
             ctx,
             scene,
-            &scene_buffers,
+            (&data, &scene_buffers),
             &needs,
             &options.trace,
             ranges.capture_near,
@@ -784,8 +813,12 @@ impl GpuRenderer {
 
     /// Records the frame's passes in the order of the module docs' table.
     fn record(&self, rec: &Recorder<'_>, scope: &mut Scope<'_>) -> VkResult<()> {
-        if let Some(c) = &self.capture {
-            scope("capture", &mut || c.record(rec, &self.cmo, self.background))?;
+        match &self.capture {
+            Some(CmoCapture::Raster(c)) => {
+                scope("capture", &mut || c.record(rec, &self.cmo, self.background))?;
+            }
+            Some(CmoCapture::Lists(c)) => scope("capture", &mut || c.record(rec))?,
+            None => {}
         }
         if let Some((p, b)) = &self.pyramid {
             scope("pyramid", &mut || p.record(rec, b, None))?;

@@ -173,7 +173,7 @@ fn check_inputs(
     depth: u32,
     cmos: &[(Vec3, bool)],
     capacity: PoolBound,
-    distance: Option<&Buffer>,
+    targets: Option<ListTargets<'_>>,
 ) -> VkResult<(u64, u64, u64)> {
     let usage = |detail: String| VkError::Usage {
         what: CAPTURE_LISTS.name.into(),
@@ -199,15 +199,20 @@ fn check_inputs(
             capacity.jobs, capacity.nodes
         )));
     }
-    if let Some(d) = distance
-        && d.size() < texels * 4
-    {
-        return Err(usage(format!(
-            "distance buffer `{}` has {} bytes, {texels} texels need {}",
-            d.name(),
-            d.size(),
-            texels * 4
-        )));
+    if let Some(t) = targets {
+        for (b, need) in [
+            (t.distance, texels * 4),
+            (t.records, texels * 16),
+            (t.nodes, capacity.nodes * 16),
+        ] {
+            if b.size() < need {
+                return Err(usage(format!(
+                    "buffer `{}` has {} bytes, the capture needs {need}",
+                    b.name(),
+                    b.size()
+                )));
+            }
+        }
     }
     Ok((k, texels, triangles))
 }
@@ -221,17 +226,43 @@ pub struct CaptureLists {
     params_buf: Buffer,
     _views: Buffer,
     _job_buf: Buffer,
-    nodes: Buffer,
     heads: Buffer,
     overflow: Buffer,
     face_overflow: Buffer,
     counters: Buffer,
-    records: Buffer,
-    distance: Option<Buffer>,
+    /// Distance, records and nodes when the caller gave none ([`ListTargets`]).
+    own: Option<OwnTargets>,
     params: ListsParams,
     jobs_groups: [u32; 3],
     texels_groups: [u32; 3],
     resolve_groups: [u32; 3],
+}
+
+/// Where the capture writes its results: `lo` per texel (K blocks of `6 N N` f32, e.g. the
+/// CMO distance buffer), the per-texel records and the node pool (e.g. the CMO data's
+/// `cmo_lists` and `cmo_nodes`, [`super::cmo::CmoData::alloc_lists`]).
+#[derive(Clone, Copy)]
+pub struct ListTargets<'a> {
+    pub distance: &'a Buffer,
+    pub records: &'a Buffer,
+    pub nodes: &'a Buffer,
+}
+
+/// The result buffers a capture allocated itself (no [`ListTargets`] given).
+struct OwnTargets {
+    distance: Buffer,
+    records: Buffer,
+    nodes: Buffer,
+}
+
+impl OwnTargets {
+    fn targets(&self) -> ListTargets<'_> {
+        ListTargets {
+            distance: &self.distance,
+            records: &self.records,
+            nodes: &self.nodes,
+        }
+    }
 }
 
 /// One readback: per CMO the lists as the CPU twin holds them, plus the counters.
@@ -248,8 +279,8 @@ impl CaptureLists {
     /// (`triangle_count` triangles, its index buffer in global order) at face size `size`,
     /// keeping `depth` entries per texel, with room for `capacity.jobs` jobs and
     /// `capacity.nodes` nodes (from [`capacity`]; a smaller pool is sound, see the module docs).
-    /// `distance`: where `lo` goes (K blocks of `6 N N` f32, e.g. the CMO distance buffer);
-    /// `None` allocates [`CaptureLists::distance`].
+    /// `targets`: where the results go; `None` allocates them (read them with
+    /// [`CaptureLists::read_back`]).
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         ctx: &GpuContext,
@@ -258,9 +289,9 @@ impl CaptureLists {
         depth: u32,
         cmos: &[(Vec3, bool)],
         capacity: PoolBound,
-        distance: Option<&Buffer>,
+        targets: Option<ListTargets<'_>>,
     ) -> VkResult<Self> {
-        let (k, texels, triangles) = check_inputs(scene, size, depth, cmos, capacity, distance)?;
+        let (k, texels, triangles) = check_inputs(scene, size, depth, cmos, capacity, targets)?;
         let params = ListsParams {
             size,
             depth,
@@ -284,7 +315,6 @@ impl CaptureLists {
         let params_buf = ctx.create_buffer_init("capture_lists params", st, &[params])?;
         let views_buf = ctx.create_buffer_init("capture_lists views", st, &views)?;
         let job_buf = storage(ctx, "capture_lists jobs", capacity.jobs.max(1) * 32)?;
-        let nodes = storage(ctx, "capture_lists nodes", capacity.nodes.max(1) * 16)?;
         let heads = storage(ctx, "capture_lists heads", texels * 4)?;
         let overflow = storage(ctx, "capture_lists overflow", texels * 4)?;
         let face_overflow = storage(ctx, "capture_lists face overflow", k * 6 * 4)?;
@@ -293,23 +323,28 @@ impl CaptureLists {
             "capture_lists counters",
             size_of::<ListCounters>() as u64,
         )?;
-        let records = storage(ctx, "capture_lists records", texels * 16)?;
-        let own_distance = match distance {
+        let own = match targets {
             Some(_) => None,
-            None => Some(storage(ctx, "capture_lists distance", texels * 4)?),
+            None => Some(OwnTargets {
+                distance: storage(ctx, "capture_lists distance", texels * 4)?,
+                records: storage(ctx, "capture_lists records", texels * 16)?,
+                nodes: storage(ctx, "capture_lists nodes", capacity.nodes.max(1) * 16)?,
+            }),
         };
-        let dist = distance.or(own_distance.as_ref()).expect("one of the two");
+        let out = targets
+            .or(own.as_ref().map(OwnTargets::targets))
+            .expect("one of the two");
         let all = [
             (0, Resource::Buffer(&params_buf)),
             (1, Resource::Buffer(&views_buf)),
             (2, Resource::Buffer(&job_buf)),
-            (3, Resource::Buffer(&nodes)),
+            (3, Resource::Buffer(out.nodes)),
             (4, Resource::Buffer(&heads)),
             (5, Resource::Buffer(&overflow)),
             (6, Resource::Buffer(&face_overflow)),
             (7, Resource::Buffer(&counters)),
-            (8, Resource::Buffer(&records)),
-            (9, Resource::Buffer(dist)),
+            (8, Resource::Buffer(out.records)),
+            (9, Resource::Buffer(out.distance)),
         ];
         let sets_for = |p: &ComputePipeline| -> VkResult<(BindGroup, BindGroup)> {
             let used = |g: u32, b: u32| {
@@ -340,13 +375,11 @@ impl CaptureLists {
             params_buf,
             _views: views_buf,
             _job_buf: job_buf,
-            nodes,
             heads,
             overflow,
             face_overflow,
             counters,
-            records,
-            distance: own_distance,
+            own,
             params,
             jobs_groups: linear_groups(triangles * 6 * k),
             texels_groups,
@@ -408,19 +441,10 @@ impl CaptureLists {
         ctx.write_buffer(&self.params_buf, &[self.params])
     }
 
-    /// Per texel `[head, bits(complete_to), bits(hi), count_kept]` (module docs).
-    pub fn records(&self) -> &Buffer {
-        &self.records
-    }
-
-    /// The node pool ([`ListNode`]).
-    pub fn nodes(&self) -> &Buffer {
-        &self.nodes
-    }
-
-    /// The distance buffer this pass allocated (`None` when it writes the caller's).
-    pub fn distance(&self) -> Option<&Buffer> {
-        self.distance.as_ref()
+    /// The result buffers this pass allocated (`None` when it writes the caller's
+    /// [`ListTargets`]).
+    pub fn own_targets(&self) -> Option<ListTargets<'_>> {
+        self.own.as_ref().map(OwnTargets::targets)
     }
 
     /// The counters ([`ListCounters`]).
@@ -434,19 +458,23 @@ impl CaptureLists {
     }
 
     /// Reads everything back (after a submission of [`CaptureLists::record`]): per CMO the
-    /// lists as [`TexelLists`] (entries from the first `count_kept` nodes of each list, `lo`
-    /// from `distance`: the buffer given to [`CaptureLists::new`] or this pass's own).
-    pub fn read_back(&self, ctx: &GpuContext, distance: Option<&Buffer>) -> VkResult<GpuLists> {
-        let records: Vec<TexelRecord> = ctx.read_buffer(&self.records)?;
-        let nodes: Vec<ListNode> = ctx.read_buffer(&self.nodes)?;
-        let counters: Vec<ListCounters> = ctx.read_buffer(&self.counters)?;
-        let dist_buf = distance
-            .or(self.distance.as_ref())
+    /// lists as [`TexelLists`] (entries from the first `count_kept` nodes of each list), from
+    /// `targets`: those given to [`CaptureLists::new`], or `None` for this pass's own.
+    pub fn read_back(
+        &self,
+        ctx: &GpuContext,
+        targets: Option<ListTargets<'_>>,
+    ) -> VkResult<GpuLists> {
+        let out = targets
+            .or(self.own_targets())
             .ok_or_else(|| VkError::Usage {
                 what: CAPTURE_LISTS.name.into(),
-                detail: "read_back needs the distance buffer the pass writes".into(),
+                detail: "read_back needs the buffers the pass writes".into(),
             })?;
-        let dist: Vec<f32> = ctx.read_buffer(dist_buf)?;
+        let records: Vec<TexelRecord> = ctx.read_buffer(out.records)?;
+        let nodes: Vec<ListNode> = ctx.read_buffer(out.nodes)?;
+        let counters: Vec<ListCounters> = ctx.read_buffer(&self.counters)?;
+        let dist: Vec<f32> = ctx.read_buffer(out.distance)?;
         let n = self.params.size as usize;
         let per_cmo = 6 * n * n;
         let mut cmos = Vec::new();
