@@ -21,7 +21,8 @@ pub struct BenchArgs {
     pub scenes: Vec<String>,
     /// Methods: reference, envmap, fragment, compute, ssr, reflection-point, bvh (comma-separated);
     /// fragment runs its parameter grid (criteria x sampling x acceleration x steps) unless
-    /// --quick; compute has one setting (the exact criterion on its hierarchy), ssr its defaults
+    /// --quick, and its bounded criterion always; compute the exact and the bounded criterion
+    /// on its hierarchy (`compute`, `compute-bounded`), ssr its defaults
     /// (64 iterations, no thickness test), reflection-point its defaults (cap 256 steps, search
     /// scale 1) as is and with the other objects subdivided twice (`reflection-point-sub2`), bvh
     /// (exact GPU ray tracing) its one setting.
@@ -31,7 +32,8 @@ pub struct BenchArgs {
         default_value = "reference,envmap,fragment,compute,ssr,reflection-point,bvh"
     )]
     pub methods: Vec<String>,
-    /// fragment: only the default options (exact criterion, pyramid) instead of its grid.
+    /// fragment: only the default options (exact criterion, pyramid) and the bounded criterion
+    /// instead of its grid.
     #[arg(long)]
     pub quick: bool,
     /// Frame width in pixels.

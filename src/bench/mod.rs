@@ -95,7 +95,11 @@ impl MethodSpec {
             };
             return format!("{}-sub{}", plain.label(), self.subdivide);
         }
-        // The compute path has one setting: the exact criterion on its own hierarchy.
+        // The compute path has two settings on its own hierarchy: the exact criterion (named
+        // by the method alone) and the bounded one.
+        if self.kind == Method::Compute && self.trace.criterion == TraceCriterion::Bounded {
+            return "compute-bounded".into();
+        }
         if !self.kind.traces_cubemaps() || self.kind == Method::Compute {
             return self.kind.name().into();
         }
@@ -173,6 +177,14 @@ pub fn method_grid(kinds: &[Method], quick: bool) -> Vec<MethodSpec> {
             } else {
                 out.extend(fragment_grid(kind));
             }
+            // The bounded criterion (proven first hits) beside the exact one, in every grid.
+            out.push(MethodSpec {
+                trace: TraceOptions {
+                    criterion: TraceCriterion::Bounded,
+                    ..TraceOptions::default()
+                },
+                ..MethodSpec::plain(kind)
+            });
         } else {
             out.push(MethodSpec::plain(kind));
             if kind == Method::ReflectionPoint {

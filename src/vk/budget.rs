@@ -9,6 +9,7 @@
 use super::methods::{self, MethodSpec};
 use super::options::RenderOptions;
 use super::passes::bvh::BvhRay;
+use super::passes::capture_lists;
 use super::passes::cmo::CaptureContents;
 use super::passes::records::PixelRecord;
 use crate::camera::Camera;
@@ -16,6 +17,7 @@ use crate::cpu::options::TraceOptions;
 use crate::cubemap::pyramid::mip_len;
 use crate::method::Method;
 use crate::scene::Scene;
+use crate::scene::gpu_data::GpuSceneData;
 
 /// Bytes per texel of one face of one CMO: f32 distances (`cmo_distance`), RGBA f32 colour
 /// (`cmo_colour`), the capture pass's f32 distance target, and with self-reflections the
@@ -181,8 +183,9 @@ pub fn device_bytes(
 /// `cube_size` texels per face side with a node pool of `pool_capacity` nodes: 16 B per texel
 /// record and 16 B per node (`lo` is the CMO distance, counted with the CMO data). The pool's
 /// capacity comes from the capture (the sum over triangles and faces of the texels each may
-/// touch), which [`estimate`] does not know: it counts the records only
-/// (`pool_capacity` 0), and a caller that knows the capacity adds [`lists_bytes`] of it.
+/// touch), which [`device_bytes`] does not know: it counts the records only
+/// (`pool_capacity` 0); [`estimate`], which has the scene, adds the pool
+/// ([`list_capture_bytes`]).
 pub fn lists_bytes(cmos: u32, cube_size: u32, pool_capacity: u64) -> u64 {
     super::passes::lists::lists_bytes(cmos, cube_size, pool_capacity)
 }
@@ -265,8 +268,35 @@ pub fn estimate(scene: &Scene, camera: &Camera, options: &RenderOptions) -> Devi
             + bounce_bytes(width, height, options.bounces)
             + reflector_check_bytes(width, height, check),
         scene: scene_bytes(scene),
-        ..base
+        cmo: base.cmo + list_capture_bytes(scene, options),
     }
+}
+
+/// What the `bounded` criterion's capture adds to [`device_bytes`] for `scene` (which knows
+/// the triangles): the node pool at the capacity the frame allocates (the CPU bound of
+/// [`capture_lists::capacity`], the texels each triangle can touch), its job buffer, and the
+/// per-texel heads and overflow words; 0 for other criteria and methods that run no capture.
+pub fn list_capture_bytes(scene: &Scene, options: &RenderOptions) -> u64 {
+    let Some(spec) = methods::spec(options.method) else {
+        return 0;
+    };
+    if options.trace.criterion != crate::cpu::options::TraceCriterion::Bounded
+        || !spec.needs(&options.trace).capture
+    {
+        return 0;
+    }
+    let size = scene.cmo.resolution;
+    let reflectors = scene.captures_reflectors();
+    let views: Vec<_> = scene
+        .cmo_centres()
+        .into_iter()
+        .map(|c| (c, reflectors))
+        .collect();
+    let capacity = capture_lists::capacity(&GpuSceneData::new(scene), &views, size);
+    let texels = views.len() as u64 * 6 * u64::from(size) * u64::from(size);
+    lists_bytes(0, size, capacity.nodes)
+        + capacity.jobs * size_of::<capture_lists::ListsJob>() as u64
+        + texels * 8
 }
 
 #[cfg(test)]
@@ -363,6 +393,43 @@ mod tests {
                 "{m}: the lists' records"
             );
         }
+    }
+
+    #[test]
+    fn the_bounded_estimate_counts_the_node_pool() {
+        let scene = crate::scene::builtin::by_name("default").unwrap();
+        let mut camera = scene.cameras[0].clone();
+        (camera.width, camera.height) = (64, 48);
+        let exact = RenderOptions {
+            method: Method::Compute,
+            ..RenderOptions::default()
+        };
+        let bounded = RenderOptions {
+            trace: TraceOptions {
+                criterion: crate::cpu::options::TraceCriterion::Bounded,
+                ..TraceOptions::default()
+            },
+            ..exact
+        };
+        let reflectors = scene.captures_reflectors();
+        let views: Vec<_> = scene
+            .cmo_centres()
+            .into_iter()
+            .map(|c| (c, reflectors))
+            .collect();
+        let cap = capture_lists::capacity(&GpuSceneData::new(&scene), &views, scene.cmo.resolution);
+        assert!(cap.nodes > 0, "{cap:?}");
+        let pool = list_capture_bytes(&scene, &bounded);
+        assert!(pool >= cap.nodes * 16, "{pool} < {} nodes", cap.nodes);
+        let grown = estimate(&scene, &camera, &bounded).total();
+        assert!(grown >= estimate(&scene, &camera, &exact).total() + pool);
+        // Negative: the exact criterion has no pool, nor does a method without a capture.
+        assert_eq!(list_capture_bytes(&scene, &exact), 0);
+        let bvh = RenderOptions {
+            method: Method::Bvh,
+            ..bounded
+        };
+        assert_eq!(list_capture_bytes(&scene, &bvh), 0);
     }
 
     #[test]

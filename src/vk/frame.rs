@@ -355,8 +355,8 @@ struct CmoStages {
 /// The pass that fills the CMO data: the rasterised capture, or (`--criterion bounded`) the
 /// capture of the per-texel bounds and candidate lists.
 enum CmoCapture {
-    Raster(Capture),
-    Lists(CaptureLists),
+    Raster(Box<Capture>),
+    Lists(Box<CaptureLists>),
 }
 
 impl CmoStages {
@@ -419,7 +419,7 @@ impl CmoStages {
         };
         Ok(CmoStages {
             cmo,
-            capture: Some(CmoCapture::Raster(capture)),
+            capture: Some(CmoCapture::Raster(Box::new(capture))),
             pyramid,
         })
     }
@@ -469,7 +469,7 @@ impl CmoStages {
                     records: cmo.lists(),
                     nodes: cmo.nodes(),
                 };
-                Some(CmoCapture::Lists(CaptureLists::new(
+                Some(CmoCapture::Lists(Box::new(CaptureLists::new(
                     ctx,
                     scene_buffers,
                     size,
@@ -477,7 +477,7 @@ impl CmoStages {
                     &views,
                     capacity,
                     Some(targets),
-                )?))
+                )?)))
             }
         };
         let pyramid = if needs.pyramid {
