@@ -69,7 +69,12 @@ fn judge(
             _ => {}
         }
     }
-    (same as f64 / judged.max(1) as f64, wrong, judged, unresolved)
+    (
+        same as f64 / judged.max(1) as f64,
+        wrong,
+        judged,
+        unresolved,
+    )
 }
 
 #[test]
@@ -96,15 +101,24 @@ fn bounded_frames_find_the_first_hit_on_thin_geometry() {
                 );
                 assert!(judged > 300, "{name}: only {judged} pixels judged");
                 assert_eq!(wrong, 0, "{name} cmos {cmos} {}", method.name());
-                assert!(same >= 0.999, "{name} cmos {cmos} {}: {same}", method.name());
+                assert!(
+                    same >= 0.999,
+                    "{name} cmos {cmos} {}: {same}",
+                    method.name()
+                );
             }
             if name == "bunny" {
                 // The dense mesh's triangles are larger than a texel here: the exact
                 // criterion finds them too (tests/stress_capture.rs), so no negative.
                 continue;
             }
-            let (same, wrong, judged, _) =
-                judge(&ctx, &scene, &reference, Method::Compute, TraceCriterion::Exact);
+            let (same, wrong, judged, _) = judge(
+                &ctx,
+                &scene,
+                &reference,
+                Method::Compute,
+                TraceCriterion::Exact,
+            );
             eprintln!(
                 "{name} cmos {cmos} compute: exact same {:.3} % of {judged}, wrong {wrong}",
                 100.0 * same

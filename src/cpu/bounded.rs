@@ -76,13 +76,15 @@ pub struct BoundedHit {
     pub bary: [f32; 3],
 }
 
-/// Step 1 to 4 of the module docs for texel `texel` crossed over `iv`.
+/// Step 1 to 4 of the module docs for texel `texel` crossed over `iv`; `tested` counts the
+/// candidates intersected.
 pub fn classify_bounded(
     tr: &CmoTracer,
     b: &Bounded,
     seg: &Segment,
     texel: Texel,
     iv: &Interval,
+    tested: &mut u32,
 ) -> Option<Outcome> {
     if !iv.crosses() {
         return None;
@@ -104,7 +106,7 @@ pub fn classify_bounded(
             cut = true;
         }
     }
-    match nearest_candidate(tr, b, seg, texel, rmax, t_known) {
+    match nearest_candidate(tr, b, seg, texel, rmax, t_known, tested) {
         Some(h) => Some(Outcome::Candidate(h)),
         None if cut => Some(Outcome::Behind { t: t_known }),
         None => None,
@@ -129,6 +131,7 @@ fn nearest_candidate(
     texel: Texel,
     rmax: f32,
     t_max: f32,
+    tested: &mut u32,
 ) -> Option<BoundedHit> {
     let sh = shear(seg.d)?;
     let centre = tr.cube.centre;
@@ -142,6 +145,7 @@ fn nearest_candidate(
             continue;
         };
         let local = world.map(|p| p - centre);
+        *tested += 1;
         let Some(h) = intersect_sheared(seg.a, &sh, local) else {
             continue;
         };

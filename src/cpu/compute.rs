@@ -218,7 +218,7 @@ fn advance(tr: &CmoTracer, st: &mut RayState) {
             lo,
             hi,
         );
-        if let Some(o) = classify(tr, &st.seg, tex, &iv) {
+        if let Some(o) = classify(tr, &st.seg, tex, &iv, &mut st.counters) {
             st.done = true;
             st.result = finish(&st.seg, tex, o, st.counters);
         }

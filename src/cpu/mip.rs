@@ -62,7 +62,7 @@ pub fn trace_mip(tr: &CmoTracer, seg: &Segment) -> TraceResult {
                     l -= 1;
                 }
                 c.texels += 1;
-                if let Some(o) = classify(tr, seg, tex, &iv) {
+                if let Some(o) = classify(tr, seg, tex, &iv, &mut c) {
                     return finish(seg, tex, o, c);
                 }
                 cur = next_texel(seg, tex, &iv, n, lo, hi);

@@ -135,6 +135,8 @@ pub struct Counters {
     pub descents: u32,
     /// Returns to a parent cell after its child held nothing.
     pub backtracks: u32,
+    /// Candidate triangles intersected (the `bounded` criterion, [`bounded`]).
+    pub triangles: u32,
 }
 
 /// What one ray found in one CMO.
@@ -409,9 +411,16 @@ pub enum Outcome {
 
 /// Classifies texel `texel` crossed over `iv` (see module docs); `None` if it is entirely in
 /// front, or not crossed.
-pub fn classify(tr: &CmoTracer, seg: &Segment, texel: Texel, iv: &Interval) -> Option<Outcome> {
+/// `counters` gains the candidate triangles the `bounded` criterion tests.
+pub fn classify(
+    tr: &CmoTracer,
+    seg: &Segment,
+    texel: Texel,
+    iv: &Interval,
+    counters: &mut Counters,
+) -> Option<Outcome> {
     if let Some(b) = &tr.bounded {
-        return bounded::classify_bounded(tr, b, seg, texel, iv);
+        return bounded::classify_bounded(tr, b, seg, texel, iv, &mut counters.triangles);
     }
     let d = tr.cube.distance_at(texel);
     if !texel_not_in_front(seg, iv, d) {

@@ -20,7 +20,7 @@ pub fn trace_walk(tr: &CmoTracer, seg: &Segment) -> TraceResult {
             let mut cur = locate(seg, faces.face[f], faces.iv[f].t0, n, lo, hi);
             while let Some((tex, iv)) = cur {
                 c.texels += 1;
-                if let Some(o) = classify(tr, seg, tex, &iv) {
+                if let Some(o) = classify(tr, seg, tex, &iv, &mut c) {
                     return finish(seg, tex, o, c);
                 }
                 cur = next_texel(seg, tex, &iv, n, lo, hi);
@@ -50,7 +50,7 @@ pub fn trace_brute(tr: &CmoTracer, seg: &Segment) -> TraceResult {
             }
         }
         if let Some((tex, iv)) = best
-            && let Some(o) = classify(tr, seg, tex, &iv)
+            && let Some(o) = classify(tr, seg, tex, &iv, &mut c)
         {
             return finish(seg, tex, o, c);
         }

@@ -375,8 +375,14 @@ pub fn bounded_twin<'a>(
     size: u32,
     perturb: &dyn Fn(&mut TexelLists),
 ) -> Option<Twin<'a>> {
+    let cmos = bounded_cmos(bench, size, perturb);
+    Some(Box::new(move |p| found(&bounded_ray(bench, &cmos, p))))
+}
+
+/// The CMOs of [`bounded_twin`].
+pub fn bounded_cmos(bench: &Bench, size: u32, perturb: &dyn Fn(&mut TexelLists)) -> Vec<CmoTracer> {
     let captured = captured_flags(bench);
-    let cmos: Vec<CmoTracer> = bench
+    bench
         .centres
         .iter()
         .map(|&c| {
@@ -390,22 +396,21 @@ pub fn bounded_twin<'a>(
             perturb(&mut lists);
             CmoTracer::bounded(c, lists, bench.corners.clone(), TraceParams::default())
         })
-        .collect();
-    Some(Box::new(move |p| {
-        let ray = cubetrace::cpu::multi::WorldRay {
-            origin: p.origin,
-            dir: p.dir,
-            from: p.from.triangle,
-            t_lo: 0.0,
-            t_hi: bench.t_hi,
-        };
-        found(&cubetrace::cpu::multi::trace_world_ray(
-            &cmos,
-            &ray,
-            None,
-            |tr, s| cubetrace::cpu::multi::trace_one(tr, s, Traversal::Mip),
-        ))
-    }))
+        .collect()
+}
+
+/// One probe's ray traced by [`bounded_twin`].
+pub fn bounded_ray(bench: &Bench, cmos: &[CmoTracer], p: &Probe) -> MultiResult {
+    let ray = cubetrace::cpu::multi::WorldRay {
+        origin: p.origin,
+        dir: p.dir,
+        from: p.from.triangle,
+        t_lo: 0.0,
+        t_hi: bench.t_hi,
+    };
+    cubetrace::cpu::multi::trace_world_ray(cmos, &ray, None, |tr, s| {
+        cubetrace::cpu::multi::trace_one(tr, s, Traversal::Mip)
+    })
 }
 
 /// Per global triangle, whether the capture takes it (design22, "Which triangles": every
