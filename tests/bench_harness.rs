@@ -25,7 +25,16 @@ fn bench_reports_cost_per_ray_ratios_and_floor() {
     };
     let report = bench::run(&ctx, &cfg, &indicatif::ProgressBar::hidden()).expect("bench");
     assert_eq!(report.runs.len(), cfg.methods.len());
-    assert_eq!(cfg.methods.len(), Method::ALL.len() + 1);
+    // One run per method, the reflection-point method subdivided too, and the two cubemap
+    // tracers with the bounded criterion as well.
+    assert_eq!(cfg.methods.len(), Method::ALL.len() + 3);
+    let bounded: Vec<_> = report
+        .runs
+        .iter()
+        .filter(|r| r.method.ends_with("-bounded"))
+        .map(|r| r.method.as_str())
+        .collect();
+    assert_eq!(bounded, ["fragment-bounded", "compute-bounded"]);
     // The reflection-point method runs plain and subdivided (more triangles, same reference),
     // with its search steps per vertex in the counters.
     let rp: Vec<_> = report

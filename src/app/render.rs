@@ -470,6 +470,30 @@ fn log_gpu_frame(frame: &GpuFrame, method: Method) {
             b.cut
         );
     }
+    if let Some(l) = &frame.lists {
+        log::info!(
+            "capture lists: {} nodes, {} jobs; dropped {} nodes and {} jobs (full buffers), {} \
+             list walks and {} face tilings capped",
+            l.nodes,
+            l.jobs,
+            l.nodes_dropped,
+            l.jobs_dropped,
+            l.walks_capped,
+            l.tiles_capped
+        );
+        let cut = l.nodes_dropped + l.jobs_dropped + l.walks_capped + l.tiles_capped;
+        if cut > 0 {
+            log::warn!(
+                "--criterion bounded: the capture's lists were cut ({} nodes and {} jobs \
+                 dropped, {} walks and {} tilings capped): rays through those texels past the \
+                 cut go to the next CMO or the fallback",
+                l.nodes_dropped,
+                l.jobs_dropped,
+                l.walks_capped,
+                l.tiles_capped
+            );
+        }
+    }
 }
 
 /// The `wrote ...` line of a GPU render.

@@ -106,7 +106,7 @@ use super::methods::{self, FrameInputs, MethodSpec, Needs, Scope, Technique};
 use super::passes::bounce::{BouncePasses, MAX_BOUNCES};
 use super::passes::bvh::{AppendKind, BvhCounter, BvhPasses, ReflectorCheck};
 use super::passes::capture::Capture;
-use super::passes::capture_lists::{self, CaptureLists, ListTargets};
+use super::passes::capture_lists::{self, CaptureLists, ListCounters, ListTargets};
 use super::passes::cmo::{CaptureContents, CmoData};
 use super::passes::composite::Composite;
 use super::passes::gbuffer::Gbuffer;
@@ -180,6 +180,9 @@ pub struct GpuFrame {
     /// The BVH queue's counter: rays traced and rays cut by the loop cap ([`Method::Bvh`]:
     /// every mirror ray; [`Fallback::Trace`]: the fallback rays).
     pub bvh: Option<BvhCounter>,
+    /// The lists' capture counters (`--criterion bounded`: nodes, what a full pool or job buffer
+    /// dropped, walks capped; each dropped entry made its texel unknown from its `lo` on).
+    pub lists: Option<ListCounters>,
     /// Ray count, subgroup size and per-ray counters ([`Method::Compute`] only).
     pub compute: Option<ComputeStats>,
     /// Iteration counts of the searches ([`Method::ReflectionPoint`] only).
@@ -868,6 +871,10 @@ impl GpuRenderer {
             Some(b) => Some(b.queue.read_counter(ctx)?),
             None => None,
         };
+        let lists = match &self.capture {
+            Some(CmoCapture::Lists(c)) => Some(c.read_counters(ctx)?),
+            _ => None,
+        };
         let n = (self.width * self.height) as usize;
         Ok(GpuFrame {
             width: self.width,
@@ -887,6 +894,7 @@ impl GpuRenderer {
             records: records[..n].to_vec(),
             pass_times,
             bvh,
+            lists,
             compute: stats.compute,
             search: stats.search,
         })

@@ -27,8 +27,9 @@ use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 use gpu_allocator::MemoryLocation;
 
+use super::lists;
 use super::scene_buffers::SceneBuffers;
-use crate::cubemap::bounds::{self, Entry, PoolBound, TexelLists};
+use crate::cubemap::bounds::{self, PoolBound, TexelLists};
 use crate::cubemap::face::FACE_COUNT;
 use crate::scene::gpu_data::GpuSceneData;
 use crate::vk::backend::buffer::Buffer;
@@ -447,6 +448,12 @@ impl CaptureLists {
         self.own.as_ref().map(OwnTargets::targets)
     }
 
+    /// The counters of the last capture (after a submission of [`CaptureLists::record`]).
+    pub fn read_counters(&self, ctx: &GpuContext) -> VkResult<ListCounters> {
+        let c: Vec<ListCounters> = ctx.read_buffer(&self.counters)?;
+        Ok(c[0])
+    }
+
     /// The counters ([`ListCounters`]).
     pub fn counters(&self) -> &Buffer {
         &self.counters
@@ -472,8 +479,8 @@ impl CaptureLists {
                 detail: "read_back needs the buffers the pass writes".into(),
             })?;
         let records: Vec<TexelRecord> = ctx.read_buffer(out.records)?;
-        let nodes: Vec<ListNode> = ctx.read_buffer(out.nodes)?;
-        let counters: Vec<ListCounters> = ctx.read_buffer(&self.counters)?;
+        let nodes: Vec<[u32; 4]> = ctx.read_buffer(out.nodes)?;
+        let counters = self.read_counters(ctx)?;
         let dist: Vec<f32> = ctx.read_buffer(out.distance)?;
         let n = self.params.size as usize;
         let per_cmo = 6 * n * n;
@@ -488,31 +495,23 @@ impl CaptureLists {
                 offsets: vec![0],
                 entries: Vec::new(),
             };
-            for r in &records[c * per_cmo..(c + 1) * per_cmo] {
+            for (i, r) in records[c * per_cmo..(c + 1) * per_cmo].iter().enumerate() {
                 l.complete_to.push(f32::from_bits(r[1]));
                 l.hi.push(f32::from_bits(r[2]));
-                let mut node = r[0];
-                for _ in 0..r[3] {
-                    let Some(nd) = nodes.get(node as usize) else {
-                        return Err(VkError::Usage {
-                            what: CAPTURE_LISTS.name.into(),
-                            detail: format!("list node {node} out of the pool"),
-                        });
-                    };
-                    l.entries.push(Entry {
-                        triangle: nd.triangle,
-                        lo: f32::from_bits(nd.lo),
-                        hi: f32::from_bits(nd.hi),
-                    });
-                    node = nd.next;
-                }
+                let entries = lists::walk(&records, &nodes, c * per_cmo + i).map_err(|e| {
+                    VkError::Usage {
+                        what: CAPTURE_LISTS.name.into(),
+                        detail: e,
+                    }
+                })?;
+                l.entries.extend(entries);
                 l.offsets.push(l.entries.len() as u32);
             }
             cmos.push(l);
         }
         Ok(GpuLists {
             cmos,
-            counters: counters[0],
+            counters,
             records,
         })
     }
