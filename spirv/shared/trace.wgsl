@@ -515,9 +515,10 @@ fn mip_get(k: u32, l: u32, face: u32, x: u32, y: u32) -> vec2<f32> {
 //
 // The march over one face is a stepper (`MipMarch`, `mip_start`, `mip_turn`, `mip_passed`) so
 // that another criterion marches the same pyramid with its own classification
-// (shared/trace_bounded.wgsl's `trace_mip_bounded`) without this file reaching its bindings. Each
-// caller's face loop is one turn per loop turn, as before the split: `mip_turn` (search, cell
-// tests) then, where it stops at a texel, the caller's classification.
+// (shared/trace_bounded.wgsl's `trace_mip_bounded`) without this file reaching its bindings
+// (naga counts a binding used where any function reachable from the entry point reads it). Each
+// caller's face loop runs one `mip_turn` (the search, the cell tests) per turn and classifies
+// where it stops at a texel: the loop shape of the march before the split.
 fn trace_mip(k: u32, seg: Segment, cut: f32, variant: u32) -> TraceResult {
     let n = trace_config.size;
     var c = Counters(0u, 0u);
@@ -563,13 +564,13 @@ struct MipMarch {
     la: vec3<f32>,
     ld: vec3<f32>,
     signs: vec2<f32>,
-    // Bit l: the caller's `checked[l]` (the level-l cell last found not skippable, packed
-    // `x | y << 16`; cells are under 2^11 for N <= TRACE_MAX_SIZE) is set (none before).
-    // Lavapipe keeps an array indexed by a variable in memory and reads it lane by lane (so the
-    // array is a variable of its own, the rest of the state stays in registers), so the level
-    // scan works on bit masks instead: bit l of `valid` says checked[l] is the cell around
-    // `vtex` at level l, and is recomputed from the array only for the levels whose cell
-    // changed when the texel does.
+    // Bit l: the caller's `checked[l]` was written (none before); `checked[l]` is the level-l
+    // cell last found not skippable, packed `x | y << 16` (cells are under 2^11 for
+    // N <= TRACE_MAX_SIZE). Lavapipe keeps an array indexed by a variable in memory and reads
+    // it lane by lane (hence an array of its own: the rest of this state can stay in
+    // registers), so the level scan works on bit masks instead: bit l of `valid` says
+    // checked[l] is the cell around `vtex` at level l, and is recomputed from the array only
+    // for the levels whose cell changed when the texel does.
     written: u32,
     valid: u32,
     vtex: vec2<u32>,
