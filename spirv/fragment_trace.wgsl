@@ -9,7 +9,7 @@
 // Two entry points, the same code specialised: `fs_main` carries every criterion, sampling and
 // acceleration (chosen at run time by `trace_config`); `fs_exact_mip` only the exact criterion's
 // mip march, the default options' path (`vk::passes::cmo::exact_mip_only` picks it);
-// `fs_bounded` only the `bounded` criterion (shared/trace_bounded.wgsl: its per-texel walk over
+// `fs_bounded` only the `bounded` criterion (shared/trace_bounded.wgsl: the pyramid march over
 // the candidate lists, the ray leaving the G-buffer's triangle), picked for `--criterion bounded`.
 //! import shared/mirror.wgsl
 //! import shared/trace_verified.wgsl

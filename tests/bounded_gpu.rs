@@ -1,8 +1,8 @@
 //! The `bounded` criterion on the GPU (issue 22): both GPU paths (`--method fragment`,
 //! `fs_bounded`; `--method compute`, the `_bounded` entry points) over per-texel lists built on
 //! the CPU and uploaded (`GpuRenderer::with_lists`), against each other and against the CPU
-//! twin (`cpu::bounded` through its multi-CMO layer) per mirror pixel: status, CMO, texel, t
-//! and point bits, triangle. With one and two CMOs, with a self-capturing reflector (the start
+//! twin (`cpu::bounded` through its multi-CMO layer, the pyramid march) per mirror pixel:
+//! status, CMO, texel, t and point bits, triangle, and the fragment path's counters. With one and two CMOs, with a self-capturing reflector (the start
 //! rule: each ray's own triangle is in the lists), and with a perturbed list (the true first
 //! triangle dropped), which must change the hits. Runs under the validation layer when
 //! installed and fails on any error it reports.
@@ -13,7 +13,9 @@ use cubetrace::Method;
 use cubetrace::camera::Camera;
 use cubetrace::cpu::CmoTracer;
 use cubetrace::cpu::bounded::NO_TRIANGLE;
-use cubetrace::cpu::multi::{MultiStatus, Traversal, WorldRay, trace_one, trace_world_ray};
+use cubetrace::cpu::multi::{
+    MultiResult, MultiStatus, Traversal, WorldRay, trace_one, trace_world_ray,
+};
 use cubetrace::cpu::options::{TraceCriterion, TraceOptions};
 use cubetrace::cpu::verify::triangle_corners;
 use cubetrace::cubemap::bounds::{Entry, TexelLists};
@@ -260,12 +262,17 @@ fn hits(f: &GpuFrame) -> usize {
 }
 
 /// The CPU twin of the frame's ray of each pixel: `cpu::bounded` CMOs over the same lists,
-/// through `cpu::multi::trace_world_ray` (the pyramid march), the ray leaving the pixel's
-/// G-buffer triangle (`None`: no start triangle, the negative).
+/// through `cpu::multi::trace_world_ray` (the pyramid march, `Traversal::Mip`, as
+/// `fs_bounded`), the ray leaving the pixel's G-buffer triangle (`None`: no start triangle, the
+/// negative).
 struct Twin {
     cmos: Vec<CmoTracer>,
     t_hi: f32,
 }
+
+/// A record's counters: texels classified, cells tested (of the last single-CMO trace),
+/// single-CMO traces run.
+type Work = [u32; 3];
 
 impl Twin {
     fn new(scene: &Scene, lists: &[TexelLists]) -> Twin {
@@ -282,7 +289,7 @@ impl Twin {
         }
     }
 
-    fn decision(&self, rec: &PixelRecord, from: u32) -> Decision {
+    fn trace(&self, rec: &PixelRecord, from: u32, how: Traversal) -> MultiResult {
         let ray = WorldRay {
             origin: Vec3::from_array(rec.origin),
             dir: Vec3::from_array(rec.dir),
@@ -290,9 +297,11 @@ impl Twin {
             t_lo: 0.0,
             t_hi: self.t_hi,
         };
-        let m = trace_world_ray(&self.cmos, &ray, None, |tr, s| {
-            trace_one(tr, s, Traversal::Mip)
-        });
+        trace_world_ray(&self.cmos, &ray, None, |tr, s| trace_one(tr, s, how))
+    }
+
+    fn decision(&self, rec: &PixelRecord, from: u32) -> Decision {
+        let m = self.trace(rec, from, Traversal::Mip);
         let status = match m.status {
             MultiStatus::Hit => RECORD_HIT,
             MultiStatus::Escaped => RECORD_ESCAPED,
@@ -329,14 +338,39 @@ impl Twin {
         }
         (bad, compared)
     }
+
+    /// Mirror pixels whose counters (`Work`) differ from the twin's traced with `how`, the
+    /// start rule on.
+    fn work_differences(&self, f: &GpuFrame, from: &[u32], how: Traversal) -> usize {
+        let mut bad = 0;
+        for (k, rec) in f.records.iter().enumerate() {
+            if f.mask[k] == 0 {
+                continue;
+            }
+            let m = self.trace(rec, from[k], how);
+            let c = m.result.counters;
+            let want: Work = [c.texels, c.cells, m.traces];
+            let got: Work = [rec.texels, rec.cells, rec.traces];
+            if got != want {
+                bad += 1;
+                if bad <= 3 && how == Traversal::Mip {
+                    eprintln!("pixel {k}: GPU counters {got:?}; CPU {want:?}");
+                }
+            }
+        }
+        bad
+    }
 }
 
 /// Both GPU paths against the CPU twin on every mirror pixel, bit for bit (status, CMO,
 /// texel, t and point bits, triangle), with one CMO (sphere-room), two (default) and a
 /// self-capturing reflector (sphere-room, self-reflections on: each ray's own triangle is in
 /// the lists of the texel it starts in, the start rule keeps it off it); most mirror pixels
-/// hit. Negatives: the twin without the start rule differs on the self-capturing scene, and the
-/// twin over lists with one hit triangle dropped differs from the frame of the full lists.
+/// hit. The fragment path's counters (texels, cells, traces) equal the twin's pyramid march's
+/// (`Traversal::Mip`). Negatives: the twin without the start rule differs on the
+/// self-capturing scene, the twin over lists with one hit triangle dropped differs from the
+/// frame of the full lists, and the twin's walk (`Traversal::Walk`, what `fs_bounded` did
+/// before it marched the pyramid) has other counters on most pixels.
 #[test]
 fn gpu_paths_match_the_cpu_twin() {
     let ctx = gpu_context();
@@ -359,6 +393,22 @@ fn gpu_paths_match_the_cpu_twin() {
             assert!(compared > 50, "{name}: {compared} mirror pixels");
             assert!(hits(&f) > compared * 3 / 4, "{name}: {} hits", hits(&f));
             assert_eq!(bad, 0, "{name} {method}: GPU and CPU twin differ");
+            if method == Method::Fragment {
+                // `fs_bounded` marches the pyramid: the twin's counters, and not the walk's.
+                let work = twin.work_differences(&f, &from, Traversal::Mip);
+                let walk = twin.work_differences(&f, &from, Traversal::Walk);
+                eprintln!(
+                    "  counters: {work} pixels differ from the twin's pyramid march, {walk} from its walk"
+                );
+                assert_eq!(
+                    work, 0,
+                    "{name}: the counters differ from the pyramid march's"
+                );
+                assert!(
+                    walk > compared / 2,
+                    "{name}: the counters do not tell the march from the walk ({walk})"
+                );
+            }
             if sr.is_some() {
                 let (off, _) = twin.differences(&f, &from, false);
                 eprintln!("  without the start rule the twin differs on {off} pixels");
@@ -521,12 +571,13 @@ fn hits_are_first_and_a_dropped_triangle_shows() {
 }
 
 /// The fragment path's back-edge cap (lavapipe ends every loop after 65535 back-edges): every
-/// texel of a 128^2 CMO lists the same 1024 entries (lo 0, one triangle the mirror rays do not
-/// meet, shared in one chain), so each texel crossed reads all of them and long rays reach the
+/// texel of a 128^2 CMO lists the same 1024 entries (lo 0, so the pyramid skips nothing; one
+/// triangle the mirror rays do not meet, shared in one chain), so each texel crossed reads all
+/// of them and long rays reach the
 /// cap; they end unresolved with `cut` = 1, and no record claims a hit or an escape it did not
 /// finish. Negative: with 8 entries per texel no ray reaches it, and every ray escapes.
 #[test]
-fn the_fragment_walk_stops_at_its_back_edge_cap() {
+fn the_fragment_march_stops_at_its_back_edge_cap() {
     const CAP_SIZE: u32 = 128;
     let ctx = gpu_context();
     let mut s = scene("sphere-room", None);

@@ -512,10 +512,15 @@ fn mip_get(k: u32, l: u32, face: u32, x: u32, y: u32) -> vec2<f32> {
 // per turn of the outer loop, each from one place. (Written as the CPU twin's loops, with a
 // `locate` inside the level loop, a turn paid a search per pyramid level.) `variant`
 // (a constant) leaves `--strict` out of `TRACE_EXACT_MIP`.
+//
+// The march over one face is a stepper (`MipMarch`, `mip_start`, `mip_turn`, `mip_passed`) so
+// that another criterion marches the same pyramid with its own classification
+// (shared/trace_bounded.wgsl's `trace_mip_bounded`) without this file reaching its bindings
+// (naga counts a binding used where any function reachable from the entry point reads it). Each
+// caller's face loop runs one `mip_turn` (the search, the cell tests) per turn and classifies
+// where it stops at a texel: the loop shape of the march before the split.
 fn trace_mip(k: u32, seg: Segment, cut: f32, variant: u32) -> TraceResult {
     let n = trace_config.size;
-    let top = trace_config.mip_top;
-    let none = 0xffffffffu;
     var c = Counters(0u, 0u);
     let pieces = split_near_centre(seg, cut);
     let reach = seg_reach(seg.a, seg.d);
@@ -524,115 +529,169 @@ fn trace_mip(k: u32, seg: Segment, cut: f32, variant: u32) -> TraceResult {
         let hi = pieces.range[p].y;
         let faces = faces_crossed(seg, lo, hi, n);
         for (var f = 0u; f < faces.count; f++) {
-            let face = faces.face[f];
-            let la = to_face_local(face, seg.a);
-            let ld = to_face_local(face, seg.d);
-            let signs = travel_signs(seg, face);
-            // checked[l]: the level-l cell last found not skippable, packed `x | y << 16` (cells
-            // are under 2^11 for N <= TRACE_MAX_SIZE), valid where bit l of `written` is set
-            // (none before). Lavapipe keeps an array indexed by a variable in memory and reads it
-            // lane by lane, so the level scan works on bit masks instead: bit l of `valid` says
-            // checked[l] is the cell around `vtex` at level l, and is recomputed from the array
-            // only for the levels whose cell changed when the texel does.
+            var m: MipMarch;
             var checked: array<u32, TRACE_MIP_MAX_LEVELS>;
-            var written = 0u;
-            var valid = 0u;
-            var vtex = vec2<u32>(0u, 0u);
-            // Bits 1..=top: the pyramid's levels.
-            let levels = ((2u << top) - 1u) & ~1u;
-            // The cell skipped last (level, x, y), which the located texel may still touch.
-            var last_skip = vec3<u32>(none, none, none);
-            // The search due at the top of the next turn: `locate` at `search_t` (ahead false)
-            // or `next_texel` after `cur` (ahead true, search_t its exit).
-            var search = true;
-            var ahead = false;
-            var search_t = faces.iv[f].t0;
-            var cur = Located(false, Texel(0u, 0u, 0u), interval_empty());
-            // Steps as the CPU counts them: texels classified and cells skipped.
-            var step = 0u;
+            mip_start(&m, seg, faces.face[f], faces.iv[f].t0);
             loop {
-                if step >= MAX_FACE_STEPS {
+                let turn = mip_turn(k, seg, &m, &checked, lo, hi, reach, &c);
+                if turn == MIP_DONE {
                     break;
                 }
-                if search {
-                    var centre = vec2<u32>(cur.tex.x, cur.tex.y);
-                    if !ahead {
-                        centre = locate_centre(seg, face, search_t, n);
+                if turn == MIP_TEXEL {
+                    c.texels += 1u;
+                    let o = classify_with(k, seg, m.cur.tex, m.cur.iv, variant != TRACE_EXACT_MIP);
+                    if o.kind != 0u {
+                        return finish(seg, m.cur.tex, o, c);
                     }
-                    cur = texel_search(seg, face, centre.x, centre.y, ahead, signs.x, signs.y, search_t, n, lo, hi);
-                    search = false;
-                    if !cur.found {
-                        break;
-                    }
+                    mip_passed(&m);
                 }
-                let tex = cur.tex;
-                let iv = cur.iv;
-                // The level-l cells around `tex` and `vtex` differ exactly for l <= the highest
-                // bit in which their coordinates differ.
-                let diff = (tex.x ^ vtex.x) | (tex.y ^ vtex.y);
-                if diff != 0u {
-                    let moved = min(firstLeadingBit(diff), top);
-                    valid &= ~((2u << moved) - 1u);
-                    for (var l = 1u; l <= moved; l++) {
-                        if ((written >> l) & 1u) != 0u && checked[l] == ((tex.x >> l) | ((tex.y >> l) << 16u)) {
-                            valid |= 1u << l;
-                        }
-                    }
-                    vtex = vec2<u32>(tex.x, tex.y);
-                }
-                // The cell tests around `tex`, top down, until one skips or every level is
-                // checked: the hot loop, kept small.
-                var skipped = false;
-                loop {
-                    // The highest level whose cell around `tex` is not checked yet.
-                    let todo = levels & ~valid;
-                    if todo == 0u {
-                        break;
-                    }
-                    let level = firstLeadingBit(todo);
-                    let cell = vec2<u32>(tex.x >> level, tex.y >> level);
-                    c.cells += 1u;
-                    let span = 1u << level;
-                    let rect = CellRect(face, min(cell.x * span, n), min((cell.x + 1u) * span, n), min(cell.y * span, n), min((cell.y + 1u) * span, n), n);
-                    let civ = cell_interval(la, ld, rect, lo, hi);
-                    let inf = inflated(civ, lo, hi, reach);
-                    var skip = false;
-                    if inf.ok {
-                        skip = any(last_skip != vec3<u32>(level, cell.x, cell.y)) && r_bounds(seg.a, seg.d, inf.lo, inf.hi).y < mip_get(k, level, face, cell.x, cell.y).x;
-                    }
-                    if skip {
-                        last_skip = vec3<u32>(level, cell.x, cell.y);
-                        var t_exit = iv.t1;
-                        if crosses(civ) {
-                            t_exit = civ.t1;
-                        }
-                        search_t = max(t_exit, iv.t1);
-                        skipped = true;
-                        break;
-                    }
-                    checked[level] = cell.x | (cell.y << 16u);
-                    written |= 1u << level;
-                    valid |= 1u << level;
-                }
-                if skipped {
-                    search = true;
-                    ahead = false;
-                    step += 1u;
-                    continue;
-                }
-                c.texels += 1u;
-                let o = classify_with(k, seg, tex, iv, variant != TRACE_EXACT_MIP);
-                if o.kind != 0u {
-                    return finish(seg, tex, o, c);
-                }
-                search = true;
-                ahead = true;
-                search_t = iv.t1;
-                step += 1u;
             }
         }
     }
     return escaped(seg, c);
+}
+
+// What `mip_turn` did: stopped at texel `cur` (the caller classifies it, then `mip_passed`
+// where it decided nothing), skipped a cell, or ended the face.
+const MIP_TEXEL: u32 = 0u;
+const MIP_SKIPPED: u32 = 1u;
+const MIP_DONE: u32 = 2u;
+
+// The pyramid march over one face of one piece between turns.
+struct MipMarch {
+    face: u32,
+    // The face-local ray and `next_texel`'s signs of travel.
+    la: vec3<f32>,
+    ld: vec3<f32>,
+    signs: vec2<f32>,
+    // Bit l: the caller's `checked[l]` was written (none before); `checked[l]` is the level-l
+    // cell last found not skippable, packed `x | y << 16` (cells are under 2^11 for
+    // N <= TRACE_MAX_SIZE). Lavapipe keeps an array indexed by a variable in memory and reads
+    // it lane by lane (hence an array of its own: the rest of this state can stay in
+    // registers), so the level scan works on bit masks instead: bit l of `valid` says
+    // checked[l] is the cell around `vtex` at level l, and is recomputed from the array only
+    // for the levels whose cell changed when the texel does.
+    written: u32,
+    valid: u32,
+    vtex: vec2<u32>,
+    // The cell skipped last (level, x, y), which the located texel may still touch.
+    last_skip: vec3<u32>,
+    // The search due at the top of the next turn: `locate` at `search_t` (ahead false) or
+    // `next_texel` after `cur` (ahead true, search_t its exit).
+    search: bool,
+    ahead: bool,
+    search_t: f32,
+    // The current texel and its interval.
+    cur: Located,
+    // Steps as the CPU counts them: texels classified and cells skipped.
+    step: u32,
+}
+
+// The march over `face` from `t0` (the face's entry), with a new `checked` array beside it.
+fn mip_start(m: ptr<function, MipMarch>, seg: Segment, face: u32, t0: f32) {
+    let none = 0xffffffffu;
+    (*m).face = face;
+    (*m).la = to_face_local(face, seg.a);
+    (*m).ld = to_face_local(face, seg.d);
+    (*m).signs = travel_signs(seg, face);
+    (*m).written = 0u;
+    (*m).valid = 0u;
+    (*m).vtex = vec2<u32>(0u, 0u);
+    (*m).last_skip = vec3<u32>(none, none, none);
+    (*m).search = true;
+    (*m).ahead = false;
+    (*m).search_t = t0;
+    (*m).cur = Located(false, Texel(0u, 0u, 0u), interval_empty());
+    (*m).step = 0u;
+}
+
+// After a texel that decided nothing: `next_texel` after it at the next turn.
+fn mip_passed(m: ptr<function, MipMarch>) {
+    (*m).search = true;
+    (*m).ahead = true;
+    (*m).search_t = (*m).cur.iv.t1;
+    (*m).step += 1u;
+}
+
+// One turn of the march over piece [lo, hi] (`reach`: `seg_reach`): the search due, then the
+// cell tests around the texel found, top down, until one skips (MIP_SKIPPED: the search after
+// the cell is due) or every level is checked (MIP_TEXEL: `cur` is the next texel to classify);
+// MIP_DONE where the face has no texel left (or at MAX_FACE_STEPS). `c.cells` counts the cells
+// tested (each a turn of the inner loop). One exit: no early return in the hot loop.
+fn mip_turn(k: u32, seg: Segment, m: ptr<function, MipMarch>, checked: ptr<function, array<u32, TRACE_MIP_MAX_LEVELS>>, lo: f32, hi: f32, reach: f32, c: ptr<function, Counters>) -> u32 {
+    let n = trace_config.size;
+    let top = trace_config.mip_top;
+    let face = (*m).face;
+    var turn = MIP_DONE;
+    if (*m).step < MAX_FACE_STEPS {
+        if (*m).search {
+            var centre = vec2<u32>((*m).cur.tex.x, (*m).cur.tex.y);
+            if !(*m).ahead {
+                centre = locate_centre(seg, face, (*m).search_t, n);
+            }
+            (*m).cur = texel_search(seg, face, centre.x, centre.y, (*m).ahead, (*m).signs.x, (*m).signs.y, (*m).search_t, n, lo, hi);
+            (*m).search = false;
+        }
+        // Without a search, `cur` is the texel the last one found.
+        if (*m).cur.found {
+            turn = MIP_TEXEL;
+            let tex = (*m).cur.tex;
+            let iv = (*m).cur.iv;
+            // The level-l cells around `tex` and `vtex` differ exactly for l <= the highest
+            // bit in which their coordinates differ.
+            let diff = (tex.x ^ (*m).vtex.x) | (tex.y ^ (*m).vtex.y);
+            if diff != 0u {
+                let moved = min(firstLeadingBit(diff), top);
+                var valid = (*m).valid & ~((2u << moved) - 1u);
+                for (var l = 1u; l <= moved; l++) {
+                    if (((*m).written >> l) & 1u) != 0u && (*checked)[l] == ((tex.x >> l) | ((tex.y >> l) << 16u)) {
+                        valid |= 1u << l;
+                    }
+                }
+                (*m).valid = valid;
+                (*m).vtex = vec2<u32>(tex.x, tex.y);
+            }
+            // Bits 1..=top: the pyramid's levels.
+            let levels = ((2u << top) - 1u) & ~1u;
+            // The cell tests around `tex`, top down, until one skips or every level is
+            // checked: the hot loop, kept small.
+            loop {
+                // The highest level whose cell around `tex` is not checked yet.
+                let todo = levels & ~(*m).valid;
+                if todo == 0u {
+                    break;
+                }
+                let level = firstLeadingBit(todo);
+                let cell = vec2<u32>(tex.x >> level, tex.y >> level);
+                (*c).cells += 1u;
+                let span = 1u << level;
+                let rect = CellRect(face, min(cell.x * span, n), min((cell.x + 1u) * span, n), min(cell.y * span, n), min((cell.y + 1u) * span, n), n);
+                let civ = cell_interval((*m).la, (*m).ld, rect, lo, hi);
+                let inf = inflated(civ, lo, hi, reach);
+                var skip = false;
+                if inf.ok {
+                    skip = any((*m).last_skip != vec3<u32>(level, cell.x, cell.y)) && r_bounds(seg.a, seg.d, inf.lo, inf.hi).y < mip_get(k, level, face, cell.x, cell.y).x;
+                }
+                if skip {
+                    (*m).last_skip = vec3<u32>(level, cell.x, cell.y);
+                    var t_exit = iv.t1;
+                    if crosses(civ) {
+                        t_exit = civ.t1;
+                    }
+                    (*m).search_t = max(t_exit, iv.t1);
+                    (*m).search = true;
+                    (*m).ahead = false;
+                    (*m).step += 1u;
+                    turn = MIP_SKIPPED;
+                    break;
+                }
+                (*checked)[level] = cell.x | (cell.y << 16u);
+                (*m).written |= 1u << level;
+                (*m).valid |= 1u << level;
+            }
+        }
+    }
+    return turn;
 }
 
 // One sample of an approximate criterion (`cpu::approx::sample`); `hit` set on a hit.

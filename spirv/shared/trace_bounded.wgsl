@@ -28,13 +28,18 @@
 // A list whose chain ends before `count_kept` nodes (a capture defect) is behind at t0: nothing
 // is claimed from it.
 //
-// Loop caps: `count_kept` entries at most, and at most BOUNDED_MAX_ENTRIES; the texel walk is
+// Traversal: the exact criterion's 2x2 pyramid march (shared/trace.wgsl's stepper `mip_turn`,
+// CPU twin `cpu::mip`; the pyramid's min is the texels' `lo`), classifying with
+// `classify_bounded_pick`.
+//
+// Loop caps: `count_kept` entries at most, and at most BOUNDED_MAX_ENTRIES; the march is
 // trace.wgsl's (MAX_FACE_STEPS). lavapipe ends every loop of an invocation after 65535
-// back-edges in all (spirv/README.md, "Known defect"), which would end a walk early as if the
-// ray had escaped: `trace_ray_bounded` counts the back-edges it takes (one per texel and per
-// entry read, BOUNDED_TRACE_EDGES per single-CMO trace for its fixed loops) and stops at
-// BOUNDED_MAX_EDGES with the ray unresolved at its proven-empty prefix and `cut` set (sound:
-// nothing is claimed; the CPU twin has no such cap, so it differs only on such rays).
+// back-edges in all (spirv/README.md, "The loop limit"), which would end a march early as if
+// the ray had escaped: `trace_ray_bounded` counts the back-edges it takes (one per turn of the
+// march, per cell tested and per entry read, BOUNDED_TRACE_EDGES per single-CMO trace for its
+// fixed loops) and stops at BOUNDED_MAX_EDGES with the ray unresolved at its proven-empty
+// prefix and `cut` set (sound: nothing is claimed; the CPU twin has no such cap, so it differs
+// only on such rays).
 //! import shared/trace_verified.wgsl
 //! import shared/watertight.wgsl
 //! import shared/hit.wgsl
@@ -186,30 +191,44 @@ struct BoundedResult {
     cut: bool,
 }
 
-// Per-texel walk with the bounded classification (trace.wgsl's `trace_walk`, loop for loop);
-// `edges` counts the back-edges (module docs, "Loop caps").
-fn trace_walk_bounded(k: u32, seg: Segment, cut: f32, edges: ptr<function, u32>) -> BoundedResult {
+// The pyramid march (shared/trace.wgsl's `trace_mip`, its stepper `mip_turn`) with the bounded
+// classification; `edges` counts the back-edges (module docs, "Loop caps": one per turn, one
+// per cell tested, one per entry read).
+fn trace_mip_bounded(k: u32, seg: Segment, cut: f32, edges: ptr<function, u32>) -> BoundedResult {
     let n = trace_config.size;
     var c = Counters(0u, 0u);
     *edges += BOUNDED_TRACE_EDGES;
     let pieces = split_near_centre(seg, cut);
+    let reach = seg_reach(seg.a, seg.d);
     for (var p = 0u; p < pieces.count; p++) {
         let lo = pieces.range[p].x;
         let hi = pieces.range[p].y;
         let faces = faces_crossed(seg, lo, hi, n);
         for (var f = 0u; f < faces.count; f++) {
-            var cur = locate(seg, faces.face[f], faces.iv[f].t0, n, lo, hi);
-            for (var step = 0u; step < MAX_FACE_STEPS && cur.found; step++) {
-                c.texels += 1u;
-                let b = classify_bounded_pick(k, seg, cur.tex, cur.iv);
-                *edges += 1u + b.read;
+            var m: MipMarch;
+            var checked: array<u32, TRACE_MIP_MAX_LEVELS>;
+            mip_start(&m, seg, faces.face[f], faces.iv[f].t0);
+            loop {
+                let cells = c.cells;
+                let turn = mip_turn(k, seg, &m, &checked, lo, hi, reach, &c);
+                if turn == MIP_DONE {
+                    break;
+                }
+                var b = BoundedOutcome(Outcome(0u, 0.0, false), bounded_no_pick(), 0u);
+                if turn == MIP_TEXEL {
+                    c.texels += 1u;
+                    b = classify_bounded_pick(k, seg, m.cur.tex, m.cur.iv);
+                }
+                *edges += 1u + (c.cells - cells) + b.read;
                 if *edges > BOUNDED_MAX_EDGES {
-                    return BoundedResult(finish(seg, cur.tex, b.o, c), bounded_no_pick(), true);
+                    return BoundedResult(finish(seg, m.cur.tex, b.o, c), bounded_no_pick(), true);
                 }
                 if b.o.kind != 0u {
-                    return BoundedResult(finish(seg, cur.tex, b.o, c), b.pick, false);
+                    return BoundedResult(finish(seg, m.cur.tex, b.o, c), b.pick, false);
                 }
-                cur = next_texel(seg, cur.tex, cur.iv, n, lo, hi);
+                if turn == MIP_TEXEL {
+                    mip_passed(&m);
+                }
             }
         }
     }
@@ -238,7 +257,7 @@ fn trace_ray_bounded(origin: vec3<f32>, dir: vec3<f32>, t_lo: f32, t_hi: f32, fr
         for (var k = 0u; k < trace_config.cmo_count; k++) {
             let centre = cmo_centres[k].xyz;
             let seg = Segment(origin - centre, dir, t_done, t_hi, from_tri);
-            let b = trace_walk_bounded(k, seg, cut_radius(k), &edges);
+            let b = trace_mip_bounded(k, seg, cut_radius(k), &edges);
             let r = b.r;
             traces += 1u;
             last = r;

@@ -40,9 +40,10 @@
 //! candidate lists (`cubemap::bounds`, uploaded by `vk::passes::lists`, their `lo` as the CMO
 //! distance) instead of a centre-sampled capture; the hit is the nearest listed triangle the
 //! ray meets where the list is complete (`spirv/shared/trace_bounded.wgsl`, CPU twin
-//! `cpu::bounded`), the ray leaving its G-buffer triangle (the start rule). It walks the texels
-//! (the pyramid march is the exact criterion's, in `fs_exact_mip`/`fs_main`, whose bindings stay
-//! free of the lists); `--no-accel` and `--strict` do not apply to it.
+//! `cpu::bounded`), the ray leaving its G-buffer triangle (the start rule). It marches the 2x2
+//! pyramid of the texels' `lo` like the exact criterion (the march is shared, its
+//! classification is not: `fs_exact_mip`/`fs_main`'s bindings stay free of the lists; CPU twin
+//! `Traversal::Mip`); `--no-accel` and `--strict` do not apply to it.
 //!
 //! The thesis's approximate criteria (`--criterion threshold|sign-change`, `--sampling`,
 //! `--steps`, `--eps`) are kept to measure against: they report "escaped" where no sample fires and
