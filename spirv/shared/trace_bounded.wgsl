@@ -49,7 +49,7 @@
 @group(1) @binding(7) var<storage, read> cmo_nodes: array<vec4<u32>>;
 
 const BOUNDED_NO_NODE: u32 = 0xffffffffu;
-// Most entries read per texel (the capture's `depth`, 16 by default, stays below it): a texel
+// Most entries read per texel (the capture's `depth`, 64 by default, stays below it): a texel
 // with more is unknown, behind at its entry (sound; the CPU twin reads them all).
 const BOUNDED_MAX_ENTRIES: u32 = 1024u;
 

@@ -498,12 +498,11 @@ impl CaptureLists {
             for (i, r) in records[c * per_cmo..(c + 1) * per_cmo].iter().enumerate() {
                 l.complete_to.push(f32::from_bits(r[1]));
                 l.hi.push(f32::from_bits(r[2]));
-                let entries = lists::walk(&records, &nodes, c * per_cmo + i).map_err(|e| {
-                    VkError::Usage {
+                let entries =
+                    lists::walk(&records, &nodes, c * per_cmo + i).map_err(|e| VkError::Usage {
                         what: CAPTURE_LISTS.name.into(),
                         detail: e,
-                    }
-                })?;
+                    })?;
                 l.entries.extend(entries);
                 l.offsets.push(l.entries.len() as u32);
             }
