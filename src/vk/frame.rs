@@ -413,19 +413,27 @@ impl CmoStages {
             capture_near,
             needs.contents,
         )?;
-        let pyramid = if needs.pyramid {
-            let p = Pyramid::new(ctx)?;
-            let b = p.bind(ctx, cmo.distance(), cmo.mip(), centres.len() as u32, size)?;
-            Some((p, b))
-        } else {
-            None
-        };
+        let pyramid = pyramid_stage(ctx, &cmo, needs)?;
         Ok(CmoStages {
             cmo,
             capture: Some(CmoCapture::Raster(Box::new(capture))),
             pyramid,
         })
     }
+}
+
+/// The pyramid pass over the CMO data's distances, where the method needs one.
+fn pyramid_stage(
+    ctx: &GpuContext,
+    cmo: &CmoData,
+    needs: &Needs,
+) -> VkResult<Option<(Pyramid, PyramidBindings)>> {
+    if !needs.pyramid {
+        return Ok(None);
+    }
+    let p = Pyramid::new(ctx)?;
+    let b = p.bind(ctx, cmo.distance(), cmo.mip(), cmo.count(), cmo.size())?;
+    Ok(Some((p, b)))
 }
 
 impl CmoStages {
@@ -483,13 +491,7 @@ impl CmoStages {
                 )?)))
             }
         };
-        let pyramid = if needs.pyramid {
-            let p = Pyramid::new(ctx)?;
-            let b = p.bind(ctx, cmo.distance(), cmo.mip(), centres.len() as u32, size)?;
-            Some((p, b))
-        } else {
-            None
-        };
+        let pyramid = pyramid_stage(ctx, &cmo, needs)?;
         Ok(CmoStages {
             cmo,
             capture,

@@ -25,8 +25,8 @@
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
-use gpu_allocator::MemoryLocation;
 
+use super::cmo::storage;
 use super::lists;
 use super::scene_buffers::SceneBuffers;
 use crate::cubemap::bounds::{self, PoolBound, TexelLists};
@@ -143,18 +143,6 @@ pub fn capacity(data: &GpuSceneData, cmos: &[(Vec3, bool)], size: u32) -> PoolBo
         sum.rect_texels += b.rect_texels;
     }
     sum
-}
-
-fn storage(ctx: &GpuContext, name: &str, bytes: u64) -> VkResult<Buffer> {
-    Buffer::new(
-        ctx.device(),
-        name,
-        bytes,
-        vk::BufferUsageFlags::STORAGE_BUFFER
-            | vk::BufferUsageFlags::TRANSFER_DST
-            | vk::BufferUsageFlags::TRANSFER_SRC,
-        MemoryLocation::GpuOnly,
-    )
 }
 
 /// Invocations per dispatch row of `jobs` and `resolve` (`ListsParams::row`).

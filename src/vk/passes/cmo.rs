@@ -202,7 +202,8 @@ pub struct CmoData {
 /// Format of the colour capture: linear RGBA, f32 so that the CPU twins read the same bits.
 pub const COLOUR_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
 
-fn storage(ctx: &GpuContext, name: &str, bytes: u64) -> VkResult<Buffer> {
+/// A device-local storage buffer that transfers can fill and read.
+pub(super) fn storage(ctx: &GpuContext, name: &str, bytes: u64) -> VkResult<Buffer> {
     Buffer::new(
         ctx.device(),
         name,
