@@ -286,12 +286,7 @@ pub fn list_capture_bytes(scene: &Scene, options: &RenderOptions) -> u64 {
         return 0;
     }
     let size = scene.cmo.resolution;
-    let reflectors = scene.captures_reflectors();
-    let views: Vec<_> = scene
-        .cmo_centres()
-        .into_iter()
-        .map(|c| (c, reflectors))
-        .collect();
+    let views = capture_lists::scene_views(scene);
     let capacity = capture_lists::capacity(&GpuSceneData::new(scene), &views, size);
     let texels = views.len() as u64 * 6 * u64::from(size) * u64::from(size);
     lists_bytes(0, size, capacity.nodes)
@@ -411,12 +406,7 @@ mod tests {
             },
             ..exact
         };
-        let reflectors = scene.captures_reflectors();
-        let views: Vec<_> = scene
-            .cmo_centres()
-            .into_iter()
-            .map(|c| (c, reflectors))
-            .collect();
+        let views = capture_lists::scene_views(&scene);
         let cap = capture_lists::capacity(&GpuSceneData::new(&scene), &views, scene.cmo.resolution);
         assert!(cap.nodes > 0, "{cap:?}");
         let pool = list_capture_bytes(&scene, &bounded);

@@ -363,7 +363,10 @@ enum CmoCapture {
 }
 
 impl CmoStages {
-    /// `gpu`: the scene's data and its buffers.
+    /// `gpu`: the scene's data and its buffers. With `--criterion bounded` the capture is the
+    /// lists' (`passes::capture_lists`: per-texel bounds and candidate lists, their `lo` as the
+    /// distances, node pool sized by its CPU bound), or for tests the lists built on the CPU
+    /// (`lists`), uploaded once.
     fn new(
         ctx: &GpuContext,
         scene: &Scene,
@@ -374,10 +377,6 @@ impl CmoStages {
         lists: Option<&PackedLists>,
     ) -> VkResult<Self> {
         let centres = scene.cmo_centres();
-        let scene_buffers = gpu.1;
-        if trace.criterion == TraceCriterion::Bounded {
-            return Self::bounded(ctx, scene, gpu, needs, trace, lists);
-        }
         if !needs.capture {
             // One texel per face and no capture: composite binds the data, nothing reads it
             // but the environment-map fallback of a ray the BVH loop's cap cut.
@@ -395,7 +394,7 @@ impl CmoStages {
         }
         let size = scene.cmo.resolution;
         let self_reflections = scene.captures_reflectors();
-        let cmo = CmoData::with_contents(
+        let mut cmo = CmoData::with_contents(
             ctx,
             &centres,
             size,
@@ -404,21 +403,61 @@ impl CmoStages {
             trace,
             needs.contents,
         )?;
-        let capture = Capture::with_contents(
-            ctx,
-            scene_buffers,
-            &centres,
-            size,
-            self_reflections,
-            capture_near,
-            needs.contents,
-        )?;
+        let capture = if trace.criterion == TraceCriterion::Bounded {
+            Self::list_capture(ctx, scene, gpu, &mut cmo, lists)?
+        } else {
+            Some(CmoCapture::Raster(Box::new(Capture::with_contents(
+                ctx,
+                gpu.1,
+                &centres,
+                size,
+                self_reflections,
+                capture_near,
+                needs.contents,
+            )?)))
+        };
         let pyramid = pyramid_stage(ctx, &cmo, needs)?;
         Ok(CmoStages {
             cmo,
-            capture: Some(CmoCapture::Raster(Box::new(capture))),
+            capture,
             pyramid,
         })
+    }
+
+    /// `--criterion bounded`'s capture into `cmo` (see [`CmoStages::new`]); `None` where the
+    /// lists were uploaded.
+    fn list_capture(
+        ctx: &GpuContext,
+        scene: &Scene,
+        (data, scene_buffers): (&GpuSceneData, &SceneBuffers),
+        cmo: &mut CmoData,
+        lists: Option<&PackedLists>,
+    ) -> VkResult<Option<CmoCapture>> {
+        if let Some(lists) = lists {
+            ctx.submit_and_wait("cmo clear", |rec| {
+                cmo.record_clear(rec);
+                Ok(())
+            })?;
+            cmo.upload_lists(ctx, lists)?;
+            return Ok(None);
+        }
+        let views = capture_lists::scene_views(scene);
+        let capacity = capture_lists::capacity(data, &views, cmo.size());
+        cmo.alloc_lists(ctx, capacity.nodes)?;
+        let targets = ListTargets {
+            distance: cmo.distance(),
+            records: cmo.lists(),
+            nodes: cmo.nodes(),
+        };
+        Ok(Some(CmoCapture::Lists(Box::new(CaptureLists::new(
+            ctx,
+            scene_buffers,
+            cmo.size(),
+            DEFAULT_DEPTH,
+            &views,
+            capacity,
+            Some(targets),
+        )?))))
     }
 }
 
@@ -434,70 +473,6 @@ fn pyramid_stage(
     let p = Pyramid::new(ctx)?;
     let b = p.bind(ctx, cmo.distance(), cmo.mip(), cmo.count(), cmo.size())?;
     Ok(Some((p, b)))
-}
-
-impl CmoStages {
-    /// `--criterion bounded`: the CMO data with the per-texel bounds and lists (their `lo` as
-    /// the distances), filled by the lists' capture (`passes::capture_lists`, node pool sized
-    /// by its CPU bound) or, for tests, uploaded from lists built on the CPU (`lists`); the
-    /// pyramid where the method needs one.
-    fn bounded(
-        ctx: &GpuContext,
-        scene: &Scene,
-        (data, scene_buffers): (&GpuSceneData, &SceneBuffers),
-        needs: &Needs,
-        trace: &TraceOptions,
-        lists: Option<&PackedLists>,
-    ) -> VkResult<Self> {
-        let centres = scene.cmo_centres();
-        let size = scene.cmo.resolution;
-        let self_reflections = scene.captures_reflectors();
-        let mut cmo = CmoData::with_contents(
-            ctx,
-            &centres,
-            size,
-            self_reflections,
-            needs.pyramid,
-            trace,
-            needs.contents,
-        )?;
-        let capture = match lists {
-            Some(lists) => {
-                ctx.submit_and_wait("cmo clear", |rec| {
-                    cmo.record_clear(rec);
-                    Ok(())
-                })?;
-                cmo.upload_lists(ctx, lists)?;
-                None
-            }
-            None => {
-                let views: Vec<(Vec3, bool)> =
-                    centres.iter().map(|&c| (c, self_reflections)).collect();
-                let capacity = capture_lists::capacity(data, &views, size);
-                cmo.alloc_lists(ctx, capacity.nodes)?;
-                let targets = ListTargets {
-                    distance: cmo.distance(),
-                    records: cmo.lists(),
-                    nodes: cmo.nodes(),
-                };
-                Some(CmoCapture::Lists(Box::new(CaptureLists::new(
-                    ctx,
-                    scene_buffers,
-                    size,
-                    DEFAULT_DEPTH,
-                    &views,
-                    capacity,
-                    Some(targets),
-                )?)))
-            }
-        };
-        let pyramid = pyramid_stage(ctx, &cmo, needs)?;
-        Ok(CmoStages {
-            cmo,
-            capture,
-            pyramid,
-        })
-    }
 }
 
 /// The `FrameParams` of a frame.

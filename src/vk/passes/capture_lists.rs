@@ -131,6 +131,17 @@ pub fn scene_triangles(data: &GpuSceneData, reflectors: bool) -> (Vec<[Vec3; 3]>
     (tris, flags)
 }
 
+/// The capture views of a scene's CMOs: `(centre, reflectors)`, reflectors taken by every CMO
+/// when some reflector of the scene sees itself (as the rasterised capture's views).
+pub fn scene_views(scene: &crate::scene::Scene) -> Vec<(Vec3, bool)> {
+    let reflectors = scene.captures_reflectors();
+    scene
+        .cmo_centres()
+        .into_iter()
+        .map(|c| (c, reflectors))
+        .collect()
+}
+
 /// Job and node capacities of the capture of `cmos` (`(centre, reflectors)`) at face size
 /// `size`: [`bounds::pool_bound`] summed over the CMOs.
 pub fn capacity(data: &GpuSceneData, cmos: &[(Vec3, bool)], size: u32) -> PoolBound {
