@@ -13,6 +13,7 @@
 //! - [`metrics`]: error of a traced reflection against the reference.
 //! - [`ranges`]: depth ranges and ray length of a GPU frame, and the f32 precision check.
 //! - [`output`]: PNG and EXR writers, and the meaning of every EXR channel.
+//! - [`film`]: samples per pixel and the pixel filter.
 //! - [`files`]: atomic file writes (temporary file, then rename) and safe file names.
 //! - [`cubemap`]: cube face mapping and distance hierarchies (pure data, no GPU).
 //! - [`cpu`]: CPU twins of the GPU passes, with the shaders' names and loop structure.
@@ -25,6 +26,7 @@ pub mod camera;
 pub mod cpu;
 pub mod cubemap;
 pub mod files;
+pub mod film;
 pub mod memory;
 pub mod method;
 pub mod metrics;

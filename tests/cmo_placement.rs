@@ -37,6 +37,8 @@ fn occluded_mirror(with_box: bool) -> Scene {
         background: Vec3::new(0.1, 0.2, 0.3),
         shading: Shading::default(),
         self_reflections: SelfReflections::Auto,
+        film: Default::default(),
+        animation: Default::default(),
     });
     let wall = b.material("wall", Vec3::new(0.7, 0.6, 0.5), None);
     let grey = b.material("grey", Vec3::splat(0.4), None);

@@ -53,6 +53,8 @@ fn span_scene(far: f32) -> Scene {
         background: Vec3::new(0.05, 0.05, 0.08),
         shading: Shading::default(),
         self_reflections: SelfReflections::Off,
+        film: Default::default(),
+        animation: Default::default(),
     });
     let floor = checker("floor", 64, 8, [200, 200, 190], [40, 60, 90]);
     let floor = b.material("floor", Vec3::ONE, Some(floor));

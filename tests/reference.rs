@@ -23,6 +23,8 @@ fn empty_scene(camera: Camera) -> SceneBuilder {
         background: Vec3::new(0.1, 0.2, 0.3),
         shading: Shading::default(),
         self_reflections: SelfReflections::Off,
+        film: Default::default(),
+        animation: Default::default(),
     })
 }
 

@@ -46,6 +46,8 @@ fn scene(meshes: Vec<MeshInstance>) -> Scene {
         background: Vec3::new(0.2, 0.3, 0.4),
         shading: Shading::default(),
         self_reflections: SelfReflections::Auto,
+        film: Default::default(),
+        animation: Default::default(),
     }
 }
 

@@ -69,6 +69,8 @@ pub fn diagnose(scene: &Scene) -> Vec<String> {
         background: scene.background,
         shading: scene.shading,
         self_reflections: scene.self_reflections,
+        film: scene.film,
+        animation: scene.animation.clone(),
     };
     let tracer = Tracer::new(&others);
     let world = &tracer.world;

@@ -63,6 +63,8 @@ fn empty(name: &str, camera: Camera, cmo: CmoPlacement) -> SceneBuilder {
         background: Vec3::new(0.05, 0.05, 0.08),
         shading: Shading::default(),
         self_reflections: SelfReflections::Auto,
+        film: Default::default(),
+        animation: Default::default(),
     })
 }
 

@@ -317,6 +317,8 @@ pub fn load_scene_file_report(path: &Path) -> Result<(Scene, LoadReport), SceneE
         background: src.colour(&file.background, "background")?,
         shading: shading(&src, &file.shading)?,
         self_reflections: self_reflections(&src, file.self_reflections.as_ref())?,
+        film: Default::default(),
+        animation: Default::default(),
     };
 
     for (i, m) in file.meshes.iter().enumerate() {

@@ -13,6 +13,7 @@
 //! - Normals are never flipped towards the viewer: a mirror reflects about its interpolated vertex
 //!   normal as stored, which is what the rasteriser will interpolate too.
 
+pub mod animation;
 pub mod builtin;
 pub mod convexity;
 mod error;
@@ -89,6 +90,10 @@ pub struct Scene {
     /// self-capture is left out of the cubemap capture; when no reflector has it, the capture
     /// allocates no mirror mask or normal cubemaps.
     pub self_reflections: SelfReflections,
+    /// Samples per pixel and pixel filter (the scene file's `[film]`).
+    pub film: crate::film::FilmSettings,
+    /// Keyframes, frame rate and default frame range (the scene file's `[animation]`).
+    pub animation: animation::Animation,
 }
 
 /// The scene file's `self_reflections`: `"auto"` (the default), `true` or `false`.

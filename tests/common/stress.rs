@@ -99,6 +99,8 @@ pub fn frame(name: &str, width: u32, height: u32, cube: u32, cmos: u32) -> Scene
         background: Vec3::new(0.05, 0.05, 0.08),
         shading: Shading::default(),
         self_reflections: SelfReflections::Auto,
+        film: Default::default(),
+        animation: Default::default(),
     });
     let walls = [
         Vec3::new(0.7, 0.2, 0.2),
