@@ -15,6 +15,7 @@
 
 pub mod bench;
 pub mod export;
+pub mod frame_renderer;
 pub mod options;
 pub mod render;
 pub mod summary;

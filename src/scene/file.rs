@@ -472,6 +472,7 @@ fn camera(src: &Source, i: usize, c: &CameraFile) -> Result<Camera, SceneError> 
         fov_y_deg,
         width,
         height,
+        jitter: glam::Vec2::ZERO,
     })
 }
 
