@@ -6,6 +6,7 @@
 //!   reference); [`summary`]: its summary line and the fallback's warning.
 //! - [`bench`](mod@bench): `cubetrace bench` (the harness of [`crate::bench`] and its scaling curves).
 //! - [`export`]: `cubetrace scene export`.
+//! - [`shard`]: which chunk of a frame range a run renders (`--shard`, scheduler array indices).
 //! - [`info`], [`scenes`]: the two listing commands.
 //!
 //! Invariants: every check that can refuse a command (arguments, scene, output path, memory)
@@ -17,6 +18,7 @@ pub mod bench;
 pub mod export;
 pub mod options;
 pub mod render;
+pub mod shard;
 pub mod summary;
 
 use anyhow::Result;
