@@ -6,6 +6,7 @@
 //!   reference); [`summary`]: its summary line and the fallback's warning.
 //! - [`bench`](mod@bench): `cubetrace bench` (the harness of [`crate::bench`] and its scaling curves).
 //! - [`export`]: `cubetrace scene export`.
+//! - [`farm`]: `cubetrace farm slurm|k8s` (a scheduler's job that renders a sequence in chunks).
 //! - [`shard`]: which chunk of a frame range a run renders (`--shard`, scheduler array indices).
 //! - [`info`], [`scenes`]: the two listing commands.
 //!
@@ -16,6 +17,7 @@
 
 pub mod bench;
 pub mod export;
+pub mod farm;
 pub mod options;
 pub mod render;
 pub mod shard;
