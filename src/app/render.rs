@@ -73,6 +73,8 @@ pub struct RenderArgs {
     pub trace: TraceArgs,
     #[command(flatten)]
     pub gpu: GpuArgs,
+    #[command(flatten)]
+    pub shard: super::shard::ShardArgs,
 }
 
 /// Samples per pixel and their filter (`crate::film`), over the scene file's `[film]`.
