@@ -719,6 +719,13 @@ impl GpuRenderer {
         self.capture.is_some()
     }
 
+    /// Makes the next frame run the CMO stages again (capture, pyramid, the method's CMO stage)
+    /// though their input did not change: the bench times whole frames, capture included, and
+    /// its sequence row compares reuse with recapture.
+    pub fn recapture(&mut self) {
+        self.cmo_valid = false;
+    }
+
     /// The camera the passes are set for.
     pub fn camera(&self) -> &Camera {
         &self.camera
