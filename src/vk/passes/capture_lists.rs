@@ -239,7 +239,11 @@ fn check_inputs(
         let words = lists::COLUMN_BYTES;
         let columns = t.records.iter().map(|b| (b, texels * words));
         let pool = t.nodes.iter().map(|b| (b, capacity.nodes * words));
-        for (b, need) in [(t.distance, texels * 4)].into_iter().chain(columns).chain(pool) {
+        for (b, need) in [(t.distance, texels * 4)]
+            .into_iter()
+            .chain(columns)
+            .chain(pool)
+        {
             if b.size() < need {
                 return Err(usage(format!(
                     "buffer `{}` has {} bytes, the capture needs {need}",
@@ -347,8 +351,16 @@ impl CaptureLists {
         targets: Option<ListTargets<'_>>,
         range_limit: u64,
     ) -> VkResult<Self> {
-        let (k, texels, triangles) =
-            check_inputs(ctx, range_limit, scene, size, depth, cmos, capacity, targets)?;
+        let (k, texels, triangles) = check_inputs(
+            ctx,
+            range_limit,
+            scene,
+            size,
+            depth,
+            cmos,
+            capacity,
+            targets,
+        )?;
         let params = ListsParams {
             size,
             depth,

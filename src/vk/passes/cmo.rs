@@ -544,7 +544,12 @@ impl CmoData {
             + self.normal.as_ref().map_or(0, |b| b.size())
             + self.triangle.as_ref().map_or(0, |b| b.size())
             + self.triangle_placeholder.as_ref().map_or(0, |b| b.size())
-            + self.lists.iter().chain(&self.nodes).map(Buffer::size).sum::<u64>()
+            + self
+                .lists
+                .iter()
+                .chain(&self.nodes)
+                .map(Buffer::size)
+                .sum::<u64>()
             + colour.layer_bytes().unwrap_or(0) * u64::from(colour.layers)
     }
 

@@ -63,7 +63,13 @@ pub fn lists_bytes(cmos: u32, size: u32, pool_capacity: u64) -> u64 {
 /// binding takes [`COLUMN_BYTES`] per texel or node. `Err((what, limit))` in the words of
 /// [`crate::vk::VkError::Limit`] otherwise, naming the binding, its count and size.
 pub fn check_range(texels: u64, nodes: u64, limit: u64) -> Result<(), (String, String)> {
-    let mib = |b: u64| b as f64 / f64::from(1u32 << 20);
+    let mib = |b: u64| {
+        if b >= 1 << 20 {
+            format!("{:.1} MiB", b as f64 / f64::from(1u32 << 20))
+        } else {
+            format!("{b} B")
+        }
+    };
     for (what, count, unit) in [
         ("per-texel record", texels, "texels"),
         ("node pool", nodes, "nodes"),
@@ -72,11 +78,11 @@ pub fn check_range(texels: u64, nodes: u64, limit: u64) -> Result<(), (String, S
         if bytes > limit {
             return Err((
                 format!(
-                    "the `--criterion bounded` lists' {what} ({count} {unit}: {:.1} MiB in each \
-                     of its 4 bindings of {COLUMN_BYTES} B per entry)",
+                    "the `--criterion bounded` lists' {what} ({count} {unit}: {} in each of its \
+                     4 bindings of {COLUMN_BYTES} B per entry)",
                     mib(bytes)
                 ),
-                format!("maxStorageBufferRange = {:.1} MiB", mib(limit)),
+                format!("maxStorageBufferRange = {}", mib(limit)),
             ));
         }
     }
