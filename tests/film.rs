@@ -295,3 +295,85 @@ fn frame_renderer_film_and_reuse() {
     drop(fr);
     finish_gpu(ctx);
 }
+
+#[test]
+#[ignore]
+fn diag_jitter_diff() {
+    let ctx = gpu_context();
+    let mut scene = scene::load("sphere-room").unwrap();
+    let mut cam = scene.camera(None).unwrap().clone();
+    cam.width = 320;
+    cam.height = 240;
+    scene.cmo.resolution = 256;
+    let tracer = reference::Tracer::new(&scene);
+    for j in [
+        Vec2::ZERO,
+        Vec2::new(0.25, 0.25),
+        Vec2::new(-0.25, -0.25),
+        Vec2::new(0.25, 0.0),
+        Vec2::new(0.0, 0.25),
+    ] {
+        let c = Camera {
+            jitter: j,
+            ..cam.clone()
+        };
+        let g = fresh(&ctx, &scene, &c, Method::Bvh);
+        let r = reference::render(&scene, &tracer, &c, 1);
+        let mut worst: Vec<(f32, usize)> = (0..g.colour.len())
+            .map(|k| ((g.colour[k] - r.colour[k]).abs().max_element(), k))
+            .collect();
+        worst.sort_by(|a, b| b.0.total_cmp(&a.0));
+        let n = worst.iter().filter(|w| w.0 > 1e-3).count();
+        eprintln!("jitter {j}: {n} pixels > 1e-3; worst:");
+        for &(d, k) in worst.iter().take(6) {
+            eprintln!(
+                "  {d} at ({}, {}) mask g {} r {} gpu {} ref {} P g {} r {}",
+                k % 320,
+                k / 320,
+                g.mask[k],
+                r.mask[k],
+                g.colour[k],
+                r.colour[k],
+                g.surface_position[k],
+                r.surface_position[k]
+            );
+        }
+    }
+}
+
+#[test]
+#[ignore]
+fn diag_timing() {
+    for m in ["compute", "fragment", "bvh"] {
+        let t0 = std::time::Instant::now();
+        let mut scene = scene::load("sphere-room").unwrap();
+        scene.self_capture();
+        let mut cam = scene.camera(None).unwrap().clone();
+        cam.width = 320;
+        cam.height = 240;
+        let line = ["sphere-room", "--method", m];
+        let mut fr = FrameRenderer::new(&args(&line), &scene, &cam).unwrap();
+        let t1 = t0.elapsed();
+        let a = fr.render(&scene, &cam).unwrap();
+        let t2 = t0.elapsed();
+        let b = fr.render(&scene, &cam).unwrap();
+        let t3 = t0.elapsed();
+        let moved = Camera {
+            eye: cam.eye + Vec3::new(0.2, 0.0, 0.0),
+            ..cam.clone()
+        };
+        let c = fr.render(&scene, &moved).unwrap();
+        let t4 = t0.elapsed();
+        eprintln!(
+            "{m}: new {:?}, frame 1 {:?} (captured {}), frame 2 same camera {:?} (captured {}), frame 3 moved {:?} (captured {}); same bytes {}",
+            t1,
+            t2 - t1,
+            a.captured,
+            t3 - t2,
+            b.captured,
+            t4 - t3,
+            c.captured,
+            colour_bits(&a) == colour_bits(&b)
+        );
+    }
+}
