@@ -170,7 +170,7 @@ impl FrameRenderer {
         let start = Instant::now();
         let backend = match setup.gpu {
             Some((ctx, options)) => {
-                let renderer = GpuRenderer::new(&ctx, scene, camera, options.clone())?;
+                let renderer = GpuRenderer::new(&ctx, scene, camera, options)?;
                 log::info!(
                     "GPU renderer (passes, pipelines, BVHs): {:.2?}",
                     start.elapsed()
@@ -242,12 +242,7 @@ impl FrameRenderer {
                     // The old renderer's memory is freed before the new one's is allocated.
                     *renderer = None;
                     let t = Instant::now();
-                    *renderer = Some(Box::new(GpuRenderer::new(
-                        ctx,
-                        scene,
-                        camera,
-                        options.clone(),
-                    )?));
+                    *renderer = Some(Box::new(GpuRenderer::new(ctx, scene, camera, *options)?));
                     log::info!("GPU renderer (rebuilt): {:.2?}", t.elapsed());
                 }
                 let Some(r) = renderer.as_deref_mut() else {

@@ -644,19 +644,24 @@ fn compare_with_reference(
     }
 }
 
-/// The `--compare` line of the samples one by one (more than one sample per pixel): each
-/// figure's mean over the samples, each sample against the reference's at the same offset.
+/// The `--compare` line of the samples one by one (more than one sample per pixel), each
+/// against the reference's sample at the same offset: the mean share of each error, and the
+/// PSNR of the samples' pooled squared error over mirror pixels with the worst sample's.
 fn per_sample_summary(per: &[metrics::ErrorReport]) -> String {
     let n = per.len().max(1) as f64;
     let mean = |f: &dyn Fn(&metrics::ErrorReport) -> f64| per.iter().map(f).sum::<f64>() / n;
+    // PSNR back to the squared error it came from (peak 1), pooled, and back.
+    let pooled = -10.0 * mean(&|r| 10f64.powf(-r.psnr_db / 10.0)).log10();
+    let worst = per.iter().map(|r| r.psnr_db).fold(f64::INFINITY, f64::min);
     format!(
-        "per sample ({} samples, mean of each against the reference's sample at the same offset): {:.2}% in error: mask mismatch {:.2}%, unresolved {:.2}%, wrong surface {:.2}%; PSNR {:.2} dB over mirror pixels",
+        "per sample ({} samples, each against the reference's sample at the same offset): mean {:.2}% in error: mask mismatch {:.2}%, unresolved {:.2}%, wrong surface {:.2}%; PSNR {:.2} dB over mirror pixels (all samples' squared error pooled), worst sample {:.2} dB",
         per.len(),
         100.0 * mean(&|r| r.error),
         100.0 * mean(&|r| r.mask_mismatch_fraction),
         100.0 * mean(&|r| r.unresolved),
         100.0 * mean(&|r| r.wrong_surface),
-        mean(&|r| r.psnr_db),
+        pooled,
+        worst,
     )
 }
 
