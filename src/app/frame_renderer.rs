@@ -183,7 +183,12 @@ impl FrameRenderer {
             }
             None => {
                 let tracer = reference::Tracer::new(scene);
-                log::info!("reference BVH: {:.2?}", start.elapsed());
+                log::info!(
+                    "{}: {} triangles, BVH built in {:.2?}",
+                    scene.name,
+                    tracer.world.triangles.len(),
+                    start.elapsed()
+                );
                 Backend::Reference {
                     tracer: Box::new(tracer),
                 }
