@@ -714,11 +714,14 @@ pub fn run_gpu_with(
 ) -> Result<GpuRun> {
     let mut renderer = GpuRenderer::new(ctx, scene, camera, options)?;
     for _ in 0..warmup {
+        // Every frame a whole frame: the capture too (`GpuRenderer::render` reuses it).
+        renderer.invalidate_capture();
         renderer.render(ctx)?;
     }
     let mut pass_ns = Vec::new();
     let mut last = None;
     for _ in 0..frames.max(1) {
+        renderer.invalidate_capture();
         let f = renderer.render(ctx)?;
         pass_ns.push(f.pass_times.clone());
         last = Some(f);
