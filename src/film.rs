@@ -73,7 +73,7 @@ pub fn strata(spp: u32) -> (u32, u32) {
     let spp = spp.max(1);
     let nx = (1..=spp)
         .take_while(|d| d * d <= spp)
-        .filter(|d| spp % d == 0)
+        .filter(|d| spp.is_multiple_of(*d))
         .last()
         .unwrap_or(1);
     (nx, spp / nx)

@@ -16,25 +16,27 @@ use std::time::{Duration, Instant};
 use anyhow::Result;
 use glam::Vec3;
 
-use super::render::{
-    RenderArgs, check_gpu_memory, check_textures, gpu_options, timed, write_colour_or_exr,
-};
 use crate::Method;
 use crate::camera::Camera;
 use crate::film::{Film, FilmSettings, aov_sample};
-use crate::memory;
 use crate::metrics::Traced;
-use crate::output::Format;
+use crate::output::{self, Format};
 use crate::reference;
 use crate::scene::{Scene, WorldGeometry};
 use crate::vk::GpuContext;
 use crate::vk::frame::{GpuFrame, GpuRenderer, RenderOptions};
 
-/// The film of a run: the scene file's `[film]`, overridden by `--spp` and `--filter`.
-pub fn film_settings(args: &RenderArgs, scene: &Scene) -> FilmSettings {
-    FilmSettings {
-        spp: args.film.spp.unwrap_or(scene.film.spp).max(1),
-        filter: args.film.filter.unwrap_or(scene.film.filter),
+/// Writes `colour` as an 8-bit sRGB PNG, or as an EXR of the channels `exr` gives, atomically.
+fn write_colour_or_exr<'a>(
+    path: &std::path::Path,
+    format: Format,
+    (width, height): (u32, u32),
+    colour: &[Vec3],
+    exr: impl FnOnce() -> Vec<(&'a str, output::Channel)>,
+) -> Result<()> {
+    match format {
+        Format::Png => output::write_atomic(path, &output::png_bytes(width, height, colour)?),
+        Format::Exr => output::write_exr(path, width, height, exr()),
     }
 }
 
@@ -102,12 +104,12 @@ impl RenderedFrame {
         match (&self.gpu, &self.reference) {
             (Some(g), _) => {
                 write_colour_or_exr(path, format, (self.width, self.height), &g.colour, || {
-                    crate::output::traced_channels(&g.traced(), &g.surface_position, &self.world)
+                    output::traced_channels(&g.traced(), &g.surface_position, &self.world)
                 })
             }
             (None, Some(r)) => {
                 write_colour_or_exr(path, format, (self.width, self.height), &r.colour, || {
-                    crate::output::frame_channels(r, &self.world)
+                    output::frame_channels(r, &self.world)
                 })
             }
             (None, None) => anyhow::bail!("no frame to write"),
@@ -125,6 +127,18 @@ enum Backend {
     Reference {
         tracer: Box<reference::Tracer>,
     },
+}
+
+/// What a [`FrameRenderer`] is built from, checked ([`FrameRenderer::new`] builds it from the
+/// command line).
+pub struct FrameSetup {
+    pub method: Method,
+    pub bounces: u32,
+    pub film: FilmSettings,
+    /// Keep every sample of each frame ([`RenderedFrame::samples`], for `--compare`).
+    pub keep_samples: bool,
+    /// GPU methods: the device and the renderer's options; `None` for the reference.
+    pub gpu: Option<(GpuContext, RenderOptions)>,
 }
 
 /// The renderer of a run's frames (module docs).
@@ -149,62 +163,42 @@ fn scene_key(scene: &Scene) -> Scene {
 }
 
 impl FrameRenderer {
-    /// Device and checks once (the GPU's textures and memory, or the host's for the reference);
-    /// the GPU renderer and its pipelines are built too. Nothing is rendered yet.
-    pub fn new(args: &RenderArgs, scene: &Scene, camera: &Camera) -> Result<Self> {
-        let film = film_settings(args, scene);
-        let format = match &args.output {
-            Some(p) => Format::from_path(p)?,
-            None => Format::Png,
-        };
-        let size = format!(
-            "a {}x{} frame with --method {}",
-            camera.width, camera.height, args.method
-        );
-        let backend = if args.method.is_gpu() {
-            let options = gpu_options(args)?;
-            let ctx = args.gpu.context()?;
-            check_textures(
-                scene,
-                u64::from(ctx.report().max_storage_buffer_range),
-                &ctx.report().name,
-            )?;
-            let limits =
-                memory::Limits::of_device(ctx.device_local_heap_bytes(), ctx.device_is_cpu())?;
-            check_gpu_memory(
-                &size,
-                scene,
-                camera,
-                &options,
-                format,
-                args.compare,
-                &ctx.report().name,
-                &limits,
-            )?;
-            let renderer = timed("GPU renderer (passes, pipelines, BVHs)", || {
-                GpuRenderer::new(&ctx, scene, camera, options.clone())
-            })?;
-            Backend::Gpu {
-                ctx: Box::new(ctx),
-                options,
-                renderer: Some(Box::new(renderer)),
+    /// The renderer of checked parts ([`FrameRenderer::new`] checks the command line's and
+    /// builds them): with a device, its GPU renderer and pipelines are built; without one, the
+    /// reference's tracer. Nothing is rendered yet.
+    pub fn from_setup(setup: FrameSetup, scene: &Scene, camera: &Camera) -> Result<Self> {
+        let start = Instant::now();
+        let backend = match setup.gpu {
+            Some((ctx, options)) => {
+                let renderer = GpuRenderer::new(&ctx, scene, camera, options)?;
+                log::info!(
+                    "GPU renderer (passes, pipelines, BVHs): {:.2?}",
+                    start.elapsed()
+                );
+                Backend::Gpu {
+                    ctx: Box::new(ctx),
+                    options,
+                    renderer: Some(Box::new(renderer)),
+                }
             }
-        } else {
-            let pixels = u64::from(camera.width) * u64::from(camera.height);
-            memory::check(
-                &size,
-                memory::reference_bytes(pixels, format),
-                memory::host_available()?,
-            )?;
-            Backend::Reference {
-                tracer: Box::new(timed("reference BVH", || reference::Tracer::new(scene))),
+            None => {
+                let tracer = reference::Tracer::new(scene);
+                log::info!(
+                    "{}: {} triangles, BVH built in {:.2?}",
+                    scene.name,
+                    tracer.world.triangles.len(),
+                    start.elapsed()
+                );
+                Backend::Reference {
+                    tracer: Box::new(tracer),
+                }
             }
         };
         Ok(FrameRenderer {
-            method: args.method,
-            bounces: args.bounces,
-            film,
-            keep_samples: args.compare && film.spp > 1,
+            method: setup.method,
+            bounces: setup.bounces,
+            film: setup.film,
+            keep_samples: setup.keep_samples,
             backend,
             world: Arc::new(scene.world()),
             scene: scene_key(scene),
@@ -252,9 +246,9 @@ impl FrameRenderer {
                 if rebuild {
                     // The old renderer's memory is freed before the new one's is allocated.
                     *renderer = None;
-                    *renderer = Some(Box::new(timed("GPU renderer (rebuilt)", || {
-                        GpuRenderer::new(ctx, scene, camera, options.clone())
-                    })?));
+                    let t = Instant::now();
+                    *renderer = Some(Box::new(GpuRenderer::new(ctx, scene, camera, *options)?));
+                    log::info!("GPU renderer (rebuilt): {:.2?}", t.elapsed());
                 }
                 let Some(r) = renderer.as_deref_mut() else {
                     anyhow::bail!("no GPU renderer");
@@ -263,7 +257,9 @@ impl FrameRenderer {
             }
             Backend::Reference { tracer } => {
                 if rebuild {
-                    **tracer = timed("reference BVH", || reference::Tracer::new(scene));
+                    let t = Instant::now();
+                    **tracer = reference::Tracer::new(scene);
+                    log::info!("reference BVH (rebuilt): {:.2?}", t.elapsed());
                 }
                 reference_samples(
                     scene,

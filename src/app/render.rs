@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 use anyhow::Result;
 
 use super::GpuArgs;
-use super::frame_renderer::{self, FrameRenderer, RenderedFrame};
+use super::frame_renderer::{self, FrameRenderer, FrameSetup, RenderedFrame};
 use super::options::TraceArgs;
 use super::summary::{self, FallbackCount};
 use crate::Method;
@@ -160,17 +160,67 @@ pub fn render(args: RenderArgs) -> Result<()> {
     }
 }
 
-/// Writes `colour` as an 8-bit sRGB PNG, or as an EXR of the channels `exr` gives, atomically.
-pub fn write_colour_or_exr<'a>(
-    path: &Path,
-    format: Format,
-    (width, height): (u32, u32),
-    colour: &[glam::Vec3],
-    exr: impl FnOnce() -> Vec<(&'a str, output::Channel)>,
-) -> Result<()> {
-    match format {
-        Format::Png => output::write_atomic(path, &output::png_bytes(width, height, colour)?),
-        Format::Exr => output::write_exr(path, width, height, exr()),
+/// The film of a run: the scene file's `[film]`, overridden by `--spp` and `--filter`.
+pub fn film_settings(args: &RenderArgs, scene: &Scene) -> crate::film::FilmSettings {
+    crate::film::FilmSettings {
+        spp: args.film.spp.unwrap_or(scene.film.spp).max(1),
+        filter: args.film.filter.unwrap_or(scene.film.filter),
+    }
+}
+
+impl FrameRenderer {
+    /// Device and checks once (GPU methods: the device, the textures and the memory the frame
+    /// needs, then the GPU renderer and its pipelines; the reference: the host memory, then its
+    /// BVH); nothing rendered yet.
+    pub fn new(args: &RenderArgs, scene: &Scene, camera: &Camera) -> Result<Self> {
+        let film = film_settings(args, scene);
+        let format = match &args.output {
+            Some(p) => Format::from_path(p)?,
+            None => Format::Png,
+        };
+        let size = format!(
+            "a {}x{} frame with --method {}",
+            camera.width, camera.height, args.method
+        );
+        let gpu = if args.method.is_gpu() {
+            let options = gpu_options(args)?;
+            let ctx = args.gpu.context()?;
+            let report = ctx.report();
+            check_textures(
+                scene,
+                u64::from(report.max_storage_buffer_range),
+                &report.name,
+            )?;
+            let limits =
+                memory::Limits::of_device(ctx.device_local_heap_bytes(), ctx.device_is_cpu())?;
+            check_gpu_memory(
+                &size,
+                scene,
+                camera,
+                &options,
+                format,
+                args.compare,
+                &report.name,
+                &limits,
+            )?;
+            Some((ctx, options))
+        } else {
+            let pixels = u64::from(camera.width) * u64::from(camera.height);
+            memory::check(
+                &size,
+                memory::reference_bytes(pixels, format),
+                memory::host_available()?,
+            )?;
+            None
+        };
+        let setup = FrameSetup {
+            method: args.method,
+            bounces: args.bounces,
+            film,
+            keep_samples: args.compare && film.spp > 1,
+            gpu,
+        };
+        FrameRenderer::from_setup(setup, scene, camera)
     }
 }
 
@@ -596,19 +646,24 @@ fn compare_with_reference(
     }
 }
 
-/// The `--compare` line of the samples one by one (more than one sample per pixel): each
-/// figure's mean over the samples, each sample against the reference's at the same offset.
+/// The `--compare` line of the samples one by one (more than one sample per pixel), each
+/// against the reference's sample at the same offset: the mean share of each error, and the
+/// PSNR of the samples' pooled squared error over mirror pixels with the worst sample's.
 fn per_sample_summary(per: &[metrics::ErrorReport]) -> String {
     let n = per.len().max(1) as f64;
     let mean = |f: &dyn Fn(&metrics::ErrorReport) -> f64| per.iter().map(f).sum::<f64>() / n;
+    // PSNR back to the squared error it came from (peak 1), pooled, and back.
+    let pooled = -10.0 * mean(&|r| 10f64.powf(-r.psnr_db / 10.0)).log10();
+    let worst = per.iter().map(|r| r.psnr_db).fold(f64::INFINITY, f64::min);
     format!(
-        "per sample ({} samples, mean of each against the reference's sample at the same offset): {:.2}% in error: mask mismatch {:.2}%, unresolved {:.2}%, wrong surface {:.2}%; PSNR {:.2} dB over mirror pixels",
+        "per sample ({} samples, each against the reference's sample at the same offset): mean {:.2}% in error: mask mismatch {:.2}%, unresolved {:.2}%, wrong surface {:.2}%; PSNR {:.2} dB over mirror pixels (all samples' squared error pooled), worst sample {:.2} dB",
         per.len(),
         100.0 * mean(&|r| r.error),
         100.0 * mean(&|r| r.mask_mismatch_fraction),
         100.0 * mean(&|r| r.unresolved),
         100.0 * mean(&|r| r.wrong_surface),
-        mean(&|r| r.psnr_db),
+        pooled,
+        worst,
     )
 }
 

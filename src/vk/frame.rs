@@ -714,16 +714,15 @@ impl GpuRenderer {
         Ok(())
     }
 
+    /// Makes the next frame run the CMO stages again (capture, pyramid, the method's CMO stage)
+    /// though their inputs did not change: the bench times whole frames.
+    pub fn invalidate_capture(&mut self) {
+        self.cmo_valid = false;
+    }
+
     /// Whether frames run a capture at all (not `bvh`, not uploaded lists).
     pub fn captures(&self) -> bool {
         self.capture.is_some()
-    }
-
-    /// Makes the next frame run the CMO stages again (capture, pyramid, the method's CMO stage)
-    /// though their input did not change: the bench times whole frames, capture included, and
-    /// its sequence row compares reuse with recapture.
-    pub fn recapture(&mut self) {
-        self.cmo_valid = false;
     }
 
     /// The camera the passes are set for.
