@@ -31,7 +31,39 @@
 //!                                   # with count: placement = "auto" chooses up to count centres
 //!                                   # that leave the fewest reflected rays unresolved
 //! resolution = 256                  # texels per cube face side
+//!
+//! [film]                            # optional; --spp and --filter override it
+//! spp = 16                          # samples per pixel, 1 to 65536 (default 1)
+//! filter = "box"                    # or "gaussian" (default "box")
+//!
+//! [animation]                       # optional; without it the scene is a still
+//! fps = 24                          # frame f is at time f / fps seconds (default 24)
+//! frames = [1, 48]                  # default range of `render` without --frames (inclusive)
+//! interpolation = "linear"          # the only one (default)
+//!
+//! [[animation.camera]]
+//! camera = "main"                   # a [[camera]]'s name (default: the first camera)
+//! [[animation.camera.key]]
+//! time = 0.0                        # seconds; keys in strictly increasing time
+//! eye = [0, 1.8, 3.6]               # any of eye, target, up, fov_y_deg (at least one)
+//! [[animation.camera.key]]
+//! time = 2.0
+//! eye = [3.6, 1.8, 0]
+//! fov_y_deg = 40
+//!
+//! [[animation.mesh]]
+//! mesh = "sphere"                   # a [[mesh]]'s name
+//! [[animation.mesh.key]]
+//! time = 0.5
+//! translate = [0, 1.5, 0]           # any of translate, rotate_deg, scale (at least one)
 //! ```
+//!
+//! Animation: each field of a camera or mesh is animated by the keys that set it (see
+//! `cubetrace::scene::animation`): at a key's time it is the key's value, between two keys it is
+//! interpolated linearly, outside them it holds the nearest key's value, and a field no key sets
+//! keeps the `[[camera]]`'s or `[[mesh]]`'s value. A camera or mesh is animated by one track at
+//! most; a track needs a key, each key a `time` (keys out of order, a missing time, an unknown
+//! interpolation name or an unknown camera or mesh are errors naming the line and the field).
 //!
 //! Unknown fields are errors. Every value is checked and an error names the file, the line and
 //! the field:
