@@ -17,6 +17,7 @@ pub mod bench;
 pub mod export;
 pub mod options;
 pub mod render;
+pub mod sequence;
 pub mod summary;
 
 use anyhow::Result;

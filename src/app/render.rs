@@ -70,6 +70,8 @@ pub struct RenderArgs {
     pub trace: TraceArgs,
     #[command(flatten)]
     pub gpu: GpuArgs,
+    #[command(flatten)]
+    pub sequence: super::sequence::SequenceArgs,
 }
 
 /// Where the frame goes and what it is, settled before anything renders.
