@@ -66,7 +66,9 @@ pub fn parse_frames(text: &str) -> std::result::Result<Vec<i64>, String> {
     for item in text.split(',') {
         let item = item.trim();
         if item.is_empty() {
-            return Err(format!("'{text}': an empty item (frames are separated by single commas)"));
+            return Err(format!(
+                "'{text}': an empty item (frames are separated by single commas)"
+            ));
         }
         let Some((first, rest)) = item.split_once("..") else {
             if item.contains(':') {
@@ -82,7 +84,9 @@ pub fn parse_frames(text: &str) -> std::result::Result<Vec<i64>, String> {
                     .parse()
                     .map_err(|_| format!("'{item}': the step '{step}' is not a whole number"))?;
                 if step < 1 {
-                    return Err(format!("'{item}': the step is {step}; it must be 1 or more"));
+                    return Err(format!(
+                        "'{item}': the step is {step}; it must be 1 or more"
+                    ));
                 }
                 (last, step)
             }
@@ -333,7 +337,11 @@ struct RenderedFrame {
 }
 
 enum Colour {
-    Gpu(Box<crate::metrics::Traced>, Vec<glam::Vec3>, scene::WorldGeometry),
+    Gpu(
+        Box<crate::metrics::Traced>,
+        Vec<glam::Vec3>,
+        scene::WorldGeometry,
+    ),
     Reference(Box<crate::reference::Frame>, scene::WorldGeometry),
 }
 

@@ -172,7 +172,10 @@ impl Animation {
             };
             let k = &track.keys;
             let it = |f: fn(&CameraKey) -> Option<Vec3>| {
-                sample(k.iter().filter_map(move |key| Some((key.time, f(key)?))), time)
+                sample(
+                    k.iter().filter_map(move |key| Some((key.time, f(key)?))),
+                    time,
+                )
             };
             c.eye = it(|k| k.eye).unwrap_or(c.eye);
             c.target = it(|k| k.target).unwrap_or(c.target);
@@ -186,7 +189,10 @@ impl Animation {
             };
             let k = &track.keys;
             let it = |f: fn(&MeshKey) -> Option<Vec3>| {
-                sample(k.iter().filter_map(move |key| Some((key.time, f(key)?))), time)
+                sample(
+                    k.iter().filter_map(move |key| Some((key.time, f(key)?))),
+                    time,
+                )
             };
             let t = &mut m.transform;
             t.translate = it(|k| k.translate).unwrap_or(t.translate);
@@ -273,7 +279,10 @@ mod tests {
         // fov has one key: held at every time.
         assert_eq!(f5.cameras[0].fov_y_deg, 30.0);
         assert_eq!(f5.meshes[1].transform.translate, Vec3::new(0.0, 2.0, 0.0));
-        assert_eq!(f5.meshes[1].transform.scale, still.meshes[1].transform.scale);
+        assert_eq!(
+            f5.meshes[1].transform.scale,
+            still.meshes[1].transform.scale
+        );
         assert_eq!(f5.meshes[0], still.meshes[0]);
         // Negative: another frame is another camera.
         assert_ne!(scene.at_frame(6).cameras[0].eye, f5.cameras[0].eye);

@@ -929,11 +929,19 @@ where
     for (k, key) in keys.iter().enumerate() {
         let kf = format!("{field}.key[{k}]");
         let Some(time) = key.get_ref().time() else {
-            return Err(src.invalid(key, &format!("{kf}.time"), "missing: every key needs a time (seconds)"));
+            return Err(src.invalid(
+                key,
+                &format!("{kf}.time"),
+                "missing: every key needs a time (seconds)",
+            ));
         };
         let t = *time.get_ref();
         if !t.is_finite() {
-            return Err(src.invalid(time, &format!("{kf}.time"), format!("{t} is not a finite number")));
+            return Err(src.invalid(
+                time,
+                &format!("{kf}.time"),
+                format!("{t} is not a finite number"),
+            ));
         }
         if let Some(p) = previous
             && t <= p
@@ -1030,7 +1038,10 @@ fn mesh_key(
                 return Err(src.invalid(
                     r,
                     &f("rotate_deg"),
-                    format!("component {c} is {} (angles lie in [-360, 360] degrees)", v[c]),
+                    format!(
+                        "component {c} is {} (angles lie in [-360, 360] degrees)",
+                        v[c]
+                    ),
                 ));
             }
             Some(v)
