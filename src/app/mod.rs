@@ -4,6 +4,8 @@
 //!
 //! - [`render`]: `cubetrace render` (one frame of one method, optionally compared with the
 //!   reference); [`summary`]: its summary line and the fallback's warning.
+//! - [`sequence`]: `cubetrace render` of several frames (`--frames`, an animated scene), with
+//!   [`frames`]: the sequence flags, frame lists and output names.
 //! - [`bench`](mod@bench): `cubetrace bench` (the harness of [`crate::bench`] and its scaling curves).
 //! - [`export`]: `cubetrace scene export`.
 //! - [`info`], [`scenes`]: the two listing commands.
@@ -15,6 +17,7 @@
 
 pub mod bench;
 pub mod export;
+pub mod frames;
 pub mod options;
 pub mod render;
 pub mod sequence;

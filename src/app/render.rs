@@ -71,7 +71,7 @@ pub struct RenderArgs {
     #[command(flatten)]
     pub gpu: GpuArgs,
     #[command(flatten)]
-    pub sequence: super::sequence::SequenceArgs,
+    pub sequence: super::frames::SequenceArgs,
 }
 
 /// Where the frame goes and what it is, settled before anything renders.
