@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use cubetrace::film::PixelFilter;
-use cubetrace::scene::animation::{MeshKey, MeshTrack};
+use cubetrace::scene::animation::{CameraKey, CameraTrack, MeshKey, MeshTrack};
 use cubetrace::scene::{self, builtin, export};
 use glam::Vec3;
 
@@ -72,6 +72,53 @@ fn moving_scene() -> scene::Scene {
         ],
     });
     s
+}
+
+/// `Scene::at_frame`: a still comes back unchanged; keys move only the fields they set.
+#[test]
+fn a_still_scene_is_unchanged_and_keys_move_only_their_fields() {
+    let still = builtin::sphere_room();
+    assert_eq!(still.at_frame(17), still);
+    let mut scene = still.clone();
+    scene.animation.fps = 10.0;
+    scene.animation.cameras.push(CameraTrack {
+        camera: 0,
+        keys: vec![
+            CameraKey {
+                time: 0.0,
+                eye: Some(Vec3::new(0.0, 1.0, 4.0)),
+                ..Default::default()
+            },
+            CameraKey {
+                time: 1.0,
+                eye: Some(Vec3::new(2.0, 1.0, 4.0)),
+                fov_y_deg: Some(30.0),
+                ..Default::default()
+            },
+        ],
+    });
+    scene.animation.meshes.push(MeshTrack {
+        mesh: 1,
+        keys: vec![MeshKey {
+            time: 0.5,
+            translate: Some(Vec3::new(0.0, 2.0, 0.0)),
+            ..Default::default()
+        }],
+    });
+    let f5 = scene.at_frame(5);
+    assert_eq!(f5.cameras[0].eye, Vec3::new(1.0, 1.0, 4.0));
+    assert_eq!(f5.cameras[0].target, still.cameras[0].target);
+    // fov has one key: held at every time.
+    assert_eq!(f5.cameras[0].fov_y_deg, 30.0);
+    assert_eq!(f5.meshes[1].transform.translate, Vec3::new(0.0, 2.0, 0.0));
+    assert_eq!(
+        f5.meshes[1].transform.scale,
+        still.meshes[1].transform.scale
+    );
+    assert_eq!(f5.meshes[0], still.meshes[0]);
+    // Negative: another frame is another camera.
+    assert_ne!(scene.at_frame(6).cameras[0].eye, f5.cameras[0].eye);
+    assert_eq!(scene.at_frame(10).cameras[0].eye, Vec3::new(2.0, 1.0, 4.0));
 }
 
 #[test]
