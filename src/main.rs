@@ -41,6 +41,14 @@ enum Command {
     /// Speed against error: scenes x methods x parameters on the GPU, against the CPU reference
     /// (JSON, Markdown, SVG plot, heat maps); `--scaling` for the cost curves.
     Bench(BenchArgs),
+    /// Write a job that renders a sequence in chunks on a cluster's scheduler: a Slurm job
+    /// array script (`farm slurm`) or a Kubernetes Indexed Job manifest (`farm k8s`), for a
+    /// render command line given after `--`. Each task renders its chunk with --skip-existing;
+    /// the job's comments say how to rerun failed tasks.
+    Farm {
+        #[command(subcommand)]
+        command: app::farm::FarmCommand,
+    },
     /// Work with scene files.
     Scene {
         #[command(subcommand)]
@@ -70,6 +78,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Render(args) => app::sequence::render(args),
         Command::Bench(args) => app::bench::bench(args),
         Command::Info(gpu) => app::info(gpu),
+        Command::Farm { command } => app::farm::farm(command),
         Command::Scenes => {
             app::scenes();
             Ok(())

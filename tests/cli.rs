@@ -899,6 +899,8 @@ fn every_method_specific_flag_is_in_the_table() {
         "--bounces",
         "--output",
         "--subdivide",
+        "--frames",
+        "--skip-existing",
         "--help",
     ];
     for flag in &render {

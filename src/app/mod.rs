@@ -8,6 +8,8 @@
 //!   [`frames`]: the sequence flags, frame lists and output names.
 //! - [`bench`](mod@bench): `cubetrace bench` (the harness of [`crate::bench`] and its scaling curves).
 //! - [`export`]: `cubetrace scene export`.
+//! - [`farm`]: `cubetrace farm slurm|k8s` (a scheduler's job that renders a sequence in chunks).
+//! - [`shard`]: which chunk of a frame range a run renders (`--shard`, scheduler array indices).
 //! - [`info`], [`scenes`]: the two listing commands.
 //!
 //! Invariants: every check that can refuse a command (arguments, scene, output path, memory)
@@ -17,10 +19,13 @@
 
 pub mod bench;
 pub mod export;
+pub mod farm;
+pub mod frame_renderer;
 pub mod frames;
 pub mod options;
 pub mod render;
 pub mod sequence;
+pub mod shard;
 pub mod summary;
 
 use anyhow::Result;

@@ -25,7 +25,9 @@ use std::time::Instant;
 use anyhow::{Context as _, Result};
 
 use super::frames::{frame_path, output_pattern, parse_frames};
+use super::frame_renderer::{FrameRenderer, RenderedFrame};
 use super::render::{self, RenderArgs};
+use super::shard;
 use crate::camera::Camera;
 use crate::output::{self, Format};
 use crate::scene::{self, Scene};
@@ -62,6 +64,12 @@ struct FrameJob {
 fn run_sequence(args: RenderArgs, given: Option<Vec<i64>>) -> Result<()> {
     let start = Instant::now();
     args.check_method()?;
+    if args.compare {
+        anyhow::bail!(
+            "--compare compares one still frame (a scene without [animation], no --frames); \
+             leave it out of a sequence"
+        );
+    }
     let base = load_base(&args)?;
     let frames = match given {
         Some(f) => f,
@@ -77,7 +85,8 @@ fn run_sequence(args: RenderArgs, given: Option<Vec<i64>>) -> Result<()> {
         true,
         frames.len(),
     );
-    let mine = select(&frames);
+    let shard = args.shard.resolve()?;
+    let mine = shard::select(&frames, shard.as_ref());
     let jobs: Vec<FrameJob> = (mine.iter())
         .map(|&frame| FrameJob {
             frame,
@@ -92,7 +101,7 @@ fn run_sequence(args: RenderArgs, given: Option<Vec<i64>>) -> Result<()> {
         log::info!("frame {}: {} exists, skipped", j.frame, j.path.display());
     }
     let skipped = done.len();
-    let spp = u64::from(base.film.spp.max(1));
+    let spp = u64::from(super::frame_renderer::film_settings(&args, &base).spp.max(1));
     let bar = progress_bar(todo.len() as u64 * spp);
     let mut renderer: Option<FrameRenderer> = None;
     for job in &todo {
@@ -111,10 +120,13 @@ fn run_sequence(args: RenderArgs, given: Option<Vec<i64>>) -> Result<()> {
             job.frame,
             if frame.captured { "ran" } else { "reused" }
         );
-        bar.suspend(|| println!("{}", frame.summary(&job.path)));
+        bar.suspend(|| println!("{}", summary(&frame, &job.path, job.frame)));
         bar.inc(spp);
     }
     bar.finish_and_clear();
+    if let Some(ctx) = renderer.as_ref().and_then(|r| r.context()) {
+        crate::bench::check_validation(ctx)?;
+    }
     let wall = start.elapsed();
     let rendered = todo.len();
     let per_minute = if wall.as_secs_f64() > 0.0 {
@@ -130,11 +142,6 @@ fn run_sequence(args: RenderArgs, given: Option<Vec<i64>>) -> Result<()> {
         pattern.display()
     );
     Ok(())
-}
-
-/// The frames this task renders. (Stub until the shard selection lands: every frame.)
-fn select(frames: &[i64]) -> Vec<i64> {
-    frames.to_vec()
 }
 
 /// The output checks of every frame before any renders: format and folder (of the first
@@ -189,6 +196,25 @@ fn frame_scene(args: &RenderArgs, base: &Scene, frame: i64) -> Result<(Scene, Ca
     Ok((scene, camera))
 }
 
+/// The `wrote ...` line of one frame of a sequence.
+fn summary(frame: &RenderedFrame, path: &Path, number: i64) -> String {
+    format!(
+        "wrote {} (frame {number}, {}x{}, {} sample(s), {} mirror pixels, capture {}) in {:.2?}{}",
+        path.display(),
+        frame.width,
+        frame.height,
+        frame.spp,
+        frame.mirror_pixels(),
+        if frame.captured { "ran" } else { "reused" },
+        frame.render_time,
+        if frame.gpu.is_some() {
+            format!(" ({:.2} ms GPU)", frame.gpu_ms)
+        } else {
+            String::new()
+        }
+    )
+}
+
 /// A progress bar over the run's samples (frames x spp), with an ETA; drawn on a terminal only.
 fn progress_bar(samples: u64) -> indicatif::ProgressBar {
     let bar = indicatif::ProgressBar::new(samples).with_style(
@@ -201,90 +227,4 @@ fn progress_bar(samples: u64) -> indicatif::ProgressBar {
         bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
     }
     bar
-}
-
-// ---- Stub of the film work's `FrameRenderer` (design §6), replaced when it lands. ----
-
-/// Renders the frames of a run: one device for every frame; a GPU renderer per frame.
-struct FrameRenderer {
-    options: crate::vk::frame::RenderOptions,
-    bounces: u32,
-    ctx: Option<crate::vk::GpuContext>,
-}
-
-struct RenderedFrame {
-    captured: bool,
-    colour: Colour,
-    width: u32,
-    height: u32,
-    mirror_pixels: usize,
-}
-
-enum Colour {
-    Gpu(
-        Box<crate::metrics::Traced>,
-        Vec<glam::Vec3>,
-        scene::WorldGeometry,
-    ),
-    Reference(Box<crate::reference::Frame>, scene::WorldGeometry),
-}
-
-impl FrameRenderer {
-    fn new(args: &RenderArgs, _scene: &Scene, _camera: &Camera) -> Result<Self> {
-        let ctx = if args.method.is_gpu() {
-            Some(args.gpu.context()?)
-        } else {
-            None
-        };
-        Ok(FrameRenderer {
-            options: render::gpu_options(args)?,
-            bounces: args.bounces,
-            ctx,
-        })
-    }
-
-    fn render(&mut self, scene: &Scene, camera: &Camera) -> Result<RenderedFrame> {
-        let Some(ctx) = &self.ctx else {
-            let tracer = crate::reference::Tracer::new(scene);
-            let frame = crate::reference::render(scene, &tracer, camera, self.bounces);
-            return Ok(RenderedFrame {
-                captured: true,
-                width: frame.width,
-                height: frame.height,
-                mirror_pixels: frame.mirror_pixels(),
-                colour: Colour::Reference(Box::new(frame), tracer.world),
-            });
-        };
-        let mut r = crate::vk::frame::GpuRenderer::new(ctx, scene, camera, self.options)?;
-        let frame = r.render(ctx)?;
-        let traced = frame.traced();
-        Ok(RenderedFrame {
-            captured: true,
-            width: frame.width,
-            height: frame.height,
-            mirror_pixels: traced.mask.iter().filter(|&&m| m != 0).count(),
-            colour: Colour::Gpu(Box::new(traced), frame.surface_position, scene.world()),
-        })
-    }
-}
-
-impl RenderedFrame {
-    fn write(&self, path: &Path, _format: Format) -> Result<()> {
-        match &self.colour {
-            Colour::Gpu(traced, positions, world) => {
-                output::write_traced(path, traced, positions, world)
-            }
-            Colour::Reference(frame, world) => output::write_frame(path, frame, world),
-        }
-    }
-
-    fn summary(&self, path: &Path) -> String {
-        format!(
-            "wrote {} ({}x{}, {} mirror pixels)",
-            path.display(),
-            self.width,
-            self.height,
-            self.mirror_pixels
-        )
-    }
 }

@@ -82,6 +82,7 @@ fn camera(eye: Vec3, target: Vec3, fov_y_deg: f32) -> Camera {
         fov_y_deg,
         width: 640,
         height: 480,
+        jitter: glam::Vec2::ZERO,
     }
 }
 

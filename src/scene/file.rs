@@ -33,7 +33,7 @@
 //! resolution = 256                  # texels per cube face side
 //!
 //! [film]                            # optional; --spp and --filter override it
-//! spp = 16                          # samples per pixel, 1 to 65536 (default 1)
+//! spp = 16                          # samples per pixel, 1 to 1024 (default 1)
 //! filter = "box"                    # or "gaussian" (default "box")
 //!
 //! [animation]                       # optional; without it the scene is a still
@@ -584,6 +584,7 @@ fn camera(src: &Source, i: usize, c: &CameraFile) -> Result<Camera, SceneError> 
         fov_y_deg,
         width,
         height,
+        jitter: glam::Vec2::ZERO,
     })
 }
 
@@ -779,12 +780,9 @@ fn merge(
     });
 }
 
-/// Most samples per pixel `[film] spp` may ask for.
-pub const MAX_SPP: u32 = 65536;
-
-/// `[film]`: `spp` in 1 to [`MAX_SPP`], `filter` one of the pixel filters' names.
+/// `[film]`: `spp` in 1 to [`crate::film::MAX_SPP`], `filter` one of the pixel filters' names.
 fn film(src: &Source, f: &FilmFile) -> Result<crate::film::FilmSettings, SceneError> {
-    use crate::film::{FilmSettings, PixelFilter};
+    use crate::film::{FilmSettings, MAX_SPP, PixelFilter};
     let mut out = FilmSettings::default();
     if let Some(spp) = &f.spp {
         let n = *spp.get_ref();

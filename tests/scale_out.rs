@@ -1,0 +1,270 @@
+//! Scale-out from the command line: `cubetrace farm slurm|k8s` writes jobs whose tasks run the
+//! intended command line (the Slurm script run by bash with a stand-in binary that records its
+//! arguments), and `--shard` / the schedulers' array indices pick chunks whose frames are the
+//! frames of one run. Every check has its negative.
+
+use std::path::Path;
+use std::process::Command;
+
+#[derive(Debug)]
+struct Outcome {
+    code: Option<i32>,
+    stdout: String,
+    stderr: String,
+}
+
+fn outcome(out: std::process::Output) -> Outcome {
+    Outcome {
+        code: out.status.code(),
+        stdout: String::from_utf8_lossy(&out.stdout).into_owned(),
+        stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
+    }
+}
+
+/// The binary with `args` in `cwd`, with `env` set and no scheduler variables inherited.
+fn run_env(args: &[&str], cwd: &Path, env: &[(&str, &str)]) -> Outcome {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_cubetrace"));
+    cmd.args(args)
+        .current_dir(cwd)
+        .env("XDG_RUNTIME_DIR", "/tmp");
+    for k in SCHEDULER_VARS {
+        cmd.env_remove(k);
+    }
+    for (k, v) in env {
+        cmd.env(k, v);
+    }
+    outcome(cmd.output().unwrap())
+}
+
+fn run(args: &[&str], cwd: &Path) -> Outcome {
+    run_env(args, cwd, &[])
+}
+
+const SCHEDULER_VARS: [&str; 6] = [
+    "SLURM_ARRAY_TASK_ID",
+    "SLURM_ARRAY_TASK_COUNT",
+    "SLURM_ARRAY_TASK_MIN",
+    "SLURM_ARRAY_TASK_MAX",
+    "SLURM_ARRAY_TASK_STEP",
+    "JOB_COMPLETION_INDEX",
+];
+
+/// A clean failure: exit status 1 (2 for clap's usage errors), no panic, every needle in stderr.
+fn assert_refused(o: &Outcome, code: i32, needles: &[&str]) {
+    assert_eq!(o.code, Some(code), "exit status; stderr: {}", o.stderr);
+    assert!(!o.stderr.contains("panicked"), "{}", o.stderr);
+    for n in needles {
+        assert!(o.stderr.contains(n), "expected '{n}' in: {}", o.stderr);
+    }
+}
+
+/// Every file name in `dir`, sorted.
+fn names(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .map(|rd| {
+            rd.map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+                .collect()
+        })
+        .unwrap_or_default();
+    v.sort();
+    v
+}
+
+/// A stand-in for the cubetrace binary: writes each argument it gets, NUL-terminated, to `log`.
+fn recorder(dir: &Path, log: &Path) -> std::path::PathBuf {
+    let path = dir.join("record.sh");
+    std::fs::write(
+        &path,
+        format!("#!/bin/sh\nprintf '%s\\0' \"$@\" > '{}'\n", log.display()),
+    )
+    .unwrap();
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o755)).unwrap();
+    }
+    path
+}
+
+/// Runs the script `script` with bash as Slurm would run array task `task`, the binary replaced
+/// by [`recorder`]; the arguments the binary got, or the script's failure.
+fn run_task(dir: &Path, script: &Path, task: Option<&str>) -> Result<Vec<String>, Outcome> {
+    let log = dir.join("args.bin");
+    let _ = std::fs::remove_file(&log);
+    let mut cmd = Command::new("bash");
+    cmd.arg(script)
+        .current_dir(dir)
+        .env("CUBETRACE", recorder(dir, &log));
+    for k in SCHEDULER_VARS {
+        cmd.env_remove(k);
+    }
+    if let Some(t) = task {
+        cmd.env("SLURM_ARRAY_TASK_ID", t);
+    }
+    let o = outcome(cmd.output().unwrap());
+    if o.code != Some(0) {
+        return Err(o);
+    }
+    let bytes = std::fs::read(&log).unwrap();
+    Ok(bytes
+        .split(|b| *b == 0)
+        .filter(|s| !s.is_empty())
+        .map(|s| String::from_utf8_lossy(s).into_owned())
+        .collect())
+}
+
+/// Whether the binary's `render` has the sequence flags (`--skip-existing`).
+fn render_has_skip_existing() -> bool {
+    let o = run(&["render", "--help"], Path::new("."));
+    o.stdout.contains("--skip-existing")
+}
+
+#[test]
+fn the_slurm_script_runs_the_command_line_as_typed() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // Arguments a shell would split, expand or cut: spaces, quotes, $, #, a glob, a newline.
+    let odd = "out dir/it's \"q\" $HOME `x` *-####.png";
+    let job = d.join("jobs/render.sbatch");
+    let o = run(
+        &[
+            "farm",
+            "slurm",
+            "--tasks",
+            "5",
+            "-o",
+            job.to_str().unwrap(),
+            "--",
+            "render",
+            "sphere-room",
+            "--width",
+            "32",
+            "-o",
+            odd,
+            "--camera",
+            "a\nb",
+        ],
+        d,
+    );
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+    assert!(
+        o.stdout.is_empty(),
+        "-o writes the file, not stdout: {}",
+        o.stdout
+    );
+    assert!(o.stderr.contains("sbatch"), "{}", o.stderr);
+    let text = std::fs::read_to_string(&job).unwrap();
+    assert!(text.lines().any(|l| l == "#SBATCH --array=0-4"), "{text}");
+    let mut want: Vec<String> = ["render", "sphere-room", "--width", "32", "-o", odd]
+        .into_iter()
+        .chain(["--camera", "a\nb"])
+        .map(String::from)
+        .collect();
+    if render_has_skip_existing() {
+        want.push("--skip-existing".into());
+    }
+    for task in ["0", "3"] {
+        let mut w = want.clone();
+        w.extend(["--shard".into(), format!("{task}/5")]);
+        let got = run_task(d, &job, Some(task)).unwrap_or_else(|o| panic!("{}", o.stderr));
+        assert_eq!(got, w, "task {task}");
+    }
+    // Negatives: outside Slurm the script refuses to run; another task gets another shard.
+    let e = run_task(d, &job, None).unwrap_err();
+    assert!(e.stderr.contains("SLURM_ARRAY_TASK_ID"), "{}", e.stderr);
+    let got = run_task(d, &job, Some("1")).unwrap();
+    assert_ne!(got.last().map(String::as_str), Some("0/5"));
+}
+
+#[test]
+fn the_k8s_manifest_goes_to_stdout_and_names_the_shard_count() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let o = run(
+        &[
+            "farm",
+            "k8s",
+            "-n",
+            "6",
+            "--image",
+            "cubetrace:1",
+            "--claim",
+            "frames",
+            "--",
+            "sphere-room",
+            "--frames",
+            "1..12",
+        ],
+        d,
+    );
+    // Before the sequence flags exist, --frames is refused like any unknown flag.
+    if !render_has_skip_existing() {
+        assert_refused(&o, 1, &["--frames"]);
+        return;
+    }
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+    let v: serde_json::Value = serde_norway::from_str(&o.stdout).unwrap();
+    assert_eq!(v["spec"]["completions"], 6);
+    assert_eq!(v["spec"]["completionMode"], "Indexed");
+    let args = &v["spec"]["template"]["spec"]["containers"][0]["args"];
+    let want = serde_json::json!([
+        "render",
+        "sphere-room",
+        "--frames",
+        "1..12",
+        "--skip-existing",
+        "--shard-count",
+        "6"
+    ]);
+    assert_eq!(args, &want);
+    assert_ne!(v["spec"]["completions"], 5);
+    assert!(names(d).is_empty(), "stdout only: {:?}", names(d));
+}
+
+#[test]
+fn bad_farm_jobs_are_refused_and_write_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let job = d.join("job.sbatch");
+    let j = job.to_str().unwrap();
+    let cases: [(&[&str], i32, &[&str]); 5] = [
+        (
+            &[
+                "farm", "slurm", "-n", "2", "-o", j, "--", "a", "--shard", "1/2",
+            ],
+            1,
+            &["--shard"],
+        ),
+        (
+            &["farm", "slurm", "-n", "2", "-o", j, "--", "a", "--bogus"],
+            1,
+            &["--bogus"],
+        ),
+        (
+            &["farm", "slurm", "-n", "0", "-o", j, "--", "a"],
+            2,
+            &["--tasks"],
+        ),
+        (
+            &["farm", "k8s", "-n", "2", "-o", j, "--", "a"],
+            2,
+            &["--image"],
+        ),
+        (
+            &[
+                "farm", "slurm", "-n", "2", "-o", j, "--name", "x y", "--", "a",
+            ],
+            1,
+            &["--name"],
+        ),
+    ];
+    for (args, code, needles) in cases {
+        let o = run(args, d);
+        assert_refused(&o, code, needles);
+        assert!(names(d).is_empty(), "{args:?} left {:?}", names(d));
+    }
+    // Negative: the same command without the problem writes the job.
+    let o = run(&["farm", "slurm", "-n", "2", "-o", j, "--", "a"], d);
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+    assert_eq!(names(d), vec!["job.sbatch"]);
+}
