@@ -901,6 +901,10 @@ fn every_method_specific_flag_is_in_the_table() {
         "--subdivide",
         "--frames",
         "--skip-existing",
+        "--spp",
+        "--filter",
+        "--shard",
+        "--shard-count",
         "--help",
     ];
     for flag in &render {
