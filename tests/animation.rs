@@ -448,6 +448,26 @@ fn skip_existing_leaves_existing_files() {
     assert!(d.join("f-0001.png").is_file() && d.join("f-0003.png").is_file());
     ok(&run(&args, d));
     assert_ne!(std::fs::read(d.join("f-0002.png")).unwrap(), b"not a png");
+    // A still keeps its name and is skipped too; without the file it renders (the negative).
+    std::fs::write(d.join("still.png"), b"kept").unwrap();
+    let still = [
+        "render",
+        "sphere-room",
+        "--width",
+        "16",
+        "--height",
+        "12",
+        "-o",
+        "still.png",
+        "--skip-existing",
+    ];
+    let o = run(&still, d);
+    ok(&o);
+    assert!(o.stdout.contains("skipped"), "{}", o.stdout);
+    assert_eq!(std::fs::read(d.join("still.png")).unwrap(), b"kept");
+    std::fs::remove_file(d.join("still.png")).unwrap();
+    ok(&run(&still, d));
+    assert_ne!(std::fs::read(d.join("still.png")).unwrap(), b"kept");
 }
 
 /// Bad `--frames` are refused before anything renders: exit 1, one clear message, no file.

@@ -1,31 +1,37 @@
 #![forbid(unsafe_code)]
 //! `cubetrace render --frames`: a sequence of frames of an animated scene in one run.
 //!
-//! - Frames ([`super::frames::parse_frames`]): Blender's forms, comma separated: `10`, `1..240`, `1,3,5`,
-//!   mixtures (`1..10,20,40..50`), and a step per range, `1..240:2` (every second frame from 1:
-//!   1, 3, 5, ...). Frame numbers are 0 to [`MAX_FRAME`]; the frames are rendered once each, in
-//!   increasing order. Without `--frames` an animated scene renders its `[animation] frames`
-//!   range; a still scene renders one frame, as before.
-//! - Names ([`super::frames::output_pattern`], [`super::frames::frame_path`]): the last run of `#` in `-o` becomes the frame
-//!   number, zero-padded to the run's length (`-o out/orbit-####.png`: `out/orbit-0007.png`;
-//!   wider numbers keep all their digits). Several frames and no `#`: `-####` is added before the
-//!   extension, as Blender does. Without `-o`: `out/SCENE-METHOD-####.png` for a sequence (an
-//!   animated scene or `--frames` given), `out/SCENE-METHOD.png` for a still.
+//! - Frames ([`super::frames::parse_frames`]): Blender's forms, comma separated: `10`,
+//!   `1..240`, `1,3,5`, mixtures (`1..10,20,40..50`), and a step per range, `1..240:2` (every
+//!   second frame from 1: 1, 3, 5, ...). Frame numbers are 0 to
+//!   [`crate::scene::animation::MAX_FRAME`]; the frames are rendered once each, in increasing
+//!   order. Without `--frames` a scene with `[animation]` renders its default range
+//!   ([`Scene::default_frames`]); a still scene renders one frame, as before
+//!   ([`render::render`]).
+//! - Names ([`super::frames::output_pattern`], [`super::frames::frame_path`]): the last run of
+//!   `#` in `-o` becomes the frame number, zero-padded to the run's length
+//!   (`-o out/orbit-####.png`: `out/orbit-0007.png`; wider numbers keep all their digits).
+//!   Several frames and no `#`: `-####` is added before the extension, as Blender does.
+//!   Without `-o`: `out/SCENE-METHOD-####.png` for a sequence (an animated scene or `--frames`
+//!   given), `out/SCENE-METHOD.png` for a still.
 //! - `--skip-existing` resumes: a frame whose file exists is skipped. Every file is written
 //!   atomically (a temporary file renamed into place), so a killed run leaves whole frames only.
-//! - A progress bar (frames and samples, with an ETA; drawn only on a terminal) and a summary
+//! - `--shard I/N` or a scheduler's array index ([`super::shard`]) picks this run's contiguous
+//!   chunk of the frames; the names come from the whole list, so every chunk names alike.
+//! - A progress bar (samples of the frames, with an ETA; drawn only on a terminal) and a summary
 //!   line: frames rendered and skipped, wall time, frames per minute, the output pattern.
-//! - Each frame is the scene at that frame ([`crate::scene::Scene::at_frame`]) seen by the
-//!   chosen camera at the frame's time; one renderer serves every frame of the run, and a frame
-//!   within a sequence is byte-identical to the same frame rendered alone.
+//! - Each frame is the scene at that frame ([`Scene::at_frame`]) seen by the chosen camera at
+//!   the frame's time, rendered by one [`FrameRenderer`] for the whole run (the capture is
+//!   reused where only the camera moved); a frame within a sequence is byte-identical to the
+//!   same frame rendered alone (`tests/animation.rs`). `-v` logs whether each frame captured.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context as _, Result};
 
-use super::frames::{frame_path, output_pattern, parse_frames};
 use super::frame_renderer::{FrameRenderer, RenderedFrame};
+use super::frames::{frame_path, output_pattern, parse_frames};
 use super::render::{self, RenderArgs};
 use super::shard;
 use crate::camera::Camera;
@@ -39,19 +45,36 @@ pub fn render(args: RenderArgs) -> Result<()> {
         Some(text) => Some(parse_frames(text).map_err(|e| anyhow::anyhow!("--frames: {e}"))?),
         None => None,
     };
-    if given.is_none() {
+    if given.is_none() && !animated(&args.scene) {
         // The still path keeps today's behaviour (and loads the scene itself).
-        let probe = scene::load(&args.scene)?;
-        if probe.default_frames().is_none() {
-            let path = output_pattern(args.output.as_deref(), &probe.name, args.method, false, 1);
-            if args.sequence.skip_existing && std::fs::symlink_metadata(&path).is_ok() {
+        if args.sequence.skip_existing {
+            let path = match &args.output {
+                Some(o) => o.clone(),
+                None => {
+                    let name = scene::load(&args.scene)?.name;
+                    output_pattern(None, &name, args.method, false, 1)
+                }
+            };
+            if std::fs::symlink_metadata(&path).is_ok() {
                 println!("{} exists: skipped (--skip-existing)", path.display());
                 return Ok(());
             }
-            return render::render(args);
         }
+        return render::render(args);
     }
     run_sequence(args, given)
+}
+
+/// Whether `scene` (a built-in name or a scene file) has `[animation]`, read without loading
+/// its meshes; false where it cannot be read (the still path reports why).
+fn animated(scene: &str) -> bool {
+    if let Some(s) = scene::builtin::by_name(scene) {
+        return s.default_frames().is_some();
+    }
+    std::fs::read_to_string(scene)
+        .ok()
+        .and_then(|text| text.parse::<toml::Table>().ok())
+        .is_some_and(|t| t.contains_key("animation"))
 }
 
 /// One frame of the run: the scene and camera at that frame and where it goes.
@@ -101,7 +124,11 @@ fn run_sequence(args: RenderArgs, given: Option<Vec<i64>>) -> Result<()> {
         log::info!("frame {}: {} exists, skipped", j.frame, j.path.display());
     }
     let skipped = done.len();
-    let spp = u64::from(super::frame_renderer::film_settings(&args, &base).spp.max(1));
+    let spp = u64::from(
+        super::frame_renderer::film_settings(&args, &base)
+            .spp
+            .max(1),
+    );
     let bar = progress_bar(todo.len() as u64 * spp);
     let mut renderer: Option<FrameRenderer> = None;
     for job in &todo {

@@ -210,10 +210,11 @@ impl Scene {
         self.animation.apply(self, frame)
     }
 
-    /// The frames `render` renders when `--frames` is not given: the animation's range, else
-    /// `None` (one still frame).
+    /// The frames `render` renders when `--frames` is not given: the animation's `frames`,
+    /// else frame 1 alone for a scene with keys; `None` for a still (one frame, as before).
     pub fn default_frames(&self) -> Option<[i64; 2]> {
-        self.animation.frames
+        let a = &self.animation;
+        a.frames.or(a.is_animated().then_some([1, 1]))
     }
 }
 

@@ -38,7 +38,8 @@
 //!
 //! [animation]                       # optional; without it the scene is a still
 //! fps = 24                          # frame f is at time f / fps seconds (default 24)
-//! frames = [1, 48]                  # default range of `render` without --frames (inclusive)
+//! frames = [1, 48]                  # default range of `render` without --frames (inclusive;
+//!                                   # default [1, 1] where there are keys)
 //! interpolation = "linear"          # the only one (default)
 //!
 //! [[animation.camera]]
