@@ -519,3 +519,76 @@ fn bad_frames_are_refused() {
     ));
     assert!(d.join("x-2.png").is_file());
 }
+
+/// `--shard I/N` over the sequence loop: for N = 1, 2, 3 the chunks together write every frame
+/// of `--frames 1..4` once, each byte-identical to the run without shards; a wrong index is
+/// refused before anything renders.
+#[test]
+fn sharded_frames_equal_one_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let base = [
+        "render",
+        "sphere-room-orbit",
+        "--width",
+        "16",
+        "--height",
+        "12",
+        "--frames",
+        "1..4",
+    ];
+    let mut one = base.to_vec();
+    one.extend(["-o", "one/f-#.png"]);
+    ok(&run(&one, d));
+    for n in 1..=3 {
+        let out = format!("n{n}/f-#.png");
+        let mut rendered = 0;
+        for i in 0..n {
+            let shard = format!("{i}/{n}");
+            let mut a = base.to_vec();
+            a.extend(["-o", &out, "--shard", &shard]);
+            let o = run(&a, d);
+            ok(&o);
+            let line = o
+                .stdout
+                .lines()
+                .find(|l| l.starts_with("sequence: "))
+                .unwrap();
+            let count: usize = line["sequence: ".len()..]
+                .split(' ')
+                .next()
+                .unwrap()
+                .parse()
+                .unwrap();
+            rendered += count;
+        }
+        // Each frame is rendered by one chunk only.
+        assert_eq!(rendered, 4, "N = {n}");
+        let mut names: Vec<String> = std::fs::read_dir(d.join(format!("n{n}")))
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        assert_eq!(
+            names,
+            ["f-1.png", "f-2.png", "f-3.png", "f-4.png"],
+            "N = {n}"
+        );
+        for f in &names {
+            let a = std::fs::read(d.join("one").join(f)).unwrap();
+            let b = std::fs::read(d.join(format!("n{n}")).join(f)).unwrap();
+            assert!(a == b, "N = {n}: {f} differs from the single run");
+        }
+    }
+    // Negative: the frames differ from each other, and a wrong index is refused.
+    assert_ne!(
+        std::fs::read(d.join("one/f-1.png")).unwrap(),
+        std::fs::read(d.join("one/f-2.png")).unwrap()
+    );
+    let mut bad = base.to_vec();
+    bad.extend(["-o", "bad/f-#.png", "--shard", "3/3"]);
+    let o = run(&bad, d);
+    assert_eq!(o.code, Some(1), "{}", o.stderr);
+    assert!(o.stderr.contains("--shard"), "{}", o.stderr);
+    assert!(!d.join("bad").exists());
+}
