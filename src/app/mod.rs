@@ -75,6 +75,6 @@ pub fn info(gpu: GpuArgs) -> Result<()> {
 /// `cubetrace scenes`: one line per built-in scene.
 pub fn scenes() {
     for (name, about) in scene::builtin::NAMES {
-        println!("{name:<12} {about}");
+        println!("{name:<17} {about}");
     }
 }
