@@ -75,6 +75,8 @@ pub struct RenderArgs {
     pub gpu: GpuArgs,
     #[command(flatten)]
     pub shard: super::shard::ShardArgs,
+    #[command(flatten)]
+    pub sequence: super::frames::SequenceArgs,
 }
 
 /// Samples per pixel and their filter (`crate::film`), over the scene file's `[film]`.
