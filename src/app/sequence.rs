@@ -124,11 +124,7 @@ fn run_sequence(args: RenderArgs, given: Option<Vec<i64>>) -> Result<()> {
         log::info!("frame {}: {} exists, skipped", j.frame, j.path.display());
     }
     let skipped = done.len();
-    let spp = u64::from(
-        super::frame_renderer::film_settings(&args, &base)
-            .spp
-            .max(1),
-    );
+    let spp = u64::from(render::film_settings(&args, &base).spp.max(1));
     let bar = progress_bar(todo.len() as u64 * spp);
     let mut renderer: Option<FrameRenderer> = None;
     for job in &todo {
