@@ -348,3 +348,42 @@ fn bench_refuses_what_render_refuses_for_memory() {
         bench(scene, without, &limits).expect("bench accepts without the queue");
     }
 }
+
+/// `bench --sequence`: per method, the capture runs once with reuse (the first frame) and on
+/// every frame with recapture; a method that reads no cube map (bvh) never captures. The
+/// counts come from the frames (`GpuFrame::captured`), not from the mode.
+#[test]
+fn sequence_rows_count_the_captures_of_each_mode() {
+    use cubetrace::bench::sequence::{self, Mode};
+    let ctx = common::gpu_context();
+    let mut scene = cubetrace::scene::load("sphere-room-orbit").expect("built-in");
+    scene.cmo.resolution = 32;
+    let frames = [1, 2, 3, 4];
+    let report = sequence::run(
+        &ctx,
+        &scene,
+        &[Method::Reference, Method::Compute, Method::Bvh],
+        (32, 24),
+        &frames,
+        &|| {},
+    )
+    .expect("sequence bench");
+    let rows: Vec<(&str, Mode, usize, usize)> = report
+        .rows
+        .iter()
+        .map(|r| (r.method.as_str(), r.mode, r.frames, r.captured))
+        .collect();
+    // The reference is no GPU method: no row.
+    assert_eq!(
+        rows,
+        [
+            ("compute", Mode::Reuse, 4, 1),
+            ("compute", Mode::Recapture, 4, 4),
+            ("bvh", Mode::Reuse, 4, 0),
+            ("bvh", Mode::Recapture, 4, 0),
+        ]
+    );
+    assert!(report.rows.iter().all(|r| r.frames_per_minute > 0.0));
+    let md = sequence::table(&report);
+    assert!(md.contains("| compute | recapture | 4 | 4 |"), "{md}");
+}

@@ -77,6 +77,12 @@ pub struct BenchArgs {
     /// error against the reference as the other objects are subdivided (the tessellation curve).
     #[arg(long)]
     pub scaling: bool,
+    /// Frames per minute of an animated scene instead of the grid: the first of --scenes
+    /// [default: sphere-room-orbit, a 24-frame camera orbit], its `[animation]` frames, each GPU
+    /// method of --methods with the capture reused between frames and with it run for every
+    /// frame (bench::sequence). The issue's row is at --width 320 --height 240.
+    #[arg(long, conflicts_with = "scaling")]
+    pub sequence: bool,
     /// Scaling: the largest cube face size (powers of two from 32). The default stops at 1024:
     /// at 2048 one CMO's colour buffer (384 MiB) exceeds lavapipe's maxStorageBufferRange.
     #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(32..=4096))]
@@ -102,6 +108,12 @@ pub fn check_options(args: &BenchArgs, methods: &[Method]) -> Result<()> {
     for (flag, on) in given {
         if !on {
             continue;
+        }
+        if args.sequence {
+            anyhow::bail!(
+                "{flag} does not apply to --sequence (it renders each method's default setting \
+                 over the scene's frames): leave it out"
+            );
         }
         if args.scaling {
             anyhow::bail!(
@@ -136,6 +148,8 @@ pub fn bench(args: BenchArgs) -> Result<()> {
     );
     let paths = if args.scaling {
         run_scaling(&args, &ctx, &bar)?
+    } else if args.sequence {
+        run_sequence(&args, &methods, &ctx, &bar)?
     } else {
         run_grid(&args, &methods, &ctx, &bar)?
     };
@@ -192,6 +206,45 @@ fn run_scaling(
         bench::scaling::tessellation_table(&report.tessellation)
     );
     bench::scaling::write(&report, &args.out)
+}
+
+/// `--sequence`: the frames-per-minute rows of an animated scene, printed and written; returns
+/// the files written.
+fn run_sequence(
+    args: &BenchArgs,
+    methods: &[Method],
+    ctx: &GpuContext,
+    bar: &indicatif::ProgressBar,
+) -> Result<Vec<PathBuf>> {
+    let name = args
+        .scenes
+        .first()
+        .map_or("sphere-room-orbit", String::as_str);
+    let scene = crate::scene::load(name)?;
+    let frames: Vec<i64> = match scene.default_frames() {
+        Some([first, last]) => (first..=last).collect(),
+        None => anyhow::bail!(
+            "--sequence: scene '{name}' has no [animation] frames; give an animated scene \
+             (e.g. sphere-room-orbit)"
+        ),
+    };
+    let gpu: Vec<Method> = methods.iter().copied().filter(|m| m.is_gpu()).collect();
+    anyhow::ensure!(
+        !gpu.is_empty(),
+        "--sequence times GPU methods: --methods names none"
+    );
+    bar.set_length((gpu.len() * 2 * frames.len()) as u64);
+    let report = bench::sequence::run(
+        ctx,
+        &scene,
+        &gpu,
+        (args.width, args.height),
+        &frames,
+        &|| bar.inc(1),
+    )?;
+    bar.finish_and_clear();
+    println!("{}", bench::sequence::table(&report));
+    bench::sequence::write(&report, &args.out)
 }
 
 /// The harness's configuration of a grid run from the arguments and the parsed methods.

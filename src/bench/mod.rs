@@ -28,6 +28,7 @@ pub mod heatmap;
 pub mod plot;
 pub mod report;
 pub mod scaling;
+pub mod sequence;
 
 use std::path::PathBuf;
 use std::time::Instant;
