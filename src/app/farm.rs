@@ -163,8 +163,13 @@ pub fn render_command(args: &[String]) -> Result<Vec<String>> {
     }
     let command = RenderArgs::augment_args(clap::Command::new("cubetrace render"));
     let knows_skip = knows_skip_existing();
+    // `-v`/`--verbose` belong to the binary (global flags, valid after `render` too).
+    let verbose = |a: &String| {
+        a == "--verbose" || (a.len() > 1 && a.starts_with('-') && a[1..].chars().all(|c| c == 'v'))
+    };
+    let checked = args.iter().filter(|a| !verbose(a)).cloned();
     let matches = command
-        .try_get_matches_from(std::iter::once("render".to_string()).chain(args.clone()))
+        .try_get_matches_from(std::iter::once("render".to_string()).chain(checked))
         .map_err(|e| {
             let msg = e.to_string();
             let first = msg.lines().next().unwrap_or_default();
@@ -639,6 +644,11 @@ mod tests {
         assert!(format!("{e:#}").contains("has --shard"), "{e:#}");
         let e = k8s(&["-n", "2", "--image", "x", "--", "a", "--shard-count=2"]).unwrap_err();
         assert!(format!("{e:#}").contains("has --shard-count"), "{e:#}");
+        // -v is the binary's own flag, kept as given.
+        let s = slurm(&["-n", "2", "--", "a", "-vv", "--verbose"]).unwrap();
+        assert!(s.contains("render a -vv --verbose"), "{s}");
+        let e = slurm(&["-n", "2", "--", "a", "-vx"]).unwrap_err();
+        assert!(format!("{e:#}").contains("'-v'"), "{e:#}");
         let e = slurm(&["-n", "2", "--", "a", "--no-such-flag"]).unwrap_err();
         assert!(format!("{e:#}").contains("--no-such-flag"), "{e:#}");
         let e = slurm(&["-n", "2", "--", "a", "--method", "reference", "--compare"]).unwrap_err();
