@@ -290,6 +290,12 @@ fn render_frames(out: &Path, extra: &[&str], env: &[(&str, &str)]) -> Outcome {
     run_env(&args, Path::new("."), env)
 }
 
+/// One task of a split run: its flags and its environment.
+type Task<'a> = (Vec<&'a str>, Vec<(&'a str, String)>);
+
+/// A refused render: its flags, its environment, what the message must say.
+type Refusal<'a> = (&'a [&'a str], &'a [(&'a str, &'a str)], &'a [&'a str]);
+
 /// Every file of `dir` with its bytes.
 fn contents(dir: &Path) -> Vec<(String, Vec<u8>)> {
     names(dir)
@@ -313,7 +319,7 @@ fn sharded_frames_are_byte_identical_to_one_run() {
     // --shard over 3; SLURM_ARRAY_TASK_ID over 2 (ids 1..=2, MIN 1); JOB_COMPLETION_INDEX over 5
     // (more tasks than frames: one renders nothing).
     let n3: Vec<String> = (0..3).map(|i| format!("{i}/3")).collect();
-    let ways: Vec<(String, Vec<(Vec<&str>, Vec<(&str, String)>)>)> = vec![
+    let ways: Vec<(String, Vec<Task>)> = vec![
         (
             "shard3".into(),
             n3.iter()
@@ -378,7 +384,7 @@ fn a_wrong_shard_is_refused_before_anything_renders() {
         ("SLURM_ARRAY_TASK_MAX", "7"),
         ("SLURM_ARRAY_TASK_COUNT", "2"),
     ];
-    let cases: [(&[&str], &[(&str, &str)], &[&str]); 6] = [
+    let cases: [Refusal; 6] = [
         (&["--shard", "4/4"], &[], &["--shard 4/4", "0-based"]),
         (&["--shard", "0/0"], &[], &["--shard 0/0", "at least 1"]),
         (&["--shard", "1-4"], &[], &["--shard", "I/N"]),
