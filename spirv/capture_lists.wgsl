@@ -18,6 +18,10 @@
 //   (CMO-major, `(face N + y) N + x`, like the CMO distance buffer). The walk is capped at
 //   `walk_cap` node visits (lavapipe's 65535 back-edges per invocation): a capped texel gets
 //   `complete_to = 0` and is counted in `walks_capped`.
+// Records and nodes are stored a word per binding (`lists_rec_*`, `lists_node_*`: one u32
+// per texel or node each, `src/vk/passes/lists.rs`), so that no binding exceeds
+// maxStorageBufferRange before the pool holds range / 4 nodes; `ListsNode` is the value a
+// node's four words make (`lists_node`).
 // Which triangles: those of captured objects (`scene_is_captured`), reflectors only where the
 // CMO captures reflectors (`ListsView.reflectors`, the capture's vertex-shader rule), all of
 // them (no facing cull).
@@ -85,13 +89,32 @@ struct ListsCounters {
 @group(1) @binding(0) var<storage, read> lists_params: ListsParams;
 @group(1) @binding(1) var<storage, read> lists_views: array<ListsView>;
 @group(1) @binding(2) var<storage, read_write> lists_jobs: array<ListsJob>;
-@group(1) @binding(3) var<storage, read_write> lists_nodes: array<ListsNode>;
-@group(1) @binding(4) var<storage, read_write> lists_heads: array<atomic<u32>>;
-@group(1) @binding(5) var<storage, read_write> lists_overflow: array<atomic<u32>>;
-@group(1) @binding(6) var<storage, read_write> lists_face_overflow: array<atomic<u32>>;
-@group(1) @binding(7) var<storage, read_write> lists_counters: ListsCounters;
-@group(1) @binding(8) var<storage, read_write> lists_records: array<vec4<u32>>;
-@group(1) @binding(9) var<storage, read_write> lists_distance: array<f32>;
+@group(1) @binding(3) var<storage, read_write> lists_heads: array<atomic<u32>>;
+@group(1) @binding(4) var<storage, read_write> lists_overflow: array<atomic<u32>>;
+@group(1) @binding(5) var<storage, read_write> lists_face_overflow: array<atomic<u32>>;
+@group(1) @binding(6) var<storage, read_write> lists_counters: ListsCounters;
+@group(1) @binding(7) var<storage, read_write> lists_distance: array<f32>;
+// The per-texel record `[head, bits(complete_to), bits(hi), count_kept]`, a word per binding.
+@group(1) @binding(8) var<storage, read_write> lists_rec_head: array<u32>;
+@group(1) @binding(9) var<storage, read_write> lists_rec_complete: array<u32>;
+@group(1) @binding(10) var<storage, read_write> lists_rec_hi: array<u32>;
+@group(1) @binding(11) var<storage, read_write> lists_rec_count: array<u32>;
+// The node pool `[triangle, bits(lo), bits(hi), next]`, a word per binding.
+@group(1) @binding(12) var<storage, read_write> lists_node_triangle: array<u32>;
+@group(1) @binding(13) var<storage, read_write> lists_node_lo: array<u32>;
+@group(1) @binding(14) var<storage, read_write> lists_node_hi: array<u32>;
+@group(1) @binding(15) var<storage, read_write> lists_node_next: array<u32>;
+
+fn lists_node(i: u32) -> ListsNode {
+    return ListsNode(lists_node_triangle[i], lists_node_lo[i], lists_node_hi[i], lists_node_next[i]);
+}
+
+// Writes a node's payload (triangle, lo, hi), its `next` unchanged.
+fn lists_set_payload(i: u32, n: ListsNode) {
+    lists_node_triangle[i] = n.triangle;
+    lists_node_lo[i] = n.lo;
+    lists_node_hi[i] = n.hi;
+}
 
 fn lists_vertex(t: u32, corner: u32) -> vec3<f32> {
     return scene_vertices[scene_indices[3u * t + corner]].position;
@@ -191,10 +214,10 @@ fn texels(
                 let texel = (job.cmo_face * size + y) * size + x;
                 let node = atomicAdd(&lists_counters.nodes, 1u);
                 if node < lists_params.node_capacity {
-                    lists_nodes[node].triangle = job.triangle;
-                    lists_nodes[node].lo = bitcast<u32>(b.lo);
-                    lists_nodes[node].hi = bitcast<u32>(b.hi);
-                    lists_nodes[node].next = atomicExchange(&lists_heads[texel], node);
+                    lists_node_triangle[node] = job.triangle;
+                    lists_node_lo[node] = bitcast<u32>(b.lo);
+                    lists_node_hi[node] = bitcast<u32>(b.hi);
+                    lists_node_next[node] = atomicExchange(&lists_heads[texel], node);
                 } else {
                     atomicMin(&lists_overflow[texel], bitcast<u32>(b.lo));
                     atomicAdd(&lists_counters.nodes_dropped, 1u);
@@ -233,7 +256,7 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
         if node == LISTS_NIL {
             break;
         }
-        let cur = lists_nodes[node];
+        let cur = lists_node(node);
         var best = node;
         var bn = cur;
         var j = cur.next;
@@ -246,7 +269,7 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
                 capped = true;
                 break;
             }
-            let nj = lists_nodes[j];
+            let nj = lists_node(j);
             if lists_before(nj, bn) {
                 best = j;
                 bn = nj;
@@ -261,12 +284,8 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
             break;
         }
         if best != node {
-            lists_nodes[best].triangle = cur.triangle;
-            lists_nodes[best].lo = cur.lo;
-            lists_nodes[best].hi = cur.hi;
-            lists_nodes[node].triangle = bn.triangle;
-            lists_nodes[node].lo = bn.lo;
-            lists_nodes[node].hi = bn.hi;
+            lists_set_payload(best, cur);
+            lists_set_payload(node, bn);
         }
         hi = max(hi, bitcast<f32>(bn.hi));
         kept += 1u;
@@ -282,8 +301,11 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     var lo = complete;
     if kept > 0u {
-        lo = min(bitcast<f32>(lists_nodes[head].lo), complete);
+        lo = min(bitcast<f32>(lists_node_lo[head]), complete);
     }
-    lists_records[texel] = vec4<u32>(head, bitcast<u32>(complete), bitcast<u32>(hi), kept);
+    lists_rec_head[texel] = head;
+    lists_rec_complete[texel] = bitcast<u32>(complete);
+    lists_rec_hi[texel] = bitcast<u32>(hi);
+    lists_rec_count[texel] = kept;
     lists_distance[texel] = lo;
 }

@@ -27,6 +27,10 @@ struct GbufferCamera {
     width: f32,
     back: vec3<f32>,
     height: f32,
+    // `Camera::jitter` (pixels): `view_proj` moves the image by `-jitter`, so that the pixel
+    // centre sees the sample's ray.
+    jitter: vec2<f32>,
+    pad: vec2<f32>,
 }
 
 @group(1) @binding(0) var<uniform> gbuffer_camera: GbufferCamera;
@@ -95,7 +99,7 @@ fn fs_main(in: GbufferVarying) -> GbufferOut {
     let pixel = vec2<u32>(in.clip.xy);
     let c = gbuffer_camera;
     let o = c.eye;
-    let d = camera_ray_dir(pixel, c.width, c.height, c.tan_half, c.aspect, c.right, c.up, c.back);
+    let d = camera_ray_dir(pixel, c.jitter, c.width, c.height, c.tan_half, c.aspect, c.right, c.up, c.back);
     let v0 = scene_vertices[scene_indices[3u * in.triangle]];
     let v1 = scene_vertices[scene_indices[3u * in.triangle + 1u]];
     let v2 = scene_vertices[scene_indices[3u * in.triangle + 2u]];

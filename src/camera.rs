@@ -12,8 +12,14 @@
 //! - The view is right-handed, looking down `-z` in camera space, with `up` towards the top of
 //!   the image. [`Camera::view_proj`] is the matrix a vertex shader uses; [`Camera::ray`] is the
 //!   primary ray through a pixel centre. A test checks that the two agree.
+//! - Sub-pixel samples ([`crate::film`]): [`Camera::jitter`] moves the sample of every pixel by
+//!   the same offset from its centre, in pixels (`x` right, `y` down). [`Camera::ray`] goes
+//!   through `(i + 0.5 + jitter.x, j + 0.5 + jitter.y)` and [`Camera::proj`] shifts the image by
+//!   `-jitter`, so that the rasteriser's pixel centre sees that point. At `jitter = 0` every
+//!   float operation is the one without jitter (an added `+0.0` and no extra matrix product), so
+//!   one sample per pixel is bit for bit the frame without samples.
 
-use glam::{Mat4, Vec3};
+use glam::{Mat4, Vec2, Vec3};
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Camera {
@@ -25,6 +31,10 @@ pub struct Camera {
     pub fov_y_deg: f32,
     pub width: u32,
     pub height: u32,
+    /// The sample's offset from each pixel's centre, in pixels (`x` right, `y` down; within
+    /// `(-0.5, 0.5)` for samples inside the pixel): [`Vec2::ZERO`], the pixel centre, but while a
+    /// frame of several samples per pixel renders one of them ([`crate::film`]).
+    pub jitter: Vec2,
 }
 
 impl Camera {
@@ -42,10 +52,25 @@ impl Camera {
     /// `GREATER`, clear to 0), y of NDC pointing down.
     pub fn proj(&self, near: f32) -> Mat4 {
         // glam's Vulkan projection: NDC z in [0, 1], NDC y pointing down (camera up maps to -y).
-        glam::camera::rh::proj::vulkan::perspective_infinite_reverse(
+        let p = glam::camera::rh::proj::vulkan::perspective_infinite_reverse(
             self.fov_y_deg.to_radians(),
             self.aspect(),
             near,
+        );
+        if self.jitter == Vec2::ZERO {
+            return p;
+        }
+        // The point the ray through `centre + jitter` meets lands on the pixel centre: NDC moves
+        // by `-2 jitter / size` (clip space by that times `w`).
+        let dx = -2.0 * self.jitter.x / self.width as f32;
+        let dy = -2.0 * self.jitter.y / self.height as f32;
+        // Clip x' = x + dx w, y' = y + dy w: each column gains (dx, dy) times its w entry.
+        let d = glam::Vec4::new(dx, dy, 0.0, 0.0);
+        Mat4::from_cols(
+            p.x_axis + d * p.x_axis.w,
+            p.y_axis + d * p.y_axis.w,
+            p.z_axis + d * p.z_axis.w,
+            p.w_axis + d * p.w_axis.w,
         )
     }
 
@@ -110,13 +135,14 @@ impl Camera {
         (0.5 * self.fov_y_deg.to_radians()).tan()
     }
 
-    /// The primary ray through the centre of pixel `(i, j)`: origin and unit direction.
-    /// `camera_ray_dir` in `spirv/shared/camera.wgsl` repeats it operation for operation.
+    /// The primary ray through pixel `(i, j)`'s sample, its centre moved by [`Camera::jitter`]:
+    /// origin and unit direction. `camera_ray_dir` in `spirv/shared/camera.wgsl` repeats it
+    /// operation for operation.
     pub fn ray(&self, i: u32, j: u32) -> (Vec3, Vec3) {
         let (right, up, back) = self.basis();
         let tan = self.tan_half_fov_y();
-        let x_ndc = 2.0 * (i as f32 + 0.5) / self.width as f32 - 1.0;
-        let y_ndc = 2.0 * (j as f32 + 0.5) / self.height as f32 - 1.0;
+        let x_ndc = 2.0 * (i as f32 + 0.5 + self.jitter.x) / self.width as f32 - 1.0;
+        let y_ndc = 2.0 * (j as f32 + 0.5 + self.jitter.y) / self.height as f32 - 1.0;
         let x = x_ndc * tan * self.aspect();
         let y = -y_ndc * tan;
         let dir = (right * x + up * y - back).normalize();
@@ -168,6 +194,7 @@ mod tests {
             fov_y_deg: 50.0,
             width: 64,
             height: 48,
+            jitter: glam::Vec2::ZERO,
         }
     }
 
@@ -226,6 +253,47 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// With a jitter, the ray through the pixel's moved sample projects (jittered `view_proj`)
+    /// back to the pixel centre: the rasteriser's centre sees the sample's ray. Negative: the
+    /// unjittered projection puts it `jitter` pixels away. A zero jitter changes no bit.
+    #[test]
+    fn jittered_ray_and_projection_agree() {
+        let near = 0.1;
+        for jitter in [glam::Vec2::new(0.3, -0.2), glam::Vec2::new(-0.45, 0.4)] {
+            let c = Camera { jitter, ..cam() };
+            let plain = cam();
+            let vp = c.view_proj(near);
+            for &(i, j) in &[(0, 0), (63, 47), (20, 31)] {
+                let (o, d) = c.ray(i, j);
+                let px = |m: Mat4| {
+                    let p = m.project_point3(o + d * 30.0);
+                    glam::Vec2::new(
+                        (p.x + 1.0) * 0.5 * c.width as f32,
+                        (p.y + 1.0) * 0.5 * c.height as f32,
+                    )
+                };
+                let centre = glam::Vec2::new(i as f32 + 0.5, j as f32 + 0.5);
+                assert!(
+                    (px(vp) - centre).abs().max_element() < 1e-3,
+                    "{jitter} {i},{j}"
+                );
+                let off = px(plain.view_proj(near)) - centre;
+                assert!(
+                    (off - jitter).abs().max_element() < 1e-3,
+                    "{off} vs {jitter}"
+                );
+            }
+        }
+        let zero = Camera {
+            jitter: glam::Vec2::ZERO,
+            ..cam()
+        };
+        let a = zero.view_proj(near).to_cols_array().map(f32::to_bits);
+        let b = cam().view_proj(near).to_cols_array().map(f32::to_bits);
+        assert_eq!(a, b);
+        assert_eq!(zero.ray(5, 7), cam().ray(5, 7));
     }
 
     /// The frame's corner direction makes the angle `corner_cos` with the view axis; no pixel's

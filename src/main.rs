@@ -75,7 +75,7 @@ enum SceneCommand {
 
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
-        Command::Render(args) => app::render::render(args),
+        Command::Render(args) => app::sequence::render(args),
         Command::Bench(args) => app::bench::bench(args),
         Command::Info(gpu) => app::info(gpu),
         Command::Farm { command } => app::farm::farm(command),

@@ -22,6 +22,10 @@
 //! - GPU frames only: `unresolved` (f32, 1 on mirror pixels no CMO could decide) and, with the
 //!   BVH tracer (`bvh`, `--fallback trace`), `fallback` (f32, 1 where the BVH finished the ray
 //!   of a pixel the method left unresolved; `unresolved` is then 0 there).
+//!
+//! At several samples per pixel (`--spp N`, [`crate::film`]) `R`, `G`, `B` are the filtered
+//! colour; every other channel is that of one sample, the one nearest the pixel centre
+//! ([`crate::film::aov_sample`]), never a blend: `object_id` names a triangle the pixel shows.
 
 use std::path::Path;
 

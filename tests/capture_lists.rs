@@ -5,6 +5,8 @@
 //!   texel `lo` (the distance buffer) and `hi`, nothing dropped;
 //! - tiny node pools, job buffers and list walks: what the GPU keeps is the CPU's, and `complete_to` is at
 //!   most every entry the GPU lost; the loss is counted;
+//! - a per-binding range limit lowered below the pool as one `vec4` binding: the split layout
+//!   still matches bit for bit; a perturbed device node is detected; a lower limit is refused;
 //! - the capture's cost on a built-in scene at N = 64 and 256 (printed, not asserted).
 //!
 //! Every comparison has a negative (one CPU value perturbed by one ulp, one `complete_to`
@@ -294,6 +296,68 @@ fn gpu_matches_the_cpu_twin_on_a_builtin_scene() {
         assert!(u64::from(g.counters.nodes) <= cap.nodes);
         compare_all(&g, &cpu_lists(&data, &cmos, size, 16));
     }
+    finish_gpu(ctx);
+}
+
+/// Under a per-binding limit (`maxStorageBufferRange`, lowered) that the pool as one `vec4`
+/// binding would exceed, the capture runs (each record and pool word its own binding) and
+/// matches the CPU twin bit for bit; a node perturbed in the device's pool is detected, and a
+/// limit one word lower is refused, naming the size and the limit.
+#[test]
+fn a_lowered_range_limit_splits_the_lists_and_matches() {
+    use cubetrace::vk::VkError;
+    let ctx = gpu_context();
+    let (data, cmos) = builtin("sphere-room");
+    let size = 32;
+    let scene = SceneBuffers::new(&ctx, &data).unwrap();
+    let cap = full_capacity(&data, &cmos, size);
+    let texels = cmos.len() as u64 * 6 * u64::from(size * size);
+    let limit = 4 * texels.max(cap.nodes);
+    // The layout before: a node of 16 B (and a record of 16 B) in one binding.
+    assert!(
+        16 * cap.nodes > limit && 16 * texels > limit,
+        "{cap:?}, {limit}"
+    );
+    let lists =
+        CaptureLists::with_range_limit(&ctx, &scene, size, 16, &cmos, cap, None, limit).unwrap();
+    ctx.submit_and_wait("capture_lists", |rec| lists.record(rec))
+        .unwrap();
+    let g = lists.read_back(&ctx, None).unwrap();
+    eprintln!("range limit {limit} B: {cap:?}, {:?}", g.counters);
+    assert_nothing_dropped(&g);
+    let cpu = cpu_lists(&data, &cmos, size, 16);
+    compare_all(&g, &cpu);
+    // Negative: one kept node's `lo` one ulp up in the device's pool (its `lo` word binding).
+    let own = lists.own_targets().unwrap();
+    let mut lo: Vec<u32> = ctx.read_buffer(&own.nodes[1]).unwrap();
+    let (k, r) = g
+        .records
+        .iter()
+        .enumerate()
+        .find(|(_, r)| r[3] > 0)
+        .expect("some texel holds an entry");
+    lo[r[0] as usize] += 1;
+    ctx.write_buffer(&own.nodes[1], &lo).unwrap();
+    let bad = lists.read_back(&ctx, None).unwrap();
+    let per = 6 * (size * size) as usize;
+    let err = compare(&bad.cmos[k / per], &cpu[k / per]).unwrap_err();
+    eprintln!("perturbed node detected: {err}");
+    drop(lists);
+    // A limit a word below the largest binding is refused before anything is allocated.
+    let Err(e) =
+        CaptureLists::with_range_limit(&ctx, &scene, size, 16, &cmos, cap, None, limit - 4)
+    else {
+        panic!("a limit below the largest binding was accepted");
+    };
+    let text = e.to_string();
+    eprintln!("{text}");
+    assert!(matches!(e, VkError::Limit { .. }), "{text}");
+    assert!(text.contains("maxStorageBufferRange"), "{text}");
+    assert!(
+        text.contains(&format!("{}", texels.max(cap.nodes))),
+        "{text}"
+    );
+    drop(scene);
     finish_gpu(ctx);
 }
 

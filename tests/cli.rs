@@ -899,6 +899,12 @@ fn every_method_specific_flag_is_in_the_table() {
         "--bounces",
         "--output",
         "--subdivide",
+        "--frames",
+        "--skip-existing",
+        "--spp",
+        "--filter",
+        "--shard",
+        "--shard-count",
         "--help",
     ];
     for flag in &render {

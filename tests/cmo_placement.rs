@@ -23,6 +23,7 @@ fn occluded_mirror(with_box: bool) -> Scene {
         fov_y_deg: 35.0,
         width: 160,
         height: 120,
+        jitter: glam::Vec2::ZERO,
     };
     let mut b = SceneBuilder::new(Scene {
         name: "occluded-mirror".into(),

@@ -45,6 +45,7 @@ fn span_scene(far: f32) -> Scene {
             fov_y_deg: 30.0,
             width: 80,
             height: 60,
+            jitter: glam::Vec2::ZERO,
         }],
         cmo: CmoSpec {
             placement: CmoPlacement::Explicit(vec![centre]),

@@ -80,9 +80,9 @@ fn shared_structs_match_naga_layout() {
             tan_half,
             aspect,
             right,
-            pad1,
+            jitter_x,
             up,
-            pad2,
+            jitter_y,
             back,
             pad3
         ]

@@ -213,7 +213,7 @@ fn shared_structs_match_naga_layout() {
         GbufferCamera,
         GBUFFER.struct_layout("GbufferCamera").unwrap(),
         [
-            view_proj, eye, tan_half, right, aspect, up, width, back, height
+            view_proj, eye, tan_half, right, aspect, up, width, back, height, jitter, pad
         ]
     )
     .unwrap();

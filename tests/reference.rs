@@ -109,6 +109,7 @@ fn planar_camera() -> Camera {
         fov_y_deg: 55.0,
         width: 160,
         height: 120,
+        jitter: glam::Vec2::ZERO,
     }
 }
 

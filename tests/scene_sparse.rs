@@ -38,6 +38,7 @@ fn scene(meshes: Vec<MeshInstance>) -> Scene {
             fov_y_deg: 50.0,
             width: 24,
             height: 18,
+            jitter: glam::Vec2::ZERO,
         }],
         cmo: CmoSpec {
             placement: CmoPlacement::Auto { count: 1 },

@@ -36,9 +36,10 @@ struct FrameParams {
     tan_half: f32,
     aspect: f32,
     right: vec3<f32>,
-    pad1: u32,
+    // `Camera::jitter`: the sample's offset from the pixel centre, in pixels.
+    jitter_x: f32,
     up: vec3<f32>,
-    pad2: u32,
+    jitter_y: f32,
     back: vec3<f32>,
     pad3: u32,
 }
@@ -64,7 +65,8 @@ fn mirror_ray(pixel: vec2<u32>) -> MirrorRay {
     }
     let n = normalize_glam(textureLoad(gbuffer_normal, vec2<i32>(pixel), 0).xyz);
     let d = camera_ray_dir(
-        pixel, f32(frame.width), f32(frame.height), frame.tan_half, frame.aspect,
+        pixel, vec2<f32>(frame.jitter_x, frame.jitter_y), f32(frame.width), f32(frame.height),
+        frame.tan_half, frame.aspect,
         frame.right, frame.up, frame.back,
     );
     let dn = d.x * n.x + d.y * n.y + d.z * n.z;

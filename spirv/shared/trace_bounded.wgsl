@@ -8,11 +8,15 @@
 // Data (@group(1), besides shared/trace.wgsl's; Rust `cubetrace::vk::passes::lists`):
 // - binding 2 `cmo_distance`: the texel's `lo` (so the pyramids, cut radius and skip tests of
 //   the exact criterion work unchanged);
-// - binding 6 `cmo_lists`: per texel of CMO k at `k * 6 N N + texel_index`:
-//   `vec4<u32>(head, bits(complete_to), bits(hi), count_kept)`;
-// - binding 7 `cmo_nodes`: the node pool of all CMOs, `vec4<u32>(triangle, bits(lo), bits(hi),
-//   next)`; the first `count_kept` nodes from `head` along `next` are the texel's entries sorted
-//   by (lo, triangle). BOUNDED_NO_NODE ends a list.
+// - bindings 6 to 9 `cmo_list_head`, `cmo_list_complete`, `cmo_list_hi`, `cmo_list_count`: per
+//   texel of CMO k at `k * 6 N N + texel_index`, a u32 each: `head`, `bits(complete_to)`,
+//   `bits(hi)`, `count_kept`;
+// - bindings 10 to 13 `cmo_node_triangle`, `cmo_node_lo`, (`cmo_node_hi`, not read here),
+//   `cmo_node_next`: the node pool of all CMOs, a u32 per node each; the first `count_kept`
+//   nodes from `head` along `next` are the texel's entries sorted by (lo, triangle).
+//   BOUNDED_NO_NODE ends a list.
+// A word per binding (4 B per texel or node) keeps each binding within maxStorageBufferRange
+// up to 33.5 M nodes at lavapipe's 128 MiB (`src/vk/passes/lists.rs`).
 // The triangles' corners come from the scene (shared/hit.wgsl, @group(SCENE_GROUP)).
 //
 // Texel T crossed over [t0, t1] (`rmin, rmax` of r over it):
@@ -45,8 +49,13 @@
 //! import shared/hit.wgsl
 //! import shared/start.wgsl
 
-@group(1) @binding(6) var<storage, read> cmo_lists: array<vec4<u32>>;
-@group(1) @binding(7) var<storage, read> cmo_nodes: array<vec4<u32>>;
+@group(1) @binding(6) var<storage, read> cmo_list_head: array<u32>;
+@group(1) @binding(7) var<storage, read> cmo_list_complete: array<u32>;
+@group(1) @binding(8) var<storage, read> cmo_list_hi: array<u32>;
+@group(1) @binding(9) var<storage, read> cmo_list_count: array<u32>;
+@group(1) @binding(10) var<storage, read> cmo_node_triangle: array<u32>;
+@group(1) @binding(11) var<storage, read> cmo_node_lo: array<u32>;
+@group(1) @binding(13) var<storage, read> cmo_node_next: array<u32>;
 
 const BOUNDED_NO_NODE: u32 = 0xffffffffu;
 // Most entries read per texel (the capture's `depth`, 64 by default, stays below it): a texel
@@ -117,15 +126,14 @@ fn classify_bounded_pick(k: u32, seg: Segment, texel: Texel, iv: Interval) -> Bo
     let n = trace_config.size;
     let i = k * 6u * n * n + texel_index(texel, n);
     let lo = cmo_distance[i];
-    let rec = cmo_lists[i];
-    let hi = bitcast<f32>(rec.z);
+    let hi = bitcast<f32>(cmo_list_hi[i]);
     let rb = r_bounds(seg.a, seg.d, iv.t0, iv.t1);
     if rb.y < lo || rb.x > hi {
         return none;
     }
     let behind_t0 = BoundedOutcome(Outcome(2u, iv.t0, false), bounded_no_pick(), 0u);
     var t_known = iv.t1;
-    let complete_to = bitcast<f32>(rec.y);
+    let complete_to = bitcast<f32>(cmo_list_complete[i]);
     if is_finite_f32(complete_to) {
         if r_at(seg.a, seg.d, iv.t0) >= complete_to {
             return behind_t0;
@@ -136,25 +144,24 @@ fn classify_bounded_pick(k: u32, seg: Segment, texel: Texel, iv: Interval) -> Bo
         }
     }
     // More entries than the loop reads: the texel is unknown (as `complete_to` = 0).
-    if rec.w > BOUNDED_MAX_ENTRIES {
+    let count = cmo_list_count[i];
+    if count > BOUNDED_MAX_ENTRIES {
         return behind_t0;
     }
     let centre = cmo_centres[k].xyz;
     let start = bounded_start(seg.a, seg.from_tri, centre);
     var best = bounded_no_pick();
-    var node = rec.x;
-    let count = rec.w;
+    var node = cmo_list_head[i];
     var j = 0u;
     for (; j < count; j++) {
         if node == BOUNDED_NO_NODE {
             return BoundedOutcome(behind_t0.o, behind_t0.pick, j);
         }
-        let e = cmo_nodes[node];
-        node = e.w;
-        if bitcast<f32>(e.y) > rb.y {
+        if bitcast<f32>(cmo_node_lo[node]) > rb.y {
             break;
         }
-        let tri = e.x;
+        let tri = cmo_node_triangle[node];
+        node = cmo_node_next[node];
         let a = hit_vertex(tri, 0u).position - centre;
         let b = hit_vertex(tri, 1u).position - centre;
         let c = hit_vertex(tri, 2u).position - centre;

@@ -4,6 +4,8 @@
 //!
 //! - [`render`]: `cubetrace render` (one frame of one method, optionally compared with the
 //!   reference); [`summary`]: its summary line and the fallback's warning.
+//! - [`sequence`]: `cubetrace render` of several frames (`--frames`, an animated scene), with
+//!   [`frames`]: the sequence flags, frame lists and output names.
 //! - [`bench`](mod@bench): `cubetrace bench` (the harness of [`crate::bench`] and its scaling curves).
 //! - [`export`]: `cubetrace scene export`.
 //! - [`farm`]: `cubetrace farm slurm|k8s` (a scheduler's job that renders a sequence in chunks).
@@ -18,8 +20,11 @@
 pub mod bench;
 pub mod export;
 pub mod farm;
+pub mod frame_renderer;
+pub mod frames;
 pub mod options;
 pub mod render;
+pub mod sequence;
 pub mod shard;
 pub mod summary;
 
@@ -70,6 +75,6 @@ pub fn info(gpu: GpuArgs) -> Result<()> {
 /// `cubetrace scenes`: one line per built-in scene.
 pub fn scenes() {
     for (name, about) in scene::builtin::NAMES {
-        println!("{name:<12} {about}");
+        println!("{name:<17} {about}");
     }
 }

@@ -14,17 +14,18 @@ use std::time::{Duration, Instant};
 use anyhow::Result;
 
 use super::GpuArgs;
+use super::frame_renderer::{self, FrameRenderer, FrameSetup, RenderedFrame};
 use super::options::TraceArgs;
 use super::summary::{self, FallbackCount};
 use crate::Method;
 use crate::camera::Camera;
 use crate::memory;
-use crate::metrics::{self, Traced};
+use crate::metrics;
 use crate::output::{self, Format};
 use crate::reference;
 use crate::scene::{self, Scene};
 use crate::vk::GpuContext;
-use crate::vk::frame::{GpuFrame, GpuRenderer, RenderOptions};
+use crate::vk::frame::{GpuFrame, RenderOptions};
 
 #[derive(clap::Args)]
 pub struct RenderArgs {
@@ -67,19 +68,41 @@ pub struct RenderArgs {
     #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=5))]
     pub subdivide: u32,
     #[command(flatten)]
+    pub film: FilmArgs,
+    #[command(flatten)]
     pub trace: TraceArgs,
     #[command(flatten)]
     pub gpu: GpuArgs,
     #[command(flatten)]
     pub shard: super::shard::ShardArgs,
+    #[command(flatten)]
+    pub sequence: super::frames::SequenceArgs,
+}
+
+/// Samples per pixel and their filter (`crate::film`), over the scene file's `[film]`.
+#[derive(clap::Args, Clone, Debug, Default)]
+pub struct FilmArgs {
+    /// Samples per pixel (1..=1024) [default: the scene's `[film] spp`, else 1]. Every method,
+    /// the reference too, renders the frame once per sample, each time with every pixel's sample
+    /// at the same stratified sub-pixel offset (fixed: no seed), and filters them in linear
+    /// colour; the cube maps are captured once per frame. 1 is one sample at each pixel centre,
+    /// the frame without samples. At N > 1 the colour is filtered; the EXR's other channels
+    /// (mask, P, hit, object_id, primitive_id, bounces, unresolved, fallback) are those of the
+    /// one sample nearest the pixel centre, never a blend, so an ID names a triangle the pixel
+    /// shows.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(crate::film::MAX_SPP)))]
+    pub spp: Option<u32>,
+    /// Pixel filter of the samples [default: the scene's `[film] filter`, else box]: `box`
+    /// averages each pixel's own samples; `gaussian` is pbrt's Gaussian (radius 1.5 pixels,
+    /// sigma 0.5), each sample weighing in the pixels within that radius.
+    #[arg(long, value_enum)]
+    pub filter: Option<crate::film::PixelFilter>,
 }
 
 /// Where the frame goes and what it is, settled before anything renders.
 struct Target {
     path: PathBuf,
     format: Format,
-    /// `a WxH frame with --method M`: the subject of the memory refusals.
-    size: String,
 }
 
 impl RenderArgs {
@@ -131,11 +154,75 @@ pub fn render(args: RenderArgs) -> Result<()> {
     let start = Instant::now();
     args.check_method()?;
     let (scene, camera) = load_scene(&args)?;
-    let target = check_target(&args, &scene, &camera)?;
+    let target = check_target(&args, &scene)?;
     if args.method.is_gpu() {
         render_gpu(&args, &scene, &camera, &target, start)
     } else {
         render_reference(&args, &scene, &camera, &target, start)
+    }
+}
+
+/// The film of a run: the scene file's `[film]`, overridden by `--spp` and `--filter`.
+pub fn film_settings(args: &RenderArgs, scene: &Scene) -> crate::film::FilmSettings {
+    crate::film::FilmSettings {
+        spp: args.film.spp.unwrap_or(scene.film.spp).max(1),
+        filter: args.film.filter.unwrap_or(scene.film.filter),
+    }
+}
+
+impl FrameRenderer {
+    /// Device and checks once (GPU methods: the device, the textures and the memory the frame
+    /// needs, then the GPU renderer and its pipelines; the reference: the host memory, then its
+    /// BVH); nothing rendered yet.
+    pub fn new(args: &RenderArgs, scene: &Scene, camera: &Camera) -> Result<Self> {
+        let film = film_settings(args, scene);
+        let format = match &args.output {
+            Some(p) => Format::from_path(p)?,
+            None => Format::Png,
+        };
+        let size = format!(
+            "a {}x{} frame with --method {}",
+            camera.width, camera.height, args.method
+        );
+        let gpu = if args.method.is_gpu() {
+            let options = gpu_options(args)?;
+            let ctx = args.gpu.context()?;
+            let report = ctx.report();
+            check_textures(
+                scene,
+                u64::from(report.max_storage_buffer_range),
+                &report.name,
+            )?;
+            let limits =
+                memory::Limits::of_device(ctx.device_local_heap_bytes(), ctx.device_is_cpu())?;
+            check_gpu_memory(
+                &size,
+                scene,
+                camera,
+                &options,
+                format,
+                args.compare,
+                &report.name,
+                &limits,
+            )?;
+            Some((ctx, options))
+        } else {
+            let pixels = u64::from(camera.width) * u64::from(camera.height);
+            memory::check(
+                &size,
+                memory::reference_bytes(pixels, format),
+                memory::host_available()?,
+            )?;
+            None
+        };
+        let setup = FrameSetup {
+            method: args.method,
+            bounces: args.bounces,
+            film,
+            keep_samples: args.compare && film.spp > 1,
+            gpu,
+        };
+        FrameRenderer::from_setup(setup, scene, camera)
     }
 }
 
@@ -197,7 +284,7 @@ pub fn timed<T>(phase: &str, f: impl FnOnce() -> T) -> T {
 
 /// The output path (`-o`, else `out/SCENE-METHOD.png`), checked before any time is spent on the
 /// render.
-fn check_target(args: &RenderArgs, scene: &Scene, camera: &Camera) -> Result<Target> {
+fn check_target(args: &RenderArgs, scene: &Scene) -> Result<Target> {
     let method = args.method;
     // The scene's name comes from its file: only a sanitised form of it enters the path.
     let path = args.output.clone().unwrap_or_else(|| {
@@ -208,11 +295,7 @@ fn check_target(args: &RenderArgs, scene: &Scene, camera: &Camera) -> Result<Tar
     });
     let format = output::check_output(&path)?;
     check_file_name(&path)?;
-    let size = format!(
-        "a {}x{} frame with --method {method}",
-        camera.width, camera.height
-    );
-    Ok(Target { path, format, size })
+    Ok(Target { path, format })
 }
 
 /// The longest file or folder name, in bytes, that Linux file systems take (`NAME_MAX`).
@@ -349,8 +432,8 @@ pub fn gpu_options(args: &RenderArgs) -> Result<RenderOptions> {
     })
 }
 
-/// The GPU render: device, memory check, renderer, frame, file, summary, validation and the
-/// optional comparison.
+/// The GPU render: device, memory check and renderer ([`FrameRenderer::new`]), the frame's
+/// samples, file, summary, validation and the optional comparison.
 fn render_gpu(
     args: &RenderArgs,
     scene: &Scene,
@@ -358,51 +441,28 @@ fn render_gpu(
     target: &Target,
     start: Instant,
 ) -> Result<()> {
-    let options = gpu_options(args)?;
     let loaded = start.elapsed();
-    let ctx = args.gpu.context()?;
-    let device_ready = start.elapsed();
-    check_textures(
-        scene,
-        u64::from(ctx.report().max_storage_buffer_range),
-        &ctx.report().name,
-    )?;
-    let limits = memory::Limits::of_device(ctx.device_local_heap_bytes(), ctx.device_is_cpu())?;
-    check_gpu_memory(
-        &target.size,
-        scene,
-        camera,
-        &options,
-        target.format,
-        args.compare,
-        &ctx.report().name,
-        &limits,
-    )?;
-    let mut renderer = timed("GPU renderer (passes, pipelines, BVHs)", || {
-        GpuRenderer::new(&ctx, scene, camera, options)
-    })?;
+    let mut renderer = FrameRenderer::new(args, scene, camera)?;
     let created = start.elapsed();
-    let frame = renderer.render(&ctx)?;
+    let rendered = renderer.render(scene, camera)?;
     let render_time = start.elapsed();
-    let traced = frame.traced();
-    output::write_traced(
-        &target.path,
-        &traced,
-        &frame.surface_position,
-        &scene.world(),
-    )?;
+    rendered.write(&target.path, target.format)?;
     let written = start.elapsed();
     log::info!(
-        "host: scene {:.0} ms, device {:.0} ms, passes and pipelines {:.0} ms, frame (submit, wait, read back) {:.0} ms, {} {:.0} ms",
+        "host: scene {:.0} ms, device, passes and pipelines {:.0} ms, frame ({} sample(s): submit, wait, read back, filter) {:.0} ms, {} {:.0} ms",
         loaded.as_secs_f64() * 1e3,
-        (device_ready - loaded).as_secs_f64() * 1e3,
-        (created - device_ready).as_secs_f64() * 1e3,
+        (created - loaded).as_secs_f64() * 1e3,
+        rendered.spp,
         (render_time - created).as_secs_f64() * 1e3,
         target.path.display(),
         (written - render_time).as_secs_f64() * 1e3,
     );
-    log_gpu_frame(&frame, args.method);
-    let count = FallbackCount::of(&frame, &traced);
+    let (Some(frame), Some(ctx)) = (&rendered.gpu, renderer.context()) else {
+        anyhow::bail!("--method {}: no GPU frame", args.method);
+    };
+    let traced = frame.traced();
+    log_gpu_frame(frame, args.method);
+    let count = FallbackCount::of(frame, &traced);
     if let Some(warning) = summary::fallback_warning(args.method, scene, &count) {
         log::warn!("{warning}");
     }
@@ -412,15 +472,15 @@ fn render_gpu(
             &target.path,
             args.method,
             scene,
-            &frame,
+            &rendered,
             &count,
             render_time,
-            &ctx
+            ctx
         )
     );
-    crate::bench::check_validation(&ctx)?;
+    crate::bench::check_validation(ctx)?;
     if args.compare {
-        compare_with_reference(scene, camera, args.bounces, &frame, &traced);
+        compare_with_reference(scene, camera, args.bounces, renderer.film(), &rendered);
     }
     Ok(())
 }
@@ -498,47 +558,70 @@ fn log_gpu_frame(frame: &GpuFrame, method: Method) {
     }
 }
 
-/// The `wrote ...` line of a GPU render.
+/// The `wrote ...` line of a GPU render (the counts of the AOV sample, the GPU time of every
+/// sample).
 fn gpu_summary(
     path: &Path,
     method: Method,
     scene: &Scene,
-    frame: &GpuFrame,
+    rendered: &RenderedFrame,
     count: &FallbackCount,
     render_time: Duration,
     ctx: &GpuContext,
 ) -> String {
-    let gpu_ms: f64 = frame.pass_times.iter().map(|(_, t)| t).sum::<f64>() * 1e-6;
     format!(
-        "wrote {} ({}x{}, scene '{}', method {}, {}) in {:.2?} ({gpu_ms:.2} ms GPU on {})",
+        "wrote {} ({}x{}{}, scene '{}', method {}, {}) in {:.2?} ({:.2} ms GPU on {})",
         path.display(),
-        frame.width,
-        frame.height,
+        rendered.width,
+        rendered.height,
+        spp_note(rendered.spp),
         scene.name,
         method,
         summary::counts(method, count),
         render_time,
+        rendered.gpu_ms,
         ctx.report().name,
     )
 }
 
-/// `--compare`: renders the reference with the same bounces and prints the error line (and a
+/// `, N spp` in the summary line at more than one sample (nothing at one: today's line).
+fn spp_note(spp: u32) -> String {
+    if spp > 1 {
+        format!(", {spp} spp")
+    } else {
+        String::new()
+    }
+}
+
+/// `--compare`: renders the reference with the same bounces and film (the same sample offsets
+/// and filter) and prints the error line of the filtered frames (colours filtered, the rest of
+/// the AOV sample's) and, at more than one sample, the mean of each sample's own comparison (a
 /// warning where the mirror masks disagree).
 fn compare_with_reference(
     scene: &Scene,
     camera: &Camera,
     bounces: u32,
-    frame: &GpuFrame,
-    traced: &Traced,
+    film: crate::film::FilmSettings,
+    rendered: &RenderedFrame,
 ) {
+    let Some(traced) = rendered.traced() else {
+        return;
+    };
+    let Some(frame) = &rendered.gpu else {
+        return;
+    };
     let tracer = reference::Tracer::new(scene);
+    let keep = film.spp > 1;
+    let (refr, ref_samples) =
+        frame_renderer::reference_frame(scene, &tracer, camera, bounces, film, keep);
     // The GPU records hold each path's last hit (the first reflected one for one bounce).
-    let refr = reference::render(scene, &tracer, camera, bounces).with_last_hits(&tracer);
+    let refr = refr.with_last_hits(&tracer);
+    let centres = scene.cmo_centres();
     let r = metrics::compare(
         &refr,
-        traced,
+        &traced,
         &frame.surface_position,
-        &scene.cmo_centres(),
+        &centres,
         scene.cmo.resolution,
     );
     println!("{}", compare_summary(&r));
@@ -550,10 +633,44 @@ fn compare_with_reference(
             r.mask_extra
         );
     }
+    if keep {
+        let per: Vec<metrics::ErrorReport> = rendered
+            .samples
+            .iter()
+            .zip(&ref_samples)
+            .filter_map(|(g, rf)| {
+                let (t, p) = g.traced.as_ref()?;
+                let rf = rf.reference.as_ref()?.with_last_hits(&tracer);
+                Some(metrics::compare(&rf, t, p, &centres, scene.cmo.resolution))
+            })
+            .collect();
+        println!("{}", per_sample_summary(&per));
+    }
 }
 
-/// The reference render: host memory check, BVH, frame (with a progress bar on large frames),
-/// file and the `wrote ...` line.
+/// The `--compare` line of the samples one by one (more than one sample per pixel), each
+/// against the reference's sample at the same offset: the mean share of each error, and the
+/// PSNR of the samples' pooled squared error over mirror pixels with the worst sample's.
+fn per_sample_summary(per: &[metrics::ErrorReport]) -> String {
+    let n = per.len().max(1) as f64;
+    let mean = |f: &dyn Fn(&metrics::ErrorReport) -> f64| per.iter().map(f).sum::<f64>() / n;
+    // PSNR back to the squared error it came from (peak 1), pooled, and back.
+    let pooled = -10.0 * mean(&|r| 10f64.powf(-r.psnr_db / 10.0)).log10();
+    let worst = per.iter().map(|r| r.psnr_db).fold(f64::INFINITY, f64::min);
+    format!(
+        "per sample ({} samples, each against the reference's sample at the same offset): mean {:.2}% in error: mask mismatch {:.2}%, unresolved {:.2}%, wrong surface {:.2}%; PSNR {:.2} dB over mirror pixels (all samples' squared error pooled), worst sample {:.2} dB",
+        per.len(),
+        100.0 * mean(&|r| r.error),
+        100.0 * mean(&|r| r.mask_mismatch_fraction),
+        100.0 * mean(&|r| r.unresolved),
+        100.0 * mean(&|r| r.wrong_surface),
+        pooled,
+        worst,
+    )
+}
+
+/// The reference render: host memory check and BVH ([`FrameRenderer::new`]), the frame's
+/// samples (with a progress bar on large frames), file and the `wrote ...` line.
 fn render_reference(
     args: &RenderArgs,
     scene: &Scene,
@@ -561,40 +678,19 @@ fn render_reference(
     target: &Target,
     start: Instant,
 ) -> Result<()> {
-    let pixels = u64::from(camera.width) * u64::from(camera.height);
-    memory::check(
-        &target.size,
-        memory::reference_bytes(pixels, target.format),
-        memory::host_available()?,
-    )?;
-    let bvh_start = Instant::now();
-    let tracer = reference::Tracer::new(scene);
-    log::info!(
-        "{}: {} triangles, BVH built in {:.2?} ({:.2?} since the start)",
-        scene.name,
-        tracer.world.triangles.len(),
-        bvh_start.elapsed(),
-        start.elapsed()
-    );
-    let bar = indicatif::ProgressBar::new(0).with_style(
-        indicatif::ProgressStyle::with_template("reference {bar:40} {pos}/{len} rows {elapsed}")
-            .expect("the template is valid"),
-    );
-    // Small frames finish before a bar would help; indicatif hides it off a terminal.
-    if camera.width as u64 * camera.height as u64 * (args.bounces as u64 + 1) < 2_000_000 {
-        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
-    }
-    let frame = reference::render_with_progress(scene, &tracer, camera, args.bounces, &bar);
+    let mut renderer = FrameRenderer::new(args, scene, camera)?;
+    let rendered = renderer.render(scene, camera)?;
     let render_time = start.elapsed();
-    output::write_frame(&target.path, &frame, &tracer.world)?;
+    rendered.write(&target.path, target.format)?;
     println!(
-        "wrote {} ({}x{}, scene '{}', method {}, {} mirror pixels) in {:.2?}",
+        "wrote {} ({}x{}{}, scene '{}', method {}, {} mirror pixels) in {:.2?}",
         target.path.display(),
-        frame.width,
-        frame.height,
+        rendered.width,
+        rendered.height,
+        spp_note(rendered.spp),
         scene.name,
         args.method,
-        frame.mirror_pixels(),
+        rendered.mirror_pixels(),
         render_time
     );
     Ok(())

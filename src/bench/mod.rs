@@ -713,12 +713,16 @@ pub fn run_gpu_with(
     frames: u32,
 ) -> Result<GpuRun> {
     let mut renderer = GpuRenderer::new(ctx, scene, camera, options)?;
+    // Every timed frame is a whole frame, capture included (a renderer reuses its capture while
+    // the scene stands still: `GpuRenderer::invalidate_capture`).
     for _ in 0..warmup {
+        renderer.invalidate_capture();
         renderer.render(ctx)?;
     }
     let mut pass_ns = Vec::new();
     let mut last = None;
     for _ in 0..frames.max(1) {
+        renderer.invalidate_capture();
         let f = renderer.render(ctx)?;
         pass_ns.push(f.pass_times.clone());
         last = Some(f);

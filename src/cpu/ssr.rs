@@ -354,6 +354,7 @@ mod tests {
             fov_y_deg: 60.0,
             width: 64,
             height: 48,
+            jitter: glam::Vec2::ZERO,
         };
         let vp = camera.view_proj(0.01);
         let level0 = (0..64u32 * 48)

@@ -22,6 +22,10 @@ pub const NAMES: &[(&str, &str)] = &[
         "a mirror sphere in a textured room, with objects close to it (parallax)",
     ),
     (
+        "sphere-room-orbit",
+        "sphere-room with its camera orbiting the sphere: 24 frames at 24 fps (render --frames)",
+    ),
+    (
         "teapot",
         "the Utah teapot as the mirror, with objects around it; self-reflections on",
     ),
@@ -42,6 +46,7 @@ pub fn by_name(name: &str) -> Option<Scene> {
     Some(match name {
         "default" => default(),
         "sphere-room" => sphere_room(),
+        "sphere-room-orbit" => sphere_room_orbit(),
         "teapot" => teapot(),
         "torus" => torus(),
         "bowl" => bowl(),
@@ -77,6 +82,7 @@ fn camera(eye: Vec3, target: Vec3, fov_y_deg: f32) -> Camera {
         fov_y_deg,
         width: 640,
         height: 480,
+        jitter: glam::Vec2::ZERO,
     }
 }
 
@@ -178,6 +184,35 @@ pub fn sphere_room() -> Scene {
         Vec3::new(0.4, 2.2, 0.4),
     );
     b.scene
+}
+
+/// `sphere-room` with its camera on a circle around the sphere's vertical axis, one turn in 24
+/// frames (frames 1 to 24 at 24 fps; one key per frame from time 0 to 1 s, so every frame is a
+/// key and lies on the circle). Only the camera moves: the capture can be reused.
+pub fn sphere_room_orbit() -> Scene {
+    use super::animation::{CameraKey, CameraTrack};
+    let mut scene = sphere_room();
+    scene.name = "sphere-room-orbit".into();
+    let (eye, target) = (scene.cameras[0].eye, scene.cameras[0].target);
+    let radius = Vec3::new(eye.x - target.x, 0.0, eye.z - target.z).length();
+    let keys = (0..=24)
+        .map(|k| {
+            let angle = std::f32::consts::TAU * k as f32 / 24.0;
+            CameraKey {
+                time: f64::from(k) / 24.0,
+                eye: Some(Vec3::new(
+                    target.x + radius * angle.sin(),
+                    eye.y,
+                    target.z + radius * angle.cos(),
+                )),
+                ..CameraKey::default()
+            }
+        })
+        .collect();
+    scene.animation.fps = 24.0;
+    scene.animation.frames = Some([1, 24]);
+    scene.animation.cameras = vec![CameraTrack { camera: 0, keys }];
+    scene
 }
 
 /// The teapot's triangles, welded and with smooth normals, in its own units (about 32 wide).

@@ -13,8 +13,10 @@ use std::path::{Path, PathBuf};
 
 use toml::Spanned;
 
+use super::animation::Animation;
 use super::file::{
-    CameraFile, CmoFile, MeshFile, ScaleFile, SceneFile, SelfReflectionsFile, ShadingFile,
+    AnimationFile, CameraFile, CameraKeyFile, CameraTrackFile, CmoFile, FilmFile, MeshFile,
+    MeshKeyFile, MeshTrackFile, ScaleFile, SceneFile, SelfReflectionsFile, ShadingFile,
     ShadingModel, TransformFile,
 };
 use super::{CmoPlacement, CmoSpec, MeshInstance, Scene, SelfReflections};
@@ -70,6 +72,8 @@ pub fn export(scene: &Scene, dir: &Path) -> anyhow::Result<PathBuf> {
         meshes,
         cameras: scene.cameras.iter().map(camera_file).collect(),
         cmo: Some(cmo_file(&scene.cmo)),
+        film: film_file(scene),
+        animation: animation_file(scene),
     };
     let toml_text = format!(
         "# cubetrace scene '{}', written by `{MARK}`.\n{}",
@@ -194,6 +198,69 @@ fn camera_file(c: &Camera) -> CameraFile {
         fov_y_deg: sp(c.fov_y_deg),
         resolution: sp([c.width, c.height]),
     }
+}
+
+/// `[film]`, left out when it is the default (one sample, box filter).
+fn film_file(scene: &Scene) -> Option<FilmFile> {
+    let film = scene.film;
+    (film != crate::film::FilmSettings::default()).then(|| FilmFile {
+        spp: Some(sp(film.spp)),
+        filter: Some(sp(match film.filter {
+            crate::film::PixelFilter::Box => "box".to_string(),
+            crate::film::PixelFilter::Gaussian => "gaussian".to_string(),
+        })),
+    })
+}
+
+/// `[animation]`, left out when it is the default (a still); cameras and meshes by name.
+fn animation_file(scene: &Scene) -> Option<AnimationFile> {
+    let a = &scene.animation;
+    if *a == Animation::default() {
+        return None;
+    }
+    let arr = |v: Option<glam::Vec3>| v.map(|v| sp(v.to_array()));
+    let cameras = (a.cameras.iter())
+        .map(|t| {
+            sp(CameraTrackFile {
+                camera: Some(sp(scene.cameras[t.camera].name.clone())),
+                keys: (t.keys.iter())
+                    .map(|k| {
+                        sp(CameraKeyFile {
+                            time: Some(sp(k.time)),
+                            eye: arr(k.eye),
+                            target: arr(k.target),
+                            up: arr(k.up),
+                            fov_y_deg: k.fov_y_deg.map(sp),
+                        })
+                    })
+                    .collect(),
+            })
+        })
+        .collect();
+    let meshes = (a.meshes.iter())
+        .map(|t| {
+            sp(MeshTrackFile {
+                mesh: sp(scene.meshes[t.mesh].name.clone()),
+                keys: (t.keys.iter())
+                    .map(|k| {
+                        sp(MeshKeyFile {
+                            time: Some(sp(k.time)),
+                            translate: arr(k.translate),
+                            rotate_deg: arr(k.rotate_deg),
+                            scale: k.scale.map(|s| sp(ScaleFile::PerAxis(s.to_array()))),
+                        })
+                    })
+                    .collect(),
+            })
+        })
+        .collect();
+    Some(AnimationFile {
+        fps: Some(sp(a.fps)),
+        frames: a.frames.map(sp),
+        interpolation: Some(sp(a.interpolation.name().to_string())),
+        cameras,
+        meshes,
+    })
 }
 
 fn cmo_file(cmo: &CmoSpec) -> CmoFile {

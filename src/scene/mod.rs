@@ -471,6 +471,8 @@ impl Scene {
             other.self_reflections,
             "self_reflections"
         );
+        same!(self.film, other.film, "film");
+        same!(self.animation, other.animation, "animation");
         Ok(())
     }
 }

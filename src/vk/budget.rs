@@ -181,7 +181,9 @@ pub fn device_bytes(
 
 /// Bytes of the `bounded` criterion's lists ([`super::passes::lists`]) for `cmos` CMOs of
 /// `cube_size` texels per face side with a node pool of `pool_capacity` nodes: 16 B per texel
-/// record and 16 B per node (`lo` is the CMO distance, counted with the CMO data). The pool's
+/// record and 16 B per node, each a u32 word in four bindings (so each binding takes 4 B per
+/// texel or node against `maxStorageBufferRange`, [`super::passes::lists::check_range`]; `lo`
+/// is the CMO distance, counted with the CMO data). The pool's
 /// capacity comes from the capture (the sum over triangles and faces of the texels each may
 /// touch), which [`device_bytes`] does not know: it counts the records only
 /// (`pool_capacity` 0); [`estimate`], which has the scene, adds the pool

@@ -187,6 +187,10 @@ pub struct GpuFrame {
     pub compute: Option<ComputeStats>,
     /// Iteration counts of the searches ([`Method::ReflectionPoint`] only).
     pub search: Option<SearchStats>,
+    /// Whether this frame ran the CMO stages (capture, pyramid, the method's CMO stage): the
+    /// first frame and the first after [`GpuRenderer::set_camera`] changed what the capture
+    /// depends on; never for a method that captures nothing (`bvh`) or uploaded lists.
+    pub captured: bool,
 }
 
 impl GpuFrame {
@@ -342,9 +346,19 @@ pub struct GpuRenderer {
     /// `bounces` != 1 ([`super::passes::bounce`]).
     bounce: Option<BouncePasses>,
     composite: Composite,
-    _params: Buffer,
+    params: Buffer,
     records: Buffer,
     timestamps: Option<Timestamps>,
+    /// The scene as uploaded: the reflectors' screen rectangle and the methods' camera state
+    /// are derived from it again by [`GpuRenderer::set_camera`].
+    data: GpuSceneData,
+    /// The camera the passes are set for, and its ranges ([`FrameRanges`]; the jitter plays no
+    /// part in them, so a camera that differs only there keeps them).
+    camera: Camera,
+    ranges: FrameRanges,
+    /// Whether the CMO data holds the capture of the current inputs (the scene and
+    /// `ranges.capture_near`): [`GpuRenderer::render`] records the CMO stages only where not.
+    cmo_valid: bool,
 }
 
 /// The stages before the G-buffer that the CMOs need: their data, the capture and the
@@ -497,6 +511,8 @@ fn frame_params(scene: &Scene, camera: &Camera, options: &RenderOptions, t_hi: f
         right: right.to_array(),
         up: up.to_array(),
         back: back.to_array(),
+        jitter_x: camera.jitter.x,
+        jitter_y: camera.jitter.y,
         ..FrameParams::default()
     }
 }
@@ -619,6 +635,101 @@ impl GpuRenderer {
         Self::create(ctx, scene, camera, options, &ranges, Some(lists))
     }
 
+    /// Points every pass at `camera` (the frame size of creation, else [`VkError::Usage`]): the
+    /// frame params, the G-buffer's matrix and near plane, the reflectors' screen rectangle and
+    /// the method's own camera state ([`Technique::set_camera`]). The next frame is bit for bit
+    /// that of [`GpuRenderer::new`] for `scene` and `camera`; `scene` must be the one the
+    /// renderer was created for, but for its cameras. The CMO stages run again only where their
+    /// input changed: the capture's near plane ([`FrameRanges::capture_near`], which depends on
+    /// the eye through its floor); [`GpuFrame::captured`] says whether a frame ran them.
+    pub fn set_camera(&mut self, ctx: &GpuContext, scene: &Scene, camera: &Camera) -> VkResult<()> {
+        self.set_camera_with(ctx, scene, camera, true)
+    }
+
+    /// [`GpuRenderer::set_camera`] that leaves the G-buffer's camera as it was: a wrong update,
+    /// for the tests' negative only.
+    #[doc(hidden)]
+    pub fn set_camera_skipping_gbuffer(
+        &mut self,
+        ctx: &GpuContext,
+        scene: &Scene,
+        camera: &Camera,
+    ) -> VkResult<()> {
+        self.set_camera_with(ctx, scene, camera, false)
+    }
+
+    fn set_camera_with(
+        &mut self,
+        ctx: &GpuContext,
+        scene: &Scene,
+        camera: &Camera,
+        gbuffer: bool,
+    ) -> VkResult<()> {
+        if (camera.width, camera.height) != (self.width, self.height) {
+            return Err(VkError::Usage {
+                what: "camera".into(),
+                detail: format!(
+                    "a {}x{} camera for a renderer of {}x{} frames: the frame size is fixed at \
+                     creation",
+                    camera.width, camera.height, self.width, self.height
+                ),
+            });
+        }
+        let unjittered = |c: &Camera| Camera {
+            jitter: glam::Vec2::ZERO,
+            ..c.clone()
+        };
+        if unjittered(camera) != unjittered(&self.camera) {
+            let ranges = FrameRanges::new(scene, camera);
+            ranges.check(scene).map_err(|e| VkError::Usage {
+                what: "depth range".into(),
+                detail: e.to_string(),
+            })?;
+            self.ranges = ranges;
+        }
+        let near = self.ranges.near;
+        if let Some(CmoCapture::Raster(c)) = &mut self.capture {
+            let capture_near = self.ranges.capture_near;
+            if c.near().to_bits() != capture_near.to_bits() {
+                c.set_near(ctx, capture_near)?;
+                self.cmo_valid = false;
+            }
+        }
+        ctx.write_buffer(
+            &self.params,
+            &[frame_params(scene, camera, &self.options, self.ranges.t_hi)],
+        )?;
+        if gbuffer {
+            self.gbuffer.set_camera(ctx, camera, near)?;
+        }
+        let inputs = methods::CameraInputs {
+            ctx,
+            camera,
+            near,
+            data: &self.data,
+            mirror_rect: mirror_rect(&self.data, camera, near),
+        };
+        self.method.set_camera(&inputs)?;
+        self.camera = camera.clone();
+        Ok(())
+    }
+
+    /// Makes the next frame run the CMO stages again (capture, pyramid, the method's CMO stage)
+    /// though their inputs did not change: the bench times whole frames.
+    pub fn invalidate_capture(&mut self) {
+        self.cmo_valid = false;
+    }
+
+    /// Whether frames run a capture at all (not `bvh`, not uploaded lists).
+    pub fn captures(&self) -> bool {
+        self.capture.is_some()
+    }
+
+    /// The camera the passes are set for.
+    pub fn camera(&self) -> &Camera {
+        &self.camera
+    }
+
     fn create(
         ctx: &GpuContext,
         scene: &Scene,
@@ -705,9 +816,13 @@ impl GpuRenderer {
             fallback: after.fallback,
             bounce: after.bounce,
             composite,
-            _params: params,
+            params,
             records,
             timestamps,
+            data,
+            camera: camera.clone(),
+            ranges: ranges.clone(),
+            cmo_valid: false,
         })
     }
 
@@ -760,6 +875,7 @@ impl GpuRenderer {
     /// Records every pass, runs them and reads the frame back.
     pub fn render(&mut self, ctx: &GpuContext) -> VkResult<GpuFrame> {
         let mut ts = self.timestamps.take();
+        let cmo_stages = !self.cmo_valid;
         let recorded = ctx.submit_and_wait("frame", |rec| {
             if let Some(t) = ts.as_mut() {
                 t.reset(rec);
@@ -780,7 +896,7 @@ impl GpuRenderer {
                     }
                 }
             };
-            self.record(rec, &mut scoped)
+            self.record(rec, cmo_stages, &mut scoped)
         });
         let pass_times = match (&ts, &recorded) {
             (Some(t), Ok(())) => t.results()?,
@@ -788,11 +904,25 @@ impl GpuRenderer {
         };
         self.timestamps = ts;
         recorded?;
-        self.read_back(ctx, pass_times)
+        self.cmo_valid = true;
+        let mut frame = self.read_back(ctx, pass_times)?;
+        frame.captured = cmo_stages && self.capture.is_some();
+        Ok(frame)
     }
 
-    /// Records the frame's passes in the order of the module docs' table.
-    fn record(&self, rec: &Recorder<'_>, scope: &mut Scope<'_>) -> VkResult<()> {
+    /// Records the frame's passes in the order of the module docs' table; the CMO stages
+    /// (capture, pyramid, the method's CMO stage) only with `cmo_stages`.
+    fn record(&self, rec: &Recorder<'_>, cmo_stages: bool, scope: &mut Scope<'_>) -> VkResult<()> {
+        if cmo_stages {
+            self.record_cmo_stages(rec, scope)?;
+        }
+        scope("gbuffer", &mut || self.gbuffer.record(rec, self.background))?;
+        self.record_after_gbuffer(rec, scope)
+    }
+
+    /// The CMO stages of [`GpuRenderer::record`]: the capture, the pyramid and the method's CMO
+    /// stage.
+    fn record_cmo_stages(&self, rec: &Recorder<'_>, scope: &mut Scope<'_>) -> VkResult<()> {
         match &self.capture {
             Some(CmoCapture::Raster(c)) => {
                 scope("capture", &mut || c.record(rec, &self.cmo, self.background))?;
@@ -805,7 +935,12 @@ impl GpuRenderer {
             rec.memory_barrier(SHADER_WRITE, SHADER_READ);
         }
         self.method.record_cmo_stage(rec, scope)?;
-        scope("gbuffer", &mut || self.gbuffer.record(rec, self.background))?;
+        Ok(())
+    }
+
+    /// The second half of [`GpuRenderer::record`]: the method's passes, the checks and the
+    /// composite.
+    fn record_after_gbuffer(&self, rec: &Recorder<'_>, scope: &mut Scope<'_>) -> VkResult<()> {
         // `--bounces 0`: no ray is traced.
         if self.options.bounces != 0 {
             self.method.record(rec, scope)?;
@@ -874,6 +1009,7 @@ impl GpuRenderer {
             lists,
             compute: stats.compute,
             search: stats.search,
+            captured: false,
         })
     }
 }

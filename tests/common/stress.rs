@@ -91,6 +91,7 @@ pub fn frame(name: &str, width: u32, height: u32, cube: u32, cmos: u32) -> Scene
             fov_y_deg: 45.0,
             width,
             height,
+            jitter: glam::Vec2::ZERO,
         }],
         cmo: CmoSpec {
             placement: CmoPlacement::Explicit(centres(cmos)),

@@ -74,7 +74,7 @@ use crate::vk::backend::pipeline::{BindGroup, Resource};
 use crate::vk::backend::shaders::{FRAGMENT_TRACE, Pass};
 use crate::vk::passes::cmo::{CaptureContents, exact_mip_only};
 
-use super::technique::{FrameInputs, MethodSpec, Needs, Scope, Technique};
+use super::technique::{CameraInputs, FrameInputs, MethodSpec, Needs, Scope, Technique};
 
 /// The fragment method.
 pub struct Fragment;
@@ -183,6 +183,11 @@ impl DeferredTrace {
 }
 
 impl Technique for DeferredTrace {
+    fn set_camera(&mut self, inputs: &CameraInputs<'_>) -> VkResult<()> {
+        self.mirror_rect = inputs.mirror_rect;
+        Ok(())
+    }
+
     fn record(&self, rec: &Recorder<'_>, scope: &mut Scope<'_>) -> VkResult<()> {
         scope(self.pass.name, &mut || {
             let target = RenderTarget {

@@ -114,7 +114,9 @@ use crate::vk::passes::cmo::CaptureContents;
 use crate::vk::passes::gbuffer::Gbuffer;
 use crate::vk::passes::scene_buffers::SceneBuffers;
 
-use super::technique::{FrameInputs, MethodSpec, MethodStats, Needs, Scope, Technique};
+use super::technique::{
+    CameraInputs, FrameInputs, MethodSpec, MethodStats, Needs, Scope, Technique,
+};
 
 /// `RpParams` in `spirv/reflection_point_search.wgsl`.
 #[repr(C)]
@@ -391,11 +393,12 @@ pub struct ReflectionPointPasses {
     virtual_sets: [BindGroup; 2],
     resolve: ComputePipeline,
     resolve_set: BindGroup,
-    _params: Buffer,
+    params_buf: Buffer,
+    options: RpOptions,
     /// The closing triangles of open reflectors ([`crate::cpu::closure`]).
     _closure: Buffer,
     closure_vertices: u32,
-    _camera: Buffer,
+    camera_buf: Buffer,
     vertices: Buffer,
     /// T_P: world position, w = 1 on a reflector texel.
     pub position: Image,
@@ -507,10 +510,11 @@ impl ReflectionPointPasses {
             virtual_sets,
             resolve,
             resolve_set,
-            _params: params_buf,
+            params_buf,
+            options: *options,
             _closure: closure_buf,
             closure_vertices,
-            _camera: camera_buf,
+            camera_buf,
             vertices,
             position,
             normal,
@@ -671,6 +675,30 @@ impl MethodSpec for ReflectionPoint {
 }
 
 impl Technique for ReflectionPointPasses {
+    /// The search's and the raster's camera: `RpParams` (matrix, eye, start texel) and
+    /// `RpCamera`, as [`ReflectionPointPasses::new`] derives them.
+    fn set_camera(&mut self, i: &CameraInputs<'_>) -> VkResult<()> {
+        let params = RpParams::for_frame(
+            i.data,
+            self.index_count,
+            i.camera,
+            i.near,
+            &self.options,
+            (self.width, self.height),
+        )?;
+        let cam = RpCamera {
+            view_proj: params.view_proj,
+            eye: params.eye,
+            near: i.near,
+        };
+        i.ctx
+            .write_buffer(&self.params_buf, std::slice::from_ref(&params))?;
+        i.ctx
+            .write_buffer(&self.camera_buf, std::slice::from_ref(&cam))?;
+        self.params = params;
+        Ok(())
+    }
+
     fn record(&self, rec: &Recorder<'_>, scope: &mut Scope<'_>) -> VkResult<()> {
         scope(REFLECTION_POINT_SEARCH.name, &mut || {
             self.record_search(rec)

@@ -76,7 +76,7 @@ use crate::vk::backend::sync::{COMPUTE_READ, COMPUTE_WRITE, SHADER_READ, SHADER_
 use crate::vk::passes::cmo::CaptureContents;
 use crate::vk::passes::gbuffer::Gbuffer;
 
-use super::technique::{FrameInputs, MethodSpec, Needs, Scope, Technique};
+use super::technique::{CameraInputs, FrameInputs, MethodSpec, Needs, Scope, Technique};
 
 /// `SsrParams` in `spirv/shared/ssr.wgsl`.
 #[repr(C)]
@@ -147,7 +147,9 @@ pub struct SsrPasses {
     hiz_levels: Vec<(BindGroup, Buffer, [u32; 3])>,
     trace: GraphicsPipeline,
     trace_set: BindGroup,
-    _params: Buffer,
+    params_buf: Buffer,
+    /// What `params_buf` holds (its `view_proj` follows the camera).
+    params: SsrParams,
     pyramid: Buffer,
     width: u32,
     height: u32,
@@ -242,7 +244,8 @@ impl SsrPasses {
             hiz_levels: levels,
             trace,
             trace_set,
-            _params: params_buf,
+            params_buf,
+            params,
             pyramid,
             width,
             height,
@@ -317,6 +320,12 @@ impl MethodSpec for Ssr {
 }
 
 impl Technique for SsrPasses {
+    fn set_camera(&mut self, i: &CameraInputs<'_>) -> VkResult<()> {
+        self.params.view_proj = i.camera.view_proj(i.near).to_cols_array_2d();
+        i.ctx
+            .write_buffer(&self.params_buf, std::slice::from_ref(&self.params))
+    }
+
     fn record(&self, rec: &Recorder<'_>, scope: &mut Scope<'_>) -> VkResult<()> {
         scope(SSR_HIZ.name, &mut || {
             self.record_hiz(rec);

@@ -68,6 +68,17 @@ pub struct FrameInputs<'a> {
     pub mirror_rect: Option<[u32; 4]>,
 }
 
+/// A new camera for a method's passes ([`Technique::set_camera`]): of the frame size the passes
+/// were created for, with the G-buffer's near plane and the reflectors' screen rectangle derived
+/// from it as at creation ([`FrameInputs`]).
+pub struct CameraInputs<'a> {
+    pub ctx: &'a GpuContext,
+    pub camera: &'a Camera,
+    pub near: f32,
+    pub data: &'a GpuSceneData,
+    pub mirror_rect: Option<[u32; 4]>,
+}
+
 /// What a method is before it is allocated: one per GPU method, in `super::spec`.
 pub trait MethodSpec: Sync {
     /// The method's tracing pass: its timestamp scope in the harness's tables.
@@ -142,6 +153,14 @@ pub trait Technique: Any {
     /// Passes between the CMO stages and the G-buffer (the compute path's `hier32`); none by
     /// default.
     fn record_cmo_stage(&self, _rec: &Recorder<'_>, _scope: &mut Scope<'_>) -> VkResult<()> {
+        Ok(())
+    }
+
+    /// Updates everything the method derived from the camera at creation (matrices, search
+    /// start, scissor) for `inputs.camera`: the next frame must equal a frame of passes created
+    /// for that camera, bit for bit (`crate::vk::frame::GpuRenderer::set_camera`). Nothing by
+    /// default: for methods that read the camera only through the G-buffer and `FrameParams`.
+    fn set_camera(&mut self, _inputs: &CameraInputs<'_>) -> VkResult<()> {
         Ok(())
     }
 

@@ -56,7 +56,9 @@ pub struct Capture {
     pipeline: GraphicsPipeline,
     scene_set: BindGroup,
     view_set: BindGroup,
-    _views: Buffer,
+    views_buf: Buffer,
+    /// What `views_buf` holds.
+    views: Vec<CaptureView>,
     distance: Image,
     normal: Option<Image>,
     triangle: Option<Image>,
@@ -233,7 +235,8 @@ impl Capture {
             pipeline,
             scene_set,
             view_set,
-            _views: views_buf,
+            views_buf,
+            views,
             distance,
             normal,
             triangle,
@@ -242,6 +245,20 @@ impl Capture {
             size,
             contents,
         })
+    }
+
+    /// The near plane every face clips at (world units along its axis).
+    pub fn near(&self) -> f32 {
+        self.views.first().map_or(0.0, |v| v.near)
+    }
+
+    /// Moves every face's near plane to `near` ([`crate::ranges::FrameRanges::capture_near`]):
+    /// the next [`Capture::record`] is that of a capture created with it.
+    pub fn set_near(&mut self, ctx: &GpuContext, near: f32) -> VkResult<()> {
+        for v in &mut self.views {
+            v.near = near;
+        }
+        ctx.write_buffer(&self.views_buf, &self.views)
     }
 
     /// Records the capture of every face of every CMO into `cmo`: colour straight into its

@@ -11,10 +11,15 @@
 //!   after (compute writes -> any shader read).
 //! - Per texel, CMO-major, `(face N + y) N + x` (like [`CmoData`](super::cmo::CmoData)'s
 //!   distance): the record `[head, bits(complete_to), bits(hi), count_kept]`
-//!   ([`TexelRecord`]) in [`CaptureLists::records`]; the first `count_kept` nodes from `head`
-//!   ([`ListNode`], [`CaptureLists::nodes`]) are the texel's entries in order; `lo` in the
-//!   distance buffer ([`CaptureLists::distance`], or the caller's, e.g. the CMO distance, see
-//!   [`CaptureLists::new`]). Meanings: [`crate::cubemap::bounds::TexelLists`].
+//!   ([`TexelRecord`]); the first `count_kept` nodes from `head` ([`ListNode`]) are the
+//!   texel's entries in order; `lo` in the distance buffer ([`ListTargets`]: the pass's own, or
+//!   the caller's, e.g. the CMO distance, see [`CaptureLists::new`]). Records and nodes are
+//!   stored a word per binding ([`super::lists`]: four `u32` bindings each, so no binding
+//!   exceeds `maxStorageBufferRange` before the pool holds a quarter of the u32 index space
+//!   at 128 MiB). Meanings: [`crate::cubemap::bounds::TexelLists`].
+//! - Every binding is checked against the device's `maxStorageBufferRange` before anything is
+//!   allocated ([`super::lists::check_range`] for records and pool, and the job buffer):
+//!   what does not fit is refused naming its size and the limit.
 //! - Capacities come from the CPU ([`capacity`], the same f32 rect as the GPU's, so the job
 //!   buffer never fills on a conforming driver). A full job buffer (or a rect over 60000 tiles:
 //!   a whole face beyond N = 1952) makes its whole face unknown (`complete_to = 0`); a full
@@ -26,7 +31,7 @@ use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
-use super::cmo::storage;
+use super::cmo::{column_buffers, storage};
 use super::lists;
 use super::scene_buffers::SceneBuffers;
 use crate::cubemap::bounds::{self, PoolBound, TexelLists};
@@ -106,6 +111,20 @@ pub struct ListCounters {
 /// Per texel: `[head, bits(complete_to), bits(hi), count_kept]`.
 pub type TexelRecord = [u32; 4];
 
+/// The pass's own record and pool buffers' names, word by word ([`super::lists`]).
+const RECORD_NAMES: [&str; 4] = [
+    "capture_lists head",
+    "capture_lists complete_to",
+    "capture_lists hi",
+    "capture_lists count",
+];
+const NODE_NAMES: [&str; 4] = [
+    "capture_lists node triangle",
+    "capture_lists node lo",
+    "capture_lists node hi",
+    "capture_lists node next",
+];
+
 /// End of a list.
 pub const NIL: u32 = u32::MAX;
 /// Node visits per texel in `resolve` before the walk gives up (lavapipe: 65535 back-edges per
@@ -166,8 +185,12 @@ fn linear_groups(invocations: u64) -> [u32; 3] {
     [x, invocations.div_ceil(u64::from(ROW)).max(1) as u32, 1]
 }
 
-/// `(K, texels, triangles)` of a [`CaptureLists::new`] call, or why it cannot run.
+/// `(K, texels, triangles)` of a [`CaptureLists::new`] call, or why it cannot run (bindings
+/// over `range_limit` bytes: [`VkError::Limit`]).
+#[allow(clippy::too_many_arguments)]
 fn check_inputs(
+    ctx: &GpuContext,
+    range_limit: u64,
     scene: &SceneBuffers,
     size: u32,
     depth: u32,
@@ -199,12 +222,28 @@ fn check_inputs(
             capacity.jobs, capacity.nodes
         )));
     }
+    super::cmo::check_list_range(ctx, texels, capacity.nodes.max(1), range_limit)?;
+    let job_bytes = capacity.jobs.max(1) * size_of::<ListsJob>() as u64;
+    if job_bytes > range_limit {
+        return Err(VkError::Limit {
+            device: ctx.report().name.clone(),
+            what: format!(
+                "the `--criterion bounded` capture's job buffer ({} jobs: {} MiB)",
+                capacity.jobs,
+                job_bytes >> 20
+            ),
+            limit: format!("maxStorageBufferRange = {} MiB", range_limit >> 20),
+        });
+    }
     if let Some(t) = targets {
-        for (b, need) in [
-            (t.distance, texels * 4),
-            (t.records, texels * 16),
-            (t.nodes, capacity.nodes * 16),
-        ] {
+        let words = lists::COLUMN_BYTES;
+        let columns = t.records.iter().map(|b| (b, texels * words));
+        let pool = t.nodes.iter().map(|b| (b, capacity.nodes * words));
+        for (b, need) in [(t.distance, texels * 4)]
+            .into_iter()
+            .chain(columns)
+            .chain(pool)
+        {
             if b.size() < need {
                 return Err(usage(format!(
                     "buffer `{}` has {} bytes, the capture needs {need}",
@@ -239,20 +278,22 @@ pub struct CaptureLists {
 }
 
 /// Where the capture writes its results: `lo` per texel (K blocks of `6 N N` f32, e.g. the
-/// CMO distance buffer), the per-texel records and the node pool (e.g. the CMO data's
-/// `cmo_lists` and `cmo_nodes`, [`super::cmo::CmoData::alloc_lists`]).
+/// CMO distance buffer), the per-texel records and the node pool, a binding per word (e.g.
+/// the CMO data's, [`super::cmo::CmoData::alloc_lists`]; [`super::lists`]).
 #[derive(Clone, Copy)]
 pub struct ListTargets<'a> {
     pub distance: &'a Buffer,
-    pub records: &'a Buffer,
-    pub nodes: &'a Buffer,
+    /// `head`, `bits(complete_to)`, `bits(hi)`, `count_kept`: a u32 per texel each.
+    pub records: &'a [Buffer; 4],
+    /// `triangle`, `bits(lo)`, `bits(hi)`, `next`: a u32 per node each.
+    pub nodes: &'a [Buffer; 4],
 }
 
 /// The result buffers a capture allocated itself (no [`ListTargets`] given).
 struct OwnTargets {
     distance: Buffer,
-    records: Buffer,
-    nodes: Buffer,
+    records: [Buffer; 4],
+    nodes: [Buffer; 4],
 }
 
 impl OwnTargets {
@@ -280,7 +321,8 @@ impl CaptureLists {
     /// keeping `depth` entries per texel, with room for `capacity.jobs` jobs and
     /// `capacity.nodes` nodes (from [`capacity`]; a smaller pool is sound, see the module docs).
     /// `targets`: where the results go; `None` allocates them (read them with
-    /// [`CaptureLists::read_back`]).
+    /// [`CaptureLists::read_back`]). Refused where a binding would exceed the device's
+    /// `maxStorageBufferRange` (module docs).
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         ctx: &GpuContext,
@@ -291,7 +333,34 @@ impl CaptureLists {
         capacity: PoolBound,
         targets: Option<ListTargets<'_>>,
     ) -> VkResult<Self> {
-        let (k, texels, triangles) = check_inputs(scene, size, depth, cmos, capacity, targets)?;
+        let limit = u64::from(ctx.report().max_storage_buffer_range);
+        Self::with_range_limit(ctx, scene, size, depth, cmos, capacity, targets, limit)
+    }
+
+    /// [`CaptureLists::new`] with the per-binding limit `range_limit` in bytes in place of the
+    /// device's (tests: a lowered limit; one above the device's still fails when bound).
+    #[doc(hidden)]
+    #[allow(clippy::too_many_arguments)]
+    pub fn with_range_limit(
+        ctx: &GpuContext,
+        scene: &SceneBuffers,
+        size: u32,
+        depth: u32,
+        cmos: &[(Vec3, bool)],
+        capacity: PoolBound,
+        targets: Option<ListTargets<'_>>,
+        range_limit: u64,
+    ) -> VkResult<Self> {
+        let (k, texels, triangles) = check_inputs(
+            ctx,
+            range_limit,
+            scene,
+            size,
+            depth,
+            cmos,
+            capacity,
+            targets,
+        )?;
         let params = ListsParams {
             size,
             depth,
@@ -327,25 +396,26 @@ impl CaptureLists {
             Some(_) => None,
             None => Some(OwnTargets {
                 distance: storage(ctx, "capture_lists distance", texels * 4)?,
-                records: storage(ctx, "capture_lists records", texels * 16)?,
-                nodes: storage(ctx, "capture_lists nodes", capacity.nodes.max(1) * 16)?,
+                records: column_buffers(ctx, RECORD_NAMES, texels)?,
+                nodes: column_buffers(ctx, NODE_NAMES, capacity.nodes)?,
             }),
         };
         let out = targets
             .or(own.as_ref().map(OwnTargets::targets))
             .expect("one of the two");
-        let all = [
+        let mut all = vec![
             (0, Resource::Buffer(&params_buf)),
             (1, Resource::Buffer(&views_buf)),
             (2, Resource::Buffer(&job_buf)),
-            (3, Resource::Buffer(out.nodes)),
-            (4, Resource::Buffer(&heads)),
-            (5, Resource::Buffer(&overflow)),
-            (6, Resource::Buffer(&face_overflow)),
-            (7, Resource::Buffer(&counters)),
-            (8, Resource::Buffer(out.records)),
-            (9, Resource::Buffer(out.distance)),
+            (3, Resource::Buffer(&heads)),
+            (4, Resource::Buffer(&overflow)),
+            (5, Resource::Buffer(&face_overflow)),
+            (6, Resource::Buffer(&counters)),
+            (7, Resource::Buffer(out.distance)),
         ];
+        for (i, b) in out.records.iter().chain(out.nodes).enumerate() {
+            all.push((8 + i as u32, Resource::Buffer(b)));
+        }
         let sets_for = |p: &ComputePipeline| -> VkResult<(BindGroup, BindGroup)> {
             let used = |g: u32, b: u32| {
                 p.entry
@@ -477,8 +547,18 @@ impl CaptureLists {
                 what: CAPTURE_LISTS.name.into(),
                 detail: "read_back needs the buffers the pass writes".into(),
             })?;
-        let records: Vec<TexelRecord> = ctx.read_buffer(out.records)?;
-        let nodes: Vec<[u32; 4]> = ctx.read_buffer(out.nodes)?;
+        let read = |b: &[Buffer; 4]| -> VkResult<Vec<[u32; 4]>> {
+            let [a, b, c, d] = b;
+            let cols = [
+                ctx.read_buffer(a)?,
+                ctx.read_buffer(b)?,
+                ctx.read_buffer(c)?,
+                ctx.read_buffer(d)?,
+            ];
+            Ok(lists::rows(&cols))
+        };
+        let records: Vec<TexelRecord> = read(out.records)?;
+        let nodes: Vec<[u32; 4]> = read(out.nodes)?;
         let counters = self.read_counters(ctx)?;
         let dist: Vec<f32> = ctx.read_buffer(out.distance)?;
         let n = self.params.size as usize;

@@ -9,8 +9,8 @@
 //! | 4 | `cmo_colour` | texture array, layer `6 k + face`: linear RGBA (alpha 0 where empty) | with [`CaptureContents::colour`]; else a 1x1-texel placeholder per layer |
 //! | (none yet) | normal + mirror flag | `6 N N` RGBA per CMO | with self-reflections |
 //! | 5 | `cmo_triangle` | `6 N N` u32 per CMO: global triangle index, `u32::MAX` where empty | with [`CaptureContents::triangle_ids`]; else a one-u32 placeholder (composite binds it; never read) |
-//! | 6 | `cmo_lists` | `6 N N` `[head, complete_to, hi, count]` per CMO ([`super::lists`]) | with [`CmoData::alloc_lists`]; else a one-record placeholder (`compute_trace` binds it; only its `_bounded` entry points read it) |
-//! | 7 | `cmo_nodes` | the lists' node pool ([`super::lists`]) | likewise |
+//! | 6 to 9 | `cmo_list_head`, `_complete`, `_hi`, `_count` | `6 N N` u32 per CMO each: the words of `[head, complete_to, hi, count]` ([`super::lists`]) | with [`CmoData::alloc_lists`]; else one-word placeholders (`compute_trace` binds them; only its `_bounded` entry points read them) |
+//! | 10 to 13 | `cmo_node_triangle`, `_lo`, `_hi`, `_next` | the lists' node pool, a u32 per node each ([`super::lists`]) | likewise |
 //!
 //! The capture pass writes distance, colour and normals; the pyramid pass writes `cmo_mip`.
 //! Colour is an image, not a buffer: it is only ever looked up per texel, and an image has no
@@ -192,10 +192,11 @@ pub struct CmoData {
     /// a frame that captures no IDs (the environment-map method) never has an unresolved pixel.
     triangle_placeholder: Option<Buffer>,
     contents: CaptureContents,
-    /// `cmo_lists` and `cmo_nodes` (placeholders of one record / node until
-    /// [`CmoData::alloc_lists`]), and the pool's capacity in nodes (0 for the placeholders).
-    lists: Buffer,
-    nodes: Buffer,
+    /// The record and pool bindings, a word each ([`lists::RECORD_COLUMNS`],
+    /// [`lists::NODE_COLUMNS`]; placeholders of one word until [`CmoData::alloc_lists`]), and
+    /// the pool's capacity in nodes (0 for the placeholders).
+    lists: [Buffer; 4],
+    nodes: [Buffer; 4],
     pool_capacity: u64,
 }
 
@@ -213,6 +214,38 @@ pub(super) fn storage(ctx: &GpuContext, name: &str, bytes: u64) -> VkResult<Buff
             | vk::BufferUsageFlags::TRANSFER_SRC,
         MemoryLocation::GpuOnly,
     )
+}
+
+/// Four storage buffers of `words` u32 each, named `names` (the one-word bindings of the
+/// lists' records or pool, [`super::lists`]).
+pub(super) fn column_buffers(
+    ctx: &GpuContext,
+    names: [&str; 4],
+    words: u64,
+) -> VkResult<[Buffer; 4]> {
+    let [a, b, c, d] = names;
+    let bytes = words.max(1) * lists::COLUMN_BYTES;
+    Ok([
+        storage(ctx, a, bytes)?,
+        storage(ctx, b, bytes)?,
+        storage(ctx, c, bytes)?,
+        storage(ctx, d, bytes)?,
+    ])
+}
+
+/// [`lists::check_range`] against the device's `maxStorageBufferRange` (`limit`), as a
+/// [`VkError::Limit`].
+pub(super) fn check_list_range(
+    ctx: &GpuContext,
+    texels: u64,
+    nodes: u64,
+    limit: u64,
+) -> VkResult<()> {
+    lists::check_range(texels, nodes, limit).map_err(|(what, limit)| VkError::Limit {
+        device: ctx.report().name.clone(),
+        what,
+        limit,
+    })
 }
 
 impl CmoData {
@@ -326,21 +359,25 @@ impl CmoData {
                 Some(storage(ctx, "cmo_triangle placeholder", 4)?)
             },
             contents,
-            lists: storage(ctx, "cmo_lists placeholder", lists::RECORD_BYTES)?,
-            nodes: storage(ctx, "cmo_nodes placeholder", lists::NODE_BYTES)?,
+            lists: column_buffers(ctx, lists::RECORD_COLUMNS, 1)?,
+            nodes: column_buffers(ctx, lists::NODE_COLUMNS, 1)?,
             pool_capacity: 0,
         })
     }
 
     /// Allocates the `bounded` criterion's lists (uninitialised): a record per texel and a pool
-    /// of `pool_capacity` nodes (at least 1: a binding cannot be empty). The GPU capture or
-    /// [`CmoData::upload_lists`] fills them. Call before creating the passes that bind
-    /// `@group(1)` (their bind groups name these buffers).
+    /// of `pool_capacity` nodes (at least 1: a binding cannot be empty), a binding per word.
+    /// The GPU capture or [`CmoData::upload_lists`] fills them. Call before creating the passes
+    /// that bind `@group(1)` (their bind groups name these buffers). Refused, before anything
+    /// is allocated, where a binding would exceed the device's `maxStorageBufferRange`
+    /// ([`lists::check_range`]).
     pub fn alloc_lists(&mut self, ctx: &GpuContext, pool_capacity: u64) -> VkResult<()> {
         let texels = u64::from(self.count) * 6 * u64::from(self.size) * u64::from(self.size);
         let capacity = pool_capacity.max(1);
-        self.lists = storage(ctx, "cmo_lists", texels * lists::RECORD_BYTES)?;
-        self.nodes = storage(ctx, "cmo_nodes", capacity * lists::NODE_BYTES)?;
+        let limit = u64::from(ctx.report().max_storage_buffer_range);
+        check_list_range(ctx, texels, capacity, limit)?;
+        self.lists = column_buffers(ctx, lists::RECORD_COLUMNS, texels)?;
+        self.nodes = column_buffers(ctx, lists::NODE_COLUMNS, capacity)?;
         self.pool_capacity = capacity;
         Ok(())
     }
@@ -366,17 +403,21 @@ impl CmoData {
         }
         self.alloc_lists(ctx, packed.nodes.len() as u64)?;
         ctx.write_buffer(&self.distance, &packed.lo)?;
-        ctx.write_buffer(&self.lists, &packed.records)?;
-        ctx.write_buffer(&self.nodes, &packed.nodes)?;
+        for (b, c) in self.lists.iter().zip(lists::columns(&packed.records)) {
+            ctx.write_buffer(b, &c)?;
+        }
+        for (b, c) in self.nodes.iter().zip(lists::columns(&packed.nodes)) {
+            ctx.write_buffer(b, &c)?;
+        }
         Ok(())
     }
 
-    /// `cmo_lists` (binding 6).
-    pub fn lists(&self) -> &Buffer {
+    /// The records' bindings 6 to 9 ([`lists::RECORD_COLUMNS`]).
+    pub fn lists(&self) -> &[Buffer; 4] {
         &self.lists
     }
-    /// `cmo_nodes` (binding 7).
-    pub fn nodes(&self) -> &Buffer {
+    /// The pool's bindings 10 to 13 ([`lists::NODE_COLUMNS`]).
+    pub fn nodes(&self) -> &[Buffer; 4] {
         &self.nodes
     }
     /// Nodes the pool holds (0: the placeholders, no lists allocated).
@@ -503,8 +544,12 @@ impl CmoData {
             + self.normal.as_ref().map_or(0, |b| b.size())
             + self.triangle.as_ref().map_or(0, |b| b.size())
             + self.triangle_placeholder.as_ref().map_or(0, |b| b.size())
-            + self.lists.size()
-            + self.nodes.size()
+            + self
+                .lists
+                .iter()
+                .chain(&self.nodes)
+                .map(Buffer::size)
+                .sum::<u64>()
             + colour.layer_bytes().unwrap_or(0) * u64::from(colour.layers)
     }
 
@@ -531,8 +576,9 @@ impl CmoData {
         {
             r.push((5, Resource::Buffer(t)));
         }
-        r.push((6, Resource::Buffer(&self.lists)));
-        r.push((7, Resource::Buffer(&self.nodes)));
+        for (i, b) in self.lists.iter().chain(&self.nodes).enumerate() {
+            r.push((lists::FIRST_BINDING + i as u32, Resource::Buffer(b)));
+        }
         r
     }
 

@@ -47,6 +47,9 @@ pub struct GbufferCamera {
     pub width: f32,
     pub back: [f32; 3],
     pub height: f32,
+    /// [`Camera::jitter`] (pixels).
+    pub jitter: [f32; 2],
+    pub pad: [f32; 2],
 }
 
 impl GbufferCamera {
@@ -64,6 +67,8 @@ impl GbufferCamera {
             width: camera.width as f32,
             back: back.to_array(),
             height: camera.height as f32,
+            jitter: camera.jitter.to_array(),
+            pad: [0.0; 2],
         }
     }
 }
@@ -146,6 +151,13 @@ impl Gbuffer {
             _camera: camera_buf,
             index_count: scene.index_count,
         })
+    }
+
+    /// Points the pass at `camera` with near plane `near` (the size of the one it was created
+    /// for): the next [`Gbuffer::record`] is that of a pass created for it.
+    pub fn set_camera(&self, ctx: &GpuContext, camera: &Camera, near: f32) -> VkResult<()> {
+        let uniform = GbufferCamera::new(camera, near);
+        ctx.write_buffer(&self._camera, std::slice::from_ref(&uniform))
     }
 
     /// Image size `(width, height)`.

@@ -3,11 +3,19 @@
 //! [`TexelLists`] (a valid path for small scenes, and the tracer's test input until the GPU
 //! capture, `capture_lists`, fills the same buffers).
 //!
+//! Logically a record per texel `[head, bits(complete_to), bits(hi), count_kept]` and a node
+//! per entry `[triangle, bits(lo), bits(hi), next]` ([`PackedLists`] holds them so); on the GPU
+//! each of the four words is a binding of its own, one `u32` per texel or node (structure of
+//! arrays, [`columns`] / [`rows`]): a binding then takes 4 B per texel (as `cmo_distance`) or per
+//! node, so the pool holds `maxStorageBufferRange / 4` nodes (33.5 M on lavapipe's 128 MiB)
+//! where one `vec4` binding held a quarter of that ([`check_range`] refuses what still does not
+//! fit, before anything is allocated).
+//!
 //! | binding (`@group(1)`) | WGSL name | contents |
 //! |---|---|---|
 //! | 2 | `cmo_distance` | per texel its `lo` (so pyramids, cut radius and skips work unchanged) |
-//! | 6 | `cmo_lists` | per texel of CMO k at `k * 6 N N + index`: `[head, bits(complete_to), bits(hi), count_kept]` |
-//! | 7 | `cmo_nodes` | the node pool of all CMOs: `[triangle, bits(lo), bits(hi), next]` |
+//! | 6, 7, 8, 9 | `cmo_list_head`, `cmo_list_complete`, `cmo_list_hi`, `cmo_list_count` | per texel of CMO k at `k * 6 N N + index`: `head`, `bits(complete_to)`, `bits(hi)`, `count_kept` |
+//! | 10, 11, 12, 13 | `cmo_node_triangle`, `cmo_node_lo`, `cmo_node_hi`, `cmo_node_next` | the node pool of all CMOs: `triangle`, `bits(lo)`, `bits(hi)`, `next` |
 //!
 //! A texel's entries are the first `count_kept` nodes from `head` along `next`, sorted by
 //! `(lo, triangle)`; [`NO_NODE`] ends a chain (and is `head` of an empty texel). Node indices
@@ -18,10 +26,29 @@ use crate::cubemap::bounds::{Entry, TexelLists};
 /// No node (`BOUNDED_NO_NODE`).
 pub const NO_NODE: u32 = u32::MAX;
 
-/// Bytes of one per-texel record and of one node.
+/// Bytes of one per-texel record (over its four bindings).
 pub const RECORD_BYTES: u64 = 16;
-/// Bytes of one node of the pool.
+/// Bytes of one node of the pool (over its four bindings).
 pub const NODE_BYTES: u64 = 16;
+/// Bytes of one record or node in each of its bindings (one `u32` word).
+pub const COLUMN_BYTES: u64 = 4;
+/// The record bindings' names, word by word (`@group(1)` bindings 6 to 9 of the tracers).
+pub const RECORD_COLUMNS: [&str; 4] = [
+    "cmo_list_head",
+    "cmo_list_complete",
+    "cmo_list_hi",
+    "cmo_list_count",
+];
+/// The pool bindings' names, word by word (`@group(1)` bindings 10 to 13 of the tracers).
+pub const NODE_COLUMNS: [&str; 4] = [
+    "cmo_node_triangle",
+    "cmo_node_lo",
+    "cmo_node_hi",
+    "cmo_node_next",
+];
+/// The tracers' `@group(1)` binding of the first record word; the other words and the pool's
+/// follow ([`RECORD_COLUMNS`], then [`NODE_COLUMNS`]).
+pub const FIRST_BINDING: u32 = 6;
 
 /// Bytes the lists of `cmos` CMOs of face size `size` take on the GPU with a pool of
 /// `pool_capacity` nodes (the records and the pool; `lo` is the CMO distance buffer, counted
@@ -31,6 +58,58 @@ pub fn lists_bytes(cmos: u32, size: u32, pool_capacity: u64) -> u64 {
         + pool_capacity * NODE_BYTES
 }
 
+/// Whether the lists of `texels` texels (all CMOs) and a pool of `nodes` nodes fit bindings of
+/// at most `limit` bytes each (the device's `maxStorageBufferRange`): each record and pool
+/// binding takes [`COLUMN_BYTES`] per texel or node. `Err((what, limit))` in the words of
+/// [`crate::vk::VkError::Limit`] otherwise, naming the binding, its count and size.
+pub fn check_range(texels: u64, nodes: u64, limit: u64) -> Result<(), (String, String)> {
+    let mib = |b: u64| {
+        if b >= 1 << 20 {
+            format!("{:.1} MiB", b as f64 / f64::from(1u32 << 20))
+        } else {
+            format!("{b} B")
+        }
+    };
+    for (what, count, unit) in [
+        ("per-texel record", texels, "texels"),
+        ("node pool", nodes, "nodes"),
+    ] {
+        let bytes = count * COLUMN_BYTES;
+        if bytes > limit {
+            return Err((
+                format!(
+                    "the `--criterion bounded` lists' {what} ({count} {unit}: {} in each of its \
+                     4 bindings of {COLUMN_BYTES} B per entry)",
+                    mib(bytes)
+                ),
+                format!("maxStorageBufferRange = {}", mib(limit)),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The four one-word bindings of records or nodes (`rows[i][w]` is `columns[w][i]`; at least
+/// one word each: a binding cannot be empty).
+pub fn columns(rows: &[[u32; 4]]) -> [Vec<u32>; 4] {
+    std::array::from_fn(|w| {
+        let mut c: Vec<u32> = rows.iter().map(|r| r[w]).collect();
+        if c.is_empty() {
+            c.push(NO_NODE);
+        }
+        c
+    })
+}
+
+/// The records or nodes of four one-word bindings ([`columns`]' inverse), as long as the
+/// shortest.
+pub fn rows(columns: &[Vec<u32>; 4]) -> Vec<[u32; 4]> {
+    let n = columns.iter().map(Vec::len).min().unwrap_or(0);
+    (0..n)
+        .map(|i| std::array::from_fn(|w| columns[w][i]))
+        .collect()
+}
+
 /// [`TexelLists`] of every CMO in the GPU layout (module docs).
 #[derive(Debug, Clone, PartialEq)]
 pub struct PackedLists {
@@ -38,9 +117,10 @@ pub struct PackedLists {
     pub size: u32,
     /// Per texel of every CMO: `lo` (the CMO distance buffer's contents).
     pub lo: Vec<f32>,
-    /// Per texel of every CMO: `[head, bits(complete_to), bits(hi), count_kept]`.
+    /// Per texel of every CMO: `[head, bits(complete_to), bits(hi), count_kept]` (uploaded as
+    /// four bindings, [`columns`]).
     pub records: Vec<[u32; 4]>,
-    /// The node pool: `[triangle, bits(lo), bits(hi), next]`.
+    /// The node pool: `[triangle, bits(lo), bits(hi), next]` (uploaded as four bindings).
     pub nodes: Vec<[u32; 4]>,
 }
 
@@ -213,5 +293,38 @@ mod tests {
         other.offsets[3] = 5;
         assert!(pack(&[other]).unwrap_err().contains("malformed"));
         assert_eq!(lists_bytes(2, 4, 10), 2 * 6 * 16 * 16 + 160);
+    }
+
+    #[test]
+    fn columns_and_rows_are_inverse() {
+        let r = vec![[1, 2, 3, 4], [5, 6, 7, 8], [9, 10, 11, NO_NODE]];
+        let c = columns(&r);
+        assert_eq!(c[1], vec![2, 6, 10]);
+        assert_eq!(c[3], vec![4, 8, NO_NODE]);
+        assert_eq!(rows(&c), r);
+        // Negative: a word changed in one binding changes exactly that row.
+        let mut bad = c.clone();
+        bad[2][1] ^= 1;
+        let back = rows(&bad);
+        assert_ne!(back[1], r[1]);
+        assert_eq!(back[0], r[0]);
+        // An empty set still gets one word per binding.
+        assert!(columns(&[]).iter().all(|c| c.len() == 1));
+    }
+
+    /// The limit binds each one-word binding: a pool a `vec4` binding could not hold fits, one
+    /// word more than the limit is refused, naming the count, the size and the limit.
+    #[test]
+    fn check_range_is_per_binding_word() {
+        let limit = 1000;
+        // 250 nodes: 4000 B as one vec4 binding, 1000 B in each of four.
+        assert!(250 * NODE_BYTES > limit);
+        assert_eq!(check_range(10, 250, limit), Ok(()));
+        assert_eq!(check_range(250, 10, limit), Ok(()));
+        let (what, lim) = check_range(10, 251, limit).unwrap_err();
+        assert!(what.contains("node pool (251 nodes"), "{what}");
+        assert!(lim.contains("maxStorageBufferRange"), "{lim}");
+        let (what, _) = check_range(251, 10, limit).unwrap_err();
+        assert!(what.contains("record (251 texels"), "{what}");
     }
 }

@@ -28,9 +28,10 @@ pub struct FrameParams {
     pub tan_half: f32,
     pub aspect: f32,
     pub right: [f32; 3],
-    pub pad1: u32,
+    /// [`Camera::jitter`] (pixels), x and y.
+    pub jitter_x: f32,
     pub up: [f32; 3],
-    pub pad2: u32,
+    pub jitter_y: f32,
     pub back: [f32; 3],
     pub pad3: u32,
 }

@@ -1,0 +1,428 @@
+#![forbid(unsafe_code)]
+//! [`FrameRenderer`]: the frames of one `cubetrace render` run, one or many, through one code
+//! path. The device, the pipelines and the scene buffers are built once ([`FrameRenderer::new`]);
+//! each frame ([`FrameRenderer::render`]) renders its samples ([`crate::film`]) and filters them.
+//!
+//! Reuse: where only the camera changed since the last frame (the scene equal but for its
+//! cameras), the GPU renderer is pointed at the new camera
+//! ([`GpuRenderer::set_camera`]) and keeps its capture unless the capture's near plane moved;
+//! where anything else changed (a mesh moved), a new renderer is built on the same device. Either
+//! way the frame is bit for bit the frame rendered alone (`tests/film.rs`). The samples of one
+//! frame share its capture: only the first sample of a frame can capture.
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use anyhow::Result;
+use glam::Vec3;
+
+use crate::Method;
+use crate::camera::Camera;
+use crate::film::{Film, FilmSettings, aov_sample};
+use crate::metrics::Traced;
+use crate::output::{self, Format};
+use crate::reference;
+use crate::scene::{Scene, WorldGeometry};
+use crate::vk::GpuContext;
+use crate::vk::frame::{GpuFrame, GpuRenderer, RenderOptions};
+
+/// Writes `colour` as an 8-bit sRGB PNG, or as an EXR of the channels `exr` gives, atomically.
+fn write_colour_or_exr<'a>(
+    path: &std::path::Path,
+    format: Format,
+    (width, height): (u32, u32),
+    colour: &[Vec3],
+    exr: impl FnOnce() -> Vec<(&'a str, output::Channel)>,
+) -> Result<()> {
+    match format {
+        Format::Png => output::write_atomic(path, &output::png_bytes(width, height, colour)?),
+        Format::Exr => output::write_exr(path, width, height, exr()),
+    }
+}
+
+/// One sample of a frame, kept for `--compare`'s per-sample figures.
+#[derive(Clone, Debug)]
+pub struct SampleFrame {
+    /// The sample's camera jitter.
+    pub offset: glam::Vec2,
+    /// GPU methods: the sample as traced and its primary hits.
+    pub traced: Option<(Traced, Vec<Vec3>)>,
+    /// The reference: the sample's frame.
+    pub reference: Option<reference::Frame>,
+}
+
+/// One rendered frame: its samples filtered into the colour, the AOVs of the sample nearest the
+/// pixel centre ([`crate::film`]).
+#[derive(Clone, Debug)]
+pub struct RenderedFrame {
+    /// Whether any sample of the frame ran the capture (the CMO stages).
+    pub captured: bool,
+    pub width: u32,
+    pub height: u32,
+    /// Samples per pixel.
+    pub spp: u32,
+    /// GPU methods: the AOV sample's frame, its `colour` the filtered one.
+    pub gpu: Option<GpuFrame>,
+    /// The reference: the AOV sample's frame, its `colour` the filtered one.
+    pub reference: Option<reference::Frame>,
+    /// Every sample, where the renderer keeps them (`--compare`); empty otherwise.
+    pub samples: Vec<SampleFrame>,
+    /// Wall time of the frame's samples (render, read back, filter).
+    pub render_time: Duration,
+    /// GPU time of all samples' passes, milliseconds (0 for the reference).
+    pub gpu_ms: f64,
+    world: Arc<WorldGeometry>,
+}
+
+impl RenderedFrame {
+    /// The frame as the error metrics read it (GPU methods).
+    pub fn traced(&self) -> Option<Traced> {
+        self.gpu.as_ref().map(GpuFrame::traced)
+    }
+
+    /// The filtered linear colour.
+    pub fn colour(&self) -> &[Vec3] {
+        match (&self.gpu, &self.reference) {
+            (Some(g), _) => &g.colour,
+            (None, Some(r)) => &r.colour,
+            (None, None) => &[],
+        }
+    }
+
+    /// Mirror pixels of the AOV sample.
+    pub fn mirror_pixels(&self) -> usize {
+        match (&self.gpu, &self.reference) {
+            (Some(g), _) => g.mirror_pixels(),
+            (None, Some(r)) => r.mirror_pixels(),
+            (None, None) => 0,
+        }
+    }
+
+    /// Atomic write ([`crate::files`]), PNG or EXR as `format` says: the filtered colour; in
+    /// EXR also the AOVs ([`crate::output`]'s channels).
+    pub fn write(&self, path: &std::path::Path, format: Format) -> Result<()> {
+        match (&self.gpu, &self.reference) {
+            (Some(g), _) => {
+                write_colour_or_exr(path, format, (self.width, self.height), &g.colour, || {
+                    output::traced_channels(&g.traced(), &g.surface_position, &self.world)
+                })
+            }
+            (None, Some(r)) => {
+                write_colour_or_exr(path, format, (self.width, self.height), &r.colour, || {
+                    output::frame_channels(r, &self.world)
+                })
+            }
+            (None, None) => anyhow::bail!("no frame to write"),
+        }
+    }
+}
+
+/// What renders: a GPU renderer on its device, or the CPU reference's tracer.
+enum Backend {
+    Gpu {
+        ctx: Box<GpuContext>,
+        options: RenderOptions,
+        renderer: Option<Box<GpuRenderer>>,
+    },
+    Reference {
+        tracer: Box<reference::Tracer>,
+    },
+}
+
+/// What a [`FrameRenderer`] is built from, checked ([`FrameRenderer::new`] builds it from the
+/// command line).
+pub struct FrameSetup {
+    pub method: Method,
+    pub bounces: u32,
+    pub film: FilmSettings,
+    /// Keep every sample of each frame ([`RenderedFrame::samples`], for `--compare`).
+    pub keep_samples: bool,
+    /// GPU methods: the device and the renderer's options; `None` for the reference.
+    pub gpu: Option<(GpuContext, RenderOptions)>,
+}
+
+/// The renderer of a run's frames (module docs).
+pub struct FrameRenderer {
+    method: Method,
+    bounces: u32,
+    film: FilmSettings,
+    keep_samples: bool,
+    backend: Backend,
+    /// The scene the backend holds, cameras removed, and its geometry (IDs for the EXR).
+    scene: Scene,
+    world: Arc<WorldGeometry>,
+    size: (u32, u32),
+}
+
+/// `scene` without its cameras: what must stay equal for the renderer to be reused.
+fn scene_key(scene: &Scene) -> Scene {
+    Scene {
+        cameras: Vec::new(),
+        ..scene.clone()
+    }
+}
+
+impl FrameRenderer {
+    /// The renderer of checked parts ([`FrameRenderer::new`] checks the command line's and
+    /// builds them): with a device, its GPU renderer and pipelines are built; without one, the
+    /// reference's tracer. Nothing is rendered yet.
+    pub fn from_setup(setup: FrameSetup, scene: &Scene, camera: &Camera) -> Result<Self> {
+        let start = Instant::now();
+        let backend = match setup.gpu {
+            Some((ctx, options)) => {
+                let renderer = GpuRenderer::new(&ctx, scene, camera, options)?;
+                log::info!(
+                    "GPU renderer (passes, pipelines, BVHs): {:.2?}",
+                    start.elapsed()
+                );
+                Backend::Gpu {
+                    ctx: Box::new(ctx),
+                    options,
+                    renderer: Some(Box::new(renderer)),
+                }
+            }
+            None => {
+                let tracer = reference::Tracer::new(scene);
+                log::info!(
+                    "{}: {} triangles, BVH built in {:.2?}",
+                    scene.name,
+                    tracer.world.triangles.len(),
+                    start.elapsed()
+                );
+                Backend::Reference {
+                    tracer: Box::new(tracer),
+                }
+            }
+        };
+        Ok(FrameRenderer {
+            method: setup.method,
+            bounces: setup.bounces,
+            film: setup.film,
+            keep_samples: setup.keep_samples,
+            backend,
+            world: Arc::new(scene.world()),
+            scene: scene_key(scene),
+            size: (camera.width, camera.height),
+        })
+    }
+
+    /// The film every frame is rendered with.
+    pub fn film(&self) -> FilmSettings {
+        self.film
+    }
+
+    /// The GPU device (GPU methods).
+    pub fn context(&self) -> Option<&GpuContext> {
+        match &self.backend {
+            Backend::Gpu { ctx, .. } => Some(ctx),
+            Backend::Reference { .. } => None,
+        }
+    }
+
+    /// Keeps every sample of the frames for `--compare` (set by [`FrameRenderer::new`] when
+    /// `--compare` is given at more than one sample).
+    pub fn keep_samples(&mut self, keep: bool) {
+        self.keep_samples = keep;
+    }
+
+    /// Renders one frame (all its samples). Reuses the renderer and the capture where only the
+    /// camera changed since the last frame (scene equal but for cameras); rebuilds the GPU
+    /// renderer (same device) where anything else did, a mesh moved or the frame size. The
+    /// result is byte-identical to rendering that frame alone.
+    pub fn render(&mut self, scene: &Scene, camera: &Camera) -> Result<RenderedFrame> {
+        let key = scene_key(scene);
+        let rebuild = key != self.scene || (camera.width, camera.height) != self.size;
+        if rebuild {
+            self.world = Arc::new(scene.world());
+            self.size = (camera.width, camera.height);
+        }
+        let start = Instant::now();
+        let frame = match &mut self.backend {
+            Backend::Gpu {
+                ctx,
+                options,
+                renderer,
+            } => {
+                if rebuild {
+                    // The old renderer's memory is freed before the new one's is allocated.
+                    *renderer = None;
+                    let t = Instant::now();
+                    *renderer = Some(Box::new(GpuRenderer::new(ctx, scene, camera, *options)?));
+                    log::info!("GPU renderer (rebuilt): {:.2?}", t.elapsed());
+                }
+                let Some(r) = renderer.as_deref_mut() else {
+                    anyhow::bail!("no GPU renderer");
+                };
+                gpu_samples(ctx, r, scene, camera, self.film, self.keep_samples)?
+            }
+            Backend::Reference { tracer } => {
+                if rebuild {
+                    let t = Instant::now();
+                    **tracer = reference::Tracer::new(scene);
+                    log::info!("reference BVH (rebuilt): {:.2?}", t.elapsed());
+                }
+                reference_samples(
+                    scene,
+                    tracer,
+                    camera,
+                    self.bounces,
+                    self.film,
+                    self.keep_samples,
+                )
+            }
+        };
+        self.scene = key;
+        let (gpu, reference, samples, captured, gpu_ms) = frame;
+        let captures = match &self.backend {
+            Backend::Gpu { renderer, .. } => renderer.as_ref().is_some_and(|r| r.captures()),
+            Backend::Reference { .. } => false,
+        };
+        log::info!(
+            "frame: {} sample(s) per pixel, {}",
+            self.film.spp,
+            match (captures, captured) {
+                (false, _) => "no capture (--method reads no cube map)",
+                (true, true) => "captured",
+                (true, false) => "capture reused",
+            }
+        );
+        Ok(RenderedFrame {
+            captured,
+            width: camera.width,
+            height: camera.height,
+            spp: self.film.spp,
+            gpu,
+            reference,
+            samples,
+            render_time: start.elapsed(),
+            gpu_ms,
+            world: self.world.clone(),
+        })
+    }
+
+    /// The method frames are rendered with.
+    pub fn method(&self) -> Method {
+        self.method
+    }
+}
+
+/// What a frame's sample loop gives: the GPU or reference AOV frame (filtered colour), the
+/// kept samples, whether it captured, and the GPU milliseconds.
+type Samples = (
+    Option<GpuFrame>,
+    Option<reference::Frame>,
+    Vec<SampleFrame>,
+    bool,
+    f64,
+);
+
+/// The camera of sample `offset`.
+fn sample_camera(camera: &Camera, offset: glam::Vec2) -> Camera {
+    Camera {
+        jitter: offset,
+        ..camera.clone()
+    }
+}
+
+/// The GPU samples of one frame: each sample's camera set ([`GpuRenderer::set_camera`], a no-op
+/// where it is the renderer's already), rendered and filtered.
+fn gpu_samples(
+    ctx: &GpuContext,
+    renderer: &mut GpuRenderer,
+    scene: &Scene,
+    camera: &Camera,
+    film: FilmSettings,
+    keep: bool,
+) -> Result<Samples> {
+    let offsets = film.offsets();
+    let aov = aov_sample(&offsets);
+    let mut acc = Film::new(camera.width, camera.height, film.filter);
+    let (mut captured, mut gpu_ms) = (false, 0.0);
+    let mut kept = Vec::new();
+    let mut aov_frame = None;
+    for (s, &o) in offsets.iter().enumerate() {
+        let cam = sample_camera(camera, o);
+        if renderer.camera() != &cam {
+            renderer.set_camera(ctx, scene, &cam)?;
+        }
+        let frame = renderer.render(ctx)?;
+        captured |= frame.captured;
+        gpu_ms += frame.pass_times.iter().map(|(_, t)| t).sum::<f64>() * 1e-6;
+        acc.add(o, &frame.colour);
+        if keep {
+            kept.push(SampleFrame {
+                offset: o,
+                traced: Some((frame.traced(), frame.surface_position.clone())),
+                reference: None,
+            });
+        }
+        if s == aov {
+            aov_frame = Some(frame);
+        }
+    }
+    let mut frame = aov_frame.ok_or_else(|| anyhow::anyhow!("no sample rendered"))?;
+    frame.colour = acc.resolve();
+    Ok((Some(frame), None, kept, captured, gpu_ms))
+}
+
+/// The reference's samples of one frame: the same offsets and filter as the GPU's. Large frames
+/// show a progress bar of rows (indicatif hides it off a terminal).
+fn reference_samples(
+    scene: &Scene,
+    tracer: &reference::Tracer,
+    camera: &Camera,
+    bounces: u32,
+    film: FilmSettings,
+    keep: bool,
+) -> Samples {
+    let offsets = film.offsets();
+    let aov = aov_sample(&offsets);
+    let mut acc = Film::new(camera.width, camera.height, film.filter);
+    let mut kept = Vec::new();
+    let mut aov_frame = None;
+    let bar = indicatif::ProgressBar::new(0).with_style(
+        indicatif::ProgressStyle::with_template("reference {bar:40} {pos}/{len} rows {elapsed}")
+            .expect("the template is valid"),
+    );
+    // Small frames finish before a bar would help.
+    let work = u64::from(camera.width) * u64::from(camera.height) * (u64::from(bounces) + 1);
+    if work * u64::from(film.spp) < 2_000_000 {
+        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    }
+    for (s, &o) in offsets.iter().enumerate() {
+        let cam = sample_camera(camera, o);
+        let frame = reference::render_with_progress(scene, tracer, &cam, bounces, &bar);
+        acc.add(o, &frame.colour);
+        if keep {
+            kept.push(SampleFrame {
+                offset: o,
+                traced: None,
+                reference: Some(frame.clone()),
+            });
+        }
+        if s == aov {
+            aov_frame = Some(frame);
+        }
+    }
+    bar.finish_and_clear();
+    let mut frame = aov_frame.unwrap_or_else(|| reference::Frame::new(camera.width, camera.height));
+    frame.colour = acc.resolve();
+    (None, Some(frame), kept, false, 0.0)
+}
+
+/// The reference's frame at the film `film` of scene and camera, every sample kept where
+/// `keep` (`--compare`): the comparison's other side.
+pub fn reference_frame(
+    scene: &Scene,
+    tracer: &reference::Tracer,
+    camera: &Camera,
+    bounces: u32,
+    film: FilmSettings,
+    keep: bool,
+) -> (reference::Frame, Vec<SampleFrame>) {
+    let (_, frame, kept, _, _) = reference_samples(scene, tracer, camera, bounces, film, keep);
+    (
+        frame.unwrap_or_else(|| reference::Frame::new(camera.width, camera.height)),
+        kept,
+    )
+}

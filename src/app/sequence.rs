@@ -1,0 +1,257 @@
+#![forbid(unsafe_code)]
+//! `cubetrace render --frames`: a sequence of frames of an animated scene in one run.
+//!
+//! - Frames ([`super::frames::parse_frames`]): Blender's forms, comma separated: `10`,
+//!   `1..240`, `1,3,5`, mixtures (`1..10,20,40..50`), and a step per range, `1..240:2` (every
+//!   second frame from 1: 1, 3, 5, ...). Frame numbers are 0 to
+//!   [`crate::scene::animation::MAX_FRAME`]; the frames are rendered once each, in increasing
+//!   order. Without `--frames` a scene with `[animation]` renders its default range
+//!   ([`Scene::default_frames`]); a still scene renders one frame, as before
+//!   ([`render::render`]).
+//! - Names ([`super::frames::output_pattern`], [`super::frames::frame_path`]): the last run of
+//!   `#` in `-o` becomes the frame number, zero-padded to the run's length
+//!   (`-o out/orbit-####.png`: `out/orbit-0007.png`; wider numbers keep all their digits).
+//!   Several frames and no `#`: `-####` is added before the extension, as Blender does.
+//!   Without `-o`: `out/SCENE-METHOD-####.png` for a sequence (an animated scene or `--frames`
+//!   given), `out/SCENE-METHOD.png` for a still.
+//! - `--skip-existing` resumes: a frame whose file exists is skipped. Every file is written
+//!   atomically (a temporary file renamed into place), so a killed run leaves whole frames only.
+//! - `--shard I/N` or a scheduler's array index ([`super::shard`]) picks this run's contiguous
+//!   chunk of the frames; the names come from the whole list, so every chunk names alike.
+//! - A progress bar (samples of the frames, with an ETA; drawn only on a terminal) and a summary
+//!   line: frames rendered and skipped, wall time, frames per minute, the output pattern.
+//! - Each frame is the scene at that frame ([`Scene::at_frame`]) seen by the chosen camera at
+//!   the frame's time, rendered by one [`FrameRenderer`] for the whole run (the capture is
+//!   reused where only the camera moved); a frame within a sequence is byte-identical to the
+//!   same frame rendered alone (`tests/animation.rs`). `-v` logs whether each frame captured.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context as _, Result};
+
+use super::frame_renderer::{FrameRenderer, RenderedFrame};
+use super::frames::{frame_path, output_pattern, parse_frames};
+use super::render::{self, RenderArgs};
+use super::shard;
+use crate::camera::Camera;
+use crate::output::{self, Format};
+use crate::scene::{self, Scene};
+
+/// `cubetrace render`: a still scene without `--frames` is today's single frame
+/// ([`render::render`]); otherwise the sequence of the module docs.
+pub fn render(args: RenderArgs) -> Result<()> {
+    let given = match &args.sequence.frames {
+        Some(text) => Some(parse_frames(text).map_err(|e| anyhow::anyhow!("--frames: {e}"))?),
+        None => None,
+    };
+    if given.is_none() && !animated(&args.scene) {
+        // The still path keeps today's behaviour (and loads the scene itself).
+        if args.sequence.skip_existing {
+            let path = match &args.output {
+                Some(o) => o.clone(),
+                None => {
+                    let name = scene::load(&args.scene)?.name;
+                    output_pattern(None, &name, args.method, false, 1)
+                }
+            };
+            if std::fs::symlink_metadata(&path).is_ok() {
+                println!("{} exists: skipped (--skip-existing)", path.display());
+                return Ok(());
+            }
+        }
+        return render::render(args);
+    }
+    run_sequence(args, given)
+}
+
+/// Whether `scene` (a built-in name or a scene file) has `[animation]`, read without loading
+/// its meshes; false where it cannot be read (the still path reports why).
+fn animated(scene: &str) -> bool {
+    if let Some(s) = scene::builtin::by_name(scene) {
+        return s.default_frames().is_some();
+    }
+    std::fs::read_to_string(scene)
+        .ok()
+        .and_then(|text| text.parse::<toml::Table>().ok())
+        .is_some_and(|t| t.contains_key("animation"))
+}
+
+/// One frame of the run: the scene and camera at that frame and where it goes.
+struct FrameJob {
+    frame: i64,
+    path: PathBuf,
+}
+
+/// The sequence: scene once, frames and names checked before anything renders, then the loop.
+fn run_sequence(args: RenderArgs, given: Option<Vec<i64>>) -> Result<()> {
+    let start = Instant::now();
+    args.check_method()?;
+    if args.compare {
+        anyhow::bail!(
+            "--compare compares one still frame (a scene without [animation], no --frames); \
+             leave it out of a sequence"
+        );
+    }
+    let base = load_base(&args)?;
+    let frames = match given {
+        Some(f) => f,
+        None => match base.default_frames() {
+            Some([first, last]) => (first..=last).collect(),
+            None => vec![1],
+        },
+    };
+    let pattern = output_pattern(
+        args.output.as_deref(),
+        &base.name,
+        args.method,
+        true,
+        frames.len(),
+    );
+    let shard = args.shard.resolve()?;
+    let mine = shard::select(&frames, shard.as_ref());
+    let jobs: Vec<FrameJob> = (mine.iter())
+        .map(|&frame| FrameJob {
+            frame,
+            path: frame_path(&pattern, frame),
+        })
+        .collect();
+    let format = check_paths(&pattern, &jobs)?;
+    let (done, todo): (Vec<&FrameJob>, Vec<&FrameJob>) = jobs
+        .iter()
+        .partition(|j| args.sequence.skip_existing && std::fs::symlink_metadata(&j.path).is_ok());
+    for j in &done {
+        log::info!("frame {}: {} exists, skipped", j.frame, j.path.display());
+    }
+    let skipped = done.len();
+    let spp = u64::from(
+        super::frame_renderer::film_settings(&args, &base)
+            .spp
+            .max(1),
+    );
+    let bar = progress_bar(todo.len() as u64 * spp);
+    let mut renderer: Option<FrameRenderer> = None;
+    for job in &todo {
+        let (scene, camera) = frame_scene(&args, &base, job.frame)?;
+        bar.set_message(format!("frame {}", job.frame));
+        let r = match &mut renderer {
+            Some(r) => r,
+            None => renderer.insert(FrameRenderer::new(&args, &scene, &camera)?),
+        };
+        let frame = r
+            .render(&scene, &camera)
+            .with_context(|| format!("frame {}", job.frame))?;
+        frame.write(&job.path, format)?;
+        log::info!(
+            "frame {}: capture {}",
+            job.frame,
+            if frame.captured { "ran" } else { "reused" }
+        );
+        bar.suspend(|| println!("{}", summary(&frame, &job.path, job.frame)));
+        bar.inc(spp);
+    }
+    bar.finish_and_clear();
+    if let Some(ctx) = renderer.as_ref().and_then(|r| r.context()) {
+        crate::bench::check_validation(ctx)?;
+    }
+    let wall = start.elapsed();
+    let rendered = todo.len();
+    let per_minute = if wall.as_secs_f64() > 0.0 {
+        rendered as f64 * 60.0 / wall.as_secs_f64()
+    } else {
+        0.0
+    };
+    println!(
+        "sequence: {rendered} frames rendered, {skipped} skipped (exist), of {} in this run, in \
+         {:.2?} ({per_minute:.1} frames per minute), {}",
+        jobs.len(),
+        wall,
+        pattern.display()
+    );
+    Ok(())
+}
+
+/// The output checks of every frame before any renders: format and folder (of the first
+/// frame's path, which shares them with the rest) and the names' lengths (the longest).
+fn check_paths(pattern: &Path, jobs: &[FrameJob]) -> Result<Format> {
+    let Some(first) = jobs.first() else {
+        return output::check_output(pattern);
+    };
+    let format = output::check_output(&first.path)?;
+    render::check_file_name(&first.path)?;
+    if let Some(longest) = jobs.iter().max_by_key(|j| j.path.as_os_str().len()) {
+        render::check_file_name(&longest.path)?;
+    }
+    Ok(format)
+}
+
+/// The scene with the command line's overrides (CMOs, subdivision), before any frame.
+fn load_base(args: &RenderArgs) -> Result<Scene> {
+    let mut scene = render::timed("scene load", || scene::load(&args.scene))?;
+    args.trace.apply(&mut scene);
+    if args.subdivide > 0 {
+        render::timed("subdivision", || {
+            crate::cpu::reflection_point::subdivide_non_reflectors(&mut scene, args.subdivide)
+        });
+    }
+    // The camera exists and the frame size is good before anything renders.
+    let camera = scene.camera(args.camera.as_deref())?;
+    let (w, h) = render::frame_size((camera.width, camera.height), args.width, args.height);
+    scene::check_resolution(w, h).map_err(|e| anyhow::anyhow!("--width/--height: {e}"))?;
+    for problem in crate::placement::diagnose(&scene) {
+        log::warn!("{problem}");
+    }
+    Ok(scene)
+}
+
+/// The scene at `frame` and its camera (the chosen one, at the command's frame size), with a
+/// CMO placement search resolved for that camera.
+fn frame_scene(args: &RenderArgs, base: &Scene, frame: i64) -> Result<(Scene, Camera)> {
+    let mut scene = base.at_frame(frame);
+    let mut camera = scene.camera(args.camera.as_deref())?.clone();
+    (camera.width, camera.height) =
+        render::frame_size((camera.width, camera.height), args.width, args.height);
+    let view = camera.target - camera.eye;
+    if view.length_squared() == 0.0 || view.cross(camera.up).length_squared() == 0.0 {
+        anyhow::bail!(
+            "frame {frame}: camera '{}': eye, target and up do not span a view there (eye = \
+             target, or up along the view); check the scene's [animation] camera keys",
+            camera.name
+        );
+    }
+    crate::placement::resolve(&mut scene, &camera);
+    Ok((scene, camera))
+}
+
+/// The `wrote ...` line of one frame of a sequence.
+fn summary(frame: &RenderedFrame, path: &Path, number: i64) -> String {
+    format!(
+        "wrote {} (frame {number}, {}x{}, {} sample(s), {} mirror pixels, capture {}) in {:.2?}{}",
+        path.display(),
+        frame.width,
+        frame.height,
+        frame.spp,
+        frame.mirror_pixels(),
+        if frame.captured { "ran" } else { "reused" },
+        frame.render_time,
+        if frame.gpu.is_some() {
+            format!(" ({:.2} ms GPU)", frame.gpu_ms)
+        } else {
+            String::new()
+        }
+    )
+}
+
+/// A progress bar over the run's samples (frames x spp), with an ETA; drawn on a terminal only.
+fn progress_bar(samples: u64) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(samples).with_style(
+        indicatif::ProgressStyle::with_template(
+            "{msg} {bar:40} {pos}/{len} samples, {elapsed} elapsed, ETA {eta}",
+        )
+        .expect("the template is valid"),
+    );
+    if !std::io::IsTerminal::is_terminal(&std::io::stderr()) {
+        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    }
+    bar
+}
