@@ -113,12 +113,6 @@ fn run_task(dir: &Path, script: &Path, task: Option<&str>) -> Result<Vec<String>
         .collect())
 }
 
-/// Whether the binary's `render` has the sequence flags (`--skip-existing`).
-fn render_has_skip_existing() -> bool {
-    let o = run(&["render", "--help"], Path::new("."));
-    o.stdout.contains("--skip-existing")
-}
-
 #[test]
 fn the_slurm_script_runs_the_command_line_as_typed() {
     let dir = tempfile::tempdir().unwrap();
@@ -160,9 +154,7 @@ fn the_slurm_script_runs_the_command_line_as_typed() {
         .chain(["--camera", "a\nb"])
         .map(String::from)
         .collect();
-    if render_has_skip_existing() {
-        want.push("--skip-existing".into());
-    }
+    want.push("--skip-existing".into());
     for task in ["0", "3"] {
         let mut w = want.clone();
         w.extend(["--shard".into(), format!("{task}/5")]);
@@ -197,11 +189,6 @@ fn the_k8s_manifest_goes_to_stdout_and_names_the_shard_count() {
         ],
         d,
     );
-    // Before the sequence flags exist, --frames is refused like any unknown flag.
-    if !render_has_skip_existing() {
-        assert_refused(&o, 1, &["--frames"]);
-        return;
-    }
     assert_eq!(o.code, Some(0), "{}", o.stderr);
     let v: serde_json::Value = serde_norway::from_str(&o.stdout).unwrap();
     assert_eq!(v["spec"]["completions"], 6);
@@ -308,7 +295,6 @@ fn contents(dir: &Path) -> Vec<(String, Vec<u8>)> {
 }
 
 #[test]
-#[ignore = "needs the sequence loop"]
 fn sharded_frames_are_byte_identical_to_one_run() {
     let dir = tempfile::tempdir().unwrap();
     let whole = dir.path().join("whole");
@@ -374,7 +360,6 @@ fn sharded_frames_are_byte_identical_to_one_run() {
 }
 
 #[test]
-#[ignore = "needs the sequence loop"]
 fn a_wrong_shard_is_refused_before_anything_renders() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");

@@ -125,7 +125,7 @@ fn run_sequence(args: RenderArgs, given: Option<Vec<i64>>) -> Result<()> {
     }
     let skipped = done.len();
     let spp = u64::from(
-        super::frame_renderer::film_settings(&args, &base)
+        render::film_settings(&args, &base)
             .spp
             .max(1),
     );
