@@ -113,12 +113,6 @@ fn run_task(dir: &Path, script: &Path, task: Option<&str>) -> Result<Vec<String>
         .collect())
 }
 
-/// Whether the binary's `render` has the sequence flags (`--skip-existing`).
-fn render_has_skip_existing() -> bool {
-    let o = run(&["render", "--help"], Path::new("."));
-    o.stdout.contains("--skip-existing")
-}
-
 #[test]
 fn the_slurm_script_runs_the_command_line_as_typed() {
     let dir = tempfile::tempdir().unwrap();
@@ -160,9 +154,7 @@ fn the_slurm_script_runs_the_command_line_as_typed() {
         .chain(["--camera", "a\nb"])
         .map(String::from)
         .collect();
-    if render_has_skip_existing() {
-        want.push("--skip-existing".into());
-    }
+    want.push("--skip-existing".into());
     for task in ["0", "3"] {
         let mut w = want.clone();
         w.extend(["--shard".into(), format!("{task}/5")]);
@@ -197,11 +189,6 @@ fn the_k8s_manifest_goes_to_stdout_and_names_the_shard_count() {
         ],
         d,
     );
-    // Before the sequence flags exist, --frames is refused like any unknown flag.
-    if !render_has_skip_existing() {
-        assert_refused(&o, 1, &["--frames"]);
-        return;
-    }
     assert_eq!(o.code, Some(0), "{}", o.stderr);
     let v: serde_json::Value = serde_norway::from_str(&o.stdout).unwrap();
     assert_eq!(v["spec"]["completions"], 6);
@@ -267,4 +254,144 @@ fn bad_farm_jobs_are_refused_and_write_nothing() {
     let o = run(&["farm", "slurm", "-n", "2", "-o", j, "--", "a"], d);
     assert_eq!(o.code, Some(0), "{}", o.stderr);
     assert_eq!(names(d), vec!["job.sbatch"]);
+}
+
+/// The animated scene the sharding tests render (tiny frames).
+const SEQ_SCENE: &str = "sphere-room-orbit";
+const SEQ_FRAMES: &str = "1..4";
+
+/// Renders `SEQ_FRAMES` of `SEQ_SCENE` into `out` (`f-####.png`) with `extra` flags and `env`.
+fn render_frames(out: &Path, extra: &[&str], env: &[(&str, &str)]) -> Outcome {
+    let pattern = out.join("f-####.png");
+    let mut args = vec![
+        "render",
+        SEQ_SCENE,
+        "--width",
+        "24",
+        "--frames",
+        SEQ_FRAMES,
+        "-o",
+        pattern.to_str().unwrap(),
+    ];
+    args.extend(extra);
+    run_env(&args, Path::new("."), env)
+}
+
+/// One task of a split run: its flags and its environment.
+type Task<'a> = (Vec<&'a str>, Vec<(&'a str, String)>);
+
+/// A refused render: its flags, its environment, what the message must say.
+type Refusal<'a> = (&'a [&'a str], &'a [(&'a str, &'a str)], &'a [&'a str]);
+
+/// Every file of `dir` with its bytes.
+fn contents(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    names(dir)
+        .into_iter()
+        .map(|n| {
+            let bytes = std::fs::read(dir.join(&n)).unwrap();
+            (n, bytes)
+        })
+        .collect()
+}
+
+#[test]
+fn sharded_frames_are_byte_identical_to_one_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let whole = dir.path().join("whole");
+    let o = render_frames(&whole, &[], &[]);
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+    let want = contents(&whole);
+    assert_eq!(want.len(), 4, "{:?}", names(&whole));
+    // --shard over 3; SLURM_ARRAY_TASK_ID over 2 (ids 1..=2, MIN 1); JOB_COMPLETION_INDEX over 5
+    // (more tasks than frames: one renders nothing).
+    let n3: Vec<String> = (0..3).map(|i| format!("{i}/3")).collect();
+    let ways: Vec<(String, Vec<Task>)> = vec![
+        (
+            "shard3".into(),
+            n3.iter()
+                .map(|s| (vec!["--shard", s.as_str()], vec![]))
+                .collect(),
+        ),
+        (
+            "slurm2".into(),
+            (1..=2)
+                .map(|id| {
+                    let vars = [
+                        ("SLURM_ARRAY_TASK_ID", id.to_string()),
+                        ("SLURM_ARRAY_TASK_MIN", "1".into()),
+                        ("SLURM_ARRAY_TASK_MAX", "2".into()),
+                        ("SLURM_ARRAY_TASK_COUNT", "2".into()),
+                    ];
+                    (vec![], vars.to_vec())
+                })
+                .collect(),
+        ),
+        (
+            "k8s5".into(),
+            (0..5)
+                .map(|i| {
+                    (
+                        vec!["--shard-count", "5"],
+                        vec![("JOB_COMPLETION_INDEX", i.to_string())],
+                    )
+                })
+                .collect(),
+        ),
+    ];
+    for (name, tasks) in &ways {
+        let out = dir.path().join(name);
+        let mut seen = Vec::new();
+        for (flags, vars) in tasks {
+            let before = names(&out).len();
+            let env: Vec<(&str, &str)> = vars.iter().map(|(k, v)| (*k, v.as_str())).collect();
+            let o = render_frames(&out, flags, &env);
+            assert_eq!(o.code, Some(0), "{name} {flags:?} {vars:?}: {}", o.stderr);
+            seen.push(names(&out).len() - before);
+        }
+        assert_eq!(contents(&out), want, "{name}: tasks wrote {seen:?} frames");
+        let (lo, hi) = (seen.iter().min().unwrap(), seen.iter().max().unwrap());
+        assert!(hi - lo <= 1, "{name}: unbalanced {seen:?}");
+    }
+    // Negative: the frames differ from one another, so a task that rendered another index's
+    // frame under this name would show.
+    for w in want.windows(2) {
+        assert_ne!(w[0].1, w[1].1, "{} and {} are equal", w[0].0, w[1].0);
+    }
+}
+
+#[test]
+fn a_wrong_shard_is_refused_before_anything_renders() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let gaps = [
+        ("SLURM_ARRAY_TASK_ID", "7"),
+        ("SLURM_ARRAY_TASK_MIN", "3"),
+        ("SLURM_ARRAY_TASK_MAX", "7"),
+        ("SLURM_ARRAY_TASK_COUNT", "2"),
+    ];
+    let cases: [Refusal; 6] = [
+        (&["--shard", "4/4"], &[], &["--shard 4/4", "0-based"]),
+        (&["--shard", "0/0"], &[], &["--shard 0/0", "at least 1"]),
+        (&["--shard", "1-4"], &[], &["--shard", "I/N"]),
+        (&[], &gaps, &["SLURM_ARRAY_TASK_MAX=7", "--shard"]),
+        (&[], &[("JOB_COMPLETION_INDEX", "1")], &["--shard-count"]),
+        (
+            &["--shard-count", "2"],
+            &[("JOB_COMPLETION_INDEX", "2")],
+            &["JOB_COMPLETION_INDEX=2"],
+        ),
+    ];
+    for (flags, env, needles) in cases {
+        let o = render_frames(&out, flags, env);
+        assert_refused(&o, 1, needles);
+        assert!(
+            names(&out).is_empty(),
+            "{flags:?} {env:?} wrote {:?}",
+            names(&out)
+        );
+    }
+    // Negative: a right shard renders its chunk (frames 3 and 4 of 1..4 for 1/2).
+    let o = render_frames(&out, &["--shard", "1/2"], &[]);
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+    assert_eq!(names(&out), vec!["f-0003.png", "f-0004.png"]);
 }

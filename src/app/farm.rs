@@ -162,9 +162,13 @@ pub fn render_command(args: &[String]) -> Result<Vec<String>> {
         }
     }
     let command = RenderArgs::augment_args(clap::Command::new("cubetrace render"));
-    let knows_skip = knows_skip_existing();
+    // `-v`/`--verbose` belong to the binary (global flags, valid after `render` too).
+    let verbose = |a: &String| {
+        a == "--verbose" || (a.len() > 1 && a.starts_with('-') && a[1..].chars().all(|c| c == 'v'))
+    };
+    let checked = args.iter().filter(|a| !verbose(a)).cloned();
     let matches = command
-        .try_get_matches_from(std::iter::once("render".to_string()).chain(args.clone()))
+        .try_get_matches_from(std::iter::once("render".to_string()).chain(checked))
         .map_err(|e| {
             let msg = e.to_string();
             let first = msg.lines().next().unwrap_or_default();
@@ -175,17 +179,10 @@ pub fn render_command(args: &[String]) -> Result<Vec<String>> {
     render
         .check_method()
         .map_err(|e| anyhow::anyhow!("the render command line after --: {e:#}"))?;
-    if knows_skip && !args.iter().any(|a| a == "--skip-existing") {
+    if !args.iter().any(|a| a == "--skip-existing") {
         args.push("--skip-existing".into());
     }
     Ok(args)
-}
-
-/// Whether `cubetrace render` has `--skip-existing` (the sequence flags).
-fn knows_skip_existing() -> bool {
-    RenderArgs::augment_args(clap::Command::new("render"))
-        .get_arguments()
-        .any(|a| a.get_long() == Some("skip-existing"))
 }
 
 /// A job name: letters, digits, `-` and `_`, at most 63 bytes (`k8s`: a DNS label).
@@ -551,10 +548,11 @@ mod tests {
             .chain(args.iter().copied())
             .map(String::from)
             .collect();
-        if knows_skip_existing() {
-            want.push("--skip-existing".into());
-        }
-        want.extend(["--shard-count".into(), n.to_string()]);
+        want.extend([
+            "--skip-existing".into(),
+            "--shard-count".into(),
+            n.to_string(),
+        ]);
         let checks = [
             (v["apiVersion"] == "batch/v1", "apiVersion"),
             (v["kind"] == "Job", "kind"),
@@ -619,7 +617,6 @@ mod tests {
             assert_eq!(c["resources"]["limits"]["nvidia.com/gpu"], 1);
             assert_eq!(c["resources"]["requests"]["memory"], "8Gi");
             assert!(text.contains("failedIndexes") && text.contains("--skip-existing"));
-            assert_eq!(text.contains("\"--skip-existing\""), knows_skip_existing());
         }
         // Without a claim there is no volume, and the parallelism option is capped at N.
         let v = yaml(&k8s(&["-n", "3", "--image", "x", "--parallelism", "9", "--", "a"]).unwrap());
@@ -639,6 +636,11 @@ mod tests {
         assert!(format!("{e:#}").contains("has --shard"), "{e:#}");
         let e = k8s(&["-n", "2", "--image", "x", "--", "a", "--shard-count=2"]).unwrap_err();
         assert!(format!("{e:#}").contains("has --shard-count"), "{e:#}");
+        // -v is the binary's own flag, kept as given.
+        let s = slurm(&["-n", "2", "--", "a", "-vv", "--verbose"]).unwrap();
+        assert!(s.contains("render a -vv --verbose"), "{s}");
+        let e = slurm(&["-n", "2", "--", "a", "-vx"]).unwrap_err();
+        assert!(format!("{e:#}").contains("'-v'"), "{e:#}");
         let e = slurm(&["-n", "2", "--", "a", "--no-such-flag"]).unwrap_err();
         assert!(format!("{e:#}").contains("--no-such-flag"), "{e:#}");
         let e = slurm(&["-n", "2", "--", "a", "--method", "reference", "--compare"]).unwrap_err();
