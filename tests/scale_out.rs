@@ -395,3 +395,48 @@ fn a_wrong_shard_is_refused_before_anything_renders() {
     assert_eq!(o.code, Some(0), "{}", o.stderr);
     assert_eq!(names(&out), vec!["f-0003.png", "f-0004.png"]);
 }
+
+/// A still scene is one frame: a wrong `--shard` is refused as for a sequence, the shard whose
+/// chunk holds the frame writes it under the still's name, and the others write nothing.
+#[test]
+fn a_still_scene_checks_its_shard() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let o = run(
+        &[
+            "render",
+            "sphere-room",
+            "--width",
+            "16",
+            "--shard",
+            "5/2",
+            "-o",
+            "still.png",
+        ],
+        d,
+    );
+    assert_refused(&o, 1, &["--shard"]);
+    assert!(names(d).is_empty(), "{:?}", names(d));
+    let mut idle = 0;
+    for i in 0..2 {
+        let shard = format!("{i}/2");
+        let o = run(
+            &[
+                "render",
+                "sphere-room",
+                "--width",
+                "16",
+                "--shard",
+                &shard,
+                "-o",
+                "still.png",
+            ],
+            d,
+        );
+        assert_eq!(o.code, Some(0), "{}", o.stderr);
+        idle += usize::from(o.stdout.contains("nothing to render"));
+    }
+    // Exactly one of the two shards wrote the still (negative: not both, not neither).
+    assert_eq!(idle, 1);
+    assert_eq!(names(d), ["still.png"]);
+}

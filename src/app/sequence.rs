@@ -46,6 +46,18 @@ pub fn render(args: RenderArgs) -> Result<()> {
         None => None,
     };
     if given.is_none() && !animated(&args.scene) {
+        // A still is one frame. An explicit shard is checked and only the shard whose chunk
+        // holds that frame renders it; a scheduler's environment alone does not split a still
+        // (one rendered inside an array job renders whole).
+        if args.shard.shard.is_some() || args.shard.shard_count.is_some() {
+            let shard = args.shard.resolve()?;
+            if shard::select(&[1], shard.as_ref()).is_empty() {
+                println!(
+                    "a still scene is one frame, and it is not in this shard's chunk: nothing to render"
+                );
+                return Ok(());
+            }
+        }
         // The still path keeps today's behaviour (and loads the scene itself).
         if args.sequence.skip_existing {
             let path = match &args.output {
