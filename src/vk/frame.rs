@@ -3,8 +3,8 @@
 //!
 //! | pass | reads | writes |
 //! |---|---|---|
-//! | `capture` (where [`Needs::capture`]: every method but `bvh`) | scene | CMO distance, colour and/or triangle IDs (+ normal/mirror with self-reflections) |
-//! | (`--criterion bounded`: no `capture`; the per-texel lists are uploaded at creation, [`GpuRenderer::with_lists`]; the GPU capture of the lists plugs in here) | CPU lists | CMO distance (`lo`), `cmo_lists`, `cmo_nodes` ([`super::passes::lists`]) |
+//! | `capture` (where [`Needs::capture`]: every method but `bvh`; the CMO stages run on the first frame and again only when their input changes, [`GpuRenderer::set_camera`]) | scene | CMO distance, colour and/or triangle IDs (+ normal/mirror with self-reflections) |
+//! | `capture` with `--criterion bounded` ([`super::passes::capture_lists`]: jobs, texels, resolve; or the lists built on the CPU and uploaded at creation, [`GpuRenderer::with_lists`]) | scene | CMO distance (`lo`), the per-texel records and node pool, a `u32` word per binding ([`super::passes::lists`]) |
 //! | `pyramid` (where [`Needs::pyramid`]: `fragment`) | CMO distance | CMO 2x2 min/max pyramid |
 //! | the method's CMO stage: `hier32` (`compute`) | CMO distance | its 8x4/4x8 min/max hierarchy |
 //! | `gbuffer` | scene | G-buffer colour, position + mirror mask, normal |
