@@ -16,7 +16,7 @@ use crate::vk::GpuContext;
 
 #[derive(clap::Args)]
 pub struct BenchArgs {
-    /// Scenes: built-in names or .toml paths, comma-separated [default: every built-in scene].
+    /// Scenes: built-in names or .toml paths, comma-separated [default: every built-in still scene].
     #[arg(long, value_delimiter = ',')]
     pub scenes: Vec<String>,
     /// Methods: reference, envmap, fragment, compute, ssr, reflection-point, bvh (comma-separated);

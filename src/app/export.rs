@@ -57,7 +57,7 @@ pub fn export(name: &str, dir: &Path, force: bool) -> Result<()> {
 
 /// The error of `scene export NAME` for a name that is not a built-in scene: what to run instead.
 fn export_suggestion(name: &str) -> anyhow::Error {
-    let known: Vec<&str> = scene::builtin::NAMES.iter().map(|(n, _)| *n).collect();
+    let known: Vec<&str> = scene::builtin::all().map(|(n, _)| *n).collect();
     if name.ends_with(".toml") || Path::new(name).is_file() {
         anyhow::anyhow!(
             "scene export: '{name}' is a scene file, not a built-in scene; `scene export` writes a built-in scene out \

@@ -74,7 +74,7 @@ pub fn info(gpu: GpuArgs) -> Result<()> {
 
 /// `cubetrace scenes`: one line per built-in scene.
 pub fn scenes() {
-    for (name, about) in scene::builtin::NAMES {
+    for (name, about) in scene::builtin::all() {
         println!("{name:<17} {about}");
     }
 }

@@ -233,7 +233,7 @@ pub struct BenchConfig {
 }
 
 impl Default for BenchConfig {
-    /// Every built-in scene, reference + envmap + the fragment grid, 160x120, 1 + 5 frames:
+    /// Every built-in still scene, reference + envmap + the fragment grid, 160x120, 1 + 5 frames:
     /// about two minutes on lavapipe (2 cores).
     fn default() -> Self {
         BenchConfig {

@@ -11,7 +11,8 @@ use super::{CmoPlacement, CmoSpec, MeshPart, Scene, SelfReflections, Transform};
 use crate::camera::Camera;
 use crate::shading::Shading;
 
-/// Built-in scene names with a one-line description, in listing order.
+/// The built-in still scenes with a one-line description, in listing order: what the bench's
+/// grid and the tests run over. The animated ones ([`ANIMATED`]) come after them.
 pub const NAMES: &[(&str, &str)] = &[
     (
         "default",
@@ -20,10 +21,6 @@ pub const NAMES: &[(&str, &str)] = &[
     (
         "sphere-room",
         "a mirror sphere in a textured room, with objects close to it (parallax)",
-    ),
-    (
-        "sphere-room-orbit",
-        "sphere-room with its camera orbiting the sphere: 24 frames at 24 fps (render --frames)",
     ),
     (
         "teapot",
@@ -38,6 +35,18 @@ pub const NAMES: &[(&str, &str)] = &[
         "a concave mirror (spherical bowl) with objects in front of it",
     ),
 ];
+
+/// The built-in animated scenes (`render --frames`, `bench --sequence`), each a still scene of
+/// [`NAMES`] set in motion, with a one-line description.
+pub const ANIMATED: &[(&str, &str)] = &[(
+    "sphere-room-orbit",
+    "sphere-room with its camera orbiting the sphere: 24 frames at 24 fps (render --frames)",
+)];
+
+/// Every built-in scene, still and animated ([`NAMES`], then [`ANIMATED`]), in listing order.
+pub fn all() -> impl Iterator<Item = &'static (&'static str, &'static str)> {
+    NAMES.iter().chain(ANIMATED)
+}
 
 /// The Utah teapot (Martin Newell, 1975, public domain); provenance in `assets/README.md`.
 pub const TEAPOT_OBJ: &str = include_str!("assets/teapot.obj");

@@ -487,6 +487,6 @@ pub fn load(name_or_path: &str) -> Result<Scene, SceneError> {
     }
     builtin::by_name(name_or_path).ok_or_else(|| SceneError::UnknownScene {
         name: name_or_path.to_string(),
-        known: builtin::NAMES.iter().map(|(n, _)| n.to_string()).collect(),
+        known: builtin::all().map(|(n, _)| n.to_string()).collect(),
     })
 }
