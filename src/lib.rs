@@ -17,6 +17,7 @@
 //! - [`files`]: atomic file writes (temporary file, then rename) and safe file names.
 //! - [`cubemap`]: cube face mapping and distance hierarchies (pure data, no GPU).
 //! - [`cpu`]: CPU twins of the GPU passes, with the shaders' names and loop structure.
+//! - [`model`]: the SIMT cost model: lockstep warp replay of the CPU twins' work counters.
 //! - [`vk`]: the Vulkan backend (ash); the only module tree that may use `unsafe`.
 #![deny(unsafe_op_in_unsafe_fn)]
 
@@ -30,6 +31,7 @@ pub mod film;
 pub mod memory;
 pub mod method;
 pub mod metrics;
+pub mod model;
 pub mod output;
 pub mod placement;
 pub mod ranges;

@@ -1,0 +1,1 @@
+//! (issue 25: being built)
