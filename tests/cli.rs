@@ -436,6 +436,63 @@ fn compare_reports_both_masks_and_the_whole_frame() {
     assert!(!line.contains("inf") && !line.contains("NaN"), "{line}");
 }
 
+/// At `--spp N > 1`, `--compare` adds the per-sample line, with the error counts summed over the
+/// sample-pixels (a share would round a handful of them to 0.00 %); at 1 spp there is no such
+/// line.
+#[test]
+fn compare_counts_sample_pixels_per_sample() {
+    let dir = tempfile::tempdir().unwrap();
+    let per_sample = |spp: &str| {
+        let args = [
+            "render",
+            "bowl",
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--spp",
+            spp,
+            "--compare",
+            "-o",
+            "x.png",
+        ];
+        let o = run(&args, dir.path());
+        assert_eq!(o.code, Some(0), "{}", o.stderr);
+        o.stdout
+            .lines()
+            .find(|l| l.starts_with("per sample"))
+            .map(str::to_string)
+    };
+    assert_eq!(per_sample("1"), None, "1 spp has no per-sample line");
+    let line = per_sample("4").expect("a per-sample line at 4 spp");
+    let number_after = |key: &str| -> usize {
+        let tail = line
+            .split(key)
+            .nth(1)
+            .unwrap_or_else(|| panic!("'{key}' in: {line}"));
+        let digits: String = tail
+            .trim_start()
+            .chars()
+            .take_while(char::is_ascii_digit)
+            .collect();
+        digits
+            .parse()
+            .unwrap_or_else(|_| panic!("a count after '{key}' in: {line}"))
+    };
+    let total = number_after("; of ");
+    assert!(
+        total > 0 && total <= 4 * 32 * 24,
+        "{total} sample-pixels in: {line}"
+    );
+    let mismatch = number_after("sample-pixels, ");
+    let (only_ref, only_here) = (
+        number_after("mask mismatch ("),
+        number_after("in the reference, "),
+    );
+    assert_eq!(mismatch, only_ref + only_here, "{line}");
+    assert!(line.contains("one sample's PSNR: worst"), "{line}");
+}
+
 /// `--no-reflector-check` turns the check off: on the torus (which the CMOs do not capture) the
 /// same triangle share drops below the default's.
 #[test]

@@ -650,22 +650,40 @@ fn compare_with_reference(
 
 /// The `--compare` line of the samples one by one (more than one sample per pixel), each
 /// against the reference's sample at the same offset: the mean share of each error, and the
-/// PSNR of the samples' pooled squared error over mirror pixels with the worst sample's.
+/// PSNR of the samples' pooled squared error over mirror pixels, the sample-pixels of each error
+/// summed (a share rounds a handful to 0.00 %), and the worst, median and best sample's PSNR.
 fn per_sample_summary(per: &[metrics::ErrorReport]) -> String {
     let n = per.len().max(1) as f64;
     let mean = |f: &dyn Fn(&metrics::ErrorReport) -> f64| per.iter().map(f).sum::<f64>() / n;
     // PSNR back to the squared error it came from (peak 1), pooled, and back.
     let pooled = -10.0 * mean(&|r| 10f64.powf(-r.psnr_db / 10.0)).log10();
-    let worst = per.iter().map(|r| r.psnr_db).fold(f64::INFINITY, f64::min);
+    let mut sorted: Vec<f64> = per.iter().map(|r| r.psnr_db).collect();
+    sorted.sort_by(f64::total_cmp);
+    let (worst, median, best) = match sorted.as_slice() {
+        [] => (f64::NAN, f64::NAN, f64::NAN),
+        s => (s[0], s[s.len() / 2], s[s.len() - 1]),
+    };
+    // Sample-pixels, summed over the samples: a share rounds a few of them to 0.00 %.
+    let count = |f: &dyn Fn(&metrics::ErrorReport) -> f64| -> usize {
+        per.iter().map(|r| (f(r) * r.mirror_pixels as f64).round() as usize).sum()
+    };
     format!(
-        "per sample ({} samples, each against the reference's sample at the same offset): mean {:.2}% in error: mask mismatch {:.2}%, unresolved {:.2}%, wrong surface {:.2}%; PSNR {:.2} dB over mirror pixels (all samples' squared error pooled), worst sample {:.2} dB",
+        "per sample ({} samples, each against the reference's sample at the same offset): mean {:.2}% in error: mask mismatch {:.2}%, unresolved {:.2}%, wrong surface {:.2}%; of {} mirror sample-pixels, {} mask mismatch ({} only in the reference, {} only here), {} unresolved, {} wrong surface; PSNR {:.2} dB over mirror pixels (all samples' squared error pooled); one sample's PSNR: worst {:.2}, median {:.2}, best {:.2} dB",
         per.len(),
         100.0 * mean(&|r| r.error),
         100.0 * mean(&|r| r.mask_mismatch_fraction),
         100.0 * mean(&|r| r.unresolved),
         100.0 * mean(&|r| r.wrong_surface),
+        per.iter().map(|r| r.mirror_pixels).sum::<usize>(),
+        per.iter().map(|r| r.mask_mismatch).sum::<usize>(),
+        per.iter().map(|r| r.mask_missed).sum::<usize>(),
+        per.iter().map(|r| r.mask_extra).sum::<usize>(),
+        count(&|r| r.unresolved),
+        count(&|r| r.wrong_surface),
         pooled,
         worst,
+        median,
+        best,
     )
 }
 
