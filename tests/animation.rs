@@ -146,6 +146,14 @@ fn film_and_animation_round_trip_through_export() {
         let changed = scene::load_scene_file(&path).unwrap();
         assert!(original.compare_content(&changed).is_err(), "{to}");
     }
+    // The spline's name round trips too.
+    let mut spline = moving_scene();
+    spline.animation.interpolation = scene::animation::Interpolation::CatmullRom;
+    let spline_path = export::export(&spline, &dir.path().join("spline")).unwrap();
+    let text = std::fs::read_to_string(&spline_path).unwrap();
+    assert!(text.contains("interpolation = \"catmull-rom\""), "{text}");
+    let loaded = scene::load_scene_file(&spline_path).unwrap();
+    assert_eq!(loaded.animation, spline.animation);
     // A still scene's export has neither section.
     let still = export::export(&builtin::sphere_room(), &dir.path().join("still")).unwrap();
     let text = std::fs::read_to_string(still).unwrap();
@@ -262,7 +270,7 @@ fn bad_animations_are_refused_naming_line_and_field() {
             "\"cubic\"",
             "interpolation",
             "animation.interpolation",
-            "'cubic' is not one of \"linear\"",
+            "'cubic' is not one of \"linear\", \"catmull-rom\"",
         ),
         (
             "camera = \"main\"",

@@ -8,9 +8,18 @@
 //! others:
 //! - at a key's exact time the field is that key's value, bit for bit;
 //! - between two keys it is interpolated linearly (`a * (1 - s) + b * s`, per component;
-//!   rotations per Euler angle, in degrees);
+//!   rotations per Euler angle, in degrees), or, with `interpolation = "catmull-rom"`, a camera's
+//!   fields follow a Catmull-Rom spline through the keys (below);
 //! - before its first key and after its last it holds that key's value;
 //! - a field no key sets keeps the scene's value (the `[[camera]]`'s or the `[[mesh]]`'s).
+//!
+//! Catmull-Rom (camera fields only): between keys `i` and `i + 1` the field is the cubic Hermite
+//! curve through the two values with the tangents `m_i = (p_{i+1} - p_{i-1}) / (t_{i+1} -
+//! t_{i-1})` (Catmull-Rom's, for keys at uneven times), and at the first and last key the one-sided
+//! difference. The path passes through every key, with a continuous velocity; with two keys it is
+//! the straight line. A spline overshoots between keys where the path turns, so `fov_y_deg` is
+//! clamped into (0, 180) degrees; mesh transforms stay linear, since an overshooting `scale`
+//! could pass through zero and turn a mesh inside out.
 //!
 //! Keys of a track are in strictly increasing time (the file check refuses others), so the
 //! evaluation needs no sorting. A scene without tracks is a still: [`Animation::apply`] gives
@@ -20,20 +29,24 @@ use glam::Vec3;
 
 use super::Scene;
 
-/// How values between two keys are found. Only linear interpolation exists.
+/// How values between two keys are found.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Interpolation {
+    /// Straight lines between keys, for every field.
     #[default]
     Linear,
+    /// A Catmull-Rom spline through a camera's keys (module docs); meshes stay linear.
+    CatmullRom,
 }
 
 impl Interpolation {
     /// The scene file's names, in the order the error message lists them.
-    pub const NAMES: &[&str] = &["linear"];
+    pub const NAMES: &[&str] = &["linear", "catmull-rom"];
 
     pub fn from_name(name: &str) -> Option<Self> {
         match name {
             "linear" => Some(Interpolation::Linear),
+            "catmull-rom" => Some(Interpolation::CatmullRom),
             _ => None,
         }
     }
@@ -41,6 +54,7 @@ impl Interpolation {
     pub fn name(self) -> &'static str {
         match self {
             Interpolation::Linear => "linear",
+            Interpolation::CatmullRom => "catmull-rom",
         }
     }
 }
@@ -50,6 +64,10 @@ pub const MAX_FRAME: i64 = 1_048_574;
 
 /// The largest frame rate a scene may give.
 pub const MAX_FPS: f64 = 1000.0;
+
+/// The narrowest field of view a Catmull-Rom camera path gives (degrees), and 180 less it the
+/// widest: an overshoot between keys stays a camera.
+pub const MIN_FOV_DEG: f32 = 0.01;
 
 /// Frames per second when the file gives none.
 pub const DEFAULT_FPS: f64 = 24.0;
@@ -112,14 +130,19 @@ pub struct MeshKey {
     pub scale: Option<Vec3>,
 }
 
-/// A value that can be interpolated linearly.
+/// A value that can be interpolated linearly, or along a spline (a weighted sum of values).
 trait Lerp: Copy {
     fn lerp_to(self, other: Self, s: f32) -> Self;
+    /// `Σ w_i v_i`.
+    fn weighted(terms: [(f32, Self); 4]) -> Self;
 }
 
 impl Lerp for Vec3 {
     fn lerp_to(self, other: Self, s: f32) -> Self {
         self * (1.0 - s) + other * s
+    }
+    fn weighted(terms: [(f32, Self); 4]) -> Self {
+        terms.iter().fold(Vec3::ZERO, |acc, &(w, v)| acc + v * w)
     }
 }
 
@@ -127,6 +150,37 @@ impl Lerp for f32 {
     fn lerp_to(self, other: Self, s: f32) -> Self {
         self * (1.0 - s) + other * s
     }
+    fn weighted(terms: [(f32, Self); 4]) -> Self {
+        terms.iter().fold(0.0, |acc, &(w, v)| acc + v * w)
+    }
+}
+
+/// The value at `time` of the keys `(time, value)` (in increasing time) on their Catmull-Rom
+/// spline (module docs); `None` without keys. At a key's time, and before the first or after the
+/// last, it is [`sample`]'s value.
+fn sample_spline<T: Lerp>(keys: impl Iterator<Item = (f64, T)>, time: f64) -> Option<T> {
+    let k: Vec<(f64, T)> = keys.collect();
+    let Some(i) = k.windows(2).position(|w| w[0].0 < time && time < w[1].0) else {
+        return sample(k.into_iter(), time);
+    };
+    let (t0, p0) = k[i];
+    let (t1, p1) = k[i + 1];
+    let (ta, pa) = k[i.saturating_sub(1)];
+    let (tb, pb) = k[(i + 2).min(k.len() - 1)];
+    let h = t1 - t0;
+    let s = (time - t0) / h;
+    let (s2, s3) = (s * s, s * s * s);
+    let (h00, h10) = (2.0 * s3 - 3.0 * s2 + 1.0, s3 - 2.0 * s2 + s);
+    let (h01, h11) = (-2.0 * s3 + 3.0 * s2, s3 - s2);
+    // The tangents `(p_next - p_prev) / (t_next - t_prev)`, scaled by the interval `h`, enter
+    // the sum as weights on the neighbours' values.
+    let (w0, w1) = (h * h10 / (t1 - ta), h * h11 / (tb - t0));
+    Some(T::weighted([
+        ((h00 - w1) as f32, p0),
+        ((h01 + w0) as f32, p1),
+        (-w0 as f32, pa),
+        (w1 as f32, pb),
+    ]))
 }
 
 /// The value at `time` of the keys `(time, value)` (in increasing time), `None` without keys.
@@ -171,17 +225,26 @@ impl Animation {
                 continue;
             };
             let k = &track.keys;
+            let spline = self.interpolation == Interpolation::CatmullRom;
             let it = |f: fn(&CameraKey) -> Option<Vec3>| {
-                sample(
-                    k.iter().filter_map(move |key| Some((key.time, f(key)?))),
-                    time,
-                )
+                let keys = k.iter().filter_map(move |key| Some((key.time, f(key)?)));
+                if spline {
+                    sample_spline(keys, time)
+                } else {
+                    sample(keys, time)
+                }
             };
             c.eye = it(|k| k.eye).unwrap_or(c.eye);
             c.target = it(|k| k.target).unwrap_or(c.target);
             c.up = it(|k| k.up).unwrap_or(c.up);
             let fov = k.iter().filter_map(|key| Some((key.time, key.fov_y_deg?)));
-            c.fov_y_deg = sample(fov, time).unwrap_or(c.fov_y_deg);
+            let fov = if spline {
+                // An overshoot stays a valid field of view (module docs).
+                sample_spline(fov, time).map(|f| f.clamp(MIN_FOV_DEG, 180.0 - MIN_FOV_DEG))
+            } else {
+                sample(fov, time)
+            };
+            c.fov_y_deg = fov.unwrap_or(c.fov_y_deg);
         }
         for track in &self.meshes {
             let Some(m) = out.meshes.get_mut(track.mesh) else {
@@ -242,5 +305,87 @@ mod tests {
         assert_eq!(sample(k.iter().copied(), -5.0), Some(0.1));
         assert_eq!(sample(k.iter().copied(), 9.0), Some(-2.3));
         assert_eq!(sample(std::iter::empty::<(f64, f32)>(), 0.5), None);
+    }
+
+    #[test]
+    fn the_spline_passes_through_the_keys_with_catmull_rom_tangents() {
+        let k = keys(&[(0.0, 0.0), (1.0, 1.0), (3.0, -1.0), (4.0, 2.0)]);
+        // Through every key, bit for bit; held outside.
+        for &(t, v) in &k {
+            assert_eq!(sample_spline(k.iter().copied(), t), Some(v));
+        }
+        assert_eq!(sample_spline(k.iter().copied(), -1.0), Some(0.0));
+        assert_eq!(sample_spline(k.iter().copied(), 5.0), Some(2.0));
+        // The slope just after key 1 is the Catmull-Rom tangent (p2 - p0) / (t2 - t0) = -1/3,
+        // not the chord's -1 that linear gives.
+        let e = 1e-3;
+        let after = sample_spline(k.iter().copied(), 1.0 + e).unwrap();
+        let slope = (after - 1.0) / e as f32;
+        assert!((slope - (-1.0 / 3.0)).abs() < 0.01, "{slope}");
+        let linear = (sample(k.iter().copied(), 1.0 + e).unwrap() - 1.0) / e as f32;
+        assert!((linear - (-1.0)).abs() < 0.01, "{linear}");
+        // The velocity is continuous at a key: the slope just before key 1 is the same.
+        let before = (1.0 - sample_spline(k.iter().copied(), 1.0 - e).unwrap()) / e as f32;
+        assert!((before - slope).abs() < 0.01, "{before} {slope}");
+        // Two keys: the straight line.
+        let two = keys(&[(0.0, 2.0), (2.0, 6.0)]);
+        let mid = sample_spline(two.iter().copied(), 0.5).unwrap();
+        assert!((mid - 3.0).abs() < 1e-5, "{mid}");
+        assert_eq!(sample_spline(std::iter::empty::<(f64, f32)>(), 0.5), None);
+    }
+
+    #[test]
+    fn catmull_rom_moves_the_camera_and_leaves_meshes_linear() {
+        let mut scene = crate::scene::builtin::sphere_room();
+        let mesh_keys = [(0.0, 0.0), (1.0, 1.0), (2.0, 0.0)].map(|(t, y)| MeshKey {
+            time: t,
+            translate: Some(Vec3::new(0.0, y, 0.0)),
+            ..MeshKey::default()
+        });
+        let cam_keys = [(0.0, 0.0), (1.0, 1.0), (2.0, 0.0)].map(|(t, x)| CameraKey {
+            time: t,
+            eye: Some(Vec3::new(x, 1.0, 4.0)),
+            fov_y_deg: Some([10.0, 170.0, 179.9][t as usize]),
+            ..CameraKey::default()
+        });
+        scene.animation = Animation {
+            fps: 1.0,
+            frames: Some([0, 2]),
+            interpolation: Interpolation::Linear,
+            cameras: vec![CameraTrack {
+                camera: 0,
+                keys: cam_keys.to_vec(),
+            }],
+            meshes: vec![MeshTrack {
+                mesh: 0,
+                keys: mesh_keys.to_vec(),
+            }],
+        };
+        let at = |s: &Scene, time: f64| {
+            let mut a = s.animation.clone();
+            a.fps = 1.0 / time;
+            let f = a.apply(s, 1);
+            (
+                f.cameras[0].eye.x,
+                f.cameras[0].fov_y_deg,
+                f.meshes[0].transform.translate.y,
+            )
+        };
+        let (x_lin, _, y_lin) = at(&scene, 0.5);
+        scene.animation.interpolation = Interpolation::CatmullRom;
+        let (x_cr, fov_cr, y_cr) = at(&scene, 0.5);
+        assert!((x_lin - 0.5).abs() < 1e-6, "{x_lin}");
+        // Tangents 1 at t = 0 (one-sided) and 0 at t = 1 ((0 - 0) / 2): the Hermite value at
+        // s = 1/2 is 0.5 + 0.125 = 0.625.
+        assert!((x_cr - 0.625).abs() < 1e-5, "{x_cr}");
+        assert_eq!(y_cr, y_lin, "meshes stay linear");
+        // The fov spline overshoots 180 between the last two keys; the path clamps it to a
+        // valid camera.
+        let fov_keys = cam_keys.iter().map(|k| (k.time, k.fov_y_deg.unwrap()));
+        let raw = sample_spline(fov_keys, 1.5).unwrap();
+        assert!(raw > 180.0, "the test's keys overshoot: {raw}");
+        let (_, fov_over, _) = at(&scene, 1.5);
+        assert_eq!(fov_over, 180.0 - MIN_FOV_DEG);
+        assert!(fov_cr > 10.0 && fov_cr < 170.0, "{fov_cr}");
     }
 }

@@ -40,7 +40,7 @@
 //! fps = 24                          # frame f is at time f / fps seconds (default 24)
 //! frames = [1, 48]                  # default range of `render` without --frames (inclusive;
 //!                                   # default [1, 1] where there are keys)
-//! interpolation = "linear"          # the only one (default)
+//! interpolation = "linear"          # or "catmull-rom" (camera paths; default "linear")
 //!
 //! [[animation.camera]]
 //! camera = "main"                   # a [[camera]]'s name (default: the first camera)
@@ -61,7 +61,7 @@
 //!
 //! Animation: each field of a camera or mesh is animated by the keys that set it (see
 //! `cubetrace::scene::animation`): at a key's time it is the key's value, between two keys it is
-//! interpolated linearly, outside them it holds the nearest key's value, and a field no key sets
+//! interpolated linearly (or along a Catmull-Rom spline for cameras), outside them it holds the nearest key's value, and a field no key sets
 //! keeps the `[[camera]]`'s or `[[mesh]]`'s value. A camera or mesh is animated by one track at
 //! most; a track needs a key, each key a `time` (keys out of order, a missing time, an unknown
 //! interpolation name or an unknown camera or mesh are errors naming the line and the field).
