@@ -3,11 +3,12 @@
 //! scenes (sphere-room at 32x24, cube 32).
 
 use cubetrace::Method;
+use cubetrace::model::replay::TexelLayout;
 use cubetrace::model::replay::{
     ComputeLanes, FrameWork, Mode, ModelSettings, Recorded, ReplayStats, default_assembly,
     model_frame, record, replay,
 };
-use cubetrace::model::warps::Assembly;
+use cubetrace::model::warps::{Assembly, Lane, quad_warps};
 use cubetrace::model::work::{self, Phase};
 use cubetrace::scene::builtin;
 
@@ -339,4 +340,66 @@ fn other_methods_match_their_twin_counters() {
         })
         .count();
     assert!(shifted < agree, "shifted {shifted} vs {agree}");
+}
+
+/// The texel layout moves the sectors, not the control flow: the tiled layout gives the same
+/// warp-steps and efficiency as the linear one on the compute path, and other sectors per ray
+/// (the negative: were the addresses ignored, they would be equal).
+#[test]
+fn layout_changes_sectors_only() {
+    let sc = scene();
+    let linear = settings(32);
+    let mut tiled = settings(32);
+    tiled.layout = TexelLayout::Tiled;
+    for method in [Method::Compute, Method::Fragment] {
+        let a = model_frame(&sc, method, &linear, 32, Mode::Gpu).expect("model");
+        let b = model_frame(&sc, method, &tiled, 32, Mode::Gpu).expect("model");
+        eprintln!(
+            "{}: sectors/ray linear {:.1} tiled {:.1}",
+            method.name(),
+            a.sectors_per_ray,
+            b.sectors_per_ray
+        );
+        assert_eq!(a.steps_per_ray, b.steps_per_ray);
+        assert_eq!(a.simd_efficiency, b.simd_efficiency);
+        assert_ne!(a.sectors_per_ray, b.sectors_per_ray);
+    }
+}
+
+/// Quads: every pixel of an odd-sized image lies in exactly one lane, the helper lanes are the
+/// quads' pixels outside the image, and a warp of 8 holds two horizontally adjacent quads (8x4
+/// tiles, quads row-major). Negative: an image of even size has no helper.
+#[test]
+fn quad_warps_cover_the_image_with_helpers() {
+    let (w, h) = (13u32, 7u32);
+    let ray_at: Vec<Option<usize>> = (0..(w * h) as usize).map(Some).collect();
+    let warps = quad_warps(w, h, &ray_at, 8);
+    let lanes: Vec<Lane> = warps.iter().flatten().copied().collect();
+    let mut seen = vec![0; (w * h) as usize];
+    for l in &lanes {
+        if let Lane::Ray(i) = l {
+            seen[*i] += 1;
+        }
+    }
+    assert!(seen.iter().all(|&n| n == 1));
+    let helpers = lanes.iter().filter(|l| **l == Lane::Helper).count() as u32;
+    assert_eq!(helpers, w.div_ceil(2) * 2 * h.div_ceil(2) * 2 - w * h);
+    // Pixels (0, 0), (1, 0), (0, 1), (1, 1), then (2, 0) ...: quads, not rows.
+    assert_eq!(
+        warps[0][..5],
+        [
+            Lane::Ray(0),
+            Lane::Ray(1),
+            Lane::Ray(13),
+            Lane::Ray(14),
+            Lane::Ray(2)
+        ]
+    );
+    let even: Vec<Option<usize>> = (0..12 * 8).map(Some).collect();
+    let none = quad_warps(12, 8, &even, 8)
+        .iter()
+        .flatten()
+        .filter(|l| **l == Lane::Helper)
+        .count();
+    assert_eq!(none, 0);
 }

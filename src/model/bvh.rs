@@ -132,7 +132,8 @@ fn node_hits(b: &BvhData, n: u32, o: Vec3, inv: Vec3, oct: u32, t_lo: f32, t_bes
 fn plane_distance(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> f32 {
     let n = (b - a).cross(c - a);
     let l = n.length();
-    if !(l > 0.0) {
+    // Not positive, or NaN: no plane.
+    if l.is_nan() || l <= 0.0 {
         return f32::INFINITY;
     }
     (p - a).dot(n).abs() / l
