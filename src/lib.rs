@@ -14,6 +14,7 @@
 //! - [`ranges`]: depth ranges and ray length of a GPU frame, and the f32 precision check.
 //! - [`output`]: PNG and EXR writers, and the meaning of every EXR channel.
 //! - [`film`]: samples per pixel and the pixel filter.
+//! - [`lobe`]: glossy reflectors: the Phong lobe, its mirror cap and its sample directions.
 //! - [`files`]: atomic file writes (temporary file, then rename) and safe file names.
 //! - [`cubemap`]: cube face mapping and distance hierarchies (pure data, no GPU).
 //! - [`cpu`]: CPU twins of the GPU passes, with the shaders' names and loop structure.
@@ -28,6 +29,7 @@ pub mod cpu;
 pub mod cubemap;
 pub mod files;
 pub mod film;
+pub mod lobe;
 pub mod memory;
 pub mod method;
 pub mod metrics;
