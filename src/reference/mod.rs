@@ -8,6 +8,13 @@
 //! non-reflector hit is shaded ([`crate::shading`]), a ray that leaves the scene takes the
 //! background, and a reflector met after the last bounce is shaded with its own material.
 //!
+//! Glossy reflectors ([`crate::lobe`]: a Phong specular power below 1024) reflect each path
+//! along one direction of their lobe around the mirror direction, drawn from a hash of the
+//! pixel, the film's sample key and the bounce ([`LobeKey`]; [`render_sample`]); a direction
+//! below the surface ends the path black. The film's average over `--spp` samples is then the
+//! Monte Carlo estimate of the lobe integral. A mirror samples nothing: its frame is the one
+//! without glossiness, bit for bit.
+//!
 //! Nearest hits come from a BVH built by the `obvhs` crate: it builds with glam types directly
 //! (no conversion to nalgebra, which `bvh` and `parry3d` would need), is deterministic when
 //! built single-threaded (as here), and exposes its nodes. The traversal is ours

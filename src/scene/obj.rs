@@ -5,9 +5,9 @@
 //! writes a normalised copy that is the only text `tobj` sees. That copy holds nothing `tobj`
 //! could panic or be wrong on: only `v x y z`, `vt u v`, `vn x y z`, `f` with absolute 1-based
 //! indices already checked against the counts, `o`/`g` names, and `mtllib`/`usemtl`/`newmtl`
-//! lines; an MTL holds only `newmtl`, `Kd r g b`, `map_Kd file` and `Ns n` (so `tobj` never meets a
-//! short `Kd`, `Ka`, `Ks` or `Ke`, which it panicked on). Numbers are passed on as the tokens
-//! of the file, already parsed as finite `f32` by the same `str::parse` that `tobj` uses.
+//! lines; an MTL holds only `newmtl`, `Kd r g b`, `map_Kd file` and `Ns n` (so `tobj` never
+//! meets a short `Kd`, `Ka`, `Ks` or `Ke`, which it panicked on). Numbers are passed on as the
+//! tokens of the file, already parsed as finite `f32` by the same `str::parse` that `tobj` uses.
 //! `tobj` (with `single_index`, without `triangulate`) then builds the parts and materials,
 //! and our code triangulates each polygon from `tobj`'s `face_arities`, naming the polygon's
 //! source line on failure.
