@@ -4,7 +4,8 @@
 //! - [`app`]: the commands of the `cubetrace` binary (render, bench, scene export) as functions.
 //! - [`method`]: [`Method`], the one method type of the CLI, the harness and the renderer.
 //! - [`scene`]: the scene as data: scene files (TOML + OBJ/MTL/PNG), built-in scenes, mesh
-//!   hygiene. It imports no algorithm (only the leaves [`camera`], [`shading`] and [`files`]).
+//!   hygiene. It imports no algorithm (only the leaves [`camera`], [`shading`], [`files`] and
+//!   [`lobe`]).
 //! - [`placement`]: CMO placement search and set-up checks, algorithms over the scene.
 //! - [`camera`]: the camera and its pixel convention (Vulkan's, pixel centres at +0.5).
 //! - [`shading`]: the view-independent shading shared by the capture and the reference.

@@ -3,7 +3,7 @@
 //! - The mirror cap: a reflector of specular power 1024 or more renders today's frame bit for
 //!   bit with every method (the reference too). Negative: power 64 changes the reference's and
 //!   `bvh`'s frames. The methods that cannot sample the lobe render the glossy scene as the
-//!   mirror, and warn (`lobe::method_warning`).
+//!   mirror, and warn (`glossy::method_warning`).
 //! - Scene input: MTL `Ns` is honoured only where the scene file says `specular_power = "mtl"`,
 //!   a number overrides it, 1024 and above is a mirror; bad values (a negative or non-finite
 //!   power, an unknown word, a power on a non-reflector, a negative or missing MTL `Ns`) are
@@ -20,6 +20,7 @@ use common::{finish_gpu, gpu_context};
 use clap::Parser;
 use cubetrace::Method;
 use cubetrace::app::frame_renderer::{self, FrameRenderer};
+use cubetrace::app::glossy;
 use cubetrace::app::render::RenderArgs;
 use cubetrace::camera::Camera;
 use cubetrace::film::{FilmSettings, PixelFilter};
@@ -165,12 +166,12 @@ fn mirror_cap_is_todays_frame_for_every_method() {
         let at_cap = gpu_bits(&gpu_frame(&capped, &cam, method, &ctx));
         assert!(today == at_cap, "{method}: the cap changed the frame");
         let on_glossy = gpu_bits(&gpu_frame(&glossy, &cam, method, &ctx));
-        let warning = lobe::method_warning(&glossy, method, 1);
-        assert_eq!(lobe::method_warning(&mirror, method, 1), None, "{method}");
+        let warning = glossy::method_warning(&glossy, method, 1);
+        assert_eq!(glossy::method_warning(&mirror, method, 1), None, "{method}");
         if method == Method::Bvh {
             assert!(today != on_glossy, "negative: bvh samples the lobe");
             assert_eq!(warning, None);
-            let over = lobe::method_warning(&glossy, method, 2).unwrap_or_default();
+            let over = glossy::method_warning(&glossy, method, 2).unwrap_or_default();
             assert!(over.contains("--bounces 2"), "{over}");
         } else {
             // Traced as a mirror: the same frame, and a warning naming the method.
@@ -185,7 +186,7 @@ fn mirror_cap_is_todays_frame_for_every_method() {
             );
         }
     }
-    assert_eq!(lobe::method_warning(&glossy, Method::Reference, 3), None);
+    assert_eq!(glossy::method_warning(&glossy, Method::Reference, 3), None);
     finish_gpu(ctx);
 }
 
@@ -311,14 +312,14 @@ fn glossy_builtin_exports_and_loads_back() {
             .iter()
             .any(|(n, _)| *n == "sphere-room-glossy")
     );
-    assert_eq!(lobe::glossy_meshes(&s), vec!["mirror-sphere"]);
+    assert_eq!(glossy::glossy_meshes(&s), vec!["mirror-sphere"]);
     let dir = tempfile::tempdir().unwrap();
     let path = scene::export::export(&s, dir.path()).unwrap_or_else(|e| panic!("{e}"));
     let text = std::fs::read_to_string(&path).unwrap();
     assert!(text.contains("specular_power = \"mtl\""), "{text}");
     let back = scene::load_scene_file(&path).unwrap_or_else(|e| panic!("{e}"));
     s.compare_content(&back).unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(lobe::glossy_meshes(&back), vec!["mirror-sphere"]);
+    assert_eq!(glossy::glossy_meshes(&back), vec!["mirror-sphere"]);
     let other = with_power(&back, Some(65.0));
     assert!(s.compare_content(&other).is_err(), "negative: power 65");
     let mirror = with_power(&back, None);

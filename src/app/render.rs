@@ -155,7 +155,7 @@ pub fn render(args: RenderArgs) -> Result<()> {
     args.check_method()?;
     let (scene, camera) = load_scene(&args)?;
     let target = check_target(&args, &scene)?;
-    if let Some(warning) = crate::lobe::method_warning(&scene, args.method, args.bounces) {
+    if let Some(warning) = crate::app::glossy::method_warning(&scene, args.method, args.bounces) {
         log::warn!("{warning}");
     }
     if args.method.is_gpu() {
