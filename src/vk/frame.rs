@@ -728,7 +728,13 @@ impl GpuRenderer {
         }
         self.sample = key;
         let params = frame_params(scene, &self.camera, &self.options, self.ranges.t_hi);
-        ctx.write_buffer(&self.params, &[FrameParams { sample: key, ..params }])
+        ctx.write_buffer(
+            &self.params,
+            &[FrameParams {
+                sample: key,
+                ..params
+            }],
+        )
     }
 
     /// Makes the next frame run the CMO stages again (capture, pyramid, the method's CMO stage)
