@@ -2,7 +2,11 @@
 // dispatch:
 // - `append_mirror` (the `bvh` method): every mirror pixel of the G-buffer appends its reflected
 //   ray (`mirror_ray`, the ray the cubemap paths trace) from t = 0, leaving the G-buffer's
-//   triangle (the start rule of shared/bvh.wgsl).
+//   triangle (the start rule of shared/bvh.wgsl). On a glossy reflector (the G-buffer normal's w,
+//   shared/lobe.wgsl) the ray goes along one direction of the Phong lobe around the mirror
+//   direction, that of the pixel, the frame's sample key (`frame.sample`) and bounce 0, as the
+//   CPU reference draws it (`cubetrace::lobe`); a direction below the surface is queued flagged
+//   BVH_RAY_ABSORBED (bvh_trace writes it black, untraced).
 // - `append_unresolved` (`--fallback trace`): every mirror pixel whose record another method left
 //   unresolved appends the record's ray, flagged BVH_RAY_FALLBACK, from t = 0 under the start
 //   rule (leaving the G-buffer's triangle), as `append_mirror` would: the cubemap tracer's
@@ -26,6 +30,7 @@
 // (`vk::passes::bvh::pixel_groups`); the order of the queue is the atomic's and nothing depends on it.
 //! import shared/mirror.wgsl
 //! import shared/bvh_rays.wgsl
+//! import shared/lobe.wgsl
 
 // The G-buffer's global triangle ID (`u32::MAX` where nothing is drawn).
 @group(0) @binding(8) var gbuffer_triangle: texture_2d<u32>;
@@ -57,7 +62,19 @@ fn append_mirror(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wor
         return;
     }
     let tri = textureLoad(gbuffer_triangle, vec2<i32>(pixel), 0).x;
-    push(BvhRay(ray.origin, i, ray.dir, 0.0, tri, 0u, 0u, 0u));
+    let normal = textureLoad(gbuffer_normal, vec2<i32>(pixel), 0);
+    let power = lobe_gbuffer_power(normal.w);
+    var dir = ray.dir;
+    var flags = 0u;
+    if power >= 0.0 {
+        // The normal as `mirror_ray` normalises it.
+        let n = normalize_glam(normal.xyz);
+        let u = lobe_uniforms(pixel.x, pixel.y, frame.sample, 0u);
+        let s = lobe_sample(ray.dir, n, power, u);
+        dir = s.dir;
+        flags = select(BVH_RAY_ABSORBED, 0u, s.above);
+    }
+    push(BvhRay(ray.origin, i, dir, 0.0, tri, 0u, flags, 0u));
 }
 
 // The unresolved record of pixel `i` as a fallback ray from `t_min(t_done)`.

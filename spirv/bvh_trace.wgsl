@@ -10,6 +10,8 @@
 // reflectors' BVH) writes the same result fields and sets `checked` only when its hit is strictly
 // nearer than the record's `t` (any hit when the record escaped) and on another triangle than
 // the record's; otherwise (a miss, a farther hit, a cut loop) it leaves the record untouched.
+// A BVH_RAY_ABSORBED ray (a glossy lobe's sample below the surface) is not traced: its record is
+// escaped with colour 0, no triangle, t = 0.
 // The dispatch is `bvh_queue`'s `args`.
 //! import shared/record.wgsl
 //! import shared/bvh_rays.wgsl
@@ -30,6 +32,15 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         return;
     }
     let ray = bvh_rays[i];
+    if (ray.flags & BVH_RAY_ABSORBED) != 0u {
+        // A glossy lobe's sample below the surface (`cubetrace::lobe`): no light, no hit.
+        records[ray.pixel] = PixelRecord(
+            ray.origin, RECORD_ESCAPED, ray.dir, 0xffffffffu, ray.origin, 0u, vec3<f32>(0.0),
+            0u, 0u, 0u, 0u, 0u, 1u, 0.0, ray.t_min, BVH_NO_TRIANGLE,
+            0u, 0u, ray.bounce + 1u, 0u,
+        );
+        return;
+    }
     let h = bvh_nearest(ray.origin, ray.dir, ray.t_min, ray.from_triangle);
     var status = RECORD_ESCAPED;
     var t = bvh_params.t_hi;

@@ -4,7 +4,9 @@
 // surface, where the pixel-centre ray meets the triangle's plane (`fs_main`; w = 1 where it is a
 // reflector: the mirror mask; 0 on other surfaces; -1, the clear value, where nothing is drawn),
 // and the vertex normal interpolated there as
-// stored (w = 1 where covered), and the global index of the triangle seen (`vertex_index / 3`:
+// stored (w = 1 where covered, but on a glossy reflector, where w = -1 - its Phong specular
+// power: at most -1, read with `lobe_gbuffer_power` in shared/lobe.wgsl; 0 where nothing is
+// drawn), and the global index of the triangle seen (`vertex_index / 3`:
 // the draw is of every triangle in `WorldGeometry::triangles` order; u32::MAX, the clear value,
 // where nothing is drawn), which the BVH tracer's start rule reads. The mirror's normal is left unnormalised here; tracers normalise
 // it exactly as the CPU reference does (`normalize_or_zero` of the interpolated normal).
@@ -116,10 +118,14 @@ fn fs_main(in: GbufferVarying) -> GbufferOut {
         uv = v0.uv * w + v1.uv * u + v2.uv * v;
     }
     let mirror = select(0.0, 1.0, scene_is_reflector(in.object));
+    // A glossy reflector's specular power p goes into the normal's w as -1 - p (at most -1; see
+    // the header); every other covered pixel keeps 1.
+    let power = scene_objects[in.object].specular_power;
+    let normal_w = select(1.0, -1.0 - power, power >= 0.0);
     return GbufferOut(
         vec4<f32>(scene_shade(in.object, uv, normal), 1.0),
         vec4<f32>(world, mirror),
-        vec4<f32>(normal, 1.0),
+        vec4<f32>(normal, normal_w),
         in.triangle,
     );
 }

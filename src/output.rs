@@ -335,6 +335,7 @@ mod tests {
             reflector: false,
             captured: true,
             normals_inward: false,
+            specular_power: None,
             first_triangle,
             triangle_count,
         };

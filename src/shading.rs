@@ -82,6 +82,10 @@ pub struct Material {
     pub diffuse: Vec3,
     /// Index into the scene's texture list (`map_Kd`), multiplied with `diffuse`.
     pub texture: Option<u32>,
+    /// The Phong specular power a reflector of this material reflects with (MTL `Ns` where the
+    /// mesh honours it, or the scene file's `specular_power`): `None`, or at least
+    /// [`crate::lobe::MIRROR_POWER`], is a perfect mirror. Ignored on non-reflectors.
+    pub specular_power: Option<f32>,
 }
 
 /// An sRGB-encoded RGBA8 image, row 0 at the top.

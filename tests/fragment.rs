@@ -84,7 +84,7 @@ fn shared_structs_match_naga_layout() {
             up,
             jitter_y,
             back,
-            pad3
+            sample
         ]
     )
     .unwrap();

@@ -166,6 +166,7 @@ fn facing_mirrors() -> Scene {
             name: name.into(),
             diffuse,
             texture: None,
+            specular_power: None,
         });
         (s.materials.len() - 1) as u32
     };

@@ -799,6 +799,7 @@ fn with_slab(thickness: f32) -> Scene {
         name: "slab".into(),
         diffuse: Vec3::new(0.9, 0.2, 0.6),
         texture: None,
+        specular_power: None,
     });
     scene.meshes.push(MeshInstance {
         name: "slab".into(),
@@ -883,6 +884,7 @@ fn grazing_incidence_on_the_mirror() {
         name: "mirror".into(),
         diffuse: Vec3::splat(0.8),
         texture: None,
+        specular_power: None,
     });
     scene.meshes.push(MeshInstance {
         name: "mirror-tile".into(),
@@ -922,6 +924,7 @@ fn silhouette_right_behind_the_ray_is_not_a_hit() {
         name: "column".into(),
         diffuse: Vec3::new(0.2, 0.8, 0.8),
         texture: None,
+        specular_power: None,
     });
     scene.meshes.push(MeshInstance {
         name: "near-column".into(),
@@ -967,6 +970,7 @@ fn hard_geometry() -> Scene {
             name: name.into(),
             diffuse,
             texture: None,
+            specular_power: None,
         });
         scene.materials.len() as u32 - 1
     };

@@ -28,6 +28,7 @@ fn scene(meshes: Vec<MeshInstance>) -> Scene {
             name: "grey".into(),
             diffuse: Vec3::splat(0.6),
             texture: None,
+            specular_power: None,
         }],
         textures: vec![],
         cameras: vec![Camera {

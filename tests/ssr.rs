@@ -403,6 +403,7 @@ fn with_thin_panel() -> Scene {
         name: "panel".into(),
         diffuse: Vec3::new(0.9, 0.2, 0.6),
         texture: None,
+        specular_power: None,
     });
     scene.meshes.push(MeshInstance {
         name: "panel".into(),

@@ -28,6 +28,10 @@ struct BvhRay {
 
 const BVH_RAY_FALLBACK: u32 = 1u;
 const BVH_RAY_CHECK: u32 = 2u;
+// A glossy reflector's lobe sample below the surface (bvh_queue's `append_mirror`,
+// shared/lobe.wgsl): absorbed, so bvh_trace writes the record black (escaped, colour 0, no
+// triangle) without tracing it.
+const BVH_RAY_ABSORBED: u32 = 4u;
 const BVH_NO_TRIANGLE: u32 = 0xffffffffu;
 
 // Zeroed (vkCmdFillBuffer) before every append.

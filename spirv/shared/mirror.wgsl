@@ -41,7 +41,9 @@ struct FrameParams {
     up: vec3<f32>,
     jitter_y: f32,
     back: vec3<f32>,
-    pad3: u32,
+    // The film's sample key (`lobe::sample_key`: spp and the sample's index), for the glossy
+    // lobe's directions (shared/lobe.wgsl); 0 outside a film's sample loop.
+    sample: u32,
 }
 
 

@@ -24,6 +24,9 @@ struct GpuObject {
     // 1 where the cubemap capture draws the object: a non-reflector, or a reflector that sees
     // itself (Scene::self_capture).
     captured: u32,
+    // A glossy reflector's Phong specular power (below lobe::MIRROR_POWER, src/lobe.rs); -1 on a
+    // mirror and on every non-reflector.
+    specular_power: f32,
 }
 
 struct GpuMaterial {

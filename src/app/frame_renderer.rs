@@ -345,6 +345,7 @@ fn gpu_samples(
         if renderer.camera() != &cam {
             renderer.set_camera(ctx, scene, &cam)?;
         }
+        renderer.set_sample(ctx, scene, crate::lobe::sample_key(film.spp, s as u32))?;
         let frame = renderer.render(ctx)?;
         captured |= frame.captured;
         gpu_ms += frame.pass_times.iter().map(|(_, t)| t).sum::<f64>() * 1e-6;
@@ -391,7 +392,8 @@ fn reference_samples(
     }
     for (s, &o) in offsets.iter().enumerate() {
         let cam = sample_camera(camera, o);
-        let frame = reference::render_with_progress(scene, tracer, &cam, bounces, &bar);
+        let key = crate::lobe::sample_key(film.spp, s as u32);
+        let frame = reference::render_sample(scene, tracer, &cam, bounces, key, &bar);
         acc.add(o, &frame.colour);
         if keep {
             kept.push(SampleFrame {

@@ -22,6 +22,7 @@ pub mod export;
 pub mod farm;
 pub mod frame_renderer;
 pub mod frames;
+pub mod glossy;
 pub mod options;
 pub mod render;
 pub mod sequence;

@@ -155,6 +155,9 @@ pub fn render(args: RenderArgs) -> Result<()> {
     args.check_method()?;
     let (scene, camera) = load_scene(&args)?;
     let target = check_target(&args, &scene)?;
+    if let Some(warning) = crate::app::glossy::method_warning(&scene, args.method, args.bounces) {
+        log::warn!("{warning}");
+    }
     if args.method.is_gpu() {
         render_gpu(&args, &scene, &camera, &target, start)
     } else {

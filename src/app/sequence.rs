@@ -209,6 +209,9 @@ fn load_base(args: &RenderArgs) -> Result<Scene> {
     for problem in crate::placement::diagnose(&scene) {
         log::warn!("{problem}");
     }
+    if let Some(warning) = crate::app::glossy::method_warning(&scene, args.method, args.bounces) {
+        log::warn!("{warning}");
+    }
     Ok(scene)
 }
 

@@ -181,6 +181,7 @@ pub fn tessellated_scene(segments: u32) -> Result<Scene> {
         name: "tessellated".into(),
         diffuse: Vec3::new(0.3, 0.7, 0.9),
         texture: None,
+        specular_power: None,
     });
     scene.meshes.push(MeshInstance {
         name: "tessellated-ball".into(),

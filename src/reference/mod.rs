@@ -8,6 +8,13 @@
 //! non-reflector hit is shaded ([`crate::shading`]), a ray that leaves the scene takes the
 //! background, and a reflector met after the last bounce is shaded with its own material.
 //!
+//! Glossy reflectors ([`crate::lobe`]: a Phong specular power below 1024) reflect each path
+//! along one direction of their lobe around the mirror direction, drawn from a hash of the
+//! pixel, the film's sample key and the bounce ([`LobeKey`]; [`render_sample`]); a direction
+//! below the surface ends the path black. The film's average over `--spp` samples is then the
+//! Monte Carlo estimate of the lobe integral. A mirror samples nothing: its frame is the one
+//! without glossiness, bit for bit.
+//!
 //! Nearest hits come from a BVH built by the `obvhs` crate: it builds with glam types directly
 //! (no conversion to nalgebra, which `bvh` and `parry3d` would need), is deterministic when
 //! built single-threaded (as here), and exposes its nodes. The traversal is ours
@@ -515,6 +522,12 @@ impl Tracer {
         a * (1.0 - u - v) + b * u + c * v
     }
 
+    /// The Phong specular power of a glossy reflector's triangle ([`crate::lobe`]); `None` on
+    /// a mirror and on every non-reflector.
+    pub fn specular_power(&self, triangle: u32) -> Option<f32> {
+        self.world.objects[self.world.triangle_object[triangle as usize] as usize].specular_power
+    }
+
     pub fn is_reflector(&self, triangle: u32) -> bool {
         self.world.objects[self.world.triangle_object[triangle as usize] as usize].reflector
     }
@@ -550,6 +563,16 @@ pub struct PathResult {
     pub last_triangle: u32,
 }
 
+/// Which lobe directions a path takes on glossy reflectors ([`crate::lobe::uniforms`]): its
+/// pixel and the film's sample key ([`crate::lobe::sample_key`]; 0 outside a film's sample
+/// loop). A path that meets only mirrors ignores it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LobeKey {
+    pub x: u32,
+    pub y: u32,
+    pub sample: u32,
+}
+
 /// Traces one path from `origin` along `dir` with up to `max_bounces` reflections.
 pub fn trace_path(
     scene: &Scene,
@@ -557,6 +580,7 @@ pub fn trace_path(
     origin: Vec3,
     dir: Vec3,
     max_bounces: u32,
+    key: LobeKey,
 ) -> PathResult {
     finish_path(
         scene,
@@ -564,18 +588,25 @@ pub fn trace_path(
         dir,
         tracer.nearest(origin, dir, None),
         max_bounces,
+        key,
     )
 }
 
 /// The rest of [`trace_path`] once the primary ray (along `dir`) has found `first`: the
 /// reflections off mirrors and the shading at the end. Split out so that the harness can time
 /// the reflected rays on their own ([`render_phased`]).
+///
+/// On a glossy reflector ([`Tracer::specular_power`]) the reflected ray takes one direction of
+/// the Phong lobe around the mirror direction ([`crate::lobe::sample`]: pixel and sample from
+/// `key`, the bounce's index from 0); a direction below the surface is absorbed: the path ends
+/// there, black, with no hit.
 pub fn finish_path(
     scene: &Scene,
     tracer: &Tracer,
     dir: Vec3,
     first: Option<Hit>,
     max_bounces: u32,
+    key: LobeKey,
 ) -> PathResult {
     let mut out = PathResult {
         colour: scene.background,
@@ -594,9 +625,22 @@ pub fn finish_path(
     let mut d = dir;
     let mut bounce = 0u32;
     while tracer.is_reflector(hit.triangle) && bounce < max_bounces {
-        d = reflect(d, tracer.normal(&hit)).normalize();
+        let n = tracer.normal(&hit);
+        d = reflect(d, n).normalize();
+        let lobe = tracer.specular_power(hit.triangle).map(|p| {
+            let u = crate::lobe::uniforms(key.x, key.y, key.sample, bounce);
+            crate::lobe::sample(d, n, p, u)
+        });
         bounce += 1;
         out.bounces = bounce as u8;
+        match lobe {
+            Some(Some(sampled)) => d = sampled,
+            Some(None) => {
+                out.colour = Vec3::ZERO;
+                return out;
+            }
+            None => {}
+        }
         let Some(next) = tracer.nearest(hit.position, d, Some(&hit)) else {
             out.colour = scene.background;
             return out;
@@ -612,7 +656,8 @@ pub fn finish_path(
     out
 }
 
-/// Renders `camera`'s view of `scene` with up to `bounces` reflections per path.
+/// Renders `camera`'s view of `scene` with up to `bounces` reflections per path (sample key 0
+/// on glossy reflectors, [`LobeKey`]).
 pub fn render(scene: &Scene, tracer: &Tracer, camera: &Camera, bounces: u32) -> Frame {
     render_with_progress(
         scene,
@@ -631,6 +676,19 @@ pub fn render_with_progress(
     bounces: u32,
     progress: &indicatif::ProgressBar,
 ) -> Frame {
+    render_sample(scene, tracer, camera, bounces, 0, progress)
+}
+
+/// [`render_with_progress`] of the film's sample of key `sample` ([`crate::lobe::sample_key`]):
+/// the lobe directions glossy reflectors take. Mirrors ignore it.
+pub fn render_sample(
+    scene: &Scene,
+    tracer: &Tracer,
+    camera: &Camera,
+    bounces: u32,
+    sample: u32,
+    progress: &indicatif::ProgressBar,
+) -> Frame {
     let mut frame = Frame::new(camera.width, camera.height);
     let w = camera.width as usize;
     progress.set_length(camera.height as u64);
@@ -640,7 +698,8 @@ pub fn render_with_progress(
             let row = (0..camera.width)
                 .map(|i| {
                     let (o, d) = camera.ray(i, j);
-                    trace_path(scene, tracer, o, d, bounces)
+                    let key = LobeKey { x: i, y: j, sample };
+                    trace_path(scene, tracer, o, d, bounces, key)
                 })
                 .collect();
             progress.inc(1);
@@ -679,15 +738,21 @@ pub fn render_phased(
 ) -> (Frame, PhaseTimes) {
     let w = camera.width as usize;
     let n = w * camera.height as usize;
+    let key = |k: usize| LobeKey {
+        x: (k % w) as u32,
+        y: (k / w) as u32,
+        sample: 0,
+    };
     let start = std::time::Instant::now();
     let primary: Vec<(Vec3, Option<Hit>, Option<PathResult>)> = (0..n)
         .into_par_iter()
         .map(|k| {
-            let (o, d) = camera.ray((k % w) as u32, (k / w) as u32);
+            let (x, y) = ((k % w) as u32, (k / w) as u32);
+            let (o, d) = camera.ray(x, y);
             let hit = tracer.nearest(o, d, None);
             let done = match hit {
                 Some(h) if tracer.is_reflector(h.triangle) => None,
-                _ => Some(finish_path(scene, tracer, d, hit, bounces)),
+                _ => Some(finish_path(scene, tracer, d, hit, bounces, key(k))),
             };
             (d, hit, done)
         })
@@ -696,7 +761,10 @@ pub fn render_phased(
     let start = std::time::Instant::now();
     let paths: Vec<PathResult> = primary
         .into_par_iter()
-        .map(|(d, hit, done)| done.unwrap_or_else(|| finish_path(scene, tracer, d, hit, bounces)))
+        .enumerate()
+        .map(|(k, (d, hit, done))| {
+            done.unwrap_or_else(|| finish_path(scene, tracer, d, hit, bounces, key(k)))
+        })
         .collect();
     let reflected_ns = start.elapsed().as_secs_f64() * 1e9;
     let mut frame = Frame::new(camera.width, camera.height);

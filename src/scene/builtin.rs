@@ -43,9 +43,23 @@ pub const ANIMATED: &[(&str, &str)] = &[(
     "sphere-room with its camera orbiting the sphere: 24 frames at 24 fps (render --frames)",
 )];
 
-/// Every built-in scene, still and animated ([`NAMES`], then [`ANIMATED`]), in listing order.
+/// The built-in scenes with glossy reflectors ([`crate::lobe`]), each a still scene of [`NAMES`]
+/// with its mirror made glossy, with a one-line description. Apart from [`NAMES`]: the tests and
+/// the bench grid that loop over every still scene measure mirrors, and most methods trace a
+/// glossy reflector as a mirror (with a warning).
+pub const GLOSSY: &[(&str, &str)] = &[(
+    "sphere-room-glossy",
+    "sphere-room with a glossy sphere (Phong specular power 64): --method bvh or reference",
+)];
+
+/// The specular power of `sphere-room-glossy`'s sphere: a moderate lobe (the Hi-Z chapter's cone
+/// of Eq. 4.1 with xi = 0.244 is about 12 degrees wide).
+pub const GLOSSY_POWER: f32 = 64.0;
+
+/// Every built-in scene, still, animated and glossy ([`NAMES`], [`ANIMATED`], then [`GLOSSY`]),
+/// in listing order.
 pub fn all() -> impl Iterator<Item = &'static (&'static str, &'static str)> {
-    NAMES.iter().chain(ANIMATED)
+    NAMES.iter().chain(ANIMATED).chain(GLOSSY)
 }
 
 /// The Utah teapot (Martin Newell, 1975, public domain); provenance in `assets/README.md`.
@@ -56,6 +70,7 @@ pub fn by_name(name: &str) -> Option<Scene> {
         "default" => default(),
         "sphere-room" => sphere_room(),
         "sphere-room-orbit" => sphere_room_orbit(),
+        "sphere-room-glossy" => sphere_room_glossy(),
         "teapot" => teapot(),
         "torus" => torus(),
         "bowl" => bowl(),
@@ -193,6 +208,30 @@ pub fn sphere_room() -> Scene {
         Vec3::new(0.4, 2.2, 0.4),
     );
     b.scene
+}
+
+/// `sphere-room` with its sphere glossy: a material of its own, of specular power
+/// [`GLOSSY_POWER`].
+pub fn sphere_room_glossy() -> Scene {
+    let mut scene = sphere_room();
+    scene.name = "sphere-room-glossy".into();
+    let material = scene.materials.len() as u32;
+    let mut glossy = scene.materials[mirror_index(&scene)].clone();
+    glossy.name = "glossy".into();
+    glossy.specular_power = Some(GLOSSY_POWER);
+    scene.materials.push(glossy);
+    for mesh in scene.meshes.iter_mut().filter(|m| m.reflector) {
+        for part in &mut mesh.parts {
+            part.material = material;
+        }
+    }
+    scene
+}
+
+/// The material of `scene`'s first reflector.
+fn mirror_index(scene: &Scene) -> usize {
+    let mesh = scene.meshes.iter().find(|m| m.reflector);
+    mesh.map_or(0, |m| m.parts[0].material as usize)
 }
 
 /// `sphere-room` with its camera on a circle around the sphere's vertical axis, one turn in 24

@@ -17,7 +17,7 @@ use super::animation::Animation;
 use super::file::{
     AnimationFile, CameraFile, CameraKeyFile, CameraTrackFile, CmoFile, FilmFile, MeshFile,
     MeshKeyFile, MeshTrackFile, ScaleFile, SceneFile, SelfReflectionsFile, ShadingFile,
-    ShadingModel, TransformFile,
+    ShadingModel, SpecularPowerFile, TransformFile,
 };
 use super::{CmoPlacement, CmoSpec, MeshInstance, Scene, SelfReflections};
 use crate::camera::Camera;
@@ -58,7 +58,7 @@ pub fn export(scene: &Scene, dir: &Path) -> anyhow::Result<PathBuf> {
     for (mesh, name) in scene.meshes.iter().zip(&mesh_names) {
         let file = format!("{name}.obj");
         write_atomic(&dir.join(&file), obj_text(mesh, &mat_names)?.as_bytes())?;
-        meshes.push(mesh_file(mesh, file));
+        meshes.push(mesh_file(scene, mesh, file));
     }
     let file = SceneFile {
         name: Some(scene.name.clone()),
@@ -113,6 +113,9 @@ fn write_materials(scene: &Scene, dir: &Path, tex_names: &[String]) -> anyhow::R
         if let Some(t) = m.texture {
             writeln!(mtl, "map_Kd {}.png", tex_names[t as usize])?;
         }
+        if let Some(p) = crate::lobe::glossy(m.specular_power) {
+            writeln!(mtl, "Ns {p}")?;
+        }
     }
     write_atomic(&dir.join("materials.mtl"), mtl.as_bytes())?;
     Ok(mat_names)
@@ -151,13 +154,19 @@ fn obj_text(mesh: &MeshInstance, mat_names: &[String]) -> Result<String, std::fm
     Ok(obj)
 }
 
-/// The `[[mesh]]` entry of a mesh written to `file`.
-fn mesh_file(mesh: &MeshInstance, file: String) -> MeshFile {
+/// The `[[mesh]]` entry of a mesh written to `file`: a glossy reflector (a part whose material
+/// has a specular power below the mirror cap) takes its powers from the MTL's `Ns`.
+fn mesh_file(scene: &Scene, mesh: &MeshInstance, file: String) -> MeshFile {
     let t = &mesh.transform;
+    let glossy = mesh.reflector
+        && (mesh.parts.iter()).any(|p| {
+            crate::lobe::glossy(scene.materials[p.material as usize].specular_power).is_some()
+        });
     MeshFile {
         name: Some(sp(mesh.name.clone())),
         obj: sp(PathBuf::from(file)),
         reflector: mesh.reflector,
+        specular_power: glossy.then(|| sp(SpecularPowerFile::Word("mtl".into()))),
         transform: TransformFile {
             translate: sp(t.translate.to_array()),
             rotate_deg: sp(t.rotate_deg.to_array()),

@@ -16,6 +16,9 @@
 //! name = "sphere"
 //! obj = "sphere.obj"                # relative to this file
 //! reflector = true
+//! specular_power = 64               # optional, reflectors only: glossy (Phong power, 0 up;
+//!                                   # 1024 and above a mirror), or "mtl" for the MTL's Ns;
+//!                                   # without it a mirror, whatever the MTL's Ns
 //! transform = { translate = [0, 1.2, 0], rotate_deg = [0, 0, 0], scale = 1.0 }  # or scale = [x, y, z]
 //!
 //! [[camera]]
@@ -159,8 +162,31 @@ pub(crate) struct MeshFile {
     pub obj: Spanned<PathBuf>,
     #[serde(default)]
     pub reflector: bool,
+    /// A reflector's glossiness (see [`Gloss`]): a Phong specular power, or `"mtl"`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub specular_power: Option<Spanned<SpecularPowerFile>>,
     #[serde(default)]
     pub transform: TransformFile,
+}
+
+/// `specular_power`: a TOML number, or the string `"mtl"` (checked on load).
+#[derive(Debug, Deserialize, Serialize, Clone, PartialEq)]
+#[serde(untagged)]
+pub(crate) enum SpecularPowerFile {
+    Number(f32),
+    Word(String),
+}
+
+/// How a reflector of the scene file is glossy (its `specular_power`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Gloss {
+    /// No `specular_power`: a perfect mirror, whatever its MTL's `Ns` says (exporters write an
+    /// `Ns` for every material: Blender 250 or 323.99 by default).
+    Mirror,
+    /// `specular_power = N`: every part of the mesh has this power.
+    Power(f32),
+    /// `specular_power = "mtl"`: each part has its MTL material's `Ns` (a mirror without one).
+    Mtl,
 }
 
 #[derive(Debug, Deserialize, Serialize, Clone, Copy)]
@@ -550,8 +576,42 @@ fn load_mesh(
             format!("mesh '{name}' holds no triangles"),
         );
     }
-    merge(scene, name, loaded, transform, m.reflector);
+    let gloss = gloss(src, i, m)?;
+    merge(scene, name, loaded, transform, m.reflector, gloss);
     Ok(())
+}
+
+/// Mesh `i`'s `specular_power`: on a reflector only; a finite number at least 0, or `"mtl"`.
+fn gloss(src: &Source, i: usize, m: &MeshFile) -> Result<Gloss, SceneError> {
+    let Some(v) = &m.specular_power else {
+        return Ok(Gloss::Mirror);
+    };
+    let field = format!("mesh[{i}].specular_power");
+    if !m.reflector {
+        return Err(src.invalid(
+            v,
+            &field,
+            "only a reflector has a specular power (add reflector = true, or remove it)",
+        ));
+    }
+    match v.get_ref() {
+        SpecularPowerFile::Number(p) if p.is_finite() && *p >= 0.0 => Ok(Gloss::Power(*p)),
+        SpecularPowerFile::Number(p) => Err(src.invalid(
+            v,
+            &field,
+            format!(
+                "{p} is not a specular power (a finite number, at least 0; {} and above is a \
+                 mirror)",
+                crate::lobe::MIRROR_POWER
+            ),
+        )),
+        SpecularPowerFile::Word(w) if w == "mtl" => Ok(Gloss::Mtl),
+        SpecularPowerFile::Word(w) => Err(src.invalid(
+            v,
+            &field,
+            format!("'{w}' is not a number or \"mtl\" (the MTL materials' Ns)"),
+        )),
+    }
 }
 
 /// Camera `i` of the file.
@@ -739,6 +799,7 @@ fn merge(
     loaded: super::obj::LoadedObj,
     transform: Transform,
     reflector: bool,
+    gloss: Gloss,
 ) {
     let texture_map: Vec<u32> = loaded
         .textures
@@ -756,6 +817,12 @@ fn merge(
         .into_iter()
         .map(|mut m| {
             m.texture = m.texture.map(|t| texture_map[t as usize]);
+            // Glossiness is a reflector's, and a mirror is `None` ([`crate::lobe::glossy`]).
+            m.specular_power = match (reflector, gloss) {
+                (false, _) | (true, Gloss::Mirror) => None,
+                (true, Gloss::Power(p)) => crate::lobe::glossy(Some(p)),
+                (true, Gloss::Mtl) => crate::lobe::glossy(m.specular_power),
+            };
             match scene.materials.iter().position(|x| *x == m) {
                 Some(i) => i as u32,
                 None => {

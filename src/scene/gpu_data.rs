@@ -35,6 +35,9 @@ pub struct GpuObject {
     /// 1 where the cubemap capture draws the object: a non-reflector, or a reflector that sees
     /// itself ([`crate::scene::Scene::self_capture`]).
     pub captured: u32,
+    /// A glossy reflector's Phong specular power ([`crate::scene::ObjectInfo::specular_power`]);
+    /// -1 on a mirror and on every non-reflector.
+    pub specular_power: f32,
 }
 
 #[repr(C)]
@@ -163,6 +166,7 @@ impl GpuSceneData {
                     material: o.material,
                     reflector: o.reflector as u32 | (o.normals_inward as u32) << 1,
                     captured: o.captured as u32,
+                    specular_power: o.specular_power.unwrap_or(-1.0),
                 })
                 .collect(),
             materials: scene

@@ -444,6 +444,13 @@ impl Scene {
                     &other.materials[q.material as usize],
                 );
                 same!(ma.diffuse, mb.diffuse, format!("{w} material diffuse"));
+                if a.reflector {
+                    same!(
+                        crate::lobe::glossy(ma.specular_power),
+                        crate::lobe::glossy(mb.specular_power),
+                        format!("{w} material specular power")
+                    );
+                }
                 let ta = ma.texture.map(|t| &self.textures[t as usize]);
                 let tb = mb.texture.map(|t| &other.textures[t as usize]);
                 match (ta, tb) {

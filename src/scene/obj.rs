@@ -5,9 +5,9 @@
 //! writes a normalised copy that is the only text `tobj` sees. That copy holds nothing `tobj`
 //! could panic or be wrong on: only `v x y z`, `vt u v`, `vn x y z`, `f` with absolute 1-based
 //! indices already checked against the counts, `o`/`g` names, and `mtllib`/`usemtl`/`newmtl`
-//! lines; an MTL holds only `newmtl`, `Kd r g b` and `map_Kd file` (so `tobj` never meets a
-//! short `Kd`, `Ka`, `Ks` or `Ke`, which it panicked on). Numbers are passed on as the tokens
-//! of the file, already parsed as finite `f32` by the same `str::parse` that `tobj` uses.
+//! lines; an MTL holds only `newmtl`, `Kd r g b`, `map_Kd file` and `Ns n` (so `tobj` never
+//! meets a short `Kd`, `Ka`, `Ks` or `Ke`, which it panicked on). Numbers are passed on as the
+//! tokens of the file, already parsed as finite `f32` by the same `str::parse` that `tobj` uses.
 //! `tobj` (with `single_index`, without `triangulate`) then builds the parts and materials,
 //! and our code triangulates each polygon from `tobj`'s `face_arities`, naming the polygon's
 //! source line on failure.
@@ -33,8 +33,10 @@
 //!   the faces get the default material (grey 0.8). (The normalised copy declares such names in
 //!   one more, empty-bodied library so that `tobj` splits parts at every change of name, as the
 //!   file does.)
-//! - MTL: `newmtl`, `Kd` (1 value = grey, or 3) and `map_Kd` (options such as `-s` are skipped
-//!   with a warning); other statements are ignored. Errors name the MTL file and line.
+//! - MTL: `newmtl`, `Kd` (1 value = grey, or 3), `map_Kd` (options such as `-s` are skipped
+//!   with a warning) and `Ns` (the Phong specular power: one finite number, at least 0; a
+//!   reflector uses it only where its scene file says `specular_power = "mtl"`); other
+//!   statements are ignored. Errors name the MTL file and line.
 //!
 //! Every error names the file and the line: numbers that do not parse or are not finite (NaN,
 //! inf), a vertex coordinate beyond 2^60 ([`MAX_COORDINATE`]: scale a mesh in its transform
@@ -589,6 +591,8 @@ struct MtlEntry<'a> {
     diffuse: Option<[&'a str; 3]>,
     /// `map_Kd` file name (relative to the MTL file), options removed.
     map: Option<String>,
+    /// `Ns` (the Phong specular power), checked: one finite number, at least 0.
+    shininess: Option<&'a str>,
 }
 
 /// `map_Kd` options and how many arguments each takes (`-o`, `-s`, `-t`: 1 to 3 numbers).
@@ -623,16 +627,19 @@ fn validate_mtl<'a>(
                 line,
                 diffuse: None,
                 map: None,
+                shininess: None,
             });
             continue;
         }
-        if key != "Kd" && key != "map_Kd" {
+        if key != "Kd" && key != "map_Kd" && key != "Ns" {
             continue;
         }
         let Some(current) = out.last_mut() else {
             return Err(obj_err(path, line, format!("{key} before any newmtl")));
         };
-        if key == "Kd" {
+        if key == "Ns" {
+            current.shininess = Some(specular_exponent(args, path, line)?);
+        } else if key == "Kd" {
             let first = args.split_whitespace().next().unwrap_or("");
             if first == "spectral" || first == "xyz" {
                 report.warn(
@@ -708,6 +715,21 @@ fn validate_mtl<'a>(
     Ok(out)
 }
 
+/// An MTL `Ns` statement's value: one finite number, at least 0 (a Phong specular power).
+fn specular_exponent<'a>(args: &'a str, path: &Path, line: usize) -> Result<&'a str, SceneError> {
+    let what = "specular power (Ns)";
+    let v = numbers(args, 1, what, path, line)?;
+    match v[..] {
+        [a] if a.parse::<f32>().is_ok_and(|x| x >= 0.0) => Ok(a),
+        [a] => Err(obj_err(path, line, format!("{what} is {a}, below 0"))),
+        _ => Err(obj_err(
+            path,
+            line,
+            format!("{what} takes 1 number, found {}", v.len()),
+        )),
+    }
+}
+
 /// The normalised MTL text `tobj` reads for checked entries.
 fn normalised_mtl(entries: &[MtlEntry]) -> String {
     let mut out = String::new();
@@ -718,6 +740,9 @@ fn normalised_mtl(entries: &[MtlEntry]) -> String {
         }
         if let Some(file) = &m.map {
             writeln!(out, "map_Kd {file}").expect("writing to a String");
+        }
+        if let Some(ns) = m.shininess {
+            writeln!(out, "Ns {ns}").expect("writing to a String");
         }
     }
     out
@@ -1023,6 +1048,7 @@ pub(crate) fn load_obj_file(path: &Path, report: &mut LoadReport) -> Result<Load
                     name: "default".into(),
                     diffuse: Vec3::splat(0.8),
                     texture: None,
+                    specular_power: None,
                 });
                 (out.materials.len() - 1) as u32
             }),
@@ -1109,6 +1135,8 @@ fn load_materials(
             name: m.name.clone(),
             diffuse: m.diffuse.map_or(Vec3::splat(0.8), Vec3::from_array),
             texture,
+            // As read; the scene file decides whether a reflector honours it (`merge`).
+            specular_power: m.shininess,
         });
     }
     Ok(())

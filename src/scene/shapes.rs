@@ -29,6 +29,7 @@ impl SceneBuilder {
             name: name.into(),
             diffuse,
             texture,
+            specular_power: None,
         });
         (self.scene.materials.len() - 1) as u32
     }

@@ -18,6 +18,9 @@ pub struct ObjectInfo {
     /// normals ([`Scene::front_turned`]: they point into its closed mesh, seen from outside),
     /// for the capture's "faces the centre" test. False otherwise.
     pub normals_inward: bool,
+    /// A glossy reflector's Phong specular power (below [`crate::lobe::MIRROR_POWER`]); `None`
+    /// on a mirror and on every non-reflector.
+    pub specular_power: Option<f32>,
     /// Range of this object's triangles in [`WorldGeometry::triangles`].
     pub first_triangle: u32,
     pub triangle_count: u32,
@@ -73,6 +76,11 @@ impl WorldGeometry {
                     reflector: mesh.reflector,
                     captured: !mesh.reflector || self_capture,
                     normals_inward,
+                    specular_power: if mesh.reflector {
+                        crate::lobe::glossy(scene.materials[part.material as usize].specular_power)
+                    } else {
+                        None
+                    },
                     first_triangle: w.triangles.len() as u32,
                     triangle_count: part.triangles.len() as u32,
                 });

@@ -359,6 +359,8 @@ pub struct GpuRenderer {
     /// Whether the CMO data holds the capture of the current inputs (the scene and
     /// `ranges.capture_near`): [`GpuRenderer::render`] records the CMO stages only where not.
     cmo_valid: bool,
+    /// The film's sample key in `FrameParams` ([`GpuRenderer::set_sample`]).
+    sample: u32,
 }
 
 /// The stages before the G-buffer that the CMOs need: their data, the capture and the
@@ -697,7 +699,10 @@ impl GpuRenderer {
         }
         ctx.write_buffer(
             &self.params,
-            &[frame_params(scene, camera, &self.options, self.ranges.t_hi)],
+            &[FrameParams {
+                sample: self.sample,
+                ..frame_params(scene, camera, &self.options, self.ranges.t_hi)
+            }],
         )?;
         if gbuffer {
             self.gbuffer.set_camera(ctx, camera, near)?;
@@ -712,6 +717,24 @@ impl GpuRenderer {
         self.method.set_camera(&inputs)?;
         self.camera = camera.clone();
         Ok(())
+    }
+
+    /// Sets the film's sample key of the next frames ([`crate::lobe::sample_key`]): the lobe
+    /// direction a glossy reflector's pixels take (`--method bvh`). A no-op where it is the key
+    /// already (0 at creation).
+    pub fn set_sample(&mut self, ctx: &GpuContext, scene: &Scene, key: u32) -> VkResult<()> {
+        if key == self.sample {
+            return Ok(());
+        }
+        self.sample = key;
+        let params = frame_params(scene, &self.camera, &self.options, self.ranges.t_hi);
+        ctx.write_buffer(
+            &self.params,
+            &[FrameParams {
+                sample: key,
+                ..params
+            }],
+        )
     }
 
     /// Makes the next frame run the CMO stages again (capture, pyramid, the method's CMO stage)
@@ -823,6 +846,7 @@ impl GpuRenderer {
             camera: camera.clone(),
             ranges: ranges.clone(),
             cmo_valid: false,
+            sample: 0,
         })
     }
 

@@ -26,6 +26,16 @@
 //! - Other producers of rays (fallback, reflector check, bounces) append `BvhRay`s to the same
 //!   queue layout; the reflector check uses a second CWBVH of the reflectors only, global IDs in
 //!   the primitive slots.
+//! - Glossy reflectors ([`crate::lobe`]): `append_mirror` reads the power the G-buffer carries
+//!   (the normal's w) and queues one direction of the Phong lobe around the mirror direction,
+//!   drawn from the pixel and the film's sample key (`FrameParams::sample`,
+//!   [`crate::vk::frame::GpuRenderer::set_sample`]) with the CPU reference's hash and arithmetic
+//!   (`spirv/shared/lobe.wgsl`); a direction below the surface is queued `BVH_RAY_ABSORBED` and
+//!   written black, untraced. At one sample every glossy pixel of `tests/glossy.rs` hits what the
+//!   reference's sample hits, and the N-sample frame converges to the reference's 1024-sample
+//!   one as the reference's own does. Only the first reflection samples the lobe (the bounce
+//!   rounds follow the mirror direction, with a warning). A mirror's rays are today's, bit for
+//!   bit.
 //! - The CMOs are captured at one texel per face, in the first frame only (nothing reads them but
 //!   the composite pass's binding).
 //!

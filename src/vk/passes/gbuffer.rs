@@ -14,7 +14,8 @@
 //! - Images are left in `SHADER_READ_ONLY_OPTIMAL` after [`Gbuffer::record`]: `colour` (rgb
 //!   shaded, a = 1 where covered), `position` (xyz world; w = 1 on a reflector, 0 elsewhere, -1
 //!   where nothing is drawn), `normal` (xyz the interpolated vertex normal, unnormalised; w = 1
-//!   where covered), `triangle` (R32_UINT: the global index of the triangle seen, in
+//!   where covered, but on a glossy reflector, where w = `-1 - p`, `p` its Phong specular power
+//!   ([`crate::lobe`]): so a mirror's G-buffer is today's, bit for bit), `triangle` (R32_UINT: the global index of the triangle seen, in
 //!   `WorldGeometry::triangles` order). Uncovered pixels hold the background with alpha 0,
 //!   `(0, 0, 0, -1)`, zero and `u32::MAX`.
 use ash::vk;
@@ -88,7 +89,7 @@ pub struct Gbuffer {
     pub colour: Image,
     /// World position, w = mirror mask.
     pub position: Image,
-    /// Interpolated normal, w = 1 where covered.
+    /// Interpolated normal, w = 1 where covered (`-1 - p` on a glossy reflector of power `p`).
     pub normal: Image,
     /// Global triangle index (`u32::MAX` where nothing is drawn).
     pub triangle: Image,

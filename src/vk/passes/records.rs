@@ -33,7 +33,9 @@ pub struct FrameParams {
     pub up: [f32; 3],
     pub jitter_y: f32,
     pub back: [f32; 3],
-    pub pad3: u32,
+    /// The film's sample key ([`crate::lobe::sample_key`]) of the frame, for the glossy lobe's
+    /// directions; 0 outside a film's sample loop ([`crate::vk::frame::GpuRenderer::set_sample`]).
+    pub sample: u32,
 }
 
 /// `PixelRecord` in `spirv/shared/mirror.wgsl`: what a method found for one mirror pixel.

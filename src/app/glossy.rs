@@ -1,0 +1,45 @@
+#![forbid(unsafe_code)]
+//! What the commands say about glossy reflectors ([`crate::lobe`]): which meshes are glossy, and
+//! the warning for a method that cannot sample their lobe.
+
+use crate::lobe::glossy;
+use crate::method::Method;
+use crate::scene::Scene;
+
+/// The names of the scene's glossy reflectors: reflector meshes with a part whose material has
+/// a specular power below the cap.
+pub fn glossy_meshes(scene: &Scene) -> Vec<&str> {
+    (scene.meshes.iter())
+        .filter(|m| {
+            m.reflector
+                && (m.parts.iter())
+                    .any(|p| glossy(scene.materials[p.material as usize].specular_power).is_some())
+        })
+        .map(|m| m.name.as_str())
+        .collect()
+}
+
+/// What `method` makes of the scene's glossy reflectors where it cannot sample their lobe: a
+/// warning naming the method and the reflectors (`None` where the scene has none, or the method
+/// samples every reflection: the reference, and `bvh` with at most one bounce).
+pub fn method_warning(scene: &Scene, method: Method, bounces: u32) -> Option<String> {
+    let names = glossy_meshes(scene);
+    if names.is_empty() {
+        return None;
+    }
+    let names = names.join(", ");
+    match method {
+        Method::Reference => None,
+        Method::Bvh if bounces <= 1 => None,
+        Method::Bvh => Some(format!(
+            "--method bvh samples the lobe of the glossy reflectors ({names}) on the first \
+             reflection only: with --bounces {bounces} the later reflections follow the mirror \
+             direction (--method reference samples every one)"
+        )),
+        m => Some(format!(
+            "--method {m} cannot render glossy reflections yet: it traces the mirror direction \
+             only, so the glossy reflectors ({names}) show as perfect mirrors (--method bvh and \
+             --method reference sample their lobe)"
+        )),
+    }
+}
