@@ -185,6 +185,21 @@ fn linear_groups(invocations: u64) -> [u32; 3] {
     [x, invocations.div_ceil(u64::from(ROW)).max(1) as u32, 1]
 }
 
+/// The `ListsView` of each CMO `(centre, reflectors)`.
+fn list_views(cmos: &[(Vec3, bool)]) -> Vec<ListsView> {
+    cmos.iter()
+        .map(|&(c, r)| ListsView {
+            centre: c.to_array(),
+            reflectors: u32::from(r),
+        })
+        .collect()
+}
+
+/// The `texels` pass's workgroups for `capacity`.
+fn texels_groups(capacity: PoolBound) -> [u32; 3] {
+    [capacity.jobs.clamp(1, u64::from(MAX_GROUPS_X)) as u32, 1, 1]
+}
+
 /// `(K, texels, triangles)` of a [`CaptureLists::new`] call, or why it cannot run (bindings
 /// over `range_limit` bytes: [`VkError::Limit`]).
 #[allow(clippy::too_many_arguments)]
@@ -263,8 +278,8 @@ pub struct CaptureLists {
     resolve: ComputePipeline,
     sets: [(BindGroup, BindGroup); 3],
     params_buf: Buffer,
-    _views: Buffer,
-    _job_buf: Buffer,
+    views_buf: Buffer,
+    job_buf: Buffer,
     heads: Buffer,
     overflow: Buffer,
     face_overflow: Buffer,
@@ -272,6 +287,8 @@ pub struct CaptureLists {
     /// Distance, records and nodes when the caller gave none ([`ListTargets`]).
     own: Option<OwnTargets>,
     params: ListsParams,
+    /// What the views buffer holds.
+    views: Vec<ListsView>,
     jobs_groups: [u32; 3],
     texels_groups: [u32; 3],
     resolve_groups: [u32; 3],
@@ -373,13 +390,7 @@ impl CaptureLists {
         };
         let pipe = |e| ComputePipeline::new(ctx, &CAPTURE_LISTS, e, ComputeOptions::default());
         let (jobs, texels_pipe, resolve) = (pipe("jobs")?, pipe("texels")?, pipe("resolve")?);
-        let views: Vec<ListsView> = cmos
-            .iter()
-            .map(|&(c, r)| ListsView {
-                centre: c.to_array(),
-                reflectors: u32::from(r),
-            })
-            .collect();
+        let views = list_views(cmos);
         let st = vk::BufferUsageFlags::STORAGE_BUFFER;
         let params_buf = ctx.create_buffer_init("capture_lists params", st, &[params])?;
         let views_buf = ctx.create_buffer_init("capture_lists views", st, &views)?;
@@ -436,21 +447,22 @@ impl CaptureLists {
             sets_for(&texels_pipe)?,
             sets_for(&resolve)?,
         ];
-        let texels_groups = [capacity.jobs.clamp(1, u64::from(MAX_GROUPS_X)) as u32, 1, 1];
+        let texels_groups = texels_groups(capacity);
         Ok(CaptureLists {
             jobs,
             texels: texels_pipe,
             resolve,
             sets,
             params_buf,
-            _views: views_buf,
-            _job_buf: job_buf,
+            views_buf,
+            job_buf,
             heads,
             overflow,
             face_overflow,
             counters,
             own,
             params,
+            views,
             jobs_groups: linear_groups(triangles * 6 * k),
             texels_groups,
             resolve_groups: linear_groups(texels),
@@ -502,6 +514,67 @@ impl CaptureLists {
         end(&mut ts, s);
         rec.memory_barrier(COMPUTE_WRITE, ALL_READS);
         Ok(())
+    }
+
+    /// Why the capture cannot take the CMOs `cmos` and the capacities `capacity` in place
+    /// ([`CaptureLists::update`]), `None` where it can: as many CMOs as at creation, each with
+    /// the same reflector flag, and a job buffer and a pool (`targets`, or the pass's own for
+    /// `None`) that hold the new capacities.
+    pub fn update_blocker(
+        &self,
+        cmos: &[(Vec3, bool)],
+        capacity: PoolBound,
+        targets: Option<ListTargets<'_>>,
+    ) -> Option<String> {
+        let views = &self.views;
+        if cmos.len() != views.len()
+            || cmos
+                .iter()
+                .zip(views)
+                .any(|(c, v)| u32::from(c.1) != v.reflectors)
+        {
+            return Some("the bounded capture's CMO count or reflector flags changed".into());
+        }
+        let Some(out) = targets.or(self.own_targets()) else {
+            return Some("the bounded capture has no pool".into());
+        };
+        let jobs = capacity.jobs.max(1) * size_of::<ListsJob>() as u64;
+        let nodes = capacity.nodes.max(1) * lists::COLUMN_BYTES;
+        if jobs > self.job_buf.size() || out.nodes.iter().any(|b| nodes > b.size()) {
+            return Some(format!(
+                "the bounded capture needs {} jobs and {} nodes, more than its buffers hold",
+                capacity.jobs, capacity.nodes
+            ));
+        }
+        None
+    }
+
+    /// Points the capture at the CMOs `cmos` with the capacities `capacity` (from [`capacity`]
+    /// over the scene as it is now), where [`CaptureLists::update_blocker`] allows it: the
+    /// next [`CaptureLists::record`] is that of a pass created with them (the buffers may be
+    /// larger than a new pass's; the passes read the capacities, not the buffer lengths).
+    pub fn update(
+        &mut self,
+        ctx: &GpuContext,
+        cmos: &[(Vec3, bool)],
+        capacity: PoolBound,
+    ) -> VkResult<()> {
+        if cmos.len() != self.views.len() {
+            return Err(VkError::Usage {
+                what: CAPTURE_LISTS.name.into(),
+                detail: format!(
+                    "{} CMOs for a capture of {}: the count is fixed at creation",
+                    cmos.len(),
+                    self.views.len()
+                ),
+            });
+        }
+        self.views = list_views(cmos);
+        self.params.job_capacity = capacity.jobs as u32;
+        self.params.node_capacity = capacity.nodes as u32;
+        self.texels_groups = texels_groups(capacity);
+        ctx.write_buffer(&self.views_buf, &self.views)?;
+        ctx.write_buffer(&self.params_buf, &[self.params])
     }
 
     /// Sets the resolve pass's cap on node visits per texel (tests: the capped path).

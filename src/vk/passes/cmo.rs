@@ -492,6 +492,31 @@ impl CmoData {
         Ok(())
     }
 
+    /// Moves the CMOs to `centres` (as many as at creation): the centres' binding then holds
+    /// what [`CmoData::with_contents`] for them would upload. The captures are stale until the
+    /// capture runs again.
+    pub fn set_centres(&mut self, ctx: &GpuContext, centres: &[Vec3]) -> VkResult<()> {
+        if centres.len() != self.centres.len() {
+            return Err(VkError::Usage {
+                what: "CMO data".into(),
+                detail: format!(
+                    "{} centres for {} CMOs: the count is fixed at creation",
+                    centres.len(),
+                    self.centres.len()
+                ),
+            });
+        }
+        let centres4: Vec<[f32; 4]> = centres.iter().map(|c| c.extend(0.0).to_array()).collect();
+        ctx.write_buffer(&self.centres_buf, &centres4)?;
+        self.centres = centres.to_vec();
+        Ok(())
+    }
+
+    /// The CMO centres.
+    pub fn centres(&self) -> &[Vec3] {
+        &self.centres
+    }
+
     /// Number of CMOs.
     pub fn count(&self) -> u32 {
         self.count
