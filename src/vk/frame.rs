@@ -763,9 +763,10 @@ impl GpuRenderer {
     ///
     /// `Ok(Some(why))` where it cannot (the frame size, the vertex count, the triangles, the
     /// objects' flags, the CMO count, self-reflections, the reflector check's triangles changed,
-    /// or the bounded capture's pool is too small, or its lists were uploaded): nothing was
-    /// changed, and the caller builds a new renderer. An error where a new renderer would fail
-    /// for the same reason (the depth range check).
+    /// or the bounded criterion's lists were uploaded at creation): nothing was changed, and the
+    /// caller builds a new renderer. A bounded capture whose pool or job buffer the moved
+    /// geometry outgrows gets larger ones, bound where the old ones were. An error where a new
+    /// renderer would fail for the same reason (the depth range check, the device's limits).
     pub fn update_geometry(
         &mut self,
         ctx: &GpuContext,
@@ -849,15 +850,10 @@ impl GpuRenderer {
         let lists = match &self.capture {
             Some(CmoCapture::Lists(c)) => {
                 let views = capture_lists::scene_views(scene);
-                let capacity = capture_lists::capacity(&data, &views, self.cmo.size());
-                let targets = ListTargets {
-                    distance: self.cmo.distance(),
-                    records: self.cmo.lists(),
-                    nodes: self.cmo.nodes(),
-                };
-                if let Some(why) = c.update_blocker(&views, capacity, Some(targets)) {
+                if let Some(why) = c.update_blocker(&views) {
                     return Ok(Err(why));
                 }
+                let capacity = capture_lists::capacity(&data, &views, self.cmo.size());
                 Some((views, capacity))
             }
             _ => None,
@@ -894,7 +890,18 @@ impl GpuRenderer {
         match (&mut self.capture, lists) {
             (Some(CmoCapture::Raster(c)), _) => c.set_views(ctx, &centres, ranges.capture_near)?,
             (Some(CmoCapture::Lists(c)), Some((views, capacity))) => {
-                c.update(ctx, &views, capacity)?;
+                // A pool too small for the moved geometry is allocated again, and rebound.
+                let grown = self.cmo.grow_pool(ctx, capacity.nodes)?;
+                let targets = ListTargets {
+                    distance: self.cmo.distance(),
+                    records: self.cmo.lists(),
+                    nodes: self.cmo.nodes(),
+                };
+                c.update(ctx, &self._scene, &views, capacity, Some(targets))?;
+                if grown {
+                    self.method.rebind_cmo(ctx, &self.cmo)?;
+                    self.composite.rebind_cmo(&self.cmo)?;
+                }
             }
             _ => {}
         }

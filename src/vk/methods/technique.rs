@@ -186,6 +186,13 @@ pub trait Technique: Any {
         Ok(())
     }
 
+    /// Binds the method's passes to `cmo` again: its buffers were allocated anew (the bounded
+    /// capture's pool grew, `crate::vk::frame::GpuRenderer::update_geometry`). Nothing by
+    /// default: for methods that bind no CMO data.
+    fn rebind_cmo(&mut self, _ctx: &GpuContext, _cmo: &CmoData) -> VkResult<()> {
+        Ok(())
+    }
+
     /// The method's passes after the G-buffer, each in its scope; they write the records.
     fn record(&self, rec: &Recorder<'_>, scope: &mut Scope<'_>) -> VkResult<()>;
 

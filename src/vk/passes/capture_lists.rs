@@ -200,6 +200,32 @@ fn texels_groups(capacity: PoolBound) -> [u32; 3] {
     [capacity.jobs.clamp(1, u64::from(MAX_GROUPS_X)) as u32, 1, 1]
 }
 
+/// Every `@group(1)` resource of the three passes by binding: the pass's own buffers (params,
+/// views, jobs, heads, overflow, face overflow, counters) and the targets.
+fn group1_resources<'a>(own: [&'a Buffer; 7], out: ListTargets<'a>) -> Vec<(u32, Resource<'a>)> {
+    let mut all: Vec<(u32, Resource<'a>)> = (0u32..)
+        .zip(own)
+        .map(|(i, b)| (i, Resource::Buffer(b)))
+        .collect();
+    all.push((7, Resource::Buffer(out.distance)));
+    for (i, b) in out.records.iter().chain(out.nodes).enumerate() {
+        all.push((8 + i as u32, Resource::Buffer(b)));
+    }
+    all
+}
+
+/// The `@group(1)` set of pass `p`: the resources of `all` its entry point uses.
+fn group1_set(p: &ComputePipeline, all: &[(u32, Resource<'_>)]) -> VkResult<BindGroup> {
+    let used = |b: u32| {
+        p.entry
+            .bindings
+            .iter()
+            .any(|u| u.group == 1 && u.binding == b)
+    };
+    let own: Vec<_> = all.iter().copied().filter(|(b, _)| used(*b)).collect();
+    p.bind_group(1, &own)
+}
+
 /// `(K, texels, triangles)` of a [`CaptureLists::new`] call, or why it cannot run (bindings
 /// over `range_limit` bytes: [`VkError::Limit`]).
 #[allow(clippy::too_many_arguments)]
@@ -414,19 +440,18 @@ impl CaptureLists {
         let out = targets
             .or(own.as_ref().map(OwnTargets::targets))
             .expect("one of the two");
-        let mut all = vec![
-            (0, Resource::Buffer(&params_buf)),
-            (1, Resource::Buffer(&views_buf)),
-            (2, Resource::Buffer(&job_buf)),
-            (3, Resource::Buffer(&heads)),
-            (4, Resource::Buffer(&overflow)),
-            (5, Resource::Buffer(&face_overflow)),
-            (6, Resource::Buffer(&counters)),
-            (7, Resource::Buffer(out.distance)),
-        ];
-        for (i, b) in out.records.iter().chain(out.nodes).enumerate() {
-            all.push((8 + i as u32, Resource::Buffer(b)));
-        }
+        let all = group1_resources(
+            [
+                &params_buf,
+                &views_buf,
+                &job_buf,
+                &heads,
+                &overflow,
+                &face_overflow,
+                &counters,
+            ],
+            out,
+        );
         let sets_for = |p: &ComputePipeline| -> VkResult<(BindGroup, BindGroup)> {
             let used = |g: u32, b: u32| {
                 p.entry
@@ -439,8 +464,7 @@ impl CaptureLists {
                 .into_iter()
                 .filter(|(b, _)| used(0, *b))
                 .collect();
-            let own: Vec<_> = all.iter().copied().filter(|(b, _)| used(1, *b)).collect();
-            Ok((p.bind_group(0, &scene_res)?, p.bind_group(1, &own)?))
+            Ok((p.bind_group(0, &scene_res)?, group1_set(p, &all)?))
         };
         let sets = [
             sets_for(&jobs)?,
@@ -516,58 +540,71 @@ impl CaptureLists {
         Ok(())
     }
 
-    /// Why the capture cannot take the CMOs `cmos` and the capacities `capacity` in place
-    /// ([`CaptureLists::update`]), `None` where it can: as many CMOs as at creation, each with
-    /// the same reflector flag, and a job buffer and a pool (`targets`, or the pass's own for
-    /// `None`) that hold the new capacities.
-    pub fn update_blocker(
-        &self,
-        cmos: &[(Vec3, bool)],
-        capacity: PoolBound,
-        targets: Option<ListTargets<'_>>,
-    ) -> Option<String> {
-        let views = &self.views;
-        if cmos.len() != views.len()
-            || cmos
-                .iter()
-                .zip(views)
-                .any(|(c, v)| u32::from(c.1) != v.reflectors)
-        {
+    /// Why the capture cannot take the CMOs `cmos` in place ([`CaptureLists::update`]), `None`
+    /// where it can: as many CMOs as at creation, each with the same reflector flag.
+    pub fn update_blocker(&self, cmos: &[(Vec3, bool)]) -> Option<String> {
+        let same = |(c, v): (&(Vec3, bool), &ListsView)| u32::from(c.1) == v.reflectors;
+        if cmos.len() != self.views.len() || !cmos.iter().zip(&self.views).all(same) {
             return Some("the bounded capture's CMO count or reflector flags changed".into());
-        }
-        let Some(out) = targets.or(self.own_targets()) else {
-            return Some("the bounded capture has no pool".into());
-        };
-        let jobs = capacity.jobs.max(1) * size_of::<ListsJob>() as u64;
-        let nodes = capacity.nodes.max(1) * lists::COLUMN_BYTES;
-        if jobs > self.job_buf.size() || out.nodes.iter().any(|b| nodes > b.size()) {
-            return Some(format!(
-                "the bounded capture needs {} jobs and {} nodes, more than its buffers hold",
-                capacity.jobs, capacity.nodes
-            ));
         }
         None
     }
 
-    /// Points the capture at the CMOs `cmos` with the capacities `capacity` (from [`capacity`]
-    /// over the scene as it is now), where [`CaptureLists::update_blocker`] allows it: the
-    /// next [`CaptureLists::record`] is that of a pass created with them (the buffers may be
-    /// larger than a new pass's; the passes read the capacities, not the buffer lengths).
+    /// Points the capture at the CMOs `cmos` (see [`CaptureLists::update_blocker`]) of the scene
+    /// in `scene` (its triangles those of creation) with the capacities `capacity` (from
+    /// [`capacity`] over the scene as it is now), writing into `targets` (or the pass's own for
+    /// `None`; a caller's pool must hold `capacity.nodes` already): the next
+    /// [`CaptureLists::record`] is that of a pass created with them. A job buffer (or own pool)
+    /// too small for the new capacities is allocated again; larger ones are kept, as the passes
+    /// read the capacities, not the buffer lengths. Refused as [`CaptureLists::new`] refuses.
     pub fn update(
         &mut self,
         ctx: &GpuContext,
+        scene: &SceneBuffers,
         cmos: &[(Vec3, bool)],
         capacity: PoolBound,
+        targets: Option<ListTargets<'_>>,
     ) -> VkResult<()> {
-        if cmos.len() != self.views.len() {
+        if let Some(why) = self.update_blocker(cmos) {
             return Err(VkError::Usage {
                 what: CAPTURE_LISTS.name.into(),
-                detail: format!(
-                    "{} CMOs for a capture of {}: the count is fixed at creation",
-                    cmos.len(),
-                    self.views.len()
-                ),
+                detail: why,
             });
+        }
+        let (size, depth) = (self.params.size, self.params.depth);
+        let limit = u64::from(ctx.report().max_storage_buffer_range);
+        let nodes = capacity.nodes.max(1) * lists::COLUMN_BYTES;
+        if let Some(own) = self.own.as_mut().filter(|o| nodes > o.nodes[0].size()) {
+            super::cmo::check_list_range(ctx, 1, capacity.nodes.max(1), limit)?;
+            own.nodes = column_buffers(ctx, NODE_NAMES, capacity.nodes)?;
+        }
+        let no_targets = || VkError::Usage {
+            what: CAPTURE_LISTS.name.into(),
+            detail: "no targets: the pass was created writing the caller's".into(),
+        };
+        let out = targets.or(self.own_targets()).ok_or_else(no_targets)?;
+        check_inputs(ctx, limit, scene, size, depth, cmos, capacity, Some(out))?;
+        if capacity.jobs.max(1) * 32 > self.job_buf.size() {
+            self.job_buf = storage(ctx, "capture_lists jobs", capacity.jobs.max(1) * 32)?;
+        }
+        let out = targets.or(self.own_targets()).ok_or_else(no_targets)?;
+        let own = [
+            &self.params_buf,
+            &self.views_buf,
+            &self.job_buf,
+            &self.heads,
+            &self.overflow,
+            &self.face_overflow,
+            &self.counters,
+        ];
+        let all = group1_resources(own, out);
+        let groups = [
+            group1_set(&self.jobs, &all)?,
+            group1_set(&self.texels, &all)?,
+            group1_set(&self.resolve, &all)?,
+        ];
+        for (set, g) in self.sets.iter_mut().zip(groups) {
+            set.1 = g;
         }
         self.views = list_views(cmos);
         self.params.job_capacity = capacity.jobs as u32;
