@@ -450,9 +450,11 @@ impl FrameRenderer {
                 if let (SceneChange::Placement, Some(r)) = (change, renderer.as_deref_mut()) {
                     let t = Instant::now();
                     let refused = match self.stale {
-                        Some(stale) => r.update_geometry_leaving(ctx, scene, camera, stale)?,
-                        None => r.update_geometry(ctx, scene, camera)?,
+                        Some(stale) => r.update_geometry_leaving(ctx, scene, camera, stale),
+                        None => r.update_geometry(ctx, scene, camera),
                     };
+                    // A failed update may have left the renderer half written: drop it.
+                    let refused = refused.inspect_err(|_| *renderer = None)?;
                     let Some(why) = refused else {
                         log::debug!(
                             "GPU renderer: geometry updated in place in {:.2?}",

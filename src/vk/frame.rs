@@ -3,7 +3,7 @@
 //!
 //! | pass | reads | writes |
 //! |---|---|---|
-//! | `capture` (where [`Needs::capture`]: every method but `bvh`; the CMO stages run on the first frame and again only when their input changes, [`GpuRenderer::set_camera`]) | scene | CMO distance, colour and/or triangle IDs (+ normal/mirror with self-reflections) |
+//! | `capture` (where [`Needs::capture`]: every method but `bvh`; the CMO stages run on the first frame and again only when their input changes, [`GpuRenderer::set_camera`], [`GpuRenderer::update_geometry`]) | scene | CMO distance, colour and/or triangle IDs (+ normal/mirror with self-reflections) |
 //! | `capture` with `--criterion bounded` ([`super::passes::capture_lists`]: jobs, texels, resolve; or the lists built on the CPU and uploaded at creation, [`GpuRenderer::with_lists`]) | scene | CMO distance (`lo`), the per-texel records and node pool, a `u32` word per binding ([`super::passes::lists`]) |
 //! | `pyramid` (where [`Needs::pyramid`]: `fragment`) | CMO distance | CMO 2x2 min/max pyramid |
 //! | the method's CMO stage: `hier32` (`compute`) | CMO distance | its 8x4/4x8 min/max hierarchy |
@@ -17,7 +17,11 @@
 //! Each pass name is its WGSL file, its debug label and its timestamp scope, so
 //! [`GpuFrame::pass_times`] lines up with the benchmark tables. Everything a frame needs is
 //! allocated once in [`GpuRenderer::new`]; [`GpuRenderer::render`] only records, submits and
-//! reads back, so repeated renders (the harness) measure the passes, not allocation.
+//! reads back, so repeated renders (the harness) measure the passes, not allocation. A sequence
+//! keeps the renderer: [`GpuRenderer::set_camera`] where the camera moves,
+//! [`GpuRenderer::update_geometry`] where meshes or CMO centres move (the buffers derived from
+//! the geometry rewritten, the pipelines kept; a BVH, closure or list pool that outgrows its
+//! buffer gets a new one, bound in its place).
 //!
 //! Only what the options use is allocated: the method allocates its own passes
 //! ([`MethodSpec::create`]) and says what it needs of the CMOs ([`MethodSpec::needs`]: their
@@ -189,7 +193,8 @@ pub struct GpuFrame {
     pub search: Option<SearchStats>,
     /// Whether this frame ran the CMO stages (capture, pyramid, the method's CMO stage): the
     /// first frame and the first after [`GpuRenderer::set_camera`] changed what the capture
-    /// depends on; never for a method that captures nothing (`bvh`) or uploaded lists.
+    /// depends on or [`GpuRenderer::update_geometry`] moved the geometry; never for a method
+    /// that captures nothing (`bvh`) or uploaded lists.
     pub captured: bool,
 }
 
