@@ -80,6 +80,18 @@ impl SceneBuffers {
     /// triangles, objects, materials, textures and shading), so that only the vertex buffer's
     /// contents change and every pass bound to these buffers stays valid.
     pub fn in_place_blocker(old: &GpuSceneData, new: &GpuSceneData) -> Option<String> {
+        // Every field named: a new one must be compared (or rewritten) before this compiles.
+        let GpuSceneData {
+            vertices: _,
+            indices: _,
+            capture_index_count: _,
+            objects: _,
+            materials: _,
+            textures: _,
+            texels: _,
+            srgb_to_linear: _,
+            shading: _,
+        } = new;
         let differs = |what: &str| Some(format!("the scene's {what} changed"));
         if old.vertices.len() != new.vertices.len() {
             return Some(format!(
