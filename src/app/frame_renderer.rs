@@ -3,12 +3,21 @@
 //! path. The device, the pipelines and the scene buffers are built once ([`FrameRenderer::new`]);
 //! each frame ([`FrameRenderer::render`]) renders its samples ([`crate::film`]) and filters them.
 //!
-//! Reuse: where only the camera changed since the last frame (the scene equal but for its
-//! cameras), the GPU renderer is pointed at the new camera
-//! ([`GpuRenderer::set_camera`]) and keeps its capture unless the capture's near plane moved;
-//! where anything else changed (a mesh moved), a new renderer is built on the same device. Either
-//! way the frame is bit for bit the frame rendered alone (`tests/film.rs`). The samples of one
-//! frame share its capture: only the first sample of a frame can capture.
+//! Reuse ([`SceneChange`], from a comparison of the scene with the last frame's that allocates
+//! nothing):
+//! - only the camera changed: the GPU renderer is pointed at the new camera
+//!   ([`GpuRenderer::set_camera`]) and keeps its capture unless the capture's near plane moved;
+//! - the geometry's placement changed (mesh transforms, CMO centres of the same count): the GPU
+//!   renderer is updated in place ([`GpuRenderer::update_geometry`]: vertices, BVHs, CMO
+//!   centres, ranges; its pipelines and buffers stay) and captures again;
+//! - anything else changed (a mesh's triangles, a material, the frame size, ...), or the
+//!   in-place update cannot take the new scene (it says why, logged at debug level): a new
+//!   renderer is built on the same device.
+//!
+//! Either way the frame is bit for bit the frame rendered alone (`tests/film.rs`,
+//! `tests/sequence_inplace.rs`). The samples of one frame share its capture: only the first
+//! sample of a frame can capture. The reference rebuilds its tracer wherever the scene changed
+//! but for its cameras.
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -24,7 +33,7 @@ use crate::output::{self, Format};
 use crate::reference;
 use crate::scene::{Scene, WorldGeometry};
 use crate::vk::GpuContext;
-use crate::vk::frame::{GpuFrame, GpuRenderer, RenderOptions};
+use crate::vk::frame::{GpuFrame, GpuRenderer, RenderOptions, StaleUpdate};
 
 /// Writes `colour` as an 8-bit sRGB PNG, or as an EXR of the channels `exr` gives, atomically.
 fn write_colour_or_exr<'a>(
@@ -51,12 +60,39 @@ pub struct SampleFrame {
     pub reference: Option<reference::Frame>,
 }
 
+/// How a frame's scene differs from the one the renderer holds ([`FrameRenderer::render`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum SceneChange {
+    /// Nothing but the cameras.
+    None,
+    /// The geometry's placement only: mesh transforms and CMO centres (as many).
+    Placement,
+    /// Anything else, and what.
+    Other(String),
+}
+
+/// What a frame did with the renderer before rendering.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RendererUse {
+    /// The run's first frame: the renderer was built for it.
+    New,
+    /// Kept as it was, or pointed at another camera.
+    Kept,
+    /// The geometry updated in place ([`GpuRenderer::update_geometry`]; the reference has
+    /// none: it rebuilds).
+    UpdatedInPlace,
+    /// A new renderer was built.
+    Rebuilt,
+}
+
 /// One rendered frame: its samples filtered into the colour, the AOVs of the sample nearest the
 /// pixel centre ([`crate::film`]).
 #[derive(Clone, Debug)]
 pub struct RenderedFrame {
     /// Whether any sample of the frame ran the capture (the CMO stages).
     pub captured: bool,
+    /// What the frame did with the renderer.
+    pub renderer: RendererUse,
     pub width: u32,
     pub height: u32,
     /// Samples per pixel.
@@ -152,13 +188,76 @@ pub struct FrameRenderer {
     scene: Scene,
     world: Arc<WorldGeometry>,
     size: (u32, u32),
+    /// Whether the next frame is the first.
+    first: bool,
+    /// Renderers (or reference tracers) built after the first, and in-place geometry updates.
+    rebuilds: u32,
+    updates: u32,
+    /// The tests' negative: what in-place updates leave stale.
+    stale: Option<StaleUpdate>,
 }
 
-/// `scene` without its cameras: what must stay equal for the renderer to be reused.
+/// `scene` without its cameras: what the renderer keeps to compare the next frame's with.
 fn scene_key(scene: &Scene) -> Scene {
     Scene {
         cameras: Vec::new(),
         ..scene.clone()
+    }
+}
+
+/// How `new` differs from `old` (the renderer's scene), cameras aside: each field compared in
+/// place, nothing allocated. Every field of [`Scene`] is named here, so that a new one must be
+/// classified before this compiles.
+pub fn classify(old: &Scene, new: &Scene) -> SceneChange {
+    let Scene {
+        name,
+        meshes,
+        materials,
+        textures,
+        cameras: _,
+        cmo,
+        background,
+        shading,
+        self_reflections,
+        film,
+        animation,
+    } = new;
+    let other = |what: &str| SceneChange::Other(format!("the scene's {what} changed"));
+    if *name != old.name || *film != old.film || *animation != old.animation {
+        return other("name, film or animation");
+    }
+    if *materials != old.materials || *textures != old.textures {
+        return other("materials or textures");
+    }
+    if *background != old.background
+        || *shading != old.shading
+        || *self_reflections != old.self_reflections
+    {
+        return other("background, shading or self_reflections");
+    }
+    if meshes.len() != old.meshes.len() {
+        return other("mesh count");
+    }
+    let mut placement = false;
+    for (a, b) in old.meshes.iter().zip(meshes) {
+        if a.name != b.name || a.reflector != b.reflector || a.parts != b.parts {
+            return SceneChange::Other(format!("mesh '{}' changed besides its transform", b.name));
+        }
+        placement |= a.transform != b.transform;
+    }
+    use crate::scene::CmoPlacement as P;
+    match (&old.cmo.placement, &cmo.placement) {
+        _ if old.cmo.resolution != cmo.resolution => return other("CMO resolution"),
+        (P::Explicit(a), P::Explicit(b)) if a.len() == b.len() => placement |= a != b,
+        (P::Auto { count: a }, P::Auto { count: b })
+        | (P::Search { count: a }, P::Search { count: b })
+            if a == b => {}
+        _ => return other("CMO placement"),
+    }
+    if placement {
+        SceneChange::Placement
+    } else {
+        SceneChange::None
     }
 }
 
@@ -203,7 +302,29 @@ impl FrameRenderer {
             world: Arc::new(scene.world()),
             scene: scene_key(scene),
             size: (camera.width, camera.height),
+            first: true,
+            rebuilds: 0,
+            updates: 0,
+            stale: None,
         })
+    }
+
+    /// Renderers (or reference tracers) built after the first: frames whose scene changed
+    /// beyond the geometry's placement, or that an in-place update could not take.
+    pub fn rebuilds(&self) -> u32 {
+        self.rebuilds
+    }
+
+    /// Frames whose geometry was updated in place ([`GpuRenderer::update_geometry`]).
+    pub fn geometry_updates(&self) -> u32 {
+        self.updates
+    }
+
+    /// Makes in-place updates leave `stale` as it was: a wrong update, for the tests' negative
+    /// only.
+    #[doc(hidden)]
+    pub fn leave_stale(&mut self, stale: Option<StaleUpdate>) {
+        self.stale = stale;
     }
 
     /// The film every frame is rendered with.
@@ -226,68 +347,72 @@ impl FrameRenderer {
     }
 
     /// Renders one frame (all its samples). Reuses the renderer and the capture where only the
-    /// camera changed since the last frame (scene equal but for cameras); rebuilds the GPU
-    /// renderer (same device) where anything else did, a mesh moved or the frame size. The
-    /// result is byte-identical to rendering that frame alone.
+    /// camera changed since the last frame (scene equal but for cameras); updates the GPU
+    /// renderer's geometry in place where only the placement of meshes or CMOs changed, and
+    /// rebuilds it (same device) where anything else did or the update cannot take the scene
+    /// (module docs). The result is byte-identical to rendering that frame alone.
     pub fn render(&mut self, scene: &Scene, camera: &Camera) -> Result<RenderedFrame> {
-        let key = scene_key(scene);
-        let rebuild = key != self.scene || (camera.width, camera.height) != self.size;
-        if rebuild {
-            self.world = Arc::new(scene.world());
-            self.size = (camera.width, camera.height);
-        }
+        let change = if (camera.width, camera.height) != self.size {
+            SceneChange::Other("the frame size changed".into())
+        } else {
+            classify(&self.scene, scene)
+        };
         let start = Instant::now();
-        let frame = match &mut self.backend {
-            Backend::Gpu {
-                ctx,
-                options,
-                renderer,
-            } => {
-                if rebuild {
-                    // The old renderer's memory is freed before the new one's is allocated.
-                    *renderer = None;
-                    let t = Instant::now();
-                    *renderer = Some(Box::new(GpuRenderer::new(ctx, scene, camera, *options)?));
-                    log::info!("GPU renderer (rebuilt): {:.2?}", t.elapsed());
+        let used = self.prepare(&change, scene, camera)?;
+        self.first = false;
+        match change {
+            SceneChange::None => {}
+            SceneChange::Placement => {
+                // Only the placement differs: the parts and the rest are equal already.
+                for (kept, m) in self.scene.meshes.iter_mut().zip(&scene.meshes) {
+                    kept.transform = m.transform;
                 }
+                self.scene.cmo = scene.cmo.clone();
+            }
+            SceneChange::Other(_) => self.scene = scene_key(scene),
+        }
+        if used != RendererUse::Kept && used != RendererUse::New {
+            self.world = Arc::new(scene.world());
+        }
+        self.size = (camera.width, camera.height);
+        let frame = match &mut self.backend {
+            Backend::Gpu { ctx, renderer, .. } => {
                 let Some(r) = renderer.as_deref_mut() else {
                     anyhow::bail!("no GPU renderer");
                 };
                 gpu_samples(ctx, r, scene, camera, self.film, self.keep_samples)?
             }
-            Backend::Reference { tracer } => {
-                if rebuild {
-                    let t = Instant::now();
-                    **tracer = reference::Tracer::new(scene);
-                    log::info!("reference BVH (rebuilt): {:.2?}", t.elapsed());
-                }
-                reference_samples(
-                    scene,
-                    tracer,
-                    camera,
-                    self.bounces,
-                    self.film,
-                    self.keep_samples,
-                )
-            }
+            Backend::Reference { tracer } => reference_samples(
+                scene,
+                tracer,
+                camera,
+                self.bounces,
+                self.film,
+                self.keep_samples,
+            ),
         };
-        self.scene = key;
         let (gpu, reference, samples, captured, gpu_ms) = frame;
         let captures = match &self.backend {
             Backend::Gpu { renderer, .. } => renderer.as_ref().is_some_and(|r| r.captures()),
             Backend::Reference { .. } => false,
         };
         log::info!(
-            "frame: {} sample(s) per pixel, {}",
+            "frame: {} sample(s) per pixel, {}{}",
             self.film.spp,
             match (captures, captured) {
                 (false, _) => "no capture (--method reads no cube map)",
                 (true, true) => "captured",
                 (true, false) => "capture reused",
+            },
+            match used {
+                RendererUse::New | RendererUse::Kept => "",
+                RendererUse::UpdatedInPlace => ", geometry updated in place",
+                RendererUse::Rebuilt => ", renderer rebuilt",
             }
         );
         Ok(RenderedFrame {
             captured,
+            renderer: used,
             width: camera.width,
             height: camera.height,
             spp: self.film.spp,
@@ -298,6 +423,65 @@ impl FrameRenderer {
             gpu_ms,
             world: self.world.clone(),
         })
+    }
+
+    /// Readies the backend for a frame whose scene differs from the last by `change`: keeps
+    /// it, updates the GPU renderer's geometry in place, or rebuilds it (module docs).
+    fn prepare(
+        &mut self,
+        change: &SceneChange,
+        scene: &Scene,
+        camera: &Camera,
+    ) -> Result<RendererUse> {
+        let why = match change {
+            SceneChange::None if self.first => return Ok(RendererUse::New),
+            SceneChange::None => return Ok(RendererUse::Kept),
+            SceneChange::Placement => {
+                "the geometry moved, and the reference has no in-place update"
+            }
+            SceneChange::Other(why) => why.as_str(),
+        };
+        match &mut self.backend {
+            Backend::Gpu {
+                ctx,
+                options,
+                renderer,
+            } => {
+                if let (SceneChange::Placement, Some(r)) = (change, renderer.as_deref_mut()) {
+                    let t = Instant::now();
+                    let refused = match self.stale {
+                        Some(stale) => r.update_geometry_leaving(ctx, scene, camera, stale),
+                        None => r.update_geometry(ctx, scene, camera),
+                    };
+                    // A failed update may have left the renderer half written: drop it.
+                    let refused = refused.inspect_err(|_| *renderer = None)?;
+                    let Some(why) = refused else {
+                        log::debug!(
+                            "GPU renderer: geometry updated in place in {:.2?}",
+                            t.elapsed()
+                        );
+                        self.updates += 1;
+                        return Ok(RendererUse::UpdatedInPlace);
+                    };
+                    log::debug!("GPU renderer rebuilt: {why}");
+                } else {
+                    log::debug!("GPU renderer rebuilt: {why}");
+                }
+                // The old renderer's memory is freed before the new one's is allocated.
+                *renderer = None;
+                let t = Instant::now();
+                *renderer = Some(Box::new(GpuRenderer::new(ctx, scene, camera, *options)?));
+                log::info!("GPU renderer (rebuilt): {:.2?}", t.elapsed());
+            }
+            Backend::Reference { tracer } => {
+                log::debug!("reference BVH rebuilt: {why}");
+                let t = Instant::now();
+                **tracer = reference::Tracer::new(scene);
+                log::info!("reference BVH (rebuilt): {:.2?}", t.elapsed());
+            }
+        }
+        self.rebuilds += 1;
+        Ok(RendererUse::Rebuilt)
     }
 
     /// The method frames are rendered with.

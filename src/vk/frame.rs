@@ -3,7 +3,7 @@
 //!
 //! | pass | reads | writes |
 //! |---|---|---|
-//! | `capture` (where [`Needs::capture`]: every method but `bvh`; the CMO stages run on the first frame and again only when their input changes, [`GpuRenderer::set_camera`]) | scene | CMO distance, colour and/or triangle IDs (+ normal/mirror with self-reflections) |
+//! | `capture` (where [`Needs::capture`]: every method but `bvh`; the CMO stages run on the first frame and again only when their input changes, [`GpuRenderer::set_camera`], [`GpuRenderer::update_geometry`]) | scene | CMO distance, colour and/or triangle IDs (+ normal/mirror with self-reflections) |
 //! | `capture` with `--criterion bounded` ([`super::passes::capture_lists`]: jobs, texels, resolve; or the lists built on the CPU and uploaded at creation, [`GpuRenderer::with_lists`]) | scene | CMO distance (`lo`), the per-texel records and node pool, a `u32` word per binding ([`super::passes::lists`]) |
 //! | `pyramid` (where [`Needs::pyramid`]: `fragment`) | CMO distance | CMO 2x2 min/max pyramid |
 //! | the method's CMO stage: `hier32` (`compute`) | CMO distance | its 8x4/4x8 min/max hierarchy |
@@ -17,7 +17,11 @@
 //! Each pass name is its WGSL file, its debug label and its timestamp scope, so
 //! [`GpuFrame::pass_times`] lines up with the benchmark tables. Everything a frame needs is
 //! allocated once in [`GpuRenderer::new`]; [`GpuRenderer::render`] only records, submits and
-//! reads back, so repeated renders (the harness) measure the passes, not allocation.
+//! reads back, so repeated renders (the harness) measure the passes, not allocation. A sequence
+//! keeps the renderer: [`GpuRenderer::set_camera`] where the camera moves,
+//! [`GpuRenderer::update_geometry`] where meshes or CMO centres move (the buffers derived from
+//! the geometry rewritten, the pipelines kept; a BVH, closure or list pool that outgrows its
+//! buffer gets a new one, bound in its place).
 //!
 //! Only what the options use is allocated: the method allocates its own passes
 //! ([`MethodSpec::create`]) and says what it needs of the CMOs ([`MethodSpec::needs`]: their
@@ -102,7 +106,7 @@ use super::backend::timestamps::{PassTime, Timestamps};
 use super::methods::compute::{ComputePath, ComputeStats};
 use super::methods::reflection_point::ReflectionPointPasses;
 use super::methods::ssr::SsrPasses;
-use super::methods::{self, FrameInputs, MethodSpec, Needs, Scope, Technique};
+use super::methods::{self, FrameInputs, GeometryInputs, MethodSpec, Needs, Scope, Technique};
 use super::passes::bounce::{BouncePasses, MAX_BOUNCES};
 use super::passes::bvh::{AppendKind, BvhCounter, BvhPasses, ReflectorCheck};
 use super::passes::capture::Capture;
@@ -189,7 +193,8 @@ pub struct GpuFrame {
     pub search: Option<SearchStats>,
     /// Whether this frame ran the CMO stages (capture, pyramid, the method's CMO stage): the
     /// first frame and the first after [`GpuRenderer::set_camera`] changed what the capture
-    /// depends on; never for a method that captures nothing (`bvh`) or uploaded lists.
+    /// depends on or [`GpuRenderer::update_geometry`] moved the geometry; never for a method
+    /// that captures nothing (`bvh`) or uploaded lists.
     pub captured: bool,
 }
 
@@ -361,6 +366,30 @@ pub struct GpuRenderer {
     cmo_valid: bool,
     /// The film's sample key in `FrameParams` ([`GpuRenderer::set_sample`]).
     sample: u32,
+    /// [`Scene::check_triangles`] at creation: the reflector check's BVH is built over them.
+    check_triangles: Vec<u32>,
+    /// Whether the bounded criterion's lists were uploaded at creation
+    /// ([`GpuRenderer::with_lists`]): they do not follow the geometry.
+    lists_uploaded: bool,
+}
+
+/// What [`GpuRenderer::update_geometry_leaving`] leaves stale (the tests' negative).
+#[doc(hidden)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StaleUpdate {
+    /// The scene's vertex buffer.
+    Vertices,
+    /// Every BVH (the method's, the fallback's, the bounce rounds', the reflector check's).
+    Bvh,
+}
+
+/// What [`GpuRenderer::update_geometry`] writes (its `geometry_plan`): the scene as uploaded,
+/// its ranges and CMO centres, and the bounded capture's views and capacities.
+struct GeometryPlan {
+    data: GpuSceneData,
+    ranges: FrameRanges,
+    centres: Vec<Vec3>,
+    lists: Option<(Vec<(Vec3, bool)>, crate::cubemap::bounds::PoolBound)>,
 }
 
 /// The stages before the G-buffer that the CMOs need: their data, the capture and the
@@ -527,13 +556,14 @@ struct AfterMethod {
 }
 
 impl AfterMethod {
-    fn new(i: &FrameInputs<'_>, scene: &Scene, method: &dyn Technique) -> VkResult<Self> {
+    /// `check_triangles`: [`Scene::check_triangles`], the reflector check's.
+    fn new(i: &FrameInputs<'_>, check_triangles: &[u32], method: &dyn Technique) -> VkResult<Self> {
         let options = i.options;
         let fallback = fallback_passes(i)?;
         let check = if options.reflector_check && options.method.has_reflector_check() {
             ReflectorCheck::new(
                 i.ctx,
-                &scene.check_triangles(),
+                check_triangles,
                 i.data,
                 i.scene,
                 i.gbuffer,
@@ -689,6 +719,19 @@ impl GpuRenderer {
             })?;
             self.ranges = ranges;
         }
+        self.apply_camera(ctx, scene, camera, gbuffer)
+    }
+
+    /// The camera part of [`GpuRenderer::set_camera`] with `self.ranges` and `self.data` those
+    /// of `scene` and `camera` already: the capture's near plane, the frame params, the
+    /// G-buffer's camera (unless `gbuffer` is false, the tests' negative) and the method's.
+    fn apply_camera(
+        &mut self,
+        ctx: &GpuContext,
+        scene: &Scene,
+        camera: &Camera,
+        gbuffer: bool,
+    ) -> VkResult<()> {
         let near = self.ranges.near;
         if let Some(CmoCapture::Raster(c)) = &mut self.capture {
             let capture_near = self.ranges.capture_near;
@@ -735,6 +778,183 @@ impl GpuRenderer {
                 ..params
             }],
         )
+    }
+
+    /// Points every pass at `scene` and `camera` where `scene` differs from the renderer's only
+    /// in its geometry's placement (mesh transforms, CMO centres; the same triangles, objects,
+    /// materials and CMO count): the scene buffers' vertices, the CMO centres and the capture's
+    /// views (the bounded capture's capacities), every BVH (the method's, the fallback's, the
+    /// bounce rounds', the reflector check's), the reflection-point closing triangles, the
+    /// ranges and everything the camera update derives from them, each recomputed as
+    /// [`GpuRenderer::new`] computes it; the pipelines stay. The next frame runs the CMO stages
+    /// and is bit for bit that of [`GpuRenderer::new`] for `scene` and `camera`.
+    ///
+    /// `Ok(Some(why))` where it cannot (the frame size, the vertex count, the triangles, the
+    /// objects' flags, the CMO count, self-reflections, the reflector check's triangles changed,
+    /// or the bounded criterion's lists were uploaded at creation): nothing was changed, and the
+    /// caller builds a new renderer. A bounded capture whose pool or job buffer the moved
+    /// geometry outgrows gets larger ones, bound where the old ones were. An error where a new
+    /// renderer would fail for the same reason (the depth range check, the device's limits).
+    pub fn update_geometry(
+        &mut self,
+        ctx: &GpuContext,
+        scene: &Scene,
+        camera: &Camera,
+    ) -> VkResult<Option<String>> {
+        self.update_geometry_with(ctx, scene, camera, None)
+    }
+
+    /// [`GpuRenderer::update_geometry`] that leaves `stale` as it was: a wrong update, for the
+    /// tests' negative only.
+    #[doc(hidden)]
+    pub fn update_geometry_leaving(
+        &mut self,
+        ctx: &GpuContext,
+        scene: &Scene,
+        camera: &Camera,
+        stale: StaleUpdate,
+    ) -> VkResult<Option<String>> {
+        self.update_geometry_with(ctx, scene, camera, Some(stale))
+    }
+
+    fn update_geometry_with(
+        &mut self,
+        ctx: &GpuContext,
+        scene: &Scene,
+        camera: &Camera,
+        stale: Option<StaleUpdate>,
+    ) -> VkResult<Option<String>> {
+        match self.geometry_plan(scene, camera)? {
+            Ok(plan) => {
+                self.write_geometry(ctx, scene, camera, plan, stale)?;
+                Ok(None)
+            }
+            Err(why) => Ok(Some(why)),
+        }
+    }
+
+    /// What [`GpuRenderer::update_geometry`] writes, derived from `scene` and `camera` as
+    /// [`GpuRenderer::new`] derives it, or why it cannot be written in place. Changes nothing.
+    fn geometry_plan(
+        &self,
+        scene: &Scene,
+        camera: &Camera,
+    ) -> VkResult<Result<GeometryPlan, String>> {
+        if (camera.width, camera.height) != (self.width, self.height) {
+            return Ok(Err("the frame size changed".into()));
+        }
+        if self.lists_uploaded {
+            return Ok(Err(
+                "the bounded capture's lists were uploaded at creation".into()
+            ));
+        }
+        let ranges = FrameRanges::new(scene, camera);
+        ranges.check(scene).map_err(|e| VkError::Usage {
+            what: "depth range".into(),
+            detail: e.to_string(),
+        })?;
+        let centres = scene.cmo_centres();
+        if centres.is_empty() {
+            return Err(VkError::Usage {
+                what: "scene".into(),
+                detail: "no CMO centres".into(),
+            });
+        }
+        if centres.len() != self.cmo.count() as usize {
+            return Ok(Err("the CMO count changed".into()));
+        }
+        if self.capture.is_some() && scene.captures_reflectors() != self.cmo.normal().is_some() {
+            return Ok(Err(
+                "self-reflections changed (the capture's targets)".into()
+            ));
+        }
+        let data = GpuSceneData::new(scene);
+        if let Some(why) = SceneBuffers::in_place_blocker(&self.data, &data) {
+            return Ok(Err(why));
+        }
+        if scene.check_triangles() != self.check_triangles {
+            return Ok(Err("the reflector check's triangles changed".into()));
+        }
+        let lists = match &self.capture {
+            Some(CmoCapture::Lists(c)) => {
+                let views = capture_lists::scene_views(scene);
+                if let Some(why) = c.update_blocker(&views) {
+                    return Ok(Err(why));
+                }
+                let capacity = capture_lists::capacity(&data, &views, self.cmo.size());
+                Some((views, capacity))
+            }
+            _ => None,
+        };
+        Ok(Ok(GeometryPlan {
+            data,
+            ranges,
+            centres,
+            lists,
+        }))
+    }
+
+    /// Writes `plan` ([`GpuRenderer::geometry_plan`]) into every pass, leaving `stale` as it
+    /// was (the tests' negative), then the camera, and marks the capture stale.
+    fn write_geometry(
+        &mut self,
+        ctx: &GpuContext,
+        scene: &Scene,
+        camera: &Camera,
+        plan: GeometryPlan,
+        stale: Option<StaleUpdate>,
+    ) -> VkResult<()> {
+        let GeometryPlan {
+            data,
+            ranges,
+            centres,
+            lists,
+        } = plan;
+        let t_hi = ranges.t_hi;
+        if stale != Some(StaleUpdate::Vertices) {
+            self._scene.write_geometry(ctx, &data)?;
+        }
+        self.cmo.set_centres(ctx, &centres)?;
+        match (&mut self.capture, lists) {
+            (Some(CmoCapture::Raster(c)), _) => c.set_views(ctx, &centres, ranges.capture_near)?,
+            (Some(CmoCapture::Lists(c)), Some((views, capacity))) => {
+                // A pool too small for the moved geometry is allocated again, and rebound.
+                let grown = self.cmo.grow_pool(ctx, capacity.nodes)?;
+                let targets = ListTargets {
+                    distance: self.cmo.distance(),
+                    records: self.cmo.lists(),
+                    nodes: self.cmo.nodes(),
+                };
+                c.update(ctx, &self._scene, &views, capacity, Some(targets))?;
+                if grown {
+                    self.method.rebind_cmo(ctx, &self.cmo)?;
+                    self.composite.rebind_cmo(&self.cmo)?;
+                }
+            }
+            _ => {}
+        }
+        let rebuild_bvh = stale != Some(StaleUpdate::Bvh);
+        if rebuild_bvh {
+            if let Some(f) = &mut self.fallback {
+                f.update(ctx, &data, t_hi)?;
+            }
+            if let Some(c) = &mut self.check {
+                c.update(ctx, &self.check_triangles, &data, t_hi)?;
+            }
+            if let Some(b) = &mut self.bounce {
+                b.update(ctx, &data, t_hi)?;
+            }
+        }
+        self.method.update_geometry(&GeometryInputs {
+            ctx,
+            data: &data,
+            t_hi,
+            rebuild_bvh,
+        })?;
+        self.data = data;
+        self.ranges = ranges;
+        self.cmo_valid = false;
+        self.apply_camera(ctx, scene, camera, true)
     }
 
     /// Makes the next frame run the CMO stages again (capture, pyramid, the method's CMO stage)
@@ -809,7 +1029,8 @@ impl GpuRenderer {
             mirror_rect: mirror_rect(&data, camera, ranges.near),
         };
         let method = methods::create(options.method, &inputs)?;
-        let after = AfterMethod::new(&inputs, scene, method.as_ref())?;
+        let check_triangles = scene.check_triangles();
+        let after = AfterMethod::new(&inputs, &check_triangles, method.as_ref())?;
         let composite = Composite::new(
             ctx,
             &gbuffer,
@@ -847,6 +1068,8 @@ impl GpuRenderer {
             ranges: ranges.clone(),
             cmo_valid: false,
             sample: 0,
+            check_triangles,
+            lists_uploaded: lists.is_some(),
         })
     }
 

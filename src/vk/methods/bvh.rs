@@ -63,7 +63,7 @@ use crate::vk::backend::shaders::{BVH_QUEUE, BVH_TRACE, Pass};
 use crate::vk::passes::bvh::{AppendKind, BvhPasses, BvhRay};
 use crate::vk::passes::cmo::CaptureContents;
 
-use super::technique::{FrameInputs, MethodSpec, Needs, Scope, Technique};
+use super::technique::{FrameInputs, GeometryInputs, MethodSpec, Needs, Scope, Technique};
 
 /// The BVH method.
 pub struct Bvh;
@@ -113,6 +113,14 @@ pub struct BvhMethod {
 }
 
 impl Technique for BvhMethod {
+    /// The BVH over the moved geometry ([`BvhPasses::update`]).
+    fn update_geometry(&mut self, i: &GeometryInputs<'_>) -> VkResult<()> {
+        if i.rebuild_bvh {
+            self.passes.update(i.ctx, i.data, i.t_hi)?;
+        }
+        Ok(())
+    }
+
     fn record(&self, rec: &Recorder<'_>, scope: &mut Scope<'_>) -> VkResult<()> {
         scope(BVH_QUEUE.name, &mut || {
             self.passes.record_queue(rec);

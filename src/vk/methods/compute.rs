@@ -423,6 +423,8 @@ struct TracePass {
     /// `retrace_args`).
     retrace_set: Option<BindGroup>,
     _trace_modes: Vec<Buffer>,
+    /// The pipeline's entry point (its CMO group's bindings).
+    entry: String,
 }
 
 impl TracePass {
@@ -499,6 +501,7 @@ impl TracePass {
             sets,
             retrace_set,
             _trace_modes: trace_modes,
+            entry: entry.to_string(),
         })
     }
 }
@@ -709,6 +712,16 @@ impl MethodSpec for Compute {
 }
 
 impl Technique for ComputePath {
+    /// The trace's CMO group (set 1) over `cmo`'s buffers as they are now (the hierarchy
+    /// passes bind only the distances, which stay).
+    fn rebind_cmo(&mut self, _ctx: &GpuContext, cmo: &CmoData) -> VkResult<()> {
+        let t = &mut self.trace;
+        t.sets[1] = t
+            .pipeline
+            .bind_group(1, &cmo.resources_for(&COMPUTE_TRACE, &t.entry))?;
+        Ok(())
+    }
+
     fn record_cmo_stage(&self, rec: &Recorder<'_>, scope: &mut Scope<'_>) -> VkResult<()> {
         scope(HIER32.name, &mut || {
             self.record_hier(rec);

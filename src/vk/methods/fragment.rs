@@ -67,12 +67,13 @@
 //! walk: 116). Same triangle 99.98 to 100 % and PSNR over resolved mirror pixels 52 to 104 dB per
 //! built-in scene. Why it is not cheaper on this driver is in `spirv/README.md`.
 use crate::cpu::options::{TraceCriterion, TraceOptions};
+use crate::vk::backend::context::GpuContext;
 use crate::vk::backend::context::Recorder;
 use crate::vk::backend::error::VkResult;
 use crate::vk::backend::graphics::{GraphicsDesc, GraphicsPipeline, RenderTarget};
 use crate::vk::backend::pipeline::{BindGroup, Resource};
 use crate::vk::backend::shaders::{FRAGMENT_TRACE, Pass};
-use crate::vk::passes::cmo::{CaptureContents, exact_mip_only};
+use crate::vk::passes::cmo::{CaptureContents, CmoData, exact_mip_only};
 
 use super::technique::{CameraInputs, FrameInputs, MethodSpec, Needs, Scope, Technique};
 
@@ -122,6 +123,7 @@ impl MethodSpec for Fragment {
 /// A deferred full-screen fragment pass that writes one record per mirror pixel.
 pub struct DeferredTrace {
     pass: &'static Pass,
+    entry: &'static str,
     pipeline: GraphicsPipeline,
     sets: Vec<BindGroup>,
     width: u32,
@@ -173,6 +175,7 @@ impl DeferredTrace {
         let (width, height) = gbuffer.extent();
         Ok(DeferredTrace {
             pass,
+            entry,
             pipeline,
             sets,
             width,
@@ -185,6 +188,14 @@ impl DeferredTrace {
 impl Technique for DeferredTrace {
     fn set_camera(&mut self, inputs: &CameraInputs<'_>) -> VkResult<()> {
         self.mirror_rect = inputs.mirror_rect;
+        Ok(())
+    }
+
+    /// The CMO group (set 1) over `cmo`'s buffers as they are now.
+    fn rebind_cmo(&mut self, _ctx: &GpuContext, cmo: &CmoData) -> VkResult<()> {
+        self.sets[1] = self
+            .pipeline
+            .bind_group(1, &cmo.resources_for(self.pass, self.entry))?;
         Ok(())
     }
 

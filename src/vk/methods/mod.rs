@@ -8,7 +8,9 @@ pub mod reflection_point;
 pub mod ssr;
 pub mod technique;
 
-pub use technique::{CameraInputs, FrameInputs, MethodSpec, MethodStats, Needs, Scope, Technique};
+pub use technique::{
+    CameraInputs, FrameInputs, GeometryInputs, MethodSpec, MethodStats, Needs, Scope, Technique,
+};
 
 use crate::method::Method;
 use crate::vk::backend::error::{VkError, VkResult};

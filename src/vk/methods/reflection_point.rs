@@ -115,7 +115,7 @@ use crate::vk::passes::gbuffer::Gbuffer;
 use crate::vk::passes::scene_buffers::SceneBuffers;
 
 use super::technique::{
-    CameraInputs, FrameInputs, MethodSpec, MethodStats, Needs, Scope, Technique,
+    CameraInputs, FrameInputs, GeometryInputs, MethodSpec, MethodStats, Needs, Scope, Technique,
 };
 
 /// `RpParams` in `spirv/reflection_point_search.wgsl`.
@@ -213,6 +213,14 @@ fn closure_buffer(
     data: &GpuSceneData,
     options: &RpOptions,
 ) -> VkResult<(Buffer, u32)> {
+    let (closure, closure_vertices) = closure_contents(data, options);
+    let buffer =
+        ctx.create_buffer_init("rp closure", vk::BufferUsageFlags::STORAGE_BUFFER, &closure)?;
+    Ok((buffer, closure_vertices))
+}
+
+/// What [`closure_buffer`] holds and its vertex count.
+fn closure_contents(data: &GpuSceneData, options: &RpOptions) -> (Vec<ClosureVertex>, u32) {
     let mut closure = if options.close_reflectors {
         closing_triangles(data)
     } else {
@@ -222,9 +230,22 @@ fn closure_buffer(
     if closure.is_empty() {
         closure.push(ClosureVertex::default());
     }
-    let buffer =
-        ctx.create_buffer_init("rp closure", vk::BufferUsageFlags::STORAGE_BUFFER, &closure)?;
-    Ok((buffer, closure_vertices))
+    (closure, closure_vertices)
+}
+
+/// The reflector draw's group 1: the search params and the closing triangles.
+fn reflector_set(
+    reflector: &GraphicsPipeline,
+    params: &Buffer,
+    closure: &Buffer,
+) -> VkResult<BindGroup> {
+    reflector.bind_group(
+        1,
+        &[
+            (0, Resource::Buffer(params)),
+            (4, Resource::Buffer(closure)),
+        ],
+    )
 }
 
 /// The search textures T_P and T_N and their depth at the search size `search`, then the
@@ -295,13 +316,7 @@ impl SearchPipelines {
                 0,
                 &scene_resources(scene, pass, &["vs_reflector", "fs_reflector"]),
             )?,
-            reflector.bind_group(
-                1,
-                &[
-                    (0, Resource::Buffer(params)),
-                    (4, Resource::Buffer(closure)),
-                ],
-            )?,
+            reflector_set(&reflector, params, closure)?,
         ];
         let search = ComputePipeline::new(ctx, pass, "search", ComputeOptions::default())?;
         let search_sets = [
@@ -396,7 +411,7 @@ pub struct ReflectionPointPasses {
     params_buf: Buffer,
     options: RpOptions,
     /// The closing triangles of open reflectors ([`crate::cpu::closure`]).
-    _closure: Buffer,
+    closure: Buffer,
     closure_vertices: u32,
     camera_buf: Buffer,
     vertices: Buffer,
@@ -512,7 +527,7 @@ impl ReflectionPointPasses {
             resolve_set,
             params_buf,
             options: *options,
-            _closure: closure_buf,
+            closure: closure_buf,
             closure_vertices,
             camera_buf,
             vertices,
@@ -696,6 +711,23 @@ impl Technique for ReflectionPointPasses {
         i.ctx
             .write_buffer(&self.camera_buf, std::slice::from_ref(&cam))?;
         self.params = params;
+        Ok(())
+    }
+
+    /// The closing triangles of the moved reflectors, into their buffer where they fit (the
+    /// draw reads `closure_vertices` of them), else into a new one bound in its place. The
+    /// search's start texel follows in [`Technique::set_camera`], which reads the new data.
+    fn update_geometry(&mut self, i: &GeometryInputs<'_>) -> VkResult<()> {
+        let (closure, closure_vertices) = closure_contents(i.data, &self.options);
+        if size_of_val(closure.as_slice()) as u64 <= self.closure.size() {
+            i.ctx.write_buffer(&self.closure, &closure)?;
+        } else {
+            let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
+            let buffer = i.ctx.create_buffer_init("rp closure", usage, &closure)?;
+            self.reflector_sets[1] = reflector_set(&self.reflector, &self.params_buf, &buffer)?;
+            self.closure = buffer;
+        }
+        self.closure_vertices = closure_vertices;
         Ok(())
     }
 

@@ -79,6 +79,18 @@ pub struct CameraInputs<'a> {
     pub mirror_rect: Option<[u32; 4]>,
 }
 
+/// The scene's moved geometry for a method's passes ([`Technique::update_geometry`]): the
+/// scene as uploaded now (the triangles, objects and materials of creation, other vertex
+/// positions and normals) and the ray length derived from it.
+pub struct GeometryInputs<'a> {
+    pub ctx: &'a GpuContext,
+    pub data: &'a GpuSceneData,
+    /// The length of an escaped ray.
+    pub t_hi: f32,
+    /// Whether BVHs are rebuilt over `data` (false only in the tests' negative: a stale BVH).
+    pub rebuild_bvh: bool,
+}
+
 /// What a method is before it is allocated: one per GPU method, in `super::spec`.
 pub trait MethodSpec: Sync {
     /// The method's tracing pass: its timestamp scope in the harness's tables.
@@ -161,6 +173,23 @@ pub trait Technique: Any {
     /// for that camera, bit for bit (`crate::vk::frame::GpuRenderer::set_camera`). Nothing by
     /// default: for methods that read the camera only through the G-buffer and `FrameParams`.
     fn set_camera(&mut self, _inputs: &CameraInputs<'_>) -> VkResult<()> {
+        Ok(())
+    }
+
+    /// Updates everything the method derived from the scene's geometry at creation (its BVH,
+    /// the reflection-point method's closing triangles) for `inputs.data`, keeping its
+    /// pipelines: after it and [`Technique::set_camera`], the next frame must equal a frame of
+    /// passes created for that scene, bit for bit
+    /// (`crate::vk::frame::GpuRenderer::update_geometry`). Nothing by default: for methods
+    /// that read the geometry only through the scene buffers, the CMOs and the G-buffer.
+    fn update_geometry(&mut self, _inputs: &GeometryInputs<'_>) -> VkResult<()> {
+        Ok(())
+    }
+
+    /// Binds the method's passes to `cmo` again: its buffers were allocated anew (the bounded
+    /// capture's pool grew, `crate::vk::frame::GpuRenderer::update_geometry`). Nothing by
+    /// default: for methods that bind no CMO data.
+    fn rebind_cmo(&mut self, _ctx: &GpuContext, _cmo: &CmoData) -> VkResult<()> {
         Ok(())
     }
 

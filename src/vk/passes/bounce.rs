@@ -224,6 +224,16 @@ impl BouncePasses {
         })
     }
 
+    /// Rebuilds the rounds' own BVH (where the frame had none to share) over `data`, the
+    /// scene's geometry moved, and uploads it with the ray length `t_hi`
+    /// ([`BvhTracer::update`]); a shared tracer is its owner's to update.
+    pub fn update(&mut self, ctx: &GpuContext, data: &GpuSceneData, t_hi: f32) -> VkResult<()> {
+        match self.rounds.as_mut().and_then(|r| r.tracer.as_mut()) {
+            Some(t) => t.update(ctx, &super::bvh::BvhData::build(data), t_hi),
+            None => Ok(()),
+        }
+    }
+
     /// The reflections per path.
     pub fn bounces(&self) -> u32 {
         self.bounces

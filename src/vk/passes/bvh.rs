@@ -202,6 +202,39 @@ impl BvhData {
     }
 }
 
+/// What [`BvhTracer`]'s buffers hold of `bvh`: its nodes and triangles, or one zero entry for
+/// an empty one (a zero-sized storage buffer cannot be bound).
+fn bvh_contents(bvh: &BvhData) -> (&[[u32; 4]], &[[f32; 4]]) {
+    let nodes: &[[u32; 4]] = if bvh.nodes.is_empty() {
+        &[[0; 4]]
+    } else {
+        &bvh.nodes
+    };
+    let tris: &[[f32; 4]] = if bvh.tris.is_empty() {
+        &[[0.0; 4]]
+    } else {
+        &bvh.tris
+    };
+    (nodes, tris)
+}
+
+/// `bvh_trace`'s BVH group (set 1): the nodes, the triangles and the params.
+fn bvh_set(
+    pipeline: &ComputePipeline,
+    nodes: &Buffer,
+    tris: &Buffer,
+    params: &Buffer,
+) -> VkResult<BindGroup> {
+    pipeline.bind_group(
+        1,
+        &[
+            (0, Resource::Buffer(nodes)),
+            (1, Resource::Buffer(tris)),
+            (2, Resource::Buffer(params)),
+        ],
+    )
+}
+
 /// Workgroups of a one-invocation-per-pixel `bvh_queue` append: `ceil(pixels / 64)` as
 /// `x <= 65535` by `y`.
 pub fn pixel_groups(width: u32, height: u32) -> [u32; 3] {
@@ -405,9 +438,9 @@ impl BvhAppend {
 /// The uploaded CWBVH and the `bvh_trace` pipeline, bound to one record buffer and one queue.
 pub struct BvhTracer {
     node_count: u32,
-    _nodes: Buffer,
-    _tris: Buffer,
-    _params: Buffer,
+    nodes: Buffer,
+    tris: Buffer,
+    params_buf: Buffer,
     pipeline: ComputePipeline,
     sets: [BindGroup; 4],
 }
@@ -437,17 +470,7 @@ impl BvhTracer {
         t_hi: f32,
     ) -> VkResult<Self> {
         let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
-        // A zero-sized storage buffer cannot be bound: an empty BVH uploads one zero entry.
-        let nodes: &[[u32; 4]] = if bvh.nodes.is_empty() {
-            &[[0; 4]]
-        } else {
-            &bvh.nodes
-        };
-        let tris: &[[f32; 4]] = if bvh.tris.is_empty() {
-            &[[0.0; 4]]
-        } else {
-            &bvh.tris
-        };
+        let (nodes, tris) = bvh_contents(bvh);
         let nodes_buf = ctx.create_buffer_init("bvh nodes", usage, nodes)?;
         let tris_buf = ctx.create_buffer_init("bvh triangles", usage, tris)?;
         let params = BvhParams {
@@ -460,14 +483,7 @@ impl BvhTracer {
         let pipeline = ComputePipeline::new(ctx, &BVH_TRACE, "main", ComputeOptions::default())?;
         let sets = [
             pipeline.bind_group(0, &[(3, Resource::Buffer(records))])?,
-            pipeline.bind_group(
-                1,
-                &[
-                    (0, Resource::Buffer(&nodes_buf)),
-                    (1, Resource::Buffer(&tris_buf)),
-                    (2, Resource::Buffer(&params_buf)),
-                ],
-            )?,
+            bvh_set(&pipeline, &nodes_buf, &tris_buf, &params_buf)?,
             pipeline.bind_group(
                 2,
                 &[
@@ -479,9 +495,9 @@ impl BvhTracer {
         ];
         Ok(BvhTracer {
             node_count: params.node_count,
-            _nodes: nodes_buf,
-            _tris: tris_buf,
-            _params: params_buf,
+            nodes: nodes_buf,
+            tris: tris_buf,
+            params_buf,
             pipeline,
             sets,
         })
@@ -490,6 +506,38 @@ impl BvhTracer {
     /// Nodes of the uploaded BVH.
     pub fn node_count(&self) -> u32 {
         self.node_count
+    }
+
+    /// Uploads `bvh` (the scene's geometry moved) and the ray length `t_hi` into the tracer's
+    /// buffers: the next trace is that of [`BvhTracer::with_data`] over them. A BVH that fits
+    /// the buffers is written into them (the trace reads `node_count` nodes, never the buffer
+    /// lengths); a larger one gets new buffers, and the tracer's BVH group is bound to them.
+    /// The pipeline and the other groups stay.
+    pub fn update(&mut self, ctx: &GpuContext, bvh: &BvhData, t_hi: f32) -> VkResult<()> {
+        let (nodes, tris) = bvh_contents(bvh);
+        let fits = |b: &Buffer, bytes: usize| bytes as u64 <= b.size();
+        if fits(&self.nodes, size_of_val(nodes)) && fits(&self.tris, size_of_val(tris)) {
+            ctx.write_buffer(&self.nodes, nodes)?;
+            ctx.write_buffer(&self.tris, tris)?;
+        } else {
+            let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
+            let nodes_buf = ctx.create_buffer_init("bvh nodes", usage, nodes)?;
+            let tris_buf = ctx.create_buffer_init("bvh triangles", usage, tris)?;
+            self.sets[1] = bvh_set(&self.pipeline, &nodes_buf, &tris_buf, &self.params_buf)?;
+            log::debug!(
+                "bvh_trace: the BVH outgrew its buffers ({} nodes): new buffers",
+                bvh.node_count()
+            );
+            (self.nodes, self.tris) = (nodes_buf, tris_buf);
+        }
+        let params = BvhParams {
+            node_count: bvh.node_count(),
+            t_hi,
+            ..BvhParams::default()
+        };
+        ctx.write_buffer(&self.params_buf, std::slice::from_ref(&params))?;
+        self.node_count = params.node_count;
+        Ok(())
     }
 
     /// The indirect dispatch over `queue` (after [`BvhQueue::record_args`]).
@@ -572,6 +620,12 @@ impl BvhPasses {
         })
     }
 
+    /// Rebuilds the BVH over `data` (the scene's geometry moved, its triangles the same) and
+    /// uploads it with the ray length `t_hi` ([`BvhTracer::update`]).
+    pub fn update(&mut self, ctx: &GpuContext, data: &GpuSceneData, t_hi: f32) -> VkResult<()> {
+        self.tracer.update(ctx, &BvhData::build(data), t_hi)
+    }
+
     /// Clear, append, size the dispatch (`bvh_queue`).
     pub fn record_queue(&self, rec: &Recorder<'_>) {
         self.queue.record_clear(rec);
@@ -631,6 +685,19 @@ impl ReflectorCheck {
             t_hi,
         )?;
         Ok(Some(ReflectorCheck { passes }))
+    }
+
+    /// Rebuilds the reflectors' BVH over `data` (the scene's geometry moved; `triangles` as at
+    /// creation) and uploads it with the ray length `t_hi` ([`BvhTracer::update`]).
+    pub fn update(
+        &mut self,
+        ctx: &GpuContext,
+        triangles: &[u32],
+        data: &GpuSceneData,
+        t_hi: f32,
+    ) -> VkResult<()> {
+        let bvh = BvhData::build_subset(data, triangles);
+        self.passes.tracer.update(ctx, &bvh, t_hi)
     }
 
     /// Clear, append, size the dispatch, trace.

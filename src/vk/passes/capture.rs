@@ -261,6 +261,27 @@ impl Capture {
         ctx.write_buffer(&self.views_buf, &self.views)
     }
 
+    /// Moves the CMOs to `centres` (as many as at creation) and every face's near plane to
+    /// `near`: the next [`Capture::record`] is that of a capture created with them (a mesh or a
+    /// CMO moved, [`crate::vk::frame::GpuRenderer::update_geometry`]).
+    pub fn set_views(&mut self, ctx: &GpuContext, centres: &[Vec3], near: f32) -> VkResult<()> {
+        if 6 * centres.len() != self.views.len() {
+            return Err(VkError::Usage {
+                what: "capture".into(),
+                detail: format!(
+                    "{} centres for a capture of {} CMOs: the count is fixed at creation",
+                    centres.len(),
+                    self.views.len() / 6
+                ),
+            });
+        }
+        for (k, v) in self.views.iter_mut().enumerate() {
+            v.centre = centres[k / 6].to_array();
+            v.near = near;
+        }
+        ctx.write_buffer(&self.views_buf, &self.views)
+    }
+
     /// Records the capture of every face of every CMO into `cmo`: colour straight into its
     /// colour image (left readable by shaders), distance (and normals) through this pass's
     /// images into its buffers, then a barrier that makes everything readable by any later

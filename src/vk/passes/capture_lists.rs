@@ -185,6 +185,47 @@ fn linear_groups(invocations: u64) -> [u32; 3] {
     [x, invocations.div_ceil(u64::from(ROW)).max(1) as u32, 1]
 }
 
+/// The `ListsView` of each CMO `(centre, reflectors)`.
+fn list_views(cmos: &[(Vec3, bool)]) -> Vec<ListsView> {
+    cmos.iter()
+        .map(|&(c, r)| ListsView {
+            centre: c.to_array(),
+            reflectors: u32::from(r),
+        })
+        .collect()
+}
+
+/// The `texels` pass's workgroups for `capacity`.
+fn texels_groups(capacity: PoolBound) -> [u32; 3] {
+    [capacity.jobs.clamp(1, u64::from(MAX_GROUPS_X)) as u32, 1, 1]
+}
+
+/// Every `@group(1)` resource of the three passes by binding: the pass's own buffers (params,
+/// views, jobs, heads, overflow, face overflow, counters) and the targets.
+fn group1_resources<'a>(own: [&'a Buffer; 7], out: ListTargets<'a>) -> Vec<(u32, Resource<'a>)> {
+    let mut all: Vec<(u32, Resource<'a>)> = (0u32..)
+        .zip(own)
+        .map(|(i, b)| (i, Resource::Buffer(b)))
+        .collect();
+    all.push((7, Resource::Buffer(out.distance)));
+    for (i, b) in out.records.iter().chain(out.nodes).enumerate() {
+        all.push((8 + i as u32, Resource::Buffer(b)));
+    }
+    all
+}
+
+/// The `@group(1)` set of pass `p`: the resources of `all` its entry point uses.
+fn group1_set(p: &ComputePipeline, all: &[(u32, Resource<'_>)]) -> VkResult<BindGroup> {
+    let used = |b: u32| {
+        p.entry
+            .bindings
+            .iter()
+            .any(|u| u.group == 1 && u.binding == b)
+    };
+    let own: Vec<_> = all.iter().copied().filter(|(b, _)| used(*b)).collect();
+    p.bind_group(1, &own)
+}
+
 /// `(K, texels, triangles)` of a [`CaptureLists::new`] call, or why it cannot run (bindings
 /// over `range_limit` bytes: [`VkError::Limit`]).
 #[allow(clippy::too_many_arguments)]
@@ -263,8 +304,8 @@ pub struct CaptureLists {
     resolve: ComputePipeline,
     sets: [(BindGroup, BindGroup); 3],
     params_buf: Buffer,
-    _views: Buffer,
-    _job_buf: Buffer,
+    views_buf: Buffer,
+    job_buf: Buffer,
     heads: Buffer,
     overflow: Buffer,
     face_overflow: Buffer,
@@ -272,6 +313,8 @@ pub struct CaptureLists {
     /// Distance, records and nodes when the caller gave none ([`ListTargets`]).
     own: Option<OwnTargets>,
     params: ListsParams,
+    /// What the views buffer holds.
+    views: Vec<ListsView>,
     jobs_groups: [u32; 3],
     texels_groups: [u32; 3],
     resolve_groups: [u32; 3],
@@ -373,13 +416,7 @@ impl CaptureLists {
         };
         let pipe = |e| ComputePipeline::new(ctx, &CAPTURE_LISTS, e, ComputeOptions::default());
         let (jobs, texels_pipe, resolve) = (pipe("jobs")?, pipe("texels")?, pipe("resolve")?);
-        let views: Vec<ListsView> = cmos
-            .iter()
-            .map(|&(c, r)| ListsView {
-                centre: c.to_array(),
-                reflectors: u32::from(r),
-            })
-            .collect();
+        let views = list_views(cmos);
         let st = vk::BufferUsageFlags::STORAGE_BUFFER;
         let params_buf = ctx.create_buffer_init("capture_lists params", st, &[params])?;
         let views_buf = ctx.create_buffer_init("capture_lists views", st, &views)?;
@@ -403,19 +440,18 @@ impl CaptureLists {
         let out = targets
             .or(own.as_ref().map(OwnTargets::targets))
             .expect("one of the two");
-        let mut all = vec![
-            (0, Resource::Buffer(&params_buf)),
-            (1, Resource::Buffer(&views_buf)),
-            (2, Resource::Buffer(&job_buf)),
-            (3, Resource::Buffer(&heads)),
-            (4, Resource::Buffer(&overflow)),
-            (5, Resource::Buffer(&face_overflow)),
-            (6, Resource::Buffer(&counters)),
-            (7, Resource::Buffer(out.distance)),
-        ];
-        for (i, b) in out.records.iter().chain(out.nodes).enumerate() {
-            all.push((8 + i as u32, Resource::Buffer(b)));
-        }
+        let all = group1_resources(
+            [
+                &params_buf,
+                &views_buf,
+                &job_buf,
+                &heads,
+                &overflow,
+                &face_overflow,
+                &counters,
+            ],
+            out,
+        );
         let sets_for = |p: &ComputePipeline| -> VkResult<(BindGroup, BindGroup)> {
             let used = |g: u32, b: u32| {
                 p.entry
@@ -428,29 +464,29 @@ impl CaptureLists {
                 .into_iter()
                 .filter(|(b, _)| used(0, *b))
                 .collect();
-            let own: Vec<_> = all.iter().copied().filter(|(b, _)| used(1, *b)).collect();
-            Ok((p.bind_group(0, &scene_res)?, p.bind_group(1, &own)?))
+            Ok((p.bind_group(0, &scene_res)?, group1_set(p, &all)?))
         };
         let sets = [
             sets_for(&jobs)?,
             sets_for(&texels_pipe)?,
             sets_for(&resolve)?,
         ];
-        let texels_groups = [capacity.jobs.clamp(1, u64::from(MAX_GROUPS_X)) as u32, 1, 1];
+        let texels_groups = texels_groups(capacity);
         Ok(CaptureLists {
             jobs,
             texels: texels_pipe,
             resolve,
             sets,
             params_buf,
-            _views: views_buf,
-            _job_buf: job_buf,
+            views_buf,
+            job_buf,
             heads,
             overflow,
             face_overflow,
             counters,
             own,
             params,
+            views,
             jobs_groups: linear_groups(triangles * 6 * k),
             texels_groups,
             resolve_groups: linear_groups(texels),
@@ -502,6 +538,80 @@ impl CaptureLists {
         end(&mut ts, s);
         rec.memory_barrier(COMPUTE_WRITE, ALL_READS);
         Ok(())
+    }
+
+    /// Why the capture cannot take the CMOs `cmos` in place ([`CaptureLists::update`]), `None`
+    /// where it can: as many CMOs as at creation, each with the same reflector flag.
+    pub fn update_blocker(&self, cmos: &[(Vec3, bool)]) -> Option<String> {
+        let same = |(c, v): (&(Vec3, bool), &ListsView)| u32::from(c.1) == v.reflectors;
+        if cmos.len() != self.views.len() || !cmos.iter().zip(&self.views).all(same) {
+            return Some("the bounded capture's CMO count or reflector flags changed".into());
+        }
+        None
+    }
+
+    /// Points the capture at the CMOs `cmos` (see [`CaptureLists::update_blocker`]) of the scene
+    /// in `scene` (its triangles those of creation) with the capacities `capacity` (from
+    /// [`capacity`] over the scene as it is now), writing into `targets` (or the pass's own for
+    /// `None`; a caller's pool must hold `capacity.nodes` already): the next
+    /// [`CaptureLists::record`] is that of a pass created with them. A job buffer (or own pool)
+    /// too small for the new capacities is allocated again; larger ones are kept, as the passes
+    /// read the capacities, not the buffer lengths. Refused as [`CaptureLists::new`] refuses.
+    pub fn update(
+        &mut self,
+        ctx: &GpuContext,
+        scene: &SceneBuffers,
+        cmos: &[(Vec3, bool)],
+        capacity: PoolBound,
+        targets: Option<ListTargets<'_>>,
+    ) -> VkResult<()> {
+        if let Some(why) = self.update_blocker(cmos) {
+            return Err(VkError::Usage {
+                what: CAPTURE_LISTS.name.into(),
+                detail: why,
+            });
+        }
+        let (size, depth) = (self.params.size, self.params.depth);
+        let limit = u64::from(ctx.report().max_storage_buffer_range);
+        let nodes = capacity.nodes.max(1) * lists::COLUMN_BYTES;
+        if let Some(own) = self.own.as_mut().filter(|o| nodes > o.nodes[0].size()) {
+            super::cmo::check_list_range(ctx, 1, capacity.nodes.max(1), limit)?;
+            own.nodes = column_buffers(ctx, NODE_NAMES, capacity.nodes)?;
+        }
+        let no_targets = || VkError::Usage {
+            what: CAPTURE_LISTS.name.into(),
+            detail: "no targets: the pass was created writing the caller's".into(),
+        };
+        let out = targets.or(self.own_targets()).ok_or_else(no_targets)?;
+        check_inputs(ctx, limit, scene, size, depth, cmos, capacity, Some(out))?;
+        if capacity.jobs.max(1) * 32 > self.job_buf.size() {
+            self.job_buf = storage(ctx, "capture_lists jobs", capacity.jobs.max(1) * 32)?;
+        }
+        let out = targets.or(self.own_targets()).ok_or_else(no_targets)?;
+        let own = [
+            &self.params_buf,
+            &self.views_buf,
+            &self.job_buf,
+            &self.heads,
+            &self.overflow,
+            &self.face_overflow,
+            &self.counters,
+        ];
+        let all = group1_resources(own, out);
+        let groups = [
+            group1_set(&self.jobs, &all)?,
+            group1_set(&self.texels, &all)?,
+            group1_set(&self.resolve, &all)?,
+        ];
+        for (set, g) in self.sets.iter_mut().zip(groups) {
+            set.1 = g;
+        }
+        self.views = list_views(cmos);
+        self.params.job_capacity = capacity.jobs as u32;
+        self.params.node_capacity = capacity.nodes as u32;
+        self.texels_groups = texels_groups(capacity);
+        ctx.write_buffer(&self.views_buf, &self.views)?;
+        ctx.write_buffer(&self.params_buf, &[self.params])
     }
 
     /// Sets the resolve pass's cap on node visits per texel (tests: the capped path).

@@ -382,6 +382,27 @@ impl CmoData {
         Ok(())
     }
 
+    /// Grows the `bounded` criterion's pool to `pool_capacity` nodes where it holds fewer (new
+    /// buffers, uninitialised; a larger pool is kept: the capture reads its capacity from its
+    /// params). Returns whether the pool's buffers are new: every bind group that names them
+    /// must then be made again. Refused as [`CmoData::alloc_lists`] refuses.
+    pub fn grow_pool(&mut self, ctx: &GpuContext, pool_capacity: u64) -> VkResult<bool> {
+        let capacity = pool_capacity.max(1);
+        if capacity <= self.pool_capacity {
+            return Ok(false);
+        }
+        let texels = u64::from(self.count) * 6 * u64::from(self.size) * u64::from(self.size);
+        let limit = u64::from(ctx.report().max_storage_buffer_range);
+        check_list_range(ctx, texels, capacity, limit)?;
+        self.nodes = column_buffers(ctx, lists::NODE_COLUMNS, capacity)?;
+        log::debug!(
+            "CMO list pool: {} -> {capacity} nodes (new buffers)",
+            self.pool_capacity
+        );
+        self.pool_capacity = capacity;
+        Ok(true)
+    }
+
     /// Uploads lists in the GPU layout ([`lists::pack`] of one [`TexelLists`] per CMO, in CMO
     /// order, or built so): their `lo` into the distance buffer, the records and nodes into
     /// buffers allocated to fit ([`CmoData::alloc_lists`]). The pyramids are the pyramid
@@ -490,6 +511,31 @@ impl CmoData {
         )?;
         self.config = config;
         Ok(())
+    }
+
+    /// Moves the CMOs to `centres` (as many as at creation): the centres' binding then holds
+    /// what [`CmoData::with_contents`] for them would upload. The captures are stale until the
+    /// capture runs again.
+    pub fn set_centres(&mut self, ctx: &GpuContext, centres: &[Vec3]) -> VkResult<()> {
+        if centres.len() != self.centres.len() {
+            return Err(VkError::Usage {
+                what: "CMO data".into(),
+                detail: format!(
+                    "{} centres for {} CMOs: the count is fixed at creation",
+                    centres.len(),
+                    self.centres.len()
+                ),
+            });
+        }
+        let centres4: Vec<[f32; 4]> = centres.iter().map(|c| c.extend(0.0).to_array()).collect();
+        ctx.write_buffer(&self.centres_buf, &centres4)?;
+        self.centres = centres.to_vec();
+        Ok(())
+    }
+
+    /// The CMO centres.
+    pub fn centres(&self) -> &[Vec3] {
+        &self.centres
     }
 
     /// Number of CMOs.

@@ -64,6 +64,15 @@ impl Composite {
         })
     }
 
+    /// The CMO group (set 1) over `cmo`'s buffers as they are now (the bounded capture's pool
+    /// was allocated anew).
+    pub fn rebind_cmo(&mut self, cmo: &CmoData) -> VkResult<()> {
+        self.sets[1] = self
+            .pipeline
+            .bind_group(1, &cmo.resources_for(&COMPOSITE, "main"))?;
+        Ok(())
+    }
+
     /// The frame colour buffer.
     pub fn colour(&self) -> &Buffer {
         &self.colour

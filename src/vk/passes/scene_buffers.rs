@@ -2,13 +2,15 @@
 //!
 //! Invariants: the contents are [`GpuSceneData`] as is (layouts checked against naga's in
 //! tests/gpu_raster.rs); `indices` is in global triangle order (`WorldGeometry::triangles`),
-//! so a draw's `vertex_index / 3` is the global triangle index.
+//! so a draw's `vertex_index / 3` is the global triangle index. Where only the geometry's
+//! placement changes (a mesh moved), [`SceneBuffers::write_geometry`] rewrites the vertices in
+//! place and every bind group over these buffers stays valid.
 use ash::vk;
 
 use crate::scene::gpu_data::GpuSceneData;
 use crate::vk::backend::buffer::Buffer;
 use crate::vk::backend::context::GpuContext;
-use crate::vk::backend::error::VkResult;
+use crate::vk::backend::error::{VkError, VkResult};
 use crate::vk::backend::pipeline::Resource;
 
 /// `data`, or one zeroed element where it is empty (a scene without meshes or materials): a
@@ -71,6 +73,67 @@ impl SceneBuffers {
             )?,
             index_count: data.indices.len() as u32,
         })
+    }
+
+    /// Why `new` cannot replace `old` in these buffers in place ([`SceneBuffers::write_geometry`]),
+    /// `None` where it can: the same vertex count and everything but the vertices equal (the
+    /// triangles, objects, materials, textures and shading), so that only the vertex buffer's
+    /// contents change and every pass bound to these buffers stays valid.
+    pub fn in_place_blocker(old: &GpuSceneData, new: &GpuSceneData) -> Option<String> {
+        // Every field named: a new one must be compared (or rewritten) before this compiles.
+        let GpuSceneData {
+            vertices: _,
+            indices: _,
+            capture_index_count: _,
+            objects: _,
+            materials: _,
+            textures: _,
+            texels: _,
+            srgb_to_linear: _,
+            shading: _,
+        } = new;
+        let differs = |what: &str| Some(format!("the scene's {what} changed"));
+        if old.vertices.len() != new.vertices.len() {
+            return Some(format!(
+                "the vertex count changed ({} -> {})",
+                old.vertices.len(),
+                new.vertices.len()
+            ));
+        }
+        if old.indices != new.indices || old.capture_index_count != new.capture_index_count {
+            return differs("triangles");
+        }
+        if old.objects != new.objects {
+            return differs("objects (reflector, captured or inward-normal flags)");
+        }
+        if old.materials != new.materials {
+            return differs("materials");
+        }
+        if old.textures != new.textures || old.texels != new.texels {
+            return differs("textures");
+        }
+        if old.shading != new.shading || old.srgb_to_linear != new.srgb_to_linear {
+            return differs("shading");
+        }
+        None
+    }
+
+    /// Rewrites the vertex buffer (world positions, normals) with `data`'s, of the vertex count
+    /// of creation ([`SceneBuffers::in_place_blocker`] says when the rest is unchanged): the
+    /// buffers then hold what [`SceneBuffers::new`] of `data` would upload.
+    pub fn write_geometry(&self, ctx: &GpuContext, data: &GpuSceneData) -> VkResult<()> {
+        let vertices = at_least_one(&data.vertices);
+        if size_of_val(vertices.as_ref()) as u64 != self.vertices.size() {
+            return Err(VkError::Usage {
+                what: "scene vertices".into(),
+                detail: format!(
+                    "{} vertices for a buffer of {} bytes: the vertex count is fixed at creation",
+                    data.vertices.len(),
+                    self.vertices.size()
+                ),
+            });
+        }
+        ctx.write_buffer(&self.vertices, &vertices)
     }
 
     /// The `(binding, resource)` list of `@group(0)`.
