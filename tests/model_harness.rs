@@ -19,7 +19,7 @@ const MODELLED: [Method; 5] = [
 
 /// Positive, and not all the same (a weight table of one repeated number would be no weight).
 fn check_weights(w: &[f64]) -> Result<(), String> {
-    if let Some(x) = w.iter().find(|x| !(**x > 0.0)) {
+    if let Some(x) = w.iter().find(|x| x.is_nan() || **x <= 0.0) {
         return Err(format!("weight {x} is not positive"));
     }
     let first = w.first().copied().unwrap_or(0.0);
@@ -34,6 +34,12 @@ fn weights_are_positive_and_differ_between_blocks() {
     for m in MODELLED {
         let w = weights::weights(m).unwrap_or_else(|e| panic!("{}: {e:#}", m.name()));
         assert_eq!(w.len(), blocks(m).len(), "{}", m.name());
+        let named: Vec<String> = blocks(m)
+            .iter()
+            .zip(&w)
+            .map(|(b, w)| format!("{}={w}", b.name))
+            .collect();
+        eprintln!("{}: {}", m.name(), named.join(" "));
         check_weights(&w).unwrap_or_else(|e| panic!("{}: {e}", m.name()));
     }
     // Negative: the same function named by every block gives equal weights, which the check
