@@ -28,8 +28,8 @@
 use glam::Vec3;
 
 use super::{
-    CmoTracer, Counters, FaceList, Pieces, Segment, TraceResult, classify, escaped, faces_crossed,
-    finish, split_near_centre,
+    CmoTracer, Counters, FaceList, NoLog, Pieces, Segment, TraceResult, Work, WorkLog, classify,
+    escaped, faces_crossed, finish, split_near_centre,
 };
 use crate::cubemap::face::{Texel, to_face_local};
 use crate::cubemap::frustum::{CellRect, cell_interval, r_at, r_bounds, seg_reach};
@@ -106,6 +106,67 @@ fn lane_test(tr: &CmoTracer, st: &RayState, j: u32) -> (bool, f32) {
     }
 }
 
+/// For the work log: whether child `j` of the ray's current node exists (`lane_test` reads its
+/// bound) and passes the interval test (`children_crossed` in the shader), by `lane_test`'s
+/// own conditions. Only run when logging: `lane_test` is untouched.
+fn lane_crossing(tr: &CmoTracer, st: &RayState, j: u32) -> (bool, bool) {
+    let h = &tr.hier;
+    let n = tr.cube.size;
+    let top = h.root() + 1;
+    let [lo, hi] = st.pieces.range[st.piece as usize];
+    let face = st.faces.face[st.face as usize];
+    let cl = st.level - 1;
+    let child = &h.levels[cl];
+    let (gx, gy) = if st.level == top {
+        (child.width, child.height)
+    } else {
+        h.levels[st.level].group
+    };
+    let (nx, ny) = st.node[st.level];
+    let (cx, cy) = (nx * gx + j % gx, ny * gy + j / gx);
+    if j >= gx * gy || cx >= child.width || cy >= child.height {
+        return (false, false);
+    }
+    if cl == 0 {
+        let iv = cell_interval(st.la, st.ld, &CellRect::texel(face, cx, cy, n), lo, hi);
+        return (true, iv.crosses());
+    }
+    let rect = child.rect(face, cx, cy, n);
+    if rect.is_empty() {
+        return (false, false);
+    }
+    let iv = cell_interval(st.la, st.ld, &rect, lo, hi);
+    (
+        true,
+        iv.inflated(lo, hi, seg_reach(st.seg.a, st.seg.d)).is_some(),
+    )
+}
+
+/// The [`Work::Visit`] of the ray's current node.
+fn visit_work(tr: &CmoTracer, st: &RayState) -> Work {
+    let top = tr.hier.root() + 1;
+    let child = &tr.hier.levels[st.level - 1];
+    let group = if st.level == top {
+        (child.width, child.height)
+    } else {
+        tr.hier.levels[st.level].group
+    };
+    let (mut exists, mut crossed) = (0u32, 0u32);
+    for j in 0..32 {
+        let (e, c) = lane_crossing(tr, st, j);
+        exists |= u32::from(e) << j;
+        crossed |= u32::from(c) << j;
+    }
+    Work::Visit {
+        face: st.faces.face[st.face as usize],
+        level: st.level as u32,
+        node: st.node[st.level],
+        group,
+        exists,
+        crossed,
+    }
+}
+
 /// Sets up the DFS at the current (piece, face), advancing past exhausted ones; marks the ray
 /// escaped when none is left.
 fn enter_face(tr: &CmoTracer, st: &mut RayState) {
@@ -166,7 +227,7 @@ fn new_state(tr: &CmoTracer, seg: &Segment) -> RayState {
 }
 
 /// One traversal step after the node's mask is known: pick, descend, classify or backtrack.
-fn advance(tr: &CmoTracer, st: &mut RayState) {
+fn advance<L: WorkLog + ?Sized>(tr: &CmoTracer, st: &mut RayState, log: &mut L) {
     let top = tr.hier.root() + 1;
     let lvl = st.level;
     if st.mask[lvl] == 0 {
@@ -218,6 +279,7 @@ fn advance(tr: &CmoTracer, st: &mut RayState) {
             lo,
             hi,
         );
+        log.log(Work::Classify(tex));
         if let Some(o) = classify(tr, &st.seg, tex, &iv, &mut st.counters) {
             st.done = true;
             st.result = finish(&st.seg, tex, o, st.counters);
@@ -232,6 +294,17 @@ fn advance(tr: &CmoTracer, st: &mut RayState) {
 
 /// Traces `segs` (one CMO) on an emulated subgroup of `subgroup` lanes (4, 8, 16, 32 or 64).
 pub fn trace_alg3(tr: &CmoTracer, segs: &[Segment], subgroup: u32) -> Vec<TraceResult> {
+    trace_alg3_logged(tr, segs, subgroup, &mut NoLog)
+}
+
+/// [`trace_alg3`], reporting each ray's node visits and steps to `log` (one ray per call for a
+/// per-ray log: with several rays the events of a subgroup's rays interleave).
+pub fn trace_alg3_logged<L: WorkLog + ?Sized>(
+    tr: &CmoTracer,
+    segs: &[Segment],
+    subgroup: u32,
+    log: &mut L,
+) -> Vec<TraceResult> {
     assert!(
         SUBGROUP_SIZES.contains(&subgroup),
         "unsupported subgroup size {subgroup}"
@@ -275,6 +348,7 @@ pub fn trace_alg3(tr: &CmoTracer, segs: &[Segment], subgroup: u32) -> Vec<TraceR
                     continue;
                 }
                 if s.need_mask {
+                    log.log(visit_work(tr, s));
                     let mut mask = 0u32;
                     for c in 0..cells_per_lane {
                         let bits = (ballot[c as usize] >> (32 * slot)) as u32;
@@ -302,7 +376,13 @@ pub fn trace_alg3(tr: &CmoTracer, segs: &[Segment], subgroup: u32) -> Vec<TraceR
                     s.key[lvl] = keys[slot];
                     s.need_mask = false;
                 }
-                advance(tr, s);
+                let (lvl, top) = (s.level, tr.hier.root() + 1);
+                let leaves_face = s.mask[lvl] == 0 && lvl == top;
+                advance(tr, s, log);
+                log.log(Work::Step {
+                    left_face: leaves_face,
+                    done: s.done,
+                });
             }
         }
         for s in st.iter().flatten() {

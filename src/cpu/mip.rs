@@ -7,8 +7,8 @@
 //! (`checked`) until the walk leaves it, like alg. 2's `B(i)`.
 
 use super::{
-    CmoTracer, Counters, Segment, TraceResult, classify, escaped, faces_crossed, finish, locate,
-    next_texel, split_near_centre,
+    CmoTracer, Counters, NoLog, Segment, TraceResult, Work, WorkLog, classify, escaped,
+    faces_crossed, finish, locate, next_texel, split_near_centre,
 };
 use crate::cubemap::face::to_face_local;
 use crate::cubemap::frustum::{cell_interval, r_bounds, seg_reach};
@@ -18,15 +18,27 @@ pub const MIP_MAX_LEVELS: usize = 16;
 
 /// Traces one segment with the 2x2 pyramid.
 pub fn trace_mip(tr: &CmoTracer, seg: &Segment) -> TraceResult {
+    trace_mip_logged(tr, seg, &mut NoLog)
+}
+
+/// [`trace_mip`], reporting its work to `log` in the shader's terms (`spirv/shared/trace.wgsl`,
+/// `trace_mip`: a turn of the march starts at each texel search).
+pub fn trace_mip_logged<L: WorkLog + ?Sized>(
+    tr: &CmoTracer,
+    seg: &Segment,
+    log: &mut L,
+) -> TraceResult {
     let n = tr.cube.size;
     let top = tr.mip.levels.len() - 1;
     let mut c = Counters::default();
     let pieces = split_near_centre(seg, tr.cut_radius);
     let reach = seg_reach(seg.a, seg.d);
     for p in 0..pieces.count as usize {
+        log.log(Work::Piece);
         let [lo, hi] = pieces.range[p];
         let faces = faces_crossed(seg, lo, hi, n);
         for f in 0..faces.count as usize {
+            log.log(Work::Face);
             let face = faces.face[f];
             let la = to_face_local(face, seg.a);
             let ld = to_face_local(face, seg.d);
@@ -35,6 +47,9 @@ pub fn trace_mip(tr: &CmoTracer, seg: &Segment) -> TraceResult {
             // The cell skipped last, which the located texel may still touch by rounding.
             let mut last_skip = (usize::MAX, u32::MAX, u32::MAX);
             let mut cur = locate(seg, face, faces.iv[f].t0, n, lo, hi);
+            log.log(Work::Search {
+                found: cur.is_some(),
+            });
             'walk: while let Some((tex, iv)) = cur {
                 let mut l = top;
                 while l >= 1 {
@@ -43,6 +58,12 @@ pub fn trace_mip(tr: &CmoTracer, seg: &Segment) -> TraceResult {
                     let cy = tex.y / lev.span.1;
                     if checked[l] != (cx, cy) {
                         c.cells += 1;
+                        log.log(Work::Cell {
+                            level: l as u32,
+                            face,
+                            x: cx,
+                            y: cy,
+                        });
                         let civ = cell_interval(la, ld, &lev.rect(face, cx, cy, n), lo, hi);
                         let skip = match civ.inflated(lo, hi, reach) {
                             Some((a, b)) => {
@@ -55,6 +76,9 @@ pub fn trace_mip(tr: &CmoTracer, seg: &Segment) -> TraceResult {
                             last_skip = (l, cx, cy);
                             let t_exit = if civ.crosses() { civ.t1 } else { iv.t1 };
                             cur = locate(seg, face, t_exit.max(iv.t1), n, lo, hi);
+                            log.log(Work::Search {
+                                found: cur.is_some(),
+                            });
                             continue 'walk;
                         }
                         checked[l] = (cx, cy);
@@ -62,10 +86,14 @@ pub fn trace_mip(tr: &CmoTracer, seg: &Segment) -> TraceResult {
                     l -= 1;
                 }
                 c.texels += 1;
+                log.log(Work::Classify(tex));
                 if let Some(o) = classify(tr, seg, tex, &iv, &mut c) {
                     return finish(seg, tex, o, c);
                 }
                 cur = next_texel(seg, tex, &iv, n, lo, hi);
+                log.log(Work::Search {
+                    found: cur.is_some(),
+                });
             }
         }
     }

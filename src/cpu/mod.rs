@@ -76,6 +76,85 @@ pub mod watertight;
 
 use glam::Vec3;
 
+/// What a twin ran, reported step by step for the SIMT cost model ([`crate::model::work`]);
+/// the events follow the shader's blocks, not the twin's own loops where they differ.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Work {
+    /// Alg. 3: a node visit (the ray is testing `node`'s children): `level` is the node's
+    /// level (children at `level - 1`), `group` its children grid; bit j of `exists` is set
+    /// where child j exists (its bound is read), of `crossed` where it passes the interval
+    /// test (what `children_crossed` leaves for the 1-lane layout).
+    Visit {
+        face: u32,
+        level: u32,
+        node: (u32, u32),
+        group: (u32, u32),
+        exists: u32,
+        crossed: u32,
+    },
+    /// Alg. 3: the end of one traversal step (`advance`): it left the face (`left_face`; the
+    /// shader's `settle` enters the next one) or ended the trace (`done`).
+    Step {
+        left_face: bool,
+        done: bool,
+    },
+    /// A texel classified (both paths).
+    Classify(Texel),
+    /// Alg. 2: a piece of the segment, a face entered.
+    Piece,
+    Face,
+    /// Alg. 2: a texel search (`locate` or `next_texel`), the start of a turn of the march.
+    Search {
+        found: bool,
+    },
+    /// SSR: one iteration of the Hi-Z loop: the cell it read (`level`, x, y) and whether it
+    /// crossed into the next cell; `Hiz { level: -1, .. }` is the first crossing, before the
+    /// loop.
+    Hiz {
+        level: i32,
+        x: i32,
+        y: i32,
+        cross: bool,
+    },
+    /// Reflection point: the start of a walk (`inverse`: the inverse search).
+    Walk {
+        inverse: bool,
+    },
+    /// Reflection point: one iteration of a walk.
+    WalkStep,
+    /// Reflection point: a texel scored.
+    Score {
+        x: i32,
+        y: i32,
+    },
+    /// Alg. 2: a pyramid cell tested.
+    Cell {
+        level: u32,
+        face: u32,
+        x: u32,
+        y: u32,
+    },
+}
+
+/// Where a twin reports its [`Work`]; [`NoLog`] (what the plain entry points pass) drops it.
+pub trait WorkLog {
+    fn log(&mut self, w: Work);
+}
+
+/// The log that records nothing.
+pub struct NoLog;
+
+impl WorkLog for NoLog {
+    #[inline(always)]
+    fn log(&mut self, _: Work) {}
+}
+
+impl WorkLog for Vec<Work> {
+    fn log(&mut self, w: Work) {
+        self.push(w);
+    }
+}
+
 use crate::cubemap::CubeMap;
 use crate::cubemap::face::{
     FACE_COUNT, Texel, neighbour_across, st_to_texel_coord, texel_centre_dir, to_face_local,

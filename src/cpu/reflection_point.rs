@@ -179,9 +179,17 @@ impl SearchTextures {
         dot(n, b)
     }
 
-    fn walk(&self, start: [i32; 2], v: Vec3, inverse: bool, first_crosshair: bool) -> Walk {
+    fn walk<L: super::WorkLog + ?Sized>(
+        &self,
+        start: [i32; 2],
+        v: Vec3,
+        inverse: bool,
+        first_crosshair: bool,
+        log: &mut L,
+    ) -> Walk {
         let mut c = start;
         let mut it = 0;
+        log.log(super::Work::Walk { inverse });
         loop {
             if it >= self.max_iterations {
                 return Walk {
@@ -191,6 +199,8 @@ impl SearchTextures {
                 };
             }
             it += 1;
+            log.log(super::Work::WalkStep);
+            log.log(super::Work::Score { x: c[0], y: c[1] });
             let mut best = c;
             let mut best_score = self.score(c, v, inverse);
             for dy in -1..=1 {
@@ -200,6 +210,7 @@ impl SearchTextures {
                         continue;
                     }
                     let t = [c[0] + dx, c[1] + dy];
+                    log.log(super::Work::Score { x: t[0], y: t[1] });
                     let s = self.score(t, v, inverse);
                     if s > best_score {
                         best = t;
@@ -236,6 +247,12 @@ impl SearchTextures {
 
     /// The search for one vertex at `v` (a non-reflector's).
     pub fn search(&self, v: Vec3) -> RpVertex {
+        self.search_logged(v, &mut super::NoLog)
+    }
+
+    /// [`SearchTextures::search`], reporting its walks, their iterations and the texels scored
+    /// to `log`.
+    pub fn search_logged<L: super::WorkLog + ?Sized>(&self, v: Vec3, log: &mut L) -> RpVertex {
         let mut out = RpVertex {
             texel: [-1, -1],
             ..RpVertex::default()
@@ -244,14 +261,14 @@ impl SearchTextures {
             out.status = Status::NoReflector as u32;
             return out;
         };
-        let fwd = self.walk(start, v, false, true);
+        let fwd = self.walk(start, v, false, true, log);
         out.iterations = fwd.iterations;
         let mut t = fwd.texel;
         let mut capped = fwd.capped;
         out.status = Status::Found as u32;
         let (mut p, mut n) = self.surface(t);
         if !capped && dot(v - p, n) < 0.0 {
-            let inv = self.walk(t, v, true, false);
+            let inv = self.walk(t, v, true, false, log);
             out.inverse_iterations = inv.iterations;
             t = inv.texel;
             capped = inv.capped;

@@ -245,6 +245,18 @@ pub fn trace(
     origin: Vec3,
     dir: Vec3,
 ) -> SsrResult {
+    trace_logged(hiz, options, pixel, origin, dir, &mut super::NoLog)
+}
+
+/// [`trace`], reporting each iteration's Hi-Z read and crossing to `log` ([`super::Work::Hiz`]).
+pub fn trace_logged<L: super::WorkLog + ?Sized>(
+    hiz: &Hiz<'_>,
+    options: &SsrOptions,
+    pixel: [u32; 2],
+    origin: Vec3,
+    dir: Vec3,
+    log: &mut L,
+) -> SsrResult {
     let (w, h) = (hiz.width as f32, hiz.height as f32);
     let c0 = clip(&hiz.view_proj, origin, 1.0);
     let c1 = clip(&hiz.view_proj, dir, 0.0);
@@ -281,6 +293,12 @@ pub fn trace(
     ) * CROSS_EPSILON;
     let max_level = hiz.levels.len() as i32 - 1;
     let mut ray = cross_cell(o, d, here, 0, step, offset);
+    log.log(super::Work::Hiz {
+        level: -1,
+        x: here[0],
+        y: here[1],
+        cross: true,
+    });
     let mut level = 0i32;
     let mut iterations = 0u32;
     while level >= 0 && iterations < options.max_iterations {
@@ -290,7 +308,14 @@ pub fn trace(
         let old_cell = cell_of(ray.truncate(), level);
         let min_z = hiz.at(level, old_cell);
         let mut next = o + d * ray.z.max(min_z);
-        if cell_of(next.truncate(), level) != old_cell {
+        let cross = cell_of(next.truncate(), level) != old_cell;
+        log.log(super::Work::Hiz {
+            level,
+            x: old_cell[0],
+            y: old_cell[1],
+            cross,
+        });
+        if cross {
             next = cross_cell(o, d, old_cell, level, step, offset);
             level = max_level.min(level + 2);
         }

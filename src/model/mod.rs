@@ -1,13 +1,24 @@
 //! The SIMT cost model (issue 25): what the paths would cost on a 32- or 64-wide GPU.
 //!
-//! Work counters from the CPU twins ([`work`]) are grouped into warps as a GPU forms them
-//! ([`warps`]) and replayed in lockstep ([`replay`]), in two modes: a GPU issues a block when at
-//! least one lane needs it; lavapipe runs every block of a loop body on every turn that any lane
-//! makes. The blocks are weighted by their instruction counts in the compiled SPIR-V
-//! ([`weights`]), and the lavapipe mode's prediction is checked against lavapipe's measured cost
-//! per ray on held-out scenes and settings ([`validate`]).
+//! Work counters from the CPU twins ([`work`]; bvh's traversal twin in [`bvh`]) are grouped
+//! into warps as a GPU forms them ([`warps`]) and replayed in lockstep ([`replay`]), in two
+//! modes: a GPU issues a block when at least one lane needs it; lavapipe runs every block of a
+//! loop body on every turn that any lane makes. The blocks are weighted by their instruction
+//! counts in the compiled SPIR-V ([`weights`]), and the lavapipe mode's prediction is checked
+//! against lavapipe's measured cost per ray on held-out scenes and settings ([`validate`]).
+//!
+//! Entry point: [`replay::model_frame`] (scene, method, [`replay::ModelSettings`], warp width,
+//! [`replay::Mode`]) gives a [`replay::ReplayStats`]: issued warp-steps per ray per block (index
+//! = position in [`work::blocks`]), SIMD efficiency, 32-byte sectors per ray. To replay one
+//! recording at several widths and modes: [`work::frame`], [`replay::record`], [`replay::replay`].
+//!
+//! Every figure it gives is a model: its assumptions are in the module docs of [`work`] (rays,
+//! CMOs, addresses and the texel layout), [`warps`] (queue order, quad and tile order) and
+//! [`replay`] (the two modes, what is not modelled). Deterministic: the same scene and settings
+//! give the same numbers (one thread, no hash maps, a fixed-seed shuffle for the negative).
 #![forbid(unsafe_code)]
 
+pub mod bvh;
 pub mod replay;
 pub mod validate;
 pub mod warps;

@@ -1,10 +1,45 @@
 //! Lockstep replay of per-ray work in warps, in two modes (issue 25, item 3).
 //!
-//! (Being built: see the module docs once the replay lands.)
+//! # How it works
+//! [`record`] runs the CPU twins on a frame's rays ([`super::work`]); [`replay`] groups them
+//! into warps ([`super::warps`]) and runs each warp in lockstep over the shader's loop nest:
+//! - a loop turns until its last lane leaves; each turn runs the body's blocks in order;
+//! - [`Mode::Gpu`]: a block issues when at least one lane of the warp needs it (as often as the
+//!   lane that needs it most), a loop no lane enters is skipped;
+//! - [`Mode::Lavapipe`]: every block of a loop body issues on every turn any lane makes, and
+//!   every loop body runs at least once (lavapipe runs the body of each `if` for all lanes,
+//!   masked, and a loop until its last lane leaves).
+//!
+//! Each issue counts one warp-step of its block, its active lanes (the lanes that need it),
+//! `width` issued lanes, and per load of the block (the i-th load of each active lane is one
+//! warp load) the distinct 32-byte sectors the active lanes read.
+//!
+//! compute_trace has its own replay ([`replay_compute`]): its hot loop is subgroup-synchronous
+//! (every busy ray takes one step per turn; the loop is left for `settle` when any ray has it
+//! due), and a ray spans `lanes` lanes: `min(width, 32)` in the thesis layout (`main`: 32 / lanes
+//! rounds of lane tests per node visit, every lane of a ray running the per-ray blocks
+//! redundantly, all counted active), 1 in `main_lanes1` (one lane tests the children that
+//! `children_crossed` leaves, one per round, the rounds running until the last lane's run out).
+//!
+//! # What it assumes
+//! The warps of [`super::warps`]; the work of [`super::work`] (its assumptions); a block's cost
+//! is the same on every issue (its weight, `model::weights`); a warp runs alone (no scheduling,
+//! no latency hiding, no caches: sectors are transactions requested, not misses).
+//!
+//! # Where it stops
+//! - Only the default options of each method (exact criterion, pyramid, verified hits).
+//! - The retrace of `main_lanes1` (rays cut by lavapipe's loop limit) is not modelled: the
+//!   twins never cut a ray.
+//! - Divergence inside a block (an `if` within a callee) is folded into the block's weight.
+//! - compute's grid-stride batches are one warp each; the `subgroupAny` checks and the outer
+//!   loop's own instructions are not blocks.
 #![forbid(unsafe_code)]
 
 use serde::Serialize;
 
+use super::warps::{Assembly, Lane, WIDTHS};
+use super::work::{self, ComputeRay, Frame, Iter, Stmt};
+pub use super::work::{ComputeLanes, ModelSettings, TexelLayout};
 use crate::method::Method;
 use crate::scene::Scene;
 
@@ -18,55 +53,6 @@ pub enum Mode {
     /// Lavapipe: every block of a loop body runs on every turn that any lane makes (masked),
     /// and a loop's body runs at least once.
     Lavapipe,
-}
-
-/// How compute_trace lays a ray over lanes (`vk::methods::compute::ray_lanes`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum ComputeLanes {
-    /// `main`: min(width, 32) lanes per ray (the thesis layout).
-    Thesis,
-    /// `main_lanes1`: one lane per ray (what CPU devices, lavapipe, run).
-    One,
-    /// `One` in lavapipe mode, `Thesis` in GPU mode (what `ray_lanes` picks).
-    Auto,
-}
-
-/// The byte layout of texel and node addresses for the sector count.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum TexelLayout {
-    /// The GPU buffers' actual layout: row-major per face, faces in order, CMOs in order.
-    Linear,
-    /// 4x2-texel tiles of 8 4-byte texels (one 32-byte sector per tile), tiles row-major.
-    Tiled,
-}
-
-/// What the model needs of one frame beside the scene and method (the bench's settings).
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct ModelSettings {
-    /// Cube map size N (texels per face side).
-    pub cube: u32,
-    /// Image size in pixels.
-    pub width: u32,
-    pub height: u32,
-    /// compute_trace's lane layout.
-    pub compute_lanes: ComputeLanes,
-    /// Texel layout for the memory transactions.
-    pub layout: TexelLayout,
-}
-
-impl ModelSettings {
-    /// The defaults for a frame: `ComputeLanes::Auto`, `TexelLayout::Linear`.
-    pub fn new(cube: u32, width: u32, height: u32) -> ModelSettings {
-        ModelSettings {
-            cube,
-            width,
-            height,
-            compute_lanes: ComputeLanes::Auto,
-            layout: TexelLayout::Linear,
-        }
-    }
 }
 
 /// The replay's outputs for one method, scene, width and mode.
@@ -93,6 +79,476 @@ pub fn model_frame(
     width: u32,
     mode: Mode,
 ) -> anyhow::Result<ReplayStats> {
-    let _ = (scene, settings, width, mode);
-    anyhow::bail!("model: --method {} is not built yet", method.name())
+    let frame = work::frame(scene, settings)?;
+    let rec = record(&frame, method)?;
+    replay(&rec, width, mode, default_assembly(method))
+}
+
+/// The warp assembly a GPU uses for `method` (module docs of [`super::warps`]).
+pub fn default_assembly(method: Method) -> Assembly {
+    match method {
+        Method::Fragment | Method::Ssr => Assembly::Quads,
+        Method::ReflectionPoint => Assembly::Dispatch,
+        _ => Assembly::Queue,
+    }
+}
+
+/// One frame's recorded work for one method.
+pub struct Recorded {
+    pub method: Method,
+    pub settings: ModelSettings,
+    /// Image size and, per pixel (row-major), its ray.
+    pub img: (u32, u32),
+    pub ray_at: Vec<Option<usize>>,
+    pub work: FrameWork,
+}
+
+/// Per-ray work: compute's phases, or a tree over a static loop nest.
+pub enum FrameWork {
+    Compute(Vec<ComputeRay>),
+    Tree {
+        program: &'static [Stmt],
+        rays: Vec<Iter>,
+        /// What a lane that is not a ray runs (a non-mirror pixel: the set-up).
+        idle: Iter,
+    },
+}
+
+impl Recorded {
+    pub fn rays(&self) -> usize {
+        match &self.work {
+            FrameWork::Compute(r) => r.len(),
+            FrameWork::Tree { rays, .. } => rays.len(),
+        }
+    }
+}
+
+/// Runs `method`'s CPU twin on every ray of `frame` and keeps its work.
+pub fn record(frame: &Frame, method: Method) -> anyhow::Result<Recorded> {
+    let work = match method {
+        Method::Compute => FrameWork::Compute(
+            frame
+                .rays
+                .iter()
+                .map(|r| work::compute_ray(frame, r))
+                .collect(),
+        ),
+        Method::Fragment => {
+            let mut idle = Iter::default();
+            idle.execs.push(work::Exec {
+                block: work::F_RAY_SETUP,
+                loads: Vec::new(),
+            });
+            FrameWork::Tree {
+                program: work::FRAGMENT_PROGRAM,
+                rays: frame
+                    .rays
+                    .iter()
+                    .map(|r| work::fragment_ray(frame, r))
+                    .collect(),
+                idle,
+            }
+        }
+        Method::Ssr => {
+            let mut idle = Iter::default();
+            idle.execs.push(work::Exec {
+                block: work::S_RAY_SETUP,
+                loads: Vec::new(),
+            });
+            FrameWork::Tree {
+                program: work::SSR_PROGRAM,
+                rays: work::ssr_rays(frame)
+                    .into_iter()
+                    .map(|(it, _)| it)
+                    .collect(),
+                idle,
+            }
+        }
+        Method::Bvh => FrameWork::Tree {
+            program: super::bvh::BVH_PROGRAM,
+            rays: super::bvh::bvh_rays(frame).0,
+            idle: Iter::default(),
+        },
+        Method::ReflectionPoint => {
+            // One invocation per scene vertex, in the dispatch's order; reflectors' vertices
+            // leave at once (idle lanes).
+            let mut rays = Vec::new();
+            let ray_at = work::reflection_point_vertices(frame)
+                .into_iter()
+                .map(|v| {
+                    v.map(|(it, _)| {
+                        rays.push(it);
+                        rays.len() - 1
+                    })
+                })
+                .collect();
+            return Ok(Recorded {
+                method,
+                settings: frame.settings.clone(),
+                img: (0, 0),
+                ray_at,
+                work: FrameWork::Tree {
+                    program: work::REFLECTION_POINT_PROGRAM,
+                    rays,
+                    idle: Iter::default(),
+                },
+            });
+        }
+        Method::Envmap | Method::Reference => {
+            anyhow::bail!(
+                "model: --method {} has no model (it traces nothing per ray)",
+                method.name()
+            )
+        }
+    };
+    Ok(Recorded {
+        method,
+        settings: frame.settings.clone(),
+        img: (frame.settings.width, frame.settings.height),
+        ray_at: frame.ray_at.clone(),
+        work,
+    })
+}
+
+/// Sums over the issues of a replay.
+#[derive(Clone, Debug, Default)]
+struct Acc {
+    steps: Vec<u64>,
+    active: u64,
+    issued: u64,
+    sectors: u64,
+}
+
+impl Acc {
+    /// One issue of `block` with `active` lanes, and its loads (per lane, in program order).
+    fn issue(&mut self, block: usize, width: u32, active: u64, loads: &[&[u64]]) {
+        self.steps[block] += 1;
+        self.active += active;
+        self.issued += width as u64;
+        self.sectors += sectors(loads);
+    }
+
+    /// [`Acc::issue`] where lavapipe runs the block or a lane needs it (`active` > 0).
+    fn issue_if(
+        &mut self,
+        lavapipe: bool,
+        block: usize,
+        width: u32,
+        active: u64,
+        loads: &[&[u64]],
+    ) {
+        if lavapipe || active > 0 {
+            self.issue(block, width, active, loads);
+        }
+    }
+}
+
+/// Distinct 32-byte sectors of each warp load (the i-th load of every lane), summed.
+fn sectors(loads: &[&[u64]]) -> u64 {
+    let most = loads.iter().map(|l| l.len()).max().unwrap_or(0);
+    let mut total = 0;
+    let mut s: Vec<u64> = Vec::with_capacity(loads.len());
+    for i in 0..most {
+        s.clear();
+        s.extend(loads.iter().filter_map(|l| l.get(i)).map(|a| a >> 5));
+        s.sort_unstable();
+        s.dedup();
+        total += s.len() as u64;
+    }
+    total
+}
+
+/// Replays `rec` in warps of `width` lanes in `mode`, assembled by `assembly`.
+pub fn replay(
+    rec: &Recorded,
+    width: u32,
+    mode: Mode,
+    assembly: Assembly,
+) -> anyhow::Result<ReplayStats> {
+    if !WIDTHS.contains(&width) {
+        anyhow::bail!("model: warp width {width} is not one of {WIDTHS:?}");
+    }
+    let nblocks = work::blocks(rec.method).len();
+    let mut acc = Acc {
+        steps: vec![0; nblocks],
+        ..Acc::default()
+    };
+    let rays = rec.rays();
+    match &rec.work {
+        FrameWork::Compute(work) => {
+            let lanes = compute_lanes(rec.settings.compute_lanes, width, mode);
+            let slots = width / lanes;
+            for warp in super::warps::warps(assembly, rays, rec.img, &rec.ray_at, slots) {
+                let slot: Vec<Option<&ComputeRay>> = warp
+                    .iter()
+                    .map(|l| {
+                        if let Lane::Ray(i) = l {
+                            Some(&work[*i])
+                        } else {
+                            None
+                        }
+                    })
+                    .collect();
+                replay_compute(&slot, lanes, width, mode, &mut acc);
+            }
+        }
+        FrameWork::Tree {
+            program,
+            rays: work,
+            idle,
+        } => {
+            for warp in super::warps::warps(assembly, rays, rec.img, &rec.ray_at, width) {
+                let lanes: Vec<Option<&Iter>> = warp
+                    .iter()
+                    .map(|l| match l {
+                        Lane::Ray(i) => Some(&work[*i]),
+                        Lane::Idle => Some(idle),
+                        Lane::Helper | Lane::Empty => None,
+                    })
+                    .collect();
+                replay_body(program, &lanes, width, mode, &mut acc);
+            }
+        }
+    }
+    let per = |x: u64| {
+        if rays == 0 {
+            0.0
+        } else {
+            x as f64 / rays as f64
+        }
+    };
+    Ok(ReplayStats {
+        method: rec.method,
+        width,
+        mode,
+        rays,
+        steps_per_ray: acc.steps.iter().map(|&s| per(s)).collect(),
+        simd_efficiency: if acc.issued == 0 {
+            0.0
+        } else {
+            acc.active as f64 / acc.issued as f64
+        },
+        sectors_per_ray: per(acc.sectors),
+    })
+}
+
+/// Lanes per ray of compute_trace at `width` (module docs).
+pub fn compute_lanes(lanes: ComputeLanes, width: u32, mode: Mode) -> u32 {
+    match (lanes, mode) {
+        (ComputeLanes::One, _) | (ComputeLanes::Auto, Mode::Lavapipe) => 1,
+        (ComputeLanes::Thesis, _) | (ComputeLanes::Auto, Mode::Gpu) => width.min(32),
+    }
+}
+
+/// Lockstep over one body of a static loop nest; `lanes[i]`: lane i's turn (None: the lane does
+/// not run this turn).
+fn replay_body(prog: &[Stmt], lanes: &[Option<&Iter>], width: u32, mode: Mode, acc: &mut Acc) {
+    for stmt in prog {
+        match *stmt {
+            Stmt::Block(b) => {
+                let execs: Vec<Vec<&work::Exec>> = lanes
+                    .iter()
+                    .map(|l| {
+                        l.map_or(Vec::new(), |it| {
+                            it.execs.iter().filter(|e| e.block == b).collect()
+                        })
+                    })
+                    .collect();
+                let most = execs.iter().map(Vec::len).max().unwrap_or(0);
+                let issues = if mode == Mode::Lavapipe {
+                    most.max(1)
+                } else {
+                    most
+                };
+                for r in 0..issues {
+                    let loads: Vec<&[u64]> = execs
+                        .iter()
+                        .filter_map(|e| e.get(r))
+                        .map(|e| e.loads.as_slice())
+                        .collect();
+                    acc.issue(b, width, loads.len() as u64, &loads);
+                }
+            }
+            Stmt::Loop(id, body) => {
+                let runs: Vec<Option<&work::Run>> =
+                    lanes.iter().map(|l| l.and_then(|it| it.run(id))).collect();
+                let most = runs
+                    .iter()
+                    .flatten()
+                    .map(|r| r.iters.len())
+                    .max()
+                    .unwrap_or(0);
+                let turns = if mode == Mode::Lavapipe {
+                    most.max(1)
+                } else {
+                    most
+                };
+                for t in 0..turns {
+                    let sub: Vec<Option<&Iter>> = runs
+                        .iter()
+                        .map(|r| r.and_then(|r| r.iters.get(t)))
+                        .collect();
+                    replay_body(body, &sub, width, mode, acc);
+                }
+            }
+        }
+    }
+}
+
+/// One compute_trace subgroup: `slot[s]` the ray on lanes `s * lanes ..` (module docs).
+fn replay_compute(slot: &[Option<&ComputeRay>], lanes: u32, width: u32, mode: Mode, acc: &mut Acc) {
+    use work::*;
+    let lavapipe = mode == Mode::Lavapipe;
+    let l = lanes as u64;
+    let mut pos = vec![0usize; slot.len()];
+    let phase = |s: usize, pos: &[usize]| slot[s].and_then(|r| r.phases.get(pos[s]));
+    loop {
+        // `if pending { settle }`.
+        let pending: Vec<(usize, &Vec<SettleTurn>)> = (0..slot.len())
+            .filter_map(|s| match phase(s, &pos) {
+                Some(Phase::Settle(t)) => Some((s, t)),
+                _ => None,
+            })
+            .collect();
+        let most = pending.iter().map(|(_, t)| t.len()).max().unwrap_or(0);
+        let turns = if lavapipe { most.max(1) } else { most };
+        for t in 0..turns {
+            let turn: Vec<&SettleTurn> = pending.iter().filter_map(|(_, ts)| ts.get(t)).collect();
+            acc.issue_if(lavapipe, C_SETTLE, width, turn.len() as u64 * l, &[]);
+            acc.issue_if(
+                lavapipe,
+                C_HANDOFF,
+                width,
+                turn.iter().filter(|x| x.handoff).count() as u64 * l,
+                &[],
+            );
+            let v: Vec<&[u64]> = turn
+                .iter()
+                .filter(|x| !x.verify.is_empty())
+                .map(|x| x.verify.as_slice())
+                .collect();
+            acc.issue_if(lavapipe, C_VERIFY, width, v.len() as u64 * l, &v);
+            acc.issue_if(
+                lavapipe,
+                C_START_TRACE,
+                width,
+                turn.iter().filter(|x| x.start).count() as u64 * l,
+                &[],
+            );
+            acc.issue_if(
+                lavapipe,
+                C_ENTER_FACE,
+                width,
+                turn.iter().filter(|x| x.enter).count() as u64 * l,
+                &[],
+            );
+        }
+        for (s, _) in &pending {
+            pos[*s] += 1;
+        }
+        let busy = |pos: &[usize]| {
+            (0..slot.len())
+                .filter(|&s| matches!(phase(s, pos), Some(Phase::Step(_))))
+                .count()
+        };
+        if busy(&pos) == 0 {
+            break;
+        }
+        // The hot loop: one step per busy ray per turn, until a ray has `settle` due.
+        loop {
+            let steps: Vec<&Step> = (0..slot.len())
+                .filter_map(|s| match phase(s, &pos) {
+                    Some(Phase::Step(st)) => Some(st),
+                    _ => None,
+                })
+                .collect();
+            compute_step(&steps, lanes, width, mode, acc);
+            for (s, p) in pos.iter_mut().enumerate() {
+                if matches!(slot[s].and_then(|r| r.phases.get(*p)), Some(Phase::Step(_))) {
+                    *p += 1;
+                }
+            }
+            let due = (0..slot.len()).any(|s| matches!(phase(s, &pos), Some(Phase::Settle(_))));
+            if due || busy(&pos) == 0 {
+                break;
+            }
+        }
+    }
+    // The record: lane 0 of each ray, `hit_shade` for a hit.
+    let hits = slot.iter().flatten().filter(|r| r.hit).count();
+    if lavapipe || hits > 0 {
+        acc.issue(C_SHADE, width, hits as u64, &[]);
+    }
+}
+
+/// One turn of compute_trace's hot loop over the busy rays' `steps`.
+fn compute_step(steps: &[&work::Step], lanes: u32, width: u32, mode: Mode, acc: &mut Acc) {
+    use work::*;
+    let lavapipe = mode == Mode::Lavapipe;
+    let l = lanes as u64;
+    let testing: Vec<&Visit> = steps.iter().filter_map(|s| s.visit.as_ref()).collect();
+    acc.issue_if(lavapipe, C_VISIT, width, testing.len() as u64 * l, &[]);
+    if lanes == 1 {
+        acc.issue_if(
+            lavapipe,
+            C_CHILDREN_CROSSED,
+            width,
+            testing.len() as u64,
+            &[],
+        );
+        // Round c: each testing lane tests its c-th crossed child.
+        let crossed: Vec<Vec<u64>> = testing
+            .iter()
+            .map(|v| {
+                v.loads
+                    .iter()
+                    .filter(|(j, _)| v.crossed >> j & 1 == 1)
+                    .map(|&(_, a)| a)
+                    .collect()
+            })
+            .collect();
+        let most = crossed.iter().map(Vec::len).max().unwrap_or(0);
+        let rounds = if lavapipe { most.max(1) } else { most };
+        for c in 0..rounds {
+            let loads: Vec<[u64; 1]> = crossed
+                .iter()
+                .filter_map(|x| x.get(c))
+                .map(|&a| [a])
+                .collect();
+            let refs: Vec<&[u64]> = loads.iter().map(|a| a.as_slice()).collect();
+            acc.issue_if(lavapipe, C_LANE_TEST, width, refs.len() as u64, &refs);
+        }
+    } else {
+        // 32 / lanes uniform rounds; lane i of a ray tests child i + lanes * c.
+        for c in 0..32 / lanes {
+            let loads: Vec<[u64; 1]> = testing
+                .iter()
+                .flat_map(|v| {
+                    v.loads
+                        .iter()
+                        .filter(|(j, _)| *j as u32 / lanes == c)
+                        .map(|&(_, a)| [a])
+                })
+                .collect();
+            let refs: Vec<&[u64]> = loads.iter().map(|a| a.as_slice()).collect();
+            let active = if testing.is_empty() {
+                0
+            } else {
+                refs.len() as u64
+            };
+            if lavapipe || !testing.is_empty() {
+                acc.issue(C_LANE_TEST, width, active, &refs);
+            }
+        }
+    }
+    // The pick runs on every lane (uniform code), advance on the busy rays.
+    acc.issue(C_PICK, width, steps.len() as u64 * l, &[]);
+    acc.issue(C_ADVANCE, width, steps.len() as u64 * l, &[]);
+    let loads: Vec<[u64; 1]> = steps
+        .iter()
+        .filter_map(|s| s.classify)
+        .map(|a| [a])
+        .collect();
+    let refs: Vec<&[u64]> = loads.iter().map(|a| a.as_slice()).collect();
+    acc.issue_if(lavapipe, C_CLASSIFY, width, refs.len() as u64 * l, &refs);
 }
