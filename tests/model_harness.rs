@@ -138,7 +138,7 @@ fn the_validation_split_is_disjoint_and_the_fit_reads_training_rows_only() {
         row("default", Method::Compute, 64, 8, 3000.0, &t),
         row("default", Method::Compute, 256, 4, 5000.0, &t),
         row("bowl", Method::Compute, 256, 8, 7000.0, &t),
-        row("bowl", Method::Bvh, 64, 8, 2000.0, &t),
+        row("bowl", Method::Fragment, 64, 8, 2000.0, &t),
     ];
     let v = validate::validate(&rows, &t).unwrap();
     let held: Vec<&str> = v
@@ -151,15 +151,28 @@ fn the_validation_split_is_disjoint_and_the_fit_reads_training_rows_only() {
     assert_eq!(held.len(), 4);
     assert!(v.training_rows.iter().all(|k| !held.contains(&k.as_str())));
     // A held-out row changed tenfold leaves the scale as it was ...
-    let scale = validate::fit_scale(&rows).unwrap();
+    let fits = |r: &[Modelled]| {
+        [None, Some(Method::Compute), Some(Method::Fragment)]
+            .map(|m| validate::fit_scale(r, m).unwrap())
+    };
+    let scale = validate::fit_scale(&rows, None).unwrap();
+    let all = fits(&rows);
     for i in 2..rows.len() {
         let mut r = rows.clone();
         r[i].measured.pass_ns *= 10.0;
-        assert_eq!(validate::fit_scale(&r).unwrap(), scale, "row {i}");
+        assert_eq!(fits(&r), all, "row {i}");
+        assert_eq!(
+            validate::validate(&r, &t).unwrap().scales,
+            v.scales,
+            "row {i}"
+        );
     }
+    // bvh has no training row here: its scale cannot be fitted, and says so.
+    let e = validate::fit_scale(&rows, Some(Method::Bvh)).unwrap_err();
+    assert!(format!("{e}").contains("--method bvh"), "{e}");
     // ... and a training row changed moves it (the negative: the check can fail).
     rows[0].measured.pass_ns *= 10.0;
-    assert_ne!(validate::fit_scale(&rows).unwrap(), scale);
+    assert_ne!(validate::fit_scale(&rows, None).unwrap(), scale);
     // A row marked training against the rule is refused.
     rows[4].train = true;
     let e = format!("{:#}", validate::validate(&rows, &t).unwrap_err());
@@ -229,12 +242,7 @@ fn bench_model_json_has_the_columns() {
         rows.iter()
             .any(|r| r["train"] == false && r["scene"] == "bowl")
     );
-    assert!(
-        m["lavapipe"]["scale_ns_per_weighted_step"]
-            .as_f64()
-            .unwrap()
-            > 0.0
-    );
+    assert!(m["lavapipe"]["global_scale"].as_f64().unwrap() > 0.0);
     let widths: Vec<u64> = m["gpu"]
         .as_array()
         .unwrap()

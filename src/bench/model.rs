@@ -4,8 +4,8 @@
 //! Three parts, each labelled a model in every output:
 //! - **lavapipe check** ([`crate::model::validate`]): every run of a method's default setting
 //!   (compute, fragment-exact-mip, ssr, reflection-point, bvh) is replayed in lavapipe mode at
-//!   the device's subgroup size; one scale (ns per weighted warp-step) is fitted on the training
-//!   rows (scene `default`; with `--model-from`, scene `default` at cube 256 and subgroup 8) and
+//!   the device's subgroup size; one scale per method (ns per weighted warp-step) is fitted on
+//!   the training rows (scene `default`; with `--model-from`, scene `default` at cube 256 and subgroup 8) and
 //!   every other row gets its prediction error.
 //! - **GPU predictions** at widths 32 and 64 (GPU mode: a block issues when one lane needs it),
 //!   per scene: compute / fragment, compute / bvh, fragment / bvh (ratios of weighted warp-steps
@@ -24,6 +24,7 @@
 //! a GPU (no latency, no occupancy, no caches beyond the sector count); the bench's frame and
 //! cube size.
 
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
@@ -32,9 +33,12 @@ use serde::Serialize;
 use super::plot::{self, Point};
 use super::scaling::{TRIANGLE_SEGMENTS, tessellated_scene};
 use super::{BenchReport, Method, MethodSpec, prepare_scene};
-use crate::model::replay::{Mode, ModelSettings, ReplayStats, model_frame};
+use crate::model::replay::{
+    Mode, ModelSettings, Recorded, ReplayStats, default_assembly, record, replay,
+};
 use crate::model::validate::{self, Measured, Modelled, Training, Validation};
 use crate::model::weights;
+use crate::model::work::{self, Frame};
 use crate::output::write_atomic;
 
 /// The methods the model replays, in table order.
@@ -170,16 +174,60 @@ pub fn measured_from_files(paths: &[PathBuf]) -> Result<Vec<Measured>> {
     Ok(out)
 }
 
+/// The model's recordings (CPU twins' work), one per scene, cube size and method, replayed at
+/// every width and mode asked: recording is the expensive part.
+#[derive(Default)]
+pub struct Recordings {
+    frames: HashMap<(String, u32), Frame>,
+    recorded: HashMap<(String, u32, Method), Recorded>,
+}
+
+impl Recordings {
+    /// The replay of `method` on built-in or file scene `name` at cube size `cube`, frame
+    /// `dims`, `width` lanes, `mode`.
+    pub fn stats(
+        &mut self,
+        name: &str,
+        cube: u32,
+        dims: (u32, u32),
+        method: Method,
+        width: u32,
+        mode: Mode,
+    ) -> Result<ReplayStats> {
+        let key = (name.to_string(), cube, method);
+        if !self.recorded.contains_key(&key) {
+            let fkey = (name.to_string(), cube);
+            if !self.frames.contains_key(&fkey) {
+                let (scene, _) = prepare_scene(name, dims.0, dims.1, Some(cube), None)?;
+                let settings = ModelSettings::new(cube, dims.0, dims.1);
+                self.frames
+                    .insert(fkey.clone(), work::frame(&scene, &settings)?);
+            }
+            let rec = record(&self.frames[&fkey], method)
+                .with_context(|| format!("model of {name} --method {}", method.name()))?;
+            self.recorded.insert(key.clone(), rec);
+        }
+        replay(&self.recorded[&key], width, mode, default_assembly(method)).with_context(|| {
+            format!(
+                "model of {name} --method {} at width {width}",
+                method.name()
+            )
+        })
+    }
+}
+
 /// Replays every measured row (lavapipe mode) and validates with `training`.
-pub fn lavapipe_check(rows: &[Measured], training: &Training) -> Result<Validation> {
+pub fn lavapipe_check(
+    rec: &mut Recordings,
+    rows: &[Measured],
+    training: &Training,
+) -> Result<Validation> {
     let mut modelled: Vec<Modelled> = Vec::with_capacity(rows.len());
     for m in rows {
-        let (scene, _) = prepare_scene(&m.scene, m.width, m.height, Some(m.cube), None)?;
+        let dims = (m.width, m.height);
+        let stats = rec.stats(&m.scene, m.cube, dims, m.method, m.subgroup, Mode::Lavapipe)?;
         let train = training.contains(m);
-        modelled.push(
-            validate::model_row(&scene, m.clone(), train)
-                .with_context(|| format!("model of {}", m.key()))?,
-        );
+        modelled.push(validate::modelled(&stats, m.clone(), train)?);
     }
     if !modelled.iter().any(|r| r.train) {
         bail!(
@@ -192,29 +240,17 @@ pub fn lavapipe_check(rows: &[Measured], training: &Training) -> Result<Validati
     validate::validate(&modelled, training)
 }
 
-fn gpu_stats(
-    scene: &crate::scene::Scene,
-    method: Method,
-    cube: u32,
-    dims: (u32, u32),
-    width: u32,
-) -> Result<ReplayStats> {
-    let settings = ModelSettings::new(cube, dims.0, dims.1);
-    model_frame(scene, method, &settings, width, Mode::Gpu)
-        .with_context(|| format!("model of --method {} at width {width}", method.name()))
-}
-
 /// GPU-mode figures of every modelled method on `scene` at `width`.
 pub fn gpu_prediction(
+    rec: &mut Recordings,
     name: &str,
     cube: u32,
     dims: (u32, u32),
     width: u32,
 ) -> Result<GpuPrediction> {
-    let (scene, _) = prepare_scene(name, dims.0, dims.1, Some(cube), None)?;
     let mut methods = Vec::new();
     for m in METHODS {
-        let stats = gpu_stats(&scene, m, cube, dims, width)?;
+        let stats = rec.stats(name, cube, dims, m, width, Mode::Gpu)?;
         methods.push(GpuMethod {
             method: m,
             cost_per_ray: weights::cost(&stats, &weights::weights(m)?),
@@ -240,14 +276,22 @@ pub fn gpu_prediction(
     })
 }
 
-/// The triangle axis at width 32 (GPU mode).
+/// The triangle axis at width 32 (GPU mode), the scenes of `bench --scaling`'s triangle axis
+/// with the camera at `dims`.
 pub fn triangle_axis(dims: (u32, u32)) -> Result<Vec<TrianglePoint>> {
     let mut out = Vec::new();
     for seg in TRIANGLE_SEGMENTS {
-        let scene = tessellated_scene(seg)?;
-        let cube = scene.cmo.resolution;
+        let mut scene = tessellated_scene(seg)?;
+        if let Some(mut camera) = scene.cameras.first().cloned() {
+            camera.width = dims.0;
+            camera.height = dims.1;
+            crate::placement::resolve(&mut scene, &camera);
+        }
+        let settings = ModelSettings::new(scene.cmo.resolution, dims.0, dims.1);
+        let frame = work::frame(&scene, &settings)?;
         let c = |m: Method| -> Result<f64> {
-            let s = gpu_stats(&scene, m, cube, dims, 32)?;
+            let rec = record(&frame, m)?;
+            let s = replay(&rec, 32, Mode::Gpu, default_assembly(m))?;
             Ok(weights::cost(&s, &weights::weights(m)?))
         };
         let bvh = c(Method::Bvh)?;
@@ -286,7 +330,8 @@ pub fn run(
     progress: &dyn Fn(&str),
 ) -> Result<ModelReport> {
     progress("lavapipe check");
-    let lavapipe = lavapipe_check(rows, training)?;
+    let mut rec = Recordings::default();
+    let lavapipe = lavapipe_check(&mut rec, rows, training)?;
     let dims = rows.first().map_or((160, 120), |m| (m.width, m.height));
     let mut scenes: Vec<(&str, u32)> = Vec::new();
     for m in rows {
@@ -298,7 +343,7 @@ pub fn run(
     for (s, cube) in scenes {
         for w in GPU_WIDTHS {
             progress(&format!("GPU width {w}: {s}"));
-            gpu.push(gpu_prediction(s, cube, dims, w)?);
+            gpu.push(gpu_prediction(&mut rec, s, cube, dims, w)?);
         }
     }
     progress("triangle axis");
@@ -320,17 +365,24 @@ fn opt(v: Option<f64>) -> String {
 /// The lavapipe check as a Markdown table.
 pub fn lavapipe_table(v: &Validation) -> String {
     let mut s = format!(
-        "MODEL check, lavapipe mode: scale {:.3} ns per weighted warp-step, fitted on {} \
-         ({} rows: {}); {} of {} held-out rows within +-{:.0} %.\n\n\
+        "MODEL check, lavapipe mode: one scale per method (ns per weighted warp-step: {}), \
+         fitted on {} ({} rows: {}); {} of {} held-out rows within +-{:.0} % (one global scale, \
+         {:.3}: {} within).\n\n\
          | scene | method | cube | subgroup | row | measured ns/ray | model ns/ray | error | SIMD eff. | missed block |\n\
          |---|---|---:|---:|---|---:|---:|---:|---:|---|\n",
-        v.scale_ns_per_weighted_step,
+        v.scales
+            .iter()
+            .map(|(m, k)| format!("{} {k:.3}", m.name()))
+            .collect::<Vec<_>>()
+            .join(", "),
         v.training.describe(),
         v.training_rows.len(),
         v.training_rows.join(", "),
         v.held_out_within_target,
         v.held_out,
         100.0 * v.target,
+        v.global_scale,
+        v.global_held_out_within_target,
     );
     for r in &v.rows {
         s += &format!(
