@@ -292,6 +292,29 @@ fn model_from_a_bad_file_names_the_field() {
         "{e}"
     );
     assert!(!out.join("model.json").exists());
+    // The same row from two files is refused (one of them would be fitted or scored twice).
+    let g = d.path().join("one.json");
+    std::fs::write(
+        &g,
+        r#"{"device": {"subgroup_size": 8}, "runs": [{"scene": "default", "method": "bvh",
+            "cube_size": 256, "width": 16, "height": 12, "rays": 10,
+            "trace_ns": {"median": 1000.0}}]}"#,
+    )
+    .unwrap();
+    let both = format!("{},{}", g.display(), g.display());
+    let o = cli(&[
+        "bench",
+        "--model",
+        "--model-from",
+        &both,
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && e.contains("default/bvh/cube256/sg8"),
+        "{e}"
+    );
     // --model-from alone is refused by the parser (it needs --model).
     let o = cli(&["bench", "--model-from", f.to_str().unwrap()]);
     assert!(!o.status.success());

@@ -59,7 +59,8 @@ pub const ASSUMPTIONS: &[&str] = &[
     "weights: SPIR-V instructions per block of the shipped shaders (static count, callees expanded, both arms of an if)",
     "lavapipe mode: every block of a loop body runs on every turn any lane makes; width = lavapipe's subgroup size",
     "GPU mode: a block issues when at least one lane needs it; widths 32 and 64",
-    "warps: compute = consecutive queue entries (one lane per ray on lavapipe, min(width, 32) lanes per ray on a GPU); fragment = 2x2 quads (helper lanes counted) in row-major 8x8 tiles; bvh = queue order (model::warps)",
+    "warps (model::warps): compute and bvh = consecutive entries of the row-major mirror-pixel queue (compute: one lane per ray in lavapipe mode, min(width, 32) lanes per ray in GPU mode); fragment and ssr = 2x2 quads in 8x4-pixel tiles, tiles row-major (helper lanes issued, never active); reflection-point = consecutive vertices of its 1-D dispatch",
+    "lavapipe check: one scale per method (ns per weighted warp-step) fitted on the training rows only; the same scale at every subgroup size (a warp-step of 4, 8 or 16 lanes costs the same)",
     "GPU ratios assume the same ns per weighted warp-step for every method: no latency hiding, occupancy or cache model",
     "sectors: distinct 32-byte sectors per warp load, row-major texels per face (model::replay TexelLayout::Linear)",
 ];
@@ -170,6 +171,13 @@ pub fn measured_from_files(paths: &[PathBuf]) -> Result<Vec<Measured>> {
     }
     if out.is_empty() {
         bail!("--model-from: no run of a modelled method's default setting in the files");
+    }
+    let mut keys = std::collections::BTreeSet::new();
+    if let Some(dup) = out.iter().find(|m| !keys.insert(m.key())) {
+        bail!(
+            "--model-from: row {} (scene/method/cube/subgroup) is in two of the files; give one",
+            dup.key()
+        );
     }
     Ok(out)
 }
