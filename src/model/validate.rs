@@ -27,7 +27,8 @@
 //! Where a held-out row misses the target, [`RowResult::miss`] names the block whose share of
 //! the modelled cost moved most from the same method's training row: the cost that the one scale
 //! converts differently from the training row is most likely that block's (its instructions cost
-//! more or less per step than the mix the scale was fitted on).
+//! more or less per step than the mix the scale was fitted on). Where no share moved by
+//! [`SHARE_SHIFT`] or more, it says so: then no block is to blame, the time per weighted step is.
 //!
 //! # Where it stops
 //! The model counts instructions, not their latency: texture fetches (gathers in lavapipe),
@@ -42,6 +43,10 @@ use serde::Serialize;
 use super::replay::{Mode, ModelSettings, ReplayStats, model_frame};
 use super::{weights, work};
 use crate::method::Method;
+
+/// A block's share of the modelled cost must move this much from the training row's before a
+/// miss is blamed on it.
+pub const SHARE_SHIFT: f64 = 0.05;
 
 /// The +-share the issue targets.
 pub const TARGET: f64 = 0.25;
@@ -311,6 +316,12 @@ fn miss(r: &Modelled, rows: &[Modelled], error: f64) -> String {
         })
         .map(|(i, (x, y))| (i, *x, *y));
     match best {
+        Some((_, here, train)) if (here - train).abs() < SHARE_SHIFT => format!(
+            "{dir}-predicts; no block: every share is within {:.0} points of the training \
+             row's, so the time per weighted warp-step itself differs here (subgroup size, \
+             scene-wide overhead or noise), not one block",
+            100.0 * SHARE_SHIFT
+        ),
         Some((i, here, train)) => format!(
             "{dir}-predicts; block {}: {:.0} % of the modelled cost here, {:.0} % on the \
              training row",
