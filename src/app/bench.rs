@@ -83,6 +83,21 @@ pub struct BenchArgs {
     /// frame (bench::sequence). The row is at --width 320 --height 240.
     #[arg(long, conflicts_with = "scaling")]
     pub sequence: bool,
+    /// Adds the SIMT cost model (a MODEL, not a measurement) to the grid's JSON, Markdown and
+    /// plots (bench::model): each method's default setting replayed in lockstep warps from its
+    /// CPU twin's work, weighted by SPIR-V instruction counts. (1) lavapipe mode at the device's
+    /// subgroup size against the measured ns per ray of the tracing pass, one scale per method fitted on
+    /// scene `default` only (keep it in --scenes), the error of every other row; (2) predictions
+    /// at warp widths 32 and 64 (compute/fragment, compute/bvh, fragment/bvh, SIMD efficiency,
+    /// sectors per ray); (3) where cube-map tracing would overtake the BVH on the triangle axis
+    /// of --scaling. Writes model.svg beside the grid's files.
+    #[arg(long, conflicts_with_all = ["scaling", "sequence"])]
+    pub model: bool,
+    /// With --model: render nothing; model the runs of these earlier bench.json files instead
+    /// (e.g. one per LP_NATIVE_VECTOR_WIDTH and --cube-size), fitting on scene `default` at cube
+    /// 256 and subgroup 8, and write model.json, model.md and model.svg into -o.
+    #[arg(long, value_delimiter = ',', requires = "model")]
+    pub model_from: Vec<PathBuf>,
     /// Scaling: the largest cube face size (powers of two from 32). The default stops at 1024:
     /// at 2048 one CMO's colour buffer (384 MiB) exceeds lavapipe's maxStorageBufferRange.
     #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(32..=4096))]
@@ -141,6 +156,12 @@ pub fn bench(args: BenchArgs) -> Result<()> {
     let methods = parse_methods(&args.methods)?;
     check_options(&args, &methods)?;
     output::check_folder(&args.out).context("-o")?;
+    if args.model {
+        check_model_options(&args)?;
+    }
+    if !args.model_from.is_empty() {
+        return run_model_from(&args);
+    }
     let ctx = args.gpu.context()?;
     let bar = indicatif::ProgressBar::new(0).with_style(
         indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} runs {elapsed} {msg}")
@@ -280,10 +301,44 @@ fn run_grid(
     bar: &indicatif::ProgressBar,
 ) -> Result<Vec<PathBuf>> {
     let cfg = grid_config(args, methods);
-    let report = bench::run(ctx, &cfg, bar)?;
+    let mut report = bench::run(ctx, &cfg, bar)?;
+    if args.model {
+        let training = crate::model::validate::Training {
+            scene: "default".into(),
+            cube: None,
+            subgroup: None,
+        };
+        let rows = bench::model::measured_of(&report);
+        let progress = |s: &str| bar.set_message(format!("model: {s}"));
+        report.model = Some(bench::model::run(&rows, &training, None, &progress)?);
+    }
     bar.finish_and_clear();
     println!("{}", bench::report::header(&report));
     println!("{}", bench::report::summary_table(&report));
     println!("{}", bench::report::ratios_table(&report));
     bench::report::write(&report, &args.out)
+}
+
+/// `--model`: refuses the options the model does not replay.
+fn check_model_options(args: &BenchArgs) -> Result<()> {
+    if args.bounces != 1 {
+        anyhow::bail!("--model replays one reflection per path: leave out --bounces");
+    }
+    if args.cmos.is_some() {
+        anyhow::bail!("--model replays each scene's own CMO placement: leave out --cmos");
+    }
+    Ok(())
+}
+
+/// `--model --model-from`: the model over earlier bench.json files, printed and written.
+fn run_model_from(args: &BenchArgs) -> Result<()> {
+    let rows = bench::model::measured_from_files(&args.model_from)?;
+    let training = crate::model::validate::Training::standard();
+    let progress = |s: &str| eprintln!("model: {s}");
+    let report = bench::model::run(&rows, &training, training.cube, &progress)?;
+    println!("{}", bench::model::markdown(&report));
+    for p in bench::model::write(&report, &args.out)? {
+        println!("wrote {}", p.display());
+    }
+    Ok(())
 }

@@ -25,6 +25,7 @@
 //!   tracing method of a scene and are not what the methods trade against error.
 
 pub mod heatmap;
+pub mod model;
 pub mod plot;
 pub mod report;
 pub mod scaling;
@@ -530,6 +531,9 @@ pub struct BenchReport {
     pub runs: Vec<RunResult>,
     /// Per scene: ns per ray of each method and the ratios between them ([`SceneRatios::of`]).
     pub ratios: Vec<SceneRatios>,
+    /// `--model`: the cost model beside the runs ([`model`]); absent without it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub model: Option<model::ModelReport>,
 }
 
 /// The commit being measured: `git rev-parse HEAD` in the current folder, else the build-time
@@ -854,6 +858,7 @@ pub fn run(
         bounces: cfg.bounces,
         ratios: SceneRatios::of(&runs),
         runs,
+        model: None,
     })
 }
 

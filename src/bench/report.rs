@@ -415,11 +415,14 @@ pub fn markdown(report: &BenchReport) -> String {
         runs_table(report),
         passes_table(report),
         search_table(report)
-    )
+    ) + &report.model.as_ref().map_or(String::new(), |m| {
+        format!("\n{}", super::model::markdown(m))
+    })
 }
 
 /// Writes `bench.json`, `bench.md` ([`markdown`]: the tables, next to the JSON they come
-/// from), `speed-error.svg` and `speed-error-scenes.svg` into `dir`; returns the paths, the
+/// from), `speed-error.svg` and `speed-error-scenes.svg` (with `--model`, also `model.svg`:
+/// [`super::model::svg`]) into `dir`; returns the paths, the
 /// Markdown file's second, for the caller to print.
 pub fn write(report: &BenchReport, dir: &Path) -> Result<Vec<PathBuf>> {
     let json = dir.join("bench.json");
@@ -430,7 +433,13 @@ pub fn write(report: &BenchReport, dir: &Path) -> Result<Vec<PathBuf>> {
     write_atomic(&svg, speed_error_svg(report)?.as_bytes())?;
     let scenes_svg = dir.join("speed-error-scenes.svg");
     write_atomic(&scenes_svg, speed_error_scenes_svg(report)?.as_bytes())?;
-    Ok(vec![json, md, svg, scenes_svg])
+    let mut out = vec![json, md, svg, scenes_svg];
+    if let Some(m) = &report.model {
+        let model_svg = dir.join("model.svg");
+        write_atomic(&model_svg, super::model::svg(m)?.as_bytes())?;
+        out.push(model_svg);
+    }
+    Ok(out)
 }
 
 #[cfg(test)]
@@ -489,6 +498,7 @@ mod tests {
             bounces: 1,
             ratios: super::super::SceneRatios::of(&runs),
             runs,
+            model: None,
         }
     }
 

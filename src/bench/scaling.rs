@@ -137,6 +137,10 @@ pub const TESSELLATION_SERIES: [(&str, u32); 4] = [
     ("torus", 1),
 ];
 
+/// The triangle axis's extra spheres: [`tessellated_scene`] of these many segments (also the
+/// cost model's triangle axis, `bench --model`).
+pub const TRIANGLE_SEGMENTS: [u32; 4] = [8, 32, 128, 512];
+
 /// The tessellation curve's subdivision levels: 0 to this.
 pub const TESSELLATION_LEVELS: u32 = 4;
 
@@ -222,7 +226,7 @@ fn plan(axis: Axis, cfg: &ScalingConfig) -> Result<Vec<PlanPoint>> {
             }
         }
         Axis::Triangles => {
-            for seg in [8, 32, 128, 512] {
+            for seg in TRIANGLE_SEGMENTS {
                 let s = tessellated_scene(seg)?;
                 let t = s.world().triangles.len();
                 out.push((t as f64, s, w, h));

@@ -1,0 +1,510 @@
+#![forbid(unsafe_code)]
+//! `cubetrace bench --model`: the SIMT cost model ([`crate::model`]) beside the measurements.
+//!
+//! Three parts, each labelled a model in every output:
+//! - **lavapipe check** ([`crate::model::validate`]): every run of a method's default setting
+//!   (compute, fragment-exact-mip, ssr, reflection-point, bvh) is replayed in lavapipe mode at
+//!   the device's subgroup size; one scale per method (ns per weighted warp-step) is fitted on
+//!   the training rows (scene `default`; with `--model-from`, scene `default` at cube 256 and subgroup 8) and
+//!   every other row gets its prediction error.
+//! - **GPU predictions** at widths 32 and 64 (GPU mode: a block issues when one lane needs it),
+//!   per scene: compute / fragment, compute / bvh, fragment / bvh (ratios of weighted warp-steps
+//!   per ray, i.e. the same ns per weighted step on every method), SIMD efficiency and 32-byte
+//!   sectors per ray.
+//! - **the triangle axis** of `bench --scaling` ([`super::scaling::TRIANGLE_SEGMENTS`]): compute
+//!   and fragment over bvh at width 32 as the extra sphere gets finer; where a cube-map tracer
+//!   would overtake the BVH (ratio below 1), interpolated in log triangles, if it does.
+//!
+//! `--model-from A.json,B.json,...` reads earlier `bench.json` files instead of rendering (one
+//! per lavapipe subgroup size and cube size), which is how `benches/results/lavapipe-model.*`
+//! was made.
+//!
+//! Assumptions (also in [`ASSUMPTIONS`], written with every report): the warp assembly and
+//! texel layout of [`crate::model::replay`]; one ns per weighted warp-step for every method on
+//! a GPU (no latency, no occupancy, no caches beyond the sector count); the bench's frame and
+//! cube size.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use serde::Serialize;
+
+use super::plot::{self, Point};
+use super::scaling::{TRIANGLE_SEGMENTS, tessellated_scene};
+use super::{BenchReport, Method, MethodSpec, prepare_scene};
+use crate::model::replay::{
+    Mode, ModelSettings, Recorded, ReplayStats, default_assembly, record, replay,
+};
+use crate::model::validate::{self, Measured, Modelled, Training, Validation};
+use crate::model::weights;
+use crate::model::work::{self, Frame};
+use crate::output::write_atomic;
+
+/// The methods the model replays, in table order.
+pub const METHODS: [Method; 5] = [
+    Method::Compute,
+    Method::Fragment,
+    Method::Ssr,
+    Method::ReflectionPoint,
+    Method::Bvh,
+];
+
+/// The GPU widths predicted.
+pub const GPU_WIDTHS: [u32; 2] = [32, 64];
+
+/// What every figure of the report assumes.
+pub const ASSUMPTIONS: &[&str] = &[
+    "MODEL, not a measurement: weighted issued warp-steps per ray from the CPU twins' work replayed in lockstep warps",
+    "weights: SPIR-V instructions per block of the shipped shaders (static count, callees expanded, both arms of an if)",
+    "lavapipe mode: every block of a loop body runs on every turn any lane makes; width = lavapipe's subgroup size",
+    "GPU mode: a block issues when at least one lane needs it; widths 32 and 64",
+    "warps (model::warps): compute and bvh = consecutive entries of the row-major mirror-pixel queue (compute: one lane per ray in lavapipe mode, min(width, 32) lanes per ray in GPU mode); fragment and ssr = 2x2 quads in 8x4-pixel tiles, tiles row-major (helper lanes issued, never active); reflection-point = consecutive vertices of its 1-D dispatch",
+    "lavapipe check: one scale per method (ns per weighted warp-step) fitted on the training rows only; the same scale at every subgroup size (a warp-step of 4, 8 or 16 lanes costs the same)",
+    "GPU ratios assume the same ns per weighted warp-step for every method: no latency hiding, occupancy or cache model",
+    "sectors: distinct 32-byte sectors per warp load, row-major texels per face (model::replay TexelLayout::Linear)",
+];
+
+/// One method's GPU-mode figures at one width.
+#[derive(Clone, Debug, Serialize)]
+pub struct GpuMethod {
+    pub method: Method,
+    pub cost_per_ray: f64,
+    pub simd_efficiency: f64,
+    pub sectors_per_ray: f64,
+}
+
+/// Per scene and width, the GPU-mode predictions.
+#[derive(Clone, Debug, Serialize)]
+pub struct GpuPrediction {
+    pub scene: String,
+    pub cube: u32,
+    pub width: u32,
+    pub methods: Vec<GpuMethod>,
+    pub compute_over_fragment: Option<f64>,
+    pub compute_over_bvh: Option<f64>,
+    pub fragment_over_bvh: Option<f64>,
+}
+
+/// One point of the triangle axis (GPU mode, width 32).
+#[derive(Clone, Debug, Serialize)]
+pub struct TrianglePoint {
+    pub scene: String,
+    pub triangles: usize,
+    pub compute_over_bvh: f64,
+    pub fragment_over_bvh: f64,
+}
+
+/// Everything `--model` adds.
+#[derive(Clone, Debug, Serialize)]
+pub struct ModelReport {
+    pub assumptions: Vec<String>,
+    pub lavapipe: Validation,
+    pub gpu: Vec<GpuPrediction>,
+    pub triangles: Vec<TrianglePoint>,
+    /// Triangles where compute (then fragment) tracing would overtake the BVH at width 32, if
+    /// it does on the axis.
+    pub compute_overtakes_bvh_at: Option<f64>,
+    pub fragment_overtakes_bvh_at: Option<f64>,
+}
+
+/// The measured rows of a report: each method's default setting, for the methods modelled.
+pub fn measured_of(report: &BenchReport) -> Vec<Measured> {
+    report
+        .runs
+        .iter()
+        .filter(|r| METHODS.contains(&r.kind) && r.method == MethodSpec::plain(r.kind).label())
+        .map(|r| Measured {
+            scene: r.scene.clone(),
+            method: r.kind,
+            cube: r.cube_size,
+            subgroup: report.device.subgroup_size,
+            width: r.width,
+            height: r.height,
+            rays: r.rays,
+            pass_ns: r.trace_ns.median,
+        })
+        .collect()
+}
+
+/// The measured rows of earlier `bench.json` files.
+pub fn measured_from_files(paths: &[PathBuf]) -> Result<Vec<Measured>> {
+    let mut out = Vec::new();
+    for p in paths {
+        let text = std::fs::read_to_string(p)
+            .with_context(|| format!("--model-from: cannot read {}", p.display()))?;
+        let v: serde_json::Value = serde_json::from_str(&text)
+            .with_context(|| format!("--model-from: {} is not JSON", p.display()))?;
+        let field = |what: &str| format!("--model-from: {}: no field {what}", p.display());
+        let subgroup = v["device"]["subgroup_size"]
+            .as_u64()
+            .with_context(|| field("device.subgroup_size"))? as u32;
+        let runs = v["runs"].as_array().with_context(|| field("runs"))?;
+        for (i, r) in runs.iter().enumerate() {
+            let f = |k: &str| r[k].clone();
+            let method = f("method");
+            let label = method.as_str().unwrap_or_default();
+            // Only each method's default setting is modelled (not e.g. compute-bounded).
+            let Some(kind) = METHODS
+                .into_iter()
+                .find(|k| MethodSpec::plain(*k).label() == label)
+            else {
+                continue;
+            };
+            let num = |k: &str| {
+                f(k).as_f64()
+                    .with_context(|| field(&format!("runs[{i}].{k}")))
+            };
+            out.push(Measured {
+                scene: f("scene").as_str().unwrap_or_default().to_string(),
+                method: kind,
+                cube: num("cube_size")? as u32,
+                subgroup,
+                width: num("width")? as u32,
+                height: num("height")? as u32,
+                rays: num("rays")? as usize,
+                pass_ns: r["trace_ns"]["median"]
+                    .as_f64()
+                    .with_context(|| field(&format!("runs[{i}].trace_ns.median")))?,
+            });
+        }
+    }
+    if out.is_empty() {
+        bail!("--model-from: no run of a modelled method's default setting in the files");
+    }
+    let mut keys = std::collections::BTreeSet::new();
+    if let Some(dup) = out.iter().find(|m| !keys.insert(m.key())) {
+        bail!(
+            "--model-from: row {} (scene/method/cube/subgroup) is in two of the files; give one",
+            dup.key()
+        );
+    }
+    Ok(out)
+}
+
+/// The model's recordings (CPU twins' work), one per scene, cube size and method, replayed at
+/// every width and mode asked: recording is the expensive part.
+#[derive(Default)]
+pub struct Recordings {
+    frames: HashMap<(String, u32), Frame>,
+    recorded: HashMap<(String, u32, Method), Recorded>,
+}
+
+impl Recordings {
+    /// The replay of `method` on built-in or file scene `name` at cube size `cube`, frame
+    /// `dims`, `width` lanes, `mode`.
+    pub fn stats(
+        &mut self,
+        name: &str,
+        cube: u32,
+        dims: (u32, u32),
+        method: Method,
+        width: u32,
+        mode: Mode,
+    ) -> Result<ReplayStats> {
+        let key = (name.to_string(), cube, method);
+        if !self.recorded.contains_key(&key) {
+            let fkey = (name.to_string(), cube);
+            if !self.frames.contains_key(&fkey) {
+                let (scene, _) = prepare_scene(name, dims.0, dims.1, Some(cube), None)?;
+                let settings = ModelSettings::new(cube, dims.0, dims.1);
+                self.frames
+                    .insert(fkey.clone(), work::frame(&scene, &settings)?);
+            }
+            let rec = record(&self.frames[&fkey], method)
+                .with_context(|| format!("model of {name} --method {}", method.name()))?;
+            self.recorded.insert(key.clone(), rec);
+        }
+        replay(&self.recorded[&key], width, mode, default_assembly(method)).with_context(|| {
+            format!(
+                "model of {name} --method {} at width {width}",
+                method.name()
+            )
+        })
+    }
+}
+
+/// Replays every measured row (lavapipe mode) and validates with `training`.
+pub fn lavapipe_check(
+    rec: &mut Recordings,
+    rows: &[Measured],
+    training: &Training,
+) -> Result<Validation> {
+    let mut modelled: Vec<Modelled> = Vec::with_capacity(rows.len());
+    for m in rows {
+        let dims = (m.width, m.height);
+        let stats = rec.stats(&m.scene, m.cube, dims, m.method, m.subgroup, Mode::Lavapipe)?;
+        let train = training.contains(m);
+        modelled.push(validate::modelled(&stats, m.clone(), train)?);
+    }
+    if !modelled.iter().any(|r| r.train) {
+        bail!(
+            "--model fits its scale on the training rows ({}), and the runs have none: add scene \
+             '{}' to --scenes",
+            training.describe(),
+            training.scene
+        );
+    }
+    validate::validate(&modelled, training)
+}
+
+/// GPU-mode figures of every modelled method on `scene` at `width`.
+pub fn gpu_prediction(
+    rec: &mut Recordings,
+    name: &str,
+    cube: u32,
+    dims: (u32, u32),
+    width: u32,
+) -> Result<GpuPrediction> {
+    let mut methods = Vec::new();
+    for m in METHODS {
+        let stats = rec.stats(name, cube, dims, m, width, Mode::Gpu)?;
+        methods.push(GpuMethod {
+            method: m,
+            cost_per_ray: weights::cost(&stats, &weights::weights(m)?),
+            simd_efficiency: stats.simd_efficiency,
+            sectors_per_ray: stats.sectors_per_ray,
+        });
+    }
+    let cost = |k: Method| {
+        methods
+            .iter()
+            .find(|g| g.method == k)
+            .map(|g| g.cost_per_ray)
+    };
+    let ratio = |a: Method, b: Method| Some(cost(a)? / cost(b)?).filter(|r| r.is_finite());
+    Ok(GpuPrediction {
+        scene: name.to_string(),
+        cube,
+        width,
+        compute_over_fragment: ratio(Method::Compute, Method::Fragment),
+        compute_over_bvh: ratio(Method::Compute, Method::Bvh),
+        fragment_over_bvh: ratio(Method::Fragment, Method::Bvh),
+        methods,
+    })
+}
+
+/// The triangle axis at width 32 (GPU mode), the scenes of `bench --scaling`'s triangle axis
+/// with the camera at `dims`.
+pub fn triangle_axis(dims: (u32, u32)) -> Result<Vec<TrianglePoint>> {
+    let mut out = Vec::new();
+    for seg in TRIANGLE_SEGMENTS {
+        let mut scene = tessellated_scene(seg)?;
+        if let Some(mut camera) = scene.cameras.first().cloned() {
+            camera.width = dims.0;
+            camera.height = dims.1;
+            crate::placement::resolve(&mut scene, &camera);
+        }
+        let settings = ModelSettings::new(scene.cmo.resolution, dims.0, dims.1);
+        let frame = work::frame(&scene, &settings)?;
+        let c = |m: Method| -> Result<f64> {
+            let rec = record(&frame, m)?;
+            let s = replay(&rec, 32, Mode::Gpu, default_assembly(m))?;
+            Ok(weights::cost(&s, &weights::weights(m)?))
+        };
+        let bvh = c(Method::Bvh)?;
+        out.push(TrianglePoint {
+            scene: scene.name.clone(),
+            triangles: scene.world().triangles.len(),
+            compute_over_bvh: c(Method::Compute)? / bvh,
+            fragment_over_bvh: c(Method::Fragment)? / bvh,
+        });
+    }
+    Ok(out)
+}
+
+/// The first triangle count where `ratio` falls below 1, interpolated in log triangles.
+pub fn crossover(points: &[TrianglePoint], ratio: impl Fn(&TrianglePoint) -> f64) -> Option<f64> {
+    let first = points.first()?;
+    if ratio(first) < 1.0 {
+        return Some(first.triangles as f64);
+    }
+    points.windows(2).find_map(|w| {
+        let (a, b) = (ratio(&w[0]), ratio(&w[1]));
+        (a >= 1.0 && b < 1.0).then(|| {
+            let (ta, tb) = ((w[0].triangles as f64).ln(), (w[1].triangles as f64).ln());
+            let t = (a.ln() / (a.ln() - b.ln())).clamp(0.0, 1.0);
+            (ta + t * (tb - ta)).exp()
+        })
+    })
+}
+
+/// The whole model report for `rows`; the GPU predictions per scene at `gpu_cube`, or at the
+/// cube size of the scene's first row.
+pub fn run(
+    rows: &[Measured],
+    training: &Training,
+    gpu_cube: Option<u32>,
+    progress: &dyn Fn(&str),
+) -> Result<ModelReport> {
+    progress("lavapipe check");
+    let mut rec = Recordings::default();
+    let lavapipe = lavapipe_check(&mut rec, rows, training)?;
+    let dims = rows.first().map_or((160, 120), |m| (m.width, m.height));
+    let mut scenes: Vec<(&str, u32)> = Vec::new();
+    for m in rows {
+        if !scenes.iter().any(|(s, _)| *s == m.scene) {
+            scenes.push((&m.scene, gpu_cube.unwrap_or(m.cube)));
+        }
+    }
+    let mut gpu = Vec::new();
+    for (s, cube) in scenes {
+        for w in GPU_WIDTHS {
+            progress(&format!("GPU width {w}: {s}"));
+            gpu.push(gpu_prediction(&mut rec, s, cube, dims, w)?);
+        }
+    }
+    progress("triangle axis");
+    let triangles = triangle_axis(dims)?;
+    Ok(ModelReport {
+        assumptions: ASSUMPTIONS.iter().map(|s| s.to_string()).collect(),
+        lavapipe,
+        compute_overtakes_bvh_at: crossover(&triangles, |p| p.compute_over_bvh),
+        fragment_overtakes_bvh_at: crossover(&triangles, |p| p.fragment_over_bvh),
+        gpu,
+        triangles,
+    })
+}
+
+fn opt(v: Option<f64>) -> String {
+    v.map_or("-".into(), |v| format!("{v:.2}"))
+}
+
+/// The lavapipe check as a Markdown table.
+pub fn lavapipe_table(v: &Validation) -> String {
+    let mut s = format!(
+        "MODEL check, lavapipe mode: one scale per method (ns per weighted warp-step: {}), \
+         fitted on {} ({} rows: {}); {} of {} held-out rows within +-{:.0} % (one global scale, \
+         {:.3}: {} within).\n\n\
+         | scene | method | cube | subgroup | row | measured ns/ray | model ns/ray | error | SIMD eff. | missed block |\n\
+         |---|---|---:|---:|---|---:|---:|---:|---:|---|\n",
+        v.scales
+            .iter()
+            .map(|(m, k)| format!("{} {k:.3}", m.name()))
+            .collect::<Vec<_>>()
+            .join(", "),
+        v.training.describe(),
+        v.training_rows.len(),
+        v.training_rows.join(", "),
+        v.held_out_within_target,
+        v.held_out,
+        100.0 * v.target,
+        v.global_scale,
+        v.global_held_out_within_target,
+    );
+    for r in &v.rows {
+        s += &format!(
+            "| {} | {} | {} | {} | {} | {:.0} | {:.0} | {:+.0} % | {:.2} | {} |\n",
+            r.scene,
+            r.method.name(),
+            r.cube,
+            r.subgroup,
+            if r.train { "training" } else { "held out" },
+            r.measured_ns_per_ray,
+            r.predicted_ns_per_ray,
+            100.0 * r.error,
+            r.simd_efficiency,
+            r.miss.as_deref().unwrap_or(""),
+        );
+    }
+    s
+}
+
+/// The GPU predictions as a Markdown table.
+pub fn gpu_table(gpu: &[GpuPrediction]) -> String {
+    let mut s = String::from(
+        "MODEL predictions, GPU mode (not measured; assumptions below).\n\n\
+         | scene | cube | width | compute/fragment | compute/bvh | fragment/bvh | SIMD eff. compute | fragment | bvh | sectors/ray compute | fragment | bvh |\n\
+         |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+    );
+    for g in gpu {
+        let m = |k: Method| g.methods.iter().find(|x| x.method == k);
+        let eff = |k| opt(m(k).map(|x| x.simd_efficiency));
+        let sec = |k| m(k).map_or("-".into(), |x| format!("{:.1}", x.sectors_per_ray));
+        s += &format!(
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            g.scene,
+            g.cube,
+            g.width,
+            opt(g.compute_over_fragment),
+            opt(g.compute_over_bvh),
+            opt(g.fragment_over_bvh),
+            eff(Method::Compute),
+            eff(Method::Fragment),
+            eff(Method::Bvh),
+            sec(Method::Compute),
+            sec(Method::Fragment),
+            sec(Method::Bvh),
+        );
+    }
+    s
+}
+
+/// The triangle axis and the crossovers as Markdown.
+pub fn triangle_table(r: &ModelReport) -> String {
+    let mut s = String::from(
+        "MODEL, GPU mode width 32, the triangle axis of `bench --scaling` (sphere-room + a UV \
+         sphere):\n\n| scene | triangles | compute/bvh | fragment/bvh |\n|---|---:|---:|---:|\n",
+    );
+    for p in &r.triangles {
+        s += &format!(
+            "| {} | {} | {:.2} | {:.2} |\n",
+            p.scene, p.triangles, p.compute_over_bvh, p.fragment_over_bvh
+        );
+    }
+    let at = |v: Option<f64>, what: &str| match v {
+        Some(t) => format!("{what} would overtake the BVH at about {t:.0} triangles (model).\n"),
+        None => format!("{what} does not overtake the BVH on this axis (model).\n"),
+    };
+    s + "\n"
+        + &at(r.compute_overtakes_bvh_at, "compute")
+        + &at(r.fragment_overtakes_bvh_at, "fragment")
+}
+
+/// The Markdown section `--model` adds to `bench.md` (and writes as `model.md`).
+pub fn markdown(r: &ModelReport) -> String {
+    let mut s = String::from("## Cost model (`--model`)\n\n");
+    s += &lavapipe_table(&r.lavapipe);
+    s += "\n";
+    s += &gpu_table(&r.gpu);
+    s += "\n";
+    s += &triangle_table(r);
+    s += "\nAssumptions:\n\n";
+    for a in &r.assumptions {
+        s += &format!("- {a}\n");
+    }
+    s
+}
+
+/// The plot: model against measured ns per ray on lavapipe (held-out and training rows).
+pub fn svg(r: &ModelReport) -> Result<String> {
+    let points: Vec<Point> = r
+        .lavapipe
+        .rows
+        .iter()
+        .map(|row| Point {
+            label: format!("{}{}", row.key, if row.train { " (training)" } else { "" }),
+            cost: row.measured_ns_per_ray,
+            error: row.predicted_ns_per_ray,
+        })
+        .collect();
+    plot::scatter(
+        "MODEL vs lavapipe: predicted against measured ns per ray (tracing pass)",
+        "measured ns per ray (lavapipe)",
+        "model ns per ray (lavapipe mode)",
+        &points,
+        1e-3,
+        false,
+    )
+}
+
+/// Writes `model.json`, `model.md`, `model.svg` into `dir`.
+pub fn write(r: &ModelReport, dir: &Path) -> Result<Vec<PathBuf>> {
+    let json = dir.join("model.json");
+    write_atomic(&json, serde_json::to_string_pretty(r)?.as_bytes())?;
+    let md = dir.join("model.md");
+    write_atomic(&md, markdown(r).as_bytes())?;
+    let plot = dir.join("model.svg");
+    write_atomic(&plot, svg(r)?.as_bytes())?;
+    Ok(vec![json, md, plot])
+}
