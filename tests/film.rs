@@ -8,7 +8,7 @@
 //!   Negative: the mean at the mirrored offsets differs.
 //! - The GPU film likewise (compute), through `FrameRenderer`; a second frame of another camera
 //!   in the same `FrameRenderer` equals that frame rendered alone and reuses the capture; a moved
-//!   mesh rebuilds and captures.
+//!   mesh captures again (tests/sequence_inplace.rs checks the in-place geometry update).
 mod common;
 use common::{finish_gpu, gpu_context};
 
@@ -224,7 +224,7 @@ fn colour_bits(f: &RenderedFrame) -> Vec<u32> {
 /// The GPU film (compute, 4 samples, box) through `FrameRenderer`: the mean of fresh renders
 /// at the offsets; the AOVs are the centre-nearest sample's. A second camera in the same
 /// `FrameRenderer` reuses the capture and equals that frame rendered alone; a moved mesh
-/// rebuilds and captures.
+/// captures again.
 #[test]
 fn frame_renderer_film_and_reuse() {
     let ctx = gpu_context();
@@ -279,7 +279,7 @@ fn frame_renderer_film_and_reuse() {
     let fb_alone = alone.render(&scene, &b).unwrap();
     assert!(colour_bits(&fb) == colour_bits(&fb_alone));
     assert!(colour_bits(&fb) != colour_bits(&f), "negative: A's frame");
-    // A moved mesh: rebuilt, captured, and equal to that scene alone.
+    // A moved mesh: captured again, and equal to that scene alone.
     let mut moved = scene.clone();
     let last = moved.meshes.len() - 1;
     moved.meshes[last].transform.translate += Vec3::new(0.2, 0.0, 0.1);
