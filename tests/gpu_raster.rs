@@ -185,7 +185,12 @@ fn shared_structs_match_naga_layout() {
         [position, object, normal, _pad, uv, _pad2]
     )
     .unwrap();
-    check_layout!(GpuObject, l("GpuObject"), [material, reflector, captured, specular_power]).unwrap();
+    check_layout!(
+        GpuObject,
+        l("GpuObject"),
+        [material, reflector, captured, specular_power]
+    )
+    .unwrap();
     check_layout!(GpuMaterial, l("GpuMaterial"), [diffuse, texture]).unwrap();
     check_layout!(GpuTexture, l("GpuTexture"), [offset, width, height, _pad]).unwrap();
     check_layout!(

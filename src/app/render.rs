@@ -668,7 +668,9 @@ fn per_sample_summary(per: &[metrics::ErrorReport]) -> String {
     };
     // Sample-pixels, summed over the samples: a share rounds a few of them to 0.00 %.
     let count = |f: &dyn Fn(&metrics::ErrorReport) -> f64| -> usize {
-        per.iter().map(|r| (f(r) * r.mirror_pixels as f64).round() as usize).sum()
+        per.iter()
+            .map(|r| (f(r) * r.mirror_pixels as f64).round() as usize)
+            .sum()
     };
     format!(
         "per sample ({} samples, each against the reference's sample at the same offset): mean {:.2}% in error: mask mismatch {:.2}%, unresolved {:.2}%, wrong surface {:.2}%; of {} mirror sample-pixels, {} mask mismatch ({} only in the reference, {} only here), {} unresolved, {} wrong surface; PSNR {:.2} dB over mirror pixels (all samples' squared error pooled); one sample's PSNR: worst {:.2}, median {:.2}, best {:.2} dB",
