@@ -527,3 +527,58 @@ fn bad_frames_are_refused() {
     ));
     assert!(d.join("x-2.png").is_file());
 }
+
+/// `interpolation = "catmull-rom"`: the camera follows the spline (an analytic Hermite value),
+/// meshes stay linear, and an overshooting field of view is clamped.
+#[test]
+fn catmull_rom_moves_the_camera_and_leaves_meshes_linear() {
+    let mut scene = builtin::sphere_room();
+    let mesh_keys = [(0.0, 0.0), (1.0, 1.0), (2.0, 0.0)].map(|(t, y)| MeshKey {
+        time: t,
+        translate: Some(Vec3::new(0.0, y, 0.0)),
+        ..MeshKey::default()
+    });
+    let cam_keys = [(0.0, 0.0), (1.0, 1.0), (2.0, 0.0)].map(|(t, x)| CameraKey {
+        time: t,
+        eye: Some(Vec3::new(x, 1.0, 4.0)),
+        fov_y_deg: Some([10.0, 170.0, 179.9][t as usize]),
+        ..CameraKey::default()
+    });
+    scene.animation = cubetrace::scene::animation::Animation {
+        fps: 1.0,
+        frames: Some([0, 2]),
+        interpolation: cubetrace::scene::animation::Interpolation::Linear,
+        cameras: vec![CameraTrack {
+            camera: 0,
+            keys: cam_keys.to_vec(),
+        }],
+        meshes: vec![MeshTrack {
+            mesh: 0,
+            keys: mesh_keys.to_vec(),
+        }],
+    };
+    let at = |s: &scene::Scene, time: f64| {
+        let mut a = s.animation.clone();
+        a.fps = 1.0 / time;
+        let f = a.apply(s, 1);
+        (
+            f.cameras[0].eye.x,
+            f.cameras[0].fov_y_deg,
+            f.meshes[0].transform.translate.y,
+        )
+    };
+    let (x_lin, _, y_lin) = at(&scene, 0.5);
+    scene.animation.interpolation = cubetrace::scene::animation::Interpolation::CatmullRom;
+    let (x_cr, fov_cr, y_cr) = at(&scene, 0.5);
+    assert!((x_lin - 0.5).abs() < 1e-6, "{x_lin}");
+    // Tangents 1 at t = 0 (one-sided) and 0 at t = 1 ((0 - 0) / 2): the Hermite value at
+    // s = 1/2 is 0.5 + 0.125 = 0.625.
+    assert!((x_cr - 0.625).abs() < 1e-5, "{x_cr}");
+    assert_eq!(y_cr, y_lin, "meshes stay linear");
+    // The fov spline overshoots 180 between the last two keys (at t = 1.5, tangents
+    // (179.9 - 10) / 2 and 9.9: 0.5 * 170 + 0.125 * 84.95 + 0.5 * 179.9 - 0.125 * 9.9 = 184.3;
+    // linear gives 174.95); the path clamps it to a valid camera.
+    let (_, fov_over, _) = at(&scene, 1.5);
+    assert_eq!(fov_over, 180.0 - cubetrace::scene::animation::MIN_FOV_DEG);
+    assert!(fov_cr > 10.0 && fov_cr < 170.0, "{fov_cr}");
+}
