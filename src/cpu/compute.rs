@@ -61,29 +61,67 @@ struct RayState {
     counters: Counters,
 }
 
-/// Test of child `j` of the ray's current node: `(candidate, key)`.
-fn lane_test(tr: &CmoTracer, st: &RayState, j: u32) -> (bool, f32) {
-    let h = &tr.hier;
-    let n = tr.cube.size;
-    let top = h.root() + 1;
+/// The child grid of the ray's current node: the child level's whole grid at the top, else the
+/// node's group.
+fn child_group(tr: &CmoTracer, st: &RayState) -> (u32, u32) {
+    let child = &tr.hier.levels[st.level - 1];
+    if st.level == tr.hier.root() + 1 {
+        (child.width, child.height)
+    } else {
+        tr.hier.levels[st.level].group
+    }
+}
+
+/// Child `j` of the ray's current node, as [`lane_test`] and [`lane_crossing`] address it.
+struct ChildCell {
+    /// The piece's interval.
+    lo: f32,
+    hi: f32,
+    face: u32,
+    /// The child level.
+    cl: usize,
+    cx: u32,
+    cy: u32,
+}
+
+/// [`ChildCell`] `j`; `None` where `j` is outside the node's group or the group runs past the
+/// child level's edge.
+fn child_cell(tr: &CmoTracer, st: &RayState, j: u32) -> Option<ChildCell> {
     let [lo, hi] = st.pieces.range[st.piece as usize];
     let face = st.faces.face[st.face as usize];
     let cl = st.level - 1;
-    let child = &h.levels[cl];
-    let (gx, gy) = if st.level == top {
-        (child.width, child.height)
-    } else {
-        h.levels[st.level].group
-    };
+    let child = &tr.hier.levels[cl];
+    let (gx, gy) = child_group(tr, st);
     if j >= gx * gy {
-        return (false, f32::INFINITY);
+        return None;
     }
     let (nx, ny) = st.node[st.level];
-    let cx = nx * gx + j % gx;
-    let cy = ny * gy + j / gx;
-    if cx >= child.width || cy >= child.height {
+    let (cx, cy) = (nx * gx + j % gx, ny * gy + j / gx);
+    (cx < child.width && cy < child.height).then_some(ChildCell {
+        lo,
+        hi,
+        face,
+        cl,
+        cx,
+        cy,
+    })
+}
+
+/// Test of child `j` of the ray's current node: `(candidate, key)`.
+fn lane_test(tr: &CmoTracer, st: &RayState, j: u32) -> (bool, f32) {
+    let n = tr.cube.size;
+    let Some(ChildCell {
+        lo,
+        hi,
+        face,
+        cl,
+        cx,
+        cy,
+    }) = child_cell(tr, st, j)
+    else {
         return (false, f32::INFINITY);
-    }
+    };
+    let child = &tr.hier.levels[cl];
     if cl == 0 {
         let iv = cell_interval(st.la, st.ld, &CellRect::texel(face, cx, cy, n), lo, hi);
         let d = tr.cube.distance_at(Texel { face, x: cx, y: cy });
@@ -108,25 +146,21 @@ fn lane_test(tr: &CmoTracer, st: &RayState, j: u32) -> (bool, f32) {
 
 /// For the work log: whether child `j` of the ray's current node exists (`lane_test` reads its
 /// bound) and passes the interval test (`children_crossed` in the shader), by `lane_test`'s
-/// own conditions. Only run when logging: `lane_test` is untouched.
+/// own conditions ([`child_cell`]). Only run when logging.
 fn lane_crossing(tr: &CmoTracer, st: &RayState, j: u32) -> (bool, bool) {
-    let h = &tr.hier;
     let n = tr.cube.size;
-    let top = h.root() + 1;
-    let [lo, hi] = st.pieces.range[st.piece as usize];
-    let face = st.faces.face[st.face as usize];
-    let cl = st.level - 1;
-    let child = &h.levels[cl];
-    let (gx, gy) = if st.level == top {
-        (child.width, child.height)
-    } else {
-        h.levels[st.level].group
-    };
-    let (nx, ny) = st.node[st.level];
-    let (cx, cy) = (nx * gx + j % gx, ny * gy + j / gx);
-    if j >= gx * gy || cx >= child.width || cy >= child.height {
+    let Some(ChildCell {
+        lo,
+        hi,
+        face,
+        cl,
+        cx,
+        cy,
+    }) = child_cell(tr, st, j)
+    else {
         return (false, false);
-    }
+    };
+    let child = &tr.hier.levels[cl];
     if cl == 0 {
         let iv = cell_interval(st.la, st.ld, &CellRect::texel(face, cx, cy, n), lo, hi);
         return (true, iv.crosses());
@@ -144,13 +178,7 @@ fn lane_crossing(tr: &CmoTracer, st: &RayState, j: u32) -> (bool, bool) {
 
 /// The [`Work::Visit`] of the ray's current node.
 fn visit_work(tr: &CmoTracer, st: &RayState) -> Work {
-    let top = tr.hier.root() + 1;
-    let child = &tr.hier.levels[st.level - 1];
-    let group = if st.level == top {
-        (child.width, child.height)
-    } else {
-        tr.hier.levels[st.level].group
-    };
+    let group = child_group(tr, st);
     let (mut exists, mut crossed) = (0u32, 0u32);
     for j in 0..32 {
         let (e, c) = lane_crossing(tr, st, j);
