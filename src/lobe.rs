@@ -109,6 +109,22 @@ pub fn sample(mirror: Vec3, normal: Vec3, power: f32, u: (f32, f32)) -> Option<V
     (d.dot(normal) * mirror.dot(normal) > 0.0).then_some(d)
 }
 
+/// The Hi-Z chapter's `xi` for the cone angle (Eq. 4.1 at a fixed uniform, 4.4.5): "0.244 seems
+/// to be a good number for covering a decent range of cone-angle extents".
+pub const CONE_XI: f32 = 0.244;
+
+/// The half-angle (radians) of the cone that stands in for the lobe of power `power` in cone
+/// tracing: Eq. 4.1 at `xi` = [`CONE_XI`], `theta = acos(xi^(1 / (power + 1)))` (the chapter
+/// prints `cos`; the angle whose cosine Eq. 4.1 gives is meant), and 0 for a mirror
+/// ([`glossy`]). Computed as `acos(exp2(log2(xi) / (power + 1)))`, as `lobe_cone_angle` in
+/// `spirv/shared/lobe.wgsl`. About 23.0 degrees at power 16, 11.9 at 64, 6.0 at 256.
+pub fn cone_half_angle(power: f32) -> f32 {
+    if power >= MIRROR_POWER {
+        return 0.0;
+    }
+    (CONE_XI.log2() / (power.max(0.0) + 1.0)).exp2().acos()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -184,5 +200,26 @@ mod tests {
         assert!((700..1300).contains(&below), "{below}");
         // Straight up, a sharp lobe never goes below.
         assert!((0..2000).all(|k| sample(Vec3::Y, n, 50.0, uniforms(k, 0, 0, 0)).is_some()));
+    }
+
+    /// The cone half-angle: Eq. 4.1 at xi = 0.244 (the fraction of the lobe's samples inside the
+    /// cone is 1 - 0.244 by the inverse CDF), narrowing with the power, 0 at the mirror cap.
+    #[test]
+    fn cone_angle() {
+        for n in [1.0f32, 16.0, 64.0, 256.0] {
+            let theta = cone_half_angle(n);
+            let inside = (0..20000)
+                .filter(|&k| sample_around(Vec3::Z, n, uniforms(k, 1, 2, 0)).z >= theta.cos())
+                .count();
+            let share = inside as f64 / 20000.0;
+            assert!(
+                (share - (1.0 - f64::from(CONE_XI))).abs() < 0.01,
+                "{n}: {share}"
+            );
+        }
+        assert!((cone_half_angle(64.0).to_degrees() - 11.9).abs() < 0.05);
+        assert!(cone_half_angle(16.0) > cone_half_angle(64.0));
+        assert_eq!(cone_half_angle(MIRROR_POWER), 0.0);
+        assert_eq!(cone_half_angle(4096.0), 0.0);
     }
 }

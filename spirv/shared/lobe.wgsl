@@ -73,3 +73,12 @@ fn lobe_sample(mirror: vec3<f32>, normal: vec3<f32>, power: f32, u: vec2<f32>) -
     let d = lobe_sample_around(mirror, power, u);
     return LobeSample(lobe_dot(d, normal) * lobe_dot(mirror, normal) > 0.0, d);
 }
+
+// `lobe::cone_half_angle`: the half-angle of the cone standing in for the lobe of power `power`
+// (Eq. 4.1 at xi = 0.244; 0 at and above the mirror cap, 1024).
+fn lobe_cone_angle(power: f32) -> f32 {
+    if power >= 1024.0 {
+        return 0.0;
+    }
+    return acos(exp2(log2(0.244) / (max(power, 0.0) + 1.0)));
+}

@@ -215,23 +215,8 @@ pub fn sphere_room() -> Scene {
 pub fn sphere_room_glossy() -> Scene {
     let mut scene = sphere_room();
     scene.name = "sphere-room-glossy".into();
-    let material = scene.materials.len() as u32;
-    let mut glossy = scene.materials[mirror_index(&scene)].clone();
-    glossy.name = "glossy".into();
-    glossy.specular_power = Some(GLOSSY_POWER);
-    scene.materials.push(glossy);
-    for mesh in scene.meshes.iter_mut().filter(|m| m.reflector) {
-        for part in &mut mesh.parts {
-            part.material = material;
-        }
-    }
+    scene.make_reflectors_glossy(GLOSSY_POWER);
     scene
-}
-
-/// The material of `scene`'s first reflector.
-fn mirror_index(scene: &Scene) -> usize {
-    let mesh = scene.meshes.iter().find(|m| m.reflector);
-    mesh.map_or(0, |m| m.parts[0].material as usize)
 }
 
 /// `sphere-room` with its camera on a circle around the sphere's vertical axis, one turn in 24

@@ -183,6 +183,35 @@ impl Scene {
         triangles
     }
 
+    /// Makes every reflector glossy with Phong specular power `power` (a mirror again at or above
+    /// [`crate::lobe::MIRROR_POWER`]): each material a reflector's parts use is copied once, with
+    /// the power, and the parts take the copy, so that a material a non-reflector shares keeps
+    /// its own (none). The harness's roughness rows and the glossy built-in scene use it.
+    pub fn make_reflectors_glossy(&mut self, power: f32) {
+        let mut copies: Vec<(u32, u32)> = Vec::new();
+        for m in 0..self.meshes.len() {
+            if !self.meshes[m].reflector {
+                continue;
+            }
+            for k in 0..self.meshes[m].parts.len() {
+                let old = self.meshes[m].parts[k].material;
+                let new = match copies.iter().find(|(o, _)| *o == old) {
+                    Some(&(_, n)) => n,
+                    None => {
+                        let mut material = self.materials[old as usize].clone();
+                        material.name = format!("{}-glossy", material.name);
+                        material.specular_power = Some(power);
+                        self.materials.push(material);
+                        let n = self.materials.len() as u32 - 1;
+                        copies.push((old, n));
+                        n
+                    }
+                };
+                self.meshes[m].parts[k].material = new;
+            }
+        }
+    }
+
     /// Whether some reflector captures itself: then the capture records the mirror mask and
     /// normals.
     pub fn captures_reflectors(&self) -> bool {
