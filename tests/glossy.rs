@@ -144,8 +144,9 @@ fn psnr(got: &[Vec3], truth: &[Vec3], mask: &[u8]) -> f64 {
 }
 
 /// At and above the cap every method renders today's frame, bit for bit; the reference too.
-/// Negative: power 64 changes the reference's and `bvh`'s frames. The other methods render the
-/// glossy scene exactly as the mirror (they trace the mirror direction), and say so.
+/// Negative: power 64 changes the reference's, `bvh`'s and the cone-traced `fragment` and
+/// `compute` frames. The other methods render the glossy scene exactly as the mirror (they trace
+/// the mirror direction), and say so.
 #[test]
 fn mirror_cap_is_todays_frame_for_every_method() {
     let (mirror, cam) = small("sphere-room");
@@ -168,7 +169,16 @@ fn mirror_cap_is_todays_frame_for_every_method() {
         let on_glossy = gpu_bits(&gpu_frame(&glossy, &cam, method, &ctx));
         let warning = glossy::method_warning(&glossy, method, 1);
         assert_eq!(glossy::method_warning(&mirror, method, 1), None, "{method}");
-        if method == Method::Bvh {
+        if matches!(method, Method::Fragment | Method::Compute) {
+            // Cone traced (tests/glossy_cone.rs): another frame, no warning.
+            assert!(
+                today != on_glossy,
+                "negative: {method} cone traces the lobe"
+            );
+            assert_eq!(warning, None);
+            let over = glossy::method_warning(&glossy, method, 2).unwrap_or_default();
+            assert!(over.contains("--bounces 2"), "{over}");
+        } else if method == Method::Bvh {
             assert!(today != on_glossy, "negative: bvh samples the lobe");
             assert_eq!(warning, None);
             let over = glossy::method_warning(&glossy, method, 2).unwrap_or_default();

@@ -239,6 +239,162 @@ pub fn cone_envmap_colour(cmo: &ConeCmo<'_>, dir: Vec3, power: f32) -> Vec3 {
     cone_cube_colour(cmo, dir, level)
 }
 
+/// What the cone pass reads besides a pixel's record: every CMO ([`ConeCmo`]), its 2x2
+/// `[min, max]` pyramid (`MipPyramid::flatten`, the layout of `cmo_mip`), the camera's eye.
+#[derive(Clone, Copy, Debug)]
+pub struct ConeScene<'a> {
+    /// The CMOs, in order.
+    pub cmos: &'a [ConeCmo<'a>],
+    /// Their pyramids, `MipPyramid::build(cube).flatten()` each.
+    pub pyramids: &'a [Vec<[f32; 2]>],
+    /// The camera's eye (the mirror pixels' incoming rays start there).
+    pub eye: Vec3,
+    /// Added to every footprint level: 0 is the pass; the tests' negative uses another.
+    pub level_bias: f32,
+    /// The pyramid's occlusion cap (the pass: `true`; `false` measures what it gains).
+    pub occlusion: bool,
+    /// The below-the-surface darkening (the pass: `true`; `false` measures what it gains).
+    pub horizon: bool,
+}
+
+/// A record's status as the cone pass reads it (`RECORD_HIT`, `RECORD_ESCAPED`; anything else
+/// is left alone).
+pub const STATUS_HIT: u32 = 0;
+/// See [`STATUS_HIT`].
+pub const STATUS_ESCAPED: u32 = 1;
+
+/// glam's `length`, as WGSL `length_glam`.
+fn length(v: Vec3) -> f32 {
+    (v.x * v.x + v.y * v.y + v.z * v.z).sqrt()
+}
+
+/// The CMO that sees `p` (`spirv/cone.wgsl`'s header): the nearest centre whose texel towards
+/// `p` holds a finite distance of at least `|p - C| (1 - 4 / N)`.
+pub fn cone_seeing_cmo(scene: &ConeScene<'_>, p: Vec3) -> Option<usize> {
+    let mut best = None;
+    let mut best_d = f32::INFINITY;
+    for (k, c) in scene.cmos.iter().enumerate() {
+        let size = c.cube.size;
+        let keep = 1.0 - 4.0 / size as f32;
+        let u = p - c.cube.centre;
+        let dist = length(u);
+        if dist > 0.0 && dist < best_d {
+            let t = crate::cubemap::face::dir_to_texel(u, size);
+            let d = c.cube.distance[t.index(size)];
+            if d.is_finite() && d >= dist * keep {
+                best = Some(k);
+                best_d = dist;
+            }
+        }
+    }
+    best
+}
+
+/// The level of the axis hit, capped by the pyramid (`cone_visible_level` in `spirv/cone.wgsl`).
+pub fn cone_visible_level(
+    scene: &ConeScene<'_>,
+    k: usize,
+    u: Vec3,
+    dist: f32,
+    rho: f32,
+    level: f32,
+) -> f32 {
+    let cmo = &scene.cmos[k];
+    let size = cmo.cube.size;
+    let top = cmo.top();
+    let mut lv = level;
+    if lv <= 0.0 {
+        return lv;
+    }
+    let c = lv.ceil();
+    let mut l = if c < top as f32 { c as u32 } else { top };
+    let texel = crate::cubemap::face::dir_to_texel(u, size);
+    let front = dist - rho;
+    while l > 0 {
+        let (offset, w) = cone_level_at(size, l);
+        let i = offset + (texel.face * w + (texel.y >> l)) * w + (texel.x >> l);
+        if scene.pyramids[k][i as usize][0] >= front {
+            break;
+        }
+        lv = lv.min((l - 1) as f32);
+        l -= 1;
+    }
+    lv
+}
+
+/// `a + (b - a) clamp(level, 0, 1)`.
+pub fn cone_blend(a: Vec3, b: Vec3, level: f32) -> Vec3 {
+    // `clamp_rust` in WGSL: the same branches as `f32::clamp`.
+    let w = level.clamp(0.0, 1.0);
+    a + (b - a) * w
+}
+
+/// The fraction of the cone of half-angle `theta` around the unit axis `r` kept above the
+/// reflector's plane, `d` the unit camera ray (`spirv/cone.wgsl`'s header).
+pub fn cone_above(d: Vec3, r: Vec3, theta: f32) -> f32 {
+    let c2 = (1.0 - (d.x * r.x + d.y * r.y + d.z * r.z)) * 0.5;
+    let beta = c2.max(0.0).sqrt().asin();
+    let f = (theta - beta) / (2.0 * theta);
+    let f = f.clamp(0.0, 0.5);
+    1.0 - f
+}
+
+/// The cone pass for one glossy pixel of specular power `power` (< 1024) and its record
+/// (status, the axis ray's origin and unit direction, the hit point, the exact colour): the new
+/// colour, or `None` where the pass leaves the record alone (unresolved). CPU twin of
+/// `spirv/cone.wgsl`'s `main`.
+pub fn cone_pixel(
+    scene: &ConeScene<'_>,
+    status: u32,
+    origin: Vec3,
+    dir: Vec3,
+    point: Vec3,
+    colour: Vec3,
+    power: f32,
+) -> Option<Vec3> {
+    let theta = cone_half_angle(power);
+    let tan_t = theta.tan();
+    let out = match status {
+        STATUS_HIT => match cone_seeing_cmo(scene, point) {
+            Some(k) => {
+                let cmo = &scene.cmos[k];
+                let u = point - cmo.cube.centre;
+                let dist = length(u);
+                let rho = length(point - origin) * tan_t;
+                let level = cone_footprint_level(cmo.cube.size, u, rho / dist) + scene.level_bias;
+                let lv = if scene.occlusion {
+                    cone_visible_level(scene, k, u, dist, rho, level)
+                } else {
+                    level
+                };
+                cone_blend(colour, cone_cube_colour(cmo, u, lv), lv)
+            }
+            None => colour,
+        },
+        STATUS_ESCAPED => {
+            let mut k = 0;
+            let mut best = f32::INFINITY;
+            for (j, c) in scene.cmos.iter().enumerate() {
+                let v = origin - c.cube.centre;
+                let d = v.dot(v);
+                if d < best {
+                    (k, best) = (j, d);
+                }
+            }
+            let cmo = &scene.cmos[k];
+            let level = cone_footprint_level(cmo.cube.size, dir, tan_t) + scene.level_bias;
+            cone_blend(colour, cone_cube_colour(cmo, dir, level), level)
+        }
+        _ => return None,
+    };
+    if !scene.horizon {
+        return Some(out);
+    }
+    let d = origin - scene.eye;
+    let d = d * (1.0 / length(d));
+    Some(out * cone_above(d, dir, theta))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

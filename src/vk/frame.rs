@@ -12,6 +12,8 @@
 //! | `reflector_check` (where [`Method::has_reflector_check`]; off with `--no-reflector-check`) | G-buffer, records, reflectors' CWBVH, scene | resolved records whose ray meets a reflector nearer, traced exactly ([`ReflectorCheck`]) |
 //! | `fallback` (`--fallback trace`, where [`Method::can_leave_unresolved`]) | G-buffer, records, CWBVH, scene | unresolved records finished by `bvh_queue` + `bvh_trace` |
 //! | `bounce_append` (`--bounces N`, N != 1) | G-buffer, records, CWBVH, scene | N = 0: the mirrors' own material (instead of the method's passes and the two above); N >= 2: rounds 2..=N, each `bounce_append` + `bvh_queue` (`args`) + `bvh_trace` ([`super::passes::bounce`]) |
+//! | `cone_prefilter` (a glossy scene, `fragment` and `compute`; with the CMO stages) | CMO colour (+ distance: compute's own 2x2 pyramid) | the pre-filtered colour chain `cmo_cone` ([`super::passes::cone`]) |
+//! | `cone` (likewise; after the fallback) | G-buffer, records, CMO data, `cmo_cone`, the pyramid | the glossy pixels' record colour, cone traced |
 //! | `composite` | G-buffer, records, CMO triangle IDs + scene (environment-map fallback) | final colour ([`Composite`]) |
 //!
 //! Each pass name is its WGSL file, its debug label and its timestamp scope, so
@@ -113,6 +115,7 @@ use super::passes::capture::Capture;
 use super::passes::capture_lists::{self, CaptureLists, ListCounters, ListTargets};
 use super::passes::cmo::{CaptureContents, CmoData};
 use super::passes::composite::Composite;
+use super::passes::cone::{ConeStage, method_cone_traces, scene_is_glossy};
 use super::passes::gbuffer::Gbuffer;
 use super::passes::lists::PackedLists;
 use super::passes::pyramid::{Pyramid, PyramidBindings};
@@ -350,6 +353,11 @@ pub struct GpuRenderer {
     fallback: Option<BvhPasses>,
     /// `bounces` != 1 ([`super::passes::bounce`]).
     bounce: Option<BouncePasses>,
+    /// Cone tracing of the glossy pixels (fragment, compute; a scene with a glossy reflector
+    /// only): [`super::passes::cone`].
+    cone: Option<ConeStage>,
+    /// [`GpuRenderer::skip_cone`]: the tests' frame without the `cone` pass.
+    cone_skipped: bool,
     composite: Composite,
     params: Buffer,
     records: Buffer,
@@ -989,10 +997,13 @@ impl GpuRenderer {
         }
         let spec = check_method(&options)?;
         spec.check_device(ctx)?;
-        let needs = spec.needs(&options.trace);
+        let mut needs = spec.needs(&options.trace);
+        // Cone tracing reads the captured colour (compute captures none otherwise).
+        let cone = method_cone_traces(options.method) && scene_is_glossy(scene);
+        needs.contents.colour |= cone;
         let data = GpuSceneData::new(scene);
         let scene_buffers = SceneBuffers::new(ctx, &data)?;
-        let stages = CmoStages::new(
+        let mut stages = CmoStages::new(
             ctx,
             scene,
             (&data, &scene_buffers),
@@ -1001,6 +1012,9 @@ impl GpuRenderer {
             ranges.capture_near,
             lists,
         )?;
+        if cone {
+            stages.cmo.alloc_cone(ctx)?;
+        }
         let gbuffer = Gbuffer::new(ctx, &scene_buffers, camera, ranges.near)?;
         let params = ctx.create_buffer_init(
             "frame params",
@@ -1030,6 +1044,19 @@ impl GpuRenderer {
         };
         let method = methods::create(options.method, &inputs)?;
         let check_triangles = scene.check_triangles();
+        let cone = if cone {
+            Some(ConeStage::new(
+                ctx,
+                &stages.cmo,
+                !needs.pyramid,
+                scene.background,
+                &gbuffer,
+                &params,
+                &records,
+            )?)
+        } else {
+            None
+        };
         let after = AfterMethod::new(&inputs, &check_triangles, method.as_ref())?;
         let composite = Composite::new(
             ctx,
@@ -1040,7 +1067,7 @@ impl GpuRenderer {
             &scene_buffers,
         )?;
         let timestamps = if ctx.report().timestamps_supported() {
-            Some(Timestamps::new(ctx, 12)?)
+            Some(Timestamps::new(ctx, 14)?)
         } else {
             log::info!("no timestamp queries on this device: pass times are not measured");
             None
@@ -1059,6 +1086,8 @@ impl GpuRenderer {
             check: after.check,
             fallback: after.fallback,
             bounce: after.bounce,
+            cone,
+            cone_skipped: false,
             composite,
             params,
             records,
@@ -1071,6 +1100,18 @@ impl GpuRenderer {
             check_triangles,
             lists_uploaded: lists.is_some(),
         })
+    }
+
+    /// The cone stage, where the frame has one (a glossy scene, fragment or compute).
+    pub fn cone(&self) -> Option<&ConeStage> {
+        self.cone.as_ref()
+    }
+
+    /// Test hook: frames without (`true`) or with the `cone` pass, everything else the same
+    /// (the records the pass reads, for its CPU twin `cpu::cone::cone_pixel`).
+    #[doc(hidden)]
+    pub fn skip_cone(&mut self, skip: bool) {
+        self.cone_skipped = skip;
     }
 
     /// The CMO data (for reading the captures back).
@@ -1182,6 +1223,9 @@ impl GpuRenderer {
             rec.memory_barrier(SHADER_WRITE, SHADER_READ);
         }
         self.method.record_cmo_stage(rec, scope)?;
+        if let Some(c) = &self.cone {
+            scope("cone_prefilter", &mut || c.record_cmo_stage(rec))?;
+        }
         Ok(())
     }
 
@@ -1198,6 +1242,12 @@ impl GpuRenderer {
                 scope(FALLBACK_PASS, &mut || {
                     b.record_queue(rec);
                     b.record_trace(rec)
+                })?;
+            }
+            if let Some(c) = self.cone.as_ref().filter(|_| !self.cone_skipped) {
+                scope("cone", &mut || {
+                    c.record(rec);
+                    Ok(())
                 })?;
             }
         }

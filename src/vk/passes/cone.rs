@@ -315,3 +315,124 @@ pub fn probe_gpu(
     })?;
     ctx.read_buffer(&out)
 }
+
+/// Whether `scene` has a glossy reflector: a reflector mesh with a part whose material's
+/// specular power is below the mirror cap ([`crate::lobe::glossy`]). Only then does a frame
+/// create the cone stage.
+pub fn scene_is_glossy(scene: &crate::scene::Scene) -> bool {
+    scene.meshes.iter().any(|m| {
+        m.reflector
+            && m.parts.iter().any(|p| {
+                crate::lobe::glossy(scene.materials[p.material as usize].specular_power).is_some()
+            })
+    })
+}
+
+/// Whether a frame of `method` cone traces a glossy scene's pixels (fragment and compute).
+pub fn method_cone_traces(method: crate::Method) -> bool {
+    matches!(method, crate::Method::Fragment | crate::Method::Compute)
+}
+
+/// The cone stage of a glossy frame (fragment, compute): the prefilter pass (after the
+/// capture), the 2x2 pyramid where the method has none (compute: into a buffer of its own), and
+/// the `cone` pass (after the trace, the reflector check and the fallback). See
+/// `spirv/cone.wgsl` for what the pass does; [`crate::cpu::cone::cone_pixel`] is its twin.
+pub struct ConeStage {
+    prefilter: ConePrefilter,
+    prefilter_bindings: ConePrefilterBindings,
+    /// Compute's own pyramid: the pass, its bindings and its buffer (the sets hold the handle).
+    pyramid: Option<(
+        super::pyramid::Pyramid,
+        super::pyramid::PyramidBindings,
+        Buffer,
+    )>,
+    pipeline: ComputePipeline,
+    sets: [BindGroup; 2],
+    groups: [u32; 3],
+}
+
+impl ConeStage {
+    /// Creates the stage over `cmo` (which must have `cmo_colour` captured and `cmo_cone`
+    /// allocated). `own_pyramid`: build the 2x2 pyramid here (the method builds none).
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        ctx: &GpuContext,
+        cmo: &CmoData,
+        own_pyramid: bool,
+        background: Vec3,
+        gbuffer: &super::gbuffer::Gbuffer,
+        params: &Buffer,
+        records: &Buffer,
+    ) -> VkResult<ConeStage> {
+        use crate::vk::backend::shaders::CONE;
+        let prefilter = ConePrefilter::new(ctx)?;
+        let prefilter_bindings = prefilter.bind(ctx, cmo, background)?;
+        let pyramid = if own_pyramid {
+            let cells = (u64::from(cmo.count()) * mip_len(cmo.size()) as u64).max(1);
+            let buf = Buffer::new(
+                ctx.device(),
+                "cone pyramid",
+                cells * 8,
+                vk::BufferUsageFlags::STORAGE_BUFFER,
+                MemoryLocation::GpuOnly,
+            )?;
+            let p = super::pyramid::Pyramid::new(ctx)?;
+            let b = p.bind(ctx, cmo.distance(), &buf, cmo.count(), cmo.size())?;
+            Some((p, b, buf))
+        } else {
+            None
+        };
+        let pipeline = ComputePipeline::new(ctx, &CONE, "main", ComputeOptions::default())?;
+        let sampled = |img: &crate::vk::backend::image::Image| Resource::Texture {
+            view: img.view(),
+            layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+        };
+        let set0 = pipeline.bind_group(
+            0,
+            &[
+                (0, sampled(&gbuffer.position)),
+                (1, sampled(&gbuffer.normal)),
+                (2, Resource::Buffer(params)),
+                (3, Resource::Buffer(records)),
+            ],
+        )?;
+        let mut group1 = cmo.resources_for(&CONE, "main");
+        if let Some((_, _, buf)) = &pyramid {
+            for (b, r) in &mut group1 {
+                if *b == 3 {
+                    *r = Resource::Buffer(buf);
+                }
+            }
+        }
+        let set1 = pipeline.bind_group(1, &group1)?;
+        let (width, height) = gbuffer.extent();
+        Ok(ConeStage {
+            prefilter,
+            prefilter_bindings,
+            pyramid,
+            pipeline,
+            sets: [set0, set1],
+            groups: super::bvh::pixel_groups(width, height),
+        })
+    }
+
+    /// Records the CMO part (after the capture): the chain, and compute's pyramid.
+    pub fn record_cmo_stage(&self, rec: &Recorder<'_>) -> VkResult<()> {
+        use crate::vk::backend::sync::{SHADER_READ, SHADER_WRITE};
+        rec.memory_barrier(SHADER_WRITE, SHADER_READ);
+        self.prefilter.record(rec, &self.prefilter_bindings, None)?;
+        if let Some((p, b, _)) = &self.pyramid {
+            p.record(rec, b, None)?;
+        }
+        rec.memory_barrier(SHADER_WRITE, SHADER_READ);
+        Ok(())
+    }
+
+    /// Records the `cone` pass (after whatever last wrote the records).
+    pub fn record(&self, rec: &Recorder<'_>) {
+        use crate::vk::backend::sync::{SHADER_WRITE, STORAGE_RW};
+        rec.memory_barrier(SHADER_WRITE, STORAGE_RW);
+        self.pipeline
+            .dispatch(rec, &[&self.sets[0], &self.sets[1]], self.groups);
+    }
+}
