@@ -94,8 +94,9 @@ pub struct BenchArgs {
     #[arg(long, conflicts_with_all = ["scaling", "sequence"])]
     pub model: bool,
     /// With --model: render nothing; model the runs of these earlier bench.json files instead
-    /// (e.g. one per LP_NATIVE_VECTOR_WIDTH and --cube-size), fitting on scene `default` at cube
-    /// 256 and subgroup 8, and write model.json, model.md and model.svg into -o.
+    /// (e.g. one per LP_NATIVE_VECTOR_WIDTH and --cube-size; benches/model-measure.sh), fitting
+    /// on scene `default` at every cube and subgroup size given, and write model.json, model.md
+    /// and model.svg into -o (GPU predictions at cube 256).
     #[arg(long, value_delimiter = ',', requires = "model")]
     pub model_from: Vec<PathBuf>,
     /// Scaling: the largest cube face size (powers of two from 32). The default stops at 1024:
@@ -303,11 +304,7 @@ fn run_grid(
     let cfg = grid_config(args, methods);
     let mut report = bench::run(ctx, &cfg, bar)?;
     if args.model {
-        let training = crate::model::validate::Training {
-            scene: "default".into(),
-            cube: None,
-            subgroup: None,
-        };
+        let training = crate::model::validate::Training::standard();
         let rows = bench::model::measured_of(&report);
         let progress = |s: &str| bar.set_message(format!("model: {s}"));
         report.model = Some(bench::model::run(&rows, &training, None, &progress)?);
@@ -335,7 +332,7 @@ fn run_model_from(args: &BenchArgs) -> Result<()> {
     let rows = bench::model::measured_from_files(&args.model_from)?;
     let training = crate::model::validate::Training::standard();
     let progress = |s: &str| eprintln!("model: {s}");
-    let report = bench::model::run(&rows, &training, training.cube, &progress)?;
+    let report = bench::model::run(&rows, &training, Some(256), &progress)?;
     println!("{}", bench::model::markdown(&report));
     for p in bench::model::write(&report, &args.out)? {
         println!("wrote {}", p.display());
