@@ -86,8 +86,9 @@ pub struct BenchArgs {
     /// Adds the SIMT cost model (a MODEL, not a measurement) to the grid's JSON, Markdown and
     /// plots (bench::model): each method's default setting replayed in lockstep warps from its
     /// CPU twin's work, weighted by SPIR-V instruction counts. (1) lavapipe mode at the device's
-    /// subgroup size against the measured ns per ray of the tracing pass, one scale per method fitted on
-    /// scene `default` only (keep it in --scenes), the error of every other row; (2) predictions
+    /// subgroup size against the measured ns per ray of the tracing pass, two coefficients per
+    /// method (ns per vector instruction, ns per lane operation) fitted on scene `default` only
+    /// (keep it in --scenes), the error of every other row; (2) predictions
     /// at warp widths 32 and 64 (compute/fragment, compute/bvh, fragment/bvh, SIMD efficiency,
     /// sectors per ray); (3) where cube-map tracing would overtake the BVH on the triangle axis
     /// of --scaling. Writes model.svg beside the grid's files.

@@ -17,8 +17,9 @@
 //!   would overtake the BVH (ratio below 1), interpolated in log triangles, if it does.
 //!
 //! `--model-from A.json,B.json,...` reads earlier `bench.json` files instead of rendering (one
-//! per lavapipe subgroup size and cube size), which is how `benches/results/lavapipe-model.*`
-//! was made.
+//! per lavapipe subgroup size and cube size: `benches/model-measure.sh` takes them), which is how
+//! `benches/results/lavapipe-model.*` was made (from the files `benches/model-old-rows.py`
+//! rebuilds).
 //!
 //! Assumptions (also in [`ASSUMPTIONS`], written with every report): the warp assembly and
 //! texel layout of [`crate::model::replay`]; one ns per weighted warp-step for every method on
