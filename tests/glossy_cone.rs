@@ -582,6 +582,16 @@ fn mirror_roughness_creates_nothing() {
             let (scene, cam) = glossy_scene("sphere-room", power, 16, 12);
             let r = renderer(&ctx, &scene, &cam, method);
             assert_eq!(r.cone().is_some(), glossy, "{method} {power:?}");
+            // The memory estimate counts what cone tracing allocates, and only then.
+            let options = RenderOptions {
+                method,
+                ..RenderOptions::default()
+            };
+            let extra = cubetrace::vk::budget::cone_bytes(&scene, &options);
+            assert_eq!(extra > 0, glossy, "{method} {power:?}");
+            if let Some(c) = r.cmo().cone() {
+                assert!(extra >= c.size(), "{method}: {extra} < {}", c.size());
+            }
             assert_eq!(r.cmo().cone().is_some(), glossy, "{method} {power:?}");
             if method == Method::Compute {
                 assert_eq!(r.cmo().contents().colour, glossy, "{method} {power:?}");

@@ -270,8 +270,32 @@ pub fn estimate(scene: &Scene, camera: &Camera, options: &RenderOptions) -> Devi
             + bounce_bytes(width, height, options.bounces)
             + reflector_check_bytes(width, height, check),
         scene: scene_bytes(scene),
-        cmo: base.cmo + list_capture_bytes(scene, options),
+        cmo: base.cmo + list_capture_bytes(scene, options) + cone_bytes(scene, options),
     }
+}
+
+/// What cone tracing adds for a glossy scene with `fragment` or `compute`
+/// ([`super::passes::cone`]): the pre-filtered chain (`mip_len(N)` RGBA f32 per CMO), and where
+/// the method captures no colour or builds no pyramid (compute), those too; 0 otherwise.
+pub fn cone_bytes(scene: &Scene, options: &RenderOptions) -> u64 {
+    use super::passes::cone::{method_cone_traces, scene_is_glossy};
+    let Some(spec) = methods::spec(options.method) else {
+        return 0;
+    };
+    if !method_cone_traces(options.method) || !scene_is_glossy(scene) {
+        return 0;
+    }
+    let needs = spec.needs(&options.trace);
+    let cmos = scene.cmo_centres().len() as u64;
+    let size = scene.cmo.resolution;
+    let cells = cmos * mip_len(size) as u64;
+    let colour = if needs.contents.colour {
+        0
+    } else {
+        cmos * 6 * u64::from(size) * u64::from(size) * 16
+    };
+    let pyramid = if needs.pyramid { 0 } else { cells * 8 };
+    cells * 16 + colour + pyramid
 }
 
 /// What the `bounded` criterion's capture adds to [`device_bytes`] for `scene` (which knows
