@@ -71,8 +71,10 @@ use crate::vk::backend::context::{GpuContext, Recorder};
 use crate::vk::backend::error::{VkError, VkResult};
 use crate::vk::backend::graphics::{GraphicsDesc, GraphicsPipeline, RenderTarget};
 use crate::vk::backend::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
-use crate::vk::backend::shaders::{Pass, SSR, SSR_HIZ};
-use crate::vk::backend::sync::{COMPUTE_READ, COMPUTE_WRITE, SHADER_READ, SHADER_WRITE};
+use crate::vk::backend::shaders::{Pass, SSR, SSR_BLUR, SSR_CONE, SSR_HIZ, SSR_VISIBILITY};
+use crate::vk::backend::sync::{
+    COMPUTE_READ, COMPUTE_WRITE, SHADER_READ, SHADER_WRITE, STORAGE_RW,
+};
 use crate::vk::passes::cmo::CaptureContents;
 use crate::vk::passes::gbuffer::Gbuffer;
 
@@ -137,6 +139,17 @@ pub struct HizLevelParams {
     pub pad2: u32,
 }
 
+/// `ConeLevel` in `spirv/shared/ssr_cone.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct ConeLevelParams {
+    pub level: u32,
+    pub stage: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+    pub background: [f32; 4],
+}
+
 /// Workgroups per dispatch row (the smallest `maxComputeWorkGroupCount[0]` Vulkan guarantees).
 const MAX_GROUPS_X: u32 = 65_535;
 
@@ -153,6 +166,203 @@ pub struct SsrPasses {
     pyramid: Buffer,
     width: u32,
     height: u32,
+    /// The glossy passes, only where the scene has a glossy reflector.
+    cone: Option<ConePasses>,
+}
+
+/// One dispatch of a per-level pass: descriptor set, parameter buffer (kept alive for the set),
+/// workgroups.
+type LevelDispatch = (BindGroup, Buffer, [u32; 3]);
+
+/// The workgroups of a 64-wide dispatch over `cells` cells.
+fn groups_for(cells: u32, wg: u32) -> [u32; 3] {
+    let groups = cells.div_ceil(wg).max(1);
+    let x = groups.min(MAX_GROUPS_X);
+    [x, groups.div_ceil(x), 1]
+}
+
+/// The glossy passes (sections 4.4.1 to 4.4.5): `ssr_visibility` (max pyramid and
+/// pre-integrated visibility), `ssr_blur` (pre-convolved colour chain) and `ssr_cone` (the cone
+/// tracing after `ssr`). CPU twin [`crate::cpu::ssr_cone`].
+pub struct ConePasses {
+    visibility: ComputePipeline,
+    visibility_levels: Vec<LevelDispatch>,
+    blur: ComputePipeline,
+    /// Stage 0, then stages 1 and 2 per level from 1 on.
+    blur_steps: Vec<LevelDispatch>,
+    cone: ComputePipeline,
+    cone_set: BindGroup,
+    cone_groups: [u32; 3],
+    hiz_max: Buffer,
+    visibility_buf: Buffer,
+    chain: Buffer,
+    _scratch: Buffer,
+    cells: usize,
+}
+
+impl ConePasses {
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        ctx: &GpuContext,
+        gbuffer: &Gbuffer,
+        frame_params: &Buffer,
+        records: &Buffer,
+        params_buf: &Buffer,
+        pyramid: &Buffer,
+        background: [f32; 3],
+        (width, height): (u32, u32),
+    ) -> VkResult<Self> {
+        let cells = hiz_len(width, height);
+        let storage = |name: &str, bytes: u64| {
+            Buffer::new(
+                ctx.device(),
+                name,
+                bytes,
+                vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+                MemoryLocation::GpuOnly,
+            )
+        };
+        let hiz_max = storage("hiz max pyramid", cells as u64 * 4)?;
+        let visibility_buf = storage("ssr visibility", cells as u64 * 4)?;
+        let chain = storage("ssr colour chain", cells as u64 * 16)?;
+        let scratch = storage("ssr blur scratch", u64::from(width * height) * 16)?;
+        let level_buf = |name: String, level: u32, stage: u32| -> VkResult<Buffer> {
+            let mut buf = Buffer::new(
+                ctx.device(),
+                &name,
+                size_of::<ConeLevelParams>() as u64,
+                vk::BufferUsageFlags::STORAGE_BUFFER,
+                MemoryLocation::CpuToGpu,
+            )?;
+            let [r, g, b] = background;
+            buf.write(
+                0,
+                &[ConeLevelParams {
+                    level,
+                    stage,
+                    background: [r, g, b, 1.0],
+                    ..ConeLevelParams::default()
+                }],
+            )?;
+            Ok(buf)
+        };
+        let sampled = |img: &crate::vk::backend::image::Image| Resource::Texture {
+            view: img.view(),
+            layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+        };
+        let levels = hiz_levels(width, height);
+        let visibility =
+            ComputePipeline::new(ctx, &SSR_VISIBILITY, "main", ComputeOptions::default())?;
+        let wg = |p: &Pass| {
+            p.entry_point("main")
+                .map_or(64, |e| e.workgroup_size[0].max(1))
+        };
+        let mut visibility_levels = Vec::new();
+        for (l, level) in levels.iter().enumerate() {
+            let buf = level_buf(format!("ssr visibility level {l}"), l as u32, 0)?;
+            let set = visibility.bind_group(
+                0,
+                &[
+                    (0, Resource::Buffer(params_buf)),
+                    (1, Resource::Buffer(pyramid)),
+                    (2, Resource::Buffer(&hiz_max)),
+                    (3, Resource::Buffer(&visibility_buf)),
+                    (4, Resource::Buffer(&buf)),
+                ],
+            )?;
+            let groups = groups_for(level.width * level.height, wg(&SSR_VISIBILITY));
+            visibility_levels.push((set, buf, groups));
+        }
+        let blur = ComputePipeline::new(ctx, &SSR_BLUR, "main", ComputeOptions::default())?;
+        let mut blur_steps = Vec::new();
+        let mut step = |l: usize, stage: u32, cells: u32| -> VkResult<()> {
+            let buf = level_buf(format!("ssr blur level {l} stage {stage}"), l as u32, stage)?;
+            let set = blur.bind_group(
+                0,
+                &[
+                    (0, Resource::Buffer(params_buf)),
+                    (1, sampled(&gbuffer.colour)),
+                    (2, Resource::Buffer(&chain)),
+                    (3, Resource::Buffer(&scratch)),
+                    (4, Resource::Buffer(&buf)),
+                ],
+            )?;
+            blur_steps.push((set, buf, groups_for(cells, wg(&SSR_BLUR))));
+            Ok(())
+        };
+        step(0, 0, width * height)?;
+        for l in 1..levels.len() {
+            step(l, 1, levels[l - 1].width * levels[l - 1].height)?;
+            step(l, 2, levels[l].width * levels[l].height)?;
+        }
+        let cone = ComputePipeline::new(ctx, &SSR_CONE, "main", ComputeOptions::default())?;
+        let cone_set = cone.bind_group(
+            0,
+            &[
+                (0, sampled(&gbuffer.position)),
+                (1, sampled(&gbuffer.normal)),
+                (2, Resource::Buffer(frame_params)),
+                (3, Resource::Buffer(records)),
+                (4, Resource::Buffer(pyramid)),
+                (5, Resource::Buffer(&hiz_max)),
+                (6, Resource::Buffer(&visibility_buf)),
+                (7, Resource::Buffer(&chain)),
+                (8, Resource::Buffer(params_buf)),
+            ],
+        )?;
+        Ok(ConePasses {
+            visibility,
+            visibility_levels,
+            blur,
+            blur_steps,
+            cone,
+            cone_set,
+            cone_groups: groups_for(width * height, wg(&SSR_CONE)),
+            hiz_max,
+            visibility_buf,
+            chain,
+            _scratch: scratch,
+            cells,
+        })
+    }
+
+    /// `ssr_visibility`, level by level (after `ssr_hiz`).
+    fn record_visibility(&self, rec: &Recorder<'_>) {
+        for (i, (set, _, groups)) in self.visibility_levels.iter().enumerate() {
+            if i > 0 {
+                rec.memory_barrier(COMPUTE_WRITE, COMPUTE_READ);
+            }
+            self.visibility.dispatch(rec, &[set], *groups);
+        }
+    }
+
+    /// `ssr_blur`, step by step (after the G-buffer). Each step reads what the one before
+    /// wrote and overwrites what the one before that read (the scratch image): a read-write
+    /// barrier between steps.
+    fn record_blur(&self, rec: &Recorder<'_>) {
+        for (i, (set, _, groups)) in self.blur_steps.iter().enumerate() {
+            if i > 0 {
+                rec.memory_barrier(STORAGE_RW, STORAGE_RW);
+            }
+            self.blur.dispatch(rec, &[set], *groups);
+        }
+    }
+
+    /// `ssr_cone` (after `ssr`'s records).
+    fn record_cone(&self, rec: &Recorder<'_>) {
+        self.cone.dispatch(rec, &[&self.cone_set], self.cone_groups);
+    }
+
+    /// The max pyramid, the visibility pyramid and the colour chain as the GPU built them.
+    pub fn read(&self, ctx: &GpuContext) -> VkResult<(Vec<f32>, Vec<f32>, Vec<[f32; 4]>)> {
+        let mut max: Vec<f32> = ctx.read_buffer(&self.hiz_max)?;
+        let mut vis: Vec<f32> = ctx.read_buffer(&self.visibility_buf)?;
+        let mut chain: Vec<[f32; 4]> = ctx.read_buffer(&self.chain)?;
+        max.truncate(self.cells);
+        vis.truncate(self.cells);
+        chain.truncate(self.cells);
+        Ok((max, vis, chain))
+    }
 }
 
 impl SsrPasses {
@@ -165,6 +375,7 @@ impl SsrPasses {
         frame_params: &Buffer,
         records: &Buffer,
         options: &SsrOptions,
+        glossy_background: Option<[f32; 3]>,
     ) -> VkResult<Self> {
         let (width, height) = gbuffer.extent();
         let params = SsrParams::new(view_proj, width, height, options)?;
@@ -239,7 +450,21 @@ impl SsrPasses {
                 (6, Resource::Buffer(&params_buf)),
             ],
         )?;
+        let cone = match glossy_background {
+            Some(background) => Some(ConePasses::new(
+                ctx,
+                gbuffer,
+                frame_params,
+                records,
+                &params_buf,
+                &pyramid,
+                background,
+                (width, height),
+            )?),
+            None => None,
+        };
         Ok(SsrPasses {
+            cone,
             hiz,
             hiz_levels: levels,
             trace,
@@ -273,12 +498,26 @@ impl SsrPasses {
         self.trace.draw(rec, &target, &[&self.trace_set], 3, 0)
     }
 
+    /// The glossy passes (`None` where the scene has no glossy reflector).
+    pub fn cone_passes(&self) -> Option<&ConePasses> {
+        self.cone.as_ref()
+    }
+
     /// The pyramid as the GPU built it ([`hiz_len`] cells, [`hiz_levels`] layout).
     pub fn read_pyramid(&self, ctx: &GpuContext) -> VkResult<Vec<f32>> {
         let mut cells: Vec<f32> = ctx.read_buffer(&self.pyramid)?;
         cells.truncate(hiz_len(self.width, self.height));
         Ok(cells)
     }
+}
+
+/// Whether the uploaded scene has a glossy reflector (a reflector of specular power below the
+/// mirror cap): only then are the glossy passes created.
+fn has_glossy_reflector(data: &crate::scene::gpu_data::GpuSceneData) -> bool {
+    (data.objects.iter()).any(|o| {
+        o.reflector & 1 != 0
+            && crate::lobe::glossy(Some(o.specular_power).filter(|p| *p >= 0.0)).is_some()
+    })
 }
 
 /// The screen-space method.
@@ -315,6 +554,7 @@ impl MethodSpec for Ssr {
             i.params,
             i.records,
             &i.options.ssr,
+            has_glossy_reflector(i.data).then_some(i.data.shading.background),
         )?))
     }
 }
@@ -331,7 +571,26 @@ impl Technique for SsrPasses {
             self.record_hiz(rec);
             Ok(())
         })?;
+        if let Some(cone) = &self.cone {
+            rec.memory_barrier(COMPUTE_WRITE, COMPUTE_READ);
+            scope(SSR_VISIBILITY.name, &mut || {
+                cone.record_visibility(rec);
+                Ok(())
+            })?;
+            scope(SSR_BLUR.name, &mut || {
+                cone.record_blur(rec);
+                Ok(())
+            })?;
+        }
         rec.memory_barrier(SHADER_WRITE, SHADER_READ);
-        scope(SSR.name, &mut || self.record_trace(rec))
+        scope(SSR.name, &mut || self.record_trace(rec))?;
+        if let Some(cone) = &self.cone {
+            rec.memory_barrier(STORAGE_RW, STORAGE_RW);
+            scope(SSR_CONE.name, &mut || {
+                cone.record_cone(rec);
+                Ok(())
+            })?;
+        }
+        Ok(())
     }
 }
