@@ -55,10 +55,16 @@
 //! pixels left to the fallback; with `--fallback trace` finishing those exactly, 9.7 % wrong surface
 //! and 22.5 dB. It still pays the CMO capture (14 to 34 ms per frame at 160x120).
 //!
-//! Not implemented: glossy reflections. The chapter's cone tracing needs a roughness per material
-//! (scene format and G-buffer), a pre-convolved colour mip chain (4.4.4), a pre-integrated
-//! visibility pyramid (a max Hi-Z beside the min one, 4.4.2), the cone-tracing pass (4.4.5), and a
-//! reference that integrates the lobe to measure it against.
+//! Glossy reflectors (sections 4.4.1 to 4.4.5; created only when the scene has a reflector below
+//! the mirror cap, so a mirror scene's frame is unchanged bit for bit): `ssr_visibility` (the max
+//! pyramid and the pre-integrated visibility, one dispatch per level after `ssr_hiz`), `ssr_blur`
+//! (the pre-convolved colour chain: level 0, then a horizontal and a vertical + 2x2 dispatch per
+//! level) and `ssr_cone` (one compute dispatch after `ssr`, rewriting the record colour of
+//! glossy pixels whose ray hit). Specified by their twin [`crate::cpu::ssr_cone`], which says
+//! what they approximate. The remainder of the cone's weight is, for now, the mirror hit's colour
+//! (temporary, until the pre-filtered CMO lookup lands). Barriers: compute write -> read between
+//! the per-level dispatches, read-write between the blur's steps (the scratch image is reused),
+//! and storage read-write between `ssr` and `ssr_cone` (both touch the records).
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::Mat4;
@@ -168,6 +174,13 @@ pub struct SsrPasses {
     height: u32,
     /// The glossy passes, only where the scene has a glossy reflector.
     cone: Option<ConePasses>,
+}
+
+/// The glossy passes' pyramids and chain, read back ([`ConePasses::read`]).
+pub struct ConeBuffers {
+    pub max: Vec<f32>,
+    pub visibility: Vec<f32>,
+    pub chain: Vec<[f32; 4]>,
 }
 
 /// One dispatch of a per-level pass: descriptor set, parameter buffer (kept alive for the set),
@@ -353,15 +366,20 @@ impl ConePasses {
         self.cone.dispatch(rec, &[&self.cone_set], self.cone_groups);
     }
 
-    /// The max pyramid, the visibility pyramid and the colour chain as the GPU built them.
-    pub fn read(&self, ctx: &GpuContext) -> VkResult<(Vec<f32>, Vec<f32>, Vec<[f32; 4]>)> {
+    /// The max pyramid, the visibility pyramid and the colour chain as the GPU built them
+    /// ([`hiz_len`] cells each, [`hiz_levels`] layout).
+    pub fn read(&self, ctx: &GpuContext) -> VkResult<ConeBuffers> {
         let mut max: Vec<f32> = ctx.read_buffer(&self.hiz_max)?;
         let mut vis: Vec<f32> = ctx.read_buffer(&self.visibility_buf)?;
         let mut chain: Vec<[f32; 4]> = ctx.read_buffer(&self.chain)?;
         max.truncate(self.cells);
         vis.truncate(self.cells);
         chain.truncate(self.cells);
-        Ok((max, vis, chain))
+        Ok(ConeBuffers {
+            max,
+            visibility: vis,
+            chain,
+        })
     }
 }
 
