@@ -64,6 +64,7 @@ pub mod approx;
 pub mod bounded;
 pub mod closure;
 pub mod compute;
+pub mod cone;
 pub mod fragment;
 pub mod mip;
 pub mod multi;

@@ -11,6 +11,7 @@
 //! | 5 | `cmo_triangle` | `6 N N` u32 per CMO: global triangle index, `u32::MAX` where empty | with [`CaptureContents::triangle_ids`]; else a one-u32 placeholder (composite binds it; never read) |
 //! | 6 to 9 | `cmo_list_head`, `_complete`, `_hi`, `_count` | `6 N N` u32 per CMO each: the words of `[head, complete_to, hi, count]` ([`super::lists`]) | with [`CmoData::alloc_lists`]; else one-word placeholders (`compute_trace` binds them; only its `_bounded` entry points read them) |
 //! | 10 to 13 | `cmo_node_triangle`, `_lo`, `_hi`, `_next` | the lists' node pool, a u32 per node each ([`super::lists`]) | likewise |
+//! | 14 | `cmo_cone` | `mip_len(N)` vec4 per CMO: the pre-filtered colour chain ([`crate::cpu::cone`], `spirv/shared/cone.wgsl`) | with [`CmoData::alloc_cone`] (a glossy scene); else absent (only the cone passes use it) |
 //!
 //! The capture pass writes distance, colour and normals; the pyramid pass writes `cmo_mip`.
 //! Colour is an image, not a buffer: it is only ever looked up per texel, and an image has no
@@ -38,6 +39,9 @@ use crate::vk::backend::shaders::Pass;
 use crate::vk::backend::sync::{ALL_READS, SHADER_READ, TRANSFER_WRITE};
 
 use super::lists::{self, PackedLists};
+
+/// Binding of `cmo_cone` in `@group(1)` (`spirv/shared/cone.wgsl`).
+pub const CONE_BINDING: u32 = 14;
 
 /// Entries of [`TraceConfig::mip_levels`] (index 0 unused: level 0 is the texels).
 pub const TRACE_MIP_MAX_LEVELS: usize = 16;
@@ -191,6 +195,8 @@ pub struct CmoData {
     /// `cmo_triangle` without triangle IDs: composite's environment-map fallback binds it, and
     /// a frame that captures no IDs (the environment-map method) never has an unresolved pixel.
     triangle_placeholder: Option<Buffer>,
+    /// `cmo_cone` (binding 14): only for a glossy scene ([`CmoData::alloc_cone`]).
+    cone: Option<Buffer>,
     contents: CaptureContents,
     /// The record and pool bindings, a word each ([`lists::RECORD_COLUMNS`],
     /// [`lists::NODE_COLUMNS`]; placeholders of one word until [`CmoData::alloc_lists`]), and
@@ -353,6 +359,7 @@ impl CmoData {
             } else {
                 None
             },
+            cone: None,
             triangle_placeholder: if contents.triangle_ids {
                 None
             } else {
@@ -380,6 +387,34 @@ impl CmoData {
         self.nodes = column_buffers(ctx, lists::NODE_COLUMNS, capacity)?;
         self.pool_capacity = capacity;
         Ok(())
+    }
+
+    /// Allocates `cmo_cone` (binding 14, uninitialised), the pre-filtered colour chain of cone
+    /// tracing that the `cone_prefilter` pass writes ([`crate::vk::passes::cone`]): `mip_len(N)`
+    /// vec4 cells per CMO (one cell where N = 1, a binding cannot be empty). Only a glossy scene
+    /// calls it; without it nothing new exists and binding 14 is not supplied. Refused past
+    /// `maxStorageBufferRange`.
+    pub fn alloc_cone(&mut self, ctx: &GpuContext) -> VkResult<()> {
+        let cells = (u64::from(self.count) * u64::from(mip_len(self.size))).max(1);
+        let bytes = cells * 16;
+        let limit = u64::from(ctx.report().max_storage_buffer_range);
+        if bytes > limit {
+            return Err(VkError::Limit {
+                device: ctx.report().name.clone(),
+                what: format!(
+                    "`cmo_cone` ({} CMOs of face size {}: {bytes} bytes of pre-filtered colour)",
+                    self.count, self.size
+                ),
+                limit: format!("maxStorageBufferRange {limit} bytes"),
+            });
+        }
+        self.cone = Some(storage(ctx, "cmo_cone", bytes)?);
+        Ok(())
+    }
+
+    /// The pre-filtered colour chain (binding 14), where [`CmoData::alloc_cone`] made it.
+    pub fn cone(&self) -> Option<&Buffer> {
+        self.cone.as_ref()
     }
 
     /// Grows the `bounded` criterion's pool to `pool_capacity` nodes where it holds fewer (new
@@ -590,6 +625,7 @@ impl CmoData {
             + self.normal.as_ref().map_or(0, |b| b.size())
             + self.triangle.as_ref().map_or(0, |b| b.size())
             + self.triangle_placeholder.as_ref().map_or(0, |b| b.size())
+            + self.cone.as_ref().map_or(0, |b| b.size())
             + self
                 .lists
                 .iter()
@@ -624,6 +660,9 @@ impl CmoData {
         }
         for (i, b) in self.lists.iter().chain(&self.nodes).enumerate() {
             r.push((lists::FIRST_BINDING + i as u32, Resource::Buffer(b)));
+        }
+        if let Some(c) = &self.cone {
+            r.push((CONE_BINDING, Resource::Buffer(c)));
         }
         r
     }

@@ -5,6 +5,7 @@ pub mod capture;
 pub mod capture_lists;
 pub mod cmo;
 pub mod composite;
+pub mod cone;
 pub mod gbuffer;
 pub mod hier32;
 pub mod lists;
