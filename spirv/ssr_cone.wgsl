@@ -21,10 +21,10 @@
 //   linearly in between, (b - w_min) / ((b - a) + (w_max - w_min)).
 // Colours and weights accumulate front to back along the walk until the weight reaches 1 (a
 // sample takes at most what is left). The rest (1 - accumulated) is the remainder, which the
-// chapter blends "from cube maps with the same roughness".
-//
-// TEMPORARY remainder: the record's mirror colour (the G-buffer colour at the hit pixel that
-// `ssr` wrote), until the pre-filtered CMO lookup of `spirv/shared/cone.wgsl` lands on main.
+// chapter blends "from cube maps with the same roughness": `cone_envmap_colour`
+// (shared/cone.wgsl), the pre-filtered colour of the CMO nearest to the pixel along the mirror
+// direction, at the level of the lobe's cone (direction only: no parallax).
+//! import shared/cone.wgsl
 //! import shared/mirror.wgsl
 //! import shared/lobe.wgsl
 //! import shared/ssr.wgsl
@@ -143,6 +143,7 @@ fn main(
             break;
         }
     }
-    // TEMPORARY remainder (see the header): the mirror colour `ssr` wrote.
-    records[index].colour = colour + rec.colour * (1.0 - weight);
+    // One call site: lavapipe inlines every call.
+    let remainder = cone_envmap_colour(nearest_cmo(rec.origin), rec.dir, power, frame.background);
+    records[index].colour = colour + remainder * (1.0 - weight);
 }

@@ -17,7 +17,8 @@
 //!   visibility times a linear ramp of its sphere through the cell's [min, max] depth.
 //! - Colour is the G-buffer's shaded colour, blurred per level; what screen space does not show
 //!   (behind objects, off screen) is missing, and the rest of the cone's weight (the remainder)
-//!   comes from elsewhere (see [`cone_colour`]).
+//!   comes from the cube maps at the same roughness ([`super::cone::cone_envmap_colour`]: the
+//!   nearest CMO, direction only, no parallax).
 //! - Only rays `ssr` hit are cone traced; the rest go to the fallback, which traces the mirror
 //!   direction, so an unresolved glossy pixel shows a mirror reflection.
 use glam::{Vec2, Vec3, Vec4};
@@ -234,9 +235,9 @@ impl ConeInputs<'_> {
 
 /// The cone traced from glossy pixel `pixel` (specular power `power`) whose ray `ssr` traced to
 /// `hit` with final depth key `t` ([`super::ssr::SsrResult`]); `remainder` is the colour blended
-/// in for the weight the circles leave (`1 - weight`). TEMPORARY: the GPU passes the record's
-/// mirror colour (the G-buffer colour at the hit pixel) until the pre-filtered CMO lookup of
-/// `spirv/shared/cone.wgsl` lands.
+/// in for the weight the circles leave (`1 - weight`): on the GPU the pre-filtered cube map at
+/// the lobe's roughness, [`super::cone::cone_envmap_colour`] of the CMO nearest to the pixel
+/// along the mirror direction.
 pub fn cone_colour(
     inp: &ConeInputs<'_>,
     pixel: [u32; 2],

@@ -100,12 +100,13 @@ use gpu_allocator::MemoryLocation;
 use super::backend::buffer::Buffer;
 use super::backend::context::{GpuContext, Recorder};
 use super::backend::error::{VkError, VkResult};
-use super::backend::shaders::{BOUNCE_APPEND, Pass};
+use super::backend::shaders::{BOUNCE_APPEND, CONE_PREFILTER, Pass};
 use super::backend::sync::{SHADER_READ, SHADER_WRITE};
 use super::backend::timestamps::{PassTime, Timestamps};
 use super::methods::compute::{ComputePath, ComputeStats};
 use super::methods::reflection_point::ReflectionPointPasses;
 use super::methods::ssr::SsrPasses;
+use super::methods::technique::has_glossy_reflector;
 use super::methods::{self, FrameInputs, GeometryInputs, MethodSpec, Needs, Scope, Technique};
 use super::passes::bounce::{BouncePasses, MAX_BOUNCES};
 use super::passes::bvh::{AppendKind, BvhCounter, BvhPasses, ReflectorCheck};
@@ -113,6 +114,7 @@ use super::passes::capture::Capture;
 use super::passes::capture_lists::{self, CaptureLists, ListCounters, ListTargets};
 use super::passes::cmo::{CaptureContents, CmoData};
 use super::passes::composite::Composite;
+use super::passes::cone::{ConePrefilter, ConePrefilterBindings};
 use super::passes::gbuffer::Gbuffer;
 use super::passes::lists::PackedLists;
 use super::passes::pyramid::{Pyramid, PyramidBindings};
@@ -342,6 +344,9 @@ pub struct GpuRenderer {
     /// one-texel placeholder, initialised at creation.
     capture: Option<CmoCapture>,
     pyramid: Option<(Pyramid, PyramidBindings)>,
+    /// The pre-filtered CMO colour chain (`cone_prefilter`), where the method reads it on a
+    /// glossy scene ([`MethodSpec::cone_chain`]).
+    cone_prefilter: Option<(ConePrefilter, ConePrefilterBindings)>,
     gbuffer: Gbuffer,
     method: Box<dyn Technique>,
     /// [`RenderOptions::reflector_check`] where the method and the scene need it.
@@ -398,6 +403,7 @@ struct CmoStages {
     cmo: CmoData,
     capture: Option<CmoCapture>,
     pyramid: Option<(Pyramid, PyramidBindings)>,
+    cone_prefilter: Option<(ConePrefilter, ConePrefilterBindings)>,
 }
 
 /// The pass that fills the CMO data: the rasterised capture, or (`--criterion bounded`) the
@@ -435,6 +441,7 @@ impl CmoStages {
                 cmo,
                 capture: None,
                 pyramid: None,
+                cone_prefilter: None,
             });
         }
         let size = scene.cmo.resolution;
@@ -466,6 +473,7 @@ impl CmoStages {
             cmo,
             capture,
             pyramid,
+            cone_prefilter: None,
         })
     }
 
@@ -989,10 +997,13 @@ impl GpuRenderer {
         }
         let spec = check_method(&options)?;
         spec.check_device(ctx)?;
-        let needs = spec.needs(&options.trace);
+        let mut needs = spec.needs(&options.trace);
         let data = GpuSceneData::new(scene);
+        // The pre-filtered CMO colour chain, for a method that reads it, on a glossy scene only.
+        let cone = spec.cone_chain() && needs.capture && has_glossy_reflector(&data);
+        needs.contents.colour |= cone;
         let scene_buffers = SceneBuffers::new(ctx, &data)?;
-        let stages = CmoStages::new(
+        let mut stages = CmoStages::new(
             ctx,
             scene,
             (&data, &scene_buffers),
@@ -1001,6 +1012,12 @@ impl GpuRenderer {
             ranges.capture_near,
             lists,
         )?;
+        if cone {
+            stages.cmo.alloc_cone(ctx)?;
+            let p = ConePrefilter::new(ctx)?;
+            let b = p.bind(ctx, &stages.cmo, scene.background)?;
+            stages.cone_prefilter = Some((p, b));
+        }
         let gbuffer = Gbuffer::new(ctx, &scene_buffers, camera, ranges.near)?;
         let params = ctx.create_buffer_init(
             "frame params",
@@ -1054,6 +1071,7 @@ impl GpuRenderer {
             cmo: stages.cmo,
             capture: stages.capture,
             pyramid: stages.pyramid,
+            cone_prefilter: stages.cone_prefilter,
             gbuffer,
             method,
             check: after.check,
@@ -1176,6 +1194,10 @@ impl GpuRenderer {
             }
             Some(CmoCapture::Lists(c)) => scope("capture", &mut || c.record(rec))?,
             None => {}
+        }
+        if let Some((p, b)) = &self.cone_prefilter {
+            scope(CONE_PREFILTER.name, &mut || p.record(rec, b, None))?;
+            rec.memory_barrier(SHADER_WRITE, SHADER_READ);
         }
         if let Some((p, b)) = &self.pyramid {
             scope("pyramid", &mut || p.record(rec, b, None))?;

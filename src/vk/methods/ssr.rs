@@ -61,8 +61,10 @@
 //! (the pre-convolved colour chain: level 0, then a horizontal and a vertical + 2x2 dispatch per
 //! level) and `ssr_cone` (one compute dispatch after `ssr`, rewriting the record colour of
 //! glossy pixels whose ray hit). Specified by their twin [`crate::cpu::ssr_cone`], which says
-//! what they approximate. The remainder of the cone's weight is, for now, the mirror hit's colour
-//! (temporary, until the pre-filtered CMO lookup lands). Barriers: compute write -> read between
+//! what they approximate. The remainder of the cone's weight is the pre-filtered cube map at the
+//! lobe's roughness (`cone_envmap_colour`, `spirv/shared/cone.wgsl`: the CMO nearest to the
+//! pixel, along the mirror direction), for which [`MethodSpec::cone_chain`] makes the frame
+//! capture colour and run `cone_prefilter` on a glossy scene. Barriers: compute write -> read between
 //! the per-level dispatches, read-write between the blur's steps (the scratch image is reused),
 //! and storage read-write between `ssr` and `ssr_cone` (both touch the records).
 use ash::vk;
@@ -81,10 +83,12 @@ use crate::vk::backend::shaders::{Pass, SSR, SSR_BLUR, SSR_CONE, SSR_HIZ, SSR_VI
 use crate::vk::backend::sync::{
     COMPUTE_READ, COMPUTE_WRITE, SHADER_READ, SHADER_WRITE, STORAGE_RW,
 };
-use crate::vk::passes::cmo::CaptureContents;
+use crate::vk::passes::cmo::{CaptureContents, CmoData};
 use crate::vk::passes::gbuffer::Gbuffer;
 
-use super::technique::{CameraInputs, FrameInputs, MethodSpec, Needs, Scope, Technique};
+use super::technique::{
+    CameraInputs, FrameInputs, MethodSpec, Needs, Scope, Technique, has_glossy_reflector,
+};
 
 /// `SsrParams` in `spirv/shared/ssr.wgsl`.
 #[repr(C)]
@@ -205,6 +209,8 @@ pub struct ConePasses {
     blur_steps: Vec<LevelDispatch>,
     cone: ComputePipeline,
     cone_set: BindGroup,
+    /// `@group(1)`: the CMOs, for the remainder's pre-filtered colour.
+    cone_cmo_set: BindGroup,
     cone_groups: [u32; 3],
     hiz_max: Buffer,
     visibility_buf: Buffer,
@@ -222,9 +228,17 @@ impl ConePasses {
         records: &Buffer,
         params_buf: &Buffer,
         pyramid: &Buffer,
+        cmo: &CmoData,
         background: [f32; 3],
         (width, height): (u32, u32),
     ) -> VkResult<Self> {
+        if cmo.cone().is_none() {
+            return Err(VkError::Usage {
+                what: SSR_CONE.name.into(),
+                detail: "the CMO data has no pre-filtered colour chain (MethodSpec::cone_chain)"
+                    .into(),
+            });
+        }
         let cells = hiz_len(width, height);
         let storage = |name: &str, bytes: u64| {
             Buffer::new(
@@ -323,7 +337,9 @@ impl ConePasses {
                 (8, Resource::Buffer(params_buf)),
             ],
         )?;
+        let cone_cmo_set = cone.bind_group(1, &cmo.resources_for(&SSR_CONE, "main"))?;
         Ok(ConePasses {
+            cone_cmo_set,
             visibility,
             visibility_levels,
             blur,
@@ -363,7 +379,8 @@ impl ConePasses {
 
     /// `ssr_cone` (after `ssr`'s records).
     fn record_cone(&self, rec: &Recorder<'_>) {
-        self.cone.dispatch(rec, &[&self.cone_set], self.cone_groups);
+        self.cone
+            .dispatch(rec, &[&self.cone_set, &self.cone_cmo_set], self.cone_groups);
     }
 
     /// The max pyramid, the visibility pyramid and the colour chain as the GPU built them
@@ -393,7 +410,7 @@ impl SsrPasses {
         frame_params: &Buffer,
         records: &Buffer,
         options: &SsrOptions,
-        glossy_background: Option<[f32; 3]>,
+        glossy: Option<(&CmoData, [f32; 3])>,
     ) -> VkResult<Self> {
         let (width, height) = gbuffer.extent();
         let params = SsrParams::new(view_proj, width, height, options)?;
@@ -468,14 +485,15 @@ impl SsrPasses {
                 (6, Resource::Buffer(&params_buf)),
             ],
         )?;
-        let cone = match glossy_background {
-            Some(background) => Some(ConePasses::new(
+        let cone = match glossy {
+            Some((cmo, background)) => Some(ConePasses::new(
                 ctx,
                 gbuffer,
                 frame_params,
                 records,
                 &params_buf,
                 &pyramid,
+                cmo,
                 background,
                 (width, height),
             )?),
@@ -529,15 +547,6 @@ impl SsrPasses {
     }
 }
 
-/// Whether the uploaded scene has a glossy reflector (a reflector of specular power below the
-/// mirror cap): only then are the glossy passes created.
-fn has_glossy_reflector(data: &crate::scene::gpu_data::GpuSceneData) -> bool {
-    (data.objects.iter()).any(|o| {
-        o.reflector & 1 != 0
-            && crate::lobe::glossy(Some(o.specular_power).filter(|p| *p >= 0.0)).is_some()
-    })
-}
-
 /// The screen-space method.
 pub struct Ssr;
 
@@ -558,6 +567,11 @@ impl MethodSpec for Ssr {
         }
     }
 
+    /// The glossy passes' remainder reads the cube maps at the lobe's roughness.
+    fn cone_chain(&self) -> bool {
+        true
+    }
+
     /// The Hi-Z pyramid: f32 cells, about 4/3 per pixel over all levels (2 on a one-pixel-wide
     /// frame; counted as 2), plus the pass's parameters (per frame, negligible).
     fn bytes_per_pixel(&self) -> u64 {
@@ -572,7 +586,7 @@ impl MethodSpec for Ssr {
             i.params,
             i.records,
             &i.options.ssr,
-            has_glossy_reflector(i.data).then_some(i.data.shading.background),
+            has_glossy_reflector(i.data).then_some((i.cmo, i.data.shading.background)),
         )?))
     }
 }
