@@ -21,8 +21,8 @@ pub fn glossy_meshes(scene: &Scene) -> Vec<&str> {
 
 /// What `method` makes of the scene's glossy reflectors where it cannot sample their lobe: a
 /// warning naming the method and the reflectors (`None` where the scene has none, or the method
-/// handles every reflection's lobe: the reference, and `bvh` and `ssr` (which cone traces it,
-/// `cpu::ssr_cone`) with at most one bounce).
+/// handles every reflection's lobe: the reference, `bvh` with at most one bounce, and `ssr`,
+/// which cone traces it (`cpu::ssr_cone`) and traces one reflection only).
 pub fn method_warning(scene: &Scene, method: Method, bounces: u32) -> Option<String> {
     let names = glossy_meshes(scene);
     if names.is_empty() {
@@ -32,12 +32,8 @@ pub fn method_warning(scene: &Scene, method: Method, bounces: u32) -> Option<Str
     match method {
         Method::Reference => None,
         Method::Bvh if bounces <= 1 => None,
-        Method::Ssr if bounces <= 1 => None,
-        Method::Ssr => Some(format!(
-            "--method ssr cone traces the lobe of the glossy reflectors ({names}) on the first \
-             reflection only: with --bounces {bounces} the later reflections follow the mirror \
-             direction (--method reference samples every one)"
-        )),
+        // One reflection only: `--bounces` above 1 is refused for ssr.
+        Method::Ssr => None,
         Method::Bvh => Some(format!(
             "--method bvh samples the lobe of the glossy reflectors ({names}) on the first \
              reflection only: with --bounces {bounces} the later reflections follow the mirror \
