@@ -403,3 +403,30 @@ fn quad_warps_cover_the_image_with_helpers() {
         .count();
     assert_eq!(none, 0);
 }
+
+/// The lane term's W dependence, from the counters (sphere-room): lockstep at 16 lanes issues at
+/// least as many lane slots per ray as at 8 (each warp runs until its slowest lane leaves), so
+/// the lane operations per ray (`validate::split`) stay flat or grow from 4 to 8 to 16 lanes,
+/// as lavapipe's measured cost per ray does. The negative: the same counters priced at a fixed
+/// time per warp-step (the SPIR-V-weighted cost) fall by a quarter or more at each doubling.
+#[test]
+fn lane_operations_per_ray_do_not_fall_with_the_width() {
+    use cubetrace::model::{validate, weights};
+    for m in MODELLED {
+        let rec = recorded(m, ComputeLanes::Auto);
+        let w = weights::weights(m).unwrap();
+        let l = weights::lane_weights(m).unwrap();
+        let at = |width: u32| {
+            let s = replay(&rec, width, Mode::Lavapipe, default_assembly(m)).unwrap();
+            let (_, lane) = validate::split(&s.steps_per_ray, &w, &l, width);
+            (lane.iter().sum::<f64>(), weights::cost(&s, &w))
+        };
+        let [(l4, c4), (l8, c8), (l16, c16)] = [4, 8, 16].map(at);
+        eprintln!(
+            "{}: lane ops per ray {l4:.0} {l8:.0} {l16:.0}; weighted warp-steps {c4:.0} {c8:.0} {c16:.0}",
+            m.name()
+        );
+        assert!(l8 >= 0.99 * l4 && l16 >= 0.99 * l8, "{}", m.name());
+        assert!(c8 < 0.75 * c4 && c16 < 0.75 * c8, "{}", m.name());
+    }
+}

@@ -107,7 +107,16 @@ fn the_debug_copy_is_the_shipped_code_plus_names() {
     assert_ne!(weights::strip_debug(&words).unwrap(), pass.spirv);
 }
 
-fn row(scene: &str, method: Method, cube: u32, subgroup: u32, ns: f64, t: &Training) -> Modelled {
+/// A row with 100 model rays of `vector` vector instructions and `lane` lane operations each.
+fn row_of(
+    scene: &str,
+    method: Method,
+    cube: u32,
+    subgroup: u32,
+    ns: f64,
+    t: &Training,
+    (vector, lane): (f64, f64),
+) -> Modelled {
     let measured = Measured {
         scene: scene.into(),
         method,
@@ -122,11 +131,30 @@ fn row(scene: &str, method: Method, cube: u32, subgroup: u32, ns: f64, t: &Train
         train: t.contains(&measured),
         measured,
         cost_per_ray: 10.0,
+        vector_per_ray: vector,
+        lane_per_ray: lane,
+        vector_blocks: vec![vector, 0.0],
+        lane_blocks: vec![0.0, lane],
         model_rays: 100,
         blocks: vec!["a".into(), "b".into()],
         shares: vec![0.5, 0.5],
         simd_efficiency: 1.0,
     }
+}
+
+/// The work of [`validate::split`] for 2 warp-steps per ray of a block of 10 instructions, 3 of
+/// them lane operations, at `subgroup` lanes (vector: 2 x 7 x registers; lane: 2 x 3 x lanes).
+fn work_at(subgroup: u32) -> (f64, f64) {
+    match subgroup {
+        4 => (14.0, 24.0),
+        8 => (14.0, 48.0),
+        16 => (28.0, 96.0),
+        _ => unreachable!(),
+    }
+}
+
+fn row(scene: &str, method: Method, cube: u32, subgroup: u32, ns: f64, t: &Training) -> Modelled {
+    row_of(scene, method, cube, subgroup, ns, t, work_at(subgroup))
 }
 
 #[test]
@@ -140,6 +168,11 @@ fn the_validation_split_is_disjoint_and_the_fit_reads_training_rows_only() {
         row("bowl", Method::Compute, 256, 8, 7000.0, &t),
         row("bowl", Method::Fragment, 64, 8, 2000.0, &t),
     ];
+    // The standard rule trains on scene default at every cube and subgroup size.
+    assert_eq!(
+        rows.iter().map(|r| r.train).collect::<Vec<_>>(),
+        [true, true, true, true, false, false]
+    );
     let v = validate::validate(&rows, &t).unwrap();
     let held: Vec<&str> = v
         .rows
@@ -147,32 +180,33 @@ fn the_validation_split_is_disjoint_and_the_fit_reads_training_rows_only() {
         .filter(|r| !r.train)
         .map(|r| r.key.as_str())
         .collect();
-    assert_eq!(v.training_rows.len(), 2, "{:?}", v.training_rows);
-    assert_eq!(held.len(), 4);
+    assert_eq!(v.training_rows.len(), 4, "{:?}", v.training_rows);
+    assert_eq!(held.len(), 2);
     assert!(v.training_rows.iter().all(|k| !held.contains(&k.as_str())));
     // A held-out row changed tenfold leaves the scale as it was ...
     let fits = |r: &[Modelled]| {
-        [None, Some(Method::Compute), Some(Method::Fragment)]
-            .map(|m| validate::fit_scale(r, m).unwrap())
+        [None, Some(Method::Compute), Some(Method::Fragment)].map(|m| validate::fit(r, m).unwrap())
     };
-    let scale = validate::fit_scale(&rows, None).unwrap();
+    let global = validate::fit(&rows, None).unwrap();
     let all = fits(&rows);
-    for i in 2..rows.len() {
+    let held_out: Vec<usize> = (0..rows.len()).filter(|i| !rows[*i].train).collect();
+    assert_eq!(held_out.len(), 2);
+    for &i in &held_out {
         let mut r = rows.clone();
         r[i].measured.pass_ns *= 10.0;
         assert_eq!(fits(&r), all, "row {i}");
         assert_eq!(
-            validate::validate(&r, &t).unwrap().scales,
-            v.scales,
+            validate::validate(&r, &t).unwrap().coefficients,
+            v.coefficients,
             "row {i}"
         );
     }
-    // bvh has no training row here: its scale cannot be fitted, and says so.
-    let e = validate::fit_scale(&rows, Some(Method::Bvh)).unwrap_err();
+    // bvh has no training row here: its coefficients cannot be fitted, and says so.
+    let e = validate::fit(&rows, Some(Method::Bvh)).unwrap_err();
     assert!(format!("{e}").contains("--method bvh"), "{e}");
-    // ... and a training row changed moves it (the negative: the check can fail).
+    // ... and a training row changed moves them (the negative: the check can fail).
     rows[0].measured.pass_ns *= 10.0;
-    assert_ne!(validate::fit_scale(&rows, None).unwrap(), scale);
+    assert_ne!(validate::fit(&rows, None).unwrap(), global);
     // A row marked training against the rule is refused.
     rows[4].train = true;
     let e = format!("{:#}", validate::validate(&rows, &t).unwrap_err());
@@ -242,7 +276,8 @@ fn bench_model_json_has_the_columns() {
         rows.iter()
             .any(|r| r["train"] == false && r["scene"] == "bowl")
     );
-    assert!(m["lavapipe"]["global_scale"].as_f64().unwrap() > 0.0);
+    assert!(m["lavapipe"]["global"]["vector_ns"].as_f64().unwrap() >= 0.0);
+    assert!(m["lavapipe"]["global"]["lane_ns"].as_f64().unwrap() >= 0.0);
     let widths: Vec<u64> = m["gpu"]
         .as_array()
         .unwrap()
@@ -318,4 +353,124 @@ fn model_from_a_bad_file_names_the_field() {
     // --model-from alone is refused by the parser (it needs --model).
     let o = cli(&["bench", "--model-from", f.to_str().unwrap()]);
     assert!(!o.status.success());
+}
+
+/// The lane term's arithmetic (`validate::split`): per warp-step a block's vector instructions
+/// cost one per 256-bit register the lanes fill (1 at 4 and 8 lanes, 2 at 16), its lane
+/// operations one per lane. The expected numbers are worked by hand in `work_at`.
+#[test]
+fn the_lane_term_prices_vectors_per_register_and_lane_operations_per_lane() {
+    assert_eq!(
+        [4, 8, 16, 32].map(validate::registers),
+        [1, 1, 2, 4],
+        "256-bit registers per 32-bit vector"
+    );
+    for w in [4, 8, 16] {
+        let (v, l) = validate::split(&[2.0, 0.0], &[10.0, 99.0], &[3.0, 9.0], w);
+        assert_eq!((v.iter().sum(), l.iter().sum()), work_at(w), "width {w}");
+    }
+    // Negative: one lane operation more per step moves the lane part at every width.
+    let (_, l) = validate::split(&[2.0], &[10.0], &[4.0], 8);
+    assert_ne!(l[0], work_at(8).1);
+}
+
+/// Rows made from known coefficients (2 ns per vector instruction, 5 per lane operation) at
+/// subgroups 4, 8 and 16: the fit recovers them and predicts a held-out row exactly. Negative:
+/// the 16-lane row at half its time (what a fixed time per warp-step would predict) does not
+/// fit them.
+#[test]
+fn the_fit_recovers_known_coefficients_across_subgroup_sizes() {
+    let t = Training::standard();
+    let ns = |w: u32| {
+        let (v, l) = work_at(w);
+        (2.0 * v + 5.0 * l) * 100.0
+    };
+    let mut rows: Vec<Modelled> = [4, 8, 16]
+        .map(|w| row("default", Method::Compute, 256, w, ns(w), &t))
+        .to_vec();
+    rows.push(row("torus", Method::Compute, 512, 16, 1.0, &t));
+    let c = validate::fit(&rows, Some(Method::Compute)).unwrap();
+    assert!(!c.one_width);
+    assert!(
+        (c.vector_ns - 2.0).abs() < 1e-9 && (c.lane_ns - 5.0).abs() < 1e-9,
+        "{c:?}"
+    );
+    let v = validate::validate(&rows, &t).unwrap();
+    let torus = v.rows.iter().find(|r| !r.train).unwrap();
+    assert!((torus.predicted_ns_per_ray - (2.0 * 28.0 + 5.0 * 96.0)).abs() < 1e-9);
+    rows[2].measured.pass_ns /= 2.0;
+    let c2 = validate::fit(&rows, Some(Method::Compute)).unwrap();
+    assert!(
+        (c2.vector_ns - 2.0).abs() > 0.2 || (c2.lane_ns - 5.0).abs() > 0.5,
+        "{c2:?}"
+    );
+}
+
+fn inst(op: u32, operands: &[u32]) -> Vec<u32> {
+    let mut v = vec![((operands.len() as u32 + 1) << 16) | op];
+    v.extend_from_slice(operands);
+    v
+}
+
+/// A hand-made module: function `f` loads and stores through a storage-buffer pointer, loads a
+/// function-local variable, a private array at a constant and at a per-lane index, adds, and
+/// ballots. `dynamic_index` and `storage_class` are what the negatives change.
+fn module(dynamic_index: u32, storage_class: u32) -> Vec<u32> {
+    let mut w = vec![0x0723_0203, 0x0001_0300, 0, 100, 0];
+    w.extend(inst(5, &[10, u32::from_le_bytes(*b"f\0\0\0")])); // OpName %10 "f"
+    w.extend(inst(32, &[2, storage_class, 1])); // OpTypePointer %2
+    w.extend(inst(32, &[3, 7, 1])); // Function
+    w.extend(inst(32, &[4, 6, 1])); // Private
+    w.extend(inst(43, &[1, 6, 0])); // OpConstant %6 = 0
+    w.extend(inst(59, &[2, 20, storage_class])); // the buffer
+    w.extend(inst(59, &[4, 21, 6])); // the private array
+    w.extend(inst(54, &[1, 10, 0, 9])); // OpFunction %10
+    w.extend(inst(248, &[11])); // OpLabel
+    w.extend(inst(59, &[3, 22, 7])); // a local
+    w.extend(inst(65, &[2, 30, 20, 6])); // chain into the buffer
+    w.extend(inst(61, &[1, 31, 30])); // load from the buffer: lane
+    w.extend(inst(61, &[1, 32, 22])); // load of the local: vector
+    w.extend(inst(65, &[4, 33, 21, 6])); // private array, constant index
+    w.extend(inst(61, &[1, 34, 33])); // vector
+    w.extend(inst(65, &[4, 35, 21, dynamic_index])); // private array, index %31 (per lane)
+    w.extend(inst(61, &[1, 36, 35])); // lane when the index is not a constant
+    w.extend(inst(128, &[1, 37, 34, 36])); // OpIAdd: vector
+    w.extend(inst(339, &[1, 38, 3, 37])); // OpGroupNonUniformBallot: lane
+    w.extend(inst(62, &[30, 37])); // store to the buffer: lane
+    w.extend(inst(253, &[])); // OpReturn
+    w.extend(inst(56, &[])); // OpFunctionEnd
+    w
+}
+
+/// Lane operations counted in SPIR-V: storage accesses, per-lane array indices, subgroup
+/// operations; not local or constant-index accesses or arithmetic. Negatives: a constant index
+/// instead of the per-lane one, and the buffer in private memory, each count fewer.
+#[test]
+fn lane_operations_are_counted_from_the_spirv() {
+    let count = |words: &[u32]| {
+        let f = ShaderFunctions::parse("hand", words).unwrap();
+        let none = std::collections::BTreeSet::new();
+        (
+            f.expanded("f", &none).unwrap(),
+            f.expanded_lane("f", &none).unwrap(),
+        )
+    };
+    // 3 chains, 4 loads, the add, the ballot, the store, the return.
+    assert_eq!(count(&module(31, 12)), (11, 4));
+    assert_eq!(count(&module(6, 12)), (11, 3));
+    assert_eq!(count(&module(31, 6)), (11, 2));
+    // The shipped shaders: every method has lane operations, fewer than its instructions.
+    for m in MODELLED {
+        let w = weights::weights(m).unwrap();
+        let l = weights::lane_weights(m).unwrap();
+        assert_eq!(l.len(), w.len());
+        assert!(
+            l.iter().zip(&w).all(|(l, w)| l <= w),
+            "{}: {l:?} {w:?}",
+            m.name()
+        );
+        let (sl, sw) = (l.iter().sum::<f64>(), w.iter().sum::<f64>());
+        eprintln!("{}: {sl} lane operations of {sw} instructions", m.name());
+        assert!(sl > 0.0 && sl < sw, "{}", m.name());
+    }
 }

@@ -1,6 +1,8 @@
 #![forbid(unsafe_code)]
 //! `cubetrace bench`: the harness of [`crate::bench`] from the command line, either the grid
-//! (scenes x methods x parameters against the reference) or, with `--scaling`, the cost curves.
+//! (scenes x methods x parameters against the reference) or, with `--scaling`, the cost curves
+//! (`--sequence`: frames per minute of an animation; `--glossy`: glossy reflectors' PSNR
+//! against cost per roughness).
 //! Every method name and the output folder are checked before the device is created; the
 //! harness itself checks the scenes and the memory before anything renders.
 
@@ -83,19 +85,57 @@ pub struct BenchArgs {
     /// frame (bench::sequence). The issue's row is at --width 320 --height 240.
     #[arg(long, conflicts_with = "scaling")]
     pub sequence: bool,
+    /// Speed against error on glossy reflectors instead of the grid (bench::glossy): for every
+    /// scene of --scenes and every specular power given [default: 16,64,256, cones of about 23,
+    /// 12 and 6 degrees; each below 1024, the mirror], the reflectors made glossy, the converged
+    /// reference (--glossy-reference-spp), each GPU method of --methods once, and bvh's Monte
+    /// Carlo ladder (--glossy-spp), with PSNR over mirror pixels against the reference, the cost
+    /// per frame and, per method, the cheapest bvh frame of at least its cost. Writes
+    /// glossy.json, glossy.md and glossy.svg (one panel per power).
+    #[arg(
+        long,
+        value_name = "POWERS",
+        value_delimiter = ',',
+        num_args = 0..=1,
+        default_missing_value = "16,64,256",
+        allow_negative_numbers = true,
+        conflicts_with_all = ["scaling", "sequence", "model"]
+    )]
+    pub glossy: Option<Vec<String>>,
+    /// --glossy: samples per pixel of the converged reference (the CPU reference's Monte Carlo
+    /// integral of the lobe; its cost grows with it, about spp times a 1-spp reference frame).
+    #[arg(long, default_value_t = 1024, requires = "glossy",
+          value_parser = clap::value_parser!(u32).range(2..=1024))]
+    pub glossy_reference_spp: u32,
+    /// --glossy: the samples at the film's jittered offsets, as `render --spp` and `reference
+    /// --spp` take them, instead of all at the pixel centre (the default: the truth is then the
+    /// lobe's integral at the pixel centre, which a cone method approximates; with the film it
+    /// also integrates the pixel, which no one-sample method renders).
+    #[arg(long, requires = "glossy")]
+    pub glossy_film: bool,
+    /// --glossy: bvh's Monte Carlo ladder, samples per pixel, increasing.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "1,2,4,8,16,32,64",
+        requires = "glossy"
+    )]
+    pub glossy_spp: Vec<u32>,
     /// Adds the SIMT cost model (a MODEL, not a measurement) to the grid's JSON, Markdown and
     /// plots (bench::model): each method's default setting replayed in lockstep warps from its
     /// CPU twin's work, weighted by SPIR-V instruction counts. (1) lavapipe mode at the device's
-    /// subgroup size against the measured ns per ray of the tracing pass, one scale per method fitted on
-    /// scene `default` only (keep it in --scenes), the error of every other row; (2) predictions
+    /// subgroup size against the measured ns per ray of the tracing pass, two coefficients per
+    /// method (ns per vector instruction, ns per lane operation) fitted on scene `default` only
+    /// (keep it in --scenes), the error of every other row; (2) predictions
     /// at warp widths 32 and 64 (compute/fragment, compute/bvh, fragment/bvh, SIMD efficiency,
     /// sectors per ray); (3) where cube-map tracing would overtake the BVH on the triangle axis
     /// of --scaling. Writes model.svg beside the grid's files.
     #[arg(long, conflicts_with_all = ["scaling", "sequence"])]
     pub model: bool,
     /// With --model: render nothing; model the runs of these earlier bench.json files instead
-    /// (e.g. one per LP_NATIVE_VECTOR_WIDTH and --cube-size), fitting on scene `default` at cube
-    /// 256 and subgroup 8, and write model.json, model.md and model.svg into -o.
+    /// (e.g. one per LP_NATIVE_VECTOR_WIDTH and --cube-size; benches/model-measure.sh), fitting
+    /// on scene `default` at every cube and subgroup size given, and write model.json, model.md
+    /// and model.svg into -o (GPU predictions at cube 256).
     #[arg(long, value_delimiter = ',', requires = "model")]
     pub model_from: Vec<PathBuf>,
     /// Scaling: the largest cube face size (powers of two from 32). The default stops at 1024:
@@ -123,6 +163,12 @@ pub fn check_options(args: &BenchArgs, methods: &[Method]) -> Result<()> {
     for (flag, on) in given {
         if !on {
             continue;
+        }
+        if args.glossy.is_some() && flag == "--quick" {
+            anyhow::bail!(
+                "--quick does not apply to --glossy (it renders each method's default setting \
+                 once): leave it out"
+            );
         }
         if args.sequence {
             anyhow::bail!(
@@ -155,6 +201,7 @@ pub fn check_options(args: &BenchArgs, methods: &[Method]) -> Result<()> {
 pub fn bench(args: BenchArgs) -> Result<()> {
     let methods = parse_methods(&args.methods)?;
     check_options(&args, &methods)?;
+    let glossy = glossy_config(&args, &methods)?;
     output::check_folder(&args.out).context("-o")?;
     if args.model {
         check_model_options(&args)?;
@@ -171,6 +218,8 @@ pub fn bench(args: BenchArgs) -> Result<()> {
         run_scaling(&args, &ctx, &bar)?
     } else if args.sequence {
         run_sequence(&args, &methods, &ctx, &bar)?
+    } else if let Some(cfg) = glossy {
+        run_glossy(&args, &cfg, &ctx, &bar)?
     } else {
         run_grid(&args, &methods, &ctx, &bar)?
     };
@@ -268,6 +317,86 @@ fn run_sequence(
     bench::sequence::write(&report, &args.out)
 }
 
+/// `--glossy POWERS`: the powers, each a number (the flag named in every error).
+pub fn parse_powers(values: &[String]) -> Result<Vec<f32>> {
+    let powers = (values.iter())
+        .filter(|v| !v.trim().is_empty())
+        .map(|v| {
+            v.trim().parse::<f32>().map_err(|_| {
+                anyhow::anyhow!("--glossy: '{v}' is not a number (a specular power, e.g. 64)")
+            })
+        })
+        .collect::<Result<Vec<f32>>>()?;
+    bench::glossy::check_powers(&powers)?;
+    Ok(powers)
+}
+
+/// The `--glossy` run's configuration (`None` without `--glossy`), every value checked before
+/// the device is created.
+pub fn glossy_config(
+    args: &BenchArgs,
+    methods: &[Method],
+) -> Result<Option<bench::glossy::GlossyConfig>> {
+    let Some(values) = &args.glossy else {
+        return Ok(None);
+    };
+    let powers = parse_powers(values)?;
+    bench::glossy::check_ladder(&args.glossy_spp)?;
+    if args.bounces != 1 {
+        anyhow::bail!(
+            "--glossy compares the first reflection (bvh samples the lobe there only): leave out \
+             --bounces"
+        );
+    }
+    let defaults = bench::BenchConfig::default();
+    Ok(Some(bench::glossy::GlossyConfig {
+        scenes: if args.scenes.is_empty() {
+            defaults.scenes
+        } else {
+            args.scenes.clone()
+        },
+        powers,
+        // bvh runs the ladder and the reference is the truth: neither is a row of its own.
+        methods: (methods.iter().copied())
+            .filter(|m| m.is_gpu() && *m != Method::Bvh)
+            .collect(),
+        width: args.width,
+        height: args.height,
+        frames: args.frames,
+        warmup: args.warmup,
+        cube_size: args.cube_size,
+        cmos: args.cmos,
+        reflector_check: !args.no_reflector_check,
+        reference_spp: args.glossy_reference_spp,
+        spp: args.glossy_spp.clone(),
+        film: args.glossy_film,
+    }))
+}
+
+/// `--glossy`: the rows of every scene x power, printed and written; returns the files written.
+fn run_glossy(
+    args: &BenchArgs,
+    cfg: &bench::glossy::GlossyConfig,
+    ctx: &GpuContext,
+    bar: &indicatif::ProgressBar,
+) -> Result<Vec<PathBuf>> {
+    bar.set_length(bench::glossy::planned_steps(cfg));
+    let mirror_only = |scene: &crate::scene::Scene, m: Method| {
+        super::glossy::method_warning(scene, m, 1).is_some()
+    };
+    let started = std::cell::Cell::new(false);
+    let tick = |what: &str| {
+        if started.replace(true) {
+            bar.inc(1);
+        }
+        bar.set_message(what.to_string());
+    };
+    let report = bench::glossy::run(ctx, cfg, &mirror_only, &tick)?;
+    bar.finish_and_clear();
+    println!("{}", bench::glossy::markdown(&report));
+    bench::glossy::write(&report, &args.out)
+}
+
 /// The harness's configuration of a grid run from the arguments and the parsed methods.
 pub fn grid_config(args: &BenchArgs, methods: &[Method]) -> bench::BenchConfig {
     let defaults = bench::BenchConfig::default();
@@ -303,11 +432,7 @@ fn run_grid(
     let cfg = grid_config(args, methods);
     let mut report = bench::run(ctx, &cfg, bar)?;
     if args.model {
-        let training = crate::model::validate::Training {
-            scene: "default".into(),
-            cube: None,
-            subgroup: None,
-        };
+        let training = crate::model::validate::Training::standard();
         let rows = bench::model::measured_of(&report);
         let progress = |s: &str| bar.set_message(format!("model: {s}"));
         report.model = Some(bench::model::run(&rows, &training, None, &progress)?);
@@ -335,7 +460,7 @@ fn run_model_from(args: &BenchArgs) -> Result<()> {
     let rows = bench::model::measured_from_files(&args.model_from)?;
     let training = crate::model::validate::Training::standard();
     let progress = |s: &str| eprintln!("model: {s}");
-    let report = bench::model::run(&rows, &training, training.cube, &progress)?;
+    let report = bench::model::run(&rows, &training, Some(256), &progress)?;
     println!("{}", bench::model::markdown(&report));
     for p in bench::model::write(&report, &args.out)? {
         println!("wrote {}", p.display());

@@ -24,6 +24,7 @@
 //!   `envmap`): capture, pyramid and G-buffer are listed per pass but are the same for every
 //!   tracing method of a scene and are not what the methods trade against error.
 
+pub mod glossy;
 pub mod heatmap;
 pub mod model;
 pub mod plot;

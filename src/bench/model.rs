@@ -4,9 +4,10 @@
 //! Three parts, each labelled a model in every output:
 //! - **lavapipe check** ([`crate::model::validate`]): every run of a method's default setting
 //!   (compute, fragment-exact-mip, ssr, reflection-point, bvh) is replayed in lavapipe mode at
-//!   the device's subgroup size; one scale per method (ns per weighted warp-step) is fitted on
-//!   the training rows (scene `default`; with `--model-from`, scene `default` at cube 256 and subgroup 8) and
-//!   every other row gets its prediction error.
+//!   the device's subgroup size; two coefficients per method (ns per vector instruction, ns
+//!   per lane operation, [`crate::model::validate`]) are fitted on the training rows (scene
+//!   `default`, every cube size and subgroup size present) and every other row gets its
+//!   prediction error.
 //! - **GPU predictions** at widths 32 and 64 (GPU mode: a block issues when one lane needs it),
 //!   per scene: compute / fragment, compute / bvh, fragment / bvh (ratios of weighted warp-steps
 //!   per ray, i.e. the same ns per weighted step on every method), SIMD efficiency and 32-byte
@@ -16,8 +17,9 @@
 //!   would overtake the BVH (ratio below 1), interpolated in log triangles, if it does.
 //!
 //! `--model-from A.json,B.json,...` reads earlier `bench.json` files instead of rendering (one
-//! per lavapipe subgroup size and cube size), which is how `benches/results/lavapipe-model.*`
-//! was made.
+//! per lavapipe subgroup size and cube size: `benches/model-measure.sh` takes them), which is how
+//! `benches/results/lavapipe-model.*` was made (from the files `benches/model-old-rows.py`
+//! rebuilds).
 //!
 //! Assumptions (also in [`ASSUMPTIONS`], written with every report): the warp assembly and
 //! texel layout of [`crate::model::replay`]; one ns per weighted warp-step for every method on
@@ -34,7 +36,7 @@ use super::plot::{self, Point};
 use super::scaling::{TRIANGLE_SEGMENTS, tessellated_scene};
 use super::{BenchReport, Method, MethodSpec, prepare_scene};
 use crate::model::replay::{
-    Mode, ModelSettings, Recorded, ReplayStats, default_assembly, record, replay,
+    ComputeLanes, Mode, ModelSettings, Recorded, ReplayStats, default_assembly, record, replay,
 };
 use crate::model::validate::{self, Measured, Modelled, Training, Validation};
 use crate::model::weights;
@@ -60,8 +62,8 @@ pub const ASSUMPTIONS: &[&str] = &[
     "lavapipe mode: every block of a loop body runs on every turn any lane makes; width = lavapipe's subgroup size",
     "GPU mode: a block issues when at least one lane needs it; widths 32 and 64",
     "warps (model::warps): compute and bvh = consecutive entries of the row-major mirror-pixel queue (compute: one lane per ray in lavapipe mode, min(width, 32) lanes per ray in GPU mode); fragment and ssr = 2x2 quads in 8x4-pixel tiles, tiles row-major (helper lanes issued, never active); reflection-point = consecutive vertices of its 1-D dispatch",
-    "lavapipe check: one scale per method (ns per weighted warp-step) fitted on the training rows only; the same scale at every subgroup size (a warp-step of 4, 8 or 16 lanes costs the same)",
-    "GPU ratios assume the same ns per weighted warp-step for every method: no latency hiding, occupancy or cache model",
+    "lavapipe check: per method, ns per vector instruction (one per 256-bit AVX2 register the subgroup's lanes fill, at least one: x1 at 4 and 8 lanes, x2 at 16) and ns per lane operation (storage/image access, per-lane array index, subgroup op: run once per lane), fitted on the training rows only (scene default, every cube and subgroup size); register spills, latency and per-dispatch overhead folded in",
+    "GPU ratios assume the same ns per weighted warp-step for every method: no latency hiding, occupancy or cache model (a throughput view: issued warp instructions per ray); compute's thesis layout spends a 32-lane warp on one ray, which is most of compute/bvh (the 'compute 1 lane/ray' column replays the same work in main_lanes1's layout); its SIMD efficiency counts the lanes that repeat the per-ray work as active",
     "sectors: distinct 32-byte sectors per warp load, row-major texels per face (model::replay TexelLayout::Linear)",
 ];
 
@@ -84,6 +86,9 @@ pub struct GpuPrediction {
     pub compute_over_fragment: Option<f64>,
     pub compute_over_bvh: Option<f64>,
     pub fragment_over_bvh: Option<f64>,
+    /// compute in `main_lanes1`'s layout (one lane per ray, 32 rays per warp) over bvh: how much
+    /// of `compute_over_bvh` is the thesis layout's one ray per 32-lane warp.
+    pub compute_one_lane_over_bvh: Option<f64>,
 }
 
 /// One point of the triangle axis (GPU mode, width 32).
@@ -273,7 +278,24 @@ pub fn gpu_prediction(
             .map(|g| g.cost_per_ray)
     };
     let ratio = |a: Method, b: Method| Some(cost(a)? / cost(b)?).filter(|r| r.is_finite());
+    // compute again in the one-lane layout: the same recording, replayed with one lane per ray.
+    let key = (name.to_string(), cube, Method::Compute);
+    let one_lane = match rec.recorded.get_mut(&key) {
+        Some(r) => {
+            let saved = r.settings.compute_lanes;
+            r.settings.compute_lanes = ComputeLanes::One;
+            let s = replay(r, width, Mode::Gpu, default_assembly(Method::Compute));
+            r.settings.compute_lanes = saved;
+            Some(weights::cost(&s?, &weights::weights(Method::Compute)?))
+        }
+        None => None,
+    };
+    let compute_one_lane_over_bvh = one_lane
+        .zip(cost(Method::Bvh))
+        .map(|(a, b)| a / b)
+        .filter(|r| r.is_finite());
     Ok(GpuPrediction {
+        compute_one_lane_over_bvh,
         scene: name.to_string(),
         cube,
         width,
@@ -373,23 +395,23 @@ fn opt(v: Option<f64>) -> String {
 /// The lavapipe check as a Markdown table.
 pub fn lavapipe_table(v: &Validation) -> String {
     let mut s = format!(
-        "MODEL check, lavapipe mode: one scale per method (ns per weighted warp-step: {}), \
-         fitted on {} ({} rows: {}); {} of {} held-out rows within +-{:.0} % (one global scale, \
-         {:.3}: {} within).\n\n\
+        "MODEL check, lavapipe mode: per method, time = a x vector instructions x registers(S) + \
+         b x lane operations x S ({}), fitted on {} ({} rows: {}); {} of {} held-out rows within \
+         +-{:.0} % (one global pair, {}: {} within).\n\n\
          | scene | method | cube | subgroup | row | measured ns/ray | model ns/ray | error | SIMD eff. | missed block |\n\
          |---|---|---:|---:|---|---:|---:|---:|---:|---|\n",
-        v.scales
+        v.coefficients
             .iter()
-            .map(|(m, k)| format!("{} {k:.3}", m.name()))
+            .map(|(m, c)| format!("{}: {}", m.name(), c.describe()))
             .collect::<Vec<_>>()
-            .join(", "),
+            .join("; "),
         v.training.describe(),
         v.training_rows.len(),
         v.training_rows.join(", "),
         v.held_out_within_target,
         v.held_out,
         100.0 * v.target,
-        v.global_scale,
+        v.global.describe(),
         v.global_held_out_within_target,
     );
     for r in &v.rows {
@@ -414,20 +436,21 @@ pub fn lavapipe_table(v: &Validation) -> String {
 pub fn gpu_table(gpu: &[GpuPrediction]) -> String {
     let mut s = String::from(
         "MODEL predictions, GPU mode (not measured; assumptions below).\n\n\
-         | scene | cube | width | compute/fragment | compute/bvh | fragment/bvh | SIMD eff. compute | fragment | bvh | sectors/ray compute | fragment | bvh |\n\
-         |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+         | scene | cube | width | compute/fragment | compute/bvh | compute 1 lane/ray / bvh | fragment/bvh | SIMD eff. compute | fragment | bvh | sectors/ray compute | fragment | bvh |\n\
+         |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
     );
     for g in gpu {
         let m = |k: Method| g.methods.iter().find(|x| x.method == k);
         let eff = |k| opt(m(k).map(|x| x.simd_efficiency));
         let sec = |k| m(k).map_or("-".into(), |x| format!("{:.1}", x.sectors_per_ray));
         s += &format!(
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
             g.scene,
             g.cube,
             g.width,
             opt(g.compute_over_fragment),
             opt(g.compute_over_bvh),
+            opt(g.compute_one_lane_over_bvh),
             opt(g.fragment_over_bvh),
             eff(Method::Compute),
             eff(Method::Fragment),

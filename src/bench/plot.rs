@@ -6,6 +6,8 @@
 //!   both axes logarithmic, with the Pareto front (no other point is both cheaper and more
 //!   accurate) drawn as a red staircase and its points filled.
 //! - [`lines`]: the scaling curves, one line per series, both axes logarithmic.
+//! - [`panels`]: panels side by side (x logarithmic, y linear, one y range), each with lines and
+//!   labelled points: `bench --glossy`'s PSNR against cost, one panel per roughness.
 
 use anyhow::{Result, anyhow};
 use plotters::prelude::*;
@@ -214,6 +216,118 @@ pub fn lines(
     Ok(svg)
 }
 
+/// A line of a [`panels`] plot (`series` picks its colour).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PanelLine {
+    pub label: String,
+    pub series: usize,
+    pub points: Vec<(f64, f64)>,
+}
+
+/// A labelled point of a [`panels`] plot, in its series' colour; hollow unless `filled`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PanelPoint {
+    pub label: String,
+    pub series: usize,
+    pub x: f64,
+    pub y: f64,
+    pub filled: bool,
+}
+
+/// One panel of a [`panels`] plot.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Panel {
+    pub title: String,
+    pub lines: Vec<PanelLine>,
+    pub points: Vec<PanelPoint>,
+}
+
+/// Panels side by side, x logarithmic and y linear, one y range for all (so that panels
+/// compare): each panel's lines (with a legend) and labelled points. Points with a
+/// non-positive x or a non-finite coordinate are left out.
+pub fn panels(title: &str, x_desc: &str, y_desc: &str, panels: &[Panel]) -> Result<String> {
+    let ok = |(x, y): (f64, f64)| x > 0.0 && x.is_finite() && y.is_finite();
+    let all = || {
+        panels.iter().flat_map(|p| {
+            (p.lines.iter().flat_map(|l| l.points.iter().copied()))
+                .chain(p.points.iter().map(|q| (q.x, q.y)))
+                .filter(|&q| ok(q))
+        })
+    };
+    let (x0, x1) = range_log(all().map(|q| q.0), 1e-9);
+    let (lo, hi) = all().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), q| {
+        (lo.min(q.1), hi.max(q.1))
+    });
+    let (y0, y1) = if lo <= hi {
+        (lo - 2.0, hi + 2.0)
+    } else {
+        (0.0, 1.0)
+    };
+    let mut svg = String::new();
+    {
+        let n = panels.len().max(1);
+        let root = SVGBackend::with_string(&mut svg, (480 * n as u32, 560)).into_drawing_area();
+        root.fill(&WHITE).map_err(err)?;
+        let root = root.titled(title, ("sans-serif", 20)).map_err(err)?;
+        for (area, panel) in root.split_evenly((1, n)).iter().zip(panels) {
+            let mut chart = ChartBuilder::on(area)
+                .caption(&panel.title, ("sans-serif", 16))
+                .margin(12)
+                .x_label_area_size(44)
+                .y_label_area_size(56)
+                .build_cartesian_2d((x0..x1).log_scale(), y0..y1)
+                .map_err(err)?;
+            chart
+                .configure_mesh()
+                .x_desc(x_desc)
+                .y_desc(y_desc)
+                .draw()
+                .map_err(err)?;
+            for line in &panel.lines {
+                let colour = Palette99::pick(line.series).to_rgba();
+                let pts: Vec<(f64, f64)> = line.points.iter().copied().filter(|&q| ok(q)).collect();
+                chart
+                    .draw_series(LineSeries::new(pts.clone(), colour.stroke_width(2)))
+                    .map_err(err)?
+                    .label(line.label.as_str())
+                    .legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
+                    });
+                chart
+                    .draw_series(pts.into_iter().map(|q| Circle::new(q, 2, colour.filled())))
+                    .map_err(err)?;
+            }
+            for q in panel.points.iter().filter(|q| ok((q.x, q.y))) {
+                let colour = Palette99::pick(q.series).to_rgba();
+                let style = if q.filled {
+                    colour.filled()
+                } else {
+                    colour.stroke_width(2)
+                };
+                chart
+                    .draw_series([Circle::new((q.x, q.y), 5, style)])
+                    .map_err(err)?;
+                chart
+                    .draw_series([Text::new(
+                        format!(" {}", q.label),
+                        (q.x, q.y),
+                        ("sans-serif", 11).into_font(),
+                    )])
+                    .map_err(err)?;
+            }
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::LowerRight)
+                .border_style(BLACK)
+                .background_style(WHITE.mix(0.8))
+                .draw()
+                .map_err(err)?;
+        }
+        root.present().map_err(err)?;
+    }
+    Ok(svg)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -241,6 +355,35 @@ mod tests {
         let mut pts = pts;
         pts[1].cost = 0.5;
         assert_eq!(pareto_front(&pts), vec![1, 0, 2, 3]);
+    }
+
+    #[test]
+    fn panels_draw_every_panel_line_and_point() {
+        let panel = |t: &str, y: f64| Panel {
+            title: t.into(),
+            lines: vec![PanelLine {
+                label: "ladder".into(),
+                series: 0,
+                points: vec![(1.0, y), (2.0, y + 3.0)],
+            }],
+            points: vec![PanelPoint {
+                label: format!("point-{t}"),
+                series: 1,
+                x: 1.5,
+                y,
+                filled: true,
+            }],
+        };
+        let svg = panels("T", "x", "y", &[panel("p16", 20.0), panel("p64", 30.0)]).unwrap();
+        assert!(svg.starts_with("<svg"));
+        for needle in ["p16", "p64", "point-p16", "point-p64", "ladder"] {
+            assert!(svg.contains(needle), "{needle}");
+        }
+        // Negative: a point at x = 0 (no log position) is left out, its label too.
+        let mut p = panel("p16", 20.0);
+        p.points[0].x = 0.0;
+        let svg = panels("T", "x", "y", &[p]).unwrap();
+        assert!(!svg.contains("point-p16"));
     }
 
     #[test]

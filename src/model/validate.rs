@@ -3,38 +3,60 @@
 //!
 //! # The prediction
 //! For a measured row (scene, method, cube size N, subgroup size S, the bench's frame), the model
-//! replays the method's CPU twin in [`Mode::Lavapipe`] at width S ([`model_frame`]) and weighs the
-//! issued warp-steps with the SPIR-V block weights ([`weights::cost`]). The predicted time of the
-//! pass is `scale x cost per model ray x model rays`; divided by the bench's ray count it is the
-//! predicted ns per ray the bench reports (the two ray counts differ for `reflection-point`, whose
-//! search runs per scene vertex).
+//! replays the method's CPU twin in [`Mode::Lavapipe`] at width S ([`model_frame`]). Each issued
+//! warp-step of a block costs, on lavapipe, two kinds of work (spirv/README.md, "What lavapipe
+//! does"; the mechanism below):
+//! - its vector instructions (the block's SPIR-V count less its lane operations,
+//!   [`weights::weights`] - [`weights::lane_weights`]), each one instruction per 256-bit register
+//!   the S lanes fill: [`registers`]`(S) = max(1, S / 8)`;
+//! - its lane operations ([`weights::lane_weights`]: storage and image accesses, per-lane array
+//!   indices, subgroup operations), each run once per lane, masked lanes included: S.
+//!
+//! So a row's predicted pass time is `a x V + b x L` with `V = sum over blocks of warp-steps x
+//! vector instructions x registers(S)` and `L = sum of warp-steps x lane operations x S`
+//! ([`Modelled::vector_per_ray`], [`Modelled::lane_per_ray`], per model ray), `a` the ns per
+//! vector instruction and `b` the ns per lane operation; divided by the bench's ray count it is
+//! the predicted ns per ray the bench reports (the two ray counts differ for `reflection-point`,
+//! whose search runs per scene vertex).
+//!
+//! # The mechanism (why this form)
+//! gallivm compiles a subgroup of S lanes into vectors of S x 32 bits. On the AVX2 machine
+//! measured (an AMD EPYC of family 23 model 49, Zen 2: 256-bit data paths), an 8-lane vector
+//! instruction is one instruction; 16 lanes are legalised into two 256-bit halves; at S = 4
+//! (`LP_NATIVE_VECTOR_WIDTH=128`) gallivm hides AVX and emits SSE, one instruction per op again,
+//! for half the lanes. So a vector instruction costs `registers(S)` per warp-step: the same per
+//! ray at 8 and 16 lanes, twice at 4. Per-lane accesses are loops over the S lanes (an extract,
+//! a bounds and mask check, a scalar load or store, an insert), so they cost S per warp-step:
+//! the same per issued lane at every S. A fixed time per warp-step (the earlier model) instead
+//! predicts half the cost per ray at 16 lanes and twice at 4, which the measurements refute.
 //!
 //! # The fit
-//! `scale` (ns per weighted warp-step) is one number per method, fitted on that method's
-//! [`Training`] rows only (with the standard rule, ONE row: scene `default`, cube 256, subgroup
-//! 8): the geometric mean of measured over modelled time, which minimises the squared log error.
-//! Every other row is held out, and its error is reported ([`RowResult::error`]: predicted /
-//! measured - 1; the target is within +-25 %). So a held-out row tests what the model says about
-//! the scene, the cube size and the subgroup size; nothing is fitted per scene, cube size or
-//! subgroup size, and the block weights are not fitted at all (they are instruction counts). One
-//! global scale over every method is fitted too and its held-out score reported beside
-//! ([`Validation::global_scale`]): on lavapipe it misses by method (fragment's rasteriser and
-//! quads, the reflection-point search's dispatch), which the per-method scale absorbs.
-//! [`fit_scale`] reads the training rows alone, which tests/model_harness.rs checks by
-//! perturbing a held-out row.
+//! `a` and `b` are fitted per method on that method's [`Training`] rows only (the standard rule:
+//! scene `default`, every cube size and subgroup size measured), minimising the squared
+//! relative error (the target is relative), with both kept >= 0 ([`fit`]). The rows at several
+//! subgroup sizes are what separates `a` from `b`; where a method's training rows share one
+//! subgroup size (a single `bench --model` run) the two cannot be told apart, and the fit falls
+//! back to one scale on the SPIR-V-weighted cost (`b = a x registers(S) / S`: every instruction
+//! priced alike, the earlier model). Every other row is held out, and its error is reported
+//! ([`RowResult::error`]: predicted / measured - 1; the target is within +-25 %). Nothing is
+//! fitted per scene, cube size or subgroup size, and the block weights are not fitted at all
+//! (they are instruction counts). One global pair over every method is fitted too and its
+//! held-out score reported beside ([`Validation::global`]). [`fit`] reads the training rows
+//! alone, which tests/model_harness.rs checks by perturbing a held-out row.
 //!
 //! # A missed row
 //! Where a held-out row misses the target, [`RowResult::miss`] names the block whose share of
-//! the modelled cost moved most from the same method's training row: the cost that the one scale
-//! converts differently from the training row is most likely that block's (its instructions cost
-//! more or less per step than the mix the scale was fitted on). Where no share moved by
-//! [`SHARE_SHIFT`] or more, it says so: then no block is to blame, the time per weighted step is.
+//! the modelled time moved most from the same method's training rows at the same subgroup size
+//! (or any, if none): the cost that the fitted pair converts differently from the training rows
+//! is most likely that block's. Where no share moved by [`SHARE_SHIFT`] or more, it says so:
+//! then no block is to blame, the time per step is (spills, scene-wide overhead or noise).
 //!
 //! # Where it stops
-//! The model counts instructions, not their latency: texture fetches (gathers in lavapipe),
-//! atomics, and the fixed cost per dispatch or draw are folded into the one scale. Lavapipe's
-//! threads (one per core) and its rasteriser's tiles are not modelled: time is taken as
-//! proportional to issued work.
+//! The model counts instructions, not their latency: texture fetches, atomics, register spills
+//! (more likely at 16 lanes, where every value fills two of AVX2's 16 registers) and the fixed
+//! cost per dispatch or draw are folded into the two coefficients. Lavapipe's threads (one per
+//! core) and its rasteriser's tiles are not modelled: time is taken as proportional to issued
+//! work.
 #![forbid(unsafe_code)]
 
 use anyhow::{Result, bail, ensure};
@@ -50,6 +72,49 @@ pub const SHARE_SHIFT: f64 = 0.05;
 
 /// The +-share the issue targets.
 pub const TARGET: f64 = 0.25;
+
+/// The vector register width of the machine measured (AVX2), in 32-bit lanes.
+pub const REGISTER_LANES: u32 = 8;
+
+/// Vector instructions one SPIR-V vector op takes at `subgroup` lanes on lavapipe: one per
+/// 256-bit register the lanes fill, at least one (a 4-lane subgroup runs 128-bit SSE code, one
+/// instruction per op on a core with 256-bit data paths).
+pub fn registers(subgroup: u32) -> u32 {
+    subgroup.div_ceil(REGISTER_LANES).max(1)
+}
+
+/// The fitted cost of the two kinds of work.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Coefficients {
+    /// ns per vector instruction (per 256-bit register).
+    pub vector_ns: f64,
+    /// ns per lane operation per lane.
+    pub lane_ns: f64,
+    /// Whether the training rows spanned one subgroup size only, so that the fit fell back to
+    /// one scale on the SPIR-V-weighted cost (module docs).
+    pub one_width: bool,
+}
+
+impl Coefficients {
+    /// Predicted ns of the work of `r` (the whole pass).
+    pub fn time(&self, r: &Modelled) -> f64 {
+        (self.vector_ns * r.vector_per_ray + self.lane_ns * r.lane_per_ray) * r.model_rays as f64
+    }
+
+    pub fn describe(&self) -> String {
+        if self.one_width {
+            format!(
+                "{:.3} ns per vector instruction, lane operations priced alike (one width)",
+                self.vector_ns
+            )
+        } else {
+            format!(
+                "{:.3} ns per vector instruction + {:.3} ns per lane operation",
+                self.vector_ns, self.lane_ns
+            )
+        }
+    }
+}
 
 /// One measured row: the tracing pass of a method's default setting on lavapipe.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -84,7 +149,8 @@ impl Measured {
     }
 }
 
-/// Which rows the scale is fitted on: one scene, optionally one cube size and subgroup size.
+/// Which rows the coefficients are fitted on: one scene, optionally one cube size and subgroup
+/// size.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Training {
     pub scene: String,
@@ -93,12 +159,14 @@ pub struct Training {
 }
 
 impl Training {
-    /// The default rule: scene `default`, cube 256, subgroup 8 (lavapipe's default width).
+    /// The default rule: scene `default`, every cube size and subgroup size (the subgroup
+    /// sizes separate the two coefficients; several cube sizes keep one noisy row from setting
+    /// them).
     pub fn standard() -> Training {
         Training {
             scene: "default".into(),
-            cube: Some(256),
-            subgroup: Some(8),
+            cube: None,
+            subgroup: None,
         }
     }
 
@@ -126,8 +194,17 @@ impl Training {
 pub struct Modelled {
     pub measured: Measured,
     pub train: bool,
-    /// Weighted issued warp-steps per model ray (lavapipe mode, width = subgroup).
+    /// Weighted issued warp-steps per model ray (lavapipe mode, width = subgroup): SPIR-V
+    /// instructions, every one alike.
     pub cost_per_ray: f64,
+    /// Vector instructions per model ray: warp-steps x (instructions - lane operations) x
+    /// [`registers`]`(subgroup)`.
+    pub vector_per_ray: f64,
+    /// Lane operations per model ray, per lane: warp-steps x lane operations x subgroup.
+    pub lane_per_ray: f64,
+    /// Per block: `vector_per_ray`'s and `lane_per_ray`'s parts.
+    pub vector_blocks: Vec<f64>,
+    pub lane_blocks: Vec<f64>,
     pub model_rays: usize,
     pub blocks: Vec<String>,
     pub shares: Vec<f64>,
@@ -157,9 +234,15 @@ pub fn modelled(stats: &ReplayStats, m: Measured, train: bool) -> Result<Modelle
         m.subgroup
     );
     let w = weights::weights(m.method)?;
+    let lane = weights::lane_weights(m.method)?;
     let stats = stats.clone();
+    let (vector_blocks, lane_blocks) = split(&stats.steps_per_ray, &w, &lane, m.subgroup);
     Ok(Modelled {
         cost_per_ray: weights::cost(&stats, &w),
+        vector_per_ray: vector_blocks.iter().sum(),
+        lane_per_ray: lane_blocks.iter().sum(),
+        vector_blocks,
+        lane_blocks,
         model_rays: stats.rays,
         blocks: work::blocks(m.method)
             .iter()
@@ -172,22 +255,93 @@ pub fn modelled(stats: &ReplayStats, m: Measured, train: bool) -> Result<Modelle
     })
 }
 
-/// ns per weighted warp-step: the geometric mean of measured over modelled time over the
-/// training rows (and only those), of `method` or of every method.
-pub fn fit_scale(rows: &[Modelled], method: Option<Method>) -> Result<f64> {
-    let logs: Vec<f64> = rows
+/// Per block, the vector instructions and the lane operations (per lane) of `steps` warp-steps
+/// per ray at `subgroup` lanes: `steps x (weight - lane) x registers(subgroup)` and `steps x lane
+/// x subgroup`.
+pub fn split(steps: &[f64], weights: &[f64], lane: &[f64], subgroup: u32) -> (Vec<f64>, Vec<f64>) {
+    let regs = f64::from(registers(subgroup));
+    let w = f64::from(subgroup);
+    steps
+        .iter()
+        .zip(weights.iter().zip(lane))
+        .map(|(s, (t, l))| (s * (t - l).max(0.0) * regs, s * l * w))
+        .unzip()
+}
+
+/// The coefficients fitted on the training rows (and only those) of `method`, or of every
+/// method: least squares on the relative error, both coefficients >= 0 (module docs).
+pub fn fit(rows: &[Modelled], method: Option<Method>) -> Result<Coefficients> {
+    let train: Vec<&Modelled> = rows
         .iter()
         .filter(|r| r.train && method.is_none_or(|m| m == r.measured.method))
-        .filter(|r| r.work() > 0.0 && r.measured.pass_ns > 0.0)
-        .map(|r| (r.measured.pass_ns / r.work()).ln())
+        .filter(|r| r.cost_per_ray > 0.0 && r.measured.pass_ns > 0.0)
         .collect();
-    if logs.is_empty() {
+    if train.is_empty() {
         bail!(
-            "model: no training row{} (with work and a measured time) to fit the scale on",
+            "model: no training row{} (with work and a measured time) to fit the coefficients on",
             method.map_or(String::new(), |m| format!(" of --method {}", m.name()))
         );
     }
-    Ok((logs.iter().sum::<f64>() / logs.len() as f64).exp())
+    let n = |r: &Modelled| r.model_rays as f64 / r.measured.pass_ns;
+    let mut widths: Vec<u32> = train.iter().map(|r| r.measured.subgroup).collect();
+    widths.dedup();
+    if widths.iter().all(|w| *w == widths[0]) {
+        // One width: vector and lane work are priced alike per instruction.
+        let s = widths[0];
+        let ratio = f64::from(registers(s)) / f64::from(s);
+        let z: Vec<f64> = train
+            .iter()
+            .map(|r| (r.vector_per_ray + r.lane_per_ray * ratio) * n(r))
+            .collect();
+        let a = z.iter().sum::<f64>() / z.iter().map(|z| z * z).sum::<f64>();
+        return Ok(Coefficients {
+            vector_ns: a,
+            lane_ns: a * ratio,
+            one_width: true,
+        });
+    }
+    let xy: Vec<(f64, f64)> = train
+        .iter()
+        .map(|r| (r.vector_per_ray * n(r), r.lane_per_ray * n(r)))
+        .collect();
+    let sse =
+        |a: f64, b: f64| -> f64 { xy.iter().map(|(x, y)| (a * x + b * y - 1.0).powi(2)).sum() };
+    let (sxx, sxy, syy) = xy.iter().fold((0.0, 0.0, 0.0), |(p, q, r), (x, y)| {
+        (p + x * x, q + x * y, r + y * y)
+    });
+    let (sx, sy) = xy.iter().fold((0.0, 0.0), |(p, q), (x, y)| (p + x, q + y));
+    let det = sxx * syy - sxy * sxy;
+    let mut best: Option<(f64, f64)> = None;
+    if det.abs() > 1e-12 * sxx * syy {
+        let a = (sx * syy - sy * sxy) / det;
+        let b = (sy * sxx - sx * sxy) / det;
+        if a >= 0.0 && b >= 0.0 {
+            best = Some((a, b));
+        }
+    }
+    let (a, b) = best.unwrap_or_else(|| {
+        // On the boundary: one of the two is 0.
+        let only_a = if sxx > 0.0 {
+            (sx / sxx, 0.0)
+        } else {
+            (0.0, 0.0)
+        };
+        let only_b = if syy > 0.0 {
+            (0.0, sy / syy)
+        } else {
+            (0.0, 0.0)
+        };
+        if sse(only_a.0, only_a.1) <= sse(only_b.0, only_b.1) {
+            only_a
+        } else {
+            only_b
+        }
+    });
+    Ok(Coefficients {
+        vector_ns: a,
+        lane_ns: b,
+        one_width: false,
+    })
 }
 
 /// One row of the validation.
@@ -214,12 +368,12 @@ pub struct RowResult {
 pub struct Validation {
     pub training: Training,
     pub training_rows: Vec<String>,
-    /// The scale of each method (ns per weighted warp-step), fitted on its training row(s):
-    /// what the rows' predictions use.
-    pub scales: Vec<(Method, f64)>,
-    /// One scale for every method, fitted on all training rows, for comparison: the held-out
+    /// The coefficients of each method, fitted on its training rows: what the rows'
+    /// predictions use.
+    pub coefficients: Vec<(Method, Coefficients)>,
+    /// One pair for every method, fitted on all training rows, for comparison: the held-out
     /// rows within the target with it.
-    pub global_scale: f64,
+    pub global: Coefficients,
     pub global_held_out_within_target: usize,
     pub target: f64,
     pub held_out: usize,
@@ -237,24 +391,30 @@ pub fn validate(rows: &[Modelled], training: &Training) -> Result<Validation> {
             if r.train { "training" } else { "held out" }
         );
     }
-    let mut scales: Vec<(Method, f64)> = Vec::new();
+    let mut coefficients: Vec<(Method, Coefficients)> = Vec::new();
     for r in rows {
-        if !scales.iter().any(|(m, _)| *m == r.measured.method) {
+        if !coefficients.iter().any(|(m, _)| *m == r.measured.method) {
             let m = r.measured.method;
-            scales.push((m, fit_scale(rows, Some(m))?));
+            coefficients.push((m, fit(rows, Some(m))?));
         }
     }
-    let scale_of = |m: Method| scales.iter().find(|(k, _)| *k == m).map_or(0.0, |s| s.1);
+    let coef_of = |m: Method| {
+        coefficients
+            .iter()
+            .find(|(k, _)| *k == m)
+            .map(|c| c.1)
+            .expect("every method's coefficients are fitted above")
+    };
     let results: Vec<RowResult> = rows
         .iter()
-        .map(|r| score(r, rows, scale_of(r.measured.method)))
+        .map(|r| score(r, rows, &coef_of(r.measured.method)))
         .collect();
     let held: Vec<&RowResult> = results.iter().filter(|r| !r.train).collect();
-    let global_scale = fit_scale(rows, None)?;
+    let global = fit(rows, None)?;
     let global_within = rows
         .iter()
         .filter(|r| !r.train)
-        .filter(|r| score(r, rows, global_scale).within_target)
+        .filter(|r| score(r, rows, &global).within_target)
         .count();
     Ok(Validation {
         training: training.clone(),
@@ -263,8 +423,8 @@ pub fn validate(rows: &[Modelled], training: &Training) -> Result<Validation> {
             .filter(|r| r.train)
             .map(|r| r.measured.key())
             .collect(),
-        scales,
-        global_scale,
+        coefficients,
+        global,
         global_held_out_within_target: global_within,
         target: TARGET,
         held_out: held.len(),
@@ -273,13 +433,13 @@ pub fn validate(rows: &[Modelled], training: &Training) -> Result<Validation> {
     })
 }
 
-fn score(r: &Modelled, rows: &[Modelled], scale: f64) -> RowResult {
+fn score(r: &Modelled, rows: &[Modelled], c: &Coefficients) -> RowResult {
     let m = &r.measured;
-    let predicted = scale * r.work() / m.rays.max(1) as f64;
+    let predicted = c.time(r) / m.rays.max(1) as f64;
     let measured = m.ns_per_ray();
     let error = predicted / measured - 1.0;
     let within = error.abs() <= TARGET;
-    let miss = (!within && !r.train).then(|| miss(r, rows, error));
+    let miss = (!within && !r.train).then(|| miss(r, rows, c, error));
     RowResult {
         key: m.key(),
         scene: m.scene.clone(),
@@ -296,19 +456,36 @@ fn score(r: &Modelled, rows: &[Modelled], scale: f64) -> RowResult {
     }
 }
 
-/// The block whose share of the cost moved most from the same method's training row.
-fn miss(r: &Modelled, rows: &[Modelled], error: f64) -> String {
+/// Per block, its share of the modelled time of `r` under `c`.
+pub fn time_shares(r: &Modelled, c: &Coefficients) -> Vec<f64> {
+    let parts: Vec<f64> = r
+        .vector_blocks
+        .iter()
+        .zip(&r.lane_blocks)
+        .map(|(v, l)| c.vector_ns * v + c.lane_ns * l)
+        .collect();
+    let total = parts.iter().sum::<f64>().max(f64::MIN_POSITIVE);
+    parts.iter().map(|p| p / total).collect()
+}
+
+/// The block whose share of the modelled time moved most from the same method's training row
+/// (at the same subgroup size where there is one).
+fn miss(r: &Modelled, rows: &[Modelled], c: &Coefficients, error: f64) -> String {
     let dir = if error > 0.0 { "over" } else { "under" };
+    let same = |t: &&Modelled| t.train && t.measured.method == r.measured.method;
     let Some(t) = rows
         .iter()
-        .find(|t| t.train && t.measured.method == r.measured.method)
+        .filter(same)
+        .find(|t| t.measured.subgroup == r.measured.subgroup)
+        .or_else(|| rows.iter().find(same))
     else {
         return format!("{dir}-predicts; no training row of this method to compare blocks with");
     };
-    let best = r
-        .shares
+    let here = time_shares(r, c);
+    let there = time_shares(t, c);
+    let best = here
         .iter()
-        .zip(&t.shares)
+        .zip(&there)
         .enumerate()
         .max_by(|a, b| {
             let d = |(_, (x, y)): &(usize, (&f64, &f64))| (*x - *y).abs();
@@ -318,16 +495,18 @@ fn miss(r: &Modelled, rows: &[Modelled], error: f64) -> String {
     match best {
         Some((_, here, train)) if (here - train).abs() < SHARE_SHIFT => format!(
             "{dir}-predicts; no block: every share is within {:.0} points of the training \
-             row's, so the time per weighted warp-step itself differs here (subgroup size, \
-             scene-wide overhead or noise), not one block",
-            100.0 * SHARE_SHIFT
+             row's ({}), so the time per step itself differs here (spills, scene-wide overhead \
+             or noise), not one block",
+            100.0 * SHARE_SHIFT,
+            t.measured.key()
         ),
         Some((i, here, train)) => format!(
-            "{dir}-predicts; block {}: {:.0} % of the modelled cost here, {:.0} % on the \
-             training row",
+            "{dir}-predicts; block {}: {:.0} % of the modelled time here, {:.0} % on the \
+             training row {}",
             r.blocks.get(i).map_or("?", String::as_str),
             100.0 * here,
-            100.0 * train
+            100.0 * train,
+            t.measured.key()
         ),
         None => format!("{dir}-predicts; no blocks to compare"),
     }

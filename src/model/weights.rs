@@ -26,10 +26,25 @@
 //! function is counted once, and both arms of an `if` are counted, which is lavapipe's execution
 //! (it runs every arm under a mask) and an upper bound for a GPU's.
 //!
+//! # Lane operations
+//! Besides the count, each block has a count of its *lane operations* ([`lane_weights`]): the
+//! instructions that lavapipe (gallivm) runs lane by lane, in a loop over the subgroup's lanes
+//! with a scalar access each (spirv/README.md, "Lane-by-lane indexed reads"), where it runs the
+//! others as one vector instruction (or two, or half of one) for the whole subgroup:
+//! - loads, stores and atomics through a pointer into a storage buffer, workgroup memory or an
+//!   image (storage classes `StorageBuffer`, `PhysicalStorageBuffer`, `Workgroup`, `Image`);
+//! - loads and stores through an access chain with a non-constant index into a private or
+//!   function-local array (a per-lane array index);
+//! - image reads, fetches, samples and gathers; subgroup operations (`OpGroupNonUniform*`).
+//!
+//! A load through a uniform index (which gallivm may emit as one scalar load) still counts:
+//! uniformity is not analysed. [`super::validate`] prices a lane operation per lane and the rest
+//! per vector register.
+//!
 //! # Where it stops
 //! One SPIR-V instruction is one unit: a `OpImageSampleExplicitLod` and an `OpIAdd` weigh the
-//! same, and what LLVM makes of them (vector width, spills, gathers) is left to the fitted scale
-//! of [`super::validate`].
+//! same (beyond the vector/lane split), and what LLVM makes of them (spills, fused or split
+//! instructions) is left to the fitted coefficients of [`super::validate`].
 #![forbid(unsafe_code)]
 
 use std::collections::{BTreeMap, BTreeSet};
@@ -55,6 +70,27 @@ const OP_FUNCTION_PARAMETER: u32 = 55;
 const OP_FUNCTION_END: u32 = 56;
 const OP_FUNCTION_CALL: u32 = 57;
 const OP_VARIABLE: u32 = 59;
+const OP_TYPE_POINTER: u32 = 32;
+const OP_LOAD: u32 = 61;
+const OP_STORE: u32 = 62;
+const OP_ACCESS_CHAIN: u32 = 65;
+const OP_IN_BOUNDS_ACCESS_CHAIN: u32 = 66;
+/// `OpConstantTrue` .. `OpSpecConstantOp` (41..=52): ids whose value is fixed.
+const OP_CONSTANTS: std::ops::RangeInclusive<u32> = 41..=52;
+/// `OpImageSampleImplicitLod` .. `OpImageWrite`: sampling, fetches, gathers, reads, writes.
+const OP_IMAGE_ACCESS: std::ops::RangeInclusive<u32> = 87..=99;
+/// `OpAtomicLoad` .. `OpAtomicXor`.
+const OP_ATOMICS: std::ops::RangeInclusive<u32> = 227..=242;
+/// `OpGroupNonUniformElect` .. `OpGroupNonUniformQuadSwap`.
+const OP_SUBGROUP: std::ops::RangeInclusive<u32> = 333..=366;
+
+const SC_PRIVATE: u32 = 6;
+const SC_FUNCTION: u32 = 7;
+/// Storage classes whose loads and stores gallivm runs lane by lane: `Workgroup` (4), `Image`
+/// (11), `StorageBuffer` (12), `PhysicalStorageBuffer` (5349).
+fn is_lane_memory(class: u32) -> bool {
+    matches!(class, 4 | 11 | 12 | 5349)
+}
 const OP_LOOP_MERGE: u32 = 246;
 const OP_SELECTION_MERGE: u32 = 247;
 const OP_LABEL: u32 = 248;
@@ -96,6 +132,8 @@ fn is_free(op: u32) -> bool {
 struct Function {
     /// Executed instructions of its own body.
     own: u64,
+    /// Of those, the lane operations (module docs).
+    lane: u64,
     /// Callee ids, one entry per call site.
     calls: Vec<u32>,
 }
@@ -191,8 +229,38 @@ impl ShaderFunctions {
         let mut names_by_id = BTreeMap::new();
         let mut by_id = BTreeMap::new();
         let mut current: Option<(u32, Function)> = None;
+        // Pointer type id -> storage class; pointer id -> storage class; constant ids; access
+        // chains with a non-constant index.
+        let mut pointer_types: BTreeMap<u32, u32> = BTreeMap::new();
+        let mut class_of: BTreeMap<u32, u32> = BTreeMap::new();
+        let mut constants: BTreeSet<u32> = BTreeSet::new();
+        let mut dynamic: BTreeSet<u32> = BTreeSet::new();
         for (op, operands) in instructions(words).with_context(|| format!("spirv/{pass}.wgsl"))? {
             match op {
+                OP_TYPE_POINTER if operands.len() >= 2 => {
+                    pointer_types.insert(operands[0], operands[1]);
+                }
+                OP_VARIABLE if operands.len() >= 3 => {
+                    class_of.insert(operands[1], operands[2]);
+                }
+                OP_FUNCTION_PARAMETER if operands.len() >= 2 => {
+                    if let Some(&c) = pointer_types.get(&operands[0]) {
+                        class_of.insert(operands[1], c);
+                    }
+                }
+                OP_ACCESS_CHAIN | OP_IN_BOUNDS_ACCESS_CHAIN if operands.len() >= 3 => {
+                    if let Some(&c) = pointer_types.get(&operands[0]) {
+                        class_of.insert(operands[1], c);
+                    }
+                    let indexed = operands[3..].iter().any(|i| !constants.contains(i))
+                        || dynamic.contains(&operands[2]);
+                    if indexed {
+                        dynamic.insert(operands[1]);
+                    }
+                }
+                o if OP_CONSTANTS.contains(&o) && operands.len() >= 2 => {
+                    constants.insert(operands[1]);
+                }
                 OP_NAME if operands.len() >= 2 => {
                     names_by_id.insert(operands[0], literal(&operands[1..]));
                 }
@@ -212,6 +280,24 @@ impl ShaderFunctions {
                 }
                 if !is_free(op) {
                     f.own += 1;
+                    let pointer = match op {
+                        OP_LOAD => operands.get(2),
+                        OP_STORE => operands.first(),
+                        o if OP_ATOMICS.contains(&o) => operands.get(2),
+                        _ => None,
+                    };
+                    let per_lane = |p: &u32| {
+                        let class = class_of.get(p).copied().unwrap_or(0);
+                        is_lane_memory(class)
+                            || (matches!(class, SC_PRIVATE | SC_FUNCTION) && dynamic.contains(p))
+                    };
+                    if pointer.is_some_and(per_lane)
+                        || OP_ATOMICS.contains(&op)
+                        || OP_IMAGE_ACCESS.contains(&op)
+                        || OP_SUBGROUP.contains(&op)
+                    {
+                        f.lane += 1;
+                    }
                 }
             }
         }
@@ -234,6 +320,20 @@ impl ShaderFunctions {
     /// The function's own instructions plus, per call site, its callees' (expanded the same way)
     /// except those named in `excluded`.
     pub fn expanded(&self, name: &str, excluded: &BTreeSet<&str>) -> Result<u64> {
+        self.expanded_by(name, excluded, |f| f.own)
+    }
+
+    /// [`Self::expanded`] of the lane operations alone.
+    pub fn expanded_lane(&self, name: &str, excluded: &BTreeSet<&str>) -> Result<u64> {
+        self.expanded_by(name, excluded, |f| f.lane)
+    }
+
+    fn expanded_by(
+        &self,
+        name: &str,
+        excluded: &BTreeSet<&str>,
+        count: fn(&Function) -> u64,
+    ) -> Result<u64> {
         let Some(&id) = self.names.get(name) else {
             bail!(
                 "model weights: spirv/{}.wgsl has no function '{name}'",
@@ -246,7 +346,7 @@ impl ShaderFunctions {
             .filter_map(|n| self.names.get(*n).copied())
             .collect();
         let mut memo = BTreeMap::new();
-        Ok(self.expand(id, &excluded_ids, &mut memo, 0))
+        Ok(self.expand(id, &excluded_ids, &mut memo, 0, count))
     }
 
     fn expand(
@@ -255,6 +355,7 @@ impl ShaderFunctions {
         excluded: &BTreeSet<u32>,
         memo: &mut BTreeMap<u32, u64>,
         depth: usize,
+        count: fn(&Function) -> u64,
     ) -> u64 {
         if let Some(&n) = memo.get(&id) {
             return n;
@@ -263,10 +364,10 @@ impl ShaderFunctions {
         let Some(f) = self.by_id.get(&id).filter(|_| depth < 64) else {
             return 0;
         };
-        let mut n = f.own;
+        let mut n = count(f);
         for callee in &f.calls {
             if !excluded.contains(callee) {
-                n += self.expand(*callee, excluded, memo, depth + 1);
+                n += self.expand(*callee, excluded, memo, depth + 1, count);
             }
         }
         memo.insert(id, n);
@@ -277,6 +378,17 @@ impl ShaderFunctions {
 /// The weights of `blocks` (one method's), index for index; an error names the block and
 /// function that the SPIR-V lacks.
 pub fn block_weights(blocks: &[Block]) -> Result<Vec<f64>> {
+    block_counts(blocks, ShaderFunctions::expanded)
+}
+
+/// The lane operations of `blocks` (module docs), index for index.
+pub fn block_lane_weights(blocks: &[Block]) -> Result<Vec<f64>> {
+    block_counts(blocks, ShaderFunctions::expanded_lane)
+}
+
+type Count = fn(&ShaderFunctions, &str, &BTreeSet<&str>) -> Result<u64>;
+
+fn block_counts(blocks: &[Block], count: Count) -> Result<Vec<f64>> {
     let excluded: BTreeSet<&str> = blocks
         .iter()
         .flat_map(|b| b.functions.iter().copied())
@@ -290,9 +402,7 @@ pub fn block_weights(blocks: &[Block]) -> Result<Vec<f64>> {
         let sh = &shaders[b.shader];
         let mut w = 0u64;
         for f in b.functions {
-            w += sh
-                .expanded(f, &excluded)
-                .with_context(|| format!("model block '{}'", b.name))?;
+            w += count(sh, f, &excluded).with_context(|| format!("model block '{}'", b.name))?;
         }
         out.push(w as f64);
     }
@@ -302,6 +412,12 @@ pub fn block_weights(blocks: &[Block]) -> Result<Vec<f64>> {
 /// Instructions per block of a method, counted in the compiled SPIR-V (index = `blocks(method)`).
 pub fn weights(method: Method) -> Result<Vec<f64>> {
     block_weights(blocks(method)).with_context(|| format!("--method {}", method.name()))
+}
+
+/// Lane operations per block of a method, counted in the compiled SPIR-V (a part of
+/// [`weights`]: the instructions lavapipe runs lane by lane).
+pub fn lane_weights(method: Method) -> Result<Vec<f64>> {
+    block_lane_weights(blocks(method)).with_context(|| format!("--method {}", method.name()))
 }
 
 /// Weighted issued warp-steps per ray (the model's cost): `sum(steps_per_ray[i] * weights[i])`.

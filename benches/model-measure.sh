@@ -1,0 +1,98 @@
+#!/usr/bin/env bash
+# Measures NEW lavapipe rows for the cost model's validation (issue 25) and runs the model on
+# them: `benches/model-measure.sh [OUT_DIR]` (default out/model-measure).
+#
+# Why new rows: the rows of benches/results/lavapipe-model.* (160x120, cubes 64/256/1024) were
+# looked at while the model's lane term was derived, so a score on them is tainted. These rows
+# use settings the model was never compared with: a 192x120 frame, cube sizes 128 and 512.
+#
+# What runs (release binary; each process writes OUT_DIR/<run>/bench.json):
+#   subgroup 8  (LP_NATIVE_VECTOR_WIDTH=256): cube 128 and cube 512, every built-in still scene,
+#               methods compute, fragment, ssr, reflection-point (+ bvh once, at cube 128);
+#   subgroup 16 (512): cube 128, every scene, every method (bvh included);
+#   subgroup 4  (128): cube 128, one process per scene: default and sphere-room without
+#               reflection-point, teapot with it; torus and bowl not at all (lavapipe 22.3.6
+#               aborts there, spirv/README.md "Known defect"); a process that aborts anyway is
+#               rerun one method at a time and an abort is logged, not fatal.
+# Then: `cubetrace bench --model --model-from <every bench.json>` -o OUT_DIR/model, which fits
+# on scene `default` (every cube and subgroup size) and scores every other row.
+#
+# Timing: 3 frames after 1 warm-up per run (the trace pass median). Run on an IDLE machine (no
+# build, no other benchmark): the script refuses when the 1-minute load average is above 0.5
+# unless FORCE=1. Expected time on the 2-core EPYC: 5 to 10 minutes of measuring (the build and
+# the model step, about 2 minutes, not counted), an estimate from a smoke run (48x30, one scene,
+# a loaded machine: 5 minutes), not a measurement; each step prints its wall time. Most of it
+# is the cube-512 process: bench always runs the bounded criterion beside compute and fragment,
+# and its per-texel lists at cube 512 take ~10 s per frame to capture (4 frames per run).
+set -uo pipefail
+cd "$(dirname "$0")/.."
+OUT=${1:-out/model-measure}
+# Overrides for a smoke test of the script only (not for the measurement): W, H, SCENES, BIN.
+W=${W:-192}
+H=${H:-120}
+BIN=${BIN:-target/release/cubetrace}
+export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-/tmp}
+unset CUBETRACE_VALIDATION
+
+if [ "$BIN" = target/release/cubetrace ] && { [ ! -x "$BIN" ] || [ -n "$(find src spirv build.rs Cargo.toml -newer "$BIN" -print -quit)" ]; }; then
+    echo "building the release binary (not part of the measurement)..."
+    cargo build --release || exit 1
+fi
+load=$(cut -d' ' -f1 /proc/loadavg)
+if [ "${FORCE:-0}" != 1 ] && awk -v l="$load" 'BEGIN { exit !(l > 0.5) }'; then
+    echo "load average $load > 0.5: the machine is not idle; wait, or FORCE=1" >&2
+    exit 1
+fi
+mkdir -p "$OUT"
+LOG="$OUT/measure.log"
+{
+    echo "model-measure: $(date -u +%FT%TZ), commit $(git rev-parse --short HEAD), load $load"
+    grep -m1 'model name' /proc/cpuinfo
+    echo "cpu family $(grep -m1 'cpu family' /proc/cpuinfo | cut -d: -f2), model $(grep -m1 '^model\s' /proc/cpuinfo | cut -d: -f2)"
+} | tee "$LOG"
+COMMON=(--no-flip --no-heatmaps --no-floor --frames 3 --warmup 1 --width "$W" --height "$H")
+FILES=()
+start_all=$(date +%s)
+
+# run NAME LP_WIDTH CUBE SCENES METHODS: one bench process; returns its exit status.
+run() {
+    local name=$1 lp=$2 cube=$3 scenes=$4 methods=$5 t0 rc extra=()
+    t0=$(date +%s)
+    mkdir -p "$OUT/$name"
+    # bench refuses an option none of --methods reads: --quick is fragment's, --cube-size every
+    # method's but bvh's (bvh reads no cube map).
+    case ",$methods," in *,fragment,*) extra+=(--quick) ;; esac
+    [ "$methods" != bvh ] && extra+=(--cube-size "$cube")
+    LP_NATIVE_VECTOR_WIDTH=$lp "$BIN" bench "${COMMON[@]}" "${extra[@]}" \
+        --scenes "$scenes" --methods "$methods" -o "$OUT/$name" >"$OUT/$name/stdout.txt" 2>&1
+    rc=$?
+    if [ $rc -eq 0 ] && [ -f "$OUT/$name/bench.json" ]; then
+        FILES+=("$OUT/$name/bench.json")
+        echo "$name: ok, $(( $(date +%s) - t0 )) s" | tee -a "$LOG"
+    else
+        echo "$name: FAILED (exit $rc), $(( $(date +%s) - t0 )) s; see $OUT/$name/stdout.txt" | tee -a "$LOG"
+        rc=1
+    fi
+    return $rc
+}
+
+SCENES=${SCENES:-default,sphere-room,teapot,torus,bowl}
+run sg8-cube128 256 128 "$SCENES" compute,fragment,ssr,reflection-point,bvh
+run sg8-cube512 256 512 "$SCENES" compute,fragment,ssr,reflection-point
+run sg16-cube128 512 128 "$SCENES" compute,fragment,ssr,reflection-point,bvh
+for scene in default sphere-room teapot; do
+    case ",$SCENES," in *,$scene,*) ;; *) continue ;; esac
+    methods=compute,fragment,ssr,bvh
+    [ "$scene" = teapot ] && methods=$methods,reflection-point
+    if ! run "sg4-cube128-$scene" 128 128 "$scene" "$methods"; then
+        for m in ${methods//,/ }; do
+            run "sg4-cube128-$scene-$m" 128 128 "$scene" "$m" || true
+        done
+    fi
+done
+echo "measured in $(( $(date +%s) - start_all )) s (${#FILES[@]} bench.json files)" | tee -a "$LOG"
+[ ${#FILES[@]} -gt 0 ] || exit 1
+
+list=$(IFS=,; echo "${FILES[*]}")
+echo "cubetrace bench --model --model-from $list -o $OUT/model" | tee -a "$LOG"
+"$BIN" bench --model --model-from "$list" -o "$OUT/model" | tee "$OUT/model.txt"
