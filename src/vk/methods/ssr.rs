@@ -573,7 +573,10 @@ impl MethodSpec for Ssr {
     }
 
     /// The Hi-Z pyramid: f32 cells, about 4/3 per pixel over all levels (2 on a one-pixel-wide
-    /// frame; counted as 2), plus the pass's parameters (per frame, negligible).
+    /// frame; counted as 2), plus the pass's parameters (per frame, negligible). Not counted:
+    /// a glossy scene's passes (max pyramid, visibility, colour chain and blur scratch, about
+    /// 48 bytes per pixel more, and the CMO colour and pre-filtered chain), which this
+    /// scene-independent figure cannot see.
     fn bytes_per_pixel(&self) -> u64 {
         2 * 4
     }
