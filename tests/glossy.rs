@@ -178,6 +178,10 @@ fn mirror_cap_is_todays_frame_for_every_method() {
             assert_eq!(warning, None);
             let over = glossy::method_warning(&glossy, method, 2).unwrap_or_default();
             assert!(over.contains("--bounces 2"), "{over}");
+        } else if method == Method::Ssr {
+            // ssr cone traces the lobe (tests/glossy_ssr.rs).
+            assert!(today != on_glossy, "negative: ssr renders the lobe");
+            assert_eq!(warning, None);
         } else if method == Method::Bvh {
             assert!(today != on_glossy, "negative: bvh samples the lobe");
             assert_eq!(warning, None);

@@ -21,9 +21,9 @@ pub fn glossy_meshes(scene: &Scene) -> Vec<&str> {
 
 /// What `method` makes of the scene's glossy reflectors where it cannot sample their lobe: a
 /// warning naming the method and the reflectors (`None` where the scene has none, or the method
-/// handles every reflection: the reference, `bvh` (which samples the lobe) and `fragment` and
-/// `compute` (which cone trace it on the cube maps, [`crate::cpu::cone`]) with at most one
-/// bounce).
+/// handles every reflection's lobe: the reference, `bvh` with at most one bounce, `fragment`
+/// and `compute` (which cone trace it on the cube maps, [`crate::cpu::cone`]) with at most one
+/// bounce, and `ssr`, which cone traces it (`cpu::ssr_cone`) and traces one reflection only).
 pub fn method_warning(scene: &Scene, method: Method, bounces: u32) -> Option<String> {
     let names = glossy_meshes(scene);
     if names.is_empty() {
@@ -33,6 +33,8 @@ pub fn method_warning(scene: &Scene, method: Method, bounces: u32) -> Option<Str
     match method {
         Method::Reference => None,
         Method::Bvh if bounces <= 1 => None,
+        // One reflection only: `--bounces` above 1 is refused for ssr.
+        Method::Ssr => None,
         Method::Fragment | Method::Compute if bounces <= 1 => None,
         m @ (Method::Fragment | Method::Compute) => Some(format!(
             "--method {m} cone traces the glossy reflectors ({names}) on the first reflection \

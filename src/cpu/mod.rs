@@ -71,6 +71,7 @@ pub mod multi;
 pub mod options;
 pub mod reflection_point;
 pub mod ssr;
+pub mod ssr_cone;
 pub mod verify;
 pub mod walk;
 pub mod watertight;

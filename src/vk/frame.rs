@@ -12,7 +12,7 @@
 //! | `reflector_check` (where [`Method::has_reflector_check`]; off with `--no-reflector-check`) | G-buffer, records, reflectors' CWBVH, scene | resolved records whose ray meets a reflector nearer, traced exactly ([`ReflectorCheck`]) |
 //! | `fallback` (`--fallback trace`, where [`Method::can_leave_unresolved`]) | G-buffer, records, CWBVH, scene | unresolved records finished by `bvh_queue` + `bvh_trace` |
 //! | `bounce_append` (`--bounces N`, N != 1) | G-buffer, records, CWBVH, scene | N = 0: the mirrors' own material (instead of the method's passes and the two above); N >= 2: rounds 2..=N, each `bounce_append` + `bvh_queue` (`args`) + `bvh_trace` ([`super::passes::bounce`]) |
-//! | `cone_prefilter` (a glossy scene, `fragment` and `compute`; with the CMO stages) | CMO colour (+ distance: compute's own 2x2 pyramid) | the pre-filtered colour chain `cmo_cone` ([`super::passes::cone`]) |
+//! | `cone_prefilter` (a glossy scene, where [`MethodSpec::cone_chain`]: `fragment`, `compute`, `ssr`; with the CMO stages; and `compute`'s own 2x2 pyramid, `cone_pyramid`) | CMO colour (+ distance) | the pre-filtered colour chain `cmo_cone` ([`super::passes::cone`]) |
 //! | `cone` (likewise; after the fallback) | G-buffer, records, CMO data, `cmo_cone`, the pyramid | the glossy pixels' record colour, cone traced |
 //! | `composite` | G-buffer, records, CMO triangle IDs + scene (environment-map fallback) | final colour ([`Composite`]) |
 //!
@@ -102,12 +102,13 @@ use gpu_allocator::MemoryLocation;
 use super::backend::buffer::Buffer;
 use super::backend::context::{GpuContext, Recorder};
 use super::backend::error::{VkError, VkResult};
-use super::backend::shaders::{BOUNCE_APPEND, Pass};
+use super::backend::shaders::{BOUNCE_APPEND, CONE_PREFILTER, Pass};
 use super::backend::sync::{SHADER_READ, SHADER_WRITE};
 use super::backend::timestamps::{PassTime, Timestamps};
 use super::methods::compute::{ComputePath, ComputeStats};
 use super::methods::reflection_point::ReflectionPointPasses;
 use super::methods::ssr::SsrPasses;
+use super::methods::technique::has_glossy_reflector;
 use super::methods::{self, FrameInputs, GeometryInputs, MethodSpec, Needs, Scope, Technique};
 use super::passes::bounce::{BouncePasses, MAX_BOUNCES};
 use super::passes::bvh::{AppendKind, BvhCounter, BvhPasses, ReflectorCheck};
@@ -115,7 +116,7 @@ use super::passes::capture::Capture;
 use super::passes::capture_lists::{self, CaptureLists, ListCounters, ListTargets};
 use super::passes::cmo::{CaptureContents, CmoData};
 use super::passes::composite::Composite;
-use super::passes::cone::{ConeStage, method_cone_traces, scene_is_glossy};
+use super::passes::cone::{ConePrefilter, ConePrefilterBindings, ConeStage, method_cone_traces};
 use super::passes::gbuffer::Gbuffer;
 use super::passes::lists::PackedLists;
 use super::passes::pyramid::{Pyramid, PyramidBindings};
@@ -345,6 +346,9 @@ pub struct GpuRenderer {
     /// one-texel placeholder, initialised at creation.
     capture: Option<CmoCapture>,
     pyramid: Option<(Pyramid, PyramidBindings)>,
+    /// The pre-filtered CMO colour chain (`cone_prefilter`), where the method reads it on a
+    /// glossy scene ([`MethodSpec::cone_chain`]).
+    cone_prefilter: Option<(ConePrefilter, ConePrefilterBindings)>,
     gbuffer: Gbuffer,
     method: Box<dyn Technique>,
     /// [`RenderOptions::reflector_check`] where the method and the scene need it.
@@ -406,6 +410,7 @@ struct CmoStages {
     cmo: CmoData,
     capture: Option<CmoCapture>,
     pyramid: Option<(Pyramid, PyramidBindings)>,
+    cone_prefilter: Option<(ConePrefilter, ConePrefilterBindings)>,
 }
 
 /// The pass that fills the CMO data: the rasterised capture, or (`--criterion bounded`) the
@@ -443,6 +448,7 @@ impl CmoStages {
                 cmo,
                 capture: None,
                 pyramid: None,
+                cone_prefilter: None,
             });
         }
         let size = scene.cmo.resolution;
@@ -474,6 +480,7 @@ impl CmoStages {
             cmo,
             capture,
             pyramid,
+            cone_prefilter: None,
         })
     }
 
@@ -526,6 +533,21 @@ fn pyramid_stage(
     let p = Pyramid::new(ctx)?;
     let b = p.bind(ctx, cmo.distance(), cmo.mip(), cmo.count(), cmo.size())?;
     Ok(Some((p, b)))
+}
+
+/// Fragment's and compute's cone stage (`cone`: a glossy scene and one of them), after their
+/// trace; `own_pyramid` where the method builds no 2x2 pyramid (compute).
+fn cone_stage(
+    ctx: &GpuContext,
+    cone: bool,
+    cmo: &CmoData,
+    own_pyramid: bool,
+    (gbuffer, params, records): (&Gbuffer, &Buffer, &Buffer),
+) -> VkResult<Option<ConeStage>> {
+    if !cone {
+        return Ok(None);
+    }
+    ConeStage::new(ctx, cmo, own_pyramid, gbuffer, params, records).map(Some)
 }
 
 /// The `FrameParams` of a frame.
@@ -998,10 +1020,10 @@ impl GpuRenderer {
         let spec = check_method(&options)?;
         spec.check_device(ctx)?;
         let mut needs = spec.needs(&options.trace);
-        // Cone tracing reads the captured colour (compute captures none otherwise).
-        let cone = method_cone_traces(options.method) && scene_is_glossy(scene);
-        needs.contents.colour |= cone;
         let data = GpuSceneData::new(scene);
+        // The pre-filtered CMO colour chain, for a method that reads it, on a glossy scene only.
+        let cone = spec.cone_chain() && needs.capture && has_glossy_reflector(&data);
+        needs.contents.colour |= cone;
         let scene_buffers = SceneBuffers::new(ctx, &data)?;
         let mut stages = CmoStages::new(
             ctx,
@@ -1014,6 +1036,9 @@ impl GpuRenderer {
         )?;
         if cone {
             stages.cmo.alloc_cone(ctx)?;
+            let p = ConePrefilter::new(ctx)?;
+            let b = p.bind(ctx, &stages.cmo, scene.background)?;
+            stages.cone_prefilter = Some((p, b));
         }
         let gbuffer = Gbuffer::new(ctx, &scene_buffers, camera, ranges.near)?;
         let params = ctx.create_buffer_init(
@@ -1044,19 +1069,13 @@ impl GpuRenderer {
         };
         let method = methods::create(options.method, &inputs)?;
         let check_triangles = scene.check_triangles();
-        let cone = if cone {
-            Some(ConeStage::new(
-                ctx,
-                &stages.cmo,
-                !needs.pyramid,
-                scene.background,
-                &gbuffer,
-                &params,
-                &records,
-            )?)
-        } else {
-            None
-        };
+        let cone = cone_stage(
+            ctx,
+            cone && method_cone_traces(options.method),
+            &stages.cmo,
+            !needs.pyramid,
+            (&gbuffer, &params, &records),
+        )?;
         let after = AfterMethod::new(&inputs, &check_triangles, method.as_ref())?;
         let composite = Composite::new(
             ctx,
@@ -1081,6 +1100,7 @@ impl GpuRenderer {
             cmo: stages.cmo,
             capture: stages.capture,
             pyramid: stages.pyramid,
+            cone_prefilter: stages.cone_prefilter,
             gbuffer,
             method,
             check: after.check,
@@ -1218,13 +1238,17 @@ impl GpuRenderer {
             Some(CmoCapture::Lists(c)) => scope("capture", &mut || c.record(rec))?,
             None => {}
         }
+        if let Some((p, b)) = &self.cone_prefilter {
+            scope(CONE_PREFILTER.name, &mut || p.record(rec, b, None))?;
+            rec.memory_barrier(SHADER_WRITE, SHADER_READ);
+        }
         if let Some((p, b)) = &self.pyramid {
             scope("pyramid", &mut || p.record(rec, b, None))?;
             rec.memory_barrier(SHADER_WRITE, SHADER_READ);
         }
         self.method.record_cmo_stage(rec, scope)?;
-        if let Some(c) = &self.cone {
-            scope("cone_prefilter", &mut || c.record_cmo_stage(rec))?;
+        if let Some(c) = self.cone.as_ref().filter(|c| c.has_own_pyramid()) {
+            scope("cone_pyramid", &mut || c.record_cmo_stage(rec))?;
         }
         Ok(())
     }

@@ -670,6 +670,11 @@ impl MethodSpec for Compute {
     fn trace_pass(&self) -> &'static Pass {
         &COMPUTE_TRACE
     }
+    /// On a glossy scene the frame cone traces the glossy pixels (`vk::passes::cone`), from
+    /// the pre-filtered colour chain.
+    fn cone_chain(&self) -> bool {
+        true
+    }
 
     /// Triangle IDs (verified hits, the environment-map fallback), no colour, no pyramid: the
     /// hierarchy is the method's own ([`ComputePath`]).

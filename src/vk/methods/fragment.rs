@@ -84,6 +84,11 @@ impl MethodSpec for Fragment {
     fn trace_pass(&self) -> &'static Pass {
         &FRAGMENT_TRACE
     }
+    /// On a glossy scene the frame cone traces the glossy pixels (`vk::passes::cone`), from
+    /// the pre-filtered colour chain.
+    fn cone_chain(&self) -> bool {
+        true
+    }
 
     /// Triangle IDs for verified hits (and the environment-map fallback); the colour only for
     /// the thesis's approximate criteria, which take a hit's colour from its texel.

@@ -55,10 +55,18 @@
 //! pixels left to the fallback; with `--fallback trace` finishing those exactly, 9.7 % wrong surface
 //! and 22.5 dB. It still pays the CMO capture (14 to 34 ms per frame at 160x120).
 //!
-//! Not implemented: glossy reflections. The chapter's cone tracing needs a roughness per material
-//! (scene format and G-buffer), a pre-convolved colour mip chain (4.4.4), a pre-integrated
-//! visibility pyramid (a max Hi-Z beside the min one, 4.4.2), the cone-tracing pass (4.4.5), and a
-//! reference that integrates the lobe to measure it against.
+//! Glossy reflectors (sections 4.4.1 to 4.4.5; created only when the scene has a reflector below
+//! the mirror cap, so a mirror scene's frame is unchanged bit for bit): `ssr_visibility` (the max
+//! pyramid and the pre-integrated visibility, one dispatch per level after `ssr_hiz`), `ssr_blur`
+//! (the pre-convolved colour chain: level 0, then a horizontal and a vertical + 2x2 dispatch per
+//! level) and `ssr_cone` (one compute dispatch after `ssr`, rewriting the record colour of
+//! glossy pixels whose ray hit). Specified by their twin [`crate::cpu::ssr_cone`], which says
+//! what they approximate. The remainder of the cone's weight is the pre-filtered cube map at the
+//! lobe's roughness (`cone_envmap_colour`, `spirv/shared/cone.wgsl`: the CMO nearest to the
+//! pixel, along the mirror direction), for which [`MethodSpec::cone_chain`] makes the frame
+//! capture colour and run `cone_prefilter` on a glossy scene. Barriers: compute write -> read between
+//! the per-level dispatches, read-write between the blur's steps (the scratch image is reused),
+//! and storage read-write between `ssr` and `ssr_cone` (both touch the records).
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::Mat4;
@@ -71,12 +79,16 @@ use crate::vk::backend::context::{GpuContext, Recorder};
 use crate::vk::backend::error::{VkError, VkResult};
 use crate::vk::backend::graphics::{GraphicsDesc, GraphicsPipeline, RenderTarget};
 use crate::vk::backend::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
-use crate::vk::backend::shaders::{Pass, SSR, SSR_HIZ};
-use crate::vk::backend::sync::{COMPUTE_READ, COMPUTE_WRITE, SHADER_READ, SHADER_WRITE};
-use crate::vk::passes::cmo::CaptureContents;
+use crate::vk::backend::shaders::{Pass, SSR, SSR_BLUR, SSR_CONE, SSR_HIZ, SSR_VISIBILITY};
+use crate::vk::backend::sync::{
+    COMPUTE_READ, COMPUTE_WRITE, SHADER_READ, SHADER_WRITE, STORAGE_RW,
+};
+use crate::vk::passes::cmo::{CaptureContents, CmoData};
 use crate::vk::passes::gbuffer::Gbuffer;
 
-use super::technique::{CameraInputs, FrameInputs, MethodSpec, Needs, Scope, Technique};
+use super::technique::{
+    CameraInputs, FrameInputs, MethodSpec, Needs, Scope, Technique, has_glossy_reflector,
+};
 
 /// `SsrParams` in `spirv/shared/ssr.wgsl`.
 #[repr(C)]
@@ -137,6 +149,17 @@ pub struct HizLevelParams {
     pub pad2: u32,
 }
 
+/// `ConeLevel` in `spirv/shared/ssr_cone.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct ConeLevelParams {
+    pub level: u32,
+    pub stage: u32,
+    pub pad0: u32,
+    pub pad1: u32,
+    pub background: [f32; 4],
+}
+
 /// Workgroups per dispatch row (the smallest `maxComputeWorkGroupCount[0]` Vulkan guarantees).
 const MAX_GROUPS_X: u32 = 65_535;
 
@@ -153,6 +176,228 @@ pub struct SsrPasses {
     pyramid: Buffer,
     width: u32,
     height: u32,
+    /// The glossy passes, only where the scene has a glossy reflector.
+    cone: Option<ConePasses>,
+}
+
+/// The glossy passes' pyramids and chain, read back ([`ConePasses::read`]).
+pub struct ConeBuffers {
+    pub max: Vec<f32>,
+    pub visibility: Vec<f32>,
+    pub chain: Vec<[f32; 4]>,
+}
+
+/// One dispatch of a per-level pass: descriptor set, parameter buffer (kept alive for the set),
+/// workgroups.
+type LevelDispatch = (BindGroup, Buffer, [u32; 3]);
+
+/// The workgroups of a 64-wide dispatch over `cells` cells.
+fn groups_for(cells: u32, wg: u32) -> [u32; 3] {
+    let groups = cells.div_ceil(wg).max(1);
+    let x = groups.min(MAX_GROUPS_X);
+    [x, groups.div_ceil(x), 1]
+}
+
+/// The glossy passes (sections 4.4.1 to 4.4.5): `ssr_visibility` (max pyramid and
+/// pre-integrated visibility), `ssr_blur` (pre-convolved colour chain) and `ssr_cone` (the cone
+/// tracing after `ssr`). CPU twin [`crate::cpu::ssr_cone`].
+pub struct ConePasses {
+    visibility: ComputePipeline,
+    visibility_levels: Vec<LevelDispatch>,
+    blur: ComputePipeline,
+    /// Stage 0, then stages 1 and 2 per level from 1 on.
+    blur_steps: Vec<LevelDispatch>,
+    cone: ComputePipeline,
+    cone_set: BindGroup,
+    /// `@group(1)`: the CMOs, for the remainder's pre-filtered colour.
+    cone_cmo_set: BindGroup,
+    cone_groups: [u32; 3],
+    hiz_max: Buffer,
+    visibility_buf: Buffer,
+    chain: Buffer,
+    _scratch: Buffer,
+    cells: usize,
+}
+
+impl ConePasses {
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        ctx: &GpuContext,
+        gbuffer: &Gbuffer,
+        frame_params: &Buffer,
+        records: &Buffer,
+        params_buf: &Buffer,
+        pyramid: &Buffer,
+        cmo: &CmoData,
+        background: [f32; 3],
+        (width, height): (u32, u32),
+    ) -> VkResult<Self> {
+        if cmo.cone().is_none() {
+            return Err(VkError::Usage {
+                what: SSR_CONE.name.into(),
+                detail: "the CMO data has no pre-filtered colour chain (MethodSpec::cone_chain)"
+                    .into(),
+            });
+        }
+        let cells = hiz_len(width, height);
+        let storage = |name: &str, bytes: u64| {
+            Buffer::new(
+                ctx.device(),
+                name,
+                bytes,
+                vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+                MemoryLocation::GpuOnly,
+            )
+        };
+        let hiz_max = storage("hiz max pyramid", cells as u64 * 4)?;
+        let visibility_buf = storage("ssr visibility", cells as u64 * 4)?;
+        let chain = storage("ssr colour chain", cells as u64 * 16)?;
+        let scratch = storage("ssr blur scratch", u64::from(width * height) * 16)?;
+        let level_buf = |name: String, level: u32, stage: u32| -> VkResult<Buffer> {
+            let mut buf = Buffer::new(
+                ctx.device(),
+                &name,
+                size_of::<ConeLevelParams>() as u64,
+                vk::BufferUsageFlags::STORAGE_BUFFER,
+                MemoryLocation::CpuToGpu,
+            )?;
+            let [r, g, b] = background;
+            buf.write(
+                0,
+                &[ConeLevelParams {
+                    level,
+                    stage,
+                    background: [r, g, b, 1.0],
+                    ..ConeLevelParams::default()
+                }],
+            )?;
+            Ok(buf)
+        };
+        let sampled = |img: &crate::vk::backend::image::Image| Resource::Texture {
+            view: img.view(),
+            layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+        };
+        let levels = hiz_levels(width, height);
+        let visibility =
+            ComputePipeline::new(ctx, &SSR_VISIBILITY, "main", ComputeOptions::default())?;
+        let wg = |p: &Pass| {
+            p.entry_point("main")
+                .map_or(64, |e| e.workgroup_size[0].max(1))
+        };
+        let mut visibility_levels = Vec::new();
+        for (l, level) in levels.iter().enumerate() {
+            let buf = level_buf(format!("ssr visibility level {l}"), l as u32, 0)?;
+            let set = visibility.bind_group(
+                0,
+                &[
+                    (0, Resource::Buffer(params_buf)),
+                    (1, Resource::Buffer(pyramid)),
+                    (2, Resource::Buffer(&hiz_max)),
+                    (3, Resource::Buffer(&visibility_buf)),
+                    (4, Resource::Buffer(&buf)),
+                ],
+            )?;
+            let groups = groups_for(level.width * level.height, wg(&SSR_VISIBILITY));
+            visibility_levels.push((set, buf, groups));
+        }
+        let blur = ComputePipeline::new(ctx, &SSR_BLUR, "main", ComputeOptions::default())?;
+        let mut blur_steps = Vec::new();
+        let mut step = |l: usize, stage: u32, cells: u32| -> VkResult<()> {
+            let buf = level_buf(format!("ssr blur level {l} stage {stage}"), l as u32, stage)?;
+            let set = blur.bind_group(
+                0,
+                &[
+                    (0, Resource::Buffer(params_buf)),
+                    (1, sampled(&gbuffer.colour)),
+                    (2, Resource::Buffer(&chain)),
+                    (3, Resource::Buffer(&scratch)),
+                    (4, Resource::Buffer(&buf)),
+                ],
+            )?;
+            blur_steps.push((set, buf, groups_for(cells, wg(&SSR_BLUR))));
+            Ok(())
+        };
+        step(0, 0, width * height)?;
+        for l in 1..levels.len() {
+            step(l, 1, levels[l - 1].width * levels[l - 1].height)?;
+            step(l, 2, levels[l].width * levels[l].height)?;
+        }
+        let cone = ComputePipeline::new(ctx, &SSR_CONE, "main", ComputeOptions::default())?;
+        let cone_set = cone.bind_group(
+            0,
+            &[
+                (0, sampled(&gbuffer.position)),
+                (1, sampled(&gbuffer.normal)),
+                (2, Resource::Buffer(frame_params)),
+                (3, Resource::Buffer(records)),
+                (4, Resource::Buffer(pyramid)),
+                (5, Resource::Buffer(&hiz_max)),
+                (6, Resource::Buffer(&visibility_buf)),
+                (7, Resource::Buffer(&chain)),
+                (8, Resource::Buffer(params_buf)),
+            ],
+        )?;
+        let cone_cmo_set = cone.bind_group(1, &cmo.resources_for(&SSR_CONE, "main"))?;
+        Ok(ConePasses {
+            cone_cmo_set,
+            visibility,
+            visibility_levels,
+            blur,
+            blur_steps,
+            cone,
+            cone_set,
+            cone_groups: groups_for(width * height, wg(&SSR_CONE)),
+            hiz_max,
+            visibility_buf,
+            chain,
+            _scratch: scratch,
+            cells,
+        })
+    }
+
+    /// `ssr_visibility`, level by level (after `ssr_hiz`).
+    fn record_visibility(&self, rec: &Recorder<'_>) {
+        for (i, (set, _, groups)) in self.visibility_levels.iter().enumerate() {
+            if i > 0 {
+                rec.memory_barrier(COMPUTE_WRITE, COMPUTE_READ);
+            }
+            self.visibility.dispatch(rec, &[set], *groups);
+        }
+    }
+
+    /// `ssr_blur`, step by step (after the G-buffer). Each step reads what the one before
+    /// wrote and overwrites what the one before that read (the scratch image): a read-write
+    /// barrier between steps.
+    fn record_blur(&self, rec: &Recorder<'_>) {
+        for (i, (set, _, groups)) in self.blur_steps.iter().enumerate() {
+            if i > 0 {
+                rec.memory_barrier(STORAGE_RW, STORAGE_RW);
+            }
+            self.blur.dispatch(rec, &[set], *groups);
+        }
+    }
+
+    /// `ssr_cone` (after `ssr`'s records).
+    fn record_cone(&self, rec: &Recorder<'_>) {
+        self.cone
+            .dispatch(rec, &[&self.cone_set, &self.cone_cmo_set], self.cone_groups);
+    }
+
+    /// The max pyramid, the visibility pyramid and the colour chain as the GPU built them
+    /// ([`hiz_len`] cells each, [`hiz_levels`] layout).
+    pub fn read(&self, ctx: &GpuContext) -> VkResult<ConeBuffers> {
+        let mut max: Vec<f32> = ctx.read_buffer(&self.hiz_max)?;
+        let mut vis: Vec<f32> = ctx.read_buffer(&self.visibility_buf)?;
+        let mut chain: Vec<[f32; 4]> = ctx.read_buffer(&self.chain)?;
+        max.truncate(self.cells);
+        vis.truncate(self.cells);
+        chain.truncate(self.cells);
+        Ok(ConeBuffers {
+            max,
+            visibility: vis,
+            chain,
+        })
+    }
 }
 
 impl SsrPasses {
@@ -165,6 +410,7 @@ impl SsrPasses {
         frame_params: &Buffer,
         records: &Buffer,
         options: &SsrOptions,
+        glossy: Option<(&CmoData, [f32; 3])>,
     ) -> VkResult<Self> {
         let (width, height) = gbuffer.extent();
         let params = SsrParams::new(view_proj, width, height, options)?;
@@ -239,7 +485,22 @@ impl SsrPasses {
                 (6, Resource::Buffer(&params_buf)),
             ],
         )?;
+        let cone = match glossy {
+            Some((cmo, background)) => Some(ConePasses::new(
+                ctx,
+                gbuffer,
+                frame_params,
+                records,
+                &params_buf,
+                &pyramid,
+                cmo,
+                background,
+                (width, height),
+            )?),
+            None => None,
+        };
         Ok(SsrPasses {
+            cone,
             hiz,
             hiz_levels: levels,
             trace,
@@ -273,6 +534,11 @@ impl SsrPasses {
         self.trace.draw(rec, &target, &[&self.trace_set], 3, 0)
     }
 
+    /// The glossy passes (`None` where the scene has no glossy reflector).
+    pub fn cone_passes(&self) -> Option<&ConePasses> {
+        self.cone.as_ref()
+    }
+
     /// The pyramid as the GPU built it ([`hiz_len`] cells, [`hiz_levels`] layout).
     pub fn read_pyramid(&self, ctx: &GpuContext) -> VkResult<Vec<f32>> {
         let mut cells: Vec<f32> = ctx.read_buffer(&self.pyramid)?;
@@ -301,8 +567,16 @@ impl MethodSpec for Ssr {
         }
     }
 
+    /// The glossy passes' remainder reads the cube maps at the lobe's roughness.
+    fn cone_chain(&self) -> bool {
+        true
+    }
+
     /// The Hi-Z pyramid: f32 cells, about 4/3 per pixel over all levels (2 on a one-pixel-wide
-    /// frame; counted as 2), plus the pass's parameters (per frame, negligible).
+    /// frame; counted as 2), plus the pass's parameters (per frame, negligible). Not counted:
+    /// a glossy scene's passes (max pyramid, visibility, colour chain and blur scratch, about
+    /// 48 bytes per pixel more, and the CMO colour and pre-filtered chain), which this
+    /// scene-independent figure cannot see.
     fn bytes_per_pixel(&self) -> u64 {
         2 * 4
     }
@@ -315,6 +589,7 @@ impl MethodSpec for Ssr {
             i.params,
             i.records,
             &i.options.ssr,
+            has_glossy_reflector(i.data).then_some((i.cmo, i.data.shading.background)),
         )?))
     }
 }
@@ -331,7 +606,26 @@ impl Technique for SsrPasses {
             self.record_hiz(rec);
             Ok(())
         })?;
+        if let Some(cone) = &self.cone {
+            rec.memory_barrier(COMPUTE_WRITE, COMPUTE_READ);
+            scope(SSR_VISIBILITY.name, &mut || {
+                cone.record_visibility(rec);
+                Ok(())
+            })?;
+            scope(SSR_BLUR.name, &mut || {
+                cone.record_blur(rec);
+                Ok(())
+            })?;
+        }
         rec.memory_barrier(SHADER_WRITE, SHADER_READ);
-        scope(SSR.name, &mut || self.record_trace(rec))
+        scope(SSR.name, &mut || self.record_trace(rec))?;
+        if let Some(cone) = &self.cone {
+            rec.memory_barrier(STORAGE_RW, STORAGE_RW);
+            scope(SSR_CONE.name, &mut || {
+                cone.record_cone(rec);
+                Ok(())
+            })?;
+        }
+        Ok(())
     }
 }

@@ -91,6 +91,16 @@ pub struct GeometryInputs<'a> {
     pub rebuild_bvh: bool,
 }
 
+/// Whether the uploaded scene has a glossy reflector (a reflector of specular power below the
+/// mirror cap, [`crate::lobe::glossy`]): only then does a frame create anything for the lobe.
+pub fn has_glossy_reflector(data: &GpuSceneData) -> bool {
+    (data.objects.iter()).any(|o| {
+        o.reflector & 1 != 0
+            && o.specular_power >= 0.0
+            && crate::lobe::glossy(Some(o.specular_power)).is_some()
+    })
+}
+
 /// What a method is before it is allocated: one per GPU method, in `super::spec`.
 pub trait MethodSpec: Sync {
     /// The method's tracing pass: its timestamp scope in the harness's tables.
@@ -106,6 +116,14 @@ pub trait MethodSpec: Sync {
     /// compute path's hierarchy); none by default.
     fn cmo_bytes(&self, _cmos: u32, _size: u32) -> u64 {
         0
+    }
+
+    /// Whether the method reads the pre-filtered CMO colour chain (`cmo_cone`,
+    /// `spirv/shared/cone.wgsl`) on a scene with a glossy reflector: the frame then captures
+    /// colour, allocates the chain and runs `cone_prefilter` after the capture. Only where
+    /// [`Needs::capture`]; no by default.
+    fn cone_chain(&self) -> bool {
+        false
     }
 
     /// Refuses a device the method cannot run on, before anything is allocated.

@@ -333,13 +333,12 @@ pub fn method_cone_traces(method: crate::Method) -> bool {
     matches!(method, crate::Method::Fragment | crate::Method::Compute)
 }
 
-/// The cone stage of a glossy frame (fragment, compute): the prefilter pass (after the
-/// capture), the 2x2 pyramid where the method has none (compute: into a buffer of its own), and
-/// the `cone` pass (after the trace, the reflector check and the fallback). See
-/// `spirv/cone.wgsl` for what the pass does; [`crate::cpu::cone::cone_pixel`] is its twin.
+/// The cone stage of a glossy frame (fragment, compute): the 2x2 pyramid where the method has
+/// none (compute: `cone_pyramid`, into a buffer of its own, with the CMO stages) and the `cone`
+/// pass (after the trace, the reflector check and the fallback). The chain it reads is the
+/// frame's `cone_prefilter` (`MethodSpec::cone_chain`). See `spirv/cone.wgsl` for what the
+/// pass does; [`crate::cpu::cone::cone_pixel`] is its twin.
 pub struct ConeStage {
-    prefilter: ConePrefilter,
-    prefilter_bindings: ConePrefilterBindings,
     /// Compute's own pyramid: the pass, its bindings and its buffer (the sets hold the handle).
     pyramid: Option<(
         super::pyramid::Pyramid,
@@ -353,20 +352,23 @@ pub struct ConeStage {
 
 impl ConeStage {
     /// Creates the stage over `cmo` (which must have `cmo_colour` captured and `cmo_cone`
-    /// allocated). `own_pyramid`: build the 2x2 pyramid here (the method builds none).
-    #[allow(clippy::too_many_arguments)]
+    /// allocated and filled by the frame's `cone_prefilter`). `own_pyramid`: build the 2x2
+    /// pyramid here (the method builds none).
     pub fn new(
         ctx: &GpuContext,
         cmo: &CmoData,
         own_pyramid: bool,
-        background: Vec3,
         gbuffer: &super::gbuffer::Gbuffer,
         params: &Buffer,
         records: &Buffer,
     ) -> VkResult<ConeStage> {
         use crate::vk::backend::shaders::CONE;
-        let prefilter = ConePrefilter::new(ctx)?;
-        let prefilter_bindings = prefilter.bind(ctx, cmo, background)?;
+        if cmo.cone().is_none() {
+            return Err(VkError::Usage {
+                what: CONE.name.into(),
+                detail: "the CMO data has no `cmo_cone` (CmoData::alloc_cone)".into(),
+            });
+        }
         let pyramid = if own_pyramid {
             let cells = (u64::from(cmo.count()) * mip_len(cmo.size()) as u64).max(1);
             let buf = Buffer::new(
@@ -407,8 +409,6 @@ impl ConeStage {
         let set1 = pipeline.bind_group(1, &group1)?;
         let (width, height) = gbuffer.extent();
         Ok(ConeStage {
-            prefilter,
-            prefilter_bindings,
             pyramid,
             pipeline,
             sets: [set0, set1],
@@ -416,15 +416,20 @@ impl ConeStage {
         })
     }
 
-    /// Records the CMO part (after the capture): the chain, and compute's pyramid.
+    /// Whether the stage builds its own pyramid (compute), with the CMO stages.
+    pub fn has_own_pyramid(&self) -> bool {
+        self.pyramid.is_some()
+    }
+
+    /// Records the CMO part (after the capture): compute's own pyramid (the frame's scope
+    /// `cone_pyramid`), with barriers around it; nothing for fragment.
     pub fn record_cmo_stage(&self, rec: &Recorder<'_>) -> VkResult<()> {
         use crate::vk::backend::sync::{SHADER_READ, SHADER_WRITE};
-        rec.memory_barrier(SHADER_WRITE, SHADER_READ);
-        self.prefilter.record(rec, &self.prefilter_bindings, None)?;
         if let Some((p, b, _)) = &self.pyramid {
+            rec.memory_barrier(SHADER_WRITE, SHADER_READ);
             p.record(rec, b, None)?;
+            rec.memory_barrier(SHADER_WRITE, SHADER_READ);
         }
-        rec.memory_barrier(SHADER_WRITE, SHADER_READ);
         Ok(())
     }
 
