@@ -2,9 +2,10 @@
 # Measures NEW lavapipe rows for the cost model's validation (issue 25) and runs the model on
 # them: `benches/model-measure.sh [OUT_DIR]` (default out/model-measure).
 #
-# Why new rows: the rows of benches/results/lavapipe-model.* (160x120, cubes 64/256/1024) were
-# looked at while the model's lane term was derived, so a score on them is tainted. These rows
-# use settings the model was never compared with: a 192x120 frame, cube sizes 128 and 512.
+# Why new rows: the earlier rows (160x120, cubes 64/256/1024, measured 2026-12-02 09:14-09:35
+# UTC) were looked at while the model's lane term was derived, so a score on them is tainted.
+# These rows use settings the model was never compared with: a 192x120 frame, cube sizes 128 and
+# 512. Their files are kept in benches/results/model-rows/ (benches/results/lavapipe-model.*).
 #
 # What runs (release binary; each process writes OUT_DIR/<run>/bench.json):
 #   subgroup 8  (LP_NATIVE_VECTOR_WIDTH=256): cube 128 and cube 512, every built-in still scene,

@@ -284,6 +284,7 @@ fn without_timings(v: &mut serde_json::Value) {
         serde_json::Value::Object(map) => {
             for key in [
                 "frame_ns",
+                "reused_frame_ns",
                 "trace_ns",
                 "trace_ns_per_mirror_px",
                 "ns",

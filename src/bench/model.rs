@@ -18,8 +18,8 @@
 //!
 //! `--model-from A.json,B.json,...` reads earlier `bench.json` files instead of rendering (one
 //! per lavapipe subgroup size and cube size: `benches/model-measure.sh` takes them), which is how
-//! `benches/results/lavapipe-model.*` was made (from the files `benches/model-old-rows.py`
-//! rebuilds).
+//! `benches/results/lavapipe-model.*` was made (from the files in
+//! `benches/results/model-rows/`).
 //!
 //! Assumptions (also in [`ASSUMPTIONS`], written with every report): the warp assembly and
 //! texel layout of [`crate::model::replay`]; one ns per weighted warp-step for every method on
