@@ -49,7 +49,7 @@ pub const ANIMATED: &[(&str, &str)] = &[(
 /// glossy reflector as a mirror (with a warning).
 pub const GLOSSY: &[(&str, &str)] = &[(
     "sphere-room-glossy",
-    "sphere-room with a glossy sphere (Phong specular power 64): --method bvh or reference",
+    "sphere-room with a glossy sphere (Phong specular power 64): cone traced by fragment, compute and ssr, sampled by bvh and reference",
 )];
 
 /// The specular power of `sphere-room-glossy`'s sphere: a moderate lobe (the Hi-Z chapter's cone

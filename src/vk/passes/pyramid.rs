@@ -27,7 +27,6 @@ use crate::vk::backend::context::{GpuContext, Recorder};
 use crate::vk::backend::error::{VkError, VkResult};
 use crate::vk::backend::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
 use crate::vk::backend::shaders::PYRAMID;
-use crate::vk::backend::sync::{COMPUTE_READ, COMPUTE_WRITE};
 use crate::vk::backend::timestamps::Timestamps;
 
 /// WGSL `PyramidParams` (read-only storage buffer, one per level). Layout checked against naga's in the tests.
@@ -225,28 +224,13 @@ impl Pyramid {
         bindings: &PyramidBindings,
         timestamps: Option<&mut Timestamps>,
     ) -> VkResult<()> {
-        let name = PYRAMID.name;
-        let (timestamps, scope) = match timestamps {
-            Some(t) => {
-                let s = t.begin(rec, name)?;
-                (Some(t), Some(s))
-            }
-            None => {
-                rec.begin_label(name);
-                (None, None)
-            }
-        };
-        for (i, (set, groups)) in bindings.sets.iter().zip(&bindings.groups).enumerate() {
-            if i > 0 {
-                rec.memory_barrier(COMPUTE_WRITE, COMPUTE_READ);
-            }
-            self.pipeline.dispatch(rec, &[set], *groups);
-        }
-        match (timestamps, scope) {
-            (Some(t), Some(s)) => t.end(rec, s),
-            _ => rec.end_label(),
-        }
-        Ok(())
+        super::record_levels(
+            rec,
+            &self.pipeline,
+            PYRAMID.name,
+            (&bindings.sets, &bindings.groups),
+            timestamps,
+        )
     }
 }
 
