@@ -17,21 +17,25 @@ use crate::cpu::options::{TraceCriterion, TraceOptions};
 #[serde(rename_all = "kebab-case")]
 pub enum Method {
     /// Cubemap tracing in a compute pass on the GPU over the 8x4/4x8 hierarchy with subgroup
-    /// ballots (thesis alg. 3; exact or bounded criterion).
+    /// ballots (thesis alg. 3; exact or bounded criterion). Glossy reflectors: cone traced on the
+    /// cube maps' pre-filtered colour.
     Compute,
-    /// Cubemap tracing in a deferred fragment pass on the GPU (thesis alg. 1, 2, 4).
+    /// Cubemap tracing in a deferred fragment pass on the GPU (thesis alg. 1, 2, 4). Glossy
+    /// reflectors: cone traced on the cube maps' pre-filtered colour.
     Fragment,
     /// One cube map lookup per pixel on the GPU, no parallax (the baseline).
     Envmap,
     /// Hi-Z screen-space reflections on the GPU (Uludag 2014): a min pyramid of the G-buffer's
-    /// depth and a hierarchical ray march; what leaves the screen goes to the fallback.
+    /// depth and a hierarchical ray march; what leaves the screen goes to the fallback. Glossy
+    /// reflectors: the chapter's screen-space cone tracing.
     Ssr,
     /// Reflection-point search with virtual objects on the GPU (Estalella et al. 2006): per
     /// vertex of the other objects, a local search over the reflector's position and normal
     /// textures; the virtual objects rasterised into the mirror; uncovered pixels get the fallback.
     ReflectionPoint,
     /// Exact ray tracing of the reflected rays on the GPU: a compute pass over a compressed wide
-    /// BVH (obvhs), the same triangles and shading as the reference.
+    /// BVH (obvhs), the same triangles and shading as the reference. Glossy reflectors: one lobe
+    /// sample per film sample (Monte Carlo, `--spp`).
     Bvh,
     /// Exact CPU ray tracing against the scene's triangles: the ground truth.
     Reference,
