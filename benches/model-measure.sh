@@ -20,10 +20,9 @@
 #
 # Timing: 3 frames after 1 warm-up per run (the trace pass median). Run on an IDLE machine (no
 # build, no other benchmark): the script refuses when the 1-minute load average is above 0.5
-# unless FORCE=1. Expected time on the 2-core EPYC: 5 to 10 minutes of measuring (the build and
-# the model step, about 2 minutes, not counted), an estimate from a smoke run (48x30, one scene,
-# a loaded machine: 5 minutes), not a measurement; each step prints its wall time. Most of it
-# is the cube-512 process: bench always runs the bounded criterion beside compute and fragment,
+# unless FORCE=1. Time on the idle 2-core EPYC (2026-12-02): 276 s of measuring (157 s of it the
+# cube-512 process), the build and the model step not counted; each step prints its wall time.
+# The cube-512 process is the slow one: bench always runs the bounded criterion beside compute and fragment,
 # and its per-texel lists at cube 512 take ~10 s per frame to capture (4 frames per run).
 set -uo pipefail
 cd "$(dirname "$0")/.."
