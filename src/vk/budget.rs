@@ -274,18 +274,22 @@ pub fn estimate(scene: &Scene, camera: &Camera, options: &RenderOptions) -> Devi
     }
 }
 
-/// What cone tracing adds for a glossy scene with `fragment` or `compute`
-/// ([`super::passes::cone`]): the pre-filtered chain (`mip_len(N)` RGBA f32 per CMO), and where
-/// the method captures no colour or builds no pyramid (compute), those too; 0 otherwise.
+/// What cone tracing adds for a glossy scene, as [`super::frame::GpuRenderer::new`] allocates it:
+/// for a method that reads the pre-filtered chain ([`super::methods::MethodSpec::cone_chain`]:
+/// `fragment`, `compute`, `ssr`), the chain (`mip_len(N)` RGBA f32 per CMO) and the colour
+/// capture where the method captures none; for the cube-map cone pass
+/// ([`super::passes::cone`]: `fragment`, `compute`), the 2x2 pyramid where the method builds
+/// none (compute); 0 otherwise. ssr's screen-space chains are in neither (its
+/// `bytes_per_pixel`).
 pub fn cone_bytes(scene: &Scene, options: &RenderOptions) -> u64 {
     use super::passes::cone::{method_cone_traces, scene_is_glossy};
     let Some(spec) = methods::spec(options.method) else {
         return 0;
     };
-    if !method_cone_traces(options.method) || !scene_is_glossy(scene) {
+    let needs = spec.needs(&options.trace);
+    if !spec.cone_chain() || !needs.capture || !scene_is_glossy(scene) {
         return 0;
     }
-    let needs = spec.needs(&options.trace);
     let cmos = scene.cmo_centres().len() as u64;
     let size = scene.cmo.resolution;
     let cells = cmos * mip_len(size) as u64;
@@ -294,7 +298,11 @@ pub fn cone_bytes(scene: &Scene, options: &RenderOptions) -> u64 {
     } else {
         cmos * 6 * u64::from(size) * u64::from(size) * 16
     };
-    let pyramid = if needs.pyramid { 0 } else { cells * 8 };
+    let pyramid = if needs.pyramid || !method_cone_traces(options.method) {
+        0
+    } else {
+        cells * 8
+    };
     cells * 16 + colour + pyramid
 }
 

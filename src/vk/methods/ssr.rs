@@ -575,8 +575,8 @@ impl MethodSpec for Ssr {
     /// The Hi-Z pyramid: f32 cells, about 4/3 per pixel over all levels (2 on a one-pixel-wide
     /// frame; counted as 2), plus the pass's parameters (per frame, negligible). Not counted:
     /// a glossy scene's passes (max pyramid, visibility, colour chain and blur scratch, about
-    /// 48 bytes per pixel more, and the CMO colour and pre-filtered chain), which this
-    /// scene-independent figure cannot see.
+    /// 48 bytes per pixel more), which this scene-independent figure cannot see. The CMO colour
+    /// and pre-filtered chain a glossy scene adds are `budget::cone_bytes`'s.
     fn bytes_per_pixel(&self) -> u64 {
         2 * 4
     }
