@@ -31,6 +31,24 @@
 //!   screen-space remainders): the cone of a lobe of power `power` seen from the CMO centre as
 //!   if the scene were infinitely far, [`cone_footprint_level`] at `tan(`[`cone_half_angle`]`)`.
 //!
+//! # The cone pass ([`cone_pixel`], `spirv/cone.wgsl`): what it approximates
+//! - **One axis ray**: the cone is not traced; what the lobe sees is taken to lie around the
+//!   axis hit, at its distance.
+//! - **A footprint from the CMO's viewpoint**: the chain holds what the CMO centre sees, so the
+//!   footprint is the cone's cross-section at the hit seen from the CMO that sees the hit
+//!   ([`cone_seeing_cmo`]; none: the exact colour stays).
+//! - **The box pre-filter**: 2x2 boxes per level, trilinear between levels, not the lobe's
+//!   cos^n weights; no filtering across a face seam.
+//! - **Occlusion**: where the 2x2 min/max pyramid shows a surface in front of the hit's
+//!   distance minus the cone's radius inside the footprint, the level is capped at the coarsest
+//!   level without one ([`cone_visible_level`]); that surface, seen from the CMO, need not be in
+//!   the cone. Measured (`tests/glossy_cone.rs`, `occlusion_and_horizon_measured`): the cap and
+//!   the below-the-surface darkening each move PSNR by less than 0.5 dB either way.
+//! - **Below the surface**: the part of the cone below the reflector's plane is absorbed, as the
+//!   reference's samples are: the colour is scaled by `1 - clamp((theta - beta) / (2 theta), 0,
+//!   1/2)`, `beta` the axis's elevation.
+//! - An escaped axis reads the direction-only lookup (the scene as infinitely far).
+//!
 //! Arithmetic: f32, in the WGSL's order; the product of an interpolation goes through no fused
 //! multiply-add (as `prod` in `spirv/shared/frustum.wgsl`). The chain and
 //! [`cone_cube_colour`] are bit-identical on lavapipe; the level of [`cone_footprint_level`]
