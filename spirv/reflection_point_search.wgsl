@@ -209,13 +209,24 @@ fn rp_start() -> vec2<i32> {
     }
     let reach = i32(max(rp.width, rp.height));
     for (var d = 1; d <= reach; d += 1) {
-        let arms = array<vec2<i32>, 4>(
-            vec2<i32>(d, 0), vec2<i32>(-d, 0), vec2<i32>(0, d), vec2<i32>(0, -d));
-        for (var a = 0; a < 4; a += 1) {
-            let t = s + arms[a];
-            if rp_on_reflector(t) {
-                return t;
-            }
+        let t = rp_start_arms(s, d);
+        if t.x >= 0 {
+            return t;
+        }
+    }
+    return vec2<i32>(-1, -1);
+}
+
+// The crosshair's four arm texels at distance `d` from `s`: the first on the reflector, else
+// (-1, -1). Its own function so that the cost model counts its turns (`model::work`'s
+// `start_arms` block).
+fn rp_start_arms(s: vec2<i32>, d: i32) -> vec2<i32> {
+    let arms = array<vec2<i32>, 4>(
+        vec2<i32>(d, 0), vec2<i32>(-d, 0), vec2<i32>(0, d), vec2<i32>(0, -d));
+    for (var a = 0; a < 4; a += 1) {
+        let t = s + arms[a];
+        if rp_on_reflector(t) {
+            return t;
         }
     }
     return vec2<i32>(-1, -1);

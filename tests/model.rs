@@ -430,3 +430,62 @@ fn lane_operations_per_ray_do_not_fall_with_the_width() {
         assert!(c8 < 0.75 * c4 && c16 < 0.75 * c8, "{}", m.name());
     }
 }
+
+/// lavapipe's work items (`warps::warp_items`): a quad warp belongs to the 64x64 rasteriser bin
+/// that holds it, bins numbered row-major; so each bin's warps hold exactly its pixels. A
+/// queue's warps go to consecutive workgroups. Negative: bins of 32 pixels give other counts.
+#[test]
+fn warp_items_are_lavapipe_bins_and_workgroups() {
+    use cubetrace::model::warps::{Items, LAVAPIPE_TILE, warp_items};
+    let (w, h) = (130u32, 70u32);
+    let ray_at: Vec<Option<usize>> = (0..(w * h) as usize).map(Some).collect();
+    let count = |tile: u32| {
+        let warps = quad_warps(w, h, &ray_at, 8);
+        let items = warp_items(Assembly::Quads, 0, (w, h), &ray_at, 8, Items::Tiles(tile));
+        assert_eq!(warps.len(), items.len());
+        let mut per = vec![0u32; *items.iter().max().unwrap() + 1];
+        for (warp, item) in warps.iter().zip(&items) {
+            per[*item] += warp.iter().filter(|l| matches!(l, Lane::Ray(_))).count() as u32;
+        }
+        per
+    };
+    let t = LAVAPIPE_TILE;
+    // 3 x 2 bins: 64, 64 and 2 columns; 64 and 6 rows.
+    assert_eq!(count(t), [t * t, t * t, 2 * t, 6 * t, 6 * t, 2 * 6]);
+    assert_ne!(count(32), count(t));
+    // A queue of 300 entries in warps of 8, workgroups of 64: warp k in item k * 8 / 64.
+    let items = warp_items(Assembly::Queue, 300, (0, 0), &[], 8, Items::Groups(64));
+    assert_eq!(items.len(), 38);
+    assert_eq!(items[7], 0);
+    assert_eq!(items[8], 1);
+    assert_eq!(*items.last().unwrap(), 4);
+}
+
+/// The reflection-point search's start (`rp_start_arms`, one turn per distance of the
+/// crosshair) is counted where the start texel is off the reflector: torus (its bounding box's
+/// centre is in the hole) has turns in GPU mode, sphere-room (the centre is on the sphere) none.
+/// The turns equal the distance the CPU twin's `first_texel` reached.
+#[test]
+fn reflection_point_start_turns_are_counted() {
+    let turns = |name: &str| {
+        let sc = builtin::by_name(name).expect("built-in scene");
+        let st =
+            model_frame(&sc, Method::ReflectionPoint, &settings(32), 8, Mode::Gpu).expect("model");
+        st.steps_per_ray[work::R_START_ARMS]
+    };
+    assert_eq!(turns("sphere-room"), 0.0);
+    let frame = work::frame(&builtin::by_name("torus").unwrap(), &settings(32)).expect("frame");
+    let rp = work::reflection_point_vertices(&frame);
+    let mut seen = None;
+    for (it, _) in rp.iter().flatten() {
+        let n = it.count(work::R_START_ARMS);
+        assert!(
+            seen.is_none_or(|s| s == n),
+            "the start is the same for every vertex"
+        );
+        seen = Some(n);
+    }
+    let n = seen.expect("torus has searched vertices");
+    assert!(n > 0, "torus's start texel is off the reflector");
+    assert!(turns("torus") > 0.0);
+}

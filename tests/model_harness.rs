@@ -126,6 +126,8 @@ fn row_of(
         height: 12,
         rays: 100,
         pass_ns: ns,
+        repeats: vec![ns],
+        threads: 2,
     };
     Modelled {
         train: t.contains(&measured),
@@ -139,6 +141,7 @@ fn row_of(
         blocks: vec!["a".into(), "b".into()],
         shares: vec![0.5, 0.5],
         simd_efficiency: 1.0,
+        imbalance: 1.0,
     }
 }
 
@@ -327,7 +330,7 @@ fn model_from_a_bad_file_names_the_field() {
         "{e}"
     );
     assert!(!out.join("model.json").exists());
-    // The same row from two files is refused (one of them would be fitted or scored twice).
+    // A file without the driver's thread count (nor the bench's) names the field.
     let g = d.path().join("one.json");
     std::fs::write(
         &g,
@@ -336,20 +339,16 @@ fn model_from_a_bad_file_names_the_field() {
             "trace_ns": {"median": 1000.0}}]}"#,
     )
     .unwrap();
-    let both = format!("{},{}", g.display(), g.display());
     let o = cli(&[
         "bench",
         "--model",
         "--model-from",
-        &both,
+        g.to_str().unwrap(),
         "-o",
         out.to_str().unwrap(),
     ]);
     let e = String::from_utf8_lossy(&o.stderr);
-    assert!(
-        !o.status.success() && e.contains("default/bvh/cube256/sg8"),
-        "{e}"
-    );
+    assert!(!o.status.success() && e.contains("driver_threads"), "{e}");
     // --model-from alone is refused by the parser (it needs --model).
     let o = cli(&["bench", "--model-from", f.to_str().unwrap()]);
     assert!(!o.status.success());
@@ -473,4 +472,140 @@ fn lane_operations_are_counted_from_the_spirv() {
         eprintln!("{}: {sl} lane operations of {sw} instructions", m.name());
         assert!(sl > 0.0 && sl < sw, "{}", m.name());
     }
+}
+
+/// The threads' imbalance (`validate::imbalance`), worked by hand: lavapipe's 2 threads take the
+/// items in order, each the next when free. [4, 1, 1, 1, 1]: 4 | 1+1+1+1, evenly split (1.0).
+/// [5, 1, 1, 1]: 5 | 3, makespan 5 of 8 (1.25). Negative: the same costs in the other order
+/// [1, 1, 1, 5]: 1+1 | 1+5, makespan 6 (1.5), so the order is read. One item: 2.0; one thread:
+/// 1.0. A row's predicted time scales with it.
+#[test]
+fn the_threads_imbalance_is_the_greedy_makespan() {
+    assert_eq!(validate::imbalance(&[4.0, 1.0, 1.0, 1.0, 1.0], 2), 1.0);
+    assert_eq!(validate::imbalance(&[5.0, 1.0, 1.0, 1.0], 2), 1.25);
+    assert_eq!(validate::imbalance(&[1.0, 1.0, 1.0, 5.0], 2), 1.5);
+    assert_eq!(validate::imbalance(&[8.0], 2), 2.0);
+    assert_eq!(validate::imbalance(&[5.0, 1.0, 1.0, 1.0], 1), 1.0);
+    assert_eq!(validate::imbalance(&[], 2), 1.0);
+    let t = Training::standard();
+    let mut r = row("bowl", Method::Compute, 256, 8, 1000.0, &t);
+    let c = validate::Coefficients {
+        vector_ns: 1.0,
+        lane_ns: 2.0,
+        one_width: false,
+    };
+    let even = c.time(&r);
+    r.imbalance = 1.25;
+    assert_eq!(c.time(&r), even * 1.25);
+}
+
+fn bench_json(dir: &Path, name: &str, rays: u32, median: f64) -> String {
+    let p = dir.join(name);
+    std::fs::write(
+        &p,
+        format!(
+            r#"{{"device": {{"subgroup_size": 8}}, "driver_threads": 2, "runs": [{{"scene": "default",
+            "method": "bvh", "cube_size": 256, "width": 16, "height": 12, "rays": {rays},
+            "trace_ns": {{"median": {median}}}}}]}}"#
+        ),
+    )
+    .unwrap();
+    p.display().to_string()
+}
+
+/// A row in several `--model-from` files is one row measured in several processes: its time is
+/// the median of theirs, and the report gives the processes and their spread. Negative: the
+/// same row with another ray count (another measurement) is refused, naming the row.
+#[test]
+fn model_from_merges_a_rows_processes() {
+    let d = tempfile::tempdir().unwrap();
+    let files = [
+        bench_json(d.path(), "a.json", 10, 1000.0),
+        bench_json(d.path(), "b.json", 10, 3000.0),
+        bench_json(d.path(), "c.json", 10, 2000.0),
+    ];
+    let rows = cubetrace::bench::model::measured_from_files(
+        &files
+            .iter()
+            .map(std::path::PathBuf::from)
+            .collect::<Vec<_>>(),
+    )
+    .unwrap();
+    assert_eq!(rows.len(), 1);
+    assert_eq!(rows[0].pass_ns, 2000.0);
+    assert_eq!(rows[0].repeats, [1000.0, 3000.0, 2000.0]);
+    assert_eq!(rows[0].spread(), 3.0);
+    assert_eq!(rows[0].threads, 2);
+    let out = d.path().join("out");
+    let other = bench_json(d.path(), "d.json", 11, 2000.0);
+    let o = cli(&[
+        "bench",
+        "--model",
+        "--model-from",
+        &format!("{},{other}", files[0]),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && e.contains("default/bvh/cube256/sg8") && e.contains("d.json"),
+        "{e}"
+    );
+    assert!(!out.join("model.json").exists());
+}
+
+/// `bench --defaults-only` runs each method's default setting alone (the rows --model reads):
+/// no `compute-bounded`, no `reflection-point-sub2`. Negative: without it both are there.
+#[test]
+fn defaults_only_runs_the_default_settings() {
+    let labels = |extra: &[&str]| {
+        let d = tempfile::tempdir().unwrap();
+        let mut args = vec![
+            "bench",
+            "--scenes",
+            "default",
+            "--methods",
+            "compute,reflection-point",
+            "--width",
+            "16",
+            "--height",
+            "12",
+            "--frames",
+            "1",
+            "--warmup",
+            "0",
+            "--cube-size",
+            "16",
+            "--no-flip",
+            "--no-heatmaps",
+            "--no-floor",
+            "-o",
+            d.path().to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let o = cli(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(d.path().join("bench.json")).unwrap())
+                .unwrap();
+        v["runs"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|r| r["method"].as_str().unwrap().to_string())
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(
+        labels(&["--defaults-only"]),
+        ["compute", "reflection-point"]
+    );
+    let all = labels(&[]);
+    assert!(
+        all.iter().any(|l| l == "compute-bounded")
+            && all.iter().any(|l| l == "reflection-point-sub2"),
+        "{all:?}"
+    );
+    // It does not combine with --quick.
+    let o = cli(&["bench", "--defaults-only", "--quick"]);
+    assert!(!o.status.success());
 }

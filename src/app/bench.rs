@@ -38,6 +38,11 @@ pub struct BenchArgs {
     /// instead of its grid.
     #[arg(long)]
     pub quick: bool,
+    /// Every method of --methods in its default setting only: no fragment grid, no bounded
+    /// criterion, no subdivided reflection-point (the rows --model reads;
+    /// benches/model-measure.sh uses it).
+    #[arg(long, conflicts_with_all = ["quick", "scaling", "sequence", "glossy"])]
+    pub defaults_only: bool,
     /// Frame width in pixels.
     #[arg(long, default_value_t = 160)]
     pub width: u32,
@@ -135,7 +140,8 @@ pub struct BenchArgs {
     /// With --model: render nothing; model the runs of these earlier bench.json files instead
     /// (e.g. one per LP_NATIVE_VECTOR_WIDTH and --cube-size; benches/model-measure.sh), fitting
     /// on scene `default` at every cube and subgroup size given, and write model.json, model.md
-    /// and model.svg into -o (GPU predictions at cube 256).
+    /// and model.svg into -o (GPU predictions at cube 256). A row in several files is one row
+    /// measured in several processes: the median of their times, with their spread reported.
     #[arg(long, value_delimiter = ',', requires = "model")]
     pub model_from: Vec<PathBuf>,
     /// Scaling: the largest cube face size (powers of two from 32). The default stops at 1024:
@@ -406,7 +412,14 @@ pub fn grid_config(args: &BenchArgs, methods: &[Method]) -> bench::BenchConfig {
         } else {
             args.scenes.clone()
         },
-        methods: bench::method_grid(methods, args.quick),
+        methods: if args.defaults_only {
+            methods
+                .iter()
+                .map(|m| bench::MethodSpec::plain(*m))
+                .collect()
+        } else {
+            bench::method_grid(methods, args.quick)
+        },
         width: args.width,
         height: args.height,
         frames: args.frames,

@@ -518,6 +518,14 @@ impl DeviceInfo {
     }
 }
 
+/// [`BenchReport::driver_threads`] of this process.
+pub fn driver_threads() -> usize {
+    std::env::var("LP_NUM_THREADS")
+        .ok()
+        .and_then(|v| v.trim().parse::<usize>().ok())
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+}
+
 /// Everything a bench run produced.
 #[derive(Clone, Debug, Serialize)]
 pub struct BenchReport {
@@ -526,6 +534,10 @@ pub struct BenchReport {
     pub git_commit: Option<String>,
     pub cubetrace_version: &'static str,
     pub cpu_threads: usize,
+    /// Threads a CPU driver runs its passes on: `LP_NUM_THREADS` where set (lavapipe reads
+    /// it), else the CPUs this process may use (lavapipe's default: one per CPU). What the cost
+    /// model schedules lavapipe's work items over (`model::validate::imbalance`).
+    pub driver_threads: usize,
     pub warmup: u32,
     /// Reflections per path ([`BenchConfig::bounces`]).
     pub bounces: u32,
@@ -855,6 +867,7 @@ pub fn run(
         git_commit: git_commit(),
         cubetrace_version: env!("CARGO_PKG_VERSION"),
         cpu_threads: rayon::current_num_threads(),
+        driver_threads: driver_threads(),
         warmup: cfg.warmup,
         bounces: cfg.bounces,
         ratios: SceneRatios::of(&runs),

@@ -128,13 +128,18 @@ pub fn measured_of(report: &BenchReport) -> Vec<Measured> {
             height: r.height,
             rays: r.rays,
             pass_ns: r.trace_ns.median,
+            repeats: vec![r.trace_ns.median],
+            threads: report.driver_threads as u32,
         })
         .collect()
 }
 
-/// The measured rows of earlier `bench.json` files.
+/// The measured rows of earlier `bench.json` files. A row (scene/method/cube/subgroup) found
+/// in several files is one row measured in several processes: its time is the median of the
+/// files' medians, and each is kept in [`Measured::repeats`] (lavapipe's time varies more from
+/// process to process than from frame to frame).
 pub fn measured_from_files(paths: &[PathBuf]) -> Result<Vec<Measured>> {
-    let mut out = Vec::new();
+    let mut out: Vec<Measured> = Vec::new();
     for p in paths {
         let text = std::fs::read_to_string(p)
             .with_context(|| format!("--model-from: cannot read {}", p.display()))?;
@@ -144,6 +149,12 @@ pub fn measured_from_files(paths: &[PathBuf]) -> Result<Vec<Measured>> {
         let subgroup = v["device"]["subgroup_size"]
             .as_u64()
             .with_context(|| field("device.subgroup_size"))? as u32;
+        // Files written before `driver_threads` existed: lavapipe ran one thread per CPU, as
+        // many as the bench's own pool (`cpu_threads`, unset RAYON_NUM_THREADS).
+        let threads = v["driver_threads"]
+            .as_u64()
+            .or_else(|| v["cpu_threads"].as_u64())
+            .with_context(|| field("driver_threads"))? as u32;
         let runs = v["runs"].as_array().with_context(|| field("runs"))?;
         for (i, r) in runs.iter().enumerate() {
             let f = |k: &str| r[k].clone();
@@ -160,7 +171,10 @@ pub fn measured_from_files(paths: &[PathBuf]) -> Result<Vec<Measured>> {
                 f(k).as_f64()
                     .with_context(|| field(&format!("runs[{i}].{k}")))
             };
-            out.push(Measured {
+            let pass_ns = r["trace_ns"]["median"]
+                .as_f64()
+                .with_context(|| field(&format!("runs[{i}].trace_ns.median")))?;
+            let m = Measured {
                 scene: f("scene").as_str().unwrap_or_default().to_string(),
                 method: kind,
                 cube: num("cube_size")? as u32,
@@ -168,21 +182,40 @@ pub fn measured_from_files(paths: &[PathBuf]) -> Result<Vec<Measured>> {
                 width: num("width")? as u32,
                 height: num("height")? as u32,
                 rays: num("rays")? as usize,
-                pass_ns: r["trace_ns"]["median"]
-                    .as_f64()
-                    .with_context(|| field(&format!("runs[{i}].trace_ns.median")))?,
-            });
+                pass_ns,
+                repeats: vec![pass_ns],
+                threads,
+            };
+            match out.iter_mut().find(|o| o.key() == m.key()) {
+                None => out.push(m),
+                Some(o) => {
+                    if (o.width, o.height, o.rays, o.threads)
+                        != (m.width, m.height, m.rays, m.threads)
+                    {
+                        bail!(
+                            "--model-from: row {} is in several files with different frames \
+                             ({}x{}, {} rays, {} threads against {}x{}, {} rays, {} threads in \
+                             {}): repeats of a row must be the same measurement",
+                            m.key(),
+                            o.width,
+                            o.height,
+                            o.rays,
+                            o.threads,
+                            m.width,
+                            m.height,
+                            m.rays,
+                            m.threads,
+                            p.display()
+                        );
+                    }
+                    o.repeats.push(pass_ns);
+                    o.pass_ns = validate::median(&o.repeats);
+                }
+            }
         }
     }
     if out.is_empty() {
         bail!("--model-from: no run of a modelled method's default setting in the files");
-    }
-    let mut keys = std::collections::BTreeSet::new();
-    if let Some(dup) = out.iter().find(|m| !keys.insert(m.key())) {
-        bail!(
-            "--model-from: row {} (scene/method/cube/subgroup) is in two of the files; give one",
-            dup.key()
-        );
     }
     Ok(out)
 }
@@ -249,6 +282,9 @@ pub fn lavapipe_check(
             training.describe(),
             training.scene
         );
+    }
+    if let Ok(path) = std::env::var("CUBETRACE_DUMP_MODELLED") {
+        std::fs::write(path, serde_json::to_string(&modelled)?)?;
     }
     validate::validate(&modelled, training)
 }
@@ -396,10 +432,11 @@ fn opt(v: Option<f64>) -> String {
 pub fn lavapipe_table(v: &Validation) -> String {
     let mut s = format!(
         "MODEL check, lavapipe mode: per method, time = a x vector instructions x registers(S) + \
-         b x lane operations x S ({}), fitted on {} ({} rows: {}); {} of {} held-out rows within \
-         +-{:.0} % (one global pair, {}: {} within).\n\n\
-         | scene | method | cube | subgroup | row | measured ns/ray | model ns/ray | error | SIMD eff. | missed block |\n\
-         |---|---|---:|---:|---|---:|---:|---:|---:|---|\n",
+         b x lane operations x S, times the threads' imbalance ({}), fitted on {} ({} rows: {}); {} \
+         of {} held-out rows within +-{:.0} % (one global pair, {}: {} within). Spread: the \
+         slowest over the fastest of the row's processes (1.00 for one).\n\n\
+         | scene | method | cube | subgroup | row | processes | spread | measured ns/ray | model ns/ray | error | imbalance | SIMD eff. | missed block |\n\
+         |---|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---|\n",
         v.coefficients
             .iter()
             .map(|(m, c)| format!("{}: {}", m.name(), c.describe()))
@@ -416,15 +453,18 @@ pub fn lavapipe_table(v: &Validation) -> String {
     );
     for r in &v.rows {
         s += &format!(
-            "| {} | {} | {} | {} | {} | {:.0} | {:.0} | {:+.0} % | {:.2} | {} |\n",
+            "| {} | {} | {} | {} | {} | {} | {:.2} | {:.0} | {:.0} | {:+.0} % | {:.3} | {:.2} | {} |\n",
             r.scene,
             r.method.name(),
             r.cube,
             r.subgroup,
             if r.train { "training" } else { "held out" },
+            r.processes,
+            r.spread,
             r.measured_ns_per_ray,
             r.predicted_ns_per_ray,
             100.0 * r.error,
+            r.imbalance,
             r.simd_efficiency,
             r.miss.as_deref().unwrap_or(""),
         );

@@ -390,7 +390,7 @@ pub fn search_table(report: &BenchReport) -> String {
             r.counters.search_max
         );
     }
-    s.push_str("\nCost: `reflection_point_search` (the reflector textures and the per-vertex search) and `reflection_point_raster` (the virtual objects and the records) in the per-pass table.\n");
+    s.push_str("\nCost: `reflection_point_targets` (the reflector textures), `reflection_point_search` (the per-vertex search) and `reflection_point_raster` (the virtual objects and the records) in the per-pass table.\n");
     s
 }
 
@@ -494,6 +494,7 @@ mod tests {
             git_commit: None,
             cubetrace_version: "0",
             cpu_threads: 1,
+            driver_threads: 1,
             warmup: 0,
             bounces: 1,
             ratios: super::super::SceneRatios::of(&runs),

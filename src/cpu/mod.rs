@@ -118,6 +118,11 @@ pub enum Work {
         y: i32,
         cross: bool,
     },
+    /// Reflection point: one distance `d` of the start texel's crosshair search (the same for
+    /// every vertex: `rp.start` was off the reflector).
+    StartArms {
+        d: i32,
+    },
     /// Reflection point: the start of a walk (`inverse`: the inverse search).
     Walk {
         inverse: bool,

@@ -232,12 +232,19 @@ impl SearchTextures {
     /// The first texel of every search: `start` if on the reflector, else the nearest reflector
     /// texel along the crosshair's arms (right, left, down, up at each distance).
     pub fn first_texel(&self) -> Option<[i32; 2]> {
+        self.first_texel_logged(&mut super::NoLog)
+    }
+
+    /// [`SearchTextures::first_texel`], reporting each distance of the crosshair it tries to
+    /// `log` (the shader's `rp_start_arms` calls).
+    fn first_texel_logged<L: super::WorkLog + ?Sized>(&self, log: &mut L) -> Option<[i32; 2]> {
         let s = self.start;
         if self.on_reflector(s) {
             return Some(s);
         }
         let reach = self.width.max(self.height) as i32;
         (1..=reach).find_map(|d| {
+            log.log(super::Work::StartArms { d });
             [[d, 0], [-d, 0], [0, d], [0, -d]]
                 .into_iter()
                 .map(|a| [s[0] + a[0], s[1] + a[1]])
@@ -257,7 +264,7 @@ impl SearchTextures {
             texel: [-1, -1],
             ..RpVertex::default()
         };
-        let Some(start) = self.first_texel() else {
+        let Some(start) = self.first_texel_logged(log) else {
             out.status = Status::NoReflector as u32;
             return out;
         };

@@ -37,7 +37,7 @@
 
 use serde::Serialize;
 
-use super::warps::{Assembly, Lane, WIDTHS};
+use super::warps::{Assembly, Items, LAVAPIPE_TILE, Lane, WIDTHS};
 use super::work::{self, ComputeRay, Frame, Iter, Stmt};
 pub use super::work::{ComputeLanes, ModelSettings, TexelLayout};
 use crate::method::Method;
@@ -68,6 +68,10 @@ pub struct ReplayStats {
     pub simd_efficiency: f64,
     /// Distinct 32-byte sectors per warp load, summed, per ray.
     pub sectors_per_ray: f64,
+    /// Per lavapipe work item ([`lavapipe_items`], in the order its threads take them): the
+    /// issued warp-steps of each block. What [`super::validate::imbalance`] schedules.
+    #[serde(skip)]
+    pub item_steps: Vec<Vec<u64>>,
 }
 
 /// Runs the CPU twins of `method` on `scene`'s rays under `settings` and replays them in warps
@@ -90,6 +94,25 @@ pub fn default_assembly(method: Method) -> Assembly {
         Method::Fragment | Method::Ssr => Assembly::Quads,
         Method::ReflectionPoint => Assembly::Dispatch,
         _ => Assembly::Queue,
+    }
+}
+
+/// `compute_trace`'s workgroup size on lavapipe at subgroup size `width`: 256 invocations, or 128
+/// where 256 would be more than the 32 subgroups lavapipe allows per workgroup
+/// (`vk::methods::compute::workgroup_size`).
+pub fn lavapipe_compute_group(width: u32) -> u32 {
+    if 256 / width.max(1) > 32 { 128 } else { 256 }
+}
+
+/// How lavapipe hands `method`'s tracing pass to its threads ([`Items`]) at subgroup size
+/// `width`, `lanes` lanes per ray: compute's workgroups of `lavapipe_compute_group / lanes` rays,
+/// bvh's of 64 rays, reflection-point's of 64 scene vertices (their `@workgroup_size`), the
+/// full-screen fragment passes' 64x64 bins.
+pub fn lavapipe_items(method: Method, width: u32, lanes: u32) -> Items {
+    match method {
+        Method::Fragment | Method::Ssr => Items::Tiles(LAVAPIPE_TILE),
+        Method::Compute => Items::Groups(lavapipe_compute_group(width) / lanes.max(1)),
+        _ => Items::Groups(64),
     }
 }
 
@@ -217,9 +240,20 @@ struct Acc {
     active: u64,
     issued: u64,
     sectors: u64,
+    /// Per work item: the warp-steps of each block its warps issued.
+    items: Vec<Vec<u64>>,
 }
 
 impl Acc {
+    /// Charges the warp-steps issued since `before` to work item `item`.
+    fn charge(&mut self, item: usize, before: &[u64]) {
+        if self.items.len() <= item {
+            self.items.resize(item + 1, vec![0; self.steps.len()]);
+        }
+        for ((i, s), b) in self.items[item].iter_mut().zip(&self.steps).zip(before) {
+            *i += s - b;
+        }
+    }
     /// One issue of `block` with `active` lanes, and its loads (per lane, in program order).
     fn issue(&mut self, block: usize, width: u32, active: u64, loads: &[&[u64]]) {
         self.steps[block] += 1;
@@ -278,7 +312,12 @@ pub fn replay(
         FrameWork::Compute(work) => {
             let lanes = compute_lanes(rec.settings.compute_lanes, width, mode);
             let slots = width / lanes;
-            for warp in super::warps::warps(assembly, rays, rec.img, &rec.ray_at, slots) {
+            let items = lavapipe_items(rec.method, width, lanes);
+            let item_of =
+                super::warps::warp_items(assembly, rays, rec.img, &rec.ray_at, slots, items);
+            let warps = super::warps::warps(assembly, rays, rec.img, &rec.ray_at, slots);
+            for (warp, item) in warps.into_iter().zip(item_of) {
+                let before = acc.steps.clone();
                 let slot: Vec<Option<&ComputeRay>> = warp
                     .iter()
                     .map(|l| {
@@ -290,6 +329,7 @@ pub fn replay(
                     })
                     .collect();
                 replay_compute(&slot, lanes, width, mode, &mut acc);
+                acc.charge(item, &before);
             }
         }
         FrameWork::Tree {
@@ -297,7 +337,12 @@ pub fn replay(
             rays: work,
             idle,
         } => {
-            for warp in super::warps::warps(assembly, rays, rec.img, &rec.ray_at, width) {
+            let items = lavapipe_items(rec.method, width, 1);
+            let item_of =
+                super::warps::warp_items(assembly, rays, rec.img, &rec.ray_at, width, items);
+            let warps = super::warps::warps(assembly, rays, rec.img, &rec.ray_at, width);
+            for (warp, item) in warps.into_iter().zip(item_of) {
+                let before = acc.steps.clone();
                 let lanes: Vec<Option<&Iter>> = warp
                     .iter()
                     .map(|l| match l {
@@ -307,6 +352,7 @@ pub fn replay(
                     })
                     .collect();
                 replay_body(program, &lanes, width, mode, &mut acc);
+                acc.charge(item, &before);
             }
         }
     }
@@ -329,6 +375,7 @@ pub fn replay(
             acc.active as f64 / acc.issued as f64
         },
         sectors_per_ray: per(acc.sectors),
+        item_steps: acc.items,
     })
 }
 

@@ -96,9 +96,11 @@ pub struct Coefficients {
 }
 
 impl Coefficients {
-    /// Predicted ns of the work of `r` (the whole pass).
+    /// Predicted ns of the work of `r` (the whole pass, its threads' [`imbalance`] included).
     pub fn time(&self, r: &Modelled) -> f64 {
-        (self.vector_ns * r.vector_per_ray + self.lane_ns * r.lane_per_ray) * r.model_rays as f64
+        (self.vector_ns * r.vector_per_ray + self.lane_ns * r.lane_per_ray)
+            * r.model_rays as f64
+            * r.imbalance
     }
 
     pub fn describe(&self) -> String {
@@ -128,8 +130,14 @@ pub struct Measured {
     pub height: u32,
     /// Rays the bench divided by (its `rays`).
     pub rays: usize,
-    /// The tracing pass's median GPU time, ns.
+    /// The tracing pass's GPU time, ns: the median over [`Measured::repeats`].
     pub pass_ns: f64,
+    /// Each process's median time of the pass, ns, where the row was measured in several
+    /// processes (`--model-from` with the same row in several files); one entry otherwise.
+    /// Their spread is the run-to-run noise the prediction is held against.
+    pub repeats: Vec<f64>,
+    /// lavapipe's threads in the run: one per CPU of the machine (Mesa's default).
+    pub threads: u32,
 }
 
 impl Measured {
@@ -147,6 +155,49 @@ impl Measured {
     pub fn ns_per_ray(&self) -> f64 {
         self.pass_ns / self.rays.max(1) as f64
     }
+
+    /// The largest over the smallest of [`Measured::repeats`] (1 for one run).
+    pub fn spread(&self) -> f64 {
+        let lo = self.repeats.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = self.repeats.iter().copied().fold(0.0, f64::max);
+        if lo > 0.0 && lo.is_finite() {
+            hi / lo
+        } else {
+            1.0
+        }
+    }
+}
+
+/// The median of `v` (the mean of the middle two for an even count; 0 for none).
+pub fn median(v: &[f64]) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    match s.len() {
+        0 => 0.0,
+        n if n % 2 == 1 => s[n / 2],
+        n => 0.5 * (s[n / 2 - 1] + s[n / 2]),
+    }
+}
+
+/// How much longer a pass takes on `threads` threads than its work divided evenly: lavapipe's
+/// threads take the work items (costs `costs`, in order) each the next when free, and the pass
+/// ends when the last finishes. Returns that makespan over `total / threads`: 1 for perfectly
+/// divided work, up to `threads` for one item holding it all (1 for no work).
+pub fn imbalance(costs: &[f64], threads: u32) -> f64 {
+    let t = threads.max(1) as usize;
+    let total: f64 = costs.iter().sum();
+    if total <= 0.0 {
+        return 1.0;
+    }
+    let mut finish = vec![0.0f64; t];
+    for &c in costs {
+        let next = (0..t)
+            .min_by(|a, b| finish[*a].total_cmp(&finish[*b]))
+            .expect("at least one thread");
+        finish[next] += c;
+    }
+    let makespan = finish.iter().copied().fold(0.0, f64::max);
+    makespan * t as f64 / total
 }
 
 /// Which rows the coefficients are fitted on: one scene, optionally one cube size and subgroup
@@ -209,6 +260,9 @@ pub struct Modelled {
     pub blocks: Vec<String>,
     pub shares: Vec<f64>,
     pub simd_efficiency: f64,
+    /// [`imbalance`] of the pass's work items (their SPIR-V-weighted warp-steps) over the run's
+    /// threads: the factor by which the pass outlasts its evenly divided work.
+    pub imbalance: f64,
 }
 
 impl Modelled {
@@ -237,7 +291,13 @@ pub fn modelled(stats: &ReplayStats, m: Measured, train: bool) -> Result<Modelle
     let lane = weights::lane_weights(m.method)?;
     let stats = stats.clone();
     let (vector_blocks, lane_blocks) = split(&stats.steps_per_ray, &w, &lane, m.subgroup);
+    let item_costs: Vec<f64> = stats
+        .item_steps
+        .iter()
+        .map(|steps| steps.iter().zip(&w).map(|(s, w)| *s as f64 * w).sum())
+        .collect();
     Ok(Modelled {
+        imbalance: imbalance(&item_costs, m.threads),
         cost_per_ray: weights::cost(&stats, &w),
         vector_per_ray: vector_blocks.iter().sum(),
         lane_per_ray: lane_blocks.iter().sum(),
@@ -282,7 +342,7 @@ pub fn fit(rows: &[Modelled], method: Option<Method>) -> Result<Coefficients> {
             method.map_or(String::new(), |m| format!(" of --method {}", m.name()))
         );
     }
-    let n = |r: &Modelled| r.model_rays as f64 / r.measured.pass_ns;
+    let n = |r: &Modelled| r.model_rays as f64 * r.imbalance / r.measured.pass_ns;
     let mut widths: Vec<u32> = train.iter().map(|r| r.measured.subgroup).collect();
     widths.dedup();
     if widths.iter().all(|w| *w == widths[0]) {
@@ -359,6 +419,12 @@ pub struct RowResult {
     pub error: f64,
     pub within_target: bool,
     pub simd_efficiency: f64,
+    /// The processes the row was measured in, and the slowest over the fastest
+    /// ([`Measured::spread`]).
+    pub processes: usize,
+    pub spread: f64,
+    /// [`Modelled::imbalance`].
+    pub imbalance: f64,
     /// For a held-out row that misses the target: the block the model most likely misses.
     pub miss: Option<String>,
 }
@@ -452,6 +518,9 @@ fn score(r: &Modelled, rows: &[Modelled], c: &Coefficients) -> RowResult {
         error,
         within_target: within,
         simd_efficiency: r.simd_efficiency,
+        processes: m.repeats.len(),
+        spread: m.spread(),
+        imbalance: r.imbalance,
         miss,
     }
 }

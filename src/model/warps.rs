@@ -80,9 +80,8 @@ fn chunk(order: &[usize], width: u32) -> Vec<Vec<Lane>> {
         .collect()
 }
 
-/// The pixels of a `w x h` image in warps of `width` (>= 4) lanes of 2x2 quads (module docs);
-/// `ray_at[y * w + x]` is the pixel's ray, if it is a mirror pixel.
-pub fn quad_warps(w: u32, h: u32, ray_at: &[Option<usize>], width: u32) -> Vec<Vec<Lane>> {
+/// The quads of a `w x h` image in the order of the module docs, each with its top-left pixel.
+fn quads(w: u32, h: u32, ray_at: &[Option<usize>]) -> Vec<((u32, u32), [Lane; 4])> {
     let lane = |x: u32, y: u32| {
         if x >= w || y >= h {
             Lane::Helper
@@ -90,7 +89,7 @@ pub fn quad_warps(w: u32, h: u32, ray_at: &[Option<usize>], width: u32) -> Vec<V
             ray_at[(y * w + x) as usize].map_or(Lane::Idle, Lane::Ray)
         }
     };
-    let mut quads: Vec<[Lane; 4]> = Vec::new();
+    let mut quads = Vec::new();
     for ty in 0..h.div_ceil(4) {
         for tx in 0..w.div_ceil(8) {
             for qy in 0..2 {
@@ -99,24 +98,84 @@ pub fn quad_warps(w: u32, h: u32, ray_at: &[Option<usize>], width: u32) -> Vec<V
                     if x >= w || y >= h {
                         continue;
                     }
-                    quads.push([
-                        lane(x, y),
-                        lane(x + 1, y),
-                        lane(x, y + 1),
-                        lane(x + 1, y + 1),
-                    ]);
+                    quads.push((
+                        (x, y),
+                        [
+                            lane(x, y),
+                            lane(x + 1, y),
+                            lane(x, y + 1),
+                            lane(x + 1, y + 1),
+                        ],
+                    ));
                 }
             }
         }
     }
-    let per = (width / 4).max(1) as usize;
     quads
+}
+
+/// The pixels of a `w x h` image in warps of `width` (>= 4) lanes of 2x2 quads (module docs);
+/// `ray_at[y * w + x]` is the pixel's ray, if it is a mirror pixel.
+pub fn quad_warps(w: u32, h: u32, ray_at: &[Option<usize>], width: u32) -> Vec<Vec<Lane>> {
+    let per = (width / 4).max(1) as usize;
+    quads(w, h, ray_at)
         .chunks(per)
         .map(|c| {
-            let mut v: Vec<Lane> = c.iter().flatten().copied().collect();
+            let mut v: Vec<Lane> = c.iter().flat_map(|(_, q)| *q).collect();
             v.resize(width as usize, Lane::Empty);
             v
         })
+        .collect()
+}
+
+/// How lavapipe hands a pass's work to its threads (one per CPU): each thread takes the next
+/// item when it is free, in order (llvmpipe's compute thread pool takes workgroups in dispatch
+/// order; its rasteriser's threads take the scene's 64x64 bins in row-major order). A thread
+/// runs an item's warps one after another.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Items {
+    /// Workgroups of this many queue entries (a compute dispatch).
+    Groups(u32),
+    /// Square screen tiles of this many pixels a side (a fragment pass).
+    Tiles(u32),
+}
+
+/// The side of llvmpipe's rasteriser bins (`TILE_SIZE` in Mesa's lp_limits.h).
+pub const LAVAPIPE_TILE: u32 = 64;
+
+/// For each warp of [`warps`] (same arguments), the lavapipe work item it belongs to: its index
+/// in the order the threads take them.
+pub fn warp_items(
+    assembly: Assembly,
+    rays: usize,
+    img: (u32, u32),
+    ray_at: &[Option<usize>],
+    width: u32,
+    items: Items,
+) -> Vec<usize> {
+    let per = width.max(1) as usize;
+    let entries = match assembly {
+        Assembly::Queue | Assembly::Random(_) => rays,
+        Assembly::Dispatch => ray_at.len(),
+        Assembly::Quads => {
+            let (w, h) = img;
+            let (Items::Tiles(t) | Items::Groups(t)) = items;
+            let t = t.max(1);
+            let across = w.div_ceil(t) as usize;
+            return quads(w, h, ray_at)
+                .chunks((width / 4).max(1) as usize)
+                .map(|c| {
+                    let (x, y) = c[0].0;
+                    (y / t) as usize * across + (x / t) as usize
+                })
+                .collect();
+        }
+    };
+    let group = match items {
+        Items::Groups(g) | Items::Tiles(g) => g.max(1) as usize,
+    };
+    (0..entries.div_ceil(per))
+        .map(|k| k * per / group)
         .collect()
 }
 

@@ -226,7 +226,7 @@ pub const SSR_BLOCKS: &[Block] = &[
 
 /// reflection_point_search.wgsl (`search`, one invocation per scene vertex).
 pub const REFLECTION_POINT_BLOCKS: &[Block] = &[
-    // The start texel (the crosshair search when `rp.start` is off the reflector).
+    // The start texel (`rp.start` tested; its crosshair search is `start_arms`).
     b("start", RP, &["rp_start"]),
     // One iteration of the local search (`rp_walk`'s own code).
     b("walk_step", RP, &["rp_walk"]),
@@ -234,6 +234,8 @@ pub const REFLECTION_POINT_BLOCKS: &[Block] = &[
     b("score", RP, &["rp_score"]),
     // The virtual vertex (mirror in the final texel's plane).
     b("finish", RP, &["rp_mirror", "scene_normalize"]),
+    // One distance of the start texel's crosshair search (up to 4 arm texels read).
+    b("start_arms", RP, &["rp_start_arms"]),
 ];
 
 /// The blocks of one method (Method::Compute, Fragment, Bvh, Ssr, ReflectionPoint); empty for
@@ -840,11 +842,13 @@ pub const R_START: usize = 0;
 pub const R_WALK_STEP: usize = 1;
 pub const R_SCORE: usize = 2;
 pub const R_FINISH: usize = 3;
+pub const R_START_ARMS: usize = 4;
 
 /// The Hi-Z loop, the forward and inverse walks.
 pub const L_SSR: u16 = 20;
 pub const L_WALK: u16 = 30;
 pub const L_WALK_INVERSE: u16 = 31;
+pub const L_START: u16 = 32;
 
 /// ssr.wgsl's nest (`ssr_trace`: the first crossing, then the Hi-Z loop).
 pub const SSR_PROGRAM: &[Stmt] = &[
@@ -853,9 +857,11 @@ pub const SSR_PROGRAM: &[Stmt] = &[
     Stmt::Loop(L_SSR, &[Stmt::Block(S_ITERATION), Stmt::Block(S_CROSS)]),
 ];
 
-/// reflection_point_search.wgsl's nest (`search`: start, forward walk, inverse walk).
+/// reflection_point_search.wgsl's nest (`search`: start and its crosshair search, forward
+/// walk, inverse walk).
 pub const REFLECTION_POINT_PROGRAM: &[Stmt] = &[
     Stmt::Block(R_START),
+    Stmt::Loop(L_START, &[Stmt::Block(R_START_ARMS)]),
     Stmt::Loop(L_WALK, &[Stmt::Block(R_WALK_STEP), Stmt::Block(R_SCORE)]),
     Stmt::Loop(
         L_WALK_INVERSE,
@@ -984,6 +990,22 @@ fn walk_tree(
     let mut walk = L_WALK;
     for e in log {
         match *e {
+            Work::StartArms { d } => {
+                // `rp_start_arms` reads T_P at the arms inside the frame, up to the first on
+                // the reflector.
+                let s = tex.start;
+                let mut loads = Vec::new();
+                for a in [[d, 0], [-d, 0], [0, d], [0, -d]] {
+                    let (x, y) = (s[0] + a[0], s[1] + a[1]);
+                    if x >= 0 && y >= 0 && x < w as i32 && y < h as i32 {
+                        loads.push(addr.cell(BUF_RP, 0, 0, 16, 0, w, h, x as u32, y as u32));
+                    }
+                    if tex.on_reflector([x, y]) {
+                        break;
+                    }
+                }
+                top.new_turn(L_START).exec(R_START_ARMS, loads);
+            }
             Work::Walk { inverse } => walk = if inverse { L_WALK_INVERSE } else { L_WALK },
             Work::WalkStep => top.new_turn(walk).exec(R_WALK_STEP, Vec::new()),
             Work::Score { x, y } => {

@@ -8,7 +8,7 @@
 //! | `pyramid` (where [`Needs::pyramid`]: `fragment`) | CMO distance | CMO 2x2 min/max pyramid |
 //! | the method's CMO stage: `hier32` (`compute`) | CMO distance | its 8x4/4x8 min/max hierarchy |
 //! | `gbuffer` | scene | G-buffer colour, position + mirror mask, normal |
-//! | the method's passes: `fragment_trace`, `envmap`, `append` + `dispatch_args` + `compute_trace`, `ssr_hiz` + `ssr`, `reflection_point_search` + `reflection_point_raster`, or `bvh_queue` + `bvh_trace` | G-buffer, what the method reads | one [`PixelRecord`] per mirror pixel |
+//! | the method's passes: `fragment_trace`, `envmap`, `append` + `dispatch_args` + `compute_trace`, `ssr_hiz` + `ssr`, `reflection_point_targets` + `reflection_point_search` + `reflection_point_raster`, or `bvh_queue` + `bvh_trace` | G-buffer, what the method reads | one [`PixelRecord`] per mirror pixel |
 //! | `reflector_check` (where [`Method::has_reflector_check`]; off with `--no-reflector-check`) | G-buffer, records, reflectors' CWBVH, scene | resolved records whose ray meets a reflector nearer, traced exactly ([`ReflectorCheck`]) |
 //! | `fallback` (`--fallback trace`, where [`Method::can_leave_unresolved`]) | G-buffer, records, CWBVH, scene | unresolved records finished by `bvh_queue` + `bvh_trace` |
 //! | `bounce_append` (`--bounces N`, N != 1) | G-buffer, records, CWBVH, scene | N = 0: the mirrors' own material (instead of the method's passes and the two above); N >= 2: rounds 2..=N, each `bounce_append` + `bvh_queue` (`args`) + `bvh_trace` ([`super::passes::bounce`]) |

@@ -1,9 +1,10 @@
 //! `--method reflection-point`: the reflection-point search with virtual objects of Estalella et
-//! al. 2006, two named passes after the G-buffer:
+//! al. 2006, three named passes after the G-buffer:
 //!
 //! | pass | reads | writes |
 //! |---|---|---|
-//! | `reflection_point_search` | scene | the reflectors alone from the camera, closed ([`crate::cpu::closure`]; T_P: position + mask, T_N: normal); then, one invocation per scene vertex, the local 3x3 search and the virtual vertex |
+//! | `reflection_point_targets` | scene | the reflectors alone from the camera, closed ([`crate::cpu::closure`]; T_P: position + mask, T_N: normal) |
+//! | `reflection_point_search` | scene, T_P, T_N | one invocation per scene vertex: the local 3x3 search and the virtual vertex (the method's tracing pass, the one the bench and the cost model time) |
 //! | `reflection_point_raster` | scene, virtual vertices, G-buffer | the virtual objects with depth, in the mirror pixels only (colour, original point); then one record per mirror pixel |
 //!
 //! The search is specified by its CPU twin [`crate::cpu::reflection_point`]; the shaders are
@@ -584,8 +585,8 @@ impl ReflectionPointPasses {
         Ok(())
     }
 
-    /// Records `reflection_point_search`: the reflector textures, then one search per scene vertex.
-    pub fn record_search(&self, rec: &Recorder<'_>) -> VkResult<()> {
+    /// Records `reflection_point_targets`: the reflector textures T_P and T_N.
+    pub fn record_targets(&self, rec: &Recorder<'_>) -> VkResult<()> {
         self.draw_into(
             rec,
             &self.reflector,
@@ -593,7 +594,12 @@ impl ReflectionPointPasses {
             [&self.position, &self.normal],
             &self.reflector_depth,
             self.index_count + self.closure_vertices,
-        )?;
+        )
+    }
+
+    /// Records `reflection_point_search`: one search per scene vertex (after
+    /// [`ReflectionPointPasses::record_targets`], whose barrier to the search `draw_into` records).
+    pub fn record_search(&self, rec: &Recorder<'_>) -> VkResult<()> {
         let sets = [&self.search_sets[0], &self.search_sets[1]];
         self.search.dispatch(rec, &sets, self.search_groups);
         Ok(())
@@ -646,6 +652,10 @@ impl ReflectionPointPasses {
         Ok(SearchStats::of(&self.read_vertices(ctx)?))
     }
 }
+
+/// The timed name of the reflector textures' draw, which shares `reflection_point_search`'s
+/// shaders: timed apart so that the search's time is the per-vertex dispatch alone.
+pub const TARGETS_PASS: &str = "reflection_point_targets";
 
 /// The reflection-point method.
 pub struct ReflectionPoint;
@@ -732,6 +742,7 @@ impl Technique for ReflectionPointPasses {
     }
 
     fn record(&self, rec: &Recorder<'_>, scope: &mut Scope<'_>) -> VkResult<()> {
+        scope(TARGETS_PASS, &mut || self.record_targets(rec))?;
         scope(REFLECTION_POINT_SEARCH.name, &mut || {
             self.record_search(rec)
         })?;
