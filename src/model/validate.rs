@@ -30,6 +30,25 @@
 //! the same per issued lane at every S. A fixed time per warp-step (the earlier model) instead
 //! predicts half the cost per ray at 16 lanes and twice at 4, which the measurements refute.
 //!
+//! # The threads
+//! lavapipe runs a pass on one thread per CPU ([`Measured::threads`], the bench's
+//! `driver_threads`), each taking the next work item when it is free: a compute dispatch's
+//! workgroups in dispatch order, a fragment pass's 64x64 rasteriser bins row-major
+//! ([`super::warps::Items`]; compute's 256 rays per workgroup, 128 at 4 lanes, bvh's and
+//! reflection-point's 64, fragment's and ssr's bins). The replay charges each warp's issued
+//! blocks to its item ([`ReplayStats::item_steps`](super::replay::ReplayStats)); with the
+//! items' SPIR-V-weighted costs the greedy schedule's makespan over `threads` is [`imbalance`]
+//! times the evenly divided work, and the prediction is multiplied by it. Nothing is fitted:
+//! the item sizes are the shaders' `@workgroup_size` and llvmpipe's `TILE_SIZE`. It matters
+//! where a pass has few items: a 192x120 frame has 6 bins, a reflection-point search ~7
+//! workgroups; it is 1.00-1.18 on the built-in scenes.
+//!
+//! # Repeats
+//! lavapipe's time of the same row varies more between processes (up to 1.5x measured,
+//! 2026-12-02) than between the frames of one. A row measured in several processes
+//! (`--model-from` with the row in several files) takes the median of their medians
+//! ([`Measured::repeats`]); the report gives their spread.
+//!
 //! # The fit
 //! `a` and `b` are fitted per method on that method's [`Training`] rows only (the standard rule:
 //! scene `default`, every cube size and subgroup size measured), minimising the squared
@@ -54,9 +73,9 @@
 //! # Where it stops
 //! The model counts instructions, not their latency: texture fetches, atomics, register spills
 //! (more likely at 16 lanes, where every value fills two of AVX2's 16 registers) and the fixed
-//! cost per dispatch or draw are folded into the two coefficients. Lavapipe's threads (one per
-//! core) and its rasteriser's tiles are not modelled: time is taken as proportional to issued
-//! work.
+//! cost per dispatch or draw are folded into the two coefficients. Within a work item, time is
+//! taken as proportional to issued work; the threads share nothing (no contention for caches or
+//! memory bandwidth is modelled).
 #![forbid(unsafe_code)]
 
 use anyhow::{Result, bail, ensure};
