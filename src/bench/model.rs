@@ -17,9 +17,10 @@
 //!   would overtake the BVH (ratio below 1), interpolated in log triangles, if it does.
 //!
 //! `--model-from A.json,B.json,...` reads earlier `bench.json` files instead of rendering (one
-//! per lavapipe subgroup size and cube size: `benches/model-measure.sh` takes them), which is how
-//! `benches/results/lavapipe-model.*` was made (from the files in
-//! `benches/results/model-rows/`).
+//! per lavapipe subgroup size, cube size and process: `benches/model-measure.sh` takes them; a
+//! row in several files is one row measured in several processes, [`measured_from_files`]),
+//! which is how `benches/results/lavapipe-model.*` was made (from the files in
+//! `benches/results/model-rows-3/`).
 //!
 //! Assumptions (also in [`ASSUMPTIONS`], written with every report): the warp assembly and
 //! texel layout of [`crate::model::replay`]; one ns per weighted warp-step for every method on
@@ -283,9 +284,6 @@ pub fn lavapipe_check(
             training.scene
         );
     }
-    if let Ok(path) = std::env::var("CUBETRACE_DUMP_MODELLED") {
-        std::fs::write(path, serde_json::to_string(&modelled)?)?;
-    }
     validate::validate(&modelled, training)
 }
 
@@ -433,10 +431,11 @@ pub fn lavapipe_table(v: &Validation) -> String {
     let mut s = format!(
         "MODEL check, lavapipe mode: per method, time = a x vector instructions x registers(S) + \
          b x lane operations x S, times the threads' imbalance ({}), fitted on {} ({} rows: {}); {} \
-         of {} held-out rows within +-{:.0} % (one global pair, {}: {} within). Spread: the \
-         slowest over the fastest of the row's processes (1.00 for one).\n\n\
-         | scene | method | cube | subgroup | row | processes | spread | measured ns/ray | model ns/ray | error | imbalance | SIMD eff. | missed block |\n\
-         |---|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---|\n",
+         of {} held-out rows within +-{:.0} % ({} of the others between the row's fastest and slowest \
+         process; one global pair, {}: {} within). Spread: the slowest over the fastest of the \
+         row's processes (1.00 for one).\n\n\
+         | scene | method | cube | subgroup | row | processes | spread | measured ns/ray | fastest-slowest process | model ns/ray | error | imbalance | SIMD eff. | missed block |\n\
+         |---|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---|\n",
         v.coefficients
             .iter()
             .map(|(m, c)| format!("{}: {}", m.name(), c.describe()))
@@ -448,12 +447,13 @@ pub fn lavapipe_table(v: &Validation) -> String {
         v.held_out_within_target,
         v.held_out,
         100.0 * v.target,
+        v.missed_within_range,
         v.global.describe(),
         v.global_held_out_within_target,
     );
     for r in &v.rows {
         s += &format!(
-            "| {} | {} | {} | {} | {} | {} | {:.2} | {:.0} | {:.0} | {:+.0} % | {:.3} | {:.2} | {} |\n",
+            "| {} | {} | {} | {} | {} | {} | {:.2} | {:.0} | {:.0}-{:.0} | {:.0} | {:+.0} % | {:.3} | {:.2} | {} |\n",
             r.scene,
             r.method.name(),
             r.cube,
@@ -462,6 +462,8 @@ pub fn lavapipe_table(v: &Validation) -> String {
             r.processes,
             r.spread,
             r.measured_ns_per_ray,
+            r.measured_range_ns_per_ray.0,
+            r.measured_range_ns_per_ray.1,
             r.predicted_ns_per_ray,
             100.0 * r.error,
             r.imbalance,

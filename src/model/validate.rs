@@ -442,6 +442,8 @@ pub struct RowResult {
     /// ([`Measured::spread`]).
     pub processes: usize,
     pub spread: f64,
+    /// The fastest and the slowest process's ns per ray (both the measured one for one process).
+    pub measured_range_ns_per_ray: (f64, f64),
     /// [`Modelled::imbalance`].
     pub imbalance: f64,
     /// For a held-out row that misses the target: the block the model most likely misses.
@@ -463,6 +465,9 @@ pub struct Validation {
     pub target: f64,
     pub held_out: usize,
     pub held_out_within_target: usize,
+    /// Held-out rows missing the target whose prediction still lies between the fastest and the
+    /// slowest of the row's processes (within its run-to-run noise).
+    pub missed_within_range: usize,
     pub rows: Vec<RowResult>,
 }
 
@@ -514,6 +519,13 @@ pub fn validate(rows: &[Modelled], training: &Training) -> Result<Validation> {
         target: TARGET,
         held_out: held.len(),
         held_out_within_target: held.iter().filter(|r| r.within_target).count(),
+        missed_within_range: held
+            .iter()
+            .filter(|r| {
+                let (lo, hi) = r.measured_range_ns_per_ray;
+                !r.within_target && (lo..=hi).contains(&r.predicted_ns_per_ray)
+            })
+            .count(),
         rows: results,
     })
 }
@@ -539,6 +551,16 @@ fn score(r: &Modelled, rows: &[Modelled], c: &Coefficients) -> RowResult {
         simd_efficiency: r.simd_efficiency,
         processes: m.repeats.len(),
         spread: m.spread(),
+        measured_range_ns_per_ray: {
+            let per = |x: f64| x / m.rays.max(1) as f64;
+            let lo = m.repeats.iter().copied().fold(f64::INFINITY, f64::min);
+            let hi = m.repeats.iter().copied().fold(0.0, f64::max);
+            if lo.is_finite() {
+                (per(lo), per(hi))
+            } else {
+                (measured, measured)
+            }
+        },
         imbalance: r.imbalance,
         miss,
     }
