@@ -8,7 +8,8 @@
 # benches/results/model-rows/) were seen while the threads' imbalance and the reflection-point
 # start loop were added and the search's timing was split from the reflector textures. These
 # rows use settings the model was never compared with: a 224x140 frame; cube sizes 64 and 1024
-# at subgroup 8, 256 at subgroups 16 and 4. Their files go to benches/results/model-rows-3/.
+# at subgroup 8, 256 at subgroups 16 and 4. Their files were copied to
+# benches/results/model-rows-3/<run>.json, with the log.
 #
 # What runs (release binary, `bench --defaults-only`: each method's default setting, the rows
 # --model reads; each process writes OUT_DIR/<run>/bench.json):
@@ -21,14 +22,15 @@
 #               rerun one method at a time and an abort is logged, not fatal.
 # Each of these runs REPEATS times (default 3) in separate processes, the repeats interleaved
 # (every setting once, then again): lavapipe's time varies more from process to process (up to
-# 1.5x on the same row, 2026-12-02) than from frame to frame. --model-from takes a row's median
+# 1.7x on the same row in the third set, 2026-12-02) than from frame to frame. --model-from takes a row's median
 # over its processes and reports their spread.
 # Then: `cubetrace bench --model --model-from <every bench.json>` -o OUT_DIR/model, which fits
 # on scene `default` (every cube and subgroup size) and scores every other row.
 #
 # Timing: 3 frames after 1 warm-up per process (the trace pass median). Run on an IDLE machine
 # (no build, no other benchmark): the script refuses when the 1-minute load average is above
-# 0.5 unless FORCE=1. Each step prints its wall time; the total is printed at the end.
+# 0.5 unless FORCE=1. Each step prints its wall time; the total is printed at the end (289 s on
+# the idle 2-core EPYC, 2026-12-02, the build and the model step not counted).
 set -uo pipefail
 cd "$(dirname "$0")/.."
 OUT=${1:-out/model-measure}

@@ -254,6 +254,7 @@ impl Acc {
             *i += s - b;
         }
     }
+
     /// One issue of `block` with `active` lanes, and its loads (per lane, in program order).
     fn issue(&mut self, block: usize, width: u32, active: u64, loads: &[&[u64]]) {
         self.steps[block] += 1;

@@ -14,8 +14,9 @@
 //!   that a warp's rays are unrelated; a deliberately wrong assembly.
 //!
 //! # Where it stops
-//! Warp scheduling, occupancy and the order in which warps run are not modelled: only which
-//! lanes run in lockstep.
+//! On a GPU, warp scheduling, occupancy and the order in which warps run are not modelled: only
+//! which lanes run in lockstep. On lavapipe, which thread runs which warps is ([`Items`],
+//! [`warp_items`]: its workgroups and rasteriser bins).
 #![forbid(unsafe_code)]
 
 /// One lane of a warp.
@@ -144,7 +145,9 @@ pub enum Items {
 pub const LAVAPIPE_TILE: u32 = 64;
 
 /// For each warp of [`warps`] (same arguments), the lavapipe work item it belongs to: its index
-/// in the order the threads take them.
+/// in the order the threads take them. Quads go to the tile that holds their warp's first quad,
+/// queue and dispatch entries to consecutive groups (an `Items` of the other kind is read as
+/// its number: a tile side, or entries per group).
 pub fn warp_items(
     assembly: Assembly,
     rays: usize,
