@@ -6,20 +6,24 @@
 # (160x120, cubes 64/256/1024, 2026-12-02 09:14-09:35 UTC) were seen while the lane term was
 # derived; the second (192x120, cubes 128 and 512, 13:13-13:18 UTC, kept in
 # benches/results/model-rows/) were seen while the threads' imbalance and the reflection-point
-# start loop were added and the search's timing was split from the reflector textures. These
-# rows use settings the model was never compared with: a 224x140 frame; cube sizes 64 and 1024
-# at subgroup 8, 256 at subgroups 16 and 4. Their files were copied to
-# benches/results/model-rows-3/<run>.json, with the log.
+# start loop were added and the search's timing was split from the reflector textures. The
+# third (224x140: subgroup 8 at cubes 64 and 1024, 16 and 4 at 256; 15:10-15:15 UTC, kept in
+# benches/results/model-rows-3/) was measured after those changes, and nothing in the model has
+# changed since. This fourth set uses settings none of them had: a 256x160 frame; cube sizes 128
+# and 512 at subgroup 8, 64 and 1024 at subgroup 16, 64 at subgroup 4; and reflection-point at
+# subgroup 4 on every scene there (the third set measured it on teapot only, so its fit had no
+# training row at 4 lanes). Its files were copied to benches/results/model-rows-4/<run>.json,
+# with the log.
 #
 # What runs (release binary, `bench --defaults-only`: each method's default setting, the rows
 # --model reads; each process writes OUT_DIR/<run>/bench.json):
-#   subgroup 8  (LP_NATIVE_VECTOR_WIDTH=256): cube 64 and cube 1024, every built-in still scene,
-#               methods compute, fragment, ssr, reflection-point, bvh (bvh once, at cube 64);
-#   subgroup 16 (512): cube 256, every scene, every method;
-#   subgroup 4  (128): cube 256, one process per scene: default and sphere-room without
-#               reflection-point, teapot with it; torus and bowl not at all (lavapipe 22.3.6
-#               aborts there, spirv/README.md "Known defect"); a process that aborts anyway is
-#               rerun one method at a time and an abort is logged, not fatal.
+#   subgroup 8  (LP_NATIVE_VECTOR_WIDTH=256): cube 128 and cube 512, every built-in still scene,
+#               methods compute, fragment, ssr, reflection-point, bvh (bvh once, at cube 128);
+#   subgroup 16 (512): cubes 64 and 1024, every scene, every method (bvh once, at cube 64);
+#   subgroup 4  (128): cube 64, one process per scene: default, sphere-room and teapot, every
+#               method; torus and bowl not at all (lavapipe 22.3.6 aborts there,
+#               spirv/README.md "Known defect"); a process that aborts anyway is rerun one
+#               method at a time and an abort is logged, not fatal.
 # Each of these runs REPEATS times (default 3) in separate processes, the repeats interleaved
 # (every setting once, then again): lavapipe's time varies more from process to process (up to
 # 1.7x on the same row in the third set, 2026-12-02) than from frame to frame. --model-from takes a row's median
@@ -29,14 +33,15 @@
 #
 # Timing: 3 frames after 1 warm-up per process (the trace pass median). Run on an IDLE machine
 # (no build, no other benchmark): the script refuses when the 1-minute load average is above
-# 0.5 unless FORCE=1. Each step prints its wall time; the total is printed at the end (289 s on
-# the idle 2-core EPYC, 2026-12-02, the build and the model step not counted).
+# 0.5 unless FORCE=1. Each step prints its wall time; the total is printed at the end (the
+# third set's took 289 s on the idle 2-core EPYC, 2026-12-02, the build and the model step not
+# counted).
 set -uo pipefail
 cd "$(dirname "$0")/.."
 OUT=${1:-out/model-measure}
 # Overrides for a smoke test of the script only (not for the measurement): W, H, SCENES, BIN.
-W=${W:-224}
-H=${H:-140}
+W=${W:-256}
+H=${H:-160}
 REPEATS=${REPEATS:-3}
 BIN=${BIN:-target/release/cubetrace}
 export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-/tmp}
@@ -85,16 +90,16 @@ run() {
 
 SCENES=${SCENES:-default,sphere-room,teapot,torus,bowl}
 for rep in $(seq 1 "$REPEATS"); do
-    run "r$rep-sg8-cube64" 256 64 "$SCENES" compute,fragment,ssr,reflection-point,bvh
-    run "r$rep-sg8-cube1024" 256 1024 "$SCENES" compute,fragment,ssr,reflection-point
-    run "r$rep-sg16-cube256" 512 256 "$SCENES" compute,fragment,ssr,reflection-point,bvh
+    run "r$rep-sg8-cube128" 256 128 "$SCENES" compute,fragment,ssr,reflection-point,bvh
+    run "r$rep-sg8-cube512" 256 512 "$SCENES" compute,fragment,ssr,reflection-point
+    run "r$rep-sg16-cube64" 512 64 "$SCENES" compute,fragment,ssr,reflection-point,bvh
+    run "r$rep-sg16-cube1024" 512 1024 "$SCENES" compute,fragment,ssr,reflection-point
     for scene in default sphere-room teapot; do
         case ",$SCENES," in *,$scene,*) ;; *) continue ;; esac
-        methods=compute,fragment,ssr,bvh
-        [ "$scene" = teapot ] && methods=$methods,reflection-point
-        if ! run "r$rep-sg4-cube256-$scene" 128 256 "$scene" "$methods"; then
+        methods=compute,fragment,ssr,reflection-point,bvh
+        if ! run "r$rep-sg4-cube64-$scene" 128 64 "$scene" "$methods"; then
             for m in ${methods//,/ }; do
-                run "r$rep-sg4-cube256-$scene-$m" 128 256 "$scene" "$m" || true
+                run "r$rep-sg4-cube64-$scene-$m" 128 64 "$scene" "$m" || true
             done
         fi
     done

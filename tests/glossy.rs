@@ -326,14 +326,14 @@ fn glossy_builtin_exports_and_loads_back() {
             .iter()
             .any(|(n, _)| *n == "sphere-room-glossy")
     );
-    assert_eq!(glossy::glossy_meshes(&s), vec!["mirror-sphere"]);
+    assert_eq!(s.glossy_reflectors(), vec!["mirror-sphere"]);
     let dir = tempfile::tempdir().unwrap();
     let path = scene::export::export(&s, dir.path()).unwrap_or_else(|e| panic!("{e}"));
     let text = std::fs::read_to_string(&path).unwrap();
     assert!(text.contains("specular_power = \"mtl\""), "{text}");
     let back = scene::load_scene_file(&path).unwrap_or_else(|e| panic!("{e}"));
     s.compare_content(&back).unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(glossy::glossy_meshes(&back), vec!["mirror-sphere"]);
+    assert_eq!(back.glossy_reflectors(), vec!["mirror-sphere"]);
     let other = with_power(&back, Some(65.0));
     assert!(s.compare_content(&other).is_err(), "negative: power 65");
     let mirror = with_power(&back, None);

@@ -2,22 +2,8 @@
 //! What the commands say about glossy reflectors ([`crate::lobe`]): which meshes are glossy, and
 //! the warning for a method that cannot sample their lobe.
 
-use crate::lobe::glossy;
 use crate::method::Method;
 use crate::scene::Scene;
-
-/// The names of the scene's glossy reflectors: reflector meshes with a part whose material has
-/// a specular power below the cap.
-pub fn glossy_meshes(scene: &Scene) -> Vec<&str> {
-    (scene.meshes.iter())
-        .filter(|m| {
-            m.reflector
-                && (m.parts.iter())
-                    .any(|p| glossy(scene.materials[p.material as usize].specular_power).is_some())
-        })
-        .map(|m| m.name.as_str())
-        .collect()
-}
 
 /// What `method` makes of the scene's glossy reflectors where it cannot sample their lobe: a
 /// warning naming the method and the reflectors (`None` where the scene has none, or the method
@@ -25,7 +11,7 @@ pub fn glossy_meshes(scene: &Scene) -> Vec<&str> {
 /// and `compute` (which cone trace it on the cube maps, [`crate::cpu::cone`]) with at most one
 /// bounce, and `ssr`, which cone traces it (`cpu::ssr_cone`) and traces one reflection only).
 pub fn method_warning(scene: &Scene, method: Method, bounces: u32) -> Option<String> {
-    let names = glossy_meshes(scene);
+    let names = scene.glossy_reflectors();
     if names.is_empty() {
         return None;
     }

@@ -183,6 +183,23 @@ impl Scene {
         triangles
     }
 
+    /// The names of the glossy reflectors: reflector meshes with a part whose material has a
+    /// specular power below the mirror cap ([`crate::lobe::glossy`]). What decides, on the scene
+    /// side, whether a frame creates anything for the lobe (the uploaded data's twin:
+    /// `vk::methods::technique::has_glossy_reflector`).
+    pub fn glossy_reflectors(&self) -> Vec<&str> {
+        (self.meshes.iter())
+            .filter(|m| {
+                m.reflector
+                    && (m.parts.iter()).any(|p| {
+                        crate::lobe::glossy(self.materials[p.material as usize].specular_power)
+                            .is_some()
+                    })
+            })
+            .map(|m| m.name.as_str())
+            .collect()
+    }
+
     /// Makes every reflector glossy with Phong specular power `power` (a mirror again at or above
     /// [`crate::lobe::MIRROR_POWER`]): each material a reflector's parts use is copied once, with
     /// the power, and the parts take the copy, so that a material a non-reflector shares keeps

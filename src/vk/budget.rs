@@ -275,19 +275,19 @@ pub fn estimate(scene: &Scene, camera: &Camera, options: &RenderOptions) -> Devi
 }
 
 /// What cone tracing adds for a glossy scene, as [`super::frame::GpuRenderer::new`] allocates it:
-/// for a method that reads the pre-filtered chain ([`super::methods::MethodSpec::cone_chain`]:
+/// for a method that reads the pre-filtered chain ([`super::methods::MethodSpec::glossy`]:
 /// `fragment`, `compute`, `ssr`), the chain (`mip_len(N)` RGBA f32 per CMO) and the colour
 /// capture where the method captures none; for the cube-map cone pass
 /// ([`super::passes::cone`]: `fragment`, `compute`), the 2x2 pyramid where the method builds
 /// none (compute); 0 otherwise. ssr's screen-space chains are in neither (its
 /// `bytes_per_pixel`).
 pub fn cone_bytes(scene: &Scene, options: &RenderOptions) -> u64 {
-    use super::passes::cone::{method_cone_traces, scene_is_glossy};
+    use super::methods::technique::Glossy;
     let Some(spec) = methods::spec(options.method) else {
         return 0;
     };
     let needs = spec.needs(&options.trace);
-    if !spec.cone_chain() || !needs.capture || !scene_is_glossy(scene) {
+    if !spec.glossy().reads_chain() || !needs.capture || scene.glossy_reflectors().is_empty() {
         return 0;
     }
     let cmos = scene.cmo_centres().len() as u64;
@@ -298,7 +298,7 @@ pub fn cone_bytes(scene: &Scene, options: &RenderOptions) -> u64 {
     } else {
         cmos * 6 * u64::from(size) * u64::from(size) * 16
     };
-    let pyramid = if needs.pyramid || !method_cone_traces(options.method) {
+    let pyramid = if needs.pyramid || spec.glossy() != Glossy::ConeStage {
         0
     } else {
         cells * 8

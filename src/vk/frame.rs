@@ -12,7 +12,7 @@
 //! | `reflector_check` (where [`Method::has_reflector_check`]; off with `--no-reflector-check`) | G-buffer, records, reflectors' CWBVH, scene | resolved records whose ray meets a reflector nearer, traced exactly ([`ReflectorCheck`]) |
 //! | `fallback` (`--fallback trace`, where [`Method::can_leave_unresolved`]) | G-buffer, records, CWBVH, scene | unresolved records finished by `bvh_queue` + `bvh_trace` |
 //! | `bounce_append` (`--bounces N`, N != 1) | G-buffer, records, CWBVH, scene | N = 0: the mirrors' own material (instead of the method's passes and the two above); N >= 2: rounds 2..=N, each `bounce_append` + `bvh_queue` (`args`) + `bvh_trace` ([`super::passes::bounce`]) |
-//! | `cone_prefilter` (a glossy scene, where [`MethodSpec::cone_chain`]: `fragment`, `compute`, `ssr`; with the CMO stages; and `compute`'s own 2x2 pyramid, `cone_pyramid`) | CMO colour (+ distance) | the pre-filtered colour chain `cmo_cone` ([`super::passes::cone`]) |
+//! | `cone_prefilter` (a glossy scene, where [`MethodSpec::glossy`]: `fragment`, `compute`, `ssr`; with the CMO stages; and `compute`'s own 2x2 pyramid, `cone_pyramid`) | CMO colour (+ distance) | the pre-filtered colour chain `cmo_cone` ([`super::passes::cone`]) |
 //! | `cone` (likewise; after the fallback) | G-buffer, records, CMO data, `cmo_cone`, the pyramid | the glossy pixels' record colour, cone traced |
 //! | `composite` | G-buffer, records, CMO triangle IDs + scene (environment-map fallback) | final colour ([`Composite`]) |
 //!
@@ -108,7 +108,7 @@ use super::backend::timestamps::{PassTime, Timestamps};
 use super::methods::compute::{ComputePath, ComputeStats};
 use super::methods::reflection_point::ReflectionPointPasses;
 use super::methods::ssr::SsrPasses;
-use super::methods::technique::has_glossy_reflector;
+use super::methods::technique::{Glossy, has_glossy_reflector};
 use super::methods::{self, FrameInputs, GeometryInputs, MethodSpec, Needs, Scope, Technique};
 use super::passes::bounce::{BouncePasses, MAX_BOUNCES};
 use super::passes::bvh::{AppendKind, BvhCounter, BvhPasses, ReflectorCheck};
@@ -116,7 +116,7 @@ use super::passes::capture::Capture;
 use super::passes::capture_lists::{self, CaptureLists, ListCounters, ListTargets};
 use super::passes::cmo::{CaptureContents, CmoData};
 use super::passes::composite::Composite;
-use super::passes::cone::{ConePrefilter, ConePrefilterBindings, ConeStage, method_cone_traces};
+use super::passes::cone::{ConePrefilter, ConePrefilterBindings, ConeStage};
 use super::passes::gbuffer::Gbuffer;
 use super::passes::lists::PackedLists;
 use super::passes::pyramid::{Pyramid, PyramidBindings};
@@ -347,7 +347,7 @@ pub struct GpuRenderer {
     capture: Option<CmoCapture>,
     pyramid: Option<(Pyramid, PyramidBindings)>,
     /// The pre-filtered CMO colour chain (`cone_prefilter`), where the method reads it on a
-    /// glossy scene ([`MethodSpec::cone_chain`]).
+    /// glossy scene ([`MethodSpec::glossy`]).
     cone_prefilter: Option<(ConePrefilter, ConePrefilterBindings)>,
     gbuffer: Gbuffer,
     method: Box<dyn Technique>,
@@ -1022,7 +1022,7 @@ impl GpuRenderer {
         let mut needs = spec.needs(&options.trace);
         let data = GpuSceneData::new(scene);
         // The pre-filtered CMO colour chain, for a method that reads it, on a glossy scene only.
-        let cone = spec.cone_chain() && needs.capture && has_glossy_reflector(&data);
+        let cone = spec.glossy().reads_chain() && needs.capture && has_glossy_reflector(&data);
         needs.contents.colour |= cone;
         let scene_buffers = SceneBuffers::new(ctx, &data)?;
         let mut stages = CmoStages::new(
@@ -1071,7 +1071,7 @@ impl GpuRenderer {
         let check_triangles = scene.check_triangles();
         let cone = cone_stage(
             ctx,
-            cone && method_cone_traces(options.method),
+            cone && spec.glossy() == Glossy::ConeStage,
             &stages.cmo,
             !needs.pyramid,
             (&gbuffer, &params, &records),

@@ -97,7 +97,7 @@ use crate::vk::passes::hier32::{Hier32Bindings, Hier32Pass};
 use crate::vk::passes::scene_buffers::SceneBuffers;
 
 pub use super::technique::ComputeStats;
-use super::technique::{FrameInputs, MethodSpec, MethodStats, Needs, Scope, Technique};
+use super::technique::{FrameInputs, Glossy, MethodSpec, MethodStats, Needs, Scope, Technique};
 
 use crate::cpu::options::TraceOptions;
 use crate::cubemap::pyramid::{
@@ -672,8 +672,8 @@ impl MethodSpec for Compute {
     }
     /// On a glossy scene the frame cone traces the glossy pixels (`vk::passes::cone`), from
     /// the pre-filtered colour chain.
-    fn cone_chain(&self) -> bool {
-        true
+    fn glossy(&self) -> Glossy {
+        Glossy::ConeStage
     }
 
     /// Triangle IDs (verified hits, the environment-map fallback), no colour, no pyramid: the

@@ -75,7 +75,7 @@ use crate::vk::backend::pipeline::{BindGroup, Resource};
 use crate::vk::backend::shaders::{FRAGMENT_TRACE, Pass};
 use crate::vk::passes::cmo::{CaptureContents, CmoData, exact_mip_only};
 
-use super::technique::{CameraInputs, FrameInputs, MethodSpec, Needs, Scope, Technique};
+use super::technique::{CameraInputs, FrameInputs, Glossy, MethodSpec, Needs, Scope, Technique};
 
 /// The fragment method.
 pub struct Fragment;
@@ -86,8 +86,8 @@ impl MethodSpec for Fragment {
     }
     /// On a glossy scene the frame cone traces the glossy pixels (`vk::passes::cone`), from
     /// the pre-filtered colour chain.
-    fn cone_chain(&self) -> bool {
-        true
+    fn glossy(&self) -> Glossy {
+        Glossy::ConeStage
     }
 
     /// Triangle IDs for verified hits (and the environment-map fallback); the colour only for

@@ -63,7 +63,7 @@
 //! glossy pixels whose ray hit). Specified by their twin [`crate::cpu::ssr_cone`], which says
 //! what they approximate. The remainder of the cone's weight is the pre-filtered cube map at the
 //! lobe's roughness (`cone_envmap_colour`, `spirv/shared/cone.wgsl`: the CMO nearest to the
-//! pixel, along the mirror direction), for which [`MethodSpec::cone_chain`] makes the frame
+//! pixel, along the mirror direction), for which [`MethodSpec::glossy`] makes the frame
 //! capture colour and run `cone_prefilter` on a glossy scene. Barriers: compute write -> read between
 //! the per-level dispatches, read-write between the blur's steps (the scratch image is reused),
 //! and storage read-write between `ssr` and `ssr_cone` (both touch the records).
@@ -87,7 +87,7 @@ use crate::vk::passes::cmo::{CaptureContents, CmoData};
 use crate::vk::passes::gbuffer::Gbuffer;
 
 use super::technique::{
-    CameraInputs, FrameInputs, MethodSpec, Needs, Scope, Technique, has_glossy_reflector,
+    CameraInputs, FrameInputs, Glossy, MethodSpec, Needs, Scope, Technique, has_glossy_reflector,
 };
 
 /// `SsrParams` in `spirv/shared/ssr.wgsl`.
@@ -235,8 +235,7 @@ impl ConePasses {
         if cmo.cone().is_none() {
             return Err(VkError::Usage {
                 what: SSR_CONE.name.into(),
-                detail: "the CMO data has no pre-filtered colour chain (MethodSpec::cone_chain)"
-                    .into(),
+                detail: "the CMO data has no pre-filtered colour chain (MethodSpec::glossy)".into(),
             });
         }
         let cells = hiz_len(width, height);
@@ -568,8 +567,8 @@ impl MethodSpec for Ssr {
     }
 
     /// The glossy passes' remainder reads the cube maps at the lobe's roughness.
-    fn cone_chain(&self) -> bool {
-        true
+    fn glossy(&self) -> Glossy {
+        Glossy::Chain
     }
 
     /// The Hi-Z pyramid: f32 cells, about 4/3 per pixel over all levels (2 on a one-pixel-wide

@@ -101,6 +101,29 @@ pub fn has_glossy_reflector(data: &GpuSceneData) -> bool {
     })
 }
 
+/// How a method renders a glossy reflector (one with a specular power below the mirror cap,
+/// [`crate::lobe::glossy`]) on the GPU: what a frame of a glossy scene creates for it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Glossy {
+    /// The mirror direction only: nothing is created for the lobe.
+    Mirror,
+    /// The method's own passes read the pre-filtered CMO colour chain (`cmo_cone`,
+    /// `spirv/shared/cone.wgsl`; ssr's remainder): the frame captures colour, allocates the
+    /// chain and runs `cone_prefilter` after the capture.
+    Chain,
+    /// The chain, and the frame's cube-map cone stage after the trace
+    /// (`vk::passes::cone::ConeStage`: fragment, compute).
+    ConeStage,
+}
+
+impl Glossy {
+    /// Whether the frame allocates and pre-filters the CMO colour chain (where the method
+    /// captures at all, [`Needs::capture`]).
+    pub fn reads_chain(self) -> bool {
+        self != Glossy::Mirror
+    }
+}
+
 /// What a method is before it is allocated: one per GPU method, in `super::spec`.
 pub trait MethodSpec: Sync {
     /// The method's tracing pass: its timestamp scope in the harness's tables.
@@ -118,12 +141,10 @@ pub trait MethodSpec: Sync {
         0
     }
 
-    /// Whether the method reads the pre-filtered CMO colour chain (`cmo_cone`,
-    /// `spirv/shared/cone.wgsl`) on a scene with a glossy reflector: the frame then captures
-    /// colour, allocates the chain and runs `cone_prefilter` after the capture. Only where
-    /// [`Needs::capture`]; no by default.
-    fn cone_chain(&self) -> bool {
-        false
+    /// How the method renders a glossy reflector on the GPU ([`Glossy`]); the mirror direction
+    /// only by default.
+    fn glossy(&self) -> Glossy {
+        Glossy::Mirror
     }
 
     /// Refuses a device the method cannot run on, before anything is allocated.

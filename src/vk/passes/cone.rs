@@ -300,27 +300,10 @@ pub fn probe_gpu(
     ctx.read_buffer(&out)
 }
 
-/// Whether `scene` has a glossy reflector: a reflector mesh with a part whose material's
-/// specular power is below the mirror cap ([`crate::lobe::glossy`]). Only then does a frame
-/// create the cone stage.
-pub fn scene_is_glossy(scene: &crate::scene::Scene) -> bool {
-    scene.meshes.iter().any(|m| {
-        m.reflector
-            && m.parts.iter().any(|p| {
-                crate::lobe::glossy(scene.materials[p.material as usize].specular_power).is_some()
-            })
-    })
-}
-
-/// Whether a frame of `method` cone traces a glossy scene's pixels (fragment and compute).
-pub fn method_cone_traces(method: crate::Method) -> bool {
-    matches!(method, crate::Method::Fragment | crate::Method::Compute)
-}
-
 /// The cone stage of a glossy frame (fragment, compute): the 2x2 pyramid where the method has
 /// none (compute: `cone_pyramid`, into a buffer of its own, with the CMO stages) and the `cone`
 /// pass (after the trace, the reflector check and the fallback). The chain it reads is the
-/// frame's `cone_prefilter` (`MethodSpec::cone_chain`). See `spirv/cone.wgsl` for what the
+/// frame's `cone_prefilter` (`MethodSpec::glossy`). See `spirv/cone.wgsl` for what the
 /// pass does; [`crate::cpu::cone::cone_pixel`] is its twin.
 pub struct ConeStage {
     /// Compute's own pyramid: the pass, its bindings and its buffer (the sets hold the handle).
