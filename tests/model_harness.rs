@@ -609,3 +609,35 @@ fn defaults_only_runs_the_default_settings() {
     let o = cli(&["bench", "--defaults-only", "--quick"]);
     assert!(!o.status.success());
 }
+
+/// A missed row is compared with the closest training row of its method (the same subgroup
+/// size, then the nearest cube size), whatever the rows' order: a held-out row at cube 64 names
+/// the training row at cube 64, one at cube 1024 the one at 1024, in both orders.
+#[test]
+fn a_miss_is_compared_with_the_closest_training_row() {
+    let t = Training::standard();
+    let base = vec![
+        row("default", Method::Compute, 1024, 16, 4000.0, &t),
+        row("default", Method::Compute, 64, 16, 4000.0, &t),
+        row("default", Method::Compute, 64, 8, 4000.0, &t),
+        // Far off the training rows' time: both miss.
+        row("bowl", Method::Compute, 64, 16, 40000.0, &t),
+        row("bowl", Method::Compute, 1024, 16, 40000.0, &t),
+    ];
+    let mut reversed = base.clone();
+    reversed.reverse();
+    for rows in [base, reversed] {
+        let v = validate::validate(&rows, &t).unwrap();
+        let miss = |key: &str| {
+            v.rows
+                .iter()
+                .find(|r| r.key == key)
+                .and_then(|r| r.miss.clone())
+                .unwrap_or_else(|| panic!("{key} should miss: {:?}", v.rows))
+        };
+        let m64 = miss("bowl/compute/cube64/sg16");
+        assert!(m64.contains("default/compute/cube64/sg16"), "{m64}");
+        let m1024 = miss("bowl/compute/cube1024/sg16");
+        assert!(m1024.contains("default/compute/cube1024/sg16"), "{m1024}");
+    }
+}

@@ -65,8 +65,8 @@
 //!
 //! # A missed row
 //! Where a held-out row misses the target, [`RowResult::miss`] names the block whose share of
-//! the modelled time moved most from the same method's training rows at the same subgroup size
-//! (or any, if none): the cost that the fitted pair converts differently from the training rows
+//! the modelled time moved most from the same method's closest training row (the same subgroup
+//! size and the nearest cube size; any subgroup size if none): the cost that the fitted pair converts differently from the training rows
 //! is most likely that block's. Where no share moved by [`SHARE_SHIFT`] or more, it says so:
 //! then no block is to blame, the time per step is (spills, scene-wide overhead or noise).
 //!
@@ -578,17 +578,21 @@ pub fn time_shares(r: &Modelled, c: &Coefficients) -> Vec<f64> {
     parts.iter().map(|p| p / total).collect()
 }
 
-/// The block whose share of the modelled time moved most from the same method's training row
-/// (at the same subgroup size where there is one).
+/// The block whose share of the modelled time moved most from the same method's closest
+/// training row (the same subgroup size, then the nearest cube size).
 fn miss(r: &Modelled, rows: &[Modelled], c: &Coefficients, error: f64) -> String {
     let dir = if error > 0.0 { "over" } else { "under" };
     let same = |t: &&Modelled| t.train && t.measured.method == r.measured.method;
-    let Some(t) = rows
-        .iter()
-        .filter(same)
-        .find(|t| t.measured.subgroup == r.measured.subgroup)
-        .or_else(|| rows.iter().find(same))
-    else {
+    // The closest training row: the same subgroup and cube size, else the same subgroup, else
+    // any; so the blame does not depend on the order of the rows.
+    let closeness = |t: &&Modelled| {
+        (
+            t.measured.subgroup != r.measured.subgroup,
+            t.measured.cube.abs_diff(r.measured.cube),
+            t.measured.key(),
+        )
+    };
+    let Some(t) = rows.iter().filter(same).min_by_key(closeness) else {
         return format!("{dir}-predicts; no training row of this method to compare blocks with");
     };
     let here = time_shares(r, c);
