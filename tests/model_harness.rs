@@ -224,14 +224,16 @@ fn cli(args: &[&str]) -> std::process::Output {
         .expect("run cubetrace")
 }
 
-fn bench(dir: &Path, model: bool) -> serde_json::Value {
+/// A tiny `bench` run of `methods` on `scenes` into `dir` (16x12, one frame, cube 32), with
+/// `extra` arguments; its bench.json.
+fn bench_run(dir: &Path, scenes: &str, methods: &str, extra: &[&str]) -> serde_json::Value {
     let out = dir.to_str().unwrap();
     let mut args = vec![
         "bench",
         "--scenes",
-        "default,bowl",
+        scenes,
         "--methods",
-        "compute,bvh",
+        methods,
         "--width",
         "16",
         "--height",
@@ -248,12 +250,15 @@ fn bench(dir: &Path, model: bool) -> serde_json::Value {
         "-o",
         out,
     ];
-    if model {
-        args.push("--model");
-    }
+    args.extend_from_slice(extra);
     let o = cli(&args);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     serde_json::from_str(&std::fs::read_to_string(dir.join("bench.json")).unwrap()).unwrap()
+}
+
+fn bench(dir: &Path, model: bool) -> serde_json::Value {
+    let extra: &[&str] = if model { &["--model"] } else { &[] };
+    bench_run(dir, "default,bowl", "compute,bvh", extra)
 }
 
 #[test]
@@ -560,34 +565,7 @@ fn model_from_merges_a_rows_processes() {
 fn defaults_only_runs_the_default_settings() {
     let labels = |extra: &[&str]| {
         let d = tempfile::tempdir().unwrap();
-        let mut args = vec![
-            "bench",
-            "--scenes",
-            "default",
-            "--methods",
-            "compute,reflection-point",
-            "--width",
-            "16",
-            "--height",
-            "12",
-            "--frames",
-            "1",
-            "--warmup",
-            "0",
-            "--cube-size",
-            "16",
-            "--no-flip",
-            "--no-heatmaps",
-            "--no-floor",
-            "-o",
-            d.path().to_str().unwrap(),
-        ];
-        args.extend_from_slice(extra);
-        let o = cli(&args);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let v: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(d.path().join("bench.json")).unwrap())
-                .unwrap();
+        let v = bench_run(d.path(), "default", "compute,reflection-point", extra);
         v["runs"]
             .as_array()
             .unwrap()

@@ -141,6 +141,14 @@ pub enum Items {
     Tiles(u32),
 }
 
+impl Items {
+    /// The item's size: entries per group, or a tile's side in pixels (at least 1).
+    pub fn size(self) -> u32 {
+        let (Items::Groups(n) | Items::Tiles(n)) = self;
+        n.max(1)
+    }
+}
+
 /// The side of llvmpipe's rasteriser bins (`TILE_SIZE` in Mesa's lp_limits.h).
 pub const LAVAPIPE_TILE: u32 = 64;
 
@@ -162,8 +170,7 @@ pub fn warp_items(
         Assembly::Dispatch => ray_at.len(),
         Assembly::Quads => {
             let (w, h) = img;
-            let (Items::Tiles(t) | Items::Groups(t)) = items;
-            let t = t.max(1);
+            let t = items.size();
             let across = w.div_ceil(t) as usize;
             return quads(w, h, ray_at)
                 .chunks((width / 4).max(1) as usize)
@@ -174,9 +181,7 @@ pub fn warp_items(
                 .collect();
         }
     };
-    let group = match items {
-        Items::Groups(g) | Items::Tiles(g) => g.max(1) as usize,
-    };
+    let group = items.size() as usize;
     (0..entries.div_ceil(per))
         .map(|k| k * per / group)
         .collect()
