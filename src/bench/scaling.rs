@@ -54,6 +54,7 @@ use crate::scene::{Material, MeshInstance, Scene, Transform};
 use crate::vk::GpuContext;
 use crate::vk::frame::shown_objects;
 use crate::vk::frame::{Fallback, RenderOptions, pass_name};
+use crate::vk::methods::reflection_point::TARGETS_PASS;
 
 /// Which quantity a point varies.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -158,6 +159,9 @@ pub struct TessellationPoint {
     /// Against the unsubdivided scene's reference.
     pub error: ErrorReport,
     pub same_object: SameObject,
+    /// The reflector textures' draw (`reflection_point_targets`), the per-vertex search and the
+    /// virtual objects' raster.
+    pub rp_targets_ns: Stats,
     pub rp_search_ns: Stats,
     pub rp_raster_ns: Stats,
     pub search: SearchStats,
@@ -369,6 +373,7 @@ fn tessellation_curve(
                 mirror_pixels: g.frame.mirror_pixels(),
                 error,
                 same_object: metrics::same_object(refr, &reflector, &shown_objects(&g.frame)),
+                rp_targets_ns: frame_stats(&g.pass_ns, Some(TARGETS_PASS)),
                 rp_search_ns: frame_stats(&g.pass_ns, Some("reflection_point_search")),
                 rp_raster_ns: frame_stats(&g.pass_ns, Some("reflection_point_raster")),
                 search: g.frame.search.unwrap_or_default(),
@@ -384,13 +389,13 @@ fn tessellation_curve(
 pub fn tessellation_table(points: &[TessellationPoint]) -> String {
     use std::fmt::Write as _;
     let mut s = String::from(
-        "| scene | search scale | subdivide | triangles | frame | mirror px | unresolved % | wrong surface % | same object % | same object, interior % | angle mean deg | PSNR dB | reflection_point_search ms | reflection_point_raster ms | steps mean / max |\n\
-         |---|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+        "| scene | search scale | subdivide | triangles | frame | mirror px | unresolved % | wrong surface % | same object % | same object, interior % | angle mean deg | PSNR dB | reflection_point_targets ms | reflection_point_search ms | reflection_point_raster ms | steps mean / max |\n\
+         |---|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
     );
     for p in points {
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} | {}x{} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.1} | {:.2} | {:.3} | {:.3} | {:.1} / {} |",
+            "| {} | {} | {} | {} | {}x{} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.1} | {:.2} | {:.3} | {:.3} | {:.3} | {:.1} / {} |",
             p.scene,
             p.search_scale,
             p.subdivide,
@@ -404,6 +409,7 @@ pub fn tessellation_table(points: &[TessellationPoint]) -> String {
             100.0 * p.same_object.interior_share,
             p.error.angular_mean_deg,
             p.error.psnr_db,
+            p.rp_targets_ns.median * 1e-6,
             p.rp_search_ns.median * 1e-6,
             p.rp_raster_ns.median * 1e-6,
             p.search.mean_iterations,
