@@ -128,13 +128,7 @@ pub fn scatter(
             }))
             .map_err(err)?;
         if pareto {
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::LowerLeft)
-                .border_style(BLACK)
-                .background_style(WHITE.mix(0.8))
-                .draw()
-                .map_err(err)?;
+            legend(&mut chart, SeriesLabelPosition::LowerLeft)?;
         }
         root.present().map_err(err)?;
     }
@@ -193,27 +187,58 @@ pub fn lines(
                 .copied()
                 .filter(|(x, y)| *x > 0.0 && *y > 0.0)
                 .collect();
-            chart
-                .draw_series(LineSeries::new(p.clone(), colour.stroke_width(2)))
-                .map_err(err)?
-                .label(name.as_str())
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
-                });
-            chart
-                .draw_series(p.into_iter().map(|q| Circle::new(q, 3, colour.filled())))
-                .map_err(err)?;
+            legend_line(&mut chart, name, colour, p, 3)?;
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .border_style(BLACK)
-            .background_style(WHITE.mix(0.8))
-            .draw()
-            .map_err(err)?;
+        legend(&mut chart, SeriesLabelPosition::UpperLeft)?;
         root.present().map_err(err)?;
     }
     Ok(svg)
+}
+
+/// A series' line with its legend entry, and a dot of `radius` at each point.
+fn legend_line<'a, DB, X, Y>(
+    chart: &mut ChartContext<'a, DB, Cartesian2d<X, Y>>,
+    label: &str,
+    colour: RGBAColor,
+    pts: Vec<(f64, f64)>,
+    radius: u32,
+) -> Result<()>
+where
+    DB: DrawingBackend + 'a,
+    X: Ranged<ValueType = f64>,
+    Y: Ranged<ValueType = f64>,
+{
+    chart
+        .draw_series(LineSeries::new(pts.clone(), colour.stroke_width(2)))
+        .map_err(err)?
+        .label(label)
+        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2)));
+    chart
+        .draw_series(
+            pts.into_iter()
+                .map(|q| Circle::new(q, radius, colour.filled())),
+        )
+        .map_err(err)?;
+    Ok(())
+}
+
+/// The chart's legend at `position`, boxed on a translucent white.
+fn legend<'a, DB, X, Y>(
+    chart: &mut ChartContext<'a, DB, Cartesian2d<X, Y>>,
+    position: SeriesLabelPosition,
+) -> Result<()>
+where
+    DB: DrawingBackend + 'a,
+    X: Ranged<ValueType = f64>,
+    Y: Ranged<ValueType = f64>,
+{
+    chart
+        .configure_series_labels()
+        .position(position)
+        .border_style(BLACK)
+        .background_style(WHITE.mix(0.8))
+        .draw()
+        .map_err(err)
 }
 
 /// A line of a [`panels`] plot (`series` picks its colour).
@@ -286,16 +311,7 @@ pub fn panels(title: &str, x_desc: &str, y_desc: &str, panels: &[Panel]) -> Resu
             for line in &panel.lines {
                 let colour = Palette99::pick(line.series).to_rgba();
                 let pts: Vec<(f64, f64)> = line.points.iter().copied().filter(|&q| ok(q)).collect();
-                chart
-                    .draw_series(LineSeries::new(pts.clone(), colour.stroke_width(2)))
-                    .map_err(err)?
-                    .label(line.label.as_str())
-                    .legend(move |(x, y)| {
-                        PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
-                    });
-                chart
-                    .draw_series(pts.into_iter().map(|q| Circle::new(q, 2, colour.filled())))
-                    .map_err(err)?;
+                legend_line(&mut chart, &line.label, colour, pts, 2)?;
             }
             for q in panel.points.iter().filter(|q| ok((q.x, q.y))) {
                 let colour = Palette99::pick(q.series).to_rgba();
@@ -315,13 +331,7 @@ pub fn panels(title: &str, x_desc: &str, y_desc: &str, panels: &[Panel]) -> Resu
                     )])
                     .map_err(err)?;
             }
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::LowerRight)
-                .border_style(BLACK)
-                .background_style(WHITE.mix(0.8))
-                .draw()
-                .map_err(err)?;
+            legend(&mut chart, SeriesLabelPosition::LowerRight)?;
         }
         root.present().map_err(err)?;
     }
