@@ -15,15 +15,14 @@
 //! The "cheapest bvh row of at least the same cost" and the interpolation in log spp are unit
 //! tests of `bench::glossy` (hand-made ladders).
 mod common;
+use common::render_args;
 use common::{finish_gpu, gpu_context};
 
 use std::path::Path;
 use std::process::Command;
 
-use clap::Parser;
 use cubetrace::Method;
 use cubetrace::app::frame_renderer::{self, FrameRenderer};
-use cubetrace::app::render::RenderArgs;
 use cubetrace::bench::MethodSpec;
 use cubetrace::bench::glossy::{self, GlossyConfig, GlossyReport, Tracing};
 use cubetrace::film::{FilmSettings, PixelFilter};
@@ -68,17 +67,6 @@ fn glossy_scene(name: &str, power: f32) -> (Scene, cubetrace::camera::Camera) {
         cubetrace::bench::prepare_scene(name, WIDTH, HEIGHT, Some(32), None).unwrap();
     s.make_reflectors_glossy(power);
     (s, cam)
-}
-
-fn render_args(line: &[&str]) -> RenderArgs {
-    #[derive(Parser)]
-    struct Cli {
-        #[command(flatten)]
-        render: RenderArgs,
-    }
-    let mut all = vec!["cubetrace"];
-    all.extend_from_slice(line);
-    Cli::parse_from(all).render
 }
 
 fn bits(c: &[glam::Vec3]) -> Vec<u32> {

@@ -10,12 +10,11 @@
 //!   in the same `FrameRenderer` equals that frame rendered alone and reuses the capture; a moved
 //!   mesh captures again (tests/sequence_inplace.rs checks the in-place geometry update).
 mod common;
+use common::render_args as args;
 use common::{finish_gpu, gpu_context};
 
-use clap::Parser;
 use cubetrace::Method;
 use cubetrace::app::frame_renderer::{self, FrameRenderer, RenderedFrame};
-use cubetrace::app::render::RenderArgs;
 use cubetrace::camera::Camera;
 use cubetrace::film::{FilmSettings, PixelFilter, sample_offsets};
 use cubetrace::reference;
@@ -201,17 +200,6 @@ fn reference_box_filter_is_the_mean_of_jittered_renders() {
     // Negative: the mean at the offsets mirrored in x is another image.
     let mirrored: Vec<Vec2> = offsets.iter().map(|o| Vec2::new(-o.x, o.y)).collect();
     assert!(max_diff(&f4.colour, &mean_at(&mirrored)) > 1e-2);
-}
-
-fn args(line: &[&str]) -> RenderArgs {
-    #[derive(Parser)]
-    struct Cli {
-        #[command(flatten)]
-        render: RenderArgs,
-    }
-    let mut all = vec!["cubetrace"];
-    all.extend_from_slice(line);
-    Cli::parse_from(all).render
 }
 
 fn colour_bits(f: &RenderedFrame) -> Vec<u32> {

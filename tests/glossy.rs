@@ -15,13 +15,12 @@
 //! - `bvh` draws the reference's directions (same hits at one sample) and its frame converges to
 //!   the converged reference; a wrong exponent (4x) does not.
 mod common;
+use common::render_args as args;
 use common::{finish_gpu, gpu_context};
 
-use clap::Parser;
 use cubetrace::Method;
 use cubetrace::app::frame_renderer::{self, FrameRenderer};
 use cubetrace::app::glossy;
-use cubetrace::app::render::RenderArgs;
 use cubetrace::camera::Camera;
 use cubetrace::film::{FilmSettings, PixelFilter};
 use cubetrace::lobe;
@@ -64,17 +63,6 @@ fn with_power(scene: &Scene, power: Option<f32>) -> Scene {
         s.materials[m as usize].specular_power = power;
     }
     s
-}
-
-fn args(line: &[&str]) -> RenderArgs {
-    #[derive(Parser)]
-    struct Cli {
-        #[command(flatten)]
-        render: RenderArgs,
-    }
-    let mut all = vec!["cubetrace"];
-    all.extend_from_slice(line);
-    Cli::parse_from(all).render
 }
 
 /// Everything of a GPU frame the outputs read, as bits (colour, mask, primary positions, the
@@ -128,19 +116,12 @@ fn reference_at(scene: &Scene, tracer: &Tracer, camera: &Camera, spp: u32) -> re
     frame_renderer::reference_frame(scene, tracer, camera, 1, film, false).0
 }
 
-/// PSNR (dB) of `got` against `truth` over the pixels of `mask`, linear RGB clamped to [0, 1].
+/// PSNR (dB) of `got` against `truth` over the pixels of `mask`, linear RGB clamped to [0, 1]
+/// (`bench::glossy::psnr_over`), over more than 50 pixels.
 fn psnr(got: &[Vec3], truth: &[Vec3], mask: &[u8]) -> f64 {
-    let (mut sum, mut n) = (0.0f64, 0usize);
-    for k in 0..truth.len() {
-        if mask[k] == 0 {
-            continue;
-        }
-        let d = got[k].clamp(Vec3::ZERO, Vec3::ONE) - truth[k].clamp(Vec3::ZERO, Vec3::ONE);
-        sum += f64::from(d.length_squared()) / 3.0;
-        n += 1;
-    }
+    let n = mask.iter().filter(|&&m| m != 0).count();
     assert!(n > 50, "{n} mirror pixels");
-    10.0 * (n as f64 / sum).log10()
+    cubetrace::bench::glossy::psnr_over(got, truth, mask)
 }
 
 /// At and above the cap every method renders today's frame, bit for bit; the reference too.

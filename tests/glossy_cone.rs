@@ -423,26 +423,16 @@ fn cone_pass_equals_cpu_twin() {
     finish_gpu(ctx);
 }
 
-use clap::Parser;
 use cubetrace::app::frame_renderer::{self, FrameRenderer};
-use cubetrace::app::render::RenderArgs;
 use cubetrace::film::{FilmSettings, PixelFilter};
 use cubetrace::reference::{self, Tracer};
 
 /// PSNR (dB) of `got` against `truth` over the pixels of `mask`, linear RGB clamped to [0, 1]
-/// (as `tests/glossy.rs`).
+/// (`bench::glossy::psnr_over`), over more than 50 pixels.
 fn psnr(got: &[Vec3], truth: &[Vec3], mask: &[u8]) -> f64 {
-    let (mut sum, mut n) = (0.0f64, 0usize);
-    for k in 0..truth.len() {
-        if mask[k] == 0 {
-            continue;
-        }
-        let d = got[k].clamp(Vec3::ZERO, Vec3::ONE) - truth[k].clamp(Vec3::ZERO, Vec3::ONE);
-        sum += f64::from(d.length_squared()) / 3.0;
-        n += 1;
-    }
+    let n = mask.iter().filter(|&&m| m != 0).count();
     assert!(n > 50, "{n} mirror pixels");
-    10.0 * (n as f64 / sum).log10()
+    cubetrace::bench::glossy::psnr_over(got, truth, mask)
 }
 
 /// The reference's box-filtered frame at `spp` samples, as `render --spp` makes it.
@@ -457,14 +447,9 @@ fn reference_at(scene: &Scene, cam: &Camera, spp: u32) -> reference::Frame {
 
 /// `--method bvh --spp spp`'s frame.
 fn bvh_at(scene: &Scene, cam: &Camera, spp: u32) -> Vec<Vec3> {
-    #[derive(Parser)]
-    struct Cli {
-        #[command(flatten)]
-        render: RenderArgs,
-    }
     let n = spp.to_string();
-    let cli = Cli::parse_from(["cubetrace", "x", "--method", "bvh", "--spp", &n]);
-    let mut fr = FrameRenderer::new(&cli.render, scene, cam).unwrap_or_else(|e| panic!("{e}"));
+    let args = common::render_args(&["x", "--method", "bvh", "--spp", &n]);
+    let mut fr = FrameRenderer::new(&args, scene, cam).unwrap_or_else(|e| panic!("{e}"));
     let f = fr.render(scene, cam).unwrap_or_else(|e| panic!("{e}"));
     f.colour().to_vec()
 }

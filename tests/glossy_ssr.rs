@@ -406,19 +406,10 @@ fn hard_cases() {
 }
 
 /// PSNR (dB) of `got` against `truth` over the pixels of `mask`, linear RGB clamped to [0, 1]
-/// (as `tests/glossy.rs`).
+/// (`bench::glossy::psnr_over`).
 fn psnr(got: &[Vec3], truth: &[Vec3], mask: &[u8]) -> f64 {
-    let (mut sum, mut n) = (0.0f64, 0usize);
-    for k in 0..truth.len() {
-        if mask[k] == 0 {
-            continue;
-        }
-        let d = got[k].clamp(Vec3::ZERO, Vec3::ONE) - truth[k].clamp(Vec3::ZERO, Vec3::ONE);
-        sum += f64::from(d.length_squared()) / 3.0;
-        n += 1;
-    }
-    let mse = sum / n.max(1) as f64;
-    10.0 * (1.0 / mse.max(1e-12)).log10()
+    // At most 120 dB (an MSE floor of 1e-12), also over no pixel.
+    cubetrace::bench::glossy::psnr_over(got, truth, mask).min(120.0)
 }
 
 /// Mirror ssr (the glossy scene traced as the mirror) against cone ssr, PSNR over the mirror

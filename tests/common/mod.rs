@@ -11,6 +11,20 @@ pub mod trace_probe;
 use cubetrace::vk::{ContextOptions, GpuContext};
 use glam::Vec3;
 
+/// `render`'s arguments parsed from `line` (what follows `cubetrace render`), as the command
+/// line parses them.
+pub fn render_args(line: &[&str]) -> cubetrace::app::render::RenderArgs {
+    use clap::Parser;
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        render: cubetrace::app::render::RenderArgs,
+    }
+    let mut all = vec!["cubetrace"];
+    all.extend_from_slice(line);
+    Cli::parse_from(all).render
+}
+
 /// A context with the Khronos validation layer when it is installed; a missing driver fails the
 /// test with the driver's install hint.
 pub fn gpu_context() -> GpuContext {
