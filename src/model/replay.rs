@@ -242,22 +242,18 @@ struct Acc {
     sectors: u64,
     /// Per work item: the warp-steps of each block its warps issued.
     items: Vec<Vec<u64>>,
+    /// The work item of the warp being replayed.
+    item: usize,
 }
 
 impl Acc {
-    /// Charges the warp-steps issued since `before` to work item `item`.
-    fn charge(&mut self, item: usize, before: &[u64]) {
-        if self.items.len() <= item {
-            self.items.resize(item + 1, vec![0; self.steps.len()]);
-        }
-        for ((i, s), b) in self.items[item].iter_mut().zip(&self.steps).zip(before) {
-            *i += s - b;
-        }
-    }
-
     /// One issue of `block` with `active` lanes, and its loads (per lane, in program order).
     fn issue(&mut self, block: usize, width: u32, active: u64, loads: &[&[u64]]) {
         self.steps[block] += 1;
+        if self.items.len() <= self.item {
+            self.items.resize(self.item + 1, vec![0; self.steps.len()]);
+        }
+        self.items[self.item][block] += 1;
         self.active += active;
         self.issued += width as u64;
         self.sectors += sectors(loads);
@@ -318,7 +314,7 @@ pub fn replay(
                 super::warps::warp_items(assembly, rays, rec.img, &rec.ray_at, slots, items);
             let warps = super::warps::warps(assembly, rays, rec.img, &rec.ray_at, slots);
             for (warp, item) in warps.into_iter().zip(item_of) {
-                let before = acc.steps.clone();
+                acc.item = item;
                 let slot: Vec<Option<&ComputeRay>> = warp
                     .iter()
                     .map(|l| {
@@ -330,7 +326,6 @@ pub fn replay(
                     })
                     .collect();
                 replay_compute(&slot, lanes, width, mode, &mut acc);
-                acc.charge(item, &before);
             }
         }
         FrameWork::Tree {
@@ -343,7 +338,7 @@ pub fn replay(
                 super::warps::warp_items(assembly, rays, rec.img, &rec.ray_at, width, items);
             let warps = super::warps::warps(assembly, rays, rec.img, &rec.ray_at, width);
             for (warp, item) in warps.into_iter().zip(item_of) {
-                let before = acc.steps.clone();
+                acc.item = item;
                 let lanes: Vec<Option<&Iter>> = warp
                     .iter()
                     .map(|l| match l {
@@ -353,7 +348,6 @@ pub fn replay(
                     })
                     .collect();
                 replay_body(program, &lanes, width, mode, &mut acc);
-                acc.charge(item, &before);
             }
         }
     }
