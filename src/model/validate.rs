@@ -175,15 +175,22 @@ impl Measured {
         self.pass_ns / self.rays.max(1) as f64
     }
 
-    /// The largest over the smallest of [`Measured::repeats`] (1 for one run).
-    pub fn spread(&self) -> f64 {
+    /// The smallest and the largest of [`Measured::repeats`] (both `pass_ns` when there are
+    /// none).
+    pub fn range(&self) -> (f64, f64) {
         let lo = self.repeats.iter().copied().fold(f64::INFINITY, f64::min);
         let hi = self.repeats.iter().copied().fold(0.0, f64::max);
-        if lo > 0.0 && lo.is_finite() {
-            hi / lo
+        if lo.is_finite() {
+            (lo, hi)
         } else {
-            1.0
+            (self.pass_ns, self.pass_ns)
         }
+    }
+
+    /// The largest over the smallest of [`Measured::repeats`] (1 for one run).
+    pub fn spread(&self) -> f64 {
+        let (lo, hi) = self.range();
+        if lo > 0.0 { hi / lo } else { 1.0 }
     }
 }
 
@@ -552,14 +559,9 @@ fn score(r: &Modelled, rows: &[Modelled], c: &Coefficients) -> RowResult {
         processes: m.repeats.len(),
         spread: m.spread(),
         measured_range_ns_per_ray: {
+            let (lo, hi) = m.range();
             let per = |x: f64| x / m.rays.max(1) as f64;
-            let lo = m.repeats.iter().copied().fold(f64::INFINITY, f64::min);
-            let hi = m.repeats.iter().copied().fold(0.0, f64::max);
-            if lo.is_finite() {
-                (per(lo), per(hi))
-            } else {
-                (measured, measured)
-            }
+            (per(lo), per(hi))
         },
         imbalance: r.imbalance,
         miss,
