@@ -87,6 +87,33 @@ impl Camera {
         1.0 / (1.0 + corner * corner).sqrt()
     }
 
+    /// Why `eye`, `target` and `up` fix no camera, with the numbers; `None` where they do. The
+    /// camera's roll is the direction of `up` across the view: where `up` lies within
+    /// [`MIN_UP_SINE`] of the view direction, f32 rounding decides it, and the G-buffer's view
+    /// matrix and [`Camera::basis`] (two computations of one roll) can disagree by a whole
+    /// turn of the image about the view axis.
+    pub fn view_error(&self) -> Option<String> {
+        let view = (self.target - self.eye).as_dvec3();
+        let up = self.up.as_dvec3();
+        if view.length_squared() == 0.0 {
+            return Some(format!("eye and target are the same point {}", self.eye));
+        }
+        if up.length_squared() == 0.0 {
+            return Some("up is zero".into());
+        }
+        let sine = view.normalize().cross(up.normalize()).length();
+        (sine < MIN_UP_SINE).then(|| {
+            format!(
+                "up {} lies {:.3e} degrees from the view direction {} (the sine {sine:.3e} is \
+                 below {MIN_UP_SINE:e}): f32 cannot fix the camera's roll there; choose an up \
+                 vector across the view (for a view straight down, up = [0, 0, -1])",
+                self.up,
+                sine.asin().to_degrees(),
+                view.normalize().as_vec3(),
+            )
+        })
+    }
+
     /// The orthonormal camera basis `(right, up, back)`: the view looks along `-back`.
     pub fn basis(&self) -> (Vec3, Vec3, Vec3) {
         let back = (self.eye - self.target).normalize();
@@ -150,17 +177,25 @@ impl Camera {
     }
 }
 
+/// The smallest sine of the angle between `up` and the view direction that fixes a camera's
+/// roll ([`Camera::view_error`]): 1e-4 (0.0057 degrees). Below it the basis vector `right =
+/// up x back` is a difference of nearly equal f32 products, whose rounding (some 2^-24 of the
+/// vectors' scale) turns it by up to 2^-24 / sine: 6e-4 radians at the bound, under a pixel of a
+/// 50 degree, 1000-pixel frame, and a whole turn where `up` is the view direction rounded.
+pub const MIN_UP_SINE: f64 = 1e-4;
+
 /// `EYE_PLANE_BOUND` of `spirv/shared/eye_plane.wgsl`: 2^-21.
 pub const EYE_PLANE_BOUND: f64 = 1.0 / (1u64 << 21) as f64;
 
 /// How far the plane of triangle `tri` passes from the viewpoint `p` (an eye or a CMO centre),
-/// in the terms of `eye_plane_holds` (`spirv/shared/eye_plane.wgsl`), computed in f64: `(offset,
-/// bound)`, `offset = |(p - o) . m|` and `bound = EYE_PLANE_BOUND (|p| + |o| + |p - o|)`, with
-/// `o` the vertex nearest `p` and `m` the cross product of the unit edges from it; and `|m|`,
-/// the sine of the angle at `o` (`p` is `offset / |m|` from the plane). The GPU culls the
-/// triangle (seen edge-on) where `offset <= bound` in f32; the two differ by some 2^-22 of
-/// `bound`'s scale (half the bound). A degenerate triangle gives a NaN offset.
-pub fn eye_plane_offset(p: Vec3, tri: &[Vec3; 3]) -> (f64, f64, f64) {
+/// in the terms of `eye_plane_holds` (`spirv/shared/eye_plane.wgsl`), computed in f64:
+/// `(offset, bound)`, `offset = |(p - o) . n|` (the distance of `p` from the plane) and
+/// `bound = EYE_PLANE_BOUND (|p| + |o| + |p - o|)`, with `o` the vertex nearest `p` and `n` the
+/// plane's unit normal, [`plane_normal`]. The GPU culls the triangle (seen edge-on) where
+/// `offset <= bound` in f32; the two differ by some 2^-22 of `bound`'s scale (half the bound)
+/// on a well-shaped triangle. A triangle without a plane (its corners on one line in f64)
+/// gives a NaN offset: never edge-on, and it covers no pixel.
+pub fn eye_plane_offset(p: Vec3, tri: &[Vec3; 3]) -> (f64, f64) {
     let p = p.as_dvec3();
     let v = tri.map(|v| v.as_dvec3());
     let d = v.map(|v| (v - p).length());
@@ -171,14 +206,36 @@ pub fn eye_plane_offset(p: Vec3, tri: &[Vec3; 3]) -> (f64, f64, f64) {
     } else {
         0
     };
-    let (o, x, y) = (v[k], v[(k + 1) % 3], v[(k + 2) % 3]);
-    let m = (x - o).normalize().cross((y - o).normalize());
+    let o = v[k];
     let s = p - o;
+    let offset = plane_normal(&v).map_or(f64::NAN, |n| s.dot(n).abs());
     (
-        s.dot(m).abs(),
+        offset,
         EYE_PLANE_BOUND * (p.length() + o.length() + s.length()),
-        m.length(),
     )
+}
+
+/// The unit normal of a triangle's plane, well conditioned: the cross product of its two
+/// longest edges, each made unit first (so that no product overflows at any coordinate the
+/// scene may hold), then normalised. Never divided by the sine of a small angle, so a sliver
+/// (corners nearly on one line) gets a normal whose error is that of its rounding, not one
+/// scaled up by the sliver's aspect. `None` where the corners lie on one line (or coincide).
+/// `spirv/shared/eye_plane.wgsl` repeats it in f32, edge for edge.
+pub fn plane_normal(v: &[glam::DVec3; 3]) -> Option<glam::DVec3> {
+    let e = [v[1] - v[0], v[2] - v[1], v[0] - v[2]];
+    let l = e.map(|e| e.length());
+    // The shortest edge is left out (the first of equals).
+    let short = if l[0] <= l[1] && l[0] <= l[2] {
+        0
+    } else if l[1] <= l[2] {
+        1
+    } else {
+        2
+    };
+    let (a, b) = (e[(short + 1) % 3], e[(short + 2) % 3]);
+    let m = (a / a.length()).cross(b / b.length());
+    let len = m.length();
+    (len > 0.0 && len.is_finite()).then(|| m / len)
 }
 
 #[cfg(test)]
@@ -318,6 +375,41 @@ mod tests {
             ..cam()
         };
         assert!(narrow.corner_cos() > c.corner_cos() + 0.05);
+    }
+
+    /// An `up` within rounding of the view direction is refused with its numbers, whichever
+    /// way it leans; one 1e-3 radians off (a view nearly straight down with `up = y`) is not,
+    /// nor are the test camera's. Negative: exactly along the view, refused too.
+    #[test]
+    fn up_along_the_view_is_refused() {
+        let c = cam();
+        assert_eq!(c.view_error(), None);
+        let view = (c.target - c.eye).normalize();
+        let across = view.any_orthonormal_vector();
+        for (tilt, refused) in [(1e-6f32, true), (5e-5, true), (2e-4, false), (1e-3, false)] {
+            for sign in [1.0f32, -1.0] {
+                let up = (sign * view + tilt * across).normalize();
+                let e = Camera { up, ..cam() }.view_error();
+                assert_eq!(e.is_some(), refused, "tilt {tilt}, sign {sign}: {e:?}");
+                if let Some(e) = e {
+                    assert!(e.contains("degrees from the view direction") && e.contains("e-"));
+                }
+            }
+        }
+        assert!(Camera { up: view, ..cam() }.view_error().is_some());
+        assert!(
+            Camera {
+                up: Vec3::ZERO,
+                ..cam()
+            }
+            .view_error()
+            .is_some()
+        );
+        let same = Camera {
+            target: cam().eye,
+            ..cam()
+        };
+        assert!(same.view_error().is_some());
     }
 
     /// The top row looks up, the left column looks left.

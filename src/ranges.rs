@@ -27,11 +27,16 @@
 //! plane misses the eye by a rounding error and, seen from there, drew it over half the frame
 //! (the built-in `default` camera lies in the front wall's plane: 0 mirror pixels for a target
 //! at z = -2e4). The G-buffer and capture passes cull such triangles
-//! (`spirv/shared/eye_plane.wgsl`). A viewpoint within that rounding bound of a plane but off
-//! it, in f64, sees the triangle in the reference where the passes cull it: refused
-//! ([`RangeError::EdgeOn`], with the distance to move it). A CMO centre in the plane of a
-//! surface it captures is refused outright (the precision check, its nearest surface at
-//! distance ~0): the CMO cannot capture that surface, and mirror rays may still meet it.
+//! (`spirv/shared/eye_plane.wgsl`). The bound is on the distance from the plane itself, through
+//! a well-conditioned normal ([`crate::camera::plane_normal`]): a sliver triangle, whose
+//! corners nearly share a line, is culled only where its plane really passes within rounding
+//! of the viewpoint, and then covers about a pixel in the reference too. A viewpoint within
+//! that bound of a triangle itself (on the surface, to rounding) but off its plane in f64 sees
+//! it over half the frame in the reference where the passes cull it: no pass in f32 can
+//! render that, so it is refused ([`RangeError::EdgeOn`], naming the triangle and the distance
+//! to move). A CMO centre in the plane of a surface it captures is refused too (the precision
+//! check, its nearest surface at distance ~0): the CMO cannot capture that surface, and mirror
+//! rays may still meet it. Both CMO checks refuse only a method that captures CMOs.
 //!
 //! # What f32 cannot hold
 //! Reflected rays start at G-buffer positions and CMO-local coordinates are `x - c`, both in f32
@@ -99,7 +104,12 @@ pub struct FrameRanges {
 pub struct EdgeOn {
     /// `the eye of camera `NAME`` or `CMO k's centre`.
     pub viewpoint: String,
+    /// Whether the viewpoint is a CMO centre (only a method that captures CMOs is refused).
+    pub cmo: bool,
     pub object: String,
+    /// The triangle's index within its object (its primitive id) and its corners.
+    pub primitive: u32,
+    pub corners: [Vec3; 3],
     /// Distance of the viewpoint from the triangle's plane (f64).
     pub distance: f64,
     /// Distance below which the GPU passes treat the viewpoint as in the plane.
@@ -110,7 +120,7 @@ pub struct EdgeOn {
 /// coordinates (the G-buffer, whose view matrix rounds to the coordinates' scale), or with
 /// `local` relative to `p` (the capture, whose CMO-local coordinates `v - p` round to their own
 /// scale; `spirv/capture.wgsl`).
-fn plane_offset(p: Vec3, tri: &[Vec3; 3], local: bool) -> (f64, f64, f64) {
+fn plane_offset(p: Vec3, tri: &[Vec3; 3], local: bool) -> (f64, f64) {
     if local {
         crate::camera::eye_plane_offset(Vec3::ZERO, &tri.map(|v| v - p))
     } else {
@@ -144,7 +154,7 @@ fn nearest_seen(
         if best.is_some_and(|(bd, _)| d >= bd) {
             continue;
         }
-        let (offset, bound, _) = plane_offset(p, &tri, false);
+        let (offset, bound) = plane_offset(p, &tri, false);
         if offset.is_nan() || offset > 0.25 * bound {
             best = Some((d, o));
         }
@@ -156,27 +166,33 @@ fn nearest_seen(
 /// GPU passes may cull it as seen edge-on (`spirv/shared/eye_plane.wgsl`, twice its bound for
 /// the f32 test's own error, some 2^-22 of the scale), while the reference, whose f64 primary
 /// test puts `p` off the plane, sees it over a wide angle: `p` lies within that culling
-/// distance of the triangle itself and, where `towards` is given (the eye's frame corners), on
-/// a side some ray of the frame heads to. Exactly in the plane, every ray meets it at `t = 0`
-/// and the reference sees nothing: no conflict. A triangle farther away whose plane passes
-/// that near `p` is a sliver in the reference (the silhouette triangles of a tessellated
-/// sphere in a scene 1e4 from the origin): the passes may cull it, losing at most about a
-/// pixel along its edge.
+/// distance of the triangle itself (the viewpoint on the surface, to rounding) and, where
+/// `towards` is given (the eye's frame corners), on a side some ray of the frame heads to.
+/// Exactly in the plane, every ray meets it at `t = 0` and the reference sees nothing: no
+/// conflict. A triangle farther away whose plane passes that near `p` covers, in the reference
+/// as on the GPU, at most about a pixel along the line it projects to: the passes may cull it.
+/// Returns the distance from the plane, the culling distance, the object and the triangle's
+/// index in `world.triangles`.
 fn edge_on(
     world: &WorldGeometry,
     p: Vec3,
     keep: &dyn Fn(&ObjectInfo) -> bool,
     towards: &[Vec3],
     local: bool,
-) -> Option<(f64, f64, String)> {
+) -> Option<(f64, f64, String, usize)> {
     let pd = p.as_dvec3();
-    for (t, &o) in world.triangles.iter().zip(&world.triangle_object) {
+    for (i, (t, &o)) in world
+        .triangles
+        .iter()
+        .zip(&world.triangle_object)
+        .enumerate()
+    {
         let object = &world.objects[o as usize];
         if !keep(object) {
             continue;
         }
         let tri = t.map(|i| world.positions[i as usize]);
-        let (offset, bound, sin) = plane_offset(p, &tri, local);
+        let (offset, bound) = plane_offset(p, &tri, local);
         if offset.is_nan() || offset > 2.0 * bound {
             continue;
         }
@@ -188,11 +204,11 @@ fn edge_on(
         if side == 0.0 || n.length() == 0.0 {
             continue;
         }
-        let cull = 2.0 * bound / sin;
+        let cull = 2.0 * bound;
         let near = (closest_point_on_triangle(pd, a, b, c) - pd).length() <= cull;
         let seen = towards.is_empty() || towards.iter().any(|d| d.as_dvec3().dot(n) * side < 0.0);
         if near && seen {
-            return Some((side.abs() / n.length(), cull, object.name.clone()));
+            return Some((side.abs() / n.length(), cull, object.name.clone(), i));
         }
     }
     None
@@ -206,9 +222,8 @@ pub enum RangeError {
          {coordinates:.3e} from the world origin, but the nearest surface CMO {cmo} captures \
          (`{object}`) is {distance:.3e} from its centre; their ratio {ratio:.3e} exceeds 2^22 / \
          N = {limit:.0} for cube size N = {cube_size} (coordinates round to {rounding:.1e}, \
-         over 1/8 of the smallest texel footprint, {footprint:.1e}). Move the scene nearer \
-         the world origin, the CMO centres farther from that surface, or use a smaller \
-         --cube-size"
+         over 1/8 of the smallest texel footprint, {footprint:.1e}). {}",
+        precision_advice(*cmo, f64::from(*distance), f64::from(*coordinates), *limit)
     )]
     Precision {
         scene: String,
@@ -223,15 +238,17 @@ pub enum RangeError {
         footprint: f64,
     },
     #[error(
-        "scene `{scene}`: {viewpoint} lies {distance:.3e} from the plane of a triangle of \
-         `{object}`, nearer than f32 can tell from in the plane ({bound:.3e}); the GPU passes \
-         would not see that triangle where the reference does. Move it onto the plane or at \
-         least {bound:.3e} away from it"
+        "scene `{scene}`: {viewpoint} lies on a surface: {distance:.3e} from triangle \
+         {primitive} of `{object}` (corners {corners}), nearer than f32 can tell from its \
+         plane ({bound:.3e}); no pass in f32 can see that surface as the reference does. Move \
+         it off the surface by at least {bound:.3e} (or exactly onto its plane)"
     )]
     EdgeOn {
         scene: String,
         viewpoint: String,
         object: String,
+        primitive: u32,
+        corners: String,
         distance: f64,
         bound: f64,
     },
@@ -244,6 +261,22 @@ pub enum RangeError {
         extent: f64,
         max: f64,
     },
+}
+
+/// What a user can change to pass the precision check: the CMO centre off a surface it lies on
+/// (to rounding), else the scene's place, the centre's distance or the cube size.
+fn precision_advice(cmo: usize, distance: f64, coordinates: f64, limit: f64) -> String {
+    if distance <= f64::from(f32::EPSILON) * coordinates.max(1.0) {
+        format!(
+            "The centre lies on that surface: move CMO {cmo}'s centre off it (at least {:.1e} \
+             away at this cube size), or render with --method bvh, which reads no CMO",
+            coordinates / limit
+        )
+    } else {
+        "Move the scene nearer the world origin, the CMO centres farther from that surface, or \
+         use a smaller --cube-size"
+            .into()
+    }
 }
 
 impl FrameRanges {
@@ -307,18 +340,24 @@ impl FrameRanges {
         });
         let all = |_: &ObjectInfo| true;
         let edge_on = edge_on(&world, camera.eye, &all, &corners, false)
-            .map(|e| (format!("the eye of camera `{}`", camera.name), e))
+            .map(|e| (format!("the eye of camera `{}`", camera.name), false, e))
             .or_else(|| {
                 centres.iter().enumerate().find_map(|(k, &c)| {
                     edge_on(&world, c, &captured, &[], true)
-                        .map(|e| (format!("CMO {k}'s centre"), e))
+                        .map(|e| (format!("CMO {k}'s centre"), true, e))
                 })
             })
-            .map(|(viewpoint, (distance, bound, object))| EdgeOn {
-                viewpoint,
-                object,
-                distance,
-                bound,
+            .map(|(viewpoint, cmo, (distance, bound, object, i))| {
+                let o = &world.objects[world.triangle_object[i] as usize];
+                EdgeOn {
+                    viewpoint,
+                    cmo,
+                    object,
+                    primitive: i as u32 - o.first_triangle,
+                    corners: world.triangles[i].map(|v| world.positions[v as usize]),
+                    distance,
+                    bound,
+                }
             });
         FrameRanges {
             edge_on,
@@ -333,8 +372,10 @@ impl FrameRanges {
         }
     }
 
-    /// Refuses a scene f32 cannot hold (module docs), naming its extent and the numbers.
-    pub fn check(&self, scene: &Scene) -> Result<(), RangeError> {
+    /// Refuses a scene f32 cannot hold (module docs), naming its extent and the numbers. The
+    /// checks of the CMO centres (their precision, a centre on a surface) apply only where
+    /// `cmos`: to a method that captures CMOs; `bvh` and the reference never read them.
+    pub fn check(&self, scene: &Scene, cmos: bool) -> Result<(), RangeError> {
         let extent = f64::from(self.far).max(f64::from(self.coordinates));
         // NaN is refused too.
         if extent.is_nan() || extent > MAX_EXTENT {
@@ -344,7 +385,7 @@ impl FrameRanges {
                 max: MAX_EXTENT,
             });
         }
-        if let Some((k, c)) = &self.cmo {
+        if let Some((k, c)) = self.cmo.as_ref().filter(|_| cmos) {
             let n = f64::from(self.cube_size.max(1));
             let limit = PRECISION_BUDGET / n;
             let distance = f64::from(c.distance);
@@ -365,11 +406,14 @@ impl FrameRanges {
                 });
             }
         }
-        if let Some(e) = &self.edge_on {
+        if let Some(e) = self.edge_on.as_ref().filter(|e| cmos || !e.cmo) {
+            let [a, b, c] = e.corners;
             return Err(RangeError::EdgeOn {
                 scene: scene.name.clone(),
                 viewpoint: e.viewpoint.clone(),
                 object: e.object.clone(),
+                primitive: e.primitive,
+                corners: format!("{a}, {b}, {c}"),
                 distance: e.distance,
                 bound: e.bound,
             });

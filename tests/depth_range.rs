@@ -213,7 +213,7 @@ fn scene_spanning_1e_minus_3_to_1e5_matches_the_reference() {
     let camera = &scene.cameras[0];
     let ranges = FrameRanges::new(&scene, camera);
     eprintln!("{ranges:?}");
-    ranges.check(&scene).expect("f32 holds this scene");
+    ranges.check(&scene, true).expect("f32 holds this scene");
     // The near planes come from the geometry: the eye is 1.6 from the floor (near 0.73), the
     // CMO centre 1.0 from it (capture near 0.29); the old near plane was 1e-4 x far = 42.
     assert!(ranges.near > 0.5 && ranges.near < 1.5, "{ranges:?}");
@@ -342,7 +342,7 @@ fn a_scene_beyond_f32_precision_is_refused_and_would_be_wrong() {
 /// N = 1024 (limit 4096); with its mirror scaled by 1e6 it is refused.
 #[test]
 fn precision_bound_scales_with_cube_size_not_with_scene_scale() {
-    let check = |scene: &Scene| FrameRanges::new(scene, &scene.cameras[0]).check(scene);
+    let check = |scene: &Scene| FrameRanges::new(scene, &scene.cameras[0]).check(scene, true);
     for s in [1e-3f32, 1.0, 1e4] {
         let mut scene = builtin::sphere_room();
         for m in &mut scene.meshes {
@@ -369,12 +369,49 @@ fn precision_bound_scales_with_cube_size_not_with_scene_scale() {
     assert!(matches!(check(&scene), Err(RangeError::Precision { .. })));
 }
 
+/// The CMO centres' checks refuse only a method that captures CMOs: with its CMO centre on the
+/// room's floor (its nearest captured surface at distance 0), `sphere-room` is refused for
+/// `compute` (naming the CMO and the surface) and renders with `bvh`, byte for byte the `bvh`
+/// frame of the scene as built, which no CMO centre touches.
+#[test]
+fn cmo_checks_refuse_only_methods_that_capture() {
+    let mut scene = builtin::sphere_room();
+    let c = &mut scene.cameras[0];
+    (c.width, c.height) = (32, 24);
+    let built = scene.clone();
+    scene.cmo.placement = CmoPlacement::Explicit(vec![Vec3::new(0.0, 0.0, 1.0)]);
+    let ranges = FrameRanges::new(&scene, &scene.cameras[0]);
+    let err = ranges
+        .check(&scene, true)
+        .expect_err("a centre on the floor");
+    assert!(matches!(err, RangeError::Precision { cmo: 0, .. }), "{err}");
+    ranges.check(&scene, false).unwrap();
+    let ctx = gpu_context();
+    let camera = &scene.cameras[0];
+    let refused = match GpuRenderer::new(&ctx, &scene, camera, options(Method::Compute)) {
+        Ok(_) => panic!("compute reads the CMO"),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        refused.contains("CMO 0") && refused.contains("move CMO 0's centre off it"),
+        "{refused}"
+    );
+    let frame = |s: &Scene| {
+        let mut r = GpuRenderer::new(&ctx, s, &s.cameras[0], options(Method::Bvh)).unwrap();
+        r.render(&ctx).unwrap()
+    };
+    let (on_floor, as_built) = (frame(&scene), frame(&built));
+    assert!(on_floor.mirror_pixels() > 50);
+    assert_eq!(on_floor.colour, as_built.colour);
+    finish_gpu(ctx);
+}
+
 /// A scene whose squared distances overflow f32 is refused by its extent.
 #[test]
 fn an_extent_beyond_f32_range_is_refused() {
     let scene = span_scene(1e19);
     let r = FrameRanges::new(&scene, &scene.cameras[0]);
-    let err = r.check(&scene).expect_err("extent 1e19");
+    let err = r.check(&scene, true).expect_err("extent 1e19");
     let msg = err.to_string();
     assert!(matches!(err, RangeError::Extent { .. }), "{msg}");
     assert!(
@@ -384,7 +421,7 @@ fn an_extent_beyond_f32_range_is_refused() {
     // Negative: the same scene at 1e17 passes.
     let scene = span_scene(1e17);
     FrameRanges::new(&scene, &scene.cameras[0])
-        .check(&scene)
+        .check(&scene, true)
         .unwrap();
 }
 

@@ -111,7 +111,7 @@ fn eye_in_a_wall_plane_sees_what_the_reference_sees() {
         let scene = default_at(Vec3::new(0.0, 1.0, z));
         let camera = &scene.cameras[0];
         let ranges = FrameRanges::new(&scene, camera);
-        ranges.check(&scene).unwrap_or_else(|e| panic!("{e}"));
+        ranges.check(&scene, true).unwrap_or_else(|e| panic!("{e}"));
         let reference = reference::render(&scene, &Tracer::new(&scene), camera, 1);
         let methods: &[Method] = if z == -2e4 {
             &Method::GPU
@@ -149,7 +149,9 @@ fn a_frame_with_the_wall_forced_in_fails_the_check() {
     behind.cameras[0].eye.z = 4.001;
     let outside = &behind.cameras[0];
     let ranges = FrameRanges::new(&behind, outside);
-    ranges.check(&behind).unwrap_or_else(|e| panic!("{e}"));
+    ranges
+        .check(&behind, true)
+        .unwrap_or_else(|e| panic!("{e}"));
     let frame = render(&ctx, &behind, Method::Bvh, &ranges);
     let behind_reference = reference::render(&behind, &Tracer::new(&behind), outside, 1);
     assert_eq!(behind_reference.mirror_pixels(), 0);
@@ -185,7 +187,7 @@ fn an_eye_within_rounding_of_a_plane_is_refused() {
         let mut scene = default_at(target);
         scene.cameras[0].eye.z = z;
         let r = FrameRanges::new(&scene, &scene.cameras[0]);
-        r.check(&scene)
+        r.check(&scene, true)
     };
     let up = f32::from_bits(4f32.to_bits() + 1);
     let err = at(up).expect_err("eye 1 ulp outside the wall");
@@ -203,6 +205,100 @@ fn an_eye_within_rounding_of_a_plane_is_refused() {
     scene.cameras[0].eye.z = up;
     let r = reference::render(&scene, &Tracer::new(&scene), &scene.cameras[0], 1);
     assert_eq!(r.mirror_pixels(), 0);
+}
+
+/// `sphere-room` at 64x48 with a sliver on the floor in front of the mirror, as a trim of a
+/// real interior is: 3 long, 3e-7 wide (its corner angles below 1e-6), 3.2 from the eye.
+fn with_floor_sliver() -> Scene {
+    let mut scene = builtin::sphere_room();
+    let material = scene.meshes[0].parts[0].material;
+    let sliver = MeshPart {
+        name: "sliver".into(),
+        positions: vec![
+            Vec3::new(-1.5, 0.01, 1.0),
+            Vec3::new(1.5, 0.01, 1.0),
+            Vec3::new(0.2, 0.01, 1.0 + 3e-7),
+        ],
+        normals: vec![Vec3::Y; 3],
+        uvs: vec![],
+        triangles: vec![[0, 1, 2]],
+        material,
+    };
+    scene.meshes.push(MeshInstance {
+        name: "trim".into(),
+        parts: vec![sliver],
+        transform: Transform::default(),
+        reflector: false,
+    });
+    let c = &mut scene.cameras[0];
+    c.width = 64;
+    c.height = 48;
+    scene
+}
+
+/// The edge-on test as it was: the plane's normal from the unit edges at the vertex nearest
+/// `p`, of length the sine of that corner's angle, so that the bound on the distance was
+/// divided by a sliver's sine.
+fn sine_scaled_edge_on(p: Vec3, tri: &[Vec3; 3]) -> bool {
+    let v = tri.map(|v| v.as_dvec3());
+    let pd = p.as_dvec3();
+    let k = (0..3)
+        .min_by(|&a, &b| (v[a] - pd).length().total_cmp(&(v[b] - pd).length()))
+        .unwrap();
+    let (o, x, y) = (v[k], v[(k + 1) % 3], v[(k + 2) % 3]);
+    let m = (x - o).normalize().cross((y - o).normalize());
+    let s = pd - o;
+    let bound = cubetrace::camera::EYE_PLANE_BOUND * (pd.length() + o.length() + s.length());
+    s.dot(m).abs() <= bound
+}
+
+/// A sliver triangle 3.2 from the eye, in a plane 1.8 from it, is neither culled nor refused:
+/// `bvh` and `compute` see what the reference sees. The test as it was (the bound divided by
+/// the sliver's sine) put the eye in its plane and refused the scene. Negative: an eye 1e-7
+/// above the sliver itself (on the surface, to rounding), looking along the floor, is refused
+/// by every method, naming the triangle.
+#[test]
+fn a_sliver_in_view_is_drawn_not_refused() {
+    let scene = with_floor_sliver();
+    let camera = &scene.cameras[0];
+    let world = scene.world();
+    let tri = world
+        .triangles
+        .last()
+        .unwrap()
+        .map(|i| world.positions[i as usize]);
+    assert!(
+        sine_scaled_edge_on(camera.eye, &tri),
+        "the old test must have culled this sliver: the case is the hard one"
+    );
+    let (offset, bound) = cubetrace::camera::eye_plane_offset(camera.eye, &tri);
+    assert!(offset > 1.7 && bound < 1e-5, "{offset} {bound}");
+    let ranges = FrameRanges::new(&scene, camera);
+    ranges.check(&scene, true).unwrap_or_else(|e| panic!("{e}"));
+    let ctx = gpu_context();
+    let reference = reference::render(&scene, &Tracer::new(&scene), camera, 1);
+    for method in [Method::Bvh, Method::Compute] {
+        let frame = render(&ctx, &scene, method, &ranges);
+        let v = same_view(
+            &reference,
+            &frame.mask,
+            &frame.surface_position,
+            camera.eye,
+            100,
+        )
+        .unwrap_or_else(|e| panic!("{method:?}: {e}"));
+        eprintln!("{method:?}: {v:?}");
+    }
+    finish_gpu(ctx);
+    let mut on = with_floor_sliver();
+    on.cameras[0].eye = Vec3::new(0.2, 0.01 + 1e-7, 1.0 + 1e-7);
+    on.cameras[0].target = Vec3::new(0.0, 0.0, -3.0);
+    let err = FrameRanges::new(&on, &on.cameras[0])
+        .check(&on, false)
+        .expect_err("an eye on the sliver");
+    let msg = err.to_string();
+    assert!(matches!(err, RangeError::EdgeOn { .. }), "{msg}");
+    assert!(msg.contains("triangle 0 of `trim/sliver`"), "{msg}");
 }
 
 /// The `sphere-room` built-in at 64x48 with one more triangle, just above the floor, from
@@ -247,7 +343,7 @@ fn a_far_vertex_leaves_the_near_scene_in_view() {
         let camera = &scene.cameras[0];
         let ranges = FrameRanges::new(&scene, camera);
         ranges
-            .check(&scene)
+            .check(&scene, true)
             .unwrap_or_else(|e| panic!("{x:e}: {e}"));
         eprintln!("{x:e}: {ranges:?}");
         let reference = reference::render(&scene, &Tracer::new(&scene), camera, 1);
@@ -292,12 +388,12 @@ fn edge_on_test_on_the_host() {
     let (mut on, mut off) = (0, 0);
     for t in &world.triangles {
         let tri = t.map(|i| world.positions[i as usize]);
-        let (offset, bound, _) = cubetrace::camera::eye_plane_offset(eye, &tri);
+        let (offset, bound) = cubetrace::camera::eye_plane_offset(eye, &tri);
         let in_wall = tri.iter().all(|v| v.z == 4.0);
         if in_wall {
             assert!(offset <= bound, "{tri:?}");
             on += 1;
-            let (offset, bound, _) =
+            let (offset, bound) =
                 cubetrace::camera::eye_plane_offset(eye - Vec3::new(0.0, 0.0, 1e-3), &tri);
             assert!(offset > bound, "{tri:?}");
         } else if offset <= bound {
@@ -383,7 +479,7 @@ fn cmo_centre_in_a_plane_captures_what_the_reference_sees() {
     let camera = &scene.cameras[0];
     let ranges = FrameRanges::new(&scene, camera);
     let refusal = ranges
-        .check(&scene)
+        .check(&scene, true)
         .expect_err("a CMO centre in a wall was accepted");
     let message = refusal.to_string();
     assert!(
@@ -422,7 +518,7 @@ fn builtins_cull_only_the_default_front_wall() {
                 .iter()
                 .filter(|t| {
                     let tri = t.map(|i| world.positions[i as usize]);
-                    let (offset, bound, _) = if local {
+                    let (offset, bound) = if local {
                         cubetrace::camera::eye_plane_offset(Vec3::ZERO, &tri.map(|v| v - p))
                     } else {
                         cubetrace::camera::eye_plane_offset(p, &tri)
@@ -444,6 +540,6 @@ fn builtins_cull_only_the_default_front_wall() {
             "{name}"
         );
         let ranges = FrameRanges::new(&scene, &scene.cameras[0]);
-        ranges.check(&scene).unwrap_or_else(|e| panic!("{e}"));
+        ranges.check(&scene, true).unwrap_or_else(|e| panic!("{e}"));
     }
 }

@@ -301,16 +301,65 @@ fn mtl_errors_name_the_line() {
         let e = load(QUAD_OBJ.as_bytes(), Some(mtl)).unwrap_err();
         assert!(e.contains(place) && e.contains(what), "{e}");
     }
-    // A missing texture names the MTL, the material and the file.
-    let e = load(
-        QUAD_OBJ.as_bytes(),
-        Some(b"newmtl grey\nmap_Kd -s 1 1 1 missing.png\n"),
-    )
-    .unwrap_err();
+}
+
+/// Exporters' material files as they come: a missing texture (an absolute path from another
+/// machine), a missing material library and a texture that does not decode are warnings that
+/// name the file and line, and the material keeps its `Kd` (grey without a library); a Windows
+/// path and a JPEG texture load; Blender's negative `Ns` loads. Negative: the same texture
+/// named correctly is used.
+#[test]
+fn exporters_material_files_load_with_warnings() {
+    let quad = |mtl_name: &str| {
+        format!("mtllib {mtl_name}\n{QUAD}vt 0 0\nusemtl wood\nf 1/1 2/1 3/1 4/1\n")
+    };
+    let textured = |dir: &Path, map: &str| {
+        let mtl = format!("newmtl wood\nNs -1.960784\nKd 0.5 0.25 0.125\nmap_Kd {map}\n");
+        let path = scene_with(dir, quad("lib.mtl").as_bytes(), Some(mtl.as_bytes()));
+        scene::load_scene_file_report(&path).unwrap_or_else(|e| panic!("{map}: {e}"))
+    };
+    let material = |s: &Scene| s.materials[s.meshes[1].parts[0].material as usize].clone();
+    let lines = |r: &LoadReport| {
+        let w: Vec<String> = r.warnings.iter().map(|w| w.to_string()).collect();
+        w.join("\n")
+    };
+    // Missing: a warning naming the MTL, its line 4 and the file; Kd kept, no texture.
+    let dir = tempfile::tempdir().unwrap();
+    let (scene, report) = textured(dir.path(), "E:\\textures\\wood.jpg");
+    let m = material(&scene);
+    assert_eq!((m.texture, m.diffuse), (None, Vec3::new(0.5, 0.25, 0.125)));
+    assert_eq!(report.count(WarningKind::MissingTexture), 1);
+    let text = lines(&report);
     assert!(
-        e.contains("lib.mtl") && e.contains("'grey'") && e.contains("missing.png"),
-        "{e}"
+        text.contains("lib.mtl") && text.contains("line 4") && text.contains("wood.jpg"),
+        "{text}"
     );
+    assert_eq!(report.count(WarningKind::SpecularPower), 1);
+    // The same Windows path with the file beside the MTL, as a JPEG: loaded.
+    let img = image::RgbImage::from_fn(4, 2, |x, _| image::Rgb([60 * x as u8, 128, 255]));
+    img.save(dir.path().join("wood.jpg")).unwrap();
+    let (scene, report) = textured(dir.path(), "E:\\textures\\wood.jpg");
+    let t = &scene.textures[material(&scene).texture.expect("the JPEG loads") as usize];
+    assert_eq!((t.width, t.height), (4, 2));
+    assert_eq!(report.count(WarningKind::MissingTexture), 0);
+    let (scene, _) = textured(dir.path(), "sub\\..\\wood.jpg");
+    assert!(material(&scene).texture.is_some());
+    // A texture that does not decode: a warning, Kd kept.
+    std::fs::write(dir.path().join("bad.png"), b"not a png").unwrap();
+    let (scene, report) = textured(dir.path(), "bad.png");
+    assert_eq!(material(&scene).texture, None);
+    assert!(lines(&report).contains("bad.png"), "{report:?}");
+    // A missing library: a warning naming the OBJ and its line 1; the faces are grey.
+    let dir = tempfile::tempdir().unwrap();
+    let path = scene_with(dir.path(), quad("gone.mtl").as_bytes(), None);
+    let (scene, report) = scene::load_scene_file_report(&path).unwrap();
+    assert_eq!(report.count(WarningKind::MissingMaterialLibrary), 1);
+    let text = lines(&report);
+    assert!(
+        text.contains("mesh.obj") && text.contains("line 1") && text.contains("gone.mtl"),
+        "{text}"
+    );
+    assert_eq!(material(&scene).diffuse, Vec3::splat(0.8));
 }
 
 #[test]
@@ -363,6 +412,20 @@ fn scene_toml(extra: &str, tail: &str) -> Result<(Scene, LoadReport), String> {
         tail,
     );
     scene::load_scene_file_report(&path).map_err(|e| e.to_string())
+}
+
+/// A camera whose `up` lies within rounding of its view direction is refused, naming the
+/// field and the angle; a view 1e-3 radians from `up` loads (negative).
+#[test]
+fn an_up_along_the_view_is_refused_with_its_numbers() {
+    let e = scene_toml("", "up = [0, 1e-6, -1]\n").unwrap_err();
+    assert!(
+        e.contains("camera[0].up") && e.contains("degrees from the view direction"),
+        "{e}"
+    );
+    let e = scene_toml("", "up = [0, 0, 1]\n").unwrap_err();
+    assert!(e.contains("camera[0].up"), "{e}");
+    scene_toml("", "up = [0, 1e-3, -1]\n").unwrap_or_else(|e| panic!("{e}"));
 }
 
 #[test]

@@ -57,10 +57,19 @@ pub struct RenderArgs {
     /// Also render the reference and print the error of the method against it, over the mirror
     /// pixels of either image: mask mismatch (a mirror pixel of one image only, counted both
     /// ways), unresolved, wrong surface, angular error; PSNR over mirror pixels and over the
-    /// whole frame. GPU methods only: with --method reference it is refused (the reference
+    /// whole frame. In a sequence each frame is compared with the reference's same frame. On a
+    /// scene with a glossy reflector the reference is a converged Monte Carlo frame of
+    /// --compare-spp samples (its own half-spp PSNR stated), and the line gives the PSNR over
+    /// mirror pixels. GPU methods only: with --method reference it is refused (the reference
     /// would be compared with itself).
     #[arg(long)]
     pub compare: bool,
+    /// --compare on a glossy scene: samples per pixel of the converged reference (the CPU
+    /// reference's Monte Carlo integral of the lobe; it costs about that many 1-spp reference
+    /// frames).
+    #[arg(long, default_value_t = 256, requires = "compare",
+          value_parser = clap::value_parser!(u32).range(2..=4096))]
+    pub compare_spp: u32,
     /// Split every triangle of the non-reflector objects into four, N times, before rendering
     /// (with any method, so the reference sees the same geometry): the surfaces stay, the vertex
     /// count grows 4^N-fold (at most 5: about 1000 times). The reflection-point method reflects
@@ -483,7 +492,9 @@ fn render_gpu(
     );
     crate::bench::check_validation(ctx)?;
     if args.compare {
-        compare_with_reference(scene, camera, args.bounces, renderer.film(), &rendered);
+        for line in compare_with_reference(args, scene, camera, renderer.film(), &rendered) {
+            println!("{line}");
+        }
     }
     Ok(())
 }
@@ -597,26 +608,36 @@ fn spp_note(spp: u32) -> String {
 }
 
 /// `--compare`: renders the reference with the same bounces and film (the same sample offsets
-/// and filter) and prints the error line of the filtered frames (colours filtered, the rest of
+/// and filter) and gives the error line of the filtered frames (colours filtered, the rest of
 /// the AOV sample's) and, at more than one sample, the mean of each sample's own comparison (a
-/// warning where the mirror masks disagree).
-fn compare_with_reference(
+/// warning where the mirror masks disagree). On a glossy scene, the PSNR against a converged
+/// reference instead ([`glossy_comparison`]). The lines, for the caller to print.
+pub(super) fn compare_with_reference(
+    args: &RenderArgs,
     scene: &Scene,
     camera: &Camera,
-    bounces: u32,
     film: crate::film::FilmSettings,
     rendered: &RenderedFrame,
-) {
+) -> Vec<String> {
     let Some(traced) = rendered.traced() else {
-        return;
+        return Vec::new();
     };
     let Some(frame) = &rendered.gpu else {
-        return;
+        return Vec::new();
     };
     let tracer = reference::Tracer::new(scene);
+    if !scene.glossy_reflectors().is_empty() {
+        return vec![glossy_comparison(
+            scene,
+            &tracer,
+            camera,
+            args.compare_spp,
+            rendered,
+        )];
+    }
     let keep = film.spp > 1;
     let (refr, ref_samples) =
-        frame_renderer::reference_frame(scene, &tracer, camera, bounces, film, keep);
+        frame_renderer::reference_frame(scene, &tracer, camera, args.bounces, film, keep);
     // The GPU records hold each path's last hit (the first reflected one for one bounce).
     let refr = refr.with_last_hits(&tracer);
     let centres = scene.cmo_centres();
@@ -627,7 +648,7 @@ fn compare_with_reference(
         &centres,
         scene.cmo.resolution,
     );
-    println!("{}", compare_summary(&r));
+    let mut lines = vec![compare_summary(&r)];
     if r.mask_mismatch > 0 {
         log::warn!(
             "the mirror masks disagree on {} pixels: {} mirror pixels of the reference are not mirror pixels here, {} mirror pixels here are not in the reference",
@@ -647,8 +668,33 @@ fn compare_with_reference(
                 Some(metrics::compare(&rf, t, p, &centres, scene.cmo.resolution))
             })
             .collect();
-        println!("{}", per_sample_summary(&per));
+        lines.push(per_sample_summary(&per));
     }
+    lines
+}
+
+/// The `--compare` line of a glossy scene. A reflected ray's hit is one sample of the lobe, so
+/// hits cannot be compared; the colour can, against the lobe's integral: the reference at
+/// `spp` samples at the film's offsets (`bench::glossy::reference_frame`, bit for bit
+/// `cubetrace reference --spp N`), whose own accuracy is the PSNR of its even-numbered samples
+/// against all of them (an unbiased estimate's error falls as 1/sqrt(spp), so the full frame is
+/// about 3 dB closer to the truth than that). PSNR over the reference's mirror pixels.
+fn glossy_comparison(
+    scene: &Scene,
+    tracer: &reference::Tracer,
+    camera: &Camera,
+    spp: u32,
+    rendered: &RenderedFrame,
+) -> String {
+    let (truth, half) = crate::bench::glossy::reference_frame(scene, tracer, camera, spp, true);
+    let psnr = crate::bench::glossy::psnr_over(rendered.colour(), &truth.colour, &truth.mask);
+    let half_psnr = crate::bench::glossy::psnr_over(&half, &truth.colour, &truth.mask);
+    format!(
+        "against a converged reference ({spp} spp; its half-spp PSNR {half_psnr:.2} dB, glossy \
+         reflectors: {}): {} mirror pixels, PSNR {psnr:.2} dB over mirror pixels",
+        scene.glossy_reflectors().join(", "),
+        truth.mirror_pixels(),
+    )
 }
 
 /// The `--compare` line of the samples one by one (more than one sample per pixel), each

@@ -99,12 +99,6 @@ struct FrameJob {
 fn run_sequence(args: RenderArgs, given: Option<Vec<i64>>) -> Result<()> {
     let start = Instant::now();
     args.check_method()?;
-    if args.compare {
-        anyhow::bail!(
-            "--compare compares one still frame (a scene without [animation], no --frames); \
-             leave it out of a sequence"
-        );
-    }
     let base = load_base(&args)?;
     let frames = match given {
         Some(f) => f,
@@ -156,6 +150,14 @@ fn run_sequence(args: RenderArgs, given: Option<Vec<i64>>) -> Result<()> {
             if frame.captured { "ran" } else { "reused" }
         );
         bar.suspend(|| println!("{}", summary(&frame, &job.path, job.frame)));
+        if args.compare {
+            let lines = render::compare_with_reference(&args, &scene, &camera, r.film(), &frame);
+            bar.suspend(|| {
+                for line in lines {
+                    println!("frame {}: {line}", job.frame);
+                }
+            });
+        }
         bar.inc(spp);
     }
     bar.finish_and_clear();
@@ -222,11 +224,10 @@ fn frame_scene(args: &RenderArgs, base: &Scene, frame: i64) -> Result<(Scene, Ca
     let mut camera = scene.camera(args.camera.as_deref())?.clone();
     (camera.width, camera.height) =
         render::frame_size((camera.width, camera.height), args.width, args.height);
-    let view = camera.target - camera.eye;
-    if view.length_squared() == 0.0 || view.cross(camera.up).length_squared() == 0.0 {
+    if let Some(why) = camera.view_error() {
         anyhow::bail!(
-            "frame {frame}: camera '{}': eye, target and up do not span a view there (eye = \
-             target, or up along the view); check the scene's [animation] camera keys",
+            "frame {frame}: camera '{}': eye, target and up do not span a view there: {why}; \
+             check the scene's [animation] camera keys",
             camera.name
         );
     }

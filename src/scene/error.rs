@@ -28,13 +28,6 @@ pub enum SceneError {
     },
     #[error("{}: {reason}", path.display())]
     Mtl { path: PathBuf, reason: String },
-    #[error("{}: material '{material}': texture {} cannot be loaded: {reason}", mtl.display(), texture.display())]
-    Texture {
-        mtl: PathBuf,
-        material: String,
-        texture: PathBuf,
-        reason: String,
-    },
     #[error("unknown scene '{name}'; built-in scenes: {} (or give a path to a .toml scene file)", known.join(", "))]
     UnknownScene { name: String, known: Vec<String> },
 }

@@ -624,17 +624,10 @@ fn camera(src: &Source, i: usize, c: &CameraFile) -> Result<Camera, SceneError> 
     if !(fov_y_deg > 0.0 && fov_y_deg < 180.0) {
         return Err(src.invalid(&c.fov_y_deg, &f("fov_y_deg"), "must be in (0, 180) degrees"));
     }
-    if (target - eye).length_squared() == 0.0 || (target - eye).cross(up).length_squared() == 0.0 {
-        return Err(src.invalid(
-            &c.eye,
-            &f("eye"),
-            "eye, target and up must span a view (eye != target, up not along the view)",
-        ));
-    }
     let [width, height] = *c.resolution.get_ref();
     check_resolution(width, height)
         .map_err(|reason| src.invalid(&c.resolution, &f("resolution"), reason))?;
-    Ok(Camera {
+    let camera = Camera {
         name: c
             .name
             .as_ref()
@@ -646,7 +639,15 @@ fn camera(src: &Source, i: usize, c: &CameraFile) -> Result<Camera, SceneError> 
         width,
         height,
         jitter: glam::Vec2::ZERO,
-    })
+    };
+    match camera.view_error() {
+        Some(why) => Err(src.invalid(
+            &c.up,
+            &f("up"),
+            format!("eye, target and up must span a view: {why}"),
+        )),
+        None => Ok(camera),
+    }
 }
 
 /// The `[cmo]` table: face size, then centres or count (and how a count is placed).

@@ -34,14 +34,21 @@
 //!   one more, empty-bodied library so that `tobj` splits parts at every change of name, as the
 //!   file does.)
 //! - MTL: `newmtl`, `Kd` (1 value = grey, or 3), `map_Kd` (options such as `-s` are skipped
-//!   with a warning) and `Ns` (the Phong specular power: one finite number, at least 0; a
-//!   reflector uses it only where its scene file says `specular_power = "mtl"`); other
-//!   statements are ignored. Errors name the MTL file and line.
+//!   with a warning; any format the `image` crate reads: PNG, JPEG, BMP, TGA, GIF, TIFF, WebP,
+//!   PNM) and `Ns` (the Phong specular power; a reflector uses it only where its scene file says
+//!   `specular_power = "mtl"`: a value below 0, as Blender 2.79 writes, is taken as 0, and one
+//!   that is not a number is ignored, each with a warning); other statements are ignored.
+//!   Errors name the MTL file and line.
+//! - Files named by `mtllib` and `map_Kd` are looked for as written, then with Windows
+//!   separators read as `/`, then by their file name alone beside the naming file
+//!   ([`find_beside`]: an exporter's absolute `E:\...` path). One that is still missing, or a
+//!   texture that cannot be decoded, is a warning naming the file and line: the material keeps
+//!   its `Kd` (a missing library's materials are grey).
 //!
 //! Every error names the file and the line: numbers that do not parse or are not finite (NaN,
 //! inf), a vertex coordinate beyond 2^60 ([`MAX_COORDINATE`]: scale a mesh in its transform
-//! instead), a `Kd` outside `[0, 65504]` ([`MAX_COLOUR`]), face indices out of range, a
-//! missing material library or texture. Errors are found in
+//! instead), a `Kd` outside `[0, 65504]` ([`MAX_COLOUR`]), face indices out of range. Errors
+//! are found in
 //! this order: the OBJ pass, the MTL passes, then polygons (so of a bad index and a
 //! self-intersecting polygon, the index is named even when it comes later in the file).
 //!
@@ -234,6 +241,52 @@ fn corner(a: &str, counts: [usize; 3], path: &Path, line: usize) -> Result<Corne
 /// their Newell normal. Errs (with the reason) on a polygon that no triangulation covers
 /// exactly: a self-intersecting one.
 pub(crate) fn triangulate(points: &[Vec3]) -> Result<Vec<[usize; 3]>, String> {
+    if points.len() <= 3 {
+        return triangulate_turning(points);
+    }
+    // Corners on the line of their neighbours (CAD and Blender n-gons hold them) would make
+    // triangles of aspect up to 1e16; the polygon is the same without them.
+    let kept = turning_corners(points);
+    if kept.len() < 3 {
+        return Ok(Vec::new());
+    }
+    let sub: Vec<Vec3> = kept.iter().map(|&i| points[i]).collect();
+    Ok(triangulate_turning(&sub)?
+        .into_iter()
+        .map(|t| t.map(|k| kept[k]))
+        .collect())
+}
+
+/// A corner whose two edges make an angle with sine at most this with one line adds no area
+/// that f32 keeps to its polygon: [`turning_corners`] leaves it out.
+const COLLINEAR_SINE: f64 = 1e-5;
+
+/// The corners of a polygon that turn, in order: each corner whose edges to its kept
+/// neighbours lie on one line within [`COLLINEAR_SINE`] (a point on an edge, a repeated
+/// corner, a zero-area spike) is left out, again until none is (or fewer than 3 are kept). The
+/// surface moves by at most that sine times the edges' length, far below a pixel.
+fn turning_corners(points: &[Vec3]) -> Vec<usize> {
+    let mut kept: Vec<usize> = (0..points.len()).collect();
+    let mut i = 0;
+    let mut since_removal = 0;
+    while kept.len() >= 3 && since_removal < kept.len() {
+        let n = kept.len();
+        let [a, b, c] = [(i + n - 1) % n, i, (i + 1) % n].map(|k| points[kept[k]].as_dvec3());
+        let (e1, e2) = (b - a, c - b);
+        if e1.cross(e2).length() <= COLLINEAR_SINE * e1.length() * e2.length() {
+            kept.remove(i);
+            since_removal = 0;
+            i = i.checked_sub(1).unwrap_or(kept.len().saturating_sub(1));
+        } else {
+            since_removal += 1;
+            i = (i + 1) % n;
+        }
+    }
+    kept
+}
+
+/// [`triangulate`] of a polygon whose corners all turn (or of at most 3 corners).
+fn triangulate_turning(points: &[Vec3]) -> Result<Vec<[usize; 3]>, String> {
     let n = points.len();
     let fan = || (1..n.saturating_sub(1)).map(|i| [0, i, i + 1]).collect();
     if n <= 3 {
@@ -411,7 +464,7 @@ fn validate_obj<'a>(
             ),
             "o" | "g" => obj.name_part(key, args),
             "usemtl" => obj.use_material(args, path, line)?,
-            "mtllib" => obj.add_libraries(args, dir, path, line)?,
+            "mtllib" => obj.add_libraries(args, dir, path, line, report)?,
             _ => {}
         }
     }
@@ -499,39 +552,63 @@ impl<'a> ObjPass<'a> {
         Ok(())
     }
 
-    /// An `mtllib` statement: every library it names (relative to `dir`) must exist; each is
-    /// kept once, with the line that first names it.
+    /// An `mtllib` statement: each library it names (relative to `dir`, [`find_beside`]) is
+    /// kept once, with the line that first names it; a missing one is a warning.
     fn add_libraries(
         &mut self,
         args: &str,
         dir: &Path,
         path: &Path,
         line: usize,
+        report: &mut LoadReport,
     ) -> Result<(), SceneError> {
         if args.is_empty() {
             return Err(obj_err(path, line, "mtllib needs a file name"));
         }
         // One name with spaces, or several names.
-        let files: Vec<&str> = if dir.join(args).is_file() {
+        let files: Vec<&str> = if find_beside(dir, args).is_some() {
             vec![args]
         } else {
             args.split_whitespace().collect()
         };
         for f in files {
-            let mtl = dir.join(f);
-            if !mtl.is_file() {
-                return Err(obj_err(
+            let Some(mtl) = find_beside(dir, f) else {
+                report.warn(
+                    WarningKind::MissingMaterialLibrary,
                     path,
-                    line,
-                    format!("material library '{}' not found", mtl.display()),
-                ));
-            }
+                    Some(line),
+                    format!(
+                        "material library '{}' not found: its materials are grey",
+                        dir.join(f).display()
+                    ),
+                );
+                continue;
+            };
             if !self.libraries.iter().any(|(p, _)| *p == mtl) {
                 self.libraries.push((mtl, line));
             }
         }
         Ok(())
     }
+}
+
+/// The file a material library or texture statement names, as exporters write it, relative to
+/// `dir` (the folder of the file that names it): the name as written, with Windows separators
+/// (`\`) read as `/`; failing that (an absolute path from the exporter's machine, such as
+/// `E:\textures\wood.jpg`), the file name alone in `dir`. `None` where neither exists.
+pub(crate) fn find_beside(dir: &Path, name: &str) -> Option<PathBuf> {
+    let written = dir.join(name);
+    if written.is_file() {
+        return Some(written);
+    }
+    let slashed = name.replace('\\', "/");
+    let as_path = dir.join(&slashed);
+    if as_path.is_file() {
+        return Some(as_path);
+    }
+    let file = slashed.rsplit('/').next().filter(|f| !f.is_empty())?;
+    let alone = dir.join(file);
+    alone.is_file().then_some(alone)
 }
 
 /// Writes the normalised OBJ text `tobj` reads: `mtllib 0` to `mtllib {libraries - 1}` first
@@ -638,7 +715,7 @@ fn validate_mtl<'a>(
             return Err(obj_err(path, line, format!("{key} before any newmtl")));
         };
         if key == "Ns" {
-            current.shininess = Some(specular_exponent(args, path, line)?);
+            current.shininess = specular_exponent(args, current.name, path, line, report);
         } else if key == "Kd" {
             let first = args.split_whitespace().next().unwrap_or("");
             if first == "spectral" || first == "xyz" {
@@ -709,24 +786,81 @@ fn validate_mtl<'a>(
             if file.is_empty() {
                 return Err(obj_err(path, line, "map_Kd needs a file name"));
             }
-            current.map = Some(file);
+            let dir = path.parent().unwrap_or(Path::new("."));
+            current.map = match find_beside(dir, &file) {
+                Some(found) => Some(
+                    found
+                        .strip_prefix(dir)
+                        .map_or(found.clone(), Path::to_path_buf)
+                        .to_string_lossy()
+                        .into_owned(),
+                ),
+                None => {
+                    report.warn(
+                        WarningKind::MissingTexture,
+                        path,
+                        Some(line),
+                        format!(
+                            "texture '{file}' of material '{}' not found beside {}: the \
+                             material uses its Kd",
+                            current.name,
+                            path.display()
+                        ),
+                    );
+                    None
+                }
+            };
         }
     }
     Ok(out)
 }
 
-/// An MTL `Ns` statement's value: one finite number, at least 0 (a Phong specular power).
-fn specular_exponent<'a>(args: &'a str, path: &Path, line: usize) -> Result<&'a str, SceneError> {
-    let what = "specular power (Ns)";
-    let v = numbers(args, 1, what, path, line)?;
-    match v[..] {
-        [a] if a.parse::<f32>().is_ok_and(|x| x >= 0.0) => Ok(a),
-        [a] => Err(obj_err(path, line, format!("{what} is {a}, below 0"))),
-        _ => Err(obj_err(
-            path,
-            line,
-            format!("{what} takes 1 number, found {}", v.len()),
-        )),
+/// An MTL `Ns` statement's value (a Phong specular power, which a reflector reads only where
+/// its scene file says `specular_power = "mtl"`): one finite number, at least 0. Exporters
+/// write others (Blender 2.79: `Ns -1.960784`), so a value below 0 is taken as 0 and one that
+/// is not a number is ignored, each with a warning naming the line; neither refuses the file.
+fn specular_exponent<'a>(
+    args: &'a str,
+    material: &str,
+    path: &Path,
+    line: usize,
+    report: &mut LoadReport,
+) -> Option<&'a str> {
+    let mut words = args.split_whitespace();
+    let value = match (words.next(), words.next()) {
+        (Some(a), None) => a
+            .parse::<f32>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .map(|x| (a, x)),
+        _ => None,
+    };
+    match value {
+        Some((a, x)) if x >= 0.0 => Some(a),
+        Some((a, _)) => {
+            report.warn(
+                WarningKind::SpecularPower,
+                path,
+                Some(line),
+                format!(
+                    "material '{material}': specular power (Ns) {a} is below 0, taken as 0 \
+                     (read only by a reflector with specular_power = \"mtl\")"
+                ),
+            );
+            Some("0")
+        }
+        None => {
+            report.warn(
+                WarningKind::SpecularPower,
+                path,
+                Some(line),
+                format!(
+                    "material '{material}': specular power (Ns) '{args}' is not one finite \
+                     number, ignored"
+                ),
+            );
+            None
+        }
     }
 }
 
@@ -1031,7 +1165,7 @@ pub(crate) fn load_obj_file(path: &Path, report: &mut LoadReport) -> Result<Load
     if materials.len() < defined {
         return Err(tobj_failed(path, tobj::LoadError::GenericFailure));
     }
-    load_materials(&materials, &origin, &mut out)?;
+    load_materials(&materials, &origin, &mut out, report);
 
     let mut dropped = 0;
     let mut default_material = None;
@@ -1108,7 +1242,8 @@ fn load_materials(
     materials: &[tobj::Material],
     origin: &[&Path],
     out: &mut LoadedObj,
-) -> Result<(), SceneError> {
+    report: &mut LoadReport,
+) {
     let mut texture_ids: HashMap<PathBuf, u32> = HashMap::new();
     for (m, mtl_path) in materials.iter().zip(origin) {
         let texture = match &m.diffuse_texture {
@@ -1118,16 +1253,28 @@ fn load_materials(
                 if let Some(&id) = texture_ids.get(&tex_path) {
                     Some(id)
                 } else {
-                    let tex = load_texture(&tex_path).map_err(|reason| SceneError::Texture {
-                        mtl: mtl_path.to_path_buf(),
-                        material: m.name.clone(),
-                        texture: tex_path.clone(),
-                        reason,
-                    })?;
-                    out.textures.push(tex);
-                    let id = (out.textures.len() - 1) as u32;
-                    texture_ids.insert(tex_path, id);
-                    Some(id)
+                    match load_texture(&tex_path) {
+                        Ok(tex) => {
+                            out.textures.push(tex);
+                            let id = (out.textures.len() - 1) as u32;
+                            texture_ids.insert(tex_path, id);
+                            Some(id)
+                        }
+                        Err(reason) => {
+                            report.warn(
+                                WarningKind::MissingTexture,
+                                mtl_path,
+                                None,
+                                format!(
+                                    "material '{}': texture {} cannot be loaded ({reason}): \
+                                     the material uses its Kd",
+                                    m.name,
+                                    tex_path.display()
+                                ),
+                            );
+                            None
+                        }
+                    }
                 }
             }
         };
@@ -1139,7 +1286,6 @@ fn load_materials(
             specular_power: m.shininess,
         });
     }
-    Ok(())
 }
 
 /// The warning for a part whose `usemtl` (at `line`) names no defined material.
@@ -1345,6 +1491,74 @@ mod tests {
             wound &= n.z >= 0.0;
         }
         (area, wound)
+    }
+
+    /// The largest ratio of a triangle's longest edge to its height on that edge.
+    fn worst_aspect(points: &[Vec3], tris: &[[usize; 3]]) -> f64 {
+        tris.iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|k| points[k].as_dvec3());
+                let long = (b - a).length().max((c - b).length()).max((a - c).length());
+                let area2 = (b - a).cross(c - a).length();
+                long * long / area2
+            })
+            .fold(0.0, f64::max)
+    }
+
+    /// An L-shaped n-gon as CAD exporters write them: corners on its edges, nearly collinear
+    /// (off the line by f32 rounding of printed decimals) and one repeated. Those corners are
+    /// left out before ear clipping: the triangles cover the L's area with no sliver. Negative:
+    /// a convex polygon with such a corner, fanned as written, makes a triangle of aspect
+    /// above 1e7.
+    #[test]
+    fn collinear_corners_are_left_out_before_ear_clipping() {
+        let l: Vec<Vec3> = [
+            (0., 0.),
+            (0.7, 0.0),
+            (1.3, 1e-7),
+            (2., 0.),
+            (2., 0.4),
+            (2., 1.),
+            (1., 1.),
+            (1., 1.),
+            (1., 1.5),
+            (1., 2.),
+            (0.5, 2.),
+            (0., 2.),
+            (0., 0.9),
+        ]
+        .map(|(x, y)| Vec3::new(x, y, 0.0))
+        .to_vec();
+        for shift in 0..l.len() {
+            let mut p = l.clone();
+            p.rotate_left(shift);
+            let tris = triangulate(&p).unwrap();
+            let (area, wound) = cover(&p, &tris);
+            assert!((area - 3.0).abs() < 1e-5, "shift {shift}: area {area}");
+            assert!(wound, "shift {shift}");
+            assert_eq!(tris.len(), 4, "shift {shift}: {tris:?}");
+            let aspect = worst_aspect(&p, &tris);
+            assert!(aspect < 10.0, "shift {shift}: aspect {aspect}");
+        }
+        let kept = turning_corners(&l);
+        assert_eq!(kept, vec![0, 3, 5, 7, 9, 11], "{kept:?}");
+        // A convex quad with a corner on its first edge, off the line by 1e-7 (convex, so
+        // fanned from corner 0).
+        let quad: Vec<Vec3> = [(0., 0.), (1., 0.), (2., 1e-7), (2., 1.), (0., 1.)]
+            .map(|(x, y)| Vec3::new(x, y, 0.0))
+            .to_vec();
+        let tris = triangulate(&quad).unwrap();
+        assert_eq!(tris.len(), 2);
+        assert!(worst_aspect(&quad, &tris) < 10.0);
+        let as_written = triangulate_turning(&quad).unwrap();
+        let w = worst_aspect(&quad, &as_written);
+        assert!(w > 1e7, "{w} {as_written:?}");
+        // All corners on one line: no triangle.
+        let line: Vec<Vec3> = (0..5).map(|k| Vec3::new(k as f32, 0.0, 0.0)).collect();
+        assert!(triangulate(&line).unwrap().is_empty());
+        // A sliver triangle as written is kept: it is geometry.
+        let sliver = [Vec3::ZERO, Vec3::X, Vec3::new(0.5, 1e-6, 0.0)];
+        assert_eq!(triangulate(&sliver).unwrap(), vec![[0, 1, 2]]);
     }
 
     #[test]

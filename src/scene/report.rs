@@ -30,6 +30,13 @@ pub enum WarningKind {
     UnsupportedColour,
     /// `map_Kd` options (`-s`, `-o`, ...), which are ignored.
     IgnoredMapOptions,
+    /// An MTL `Ns` below 0 (Blender writes them), taken as 0, or one that is not a number,
+    /// ignored.
+    SpecularPower,
+    /// A `map_Kd` texture that is missing or cannot be decoded; the material keeps its `Kd`.
+    MissingTexture,
+    /// An `mtllib` that names no file; its materials are undefined (grey).
+    MissingMaterialLibrary,
     /// Triangles with a repeated vertex or zero area, dropped.
     DegenerateTriangles,
     /// A mesh whose OBJ holds no triangles.

@@ -326,6 +326,16 @@ fn check_method(options: &RenderOptions) -> VkResult<&'static dyn MethodSpec> {
     Ok(spec)
 }
 
+/// [`FrameRanges::check`] for the method of `options`: the CMO centres' checks only where it
+/// captures CMOs ([`Needs::capture`]).
+fn check_ranges(ranges: &FrameRanges, scene: &Scene, options: &RenderOptions) -> VkResult<()> {
+    let cmos = check_method(options)?.needs(&options.trace).capture;
+    ranges.check(scene, cmos).map_err(|e| VkError::Usage {
+        what: "depth range".into(),
+        detail: e.to_string(),
+    })
+}
+
 /// Depth range and ray length for a scene seen by a camera: `(near, far, t_hi)` of
 /// [`FrameRanges`] (the G-buffer's near plane, the scene's far extent from the eye, which is no
 /// clip plane, and the ray length), without the precision check.
@@ -658,10 +668,7 @@ impl GpuRenderer {
         options: RenderOptions,
     ) -> VkResult<Self> {
         let ranges = FrameRanges::new(scene, camera);
-        ranges.check(scene).map_err(|e| VkError::Usage {
-            what: "depth range".into(),
-            detail: e.to_string(),
-        })?;
+        check_ranges(&ranges, scene, &options)?;
         Self::with_ranges(ctx, scene, camera, options, &ranges)
     }
 
@@ -690,10 +697,7 @@ impl GpuRenderer {
         lists: &PackedLists,
     ) -> VkResult<Self> {
         let ranges = FrameRanges::new(scene, camera);
-        ranges.check(scene).map_err(|e| VkError::Usage {
-            what: "depth range".into(),
-            detail: e.to_string(),
-        })?;
+        check_ranges(&ranges, scene, &options)?;
         Self::create(ctx, scene, camera, options, &ranges, Some(lists))
     }
 
@@ -743,10 +747,7 @@ impl GpuRenderer {
         };
         if unjittered(camera) != unjittered(&self.camera) {
             let ranges = FrameRanges::new(scene, camera);
-            ranges.check(scene).map_err(|e| VkError::Usage {
-                what: "depth range".into(),
-                detail: e.to_string(),
-            })?;
+            check_ranges(&ranges, scene, &self.options)?;
             self.ranges = ranges;
         }
         self.apply_camera(ctx, scene, camera, gbuffer)
@@ -879,10 +880,7 @@ impl GpuRenderer {
             ));
         }
         let ranges = FrameRanges::new(scene, camera);
-        ranges.check(scene).map_err(|e| VkError::Usage {
-            what: "depth range".into(),
-            detail: e.to_string(),
-        })?;
+        check_ranges(&ranges, scene, &self.options)?;
         let centres = scene.cmo_centres();
         if centres.is_empty() {
             return Err(VkError::Usage {
