@@ -87,6 +87,17 @@ impl Camera {
         1.0 / (1.0 + corner * corner).sqrt()
     }
 
+    /// The camera in coordinates relative to `anchor` ([`crate::scene::Scene::rebased`]): its
+    /// eye and target moved, each subtraction in f64 rounded once.
+    pub fn rebased(&self, anchor: Vec3) -> Camera {
+        let local = |p: Vec3| (p.as_dvec3() - anchor.as_dvec3()).as_vec3();
+        Camera {
+            eye: local(self.eye),
+            target: local(self.target),
+            ..self.clone()
+        }
+    }
+
     /// Why `eye`, `target` and `up` fix no camera, with the numbers; `None` where they do. The
     /// camera's roll is the direction of `up` across the view: where `up` lies within
     /// [`MIN_UP_SINE`] of the view direction, f32 rounding decides it, and the G-buffer's view

@@ -295,25 +295,28 @@ fn wrong_when_moved(ctx: &GpuContext, d: Vec3) -> f64 {
     metrics::compare(&reference, &frame.traced(), args.0, args.1, args.2).wrong_surface
 }
 
-/// sphere-room moved 1.24e5 from the origin: mirror points up to 1.257e5 from it, the nearest
-/// captured surface (the floor) 1.2 from the CMO centre, a ratio of 1.0e5 against 2^22 / 256 =
-/// 16384. Refused with the numbers. Forced through without the check, the frame is measurably
-/// worse than the control (0.9% wrong surface against 0.15%, asserted twice the control's), and
-/// moved ten times as far (ratio 1.0e6) it is noise (32% measured, asserted over 10%). Control:
-/// moved 1.24e4 (ratio 1.0e4) it is accepted and renders within 1% wrong surface. (Before the
-/// G-buffer recomputed its start points on the pixel-centre ray, the rasteriser's interpolated
-/// positions made the 1.24e5 frame 26% wrong.)
+/// sphere-room moved 1.24e5 from the origin: in world coordinates its mirror points lie up to
+/// 1.257e5 from the origin and the nearest captured surface 1.2 from the CMO centre, a ratio
+/// of 1.0e5 against 2^22 / 256 = 16384, beyond f32 (the range check on those coordinates
+/// refuses it with the numbers). The renderer works relative to the scene's anchor
+/// (`ranges::anchor`), where the same geometry lies within a few units of the origin: it is
+/// accepted, and its frame is as close to the reference as the control's (moved 1.24e4,
+/// within 1% wrong surface). Negative: forced through in world coordinates (no anchor, no
+/// check) the frame is measurably worse (0.9% wrong surface against 0.15%, asserted twice the
+/// anchored frame's), and moved ten times as far it is noise (32% measured, asserted over 10%).
+/// The reference starts its reflected rays at f32 world points too, so far out its own rounding
+/// is part of what is measured (1.24e5: 0.004).
 #[test]
-fn a_scene_beyond_f32_precision_is_refused_and_would_be_wrong() {
+fn a_scene_far_from_the_origin_renders_relative_to_its_anchor() {
     let ctx = gpu_context();
     let d = Vec3::new(1e5, 3e4, -7e4);
     let scene = moved(builtin::sphere_room(), d);
     let camera = &scene.cameras[0];
-    let err = match GpuRenderer::new(&ctx, &scene, camera, options(Method::Compute)) {
-        Ok(_) => panic!("a scene 1.24e5 from the origin was accepted"),
-        Err(e) => e.to_string(),
-    };
-    eprintln!("{err}");
+    let world = FrameRanges::new(&scene, camera);
+    let err = world
+        .check(&scene, true)
+        .expect_err("beyond f32 in world coordinates");
+    let err = err.to_string();
     for needle in [
         "beyond f32 precision",
         "1.257e5",
@@ -323,16 +326,32 @@ fn a_scene_beyond_f32_precision_is_refused_and_would_be_wrong() {
     ] {
         assert!(err.contains(needle), "`{needle}` missing from: {err}");
     }
+    let anchor = cubetrace::ranges::anchor(&scene);
+    assert!((anchor - d).length() < 10.0, "{anchor}");
+    let wrong_anchored = |scene: &Scene| {
+        let camera = &scene.cameras[0];
+        let reference = reference::render(scene, &Tracer::new(scene), camera, 1);
+        let mut r = GpuRenderer::new(&ctx, scene, camera, options(Method::Fragment))
+            .expect("accepted relative to its anchor");
+        let frame = r.render(&ctx).unwrap();
+        let (p, c) = (&frame.surface_position, scene.cmo_centres());
+        metrics::compare(&reference, &frame.traced(), p, &c, scene.cmo.resolution).wrong_surface
+    };
+    let anchored = wrong_anchored(&scene);
     let forced = wrong_when_moved(&ctx, d);
     let far = wrong_when_moved(&ctx, d * 10.0);
-    let near = moved(builtin::sphere_room(), d / 10.0);
-    GpuRenderer::new(&ctx, &near, &near.cameras[0], options(Method::Compute))
-        .expect("1.24e4 from the origin is accepted");
-    let control = wrong_when_moved(&ctx, d / 10.0);
-    eprintln!("wrong surface: moved 1.24e6 {far}, 1.24e5 {forced}, 1.24e4 {control}");
-    assert!(far > 0.10, "{far}");
-    assert!(forced > 2.0 * control, "{forced} against {control}");
+    let control = wrong_anchored(&moved(builtin::sphere_room(), d / 10.0));
+    eprintln!(
+        "wrong surface: anchored {anchored}; forced in world coordinates: moved 1.24e6 {far}, \
+         1.24e5 {forced}; control 1.24e4 {control}"
+    );
+    assert!(anchored < 0.01, "{anchored}");
     assert!(control < 0.01, "{control}");
+    assert!(
+        forced > 2.0 * anchored.max(control),
+        "{forced} against {anchored}"
+    );
+    assert!(far > 0.10, "{far}");
     finish_gpu(ctx);
 }
 
@@ -527,15 +546,17 @@ fn eye_on_a_surface_falls_back_to_a_tiny_near_plane() {
     finish_gpu(ctx);
 }
 
-/// Through the binary: a scene file 1e6 from the origin is refused with the numbers, exit 1,
-/// no image.
+/// Through the binary: a mirror 1e6 from the origin on a ground that reaches back to the
+/// origin (so no anchor brings its coordinates near: the scene's own size is 2e6) is refused
+/// with the numbers, exit 1, no image.
 #[test]
 fn cli_refuses_a_scene_beyond_f32_precision() {
     let dir = tempfile::tempdir().unwrap();
-    // An octahedron mirror of radius 1 and a ground quad, both around (1e6, 0, 0).
+    // An octahedron mirror of radius 1 around (1e6, 2, 0) and a ground quad from x = -1e6 to
+    // 1e6 + 5 (in object space around x = 1e6: x from -2e6 to 5).
     let obj = "o mirror\nv 1 0 0\nv -1 0 0\nv 0 1 0\nv 0 -1 0\nv 0 0 1\nv 0 0 -1\n\
                f 1 3 5\nf 3 2 5\nf 2 4 5\nf 4 1 5\nf 3 1 6\nf 2 3 6\nf 4 2 6\nf 1 4 6\n";
-    let ground = "o ground\nv -5 0 -5\nv 5 0 -5\nv 5 0 5\nv -5 0 5\nf 1 3 2\nf 1 4 3\n";
+    let ground = "o ground\nv -2000000 0 -5\nv 5 0 -5\nv 5 0 5\nv -2000000 0 5\nf 1 3 2\nf 1 4 3\n";
     std::fs::write(dir.path().join("mirror.obj"), obj).unwrap();
     std::fs::write(dir.path().join("ground.obj"), ground).unwrap();
     let toml = r#"

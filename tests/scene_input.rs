@@ -141,12 +141,35 @@ fn concave_polygons_are_ear_clipped() {
         assert!(!(m.x > 1.0 && m.y > 1.0), "triangle {t:?} in the notch");
         assert!((b - a).cross(c - a).z > 0.0);
     }
-    // Negative: the same corners in an order that crosses itself are refused by line.
+    // The same corners in an order that crosses itself load as their fan from the first
+    // corner (as tobj and Blender do), with a warning naming the line.
     let bad =
         "v 2 1 0\nv 1 1 0\nv 1 2 0\nv 0 2 0\nv 0 0 0\nv 2 0 0\nf 1 2 3 4 5 6\nf 1 4 2 5 3 6\n";
-    let e = load(bad.as_bytes(), None).unwrap_err();
-    assert!(e.contains("mesh.obj:8"), "{e}");
-    assert!(e.contains("crosses itself"), "{e}");
+    let (scene, report) = load_ok(bad.as_bytes(), None);
+    assert_eq!(report.count(WarningKind::SelfCrossingPolygon), 1);
+    let w = report
+        .warnings
+        .iter()
+        .find(|w| w.kind == WarningKind::SelfCrossingPolygon)
+        .unwrap();
+    assert_eq!(w.lines, vec![8]);
+    assert!(w.detail.contains("crosses itself"), "{}", w.detail);
+    let p = &scene.meshes[1].parts[0];
+    let fan: Vec<[u32; 3]> = [[0u32, 3, 1], [0, 1, 4], [0, 4, 2], [0, 2, 5]].to_vec();
+    let last: Vec<[u32; 3]> = p.triangles[p.triangles.len() - 4..]
+        .iter()
+        .map(|t| t.map(|i| p.positions[i as usize]))
+        .map(|c| {
+            let corner = |v: Vec3| {
+                let all = [(2., 1.), (1., 1.), (1., 2.), (0., 2.), (0., 0.), (2., 0.)];
+                all.iter()
+                    .position(|&(x, y)| v == Vec3::new(x, y, 0.0))
+                    .unwrap() as u32
+            };
+            c.map(corner)
+        })
+        .collect();
+    assert_eq!(last, fan);
 }
 
 /// A 2x1 RGBA PNG, red then green.

@@ -371,6 +371,42 @@ pub enum CmoPlacement {
 }
 
 impl Scene {
+    /// The scene in coordinates relative to `anchor` (`crate::ranges::anchor`), for the GPU:
+    /// every mesh baked into its world placement (its world positions, as [`Scene::world`]
+    /// rounds them, minus `anchor`, rounded once more; identity transforms), and the cameras'
+    /// points and explicit CMO centres moved alike; no animation (the GPU renders one frame of
+    /// it). Where `anchor` lies within a factor 2 of every coordinate on each axis (a scene far
+    /// from the world origin, [`crate::ranges`]), each subtraction is exact: the same geometry
+    /// as the reference's, in coordinates f32 resolves finely.
+    pub fn rebased(&self, anchor: Vec3) -> Scene {
+        let a = anchor.as_dvec3();
+        let local = |p: Vec3| (p.as_dvec3() - a).as_vec3();
+        let mut s = Scene {
+            animation: Default::default(),
+            ..self.clone()
+        };
+        for mesh in &mut s.meshes {
+            let m = mesh.transform.matrix();
+            let nm = mesh.transform.normal_matrix();
+            for part in &mut mesh.parts {
+                for p in &mut part.positions {
+                    *p = local(m.transform_point3(*p));
+                }
+                for n in &mut part.normals {
+                    *n = (nm * *n).normalize_or_zero();
+                }
+            }
+            mesh.transform = Transform::default();
+        }
+        for c in &mut s.cameras {
+            *c = c.rebased(anchor);
+        }
+        if let CmoPlacement::Explicit(centres) = &mut s.cmo.placement {
+            centres.iter_mut().for_each(|c| *c = local(*c));
+        }
+        s
+    }
+
     /// Flattens all meshes into world space (see [`WorldGeometry`]).
     pub fn world(&self) -> WorldGeometry {
         WorldGeometry::build(self)

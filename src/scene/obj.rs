@@ -22,8 +22,10 @@
 //!   skipped with a warning that counts them and names their lines.
 //! - Polygons: convex ones are fanned from their first vertex (the triangles `tobj`'s own
 //!   `triangulate` makes); others are ear-clipped (`earcut`) in the plane of their Newell
-//!   normal, and a polygon whose triangles do not cover exactly its area (self-intersecting) is
-//!   refused, naming the line.
+//!   normal; a polygon whose triangles do not cover exactly its area (self-intersecting) is
+//!   fanned from its first corner, as `tobj` and Blender do, with a warning naming the line.
+//!   Corners on the line of their neighbours are left out first (CAD and Blender n-gons hold
+//!   them; ear clipping them made triangles of aspect up to 1e16).
 //! - Texture coordinates and normals per face corner: a face without `vt` in a part whose other
 //!   faces have them gets uv (0, 0) at its corners (with a warning), a corner without `vn` gets
 //!   the computed normal. (`tobj` drops a part's texture coordinates or normals when some
@@ -963,12 +965,14 @@ fn pick<T: Copy>(v: &[T], kept: &[usize]) -> Vec<T> {
     }
 }
 
-/// Triangulates the polygons of `tobj`'s models (see [`triangulate`]), naming a polygon's
-/// source line when it is refused. Models without faces are left out.
+/// Triangulates the polygons of `tobj`'s models (see [`triangulate`]); one that crosses itself
+/// is fanned from its first corner with a warning naming its source line. Models without faces
+/// are left out.
 fn triangulate_models(
     obj: &ObjPass,
     models: Vec<tobj::Model>,
     path: &Path,
+    report: &mut LoadReport,
 ) -> Result<Vec<RawPart>, SceneError> {
     let mismatch = || tobj_failed(path, tobj::LoadError::GenericFailure);
     let mut parts = obj.parts.iter().enumerate().filter(|(_, p)| p.faces > 0);
@@ -1006,7 +1010,20 @@ fn triangulate_models(
             start += n as usize;
             let line = *lines.next().ok_or_else(mismatch)?;
             let points: Vec<Vec3> = face.iter().map(|&i| positions[i as usize]).collect();
-            let tris = triangulate(&points).map_err(|r| obj_err(path, line, r))?;
+            let tris = triangulate(&points).unwrap_or_else(|reason| {
+                report.warn(
+                    WarningKind::SelfCrossingPolygon,
+                    path,
+                    Some(line),
+                    format!(
+                        "polygons that cross themselves fanned from their first corner, as \
+                         tobj and Blender do (the fan may cover area outside the outline): \
+                         {}",
+                        reason.split(" (").next().unwrap_or(&reason)
+                    ),
+                );
+                (1..n as usize - 1).map(|i| [0, i, i + 1]).collect()
+            });
             triangles.extend(tris.into_iter().map(|t| t.map(|k| face[k])));
         }
         let uvs: Vec<Vec2> = m
@@ -1137,7 +1154,7 @@ pub(crate) fn parse_obj_str(text: &str, path: &Path) -> Result<(Vec<MeshPart>, u
     let (models, _) = parse_with_tobj(&obj, &[], path)?;
     let mut dropped = 0;
     let mut parts = Vec::new();
-    for raw in triangulate_models(&obj, models, path)? {
+    for raw in triangulate_models(&obj, models, path, &mut report)? {
         let (part, d) = finish_part(&obj.parts[raw.part], raw, 0, path, &mut report);
         dropped += d;
         if !part.triangles.is_empty() {
@@ -1153,7 +1170,7 @@ pub(crate) fn load_obj_file(path: &Path, report: &mut LoadReport) -> Result<Load
     let obj = validate_obj(&bytes, path, report)?;
     let (mtl_texts, origin) = read_libraries(&obj, report)?;
     let (models, materials) = parse_with_tobj(&obj, &mtl_texts, path)?;
-    let raw_parts = triangulate_models(&obj, models, path)?;
+    let raw_parts = triangulate_models(&obj, models, path, report)?;
 
     let mut out = LoadedObj {
         parts: Vec::new(),

@@ -37,6 +37,8 @@ pub enum WarningKind {
     MissingTexture,
     /// An `mtllib` that names no file; its materials are undefined (grey).
     MissingMaterialLibrary,
+    /// An OBJ polygon that crosses itself, fanned from its first corner.
+    SelfCrossingPolygon,
     /// Triangles with a repeated vertex or zero area, dropped.
     DegenerateTriangles,
     /// A mesh whose OBJ holds no triangles.

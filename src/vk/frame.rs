@@ -94,6 +94,7 @@
 //! - Accuracy per built-in scene against the reference, with stated bounds on unresolved and
 //!   wrong-surface shares and PSNR; frames perturbed in known ways must fail them.
 use std::any::Any;
+use std::borrow::Cow;
 
 use ash::vk;
 use glam::{Vec3, Vec4};
@@ -383,6 +384,14 @@ pub struct GpuRenderer {
     /// part in them, so a camera that differs only there keeps them).
     camera: Camera,
     ranges: FrameRanges,
+    /// The origin of the GPU's coordinates ([`crate::ranges::anchor`], fixed at creation): the
+    /// scene, the cameras and the CMO centres are uploaded relative to it
+    /// ([`Scene::rebased`]), and the positions read back are moved back by it. Zero for a scene
+    /// near the world origin.
+    anchor: Vec3,
+    /// The camera as the caller gave it ([`GpuRenderer::camera`]); `camera` is it relative to
+    /// `anchor`.
+    world_camera: Camera,
     /// Whether the CMO data holds the capture of the current inputs (the scene and
     /// `ranges.capture_near`): [`GpuRenderer::render`] records the CMO stages only where not.
     cmo_valid: bool,
@@ -667,13 +676,17 @@ impl GpuRenderer {
         camera: &Camera,
         options: RenderOptions,
     ) -> VkResult<Self> {
-        let ranges = FrameRanges::new(scene, camera);
-        check_ranges(&ranges, scene, &options)?;
-        Self::with_ranges(ctx, scene, camera, options, &ranges)
+        let anchor = crate::ranges::anchor(scene);
+        let (local, local_camera) = rebased(anchor, scene, camera);
+        let ranges = FrameRanges::new(&local, &local_camera);
+        check_ranges(&ranges, &local, &options)?;
+        let mut r = Self::create(ctx, &local, &local_camera, options, &ranges, None)?;
+        (r.anchor, r.world_camera) = (anchor, camera.clone());
+        Ok(r)
     }
 
-    /// [`GpuRenderer::new`] with the given ranges and no precision check: for tests that show
-    /// what other ranges do.
+    /// [`GpuRenderer::new`] with the given ranges and no precision check, in world coordinates
+    /// (no [`crate::ranges::anchor`]): for tests that show what other ranges do.
     pub fn with_ranges(
         ctx: &GpuContext,
         scene: &Scene,
@@ -745,12 +758,19 @@ impl GpuRenderer {
             jitter: glam::Vec2::ZERO,
             ..c.clone()
         };
+        let world_camera = camera;
+        let camera = &camera.rebased(self.anchor);
         if unjittered(camera) != unjittered(&self.camera) {
-            let ranges = FrameRanges::new(scene, camera);
-            check_ranges(&ranges, scene, &self.options)?;
+            let (local, _) = rebased(self.anchor, scene, world_camera);
+            let ranges = FrameRanges::new(&local, camera);
+            check_ranges(&ranges, &local, &self.options)?;
             self.ranges = ranges;
         }
-        self.apply_camera(ctx, scene, camera, gbuffer)
+        // The frame params read the scene's background and reflector shape only, which the
+        // anchor does not move.
+        self.apply_camera(ctx, scene, camera, gbuffer)?;
+        self.world_camera = world_camera.clone();
+        Ok(())
     }
 
     /// The camera part of [`GpuRenderer::set_camera`] with `self.ranges` and `self.data` those
@@ -855,9 +875,11 @@ impl GpuRenderer {
         camera: &Camera,
         stale: Option<StaleUpdate>,
     ) -> VkResult<Option<String>> {
-        match self.geometry_plan(scene, camera)? {
+        let (local, local_camera) = rebased(self.anchor, scene, camera);
+        match self.geometry_plan(&local, &local_camera)? {
             Ok(plan) => {
-                self.write_geometry(ctx, scene, camera, plan, stale)?;
+                self.write_geometry(ctx, &local, &local_camera, plan, stale)?;
+                self.world_camera = camera.clone();
                 Ok(None)
             }
             Err(why) => Ok(Some(why)),
@@ -996,9 +1018,9 @@ impl GpuRenderer {
         self.capture.is_some()
     }
 
-    /// The camera the passes are set for.
+    /// The camera the passes are set for (as the caller gave it, in world coordinates).
     pub fn camera(&self) -> &Camera {
-        &self.camera
+        &self.world_camera
     }
 
     fn create(
@@ -1113,6 +1135,8 @@ impl GpuRenderer {
             data,
             camera: camera.clone(),
             ranges: ranges.clone(),
+            anchor: Vec3::ZERO,
+            world_camera: camera.clone(),
             cmo_valid: false,
             sample: 0,
             check_triangles,
@@ -1307,6 +1331,17 @@ impl GpuRenderer {
             _ => None,
         };
         let n = (self.width * self.height) as usize;
+        let mut records = records[..n].to_vec();
+        let anchor = self.anchor;
+        let world = |p: Vec3| (p.as_dvec3() + anchor.as_dvec3()).as_vec3();
+        if anchor != Vec3::ZERO {
+            for r in &mut records {
+                r.origin = world(Vec3::from_array(r.origin)).to_array();
+                if r.status == RECORD_HIT {
+                    r.point = world(Vec3::from_array(r.point)).to_array();
+                }
+            }
+        }
         Ok(GpuFrame {
             width: self.width,
             height: self.height,
@@ -1319,10 +1354,14 @@ impl GpuRenderer {
                 .iter()
                 .map(|p| {
                     let p = Vec4::from_array(*p);
-                    if p.w < 0.0 { Vec3::NAN } else { p.truncate() }
+                    if p.w < 0.0 {
+                        Vec3::NAN
+                    } else {
+                        world(p.truncate())
+                    }
                 })
                 .collect(),
-            records: records[..n].to_vec(),
+            records,
             pass_times,
             bvh,
             lists,
@@ -1330,6 +1369,23 @@ impl GpuRenderer {
             search: stats.search,
             captured: false,
         })
+    }
+}
+
+/// `scene` and `camera` relative to `anchor` ([`Scene::rebased`]), borrowed as they are where
+/// it is the world origin.
+fn rebased<'a>(
+    anchor: Vec3,
+    scene: &'a Scene,
+    camera: &'a Camera,
+) -> (Cow<'a, Scene>, Cow<'a, Camera>) {
+    if anchor == Vec3::ZERO {
+        (Cow::Borrowed(scene), Cow::Borrowed(camera))
+    } else {
+        (
+            Cow::Owned(scene.rebased(anchor)),
+            Cow::Owned(camera.rebased(anchor)),
+        )
     }
 }
 
