@@ -382,16 +382,16 @@ pub struct GpuRenderer {
     data: GpuSceneData,
     /// The camera the passes are set for, and its ranges ([`FrameRanges`]; the jitter plays no
     /// part in them, so a camera that differs only there keeps them).
-    camera: Camera,
+    local_camera: Camera,
     ranges: FrameRanges,
     /// The origin of the GPU's coordinates ([`crate::ranges::anchor`], fixed at creation): the
     /// scene, the cameras and the CMO centres are uploaded relative to it
     /// ([`Scene::rebased`]), and the positions read back are moved back by it. Zero for a scene
     /// near the world origin.
     anchor: Vec3,
-    /// The camera as the caller gave it ([`GpuRenderer::camera`]); `camera` is it relative to
-    /// `anchor`.
-    world_camera: Camera,
+    /// The camera as the caller gave it ([`GpuRenderer::camera`]); `local_camera` is it
+    /// relative to `anchor`.
+    camera: Camera,
     /// Whether the CMO data holds the capture of the current inputs (the scene and
     /// `ranges.capture_near`): [`GpuRenderer::render`] records the CMO stages only where not.
     cmo_valid: bool,
@@ -681,7 +681,7 @@ impl GpuRenderer {
         let ranges = FrameRanges::new(&local, &local_camera);
         check_ranges(&ranges, &local, &options)?;
         let mut r = Self::create(ctx, &local, &local_camera, options, &ranges, None)?;
-        (r.anchor, r.world_camera) = (anchor, camera.clone());
+        (r.anchor, r.camera) = (anchor, camera.clone());
         Ok(r)
     }
 
@@ -760,7 +760,7 @@ impl GpuRenderer {
         };
         let world_camera = camera;
         let camera = &camera.rebased(self.anchor);
-        if unjittered(camera) != unjittered(&self.camera) {
+        if unjittered(camera) != unjittered(&self.local_camera) {
             let (local, _) = rebased(self.anchor, scene, world_camera);
             let ranges = FrameRanges::new(&local, camera);
             check_ranges(&ranges, &local, &self.options)?;
@@ -769,7 +769,7 @@ impl GpuRenderer {
         // The frame params read the scene's background and reflector shape only, which the
         // anchor does not move.
         self.apply_camera(ctx, scene, camera, gbuffer)?;
-        self.world_camera = world_camera.clone();
+        self.camera = world_camera.clone();
         Ok(())
     }
 
@@ -809,7 +809,7 @@ impl GpuRenderer {
             mirror_rect: mirror_rect(&self.data, camera, near),
         };
         self.method.set_camera(&inputs)?;
-        self.camera = camera.clone();
+        self.local_camera = camera.clone();
         Ok(())
     }
 
@@ -821,7 +821,7 @@ impl GpuRenderer {
             return Ok(());
         }
         self.sample = key;
-        let params = frame_params(scene, &self.camera, &self.options, self.ranges.t_hi);
+        let params = frame_params(scene, &self.local_camera, &self.options, self.ranges.t_hi);
         ctx.write_buffer(
             &self.params,
             &[FrameParams {
@@ -879,7 +879,7 @@ impl GpuRenderer {
         match self.geometry_plan(&local, &local_camera)? {
             Ok(plan) => {
                 self.write_geometry(ctx, &local, &local_camera, plan, stale)?;
-                self.world_camera = camera.clone();
+                self.camera = camera.clone();
                 Ok(None)
             }
             Err(why) => Ok(Some(why)),
@@ -1020,7 +1020,7 @@ impl GpuRenderer {
 
     /// The camera the passes are set for (as the caller gave it, in world coordinates).
     pub fn camera(&self) -> &Camera {
-        &self.world_camera
+        &self.camera
     }
 
     fn create(
@@ -1133,10 +1133,10 @@ impl GpuRenderer {
             records,
             timestamps,
             data,
-            camera: camera.clone(),
+            local_camera: camera.clone(),
             ranges: ranges.clone(),
             anchor: Vec3::ZERO,
-            world_camera: camera.clone(),
+            camera: camera.clone(),
             cmo_valid: false,
             sample: 0,
             check_triangles,
