@@ -404,6 +404,13 @@ pub const METHOD_OPTIONS: &[MethodOption] = &[
         why: " (it would compare the reference with itself)",
     },
     MethodOption {
+        flag: "--compare-spp",
+        applies: |m, _| m.is_gpu(),
+        condition: "",
+        methods_text: "the GPU methods (with --compare)",
+        why: " (it sets --compare's converged reference)",
+    },
+    MethodOption {
         flag: "--device",
         applies: |m, _| m.is_gpu(),
         condition: "",

@@ -436,6 +436,99 @@ fn compare_reports_both_masks_and_the_whole_frame() {
     assert!(!line.contains("inf") && !line.contains("NaN"), "{line}");
 }
 
+/// `--compare` on a sequence compares every frame with the reference's same frame: `bvh` (exact)
+/// is 0.00 % in error on each, and each frame's line is the one that frame gets rendered alone.
+/// Negative: the frames' lines differ from each other (the camera moves), so a line compared
+/// against another frame's reference would not match.
+#[test]
+fn compare_works_on_every_frame_of_a_sequence() {
+    let dir = tempfile::tempdir().unwrap();
+    let base = [
+        "render",
+        "sphere-room-orbit",
+        "--method",
+        "bvh",
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--compare",
+    ];
+    let lines = |frames: &str| {
+        let mut args = base.to_vec();
+        args.extend(["--frames", frames, "-o", "f-##.png"]);
+        let o = run(&args, dir.path());
+        assert_eq!(o.code, Some(0), "{}", o.stderr);
+        o.stdout
+            .lines()
+            .filter(|l| l.contains(": against the reference"))
+            .map(str::to_string)
+            .collect::<Vec<_>>()
+    };
+    let both = lines("7,13");
+    assert_eq!(both.len(), 2, "{both:?}");
+    assert!(both[0].starts_with("frame 7: ") && both[1].starts_with("frame 13: "));
+    for l in &both {
+        assert!(l.contains("0.00% in error"), "{l}");
+    }
+    assert_eq!(lines("13"), vec![both[1].clone()]);
+    let strip = |l: &str| l.split_once(": ").unwrap().1.to_string();
+    assert_ne!(strip(&both[0]), strip(&both[1]));
+}
+
+/// On a glossy scene `--compare` measures against a converged reference, states its spp and
+/// its own half-spp PSNR, and separates the methods: the cone-traced `compute` frame scores
+/// well above a 1-spp `bvh` frame (one lobe sample: noise), and the reference's own half is
+/// closer still. Negative: with a 2-spp reference (far from converged) the same `compute` frame
+/// scores lower than against 64 spp.
+#[test]
+fn compare_on_a_glossy_scene_uses_a_converged_reference() {
+    let dir = tempfile::tempdir().unwrap();
+    let psnr = |method: &str, spp: &str| {
+        let o = run(
+            &[
+                "render",
+                "sphere-room-glossy",
+                "--method",
+                method,
+                "--width",
+                "40",
+                "--height",
+                "30",
+                "--compare",
+                "--compare-spp",
+                spp,
+                "-o",
+                "g.png",
+            ],
+            dir.path(),
+        );
+        assert_eq!(o.code, Some(0), "{}", o.stderr);
+        let line = o
+            .stdout
+            .lines()
+            .find(|l| l.starts_with("against a converged reference"))
+            .unwrap_or_else(|| panic!("no glossy comparison in: {}", o.stdout))
+            .to_string();
+        assert!(
+            line.contains(&format!("({spp} spp; its half-spp PSNR")),
+            "{line}"
+        );
+        let number = |after: &str| -> f64 {
+            let rest = line.split(after).nth(1).unwrap_or_else(|| panic!("{line}"));
+            rest.split_whitespace().next().unwrap().parse().unwrap()
+        };
+        (number("PSNR "), number("pixels, PSNR "))
+    };
+    let (half, compute) = psnr("compute", "64");
+    let (_, bvh) = psnr("bvh", "64");
+    eprintln!("half-spp {half} dB, compute {compute} dB, bvh 1 spp {bvh} dB");
+    assert!(compute > bvh + 5.0, "{compute} against {bvh}");
+    assert!(half > compute, "{half} against {compute}");
+    let (_, rough) = psnr("compute", "2");
+    assert!(rough + 3.0 < compute, "{rough} against {compute}");
+}
+
 /// At `--spp N > 1`, `--compare` adds the per-sample line, with the error counts summed over the
 /// sample-pixels (a share would round a handful of them to 0.00 %); at 1 spp there is no such
 /// line.

@@ -6,7 +6,7 @@
 //! Every method name and the output folder are checked before the device is created; the
 //! harness itself checks the scenes and the memory before anything renders.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 
@@ -21,6 +21,10 @@ pub struct BenchArgs {
     /// Scenes: built-in names or .toml paths, comma-separated [default: every built-in still scene].
     #[arg(long, value_delimiter = ',')]
     pub scenes: Vec<String>,
+    /// Also every scene of a corpus folder: each `DIR/NAME/scene.toml`, in name order (the
+    /// project's public real-scene corpus is `tests/scenes` in its source tree).
+    #[arg(long, value_name = "DIR")]
+    pub corpus: Option<PathBuf>,
     /// Methods: reference, envmap, fragment, compute, ssr, reflection-point, bvh (comma-separated);
     /// fragment runs its parameter grid (criteria x sampling x acceleration x steps) unless
     /// --quick, and its bounded criterion always; compute the exact and the bounded criterion
@@ -204,7 +208,10 @@ pub fn check_options(args: &BenchArgs, methods: &[Method]) -> Result<()> {
 }
 
 /// `cubetrace bench`.
-pub fn bench(args: BenchArgs) -> Result<()> {
+pub fn bench(mut args: BenchArgs) -> Result<()> {
+    if let Some(dir) = &args.corpus {
+        args.scenes.extend(corpus_scenes(dir)?);
+    }
     let methods = parse_methods(&args.methods)?;
     check_options(&args, &methods)?;
     let glossy = glossy_config(&args, &methods)?;
@@ -235,6 +242,30 @@ pub fn bench(args: BenchArgs) -> Result<()> {
     }
     println!("heat maps (if any) in {}", args.out.join("heat").display());
     Ok(())
+}
+
+/// `--corpus DIR`: the `scene.toml` of every folder of `DIR`, in name order (folders without
+/// one are skipped); none at all is an error naming `DIR`.
+fn corpus_scenes(dir: &Path) -> Result<Vec<String>> {
+    let entries = std::fs::read_dir(dir).with_context(|| format!("--corpus {}", dir.display()))?;
+    let mut folders: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.is_dir())
+        .collect();
+    folders.sort();
+    let scenes: Vec<String> = folders
+        .iter()
+        .map(|f| f.join("scene.toml"))
+        .filter(|t| t.is_file())
+        .map(|t| t.display().to_string())
+        .collect();
+    if scenes.is_empty() {
+        anyhow::bail!(
+            "--corpus {}: no folder there holds a scene.toml",
+            dir.display()
+        );
+    }
+    Ok(scenes)
 }
 
 /// `--methods`: the CLI's method names, an unknown one refused with the known ones.

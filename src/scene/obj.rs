@@ -758,63 +758,76 @@ fn validate_mtl<'a>(
                 }
             });
         } else {
-            let words: Vec<&str> = args.split_whitespace().collect();
-            let mut k = 0;
-            let mut options = false;
-            while k + 1 < words.len() && words[k].starts_with('-') {
-                options = true;
-                let (min, max) = map_option_arguments(words[k]).unwrap_or((0, 0));
-                k += 1;
-                let mut taken = 0;
-                while taken < max && k + 1 < words.len() {
-                    let w = words[k];
-                    let is_arg = taken < min || w.parse::<f64>().is_ok();
-                    if !is_arg {
-                        break;
-                    }
-                    k += 1;
-                    taken += 1;
-                }
-            }
-            if options {
-                report.warn(
-                    WarningKind::IgnoredMapOptions,
-                    path,
-                    Some(line),
-                    "map_Kd options ignored",
-                );
-            }
-            let file = words[k.min(words.len())..].join(" ");
-            if file.is_empty() {
-                return Err(obj_err(path, line, "map_Kd needs a file name"));
-            }
-            let dir = path.parent().unwrap_or(Path::new("."));
-            current.map = match find_beside(dir, &file) {
-                Some(found) => Some(
-                    found
-                        .strip_prefix(dir)
-                        .map_or(found.clone(), Path::to_path_buf)
-                        .to_string_lossy()
-                        .into_owned(),
-                ),
-                None => {
-                    report.warn(
-                        WarningKind::MissingTexture,
-                        path,
-                        Some(line),
-                        format!(
-                            "texture '{file}' of material '{}' not found beside {}: the \
-                             material uses its Kd",
-                            current.name,
-                            path.display()
-                        ),
-                    );
-                    None
-                }
-            };
+            current.map = map_kd_file(args, current.name, path, line, report)?;
         }
     }
     Ok(out)
+}
+
+/// A `map_Kd` statement's texture file ([`find_beside`]), relative to the MTL's folder, its
+/// options skipped with a warning; a missing file is a warning and `None` (the material keeps
+/// its `Kd`).
+fn map_kd_file(
+    args: &str,
+    material: &str,
+    path: &Path,
+    line: usize,
+    report: &mut LoadReport,
+) -> Result<Option<String>, SceneError> {
+    let words: Vec<&str> = args.split_whitespace().collect();
+    let mut k = 0;
+    let mut options = false;
+    while k + 1 < words.len() && words[k].starts_with('-') {
+        options = true;
+        let (min, max) = map_option_arguments(words[k]).unwrap_or((0, 0));
+        k += 1;
+        let mut taken = 0;
+        while taken < max && k + 1 < words.len() {
+            let w = words[k];
+            let is_arg = taken < min || w.parse::<f64>().is_ok();
+            if !is_arg {
+                break;
+            }
+            k += 1;
+            taken += 1;
+        }
+    }
+    if options {
+        report.warn(
+            WarningKind::IgnoredMapOptions,
+            path,
+            Some(line),
+            "map_Kd options ignored",
+        );
+    }
+    let file = words[k.min(words.len())..].join(" ");
+    if file.is_empty() {
+        return Err(obj_err(path, line, "map_Kd needs a file name"));
+    }
+    let dir = path.parent().unwrap_or(Path::new("."));
+    Ok(match find_beside(dir, &file) {
+        Some(found) => Some(
+            found
+                .strip_prefix(dir)
+                .map_or(found.clone(), Path::to_path_buf)
+                .to_string_lossy()
+                .into_owned(),
+        ),
+        None => {
+            report.warn(
+                WarningKind::MissingTexture,
+                path,
+                Some(line),
+                format!(
+                    "texture '{file}' of material '{}' not found beside {}: the \
+                     material uses its Kd",
+                    material,
+                    path.display()
+                ),
+            );
+            None
+        }
+    })
 }
 
 /// An MTL `Ns` statement's value (a Phong specular power, which a reflector reads only where
