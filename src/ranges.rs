@@ -69,9 +69,15 @@ pub const ANCHOR_RATIO: f32 = 8.0;
 /// centres where they are, in coordinates whose rounding is that of the scene's size instead
 /// of its distance from the origin. A room 3.9 km out (the corpus's `far-offset`) otherwise put
 /// 0.3-0.7 % of `bvh`'s mirror pixels on another surface than the reference's: the reflected
-/// rays started a rounding of 3900 (1.2e-4) off the mirror.
+/// rays started a rounding of 3900 (1.2e-4) off the mirror. The reference traces its frames
+/// relative to the same anchor (`reference::Tracer`), for the same reason.
 pub fn anchor(scene: &Scene) -> Vec3 {
-    let (lo, hi) = scene.world().bounds(|_| true);
+    anchor_of(&scene.world())
+}
+
+/// [`anchor`] of a scene's world geometry.
+pub fn anchor_of(world: &WorldGeometry) -> Vec3 {
+    let (lo, hi) = world.bounds(|_| true);
     if lo.x > hi.x {
         return Vec3::ZERO;
     }

@@ -304,8 +304,7 @@ fn wrong_when_moved(ctx: &GpuContext, d: Vec3) -> f64 {
 /// within 1% wrong surface). Negative: forced through in world coordinates (no anchor, no
 /// check) the frame is measurably worse (0.9% wrong surface against 0.15%, asserted twice the
 /// anchored frame's), and moved ten times as far it is noise (32% measured, asserted over 10%).
-/// The reference starts its reflected rays at f32 world points too, so far out its own rounding
-/// is part of what is measured (1.24e5: 0.004).
+/// The reference traces relative to the same anchor (`reference::Tracer::for_frames`).
 #[test]
 fn a_scene_far_from_the_origin_renders_relative_to_its_anchor() {
     let ctx = gpu_context();

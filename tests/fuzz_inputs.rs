@@ -1,15 +1,19 @@
-//! Fixed-seed fuzzing of the inputs that found the cases of issue 21: every method must agree
-//! with the reference or refuse.
+//! Fixed-seed fuzzing of extreme and malformed scene inputs: every method must agree with the
+//! reference or refuse, and refuse only what it must.
 //!
 //! The generator (`tests/common/fuzz_cases.rs`, drawn by proptest from a fixed seed) writes
 //! small scene folders (scene.toml, OBJ, MTL), one [`Category`] each, every category in every
 //! pass: extreme but legal coordinates (a vertex at 1e13 to 1e18, one huge triangle with a
-//! vertex at 1e4 to 1e12, triangles of edge 1e-7, the scene moved 1e3 to 1e7 away or scaled by
-//! 1e-6 to 1e6, a reflector scaled by 1e-22), a vertex beyond the 2^60 extent limit, flipped
-//! `vn` normals on the reflector and on the other meshes, the eye exactly in a wall's, the
-//! floor's or a box face's plane (looking at the mirror or at a target up to 1e7 away), a CMO
-//! centre in a triangle's plane, no reflector, no mesh at all; and ordinary scenes. Rooms,
-//! boxes, the mirror (a sphere or a square) and the camera are drawn around these.
+//! vertex at 1e4 to 1e12, triangles of edge 1e-7, the scene moved 1e3 to 1e7 away, kilometres
+//! in the first draw, or scaled by 1e-6 to 1e6, a reflector scaled by 1e-22), a vertex beyond
+//! the 2^60 extent limit, flipped `vn` normals on the reflector and on the other meshes, the eye
+//! exactly in a wall's, the floor's or a box face's plane (looking at the mirror or at a target
+//! up to 1e7 away), a CMO centre in a triangle's plane, no reflector, no mesh at all; what
+//! exporters write: sliver triangles of aspect 1e4 to 1e12 near the mirror, faces (the mirror's
+//! too) as n-gons of 5 to 40 corners with extra corners on their edges, off them by a rounding
+//! or repeated; a camera `up` within 1e-8 to 1e-5 radians of the view (or 1e-3 to 1e-2, which
+//! fixes the roll); and ordinary scenes. Rooms, boxes, the mirror (a sphere or a square) and the
+//! camera are drawn around these.
 //!
 //! Each case is rendered by the `cubetrace` binary with every method of [`Method::ALL`] at
 //! 24x16 (`render SCENE --method M -o M.exr -v`; what a user runs, so a refusal anywhere in the
@@ -17,10 +21,18 @@
 //! - **a refusal** ([`judge_refusal`]): exit status 1, no panic, an `error:` line, no output
 //!   file left, and the case allows one: its category names what the message must mention
 //!   (the OBJ file and line of a vertex beyond the limit, `extent` or `2^60`; `precision`,
-//!   `f32` for a moved or scaled scene; `CMO` for a centre on a surface; `scale` or the
-//!   mirror's name for a vanishing one; `mesh` or `triangle` for an empty scene). The issue
-//!   asks the GPU to be right where it can be (eye in a plane, far vertices, inward normals):
-//!   those, and ordinary scenes, may not be refused.
+//!   `f32` for a scaled scene, or for one moved past 2^21, where the input's own rounding
+//!   breaks its 1/8 grid, or so far that a mesh is under 2^-20 of its coordinates across, which
+//!   the loader refuses; `CMO` for a centre on a surface; `scale` or the mirror's name for a
+//!   vanishing one; `mesh` or `triangle` for an empty scene). The GPU must be right where it
+//!   can be: an eye in a plane, far vertices, inward normals, slivers, collinear n-gons, a
+//!   scene moved less far (the GPU works relative to its centre: kilometres out, and up to
+//!   some 4e5 for the smallest box), an `up` 1e-3 from the view, and ordinary scenes may not
+//!   be refused.
+//! - **a required refusal** ([`judge_required_refusal`]): an `up` within rounding of the view
+//!   fixes no camera, so every run, the reference's too, must refuse it as the scene loads, as
+//!   above, naming all of the case's `refuse` words: `camera[0].up`, its scene.toml line and the
+//!   angle (`degrees from the view direction`). A frame is a failure there, however good.
 //! - **a frame** against the reference's ([`judge_frame`]; the reference is the same binary's
 //!   `--method reference`, the EXR channels read back into [`metrics::classify`]'s types):
 //!   - every method: the primary visibility matches: the mirror masks differ on at most
@@ -42,16 +54,23 @@
 //!     normal and leaves the BVH to finish the frame.
 //! - **the work is bounded**: compute's texels per ray (its `-v` line), mean over rays, at most
 //!   [`TEXELS_PER_TEXEL_SIDE`] times the cube size per CMO (a walk across a face takes one per
-//!   texel; the huge-triangle case of the issue made it 1071 at cube size 32); a run that takes
+//!   texel; a huge triangle with a vertex 1e10 out once made it 1071 at cube size 32); a run that takes
 //!   [`HANG`] is killed and fails (a watchdog for hangs, not a speed check).
 //! - **nothing passes in silence** where the category says so: a vanishing reflector must be
-//!   named (`mirror` or `scale`) in some message of each run.
+//!   named (`mirror` or `scale`) in some message of each run;
+//! - **no false alarm** ([`judge_quiet`]): no warning or error of a collinear-n-gon case's runs
+//!   may speak of a self-crossing polygon or of degenerate triangles (the collinear and repeated
+//!   corners are left out before triangulation; a run that took the outline for a crossing one
+//!   and fanned it would still draw the right quad, so the frame alone cannot see it), nor one
+//!   of a sliver case's of degenerate triangles (a sliver has an area in f32; dropped, it would
+//!   be missed by no pixel's comparison).
 //!
 //! The judges are plain functions of frames and messages:
 //! `judges_reject_bad_frames_and_bad_refusals` shows each rejects what it must (a perturbed
 //! frame, a wrong reference, an empty frame, a changed twin, a panic, a message naming nothing,
-//! a left file, a runaway counter, a hung process). The pass prints every case with its
-//! category and draws, reports every failing one, then fails.
+//! a left file, a frame where a refusal is required, a refusal that lacks the field or its
+//! line, a false warning, a runaway counter, a hung process). The pass prints every case with
+//! its category and draws, reports every failing one, then fails.
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -63,20 +82,31 @@ use std::time::{Duration, Instant};
 mod fuzz_cases;
 
 use cubetrace::Method;
+use cubetrace::camera::MIN_UP_SINE;
 use cubetrace::metrics::{self, PixelClass, Traced};
 use cubetrace::reference::{Frame, NO_ID};
 use exr::prelude::{FlatSamples, read_all_flat_layers_from_file};
-use fuzz_cases::{Case, Category, categories, generate};
+use fuzz_cases::{Case, Category, aspect, categories, generate, up_sine};
 use glam::Vec3;
 use proptest::prelude::*;
 use proptest::strategy::ValueTree;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
 
 const SEED: [u8; 16] = *b"cubetrace-fuzz-i";
-/// One case per category, then ordinary, eye-on-plane, flipped-reflector and beyond-limit
-/// again: the pass's cost is ~7 renders per case, fragment's and compute's pipeline builds most
-/// of it (a refused case costs little).
-const CASES: usize = 19;
+/// One case per category, then [`AGAIN`] (once each): the pass's cost is ~7 renders per case,
+/// fragment's and compute's pipeline builds most of it (a refused case costs little, a
+/// flipped-reflector case twice as much as another: its twin).
+const CASES: usize = 18 + AGAIN.len();
+/// The categories drawn a second time: the rendering draw of near-parallel-up, far-translation
+/// at 1e4 to 1e7 (past the kilometres of the first), beyond-limit in the reflector's other
+/// triangle. Ordinary, eye-on-plane (on any plane, after the front wall) and flipped-reflector
+/// were drawn twice before the slivers, n-gons and `up` vectors came; they are drawn once so
+/// that the pass keeps its time.
+const AGAIN: [Category; 3] = [
+    Category::NearParallelUp,
+    Category::FarTranslation,
+    Category::BeyondLimit,
+];
 /// A colour difference (linear, per channel, clamped to [0, 1]) that counts.
 const COLOUR_TOL: f32 = 0.02;
 /// Compute's mean texels per ray may be at most this times the cube size per CMO.
@@ -98,12 +128,7 @@ fn cases(count: usize) -> Vec<Case> {
     );
     let words = proptest::collection::vec(any::<u32>(), 256);
     let order = categories();
-    let again = [
-        Category::Ordinary,
-        Category::EyeOnPlane,
-        Category::FlippedReflector,
-        Category::BeyondLimit,
-    ];
+    let again = AGAIN;
     let mut seen = BTreeMap::new();
     (0..count)
         .map(|i| {
@@ -213,6 +238,38 @@ pub fn judge_refusal(run: &Run, anchors: &[String]) -> Result<(), String> {
         return Err(format!("the refusal names none of {anchors:?}: {first}"));
     }
     Ok(())
+}
+
+/// Judges a run of an input that must be refused: a refusal as [`judge_refusal`] judges it,
+/// whose first `error:` line names every one of `names` (a frame, however good, fails).
+pub fn judge_required_refusal(run: &Run, names: &[String]) -> Result<(), String> {
+    if !run.timed_out && run.code == Some(0) {
+        return Err(format!(
+            "rendered an input it must refuse (naming {names:?})"
+        ));
+    }
+    judge_refusal(run, names)?;
+    let first = errors(&run.stderr)[0];
+    let missing: Vec<&String> = names
+        .iter()
+        .filter(|w| !first.contains(w.as_str()))
+        .collect();
+    if !missing.is_empty() {
+        return Err(format!("the refusal does not name {missing:?}: {first}"));
+    }
+    Ok(())
+}
+
+/// Judges that no warning or error of a run names one of `words` (a false alarm).
+pub fn judge_quiet(stderr: &str, words: &[String]) -> Result<(), String> {
+    let alarm = stderr
+        .lines()
+        .filter(|l| l.contains("WARN") || l.starts_with("error:"))
+        .find(|l| words.iter().any(|w| l.contains(w.as_str())));
+    match alarm {
+        Some(l) => Err(format!("a false alarm (it names one of {words:?}): {l}")),
+        None => Ok(()),
+    }
 }
 
 /// Compute's mean texels per ray, from its `-v` line (`per ray mean/max: texels M/X`).
@@ -572,6 +629,10 @@ fn judge_case(
             {
                 return Err(format!("no warning or error names any of {:?}", c.notice));
             }
+            judge_quiet(&run.stderr, &c.quiet)?;
+            if !c.refuse.is_empty() {
+                return judge_required_refusal(run, &c.refuse);
+            }
             if run.code != Some(0) || run.timed_out {
                 return judge_refusal(run, &c.anchors);
             }
@@ -707,23 +768,100 @@ fn the_generator_covers_every_category_deterministically() {
     }
     let tomls: std::collections::BTreeSet<String> = a.iter().map(|c| c.toml()).collect();
     assert_eq!(tomls.len(), a.len(), "every case differs");
-    // The draws the issue's cases need: an eye in a plane, a vertex past 1e13, inward normals.
-    let planes = a
-        .iter()
-        .filter(|c| c.category == Category::EyeOnPlane)
-        .count();
-    assert!(planes >= 2, "{planes}");
+    // Inward normals come with their twin (the eye in the front wall's plane and a vertex past
+    // 1e13 are the first draws of their categories).
     assert!(a.iter().any(|c| c.twin.is_some()));
+    let of = |k: Category| a.iter().filter(move |c| c.category == k);
+    // Slivers: at least two per case, of aspect 1e4 to 1e12 as f32 holds their corners.
+    for c in of(Category::Sliver) {
+        let slivers: Vec<f64> = obj_faces(c, "sliver.obj")
+            .into_iter()
+            .map(|f| aspect([f[0], f[1], f[2]]))
+            .filter(|&x| x > 100.0)
+            .collect();
+        assert!(
+            slivers.len() >= 2 && slivers.iter().all(|x| (0.5e4..2e12).contains(x)),
+            "{}: {slivers:?}",
+            c.label()
+        );
+    }
+    // N-gons: every face of the room and boxes (and the first case's mirror) of 5 to 40
+    // corners, some of them repeated.
+    for c in of(Category::CollinearNgon) {
+        let mut files = vec!["room.obj", "boxes.obj"];
+        if c.index == of(Category::CollinearNgon).next().unwrap().index {
+            files.push("mirror.obj");
+        }
+        let mut repeated = 0;
+        for file in files {
+            let faces = obj_faces(c, file);
+            assert!(
+                faces.len() >= 6 || (file == "mirror.obj" && faces.len() == 1),
+                "{}: {file}",
+                c.label()
+            );
+            for f in faces {
+                assert!((5..=40).contains(&f.len()), "{}: {file}", c.label());
+                repeated += (0..f.len())
+                    .filter(|&k| f[k] == f[(k + 1) % f.len()])
+                    .count();
+            }
+        }
+        assert!(repeated > 0, "{}", c.label());
+    }
+    // Up vectors: a refused one within rounding of the view, a rendered one well off it.
+    let ups: Vec<&Case> = of(Category::NearParallelUp).collect();
+    assert!(ups.iter().any(|c| !c.refuse.is_empty()) && ups.iter().any(|c| c.refuse.is_empty()));
+    for c in ups {
+        let sine = up_sine(c);
+        if c.refuse.is_empty() {
+            assert!((5.0 * MIN_UP_SINE..0.02).contains(&sine), "{}", c.label());
+        } else {
+            assert!(sine < MIN_UP_SINE / 5.0, "{}", c.label());
+            assert!(c.refuse.iter().any(|w| w.starts_with("scene.toml:")));
+        }
+    }
+    // A room kilometres out, which must render.
+    assert!(of(Category::FarTranslation).any(|c| {
+        let t = c.meshes[0].translate.abs().max_element();
+        (1e3..=1e4).contains(&t) && c.anchors.is_empty()
+    }));
+}
+
+/// The faces of a case's OBJ file, as their corners' positions.
+fn obj_faces(c: &Case, file: &str) -> Vec<Vec<Vec3>> {
+    let text = &c.objs.iter().find(|(n, _)| n == file).expect(file).1;
+    let mut v = Vec::new();
+    let mut faces = Vec::new();
+    for l in text.lines() {
+        let w: Vec<&str> = l.split_whitespace().collect();
+        match w.first() {
+            Some(&"v") => v.push(Vec3::new(
+                w[1].parse().unwrap(),
+                w[2].parse().unwrap(),
+                w[3].parse().unwrap(),
+            )),
+            Some(&"f") => faces.push(
+                w[1..]
+                    .iter()
+                    .map(|c| v[c.split('/').next().unwrap().parse::<usize>().unwrap() - 1])
+                    .collect(),
+            ),
+            _ => {}
+        }
+    }
+    faces
 }
 
 /// Negatives: each judge rejects what it must, on frames of a real render (an ordinary case's
-/// reference and bvh frames) perturbed, and on synthetic runs.
+/// reference and bvh frames) perturbed, and on synthetic runs. The wrong reference is the
+/// tiny-triangles case's: another room, mirror and camera.
 #[test]
 fn judges_reject_bad_frames_and_bad_refusals() {
     let all = cases(CASES);
-    let ordinary: Vec<&Case> = all
+    let ordinary: Vec<&Case> = [Category::Ordinary, Category::TinyTriangles]
         .iter()
-        .filter(|c| c.category == Category::Ordinary)
+        .map(|&k| all.iter().find(|c| c.category == k).expect("drawn"))
         .collect();
     let root = tempfile::tempdir().expect("temp dir");
     let mut frames = Vec::new();
@@ -809,7 +947,7 @@ fn judges_reject_bad_frames_and_bad_refusals() {
             .unwrap_err()
             .contains("differ in colour")
     );
-    // A wrong reference: the other ordinary case's.
+    // A wrong reference: the other case's.
     let (_, r2, _) = &frames[1];
     assert!(judge(Method::Bvh, &r2.frame, &t.traced).is_err());
     assert!(judge(Method::ReflectionPoint, &r2.frame, &t.traced).is_err());
@@ -884,7 +1022,84 @@ fn judges_reject_bad_frames_and_bad_refusals() {
     };
     assert!(judge_refusal(&silent, &anchors).is_err());
 
-    // The work counter: the issue's big triangle at cube size 32 against an ordinary ray.
+    // A required refusal (an `up` along the view): the loader's message passes; a frame, a
+    // refusal without the field, at another line or from a later stage do not.
+    let names: Vec<String> = [
+        "scene.toml:27",
+        "camera[0].up",
+        "degrees from the view direction",
+    ]
+    .map(String::from)
+    .to_vec();
+    let up = Run {
+        code: Some(1),
+        stderr: "error: /tmp/c/scene.toml:27: camera[0].up: eye, target and up must span a \
+                 view: up [0.1, 0.2, -0.97] lies 5.730e-4 degrees from the view direction \
+                 [0.1, 0.2, -0.97] (the sine 1.0e-5 is below 1e-4)\n"
+            .into(),
+        ..Run::default()
+    };
+    judge_required_refusal(&up, &names).unwrap();
+    let rendered = Run {
+        code: Some(0),
+        output: true,
+        ..Run::default()
+    };
+    assert!(
+        judge_required_refusal(&rendered, &names)
+            .unwrap_err()
+            .contains("must refuse")
+    );
+    let field = Run {
+        stderr: up.stderr.replace("camera[0].up", "camera[0]"),
+        ..up.clone()
+    };
+    assert!(
+        judge_required_refusal(&field, &names)
+            .unwrap_err()
+            .contains("\"camera[0].up\"")
+    );
+    let line = Run {
+        stderr: up.stderr.replace("scene.toml:27", "scene.toml:26"),
+        ..up.clone()
+    };
+    assert!(
+        judge_required_refusal(&line, &names)
+            .unwrap_err()
+            .contains("scene.toml:27")
+    );
+    let later = Run {
+        stderr: "error: depth range: scene `x` is beyond f32 precision\n".into(),
+        ..up.clone()
+    };
+    assert!(
+        judge_required_refusal(&later, &names)
+            .unwrap_err()
+            .contains("names none")
+    );
+    assert!(judge_required_refusal(&panic, &names).is_err());
+
+    // A false alarm on a legal n-gon: a warning naming a self-crossing polygon fails, other
+    // warnings and lines do not.
+    let quiet: Vec<String> = ["cross themselves", "degenerate"]
+        .map(String::from)
+        .to_vec();
+    judge_quiet(
+        "[WARN  cubetrace::scene] room.obj: a texture is missing\n[INFO  x] 0 degenerate\n",
+        &quiet,
+    )
+    .unwrap();
+    assert!(
+        judge_quiet(
+            "[WARN  cubetrace::scene::report] room.obj: polygons that cross themselves fanned \
+             from their first corner (line 9)\n",
+            &quiet
+        )
+        .unwrap_err()
+        .contains("false alarm")
+    );
+
+    // The work counter: a huge triangle's walk at cube size 32 against an ordinary ray.
     let line = |t: &str| {
         format!(
             "[INFO  cubetrace::app::render] compute: 47 rays, subgroup size 8 (min 8), per ray mean/max: texels {t}, cells 46.3/64\n"

@@ -857,6 +857,16 @@ pub fn run(
                 bar.inc(1);
                 continue;
             }
+            let glossy = !scene.glossy_reflectors().is_empty();
+            if glossy && spec.trace.criterion == TraceCriterion::Bounded {
+                log::warn!(
+                    "{name}: {} skipped: the bounded criterion cannot cone-trace glossy \
+                     reflectors yet",
+                    spec.label()
+                );
+                bar.inc(1);
+                continue;
+            }
             runs.push(sc.gpu_result(ctx, cfg, bar, spec, &mut heat_paths)?);
             bar.inc(1);
             check_validation(ctx)?;

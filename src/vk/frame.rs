@@ -1043,6 +1043,20 @@ impl GpuRenderer {
         let data = GpuSceneData::new(scene);
         // The pre-filtered CMO colour chain, for a method that reads it, on a glossy scene only.
         let cone = spec.glossy().reads_chain() && needs.capture && has_glossy_reflector(&data);
+        if cone && options.trace.criterion == TraceCriterion::Bounded {
+            // The lists' capture stores no colour for the pre-filtered chain to read: the cone
+            // pass would read an image nothing wrote (a frame of background, no warning).
+            return Err(VkError::Usage {
+                what: "criterion".into(),
+                detail: format!(
+                    "--criterion bounded cannot cone-trace the glossy reflectors of scene `{}` \
+                     ({}): its capture keeps no colour. Render it with the default criterion, \
+                     or with --method bvh --spp N",
+                    scene.name,
+                    scene.glossy_reflectors().join(", ")
+                ),
+            });
+        }
         needs.contents.colour |= cone;
         let scene_buffers = SceneBuffers::new(ctx, &data)?;
         let mut stages = CmoStages::new(
