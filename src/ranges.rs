@@ -39,8 +39,10 @@
 //! rays may still meet it. Both CMO checks refuse only a method that captures CMOs.
 //!
 //! # What f32 cannot hold
-//! Reflected rays start at G-buffer positions and CMO-local coordinates are `x - c`, both in f32
-//! world coordinates, rounded to `|x| 2^-24`. A texel of a face of `N` texels spans `2 d / N` at
+//! A scene far from the world origin is rendered relative to its [`anchor`] (the GPU frame and
+//! the reference alike), so `X` below is measured from there: what is left is a scene too
+//! large for its own detail. Reflected rays start at G-buffer positions and CMO-local
+//! coordinates are `x - c`, both in f32 coordinates, rounded to `|x| 2^-24`. A texel of a face of `N` texels spans `2 d / N` at
 //! distance `d` from its centre; the smallest such footprint is at the nearest captured surface,
 //! `d_min`. With mirror points and CMO centres up to `X` from the world origin, the rounding must
 //! stay below 1/8 of that footprint: `X 2^-24 <= (2 d_min / N) / 8`, i.e.

@@ -1,4 +1,4 @@
-//! Issue 23, the film: sub-pixel samples, `GpuRenderer::set_camera` and the `FrameRenderer`.
+//! The film: sub-pixel samples, `GpuRenderer::set_camera` and the `FrameRenderer`.
 //! - A renderer pointed at camera B (`set_camera`) renders B's frame bit for bit as a renderer
 //!   created for B, for every GPU method, without running the capture again; a jitter alone
 //!   likewise. Negatives: camera A's frame differs, and so does an update that skips the
@@ -11,7 +11,7 @@
 //!   mesh captures again (tests/sequence_inplace.rs checks the in-place geometry update).
 mod common;
 use common::render_args as args;
-use common::{finish_gpu, gpu_context};
+use common::{finish_gpu, finish_renderer, gpu_context};
 
 use cubetrace::Method;
 use cubetrace::app::frame_renderer::{self, FrameRenderer, RenderedFrame};
@@ -265,6 +265,7 @@ fn frame_renderer_film_and_reuse() {
     assert!(!fb.captured);
     let mut alone = FrameRenderer::new(&args(&line), &scene, &b).unwrap();
     let fb_alone = alone.render(&scene, &b).unwrap();
+    finish_renderer(alone);
     assert!(colour_bits(&fb) == colour_bits(&fb_alone));
     assert!(colour_bits(&fb) != colour_bits(&f), "negative: A's frame");
     // A moved mesh: captured again, and equal to that scene alone.
@@ -279,7 +280,7 @@ fn frame_renderer_film_and_reuse() {
         colour_bits(&fm) != colour_bits(&fb),
         "negative: the mesh did not move"
     );
-    drop(alone);
-    drop(fr);
+    finish_renderer(alone);
+    finish_renderer(fr);
     finish_gpu(ctx);
 }

@@ -1,4 +1,4 @@
-//! Issue 24, glossy reflectors (items 1 and 2): the specular power, the Monte Carlo reference and
+//! Glossy reflectors: the specular power, the Monte Carlo reference and
 //! `--method bvh`'s lobe.
 //! - The mirror cap: a reflector of specular power 1024 or more renders today's frame bit for
 //!   bit with every method (the reference too). Negative: power 64 changes the reference's and
@@ -408,7 +408,9 @@ fn bvh_converges_to_the_reference() {
         let line = ["sphere-room-glossy", "--method", "bvh", "--spp", &n];
         let mut fr =
             FrameRenderer::new(&args(&line), scene, &cam).unwrap_or_else(|e| panic!("{e}"));
-        fr.render(scene, &cam).unwrap_or_else(|e| panic!("{e}"))
+        let f = fr.render(scene, &cam).unwrap_or_else(|e| panic!("{e}"));
+        common::finish_renderer(fr);
+        f
     };
     // One sample: the directions are the reference's.
     let one = bvh(&s, 1);

@@ -1,4 +1,4 @@
-//! Issue 24 item 3: `--method ssr` on glossy reflectors, the Hi-Z chapter's cone tracing
+//! `--method ssr` on glossy reflectors, the Hi-Z chapter's cone tracing
 //! (`cpu::ssr_cone`, `spirv/ssr_visibility.wgsl`, `ssr_blur.wgsl`, `ssr_cone.wgsl`).
 //!
 //! - Only a scene with a glossy reflector creates the glossy passes (and the CMO colour capture
@@ -13,8 +13,9 @@
 //!   fallback, which traces the mirror direction: their records are the mirror's), hits at the
 //!   screen edge, power 1023 (closer to the mirror than power 64), a thin object in front of a
 //!   far wall.
-//! - Accuracy (ignored by default: the converged reference takes minutes): PSNR against the
-//!   reference at 1024 spp, 48x36, mirror ssr against cone ssr at powers 16, 64, 256.
+//! - Accuracy: cone ssr beats mirror ssr in PSNR against the reference (32x24, 256 spp) by
+//!   bounds derived from measurement. Negatives: mirror ssr, and a lobe 4x too wide, fail the
+//!   same check. The claim repeated at 48x36 against 1024 spp is ignored by default (minutes).
 mod common;
 use common::{finish_gpu, gpu_context};
 
@@ -267,6 +268,24 @@ fn worst(c: &[(usize, f32, Vec3, ssr_cone::Cone)]) -> f32 {
         .fold(0.0, f32::max)
 }
 
+/// The twin check: at most `CONE_OUTLIERS` of the cones beyond `CONE_TOLERANCE`, none beyond
+/// `CONE_OUTLIER_TOLERANCE`, and at least one cone.
+fn within_tolerance(c: &[(usize, f32, Vec3, ssr_cone::Cone)]) -> Result<(), String> {
+    let bad = (c.iter())
+        .filter(|(_, _, gpu, cpu)| (*gpu - cpu.colour).abs().max_element() > CONE_TOLERANCE)
+        .count();
+    let w = worst(c);
+    if !c.is_empty() && bad as f64 <= CONE_OUTLIERS * c.len() as f64 && w <= CONE_OUTLIER_TOLERANCE
+    {
+        Ok(())
+    } else {
+        Err(format!(
+            "{bad} of {} cones beyond {CONE_TOLERANCE}, worst {w:e}",
+            c.len()
+        ))
+    }
+}
+
 #[test]
 fn gpu_matches_cpu_twin_on_every_builtin_scene() {
     let ctx = gpu_context();
@@ -291,12 +310,7 @@ fn gpu_matches_cpu_twin_on_every_builtin_scene() {
                 c.iter().map(|x| x.3.weight).sum::<f32>() / c.len().max(1) as f32,
                 c.iter().map(|x| x.3.samples as f32).sum::<f32>() / c.len().max(1) as f32,
             );
-            assert!(!c.is_empty(), "{name}: no glossy hit");
-            assert!(
-                bad as f64 <= CONE_OUTLIERS * c.len() as f64,
-                "{name} power {power}: {bad} cones outside the tolerance"
-            );
-            assert!(worst(&c) <= CONE_OUTLIER_TOLERANCE, "{name} power {power}");
+            within_tolerance(&c).unwrap_or_else(|e| panic!("{name} power {power}: {e}"));
             // Negatives. A depth one key step nearer at one pixel changes the max pyramid or
             // the visibility; a colour texel changes the chain; another power (+64) the cones.
             let k = c[0].0;
@@ -313,10 +327,10 @@ fn gpu_matches_cpu_twin_on_every_builtin_scene() {
                 HEIGHT,
             );
             assert!(differing(chain, &chain2) > 0, "{name}");
-            assert!(
-                worst(&cones(&r, &t, 64.0)) > 10.0 * CONE_TOLERANCE,
-                "{name}: power + 64"
-            );
+            let shifted = cones(&r, &t, 64.0);
+            let e = within_tolerance(&shifted)
+                .expect_err(&format!("negative {name} power {power}: power + 64 passes"));
+            eprintln!("{name} power {power}, negative power + 64: {e}");
         }
     }
     finish_gpu(ctx);
@@ -412,54 +426,121 @@ fn psnr(got: &[Vec3], truth: &[Vec3], mask: &[u8]) -> f64 {
     cubetrace::bench::glossy::psnr_over(got, truth, mask).min(120.0)
 }
 
-/// Mirror ssr (the glossy scene traced as the mirror) against cone ssr, PSNR over the mirror
-/// pixels against the reference at 1024 spp (box filter), 48x36, default fallback. Slow (the
-/// reference): `cargo test --test glossy_ssr -- --ignored psnr`. Asserts only that every figure
-/// is finite and the cone changes it.
+/// An ssr frame (default fallback) of `scene`.
+fn ssr_frame(ctx: &GpuContext, scene: &Scene, cam: &Camera) -> GpuFrame {
+    let options = RenderOptions {
+        method: Method::Ssr,
+        ..RenderOptions::default()
+    };
+    let mut r = GpuRenderer::new(ctx, scene, cam, options).unwrap_or_else(|e| panic!("{e}"));
+    r.render(ctx).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// PSNRs over the mirror pixels against the reference at `spp` (box filter) of `name` made
+/// glossy at `power`, at `size`: mirror ssr's (the scene traced as the mirror), then cone ssr's
+/// with the reflectors at each power of `lobes` (the truth unchanged).
+fn ssr_scores(
+    ctx: &GpuContext,
+    name: &str,
+    power: f32,
+    size: (u32, u32),
+    spp: u32,
+    lobes: &[f32],
+) -> (f64, Vec<f64>) {
+    let (s, cam) = load(name, size);
+    let g = glossy(&s, power);
+    let film = FilmSettings {
+        spp,
+        filter: PixelFilter::Box,
+    };
+    let truth =
+        cubetrace::app::frame_renderer::reference_frame(&g, &Tracer::new(&g), &cam, 1, film, false)
+            .0;
+    let db = |f: &GpuFrame| psnr(&f.colour, &truth.colour, &truth.mask);
+    let mirror = db(&ssr_frame(ctx, &s, &cam));
+    let cones = (lobes.iter())
+        .map(|&p| db(&ssr_frame(ctx, &glossy(&s, p), &cam)))
+        .collect();
+    (mirror, cones)
+}
+
+/// The check of the accuracy tests: cone ssr's PSNR is more than `min_gain` dB above mirror
+/// ssr's.
+fn cone_ssr_beats_mirror(mirror: f64, cone: f64, min_gain: f64) -> Result<(), String> {
+    if cone.is_finite() && cone > mirror + min_gain {
+        Ok(())
+    } else {
+        Err(format!(
+            "cone {cone:.2} dB, mirror {mirror:.2} dB: gain {:.2} <= {min_gain}",
+            cone - mirror
+        ))
+    }
+}
+
+/// Cone ssr beats mirror ssr against the reference (PSNR over the mirror pixels, 256 spp, box
+/// filter), 32x24, power 64. Measured: sphere-room mirror 16.81, cone 18.73 (gain 1.92); torus
+/// 17.62, 20.15 (2.53); default 16.95, 18.37 (1.42). Every built-in scene gains at every power
+/// of 16, 64, 256 at this size, but bowl only 0.2 dB: these three gain the most. The bound is
+/// each measured gain less 0.2 dB: the frames and the reference are deterministic, so the
+/// margin only absorbs another device's transcendental functions. Negatives, through the same
+/// check: the mirror ssr frame does not beat itself, and on torus the lobe of power 16 (4x too
+/// wide, 17.84 dB, gain 0.22) fails. (Other wrong lobes are no negative at this size: torus at
+/// power 256 scores 19.89, sphere-room at 256 18.57, within a few tenths of the right lobe.)
 #[test]
-#[ignore = "minutes: the 1024-spp reference of 15 scene/power pairs; run with --ignored psnr"]
+fn cone_ssr_beats_mirror_ssr_small() {
+    let ctx = gpu_context();
+    for (name, min_gain, wide_fails) in [
+        ("sphere-room", 1.7, false),
+        ("torus", 2.3, true),
+        ("default", 1.2, false),
+    ] {
+        let power = 64.0;
+        let (mirror, cones) = ssr_scores(&ctx, name, power, (32, 24), 256, &[power, power / 4.0]);
+        let (cone, wide) = (cones[0], cones[1]);
+        eprintln!(
+            "{name} power {power}, 32x24: mirror ssr {mirror:.2} dB, cone ssr {cone:.2}, \
+             power / 4 {wide:.2}"
+        );
+        cone_ssr_beats_mirror(mirror, cone, min_gain).unwrap_or_else(|e| panic!("{name}: {e}"));
+        // Negatives.
+        cone_ssr_beats_mirror(mirror, mirror, min_gain)
+            .expect_err("negative: mirror ssr beats itself");
+        if wide_fails && cone_ssr_beats_mirror(mirror, wide, min_gain).is_ok() {
+            panic!("negative {name}: power / 4 passes ({wide:.2} dB)");
+        }
+    }
+    finish_gpu(ctx);
+}
+
+/// `cone_ssr_beats_mirror_ssr_small`'s claim repeated at 48x36 against the converged
+/// reference (1024 spp; `GLOSSY_SSR_SPP` overrides): at power 64 cone ssr beats mirror ssr on
+/// sphere-room, torus and default by more than 1.3 dB (measured: 1.70, 1.86, 1.56). Prints the
+/// table of every built-in scene at powers 16, 64, 256, which asserts nothing more: cone ssr
+/// does not gain everywhere (torus at power 16 loses 0.34 dB, bowl gains under 0.1). Slow
+/// (the reference): `cargo test --release --test glossy_ssr -- --ignored psnr --nocapture`.
+#[test]
+#[ignore = "a minute: repeats cone_ssr_beats_mirror_ssr_small at 48x36 against 1024-spp references"]
 fn psnr_against_the_converged_reference() {
     let ctx = gpu_context();
-    let size = (48, 36);
     let spp: u32 = std::env::var("GLOSSY_SSR_SPP")
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(1024);
-    let frame = |s: &Scene, cam: &Camera| {
-        let options = RenderOptions {
-            method: Method::Ssr,
-            ..RenderOptions::default()
-        };
-        let mut r = GpuRenderer::new(&ctx, s, cam, options).unwrap();
-        r.render(&ctx).unwrap()
-    };
     println!("| scene | power | mirror ssr (dB) | cone ssr (dB) |");
     println!("|---|---|---|---|");
+    let mut failed = Vec::new();
     for (name, _) in builtin::NAMES {
-        let (s, cam) = load(name, size);
-        let mirror = frame(&s, &cam);
         for power in [16.0, 64.0, 256.0] {
-            let g = glossy(&s, power);
-            let film = FilmSettings {
-                spp,
-                filter: PixelFilter::Box,
-            };
-            let truth = cubetrace::app::frame_renderer::reference_frame(
-                &g,
-                &Tracer::new(&g),
-                &cam,
-                1,
-                film,
-                false,
-            )
-            .0;
-            let cone = frame(&g, &cam);
-            let a = psnr(&mirror.colour, &truth.colour, &truth.mask);
-            let b = psnr(&cone.colour, &truth.colour, &truth.mask);
+            let (a, b) = ssr_scores(&ctx, name, power, (48, 36), spp, &[power]);
+            let b = b[0];
             println!("| {name} | {power} | {a:.2} | {b:.2} |");
-            assert!(a.is_finite() && b.is_finite() && a != b, "{name} {power}");
+            let checked = power == 64.0 && ["sphere-room", "torus", "default"].contains(name);
+            if let (true, Err(e)) = (checked, cone_ssr_beats_mirror(a, b, 1.3)) {
+                failed.push(format!("{name} {power}: {e}"));
+            }
         }
     }
+    assert!(failed.is_empty(), "{failed:#?}");
     finish_gpu(ctx);
 }
 
@@ -500,15 +581,7 @@ fn thin_object_in_front_of_a_far_wall() {
     assert_eq!(differing(vis, &t.vis), 0);
     assert_eq!(differing(chain, &t.chain), 0);
     let c = cones(&g, &t, 0.0);
-    let bad = (c.iter())
-        .filter(|(_, _, gpu, cpu)| (*gpu - cpu.colour).abs().max_element() > CONE_TOLERANCE)
-        .count();
-    assert!(
-        bad as f64 <= CONE_OUTLIERS * c.len() as f64,
-        "{bad} of {}",
-        c.len()
-    );
-    assert!(worst(&c) <= CONE_OUTLIER_TOLERANCE);
+    within_tolerance(&c).unwrap_or_else(|e| panic!("{e}"));
     // Negative: without the panel the glossy reflections differ.
     let plain = render(&ctx, &glossy(&builtin::sphere_room(), 64.0), &cam);
     let hits: Vec<usize> = c.iter().map(|x| x.0).collect();

@@ -168,43 +168,60 @@ fn the_slurm_script_runs_the_command_line_as_typed() {
     assert_ne!(got.last().map(String::as_str), Some("0/5"));
 }
 
+/// `farm k8s -n 6` prints an Indexed Job of 6 completions whose container renders with
+/// `--shard-count 6`, and writes nothing. Negative: the manifest of `-n 5` fails the same check.
 #[test]
 fn the_k8s_manifest_goes_to_stdout_and_names_the_shard_count() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let o = run(
-        &[
-            "farm",
-            "k8s",
-            "-n",
-            "6",
-            "--image",
-            "cubetrace:1",
-            "--claim",
-            "frames",
-            "--",
+    let manifest = |n: &str| {
+        let o = run(
+            &[
+                "farm",
+                "k8s",
+                "-n",
+                n,
+                "--image",
+                "cubetrace:1",
+                "--claim",
+                "frames",
+                "--",
+                "sphere-room",
+                "--frames",
+                "1..12",
+            ],
+            d,
+        );
+        assert_eq!(o.code, Some(0), "-n {n}: {}", o.stderr);
+        serde_norway::from_str::<serde_json::Value>(&o.stdout).unwrap()
+    };
+    // The check: 6 indexed completions, each rendering the run's frames as one of 6 shards.
+    let six_shards = |v: &serde_json::Value| -> Result<(), String> {
+        let want = serde_json::json!([
+            "render",
             "sphere-room",
             "--frames",
             "1..12",
-        ],
-        d,
-    );
-    assert_eq!(o.code, Some(0), "{}", o.stderr);
-    let v: serde_json::Value = serde_norway::from_str(&o.stdout).unwrap();
-    assert_eq!(v["spec"]["completions"], 6);
-    assert_eq!(v["spec"]["completionMode"], "Indexed");
-    let args = &v["spec"]["template"]["spec"]["containers"][0]["args"];
-    let want = serde_json::json!([
-        "render",
-        "sphere-room",
-        "--frames",
-        "1..12",
-        "--skip-existing",
-        "--shard-count",
-        "6"
-    ]);
-    assert_eq!(args, &want);
-    assert_ne!(v["spec"]["completions"], 5);
+            "--skip-existing",
+            "--shard-count",
+            "6"
+        ]);
+        let args = &v["spec"]["template"]["spec"]["containers"][0]["args"];
+        if v["spec"]["completions"] != 6 {
+            return Err(format!("completions {}", v["spec"]["completions"]));
+        }
+        if v["spec"]["completionMode"] != "Indexed" {
+            return Err(format!("completionMode {}", v["spec"]["completionMode"]));
+        }
+        if *args != want {
+            return Err(format!("args {args}"));
+        }
+        Ok(())
+    };
+    six_shards(&manifest("6")).unwrap_or_else(|e| panic!("{e}"));
+    assert!(names(d).is_empty(), "stdout only: {:?}", names(d));
+    // Negative: 5 tasks are 5 completions of 5 shards.
+    six_shards(&manifest("5")).expect_err("negative: -n 5 is not 6 shards");
     assert!(names(d).is_empty(), "stdout only: {:?}", names(d));
 }
 

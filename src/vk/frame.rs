@@ -337,6 +337,35 @@ fn check_ranges(ranges: &FrameRanges, scene: &Scene, options: &RenderOptions) ->
     })
 }
 
+/// The frame's timestamp queries, where the device has them.
+fn frame_timestamps(ctx: &GpuContext) -> VkResult<Option<Timestamps>> {
+    if ctx.report().timestamps_supported() {
+        Ok(Some(Timestamps::new(ctx, 14)?))
+    } else {
+        log::info!("no timestamp queries on this device: pass times are not measured");
+        Ok(None)
+    }
+}
+
+/// Refuses the bounded criterion on a frame that cone-traces glossy reflectors (`cone`): the
+/// lists' capture stores no colour for the pre-filtered chain to read, so the cone pass would
+/// read an image nothing wrote (a frame of background, no warning).
+fn check_cone_criterion(scene: &Scene, options: &RenderOptions, cone: bool) -> VkResult<()> {
+    if !cone || options.trace.criterion != TraceCriterion::Bounded {
+        return Ok(());
+    }
+    Err(VkError::Usage {
+        what: "criterion".into(),
+        detail: format!(
+            "--criterion bounded cannot cone-trace the glossy reflectors of scene `{}` ({}): its \
+             capture keeps no colour. Render it with the default criterion, or with --method \
+             bvh --spp N",
+            scene.name,
+            scene.glossy_reflectors().join(", ")
+        ),
+    })
+}
+
 /// Depth range and ray length for a scene seen by a camera: `(near, far, t_hi)` of
 /// [`FrameRanges`] (the G-buffer's near plane, the scene's far extent from the eye, which is no
 /// clip plane, and the ray length), without the precision check.
@@ -1043,20 +1072,7 @@ impl GpuRenderer {
         let data = GpuSceneData::new(scene);
         // The pre-filtered CMO colour chain, for a method that reads it, on a glossy scene only.
         let cone = spec.glossy().reads_chain() && needs.capture && has_glossy_reflector(&data);
-        if cone && options.trace.criterion == TraceCriterion::Bounded {
-            // The lists' capture stores no colour for the pre-filtered chain to read: the cone
-            // pass would read an image nothing wrote (a frame of background, no warning).
-            return Err(VkError::Usage {
-                what: "criterion".into(),
-                detail: format!(
-                    "--criterion bounded cannot cone-trace the glossy reflectors of scene `{}` \
-                     ({}): its capture keeps no colour. Render it with the default criterion, \
-                     or with --method bvh --spp N",
-                    scene.name,
-                    scene.glossy_reflectors().join(", ")
-                ),
-            });
-        }
+        check_cone_criterion(scene, &options, cone)?;
         needs.contents.colour |= cone;
         let scene_buffers = SceneBuffers::new(ctx, &data)?;
         let mut stages = CmoStages::new(
@@ -1119,12 +1135,7 @@ impl GpuRenderer {
             &stages.cmo,
             &scene_buffers,
         )?;
-        let timestamps = if ctx.report().timestamps_supported() {
-            Some(Timestamps::new(ctx, 14)?)
-        } else {
-            log::info!("no timestamp queries on this device: pass times are not measured");
-            None
-        };
+        let timestamps = frame_timestamps(ctx)?;
         Ok(GpuRenderer {
             options,
             background: scene.background,

@@ -62,6 +62,25 @@ pub fn finish_gpu(ctx: GpuContext) {
     );
 }
 
+/// Asserts that the GPU context `fr` created for itself reported no validation error, then
+/// drops the renderer and asserts again (leaks are reported when the device is destroyed).
+/// Panics when `fr` has no GPU context: call it for GPU methods only.
+pub fn finish_renderer(fr: cubetrace::app::frame_renderer::FrameRenderer) {
+    let ctx = fr.context().expect("a GPU method's renderer has a context");
+    let log = ctx.validation_log();
+    assert_eq!(
+        ctx.validation_errors(),
+        Vec::<String>::new(),
+        "validation errors of the renderer's context"
+    );
+    drop(fr);
+    assert_eq!(
+        log.errors(),
+        Vec::<String>::new(),
+        "validation errors at the renderer's destruction"
+    );
+}
+
 /// What the per-scene accuracy bounds judge, both lower bounds (a method that does better
 /// passes): the share of mirror pixels that are correct (`1 - error`: in both masks, resolved,
 /// on the reference's surface) and the PSNR over mirror pixels.
