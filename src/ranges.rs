@@ -145,6 +145,8 @@ pub struct EdgeOn {
     /// The triangle's index within its object (its primitive id) and its corners.
     pub primitive: u32,
     pub corners: [Vec3; 3],
+    /// `file:line` of the triangle's face where it was loaded from a file.
+    pub source: Option<String>,
     /// Distance of the viewpoint from the triangle's plane (f64).
     pub distance: f64,
     /// Distance below which the GPU passes treat the viewpoint as in the plane.
@@ -273,17 +275,16 @@ pub enum RangeError {
         footprint: f64,
     },
     #[error(
-        "scene `{scene}`: {viewpoint} lies on a surface: {distance:.3e} from triangle \
-         {primitive} of `{object}` (corners {corners}), nearer than f32 can tell from its \
-         plane ({bound:.3e}); no pass in f32 can see that surface as the reference does. Move \
-         it off the surface by at least {bound:.3e} (or exactly onto its plane)"
+        "scene `{scene}`: {viewpoint} lies on a surface: {distance:.3e} from {triangle}, \
+         nearer than f32 can tell from its plane ({bound:.3e}); no pass in f32 can see that \
+         surface as the reference does. Move it off the surface by at least {bound:.3e} (or \
+         exactly onto its plane)"
     )]
     EdgeOn {
         scene: String,
         viewpoint: String,
-        object: String,
-        primitive: u32,
-        corners: String,
+        /// `triangle K of `OBJECT` (face at FILE:LINE) (corners A, B, C)`.
+        triangle: String,
         distance: f64,
         bound: f64,
     },
@@ -383,12 +384,16 @@ impl FrameRanges {
                 })
             })
             .map(|(viewpoint, cmo, (distance, bound, object, i))| {
-                let o = &world.objects[world.triangle_object[i] as usize];
+                let k = world.triangle_object[i] as usize;
+                let o = &world.objects[k];
+                let primitive = i as u32 - o.first_triangle;
+                let part = scene.meshes.iter().flat_map(|m| &m.parts).nth(k);
                 EdgeOn {
                     viewpoint,
                     cmo,
                     object,
-                    primitive: i as u32 - o.first_triangle,
+                    source: part.and_then(|p| p.source_line(primitive as usize)),
+                    primitive,
                     corners: world.triangles[i].map(|v| world.positions[v as usize]),
                     distance,
                     bound,
@@ -446,9 +451,14 @@ impl FrameRanges {
             return Err(RangeError::EdgeOn {
                 scene: scene.name.clone(),
                 viewpoint: e.viewpoint.clone(),
-                object: e.object.clone(),
-                primitive: e.primitive,
-                corners: format!("{a}, {b}, {c}"),
+                triangle: format!(
+                    "triangle {} of `{}`{} (corners {a}, {b}, {c})",
+                    e.primitive,
+                    e.object,
+                    e.source
+                        .as_ref()
+                        .map_or(String::new(), |s| format!(" (face at {s})"))
+                ),
                 distance: e.distance,
                 bound: e.bound,
             });

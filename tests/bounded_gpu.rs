@@ -1,4 +1,4 @@
-//! The `bounded` criterion on the GPU (issue 22): both GPU paths (`--method fragment`,
+//! The `bounded` criterion on the GPU: both GPU paths (`--method fragment`,
 //! `fs_bounded`; `--method compute`, the `_bounded` entry points) over per-texel lists built on
 //! the CPU and uploaded (`GpuRenderer::with_lists`), against each other and against the CPU
 //! twin (`cpu::bounded` through its multi-CMO layer, the pyramid march) per mirror pixel:
@@ -503,27 +503,54 @@ fn without(lists: &[TexelLists], tri: u32) -> Vec<TexelLists> {
 
 /// Every GPU hit is the first along its ray among the listed triangles (the reference's), with
 /// one and two CMOs, and with a self-capturing reflector (the start rule keeps each ray off its
-/// own triangle, which is in the lists). Negative: with the hit triangle of one pixel dropped
-/// from the lists, that pixel's decision changes and the check flags it (a hit behind the
-/// first, or an escape through it).
+/// own triangle, which is in the lists); more than 100 hits and at most about twice the
+/// measured share of mirror pixels unresolved. Negatives: the frame with every record
+/// unresolved fails (giving up is never a hit behind, so the unresolved bound must catch it);
+/// with the hit triangle of one pixel dropped from the lists, that pixel's decision changes and
+/// the check flags it (a hit behind the first, or an escape through it).
 #[test]
 fn hits_are_first_and_a_dropped_triangle_shows() {
     let ctx = gpu_context();
-    for (name, sr) in [
-        ("sphere-room", None),
-        ("default", None),
-        ("sphere-room", Some(SelfReflections::On)),
+    // The largest unresolved share of the mirror pixels, about twice the measured: sphere-room
+    // 5 of 260 (1.9 %), default 3 of 256 (1.2 %), sphere-room self-capturing 44 of 260 (17 %).
+    for (name, sr, max_unresolved) in [
+        ("sphere-room", None, 0.04),
+        ("default", None, 0.04),
+        ("sphere-room", Some(SelfReflections::On), 0.35),
     ] {
         let s = scene(name, sr);
         let lists = scene_lists(&s, DEPTH);
         for method in [Method::Fragment, Method::Compute] {
             let (f, from) = render_from(&ctx, &s, method, &lists);
             let (wrong, hits, unresolved) = not_first(&s, &f, &from);
+            let mirror = f.mask.iter().filter(|&&m| m != 0).count();
             eprintln!(
-                "{name} (self {sr:?}) {method}: {wrong} wrong, {hits} hits, {unresolved} unresolved"
+                "{name} (self {sr:?}) {method}: {wrong} wrong, {hits} hits, {unresolved} \
+                 unresolved of {mirror} mirror pixels"
             );
-            assert!(hits > 100, "{name} {method}: {hits} hits");
-            assert_eq!(wrong, 0, "{name} {method}: hits behind the first");
+            let judge = |(wrong, hits, unresolved): (usize, usize, usize)| {
+                if wrong > 0 {
+                    Some(format!("{wrong} hits behind the first"))
+                } else if hits <= 100 {
+                    Some(format!("{hits} hits"))
+                } else if unresolved as f64 > max_unresolved * mirror as f64 {
+                    Some(format!("{unresolved} of {mirror} unresolved"))
+                } else {
+                    None
+                }
+            };
+            if let Some(e) = judge((wrong, hits, unresolved)) {
+                panic!("{name} (self {sr:?}) {method}: {e}");
+            }
+            // Negative: the frame given up on every pixel (never a hit behind) fails.
+            let mut give_up = f.clone();
+            for r in &mut give_up.records {
+                r.status = RECORD_UNRESOLVED;
+            }
+            assert!(
+                judge(not_first(&s, &give_up, &from)).is_some(),
+                "{name} {method}: a frame that resolves nothing passed"
+            );
             if sr.is_some() {
                 // The start rule: some ray leaves a triangle that a texel it crosses lists.
                 let own = (0..f.records.len())

@@ -602,6 +602,55 @@ resolution = 64
     assert!(!dir.path().join("out.png").exists());
 }
 
+/// Through the binary: an eye 1e-7 above a floor loaded from an OBJ (on the surface, to f32
+/// rounding) is refused naming the floor's face by file and line and the distance to move;
+/// exit 1, no image. Negative: the eye exactly in the floor's plane renders (the reference and
+/// the passes both see the floor edge-on).
+#[test]
+fn cli_names_the_face_an_eye_lies_on() {
+    let dir = tempfile::tempdir().unwrap();
+    let floor = "# a floor\no floor\nv -5 0 -5\nv 5 0 -5\nv 5 0 5\nv -5 0 5\nf 1 2 3 4\n";
+    let mirror = "o mirror\nv 0 0.5 -2\nv 1 0.5 -2\nv 0 1.5 -2\nf 1 2 3\n";
+    std::fs::write(dir.path().join("floor.obj"), floor).unwrap();
+    std::fs::write(dir.path().join("mirror.obj"), mirror).unwrap();
+    let scene = |y: &str| {
+        format!(
+            "name = \"on-floor\"\n[[mesh]]\nobj = \"floor.obj\"\n[[mesh]]\nobj = \"mirror.obj\"\n\
+             reflector = true\n[[camera]]\neye = [0.5, {y}, 0.5]\ntarget = [0.5, -0.3, -3]\n\
+             resolution = [16, 12]\n[cmo]\ncentres = [[0.3, 0.8, -1.5]]\nresolution = 16\n"
+        )
+    };
+    let render = |y: &str| {
+        std::fs::write(dir.path().join("scene.toml"), scene(y)).unwrap();
+        Command::new(env!("CARGO_BIN_EXE_cubetrace"))
+            .args(["render", "scene.toml", "--method", "bvh", "-o", "out.png"])
+            .env("XDG_RUNTIME_DIR", "/tmp")
+            .current_dir(dir.path())
+            .output()
+            .unwrap()
+    };
+    let out = render("1e-7");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    eprintln!("{stderr}");
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    for needle in [
+        "lies on a surface",
+        "floor.obj:7",
+        "Move it off the surface",
+    ] {
+        assert!(stderr.contains(needle), "`{needle}` missing: {stderr}");
+    }
+    assert!(!dir.path().join("out.png").exists());
+    let out = render("0");
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(dir.path().join("out.png").exists());
+}
+
 /// Where [`span_records_child`] writes the span scene's compute records (set by the parent).
 const RECORDS_OUT_ENV: &str = "CUBETRACE_TEST_SPAN_RECORDS";
 

@@ -992,6 +992,7 @@ fn hard_geometry() -> Scene {
             positions,
             triangles,
             material: m,
+            source: None,
         };
     scene.meshes.push(mesh(
         "mirror",

@@ -223,6 +223,7 @@ fn with_floor_sliver() -> Scene {
         uvs: vec![],
         triangles: vec![[0, 1, 2]],
         material,
+        source: None,
     };
     scene.meshes.push(MeshInstance {
         name: "trim".into(),
@@ -317,6 +318,7 @@ fn with_far_vertex(x: f32) -> Scene {
         uvs: vec![],
         triangles: vec![[0, 1, 2]],
         material,
+        source: None,
     };
     scene.meshes.push(MeshInstance {
         name: "far".into(),
@@ -424,6 +426,7 @@ fn centre_on_a_diagonal_wall() -> (Scene, Vec3) {
         uvs: vec![],
         triangles: vec![[0, 1, 2], [0, 2, 3]],
         material,
+        source: None,
     };
     scene.meshes.push(MeshInstance {
         name: "wall".into(),

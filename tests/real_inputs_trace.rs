@@ -63,6 +63,7 @@ fn with_ground(scene: &Scene, y: f32, far: f32) -> Scene {
         uvs: Vec::new(),
         triangles: vec![[0, 1, 2]],
         material,
+        source: None,
     }];
     s.meshes.push(mesh);
     s

@@ -1,4 +1,4 @@
-//! Issue 22, deliverable 4: thin and small geometry around a mirror (the stress scenes of
+//! Thin and small geometry around a mirror (the stress scenes of
 //! `tests/common/stress.rs`, and the Stanford bunny of `tests/scenes/bunny/`), judged by the
 //! quality harness of `tests/common/quality.rs` against the exact reference, per mirror pixel.
 //!
@@ -10,12 +10,16 @@
 //! - `exact_capture_misses_thin_geometry`: the `exact` criterion (centre-sampled capture,
 //!   verified hits) reports hits behind the first hit: the old capture fails the new target.
 //!   Asserted on the five thin scenes (fence, wire grid, chain link, foliage, edge-on fins) at
-//!   every size and CMO count; the relief and the bunny are logged (at cube 64 the exact
-//!   capture finds their first hits: 0 or 1 behind).
-//! - `bounded_capture_finds_the_first_hit`: the `bounded` criterion's CPU twin: no hit behind the first beyond the tolerance, no hit in front,
-//!   the same triangle on >= 99.9 % of resolved pixels, at cube sizes 16 and 64 with 1 to 3
-//!   CMOs on every scene and 256 on the fence. Negative: lists without the thin part's entries
-//!   are judged behind.
+//!   every size and CMO count, and on the relief at 16; the relief at 64 and the bunny are
+//!   logged (the exact capture finds their first hits there, or misses 1 to 6).
+//! - `bounded_capture_finds_the_first_hit`: the `bounded` criterion's CPU twin: no hit behind
+//!   the first beyond the tolerance, no hit in front, the same triangle on >= 99.9 % of
+//!   resolved pixels, at most 8 % of the judged pixels unresolved and at least 90 % of the
+//!   mirror pixels judged (`first_hit_failure`), at cube sizes 16 and 64 with 1 to 3 CMOs on
+//!   every scene and 256 with one CMO on the fence, the wire grid and the edge-on fins.
+//!   Negatives: lists without the thin part's entries are judged behind; a tracer that
+//!   gives up on every ray (never behind, never in front), and the bounded twin giving up on
+//!   just over 8 % more rays, fail the unresolved bound.
 //! - `drop_entries_drops_only_the_named_triangles`: the bounded negative's perturbation.
 //! - `stress_scenes_export_and_load_back` (ignored; `STRESS_EXPORT_DIR=dir`): writes every
 //!   stress scene as a scene file (`scene export`'s format) for the CLI and the GPU checks, and
@@ -29,11 +33,11 @@
 //! | scene | exact | `bounded` (list depth 64): behind, unresolved; triangles/ray at 64 |
 //! | --- | --- | --- |
 //! | fence | 63 73 70 \| 37 66 63; 16 at N = 256 | 0, 0 %; 25 |
-//! | wire-grid | 54 54 54 \| 54 54 54 | 0, 0 %; 28 |
+//! | wire-grid | 54 54 54 \| 54 54 54; 20 at N = 256 | 0, 0 %; 28 |
 //! | chain-link | 44 46 47 \| 20 35 40 | 0, 0 %; 12 |
 //! | foliage | 26 32 31 \| 11 14 19 | 0, 0 %; 4 |
 //! | relief | 45 51 58 \| 0 0 1 | 0, 0 %; 2 |
-//! | edge-on | 255 170 259 \| 251 119 259 | 0, 0 %; 2 |
+//! | edge-on | 255 170 259 \| 251 119 259; 232 at N = 256 | 0, 0 %; 2 |
 //! | bunny (3674 triangles) | 0 1 6 \| 0 0 0 | 0, 1.3 to 3.9 % at 16 and 0 at 64; 6 |
 //!
 //! `bounded` had the same triangle on 100 % of resolved pixels in every run; the exact
@@ -142,7 +146,7 @@ fn stress_scenes_put_thin_geometry_in_the_mirror() {
 }
 
 /// `(scene, cube size, CMOs)` runs of the exact and bounded checks: sizes 16 and 64 with 1 to
-/// 3 CMOs on every scene, and 256 with one CMO on the fence.
+/// 3 CMOs on every scene, and 256 with one CMO on the fence, the wire grid and the edge-on fins.
 fn runs() -> Vec<(&'static str, &'static str, u32, u32)> {
     let mut v = Vec::new();
     for (name, thin) in scenes() {
@@ -152,7 +156,9 @@ fn runs() -> Vec<(&'static str, &'static str, u32, u32)> {
             }
         }
     }
-    v.push(("fence", "fence", 256, 1));
+    for name in ["fence", "wire-grid", "edge-on"] {
+        v.push((name, name, 256, 1));
+    }
     v
 }
 
@@ -171,10 +177,10 @@ fn exact_capture_misses_thin_geometry() {
         if q.behind > 0 {
             failing += 1;
         }
-        // The negative of issue 22: the old capture must fail the new target where the
-        // geometry is thinner than a texel (the relief and the bunny are logged only: at 64
-        // the exact capture resolves them).
-        if name != "relief" && name != "bunny" {
+        // Negative: the centre-sampled capture must fail the `bounded` target where the
+        // geometry is thinner than a texel (the relief at 64 and the bunny are logged only:
+        // the exact capture resolves them, or misses 1 to 6 pixels).
+        if name != "bunny" && (name != "relief" || cube == 16) {
             assert!(
                 q.behind > 0,
                 "{name} N {cube} CMOs {cmos}: the exact criterion found every first hit"
@@ -187,6 +193,42 @@ fn exact_capture_misses_thin_geometry() {
     );
 }
 
+/// Largest unresolved share of the judged pixels that `bounded` may leave. Measured: 0 on every
+/// stress scene at every size and CMO count; on the bunny 3.9 %, 1.9 %, 1.3 % at N = 16 with
+/// 1, 2, 3 CMOs and 0 at 64. Twice the largest measured, so that a tracer that gives up on
+/// rays (which is never behind, never in front and never on a wrong triangle) fails.
+const MAX_UNRESOLVED: f64 = 0.08;
+
+/// Why `q` fails the `bounded` targets, or `None`: no hit behind the first, none in front,
+/// the same triangle on >= 99.9 % of the resolved pixels, at most [`MAX_UNRESOLVED`] of the
+/// judged pixels unresolved, and at least 90 % of the mirror pixels judged (measured: 99.4 %
+/// to 99.5 %: the rest see the mirror first, and are not judged).
+fn first_hit_failure(q: &Quality) -> Option<String> {
+    if q.behind > 0 {
+        Some(format!("{} hits behind the first hit", q.behind))
+    } else if q.in_front > 0 {
+        Some(format!("{} hits in front of the first hit", q.in_front))
+    } else if q.same_share() < 0.999 {
+        Some(format!(
+            "same triangle on {:.3} % of resolved pixels",
+            100.0 * q.same_share()
+        ))
+    } else if q.unresolved_share() > MAX_UNRESOLVED {
+        Some(format!(
+            "{:.2} % of judged pixels unresolved",
+            100.0 * q.unresolved_share()
+        ))
+    } else if q.judged() * 10 < q.mirror * 9 {
+        Some(format!(
+            "{} of {} mirror pixels judged",
+            q.judged(),
+            q.mirror
+        ))
+    } else {
+        None
+    }
+}
+
 #[test]
 fn bounded_capture_finds_the_first_hit() {
     for &(name, thin, cube, cmos) in &runs() {
@@ -194,7 +236,7 @@ fn bounded_capture_finds_the_first_hit() {
         let twin = bounded_twin(&b, cube, &|_| {}).expect("the bounded twin");
         let q = b.judge(&twin);
         log(name, cube, cmos, "bounded", &q);
-        // The cost the issue asks for, per probe ray (the last CMO's trace): texels classified
+        // The cost of the capture, per probe ray (the last CMO's trace): texels classified
         // and candidate triangles intersected.
         let cmos_b = bounded_cmos(&b, cube, &|_| {});
         let (mut texels, mut triangles) = (0u64, 0u64);
@@ -210,13 +252,49 @@ fn bounded_capture_finds_the_first_hit() {
             triangles as f64 / n
         );
         let at = format!("{name} N {cube} CMOs {cmos}");
-        assert_eq!(q.behind, 0, "{at}: hits behind the first hit");
-        assert_eq!(q.in_front, 0, "{at}: hits in front of the first hit");
-        assert!(
-            q.same_share() >= 0.999,
-            "{at}: same triangle on {:.3} % of resolved pixels",
-            100.0 * q.same_share()
-        );
+        if let Some(e) = first_hit_failure(&q) {
+            panic!("{at}: {e}");
+        }
+        // Negative: a tracer that gives up on every ray is neither behind nor in front and
+        // has no resolved pixel to be wrong on; the unresolved bound must fail it.
+        if cmos == 1 {
+            let give_up: quality::Twin = Box::new(|_| Found::Unresolved);
+            let give_up = b.judge(&give_up);
+            assert!(
+                first_hit_failure(&give_up).is_some(),
+                "{at}: a tracer that resolves nothing passed: {}",
+                give_up.line()
+            );
+            // Negative: the bounded twin giving up on just enough more rays to exceed the
+            // bound fails it, and on that bound alone.
+            let quit = (MAX_UNRESOLVED * q.judged() as f64) as usize + 1;
+            let key = |p: &quality::Probe| p.origin.to_array().map(f32::to_bits);
+            let quitting: std::collections::HashSet<[u32; 3]> = b
+                .probes
+                .iter()
+                .filter(|p| {
+                    p.reference
+                        .is_none_or(|h| !b.tracer.is_reflector(h.triangle))
+                })
+                .filter(|p| twin(p) != Found::Unresolved)
+                .take(quit)
+                .map(key)
+                .collect();
+            let some: quality::Twin = Box::new(|p| {
+                if quitting.contains(&key(p)) {
+                    Found::Unresolved
+                } else {
+                    twin(p)
+                }
+            });
+            let g = b.judge(&some);
+            let e = first_hit_failure(&g);
+            assert!(
+                e.as_ref().is_some_and(|e| e.contains("unresolved")),
+                "{at}: giving up on {quit} more rays: {e:?}: {}",
+                g.line()
+            );
+        }
         // Negative: lists without the thin part's entries (bounds untouched) are unsound,
         // and the harness sees it.
         if cmos == 1 && cube == 64 {

@@ -307,6 +307,29 @@ pub struct MeshPart {
     pub triangles: Vec<[u32; 3]>,
     /// Index into [`Scene::materials`].
     pub material: u32,
+    /// Where the triangles come from, for messages: `None` for built-in geometry.
+    pub source: Option<PartSource>,
+}
+
+/// The file a loaded [`MeshPart`] comes from and the line of each triangle's face in it.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct PartSource {
+    pub file: std::path::PathBuf,
+    /// One per triangle of the part, as loaded (empty after an edit that changed them).
+    pub lines: Vec<u32>,
+}
+
+impl MeshPart {
+    /// `file:line` of triangle `k`'s face, where the part was loaded from a file and its
+    /// triangles are still those loaded.
+    pub fn source_line(&self, k: usize) -> Option<String> {
+        let s = self.source.as_ref()?;
+        let line = s
+            .lines
+            .get(k)
+            .filter(|_| s.lines.len() == self.triangles.len())?;
+        Some(format!("{}:{line}", s.file.display()))
+    }
 }
 
 /// Object-to-world placement: scale, then rotate (Euler X, then Y, then Z, in degrees), then

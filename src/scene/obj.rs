@@ -967,6 +967,8 @@ struct RawPart {
     uvs: Vec<Vec2>,
     normals: Vec<Vec3>,
     triangles: Vec<[u32; 3]>,
+    /// The source line of each triangle's polygon.
+    lines: Vec<u32>,
 }
 
 /// The items of `v` at `kept`; an empty `v` (texture coordinates or normals absent) stays empty.
@@ -1017,6 +1019,7 @@ fn triangulate_models(
             return Err(mismatch());
         }
         let mut triangles = Vec::with_capacity(m.indices.len());
+        let mut tri_lines: Vec<u32> = Vec::with_capacity(m.indices.len());
         let mut start = 0;
         for &n in &arities {
             let face = &m.indices[start..start + n as usize];
@@ -1037,6 +1040,7 @@ fn triangulate_models(
                 );
                 (1..n as usize - 1).map(|i| [0, i, i + 1]).collect()
             });
+            tri_lines.extend(std::iter::repeat_n(line as u32, tris.len()));
             triangles.extend(tris.into_iter().map(|t| t.map(|k| face[k])));
         }
         let uvs: Vec<Vec2> = m
@@ -1074,6 +1078,7 @@ fn triangulate_models(
             uvs: pick(&uvs, &kept),
             normals: pick(&normals, &kept),
             triangles,
+            lines: tri_lines,
         });
     }
     if parts.next().is_some() {
@@ -1106,8 +1111,9 @@ fn finish_part(
     }
     let positions = raw.positions;
     let mut triangles = Vec::with_capacity(raw.triangles.len());
+    let mut lines = Vec::with_capacity(raw.triangles.len());
     let mut dropped = 0;
-    for &t in &raw.triangles {
+    for (&t, &line) in raw.triangles.iter().zip(&raw.lines) {
         // In f64: f32 overflows for sides over ~1e19 and underflows under ~1e-19, both of
         // which a valid vertex may give (coordinates reach 2^60).
         let [a, b, c] = t.map(|i| positions[i as usize].as_dvec3());
@@ -1116,6 +1122,7 @@ fn finish_part(
             dropped += 1;
         } else {
             triangles.push(t);
+            lines.push(line);
         }
     }
     // Corners without a normal have the zero one here, replaced by the computed normal below.
@@ -1153,6 +1160,10 @@ fn finish_part(
             uvs: raw.uvs,
             triangles,
             material,
+            source: Some(super::PartSource {
+                file: path.to_path_buf(),
+                lines,
+            }),
         },
         dropped,
     )
