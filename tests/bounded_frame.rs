@@ -11,7 +11,8 @@
 //!
 //! Negatives, each of which must fail the same assertions:
 //! - the bounded frame with every record unresolved (a tracer that gives up: no wrong surface,
-//!   no resolved pixel off the reference's triangle);
+//!   no resolved pixel off the reference's triangle), and with just over 2 % more of its mirror
+//!   pixels unresolved (this fails the unresolved bound alone);
 //! - lists built on the CPU without the thin object's entries (bounds untouched: unsound), on
 //!   every scene with one CMO at size 32, uploaded instead of the capture: the rays pass
 //!   through the thin object and hit what lies behind it. The same lists with every entry kept
@@ -237,6 +238,27 @@ fn bounded_frames_find_the_first_hit_on_thin_geometry() {
                 assert!(
                     failure(&g).is_some(),
                     "{at}: a frame that resolves nothing passed: {}",
+                    g.line()
+                );
+                // Negative: the frame given up on just enough more pixels to exceed the bound
+                // fails it, and on that bound alone.
+                let mut quit = (MAX_UNRESOLVED * j.mirror as f64) as usize + 1;
+                let mut some = frame.clone();
+                for (k, r) in some.records.iter_mut().enumerate() {
+                    if quit > 0
+                        && frame.mask[k] != 0
+                        && reference.mask[k] != 0
+                        && r.status != RECORD_UNRESOLVED
+                    {
+                        r.status = RECORD_UNRESOLVED;
+                        quit -= 1;
+                    }
+                }
+                let g = judge(&scene, &reference, &some);
+                let e = failure(&g);
+                assert!(
+                    e.as_ref().is_some_and(|e| e.contains("unresolved")),
+                    "{at}: giving up on 2 % more: {e:?}: {}",
                     g.line()
                 );
             }

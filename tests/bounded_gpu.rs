@@ -505,7 +505,8 @@ fn without(lists: &[TexelLists], tri: u32) -> Vec<TexelLists> {
 /// one and two CMOs, and with a self-capturing reflector (the start rule keeps each ray off its
 /// own triangle, which is in the lists); more than 100 hits and at most about twice the
 /// measured share of mirror pixels unresolved. Negatives: the frame with every record
-/// unresolved fails (giving up is never a hit behind, so the unresolved bound must catch it);
+/// unresolved fails, and so does the frame with just enough more records unresolved to exceed
+/// the bound, on that bound alone (giving up is never a hit behind);
 /// with the hit triangle of one pixel dropped from the lists, that pixel's decision changes and
 /// the check flags it (a hit behind the first, or an escape through it).
 #[test]
@@ -550,6 +551,21 @@ fn hits_are_first_and_a_dropped_triangle_shows() {
             assert!(
                 judge(not_first(&s, &give_up, &from)).is_some(),
                 "{name} {method}: a frame that resolves nothing passed"
+            );
+            // Negative: given up on just enough more pixels to exceed the bound, it fails on
+            // that bound alone.
+            let mut quit = (max_unresolved * mirror as f64) as usize + 1;
+            let mut some = f.clone();
+            for (k, r) in some.records.iter_mut().enumerate() {
+                if quit > 0 && f.mask[k] != 0 && r.status != RECORD_UNRESOLVED {
+                    r.status = RECORD_UNRESOLVED;
+                    quit -= 1;
+                }
+            }
+            let e = judge(not_first(&s, &some, &from));
+            assert!(
+                e.as_ref().is_some_and(|e| e.contains("unresolved")),
+                "{name} (self {sr:?}) {method}: giving up on more pixels: {e:?}"
             );
             if sr.is_some() {
                 // The start rule: some ray leaves a triangle that a texel it crosses lists.

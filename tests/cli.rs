@@ -866,7 +866,7 @@ fn reflection_point_renders_and_refuses_oversized_search_textures() {
     assert!(o.stderr.contains("--subdivide"), "{}", o.stderr);
 }
 
-// ---- Issue 21: the summary, method options, frame size, output names, textures, phases ----
+// ---- The summary, method options, frame size, output names, textures, phases ----
 
 /// The `N finished by the fallback (x%)` and `M unresolved` counts of a GPU summary line.
 fn summary_counts(stdout: &str) -> (usize, usize) {

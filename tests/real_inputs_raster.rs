@@ -1,5 +1,5 @@
-//! Issue 21, cases 1 and 2: inputs that made the rasterised passes (G-buffer, capture) wrong
-//! while the reference was right.
+//! Inputs that made the rasterised passes (G-buffer, capture) wrong while the reference was
+//! right.
 //!
 //! - **The eye in a surface's plane**: the built-in `default` camera sits at z = 4, in the
 //!   plane of the room's front wall. The rasteriser saw that wall through rounded vertices,
@@ -207,18 +207,14 @@ fn an_eye_within_rounding_of_a_plane_is_refused() {
     assert_eq!(r.mirror_pixels(), 0);
 }
 
-/// `sphere-room` at 64x48 with a sliver on the floor in front of the mirror, as a trim of a
-/// real interior is: 3 long, 3e-7 wide (its corner angles below 1e-6), 3.2 from the eye.
-fn with_floor_sliver() -> Scene {
+/// `sphere-room` at 64x48 with one more mesh `mesh` of one part `part`: the triangle `corners`
+/// (normals up, the room's material).
+fn with_triangle(mesh: &str, part: &str, corners: [Vec3; 3]) -> Scene {
     let mut scene = builtin::sphere_room();
     let material = scene.meshes[0].parts[0].material;
-    let sliver = MeshPart {
-        name: "sliver".into(),
-        positions: vec![
-            Vec3::new(-1.5, 0.01, 1.0),
-            Vec3::new(1.5, 0.01, 1.0),
-            Vec3::new(0.2, 0.01, 1.0 + 3e-7),
-        ],
+    let triangle = MeshPart {
+        name: part.into(),
+        positions: corners.to_vec(),
         normals: vec![Vec3::Y; 3],
         uvs: vec![],
         triangles: vec![[0, 1, 2]],
@@ -226,8 +222,8 @@ fn with_floor_sliver() -> Scene {
         source: None,
     };
     scene.meshes.push(MeshInstance {
-        name: "trim".into(),
-        parts: vec![sliver],
+        name: mesh.into(),
+        parts: vec![triangle],
         transform: Transform::default(),
         reflector: false,
     });
@@ -235,6 +231,20 @@ fn with_floor_sliver() -> Scene {
     c.width = 64;
     c.height = 48;
     scene
+}
+
+/// `sphere-room` at 64x48 with a sliver on the floor in front of the mirror, as a trim of a
+/// real interior is: 3 long, 3e-7 wide (its corner angles below 1e-6), 3.2 from the eye.
+fn with_floor_sliver() -> Scene {
+    with_triangle(
+        "trim",
+        "sliver",
+        [
+            Vec3::new(-1.5, 0.01, 1.0),
+            Vec3::new(1.5, 0.01, 1.0),
+            Vec3::new(0.2, 0.01, 1.0 + 3e-7),
+        ],
+    )
 }
 
 /// The edge-on test as it was: the plane's normal from the unit edges at the vertex nearest
@@ -305,37 +315,20 @@ fn a_sliver_in_view_is_drawn_not_refused() {
 /// The `sphere-room` built-in at 64x48 with one more triangle, just above the floor, from
 /// `(-2, 0.01, -3)` to `(x, 0.01, -3)`: a large ground triangle, as an exporter writes one.
 fn with_far_vertex(x: f32) -> Scene {
-    let mut scene = builtin::sphere_room();
-    let material = scene.meshes[0].parts[0].material;
-    let far = MeshPart {
-        name: "far".into(),
-        positions: vec![
+    with_triangle(
+        "far",
+        "far",
+        [
             Vec3::new(-2.0, 0.01, -3.0),
             Vec3::new(x, 0.01, -3.0),
             Vec3::new(-2.0, 0.01, -3.5),
         ],
-        normals: vec![Vec3::Y; 3],
-        uvs: vec![],
-        triangles: vec![[0, 1, 2]],
-        material,
-        source: None,
-    };
-    scene.meshes.push(MeshInstance {
-        name: "far".into(),
-        parts: vec![far],
-        transform: Transform::default(),
-        reflector: false,
-    });
-    let c = &mut scene.cameras[0];
-    c.width = 64;
-    c.height = 48;
-    scene
+    )
 }
 
-/// A vertex at 1e13 or 1e18 (the issue: background only on compute, fragment and bvh): `bvh`
+/// A vertex at 1e13 or 1e18 (it once gave background only on compute, fragment and bvh): `bvh`
 /// and `fragment` (G-buffer and capture) see what the reference sees. (`compute` shares both
-/// passes; it is left out here because such a triangle costs it seconds per frame: issue 21,
-/// case 3.) Negative: the old near plane's floor (the far
+/// passes; it is left out here because such a triangle costs it seconds per frame.) Negative: the old near plane's floor (the far
 /// extent times 2^-40, here 9 and 9e5 units) clips the room, and the check fails.
 #[test]
 fn a_far_vertex_leaves_the_near_scene_in_view() {

@@ -1,5 +1,4 @@
-//! Real-world OBJ/MTL input (issue 9, item 4), scene file checks and set-up diagnostics
-//! (item 5). Each accepted oddity is checked for what it loads as, and for the warning that
+//! Real-world OBJ/MTL input, scene file checks and set-up diagnostics. Each accepted oddity is checked for what it loads as, and for the warning that
 //! counts it; each refusal for the file and line it names.
 
 use std::path::{Path, PathBuf};

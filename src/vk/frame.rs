@@ -151,7 +151,7 @@ pub fn pass_name(method: Method) -> &'static str {
 }
 
 /// What the capture writes for a frame of `method` with tracer options `trace`
-/// ([`MethodSpec::needs`]; issue 10: CMO memory must not grow, and the memory estimate,
+/// ([`MethodSpec::needs`]: CMO memory holds only what is read, and the memory estimate,
 /// `super::budget`, uses the same rule). The reference, no GPU method, would take the IDs.
 pub fn capture_contents(method: Method, trace: &TraceOptions) -> CaptureContents {
     match methods::spec(method) {

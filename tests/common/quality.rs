@@ -1,4 +1,4 @@
-//! The capture-quality harness of issue 22: judges a CPU tracer twin against the exact
+//! The capture-quality harness: judges a CPU tracer twin against the exact
 //! reference ([`cubetrace::reference::Tracer`]) on every mirror pixel of a scene.
 //!
 //! Per mirror pixel of the scene's first camera, the reference gives the reflected ray (origin

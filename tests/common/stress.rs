@@ -1,4 +1,4 @@
-//! Stress scenes for the capture (issue 22): geometry thinner or smaller than a texel at every
+//! Stress scenes for the capture: geometry thinner or smaller than a texel at every
 //! tested cube size, around a mirror sphere, so that the reflected rays meet it. Built in code,
 //! deterministically (the [`Rng`](super::Rng) with fixed seeds), small enough for CPU tests:
 //! at most about 4000 triangles each.
