@@ -150,6 +150,86 @@ fn start_ignores(o: Vec3, from: u32, f: [Vec3; 3], e: f32, tri: u32, t: [Vec3; 3
             && plane_distance(o, t[0], t[1], t[2]) <= e)
 }
 
+/// What the traversal keeps of its ray: the origin, the direction and its reciprocal, the
+/// octant that orders a node's children, the lower bound on `t`, the triangle it leaves (with
+/// its corners) and the start rule's tolerance there (`bvh_start_tolerance`).
+struct Ray {
+    o: Vec3,
+    d: Vec3,
+    inv: Vec3,
+    oct: u32,
+    t_lo: f32,
+    from: Option<(u32, [Vec3; 3])>,
+    e: Option<f32>,
+}
+
+impl Ray {
+    fn new(o: Vec3, d: Vec3, t_min: f32, from: Option<(u32, [Vec3; 3])>) -> Ray {
+        let e = from.map(|(_, [f0, f1, f2])| {
+            let m = o.abs().max(f0.abs()).max(f1.abs().max(f2.abs()));
+            2.0 * plane_distance(o, f0, f1, f2) + START_ULPS * m.max_element()
+        });
+        let inv = inv_dir(d);
+        let oct = (if inv.x < 0.0 { 0 } else { 4 })
+            | (if inv.y < 0.0 { 0 } else { 2 })
+            | (if inv.z < 0.0 { 0 } else { 1 });
+        Ray {
+            o,
+            d,
+            inv,
+            oct,
+            t_lo: t_min.max(0.0),
+            from,
+            e,
+        }
+    }
+}
+
+/// One triangle turn of the traversal: the triangle in slot `k` against the ray, logged into
+/// `it`. A hit at `t >= t_lo`, nearer than `best` (or as near with a lower ID) and not ignored
+/// by the start rule becomes `best`, and `t_best` its `t` padded by `PAD`.
+fn triangle_turn(
+    b: &BvhData,
+    ray: &Ray,
+    k: u32,
+    best: &mut Option<(f32, u32)>,
+    t_best: &mut f32,
+    out: &mut BvhOut,
+    it: &mut Iter,
+) {
+    let corner = |i: u32| {
+        let v = b.tris[(3 * k + i) as usize];
+        Vec3::new(v[0], v[1], v[2])
+    };
+    let t = [corner(0), corner(1), corner(2)];
+    let tri = b.tris[(3 * k) as usize][3].to_bits();
+    out.tests += 1;
+    let base = tri_base(k);
+    it.execs.push(super::work::Exec {
+        block: B_TRIANGLE,
+        loads: vec![base, base + 16, base + 32],
+    });
+    if let Some(h) = intersect(ray.o, ray.d, t)
+        && h.t >= ray.t_lo
+        && best.is_none_or(|(bt, btri)| h.t < bt || (h.t == bt && tri < btri))
+    {
+        let ignored = match (ray.from, ray.e) {
+            (Some((f, fc)), Some(e)) if e >= 0.0 => {
+                it.execs.push(super::work::Exec {
+                    block: B_START_RULE,
+                    loads: Vec::new(),
+                });
+                start_ignores(ray.o, f, fc, e, tri, t)
+            }
+            _ => false,
+        };
+        if !ignored {
+            *best = Some((h.t, tri));
+            *t_best = h.t + h.t * PAD;
+        }
+    }
+}
+
 /// `bvh_nearest` for `o + t d`, t >= t_min, leaving triangle `from` (corners `from_corners`),
 /// logging each turn into `top`'s traversal loop.
 pub fn nearest(
@@ -168,15 +248,7 @@ pub fn nearest(
     if b.nodes.is_empty() {
         return out;
     }
-    let e = from.map(|(_, [f0, f1, f2])| {
-        let m = o.abs().max(f0.abs()).max(f1.abs().max(f2.abs()));
-        2.0 * plane_distance(o, f0, f1, f2) + START_ULPS * m.max_element()
-    });
-    let inv = inv_dir(d);
-    let oct = (if inv.x < 0.0 { 0 } else { 4 })
-        | (if inv.y < 0.0 { 0 } else { 2 })
-        | (if inv.z < 0.0 { 0 } else { 1 });
-    let t_lo = t_min.max(0.0);
+    let ray = Ray::new(o, d, t_min, from);
     let mut t_best = f32::INFINITY;
     let mut best: Option<(f32, u32)> = None;
     let mut stack = [(0u32, 0u32); STACK];
@@ -194,37 +266,7 @@ pub fn nearest(
             let j = 31 - prims.1.leading_zeros();
             prims.1 &= !(1 << j);
             let k = prims.0 + j;
-            let corner = |i: u32| {
-                let v = b.tris[(3 * k + i) as usize];
-                Vec3::new(v[0], v[1], v[2])
-            };
-            let t = [corner(0), corner(1), corner(2)];
-            let tri = b.tris[(3 * k) as usize][3].to_bits();
-            out.tests += 1;
-            let base = tri_base(k);
-            it.execs.push(super::work::Exec {
-                block: B_TRIANGLE,
-                loads: vec![base, base + 16, base + 32],
-            });
-            if let Some(h) = intersect(o, d, t)
-                && h.t >= t_lo
-                && best.is_none_or(|(bt, btri)| h.t < bt || (h.t == bt && tri < btri))
-            {
-                let ignored = match (from, e) {
-                    (Some((f, fc)), Some(e)) if e >= 0.0 => {
-                        it.execs.push(super::work::Exec {
-                            block: B_START_RULE,
-                            loads: Vec::new(),
-                        });
-                        start_ignores(o, f, fc, e, tri, t)
-                    }
-                    _ => false,
-                };
-                if !ignored {
-                    best = Some((h.t, tri));
-                    t_best = h.t + h.t * PAD;
-                }
-            }
+            triangle_turn(b, &ray, k, &mut best, &mut t_best, &mut out, &mut it);
             run.iters.push(it);
             continue;
         }
@@ -241,10 +283,10 @@ pub fn nearest(
                 stack[sp] = nodes;
                 sp += 1;
             }
-            let slot = (bit - 24) ^ oct;
+            let slot = (bit - 24) ^ ray.oct;
             let n = group.0 + (group.1 & !(u32::MAX << slot)).count_ones();
             out.nodes += 1;
-            let mask = node_hits(b, n, o, inv, oct, t_lo, t_best);
+            let mask = node_hits(b, n, o, ray.inv, ray.oct, ray.t_lo, t_best);
             let base = node_base(n);
             it.execs.push(super::work::Exec {
                 block: B_NODE,

@@ -73,11 +73,12 @@ use glam::Mat4;
 use gpu_allocator::MemoryLocation;
 
 use crate::cpu::options::TraceOptions;
-use crate::cpu::ssr::{CROSS_EPSILON, MAX_LEVELS, SsrOptions, hiz_len, hiz_levels};
+use crate::cpu::ssr::{CROSS_EPSILON, HizLevel, MAX_LEVELS, SsrOptions, hiz_len, hiz_levels};
 use crate::vk::backend::buffer::Buffer;
 use crate::vk::backend::context::{GpuContext, Recorder};
 use crate::vk::backend::error::{VkError, VkResult};
 use crate::vk::backend::graphics::{GraphicsDesc, GraphicsPipeline, RenderTarget};
+use crate::vk::backend::image::Image;
 use crate::vk::backend::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
 use crate::vk::backend::shaders::{Pass, SSR, SSR_BLUR, SSR_CONE, SSR_HIZ, SSR_VISIBILITY};
 use crate::vk::backend::sync::{
@@ -219,6 +220,71 @@ pub struct ConePasses {
     cells: usize,
 }
 
+/// A compute pass's workgroup width (64 where the shader does not say).
+fn workgroup_width(pass: &Pass) -> u32 {
+    pass.entry_point("main")
+        .map_or(64, |e| e.workgroup_size[0].max(1))
+}
+
+/// A G-buffer image as a sampled texture binding.
+fn sampled(img: &Image) -> Resource<'_> {
+    Resource::Texture {
+        view: img.view(),
+        layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+    }
+}
+
+/// A GPU-only storage buffer the glossy passes write and the tests read back.
+fn cone_storage(ctx: &GpuContext, name: &str, bytes: u64) -> VkResult<Buffer> {
+    Buffer::new(
+        ctx.device(),
+        name,
+        bytes,
+        vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+        MemoryLocation::GpuOnly,
+    )
+}
+
+/// The parameter buffer of one per-level dispatch: its level, stage and the scene's background.
+fn cone_level_buf(
+    ctx: &GpuContext,
+    name: &str,
+    level: u32,
+    stage: u32,
+    background: [f32; 3],
+) -> VkResult<Buffer> {
+    let mut buf = Buffer::new(
+        ctx.device(),
+        name,
+        size_of::<ConeLevelParams>() as u64,
+        vk::BufferUsageFlags::STORAGE_BUFFER,
+        MemoryLocation::CpuToGpu,
+    )?;
+    let [r, g, b] = background;
+    buf.write(
+        0,
+        &[ConeLevelParams {
+            level,
+            stage,
+            background: [r, g, b, 1.0],
+            ..ConeLevelParams::default()
+        }],
+    )?;
+    Ok(buf)
+}
+
+/// What the glossy passes read and write besides their own parameters: the `ssr` pass's
+/// parameters and min pyramid, and the glossy passes' max pyramid, visibility and colour chain
+/// with its scratch.
+struct ConeBindings<'a> {
+    params_buf: &'a Buffer,
+    pyramid: &'a Buffer,
+    hiz_max: &'a Buffer,
+    visibility_buf: &'a Buffer,
+    chain: &'a Buffer,
+    scratch: &'a Buffer,
+}
+
 impl ConePasses {
     #[allow(clippy::too_many_arguments)]
     fn new(
@@ -239,88 +305,33 @@ impl ConePasses {
             });
         }
         let cells = hiz_len(width, height);
-        let storage = |name: &str, bytes: u64| {
-            Buffer::new(
-                ctx.device(),
-                name,
-                bytes,
-                vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
-                MemoryLocation::GpuOnly,
-            )
-        };
-        let hiz_max = storage("hiz max pyramid", cells as u64 * 4)?;
-        let visibility_buf = storage("ssr visibility", cells as u64 * 4)?;
-        let chain = storage("ssr colour chain", cells as u64 * 16)?;
-        let scratch = storage("ssr blur scratch", u64::from(width * height) * 16)?;
-        let level_buf = |name: String, level: u32, stage: u32| -> VkResult<Buffer> {
-            let mut buf = Buffer::new(
-                ctx.device(),
-                &name,
-                size_of::<ConeLevelParams>() as u64,
-                vk::BufferUsageFlags::STORAGE_BUFFER,
-                MemoryLocation::CpuToGpu,
-            )?;
-            let [r, g, b] = background;
-            buf.write(
-                0,
-                &[ConeLevelParams {
-                    level,
-                    stage,
-                    background: [r, g, b, 1.0],
-                    ..ConeLevelParams::default()
-                }],
-            )?;
-            Ok(buf)
-        };
-        let sampled = |img: &crate::vk::backend::image::Image| Resource::Texture {
-            view: img.view(),
-            layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+        let hiz_max = cone_storage(ctx, "hiz max pyramid", cells as u64 * 4)?;
+        let visibility_buf = cone_storage(ctx, "ssr visibility", cells as u64 * 4)?;
+        let chain = cone_storage(ctx, "ssr colour chain", cells as u64 * 16)?;
+        let scratch = cone_storage(ctx, "ssr blur scratch", u64::from(width * height) * 16)?;
+        let bindings = ConeBindings {
+            params_buf,
+            pyramid,
+            hiz_max: &hiz_max,
+            visibility_buf: &visibility_buf,
+            chain: &chain,
+            scratch: &scratch,
         };
         let levels = hiz_levels(width, height);
         let visibility =
             ComputePipeline::new(ctx, &SSR_VISIBILITY, "main", ComputeOptions::default())?;
-        let wg = |p: &Pass| {
-            p.entry_point("main")
-                .map_or(64, |e| e.workgroup_size[0].max(1))
-        };
-        let mut visibility_levels = Vec::new();
-        for (l, level) in levels.iter().enumerate() {
-            let buf = level_buf(format!("ssr visibility level {l}"), l as u32, 0)?;
-            let set = visibility.bind_group(
-                0,
-                &[
-                    (0, Resource::Buffer(params_buf)),
-                    (1, Resource::Buffer(pyramid)),
-                    (2, Resource::Buffer(&hiz_max)),
-                    (3, Resource::Buffer(&visibility_buf)),
-                    (4, Resource::Buffer(&buf)),
-                ],
-            )?;
-            let groups = groups_for(level.width * level.height, wg(&SSR_VISIBILITY));
-            visibility_levels.push((set, buf, groups));
-        }
+        let visibility_levels =
+            Self::visibility_dispatches(ctx, &visibility, &levels, &bindings, background)?;
         let blur = ComputePipeline::new(ctx, &SSR_BLUR, "main", ComputeOptions::default())?;
-        let mut blur_steps = Vec::new();
-        let mut step = |l: usize, stage: u32, cells: u32| -> VkResult<()> {
-            let buf = level_buf(format!("ssr blur level {l} stage {stage}"), l as u32, stage)?;
-            let set = blur.bind_group(
-                0,
-                &[
-                    (0, Resource::Buffer(params_buf)),
-                    (1, sampled(&gbuffer.colour)),
-                    (2, Resource::Buffer(&chain)),
-                    (3, Resource::Buffer(&scratch)),
-                    (4, Resource::Buffer(&buf)),
-                ],
-            )?;
-            blur_steps.push((set, buf, groups_for(cells, wg(&SSR_BLUR))));
-            Ok(())
-        };
-        step(0, 0, width * height)?;
-        for l in 1..levels.len() {
-            step(l, 1, levels[l - 1].width * levels[l - 1].height)?;
-            step(l, 2, levels[l].width * levels[l].height)?;
-        }
+        let blur_steps = Self::blur_dispatches(
+            ctx,
+            &blur,
+            &levels,
+            (width, height),
+            gbuffer,
+            &bindings,
+            background,
+        )?;
         let cone = ComputePipeline::new(ctx, &SSR_CONE, "main", ComputeOptions::default())?;
         let cone_set = cone.bind_group(
             0,
@@ -345,13 +356,82 @@ impl ConePasses {
             blur_steps,
             cone,
             cone_set,
-            cone_groups: groups_for(width * height, wg(&SSR_CONE)),
+            cone_groups: groups_for(width * height, workgroup_width(&SSR_CONE)),
             hiz_max,
             visibility_buf,
             chain,
             _scratch: scratch,
             cells,
         })
+    }
+
+    /// `ssr_visibility`'s dispatches: one per pyramid level.
+    fn visibility_dispatches(
+        ctx: &GpuContext,
+        visibility: &ComputePipeline,
+        levels: &[HizLevel],
+        bindings: &ConeBindings<'_>,
+        background: [f32; 3],
+    ) -> VkResult<Vec<LevelDispatch>> {
+        let mut dispatches = Vec::new();
+        for (l, level) in levels.iter().enumerate() {
+            let buf = cone_level_buf(
+                ctx,
+                &format!("ssr visibility level {l}"),
+                l as u32,
+                0,
+                background,
+            )?;
+            let set = visibility.bind_group(
+                0,
+                &[
+                    (0, Resource::Buffer(bindings.params_buf)),
+                    (1, Resource::Buffer(bindings.pyramid)),
+                    (2, Resource::Buffer(bindings.hiz_max)),
+                    (3, Resource::Buffer(bindings.visibility_buf)),
+                    (4, Resource::Buffer(&buf)),
+                ],
+            )?;
+            let groups = groups_for(level.width * level.height, workgroup_width(&SSR_VISIBILITY));
+            dispatches.push((set, buf, groups));
+        }
+        Ok(dispatches)
+    }
+
+    /// `ssr_blur`'s dispatches: stage 0 over the full frame, then per level from 1 on stage 1
+    /// (over the level above) and stage 2 (over the level).
+    fn blur_dispatches(
+        ctx: &GpuContext,
+        blur: &ComputePipeline,
+        levels: &[HizLevel],
+        (width, height): (u32, u32),
+        gbuffer: &Gbuffer,
+        bindings: &ConeBindings<'_>,
+        background: [f32; 3],
+    ) -> VkResult<Vec<LevelDispatch>> {
+        let mut steps = Vec::new();
+        let mut step = |l: usize, stage: u32, cells: u32| -> VkResult<()> {
+            let name = format!("ssr blur level {l} stage {stage}");
+            let buf = cone_level_buf(ctx, &name, l as u32, stage, background)?;
+            let set = blur.bind_group(
+                0,
+                &[
+                    (0, Resource::Buffer(bindings.params_buf)),
+                    (1, sampled(&gbuffer.colour)),
+                    (2, Resource::Buffer(bindings.chain)),
+                    (3, Resource::Buffer(bindings.scratch)),
+                    (4, Resource::Buffer(&buf)),
+                ],
+            )?;
+            steps.push((set, buf, groups_for(cells, workgroup_width(&SSR_BLUR))));
+            Ok(())
+        };
+        step(0, 0, width * height)?;
+        for l in 1..levels.len() {
+            step(l, 1, levels[l - 1].width * levels[l - 1].height)?;
+            step(l, 2, levels[l].width * levels[l].height)?;
+        }
+        Ok(steps)
     }
 
     /// `ssr_visibility`, level by level (after `ssr_hiz`).
@@ -425,14 +505,8 @@ impl SsrPasses {
             vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
             MemoryLocation::GpuOnly,
         )?;
-        let sampled = |img: &crate::vk::backend::image::Image| Resource::Texture {
-            view: img.view(),
-            layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
-        };
         let hiz = ComputePipeline::new(ctx, &SSR_HIZ, "main", ComputeOptions::default())?;
-        let wg = SSR_HIZ
-            .entry_point("main")
-            .map_or(64, |e| e.workgroup_size[0].max(1));
+        let wg = workgroup_width(&SSR_HIZ);
         let mut levels = Vec::new();
         for (l, level) in hiz_levels(width, height).into_iter().enumerate() {
             let mut buf = Buffer::new(
@@ -458,9 +532,7 @@ impl SsrPasses {
                     (3, Resource::Buffer(&buf)),
                 ],
             )?;
-            let groups = (level.width * level.height).div_ceil(wg).max(1);
-            let x = groups.min(MAX_GROUPS_X);
-            levels.push((set, buf, [x, groups.div_ceil(x), 1]));
+            levels.push((set, buf, groups_for(level.width * level.height, wg)));
         }
         let trace = GraphicsPipeline::new(
             ctx,
