@@ -1,8 +1,15 @@
 //! cubetrace: accurate mirror reflections on curved surfaces by cubemap tracing.
 //!
-//! Module map (everything outside [`vk`] forbids `unsafe`):
-//! - [`app`]: the commands of the `cubetrace` binary (render, bench, scene export) as functions.
-//! - [`method`]: [`Method`], the one method type of the CLI, the harness and the renderer.
+//! The README says what the program does and how to run it; this page is for readers of the
+//! code: where things live, the conventions every module keeps, and how results are checked.
+//!
+//! # Modules
+//!
+//! Everything outside [`vk`] forbids `unsafe`.
+//! - [`app`]: the commands of the `cubetrace` binary (render, bench, scene export) as functions;
+//!   `src/main.rs` only parses the command line (clap) and calls them.
+//! - [`method`]: [`Method`], the one method type of the CLI, the harness and the renderer, and
+//!   what each method supports.
 //! - [`scene`]: the scene as data: scene files (TOML + OBJ/MTL/PNG), built-in scenes, mesh
 //!   hygiene. It imports no algorithm (only the leaves [`camera`], [`shading`], [`files`] and
 //!   [`lobe`]).
@@ -13,14 +20,102 @@
 //! - [`bench`](mod@bench): the speed-against-error harness (`cubetrace bench`) and scaling curves.
 //! - [`metrics`]: error of a traced reflection against the reference.
 //! - [`ranges`]: depth ranges and ray length of a GPU frame, and the f32 precision check.
+//! - [`memory`]: the memory a render needs against what the machine and the device have.
 //! - [`output`]: PNG and EXR writers, and the meaning of every EXR channel.
 //! - [`film`]: samples per pixel and the pixel filter.
 //! - [`lobe`]: glossy reflectors: the Phong lobe, its mirror cap and its sample directions.
 //! - [`files`]: atomic file writes (temporary file, then rename) and safe file names.
 //! - [`cubemap`]: cube face mapping and distance hierarchies (pure data, no GPU).
 //! - [`cpu`]: CPU twins of the GPU passes, with the shaders' names and loop structure.
-//! - [`model`]: the SIMT cost model: lockstep warp replay of the CPU twins' work counters.
-//! - [`vk`]: the Vulkan backend (ash); the only module tree that may use `unsafe`.
+//! - [`model`]: the SIMT cost model: lockstep warp replay of the CPU twins' work counters (a
+//!   model, not a measurement).
+//! - [`vk`]: the Vulkan backend (ash); the only module tree that may use `unsafe`:
+//!   - `vk/backend/`: instance, device, buffers, images, shaders, pipelines, timestamps;
+//!   - `vk/passes/`: stages shared by methods: capture, pyramids, cone pre-filter and pass,
+//!     G-buffer, BVH, bounces, composite;
+//!   - `vk/methods/`: one file per GPU method, each a `MethodSpec` and a `Technique`;
+//!   - `vk/frame.rs`: `GpuRenderer`, the shared stages and one technique;
+//!   - `vk/budget.rs`: the one memory estimate of a frame, built from the methods'.
+//!
+//! Outside `src/`: `spirv/` holds the WGSL shaders, one per pass, compiled by naga in `build.rs`
+//! (`spirv/README.md` has their conventions and what lavapipe does with them); `tests/` the
+//! test suites and the scenes they load (`tests/scenes/`, with provenance and licences);
+//! `benches/` the cargo bench and, in `benches/results/`, the bench's reports and how to read
+//! them.
+//!
+//! # One name per method
+//!
+//! Method M's host code is `src/vk/methods/M.rs`, its CPU twin `src/cpu/M.rs`, its shaders
+//! `spirv/M*.wgsl` and its test `tests/M.rs` (`envmap` shares `fragment`'s deferred pass, twin
+//! and test). A GPU method is two small traits in `src/vk/methods/technique.rs`: its `MethodSpec`
+//! says, before anything is allocated, what it needs of the shared stages (capture contents,
+//! pyramid, glossy handling), its device memory and how to create it; its `Technique` records
+//! its passes into the frame's command buffer and reports its statistics for the bench. A new
+//! method takes a file under `src/vk/methods/` implementing both, a [`Method`] variant (with its
+//! capability rules) and a line in `vk::methods::spec`; the cost model (`model/work.rs`,
+//! `model/replay.rs`, `bench/model.rs`), the bench's per-scene ratios, glossy handling and the
+//! printed statistics still name methods one by one, so `grep -rn "Method::" src` lists the
+//! places to visit.
+//!
+//! Each module's documentation (`//!`) holds its algorithm, invariants, known limits and
+//! measurements. `tests/layout.rs` checks the shape: no import circle, no function over 120
+//! lines, no `ash` or `unsafe` outside `src/vk/`, and a README of at most 350 lines.
+//!
+//! # Conventions
+//!
+//! - **Camera and pixels**: Vulkan's. Pixel `(i, j)` has its centre at `(i + 0.5, j + 0.5)`,
+//!   row 0 at the top; NDC y points down.
+//! - **Depth** ([`ranges`]): reversed depth (`near / z`) in D32_SFLOAT with no far plane; near
+//!   planes derived from the geometry. A scene far from the world origin (its box's centre more
+//!   than 8 diagonals out) is uploaded relative to that centre (exact shifts), so a site
+//!   kilometres out renders as finely as one at the origin; one f32 still cannot hold (too
+//!   large for its detail) is refused with its numbers. A triangle whose plane passes through
+//!   the eye or a CMO centre, to f32 rounding of a well-conditioned normal (slivers included),
+//!   is seen edge-on and drawn nowhere, as the reference (which counts hits at `t > 0`) sees
+//!   it; an eye within that rounding of a surface itself is refused naming the triangle and the
+//!   distance to move it; a CMO centre on a surface refuses only the methods that capture CMOs.
+//!   A camera `up` within 1e-4 (sine) of its view direction is refused: f32 cannot fix its roll.
+//! - **Shading** is view-independent ([`shading`]): unlit albedo, or albedo x (ambient +
+//!   Lambert from one directional light). Capture, GPU methods and reference shade with the same
+//!   function, so any difference between a method and the reference is tracing error.
+//! - **Reference** ([`reference`](mod@reference)): one ray per pixel centre; mirrors reflect
+//!   about the interpolated vertex normal; a reflected ray ignores the triangle it leaves and the
+//!   neighbours within a proven rounding bound of its origin, never a distance bias.
+//! - **Bit-for-bit twins**: every GPU pass has a CPU twin in [`cpu`] (the same loops and the
+//!   same operations in the same order), and the tests compare them bit for bit where the
+//!   arithmetic allows.
+//! - **Files** are written atomically ([`files`]): a killed render leaves no half file.
+//!
+//! # How results are checked
+//!
+//! - **The reference** against closed forms: a planar mirror equals the mirrored camera's view,
+//!   a mirror sphere's hits the analytic reflection within a derived tessellation bound; round
+//!   trip of every built-in scene through export and load; determinism on one thread or many.
+//! - **Every GPU pass against its CPU twin** (`src/cpu/`, the same loops in Rust), bit for bit
+//!   where the arithmetic allows: capture, pyramids, the tracers on every mirror pixel of every
+//!   built-in scene, ssr, the reflection-point search per vertex; `compute` against `fragment`
+//!   per pixel.
+//! - **Every method against the reference**, per built-in scene, with stated bounds on
+//!   unresolved and wrong-surface shares and PSNR, plus hard cases (grazing rays, shared edges,
+//!   slabs thinner than a texel, scales 1e-3 to 1e5, cube sizes 1 to 2048) with zero wrong hits
+//!   allowed.
+//! - **Thin geometry** (`--criterion bounded`): a fence, a wire grid, chain link, foliage cards,
+//!   a relief, edge-on fins and the Stanford bunny (`tests/scenes/PROVENANCE.md`) at cube sizes
+//!   16 to 256 with 1 to 3 CMOs: no hit behind the reference's first; the exact criterion must
+//!   fail there.
+//! - **Every comparison has a negative**: a moved CMO centre, a shifted triangle ID, a turned
+//!   normal must make it fail. The GPU tests run under the validation layer when installed.
+//! - **Real scenes** (`tests/corpus.rs`): ten scenes built from public meshes as their exporters
+//!   wrote them (`tests/scenes/`, provenance and licences in its `PROVENANCE.md`: an interior in
+//!   centimetres, a 117k-triangle truck, CAD plates in millimetres, a robot link, an open mug,
+//!   slivers and collinear n-gons, Blender's negative `Ns` and JPEG textures, a room 3.9 km out,
+//!   facing mirrors). Every method renders every one (none refused); `bvh` and the bounded
+//!   criterion put no mirror pixel behind the reference's first hit. CI runs them at 40x30;
+//!   `cubetrace bench --corpus tests/scenes` runs them at full size.
+//! - **Bad input**: one test per class, a fixed-seed fuzzing pass over scene, OBJ and MTL files.
+//! - **Records**: `tests/records/render.sh` renders every built-in scene with every method, and
+//!   `tests/records.rs` compares two builds' EXRs bit for bit, so a change meant to keep every
+//!   pixel can show that it does.
 #![deny(unsafe_op_in_unsafe_fn)]
 
 pub mod app;
