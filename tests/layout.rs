@@ -1,8 +1,9 @@
-//! The source tree keeps the shape the README's "Layout" section promises:
+//! The source tree keeps the shape the crate documentation (`src/lib.rs`, "Modules") describes:
 //! - no import circle: no module uses, directly or through others, a module that uses it back
 //!   (at every depth of the module path: `vk`, `vk::passes`, `vk::passes::bvh`);
 //! - Vulkan stays in `src/vk/`: no `ash::` path and no `unsafe` outside it;
-//! - no function in `src/` is longer than 120 lines.
+//! - no function in `src/` is longer than 120 lines;
+//! - the README is at most 350 lines.
 //!
 //! The checks read the sources as text (paths written `crate::a::b` or `super::a`, and
 //! `use` groups `crate::{a, b}`), which is how this crate writes its imports. Each check has a
@@ -266,8 +267,11 @@ fn an_import_circle_is_found() {
     );
 }
 
-/// Lines of each `fn` in `src` (from its line to the line closing its body), rough but enough:
-/// braces in strings and comments are skipped by [`code_only`].
+/// Lines of each `fn` in `src`, from its `fn` line to the line closing its body, as
+/// `(lines, name, first line)`. Braces in strings and comments are skipped by [`code_only`]. The
+/// body opens at the first `{` outside parentheses and brackets; a `;` outside them before it
+/// ends a declaration without a body (a trait method), while one inside them (a parameter typed
+/// `[f32; 3]`) does not.
 fn function_lengths(src: &str) -> Vec<(usize, String, usize)> {
     let code = code_only(src);
     let lines: Vec<&str> = code.lines().collect();
@@ -286,43 +290,60 @@ fn function_lengths(src: &str) -> Vec<(usize, String, usize)> {
             .chars()
             .take_while(|c| c.is_alphanumeric() || *c == '_')
             .collect();
-        let mut depth = 0i32;
-        let mut started = false;
-        'outer: for (m, l) in lines.iter().enumerate().skip(n) {
-            for c in l.chars() {
-                match c {
-                    '{' => {
-                        depth += 1;
-                        started = true;
-                    }
-                    '}' => depth -= 1,
-                    ';' if !started => break 'outer,
-                    _ => {}
-                }
-            }
-            if started && depth == 0 {
-                out.push((m - n + 1, name.clone(), n + 1));
-                break;
-            }
+        if let Some(last) = body_end(&lines, n) {
+            out.push((last - n + 1, name, n + 1));
         }
     }
     out
 }
 
-#[test]
-fn no_function_is_longer_than_120_lines() {
+/// The index of the line that closes the body of the function whose signature starts on line
+/// `first`, or `None` for a declaration without a body.
+fn body_end(lines: &[&str], first: usize) -> Option<usize> {
+    let (mut depth, mut nest, mut started) = (0i32, 0i32, false);
+    for (m, l) in lines.iter().enumerate().skip(first) {
+        for c in l.chars() {
+            match c {
+                '(' | '[' if !started => nest += 1,
+                ')' | ']' if !started => nest -= 1,
+                '{' if started || nest == 0 => {
+                    depth += 1;
+                    started = true;
+                }
+                '}' if started => depth -= 1,
+                ';' if !started && nest == 0 => return None,
+                _ => {}
+            }
+        }
+        if started && depth == 0 {
+            return Some(m);
+        }
+    }
+    None
+}
+
+/// The functions of `files` longer than 120 lines, as `module:line name: N lines`.
+fn too_long(files: &[(String, String)]) -> Vec<String> {
     let mut long = Vec::new();
-    for (module, src) in sources() {
-        for (len, name, line) in function_lengths(&src) {
+    for (module, src) in files {
+        for (len, name, line) in function_lengths(src) {
             if len > 120 {
                 long.push(format!("{module}:{line} {name}: {len} lines"));
             }
         }
     }
+    long
+}
+
+#[test]
+fn no_function_is_longer_than_120_lines() {
+    let long = too_long(&sources());
     assert!(long.is_empty(), "split these:\n{}", long.join("\n"));
 }
 
-/// Negative: a 121-line function is measured as such, a 3-line one too.
+/// Negative: a 121-line function is measured as such, a 3-line one too; so is one whose
+/// parameters hold a `;` (`[f32; 3]`, over several lines), and a trait method without a body
+/// is no function.
 #[test]
 fn a_long_function_is_measured() {
     let body = "    let x = 1;\n".repeat(119);
@@ -330,6 +351,28 @@ fn a_long_function_is_measured() {
     let lengths = function_lengths(&src);
     assert_eq!(lengths[0], (121, "long".to_string(), 1), "{lengths:?}");
     assert_eq!(lengths[1], (3, "short".to_string(), 122), "{lengths:?}");
+
+    let src = format!(
+        "trait T {{\n    fn declared(a: [f32; 3]) -> f32;\n}}\n\
+         pub(crate) fn nearest(origin: [f32; 3], dir: [f32; 3]) -> f32 {{\n{body}}}\n\
+         fn wrapped(\n    a: [u32; 2],\n    b: &[[f32; 3]],\n) -> [f32; 3] {{\n{body}}}\n"
+    );
+    let lengths = function_lengths(&src);
+    assert_eq!(
+        lengths,
+        vec![
+            (121, "nearest".to_string(), 4),
+            (124, "wrapped".to_string(), 125)
+        ],
+        "{lengths:?}"
+    );
+    assert_eq!(
+        too_long(&[("m".to_string(), src)]),
+        vec![
+            "m:4 nearest: 121 lines".to_string(),
+            "m:125 wrapped: 124 lines".to_string()
+        ]
+    );
 }
 
 /// Files outside `vk` that name `ash::` or contain `unsafe` code.
@@ -366,4 +409,28 @@ fn vulkan_stays_in_its_module_tree() {
         "fn f() { let _ = ash::vk::Format::UNDEFINED; }".into(),
     ));
     assert_eq!(vulkan_outside_vk(&bad), vec!["scene::gpu".to_string()]);
+}
+
+/// The README's length limit: it is for users; essays belong in the module docs, figures in
+/// `benches/results/`.
+const README_MAX_LINES: usize = 350;
+
+/// What is wrong with a README of this text, if anything: more than [`README_MAX_LINES`] lines.
+fn readme_too_long(text: &str) -> Option<String> {
+    let lines = text.lines().count();
+    (lines > README_MAX_LINES)
+        .then(|| format!("README.md has {lines} lines, more than {README_MAX_LINES}"))
+}
+
+#[test]
+fn the_readme_is_at_most_350_lines() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md");
+    let text = std::fs::read_to_string(&path).expect("README.md is readable");
+    assert!(text.lines().count() > 20, "the README was read: {path:?}");
+    if let Some(problem) = readme_too_long(&text) {
+        panic!("{problem}");
+    }
+    // Negative: a text one line over the limit fails the same check, one at the limit passes.
+    assert!(readme_too_long(&"line\n".repeat(README_MAX_LINES + 1)).is_some());
+    assert_eq!(readme_too_long(&"line\n".repeat(README_MAX_LINES)), None);
 }
