@@ -341,6 +341,13 @@ pub const METHOD_OPTIONS: &[MethodOption] = &[
         why: "",
     },
     MethodOption {
+        flag: "--placement",
+        applies: |m, _| m.captures_cmos(),
+        condition: "",
+        methods_text: "",
+        why: "",
+    },
+    MethodOption {
         flag: "--cube-size",
         applies: |m, _| m.captures_cmos(),
         condition: "",

@@ -276,7 +276,7 @@ fn bench_refuses_what_render_refuses_for_memory() {
     // `render`'s verdict, by the steps the command takes.
     let render = |scene: &str, extra: &[&str], limits: &Limits| {
         let args = render_args(scene, extra);
-        let (scene, camera) = app::render::load_scene(&args).expect("scene");
+        let (scene, camera, _) = app::render::load_scene(&args).expect("scene");
         let options = app::render::gpu_options(&args).expect("options");
         let what = format!("a {w}x{h} frame with --method {}", args.method);
         app::render::check_gpu_memory(
@@ -323,7 +323,7 @@ fn bench_refuses_what_render_refuses_for_memory() {
         assert!(queue > 0, "{scene}: the queue costs memory");
         // The limit: the run without the queue, plus half the queue.
         let args = render_args(scene, without);
-        let (s, camera) = app::render::load_scene(&args).expect("scene");
+        let (s, camera, _) = app::render::load_scene(&args).expect("scene");
         let options = app::render::gpu_options(&args).expect("options");
         let fits = budget::estimate(&s, &camera, &options).total();
         let limits = Limits {

@@ -78,7 +78,7 @@ fn the_cause_is_printed_once() {
     let dir = tempfile::tempdir().unwrap();
     let o = run(&["render", "missing/scene.toml", "-o", "x.png"], dir.path());
     assert_clean_failure(&o, &["missing/scene.toml", "cannot read"]);
-    // The OS error's text, once (it used to follow the message a second time).
+    // The OS error's text, once (not a second time after the message).
     let cause = std::io::Error::from_raw_os_error(2).to_string();
     assert!(cause.contains("os error 2"), "{cause}");
     assert_eq!(occurrences(&o.stderr, &cause), 1, "{}", o.stderr);
@@ -1193,7 +1193,7 @@ fn a_large_texture_is_named_in_the_refusal() {
     let args = Render::try_parse_from(["render", "default", "--width", "64", "--height", "48"])
         .unwrap()
         .args;
-    let (mut scene, camera) = cubetrace::app::render::load_scene(&args).unwrap();
+    let (mut scene, camera, _) = cubetrace::app::render::load_scene(&args).unwrap();
     let options = cubetrace::app::render::gpu_options(&args).unwrap();
     let before = budget::estimate(&scene, &camera, &options).total();
     scene.textures.push(cubetrace::scene::Texture {

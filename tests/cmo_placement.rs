@@ -92,7 +92,7 @@ fn greedy_moves_the_cmo_out_of_the_occluders_shadow() {
     let scene = occluded_mirror(true);
     let axis = scene.axis_centres(1)[0];
     assert!((axis - Vec3::new(0.0, 1.5, -1.0)).length() < 1e-5, "{axis}");
-    let p = search(&scene, &scene.cameras[0], 2, &opts);
+    let p = search(&scene, std::slice::from_ref(&scene.cameras[0]), 2, &opts);
     eprintln!(
         "{} rays; axis {:.3}; chosen {:?} -> {:?}",
         p.rays, p.axis_unresolved, p.centres, p.unresolved
@@ -109,23 +109,34 @@ fn greedy_moves_the_cmo_out_of_the_occluders_shadow() {
     assert!(last <= 0.5 * p.axis_unresolved, "{:?}", p.unresolved);
     assert!((p.centres[0] - axis).length() > 0.2, "{}", p.centres[0]);
     // Two axis centres (today's count = 2) stay on the mirror, beside the box: worse.
-    assert!(last <= 0.5 * search(&scene, &scene.cameras[0], 2, &opts).axis_unresolved);
+    assert!(
+        last <= 0.5
+            * search(&scene, std::slice::from_ref(&scene.cameras[0]), 2, &opts).axis_unresolved
+    );
     // What each added CMO buys: the shares never rise, and one per centre.
     assert_eq!(p.unresolved.len(), p.centres.len());
     assert!(p.unresolved.windows(2).all(|w| w[1] < w[0]));
     // Deterministic.
-    assert_eq!(search(&scene, &scene.cameras[0], 2, &opts), p);
+    assert_eq!(
+        search(&scene, std::slice::from_ref(&scene.cameras[0]), 2, &opts),
+        p
+    );
 }
 
 /// `placement::resolve` runs the search once for the render's camera and stores its centres in
-/// the scene; before that the scene (data, no search of its own) gives the axis placement.
+/// the scene; before that the scene (data, no search of its own) gives one CMO on the axis.
 #[test]
 fn resolve_stores_the_searched_centres() {
     let mut scene = occluded_mirror(true);
     scene.cmo.placement = CmoPlacement::Search { count: 2 };
     let camera = scene.cameras[0].clone();
-    assert_eq!(scene.cmo_centres(), scene.axis_centres(2));
-    let want = search(&scene, &camera, 2, &PlacementOptions::default());
+    assert_eq!(scene.cmo_centres(), scene.axis_centres(1));
+    let want = search(
+        &scene,
+        std::slice::from_ref(&camera),
+        2,
+        &PlacementOptions::default(),
+    );
     let got = placement::resolve(&mut scene, &camera).expect("a search placement");
     assert_eq!(got, want);
     assert_eq!(
@@ -146,7 +157,12 @@ fn resolve_stores_the_searched_centres() {
 #[test]
 fn without_the_occluder_the_axis_centre_is_fine() {
     let scene = occluded_mirror(false);
-    let p = search(&scene, &scene.cameras[0], 1, &PlacementOptions::default());
+    let p = search(
+        &scene,
+        std::slice::from_ref(&scene.cameras[0]),
+        1,
+        &PlacementOptions::default(),
+    );
     eprintln!("axis {:.3}; chosen {:?}", p.axis_unresolved, p.unresolved);
     assert!(p.axis_unresolved < 0.05, "{}", p.axis_unresolved);
 }
@@ -172,7 +188,8 @@ fn placement_field_parses_and_bad_values_are_named() {
             "[cmo]\ncount = 2\nplacement = \"axis\"",
             CmoPlacement::Auto { count: 2 },
         ),
-        ("[cmo]\ncount = 2", CmoPlacement::Auto { count: 2 }),
+        // `count` alone is the search's budget.
+        ("[cmo]\ncount = 2", CmoPlacement::Search { count: 2 }),
     ];
     for (cmo, want) in ok.clone() {
         let s = scene::load_scene_file(&with_cmo(dir.path(), cmo)).unwrap();

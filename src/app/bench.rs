@@ -62,9 +62,17 @@ pub struct BenchArgs {
     /// Every GPU method but bvh: texels per cube face side (overrides the scenes').
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub cube_size: Option<u32>,
-    /// Every GPU method but bvh: number of automatically placed CMOs (overrides the scenes').
+    /// Every GPU method but bvh: number of CMOs along the reflectors' axis (overrides the
+    /// scenes'); with `--placement auto` or `axis`, that placement's count.
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16))]
     pub cmos: Option<u32>,
+    /// The CMO placement axis, comma separated: `scene` (each scene's own `[cmo]`; a scene
+    /// without centres is placed by the search), `axis` (along the reflectors' longest axis),
+    /// `auto` (the placement search). With more than one, every scene runs once per placement,
+    /// labelled `NAME [placement]`, and the report gains a placement table: CMOs, search and
+    /// capture time, frame time against bvh's, fallback share.
+    #[arg(long, value_enum, value_delimiter = ',', default_value = "scene")]
+    pub placement: Vec<bench::BenchPlacement>,
     /// Skip the FLIP metric.
     #[arg(long)]
     pub no_flip: bool,
@@ -457,6 +465,7 @@ pub fn grid_config(args: &BenchArgs, methods: &[Method]) -> bench::BenchConfig {
         warmup: args.warmup,
         cube_size: args.cube_size,
         cmos: args.cmos,
+        placements: args.placement.clone(),
         flip: !args.no_flip,
         heatmaps: !args.no_heatmaps,
         floor: (!args.no_floor).then_some(bench::FLOOR_FRAME),
@@ -485,6 +494,10 @@ fn run_grid(
     println!("{}", bench::report::header(&report));
     println!("{}", bench::report::summary_table(&report));
     println!("{}", bench::report::ratios_table(&report));
+    let placement = bench::report::placement_table(&report);
+    if !placement.is_empty() {
+        println!("{placement}");
+    }
     bench::report::write(&report, &args.out)
 }
 

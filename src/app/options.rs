@@ -98,10 +98,21 @@ pub struct TraceArgs {
     /// 0.05].
     #[arg(long, allow_negative_numbers = true, value_parser = positive_finite)]
     pub eps: Option<f32>,
-    /// Every GPU method but bvh: number of CMOs, placed automatically along the reflectors'
-    /// longest axis (overrides the scene's CMO centres).
+    /// Every GPU method but bvh: number of CMOs, spread along the reflectors' longest axis
+    /// (overrides the scene's CMO centres); with `--placement auto`, the most the search may
+    /// place.
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(crate::scene::MAX_CMOS)))]
     pub cmos: Option<u32>,
+    /// Every GPU method but bvh: how the CMO centres are chosen (overrides the scene's). `auto`
+    /// (the default of a scene without `[cmo]` centres) samples the camera's reflected rays and
+    /// adds CMOs where they leave the fewest unresolved, until at most 1 % of the sample is,
+    /// within a budget of --cmos N (else the scene's [cmo] count, else 8) CMOs and 512 MiB of
+    /// them; it may also leave the reflectors out of the capture where that resolves more (the
+    /// reflector check traces those rays exactly). `axis` spreads --cmos N (default 1) along the
+    /// reflectors' longest axis. `-v` logs the search: its time, the share it leaves, each
+    /// centre.
+    #[arg(long, value_enum)]
+    pub placement: Option<PlacementArg>,
     /// Every GPU method but bvh: texels per cube face side (overrides the scene's; 1 to 4096).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub cube_size: Option<u32>,
@@ -195,6 +206,7 @@ impl TraceArgs {
             ("--steps", self.steps.is_some()),
             ("--eps", self.eps.is_some()),
             ("--cmos", self.cmos.is_some()),
+            ("--placement", self.placement.is_some()),
             ("--cube-size", self.cube_size.is_some()),
             ("--fallback", self.fallback.is_some()),
             ("--no-reflector-check", self.no_reflector_check),
@@ -211,11 +223,41 @@ impl TraceArgs {
 
     /// Applies the CMO overrides to the scene.
     pub fn apply(&self, scene: &mut Scene) {
-        if let Some(count) = self.cmos {
-            scene.cmo.placement = CmoPlacement::Auto { count };
+        let count = |default: u32| match (self.cmos, &scene.cmo.placement) {
+            (Some(n), _) => n,
+            (None, CmoPlacement::Auto { count } | CmoPlacement::Search { count }) => *count,
+            (None, CmoPlacement::Explicit(_)) => default,
+        };
+        match self.placement {
+            Some(PlacementArg::Auto) => {
+                scene.cmo.placement = CmoPlacement::Search {
+                    count: count(crate::scene::DEFAULT_SEARCH_CMOS),
+                };
+            }
+            Some(PlacementArg::Axis) => {
+                let count = match (self.cmos, &scene.cmo.placement) {
+                    (None, CmoPlacement::Search { .. }) => 1,
+                    _ => count(1),
+                };
+                scene.cmo.placement = CmoPlacement::Auto { count };
+            }
+            None => {
+                if let Some(count) = self.cmos {
+                    scene.cmo.placement = CmoPlacement::Auto { count };
+                }
+            }
         }
         if let Some(size) = self.cube_size {
             scene.cmo.resolution = size;
         }
     }
+}
+
+/// `--placement`: how the CMO centres are chosen.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum PlacementArg {
+    /// The placement search (the default of a scene without `[cmo]` centres).
+    Auto,
+    /// Spread along the reflectors' longest axis.
+    Axis,
 }

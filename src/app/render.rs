@@ -22,6 +22,7 @@ use crate::camera::Camera;
 use crate::memory;
 use crate::metrics;
 use crate::output::{self, Format};
+use crate::placement::Placement;
 use crate::reference;
 use crate::scene::{self, Scene};
 use crate::vk::GpuContext;
@@ -162,13 +163,13 @@ pub fn frame_size(camera: (u32, u32), width: Option<u32>, height: Option<u32>) -
 pub fn render(args: RenderArgs) -> Result<()> {
     let start = Instant::now();
     args.check_method()?;
-    let (scene, camera) = load_scene(&args)?;
+    let (scene, camera, placement) = load_scene(&args)?;
     let target = check_target(&args, &scene)?;
     if let Some(warning) = crate::app::glossy::method_warning(&scene, args.method, args.bounces) {
         log::warn!("{warning}");
     }
     if args.method.is_gpu() {
-        render_gpu(&args, &scene, &camera, &target, start)
+        render_gpu(&args, &scene, &camera, placement.as_ref(), &target, start)
     } else {
         render_reference(&args, &scene, &camera, &target, start)
     }
@@ -240,7 +241,7 @@ impl FrameRenderer {
 
 /// Loads the scene, applies the CMO overrides, the subdivision and the frame size to it and its
 /// camera, resolves a CMO placement search for that camera and logs the scene's problems.
-pub fn load_scene(args: &RenderArgs) -> Result<(Scene, Camera)> {
+pub fn load_scene(args: &RenderArgs) -> Result<(Scene, Camera, Option<Placement>)> {
     let mut scene = timed("scene load", || scene::load(&args.scene))?;
     args.trace.apply(&mut scene);
     if args.subdivide > 0 {
@@ -253,36 +254,50 @@ pub fn load_scene(args: &RenderArgs) -> Result<(Scene, Camera)> {
         frame_size((camera.width, camera.height), args.width, args.height);
     scene::check_resolution(camera.width, camera.height)
         .map_err(|e| anyhow::anyhow!("--width/--height: {e}"))?;
-    let requested = match scene.cmo.placement {
-        scene::CmoPlacement::Search { count } => count,
-        _ => 0,
+    let placement = if args.method.captures_cmos() {
+        let p = timed("CMO placement", || {
+            crate::placement::resolve(&mut scene, &camera)
+        });
+        p.inspect(log_placement)
+    } else {
+        None
     };
-    if let Some(p) = timed("CMO placement", || {
-        crate::placement::resolve(&mut scene, &camera)
-    }) {
-        log::info!(
-            "cmo placement auto: {} reflected rays sampled; unresolved {:.2}% with {count} along the axis",
-            p.rays,
-            100.0 * p.axis_unresolved,
-            count = requested,
-        );
-        for (k, (c, share)) in p.centres.iter().zip(&p.unresolved).enumerate() {
-            log::info!(
-                "cmo placement auto: CMO {k} at [{:.3}, {:.3}, {:.3}]: unresolved {:.2}%",
-                c.x,
-                c.y,
-                c.z,
-                100.0 * share
-            );
-        }
-    }
     timed("reflector convexity", || {
         scene.self_capture();
     });
     for problem in timed("scene check", || crate::placement::diagnose(&scene)) {
         log::warn!("{problem}");
     }
-    Ok((scene, camera))
+    Ok((scene, camera, placement))
+}
+
+/// The `-v` lines of a placement search: the sample, each chosen centre and what it buys.
+pub fn log_placement(p: &Placement) {
+    log::info!(
+        "cmo placement: {} CMOs for {} sampled reflected rays in {:.2?}: {:.2}% of them \
+         unresolved (target {:.0}%; {:.2}% with as many along the reflectors' axis){}",
+        p.centres.len(),
+        p.rays,
+        p.time,
+        100.0 * p.share(),
+        100.0 * crate::placement::TARGET_SHARE,
+        100.0 * p.axis_unresolved,
+        if p.self_capture_off {
+            "; the reflectors are left out of the capture (the reflector check traces the rays \
+             that meet them)"
+        } else {
+            ""
+        }
+    );
+    for (k, (c, share)) in p.centres.iter().zip(&p.unresolved).enumerate() {
+        log::info!(
+            "cmo placement: CMO {k} at [{:.3}, {:.3}, {:.3}]: unresolved {:.2}%",
+            c.x,
+            c.y,
+            c.z,
+            100.0 * share
+        );
+    }
 }
 
 /// Runs one host phase of the command and logs its name and time (info; `-v`), so that no
@@ -450,6 +465,7 @@ fn render_gpu(
     args: &RenderArgs,
     scene: &Scene,
     camera: &Camera,
+    placement: Option<&Placement>,
     target: &Target,
     start: Instant,
 ) -> Result<()> {
@@ -475,7 +491,7 @@ fn render_gpu(
     let traced = frame.traced();
     log_gpu_frame(frame, args.method);
     let count = FallbackCount::of(frame, &traced);
-    if let Some(warning) = summary::fallback_warning(args.method, scene, &count) {
+    if let Some(warning) = summary::fallback_warning(args.method, scene, &count, placement) {
         log::warn!("{warning}");
     }
     println!(

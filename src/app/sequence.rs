@@ -6,8 +6,8 @@
 //!   second frame from 1: 1, 3, 5, ...). Frame numbers are 0 to
 //!   [`crate::scene::animation::MAX_FRAME`]; the frames are rendered once each, in increasing
 //!   order. Without `--frames` a scene with `[animation]` renders its default range
-//!   ([`Scene::default_frames`]); a still scene renders one frame, as before
-//!   ([`render::render`]).
+//!   ([`Scene::default_frames`]); a still scene renders its one frame through
+//!   [`render::render`].
 //! - Names ([`super::frames::output_pattern`], [`super::frames::frame_path`]): the last run of
 //!   `#` in `-o` becomes the frame number, zero-padded to the run's length
 //!   (`-o out/orbit-####.png`: `out/orbit-0007.png`; wider numbers keep all their digits).
@@ -38,8 +38,8 @@ use crate::camera::Camera;
 use crate::output::{self, Format};
 use crate::scene::{self, Scene};
 
-/// `cubetrace render`: a still scene without `--frames` is today's single frame
-/// ([`render::render`]); otherwise the sequence of the module docs.
+/// `cubetrace render`: a still scene without `--frames` is one frame, rendered by
+/// [`render::render`]; otherwise the sequence of the module docs.
 pub fn render(args: RenderArgs) -> Result<()> {
     let given = match &args.sequence.frames {
         Some(text) => Some(parse_frames(text).map_err(|e| anyhow::anyhow!("--frames: {e}"))?),
@@ -58,7 +58,7 @@ pub fn render(args: RenderArgs) -> Result<()> {
                 return Ok(());
             }
         }
-        // The still path keeps today's behaviour (and loads the scene itself).
+        // The still path is the single-frame render (which loads the scene itself).
         if args.sequence.skip_existing {
             let path = match &args.output {
                 Some(o) => o.clone(),
@@ -133,8 +133,9 @@ fn run_sequence(args: RenderArgs, given: Option<Vec<i64>>) -> Result<()> {
     let spp = u64::from(render::film_settings(&args, &base).spp.max(1));
     let bar = progress_bar(todo.len() as u64 * spp);
     let mut renderer: Option<FrameRenderer> = None;
+    let mut placement = SequencePlacement::new(&args, &base, &frames)?;
     for job in &todo {
-        let (scene, camera) = frame_scene(&args, &base, job.frame)?;
+        let (scene, camera) = frame_scene(&args, &base, job.frame, &mut placement)?;
         bar.set_message(format!("frame {}", job.frame));
         let r = match &mut renderer {
             Some(r) => r,
@@ -217,10 +218,72 @@ fn load_base(args: &RenderArgs) -> Result<Scene> {
     Ok(scene)
 }
 
-/// The scene at `frame` and its camera (the chosen one, at the command's frame size), with a
-/// CMO placement search resolved for that camera.
-fn frame_scene(args: &RenderArgs, base: &Scene, frame: i64) -> Result<(Scene, Camera)> {
-    let mut scene = base.at_frame(frame);
+/// The sequence's CMO placement ([`crate::placement`]), searched once where only the camera
+/// moves: for the cameras of a few frames spread over the whole sequence (not this run's shard
+/// of it, so that every shard places alike), and again only on a frame whose mesh transforms
+/// differ from the frame it was last searched for (then for that frame's camera).
+struct SequencePlacement {
+    /// The chosen camera at up to [`SAMPLED_FRAMES`] frames of the sequence.
+    cameras: Vec<Camera>,
+    /// The mesh transforms of the last search, and what it set in the scene.
+    last: Option<(
+        Vec<crate::scene::Transform>,
+        scene::CmoPlacement,
+        scene::SelfReflections,
+    )>,
+}
+
+/// Frames whose cameras the placement of a sequence samples.
+const SAMPLED_FRAMES: usize = 4;
+
+impl SequencePlacement {
+    fn new(args: &RenderArgs, base: &Scene, frames: &[i64]) -> Result<Self> {
+        let searched = args.method.captures_cmos()
+            && matches!(base.cmo.placement, scene::CmoPlacement::Search { .. });
+        let mut cameras = Vec::new();
+        if searched && base.animation.meshes.is_empty() {
+            let n = frames.len().clamp(1, SAMPLED_FRAMES);
+            for k in 0..n {
+                let frame = frames[k * (frames.len() - 1) / (n - 1).max(1)];
+                cameras.push(frame_camera(args, &base.at_frame(frame), frame)?);
+            }
+        }
+        Ok(SequencePlacement {
+            cameras,
+            last: None,
+        })
+    }
+
+    /// Sets `scene`'s CMO placement at this frame: the last search's where the meshes stand
+    /// where they stood then, else a new search.
+    fn apply(&mut self, args: &RenderArgs, scene: &mut Scene, camera: &Camera) {
+        if !args.method.captures_cmos()
+            || !matches!(scene.cmo.placement, scene::CmoPlacement::Search { .. })
+        {
+            return;
+        }
+        let key: Vec<crate::scene::Transform> = scene.meshes.iter().map(|m| m.transform).collect();
+        if let Some((k, placement, self_reflections)) = &self.last
+            && *k == key
+        {
+            scene.cmo.placement = placement.clone();
+            scene.self_reflections = *self_reflections;
+            return;
+        }
+        let cameras = if self.cameras.is_empty() {
+            std::slice::from_ref(camera)
+        } else {
+            &self.cameras[..]
+        };
+        if let Some(p) = crate::placement::resolve_for(scene, cameras) {
+            render::log_placement(&p);
+        }
+        self.last = Some((key, scene.cmo.placement.clone(), scene.self_reflections));
+    }
+}
+
+/// The chosen camera of `scene` (the sequence's scene at `frame`) at the command's frame size.
+fn frame_camera(args: &RenderArgs, scene: &Scene, frame: i64) -> Result<Camera> {
     let mut camera = scene.camera(args.camera.as_deref())?.clone();
     (camera.width, camera.height) =
         render::frame_size((camera.width, camera.height), args.width, args.height);
@@ -231,7 +294,20 @@ fn frame_scene(args: &RenderArgs, base: &Scene, frame: i64) -> Result<(Scene, Ca
             camera.name
         );
     }
-    crate::placement::resolve(&mut scene, &camera);
+    Ok(camera)
+}
+
+/// The scene at `frame` and its camera (the chosen one, at the command's frame size), with the
+/// sequence's CMO placement ([`SequencePlacement`]).
+fn frame_scene(
+    args: &RenderArgs,
+    base: &Scene,
+    frame: i64,
+    placement: &mut SequencePlacement,
+) -> Result<(Scene, Camera)> {
+    let mut scene = base.at_frame(frame);
+    let camera = frame_camera(args, &scene, frame)?;
+    placement.apply(args, &mut scene, &camera);
     Ok((scene, camera))
 }
 

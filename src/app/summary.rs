@@ -19,6 +19,7 @@
 
 use crate::Method;
 use crate::metrics::Traced;
+use crate::placement::Placement;
 use crate::scene::Scene;
 use crate::vk::frame::GpuFrame;
 
@@ -88,7 +89,12 @@ pub fn counts(method: Method, c: &FallbackCount) -> String {
 
 /// The warning when the method left more than [`WARN_SHARE`] of the mirror pixels to the
 /// fallback, naming the likely cause; `None` below it.
-pub fn fallback_warning(method: Method, scene: &Scene, c: &FallbackCount) -> Option<String> {
+pub fn fallback_warning(
+    method: Method,
+    scene: &Scene,
+    c: &FallbackCount,
+    placement: Option<&Placement>,
+) -> Option<String> {
     if !method.can_leave_unresolved() || c.share() <= WARN_SHARE {
         return None;
     }
@@ -131,14 +137,38 @@ pub fn fallback_warning(method: Method, scene: &Scene, c: &FallbackCount) -> Opt
                  fallback)",
                 c.start_hits
             ),
-            _ => "likely causes: the CMOs do not see what these rays hit: a CMO centre placed \
-                  away from the reflector or behind other geometry, or too few CMOs for its \
-                  extent (try [cmo] placement = \"auto\" in the scene file, or --cmos N); or an \
-                  open reflector's vertex normals facing away from the side it is seen from"
-                .into(),
+            _ => match placement {
+                Some(p) => placement_cause(p),
+                None => "likely causes: the CMOs do not see what these rays hit: a CMO centre \
+                         placed away from the reflector or behind other geometry, or too few \
+                         CMOs for its extent (leave out [cmo] centres and count, or set \
+                         placement = \"auto\", to let the placement search choose them); or an \
+                         open reflector's vertex normals facing away from the side it is seen \
+                         from"
+                    .into(),
+            },
         }
     };
     Some(format!("{head}; {cause}"))
+}
+
+/// What the placement search could not do, from its sample: how much of it the chosen CMOs
+/// left unresolved, and what those rays meet.
+fn placement_cause(p: &Placement) -> String {
+    let what = p.left.cause().unwrap_or_else(|| {
+        "these rays pass behind surfaces that no candidate centre sees around, or meet \
+         triangles smaller than a texel (a larger --cube-size verifies more of them)"
+            .into()
+    });
+    format!(
+        "likely cause: the CMO placement search left {:.1}% of its {} sampled rays unresolved \
+         with {} CMOs (its budget: the scene's [cmo] count, else {}, within {} MiB of CMOs): {what}",
+        100.0 * p.share(),
+        p.rays,
+        p.centres.len(),
+        crate::scene::DEFAULT_SEARCH_CMOS,
+        crate::placement::MAX_CMO_BYTES >> 20,
+    )
 }
 
 /// The reflectors whose vertex normals point into the closed mesh they bound
@@ -169,16 +199,47 @@ mod tests {
             start_hits: 0,
         };
         let at = (WARN_SHARE * 1000.0) as usize;
-        assert!(fallback_warning(Method::Compute, &scene, &count(at)).is_none());
-        let w = fallback_warning(Method::Compute, &scene, &count(at + 1)).unwrap();
-        assert!(w.contains("CMO") && w.contains("--cmos"), "{w}");
-        let w = fallback_warning(Method::Ssr, &scene, &count(800)).unwrap();
+        assert!(fallback_warning(Method::Compute, &scene, &count(at), None).is_none());
+        let w = fallback_warning(Method::Compute, &scene, &count(at + 1), None).unwrap();
+        assert!(w.contains("CMO") && w.contains("placement"), "{w}");
+        // After a placement search: what it could not do, from what its unresolved rays meet.
+        let mut p = crate::placement::Placement {
+            centres: vec![glam::Vec3::ZERO; 8],
+            unresolved: vec![0.3, 0.2],
+            axis_unresolved: 0.4,
+            rays: 500,
+            left: crate::placement::Unresolved {
+                own_reflector: 80,
+                other_reflector: 0,
+                elsewhere: 20,
+            },
+            time: std::time::Duration::ZERO,
+            self_capture_off: false,
+        };
+        let w = fallback_warning(Method::Compute, &scene, &count(300), Some(&p)).unwrap();
+        assert!(
+            w.contains("20.0% of its 500 sampled rays unresolved with 8 CMOs")
+                && w.contains("80% of the rays the CMO placement left unresolved meet the reflector they leave"),
+            "{w}"
+        );
+        // Negative: rays that meet other surfaces are not blamed on the reflector.
+        p.left = crate::placement::Unresolved {
+            own_reflector: 10,
+            other_reflector: 10,
+            elsewhere: 80,
+        };
+        let w = fallback_warning(Method::Compute, &scene, &count(300), Some(&p)).unwrap();
+        assert!(
+            !w.contains("meet the reflector") && w.contains("behind surfaces"),
+            "{w}"
+        );
+        let w = fallback_warning(Method::Ssr, &scene, &count(800), None).unwrap();
         assert!(
             w.contains("known limit") && w.contains("--method ssr"),
             "{w}"
         );
         // Negative: methods that cannot leave a pixel to the fallback never warn.
-        assert!(fallback_warning(Method::Bvh, &scene, &count(1000)).is_none());
+        assert!(fallback_warning(Method::Bvh, &scene, &count(1000), None).is_none());
         assert!(
             counts(Method::Compute, &count(320)).contains("320 finished by the fallback (32.0%)")
         );

@@ -217,6 +217,9 @@ pub struct BenchConfig {
     pub cube_size: Option<u32>,
     /// Overrides the scenes' CMO placement with this many automatic CMOs.
     pub cmos: Option<u32>,
+    /// The CMO placements each scene runs with (`--placement`): one run of every method per
+    /// scene and placement.
+    pub placements: Vec<BenchPlacement>,
     /// Compute FLIP (nv-flip) over mirror pixels (needs the `flip` feature, on by default).
     pub flip: bool,
     /// Write per-run error heat maps.
@@ -250,6 +253,7 @@ impl Default for BenchConfig {
             warmup: 1,
             cube_size: None,
             cmos: None,
+            placements: vec![BenchPlacement::Scene],
             flip: true,
             heatmaps: true,
             floor: Some(FLOOR_FRAME),
@@ -396,6 +400,9 @@ pub struct RunResult {
     pub flip_mean: Option<f64>,
     /// The error heat map, relative to the output folder.
     pub heatmap: Option<String>,
+    /// The CMO placement search's wall time, ms, where it ran for this run's scene
+    /// ([`BenchPlacement::Auto`], or a scene without `[cmo]` centres) and the method captures.
+    pub placement_ms: Option<f64>,
 }
 
 /// The tracing pass of a method at a small frame ([`BenchConfig::floor`]).
@@ -564,6 +571,37 @@ pub fn git_commit() -> Option<String> {
     run.or_else(|| option_env!("CUBETRACE_GIT_COMMIT").map(str::to_string))
 }
 
+/// A CMO placement of the bench's placement axis (`--placement`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum BenchPlacement {
+    /// The scene's own `[cmo]` (a scene file without centres: the search).
+    Scene,
+    /// `placement = "axis"`: `--cmos N` (else the scene's count, else 1) along the reflectors'
+    /// longest axis.
+    Axis,
+    /// The placement search ([`crate::placement`]): up to `--cmos N` (else the scene's count,
+    /// else [`crate::scene::DEFAULT_SEARCH_CMOS`]).
+    Auto,
+}
+
+impl BenchPlacement {
+    /// The scene's label in a run of this placement: the name, with the placement after it
+    /// where the axis has more than one.
+    pub fn label(self, name: &str, several: bool) -> String {
+        if several {
+            let p = match self {
+                BenchPlacement::Scene => "scene",
+                BenchPlacement::Axis => "axis",
+                BenchPlacement::Auto => "auto",
+            };
+            format!("{name} [{p}]")
+        } else {
+            name.to_string()
+        }
+    }
+}
+
 /// Loads a scene by name or path and applies the overrides of `cfg` and its frame size to its
 /// first camera.
 pub fn prepare_scene(
@@ -573,9 +611,41 @@ pub fn prepare_scene(
     cube_size: Option<u32>,
     cmos: Option<u32>,
 ) -> Result<(Scene, Camera)> {
+    let (scene, camera, _) =
+        prepare_scene_placed(name, width, height, cube_size, cmos, BenchPlacement::Scene)?;
+    Ok((scene, camera))
+}
+
+/// [`prepare_scene`] with a placement of the bench's axis; also the placement search's result
+/// where one ran.
+pub fn prepare_scene_placed(
+    name: &str,
+    width: u32,
+    height: u32,
+    cube_size: Option<u32>,
+    cmos: Option<u32>,
+    placement: BenchPlacement,
+) -> Result<(Scene, Camera, Option<crate::placement::Placement>)> {
     let mut scene = scene::load(name)?;
-    if let Some(c) = cmos {
-        scene.cmo.placement = CmoPlacement::Auto { count: c };
+    let count = match &scene.cmo.placement {
+        CmoPlacement::Auto { count } | CmoPlacement::Search { count } => Some(*count),
+        CmoPlacement::Explicit(_) => None,
+    };
+    match placement {
+        BenchPlacement::Scene => {
+            if let Some(c) = cmos {
+                scene.cmo.placement = CmoPlacement::Auto { count: c };
+            }
+        }
+        BenchPlacement::Axis => {
+            let searched = matches!(scene.cmo.placement, CmoPlacement::Search { .. });
+            let count = cmos.or(count.filter(|_| !searched)).unwrap_or(1);
+            scene.cmo.placement = CmoPlacement::Auto { count };
+        }
+        BenchPlacement::Auto => {
+            let count = cmos.or(count).unwrap_or(crate::scene::DEFAULT_SEARCH_CMOS);
+            scene.cmo.placement = CmoPlacement::Search { count };
+        }
     }
     if let Some(n) = cube_size {
         scene.cmo.resolution = n;
@@ -588,9 +658,9 @@ pub fn prepare_scene(
     camera.width = width;
     camera.height = height;
     // A placement search runs once, for this camera, not in every `cmo_centres` call.
-    crate::placement::resolve(&mut scene, &camera);
+    let searched = crate::placement::resolve(&mut scene, &camera);
     scene::check_resolution(width, height).map_err(|e| anyhow::anyhow!("frame size: {e}"))?;
-    Ok((scene, camera))
+    Ok((scene, camera, searched))
 }
 
 /// Refuses, before anything renders, a grid whose largest run would not fit in `limits`
@@ -827,17 +897,33 @@ pub fn run(
     }
     bar.set_length(planned_steps(cfg));
     // Every scene is loaded and checked before anything renders.
-    let prepared = cfg
-        .scenes
-        .iter()
-        .map(|name| prepare_scene(name, cfg.width, cfg.height, cfg.cube_size, cfg.cmos))
-        .collect::<Result<Vec<_>>>()?;
+    let placements = if cfg.placements.is_empty() {
+        vec![BenchPlacement::Scene]
+    } else {
+        cfg.placements.clone()
+    };
+    let several = placements.len() > 1;
+    let mut labels = Vec::new();
+    let mut prepared = Vec::new();
+    let mut search_ms = Vec::new();
+    for name in &cfg.scenes {
+        for &p in &placements {
+            let (scene, camera, searched) =
+                prepare_scene_placed(name, cfg.width, cfg.height, cfg.cube_size, cfg.cmos, p)?;
+            labels.push(p.label(name, several));
+            prepared.push((scene, camera));
+            search_ms.push(searched.map(|s| s.time.as_secs_f64() * 1e3));
+        }
+    }
     let limits = memory::Limits::of_device(ctx.device_local_heap_bytes(), ctx.device_is_cpu())?;
     check_memory(cfg, &prepared, &limits)?;
     let mut runs = Vec::new();
     // Heat map paths given so far: two scenes of one (sanitised) name get their own files.
     let mut heat_paths: Vec<String> = Vec::new();
-    for (name, (scene, camera)) in cfg.scenes.iter().zip(prepared) {
+    for ((name, (mut scene, camera)), search_ms) in labels.iter().zip(prepared).zip(search_ms) {
+        if several {
+            scene.name = name.clone();
+        }
         bar.set_message(format!("{name}: reference"));
         // The reference is needed for every error figure, even when it is not a listed method.
         let refr = run_reference_bounces(&scene, &camera, cfg.warmup, cfg.frames, cfg.bounces);
@@ -867,7 +953,11 @@ pub fn run(
                 bar.inc(1);
                 continue;
             }
-            runs.push(sc.gpu_result(ctx, cfg, bar, spec, &mut heat_paths)?);
+            let mut run = sc.gpu_result(ctx, cfg, bar, spec, &mut heat_paths)?;
+            if spec.kind.captures_cmos() {
+                run.placement_ms = search_ms;
+            }
+            runs.push(run);
             bar.inc(1);
             check_validation(ctx)?;
         }
@@ -888,6 +978,7 @@ pub fn run(
 
 /// The progress bar's length: per scene the reference, each GPU run and each floor run.
 fn planned_steps(cfg: &BenchConfig) -> u64 {
+    let placements = cfg.placements.len().max(1);
     let gpu_methods = cfg.methods.iter().filter(|m| m.kind.is_gpu()).count();
     let floor_runs = match cfg.floor {
         Some(_) => cfg
@@ -897,7 +988,7 @@ fn planned_steps(cfg: &BenchConfig) -> u64 {
             .count(),
         None => 0,
     };
-    (cfg.scenes.len() * (1 + gpu_methods + floor_runs)) as u64
+    (cfg.scenes.len() * placements * (1 + gpu_methods + floor_runs)) as u64
 }
 
 /// One scene's runs: the scene, its reference frame and the figures every run of it repeats.
@@ -973,6 +1064,7 @@ impl<'a> SceneRuns<'a> {
             wrong_off_reflector: 0.0,
             flip_mean: None,
             heatmap: None,
+            placement_ms: None,
         }
     }
 
@@ -1236,6 +1328,7 @@ mod tests {
             wrong_off_reflector: 0.0,
             flip_mean: None,
             heatmap: None,
+            placement_ms: None,
         }
     }
 

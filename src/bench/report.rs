@@ -394,6 +394,54 @@ pub fn search_table(report: &BenchReport) -> String {
     s
 }
 
+/// The CMO placement of each cube-map run: its CMOs, the placement search's time (where it
+/// ran), the capture pass, the frame against `bvh`'s on the same scene, the fallback's share;
+/// empty when no run searched and the placement axis has one value.
+pub fn placement_table(report: &BenchReport) -> String {
+    let axis = report.runs.iter().any(|r| r.scene.ends_with(']'));
+    let runs: Vec<&RunResult> = report
+        .runs
+        .iter()
+        .filter(|r| r.kind.captures_cmos() && (axis || r.placement_ms.is_some()))
+        .collect();
+    if runs.is_empty() {
+        return String::new();
+    }
+    let mut s = String::from(
+        "\n## CMO placement\n\n| scene | method | CMOs | search ms | capture ms | frame ms | frame / bvh | fallback % |\n|---|---|---:|---:|---:|---:|---:|---:|\n",
+    );
+    for r in runs {
+        let capture = r
+            .passes
+            .iter()
+            .find(|p| p.pass == "capture")
+            .map(|p| p.ns.median / 1e6);
+        let bvh = report
+            .runs
+            .iter()
+            .find(|b| b.scene == r.scene && b.kind == Method::Bvh)
+            .map(|b| r.total_ns.median / b.total_ns.median);
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} | {} | {} | {} |",
+            r.scene,
+            r.method,
+            r.cmos,
+            opt(r.placement_ms, 0),
+            opt(capture, 1),
+            num(r.total_ns.median / 1e6, 1),
+            opt(bvh, 2),
+            pct(r.fallback_share)
+        );
+    }
+    s.push_str(
+        "\nsearch ms: CPU wall time of the placement search (run once per scene, before any frame); \
+         capture ms: the GPU's capture pass (median); frame ms: every pass of the frame, capture and \
+         fallback included; frame / bvh: against `bvh`'s frame on the same scene (where it ran).\n",
+    );
+    s
+}
+
 /// The Markdown document of `bench.md`: the header, then the summary, cost-per-ray (ratios),
 /// runs and per-pass tables, each under its own heading, each the same text that
 /// [`summary_table`], [`ratios_table`], [`runs_table`] and [`passes_table`] return (so the
@@ -414,7 +462,7 @@ pub fn markdown(report: &BenchReport) -> String {
         ratios_table(report),
         runs_table(report),
         passes_table(report),
-        search_table(report)
+        search_table(report) + &placement_table(report)
     ) + &report.model.as_ref().map_or(String::new(), |m| {
         format!("\n{}", super::model::markdown(m))
     })
@@ -478,6 +526,7 @@ mod tests {
             wrong_off_reflector: 0.0,
             flip_mean: None,
             heatmap: None,
+            placement_ms: None,
         }
     }
 

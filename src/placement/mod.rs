@@ -1,126 +1,190 @@
 #![forbid(unsafe_code)]
 //! CMO placement, an algorithm over the scene (the scene itself is data and imports none):
-//! [`resolve`] runs the search of `[cmo] placement = "auto"` ([`CmoPlacement::Search`]) for the
-//! camera a render uses and stores its centres in the scene; [`diagnose`] finds set-ups that
-//! load fine but cannot give a useful mirror image.
+//! [`resolve`] runs the search of [`CmoPlacement::Search`] (the default without `[cmo]`
+//! centres, and `[cmo] placement = "auto"`) for the cameras a render uses and stores its centres
+//! in the scene; [`diagnose`] finds set-ups that load fine but cannot give a useful mirror image.
 //!
-//! The search: CMO centres chosen greedily to minimise the unresolved share of
-//! a CPU sample of the camera's reflected rays.
+//! The search adds CMO centres greedily until the share of a sample of reflected rays that no
+//! CMO resolves falls to [`TARGET_SHARE`], within a budget of CMOs (the scene's `count`, else
+//! [`DEFAULT_SEARCH_CMOS`]) and of their memory at the scene's face size ([`MAX_CMO_BYTES`]).
 //!
-//! The sample: the camera's mirror pixels on a coarse grid, a few hundred of them evenly spread,
+//! The sample: the cameras' mirror pixels on a coarse grid, a few hundred of them evenly spread,
 //! each reflected once about the interpolated normal at its primary hit (the exact
 //! [`Tracer`]). Candidates: a small grid over the reflectors' bounding box grown by half its
 //! largest side every way (a flat mirror's box is flat; a centre in front of it is a candidate
-//! too) and clipped to the scene's box, plus the axis placements of `count = 1..=N`. A set of centres is scored by tracing the
-//! sample with the CPU twin of the tracer ([`crate::cpu::options::trace_ray`], exact, over
-//! CPU captures [`crate::reference::capture`] of each centre at a small cube size): the share of
-//! rays that end unresolved. Each step adds the candidate that lowers the share most (first in
-//! candidate order on ties), and stops early when none lowers it. Deterministic.
+//! too; a non-convex reflector and facing reflectors get centres outside their hull) and clipped
+//! to the scene's box, plus the axis placements of one to three CMOs. A set of centres is scored
+//! by tracing the sample with the CPU twin of the GPU's exact tracer
+//! ([`crate::cpu::multi::trace_cmos_verified`]: the pyramid march, every hit verified against the
+//! captured triangle IDs, as `compute` and `fragment` do), over CPU captures
+//! ([`crate::reference::capture`]) of each centre at a small face size: the share of rays that
+//! end unresolved. Each step adds the candidate that lowers the share most (first in candidate
+//! order on ties), scoring only the rays the centres chosen so far leave unresolved, and stops
+//! when none lowers it. The final share is traced again over the whole sample. Deterministic.
+//!
+//! What the sample cannot promise: the frame's own share differs by the sampling error (a few
+//! rays in a hundred at 512 rays) and by the face size (a finer capture verifies more hits on
+//! small triangles). `render` states both shares under `-v`.
+
+use std::time::{Duration, Instant};
 
 use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::camera::Camera;
 use crate::cpu::CmoTracer;
-use crate::cpu::multi::MultiStatus;
-use crate::cpu::options::{TraceOptions, trace_ray};
+use crate::cpu::multi::{MultiStatus, Traversal, Verify, trace_cmos_verified};
+use crate::cpu::options::TraceOptions;
+use crate::cpu::verify::triangle_corners;
 use crate::reference::{self, Tracer};
-use crate::scene::{CmoPlacement, Scene};
+use crate::scene::{CmoPlacement, Scene, SelfReflections};
 
 mod diagnose;
+mod rays;
 
 pub use diagnose::diagnose;
+pub use rays::Unresolved;
+use rays::{Ray, classify, reflected_rays};
+
+/// The share of sampled rays left unresolved at which the search stops adding CMOs: 1 %, half
+/// the 2 % it aims at for the frame, for the sampling error of its 512 rays (0.6 % at 2 %) and
+/// the coarser capture it scores with (measured on the corpus at 256: frames 0.04-0.96 % where
+/// the sample gave 0-0.7 %; at a 1.5 % stop one frame came out at 2.17 %).
+pub const TARGET_SHARE: f64 = 0.01;
+
+pub use crate::scene::DEFAULT_SEARCH_CMOS;
+
+/// Memory the searched CMOs may take at the scene's face size (their distance, colour and
+/// triangle-ID cubes and the tracers' hierarchy, [`cmo_bytes`]): 512 MiB.
+pub const MAX_CMO_BYTES: u64 = 512 << 20;
+
+/// Bytes one CMO of face size `size` takes on the GPU for the default method, about: 16 per
+/// texel (distance, colour, triangle ID, and the min/max hierarchy's share).
+pub fn cmo_bytes(size: u32) -> u64 {
+    6 * u64::from(size) * u64::from(size) * 16
+}
+
+/// How many CMOs the search may place: `count`, and no more than [`MAX_CMO_BYTES`] hold at face
+/// size `size` (at least one).
+pub fn cmo_budget(count: u32, size: u32) -> u32 {
+    let fit = (MAX_CMO_BYTES / cmo_bytes(size).max(1)).max(1);
+    count.min(u32::try_from(fit).unwrap_or(u32::MAX)).max(1)
+}
 
 /// How much work the search does.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PlacementOptions {
-    /// Reflected rays sampled (at most).
+    /// Reflected rays sampled (at most; shared between the cameras).
     pub samples: usize,
     /// Face size of the CPU captures.
     pub cube_size: u32,
     /// Candidate grid points per axis.
     pub grid: u32,
+    /// Stop once the sampled unresolved share is at most this ([`TARGET_SHARE`]); 0 adds CMOs
+    /// while any lowers it.
+    pub target: f64,
 }
 
 impl Default for PlacementOptions {
     fn default() -> Self {
         PlacementOptions {
-            samples: 400,
+            samples: 512,
             cube_size: 32,
             grid: 4,
+            target: TARGET_SHARE,
         }
     }
 }
 
-/// The chosen centres and what each buys.
-#[derive(Clone, Debug, PartialEq)]
+/// The chosen centres and what each buys. Equal placements compare equal whatever their
+/// [`Placement::time`].
+#[derive(Clone, Debug)]
 pub struct Placement {
     /// In the order chosen.
     pub centres: Vec<Vec3>,
     /// `unresolved[k]`: the unresolved share of the sample with the first `k + 1` centres.
     pub unresolved: Vec<f64>,
-    /// The unresolved share with today's `count = N` along the longest axis (same sample).
+    /// The unresolved share with as many centres along the reflectors' longest axis (the
+    /// `placement = "axis"` of the same count; same sample).
     pub axis_unresolved: f64,
     /// Reflected rays in the sample.
     pub rays: usize,
+    /// What the rays the chosen centres leave unresolved really meet.
+    pub left: Unresolved,
+    /// The search's wall-clock time.
+    pub time: Duration,
+    /// Whether [`resolve_for`] left the reflectors out of the capture
+    /// (`self_reflections = "auto"` set to off), where that left fewer rays unresolved.
+    pub self_capture_off: bool,
 }
 
-/// One reflected ray: origin on the mirror and unit direction.
-#[derive(Clone, Copy, Debug)]
-struct Ray {
-    origin: Vec3,
-    dir: Vec3,
-}
-
-/// The camera's reflected rays: mirror pixels on a grid of at most 96 columns, `samples` of
-/// them at an even stride.
-fn reflected_rays(tracer: &Tracer, camera: &Camera, samples: usize) -> Vec<Ray> {
-    let step = camera.width.div_ceil(96).max(1);
-    let pixels: Vec<(u32, u32)> = (0..camera.height)
-        .step_by(step as usize)
-        .flat_map(|j| {
-            (0..camera.width)
-                .step_by(step as usize)
-                .map(move |i| (i, j))
-        })
-        .collect();
-    let rays: Vec<Ray> = pixels
-        .par_iter()
-        .filter_map(|&(i, j)| {
-            let (eye, dir) = camera.ray(i, j);
-            let hit = tracer.nearest(eye, dir, None)?;
-            if !tracer.is_reflector(hit.triangle) {
-                return None;
-            }
-            let n = tracer.normal(&hit);
-            Some(Ray {
-                origin: hit.position,
-                dir: reference::reflect(dir, n).normalize(),
-            })
-        })
-        .collect();
-    let stride = rays.len().div_ceil(samples.max(1)).max(1);
-    rays.into_iter().step_by(stride).collect()
-}
-
-/// Share of `rays` that no CMO of `cmos` resolves.
-fn unresolved_share(cmos: &[&CmoTracer], rays: &[Ray], t_hi: f32) -> f64 {
-    if rays.is_empty() {
-        return 0.0;
+impl PartialEq for Placement {
+    fn eq(&self, other: &Self) -> bool {
+        let key = |p: &Self| {
+            (
+                p.centres.clone(),
+                p.unresolved.clone(),
+                p.axis_unresolved,
+                p.rays,
+                p.left,
+                p.self_capture_off,
+            )
+        };
+        key(self) == key(other)
     }
-    let cmos: Vec<CmoTracer> = cmos.iter().map(|&c| c.clone()).collect();
-    let opts = TraceOptions::default();
-    let bad = rays
-        .par_iter()
-        .filter(|r| {
-            trace_ray(&cmos, r.origin, r.dir, 0.0, t_hi, &opts).status == MultiStatus::Unresolved
-        })
-        .count();
-    bad as f64 / rays.len() as f64
 }
 
-/// Candidate centres: the grid over the grown reflector box, then the axis placements.
-fn candidates(scene: &Scene, count: u32, grid: u32) -> Vec<Vec3> {
+impl Placement {
+    /// The sampled unresolved share with every chosen centre.
+    pub fn share(&self) -> f64 {
+        self.unresolved.last().copied().unwrap_or(1.0)
+    }
+}
+
+/// Scores sets of CMOs on the sample: the exact criterion's CPU twin with verified hits.
+struct Scorer<'a> {
+    rays: &'a [Ray],
+    corners: Vec<[Vec3; 3]>,
+    t_hi: f32,
+}
+
+impl Scorer<'_> {
+    fn unresolved(&self, cmos: &[CmoTracer], ray: &Ray) -> bool {
+        let verify = Verify {
+            triangles: &self.corners,
+        };
+        let r = trace_cmos_verified(
+            cmos,
+            ray.origin,
+            ray.dir,
+            0.0,
+            self.t_hi,
+            Traversal::Mip,
+            Some(verify),
+        );
+        r.status == MultiStatus::Unresolved
+    }
+
+    /// The rays of `open` (indices into the sample) that `cmos` leave unresolved.
+    fn left(&self, cmos: &[CmoTracer], open: &[usize]) -> Vec<usize> {
+        open.par_iter()
+            .copied()
+            .filter(|&i| self.unresolved(cmos, &self.rays[i]))
+            .collect()
+    }
+
+    fn share(&self, cmos: &[CmoTracer]) -> f64 {
+        if self.rays.is_empty() {
+            return 0.0;
+        }
+        let all: Vec<usize> = (0..self.rays.len()).collect();
+        self.left(cmos, &all).len() as f64 / self.rays.len() as f64
+    }
+}
+
+/// Candidate centres: the grid over the grown reflector box, then the axis placements of one to
+/// three CMOs.
+fn candidates(scene: &Scene, grid: u32) -> Vec<Vec3> {
     let world = scene.world();
     let (lo, hi) = world.bounds(|o| o.reflector);
     let (lo, hi) = if lo.x > hi.x {
@@ -142,68 +206,178 @@ fn candidates(scene: &Scene, count: u32, grid: u32) -> Vec<Vec3> {
             }
         }
     }
-    for n in 1..=count {
+    for n in 1..=3 {
         out.extend(scene.axis_centres(n));
     }
     out
 }
 
-/// Chooses up to `count` centres for `camera`'s view of `scene` (see the module docs).
-pub fn search(scene: &Scene, camera: &Camera, count: u32, opts: &PlacementOptions) -> Placement {
+/// Chooses up to `count` centres for the cameras' view of `scene` (see the module docs).
+pub fn search(scene: &Scene, cameras: &[Camera], count: u32, opts: &PlacementOptions) -> Placement {
+    let start = Instant::now();
     let tracer = Tracer::new(scene);
-    let rays = reflected_rays(&tracer, camera, opts.samples);
-    let t_hi = 2.0 * tracer.world.extent().max(f32::MIN_POSITIVE);
+    let rays = reflected_rays(&tracer, cameras, opts.samples);
+    let scorer = Scorer {
+        rays: &rays,
+        corners: triangle_corners(&tracer.world),
+        t_hi: 2.0 * tracer.world.extent().max(f32::MIN_POSITIVE),
+    };
     let params = TraceOptions::default().params();
     let capture = |c: Vec3| {
         CmoTracer::new(
-            reference::capture(scene, &tracer, c, opts.cube_size),
+            reference::capture_shaded(scene, &tracer, c, opts.cube_size, false),
             params,
         )
     };
-    let axis: Vec<CmoTracer> = scene.axis_centres(count).into_iter().map(capture).collect();
-    let axis_unresolved = unresolved_share(&axis.iter().collect::<Vec<_>>(), &rays, t_hi);
-    let points = candidates(scene, count, opts.grid);
+    let points = candidates(scene, opts.grid);
     let cmos: Vec<CmoTracer> = points.iter().map(|&c| capture(c)).collect();
-    let mut chosen: Vec<usize> = Vec::new();
-    let mut unresolved: Vec<f64> = Vec::new();
-    for _ in 0..count.max(1) {
-        let mut best: Option<(usize, f64)> = None;
-        for k in 0..cmos.len() {
-            if chosen.contains(&k) {
-                continue;
-            }
-            let set: Vec<&CmoTracer> = chosen.iter().chain([&k]).map(|&i| &cmos[i]).collect();
-            let share = unresolved_share(&set, &rays, t_hi);
-            if best.is_none_or(|(_, s)| share < s) {
-                best = Some((k, share));
-            }
-        }
-        let Some((k, share)) = best else { break };
-        if unresolved.last().is_some_and(|&s| share >= s) {
-            break;
-        }
-        chosen.push(k);
-        unresolved.push(share);
-        if share == 0.0 {
-            break;
-        }
+    log::debug!(
+        "cmo placement: {} rays sampled, {} candidates captured at {}: {:.2?}",
+        rays.len(),
+        points.len(),
+        opts.cube_size,
+        start.elapsed()
+    );
+    let (chosen, unresolved) = greedy(&scorer, &cmos, count, opts.target);
+    let set: Vec<CmoTracer> = chosen.iter().map(|&k| cmos[k].clone()).collect();
+    let all: Vec<usize> = (0..rays.len()).collect();
+    let left: Vec<&Ray> = scorer.left(&set, &all).iter().map(|&i| &rays[i]).collect();
+    let mut unresolved = unresolved;
+    if let Some(last) = unresolved.last_mut() {
+        *last = left.len() as f64 / rays.len().max(1) as f64;
     }
+    let axis: Vec<CmoTracer> = scene
+        .axis_centres(chosen.len().max(1) as u32)
+        .into_iter()
+        .map(capture)
+        .collect();
+    let axis_unresolved = scorer.share(&axis);
     Placement {
         centres: chosen.iter().map(|&k| points[k]).collect(),
         unresolved,
         axis_unresolved,
         rays: rays.len(),
+        left: classify(&tracer, &left),
+        time: start.elapsed(),
+        self_capture_off: false,
     }
 }
 
-/// Runs the search of [`CmoPlacement::Search`] for `camera` once and keeps its centres as the
-/// scene's ([`CmoPlacement::Explicit`]), so that later [`Scene::cmo_centres`] calls (ranges,
-/// renderer, metrics) read them; `None` (and the scene unchanged) for other placements.
+/// The greedy steps: the chosen candidates (indices into `cmos`) and the sampled unresolved
+/// share after each.
+fn greedy(scorer: &Scorer, cmos: &[CmoTracer], count: u32, target: f64) -> (Vec<usize>, Vec<f64>) {
+    let n = scorer.rays.len();
+    let mut open: Vec<usize> = (0..n).collect();
+    let mut chosen: Vec<usize> = Vec::new();
+    let mut unresolved: Vec<f64> = Vec::new();
+    while chosen.len() < count.max(1) as usize && !open.is_empty() {
+        // Per candidate, how many of the open rays the set with it still leaves unresolved.
+        let scores: Vec<usize> = (0..cmos.len())
+            .into_par_iter()
+            .map(|k| {
+                if chosen.contains(&k) {
+                    return usize::MAX;
+                }
+                let set: Vec<CmoTracer> = chosen
+                    .iter()
+                    .chain([&k])
+                    .map(|&i| cmos[i].clone())
+                    .collect();
+                open.iter()
+                    .filter(|&&i| scorer.unresolved(&set, &scorer.rays[i]))
+                    .count()
+            })
+            .collect();
+        let Some((k, &left)) = scores.iter().enumerate().min_by_key(|&(k, &s)| (s, k)) else {
+            break;
+        };
+        if left >= open.len() && !chosen.is_empty() {
+            break;
+        }
+        chosen.push(k);
+        let set: Vec<CmoTracer> = chosen.iter().map(|&i| cmos[i].clone()).collect();
+        open = scorer.left(&set, &open);
+        unresolved.push(open.len() as f64 / n.max(1) as f64);
+        if open.len() as f64 <= target * n as f64 {
+            break;
+        }
+    }
+    (chosen, unresolved)
+}
+
+/// Runs the search of [`CmoPlacement::Search`] once for `camera`; see [`resolve_for`].
 pub fn resolve(scene: &mut Scene, camera: &Camera) -> Option<Placement> {
+    resolve_for(scene, std::slice::from_ref(camera))
+}
+
+/// Runs the search of [`CmoPlacement::Search`] once for the rays of `cameras` (a sequence's
+/// cameras share one placement) and keeps its centres as the scene's
+/// ([`CmoPlacement::Explicit`]), so that later [`Scene::cmo_centres`] calls (ranges, renderer,
+/// metrics) read them; `None` (and the scene unchanged) for other placements. The count is
+/// capped by [`cmo_budget`] at the scene's face size. A scene far from the origin is searched in
+/// coordinates relative to its anchor ([`crate::ranges::anchor`]), as the frame is traced.
+pub fn resolve_for(scene: &mut Scene, cameras: &[Camera]) -> Option<Placement> {
     let CmoPlacement::Search { count } = scene.cmo.placement else {
         return None;
     };
-    let p = search(scene, camera, count, &PlacementOptions::default());
+    let count = cmo_budget(count, scene.cmo.resolution);
+    let opts = PlacementOptions::default();
+    // Self-reflections left to `auto` and captured: the search first tries the reflectors left
+    // out of the capture (the reflector check traces the rays that meet them exactly, so the
+    // image is the same), and keeps that where it meets the target or leaves fewer rays
+    // unresolved than the capture with them.
+    let p = if scene.self_reflections == SelfReflections::Auto && scene.captures_reflectors() {
+        let mut off = scene.clone();
+        off.self_reflections = SelfReflections::Off;
+        let mut q = search_anchored(&off, cameras, count, &opts);
+        q.self_capture_off = true;
+        if q.share() <= opts.target {
+            q
+        } else {
+            let p = search_anchored(scene, cameras, count, &opts);
+            log::info!(
+                "cmo placement: reflectors captured: {:.2}% of the sample unresolved with {} \
+                 CMOs; left out: {:.2}% with {}",
+                100.0 * p.share(),
+                p.centres.len(),
+                100.0 * q.share(),
+                q.centres.len()
+            );
+            let time = p.time + q.time;
+            let best = if (q.share(), q.centres.len()) <= (p.share(), p.centres.len()) {
+                q
+            } else {
+                p
+            };
+            Placement { time, ..best }
+        }
+    } else {
+        search_anchored(scene, cameras, count, &opts)
+    };
+    if p.self_capture_off {
+        scene.self_reflections = SelfReflections::Off;
+    }
     scene.cmo.placement = CmoPlacement::Explicit(p.centres.clone());
     Some(p)
+}
+
+/// [`search`] in coordinates relative to the scene's anchor, the centres moved back.
+fn search_anchored(
+    scene: &Scene,
+    cameras: &[Camera],
+    count: u32,
+    opts: &PlacementOptions,
+) -> Placement {
+    let anchor = crate::ranges::anchor(scene);
+    if anchor == Vec3::ZERO {
+        return search(scene, cameras, count, opts);
+    }
+    let local = scene.rebased(anchor);
+    let cams: Vec<Camera> = cameras.iter().map(|c| c.rebased(anchor)).collect();
+    let mut p = search(&local, &cams, count, opts);
+    let a = anchor.as_dvec3();
+    for c in &mut p.centres {
+        *c = (c.as_dvec3() + a).as_vec3();
+    }
+    p
 }

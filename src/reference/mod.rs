@@ -841,6 +841,19 @@ pub fn render_phased(
 /// and then kept only where they face the centre (normal towards it), as in the GPU capture (`spirv/capture.wgsl`).
 /// This is what a rasterised capture computes at texel centres, so it checks the GPU capture.
 pub fn capture(scene: &Scene, tracer: &Tracer, centre: Vec3, size: u32) -> crate::cubemap::CubeMap {
+    capture_shaded(scene, tracer, centre, size, true)
+}
+
+/// [`capture`] without colour where `shade` is false (every texel's colour the background's,
+/// alpha 1 where a triangle is hit): distances and triangle IDs only, what a trace's status
+/// and verification read (the placement search).
+pub fn capture_shaded(
+    scene: &Scene,
+    tracer: &Tracer,
+    centre: Vec3,
+    size: u32,
+    shade: bool,
+) -> crate::cubemap::CubeMap {
     let mut cube = crate::cubemap::CubeMap::new(size, centre);
     let n = cube.distance.len();
     let texels: Vec<(f32, [f32; 4], u32)> = (0..n)
@@ -860,7 +873,11 @@ pub fn capture(scene: &Scene, tracer: &Tracer, centre: Vec3, size: u32) -> crate
             });
             match hit {
                 Some(h) => {
-                    let c = tracer.shade(scene, &h);
+                    let c = if shade {
+                        tracer.shade(scene, &h)
+                    } else {
+                        scene.background
+                    };
                     (
                         (h.position - centre).length(),
                         [c.x, c.y, c.z, 1.0],

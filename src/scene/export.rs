@@ -279,7 +279,7 @@ fn cmo_file(cmo: &CmoSpec) -> CmoFile {
             None,
             None,
         ),
-        CmoPlacement::Auto { count } => (None, Some(sp(*count)), None),
+        CmoPlacement::Auto { count } => (None, Some(sp(*count)), Some(sp("axis".to_string()))),
         CmoPlacement::Search { count } => (None, Some(sp(*count)), Some(sp("auto".to_string()))),
     };
     CmoFile {

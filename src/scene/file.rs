@@ -29,11 +29,14 @@
 //! fov_y_deg = 50
 //! resolution = [640, 480]
 //!
-//! [cmo]
-//! centres = [[0, 1.2, 0]]           # or: count = 2 (placed along the reflectors' longest axis)
-//!                                   # with count: placement = "auto" chooses up to count centres
-//!                                   # that leave the fewest reflected rays unresolved
-//! resolution = 256                  # texels per cube face side
+//! [cmo]                             # optional
+//! centres = [[0, 1.2, 0]]           # or: count = 2 (at most 2 CMOs, placed by the search);
+//!                                   # without centres, placement = "auto" (the default)
+//!                                   # searches for centres that leave at most 1 % of a sample
+//!                                   # of reflected rays unresolved, up to count CMOs (default
+//!                                   # 8); placement = "axis" spreads count (default 1) along
+//!                                   # the reflectors' longest axis
+//! resolution = 256                  # texels per cube face side (default 256)
 //!
 //! [film]                            # optional; --spp and --filter override it
 //! spp = 16                          # samples per pixel, 1 to 1024 (default 1)
@@ -100,8 +103,8 @@ use super::obj::load_obj_file;
 use super::report::{LoadReport, WarningKind};
 use super::source::Source;
 use super::{
-    CmoPlacement, CmoSpec, MAX_CMOS, MAX_COLOUR, MAX_COORDINATE, MAX_CUBE_SIZE, MAX_IMAGE_SIDE,
-    MeshInstance, Scene, SceneError, SelfReflections, Transform,
+    CmoPlacement, CmoSpec, DEFAULT_SEARCH_CMOS, MAX_CMOS, MAX_COLOUR, MAX_COORDINATE,
+    MAX_CUBE_SIZE, MAX_IMAGE_SIDE, MeshInstance, Scene, SceneError, SelfReflections, Transform,
 };
 use crate::camera::Camera;
 use crate::shading::Shading;
@@ -444,7 +447,9 @@ pub fn load_scene_file_report(path: &Path) -> Result<(Scene, LoadReport), SceneE
         textures: Vec::new(),
         cameras: Vec::new(),
         cmo: CmoSpec {
-            placement: CmoPlacement::Auto { count: 1 },
+            placement: CmoPlacement::Search {
+                count: DEFAULT_SEARCH_CMOS,
+            },
             resolution: 256,
         },
         background: src.colour(&file.background, "background")?,
@@ -665,18 +670,28 @@ fn cmo_spec(src: &Source, cmo: &CmoFile) -> Result<CmoSpec, SceneError> {
             return Err(src.invalid(c, "cmo", "give either centres or count, not both"));
         }
         (Some(centres), None) => CmoPlacement::Explicit(cmo_centres(src, centres)?),
-        (None, Some(count)) => {
-            let n = *count.get_ref();
-            if n == 0 || n > MAX_CMOS {
-                return Err(src.invalid(
-                    count,
-                    "cmo.count",
-                    format!("{n} is out of range (1 to {MAX_CMOS} CMOs)"),
-                ));
-            }
+        (None, count) => {
+            let n = match count {
+                Some(count) => {
+                    let n = *count.get_ref();
+                    if n == 0 || n > MAX_CMOS {
+                        return Err(src.invalid(
+                            count,
+                            "cmo.count",
+                            format!("{n} is out of range (1 to {MAX_CMOS} CMOs)"),
+                        ));
+                    }
+                    Some(n)
+                }
+                None => None,
+            };
             match cmo.placement.as_ref().map(|p| (p, p.get_ref().as_str())) {
-                None | Some((_, "axis")) => CmoPlacement::Auto { count: n },
-                Some((_, "auto")) => CmoPlacement::Search { count: n },
+                Some((_, "axis")) => CmoPlacement::Auto {
+                    count: n.unwrap_or(1),
+                },
+                None | Some((_, "auto")) => CmoPlacement::Search {
+                    count: n.unwrap_or(DEFAULT_SEARCH_CMOS),
+                },
                 Some((p, other)) => {
                     return Err(src.invalid(
                         p,
@@ -686,7 +701,6 @@ fn cmo_spec(src: &Source, cmo: &CmoFile) -> Result<CmoSpec, SceneError> {
                 }
             }
         }
-        (None, None) => CmoPlacement::Auto { count: 1 },
     };
     if let (Some(p), Some(_)) = (&cmo.placement, &cmo.centres) {
         return Err(src.invalid(

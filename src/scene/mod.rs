@@ -54,6 +54,10 @@ pub const MAX_CUBE_SIZE: u32 = 4096;
 /// cube faces stay within the 256 image array layers every Vulkan device offers.
 pub const MAX_CMOS: u32 = 16;
 
+/// CMOs the placement search may use where the scene gives no `count` (a scene file without
+/// `[cmo]` centres): [`CmoPlacement::Search`]'s default budget.
+pub const DEFAULT_SEARCH_CMOS: u32 = 8;
+
 /// Largest magnitude of a coordinate a scene may hold, 2^60 (about 1.15e18): a vertex in an
 /// OBJ file (object space), a mesh's vertex after its transform (world space), a camera's
 /// `eye` and `target`, a CMO centre. The tracer squares distances in f32, and `(4 * 2^60)^2` is
@@ -240,7 +244,7 @@ impl Scene {
     /// in exported files) and no camera of the scene lies inside it ([`convexity::encloses`];
     /// a mirror room seen from inside keeps its normals). The reference, which reflects on
     /// either side, needs no such rule; the capture's self test, the convexity test and the
-    /// reflection-point search use it (issue 21, case 4).
+    /// reflection-point search use it.
     pub fn front_turned(&self, mesh: &MeshInstance) -> bool {
         if !mesh.reflector || !mesh.normals_inward() {
             return false;
@@ -386,10 +390,11 @@ pub enum CmoPlacement {
     Explicit(Vec<Vec3>),
     /// `count` centres spread along the longest axis of the reflectors' bounding box.
     Auto { count: u32 },
-    /// Up to `count` centres chosen for a camera (`[cmo] placement = "auto"`) by the search in
-    /// `cubetrace::placement`. `render` and the bench resolve it once for the camera they
-    /// render (`placement::resolve`); unresolved, [`Scene::cmo_centres`] gives the axis
-    /// placement.
+    /// Up to `count` centres chosen for the cameras by the search in `cubetrace::placement`
+    /// (`[cmo] placement = "auto"`, and the default of a scene file without `[cmo]` centres:
+    /// up to [`DEFAULT_SEARCH_CMOS`]). `render`, sequences and the bench resolve it once for the
+    /// cameras they render (`placement::resolve_for`); unresolved, [`Scene::cmo_centres`] gives
+    /// one CMO on the axis placement.
     Search { count: u32 },
 }
 
@@ -437,13 +442,12 @@ impl Scene {
 
     /// The CMO centres in world space. A [`CmoPlacement::Search`] not yet resolved for a camera
     /// (`cubetrace::placement::resolve`, which `render` and the bench run first) gives the axis
-    /// placement of the same count: the scene is data and runs no search itself.
+    /// placement of one CMO: the scene is data and runs no search itself.
     pub fn cmo_centres(&self) -> Vec<Vec3> {
         match &self.cmo.placement {
             CmoPlacement::Explicit(c) => c.clone(),
-            CmoPlacement::Auto { count } | CmoPlacement::Search { count } => {
-                self.axis_centres(*count)
-            }
+            CmoPlacement::Auto { count } => self.axis_centres(*count),
+            CmoPlacement::Search { .. } => self.axis_centres(1),
         }
     }
 

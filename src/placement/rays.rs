@@ -1,0 +1,134 @@
+//! The sample the placement search scores centres on: the cameras' reflected rays, and what an
+//! unresolved one really meets (for the fallback warning's cause).
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use crate::camera::Camera;
+use crate::reference::{self, Hit, Tracer};
+
+/// Columns of the grid of pixels that the sample is drawn from (per camera).
+const GRID_COLUMNS: u32 = 96;
+
+/// One reflected ray: origin on the mirror, unit direction, and the hit it leaves.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Ray {
+    pub origin: Vec3,
+    pub dir: Vec3,
+    pub from: Hit,
+}
+
+/// The cameras' reflected rays: each camera's mirror pixels on a grid of at most
+/// [`GRID_COLUMNS`] columns, `samples` of them in all at an even stride (each camera an equal
+/// share). Deterministic.
+pub(super) fn reflected_rays(tracer: &Tracer, cameras: &[Camera], samples: usize) -> Vec<Ray> {
+    let share = samples.div_ceil(cameras.len().max(1)).max(1);
+    cameras
+        .iter()
+        .flat_map(|camera| {
+            let rays = camera_rays(tracer, camera);
+            let stride = rays.len().div_ceil(share).max(1);
+            rays.into_iter().step_by(stride)
+        })
+        .collect()
+}
+
+fn camera_rays(tracer: &Tracer, camera: &Camera) -> Vec<Ray> {
+    let step = camera.width.div_ceil(GRID_COLUMNS).max(1);
+    let pixels: Vec<(u32, u32)> = (0..camera.height)
+        .step_by(step as usize)
+        .flat_map(|j| {
+            (0..camera.width)
+                .step_by(step as usize)
+                .map(move |i| (i, j))
+        })
+        .collect();
+    pixels
+        .par_iter()
+        .filter_map(|&(i, j)| {
+            let (eye, dir) = camera.ray(i, j);
+            let hit = tracer.nearest(eye, dir, None)?;
+            if !tracer.is_reflector(hit.triangle) {
+                return None;
+            }
+            let n = tracer.normal(&hit);
+            Some(Ray {
+                origin: hit.position,
+                dir: reference::reflect(dir, n).normalize(),
+                from: hit,
+            })
+        })
+        .collect()
+}
+
+/// What the unresolved rays of a placement really meet (the exact tracer's first hit), so that
+/// a warning can say what no centre could do.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Unresolved {
+    /// Rays that meet the reflector they leave (a non-convex reflector's own inside).
+    pub own_reflector: usize,
+    /// Rays that meet another reflector (facing mirrors).
+    pub other_reflector: usize,
+    /// Rays that meet another surface, or nothing.
+    pub elsewhere: usize,
+}
+
+impl Unresolved {
+    pub fn total(&self) -> usize {
+        self.own_reflector + self.other_reflector + self.elsewhere
+    }
+
+    /// What the search could not do, in words, when the reflectors hold most of the rays it left
+    /// unresolved; `None` otherwise.
+    pub fn cause(&self) -> Option<String> {
+        let total = self.total();
+        if total == 0 {
+            return None;
+        }
+        let pct = |n: usize| 100.0 * n as f64 / total as f64;
+        if 2 * self.own_reflector >= total {
+            Some(format!(
+                "{:.0}% of the rays the CMO placement left unresolved meet the reflector they \
+                 leave (its own inside, which a CMO sees only from one side)",
+                pct(self.own_reflector)
+            ))
+        } else if 2 * (self.own_reflector + self.other_reflector) >= total {
+            Some(format!(
+                "{:.0}% of the rays the CMO placement left unresolved meet a reflector (facing \
+                 reflectors or its own inside), which the CMOs capture only where it faces them",
+                pct(self.own_reflector + self.other_reflector)
+            ))
+        } else {
+            None
+        }
+    }
+}
+
+/// The mesh a triangle belongs to (object names are `"mesh/part"`).
+fn mesh_of(tracer: &Tracer, triangle: u32) -> &str {
+    let object = &tracer.world.objects[tracer.world.triangle_object[triangle as usize] as usize];
+    object.name.split('/').next().unwrap_or("")
+}
+
+/// Sorts `rays` by what they really meet.
+pub(super) fn classify(tracer: &Tracer, rays: &[&Ray]) -> Unresolved {
+    let kinds: Vec<u8> = rays
+        .par_iter()
+        .map(|r| match tracer.nearest(r.origin, r.dir, Some(&r.from)) {
+            Some(h) if tracer.is_reflector(h.triangle) => {
+                if mesh_of(tracer, h.triangle) == mesh_of(tracer, r.from.triangle) {
+                    0
+                } else {
+                    1
+                }
+            }
+            _ => 2,
+        })
+        .collect();
+    let count = |k: u8| kinds.iter().filter(|&&x| x == k).count();
+    Unresolved {
+        own_reflector: count(0),
+        other_reflector: count(1),
+        elsewhere: count(2),
+    }
+}
