@@ -1,4 +1,4 @@
-// capture_lists: the sound per-texel bounds and candidate lists of issue 22 (the GPU of
+// capture_lists: the `bounded` criterion's sound per-texel bounds and candidate lists (the GPU of
 // `src/cubemap/bounds.rs`, whose module docs derive the bounds; `src/vk/passes/capture_lists.rs`
 // records the three passes, each over every CMO in one dispatch):
 // - `jobs`: one invocation per (triangle, CMO, face): steps 1-4 (`cb_face_rect`), then one job

@@ -224,8 +224,8 @@ fn lane_test(st: ptr<function, RayState>, nc: NodeCtx, j: u32) -> LaneTest {
 // bound in every order; +0 and -0 compare equal) and drops the interval where any plane does.
 // So clipping [lo, hi] by each column's two planes and each row's two once, and combining them
 // per child with max / min, gives every comparison of `lane_test` the same outcome: 2 (gx + gy)
-// + 1 planes per node instead of 5 per child. The per-ray cost this saves: spirv/README.md,
-// "Fourth round".
+// + 1 planes per node instead of 5 per child. The per-ray cost this saves:
+// `benches/results/lavapipe-shaders.md`, "What was kept".
 fn children_crossed(st: ptr<function, RayState>, nc: NodeCtx) -> u32 {
     let n = trace_config.size;
     let la = (*st).la;
@@ -543,8 +543,8 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
         }
         // The steps until a ray of the subgroup has `settle` due: the hot loop, which leaves the
         // set-up, handoff and verification code out (lavapipe runs the body of a branch for all
-        // lanes, masked, whether a lane takes it or not; spirv/README.md, "Third round"). The
-        // rays take the same steps as with `settle` inside: a ray that is not pending is left
+        // lanes, masked, whether a lane takes it or not; spirv/README.md, "What lavapipe does").
+        // The rays take the same steps as with `settle` inside: a ray that is not pending is left
         // alone by it, and none turns idle without being pending. Entered and left by the whole
         // subgroup (`subgroupAny`), so the ballots inside stay in uniform control flow.
         loop {
@@ -683,7 +683,7 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
 // Entry points: the same kernel with at most `lane_cap` lanes per ray. `main`: the thesis
 // layout, min(S, 32) lanes per ray (`lane_cap` a constant, folded by the driver). `main_lanes1`:
 // chosen for CPU devices (`vk::methods::compute::ray_lanes`), where the per-ray work every lane of a ray
-// repeats costs in proportion to the lanes (spirv/README.md, "Performance on lavapipe"); its
+// repeats costs in proportion to the lanes (spirv/README.md, "What lavapipe does"); its
 // layout is read from `trace_mode`, so that one pipeline (one compile) serves both of its
 // dispatches:
 // - `trace_mode` 0: 1 lane per ray (its 32 logical lanes in 32 rounds), S rays per subgroup;

@@ -1,5 +1,5 @@
 // The `cone` pass: cone tracing on the cube maps for the glossy pixels of the fragment and
-// compute methods (issue 24, item 4). It runs after the method's trace, the reflector check and
+// compute methods. It runs after the method's trace, the reflector check and
 // the fallback, before the bounce rounds and composite, and only for a scene with a glossy
 // reflector. One invocation per pixel; it rewrites the record's colour of a glossy pixel, nothing
 // else. CPU twin: `cubetrace::cpu::cone::cone_pixel` (op for op; within the device's acos, tan,

@@ -40,7 +40,8 @@ pub enum PixelFilter {
 /// `--filter`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct FilmSettings {
-    /// Samples per pixel, at least 1. 1 is today's frame, one sample at each pixel centre.
+    /// Samples per pixel, at least 1. 1 is one sample at each pixel centre, the frame without a
+    /// film.
     pub spp: u32,
     pub filter: PixelFilter,
 }

@@ -8,7 +8,7 @@
 //!   mirror direction `r` has density proportional to `cos^n(theta)`, `theta` the angle to `r`.
 //! - **The cap.** At and above [`MIRROR_POWER`] (1024, the low end of the chapter's 1024-2048
 //!   range, where the lobe no longer changes visibly) a reflector is a perfect mirror: nothing is
-//!   sampled, and every method's output is today's, bit for bit. [`glossy`] is the one test.
+//!   sampled, and every method's output is the mirror's, bit for bit. [`glossy`] is the one test.
 //! - **Sampling** (Eq. 4.1, the inverse CDF of the Phong distribution): `cos(theta) =
 //!   xi^(1 / (n + 1))`, `phi = 2 pi v`, with `xi = 1 - u` so that `u` in `[0, 1)` never takes
 //!   the logarithm of 0 (the same distribution). The power is computed as `exp2(log2(xi) /

@@ -1,4 +1,4 @@
-//! Animated scenes and sequences (issue 23): the scene file's `[film]` and `[animation]`
+//! Animated scenes and sequences: the scene file's `[film]` and `[animation]`
 //! (errors naming the file, line and field; export round trips), and `render --frames` through
 //! the real binary on tiny frames: a frame of a sequence is byte-identical to the same frame
 //! rendered alone, `--skip-existing` leaves existing files alone, bad `--frames` are refused.

@@ -1,4 +1,4 @@
-//! The `bounded` criterion's CPU twin (`cpu::bounded`, issue 22) on lists that are sound by
+//! The `bounded` criterion's CPU twin (`cpu::bounded`) on lists that are sound by
 //! construction (every triangle in every texel, trivial bounds): it must give the brute-force
 //! first hit in every traversal, pass through a triangle the lists lack (the negative), go
 //! behind where a list is incomplete, and honour the start rule.

@@ -640,7 +640,7 @@ fn gpu_ray_comparison_rejects_a_shifted_pixel_and_face_normals() {
     finish_gpu(ctx);
 }
 
-/// Issue 10, item 1: composite's environment-map fallback shades from the capture's triangle IDs
+/// Composite's environment-map fallback shades from the capture's triangle IDs
 /// (`envmap_fallback` in `spirv/composite.wgsl`) as its CPU twin does
 /// (`cpu::fragment::envmap_fallback`), on every unresolved mirror pixel of frames whose
 /// capture holds no colour: the compute and fragment paths (exact criterion) and screen-space
@@ -714,10 +714,10 @@ fn envmap_fallback_shades_from_triangle_ids_as_its_cpu_twin() {
     finish_gpu(ctx);
 }
 
-/// Issue 10, item 1: at equal cube size the CMO data of an exact frame (compute, and fragment
-/// with the exact criterion), with the default environment-map fallback, takes no more bytes
-/// than the layout before verified hits (distance and colour, no IDs: `CaptureContents`'
-/// default) with the same pyramid. Negative: capturing both colour and IDs takes more.
+/// At equal cube size the CMO data of an exact frame (compute, and fragment with the exact
+/// criterion), with the default environment-map fallback, takes no more bytes than distance and
+/// colour without IDs (`CaptureContents`' default) with the same pyramid. Negative: capturing both
+/// colour and IDs takes more.
 #[test]
 fn exact_frames_take_no_more_cmo_memory_than_colour_and_distance() {
     let ctx = gpu_context();

@@ -1,4 +1,4 @@
-//! A short, fixed-seed fuzz pass over the scene loader (issue 9, item 10): scene TOML, OBJ and
+//! A short, fixed-seed fuzz pass over the scene loader: scene TOML, OBJ and
 //! MTL inputs built from a corpus of the odd inputs the loader handles (two-vertex faces, `l`
 //! elements, concave and self-intersecting polygons, byte order marks, Latin-1 bytes, tabs,
 //! one-value `Kd`, undefined materials, extra array items, ...) and mutated (bytes and tokens

@@ -591,7 +591,7 @@ fn cone_beats_mirror() {
     finish_gpu(ctx);
 }
 
-/// The table of the README (run by hand: `cargo test --release --test glossy_cone
+/// The accuracy table, printed (run by hand: `cargo test --release --test glossy_cone
 /// accuracy_table -- --ignored --nocapture`; `CONE_SCENES` picks scenes, comma-separated).
 #[test]
 #[ignore = "minutes: the converged reference of 15 scene/power pairs"]
@@ -646,9 +646,8 @@ fn occlusion_and_horizon_measured() {
 }
 
 /// At mirror roughness nothing of cone tracing exists: no cone stage, no `cmo_cone`, and
-/// compute and ssr capture no colour, for no power and for power 1024 (that the frames are today's
-/// bytes is `tests/glossy.rs`'s `mirror_cap_is_todays_frame_for_every_method`). Negative: power
-/// 64 creates them.
+/// compute and ssr capture no colour, for no power and for power 1024 (`tests/glossy.rs` checks
+/// that those frames are the mirror's, byte for byte). Negative: power 64 creates them.
 #[test]
 fn mirror_roughness_creates_nothing() {
     let ctx = gpu_context();

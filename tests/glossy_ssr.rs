@@ -3,7 +3,8 @@
 //!
 //! - Only a scene with a glossy reflector creates the glossy passes (and the CMO colour capture
 //!   and pre-filtered chain of the remainder); at the mirror cap (and
-//!   without a glossy reflector) the frame is today's, bit for bit. Negative: power 64 changes it.
+//!   without a glossy reflector) the frame is the mirror's, bit for bit. Negative: power 64
+//!   changes it.
 //! - GPU against the CPU twin on every built-in scene made glossy: the max pyramid, the
 //!   visibility pyramid and the colour chain bit for bit; each glossy hit's cone colour within
 //!   `CONE_TOLERANCE` (the device's tan, acos, exp2 and log2 are not Rust's). The twin reads
@@ -163,20 +164,20 @@ fn shared_structs_match_naga_layout() {
 }
 
 #[test]
-fn mirror_cap_keeps_todays_frame_and_creates_no_glossy_pass() {
+fn mirror_cap_keeps_the_mirrors_frame_and_creates_no_glossy_pass() {
     let ctx = gpu_context();
     let (mirror, cam) = load("sphere-room", (32, 24));
-    let today = render(&ctx, &mirror, &cam);
-    assert!(today.cone.is_none());
+    let mirror_frame = render(&ctx, &mirror, &cam);
+    assert!(mirror_frame.cone.is_none());
     for power in [lobe::MIRROR_POWER, 5000.0] {
         let capped = render(&ctx, &glossy(&mirror, power), &cam);
         assert!(capped.cone.is_none(), "power {power}");
-        assert!(bits(&today.frame) == bits(&capped.frame), "power {power}");
+        assert!(bits(&mirror_frame.frame) == bits(&capped.frame), "power {power}");
     }
     // Negative: power 64 creates the passes and changes the frame.
     let g = render(&ctx, &glossy(&mirror, 64.0), &cam);
     assert!(g.cone.is_some());
-    assert!(bits(&today.frame) != bits(&g.frame));
+    assert!(bits(&mirror_frame.frame) != bits(&g.frame));
     finish_gpu(ctx);
 }
 

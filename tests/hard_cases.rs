@@ -34,7 +34,7 @@
 //! reflected direction of the G-buffer and of the reference's primary ray differ most) out of
 //! the count.
 //!
-//! # Strict mode with verified hits (issue 10, item 6)
+//! # Strict mode with verified hits
 //! Wrong hits over the whole suite, default -> strict, identical on the four runs of each case
 //! (measured with strict mode on all four; the suite keeps one)
 //! (mirror pixels; unresolved pixels default -> strict in brackets): none in either mode in every
@@ -683,7 +683,7 @@ fn cube_sizes(sizes: &[u32]) {
     finish_gpu(ctx);
 }
 
-/// Issue 10, item 6: the one case of the suite where strict mode removes wrong hits that the
+/// The one case of the suite where strict mode removes wrong hits that the
 /// verified default mode reports (module docs). At cube size 3 the capture never sees the orange
 /// box, and rays through it are verified on the floor behind it (on a triangle they meet, but not
 /// the first). Strict mode leaves two of the five undecided (unresolved) and reports no wrong hit
@@ -946,7 +946,7 @@ fn silhouette_right_behind_the_ray_is_not_a_hit() {
     finish_gpu(ctx);
 }
 
-/// Issue 10, item 7: the scene of the geometric hard cases. A flat mirror at z = -1 (two
+/// The scene of the geometric hard cases. A flat mirror at z = -1 (two
 /// triangles, facing +z) seen head on by a camera at (0, 1.2, 2.5) looking along -z, in
 /// sphere-room's room without its objects. The reflected rays diverge from the camera's mirror
 /// image (0, 1.2, -4.5) and come back past the camera (not an object) onto:
@@ -1138,7 +1138,7 @@ fn case_counts(scene: &Scene, frame: &GpuFrame, ids: &[u32]) -> CaseCounts {
     c
 }
 
-/// Issue 10, item 7: large triangles spanning many texels, hits on a shared edge and a shared
+/// Large triangles spanning many texels, hits on a shared edge and a shared
 /// vertex, rays parallel to a triangle's plane, degenerate triangles in the scene and in the
 /// ID buffer ([`hard_geometry`]), on both tracers and their CPU twins, in both modes: no hit
 /// on a triangle the ray misses, no hit on another surface than the reference's, and a minimum
@@ -1212,7 +1212,7 @@ fn large_triangles_shared_edges_parallel_rays_and_degenerate_triangles() {
     finish_gpu(ctx);
 }
 
-/// Issue 10, item 7, the degenerate triangle in the ID buffer on the GPU: the capture never
+/// The degenerate triangle in the ID buffer on the GPU: the capture never
 /// writes one (asserted in `large_triangles_shared_edges_parallel_rays_and_degenerate_triangles`),
 /// so the IDs are injected and the GPU's verification (`shared/verify.wgsl`, the rule the
 /// fragment and compute passes run, through the `hit_probe` pass) is run on [`hard_geometry`]'s

@@ -310,7 +310,7 @@ fn rp_bounds(name: &str, level: u32) -> (f64, f64) {
 }
 
 /// The error against the reference on every built-in scene, unsubdivided and subdivided twice
-/// (printed for the README), held to per-scene lower bounds ([`rp_bounds`]). The concave and
+/// (printed), held to per-scene lower bounds ([`rp_bounds`]). The concave and
 /// mixed reflectors' limitation (a vertex with several reflection points gets one virtual
 /// vertex, so the `bowl` and `torus` stay further from the reference than the convex
 /// `sphere-room`) shows in their bounds, not in a pin that a better method would fail.

@@ -1,7 +1,8 @@
-//! What a scene file may hold (issue 21, cases 7 and 9 and the silently accepted input): each
-//! refusal names the file, the line and the field with the numbers, and each has a negative (the
-//! nearest accepted value loads). Also the one CMO limit of the file and `--cmos`, and
-//! `scene export --force` over another scene's export.
+//! What a scene file may hold (coordinates, transforms, colours, angles and points within the
+//! bounds f32 and the renderer can carry; names used once): each refusal names the file, the line
+//! and the field with the numbers, and each has a negative (the nearest accepted value loads).
+//! Also the one CMO limit of the file and `--cmos`, and `scene export --force` over another
+//! scene's export.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;

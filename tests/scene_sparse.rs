@@ -1,6 +1,7 @@
-//! Scenes with little in them, on every GPU method against the reference (issue 21, case 5):
-//! - no `[[mesh]]` at all: every method renders the background (it used to fail with "buffer
-//!   `scene vertices` (4 bytes) is smaller than `scene_vertices` needs (48 bytes)");
+//! Scenes with little in them, on every GPU method against the reference:
+//! - no `[[mesh]]` at all: every method renders the background (an empty vertex buffer would
+//!   fail with "buffer `scene vertices` (4 bytes) is smaller than `scene_vertices` needs (48
+//!   bytes)");
 //! - meshes but no reflector, and a reflector alone: every method gives the reference's frame.
 //!
 //! Colours are compared bit for bit on every pixel; the negative renders the reference with

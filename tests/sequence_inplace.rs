@@ -1,4 +1,4 @@
-//! Issue 23, item 4: one renderer for many frames where meshes move. A `FrameRenderer` over a
+//! One renderer for many frames where meshes move. A `FrameRenderer` over a
 //! scene whose meshes move (a ball that rises and grows, the mirror sphere that slides with its
 //! CMO, a second reflector, so that the reflector check runs) updates the GPU renderer's
 //! geometry in place (`GpuRenderer::update_geometry`), builds no second renderer, and gives each

@@ -1,4 +1,4 @@
-//! Verified hits in the CPU tracer (`cpu::multi::trace_cmos_verified`, issue 10): every reported
+//! Verified hits in the CPU tracer (`cpu::multi::trace_cmos_verified`): every reported
 //! hit lies on a triangle that the ray intersects, the hit triangle is the reference's on nearly
 //! every resolved ray, and the traversals agree bit for bit with verification on.
 

@@ -1,7 +1,7 @@
-// Sound per-texel bounds of a triangle (issue 22): the WGSL twin of `src/cubemap/bounds.rs`
-// (read its module docs: steps 1-5, the error budget E, the margins, the near-centre rule).
-// Every expression keeps the CPU twin's f32 operation order; products that feed a sum go through
-// `prod` (shared/frustum.wgsl), so that GPU bits equal the CPU's.
+// Sound per-texel bounds of a triangle (the `bounded` criterion): the WGSL twin of
+// `src/cubemap/bounds.rs` (read its module docs: steps 1-5, the error budget E, the margins, the
+// near-centre rule). Every expression keeps the CPU twin's f32 operation order; products that feed
+// a sum go through `prod` (shared/frustum.wgsl), so that GPU bits equal the CPU's.
 //! import shared/frustum.wgsl
 
 const CB_MAX_POLY: u32 = 8u;

@@ -12,8 +12,8 @@ struct AppendedRay {
     pixel: u32,
     // Unit reflected direction, exactly `mirror_ray`'s.
     dir: vec3<f32>,
-    // Reflections already taken before this ray (0: the camera's first bounce, the only one
-    // the GPU methods trace today).
+    // Reflections already taken before this ray: always 0, the camera's first reflected ray
+    // (later reflections, `--bounces`, go to the BVH's queue, `BvhRay`).
     bounce: u32,
     // The global triangle the ray leaves (the G-buffer's ID; 0xffffffff: none), for the
     // `bounded` criterion's start rule.

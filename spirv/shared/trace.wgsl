@@ -224,7 +224,8 @@ struct FaceList {
 // with t0_g <= t0_f plus the crossed faces g > f with t0_g < t0_f (t0 is never NaN where
 // `crosses`). Written without the insertion loop, whose moves at a per-lane position lavapipe ran
 // lane by lane: ranks from pairwise comparisons, then each slot filled by the face of its rank
-// (spirv/README.md, "Fourth round": 8 to 12 % of the fragment and compute paths' cost per ray).
+// (`benches/results/lavapipe-shaders.md`: 8 to 12 % of the fragment and compute paths' cost per
+// ray).
 // The six intervals stay in a loop: written out, they cost the pipelines 40 to 500 ms more to
 // create (this function is inlined at every call site), for no measurable gain per ray.
 fn faces_crossed(seg: Segment, lo: f32, hi: f32, size: u32) -> FaceList {

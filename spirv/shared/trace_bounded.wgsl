@@ -1,4 +1,4 @@
-// The `bounded` criterion (issue 22): the WGSL twin of `cpu::bounded` (classification) and of
+// The `bounded` criterion: the WGSL twin of `cpu::bounded` (classification) and of
 // its multi-CMO layer. A CMO holds per texel sound bounds and a sorted candidate list
 // (`cubemap::bounds::TexelLists`, module docs there); a hit is the nearest intersection of the
 // ray with a listed triangle inside the part of the texel the list is known to be complete for,

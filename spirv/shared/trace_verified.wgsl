@@ -1,4 +1,4 @@
-// Verified hits in the trace passes (issue 10): the WGSL twin of
+// Verified hits in the trace passes: the WGSL twin of
 // `cpu::multi::trace_cmos_verified_by`, whose module docs give the rule for a failed
 // verification and why it is safe. A hit the exact criterion decides at texel T of CMO k is
 // verified (shared/verify.wgsl) over T's 3x3 neighbourhood of captured triangle IDs; with no

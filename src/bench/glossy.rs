@@ -1,5 +1,5 @@
 #![forbid(unsafe_code)]
-//! `cubetrace bench --glossy`: speed against error on glossy reflectors (issue 24, item 5).
+//! `cubetrace bench --glossy`: speed against error on glossy reflectors.
 //!
 //! For every scene and every specular power, the scene's reflectors are made glossy
 //! ([`Scene::make_reflectors_glossy`]) and three kinds of image are measured against one truth:

@@ -1,4 +1,4 @@
-//! The `bounded` criterion (issue 22): first hits proven over sound per-texel bounds and
+//! The `bounded` criterion: first hits proven over sound per-texel bounds and
 //! complete candidate lists ([`crate::cubemap::bounds`]), the CPU twin of `classify_bounded` in
 //! `spirv/shared/trace_bounded.wgsl` (`classify_bounded_pick`).
 //!

@@ -1,5 +1,5 @@
 #![forbid(unsafe_code)]
-//! Cone tracing on the cube maps (issue 24, item 4): the pre-filtered colour chain of every CMO
+//! Cone tracing on the cube maps for glossy reflectors: the pre-filtered colour chain of every CMO
 //! face and the lookups that read it. CPU twin of `spirv/cone_prefilter.wgsl` (the chain, bit for
 //! bit) and of `spirv/shared/cone.wgsl` (the lookups, operation for operation).
 //!

@@ -25,7 +25,7 @@ pub enum TraceCriterion {
     SignChange,
     /// Sound per-texel bounds and candidate lists ([`crate::cubemap::bounds`]): a hit is the
     /// nearest intersection with a listed triangle where the list is complete, provably the
-    /// first along the ray (issue 22). Not approximate: [`TraceOptions::approx`] is `None`.
+    /// first along the ray. Not approximate: [`TraceOptions::approx`] is `None`.
     Bounded,
 }
 

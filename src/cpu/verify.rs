@@ -1,5 +1,5 @@
 #![forbid(unsafe_code)]
-//! Verified hits (issue 10, deliverable 2): the rule that turns a texel's decision into a hit on
+//! Verified hits: the rule that turns a texel's decision into a hit on
 //! a real triangle, in pure Rust. The tracers (fragment, compute and their CPU twins) call it, or
 //! its WGSL twin, where the exact criterion decides a hit at texel `T` (`super::multi`,
 //! "Verified hits"; `spirv/shared/trace_verified.wgsl`).

@@ -1,4 +1,4 @@
-//! Sound per-texel bounds and candidate lists (issue 22): what a CMO holds for the `bounded`
+//! Sound per-texel bounds and candidate lists: what a CMO holds for the `bounded`
 //! criterion ([`crate::cpu::bounded`]).
 //!
 //! A texel's frustum is the cone of directions through its square on the face. For every

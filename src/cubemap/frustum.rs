@@ -135,9 +135,10 @@ impl Interval {
     /// The scale is the cell's, not the segment's: with `t_hi` (the scene's diagonal) in it, one
     /// far vertex (a large ground plane) widened every cell near the start of the ray to the
     /// whole segment, so that no cell was ever skipped and the compute path's depth-first search
-    /// walked every cell whose planes the ray crossed anywhere (issue 21: 11,489 texels per ray
-    /// instead of 40). A crossing `t` rounds by ulps of its own magnitude (and of the origin's,
-    /// `reach`), which the local scale still covers `2^11` times over.
+    /// walked every cell whose planes the ray crossed anywhere (on a scene with a 1e6 ground
+    /// triangle: 11,489 texels per ray instead of 40). A crossing `t` rounds by ulps of its own
+    /// magnitude (and of the origin's, `reach`), which the local scale still covers `2^11`
+    /// times over.
     pub fn inflated(&self, t_lo: f32, t_hi: f32, reach: f32) -> Option<(f32, f32)> {
         if !(self.t0 <= f32::MAX && self.t1 >= -f32::MAX) {
             return None;

@@ -1,4 +1,4 @@
-//! The SIMT cost model (issue 25): what the paths would cost on a 32- or 64-wide GPU.
+//! The SIMT cost model: what the paths would cost on a 32- or 64-wide GPU.
 //!
 //! Work counters from the CPU twins ([`work`]; bvh's traversal twin in [`bvh`]) are grouped
 //! into warps as a GPU forms them ([`warps`]) and replayed in lockstep ([`replay`]), in two

@@ -1,4 +1,4 @@
-//! Lockstep replay of per-ray work in warps, in two modes (issue 25, item 3).
+//! Lockstep replay of per-ray work in warps, in two modes.
 //!
 //! # How it works
 //! [`record`] runs the CPU twins on a frame's rays ([`super::work`]); [`replay`] groups them

@@ -1,4 +1,4 @@
-//! Validation on the machine we have (issue 25, item 4): the lavapipe mode's prediction against
+//! Validation on lavapipe, the one driver measured: the lavapipe mode's prediction against
 //! lavapipe's measured cost of the tracing pass, on rows the fit never saw.
 //!
 //! # The prediction

@@ -1,4 +1,4 @@
-//! Warps as a GPU forms them (issue 25, item 2): which rays (or pixels) share a warp.
+//! Warps as a GPU forms them: which rays (or pixels) share a warp.
 //!
 //! # Assumptions (vendors document none of this)
 //! - **Queue order** (compute, bvh): a warp holds consecutive queue entries (the 32x8 dispatch

@@ -1,6 +1,5 @@
-//! Block weights: SPIR-V instructions per count of each block of [`super::work::blocks`]
-//! (issue 25, item 3: "weighted by each block's instruction count, counted in the compiled
-//! SPIR-V").
+//! Block weights: SPIR-V instructions per count of each block of [`super::work::blocks`], so
+//! that a block weighs its instruction count in the compiled SPIR-V.
 //!
 //! # Where the counts come from
 //! The shipped SPIR-V has no names (build.rs writes it without `WriterFlags::DEBUG`, so debug and

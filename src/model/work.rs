@@ -1,5 +1,5 @@
 //! Work counters: the code blocks of each method's shader that the model counts ([`Block`],
-//! [`blocks`]), and what each ray ran of them, recorded from the CPU twins (issue 25, item 1).
+//! [`blocks`]), and what each ray ran of them, recorded from the CPU twins.
 //!
 //! # How it works
 //! The twins report their work as they run through [`crate::cpu::WorkLog`] (the plain entry

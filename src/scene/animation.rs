@@ -274,7 +274,7 @@ impl Scene {
     }
 
     /// The frames `render` renders when `--frames` is not given: the animation's `frames`,
-    /// else frame 1 alone for a scene with keys; `None` for a still (one frame, as before).
+    /// else frame 1 alone for a scene with keys; `None` for a still, which renders one frame.
     pub fn default_frames(&self) -> Option<[i64; 2]> {
         let a = &self.animation;
         a.frames.or(a.is_animated().then_some([1, 1]))

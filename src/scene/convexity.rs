@@ -281,7 +281,7 @@ fn progress_bar(faces: usize) -> indicatif::ProgressBar {
 /// 100k-triangle convex mesh, whose faces all pass). The answer is exactly the point-by-point
 /// one: a box is passed over only where its farthest corner is behind the plane by more than
 /// the rounding of the two computations ([`PointTree::MARGIN`]); everything else is decided by
-/// `n.dot(p - a) <= tolerance` point by point, as before.
+/// `n.dot(p - a) <= tolerance` point by point.
 ///
 /// Each node has two boxes, and the lower reach of the two decides: its axis-aligned box and a
 /// box in a frame whose first axis is its points' mean vertex normal. On a smooth surface a
@@ -704,9 +704,9 @@ mod tests {
         assert!(!convex(&crate::scene::builtin::teapot_part(0)));
     }
 
-    /// Issue 21, case 4: a closed mesh whose vertex normals point inward is told apart from one
-    /// whose normals point outward, and stays convex (the outside is its front); an open mesh
-    /// (the bowl) is never "inward", either way round, and stays non-convex with its mirror
+    /// A closed mesh whose vertex normals point inward (as some exporters write them) is told apart
+    /// from one whose normals point outward, and stays convex (the outside is its front); an open
+    /// mesh (the bowl) is never "inward", either way round, and stays non-convex with its mirror
     /// side's normals. Negatives: the outward sphere, the bowl with its normals negated.
     #[test]
     fn inward_normals_of_a_closed_mesh() {

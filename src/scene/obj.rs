@@ -1623,7 +1623,7 @@ mod tests {
         p.rotate_left(2);
         let fan: Vec<[usize; 3]> = (1..5).map(|i| [0, i, i + 1]).collect();
         assert!((cover(&p, &fan).0 - 3.0).abs() > 0.1);
-        // Convex polygons are fanned from corner 0, as before (the same triangles as tobj).
+        // Convex polygons are fanned from corner 0 (the same triangles as tobj).
         let hex: Vec<Vec3> = (0..6)
             .map(|k| {
                 let a = k as f32 * std::f32::consts::TAU / 6.0;

@@ -377,7 +377,8 @@ mod tests {
         };
         for s in [false, true] {
             let colour = cmo_bytes_per_texel_with(s, with(true, false));
-            assert_eq!(colour, cmo_bytes_per_texel(s), "the default is today's");
+            let default = "the default contents are the colour without IDs";
+            assert_eq!(colour, cmo_bytes_per_texel(s), "{default}");
             assert_eq!(cmo_bytes_per_texel_with(s, with(false, true)) + 8, colour);
             assert_eq!(cmo_bytes_per_texel_with(s, with(true, true)), colour + 8);
         }

@@ -60,7 +60,7 @@
 //! (`Scene::check_below`): all of them when the scene has several reflectors or a non-convex one;
 //! with one convex reflector only those that leave below a face's plane,
 //! `d . n < 2 sin(theta / 2) + 2^-10` with `theta` the largest angle between a face's normal and its
-//! vertex normals (1 to 2 % of the rays of `default`). Measured at commit a45c30e (bench `--quick`,
+//! vertex normals (1 to 2 % of the rays of `default`). Measured on lavapipe (bench `--quick`,
 //! 320x240, compute, without -> with): same triangle torus 94.5 -> 100 %, teapot 96.4 -> 99.99 %;
 //! PSNR torus 24 -> 51 dB, teapot 25 -> 48 dB; cost 1 to 10 ms per frame on lavapipe. The CPU twins
 //! model the tracing pass alone: twin tests compare records with the check off.

@@ -365,7 +365,7 @@ pub fn exact_twin(bench: &Bench, size: u32) -> Twin<'_> {
     })
 }
 
-/// The `bounded` criterion's CPU twin (`--criterion bounded`, issue 22): the CMOs' lists from
+/// The `bounded` criterion's CPU twin (`--criterion bounded`): the CMOs' lists from
 /// `cubemap::bounds::capture_lists`, traced by `cpu::bounded` over the 2x2 pyramid, the ray
 /// leaving the mirror triangle (the start rule). `perturb` edits each CMO's lists before tracing
 /// (the tests' negative drops the thin geometry's entries, [`drop_entries`]); the identity for

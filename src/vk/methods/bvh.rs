@@ -34,8 +34,8 @@
 //!   written black, untraced. At one sample every glossy pixel of `tests/glossy.rs` hits what the
 //!   reference's sample hits, and the N-sample frame converges to the reference's 1024-sample
 //!   one as the reference's own does. Only the first reflection samples the lobe (the bounce
-//!   rounds follow the mirror direction, with a warning). A mirror's rays are today's, bit for
-//!   bit.
+//!   rounds follow the mirror direction, with a warning). A mirror's rays are the same, bit for
+//!   bit, as in a scene without glossy reflectors.
 //! - The CMOs are captured at one texel per face, in the first frame only (nothing reads them but
 //!   the composite pass's binding).
 //!
@@ -47,7 +47,7 @@
 //! neighbouring facet at t ~ 1e-6. Negative tests: triangle IDs shifted, child boxes shrunk, rays
 //! turned by 1 mrad.
 //!
-//! Measured on lavapipe (2 cores, commit 0b66ea7): 331 to 437 ns per ray at 320x240 (628 in one
+//! Measured on lavapipe (2 cores): 331 to 437 ns per ray at 320x240 (628 in one
 //! outlying run), 0.8 to 1.0 times the CPU reference's reflected ray, 2.1 to 3.2 times cheaper than
 //! `fragment_trace` and 10 to 13 times cheaper than `compute_trace`; 6.6 nodes and 5.7 triangle
 //! tests per ray. On the triangle axis of `bench --scaling` (sphere-room plus a ball of 4.6k to

@@ -69,13 +69,14 @@
 //! `GALLIUM_OVERRIDE_CPU_CAPS=sse4.1`, which avoids a heap corruption of lavapipe's own on AVX2 CPUs),
 //! both layouts writing identical images; S = 32 and 64 only through the twin's emulated ballots.
 //!
-//! Measured (lavapipe, 2 cores, commit 0b66ea7, 320x240): 3283 to 4534 ns per mirror ray, 3.9 to 5.0
-//! times the fragment method and 8.6 to 12.8 times the reference's reflected ray; 78 cells and 37
-//! texels per ray against the fragment path's 14 and 2. Per subgroup of 8 rays the outer loop
-//! (`settle`) turns 4 to 5 times and the step loop 8 to 13 times, and a CPU driver runs every turn's
-//! whole body for all 8 rays; `settle` is 35 to 45 % of the pass. No subgroup width lavapipe offers
-//! makes alg. 3 overtake the fragment path (compute / fragment 2.7 to 2.9 at S = 4, 3.9 to 4.6 at 8,
-//! 5.7 to 7.3 at 16); it can only pay on a GPU, which this work has not measured.
+//! Measured (lavapipe, 2 cores, 320x240, `benches/results/lavapipe-bench-320x240.json`): 3283 to
+//! 4534 ns per mirror ray, 3.9 to 5.0 times the fragment method and 8.6 to 12.8 times the
+//! reference's reflected ray; 78 cells and 37 texels per ray against the fragment path's 14 and 2.
+//! Per subgroup of 8 rays the outer loop (`settle`) turns 4 to 5 times and the step loop 8 to 13
+//! times, and a CPU driver runs every turn's whole body for all 8 rays; `settle` is 35 to 45 % of
+//! the pass. No subgroup width lavapipe offers makes alg. 3 overtake the fragment path (compute /
+//! fragment 2.7 to 2.9 at S = 4, 3.9 to 4.6 at 8, 5.7 to 7.3 at 16); it can only pay on a GPU,
+//! which this work has not measured.
 
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
@@ -112,7 +113,8 @@ pub struct AppendedRay {
     /// `j * width + i`.
     pub pixel: u32,
     pub dir: [f32; 3],
-    /// Reflections taken before this ray (0 today).
+    /// Reflections taken before this ray: always 0, as this queue holds the camera's first
+    /// reflected rays (later ones, `--bounces`, go to the BVH's queue: `vk::passes::bounce`).
     pub bounce: u32,
     /// The global triangle the ray leaves (the G-buffer's ID, `u32::MAX` for none): the
     /// `bounded` criterion's start rule.
@@ -164,11 +166,11 @@ pub struct DispatchParams {
 pub const RAY_LANES_ENV: &str = "CUBETRACE_RAY_LANES";
 
 /// The most lanes `compute_trace` gives one ray, and the entry point that does it: 1
-/// (`main_lanes1`: S rays per subgroup, each lane running its ray's 32 logical lanes in rounds)
-/// on CPU devices, where every lane repeats the ray's per-ray work so that this layout measured
-/// fastest (spirv/README.md, "Performance on lavapipe"); 32 (`main`, thesis alg. 3: min(S, 32)
-/// lanes per ray) elsewhere. [`RAY_LANES_ENV`] overrides it. With `main_lanes1` the frame
-/// dispatches the same pipeline a second time with `trace_mode` 1, which retraces with the
+/// (`main_lanes1`: S rays per subgroup, each lane running its ray's 32 logical lanes in rounds) on
+/// CPU devices, where every lane repeats the ray's per-ray work so that this layout measured
+/// fastest (`benches/results/lavapipe-shaders.md`, "What was kept"); 32 (`main`, thesis alg. 3:
+/// min(S, 32) lanes per ray) elsewhere. [`RAY_LANES_ENV`] overrides it. With `main_lanes1` the
+/// frame dispatches the same pipeline a second time with `trace_mode` 1, which retraces with the
 /// thesis layout the rays whose step loop the driver's loop limit cut (lavapipe: 65535 loop
 /// iterations per invocation; spirv/README.md, "Known defect"), so both layouts give the same
 /// records. Where [`workgroup_size`] is 128, the `_wg128` twin of the entry point.

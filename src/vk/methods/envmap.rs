@@ -22,7 +22,7 @@
 //! with the triangle that texel captured, or else that texel's centre ray is, and shaded there
 //! (`composite.wgsl`; twin `cpu::fragment::envmap_fallback`).
 //!
-//! Measured (lavapipe, 2 cores, commit 0b66ea7): 62 to 80 ns per mirror ray at 320x240, 0.15 to 0.23
+//! Measured (lavapipe, 2 cores): 62 to 80 ns per mirror ray at 320x240, 0.15 to 0.23
 //! times the reference's reflected ray; on the five built-in scenes at 160x120, 98.3 % of mirror
 //! pixels on the wrong surface, mean angular error 14 degrees, PSNR 14.6 dB over mirror pixels
 //! (`benches/results/lavapipe-bench.json`). On `default` at 640x480 (`render --compare`): every

@@ -36,7 +36,7 @@
 //! behind a box no texel sees) and none elsewhere, at 1.5x to 7x the unresolved pixels; the
 //! production entry point `fs_exact_mip` carries no strict code, the generic one does.
 //!
-//! `--criterion bounded` (issue 22) runs the entry point `fs_bounded`: per-texel sound bounds and
+//! `--criterion bounded` runs the entry point `fs_bounded`: per-texel sound bounds and
 //! candidate lists (`cubemap::bounds`, uploaded by `vk::passes::lists`, their `lo` as the CMO
 //! distance) instead of a centre-sampled capture; the hit is the nearest listed triangle the
 //! ray meets where the list is complete (`spirv/shared/trace_bounded.wgsl`, CPU twin
@@ -47,7 +47,7 @@
 //!
 //! The thesis's approximate criteria (`--criterion threshold|sign-change`, `--sampling`,
 //! `--steps`, `--eps`) are kept to measure against: they report "escaped" where no sample fires and
-//! cannot name a triangle, so `--bounces` refuses them. In the bench (160x120, commit 0b66ea7)
+//! cannot name a triangle, so `--bounces` refuses them. In the bench (160x120, lavapipe)
 //! they put 15 to 69 % of mirror pixels on the wrong surface against 0.01 % for the exact one.
 //!
 //! Invariants:
@@ -61,7 +61,7 @@
 //!   outline inside the texel) a ray can cross the patch where it passes the real surface;
 //!   verification turns those into hits on the triangle the ray meets, or into no hit.
 //!
-//! Measured (lavapipe, 2 cores, commit 0b66ea7, `benches/results/lavapipe-bench-320x240.json`):
+//! Measured (lavapipe, 2 cores, `benches/results/lavapipe-bench-320x240.json`):
 //! 736 to 1155 ns per mirror ray at 320x240, 1.7 to 3.3 times the reference's reflected ray; the
 //! 16x12 floor 0.018 to 0.028 of the full frame; 14 cells and under 2 texels per ray (the texel
 //! walk: 116). Same triangle 99.98 to 100 % and PSNR over resolved mirror pixels 52 to 104 dB per

@@ -64,7 +64,7 @@
 //! non-reflector triangle into four N times (same surfaces, same reference); `bench --scaling`
 //! measures the curve (`scaling.md`, "tessellation"). The paper's measure, same object (of the
 //! reference's mirror pixels showing a non-reflector object, the share where the method shows it),
-//! at 160x120 (commit 5127659):
+//! at 160x120 on lavapipe:
 //!
 //! | scene | scale | subdivide 0 / 1 / 2 / 3 / 4: same object % |
 //! |---|---:|---|
@@ -88,7 +88,7 @@
 //! tracing: 3.7 ms for search and rasterisation at 5k vertices on sphere-room at 160x120, against
 //! 14 and 20 ms for the fragment and compute tracing passes. It loses on large flat objects, on
 //! concave and mixed reflectors, on self-reflections, and near the outline. In the bench (160x120,
-//! commit 0b66ea7) it leaves 62.5 % of the mirror pixels to the fallback as is and 23.8 %
+//! lavapipe) it leaves 62.5 % of the mirror pixels to the fallback as is and 23.8 %
 //! subdivided twice, where 74 % are then on the wrong surface (`teapot`, `torus`, `bowl` show wrong
 //! reflections where they showed the fallback).
 use ash::vk;

@@ -50,7 +50,7 @@
 //! the exact cubemap tracers. Of its hits on other surfaces, 78 to 91 % lie within two pixel
 //! footprints of the exact hit; most of the rest are thickness failures.
 //!
-//! Measured (lavapipe, 2 cores, commit 0b66ea7, bench 160x120, `benches/results/lavapipe-bench.json`):
+//! Measured with `cubetrace bench` at 160x120 (lavapipe, 2 cores; reports in `benches/results/`):
 //! 210 ns per mirror pixel for `ssr` (plus 0.4 to 4 ms per frame for `ssr_hiz`), 84 % of mirror
 //! pixels left to the fallback; with `--fallback trace` finishing those exactly, 9.7 % wrong surface
 //! and 22.5 dB. It still pays the CMO capture (14 to 34 ms per frame at 160x120).

@@ -63,7 +63,7 @@
 //! 2772 of 2772 each; N = 0: all but the silhouette's 4 of 698. The cubemap paths lose nothing to
 //! the bounces beyond their own first round (bowl: same triangle 91.6 % at N = 3, 90.1 % at N = 1,
 //! self-capture on). Negative: each frame against the reference of another N, and the second
-//! mirror's normals turned by 0.5 degrees, fail. At 320x240 (`render --compare`, commit 3432b34):
+//! mirror's normals turned by 0.5 degrees, fail. At 320x240 (`render --compare`, lavapipe):
 //! teapot N = 3, `bvh`, `compute` and `fragment` 53.2 dB over mirror pixels; bowl N = 3 103.6 dB.
 use ash::vk;
 

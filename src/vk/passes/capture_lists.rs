@@ -1,6 +1,6 @@
-//! The `capture_lists` passes (issue 22): sound per-texel bounds and candidate lists of every
-//! CMO, on the GPU (`spirv/capture_lists.wgsl`; CPU twin [`crate::cubemap::bounds`], whose module
-//! docs derive the bounds).
+//! The `capture_lists` passes of the `bounded` criterion: sound per-texel bounds and candidate
+//! lists of every CMO, on the GPU (`spirv/capture_lists.wgsl`; CPU twin
+//! [`crate::cubemap::bounds`], whose module docs derive the bounds).
 //!
 //! Invariants:
 //! - Three dispatches over every CMO at once: `jobs` (one invocation per (triangle, CMO, face),

@@ -159,7 +159,7 @@ pub fn exact_mip_only(opts: &TraceOptions) -> bool {
 }
 
 /// What the capture stores per texel besides the distance (and, with self-reflections, the
-/// normal). [`Default`] is the colour without IDs: what the tracers read today.
+/// normal). [`Default`] is the colour without IDs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct CaptureContents {
     /// The shaded colour (16 B per texel): for methods that take a hit's colour from the texel

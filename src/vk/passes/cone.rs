@@ -1,4 +1,4 @@
-//! Cone tracing on the cube maps (issue 24, item 4), the GPU side: the `cone_prefilter` pass,
+//! Cone tracing on the cube maps for glossy reflectors, the GPU side: the `cone_prefilter` pass,
 //! which builds the pre-filtered colour chain `cmo_cone` of K CMOs one level per dispatch,
 //! bit-identical to its CPU twin [`cone_prefilter`](crate::cpu::cone::cone_prefilter); and the
 //! test helpers that run it and the lookups of `spirv/shared/cone.wgsl` (the `cone_probe` pass).

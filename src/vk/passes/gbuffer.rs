@@ -15,7 +15,8 @@
 //!   shaded, a = 1 where covered), `position` (xyz world; w = 1 on a reflector, 0 elsewhere, -1
 //!   where nothing is drawn), `normal` (xyz the interpolated vertex normal, unnormalised; w = 1
 //!   where covered, but on a glossy reflector, where w = `-1 - p`, `p` its Phong specular power
-//!   ([`crate::lobe`]): so a mirror's G-buffer is today's, bit for bit), `triangle` (R32_UINT: the global index of the triangle seen, in
+//!   ([`crate::lobe`]): so a mirror's G-buffer is the same, bit for bit, whether or not the scene
+//!   has glossy reflectors), `triangle` (R32_UINT: the global index of the triangle seen, in
 //!   `WorldGeometry::triangles` order). Uncovered pixels hold the background with alpha 0,
 //!   `(0, 0, 0, -1)`, zero and `u32::MAX`.
 use ash::vk;

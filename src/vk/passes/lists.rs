@@ -1,4 +1,4 @@
-//! The `bounded` criterion's per-texel bounds and candidate lists on the GPU (issue 22): the
+//! The `bounded` criterion's per-texel bounds and candidate lists on the GPU: the
 //! layout `spirv/shared/trace_bounded.wgsl` reads, and its upload from the CPU
 //! [`TexelLists`] (a valid path for small scenes, and the tracer's test input until the GPU
 //! capture, `capture_lists`, fills the same buffers).
