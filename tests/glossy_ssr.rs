@@ -172,7 +172,10 @@ fn mirror_cap_keeps_the_mirrors_frame_and_creates_no_glossy_pass() {
     for power in [lobe::MIRROR_POWER, 5000.0] {
         let capped = render(&ctx, &glossy(&mirror, power), &cam);
         assert!(capped.cone.is_none(), "power {power}");
-        assert!(bits(&mirror_frame.frame) == bits(&capped.frame), "power {power}");
+        assert!(
+            bits(&mirror_frame.frame) == bits(&capped.frame),
+            "power {power}"
+        );
     }
     // Negative: power 64 creates the passes and changes the frame.
     let g = render(&ctx, &glossy(&mirror, 64.0), &cam);
