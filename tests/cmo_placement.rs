@@ -108,7 +108,8 @@ fn greedy_moves_the_cmo_out_of_the_occluders_shadow() {
     let last = *p.unresolved.last().unwrap();
     assert!(last <= 0.5 * p.axis_unresolved, "{:?}", p.unresolved);
     assert!((p.centres[0] - axis).length() > 0.2, "{}", p.centres[0]);
-    // Two axis centres (today's count = 2) stay on the mirror, beside the box: worse.
+    // Two axis centres (`count = 2` with `placement = "axis"`) stay on the mirror, beside the
+    // box: worse.
     assert!(
         last <= 0.5
             * search(&scene, std::slice::from_ref(&scene.cameras[0]), 2, &opts).axis_unresolved

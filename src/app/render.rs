@@ -614,7 +614,7 @@ fn gpu_summary(
     )
 }
 
-/// `, N spp` in the summary line at more than one sample (nothing at one: today's line).
+/// `, N spp` in the summary line at more than one sample (nothing at one: the one-sample line).
 fn spp_note(spp: u32) -> String {
     if spp > 1 {
         format!(", {spp} spp")

@@ -141,8 +141,8 @@ pub fn fallback_warning(
                 Some(p) => placement_cause(p),
                 None => "likely causes: the CMOs do not see what these rays hit: a CMO centre \
                          placed away from the reflector or behind other geometry, or too few \
-                         CMOs for its extent (leave out [cmo] centres and count, or set \
-                         placement = \"auto\", to let the placement search choose them); or an \
+                         CMOs for its extent (leave out [cmo] centres, or give --placement \
+                         auto, to let the placement search choose them); or an \
                          open reflector's vertex normals facing away from the side it is seen \
                          from"
                     .into(),
