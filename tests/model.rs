@@ -1,8 +1,12 @@
-//! The SIMT cost model's core (issue 25, items 1-3): deterministic counters, the warp assembly's
-//! effect on SIMD efficiency, the two modes, and the counters against the twins' own. Tiny
-//! scenes (sphere-room at 32x24, cube 32).
+//! The SIMT cost model's core: deterministic counters, the warp assembly's effect on SIMD
+//! efficiency, the two modes, the counters against the twins' own, and the BVH twin against the
+//! GPU's `bvh_trace` ray for ray (on lavapipe, under the validation layer). Tiny scenes
+//! (sphere-room at 32x24, cube 32; the BVH comparison every built-in scene at 64x48).
+
+mod common;
 
 use cubetrace::Method;
+use cubetrace::model::bvh::{self, BvhOut};
 use cubetrace::model::replay::TexelLayout;
 use cubetrace::model::replay::{
     ComputeLanes, FrameWork, Mode, ModelSettings, Recorded, ReplayStats, default_assembly,
@@ -11,6 +15,9 @@ use cubetrace::model::replay::{
 use cubetrace::model::warps::{Assembly, Lane, quad_warps};
 use cubetrace::model::work::{self, Phase};
 use cubetrace::scene::builtin;
+use cubetrace::vk::frame::{PixelRecord, RECORD_HIT};
+use cubetrace::vk::passes::bvh::{BvhCounter, BvhData, BvhQueue, BvhRay, BvhTracer};
+use cubetrace::vk::passes::scene_buffers::SceneBuffers;
 
 const MODELLED: [Method; 5] = [
     Method::Compute,
@@ -75,8 +82,10 @@ fn visibly_lower(a: f64, b: f64) -> bool {
 /// The negative the issue asks for: warps of random rays (a wrong assembly) give a visibly lower
 /// SIMD efficiency on the compute path than the queue order: one lane per ray at widths 8, 16
 /// and 32, and the thesis layout at width 64 (two rays per warp). 64x48 pixels, so that a
-/// queue-order warp's rays are neighbours. Its own negative: another queue-order replay is not
-/// visibly lower.
+/// queue-order warp's rays are neighbours. Its own negative: on a frame whose rays all do the
+/// same work (every ray the frame's longest), the random assembly is not visibly lower: the
+/// predicate sees the rays' divergence, not a cost of the shuffle itself (lanes left empty, a
+/// warp split).
 #[test]
 fn random_lanes_lower_compute_efficiency() {
     let frame = work::frame(&scene(), &ModelSettings::new(32, 64, 48)).expect("frame");
@@ -87,7 +96,17 @@ fn random_lanes_lower_compute_efficiency() {
         let mut f = ModelSettings::new(32, 64, 48);
         f.compute_lanes = lanes;
         let rec = Recorded {
+            settings: f.clone(),
+            ..record(&frame, Method::Compute).expect("record")
+        };
+        // The negative's frame: every ray the longest.
+        let FrameWork::Compute(rays) = &rec.work else {
+            panic!("compute work")
+        };
+        let longest = rays.iter().max_by_key(|r| r.phases.len()).expect("a ray");
+        let same = Recorded {
             settings: f,
+            work: FrameWork::Compute(vec![longest.clone(); rays.len()]),
             ..record(&frame, Method::Compute).expect("record")
         };
         for &width in widths {
@@ -107,8 +126,17 @@ fn random_lanes_lower_compute_efficiency() {
                 queue.simd_efficiency
             );
             assert!(random.sectors_per_ray > queue.sectors_per_ray);
-            let again = replay(&rec, width, Mode::Gpu, Assembly::Queue).expect("replay");
-            assert!(!visibly_lower(again.simd_efficiency, queue.simd_efficiency));
+            // Negative: every ray the same.
+            let queue = replay(&same, width, Mode::Gpu, Assembly::Queue).expect("replay");
+            let random = replay(&same, width, Mode::Gpu, Assembly::Random(7)).expect("replay");
+            eprintln!(
+                "  every ray alike: efficiency queue {:.3}, random {:.3}",
+                queue.simd_efficiency, random.simd_efficiency
+            );
+            assert!(!visibly_lower(
+                random.simd_efficiency,
+                queue.simd_efficiency
+            ));
         }
     }
 }
@@ -287,60 +315,315 @@ fn bad_inputs_are_refused() {
 
 /// SSR, reflection point, BVH: the work trees' loop turns equal the twins' own counters (the
 /// Hi-Z loop's `iterations`; the walks' `iterations` + `inverse_iterations`; the traversal's
-/// nodes and triangle tests), and the BVH twin's hits agree with the reference on most rays.
-/// Negatives: a count off by one turn fails each equality.
+/// nodes and triangle tests). Each tree and its counter come from one run of the twin, so this
+/// checks the trees' bookkeeping (a turn logged where the shader runs it), not the counts: the
+/// twins' counts are checked against the GPU's elsewhere (tests/ssr.rs compares `cells` with the
+/// SSR twin's `iterations`; the BVH twin's are compared with `bvh_trace`'s, ray for ray, in
+/// [`bvh_twin_matches_the_gpu_ray_for_ray`]). Negatives: each tree with one turn's block removed
+/// fails the same equality.
 #[test]
 fn other_methods_match_their_twin_counters() {
     let frame = work::frame(&scene(), &settings(32)).expect("frame");
     let ssr = work::ssr_rays(&frame);
     assert!(!ssr.is_empty());
+    let ssr_counted = |it: &work::Iter, r: &cubetrace::cpu::ssr::SsrResult| {
+        it.count(work::S_ITERATION) == r.iterations as usize
+    };
     for (it, r) in &ssr {
-        assert_eq!(it.count(work::S_ITERATION), r.iterations as usize);
-        assert_ne!(it.count(work::S_ITERATION) + 1, r.iterations as usize);
+        assert!(
+            ssr_counted(it, r),
+            "{} vs {}",
+            it.count(work::S_ITERATION),
+            r.iterations
+        );
     }
+    let (it, r) = ssr
+        .iter()
+        .find(|(_, r)| r.iterations > 0)
+        .expect("an ssr ray with Hi-Z turns");
+    let mut bad = it.clone();
+    assert!(remove_one(&mut bad, work::S_ITERATION));
+    assert!(!ssr_counted(&bad, r), "negative: an ssr turn dropped");
+
     let rp = work::reflection_point_vertices(&frame);
+    let rp_counted = |it: &work::Iter, v: &cubetrace::cpu::reflection_point::RpVertex| {
+        it.count(work::R_WALK_STEP) == (v.iterations + v.inverse_iterations) as usize
+    };
     let mut walked = 0;
     for (it, v) in rp.iter().flatten() {
-        let steps = (v.iterations + v.inverse_iterations) as usize;
-        assert_eq!(it.count(work::R_WALK_STEP), steps);
-        walked += steps;
+        assert!(rp_counted(it, v));
+        walked += (v.iterations + v.inverse_iterations) as usize;
     }
     assert!(walked > 0);
+    let (it, v) = rp
+        .iter()
+        .flatten()
+        .find(|(_, v)| v.iterations > 0)
+        .expect("a vertex that walked");
+    let mut bad = it.clone();
+    assert!(remove_one(&mut bad, work::R_WALK_STEP));
+    assert!(!rp_counted(&bad, v), "negative: a walk step dropped");
+
     let (trees, outs) = cubetrace::model::bvh::bvh_rays(&frame);
-    let mut agree = 0;
-    for ((it, out), ray) in trees.iter().zip(&outs).zip(&frame.rays) {
-        assert_eq!(it.count(cubetrace::model::bvh::B_NODE), out.nodes as usize);
-        assert_eq!(
-            it.count(cubetrace::model::bvh::B_TRIANGLE),
-            out.tests as usize
-        );
+    let bvh_counted = |it: &work::Iter, out: &cubetrace::model::bvh::BvhOut| {
+        it.count(cubetrace::model::bvh::B_NODE) == out.nodes as usize
+            && it.count(cubetrace::model::bvh::B_TRIANGLE) == out.tests as usize
+    };
+    for (it, out) in trees.iter().zip(&outs) {
+        assert!(bvh_counted(it, out));
         assert!(out.nodes > 0 && !out.cut);
-        // The reference's nearest hit from the mirror (leaving its triangle).
-        let tracer = &frame.tracer;
-        let r = tracer.nearest_where(ray.origin, ray.dir, None, |t| t != ray.from);
-        let found = out.hit.map(|(_, t)| t);
-        agree += usize::from(found == r.map(|h| h.triangle));
+    }
+    for block in [
+        cubetrace::model::bvh::B_NODE,
+        cubetrace::model::bvh::B_TRIANGLE,
+    ] {
+        let k = outs
+            .iter()
+            .position(|o| o.tests > 0)
+            .expect("a ray that tested a triangle");
+        let mut bad = trees[k].clone();
+        assert!(remove_one(&mut bad, block));
+        assert!(
+            !bvh_counted(&bad, &outs[k]),
+            "negative: block {block} dropped"
+        );
+    }
+}
+
+/// Traces `rays` with `bvh_trace` (a [`BvhTracer`] over `bvh`, the queue written by the host)
+/// over `data`'s scene buffers and reads the records back (record k is ray k's).
+fn gpu_bvh(
+    ctx: &cubetrace::vk::GpuContext,
+    data: &cubetrace::scene::gpu_data::GpuSceneData,
+    bvh: &BvhData,
+    rays: &[BvhRay],
+) -> Vec<PixelRecord> {
+    use ash::vk;
+    let buffers = SceneBuffers::new(ctx, data).expect("scene buffers");
+    let n = rays.len().max(1) as u64;
+    let records = cubetrace::vk::Buffer::new(
+        ctx.device(),
+        "model test records",
+        n * size_of::<PixelRecord>() as u64,
+        vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+        gpu_allocator::MemoryLocation::GpuOnly,
+    )
+    .expect("records");
+    let queue = BvhQueue::new(ctx, n).expect("queue");
+    let tracer = BvhTracer::with_data(ctx, bvh, &buffers, &records, &queue, 1e4).expect("tracer");
+    ctx.write_buffer(queue.rays(), rays).expect("rays");
+    let counter = BvhCounter {
+        count: rays.len() as u32,
+        ..BvhCounter::default()
+    };
+    ctx.write_buffer(queue.counter(), &[counter])
+        .expect("counter");
+    ctx.submit_and_wait("model bvh test", |rec| {
+        queue.record_args(rec);
+        tracer.record_trace(rec, &queue)
+    })
+    .expect("trace");
+    let mut out: Vec<PixelRecord> = ctx.read_buffer(&records).expect("read back");
+    out.truncate(rays.len());
+    out
+}
+
+/// What `bvh_trace` writes of a ray, as the twin's [`BvhOut`]: the hit (t bits, triangle), the
+/// triangles tested (`texels`), the nodes visited (`cells`), the cut flag.
+fn gpu_out(r: &PixelRecord) -> BvhOut {
+    BvhOut {
+        hit: (r.status == RECORD_HIT).then_some((r.t, r.triangle)),
+        nodes: r.cells,
+        tests: r.texels,
+        cut: r.cut != 0,
+    }
+}
+
+/// The comparison: rays whose twin result differs from the GPU's in any field (the hit's t
+/// compared by its bits).
+fn twin_differs(twin: &[BvhOut], gpu: &[BvhOut]) -> Vec<usize> {
+    let key = |o: &BvhOut| {
+        (
+            o.hit.map(|(t, tri)| (t.to_bits(), tri)),
+            o.nodes,
+            o.tests,
+            o.cut,
+        )
+    };
+    assert_eq!(twin.len(), gpu.len());
+    (0..twin.len())
+        .filter(|&k| key(&twin[k]) != key(&gpu[k]))
+        .collect()
+}
+
+/// Rays whose nearest triangle differs from the reference's: the reference's reflected ray of
+/// the ray's pixel (`Tracer::nearest` from the primary hit, the reference's own start rule),
+/// `None` for no hit.
+fn reference_differs(frame: &work::Frame, outs: &[BvhOut]) -> Vec<usize> {
+    let tracer = &frame.tracer;
+    (0..outs.len())
+        .filter(|&k| {
+            let ray = &frame.rays[k];
+            let (o, d) = frame.camera.ray(ray.pixel.0, ray.pixel.1);
+            let hit = tracer
+                .nearest(o, d, None)
+                .expect("a mirror pixel's primary hit");
+            let dir = cubetrace::reference::reflect(d, tracer.normal(&hit)).normalize();
+            let want = tracer
+                .nearest(hit.position, dir, Some(&hit))
+                .map(|h| h.triangle);
+            outs[k].hit.map(|(_, t)| t) != want
+        })
+        .collect()
+}
+
+/// The twin on every ray of `frame` over `bvh`.
+fn twin_over(frame: &work::Frame, bvh: &BvhData) -> Vec<BvhOut> {
+    frame
+        .rays
+        .iter()
+        .map(|r| {
+            let from = Some((r.from, frame.corners[r.from as usize]));
+            bvh::nearest(bvh, r.origin, r.dir, 0.0, from, &mut work::Iter::default())
+        })
+        .collect()
+}
+
+/// The BVH twin (`model::bvh::nearest`, what the model counts) against `bvh_trace` on lavapipe,
+/// ray for ray on the same rays (the model's: origin, direction and the mirror triangle left,
+/// t_min 0) over the same CWBVH, on every built-in scene at 64x48: the same hit (t bit for bit,
+/// triangle), the same nodes visited and triangles tested, no ray cut. Measured: every field of
+/// every ray equal (3518 rays; 5.3 to 7.4 nodes and 4.9 to 6.3 triangle tests per ray), so the
+/// comparison allows no difference. The rays are the model's, not the renderer's: `--method bvh`
+/// starts its rays at the G-buffer's rasterised point, which the model does not reproduce (its
+/// module docs, "What it assumes"), so only the tracer is compared here.
+///
+/// Against the reference's nearest triangle (the reference's reflected ray of the same pixel,
+/// its own start rule): the twin agrees on all rays but at most [`REFERENCE_MISSES`] in all
+/// (measured: 0 of 3518). The margin of one ray: the f32 and f64 intersections may decide a
+/// grazing ray differently (tests/bvh.rs measured 1 in 87987 mirror pixels through the renderer
+/// at 320x240, so about 0.04 expected here), which a change of either's arithmetic may create; a
+/// tracer that misses systematically misses on many (the shifted IDs below: every ray).
+///
+/// Negatives, each the same predicate on a perturbed input:
+/// - one ray's node count off by one (the twin's results) fails the ray-for-ray comparison;
+/// - a changed BVH: every child box of the root widened to its parent's box (still conservative,
+///   so every hit stays) traced on the GPU: the hits are all equal, and the counts, compared
+///   with the twin over the real BVH, are not: the comparison sees the traversal, not only its
+///   result;
+/// - the twin over a BVH whose triangle IDs are shifted by one fails the reference bound.
+#[test]
+fn bvh_twin_matches_the_gpu_ray_for_ray() {
+    let ctx = common::gpu_context();
+    let (mut rays, mut differ, mut misses) = (0, 0, 0);
+    let mut negatives = [0usize; 3];
+    for name in ["default", "sphere-room", "teapot", "torus", "bowl"] {
+        let sc = builtin::by_name(name).expect("built-in scene");
+        let frame = work::frame(&sc, &ModelSettings::new(8, 64, 48)).expect("frame");
+        assert!(!frame.rays.is_empty(), "{name}: no mirror ray");
+        let data = &frame.data;
+        let bvh_data = BvhData::build(data);
+        let gpu_rays: Vec<BvhRay> = frame
+            .rays
+            .iter()
+            .enumerate()
+            .map(|(k, r)| BvhRay {
+                origin: r.origin.to_array(),
+                pixel: k as u32,
+                dir: r.dir.to_array(),
+                t_min: 0.0,
+                from_triangle: r.from,
+                ..BvhRay::default()
+            })
+            .collect();
+        let twin = twin_over(&frame, &bvh_data);
+        let gpu: Vec<BvhOut> = gpu_bvh(&ctx, data, &bvh_data, &gpu_rays)
+            .iter()
+            .map(gpu_out)
+            .collect();
+        let d = twin_differs(&twin, &gpu);
+        for &k in d.iter().take(5) {
+            eprintln!("{name}: ray {k}: twin {:?}, GPU {:?}", twin[k], gpu[k]);
+        }
+        let m = reference_differs(&frame, &twin);
+        for &k in &m {
+            eprintln!(
+                "{name}: ray {k} at {:?}: twin {:?}, reference differs",
+                frame.rays[k].pixel, twin[k]
+            );
+        }
+        let (nodes, tests) = twin.iter().fold((0u64, 0u64), |(n, t), o| {
+            (n + u64::from(o.nodes), t + u64::from(o.tests))
+        });
+        eprintln!(
+            "{name}: {} rays, {} differ from the GPU, {} from the reference; {:.1} nodes and {:.1} triangle tests per ray",
+            twin.len(),
+            d.len(),
+            m.len(),
+            nodes as f64 / twin.len() as f64,
+            tests as f64 / twin.len() as f64
+        );
+        assert!(twin.iter().all(|o| !o.cut), "{name}: a ray cut");
+        rays += twin.len();
+        differ += d.len();
+        misses += m.len();
+
+        // Negative 1: one ray's node count off by one.
+        let mut off = twin.clone();
+        off[twin.len() / 2].nodes += 1;
+        negatives[0] += twin_differs(&off, &gpu).len();
+        // Negative 2: the root's children boxes widened to the root's (qmin 0, qmax 255).
+        let mut wide = bvh_data.clone();
+        for axis in &mut wide.nodes[2..5] {
+            *axis = [0, 0, u32::MAX, u32::MAX];
+        }
+        let widened: Vec<BvhOut> = gpu_bvh(&ctx, data, &wide, &gpu_rays)
+            .iter()
+            .map(gpu_out)
+            .collect();
+        let hits = |o: &[BvhOut]| {
+            o.iter()
+                .map(|x| x.hit.map(|(t, tri)| (t.to_bits(), tri)))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(
+            hits(&widened),
+            hits(&twin),
+            "{name}: widened boxes keep every hit"
+        );
+        negatives[1] += twin_differs(&twin, &widened).len();
+        // Negative 3: the twin over triangle IDs shifted by one.
+        let mut shifted = bvh_data.clone();
+        for t in shifted.tris.iter_mut().step_by(3) {
+            t[3] = f32::from_bits(t[3].to_bits() + 1);
+        }
+        let n = reference_differs(&frame, &twin_over(&frame, &shifted)).len();
+        assert!(
+            n > REFERENCE_MISSES,
+            "{name}: shifted IDs miss on {n} rays only"
+        );
+        negatives[2] += n;
     }
     eprintln!(
-        "bvh twin agrees with the reference on {agree} of {} rays",
-        outs.len()
+        "{rays} rays: {differ} differ from the GPU, {misses} from the reference; negatives {negatives:?}"
     );
-    assert!(agree * 10 >= outs.len() * 9, "{agree} of {}", outs.len());
-    // Negative: the results in reverse ray order agree far less.
-    let shifted = outs
-        .iter()
-        .rev()
-        .zip(&frame.rays)
-        .filter(|(o, ray)| {
-            o.hit.map(|(_, t)| t)
-                == frame
-                    .tracer
-                    .nearest_where(ray.origin, ray.dir, None, |t| t != ray.from)
-                    .map(|h| h.triangle)
-        })
-        .count();
-    assert!(shifted < agree, "shifted {shifted} vs {agree}");
+    assert!(rays > 1000, "{rays} rays");
+    assert_eq!(differ, 0, "rays whose twin result differs from bvh_trace's");
+    assert!(
+        misses <= REFERENCE_MISSES,
+        "{misses} rays miss the reference's triangle"
+    );
+    assert!(
+        negatives[0] > 0,
+        "one node count off must fail the comparison"
+    );
+    assert!(negatives[1] > 0, "widened boxes must fail the comparison");
+    common::finish_gpu(ctx);
 }
+
+/// Rays (of all scenes) that may hit another triangle than the reference's (see
+/// [`bvh_twin_matches_the_gpu_ray_for_ray`]).
+const REFERENCE_MISSES: usize = 1;
 
 /// The texel layout moves the sectors, not the control flow: the tiled layout gives the same
 /// warp-steps and efficiency as the linear one on the compute path, and other sectors per ray
