@@ -113,9 +113,11 @@
 //!   criterion put no mirror pixel behind the reference's first hit. CI runs them at 40x30;
 //!   `cubetrace bench --corpus tests/scenes` runs them at full size.
 //! - **Bad input**: one test per class, a fixed-seed fuzzing pass over scene, OBJ and MTL files.
-//! - **Records**: `tests/records/render.sh` renders every built-in scene with every method, and
-//!   `tests/records.rs` compares two builds' EXRs bit for bit, so a change meant to keep every
-//!   pixel can show that it does.
+//! - **Records**: `tests/records.rs` renders every built-in scene with every method and the main
+//!   variants (criteria, `--spp`, `--filter`, fallbacks, bounces) at 32x24 through the `render`
+//!   command and compares each EXR's hash with `tests/records/hashes.txt` on every run; a commit
+//!   that moves a pixel regenerates the file (`CUBETRACE_RECORDS_UPDATE=1`) and says why.
+//!   `tests/records/render.sh` and the ignored comparison repeat it at 160x120 between builds.
 #![deny(unsafe_op_in_unsafe_fn)]
 
 pub mod app;

@@ -1,6 +1,6 @@
 //! Glossy reflectors: the specular power, the Monte Carlo reference and
 //! `--method bvh`'s lobe.
-//! - The mirror cap: a reflector of specular power 1024 or more renders today's frame bit for
+//! - The mirror cap: a reflector of specular power 1024 or more renders the mirror's frame bit for
 //!   bit with every method (the reference too). Negative: power 64 changes the reference's and
 //!   `bvh`'s frames. The methods that cannot sample the lobe render the glossy scene as the
 //!   mirror, and warn (`glossy::method_warning`).
@@ -124,12 +124,12 @@ fn psnr(got: &[Vec3], truth: &[Vec3], mask: &[u8]) -> f64 {
     cubetrace::bench::glossy::psnr_over(got, truth, mask)
 }
 
-/// At and above the cap every method renders today's frame, bit for bit; the reference too.
+/// At and above the cap every method renders the mirror's frame, bit for bit; the reference too.
 /// Negative: power 64 changes the reference's, `bvh`'s and the cone-traced `fragment` and
 /// `compute` frames. The other methods render the glossy scene exactly as the mirror (they trace
 /// the mirror direction), and say so.
 #[test]
-fn mirror_cap_is_todays_frame_for_every_method() {
+fn mirror_cap_is_the_mirrors_frame_for_every_method() {
     let (mirror, cam) = small("sphere-room");
     let capped = with_power(&mirror, Some(lobe::MIRROR_POWER));
     let far = with_power(&mirror, Some(5000.0));
@@ -144,16 +144,16 @@ fn mirror_cap_is_todays_frame_for_every_method() {
 
     let ctx = gpu_context();
     for method in Method::ALL.into_iter().filter(|m| m.is_gpu()) {
-        let today = gpu_bits(&gpu_frame(&mirror, &cam, method, &ctx));
+        let mirror_bits = gpu_bits(&gpu_frame(&mirror, &cam, method, &ctx));
         let at_cap = gpu_bits(&gpu_frame(&capped, &cam, method, &ctx));
-        assert!(today == at_cap, "{method}: the cap changed the frame");
+        assert!(mirror_bits == at_cap, "{method}: the cap changed the frame");
         let on_glossy = gpu_bits(&gpu_frame(&glossy, &cam, method, &ctx));
         let warning = glossy::method_warning(&glossy, method, 1);
         assert_eq!(glossy::method_warning(&mirror, method, 1), None, "{method}");
         if matches!(method, Method::Fragment | Method::Compute) {
             // Cone traced (tests/glossy_cone.rs): another frame, no warning.
             assert!(
-                today != on_glossy,
+                mirror_bits != on_glossy,
                 "negative: {method} cone traces the lobe"
             );
             assert_eq!(warning, None);
@@ -161,17 +161,17 @@ fn mirror_cap_is_todays_frame_for_every_method() {
             assert!(over.contains("--bounces 2"), "{over}");
         } else if method == Method::Ssr {
             // ssr cone traces the lobe (tests/glossy_ssr.rs).
-            assert!(today != on_glossy, "negative: ssr renders the lobe");
+            assert!(mirror_bits != on_glossy, "negative: ssr renders the lobe");
             assert_eq!(warning, None);
         } else if method == Method::Bvh {
-            assert!(today != on_glossy, "negative: bvh samples the lobe");
+            assert!(mirror_bits != on_glossy, "negative: bvh samples the lobe");
             assert_eq!(warning, None);
             let over = glossy::method_warning(&glossy, method, 2).unwrap_or_default();
             assert!(over.contains("--bounces 2"), "{over}");
         } else {
             // Traced as a mirror: the same frame, and a warning naming the method.
             assert!(
-                today == on_glossy,
+                mirror_bits == on_glossy,
                 "{method}: the glossy scene is traced as the mirror"
             );
             let w = warning.unwrap_or_default();

@@ -1,4 +1,4 @@
-//! The cost model's harness (issue 25, items 4-6): SPIR-V block weights, the validation split,
+//! The cost model's harness: SPIR-V block weights, the validation split,
 //! and `bench --model`'s JSON. Tiny: one 16x12 frame where the device runs; no speed asserted.
 
 use std::path::Path;

@@ -1,4 +1,4 @@
-//! Issue 21, the tracer's cases, on lavapipe and the CPU twins:
+//! Real inputs, the tracer's cases, on lavapipe and the CPU twins:
 //! - case 3: one big non-reflector triangle (a ground plane reaching 1e6) leaves the compute
 //!   path's texels per ray where they were (its cells are widened by their own `t` scale, not by
 //!   the segment's, which the scene's diagonal sets), with the same decisions; the CPU twin

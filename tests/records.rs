@@ -7,8 +7,8 @@
 //!   (`app::sequence::render`, in process: the animated scene renders one frame of its
 //!   sequence), hashed, against `tests/records/hashes.txt`. The hash is of the output pixels:
 //!   every channel of the EXR the command writes (colour and the per-pixel data: mask, positions,
-//!   hit points, IDs, bounces, unresolved, fallback), read back as raw bits. So "the redesign
-//!   changes no pixel" is checked on every commit, on lavapipe: the file names the driver it was
+//!   hit points, IDs, bounces, unresolved, fallback), read back as raw bits. So "a change that
+//!   should move no pixel moves none" is checked on every commit, on lavapipe: the file names the driver it was
 //!   recorded on (another driver's arithmetic gives other bits, and the failure says so). A
 //!   render the command refuses is recorded as `refused`.
 //!

@@ -5,10 +5,9 @@
 //! blocks and the node and triangle addresses it reads (80-byte nodes, 48-byte triangle slots,
 //! in the buffers' order).
 //!
-//! Where it stops: no GPU twin existed for the traversal; this one is checked by its counters
-//! (nodes visited, triangles tested: the same rule as the shader's `nodes` / `tests`) and by
-//! agreeing with the reference's nearest hit on the tests' rays (tests/model.rs), not against
-//! the GPU's records.
+//! How it is checked (tests/model.rs): ray for ray against the GPU's `bvh_trace` on the same
+//! rays over the same BVH (hit distance bit for bit, triangle, nodes visited, triangles tested,
+//! the cut flag), and against the reference's nearest hit under its start rule.
 #![forbid(unsafe_code)]
 
 use glam::Vec3;
