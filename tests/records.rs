@@ -218,8 +218,8 @@ const VARIANTS: &[Variant] = &[
     ),
     v("bvh", &["--method", "bvh"], Scenes::All),
     v("reference", &["--method", "reference"], Scenes::All),
-    // The criteria: bounded where the method takes it (refused on the glossy scene: its capture
-    // keeps no colour to cone-trace), the approximate ones (fragment only).
+    // The criteria: bounded where the method takes it (the glossy scene too: cone traced from a
+    // rasterised colour capture beside the lists), the approximate ones (fragment only).
     v(
         "compute-bounded",
         &["--method", "compute", "--criterion", "bounded"],

@@ -943,16 +943,6 @@ pub fn run(
                 bar.inc(1);
                 continue;
             }
-            let glossy = !scene.glossy_reflectors().is_empty();
-            if glossy && spec.trace.criterion == TraceCriterion::Bounded {
-                log::warn!(
-                    "{name}: {} skipped: the bounded criterion cannot cone-trace glossy \
-                     reflectors yet",
-                    spec.label()
-                );
-                bar.inc(1);
-                continue;
-            }
             let mut run = sc.gpu_result(ctx, cfg, bar, spec, &mut heat_paths)?;
             if spec.kind.captures_cmos() {
                 run.placement_ms = search_ms;

@@ -104,7 +104,7 @@ use super::backend::buffer::Buffer;
 use super::backend::context::{GpuContext, Recorder};
 use super::backend::error::{VkError, VkResult};
 use super::backend::shaders::{BOUNCE_APPEND, CONE_PREFILTER, Pass};
-use super::backend::sync::{SHADER_READ, SHADER_WRITE};
+use super::backend::sync::{ALL, SHADER_READ, SHADER_WRITE, TRANSFER_WRITE};
 use super::backend::timestamps::{PassTime, Timestamps};
 use super::methods::compute::{ComputePath, ComputeStats};
 use super::methods::reflection_point::ReflectionPointPasses;
@@ -347,25 +347,6 @@ fn frame_timestamps(ctx: &GpuContext) -> VkResult<Option<Timestamps>> {
     }
 }
 
-/// Refuses the bounded criterion on a frame that cone-traces glossy reflectors (`cone`): the
-/// lists' capture stores no colour for the pre-filtered chain to read, so the cone pass would
-/// read an image nothing wrote (a frame of background, no warning).
-fn check_cone_criterion(scene: &Scene, options: &RenderOptions, cone: bool) -> VkResult<()> {
-    if !cone || options.trace.criterion != TraceCriterion::Bounded {
-        return Ok(());
-    }
-    Err(VkError::Usage {
-        what: "criterion".into(),
-        detail: format!(
-            "--criterion bounded cannot cone-trace the glossy reflectors of scene `{}` ({}): its \
-             capture keeps no colour. Render it with the default criterion, or with --method \
-             bvh --spp N",
-            scene.name,
-            scene.glossy_reflectors().join(", ")
-        ),
-    })
-}
-
 /// Depth range and ray length for a scene seen by a camera: `(near, far, t_hi)` of
 /// [`FrameRanges`] (the G-buffer's near plane, the scene's far extent from the eye, which is no
 /// clip plane, and the ray length), without the precision check.
@@ -385,6 +366,10 @@ pub struct GpuRenderer {
     /// `None` where the method reads no CMO ([`Needs::capture`]): the CMO data is then a
     /// one-texel placeholder, initialised at creation.
     capture: Option<CmoCapture>,
+    /// `--criterion bounded` on a glossy scene: the rasterised capture that fills the CMO colour
+    /// the cone pass pre-filters (the lists' capture keeps none), recorded before the lists'
+    /// capture, which then writes its own distances over this one's.
+    colour_capture: Option<Box<Capture>>,
     pyramid: Option<(Pyramid, PyramidBindings)>,
     /// The pre-filtered CMO colour chain (`cone_prefilter`), where the method reads it on a
     /// glossy scene ([`MethodSpec::glossy`]).
@@ -457,6 +442,7 @@ struct GeometryPlan {
 struct CmoStages {
     cmo: CmoData,
     capture: Option<CmoCapture>,
+    colour_capture: Option<Box<Capture>>,
     pyramid: Option<(Pyramid, PyramidBindings)>,
     cone_prefilter: Option<(ConePrefilter, ConePrefilterBindings)>,
 }
@@ -495,6 +481,7 @@ impl CmoStages {
             return Ok(CmoStages {
                 cmo,
                 capture: None,
+                colour_capture: None,
                 pyramid: None,
                 cone_prefilter: None,
             });
@@ -510,7 +497,30 @@ impl CmoStages {
             trace,
             needs.contents,
         )?;
-        let capture = if trace.criterion == TraceCriterion::Bounded {
+        // The bounded criterion's lists keep no colour: where the frame reads it (the cone pass
+        // of a glossy scene), a rasterised capture fills it first.
+        let bounded = trace.criterion == TraceCriterion::Bounded;
+        let colour_capture = if bounded && needs.contents.colour {
+            let c = Capture::with_contents(
+                ctx,
+                gpu.1,
+                &centres,
+                size,
+                self_reflections,
+                capture_near,
+                needs.contents,
+            )?;
+            if lists.is_some() {
+                // The lists are uploaded once below: the colour is captured once, before.
+                ctx.submit_and_wait("cmo colour", |rec| c.record(rec, &cmo, scene.background))?;
+                None
+            } else {
+                Some(Box::new(c))
+            }
+        } else {
+            None
+        };
+        let capture = if bounded {
             Self::list_capture(ctx, scene, gpu, &mut cmo, lists)?
         } else {
             Some(CmoCapture::Raster(Box::new(Capture::with_contents(
@@ -527,6 +537,7 @@ impl CmoStages {
         Ok(CmoStages {
             cmo,
             capture,
+            colour_capture,
             pyramid,
             cone_prefilter: None,
         })
@@ -813,8 +824,12 @@ impl GpuRenderer {
         gbuffer: bool,
     ) -> VkResult<()> {
         let near = self.ranges.near;
-        if let Some(CmoCapture::Raster(c)) = &mut self.capture {
-            let capture_near = self.ranges.capture_near;
+        let capture_near = self.ranges.capture_near;
+        let raster = match &mut self.capture {
+            Some(CmoCapture::Raster(c)) => Some(&mut **c),
+            _ => None,
+        };
+        for c in raster.into_iter().chain(self.colour_capture.as_deref_mut()) {
             if c.near().to_bits() != capture_near.to_bits() {
                 c.set_near(ctx, capture_near)?;
                 self.cmo_valid = false;
@@ -994,6 +1009,9 @@ impl GpuRenderer {
             self._scene.write_geometry(ctx, &data)?;
         }
         self.cmo.set_centres(ctx, &centres)?;
+        if let Some(c) = &mut self.colour_capture {
+            c.set_views(ctx, &centres, ranges.capture_near)?;
+        }
         match (&mut self.capture, lists) {
             (Some(CmoCapture::Raster(c)), _) => c.set_views(ctx, &centres, ranges.capture_near)?,
             (Some(CmoCapture::Lists(c)), Some((views, capacity))) => {
@@ -1072,7 +1090,6 @@ impl GpuRenderer {
         let data = GpuSceneData::new(scene);
         // The pre-filtered CMO colour chain, for a method that reads it, on a glossy scene only.
         let cone = spec.glossy().reads_chain() && needs.capture && has_glossy_reflector(&data);
-        check_cone_criterion(scene, &options, cone)?;
         needs.contents.colour |= cone;
         let scene_buffers = SceneBuffers::new(ctx, &data)?;
         let mut stages = CmoStages::new(
@@ -1144,6 +1161,7 @@ impl GpuRenderer {
             _scene: scene_buffers,
             cmo: stages.cmo,
             capture: stages.capture,
+            colour_capture: stages.colour_capture,
             pyramid: stages.pyramid,
             cone_prefilter: stages.cone_prefilter,
             gbuffer,
@@ -1278,6 +1296,14 @@ impl GpuRenderer {
     /// The CMO stages of [`GpuRenderer::record`]: the capture, the pyramid and the method's CMO
     /// stage.
     fn record_cmo_stages(&self, rec: &Recorder<'_>, scope: &mut Scope<'_>) -> VkResult<()> {
+        if let Some(c) = &self.colour_capture {
+            scope("capture", &mut || {
+                c.record(rec, &self.cmo, self.background)?;
+                // The lists' capture writes its distances over this one's copy.
+                rec.memory_barrier(TRANSFER_WRITE, ALL);
+                Ok(())
+            })?;
+        }
         match &self.capture {
             Some(CmoCapture::Raster(c)) => {
                 scope("capture", &mut || c.record(rec, &self.cmo, self.background))?;
