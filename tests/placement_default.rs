@@ -263,3 +263,27 @@ fn a_sequence_searches_again_only_where_geometry_moves() {
     let (searches, reused) = sequence_searches(&mesh, dir.path());
     assert_eq!((searches, reused), (3, 0));
 }
+
+/// A camera that sees no mirror pixel gives the search nothing to score: it places one CMO on
+/// the reflectors' axis (as the scene's unresolved placement reads) and leaves the scene's
+/// self-reflections alone, and the frame renders. Negative: the same scene seen towards the
+/// mirror is searched (its rays counted, the reflectors left out of the capture).
+#[test]
+fn a_view_without_mirror_pixels_gets_one_axis_cmo() {
+    let mut away = corpus("mug");
+    away.cameras[0].target = away.cameras[0].eye * 2.0;
+    let cams = away.cameras.clone();
+    let before = away.self_reflections;
+    let p = placement::resolve_for(&mut away, &cams).unwrap();
+    assert_eq!((p.rays, p.centres.clone()), (0, away.axis_centres(1)));
+    assert_eq!(away.self_reflections, before);
+    assert!(!p.self_capture_off);
+    let ctx = gpu_context();
+    let (share, mirror) = fallback_share(&ctx, &away);
+    assert_eq!((share, mirror), (0.0, 0));
+    finish_gpu(ctx);
+    let mut toward = corpus("mug");
+    let cams = toward.cameras.clone();
+    let p = placement::resolve_for(&mut toward, &cams).unwrap();
+    assert!(p.rays > 100 && p.self_capture_off, "{} rays", p.rays);
+}

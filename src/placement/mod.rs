@@ -217,6 +217,18 @@ pub fn search(scene: &Scene, cameras: &[Camera], count: u32, opts: &PlacementOpt
     let start = Instant::now();
     let tracer = Tracer::new(scene);
     let rays = reflected_rays(&tracer, cameras, opts.samples);
+    if rays.is_empty() {
+        // No mirror pixel in view: nothing to score, one CMO on the reflectors' axis.
+        return Placement {
+            centres: scene.axis_centres(1),
+            unresolved: vec![0.0],
+            axis_unresolved: 0.0,
+            rays: 0,
+            left: Unresolved::default(),
+            time: start.elapsed(),
+            self_capture_off: false,
+        };
+    }
     let scorer = Scorer {
         rays: &rays,
         corners: triangle_corners(&tracer.world),
@@ -330,7 +342,8 @@ pub fn resolve_for(scene: &mut Scene, cameras: &[Camera]) -> Option<Placement> {
         let mut off = scene.clone();
         off.self_reflections = SelfReflections::Off;
         let mut q = search_anchored(&off, cameras, count, &opts);
-        q.self_capture_off = true;
+        // Left out only on the sample's evidence: with no mirror pixel in view, as the scene says.
+        q.self_capture_off = q.rays > 0;
         if q.share() <= opts.target {
             q
         } else {
