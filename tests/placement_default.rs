@@ -287,3 +287,34 @@ fn a_view_without_mirror_pixels_gets_one_axis_cmo() {
     let p = placement::resolve_for(&mut toward, &cams).unwrap();
     assert!(p.rays > 100 && p.self_capture_off, "{} rays", p.rays);
 }
+
+/// A scene 3.9 km from the origin is searched in its anchor's coordinates (as the frame is
+/// traced) and its centres moved back: each lies in the scene's box, and the frame leaves at
+/// most 2 % to the fallback. Negative: the same centres without the anchor added back lie
+/// outside the box.
+#[test]
+fn a_scene_far_from_the_origin_is_placed_in_its_own_box() {
+    let mut far = corpus("far-offset");
+    let anchor = cubetrace::ranges::anchor(&far);
+    assert!(anchor.length() > 1000.0, "{anchor}");
+    let cams = far.cameras.clone();
+    let p = placement::resolve_for(&mut far, &cams).unwrap();
+    let (lo, hi) = far.world().bounds(|_| true);
+    let inside = |c: glam::Vec3| c.cmpge(lo).all() && c.cmple(hi).all();
+    assert!(
+        p.centres.iter().all(|&c| inside(c)),
+        "{:?} outside {lo}..{hi}",
+        p.centres
+    );
+    assert!(!p.centres.iter().any(|&c| inside(c - anchor)), "negative");
+    let local = far.rebased(anchor);
+    let ctx = gpu_context();
+    let (share, mirror) = fallback_share(&ctx, &local);
+    eprintln!(
+        "far-offset: {} CMOs, fallback {:.2}% of {mirror}",
+        p.centres.len(),
+        100.0 * share
+    );
+    assert!(mirror > 600 && share <= FRAME_SHARE, "{share}");
+    finish_gpu(ctx);
+}
