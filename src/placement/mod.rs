@@ -1,6 +1,6 @@
 #![forbid(unsafe_code)]
 //! CMO placement, an algorithm over the scene (the scene itself is data and imports none):
-//! [`resolve`] runs the search of [`CmoPlacement::Search`] (the default without `[cmo]`
+//! [`resolve_for`] runs the search of [`CmoPlacement::Search`] (the default without `[cmo]`
 //! centres, and `[cmo] placement = "auto"`) for the cameras a render uses and stores its centres
 //! in the scene; [`diagnose`] finds set-ups that load fine but cannot give a useful mirror image.
 //!
@@ -21,6 +21,14 @@
 //! end unresolved. Each step adds the candidate that lowers the share most (first in candidate
 //! order on ties), scoring only the rays the centres chosen so far leave unresolved, and stops
 //! when none lowers it. The final share is traced again over the whole sample. Deterministic.
+//!
+//! Under `self_reflections = "auto"` with a reflector that would be captured (not convex),
+//! [`resolve_for`] first searches with the reflectors left out of the capture and keeps that
+//! where it meets the target or leaves fewer rays unresolved: the reflector check then traces
+//! the rays that meet a reflector exactly, so the image is the same, and a CMO no longer sees
+//! only a captured reflector's inside (the open mug of the corpus: 5.2 % of the sample
+//! unresolved with 8 CMOs captured, 0.3 % with 2 left out). A view with no mirror pixel gets one
+//! CMO on the reflectors' axis.
 //!
 //! What the sample cannot promise: the frame's own share differs by the sampling error (a few
 //! rays in a hundred at 512 rays) and by the face size (a finer capture verifies more hits on
