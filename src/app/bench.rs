@@ -177,10 +177,20 @@ pub fn check_options(args: &BenchArgs, methods: &[Method]) -> Result<()> {
         ("--no-reflector-check", args.no_reflector_check),
         ("--cmos", args.cmos.is_some()),
         ("--cube-size", args.cube_size.is_some()),
+        (
+            "--placement",
+            args.placement != [bench::BenchPlacement::Scene],
+        ),
     ];
     for (flag, on) in given {
         if !on {
             continue;
+        }
+        if flag == "--placement" && (args.glossy.is_some() || args.model) {
+            anyhow::bail!(
+                "--placement does not apply to --glossy or --model (they render each scene's own \
+                 CMO placement): leave it out"
+            );
         }
         if args.glossy.is_some() && flag == "--quick" {
             anyhow::bail!(
@@ -523,4 +533,53 @@ fn run_model_from(args: &BenchArgs) -> Result<()> {
         println!("wrote {}", p.display());
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: BenchArgs,
+    }
+
+    fn check(line: &[&str]) -> Result<()> {
+        let args = Cli::try_parse_from(std::iter::once("bench").chain(line.iter().copied()))
+            .unwrap()
+            .args;
+        let methods = parse_methods(&args.methods)?;
+        check_options(&args, &methods)
+    }
+
+    /// `--placement` is the grid's: refused where no chosen method captures CMOs and in the
+    /// modes that render each scene's own placement; the default value is never refused.
+    #[test]
+    fn placement_is_refused_where_nothing_reads_it() {
+        check(&["--methods", "compute,bvh", "--placement", "scene,axis,auto"]).unwrap();
+        check(&["--methods", "bvh"]).unwrap();
+        for (line, says) in [
+            (
+                &["--methods", "bvh", "--placement", "auto"][..],
+                "none of them reads",
+            ),
+            (&["--sequence", "--placement", "auto"][..], "--sequence"),
+            (
+                &["--glossy", "--placement", "axis"][..],
+                "--glossy or --model",
+            ),
+            (
+                &["--model", "--placement", "auto"][..],
+                "--glossy or --model",
+            ),
+        ] {
+            let e = check(line).unwrap_err().to_string();
+            assert!(
+                e.contains("--placement") && e.contains(says),
+                "{line:?}: {e}"
+            );
+        }
+    }
 }
