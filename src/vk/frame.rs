@@ -500,8 +500,8 @@ impl CmoStages {
         // The bounded criterion's lists keep no colour: where the frame reads it (the cone pass
         // of a glossy scene), a rasterised capture fills it first.
         let bounded = trace.criterion == TraceCriterion::Bounded;
-        let colour_capture = if bounded && needs.contents.colour {
-            let c = Capture::with_contents(
+        let raster = || {
+            Capture::with_contents(
                 ctx,
                 gpu.1,
                 &centres,
@@ -509,7 +509,10 @@ impl CmoStages {
                 self_reflections,
                 capture_near,
                 needs.contents,
-            )?;
+            )
+        };
+        let colour_capture = if bounded && needs.contents.colour {
+            let c = raster()?;
             if lists.is_some() {
                 // The lists are uploaded once below: the colour is captured once, before.
                 ctx.submit_and_wait("cmo colour", |rec| c.record(rec, &cmo, scene.background))?;
@@ -523,15 +526,7 @@ impl CmoStages {
         let capture = if bounded {
             Self::list_capture(ctx, scene, gpu, &mut cmo, lists)?
         } else {
-            Some(CmoCapture::Raster(Box::new(Capture::with_contents(
-                ctx,
-                gpu.1,
-                &centres,
-                size,
-                self_reflections,
-                capture_near,
-                needs.contents,
-            )?)))
+            Some(CmoCapture::Raster(Box::new(raster()?)))
         };
         let pyramid = pyramid_stage(ctx, &cmo, needs)?;
         Ok(CmoStages {
