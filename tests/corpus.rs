@@ -21,12 +21,10 @@
 mod common;
 use common::{finish_gpu, gpu_context};
 
-use std::path::Path;
-
 use cubetrace::Method;
 use cubetrace::cpu::options::{TraceCriterion, TraceOptions};
 use cubetrace::reference::{self, Frame, Tracer};
-use cubetrace::scene::{self, Scene};
+use cubetrace::scene::Scene;
 use cubetrace::vk::GpuContext;
 use cubetrace::vk::frame::RenderOptions;
 use cubetrace::vk::frame::{Fallback, GpuFrame, GpuRenderer, RECORD_HIT, RECORD_UNRESOLVED};
@@ -48,11 +46,7 @@ const CORPUS: [&str; 10] = [
 
 /// Scene `name` at 40x30 with 32-texel cube faces, in its anchor's coordinates (module docs).
 fn load(name: &str) -> Scene {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/scenes")
-        .join(name)
-        .join("scene.toml");
-    let mut scene = scene::load_scene_file(&path).unwrap_or_else(|e| panic!("{name}: {e}"));
+    let mut scene = common::corpus_scene(name);
     let c = &mut scene.cameras[0];
     (c.width, c.height) = (40, 30);
     scene.cmo.resolution = 32;

@@ -537,18 +537,6 @@ fn cone_scores(ctx: &GpuContext, name: &str, power: f32, lobes: &[f32]) -> (f64,
     (m, cones)
 }
 
-/// The check of `cone_beats_mirror`: `cone` is more than `min_gain` dB above `mirror`.
-fn beats_mirror(mirror: f64, cone: f64, min_gain: f64) -> Result<(), String> {
-    if cone.is_finite() && cone > mirror + min_gain {
-        Ok(())
-    } else {
-        Err(format!(
-            "cone {cone:.2} dB, mirror {mirror:.2} dB: gain {:.2} <= {min_gain}",
-            cone - mirror
-        ))
-    }
-}
-
 /// The target: cone tracing beats the mirror image against the converged reference (PSNR over
 /// the mirror pixels, 1024 spp, 48x36), both paths, on three scene/power pairs. Measured
 /// (fragment and compute agree to 0.01 dB): sphere-room power 64 mirror 17.84, cone 26.35
@@ -575,15 +563,15 @@ fn cone_beats_mirror() {
              {compute:.2}; power x4: fragment {narrow_f:.2}, compute {narrow_c:.2}"
         );
         for (path, db) in [("fragment", fragment), ("compute", compute)] {
-            beats_mirror(mirror, db, min_gain)
+            common::cone_gain(mirror, db, min_gain)
                 .unwrap_or_else(|e| panic!("{name} {power} {path}: {e}"));
         }
         // Negatives.
-        beats_mirror(mirror, mirror, min_gain)
+        common::cone_gain(mirror, mirror, min_gain)
             .expect_err("negative: the mirror image beats itself");
         if narrow_fails {
             for (path, db) in [("fragment", narrow_f), ("compute", narrow_c)] {
-                if beats_mirror(mirror, db, min_gain).is_ok() {
+                if common::cone_gain(mirror, db, min_gain).is_ok() {
                     panic!("negative {name} {path}: power x4 passes ({db:.2} dB)");
                 }
             }

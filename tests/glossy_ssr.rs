@@ -468,19 +468,6 @@ fn ssr_scores(
     (mirror, cones)
 }
 
-/// The check of the accuracy tests: cone ssr's PSNR is more than `min_gain` dB above mirror
-/// ssr's.
-fn cone_ssr_beats_mirror(mirror: f64, cone: f64, min_gain: f64) -> Result<(), String> {
-    if cone.is_finite() && cone > mirror + min_gain {
-        Ok(())
-    } else {
-        Err(format!(
-            "cone {cone:.2} dB, mirror {mirror:.2} dB: gain {:.2} <= {min_gain}",
-            cone - mirror
-        ))
-    }
-}
-
 /// Cone ssr beats mirror ssr against the reference (PSNR over the mirror pixels, 256 spp, box
 /// filter), 32x24, power 64. Measured: sphere-room mirror 16.81, cone 18.73 (gain 1.92); torus
 /// 17.62, 20.15 (2.53); default 16.95, 18.37 (1.42). Every built-in scene gains at every power
@@ -505,11 +492,10 @@ fn cone_ssr_beats_mirror_ssr_small() {
             "{name} power {power}, 32x24: mirror ssr {mirror:.2} dB, cone ssr {cone:.2}, \
              power / 4 {wide:.2}"
         );
-        cone_ssr_beats_mirror(mirror, cone, min_gain).unwrap_or_else(|e| panic!("{name}: {e}"));
+        common::cone_gain(mirror, cone, min_gain).unwrap_or_else(|e| panic!("{name}: {e}"));
         // Negatives.
-        cone_ssr_beats_mirror(mirror, mirror, min_gain)
-            .expect_err("negative: mirror ssr beats itself");
-        if wide_fails && cone_ssr_beats_mirror(mirror, wide, min_gain).is_ok() {
+        common::cone_gain(mirror, mirror, min_gain).expect_err("negative: mirror ssr beats itself");
+        if wide_fails && common::cone_gain(mirror, wide, min_gain).is_ok() {
             panic!("negative {name}: power / 4 passes ({wide:.2} dB)");
         }
     }
@@ -539,7 +525,7 @@ fn psnr_against_the_converged_reference() {
             let b = b[0];
             println!("| {name} | {power} | {a:.2} | {b:.2} |");
             let checked = power == 64.0 && ["sphere-room", "torus", "default"].contains(name);
-            if let (true, Err(e)) = (checked, cone_ssr_beats_mirror(a, b, 1.3)) {
+            if let (true, Err(e)) = (checked, common::cone_gain(a, b, 1.3)) {
                 failed.push(format!("{name} {power}: {e}"));
             }
         }

@@ -21,11 +21,7 @@ use cubetrace::vk::frame::{Fallback, GpuRenderer, RenderOptions};
 /// Corpus scene `name` at 96x72 with 128-texel faces, its CMOs left to the search (as a file
 /// without `[cmo]` centres).
 fn corpus(name: &str) -> Scene {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/scenes")
-        .join(name)
-        .join("scene.toml");
-    let mut scene = scene::load_scene_file(&path).unwrap_or_else(|e| panic!("{name}: {e}"));
+    let mut scene = common::corpus_scene(name);
     let c = &mut scene.cameras[0];
     (c.width, c.height) = (96, 72);
     scene.cmo.resolution = 128;
@@ -140,10 +136,7 @@ fn the_search_is_deterministic_and_keeps_to_its_budget() {
         "one CMO does as well as {}",
         pa.centres.len()
     );
-    let mut explicit = scene::load_scene_file(
-        &Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/scenes/facing/scene.toml"),
-    )
-    .unwrap();
+    let mut explicit = common::corpus_scene("facing");
     let before = explicit.cmo.placement.clone();
     assert!(placement::resolve_for(&mut explicit, &cams).is_none());
     assert_eq!(explicit.cmo.placement, before);

@@ -7,7 +7,7 @@ use clap::ValueEnum;
 
 use crate::Method;
 use crate::cpu::options::{TraceCriterion, TraceOptions, TraceSampling};
-use crate::scene::{CmoPlacement, Scene};
+use crate::scene::Scene;
 use crate::vk::frame::{Fallback, RenderOptions};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -112,7 +112,7 @@ pub struct TraceArgs {
     /// reflectors' longest axis. `-v` logs the search: its time, the share it leaves, each
     /// centre.
     #[arg(long, value_enum)]
-    pub placement: Option<PlacementArg>,
+    pub placement: Option<crate::placement::PlacementChoice>,
     /// Every GPU method but bvh: texels per cube face side (overrides the scene's; 1 to 4096).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub cube_size: Option<u32>,
@@ -223,41 +223,9 @@ impl TraceArgs {
 
     /// Applies the CMO overrides to the scene.
     pub fn apply(&self, scene: &mut Scene) {
-        let count = |default: u32| match (self.cmos, &scene.cmo.placement) {
-            (Some(n), _) => n,
-            (None, CmoPlacement::Auto { count } | CmoPlacement::Search { count }) => *count,
-            (None, CmoPlacement::Explicit(_)) => default,
-        };
-        match self.placement {
-            Some(PlacementArg::Auto) => {
-                scene.cmo.placement = CmoPlacement::Search {
-                    count: count(crate::scene::DEFAULT_SEARCH_CMOS),
-                };
-            }
-            Some(PlacementArg::Axis) => {
-                let count = match (self.cmos, &scene.cmo.placement) {
-                    (None, CmoPlacement::Search { .. }) => 1,
-                    _ => count(1),
-                };
-                scene.cmo.placement = CmoPlacement::Auto { count };
-            }
-            None => {
-                if let Some(count) = self.cmos {
-                    scene.cmo.placement = CmoPlacement::Auto { count };
-                }
-            }
-        }
+        crate::placement::override_placement(scene, self.placement, self.cmos);
         if let Some(size) = self.cube_size {
             scene.cmo.resolution = size;
         }
     }
-}
-
-/// `--placement`: how the CMO centres are chosen.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum PlacementArg {
-    /// The placement search (the default of a scene without `[cmo]` centres).
-    Auto,
-    /// Spread along the reflectors' longest axis.
-    Axis,
 }

@@ -43,8 +43,9 @@ use crate::cpu::options::{TraceCriterion, TraceOptions, TraceSampling};
 use crate::memory;
 use crate::metrics::{self, ErrorReport, PixelError, Traced};
 use crate::output::Format;
+use crate::placement::{PlacementChoice, override_placement};
 use crate::reference::{self, Frame};
-use crate::scene::{self, CmoPlacement, Scene};
+use crate::scene::{self, Scene};
 use crate::vk::frame::{Fallback, GpuFrame, GpuRenderer, RenderOptions, pass_name};
 use crate::vk::{GpuContext, PassTime};
 
@@ -611,42 +612,36 @@ pub fn prepare_scene(
     cube_size: Option<u32>,
     cmos: Option<u32>,
 ) -> Result<(Scene, Camera)> {
-    let (scene, camera, _) =
-        prepare_scene_placed(name, width, height, cube_size, cmos, BenchPlacement::Scene)?;
+    let (scene, camera, _) = prepare_scene_placed(
+        name,
+        width,
+        height,
+        (cube_size, cmos),
+        BenchPlacement::Scene,
+        true,
+    )?;
     Ok((scene, camera))
 }
 
-/// [`prepare_scene`] with a placement of the bench's axis; also the placement search's result
-/// where one ran.
+/// [`prepare_scene`] with a placement of the bench's axis (`cube_size`, `cmos`: the overrides);
+/// also the placement search's result where one ran. `search`: whether a placement search runs
+/// at all (not where no method of the grid captures CMOs: the scene keeps its unresolved
+/// placement, which nothing reads).
 pub fn prepare_scene_placed(
     name: &str,
     width: u32,
     height: u32,
-    cube_size: Option<u32>,
-    cmos: Option<u32>,
+    (cube_size, cmos): (Option<u32>, Option<u32>),
     placement: BenchPlacement,
+    search: bool,
 ) -> Result<(Scene, Camera, Option<crate::placement::Placement>)> {
     let mut scene = scene::load(name)?;
-    let count = match &scene.cmo.placement {
-        CmoPlacement::Auto { count } | CmoPlacement::Search { count } => Some(*count),
-        CmoPlacement::Explicit(_) => None,
+    let choice = match placement {
+        BenchPlacement::Scene => None,
+        BenchPlacement::Axis => Some(PlacementChoice::Axis),
+        BenchPlacement::Auto => Some(PlacementChoice::Auto),
     };
-    match placement {
-        BenchPlacement::Scene => {
-            if let Some(c) = cmos {
-                scene.cmo.placement = CmoPlacement::Auto { count: c };
-            }
-        }
-        BenchPlacement::Axis => {
-            let searched = matches!(scene.cmo.placement, CmoPlacement::Search { .. });
-            let count = cmos.or(count.filter(|_| !searched)).unwrap_or(1);
-            scene.cmo.placement = CmoPlacement::Auto { count };
-        }
-        BenchPlacement::Auto => {
-            let count = cmos.or(count).unwrap_or(crate::scene::DEFAULT_SEARCH_CMOS);
-            scene.cmo.placement = CmoPlacement::Search { count };
-        }
-    }
+    override_placement(&mut scene, choice, cmos);
     if let Some(n) = cube_size {
         scene.cmo.resolution = n;
     }
@@ -658,7 +653,11 @@ pub fn prepare_scene_placed(
     camera.width = width;
     camera.height = height;
     // A placement search runs once, for this camera, not in every `cmo_centres` call.
-    let searched = crate::placement::resolve(&mut scene, &camera);
+    let searched = if search {
+        crate::placement::resolve(&mut scene, &camera)
+    } else {
+        None
+    };
     scene::check_resolution(width, height).map_err(|e| anyhow::anyhow!("frame size: {e}"))?;
     Ok((scene, camera, searched))
 }
@@ -903,13 +902,15 @@ pub fn run(
         cfg.placements.clone()
     };
     let several = placements.len() > 1;
+    let search = cfg.methods.iter().any(|m| m.kind.captures_cmos());
     let mut labels = Vec::new();
     let mut prepared = Vec::new();
     let mut search_ms = Vec::new();
     for name in &cfg.scenes {
         for &p in &placements {
+            let overrides = (cfg.cube_size, cfg.cmos);
             let (scene, camera, searched) =
-                prepare_scene_placed(name, cfg.width, cfg.height, cfg.cube_size, cfg.cmos, p)?;
+                prepare_scene_placed(name, cfg.width, cfg.height, overrides, p, search)?;
             labels.push(p.label(name, several));
             prepared.push((scene, camera));
             search_ms.push(searched.map(|s| s.time.as_secs_f64() * 1e3));

@@ -325,6 +325,42 @@ fn greedy(scorer: &Scorer, cmos: &[CmoTracer], count: u32, target: f64) -> (Vec<
     (chosen, unresolved)
 }
 
+/// How the CMO centres are chosen when the command line overrides the scene's
+/// (`render --placement`, the bench's placement axis).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum PlacementChoice {
+    /// The placement search (the default of a scene without `[cmo]` centres).
+    Auto,
+    /// Spread along the reflectors' longest axis.
+    Axis,
+}
+
+/// Overrides `scene`'s CMO placement with `choice` and `cmos` (`--placement`, `--cmos N`):
+/// `Auto` searches for up to `cmos` CMOs (else the scene's count, else
+/// [`DEFAULT_SEARCH_CMOS`]); `Axis` spreads `cmos` (else the count of an axis placement the
+/// scene gives, else 1) along the reflectors' axis; no choice with `cmos` is the axis placement
+/// of that many; neither leaves the scene's own.
+pub fn override_placement(scene: &mut Scene, choice: Option<PlacementChoice>, cmos: Option<u32>) {
+    let p = &mut scene.cmo.placement;
+    *p = match (choice, cmos, &*p) {
+        (Some(PlacementChoice::Auto), Some(n), _) => CmoPlacement::Search { count: n },
+        (
+            Some(PlacementChoice::Auto),
+            None,
+            CmoPlacement::Auto { count } | CmoPlacement::Search { count },
+        ) => CmoPlacement::Search { count: *count },
+        (Some(PlacementChoice::Auto), None, CmoPlacement::Explicit(_)) => CmoPlacement::Search {
+            count: DEFAULT_SEARCH_CMOS,
+        },
+        (Some(PlacementChoice::Axis) | None, Some(n), _) => CmoPlacement::Auto { count: n },
+        (Some(PlacementChoice::Axis), None, CmoPlacement::Auto { count }) => {
+            CmoPlacement::Auto { count: *count }
+        }
+        (Some(PlacementChoice::Axis), None, _) => CmoPlacement::Auto { count: 1 },
+        (None, None, _) => return,
+    };
+}
+
 /// Runs the search of [`CmoPlacement::Search`] once for `camera`; see [`resolve_for`].
 pub fn resolve(scene: &mut Scene, camera: &Camera) -> Option<Placement> {
     resolve_for(scene, std::slice::from_ref(camera))

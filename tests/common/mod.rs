@@ -155,3 +155,25 @@ pub fn meets(tracer: &cubetrace::reference::Tracer, o: Vec3, d: Vec3, tri: u32) 
     let t = e2.dot(q) / det;
     (u >= -TOL && v >= -TOL && u + v <= 1.0 + TOL && t > 0.0).then_some(t)
 }
+
+/// Corpus scene `name` as its file loads (`tests/scenes/NAME/scene.toml`).
+pub fn corpus_scene(name: &str) -> cubetrace::scene::Scene {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/scenes")
+        .join(name)
+        .join("scene.toml");
+    cubetrace::scene::load_scene_file(&path).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+/// The glossy accuracy checks' predicate: the cone frame's PSNR `cone` is more than `min_gain`
+/// dB above the mirror frame's `mirror`.
+pub fn cone_gain(mirror: f64, cone: f64, min_gain: f64) -> Result<(), String> {
+    if cone.is_finite() && cone > mirror + min_gain {
+        Ok(())
+    } else {
+        Err(format!(
+            "cone {cone:.2} dB, mirror {mirror:.2} dB: gain {:.2} <= {min_gain}",
+            cone - mirror
+        ))
+    }
+}
