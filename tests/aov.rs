@@ -18,7 +18,7 @@ use cubetrace::output;
 use cubetrace::reference::{self, Frame, NO_ID, Tracer};
 use cubetrace::scene::{self, Scene, builtin};
 use cubetrace::vk::GpuContext;
-use cubetrace::vk::frame::{GpuRenderer, RenderOptions};
+use cubetrace::vk::frame::{Fallback, GpuRenderer, RenderOptions};
 use glam::Vec3;
 
 /// Small frames: lavapipe renders them in a moment, and each scene still has hundreds of
@@ -144,6 +144,7 @@ fn bvh_ids_are_the_references_on_every_builtin() {
     for &(name, _) in builtin::NAMES {
         let options = RenderOptions {
             method: Method::Bvh,
+            fallback: Fallback::Envmap,
             ..RenderOptions::default()
         };
         check(name, &render_both(&ctx, name, options, dir.path()));
@@ -161,6 +162,7 @@ fn ids_agree_with_bounces_and_on_the_cubemap_tracer() {
     let bounces = RenderOptions {
         method: Method::Bvh,
         bounces: 2,
+        fallback: Fallback::Envmap,
         ..RenderOptions::default()
     };
     check(
@@ -169,6 +171,7 @@ fn ids_agree_with_bounces_and_on_the_cubemap_tracer() {
     );
     let compute = RenderOptions {
         method: Method::Compute,
+        fallback: Fallback::Envmap,
         ..RenderOptions::default()
     };
     check(

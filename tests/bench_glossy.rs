@@ -30,7 +30,7 @@ use cubetrace::film::{FilmSettings, PixelFilter};
 use cubetrace::reference::Tracer;
 use cubetrace::scene::Scene;
 use cubetrace::vk::GpuContext;
-use cubetrace::vk::frame::{GpuRenderer, RenderOptions};
+use cubetrace::vk::frame::{Fallback, GpuRenderer, RenderOptions};
 
 const WIDTH: u32 = 32;
 const HEIGHT: u32 = 24;
@@ -101,6 +101,7 @@ fn the_bench_renders_the_commands_frames() {
     let ctx = gpu_context();
     let options = RenderOptions {
         method: Method::Bvh,
+        fallback: Fallback::Envmap,
         ..RenderOptions::default()
     };
     let mut r = GpuRenderer::new(&ctx, &s, &cam, options).unwrap();
@@ -301,6 +302,7 @@ fn wrong_lobe_stops_rising(ctx: &GpuContext) {
     );
     let options = RenderOptions {
         method: Method::Bvh,
+        fallback: Fallback::Envmap,
         ..RenderOptions::default()
     };
     let mut r = GpuRenderer::new(ctx, &s, &cam, options).unwrap();

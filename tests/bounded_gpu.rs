@@ -23,7 +23,7 @@ use cubetrace::cubemap::face::{Texel, to_face_local};
 use cubetrace::scene::{Scene, SelfReflections, builtin};
 use cubetrace::vk::GpuContext;
 use cubetrace::vk::frame::{
-    GpuFrame, GpuRenderer, PixelRecord, RECORD_ESCAPED, RECORD_HIT, RECORD_UNRESOLVED,
+    Fallback, GpuFrame, GpuRenderer, PixelRecord, RECORD_ESCAPED, RECORD_HIT, RECORD_UNRESOLVED,
     RenderOptions, scene_ranges,
 };
 use cubetrace::vk::passes::lists::{NO_NODE, PackedLists, pack};
@@ -63,6 +63,7 @@ fn options(method: Method) -> RenderOptions {
         trace: bounded(),
         // The twin models the tracing pass alone.
         reflector_check: false,
+        fallback: Fallback::Envmap,
         ..RenderOptions::default()
     }
 }

@@ -275,6 +275,7 @@ fn bvh_method_matches_the_reference_on_the_builtin_scenes() {
         let (scene, camera) = load(name, 320, 240);
         let options = RenderOptions {
             method: Method::Bvh,
+            fallback: Fallback::Envmap,
             ..RenderOptions::default()
         };
         let mut renderer = GpuRenderer::new(&ctx, &scene, &camera, options).unwrap();

@@ -248,6 +248,7 @@ fn dispatch_is_sized_on_the_gpu_and_empty_without_mirror_pixels() {
     let (scene, camera) = compute_scene("default", 32);
     let options = RenderOptions {
         method: Method::Compute,
+        fallback: Fallback::Envmap,
         ..RenderOptions::default()
     };
     let mut r = GpuRenderer::new(&ctx, &scene, &camera, options).unwrap_or_else(|e| panic!("{e}"));
@@ -634,6 +635,7 @@ fn compute_refuses_approximate_criteria() {
     let (scene, camera) = compute_scene("default", 16);
     let mut options = RenderOptions {
         method: Method::Compute,
+        fallback: Fallback::Envmap,
         ..RenderOptions::default()
     };
     options.trace.criterion = cubetrace::cpu::options::TraceCriterion::Threshold;

@@ -20,7 +20,7 @@ use cubetrace::film::{FilmSettings, PixelFilter, sample_offsets};
 use cubetrace::reference;
 use cubetrace::scene::{self, Scene};
 use cubetrace::vk::GpuContext;
-use cubetrace::vk::frame::{GpuFrame, GpuRenderer, RECORD_HIT, RenderOptions};
+use cubetrace::vk::frame::{Fallback, GpuFrame, GpuRenderer, RECORD_HIT, RenderOptions};
 use glam::{Vec2, Vec3};
 
 const WIDTH: u32 = 40;
@@ -53,6 +53,7 @@ fn bits(f: &GpuFrame) -> Vec<u32> {
 fn fresh(ctx: &GpuContext, scene: &Scene, camera: &Camera, method: Method) -> GpuFrame {
     let options = RenderOptions {
         method,
+        fallback: Fallback::Envmap,
         ..RenderOptions::default()
     };
     fresh_with(ctx, scene, camera, options)
@@ -92,6 +93,7 @@ fn set_camera_equals_a_fresh_renderer() {
     ] {
         let options = RenderOptions {
             method,
+            fallback: Fallback::Envmap,
             ..RenderOptions::default()
         };
         let mut r = GpuRenderer::new(&ctx, &scene, &a, options).unwrap_or_else(|e| panic!("{e}"));
@@ -132,7 +134,12 @@ fn set_camera_equals_a_fresh_renderer() {
         );
     }
     // Another frame size is refused.
-    let mut r = GpuRenderer::new(&ctx, &scene, &a, RenderOptions::default()).unwrap();
+    let options = RenderOptions {
+        method: Method::Fragment,
+        fallback: Fallback::Envmap,
+        ..RenderOptions::default()
+    };
+    let mut r = GpuRenderer::new(&ctx, &scene, &a, options).unwrap();
     let small = Camera {
         width: WIDTH / 2,
         ..a.clone()

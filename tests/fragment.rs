@@ -58,6 +58,7 @@ fn options(method: Method, trace: TraceOptions) -> RenderOptions {
         // The twins model the tracing pass alone; the reflector check, which runs after it, is
         // judged in tests/reflector_check.rs.
         reflector_check: false,
+        fallback: Fallback::Envmap,
         ..RenderOptions::default()
     }
 }

@@ -26,7 +26,7 @@ use cubetrace::film::{FilmSettings, PixelFilter};
 use cubetrace::lobe;
 use cubetrace::reference::{self, Tracer};
 use cubetrace::scene::{self, Scene, builtin};
-use cubetrace::vk::frame::{GpuFrame, GpuRenderer, RenderOptions};
+use cubetrace::vk::frame::{Fallback, GpuFrame, GpuRenderer, RenderOptions};
 use glam::Vec3;
 
 const WIDTH: u32 = 32;
@@ -101,6 +101,7 @@ fn gpu_frame(
 ) -> GpuFrame {
     let options = RenderOptions {
         method,
+        fallback: Fallback::Envmap,
         ..RenderOptions::default()
     };
     let mut r = GpuRenderer::new(ctx, scene, camera, options).unwrap_or_else(|e| panic!("{e}"));

@@ -253,7 +253,7 @@ use cubetrace::cpu::cone::{ConeScene, cone_pixel};
 use cubetrace::cubemap::pyramid::MipPyramid;
 use cubetrace::scene::{self, Scene};
 use cubetrace::vk::GpuContext;
-use cubetrace::vk::frame::{GpuFrame, GpuRenderer, RenderOptions};
+use cubetrace::vk::frame::{Fallback, GpuFrame, GpuRenderer, RenderOptions};
 
 /// A built-in scene at `w x h` with CMOs of face size 64, every reflector at `power`.
 fn glossy_scene(name: &str, power: Option<f32>, w: u32, h: u32) -> (Scene, Camera) {
@@ -271,6 +271,7 @@ fn glossy_scene(name: &str, power: Option<f32>, w: u32, h: u32) -> (Scene, Camer
 fn renderer(ctx: &GpuContext, scene: &Scene, cam: &Camera, method: Method) -> GpuRenderer {
     let options = RenderOptions {
         method,
+        fallback: Fallback::Envmap,
         ..RenderOptions::default()
     };
     GpuRenderer::new(ctx, scene, cam, options).unwrap_or_else(|e| panic!("{e}"))
@@ -612,6 +613,7 @@ fn bounded_cone_matches_the_centre_sampled_cone() {
                 criterion,
                 ..TraceOptions::default()
             },
+            fallback: Fallback::Envmap,
             ..RenderOptions::default()
         };
         GpuRenderer::new(&ctx, s, &cam, options)
@@ -704,6 +706,7 @@ fn mirror_roughness_creates_nothing() {
             // The memory estimate counts what cone tracing allocates, and only then.
             let options = RenderOptions {
                 method,
+                fallback: Fallback::Envmap,
                 ..RenderOptions::default()
             };
             let extra = cubetrace::vk::budget::cone_bytes(&scene, &options);

@@ -430,10 +430,11 @@ fn psnr(got: &[Vec3], truth: &[Vec3], mask: &[u8]) -> f64 {
     cubetrace::bench::glossy::psnr_over(got, truth, mask).min(120.0)
 }
 
-/// An ssr frame (default fallback) of `scene`.
+/// An ssr frame (envmap fallback) of `scene`.
 fn ssr_frame(ctx: &GpuContext, scene: &Scene, cam: &Camera) -> GpuFrame {
     let options = RenderOptions {
         method: Method::Ssr,
+        fallback: Fallback::Envmap,
         ..RenderOptions::default()
     };
     let mut r = GpuRenderer::new(ctx, scene, cam, options).unwrap_or_else(|e| panic!("{e}"));

@@ -556,6 +556,7 @@ fn methods_without_triangles_refuse_bounces() {
             let options = RenderOptions {
                 method,
                 bounces,
+                fallback: Fallback::Envmap,
                 ..RenderOptions::default()
             };
             let err = GpuRenderer::new(&ctx, &scene, &camera, options)
@@ -570,6 +571,7 @@ fn methods_without_triangles_refuse_bounces() {
         // N = 1 is every method's.
         let options = RenderOptions {
             method,
+            fallback: Fallback::Envmap,
             ..RenderOptions::default()
         };
         GpuRenderer::new(&ctx, &scene, &camera, options).unwrap();
@@ -577,6 +579,7 @@ fn methods_without_triangles_refuse_bounces() {
     let options = RenderOptions {
         method: Method::Bvh,
         bounces: cubetrace::vk::passes::bounce::MAX_BOUNCES + 1,
+        fallback: Fallback::Envmap,
         ..RenderOptions::default()
     };
     assert!(GpuRenderer::new(&ctx, &scene, &camera, options).is_err());

@@ -413,6 +413,7 @@ fn oversized_search_textures_are_refused() {
             search_scale,
             ..RpOptions::default()
         },
+        fallback: Fallback::Envmap,
         ..RenderOptions::default()
     };
     let err = GpuRenderer::new(&ctx, &scene, &camera, options(8))

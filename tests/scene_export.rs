@@ -14,7 +14,7 @@ use cubetrace::camera::Camera;
 use cubetrace::reference::{self, Tracer};
 use cubetrace::scene::{self, Scene, builtin, export};
 use cubetrace::vk::GpuContext;
-use cubetrace::vk::frame::{GpuRenderer, RenderOptions};
+use cubetrace::vk::frame::{Fallback, GpuRenderer, RenderOptions};
 
 const WIDTH: u32 = 40;
 const HEIGHT: u32 = 30;
@@ -58,6 +58,7 @@ fn reference_bits(scene: &Scene, cam: &Camera) -> Vec<u32> {
 fn compute_bytes(ctx: &GpuContext, scene: &Scene, cam: &Camera) -> Vec<u8> {
     let options = RenderOptions {
         method: Method::Compute,
+        fallback: Fallback::Envmap,
         ..RenderOptions::default()
     };
     let mut r = GpuRenderer::new(ctx, scene, cam, options).unwrap_or_else(|e| panic!("{e}"));

@@ -17,7 +17,7 @@ use cubetrace::scene::{CmoPlacement, CmoSpec, MeshInstance, Scene, SelfReflectio
 use cubetrace::scene::{Material, shapes};
 use cubetrace::shading::Shading;
 use cubetrace::vk::GpuContext;
-use cubetrace::vk::frame::{GpuRenderer, RenderOptions};
+use cubetrace::vk::frame::{Fallback, GpuRenderer, RenderOptions};
 use glam::Vec3;
 
 /// A scene with the given meshes (material 0 grey), one camera looking at the origin.
@@ -78,6 +78,7 @@ fn reference_colour(scene: &Scene) -> Vec<[u32; 3]> {
 fn gpu_colour(ctx: &GpuContext, scene: &Scene, method: Method) -> Vec<[u32; 3]> {
     let options = RenderOptions {
         method,
+        fallback: Fallback::Envmap,
         ..RenderOptions::default()
     };
     let mut r = GpuRenderer::new(ctx, scene, &scene.cameras[0], options)

@@ -174,7 +174,7 @@ impl TraceArgs {
                 ..trace
             },
             reflector_check: !self.no_reflector_check,
-            fallback: self.fallback.map_or(Fallback::Trace, |f| match f {
+            fallback: self.fallback.map_or(defaults.fallback, |f| match f {
                 FallbackArg::Flag => Fallback::Flag,
                 FallbackArg::Envmap => Fallback::Envmap,
                 FallbackArg::Background => Fallback::Background,

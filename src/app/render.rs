@@ -34,7 +34,7 @@ pub struct RenderArgs {
     #[arg(default_value = "default")]
     pub scene: String,
     /// How reflections are computed (default: the compute path, thesis alg. 3).
-    #[arg(long, value_enum, default_value_t = Method::Compute)]
+    #[arg(long, value_enum, default_value_t = RenderOptions::default().method)]
     pub method: Method,
     /// Camera of the scene, by name or index (default: the first).
     #[arg(long)]

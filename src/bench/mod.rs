@@ -46,7 +46,7 @@ use crate::output::Format;
 use crate::placement::{PlacementChoice, override_placement};
 use crate::reference::{self, Frame};
 use crate::scene::{self, Scene};
-use crate::vk::frame::{Fallback, GpuFrame, GpuRenderer, RenderOptions, pass_name};
+use crate::vk::frame::{GpuFrame, GpuRenderer, RenderOptions, pass_name};
 use crate::vk::{GpuContext, PassTime};
 
 pub use crate::method::Method;
@@ -75,14 +75,13 @@ impl MethodSpec {
         }
     }
 
-    /// The renderer's options of this method in a bench run, with the CLI's default fallback
-    /// (`trace`: PSNR and FLIP measure the image a user would see; the fallback's share is
-    /// counted and timed apart).
+    /// The renderer's options of this method in a bench run, with the default fallback
+    /// ([`Fallback::Trace`](crate::vk::options::Fallback::Trace), as the CLI's: PSNR and FLIP
+    /// measure the image a user would see; the fallback's share is counted and timed apart).
     pub fn render_options(&self, bounces: u32, reflector_check: bool) -> RenderOptions {
         RenderOptions {
             method: self.kind,
             trace: self.trace,
-            fallback: Fallback::Trace,
             bounces,
             reflector_check,
             ..RenderOptions::default()
@@ -371,8 +370,8 @@ pub struct RunResult {
     /// wall time (reference), ns.
     pub total_ns: Stats,
     /// Share of the mirror pixels the method left unresolved and the `trace` fallback finished
-    /// (the bench renders with [`Fallback::Trace`], the render default; 0 for the reference,
-    /// `bvh` and `envmap`, which leave none).
+    /// (the bench renders with [`Fallback::Trace`](crate::vk::options::Fallback::Trace), the
+    /// default; 0 for the reference, `bvh` and `envmap`, which leave none).
     pub fallback_share: f64,
     /// The `fallback` pass (queue + BVH trace of those rays), ns; zero where it did not run.
     pub fallback_ns: Stats,
@@ -780,11 +779,10 @@ pub fn run_gpu(
     let options = RenderOptions {
         method,
         trace,
-        // The CLI's default: PSNR and FLIP measure the image a user would see. The pixels the
-        // method leaves unresolved are finished exactly by the BVH, counted apart (the fallback
-        // share) and timed apart (the `fallback` pass); the error figures (unresolved 0 %,
-        // wrong surface) are those of the final image.
-        fallback: Fallback::Trace,
+        // The default fallback (`Fallback::Trace`, as the CLI's): PSNR and FLIP measure the
+        // image a user would see. The pixels the method leaves unresolved are finished exactly by
+        // the BVH, counted apart (the fallback share) and timed apart (the `fallback` pass); the
+        // error figures (unresolved 0 %, wrong surface) are those of the final image.
         ..RenderOptions::default()
     };
     run_gpu_with(ctx, scene, camera, options, warmup, frames)

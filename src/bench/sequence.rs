@@ -22,7 +22,7 @@ use crate::Method;
 use crate::files::write_atomic;
 use crate::scene::Scene;
 use crate::vk::GpuContext;
-use crate::vk::frame::{GpuRenderer, RenderOptions};
+use crate::vk::frame::{Fallback, GpuRenderer, RenderOptions};
 
 /// Whether the renderer keeps its capture between frames.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -99,6 +99,7 @@ pub fn run(
             let (s0, c0) = at(frames[0])?;
             let options = RenderOptions {
                 method,
+                fallback: Fallback::Envmap,
                 ..RenderOptions::default()
             };
             let setup = Instant::now();

@@ -11,7 +11,6 @@ pub enum Fallback {
     Flag,
     /// The environment-map lookup of the nearest CMO, shaded from the triangle its texel
     /// captured (`composite.wgsl`, `cpu::fragment::envmap_fallback`).
-    #[default]
     Envmap,
     /// The scene's background.
     Background,
@@ -19,7 +18,9 @@ pub enum Fallback {
     /// pass queues the unresolved records' rays and traces them from their start under the
     /// start rule ([`crate::vk::passes::bvh`]; not from `t_done`: see [`Fallback::TraceFromTDone`]); such
     /// records get `fallback` = 1 and keep the cubemap tracer's `t_done` and counters. A ray the BVH
-    /// loop's cap cut (none seen) stays unresolved and shows the flag colour.
+    /// loop's cap cut (none seen) stays unresolved and shows the flag colour. The default (of the
+    /// CLI and the bench too).
+    #[default]
     Trace,
     /// [`Fallback::Trace`] with the rays started at their `t_done` instead of 0: misses the hits
     /// before `t_done` that the cubemap's model does not see (uncaptured reflectors, surfaces in
@@ -28,7 +29,8 @@ pub enum Fallback {
     TraceFromTDone,
 }
 
-/// Options of a GPU render.
+/// Options of a GPU render. [`RenderOptions::default`] is the one source of the defaults: the
+/// CLI (`cubetrace render`) and the bench start from it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderOptions {
     pub method: Method,
@@ -51,7 +53,7 @@ pub struct RenderOptions {
 impl Default for RenderOptions {
     fn default() -> Self {
         RenderOptions {
-            method: Method::Fragment,
+            method: Method::Compute,
             trace: TraceOptions::default(),
             fallback: Fallback::default(),
             ssr: SsrOptions::default(),
