@@ -86,7 +86,8 @@ pub struct BenchArgs {
     /// Reflections per path for the reference and the methods that trace several (compute,
     /// fragment with the exact criterion, bvh; the others are skipped when N != 1). Not used by
     /// --scaling.
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(0..=16))]
+    #[arg(long, default_value_t = crate::vk::options::RenderOptions::default().bounces,
+          value_parser = clap::value_parser!(u32).range(0..=16))]
     pub bounces: u32,
     /// fragment, compute: skip the reflector check (to show what it changes and costs).
     #[arg(long)]

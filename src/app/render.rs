@@ -50,7 +50,8 @@ pub struct RenderArgs {
     /// Maximum number of mirror reflections per path (0..=16). After the last one, a mirror
     /// shows its own material colour. GPU methods: compute, bvh and fragment (exact criterion);
     /// the reflections after the first are traced by the BVH.
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(0..=16))]
+    #[arg(long, default_value_t = RenderOptions::default().bounces,
+          value_parser = clap::value_parser!(u32).range(0..=16))]
     pub bounces: u32,
     /// Output file, .png or .exr [default: out/SCENE-METHOD.png].
     #[arg(short, long)]

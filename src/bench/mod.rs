@@ -257,8 +257,8 @@ impl Default for BenchConfig {
             flip: true,
             heatmaps: true,
             floor: Some(FLOOR_FRAME),
-            bounces: 1,
-            reflector_check: true,
+            bounces: RenderOptions::default().bounces,
+            reflector_check: RenderOptions::default().reflector_check,
             out: PathBuf::from("out/bench"),
         }
     }
