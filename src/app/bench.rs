@@ -122,7 +122,7 @@ pub struct BenchArgs {
     pub glossy: Option<Vec<String>>,
     /// --glossy: samples per pixel of the converged reference (the CPU reference's Monte Carlo
     /// integral of the lobe; its cost grows with it, about spp times a 1-spp reference frame).
-    #[arg(long, default_value_t = 1024, requires = "glossy",
+    #[arg(long, default_value_t = bench::glossy::DEFAULT_REFERENCE_SPP, requires = "glossy",
           value_parser = clap::value_parser!(u32).range(2..=1024))]
     pub glossy_reference_spp: u32,
     /// --glossy: the samples at the film's jittered offsets, as `render --spp` and `reference

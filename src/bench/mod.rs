@@ -1228,17 +1228,6 @@ pub fn check_validation(ctx: &GpuContext) -> Result<()> {
     Ok(())
 }
 
-/// The per-pixel verdicts, for callers that want them without the harness (tests).
-pub fn pixel_errors(reference: &Frame, frame: &GpuFrame, scene: &Scene) -> Vec<PixelError> {
-    metrics::classify(
-        reference,
-        &frame.traced(),
-        &frame.surface_position,
-        &scene.cmo_centres(),
-        scene.cmo.resolution,
-    )
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
