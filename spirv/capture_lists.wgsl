@@ -6,8 +6,8 @@
 //   fit the job buffer (or a rect of more than `LISTS_TILE_CAP` tiles) sets its face's
 //   `lists_face_overflow` to 0: every texel of that face is then unknown from distance 0 (sound).
 // - `texels`: 8x8 workgroups over the jobs (grid-stride); an invocation tests its texel of the
-//   job's tile (step 5: the column's u clips once per column in workgroup memory, then the v
-//   clips, `cb_texel_column` + `cb_texel_finish`) and pushes a node `{triangle, lo, hi, next}` onto the
+//   job's tile (step 5, `cb_texel_bound`: the four clips streamed, no polygon stored, no
+//   workgroup memory or barrier) and pushes a node `{triangle, lo, hi, next}` onto the
 //   texel's list (`lists_heads`, atomicExchange). With the node pool full the texel's
 //   `lists_overflow` takes the atomicMin of the lost entry's `lo` bits (non-negative floats
 //   order as u32) and `nodes_dropped` counts it.
@@ -178,12 +178,7 @@ fn jobs(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
 }
 
-// The 8 column polygons of the current job's tile (step 5's u clips, shared by a column's 8
-// texels: `cb_texel_column`, computed by the invocations of row 0).
-var<workgroup> lists_columns: array<CbPoly, 8>;
-
-// Every loop and barrier here is in control flow uniform over the workgroup: the job loop
-// depends on the workgroup ID and the job count (fixed since the `jobs` pass), nothing else.
+// The job loop is a grid-stride loop over the jobs the `jobs` pass appended.
 @compute @workgroup_size(8, 8)
 fn texels(
     @builtin(local_invocation_id) lid: vec3<u32>,
@@ -204,12 +199,8 @@ fn texels(
         let l1 = to_face_local(face, lists_vertex(job.triangle, 1u) - centre);
         let l2 = to_face_local(face, lists_vertex(job.triangle, 2u) - centre);
         let whole = job.whole != 0u;
-        if lid.y == 0u && x <= (job.rect_x >> 16u) {
-            lists_columns[lid.x] = cb_texel_column(l0, l1, l2, whole, job.m, x, size);
-        }
-        workgroupBarrier();
         if x <= (job.rect_x >> 16u) && y <= (job.rect_y >> 16u) {
-            let b = cb_texel_finish(lists_columns[lid.x], l0, l1, l2, whole, job.m, job.e, x, y, size);
+            let b = cb_texel_bound(l0, l1, l2, whole, job.m, job.e, x, y, size);
             if b.hit {
                 let texel = (job.cmo_face * size + y) * size + x;
                 let node = atomicAdd(&lists_counters.nodes, 1u);
@@ -224,8 +215,6 @@ fn texels(
                 }
             }
         }
-        // The next job overwrites the columns.
-        workgroupBarrier();
     }
 }
 

@@ -214,6 +214,217 @@ fn cb_texel_centre_unit(x: u32, y: u32, size: u32) -> vec3<f32> {
     return d * inv;
 }
 
+
+// Step 5 streamed: the triangle's four clips to the texel's widened cone without building any
+// clipped polygon. Only the set of the last polygon's vertices matters (`lo` and `hi` are a min
+// and a max over it), and Sutherland-Hodgman makes each output vertex from one input edge: the
+// crossing `cb_lerp(inside, outside, s)` (the same operands whichever way the edge runs) and
+// the edge's end where it is inside. So each clip's outputs go straight into the next clip as
+// they come (`cb_in*`, each closing an edge of the next clip from the previous output), the
+// last clip's into the min and max (`cb_out`), and the closing edges run in clip order at the
+// end. Starting a cycle at another vertex only rotates the clip's output, so the set and the
+// counts are those of `cb_clip` four times, the bits too (the CPU twin `texel_bound` builds
+// the polygons; `tests/capture_lists.rs` compares bits). More than `CB_MAX_POLY` outputs of
+// any clip is the polygons' overflow. Lavapipe turns the polygons' stores at a per-lane index
+// into loops over the slots; the stream has none.
+struct CbStage {
+    first: vec3<f32>,
+    f_first: f32,
+    prev: vec3<f32>,
+    f_prev: f32,
+    // The clip's inputs so far.
+    seen: u32,
+}
+
+struct CbChain {
+    // The plane constants of clips 1-4 (u min, u max, v min, v max).
+    k: vec4<f32>,
+    w: vec3<f32>,
+    s: array<CbStage, 4>,
+    // The last clip's outputs, and their min of `dot(q, w)` and max of `|q|`.
+    count: u32,
+    d_min: f32,
+    r_max: f32,
+}
+
+fn cb_out(c: ptr<function, CbChain>, q: vec3<f32>) {
+    (*c).count += 1u;
+    (*c).d_min = min((*c).d_min, cb_dot(q, (*c).w));
+    (*c).r_max = max((*c).r_max, sqrt(cb_dot(q, q)));
+}
+
+// Clip 4 (v max): edge (a, b) with plane values (fa, fb), `cb_clip`'s step.
+fn cb_edge4(c: ptr<function, CbChain>, a: vec3<f32>, fa: f32, b: vec3<f32>, fb: f32) {
+    let a_in = fa >= 0.0;
+    let b_in = fb >= 0.0;
+    if a_in != b_in {
+        var pi = b;
+        var fi = fb;
+        var po = a;
+        var fo = fa;
+        if a_in {
+            pi = a;
+            fi = fa;
+            po = b;
+            fo = fb;
+        }
+        cb_out(c, cb_lerp(pi, po, min(fi / (fi - fo), 1.0)));
+    }
+    if b_in {
+        cb_out(c, b);
+    }
+}
+
+// A vertex into clip 4: the edge from the previous one ends here.
+fn cb_in4(c: ptr<function, CbChain>, b: vec3<f32>) {
+    let fb = prod((*c).k.w, b.z) - b.y;
+    if (*c).s[3].seen == 0u {
+        (*c).s[3].first = b;
+        (*c).s[3].f_first = fb;
+    } else {
+        cb_edge4(c, (*c).s[3].prev, (*c).s[3].f_prev, b, fb);
+    }
+    (*c).s[3].prev = b;
+    (*c).s[3].f_prev = fb;
+    (*c).s[3].seen += 1u;
+}
+
+// Clip 4's closing edge, from its last input to its first.
+fn cb_close4(c: ptr<function, CbChain>) {
+    if (*c).s[3].seen > 0u {
+        cb_edge4(c, (*c).s[3].prev, (*c).s[3].f_prev, (*c).s[3].first, (*c).s[3].f_first);
+    }
+}
+
+// Clip 3 (v min): edge (a, b) with plane values (fa, fb), `cb_clip`'s step.
+fn cb_edge3(c: ptr<function, CbChain>, a: vec3<f32>, fa: f32, b: vec3<f32>, fb: f32) {
+    let a_in = fa >= 0.0;
+    let b_in = fb >= 0.0;
+    if a_in != b_in {
+        var pi = b;
+        var fi = fb;
+        var po = a;
+        var fo = fa;
+        if a_in {
+            pi = a;
+            fi = fa;
+            po = b;
+            fo = fb;
+        }
+        cb_in4(c, cb_lerp(pi, po, min(fi / (fi - fo), 1.0)));
+    }
+    if b_in {
+        cb_in4(c, b);
+    }
+}
+
+// A vertex into clip 3: the edge from the previous one ends here.
+fn cb_in3(c: ptr<function, CbChain>, b: vec3<f32>) {
+    let fb = b.y - prod((*c).k.z, b.z);
+    if (*c).s[2].seen == 0u {
+        (*c).s[2].first = b;
+        (*c).s[2].f_first = fb;
+    } else {
+        cb_edge3(c, (*c).s[2].prev, (*c).s[2].f_prev, b, fb);
+    }
+    (*c).s[2].prev = b;
+    (*c).s[2].f_prev = fb;
+    (*c).s[2].seen += 1u;
+}
+
+// Clip 3's closing edge, from its last input to its first.
+fn cb_close3(c: ptr<function, CbChain>) {
+    if (*c).s[2].seen > 0u {
+        cb_edge3(c, (*c).s[2].prev, (*c).s[2].f_prev, (*c).s[2].first, (*c).s[2].f_first);
+    }
+}
+
+// Clip 2 (u max): edge (a, b) with plane values (fa, fb), `cb_clip`'s step.
+fn cb_edge2(c: ptr<function, CbChain>, a: vec3<f32>, fa: f32, b: vec3<f32>, fb: f32) {
+    let a_in = fa >= 0.0;
+    let b_in = fb >= 0.0;
+    if a_in != b_in {
+        var pi = b;
+        var fi = fb;
+        var po = a;
+        var fo = fa;
+        if a_in {
+            pi = a;
+            fi = fa;
+            po = b;
+            fo = fb;
+        }
+        cb_in3(c, cb_lerp(pi, po, min(fi / (fi - fo), 1.0)));
+    }
+    if b_in {
+        cb_in3(c, b);
+    }
+}
+
+// A vertex into clip 2: the edge from the previous one ends here.
+fn cb_in2(c: ptr<function, CbChain>, b: vec3<f32>) {
+    let fb = prod((*c).k.y, b.z) - b.x;
+    if (*c).s[1].seen == 0u {
+        (*c).s[1].first = b;
+        (*c).s[1].f_first = fb;
+    } else {
+        cb_edge2(c, (*c).s[1].prev, (*c).s[1].f_prev, b, fb);
+    }
+    (*c).s[1].prev = b;
+    (*c).s[1].f_prev = fb;
+    (*c).s[1].seen += 1u;
+}
+
+// Clip 2's closing edge, from its last input to its first.
+fn cb_close2(c: ptr<function, CbChain>) {
+    if (*c).s[1].seen > 0u {
+        cb_edge2(c, (*c).s[1].prev, (*c).s[1].f_prev, (*c).s[1].first, (*c).s[1].f_first);
+    }
+}
+
+// Clip 1 (u min): edge (a, b) with plane values (fa, fb), `cb_clip`'s step.
+fn cb_edge1(c: ptr<function, CbChain>, a: vec3<f32>, fa: f32, b: vec3<f32>, fb: f32) {
+    let a_in = fa >= 0.0;
+    let b_in = fb >= 0.0;
+    if a_in != b_in {
+        var pi = b;
+        var fi = fb;
+        var po = a;
+        var fo = fa;
+        if a_in {
+            pi = a;
+            fi = fa;
+            po = b;
+            fo = fb;
+        }
+        cb_in2(c, cb_lerp(pi, po, min(fi / (fi - fo), 1.0)));
+    }
+    if b_in {
+        cb_in2(c, b);
+    }
+}
+
+// A vertex into clip 1: the edge from the previous one ends here.
+fn cb_in1(c: ptr<function, CbChain>, b: vec3<f32>) {
+    let fb = b.x - prod((*c).k.x, b.z);
+    if (*c).s[0].seen == 0u {
+        (*c).s[0].first = b;
+        (*c).s[0].f_first = fb;
+    } else {
+        cb_edge1(c, (*c).s[0].prev, (*c).s[0].f_prev, b, fb);
+    }
+    (*c).s[0].prev = b;
+    (*c).s[0].f_prev = fb;
+    (*c).s[0].seen += 1u;
+}
+
+// Clip 1's closing edge, from its last input to its first.
+fn cb_close1(c: ptr<function, CbChain>) {
+    if (*c).s[0].seen > 0u {
+        cb_edge1(c, (*c).s[0].prev, (*c).s[0].f_prev, (*c).s[0].first, (*c).s[0].f_first);
+    }
+}
+
 // `texel_bound`: (lo, hi, hit) of the face-local triangle in texel (x, y).
 struct CbBound {
     lo: f32,
@@ -221,43 +432,35 @@ struct CbBound {
     hit: bool,
 }
 
-// Step 5's first half: the triangle clipped to column x's planes (widened by m); the whole
-// triangle for a `whole` rect.
-fn cb_texel_column(l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>, whole: bool, m: f32, x: u32, size: u32) -> CbPoly {
-    var q = cb_triangle(l0, l1, l2);
+// `texel_bound`: (lo, hi, hit) of the face-local triangle `l*` in texel (x, y) of a rect with
+// margin `m` and error budget `e` (the whole triangle for a `whole` rect).
+fn cb_texel_bound(l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>, whole: bool, m: f32, e: f32, x: u32, y: u32, size: u32) -> CbBound {
+    let w = cb_texel_centre_unit(x, y, size);
+    let k = vec4<f32>(face_coord(x, size) - m, face_coord(x + 1u, size) + m, face_coord(y, size) - m, face_coord(y + 1u, size) + m);
+    let none = CbStage(vec3<f32>(0.0), 0.0, vec3<f32>(0.0), 0.0, 0u);
+    var c = CbChain(k, w, array<CbStage, 4>(none, none, none, none), 0u, f32_inf(), 0.0);
+    var overflow = whole;
     if !whole {
-        q = cb_clip(q, CB_PLANE_U_MIN, face_coord(x, size) - m);
-        q = cb_clip(q, CB_PLANE_U_MAX, face_coord(x + 1u, size) + m);
-    }
-    return q;
-}
-
-// Step 5's second half, from the column polygon `column` (`cb_texel_column`).
-fn cb_texel_finish(column: CbPoly, l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>, whole: bool, m: f32, e: f32, x: u32, y: u32, size: u32) -> CbBound {
-    var q = column;
-    if !whole {
-        q = cb_clip(q, CB_PLANE_V_MIN, face_coord(y, size) - m);
-        q = cb_clip(q, CB_PLANE_V_MAX, face_coord(y + 1u, size) + m);
-        if q.overflow != 0u {
-            q = cb_triangle(l0, l1, l2);
-        } else if q.n == 0u {
+        cb_in1(&c, l0);
+        cb_in1(&c, l1);
+        cb_in1(&c, l2);
+        cb_close1(&c);
+        cb_close2(&c);
+        cb_close3(&c);
+        cb_close4(&c);
+        let n = CB_MAX_POLY;
+        overflow = c.s[1].seen > n || c.s[2].seen > n || c.s[3].seen > n || c.count > n;
+        if !overflow && c.count == 0u {
             return CbBound(0.0, 0.0, false);
         }
     }
-    let w = cb_texel_centre_unit(x, y, size);
-    var d_min = f32_inf();
-    var r_max = 0.0;
-    for (var i = 0u; i < CB_MAX_POLY; i++) {
-        if i < q.n {
-            d_min = min(d_min, cb_dot(q.p[i], w));
-            r_max = max(r_max, sqrt(cb_dot(q.p[i], q.p[i])));
-        }
+    var d_min = c.d_min;
+    var r_max = c.r_max;
+    if overflow {
+        // The whole triangle (`whole`, or a clip that overflowed).
+        d_min = min(min(cb_dot(l0, w), cb_dot(l1, w)), cb_dot(l2, w));
+        r_max = max(max(sqrt(cb_dot(l0, l0)), sqrt(cb_dot(l1, l1))), sqrt(cb_dot(l2, l2)));
     }
     let lo = d_min - e;
     return CbBound(select(0.0, lo, lo > 0.0), r_max + e, true);
-}
-
-// `texel_bound`: (lo, hi, hit) of the face-local triangle in texel (x, y).
-fn cb_texel_bound(l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>, whole: bool, m: f32, e: f32, x: u32, y: u32, size: u32) -> CbBound {
-    return cb_texel_finish(cb_texel_column(l0, l1, l2, whole, m, x, size), l0, l1, l2, whole, m, e, x, y, size);
 }
