@@ -1,0 +1,187 @@
+#![forbid(unsafe_code)]
+//! The methods a bench runs: a [`Method`] with its tracer options ([`MethodSpec`]), its label,
+//! its render options in a run, and the grids of settings ([`fragment_grid`], [`method_grid`]).
+
+use crate::cpu::options::{TraceCriterion, TraceOptions, TraceSampling};
+use crate::method::Method;
+use crate::vk::frame::RenderOptions;
+
+/// One method with its parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MethodSpec {
+    pub kind: Method,
+    /// Used when [`Method::traces_cubemaps`].
+    pub trace: TraceOptions,
+    /// The non-reflector objects split into four this many times for this run
+    /// ([`crate::cpu::reflection_point::subdivide_non_reflectors`]): the same surfaces, so the
+    /// same reference. Used for the reflection-point method, whose quality depends on it.
+    pub subdivide: u32,
+}
+
+/// The subdivision of the second reflection-point row of the grid.
+pub const RP_BENCH_SUBDIVIDE: u32 = 2;
+
+impl MethodSpec {
+    pub fn plain(kind: Method) -> Self {
+        MethodSpec {
+            kind,
+            trace: TraceOptions::default(),
+            subdivide: 0,
+        }
+    }
+
+    /// The renderer's options of this method in a bench run, with the default fallback
+    /// ([`Fallback::Trace`](crate::vk::options::Fallback::Trace), as the CLI's: PSNR and FLIP
+    /// measure the image a user would see; the fallback's share is counted and timed apart).
+    pub fn render_options(&self, bounces: u32, reflector_check: bool) -> RenderOptions {
+        RenderOptions {
+            method: self.kind,
+            trace: self.trace,
+            bounces,
+            reflector_check,
+            ..RenderOptions::default()
+        }
+    }
+
+    /// A short unique name, also used in file names: `fragment-exact-mip`,
+    /// `fragment-threshold-step64`, `envmap`, ...
+    pub fn label(&self) -> String {
+        if self.subdivide > 0 {
+            let plain = MethodSpec {
+                subdivide: 0,
+                ..*self
+            };
+            return format!("{}-sub{}", plain.label(), self.subdivide);
+        }
+        // The compute path has two settings on its own hierarchy: the exact criterion (named
+        // by the method alone) and the bounded one.
+        if self.kind == Method::Compute && self.trace.criterion == TraceCriterion::Bounded {
+            return "compute-bounded".into();
+        }
+        if !self.kind.traces_cubemaps() || self.kind == Method::Compute {
+            return self.kind.name().into();
+        }
+        let t = &self.trace;
+        let sampling = match t.sampling {
+            TraceSampling::PerTexel => "texel".to_string(),
+            TraceSampling::ConstantStep => format!("step{}", t.steps),
+            TraceSampling::ConstantAngle => format!("angle{}", t.steps),
+        };
+        match t.criterion {
+            TraceCriterion::Exact => format!(
+                "{}-exact-{}{}",
+                self.kind.name(),
+                if t.accel { "mip" } else { "walk" },
+                if t.strict { "-strict" } else { "" }
+            ),
+            TraceCriterion::Threshold => format!("{}-threshold-{sampling}", self.kind.name()),
+            TraceCriterion::SignChange => format!("{}-sign-{sampling}", self.kind.name()),
+            TraceCriterion::Bounded => format!("{}-bounded", self.kind.name()),
+        }
+    }
+}
+
+/// The default parameter grid of a tracing method: the exact criterion with and without the
+/// min/max pyramid and in strict mode, and the threshold and sign-change criteria with per-texel,
+/// 64 and 256 constant steps, and 256 constant-angle steps (`eps` stays at its default, 0.05
+/// world units: the built-in scenes are a few metres across).
+pub fn fragment_grid(kind: Method) -> Vec<MethodSpec> {
+    let base = TraceOptions::default();
+    let mut out = vec![
+        TraceOptions {
+            accel: true,
+            ..base
+        },
+        TraceOptions {
+            accel: false,
+            ..base
+        },
+        TraceOptions {
+            strict: true,
+            ..base
+        },
+    ];
+    for criterion in [TraceCriterion::Threshold, TraceCriterion::SignChange] {
+        for (sampling, steps) in [
+            (TraceSampling::PerTexel, base.steps),
+            (TraceSampling::ConstantStep, 64),
+            (TraceSampling::ConstantStep, 256),
+            (TraceSampling::ConstantAngle, 256),
+        ] {
+            out.push(TraceOptions {
+                criterion,
+                sampling,
+                steps,
+                ..base
+            });
+        }
+    }
+    out.into_iter()
+        .map(|trace| MethodSpec {
+            kind,
+            trace,
+            subdivide: 0,
+        })
+        .collect()
+}
+
+/// The full method list for the chosen kinds, in table order.
+pub fn method_grid(kinds: &[Method], quick: bool) -> Vec<MethodSpec> {
+    let mut out = Vec::new();
+    for &kind in kinds {
+        if kind.traces_cubemaps() {
+            if quick || kind == Method::Compute {
+                out.push(MethodSpec::plain(kind));
+            } else {
+                out.extend(fragment_grid(kind));
+            }
+            // The bounded criterion (proven first hits) beside the exact one, in every grid.
+            out.push(MethodSpec {
+                trace: TraceOptions {
+                    criterion: TraceCriterion::Bounded,
+                    ..TraceOptions::default()
+                },
+                ..MethodSpec::plain(kind)
+            });
+        } else {
+            out.push(MethodSpec::plain(kind));
+            if kind == Method::ReflectionPoint {
+                out.push(MethodSpec {
+                    subdivide: RP_BENCH_SUBDIVIDE,
+                    ..MethodSpec::plain(kind)
+                });
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn labels_are_unique_across_the_grid() {
+        let grid = method_grid(&Method::ALL, false);
+        let mut labels: Vec<String> = grid.iter().map(MethodSpec::label).collect();
+        let n = labels.len();
+        labels.sort();
+        labels.dedup();
+        assert_eq!(labels.len(), n, "{labels:?}");
+        assert!(labels.contains(&"fragment-exact-mip".to_string()));
+        assert!(labels.contains(&"fragment-sign-angle256".to_string()));
+        // Negative: two specs differing only in steps must get different labels.
+        let a = fragment_grid(Method::Fragment)[4];
+        let mut b = a;
+        b.trace.steps += 1;
+        assert_ne!(a.label(), b.label());
+    }
+
+    #[test]
+    fn method_names_round_trip() {
+        for m in Method::ALL {
+            assert_eq!(Method::from_name(m.name()), Some(m));
+        }
+        assert_eq!(Method::from_name("raytrace"), None);
+    }
+}
