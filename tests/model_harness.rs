@@ -302,10 +302,22 @@ fn bench_model_json_has_the_columns() {
         assert!(g[k].is_number(), "{k} in {g}");
     }
     assert!(g["methods"][0]["sectors_per_ray"].is_number());
+    // Per-ray work beside bvh: static and dynamic weighted steps, the dominant block.
+    for k in ["cost_per_ray", "dynamic_cost_per_ray", "dominant_share"] {
+        assert!(g["methods"][0][k].is_number(), "{k} in {g}");
+    }
+    assert!(g["methods"][0]["dominant_block"].is_string());
+    assert!(g["dynamic"]["compute_over_bvh"].is_number(), "{g}");
+    assert!(
+        m["lavapipe_dynamic"]["rows"]
+            .as_array()
+            .is_some_and(|r| r.len() == rows.len())
+    );
     assert!(m["triangles"].as_array().is_some_and(|t| !t.is_empty()));
     assert!(m["assumptions"][0].as_str().unwrap().contains("MODEL"));
     let md = std::fs::read_to_string(d.path().join("bench.md")).unwrap();
     assert!(md.contains("## Cost model"), "{md}");
+    assert!(md.contains("per-ray work at width 32"), "{md}");
     assert!(d.path().join("model.svg").is_file());
     // Negative: without --model, none of it.
     let d2 = tempfile::tempdir().unwrap();

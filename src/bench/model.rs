@@ -8,6 +8,10 @@
 //!   per lane operation, [`crate::model::validate`]) are fitted on the training rows (scene
 //!   `default`, every cube size and subgroup size present) and every other row gets its
 //!   prediction error.
+//! - **per-ray work** at width 32 ([`per_ray_table`]): every method beside bvh, weighted
+//!   warp-steps per ray with static and dynamic weights ([`crate::model::weights::Counting`]),
+//!   SIMD efficiency, 32-byte sectors per ray and the block holding most of the dynamic cost;
+//!   the lavapipe check is run under both counts.
 //! - **GPU predictions** at widths 32 and 64 (GPU mode: a block issues when one lane needs it),
 //!   per scene: compute / fragment, compute / bvh, fragment / bvh (ratios of weighted warp-steps
 //!   per ray, i.e. the same ns per weighted step on every method), SIMD efficiency and 32-byte
@@ -40,8 +44,8 @@ use crate::model::replay::{
     ComputeLanes, Mode, ModelSettings, Recorded, ReplayStats, default_assembly, record, replay,
 };
 use crate::model::validate::{self, Measured, Modelled, Training, Validation};
-use crate::model::weights;
-use crate::model::work::{self, Frame};
+use crate::model::weights::{self, Counting};
+use crate::model::work::{self, Frame, blocks};
 use crate::output::write_atomic;
 
 /// The methods the model replays, in table order.
@@ -53,13 +57,17 @@ pub const METHODS: [Method; 5] = [
     Method::Bvh,
 ];
 
+/// The corpus's largest scene (by triangles), added to the GPU predictions of `--model-from`
+/// where the path exists (the bench run from the repository's root).
+pub const LARGEST_CORPUS_SCENE: &str = "tests/scenes/truck-garage/scene.toml";
+
 /// The GPU widths predicted.
 pub const GPU_WIDTHS: [u32; 2] = [32, 64];
 
 /// What every figure of the report assumes.
 pub const ASSUMPTIONS: &[&str] = &[
     "MODEL, not a measurement: weighted issued warp-steps per ray from the CPU twins' work replayed in lockstep warps",
-    "weights: SPIR-V instructions per block of the shipped shaders (static count, callees expanded, both arms of an if)",
+    "weights: SPIR-V instructions per block of the shipped shaders, callees expanded, counted two ways: static (every instruction once: a loop body once, both arms of an if, dead code included) and dynamic (model::dynamic: loops with a fixed trip count per trip, the entry point's constants carried into every call and constant branches, folded values and unused results removed; both arms of an if that does not fold; loops left early or without a counter once)",
     "lavapipe mode: every block of a loop body runs on every turn any lane makes; width = lavapipe's subgroup size",
     "GPU mode: a block issues when at least one lane needs it; widths 32 and 64",
     "warps (model::warps): compute and bvh = consecutive entries of the row-major mirror-pixel queue (compute: one lane per ray in lavapipe mode, min(width, 32) lanes per ray in GPU mode); fragment and ssr = 2x2 quads in 8x4-pixel tiles, tiles row-major (helper lanes issued, never active); reflection-point = consecutive vertices of its 1-D dispatch",
@@ -72,9 +80,37 @@ pub const ASSUMPTIONS: &[&str] = &[
 #[derive(Clone, Debug, Serialize)]
 pub struct GpuMethod {
     pub method: Method,
+    /// Weighted warp-steps per ray, static weights.
     pub cost_per_ray: f64,
+    /// Weighted warp-steps per ray, dynamic weights ([`crate::model::dynamic`]).
+    pub dynamic_cost_per_ray: f64,
     pub simd_efficiency: f64,
     pub sectors_per_ray: f64,
+    /// The block with the largest share of the dynamic cost, and that share.
+    pub dominant_block: String,
+    pub dominant_share: f64,
+}
+
+impl GpuMethod {
+    /// The figures of `stats` (`method`'s replay; `one_lane`: compute's `main_lanes1`).
+    pub fn of(stats: &ReplayStats, method: Method, one_lane: bool) -> Result<GpuMethod> {
+        let (ws, _) = weights::weights_by(method, Counting::Static, one_lane)?;
+        let (wd, _) = weights::weights_by(method, Counting::Dynamic, one_lane)?;
+        let (i, share) = weights::shares(stats, &wd)
+            .into_iter()
+            .enumerate()
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .unwrap_or((0, 0.0));
+        Ok(GpuMethod {
+            method,
+            cost_per_ray: weights::cost(stats, &ws),
+            dynamic_cost_per_ray: weights::cost(stats, &wd),
+            simd_efficiency: stats.simd_efficiency,
+            sectors_per_ray: stats.sectors_per_ray,
+            dominant_block: blocks(method).get(i).map_or("-", |b| b.name).to_string(),
+            dominant_share: share,
+        })
+    }
 }
 
 /// Per scene and width, the GPU-mode predictions.
@@ -90,6 +126,19 @@ pub struct GpuPrediction {
     /// compute in `main_lanes1`'s layout (one lane per ray, 32 rays per warp) over bvh: how much
     /// of `compute_over_bvh` is the thesis layout's one ray per 32-lane warp.
     pub compute_one_lane_over_bvh: Option<f64>,
+    /// The same four ratios with dynamic weights.
+    pub dynamic: DynamicRatios,
+    /// compute's figures in `main_lanes1`'s layout.
+    pub compute_one_lane: Option<GpuMethod>,
+}
+
+/// [`GpuPrediction`]'s ratios with dynamic weights.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct DynamicRatios {
+    pub compute_over_fragment: Option<f64>,
+    pub compute_over_bvh: Option<f64>,
+    pub fragment_over_bvh: Option<f64>,
+    pub compute_one_lane_over_bvh: Option<f64>,
 }
 
 /// One point of the triangle axis (GPU mode, width 32).
@@ -99,13 +148,18 @@ pub struct TrianglePoint {
     pub triangles: usize,
     pub compute_over_bvh: f64,
     pub fragment_over_bvh: f64,
+    /// The same with dynamic weights.
+    pub compute_over_bvh_dynamic: f64,
+    pub fragment_over_bvh_dynamic: f64,
 }
 
 /// Everything `--model` adds.
 #[derive(Clone, Debug, Serialize)]
 pub struct ModelReport {
     pub assumptions: Vec<String>,
+    /// The lavapipe check with static weights, and with dynamic weights (each fitted anew).
     pub lavapipe: Validation,
+    pub lavapipe_dynamic: Validation,
     pub gpu: Vec<GpuPrediction>,
     pub triangles: Vec<TrianglePoint>,
     /// Triangles where compute (then fragment) tracing would overtake the BVH at width 32, if
@@ -263,18 +317,20 @@ impl Recordings {
     }
 }
 
-/// Replays every measured row (lavapipe mode) and validates with `training`.
+/// Replays every measured row (lavapipe mode) and validates with `training`, the blocks weighted
+/// by `counting`.
 pub fn lavapipe_check(
     rec: &mut Recordings,
     rows: &[Measured],
     training: &Training,
+    counting: Counting,
 ) -> Result<Validation> {
     let mut modelled: Vec<Modelled> = Vec::with_capacity(rows.len());
     for m in rows {
         let dims = (m.width, m.height);
         let stats = rec.stats(&m.scene, m.cube, dims, m.method, m.subgroup, Mode::Lavapipe)?;
         let train = training.contains(m);
-        modelled.push(validate::modelled(&stats, m.clone(), train)?);
+        modelled.push(validate::modelled_with(&stats, m.clone(), train, counting)?);
     }
     if !modelled.iter().any(|r| r.train) {
         bail!(
@@ -298,44 +354,52 @@ pub fn gpu_prediction(
     let mut methods = Vec::new();
     for m in METHODS {
         let stats = rec.stats(name, cube, dims, m, width, Mode::Gpu)?;
-        methods.push(GpuMethod {
-            method: m,
-            cost_per_ray: weights::cost(&stats, &weights::weights(m)?),
-            simd_efficiency: stats.simd_efficiency,
-            sectors_per_ray: stats.sectors_per_ray,
-        });
+        methods.push(GpuMethod::of(&stats, m, false)?);
     }
-    let cost = |k: Method| {
-        methods
-            .iter()
-            .find(|g| g.method == k)
-            .map(|g| g.cost_per_ray)
-    };
-    let ratio = |a: Method, b: Method| Some(cost(a)? / cost(b)?).filter(|r| r.is_finite());
     // compute again in the one-lane layout: the same recording, replayed with one lane per ray.
     let key = (name.to_string(), cube, Method::Compute);
-    let one_lane = match rec.recorded.get_mut(&key) {
+    let compute_one_lane = match rec.recorded.get_mut(&key) {
         Some(r) => {
             let saved = r.settings.compute_lanes;
             r.settings.compute_lanes = ComputeLanes::One;
             let s = replay(r, width, Mode::Gpu, default_assembly(Method::Compute));
             r.settings.compute_lanes = saved;
-            Some(weights::cost(&s?, &weights::weights(Method::Compute)?))
+            Some(GpuMethod::of(&s?, Method::Compute, true)?)
         }
         None => None,
     };
-    let compute_one_lane_over_bvh = one_lane
-        .zip(cost(Method::Bvh))
-        .map(|(a, b)| a / b)
-        .filter(|r| r.is_finite());
+    let find = |k: Method| methods.iter().find(|g| g.method == k);
+    let ratio = |a: Option<&GpuMethod>, b: Option<&GpuMethod>, dynamic: bool| {
+        let c = |g: &GpuMethod| {
+            if dynamic {
+                g.dynamic_cost_per_ray
+            } else {
+                g.cost_per_ray
+            }
+        };
+        Some(c(a?) / c(b?)).filter(|r| r.is_finite())
+    };
+    let (c, f, b) = (
+        find(Method::Compute),
+        find(Method::Fragment),
+        find(Method::Bvh),
+    );
+    let one = compute_one_lane.as_ref();
     Ok(GpuPrediction {
-        compute_one_lane_over_bvh,
         scene: name.to_string(),
         cube,
         width,
-        compute_over_fragment: ratio(Method::Compute, Method::Fragment),
-        compute_over_bvh: ratio(Method::Compute, Method::Bvh),
-        fragment_over_bvh: ratio(Method::Fragment, Method::Bvh),
+        compute_over_fragment: ratio(c, f, false),
+        compute_over_bvh: ratio(c, b, false),
+        fragment_over_bvh: ratio(f, b, false),
+        compute_one_lane_over_bvh: ratio(one, b, false),
+        dynamic: DynamicRatios {
+            compute_over_fragment: ratio(c, f, true),
+            compute_over_bvh: ratio(c, b, true),
+            fragment_over_bvh: ratio(f, b, true),
+            compute_one_lane_over_bvh: ratio(one, b, true),
+        },
+        compute_one_lane,
         methods,
     })
 }
@@ -353,17 +417,19 @@ pub fn triangle_axis(dims: (u32, u32)) -> Result<Vec<TrianglePoint>> {
         }
         let settings = ModelSettings::new(scene.cmo.resolution, dims.0, dims.1);
         let frame = work::frame(&scene, &settings)?;
-        let c = |m: Method| -> Result<f64> {
+        let c = |m: Method| -> Result<GpuMethod> {
             let rec = record(&frame, m)?;
             let s = replay(&rec, 32, Mode::Gpu, default_assembly(m))?;
-            Ok(weights::cost(&s, &weights::weights(m)?))
+            GpuMethod::of(&s, m, false)
         };
-        let bvh = c(Method::Bvh)?;
+        let (bvh, compute, fragment) = (c(Method::Bvh)?, c(Method::Compute)?, c(Method::Fragment)?);
         out.push(TrianglePoint {
             scene: scene.name.clone(),
             triangles: scene.world().triangles.len(),
-            compute_over_bvh: c(Method::Compute)? / bvh,
-            fragment_over_bvh: c(Method::Fragment)? / bvh,
+            compute_over_bvh: compute.cost_per_ray / bvh.cost_per_ray,
+            fragment_over_bvh: fragment.cost_per_ray / bvh.cost_per_ray,
+            compute_over_bvh_dynamic: compute.dynamic_cost_per_ray / bvh.dynamic_cost_per_ray,
+            fragment_over_bvh_dynamic: fragment.dynamic_cost_per_ray / bvh.dynamic_cost_per_ray,
         });
     }
     Ok(out)
@@ -395,13 +461,20 @@ pub fn run(
 ) -> Result<ModelReport> {
     progress("lavapipe check");
     let mut rec = Recordings::default();
-    let lavapipe = lavapipe_check(&mut rec, rows, training)?;
+    let lavapipe = lavapipe_check(&mut rec, rows, training, Counting::Static)?;
+    let lavapipe_dynamic = lavapipe_check(&mut rec, rows, training, Counting::Dynamic)?;
     let dims = rows.first().map_or((160, 120), |m| (m.width, m.height));
     let mut scenes: Vec<(&str, u32)> = Vec::new();
     for m in rows {
         if !scenes.iter().any(|(s, _)| *s == m.scene) {
             scenes.push((&m.scene, gpu_cube.unwrap_or(m.cube)));
         }
+    }
+    // The corpus's largest scene: in the report from earlier files (`--model-from`, which sets
+    // the cube size), where the bench runs from the repository.
+    if gpu_cube.is_some() && Path::new(LARGEST_CORPUS_SCENE).exists() {
+        let cube = scenes.first().map_or(256, |s| s.1);
+        scenes.push((LARGEST_CORPUS_SCENE, cube));
     }
     let mut gpu = Vec::new();
     for (s, cube) in scenes {
@@ -415,6 +488,7 @@ pub fn run(
     Ok(ModelReport {
         assumptions: ASSUMPTIONS.iter().map(|s| s.to_string()).collect(),
         lavapipe,
+        lavapipe_dynamic,
         compute_overtakes_bvh_at: crossover(&triangles, |p| p.compute_over_bvh),
         fragment_overtakes_bvh_at: crossover(&triangles, |p| p.fragment_over_bvh),
         gpu,
@@ -478,22 +552,27 @@ pub fn lavapipe_table(v: &Validation) -> String {
 pub fn gpu_table(gpu: &[GpuPrediction]) -> String {
     let mut s = String::from(
         "MODEL predictions, GPU mode (not measured; assumptions below).\n\n\
-         | scene | cube | width | compute/fragment | compute/bvh | compute 1 lane/ray / bvh | fragment/bvh | SIMD eff. compute | fragment | bvh | sectors/ray compute | fragment | bvh |\n\
-         |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+         Ratios of weighted warp-steps per ray, static weights, then dynamic (model::dynamic).\n\n\
+         | scene | cube | width | compute/fragment | compute/bvh | compute 1 lane/ray / bvh | fragment/bvh | dynamic: compute/fragment | compute/bvh | compute 1 lane/ray / bvh | fragment/bvh | SIMD eff. compute | fragment | bvh | sectors/ray compute | fragment | bvh |\n\
+         |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
     );
     for g in gpu {
         let m = |k: Method| g.methods.iter().find(|x| x.method == k);
         let eff = |k| opt(m(k).map(|x| x.simd_efficiency));
         let sec = |k| m(k).map_or("-".into(), |x| format!("{:.1}", x.sectors_per_ray));
         s += &format!(
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
-            g.scene,
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            scene_label(&g.scene),
             g.cube,
             g.width,
             opt(g.compute_over_fragment),
             opt(g.compute_over_bvh),
             opt(g.compute_one_lane_over_bvh),
             opt(g.fragment_over_bvh),
+            opt(g.dynamic.compute_over_fragment),
+            opt(g.dynamic.compute_over_bvh),
+            opt(g.dynamic.compute_one_lane_over_bvh),
+            opt(g.dynamic.fragment_over_bvh),
             eff(Method::Compute),
             eff(Method::Fragment),
             eff(Method::Bvh),
@@ -509,12 +588,19 @@ pub fn gpu_table(gpu: &[GpuPrediction]) -> String {
 pub fn triangle_table(r: &ModelReport) -> String {
     let mut s = String::from(
         "MODEL, GPU mode width 32, the triangle axis of `bench --scaling` (sphere-room + a UV \
-         sphere):\n\n| scene | triangles | compute/bvh | fragment/bvh |\n|---|---:|---:|---:|\n",
+         sphere), static and dynamic weights:\n\n\
+         | scene | triangles | compute/bvh | fragment/bvh | dynamic compute/bvh | dynamic fragment/bvh |\n\
+         |---|---:|---:|---:|---:|---:|\n",
     );
     for p in &r.triangles {
         s += &format!(
-            "| {} | {} | {:.2} | {:.2} |\n",
-            p.scene, p.triangles, p.compute_over_bvh, p.fragment_over_bvh
+            "| {} | {} | {:.2} | {:.2} | {:.2} | {:.2} |\n",
+            p.scene,
+            p.triangles,
+            p.compute_over_bvh,
+            p.fragment_over_bvh,
+            p.compute_over_bvh_dynamic,
+            p.fragment_over_bvh_dynamic
         );
     }
     let at = |v: Option<f64>, what: &str| match v {
@@ -526,10 +612,66 @@ pub fn triangle_table(r: &ModelReport) -> String {
         + &at(r.fragment_overtakes_bvh_at, "fragment")
 }
 
+/// A scene's short name: a scene file's folder (`tests/scenes/<name>/scene.toml`).
+fn scene_label(scene: &str) -> &str {
+    let p = Path::new(scene);
+    match p.file_name().and_then(|f| f.to_str()) {
+        Some("scene.toml") => p
+            .parent()
+            .and_then(|d| d.file_name())
+            .and_then(|f| f.to_str())
+            .unwrap_or(scene),
+        _ => scene,
+    }
+}
+
+/// Per-ray work at width 32 (GPU mode), every method beside bvh: weighted warp-steps per ray
+/// (static and dynamic) and over bvh's, SIMD efficiency, sectors per ray, and the block that
+/// holds the largest share of the dynamic cost.
+pub fn per_ray_table(gpu: &[GpuPrediction]) -> String {
+    let mut s = String::from(
+        "MODEL, per-ray work at width 32 (GPU mode; weighted issued warp-steps per ray, static \
+         and dynamic weights; the dominant block by its share of the dynamic cost).\n\n\
+         | scene | method | steps/ray static | dynamic | over bvh static | dynamic | SIMD eff. | sectors/ray | dominant block (dynamic) |\n\
+         |---|---|---:|---:|---:|---:|---:|---:|---|\n",
+    );
+    for g in gpu.iter().filter(|g| g.width == 32) {
+        let Some(bvh) = g.methods.iter().find(|m| m.method == Method::Bvh) else {
+            continue;
+        };
+        let one = g
+            .compute_one_lane
+            .iter()
+            .map(|m| (m, "compute, 1 lane/ray"));
+        let rows = g.methods.iter().map(|m| (m, m.method.name())).chain(one);
+        for (m, label) in rows {
+            s += &format!(
+                "| {} | {} | {:.0} | {:.0} | {:.2} | {:.2} | {:.2} | {:.1} | {} ({:.0} %) |\n",
+                scene_label(&g.scene),
+                label,
+                m.cost_per_ray,
+                m.dynamic_cost_per_ray,
+                m.cost_per_ray / bvh.cost_per_ray,
+                m.dynamic_cost_per_ray / bvh.dynamic_cost_per_ray,
+                m.simd_efficiency,
+                m.sectors_per_ray,
+                m.dominant_block,
+                100.0 * m.dominant_share,
+            );
+        }
+    }
+    s
+}
+
 /// The Markdown section `--model` adds to `bench.md` (and writes as `model.md`).
 pub fn markdown(r: &ModelReport) -> String {
     let mut s = String::from("## Cost model (`--model`)\n\n");
+    s += "Static weights:\n\n";
     s += &lavapipe_table(&r.lavapipe);
+    s += "\nDynamic weights (model::dynamic), fitted anew on the same training rows:\n\n";
+    s += &lavapipe_table(&r.lavapipe_dynamic);
+    s += "\n";
+    s += &per_ray_table(&r.gpu);
     s += "\n";
     s += &gpu_table(&r.gpu);
     s += "\n";

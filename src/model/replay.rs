@@ -484,6 +484,13 @@ fn replay_compute(slot: &[Option<&ComputeRay>], lanes: u32, width: u32, mode: Mo
                 turn.iter().filter(|x| x.enter).count() as u64 * l,
                 &[],
             );
+            acc.issue_if(
+                lavapipe,
+                C_FACES_CROSSED,
+                width,
+                turn.iter().filter(|x| x.faces).count() as u64 * l,
+                &[],
+            );
         }
         for (s, _) in &pending {
             pos[*s] += 1;

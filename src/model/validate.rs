@@ -82,6 +82,7 @@ use anyhow::{Result, bail, ensure};
 use serde::Serialize;
 
 use super::replay::{Mode, ModelSettings, ReplayStats, model_frame};
+use super::weights::Counting;
 use super::{weights, work};
 use crate::method::Method;
 
@@ -305,16 +306,27 @@ pub fn model_row(scene: &crate::scene::Scene, m: Measured, train: bool) -> Resul
     modelled(&stats, m, train)
 }
 
-/// `m` beside its lavapipe-mode replay `stats` (the method's, at width `m.subgroup`).
+/// `m` beside its lavapipe-mode replay `stats` (the method's, at width `m.subgroup`), weighted
+/// by the static count.
 pub fn modelled(stats: &ReplayStats, m: Measured, train: bool) -> Result<Modelled> {
+    modelled_with(stats, m, train, Counting::Static)
+}
+
+/// [`modelled`] with the blocks weighted by `counting` (lavapipe runs compute's one-lane entry
+/// point, `main_lanes1`).
+pub fn modelled_with(
+    stats: &ReplayStats,
+    m: Measured,
+    train: bool,
+    counting: Counting,
+) -> Result<Modelled> {
     ensure!(
         stats.method == m.method && stats.mode == Mode::Lavapipe && stats.width == m.subgroup,
         "model: the replay of {} is not lavapipe mode at width {}",
         m.key(),
         m.subgroup
     );
-    let w = weights::weights(m.method)?;
-    let lane = weights::lane_weights(m.method)?;
+    let (w, lane) = weights::weights_by(m.method, counting, true)?;
     let stats = stats.clone();
     let (vector_blocks, lane_blocks) = split(&stats.steps_per_ray, &w, &lane, m.subgroup);
     let item_costs: Vec<f64> = stats

@@ -166,6 +166,9 @@ pub const COMPUTE_BLOCKS: &[Block] = &[
     b("classify", COMPUTE, &["classify"]),
     // Shading a hit for the record.
     b("shade", COMPUTE, &["hit_shade"]),
+    // A piece's faces, found on its first visit inside `enter_face` (six frustum intervals and
+    // their ranking): a block of its own, so that `enter_face`'s other calls do not carry it.
+    b("faces_crossed", COMPUTE, &["faces_crossed"]),
 ];
 
 /// fragment_trace.wgsl (`fs_exact_mip`: `trace_ray_verified` over `trace_mip`).
@@ -330,6 +333,7 @@ pub const C_PICK: usize = 8;
 pub const C_ADVANCE: usize = 9;
 pub const C_CLASSIFY: usize = 10;
 pub const C_SHADE: usize = 11;
+pub const C_FACES_CROSSED: usize = 12;
 
 /// The static loop nest of a tree-shaped method (not compute, whose replay is its own).
 pub fn program(method: Method) -> Option<&'static [Stmt]> {
@@ -428,6 +432,10 @@ pub struct SettleTurn {
     pub start: bool,
     /// A face is entered (`enter_face`).
     pub enter: bool,
+    /// The entered piece is visited first: `enter_face` finds its faces (`faces_crossed`). Set
+    /// on a trace's first entry (its first piece); a trace's second piece (a ray cut near the
+    /// CMO's centre) is not logged by the twin and not counted.
+    pub faces: bool,
 }
 
 /// One traversal step of the hot loop.
@@ -750,6 +758,7 @@ pub fn compute_ray(frame: &Frame, ray: &MirrorRay) -> ComputeRay {
     let mut settle = vec![SettleTurn {
         start: true,
         enter: true,
+        faces: true,
         ..SettleTurn::default()
     }];
     for (i, t) in logs.iter().enumerate() {
@@ -825,6 +834,7 @@ pub fn compute_ray(frame: &Frame, ray: &MirrorRay) -> ComputeRay {
             verify,
             start: more,
             enter: more,
+            faces: more,
         });
     }
     out.phases.push(Phase::Settle(settle));
