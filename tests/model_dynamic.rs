@@ -5,8 +5,8 @@
 use std::collections::BTreeSet;
 
 use cubetrace::method::Method;
-use cubetrace::model::dynamic::{self, Arms, Contexts, Eval, LoopKind, Module};
-use cubetrace::model::weights::{self, Counting, ShaderFunctions};
+use cubetrace::model::dynamic::{self, Arms, Contexts, Counting, Eval, LoopKind, Module};
+use cubetrace::model::weights::{self, ShaderFunctions};
 use cubetrace::model::work::{COMPUTE_BLOCKS, blocks};
 
 fn inst(op: u32, operands: &[u32]) -> Vec<u32> {
@@ -188,7 +188,7 @@ const MODELLED: [Method; 5] = [
 fn every_block_has_a_dynamic_weight() {
     for m in MODELLED {
         for one in [false, true] {
-            let (w, lane) = weights::weights_by(m, Counting::Dynamic, one).unwrap();
+            let (w, lane) = dynamic::weights_by(m, Counting::Dynamic, one).unwrap();
             assert_eq!(w.len(), blocks(m).len(), "{}", m.name());
             for (i, (x, l)) in w.iter().zip(&lane).enumerate() {
                 let b = blocks(m)[i].name;

@@ -9,7 +9,7 @@
 //!   `default`, every cube size and subgroup size present) and every other row gets its
 //!   prediction error.
 //! - **per-ray work** at width 32 ([`per_ray_table`]): every method beside bvh, weighted
-//!   warp-steps per ray with static and dynamic weights ([`crate::model::weights::Counting`]),
+//!   warp-steps per ray with static and dynamic weights ([`crate::model::dynamic::Counting`]),
 //!   SIMD efficiency, 32-byte sectors per ray and the block holding most of the dynamic cost;
 //!   the lavapipe check is run under both counts.
 //! - **GPU predictions** at widths 32 and 64 (GPU mode: a block issues when one lane needs it),
@@ -40,11 +40,12 @@ use serde::Serialize;
 use super::plot::{self, Point};
 use super::scaling::{TRIANGLE_SEGMENTS, tessellated_scene};
 use super::{BenchReport, Method, MethodSpec, prepare_scene};
+use crate::model::dynamic::{Counting, weights_by};
 use crate::model::replay::{
     ComputeLanes, Mode, ModelSettings, Recorded, ReplayStats, default_assembly, record, replay,
 };
 use crate::model::validate::{self, Measured, Modelled, Training, Validation};
-use crate::model::weights::{self, Counting};
+use crate::model::weights;
 use crate::model::work::{self, Frame, blocks};
 use crate::output::write_atomic;
 
@@ -94,8 +95,8 @@ pub struct GpuMethod {
 impl GpuMethod {
     /// The figures of `stats` (`method`'s replay; `one_lane`: compute's `main_lanes1`).
     pub fn of(stats: &ReplayStats, method: Method, one_lane: bool) -> Result<GpuMethod> {
-        let (ws, _) = weights::weights_by(method, Counting::Static, one_lane)?;
-        let (wd, _) = weights::weights_by(method, Counting::Dynamic, one_lane)?;
+        let (ws, _) = weights_by(method, Counting::Static, one_lane)?;
+        let (wd, _) = weights_by(method, Counting::Dynamic, one_lane)?;
         let (i, share) = weights::shares(stats, &wd)
             .into_iter()
             .enumerate()

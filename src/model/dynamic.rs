@@ -968,3 +968,44 @@ pub fn weights(method: Method, one_lane: bool, arms: Arms) -> Result<Vec<BlockWe
     block_weights(blocks(method), entry, arms)
         .with_context(|| format!("--method {}", method.name()))
 }
+
+/// How a block's instructions are counted: [`Counting::Static`] ([`super::weights`]: every
+/// instruction once) or [`Counting::Dynamic`] (this module: loops per trip, dead code
+/// removed, both arms of an `if` that does not fold).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Counting {
+    Static,
+    Dynamic,
+}
+
+impl Counting {
+    pub fn name(self) -> &'static str {
+        match self {
+            Counting::Static => "static",
+            Counting::Dynamic => "dynamic",
+        }
+    }
+}
+
+/// [`super::weights::weights`] and [`super::weights::lane_weights`] under `counting`; `one_lane` picks compute's entry point
+/// for the dynamic count (`main_lanes1`, else `main`; the static count does not depend on it).
+pub fn weights_by(
+    method: Method,
+    counting: Counting,
+    one_lane: bool,
+) -> Result<(Vec<f64>, Vec<f64>)> {
+    match counting {
+        Counting::Static => Ok((
+            super::weights::weights(method)?,
+            super::weights::lane_weights(method)?,
+        )),
+        Counting::Dynamic => {
+            let w = weights(method, one_lane, Arms::Both)?;
+            Ok((
+                w.iter().map(|b| b.cost.all).collect(),
+                w.iter().map(|b| b.cost.lane).collect(),
+            ))
+        }
+    }
+}

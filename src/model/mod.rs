@@ -4,7 +4,7 @@
 //! into warps as a GPU forms them ([`warps`]) and replayed in lockstep ([`replay`]), in two
 //! modes: a GPU issues a block when at least one lane needs it; lavapipe runs every block of a
 //! loop body on every turn that any lane makes. The blocks are weighted by their instruction
-//! counts in the compiled SPIR-V, counted two ways ([`weights::Counting`]): static ([`weights`]:
+//! counts in the compiled SPIR-V, counted two ways ([`dynamic::Counting`]): static ([`weights`]:
 //! every instruction once) and dynamic ([`dynamic`]: loops with a fixed trip count per trip,
 //! the entry point's constants carried into calls, dead code removed). The lavapipe mode's
 //! prediction is checked against lavapipe's measured cost per ray on held-out scenes and

@@ -81,8 +81,8 @@
 use anyhow::{Result, bail, ensure};
 use serde::Serialize;
 
+use super::dynamic::{Counting, weights_by};
 use super::replay::{Mode, ModelSettings, ReplayStats, model_frame};
-use super::weights::Counting;
 use super::{weights, work};
 use crate::method::Method;
 
@@ -326,7 +326,7 @@ pub fn modelled_with(
         m.key(),
         m.subgroup
     );
-    let (w, lane) = weights::weights_by(m.method, counting, true)?;
+    let (w, lane) = weights_by(m.method, counting, true)?;
     let stats = stats.clone();
     let (vector_blocks, lane_blocks) = split(&stats.steps_per_ray, &w, &lane, m.subgroup);
     let item_costs: Vec<f64> = stats
