@@ -1,0 +1,335 @@
+//! The validation pass over an OBJ file ([`validate_obj`]) and the normalised text it writes for
+//! `tobj` ([`normalised_obj`]).
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use super::find_beside;
+use super::lexer::{
+    Corner, corner, keyword, numbers, obj_err, text_lines, within_coordinate_bound,
+};
+use crate::scene::SceneError;
+use crate::scene::report::{LoadReport, WarningKind};
+
+/// One OBJ statement the validation pass keeps, in file order, as the tokens `tobj` will read.
+pub(super) enum Statement<'a> {
+    Position([&'a str; 3]),
+    Texcoord([&'a str; 2]),
+    Normal([&'a str; 3]),
+    /// `o` or `g` (the keyword) with its name (empty: unnamed).
+    Name(&'a str, &'a str),
+    UseMtl(&'a str),
+    /// A polygon of at least 3 corners; `part` indexes [`ObjPass::parts`].
+    Face {
+        corners: Vec<Corner>,
+        part: usize,
+    },
+}
+
+/// The faces between two `o`/`g`/`usemtl` changes, as the validation pass sees them. The
+/// parts that hold faces are, in order, the `tobj` models that hold faces.
+pub(super) struct PartInfo {
+    pub(super) name: String,
+    /// `usemtl` name and line.
+    pub(super) material: Option<(String, usize)>,
+    pub(super) faces: usize,
+    /// Lines of faces without texture coordinates.
+    pub(super) faces_without_vt: Vec<usize>,
+    pub(super) any_vt: bool,
+    pub(super) any_vn: bool,
+    /// Some corner lacks a `vt` (a `vn`).
+    corner_without_vt: bool,
+    corner_without_vn: bool,
+}
+
+impl PartInfo {
+    fn new(name: String, material: Option<(String, usize)>) -> Self {
+        Self {
+            name,
+            material,
+            faces: 0,
+            faces_without_vt: Vec::new(),
+            any_vt: false,
+            any_vn: false,
+            corner_without_vt: false,
+            corner_without_vn: false,
+        }
+    }
+}
+
+/// An OBJ file checked line by line, ready to be written out for `tobj`.
+pub(super) struct ObjPass<'a> {
+    pub(super) statements: Vec<Statement<'a>>,
+    pub(super) parts: Vec<PartInfo>,
+    /// The source line of each face, in file order (the order `tobj` keeps).
+    pub(super) face_lines: Vec<usize>,
+    /// Material libraries and the line naming each (first mention).
+    pub(super) libraries: Vec<(PathBuf, usize)>,
+}
+
+const UNNAMED: &str = "unnamed_object";
+
+/// The validation pass over an OBJ file (see the module docs).
+pub(super) fn validate_obj<'a>(
+    bytes: &'a [u8],
+    path: &Path,
+    report: &mut LoadReport,
+) -> Result<ObjPass<'a>, SceneError> {
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let mut obj = ObjPass {
+        statements: Vec::new(),
+        parts: vec![PartInfo::new(UNNAMED.into(), None)],
+        face_lines: Vec::new(),
+        libraries: Vec::new(),
+    };
+    let mut counts = [0usize; 3];
+    for (line, text) in text_lines(bytes, path)? {
+        let Some((key, args)) = keyword(text) else {
+            continue;
+        };
+        match key {
+            "v" => {
+                let v = numbers(args, 3, "vertex position (v)", path, line)?;
+                within_coordinate_bound(&v[..3], path, line)?;
+                obj.statements.push(Statement::Position([v[0], v[1], v[2]]));
+                counts[0] += 1;
+            }
+            "vt" => {
+                let v = numbers(args, 1, "texture coordinate (vt)", path, line)?;
+                obj.statements.push(Statement::Texcoord([
+                    v[0],
+                    v.get(1).copied().unwrap_or("0"),
+                ]));
+                counts[1] += 1;
+            }
+            "vn" => {
+                let v = numbers(args, 3, "normal (vn)", path, line)?;
+                obj.statements.push(Statement::Normal([v[0], v[1], v[2]]));
+                counts[2] += 1;
+            }
+            "f" => obj.face(args, counts, path, line, report)?,
+            "l" => report.warn(
+                WarningKind::LineElement,
+                path,
+                Some(line),
+                "line element (l) skipped",
+            ),
+            "p" => report.warn(
+                WarningKind::PointElement,
+                path,
+                Some(line),
+                "point element (p) skipped",
+            ),
+            "o" | "g" => obj.name_part(key, args),
+            "usemtl" => obj.use_material(args, path, line)?,
+            "mtllib" => obj.add_libraries(args, dir, path, line, report)?,
+            _ => {}
+        }
+    }
+    Ok(obj)
+}
+
+impl<'a> ObjPass<'a> {
+    /// The part that statements go to now: the last one (there is always one).
+    fn current(&mut self) -> &mut PartInfo {
+        let last = self.parts.len() - 1;
+        &mut self.parts[last]
+    }
+
+    /// An `f` statement; fewer than 3 corners are skipped with a warning. `counts`: the `v`,
+    /// `vt` and `vn` statements so far, which relative indices count back from.
+    fn face(
+        &mut self,
+        args: &str,
+        counts: [usize; 3],
+        path: &Path,
+        line: usize,
+        report: &mut LoadReport,
+    ) -> Result<(), SceneError> {
+        let words: Vec<&str> = args.split_whitespace().collect();
+        if words.len() < 3 {
+            report.warn(
+                WarningKind::ShortFace,
+                path,
+                Some(line),
+                "face (f) with fewer than 3 vertices skipped",
+            );
+            return Ok(());
+        }
+        let corners = words
+            .iter()
+            .map(|a| corner(a, counts, path, line))
+            .collect::<Result<Vec<_>, _>>()?;
+        let part = self.parts.len() - 1;
+        let info = self.current();
+        info.faces += 1;
+        if corners.iter().all(|c| c.1.is_none()) {
+            info.faces_without_vt.push(line);
+        } else {
+            info.any_vt = true;
+        }
+        info.corner_without_vt |= corners.iter().any(|c| c.1.is_none());
+        info.corner_without_vn |= corners.iter().any(|c| c.2.is_none());
+        info.any_vn |= corners.iter().any(|c| c.2.is_some());
+        self.face_lines.push(line);
+        self.statements.push(Statement::Face { corners, part });
+        Ok(())
+    }
+
+    /// An `o` or `g` statement: names the current part while it has no faces, else starts a
+    /// new part with the same material.
+    fn name_part(&mut self, key: &'a str, args: &'a str) {
+        let name = if args.is_empty() { UNNAMED } else { args };
+        let current = self.current();
+        if current.faces == 0 {
+            current.name = name.into();
+        } else {
+            let material = current.material.clone();
+            self.parts.push(PartInfo::new(name.into(), material));
+        }
+        self.statements.push(Statement::Name(key, args));
+    }
+
+    /// A `usemtl` statement: a material change starts a new part (unless the current one has
+    /// no faces yet).
+    fn use_material(&mut self, args: &'a str, path: &Path, line: usize) -> Result<(), SceneError> {
+        if args.is_empty() {
+            return Err(obj_err(path, line, "usemtl needs a material name"));
+        }
+        let current = self.current();
+        if current.material.as_ref().map(|m| m.0.as_str()) != Some(args) {
+            let material = Some((args.to_string(), line));
+            if current.faces == 0 {
+                current.material = material;
+            } else {
+                let name = current.name.clone();
+                self.parts.push(PartInfo::new(name, material));
+            }
+        }
+        self.statements.push(Statement::UseMtl(args));
+        Ok(())
+    }
+
+    /// An `mtllib` statement: each library it names (relative to `dir`, [`find_beside`]) is
+    /// kept once, with the line that first names it; a missing one is a warning.
+    fn add_libraries(
+        &mut self,
+        args: &str,
+        dir: &Path,
+        path: &Path,
+        line: usize,
+        report: &mut LoadReport,
+    ) -> Result<(), SceneError> {
+        if args.is_empty() {
+            return Err(obj_err(path, line, "mtllib needs a file name"));
+        }
+        // One name with spaces, or several names.
+        let files: Vec<&str> = if find_beside(dir, args).is_some() {
+            vec![args]
+        } else {
+            args.split_whitespace().collect()
+        };
+        for f in files {
+            let Some(mtl) = find_beside(dir, f) else {
+                report.warn(
+                    WarningKind::MissingMaterialLibrary,
+                    path,
+                    Some(line),
+                    format!(
+                        "material library '{}' not found: its materials are grey",
+                        dir.join(f).display()
+                    ),
+                );
+                continue;
+            };
+            if !self.libraries.iter().any(|(p, _)| *p == mtl) {
+                self.libraries.push((mtl, line));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Writes the normalised OBJ text `tobj` reads: `mtllib 0` to `mtllib {libraries - 1}` first
+/// (so every `usemtl` finds its library loaded), then the `vt 0 0` and `vn 0 0 0` that corners
+/// without them refer to in parts that have them, then every kept statement, faces with
+/// absolute 1-based indices.
+pub(super) fn normalised_obj(obj: &ObjPass, libraries: usize) -> String {
+    let mut out = String::new();
+    for k in 0..libraries {
+        writeln!(out, "mtllib {k}").expect("writing to a String");
+    }
+    let need_vt = obj.parts.iter().any(|p| p.any_vt && p.corner_without_vt);
+    let need_vn = obj.parts.iter().any(|p| p.any_vn && p.corner_without_vn);
+    if need_vt {
+        out.push_str("vt 0 0\n");
+    }
+    if need_vn {
+        out.push_str("vn 0 0 0\n");
+    }
+    // 1-based index of a texture coordinate or normal: after the placeholder when there is one.
+    let (vt_base, vn_base) = (1 + need_vt as u32, 1 + need_vn as u32);
+    for s in &obj.statements {
+        let w = match s {
+            Statement::Position([x, y, z]) => writeln!(out, "v {x} {y} {z}"),
+            Statement::Texcoord([u, v]) => writeln!(out, "vt {u} {v}"),
+            Statement::Normal([x, y, z]) => writeln!(out, "vn {x} {y} {z}"),
+            Statement::Name(key, name) => writeln!(out, "{key} {name}"),
+            Statement::UseMtl(name) => writeln!(out, "usemtl {name}"),
+            Statement::Face { corners, part } => {
+                let info = &obj.parts[*part];
+                out.push('f');
+                for &(v, vt, vn) in corners {
+                    write!(out, " {}", v + 1).expect("writing to a String");
+                    let vt = vt.map(|t| t + vt_base).or(info.any_vt.then_some(1));
+                    let vn = vn.map(|n| n + vn_base).or(info.any_vn.then_some(1));
+                    match (vt, vn) {
+                        (None, None) => {}
+                        (Some(t), None) => write!(out, "/{t}").expect("writing to a String"),
+                        (None, Some(n)) => write!(out, "//{n}").expect("writing to a String"),
+                        (Some(t), Some(n)) => write!(out, "/{t}/{n}").expect("writing to a String"),
+                    }
+                }
+                out.push('\n');
+                Ok(())
+            }
+        };
+        w.expect("writing to a String");
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::obj::{load_options, parse_obj_str};
+    use glam::Vec2;
+
+    /// What tobj is given: plain statements, absolute indices, placeholders first for corners
+    /// without `vt` in a textured part; nothing of `l`, `p`, `s`, comments, tabs or a BOM.
+    #[test]
+    fn normalised_obj_is_plain() {
+        let raw = b"\xEF\xBB\xBFv\t0 0 0 1 # caf\xE9\r\nv 1 0 0 0.5 0.5 0.5\r\nv 0 1 0\nvt 0.5\n\
+                    s off\nl 1 2\np 1\nf 1 2\no\t a\tb \nf -3/-1 -2 -1\ng\nf 1 2 3\n";
+        let mut report = LoadReport::default();
+        let obj = validate_obj(raw, Path::new("n.obj"), &mut report).unwrap();
+        assert_eq!(
+            normalised_obj(&obj, 1),
+            "mtllib 0\nvt 0 0\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0.5 0\no a\tb\n\
+             f 1/2 2/1 3/1\ng \nf 1 2 3\n"
+        );
+        assert_eq!(obj.face_lines, vec![10, 12]);
+        // Negative: without the placeholder, tobj drops the part's texture coordinates.
+        let partial = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0.5 0\nf 1/1 2 3\n";
+        let (models, _) = tobj::load_obj_buf(&mut partial.as_bytes(), &load_options(), |_| {
+            Err(tobj::LoadError::OpenFileFailed)
+        })
+        .unwrap();
+        assert_ne!(models[0].mesh.texcoords.len(), 2 * 3);
+        let (parts, _) = parse_obj_str(partial, Path::new("p.obj")).unwrap();
+        assert_eq!(
+            parts[0].uvs,
+            vec![Vec2::new(0.5, 0.0), Vec2::ZERO, Vec2::ZERO]
+        );
+    }
+}
