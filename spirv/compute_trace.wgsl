@@ -125,6 +125,8 @@ struct RayState {
     bary: vec3<f32>,
     descents: u32,
     backtracks: u32,
+    // Texels whose list the current trace walked (`classify_bounded_pick`'s budget).
+    walks: u32,
 }
 
 fn hier_top() -> u32 {
@@ -348,6 +350,7 @@ fn start_trace(st: ptr<function, RayState>) {
     (*st).trace_done = false;
     (*st).need_mask = false;
     (*st).result.counters = Counters(0u, 0u);
+    (*st).walks = 0u;
     (*st).descents = 0u;
     (*st).backtracks = 0u;
 }
@@ -385,10 +388,12 @@ fn handoff(st: ptr<function, RayState>, bounded: bool) {
         (*st).t_done = t_b;
         (*st).progress = true;
     }
+    // A bounded trace that spent its walk budget ends the ray at its behind (`bounded_spent`).
+    let spent = bounded && r.status == ONE_BEHIND && bounded_spent((*st).walks);
     (*st).k += 1u;
-    if (*st).k >= trace_config.cmo_count {
+    if (*st).k >= trace_config.cmo_count || spent {
         (*st).round += 1u;
-        if !(*st).progress || (*st).round >= MAX_ROUNDS {
+        if !(*st).progress || (*st).round >= MAX_ROUNDS || spent {
             let o = (*st).origin;
             let d = (*st).dir;
             let t = (*st).t_done;
@@ -454,7 +459,10 @@ fn advance(st: ptr<function, RayState>, pick: u32, bounded: bool) {
         let iv = cell_interval((*st).la, (*st).ld, cell_rect_texel(face, cx, cy, trace_config.size), range.x, range.y);
         var o: Outcome;
         if bounded {
-            let b = classify_bounded_pick((*st).k, (*st).seg, tex, iv);
+            // Through a local: naga 30 cannot pass a pointer to a field behind a pointer.
+            var walks = (*st).walks;
+            let b = classify_bounded_pick((*st).k, (*st).seg, tex, iv, &walks);
+            (*st).walks = walks;
             o = b.o;
             (*st).triangle = b.pick.triangle;
             (*st).bary = b.pick.bary;

@@ -12,7 +12,7 @@ use common::{finish_gpu, gpu_context};
 use cubetrace::Method;
 use cubetrace::camera::Camera;
 use cubetrace::cpu::CmoTracer;
-use cubetrace::cpu::bounded::NO_TRIANGLE;
+use cubetrace::cpu::bounded::{NO_TRIANGLE, WALK_BUDGET};
 use cubetrace::cpu::multi::{
     MultiResult, MultiStatus, Traversal, WorldRay, trace_one, trace_world_ray,
 };
@@ -434,6 +434,40 @@ fn gpu_paths_match_the_cpu_twin() {
     finish_gpu(ctx);
 }
 
+/// The walk budget: on the teapot capturing itself (its CMO inside it sees its inside, so a
+/// ray leaving the surface runs behind it and walks a list at every texel), rays that walk more
+/// than [`WALK_BUDGET`] lists end unresolved at the next one's entry, on both GPU paths as on
+/// the twin, bit for bit. Negative: the twin without the budget differs on those rays.
+#[test]
+fn the_walk_budget_ends_rays_as_the_twin_does() {
+    let ctx = gpu_context();
+    let mut s = scene("teapot", Some(SelfReflections::On));
+    s.cmo.resolution = 64;
+    let lists = scene_lists(&s, DEPTH);
+    let twin = Twin::new(&s, &lists);
+    let mut unlimited = Twin::new(&s, &lists);
+    for tr in &mut unlimited.cmos {
+        tr.bounded.as_mut().unwrap().walk_budget = u32::MAX;
+    }
+    for method in [Method::Fragment, Method::Compute] {
+        let (f, from) = render_from(&ctx, &s, method, &lists);
+        let (bad, compared) = twin.differences(&f, &from, true);
+        let spent = (0..f.records.len())
+            .filter(|&k| f.mask[k] != 0 && f.records[k].status == RECORD_UNRESOLVED)
+            .count();
+        let (off, _) = unlimited.differences(&f, &from, true);
+        eprintln!(
+            "{method}: {spent} of {compared} rays unresolved; {bad} differ from the twin, {off} from the twin without the budget"
+        );
+        assert_eq!(bad, 0, "{method}: GPU and CPU twin differ");
+        assert!(
+            off > compared / 20 && off <= spent,
+            "{method}: the budget ended {off} rays ({spent} unresolved)"
+        );
+    }
+    finish_gpu(ctx);
+}
+
 /// Whether each triangle is in the lists (what the CMOs capture).
 fn captured(scene: &Scene) -> Vec<bool> {
     let world = scene.world();
@@ -619,7 +653,8 @@ fn hits_are_first_and_a_dropped_triangle_shows() {
 /// triangle the mirror rays do not meet, shared in one chain), so each texel crossed reads all
 /// of them and long rays reach the
 /// cap; they end unresolved with `cut` = 1, and no record claims a hit or an escape it did not
-/// finish. Negative: with 8 entries per texel no ray reaches it, and every ray escapes.
+/// finish. Negative: with 8 entries per texel no ray reaches it: every ray escapes, or ends
+/// unresolved at the walk budget.
 #[test]
 fn the_fragment_march_stops_at_its_back_edge_cap() {
     const CAP_SIZE: u32 = 128;
@@ -671,11 +706,22 @@ fn the_fragment_march_stops_at_its_back_edge_cap() {
         "a cut ray was decided"
     );
     let (g, _) = render_packed(&ctx, &s, Method::Fragment, &chain(8));
-    let escaped = (0..g.records.len())
+    let mirror: Vec<&PixelRecord> = (0..g.records.len())
         .filter(|&k| g.mask[k] != 0)
-        .filter(|&k| g.records[k].cut == 0 && g.records[k].status == RECORD_ESCAPED)
+        .map(|k| &g.records[k])
+        .collect();
+    // Every texel walks its list here (lo 0), so a ray crossing more than the walk budget's
+    // texels ends unresolved there (for the fallback), not cut.
+    let escaped = mirror.iter().filter(|r| r.status == RECORD_ESCAPED).count();
+    let spent = mirror
+        .iter()
+        .filter(|r| r.status == RECORD_UNRESOLVED && r.texels > WALK_BUDGET)
         .count();
-    eprintln!("8 entries per texel: {escaped} of {mirror_pixels} rays escaped, none cut");
-    assert_eq!(escaped, mirror_pixels);
+    eprintln!(
+        "8 entries per texel: {escaped} of {mirror_pixels} rays escaped, {spent} spent the walk budget"
+    );
+    assert!(mirror.iter().all(|r| r.cut == 0), "a ray was cut");
+    assert!(escaped > 0 && spent > 0);
+    assert_eq!(escaped + spent, mirror_pixels);
     finish_gpu(ctx);
 }

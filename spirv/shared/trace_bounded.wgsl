@@ -62,6 +62,16 @@ const BOUNDED_NO_NODE: u32 = 0xffffffffu;
 // with more is unknown, behind at its entry (sound; the CPU twin reads them all).
 const BOUNDED_MAX_ENTRIES: u32 = 1024u;
 
+// Texels whose list one single-CMO trace may walk (`walks` of `classify_bounded_pick`;
+// `cpu::bounded::WALK_BUDGET`, whose docs say why): the next one is behind at its entry and
+// the ray ends there unresolved, for the exact fallback (`bounded_spent`).
+const BOUNDED_WALK_BUDGET: u32 = 64u;
+
+// Whether a single-CMO trace that walked `walks` lists spent the budget: its behind ends the ray.
+fn bounded_spent(walks: u32) -> bool {
+    return walks > BOUNDED_WALK_BUDGET;
+}
+
 // Back-edges a ray may take before `trace_ray_bounded` stops it (below lavapipe's 65535).
 const BOUNDED_MAX_EDGES: u32 = 60000u;
 // Back-edges of one single-CMO trace outside the texel walk: `faces_crossed` (78 per piece),
@@ -118,7 +128,7 @@ fn bounded_root(seg: Segment, r: f32) -> f32 {
 }
 
 // `cpu::bounded::classify_bounded` of `texel` of CMO k crossed over `iv` (module docs).
-fn classify_bounded_pick(k: u32, seg: Segment, texel: Texel, iv: Interval) -> BoundedOutcome {
+fn classify_bounded_pick(k: u32, seg: Segment, texel: Texel, iv: Interval, walks: ptr<function, u32>) -> BoundedOutcome {
     let none = BoundedOutcome(Outcome(0u, 0.0, false), bounded_no_pick(), 0u);
     if !crosses(iv) {
         return none;
@@ -146,6 +156,11 @@ fn classify_bounded_pick(k: u32, seg: Segment, texel: Texel, iv: Interval) -> Bo
     // More entries than the loop reads: the texel is unknown (as `complete_to` = 0).
     let count = cmo_list_count[i];
     if count > BOUNDED_MAX_ENTRIES {
+        return behind_t0;
+    }
+    // The walk budget: past it, behind at the texel's entry (the ray is proven empty up to it).
+    *walks += 1u;
+    if bounded_spent(*walks) {
         return behind_t0;
     }
     let centre = cmo_centres[k].xyz;
@@ -191,11 +206,13 @@ fn bounded_point(origin: vec3<f32>, dir: vec3<f32>, t: f32) -> vec3<f32> {
     return vec3<f32>(origin.x + prod(dir.x, t), origin.y + prod(dir.y, t), origin.z + prod(dir.z, t));
 }
 
-// A single-CMO trace with the pick of its deciding texel; `cut`: stopped at the back-edge cap.
+// A single-CMO trace with the pick of its deciding texel; `cut`: stopped at the back-edge cap;
+// `spent`: behind because the walk budget ran out (`bounded_spent`).
 struct BoundedResult {
     r: TraceResult,
     pick: BoundedPick,
     cut: bool,
+    spent: bool,
 }
 
 // The pyramid march (shared/trace.wgsl's `trace_mip`, its stepper `mip_turn`) with the bounded
@@ -204,6 +221,7 @@ struct BoundedResult {
 fn trace_mip_bounded(k: u32, seg: Segment, cut: f32, edges: ptr<function, u32>) -> BoundedResult {
     let n = trace_config.size;
     var c = Counters(0u, 0u);
+    var walks = 0u;
     *edges += BOUNDED_TRACE_EDGES;
     let pieces = split_near_centre(seg, cut);
     let reach = seg_reach(seg.a, seg.d);
@@ -224,14 +242,14 @@ fn trace_mip_bounded(k: u32, seg: Segment, cut: f32, edges: ptr<function, u32>) 
                 var b = BoundedOutcome(Outcome(0u, 0.0, false), bounded_no_pick(), 0u);
                 if turn == MIP_TEXEL {
                     c.texels += 1u;
-                    b = classify_bounded_pick(k, seg, m.cur.tex, m.cur.iv);
+                    b = classify_bounded_pick(k, seg, m.cur.tex, m.cur.iv, &walks);
                 }
                 *edges += 1u + (c.cells - cells) + b.read;
                 if *edges > BOUNDED_MAX_EDGES {
-                    return BoundedResult(finish(seg, m.cur.tex, b.o, c), bounded_no_pick(), true);
+                    return BoundedResult(finish(seg, m.cur.tex, b.o, c), bounded_no_pick(), true, false);
                 }
                 if b.o.kind != 0u {
-                    return BoundedResult(finish(seg, m.cur.tex, b.o, c), b.pick, false);
+                    return BoundedResult(finish(seg, m.cur.tex, b.o, c), b.pick, false, bounded_spent(walks));
                 }
                 if turn == MIP_TEXEL {
                     mip_passed(&m);
@@ -239,7 +257,7 @@ fn trace_mip_bounded(k: u32, seg: Segment, cut: f32, edges: ptr<function, u32>) 
             }
         }
     }
-    return BoundedResult(escaped(seg, c), bounded_no_pick(), false);
+    return BoundedResult(escaped(seg, c), bounded_no_pick(), false, false);
 }
 
 // `trace_ray_bounded`'s result: `cut` where it stopped at the back-edge cap (then unresolved).
@@ -258,6 +276,7 @@ fn trace_ray_bounded(origin: vec3<f32>, dir: vec3<f32>, t_lo: f32, t_hi: f32, fr
     var traces = 0u;
     var edges = 0u;
     var cut = false;
+    var spent = false;
     var last = TraceResult(ONE_ESCAPED, 0.0, Texel(0u, 0u, 0u), false, vec3<f32>(0.0), Counters(0u, 0u));
     for (var round = 0u; round < MAX_ROUNDS; round++) {
         var progress = false;
@@ -284,8 +303,12 @@ fn trace_ray_bounded(origin: vec3<f32>, dir: vec3<f32>, t_lo: f32, t_hi: f32, fr
                 t_done = r.t;
                 progress = true;
             }
+            if b.spent {
+                spent = true;
+                break;
+            }
         }
-        if !progress || cut {
+        if !progress || cut || spent {
             break;
         }
     }

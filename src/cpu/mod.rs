@@ -223,6 +223,9 @@ pub struct Counters {
     pub backtracks: u32,
     /// Candidate triangles intersected (the `bounded` criterion, [`bounded`]).
     pub triangles: u32,
+    /// Texels whose candidate list the `bounded` criterion walked (its budget,
+    /// [`bounded::WALK_BUDGET`]).
+    pub walks: u32,
 }
 
 /// What one ray found in one CMO.
@@ -331,7 +334,7 @@ impl CmoTracer {
         let mut cube = CubeMap::new(lists.size, centre);
         cube.distance.clone_from(&lists.lo);
         let mut tr = CmoTracer::new(cube, params);
-        tr.bounded = Some(Box::new(bounded::Bounded { lists, corners }));
+        tr.bounded = Some(Box::new(bounded::Bounded::new(lists, corners)));
         tr
     }
 }
@@ -506,7 +509,7 @@ pub fn classify(
     counters: &mut Counters,
 ) -> Option<Outcome> {
     if let Some(b) = &tr.bounded {
-        return bounded::classify_bounded(tr, b, seg, texel, iv, &mut counters.triangles);
+        return bounded::classify_bounded(tr, b, seg, texel, iv, counters);
     }
     let d = tr.cube.distance_at(texel);
     if !texel_not_in_front(seg, iv, d) {

@@ -185,7 +185,7 @@ pub fn trace_world_ray(
     let mut t_done = t_lo;
     let mut traces = 0;
     let mut last = TraceResult::default();
-    for _round in 0..MAX_ROUNDS {
+    'rounds: for _round in 0..MAX_ROUNDS {
         let mut progress = false;
         for (k, tr) in cmos.iter().enumerate() {
             let seg = Segment {
@@ -246,6 +246,13 @@ pub fn trace_world_ray(
                     if r.t > t_done {
                         t_done = r.t;
                         progress = true;
+                    }
+                    if tr
+                        .bounded
+                        .as_ref()
+                        .is_some_and(|b| b.spent(r.counters.walks))
+                    {
+                        break 'rounds;
                     }
                 }
             }
