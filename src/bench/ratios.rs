@@ -79,15 +79,10 @@ impl SceneRatios {
 mod tests {
     use super::*;
     use crate::bench::results::FloorRun;
-    use crate::bench::stats::{Counters, Stats};
-    use crate::metrics::ErrorReport;
+    use crate::bench::stats::Stats;
 
     fn run(scene: &str, kind: Method, ns: f64, rays: usize, floor: Option<f64>) -> RunResult {
         RunResult {
-            scene: scene.into(),
-            method: MethodSpec::plain(kind).label(),
-            kind,
-            params: String::new(),
             width: 160,
             height: 120,
             cube_size: 256,
@@ -96,17 +91,11 @@ mod tests {
             mirror_pixels: rays,
             rays,
             frames: 1,
-            passes: Vec::new(),
             trace_ns: Stats {
                 median: ns,
                 min: ns,
                 max: ns,
             },
-            total_ns: Stats::default(),
-            fallback_share: 0.0,
-            fallback_ns: Stats::default(),
-            checked_share: 0.0,
-            check_ns: Stats::default(),
             trace_ns_per_mirror_px: ns / rays as f64,
             ns_per_ray: ns / rays as f64,
             floor: floor.map(|ratio| FloorRun {
@@ -116,13 +105,7 @@ mod tests {
                 trace_ns: Stats::default(),
                 ratio,
             }),
-            counters: Counters::default(),
-            cmo_bytes: 0,
-            error: ErrorReport::default(),
-            wrong_off_reflector: 0.0,
-            flip_mean: None,
-            heatmap: None,
-            placement_ms: None,
+            ..RunResult::unmeasured(scene, MethodSpec::plain(kind).label(), kind)
         }
     }
 

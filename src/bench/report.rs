@@ -492,16 +492,12 @@ pub fn write(report: &BenchReport, dir: &Path) -> Result<Vec<PathBuf>> {
 
 #[cfg(test)]
 mod tests {
-    use super::super::{Counters, DeviceInfo, Stats};
+    use super::super::{DeviceInfo, Stats};
     use super::*;
     use crate::metrics::ErrorReport;
 
     fn run(scene: &str, error: ErrorReport) -> RunResult {
         RunResult {
-            scene: scene.into(),
-            method: "envmap".into(),
-            kind: Method::Envmap,
-            params: String::new(),
             width: 10,
             height: 10,
             cube_size: 8,
@@ -510,23 +506,8 @@ mod tests {
             mirror_pixels: 100,
             rays: 100,
             frames: 1,
-            passes: Vec::new(),
-            trace_ns: Stats::default(),
-            total_ns: Stats::default(),
-            fallback_share: 0.0,
-            fallback_ns: Stats::default(),
-            checked_share: 0.0,
-            check_ns: Stats::default(),
-            trace_ns_per_mirror_px: 0.0,
-            ns_per_ray: 0.0,
-            floor: None,
-            counters: Counters::default(),
-            cmo_bytes: 0,
             error,
-            wrong_off_reflector: 0.0,
-            flip_mean: None,
-            heatmap: None,
-            placement_ms: None,
+            ..RunResult::unmeasured(scene, "envmap".into(), Method::Envmap)
         }
     }
 

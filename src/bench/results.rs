@@ -70,6 +70,44 @@ pub struct RunResult {
     pub placement_ms: Option<f64>,
 }
 
+impl RunResult {
+    /// A run of `method` (labelled `label`) on `scene` with nothing measured: sizes, counts,
+    /// times and errors zero, no floor, heat map or placement time.
+    pub fn unmeasured(scene: &str, label: String, kind: Method) -> RunResult {
+        RunResult {
+            scene: scene.into(),
+            method: label,
+            kind,
+            params: String::new(),
+            width: 0,
+            height: 0,
+            cube_size: 0,
+            cmos: 0,
+            triangles: 0,
+            mirror_pixels: 0,
+            rays: 0,
+            frames: 0,
+            passes: Vec::new(),
+            trace_ns: Stats::default(),
+            total_ns: Stats::default(),
+            fallback_share: 0.0,
+            fallback_ns: Stats::default(),
+            checked_share: 0.0,
+            check_ns: Stats::default(),
+            trace_ns_per_mirror_px: 0.0,
+            ns_per_ray: 0.0,
+            floor: None,
+            counters: Counters::default(),
+            cmo_bytes: 0,
+            error: ErrorReport::default(),
+            wrong_off_reflector: 0.0,
+            flip_mean: None,
+            heatmap: None,
+            placement_ms: None,
+        }
+    }
+}
+
 /// The tracing pass of a method at a small frame
 /// ([`BenchConfig::floor`](super::BenchConfig::floor)).
 #[derive(Clone, Copy, Debug, Serialize)]

@@ -177,9 +177,6 @@ impl<'a> SceneRuns<'a> {
     /// The figures of a run that do not depend on its frames (the rest zero).
     fn base(&self, cfg: &BenchConfig, spec: &MethodSpec) -> RunResult {
         RunResult {
-            scene: self.scene.name.clone(),
-            method: spec.label(),
-            kind: spec.kind,
             params: if spec.kind.traces_cubemaps() {
                 let t = &spec.trace;
                 format!(
@@ -199,25 +196,8 @@ impl<'a> SceneRuns<'a> {
             cmos: self.centres.len() as u32,
             triangles: self.triangles,
             mirror_pixels: self.mirror,
-            rays: 0,
             frames: cfg.frames.max(1),
-            passes: Vec::new(),
-            trace_ns: Stats::default(),
-            total_ns: Stats::default(),
-            fallback_share: 0.0,
-            fallback_ns: Stats::default(),
-            checked_share: 0.0,
-            check_ns: Stats::default(),
-            trace_ns_per_mirror_px: 0.0,
-            ns_per_ray: 0.0,
-            floor: None,
-            counters: Counters::default(),
-            cmo_bytes: 0,
-            error: ErrorReport::default(),
-            wrong_off_reflector: 0.0,
-            flip_mean: None,
-            heatmap: None,
-            placement_ms: None,
+            ..RunResult::unmeasured(&self.scene.name, spec.label(), spec.kind)
         }
     }
 
