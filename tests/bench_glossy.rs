@@ -16,6 +16,7 @@
 //! The "cheapest bvh row of at least the same cost" and the interpolation in log spp are unit
 //! tests of `bench::glossy` (hand-made ladders).
 mod common;
+use common::bits::vec3_bits as bits;
 use common::render_args;
 use common::{finish_gpu, finish_renderer, gpu_context};
 
@@ -68,12 +69,6 @@ fn glossy_scene(name: &str, power: f32) -> (Scene, cubetrace::camera::Camera) {
         cubetrace::bench::prepare_scene(name, WIDTH, HEIGHT, Some(32), None).unwrap();
     s.make_reflectors_glossy(power);
     (s, cam)
-}
-
-fn bits(c: &[glam::Vec3]) -> Vec<u32> {
-    c.iter()
-        .flat_map(|v| v.to_array().map(f32::to_bits))
-        .collect()
 }
 
 /// The bench's reference is `reference --spp N`'s frame and a rung of its ladder is

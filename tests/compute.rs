@@ -12,6 +12,7 @@
 //! Every comparison has a negative test. Runs under the validation layer when installed and
 //! fails on any validation error.
 mod common;
+use common::bits::cell_bits;
 use common::{finish_gpu, gpu_context};
 
 use std::cell::Cell;
@@ -179,13 +180,6 @@ fn hier_cube(size: u32, seed: u64, inf_face: Option<u32>) -> CubeMap {
         (d, [0.0; 4])
     });
     c
-}
-
-fn cell_bits(cells: &[[f32; 2]]) -> Vec<[u32; 2]> {
-    cells
-        .iter()
-        .map(|c| [c[0].to_bits(), c[1].to_bits()])
-        .collect()
 }
 
 #[test]

@@ -10,6 +10,7 @@
 //!   in the same `FrameRenderer` equals that frame rendered alone and reuses the capture; a moved
 //!   mesh captures again (tests/sequence_inplace.rs checks the in-place geometry update).
 mod common;
+use common::bits::{frame_bits, vec3_bits};
 use common::render_args as args;
 use common::{finish_gpu, finish_renderer, gpu_context};
 
@@ -38,16 +39,7 @@ fn scene_and_camera(name: &str) -> (Scene, Camera) {
 /// Everything of a frame the outputs read, as bits: colour, mask, primary positions, and the
 /// records of mirror pixels (no pass writes the others).
 fn bits(f: &GpuFrame) -> Vec<u32> {
-    let mut out = Vec::new();
-    for k in 0..f.colour.len() {
-        out.extend(f.colour[k].to_array().map(f32::to_bits));
-        out.push(u32::from(f.mask[k]));
-        out.extend(f.surface_position[k].to_array().map(f32::to_bits));
-        if f.mask[k] != 0 {
-            out.extend_from_slice(bytemuck::cast_slice(&[f.records[k]]));
-        }
-    }
-    out
+    frame_bits(f, true)
 }
 
 fn fresh(ctx: &GpuContext, scene: &Scene, camera: &Camera, method: Method) -> GpuFrame {
@@ -160,14 +152,9 @@ fn reference_box_filter_is_the_mean_of_jittered_renders() {
     };
     let (f1, _) = frame_renderer::reference_frame(&scene, &tracer, &camera, 1, one, false);
     let plain = reference::render(&scene, &tracer, &camera, 1);
-    let b = |v: &[Vec3]| {
-        v.iter()
-            .flat_map(|c| c.to_array().map(f32::to_bits))
-            .collect::<Vec<_>>()
-    };
     assert_eq!(
-        b(&f1.colour),
-        b(&plain.colour),
+        vec3_bits(&f1.colour),
+        vec3_bits(&plain.colour),
         "spp 1 is the frame without samples"
     );
     assert_eq!(f1.mask, plain.mask);
@@ -210,10 +197,7 @@ fn reference_box_filter_is_the_mean_of_jittered_renders() {
 }
 
 fn colour_bits(f: &RenderedFrame) -> Vec<u32> {
-    f.colour()
-        .iter()
-        .flat_map(|c| c.to_array().map(f32::to_bits))
-        .collect()
+    vec3_bits(f.colour())
 }
 
 /// The GPU film (compute, 4 samples, box) through `FrameRenderer`: the mean of fresh renders

@@ -15,8 +15,9 @@
 //! - `bvh` draws the reference's directions (same hits at one sample) and its frame converges to
 //!   the converged reference; a wrong exponent (4x) does not.
 mod common;
+use common::bits::{frame_bits, vec3_bits};
 use common::render_args as args;
-use common::{finish_gpu, gpu_context};
+use common::{finish_gpu, gpu_context, psnr};
 
 use cubetrace::Method;
 use cubetrace::app::frame_renderer::{self, FrameRenderer};
@@ -65,29 +66,9 @@ fn with_power(scene: &Scene, power: Option<f32>) -> Scene {
     s
 }
 
-/// Everything of a GPU frame the outputs read, as bits (colour, mask, primary positions, the
-/// mirror pixels' records).
-fn gpu_bits(f: &GpuFrame) -> Vec<u32> {
-    let mut out = Vec::new();
-    for k in 0..f.colour.len() {
-        out.extend(f.colour[k].to_array().map(f32::to_bits));
-        out.push(u32::from(f.mask[k]));
-        out.extend(f.surface_position[k].to_array().map(f32::to_bits));
-        if f.mask[k] != 0 {
-            out.extend_from_slice(bytemuck::cast_slice(&[f.records[k]]));
-        }
-    }
-    out
-}
-
 fn reference_bits(f: &reference::Frame) -> Vec<u32> {
-    let v3 = |v: &[Vec3]| -> Vec<u32> {
-        v.iter()
-            .flat_map(|c| c.to_array().map(f32::to_bits))
-            .collect()
-    };
-    let mut out = v3(&f.colour);
-    out.extend(v3(&f.hit_position));
+    let mut out = vec3_bits(&f.colour);
+    out.extend(vec3_bits(&f.hit_position));
     out.extend(&f.triangle);
     out.extend(f.mask.iter().map(|&m| u32::from(m)));
     out
@@ -117,14 +98,6 @@ fn reference_at(scene: &Scene, tracer: &Tracer, camera: &Camera, spp: u32) -> re
     frame_renderer::reference_frame(scene, tracer, camera, 1, film, false).0
 }
 
-/// PSNR (dB) of `got` against `truth` over the pixels of `mask`, linear RGB clamped to [0, 1]
-/// (`bench::glossy::psnr_over`), over more than 50 pixels.
-fn psnr(got: &[Vec3], truth: &[Vec3], mask: &[u8]) -> f64 {
-    let n = mask.iter().filter(|&&m| m != 0).count();
-    assert!(n > 50, "{n} mirror pixels");
-    cubetrace::bench::glossy::psnr_over(got, truth, mask)
-}
-
 /// At and above the cap every method renders the mirror's frame, bit for bit; the reference too.
 /// Negative: power 64 changes the reference's, `bvh`'s and the cone-traced `fragment` and
 /// `compute` frames. The other methods render the glossy scene exactly as the mirror (they trace
@@ -145,10 +118,10 @@ fn mirror_cap_is_the_mirrors_frame_for_every_method() {
 
     let ctx = gpu_context();
     for method in Method::ALL.into_iter().filter(|m| m.is_gpu()) {
-        let mirror_bits = gpu_bits(&gpu_frame(&mirror, &cam, method, &ctx));
-        let at_cap = gpu_bits(&gpu_frame(&capped, &cam, method, &ctx));
+        let mirror_bits = frame_bits(&gpu_frame(&mirror, &cam, method, &ctx), true);
+        let at_cap = frame_bits(&gpu_frame(&capped, &cam, method, &ctx), true);
         assert!(mirror_bits == at_cap, "{method}: the cap changed the frame");
-        let on_glossy = gpu_bits(&gpu_frame(&glossy, &cam, method, &ctx));
+        let on_glossy = frame_bits(&gpu_frame(&glossy, &cam, method, &ctx), true);
         let warning = glossy::method_warning(&glossy, method, 1);
         assert_eq!(glossy::method_warning(&mirror, method, 1), None, "{method}");
         if matches!(method, Method::Fragment | Method::Compute) {

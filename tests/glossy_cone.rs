@@ -4,7 +4,8 @@
 //! has a negative. Needs a Vulkan driver (lavapipe is enough); runs under the validation layer
 //! when `CUBETRACE_VALIDATION=1` and fails on any validation error.
 mod common;
-use common::{finish_gpu, gpu_context};
+use common::bits::compare_cells;
+use common::{finish_gpu, gpu_context, psnr};
 
 use cubetrace::check_layout;
 use cubetrace::cpu::cone::{
@@ -40,21 +41,6 @@ fn colour_cube(size: u32, seed: u64) -> CubeMap {
         (1.0, [ch(), ch(), ch(), 1.0])
     });
     c
-}
-
-fn bits(cells: &[[f32; 4]]) -> Vec<[u32; 4]> {
-    cells.iter().map(|c| c.map(f32::to_bits)).collect()
-}
-
-/// `Err` with the first differing cell when `gpu` and `cpu` differ in any bit.
-fn compare_bits(gpu: &[[f32; 4]], cpu: &[[f32; 4]]) -> Result<(), String> {
-    if gpu.len() != cpu.len() {
-        return Err(format!("length: GPU {}, CPU {}", gpu.len(), cpu.len()));
-    }
-    match bits(gpu).iter().zip(bits(cpu)).position(|(g, c)| *g != c) {
-        None => Ok(()),
-        Some(i) => Err(format!("cell {i}: GPU {:?}, CPU {:?}", gpu[i], cpu[i])),
-    }
 }
 
 #[test]
@@ -108,15 +94,15 @@ fn gpu_prefilter_equals_cpu_bit_for_bit() {
         for (k, (g, cube)) in gpu.iter().zip(&cubes).enumerate() {
             let cpu = cone_prefilter(cube, BACKGROUND);
             assert_eq!(cpu.len(), mip_len(size));
-            compare_bits(g, &cpu).unwrap_or_else(|e| panic!("N = {size}, CMO {k}: {e}"));
+            compare_cells(g, &cpu).unwrap_or_else(|e| panic!("N = {size}, CMO {k}: {e}"));
         }
         // Negatives: a texel brightened, an empty texel read as black instead of the
         // background, each in the last CMO.
         let mut brighter = cubes[1].clone();
         brighter.colour[0][0] += 1.0;
-        compare_bits(&gpu[1], &cone_prefilter(&brighter, BACKGROUND))
+        compare_cells(&gpu[1], &cone_prefilter(&brighter, BACKGROUND))
             .expect_err("a changed texel must be detected");
-        compare_bits(&gpu[1], &cone_prefilter(&cubes[1], Vec3::ZERO))
+        compare_cells(&gpu[1], &cone_prefilter(&cubes[1], Vec3::ZERO))
             .expect_err("the background of empty texels must be detected");
     }
     finish_gpu(ctx);
@@ -459,14 +445,6 @@ use cubetrace::app::frame_renderer::{self, FrameRenderer};
 use cubetrace::cpu::options::{TraceCriterion, TraceOptions};
 use cubetrace::film::{FilmSettings, PixelFilter};
 use cubetrace::reference::{self, Tracer};
-
-/// PSNR (dB) of `got` against `truth` over the pixels of `mask`, linear RGB clamped to [0, 1]
-/// (`bench::glossy::psnr_over`), over more than 50 pixels.
-fn psnr(got: &[Vec3], truth: &[Vec3], mask: &[u8]) -> f64 {
-    let n = mask.iter().filter(|&&m| m != 0).count();
-    assert!(n > 50, "{n} mirror pixels");
-    cubetrace::bench::glossy::psnr_over(got, truth, mask)
-}
 
 /// The reference's box-filtered frame at `spp` samples, as `render --spp` makes it.
 fn reference_at(scene: &Scene, cam: &Camera, spp: u32) -> reference::Frame {

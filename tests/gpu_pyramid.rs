@@ -3,6 +3,7 @@
 //! conservativeness check of the GPU cells. Needs a Vulkan driver (lavapipe is enough); runs
 //! under the validation layer when installed and fails on any validation error.
 mod common;
+use common::bits::compare_cells;
 use common::{finish_gpu, gpu_context};
 
 use cubetrace::check_layout;
@@ -42,24 +43,6 @@ fn scenes(size: u32) -> Vec<Vec<CubeMap>> {
     let a = pyramid_cube(size, u64::from(size), None);
     let b = pyramid_cube(size, u64::from(size) + 1000, Some(size % 6));
     vec![vec![a.clone()], vec![a, b]]
-}
-
-fn bits(cells: &[[f32; 2]]) -> Vec<[u32; 2]> {
-    cells
-        .iter()
-        .map(|c| [c[0].to_bits(), c[1].to_bits()])
-        .collect()
-}
-
-/// `Err` with the first differing cell when `gpu` and `cpu` differ in any bit.
-fn compare_bits(gpu: &[[f32; 2]], cpu: &[[f32; 2]]) -> Result<(), String> {
-    if gpu.len() != cpu.len() {
-        return Err(format!("length: GPU {}, CPU {}", gpu.len(), cpu.len()));
-    }
-    match bits(gpu).iter().zip(bits(cpu)).position(|(g, c)| *g != c) {
-        None => Ok(()),
-        Some(i) => Err(format!("cell {i}: GPU {:?}, CPU {:?}", gpu[i], cpu[i])),
-    }
 }
 
 #[test]
@@ -112,7 +95,7 @@ fn gpu_pyramid_equals_cpu_bit_for_bit() {
             for (k, (g, cube)) in gpu.iter().zip(&cubes).enumerate() {
                 let cpu = MipPyramid::build(cube).flatten();
                 assert_eq!(cpu.len(), mip_len(size));
-                compare_bits(g, &cpu).unwrap_or_else(|e| panic!("N = {size}, CMO {k}: {e}"));
+                compare_cells(g, &cpu).unwrap_or_else(|e| panic!("N = {size}, CMO {k}: {e}"));
             }
         }
     }
@@ -136,10 +119,10 @@ fn comparison_detects_one_perturbed_texel() {
             .expect("a finite texel");
         perturbed.distance[i] = 0.25;
         let cpu = MipPyramid::build(&perturbed).flatten();
-        let err = compare_bits(&gpu[1], &cpu).expect_err("a perturbed texel must be detected");
+        let err = compare_cells(&gpu[1], &cpu).expect_err("a perturbed texel must be detected");
         assert!(err.contains("cell"), "{err}");
         // And the unperturbed CMO 0 still matches, so the failure is the perturbation's.
-        compare_bits(&gpu[0], &MipPyramid::build(&cubes[0]).flatten())
+        compare_cells(&gpu[0], &MipPyramid::build(&cubes[0]).flatten())
             .unwrap_or_else(|e| panic!("{e}"));
     }
     finish_gpu(ctx);
@@ -266,7 +249,7 @@ fn record_with_timestamps_and_refuse_small_buffers() {
     })
     .unwrap_or_else(|e| panic!("{e}"));
     let gpu: Vec<[f32; 2]> = ctx.read_buffer(&mip).unwrap_or_else(|e| panic!("{e}"));
-    compare_bits(&gpu, &MipPyramid::build(&cube).flatten()).unwrap_or_else(|e| panic!("{e}"));
+    compare_cells(&gpu, &MipPyramid::build(&cube).flatten()).unwrap_or_else(|e| panic!("{e}"));
     if let Some(t) = &timestamps {
         let times = t.results().unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(times.len(), 1);
@@ -316,7 +299,7 @@ fn multi_row_dispatch_equals_cpu() {
     .unwrap_or_else(|e| panic!("{e}"));
     let gpu: Vec<[f32; 2]> = ctx.read_buffer(&mip).unwrap_or_else(|e| panic!("{e}"));
     for (k, cube) in cubes.iter().enumerate() {
-        compare_bits(
+        compare_cells(
             &gpu[k * len..(k + 1) * len],
             &MipPyramid::build(cube).flatten(),
         )

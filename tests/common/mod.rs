@@ -1,10 +1,13 @@
 //! Shared by the test suites: a GPU context under the validation layer and the check that it
-//! reported nothing; closed-form intersections for synthetic scenes ([`analytic`]).
+//! reported nothing; closed-form intersections for synthetic scenes ([`analytic`]); values as
+//! bits for bit-for-bit comparisons ([`bits`]); one GPU frame of a scene ([`render`]).
 // Each test crate compiles this module and uses only part of it.
 #![allow(dead_code)]
 
 pub mod analytic;
+pub mod bits;
 pub mod hit_probe;
+pub mod render;
 pub mod selftest;
 pub mod trace_probe;
 
@@ -163,6 +166,14 @@ pub fn corpus_scene(name: &str) -> cubetrace::scene::Scene {
         .join(name)
         .join("scene.toml");
     cubetrace::scene::load_scene_file(&path).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+/// PSNR (dB) of `got` against `truth` over the pixels of `mask`, linear RGB clamped to [0, 1]
+/// (`bench::glossy::psnr_over`), over more than 50 pixels.
+pub fn psnr(got: &[Vec3], truth: &[Vec3], mask: &[u8]) -> f64 {
+    let n = mask.iter().filter(|&&m| m != 0).count();
+    assert!(n > 50, "{n} mirror pixels");
+    cubetrace::bench::glossy::psnr_over(got, truth, mask)
 }
 
 /// The glossy accuracy checks' predicate: the cone frame's PSNR `cone` is more than `min_gain`
