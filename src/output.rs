@@ -260,6 +260,7 @@ pub fn traced_channels(
 
 /// Writes a traced (GPU) frame of the scene whose geometry is `world` as PNG or EXR, chosen by
 /// the extension of `path` ([`traced_channels`]).
+#[cfg(any(test, feature = "test-hooks"))]
 pub fn write_traced(
     path: &Path,
     traced: &Traced,
@@ -282,6 +283,7 @@ pub fn write_traced(
 
 /// Writes a reference frame of the scene whose geometry is `world` as PNG or EXR, chosen by the
 /// extension of `path` ([`frame_channels`]).
+#[cfg(any(test, feature = "test-hooks"))]
 pub fn write_frame(path: &Path, frame: &Frame, world: &WorldGeometry) -> Result<()> {
     match Format::from_path(path)? {
         Format::Png => write_atomic(path, &png_bytes(frame.width, frame.height, &frame.colour)?),

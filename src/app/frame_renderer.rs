@@ -322,7 +322,7 @@ impl FrameRenderer {
 
     /// Makes in-place updates leave `stale` as it was: a wrong update, for the tests' negative
     /// only.
-    #[doc(hidden)]
+    #[cfg(feature = "test-hooks")]
     pub fn leave_stale(&mut self, stale: Option<StaleUpdate>) {
         self.stale = stale;
     }
@@ -449,10 +449,7 @@ impl FrameRenderer {
             } => {
                 if let (SceneChange::Placement, Some(r)) = (change, renderer.as_deref_mut()) {
                     let t = Instant::now();
-                    let refused = match self.stale {
-                        Some(stale) => r.update_geometry_leaving(ctx, scene, camera, stale),
-                        None => r.update_geometry(ctx, scene, camera),
-                    };
+                    let refused = r.update_geometry_with(ctx, scene, camera, self.stale);
                     // A failed update may have left the renderer half written: drop it.
                     let refused = refused.inspect_err(|_| *renderer = None)?;
                     let Some(why) = refused else {

@@ -142,12 +142,12 @@ pub const NEAR_BOX: f32 = 1024.0; // 2^10
 
 /// Rounding knobs: the sound capture, or every margin zero (the negative tests show that the
 /// latter misses triangles). Not a user setting.
-#[doc(hidden)]
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Margins {
+enum Margins {
     /// The derived margins (module docs).
     Sound,
     /// `E = 0`, no face dilation, no texel margin, no near-centre rule.
+    #[cfg(test)]
     Zero,
 }
 
@@ -358,8 +358,7 @@ pub fn face_rect(tri: &[Vec3; 3], centre: Vec3, face: u32, size: u32) -> Option<
     face_rect_with(tri, centre, face, size, Margins::Sound)
 }
 
-#[doc(hidden)]
-pub fn face_rect_with(
+fn face_rect_with(
     tri: &[Vec3; 3],
     centre: Vec3,
     face: u32,
@@ -507,8 +506,7 @@ pub fn capture_lists(
     capture_lists_with(triangles, captured, centre, size, depth, Margins::Sound)
 }
 
-#[doc(hidden)]
-pub fn capture_lists_with(
+fn capture_lists_with(
     triangles: &[[Vec3; 3]],
     captured: &[bool],
     centre: Vec3,

@@ -762,7 +762,7 @@ impl GpuRenderer {
 
     /// [`GpuRenderer::set_camera`] that leaves the G-buffer's camera as it was: a wrong update,
     /// for the tests' negative only.
-    #[doc(hidden)]
+    #[cfg(feature = "test-hooks")]
     pub fn set_camera_skipping_gbuffer(
         &mut self,
         ctx: &GpuContext,
@@ -896,7 +896,7 @@ impl GpuRenderer {
 
     /// [`GpuRenderer::update_geometry`] that leaves `stale` as it was: a wrong update, for the
     /// tests' negative only.
-    #[doc(hidden)]
+    #[cfg(feature = "test-hooks")]
     pub fn update_geometry_leaving(
         &mut self,
         ctx: &GpuContext,
@@ -907,7 +907,9 @@ impl GpuRenderer {
         self.update_geometry_with(ctx, scene, camera, Some(stale))
     }
 
-    fn update_geometry_with(
+    /// [`GpuRenderer::update_geometry`] leaving `stale` as it was (`None`: the update itself;
+    /// `Some` only through the tests' hooks).
+    pub(crate) fn update_geometry_with(
         &mut self,
         ctx: &GpuContext,
         scene: &Scene,
@@ -1189,7 +1191,7 @@ impl GpuRenderer {
 
     /// Test hook: frames without (`true`) or with the `cone` pass, everything else the same
     /// (the records the pass reads, for its CPU twin `cpu::cone::cone_pixel`).
-    #[doc(hidden)]
+    #[cfg(feature = "test-hooks")]
     pub fn skip_cone(&mut self, skip: bool) {
         self.cone_skipped = skip;
     }

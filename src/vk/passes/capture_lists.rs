@@ -377,14 +377,29 @@ impl CaptureLists {
         targets: Option<ListTargets<'_>>,
     ) -> VkResult<Self> {
         let limit = u64::from(ctx.report().max_storage_buffer_range);
-        Self::with_range_limit(ctx, scene, size, depth, cmos, capacity, targets, limit)
+        Self::limited(ctx, scene, size, depth, cmos, capacity, targets, limit)
     }
 
     /// [`CaptureLists::new`] with the per-binding limit `range_limit` in bytes in place of the
     /// device's (tests: a lowered limit; one above the device's still fails when bound).
-    #[doc(hidden)]
+    #[cfg(feature = "test-hooks")]
     #[allow(clippy::too_many_arguments)]
     pub fn with_range_limit(
+        ctx: &GpuContext,
+        scene: &SceneBuffers,
+        size: u32,
+        depth: u32,
+        cmos: &[(Vec3, bool)],
+        capacity: PoolBound,
+        targets: Option<ListTargets<'_>>,
+        range_limit: u64,
+    ) -> VkResult<Self> {
+        Self::limited(ctx, scene, size, depth, cmos, capacity, targets, range_limit)
+    }
+
+    /// [`CaptureLists::new`] under the per-binding limit `range_limit` in bytes.
+    #[allow(clippy::too_many_arguments)]
+    fn limited(
         ctx: &GpuContext,
         scene: &SceneBuffers,
         size: u32,
@@ -615,7 +630,7 @@ impl CaptureLists {
     }
 
     /// Sets the resolve pass's cap on node visits per texel (tests: the capped path).
-    #[doc(hidden)]
+    #[cfg(feature = "test-hooks")]
     pub fn set_walk_cap(&mut self, ctx: &GpuContext, walk_cap: u32) -> VkResult<()> {
         self.params.walk_cap = walk_cap.min(WALK_CAP);
         ctx.write_buffer(&self.params_buf, &[self.params])
