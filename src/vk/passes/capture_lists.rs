@@ -394,7 +394,16 @@ impl CaptureLists {
         targets: Option<ListTargets<'_>>,
         range_limit: u64,
     ) -> VkResult<Self> {
-        Self::limited(ctx, scene, size, depth, cmos, capacity, targets, range_limit)
+        Self::limited(
+            ctx,
+            scene,
+            size,
+            depth,
+            cmos,
+            capacity,
+            targets,
+            range_limit,
+        )
     }
 
     /// [`CaptureLists::new`] under the per-binding limit `range_limit` in bytes.
