@@ -34,6 +34,7 @@ mod quality;
 #[path = "common/stress.rs"]
 mod stress;
 
+use common::render::first_frame_of;
 use common::{finish_gpu, gpu_context};
 use cubetrace::Method;
 use cubetrace::cpu::options::{TraceCriterion, TraceOptions};
@@ -122,12 +123,11 @@ fn render(
 ) -> GpuFrame {
     let camera = scene.cameras[0].clone();
     let options = options(method, criterion);
-    let mut renderer = match lists {
+    let made = match lists {
         Some(l) => GpuRenderer::with_lists(ctx, scene, &camera, options, &pack(l).unwrap()),
         None => GpuRenderer::new(ctx, scene, &camera, options),
-    }
-    .unwrap_or_else(|e| panic!("{method:?} {criterion:?}: {e}"));
-    renderer.render(ctx).unwrap()
+    };
+    first_frame_of(ctx, made, &format!("{method:?} {criterion:?}")).0
 }
 
 fn judge(scene: &Scene, reference: &Frame, frame: &GpuFrame) -> Judged {

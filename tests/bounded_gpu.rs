@@ -7,6 +7,7 @@
 //! triangle dropped), which must change the hits. Runs under the validation layer when
 //! installed and fails on any error it reports.
 mod common;
+use common::render::sized_camera;
 use common::{finish_gpu, gpu_context};
 
 use cubetrace::Method;
@@ -35,10 +36,7 @@ const SIZE: u32 = 16;
 const DEPTH: u32 = 16;
 
 fn camera(scene: &Scene) -> Camera {
-    let mut c = scene.camera(None).unwrap().clone();
-    c.width = WIDTH;
-    c.height = HEIGHT;
-    c
+    sized_camera(scene, (WIDTH, HEIGHT))
 }
 
 fn scene(name: &str, self_reflections: Option<SelfReflections>) -> Scene {

@@ -13,6 +13,7 @@
 //! fails on any validation error.
 mod common;
 use common::bits::cell_bits;
+use common::render::first_frame;
 use common::{finish_gpu, gpu_context};
 
 use std::cell::Cell;
@@ -90,8 +91,7 @@ fn compute_render(
         reflector_check: false,
         ..RenderOptions::default()
     };
-    let mut r = GpuRenderer::new(ctx, scene, camera, options).unwrap_or_else(|e| panic!("{e}"));
-    let frame = r.render(ctx).unwrap_or_else(|e| panic!("{e}"));
+    let (frame, r) = first_frame(ctx, scene, camera, options, &scene.name);
     let cubes = r.cmo().read_back(ctx).unwrap_or_else(|e| panic!("{e}"));
     (frame, cubes)
 }

@@ -19,6 +19,7 @@
 //! reference, which starts each reflected ray at an f32 point, is then as exact as the methods
 //! (3.9 km out, its own rounding of those points, 1.2e-4, decides 0.1-0.2 % of the pixels).
 mod common;
+use common::render::first_frame;
 use common::{finish_gpu, gpu_context};
 
 use cubetrace::Method;
@@ -27,7 +28,7 @@ use cubetrace::reference::{self, Frame, Tracer};
 use cubetrace::scene::Scene;
 use cubetrace::vk::GpuContext;
 use cubetrace::vk::frame::RenderOptions;
-use cubetrace::vk::frame::{Fallback, GpuFrame, GpuRenderer, RECORD_HIT, RECORD_UNRESOLVED};
+use cubetrace::vk::frame::{Fallback, GpuFrame, RECORD_HIT, RECORD_UNRESOLVED};
 use glam::Vec3;
 
 /// The corpus scenes, each a folder of `tests/scenes/`.
@@ -66,11 +67,8 @@ fn options(method: Method, criterion: TraceCriterion) -> RenderOptions {
 }
 
 fn render(ctx: &GpuContext, scene: &Scene, options: RenderOptions) -> GpuFrame {
-    let name = options.method.name();
-    let mut r = GpuRenderer::new(ctx, scene, &scene.cameras[0], options)
-        .unwrap_or_else(|e| panic!("{}: {name} refused: {e}", scene.name));
-    r.render(ctx)
-        .unwrap_or_else(|e| panic!("{}: {name}: {e}", scene.name))
+    let what = format!("{}: {}", scene.name, options.method.name());
+    first_frame(ctx, scene, &scene.cameras[0], options, &what).0
 }
 
 /// What [`judge`] counts over the mirror pixels both frames share.

@@ -11,6 +11,7 @@
 //!   mesh captures again (tests/sequence_inplace.rs checks the in-place geometry update).
 mod common;
 use common::bits::{frame_bits, vec3_bits};
+use common::render::first_frame;
 use common::render_args as args;
 use common::{finish_gpu, finish_renderer, gpu_context};
 
@@ -57,8 +58,7 @@ fn fresh_with(
     camera: &Camera,
     options: RenderOptions,
 ) -> GpuFrame {
-    let mut r = GpuRenderer::new(ctx, scene, camera, options).unwrap_or_else(|e| panic!("{e}"));
-    r.render(ctx).unwrap_or_else(|e| panic!("{e}"))
+    first_frame(ctx, scene, camera, options, &scene.name).0
 }
 
 #[test]

@@ -5,6 +5,7 @@
 //! (CI: lavapipe); runs under the validation layer when installed and fails on any error it
 //! reports.
 mod common;
+use common::render::{first_frame, sized_camera};
 use common::{finish_gpu, gpu_context};
 
 use cubetrace::Method;
@@ -36,19 +37,11 @@ const WIDTH: u32 = 96;
 const HEIGHT: u32 = 72;
 
 fn camera(scene: &Scene) -> Camera {
-    let mut c = scene.camera(None).unwrap().clone();
-    c.width = WIDTH;
-    c.height = HEIGHT;
-    c
+    sized_camera(scene, (WIDTH, HEIGHT))
 }
 
 fn render(ctx: &GpuContext, scene: &Scene, options: RenderOptions) -> (GpuFrame, GpuRenderer) {
-    let mut r = GpuRenderer::new(ctx, scene, &camera(scene), options)
-        .unwrap_or_else(|e| panic!("{}: {e}", scene.name));
-    let f = r
-        .render(ctx)
-        .unwrap_or_else(|e| panic!("{}: {e}", scene.name));
-    (f, r)
+    first_frame(ctx, scene, &camera(scene), options, &scene.name)
 }
 
 fn options(method: Method, trace: TraceOptions) -> RenderOptions {

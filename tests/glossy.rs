@@ -16,6 +16,7 @@
 //!   the converged reference; a wrong exponent (4x) does not.
 mod common;
 use common::bits::{frame_bits, vec3_bits};
+use common::render::first_frame;
 use common::render_args as args;
 use common::{finish_gpu, gpu_context, psnr};
 
@@ -27,7 +28,7 @@ use cubetrace::film::{FilmSettings, PixelFilter};
 use cubetrace::lobe;
 use cubetrace::reference::{self, Tracer};
 use cubetrace::scene::{self, Scene, builtin};
-use cubetrace::vk::frame::{Fallback, GpuFrame, GpuRenderer, RenderOptions};
+use cubetrace::vk::frame::{Fallback, GpuFrame, RenderOptions};
 use glam::Vec3;
 
 const WIDTH: u32 = 32;
@@ -85,8 +86,7 @@ fn gpu_frame(
         fallback: Fallback::Envmap,
         ..RenderOptions::default()
     };
-    let mut r = GpuRenderer::new(ctx, scene, camera, options).unwrap_or_else(|e| panic!("{e}"));
-    r.render(ctx).unwrap_or_else(|e| panic!("{method}: {e}"))
+    first_frame(ctx, scene, camera, options, &method.to_string()).0
 }
 
 /// The reference's filtered frame at `spp` samples (box filter), as `render --spp` makes it.

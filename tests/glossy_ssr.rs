@@ -18,6 +18,8 @@
 //!   bounds derived from measurement. Negatives: mirror ssr, and a lobe 4x too wide, fail the
 //!   same check. The claim repeated at 48x36 against 1024 spp is ignored by default (minutes).
 mod common;
+use common::bits::frame_bits;
+use common::render::first_frame;
 use common::{finish_gpu, gpu_context};
 
 use cubetrace::Method;
@@ -91,11 +93,7 @@ fn render(ctx: &GpuContext, scene: &Scene, camera: &Camera) -> Rendered {
         fallback: Fallback::Envmap,
         ..RenderOptions::default()
     };
-    let mut r = GpuRenderer::new(ctx, scene, camera, options)
-        .unwrap_or_else(|e| panic!("{}: {e}", scene.name));
-    let frame = r
-        .render(ctx)
-        .unwrap_or_else(|e| panic!("{}: {e}", scene.name));
+    let (frame, r) = first_frame(ctx, scene, camera, options, &scene.name);
     let n = frame.colour.len();
     let read = |img| {
         let bytes = ctx
@@ -145,15 +143,7 @@ fn render(ctx: &GpuContext, scene: &Scene, camera: &Camera) -> Rendered {
 
 /// The frame's outputs as bits: colour, mask, the mirror pixels' records.
 fn bits(f: &GpuFrame) -> Vec<u32> {
-    let mut out = Vec::new();
-    for k in 0..f.colour.len() {
-        out.extend(f.colour[k].to_array().map(f32::to_bits));
-        out.push(u32::from(f.mask[k]));
-        if f.mask[k] != 0 {
-            out.extend_from_slice(bytemuck::cast_slice(&[f.records[k]]));
-        }
-    }
-    out
+    frame_bits(f, false)
 }
 
 #[test]

@@ -14,6 +14,7 @@
 //! the comparison. Runs under the validation layer when installed and fails on any validation
 //! error.
 mod common;
+use common::render::first_frame;
 use common::{finish_gpu, gpu_context};
 
 use cubetrace::Method;
@@ -139,11 +140,8 @@ fn render(
         fallback: Fallback::Trace,
         ..RenderOptions::default()
     };
-    let mut r = GpuRenderer::new(ctx, scene, camera, options)
-        .unwrap_or_else(|e| panic!("{} {method:?} N={bounces}: {e}", scene.name));
-    let f = r
-        .render(ctx)
-        .unwrap_or_else(|e| panic!("{} {method:?} N={bounces}: {e}", scene.name));
+    let what = format!("{} {method:?} N={bounces}", scene.name);
+    let (f, _) = first_frame(ctx, scene, camera, options, &what);
     assert_eq!(f.bvh.map_or(0, |c| c.cut), 0, "no BVH ray cut");
     f
 }

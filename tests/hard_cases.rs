@@ -49,6 +49,7 @@
 //! (`strict_mode_removes_unseen_occluder_hits_at_cube_size_3`), so it stays; everywhere else it
 //! only adds unresolved pixels.
 mod common;
+use common::render::{first_frame, sized_camera};
 use common::{finish_gpu, gpu_context, meets};
 
 use common::hit_probe::{VerifyQuery, VerifyResult, verify_cpu, verify_gpu};
@@ -116,28 +117,17 @@ fn render_with(
     trace: TraceOptions,
     method: Method,
 ) -> (GpuFrame, GpuRenderer) {
-    let mut camera = scene.cameras[0].clone();
-    (camera.width, camera.height) = size;
-    let mut r = GpuRenderer::new(
-        ctx,
-        scene,
-        &camera,
-        RenderOptions {
-            method,
-            trace,
-            fallback: Fallback::Flag,
-            // The judge follows the cubemap trace's model (the non-reflector triangles); the
-            // reflector check, which adds hits on the reflectors, is judged against the whole
-            // reference in tests/reflector_check.rs.
-            reflector_check: false,
-            ..RenderOptions::default()
-        },
-    )
-    .unwrap_or_else(|e| panic!("{}: {e}", scene.name));
-    let f = r
-        .render(ctx)
-        .unwrap_or_else(|e| panic!("{}: {e}", scene.name));
-    (f, r)
+    let options = RenderOptions {
+        method,
+        trace,
+        fallback: Fallback::Flag,
+        // The judge follows the cubemap trace's model (the non-reflector triangles); the
+        // reflector check, which adds hits on the reflectors, is judged against the whole
+        // reference in tests/reflector_check.rs.
+        reflector_check: false,
+        ..RenderOptions::default()
+    };
+    first_frame(ctx, scene, &sized_camera(scene, size), options, &scene.name)
 }
 
 /// Judges every mirror pixel of `frame` on its own ray (see the module docs). `shift` moves

@@ -11,12 +11,13 @@ mod common;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use common::render::first_frame;
 use common::{finish_gpu, gpu_context};
 use cubetrace::Method;
 use cubetrace::placement;
 use cubetrace::scene::{self, CmoPlacement, Scene, SelfReflections};
 use cubetrace::vk::GpuContext;
-use cubetrace::vk::frame::{Fallback, GpuRenderer, RenderOptions};
+use cubetrace::vk::frame::{Fallback, RenderOptions};
 
 /// Corpus scene `name` at 96x72 with 128-texel faces, its CMOs left to the search (as a file
 /// without `[cmo]` centres).
@@ -39,9 +40,7 @@ fn fallback_share(ctx: &GpuContext, scene: &Scene) -> (f64, usize) {
         fallback: Fallback::Trace,
         ..RenderOptions::default()
     };
-    let mut r = GpuRenderer::new(ctx, scene, &scene.cameras[0], options)
-        .unwrap_or_else(|e| panic!("{}: {e}", scene.name));
-    let frame = r.render(ctx).unwrap();
+    let (frame, _) = first_frame(ctx, scene, &scene.cameras[0], options, &scene.name);
     let mirror = frame.mask.iter().filter(|&&m| m != 0).count();
     (
         frame.fallback_pixels() as f64 / mirror.max(1) as f64,

@@ -15,6 +15,7 @@
 //! ([`same_view`]); its negative perturbs the input the same check is given (a frame with the
 //! wall forced in, the old near plane) and must fail.
 mod common;
+use common::render::first_frame_of;
 use common::{finish_gpu, gpu_context};
 
 use cubetrace::Method;
@@ -56,9 +57,8 @@ fn options(method: Method) -> RenderOptions {
 
 fn render(ctx: &GpuContext, scene: &Scene, method: Method, ranges: &FrameRanges) -> GpuFrame {
     let camera = &scene.cameras[0];
-    let mut r = GpuRenderer::with_ranges(ctx, scene, camera, options(method), ranges)
-        .unwrap_or_else(|e| panic!("{method:?}: {e}"));
-    r.render(ctx).unwrap_or_else(|e| panic!("{method:?}: {e}"))
+    let made = GpuRenderer::with_ranges(ctx, scene, camera, options(method), ranges);
+    first_frame_of(ctx, made, &format!("{method:?}")).0
 }
 
 /// What [`same_view`] counts: pixels whose mask differs, pixels where one frame sees a surface

@@ -9,6 +9,7 @@
 //!
 //! Each check has a negative.
 mod common;
+use common::render::first_frame;
 use common::{finish_gpu, gpu_context};
 
 use cubetrace::Method;
@@ -19,7 +20,7 @@ use cubetrace::cpu::{CmoTracer, Segment, TraceParams, TraceResult};
 use cubetrace::cubemap::CubeMap;
 use cubetrace::scene::{self, MeshInstance, MeshPart, Scene};
 use cubetrace::vk::GpuContext;
-use cubetrace::vk::frame::{Fallback, GpuFrame, GpuRenderer, RenderOptions};
+use cubetrace::vk::frame::{Fallback, GpuFrame, RenderOptions};
 use glam::Vec3;
 
 const WIDTH: u32 = 48;
@@ -40,8 +41,8 @@ fn render(ctx: &GpuContext, scene: &Scene, camera: &Camera, method: Method) -> G
         fallback: Fallback::Flag,
         ..RenderOptions::default()
     };
-    let mut r = GpuRenderer::new(ctx, scene, camera, options).unwrap_or_else(|e| panic!("{e}"));
-    r.render(ctx).unwrap_or_else(|e| panic!("{e}"))
+    let what = format!("{} {method:?}", scene.name);
+    first_frame(ctx, scene, camera, options, &what).0
 }
 
 /// The default scene plus one non-reflector triangle at height `y` reaching `far` along x and z.

@@ -7,6 +7,7 @@
 //! The twin reads what the GPU read: the reflector textures T_P and T_N and the search's
 //! parameters, read back after the frame, and the scene's vertices.
 mod common;
+use common::render::{first_frame, sized_camera};
 use common::{finish_gpu, gpu_context};
 
 use cubetrace::Method;
@@ -28,12 +29,6 @@ use glam::Vec3;
 const WIDTH: u32 = 96;
 const HEIGHT: u32 = 72;
 
-fn camera(scene: &Scene, size: (u32, u32)) -> Camera {
-    let mut c = scene.camera(None).unwrap().clone();
-    (c.width, c.height) = size;
-    c
-}
-
 struct Rendered {
     frame: GpuFrame,
     vertices: Vec<RpVertex>,
@@ -46,18 +41,14 @@ fn render(ctx: &GpuContext, scene: &Scene, size: (u32, u32)) -> Rendered {
 }
 
 fn render_with(ctx: &GpuContext, scene: &Scene, size: (u32, u32), rp: RpOptions) -> Rendered {
-    let camera = camera(scene, size);
+    let camera = sized_camera(scene, size);
     let options = RenderOptions {
         method: Method::ReflectionPoint,
         fallback: Fallback::Envmap,
         reflection_point: rp,
         ..RenderOptions::default()
     };
-    let mut r = GpuRenderer::new(ctx, scene, &camera, options)
-        .unwrap_or_else(|e| panic!("{}: {e}", scene.name));
-    let frame = r
-        .render(ctx)
-        .unwrap_or_else(|e| panic!("{}: {e}", scene.name));
+    let (frame, r) = first_frame(ctx, scene, &camera, options, &scene.name);
     let passes = r
         .reflection_point_passes()
         .expect("reflection-point passes");
@@ -406,7 +397,7 @@ fn error_against_the_reference_per_builtin_scene() {
 fn oversized_search_textures_are_refused() {
     let ctx = gpu_context();
     let scene = builtin::by_name("sphere-room").unwrap();
-    let camera = camera(&scene, (3000, 20));
+    let camera = sized_camera(&scene, (3000, 20));
     let options = |search_scale| RenderOptions {
         method: Method::ReflectionPoint,
         reflection_point: RpOptions {

@@ -13,6 +13,7 @@
 //!
 //! Runs under the validation layer when installed and fails on any error it reports.
 mod common;
+use common::render::first_frame;
 use common::{finish_gpu, gpu_context, meets};
 
 use cubetrace::Method;
@@ -22,8 +23,7 @@ use cubetrace::reference::{self, Frame, Tracer};
 use cubetrace::scene::{self, Scene};
 use cubetrace::vk::GpuContext;
 use cubetrace::vk::frame::{
-    Fallback, GpuFrame, GpuRenderer, RECORD_HIT, RECORD_UNRESOLVED, REFLECTOR_CHECK_PASS,
-    RenderOptions,
+    Fallback, GpuFrame, RECORD_HIT, RECORD_UNRESOLVED, REFLECTOR_CHECK_PASS, RenderOptions,
 };
 use glam::Vec3;
 
@@ -52,11 +52,7 @@ fn render(
         reflector_check: check,
         ..RenderOptions::default()
     };
-    let mut r = GpuRenderer::new(ctx, scene, camera, options)
-        .unwrap_or_else(|e| panic!("{}: {e}", scene.name));
-    let f = r
-        .render(ctx)
-        .unwrap_or_else(|e| panic!("{}: {e}", scene.name));
+    let (f, r) = first_frame(ctx, scene, camera, options, &scene.name);
     let rays = r.reflector_check().map(|c| {
         c.passes
             .queue

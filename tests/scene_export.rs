@@ -5,6 +5,7 @@
 //! negatives perturb one exported value (a transform by 1%, a light intensity by one ulp) and the
 //! comparison must fail.
 mod common;
+use common::render::first_frame;
 use common::{finish_gpu, gpu_context};
 
 use std::path::{Path, PathBuf};
@@ -14,7 +15,7 @@ use cubetrace::camera::Camera;
 use cubetrace::reference::{self, Tracer};
 use cubetrace::scene::{self, Scene, builtin, export};
 use cubetrace::vk::GpuContext;
-use cubetrace::vk::frame::{Fallback, GpuRenderer, RenderOptions};
+use cubetrace::vk::frame::{Fallback, RenderOptions};
 
 const WIDTH: u32 = 40;
 const HEIGHT: u32 = 30;
@@ -61,8 +62,7 @@ fn compute_bytes(ctx: &GpuContext, scene: &Scene, cam: &Camera) -> Vec<u8> {
         fallback: Fallback::Envmap,
         ..RenderOptions::default()
     };
-    let mut r = GpuRenderer::new(ctx, scene, cam, options).unwrap_or_else(|e| panic!("{e}"));
-    let f = r.render(ctx).unwrap_or_else(|e| panic!("{e}"));
+    let (f, _) = first_frame(ctx, scene, cam, options, &scene.name);
     let mut out = Vec::new();
     out.extend_from_slice(bytemuck::cast_slice(&f.colour));
     out.extend_from_slice(&f.mask);

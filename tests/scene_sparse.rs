@@ -8,6 +8,7 @@
 //! another background, and the same comparison must fail. Runs under the validation layer when
 //! installed and fails on any validation error.
 mod common;
+use common::render::first_frame;
 use common::{finish_gpu, gpu_context};
 
 use cubetrace::Method;
@@ -17,7 +18,7 @@ use cubetrace::scene::{CmoPlacement, CmoSpec, MeshInstance, Scene, SelfReflectio
 use cubetrace::scene::{Material, shapes};
 use cubetrace::shading::Shading;
 use cubetrace::vk::GpuContext;
-use cubetrace::vk::frame::{Fallback, GpuRenderer, RenderOptions};
+use cubetrace::vk::frame::{Fallback, RenderOptions};
 use glam::Vec3;
 
 /// A scene with the given meshes (material 0 grey), one camera looking at the origin.
@@ -81,11 +82,8 @@ fn gpu_colour(ctx: &GpuContext, scene: &Scene, method: Method) -> Vec<[u32; 3]> 
         fallback: Fallback::Envmap,
         ..RenderOptions::default()
     };
-    let mut r = GpuRenderer::new(ctx, scene, &scene.cameras[0], options)
-        .unwrap_or_else(|e| panic!("--method {}: {e}", method.name()));
-    let f = r
-        .render(ctx)
-        .unwrap_or_else(|e| panic!("--method {}: {e}", method.name()));
+    let what = format!("--method {}", method.name());
+    let (f, _) = first_frame(ctx, scene, &scene.cameras[0], options, &what);
     colour_bits(&f.colour)
 }
 

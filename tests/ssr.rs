@@ -7,6 +7,7 @@
 //! reflected ray; it rebuilds the depth keys and the pyramid itself and runs the same traversal.
 //! Agreement is exact (bit for bit: outcome, hit pixel, iterations, final depth, colour, point).
 mod common;
+use common::render::{first_frame, sized_camera};
 use common::{finish_gpu, gpu_context};
 
 use cubetrace::Method;
@@ -19,20 +20,13 @@ use cubetrace::scene::{Material, MeshInstance, Scene, Transform, builtin};
 use cubetrace::vk::GpuContext;
 use cubetrace::vk::backend::shaders::{SSR, SSR_HIZ};
 use cubetrace::vk::frame::{
-    Fallback, GpuFrame, GpuRenderer, PixelRecord, RECORD_HIT, RECORD_UNRESOLVED, RenderOptions,
-    scene_ranges,
+    Fallback, GpuFrame, PixelRecord, RECORD_HIT, RECORD_UNRESOLVED, RenderOptions, scene_ranges,
 };
 use cubetrace::vk::methods::ssr::{HizLevelParams, SsrParams};
 use glam::{Mat4, Vec3, Vec4};
 
 const WIDTH: u32 = 96;
 const HEIGHT: u32 = 72;
-
-fn camera(scene: &Scene, size: (u32, u32)) -> Camera {
-    let mut c = scene.camera(None).unwrap().clone();
-    (c.width, c.height) = size;
-    c
-}
 
 fn view_proj(scene: &Scene, camera: &Camera) -> Mat4 {
     let (near, _, _) = scene_ranges(scene, camera);
@@ -49,18 +43,14 @@ struct Rendered {
 }
 
 fn render(ctx: &GpuContext, scene: &Scene, size: (u32, u32), ssr: SsrOptions) -> Rendered {
-    let camera = camera(scene, size);
+    let camera = sized_camera(scene, size);
     let options = RenderOptions {
         method: Method::Ssr,
         fallback: Fallback::Envmap,
         ssr,
         ..RenderOptions::default()
     };
-    let mut r = GpuRenderer::new(ctx, scene, &camera, options)
-        .unwrap_or_else(|e| panic!("{}: {e}", scene.name));
-    let frame = r
-        .render(ctx)
-        .unwrap_or_else(|e| panic!("{}: {e}", scene.name));
+    let (frame, r) = first_frame(ctx, scene, &camera, options, &scene.name);
     let bytes = ctx
         .read_image(
             &r.gbuffer().colour,
