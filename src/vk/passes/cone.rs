@@ -24,7 +24,7 @@ use crate::vk::backend::buffer::Buffer;
 use crate::vk::backend::context::{GpuContext, Recorder};
 use crate::vk::backend::error::{VkError, VkResult};
 use crate::vk::backend::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
-use crate::vk::backend::shaders::{CONE_PREFILTER, CONE_PROBE};
+use crate::vk::backend::shaders::CONE_PREFILTER;
 use crate::vk::backend::timestamps::Timestamps;
 use crate::vk::passes::cmo::CmoData;
 
@@ -215,90 +215,99 @@ pub fn prefilter_gpu(
         .collect())
 }
 
-/// WGSL `ConeQuery` of the `cone_probe` pass.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct ConeQuery {
-    /// CMO-local direction.
-    pub dir: [f32; 3],
-    /// Mode 0: the level; 1: the specular power; 2: tan of the half-angle.
-    pub arg: f32,
-    /// The CMO.
-    pub k: u32,
-    /// 0 `cone_cube_colour4`, 1 `cone_envmap_colour`, 2 `cone_footprint_level`.
-    pub mode: u32,
-    /// Padding.
-    pub pad0: u32,
-    /// Padding.
-    pub pad1: u32,
-}
+/// The tests' probe of the WGSL cone lookups (the `cone_probe` pass; `test-hooks` only).
+#[cfg(feature = "test-hooks")]
+mod probe {
+    use super::*;
+    use crate::vk::backend::shaders::CONE_PROBE;
 
-/// WGSL `ConeProbeParams`.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct ConeProbeParams {
-    /// Number of queries.
-    pub count: u32,
-    /// Padding.
-    pub pad0: u32,
-    /// Padding.
-    pub pad1: u32,
-    /// Padding.
-    pub pad2: u32,
-    /// The colour an empty texel stands for.
-    pub background: [f32; 3],
-    /// Padding.
-    pub pad3: u32,
-}
-
-/// Test helper: evaluates `queries` with the WGSL lookups on `data` (made by
-/// [`upload_with_cone`]), one `vec4` per query.
-pub fn probe_gpu(
-    ctx: &GpuContext,
-    data: &CmoData,
-    background: Vec3,
-    queries: &[ConeQuery],
-) -> VkResult<Vec<[f32; 4]>> {
-    if queries.is_empty() {
-        return Ok(Vec::new());
+    /// WGSL `ConeQuery` of the `cone_probe` pass.
+    #[repr(C)]
+    #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+    pub struct ConeQuery {
+        /// CMO-local direction.
+        pub dir: [f32; 3],
+        /// Mode 0: the level; 1: the specular power; 2: tan of the half-angle.
+        pub arg: f32,
+        /// The CMO.
+        pub k: u32,
+        /// 0 `cone_cube_colour4`, 1 `cone_envmap_colour`, 2 `cone_footprint_level`.
+        pub mode: u32,
+        /// Padding.
+        pub pad0: u32,
+        /// Padding.
+        pub pad1: u32,
     }
-    let pipeline = ComputePipeline::new(ctx, &CONE_PROBE, "main", ComputeOptions::default())?;
-    let params = ConeProbeParams {
-        count: queries.len() as u32,
-        background: background.to_array(),
-        ..Default::default()
-    };
-    let params_buf = ctx.create_buffer_init(
-        "cone_probe params",
-        vk::BufferUsageFlags::STORAGE_BUFFER,
-        std::slice::from_ref(&params),
-    )?;
-    let queries_buf = ctx.create_buffer_init(
-        "cone_probe queries",
-        vk::BufferUsageFlags::STORAGE_BUFFER,
-        queries,
-    )?;
-    let out = ctx.create_buffer_init(
-        "cone_probe out",
-        vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
-        &vec![[f32::NAN; 4]; queries.len()],
-    )?;
-    let set0 = pipeline.bind_group(
-        0,
-        &[
-            (8, Resource::Buffer(&params_buf)),
-            (9, Resource::Buffer(&queries_buf)),
-            (10, Resource::Buffer(&out)),
-        ],
-    )?;
-    let set1 = pipeline.bind_group(1, &data.resources_for(&CONE_PROBE, "main"))?;
-    let groups = (queries.len() as u32).div_ceil(64);
-    ctx.submit_and_wait(CONE_PROBE.name, |rec| {
-        pipeline.dispatch(rec, &[&set0, &set1], [groups, 1, 1]);
-        Ok(())
-    })?;
-    ctx.read_buffer(&out)
+
+    /// WGSL `ConeProbeParams`.
+    #[repr(C)]
+    #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+    pub struct ConeProbeParams {
+        /// Number of queries.
+        pub count: u32,
+        /// Padding.
+        pub pad0: u32,
+        /// Padding.
+        pub pad1: u32,
+        /// Padding.
+        pub pad2: u32,
+        /// The colour an empty texel stands for.
+        pub background: [f32; 3],
+        /// Padding.
+        pub pad3: u32,
+    }
+
+    /// Test helper: evaluates `queries` with the WGSL lookups on `data` (made by
+    /// [`upload_with_cone`]), one `vec4` per query.
+    pub fn probe_gpu(
+        ctx: &GpuContext,
+        data: &CmoData,
+        background: Vec3,
+        queries: &[ConeQuery],
+    ) -> VkResult<Vec<[f32; 4]>> {
+        if queries.is_empty() {
+            return Ok(Vec::new());
+        }
+        let pipeline = ComputePipeline::new(ctx, &CONE_PROBE, "main", ComputeOptions::default())?;
+        let params = ConeProbeParams {
+            count: queries.len() as u32,
+            background: background.to_array(),
+            ..Default::default()
+        };
+        let params_buf = ctx.create_buffer_init(
+            "cone_probe params",
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            std::slice::from_ref(&params),
+        )?;
+        let queries_buf = ctx.create_buffer_init(
+            "cone_probe queries",
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            queries,
+        )?;
+        let out = ctx.create_buffer_init(
+            "cone_probe out",
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC,
+            &vec![[f32::NAN; 4]; queries.len()],
+        )?;
+        let set0 = pipeline.bind_group(
+            0,
+            &[
+                (8, Resource::Buffer(&params_buf)),
+                (9, Resource::Buffer(&queries_buf)),
+                (10, Resource::Buffer(&out)),
+            ],
+        )?;
+        let set1 = pipeline.bind_group(1, &data.resources_for(&CONE_PROBE, "main"))?;
+        let groups = (queries.len() as u32).div_ceil(64);
+        ctx.submit_and_wait(CONE_PROBE.name, |rec| {
+            pipeline.dispatch(rec, &[&set0, &set1], [groups, 1, 1]);
+            Ok(())
+        })?;
+        ctx.read_buffer(&out)
+    }
 }
+#[cfg(feature = "test-hooks")]
+pub use probe::{ConeProbeParams, ConeQuery, probe_gpu};
 
 /// The cone stage of a glossy frame (fragment, compute): the 2x2 pyramid where the method has
 /// none (compute: `cone_pyramid`, into a buffer of its own, with the CMO stages) and the `cone`
