@@ -2,8 +2,8 @@
 //! Image output: 8-bit sRGB PNG and 32-bit float EXR, always written atomically
 //! ([`crate::files`]), so that an error never leaves a half-written file behind.
 //!
-//! EXR channels, with one meaning on every method (the reference, [`write_frame`], and every GPU
-//! method, [`write_traced`]):
+//! EXR channels, with one meaning on every method (the reference, [`frame_channels`], and every
+//! GPU method, [`traced_channels`]):
 //! - `R`, `G`, `B` (f32): linear colour.
 //! - `mask` (f32): 1 on mirror pixels (the primary ray hits a reflector).
 //! - `P.X`, `P.Y`, `P.Z` (f32): world position seen by the primary ray (NaN where none).

@@ -385,7 +385,7 @@ pub struct GpuRenderer {
     /// Cone tracing of the glossy pixels (fragment, compute; a scene with a glossy reflector
     /// only): [`super::passes::cone`].
     cone: Option<ConeStage>,
-    /// [`GpuRenderer::skip_cone`]: the tests' frame without the `cone` pass.
+    /// The tests' frame without the `cone` pass (`skip_cone`, `test-hooks` only).
     cone_skipped: bool,
     composite: Composite,
     params: Buffer,
@@ -418,7 +418,8 @@ pub struct GpuRenderer {
     lists_uploaded: bool,
 }
 
-/// What [`GpuRenderer::update_geometry_leaving`] leaves stale (the tests' negative).
+/// What an update leaves stale: the tests' negative (`update_geometry_leaving`, `test-hooks`
+/// only); the renderer's own updates leave nothing.
 #[doc(hidden)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum StaleUpdate {
@@ -618,7 +619,9 @@ fn frame_params(scene: &Scene, camera: &Camera, options: &RenderOptions, t_hi: f
             Fallback::Flag => 0,
             Fallback::Envmap => 1,
             Fallback::Background => 2,
-            Fallback::Trace | Fallback::TraceFromTDone => 3,
+            Fallback::Trace => 3,
+            #[cfg(feature = "test-hooks")]
+            Fallback::TraceFromTDone => 3,
         },
         check_below: scene.check_below(),
         tan_half: camera.tan_half_fov_y(),
@@ -688,6 +691,7 @@ impl AfterMethod {
 fn fallback_passes(inputs: &FrameInputs<'_>) -> VkResult<Option<BvhPasses>> {
     let kind = match inputs.options.fallback {
         Fallback::Trace => AppendKind::Unresolved,
+        #[cfg(feature = "test-hooks")]
         Fallback::TraceFromTDone => AppendKind::UnresolvedFromTDone,
         Fallback::Flag | Fallback::Envmap | Fallback::Background => return Ok(None),
     };

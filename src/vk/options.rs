@@ -16,7 +16,8 @@ pub enum Fallback {
     Background,
     /// The rays are finished exactly by the BVH tracer: after the tracing pass, the `fallback`
     /// pass queues the unresolved records' rays and traces them from their start under the
-    /// start rule ([`crate::vk::passes::bvh`]; not from `t_done`: see [`Fallback::TraceFromTDone`]); such
+    /// start rule ([`crate::vk::passes::bvh`]; not from `t_done`, which misses hits: the tests'
+    /// `Fallback::TraceFromTDone` shows them); such
     /// records get `fallback` = 1 and keep the cubemap tracer's `t_done` and counters. A ray the BVH
     /// loop's cap cut (none seen) stays unresolved and shows the flag colour. The default (of the
     /// CLI and the bench too).
@@ -25,7 +26,8 @@ pub enum Fallback {
     /// [`Fallback::Trace`] with the rays started at their `t_done` instead of 0: misses the hits
     /// before `t_done` that the cubemap's model does not see (uncaptured reflectors, surfaces in
     /// front of their texel's patch; spirv/bvh_queue.wgsl). Not offered by the CLI; the tests
-    /// show what it misses.
+    /// show what it misses (`test-hooks` only).
+    #[cfg(feature = "test-hooks")]
     TraceFromTDone,
 }
 
