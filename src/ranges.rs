@@ -129,12 +129,12 @@ pub struct FrameRanges {
     /// Texels per face side.
     pub cube_size: u32,
     /// A triangle whose plane passes within rounding of the eye or a CMO centre, but not
-    /// exactly through it, where the reference sees it ([`edge_on`]).
+    /// exactly through it, where the reference sees it (`edge_on`).
     pub edge_on: Option<EdgeOn>,
 }
 
 /// A viewpoint (the eye, a CMO centre) that f32 cannot place on either side of a triangle's
-/// plane ([`edge_on`]).
+/// plane (`edge_on`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct EdgeOn {
     /// `the eye of camera `NAME`` or `CMO k's centre`.

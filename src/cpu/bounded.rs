@@ -18,7 +18,7 @@
 //! 4. Candidates: every kept entry with `lo <= rmax`, in list order: the watertight
 //!    intersection ([`super::watertight`]) of the CMO-local ray `a + t d` with the triangle's
 //!    corners minus the CMO centre, kept when `t_lo <= t <= t_known` and not at the ray's start
-//!    ([`start_ignores`]). The nearest kept one (ties: lower triangle) is the **hit**.
+//!    (the start rule, `StartRule`). The nearest kept one (ties: lower triangle) is the **hit**.
 //! 5. No candidate: **behind** at `t_known` when the known part ended inside `T`
 //!    (`t_known < t1`: the next CMO, then the fallback, take the ray from there), else nothing
 //!    here: the traversal goes on.

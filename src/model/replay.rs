@@ -14,7 +14,7 @@
 //! `width` issued lanes, and per load of the block (the i-th load of each active lane is one
 //! warp load) the distinct 32-byte sectors the active lanes read.
 //!
-//! compute_trace has its own replay ([`replay_compute`]): its hot loop is subgroup-synchronous
+//! compute_trace has its own replay (`replay_compute`): its hot loop is subgroup-synchronous
 //! (every busy ray takes one step per turn; the loop is left for `settle` when any ray has it
 //! due), and a ray spans `lanes` lanes: `min(width, 32)` in the thesis layout (`main`: 32 / lanes
 //! rounds of lane tests per node visit, every lane of a ray running the per-ray blocks

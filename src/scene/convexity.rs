@@ -16,7 +16,7 @@ const RELATIVE_TOLERANCE: f64 = 1e-5;
 
 /// Whether no face of the mesh (`positions`, `normals` one per position, `triangles`) can see
 /// another: every vertex lies on or behind every face's plane, within a tolerance of
-/// [`RELATIVE_TOLERANCE`] times the largest coordinate magnitude. A face's front is the side of
+/// `RELATIVE_TOLERANCE` times the largest coordinate magnitude. A face's front is the side of
 /// its geometric normal that agrees with its vertex normals (the side a mirror reflects to), so
 /// the winding order does not matter ([`is_convex_front`] turns it round). Degenerate faces (no area) are skipped; a mesh without a
 /// face is convex.
@@ -95,7 +95,7 @@ fn content_key(positions: &[Vec3], normals: &[Vec3], triangles: &[[u32; 3]]) -> 
 }
 
 /// Whether the vertex normals of a closed mesh point into it (common in exported files): the
-/// mesh is closed (every edge, its ends welded by position as [`weld`] does, belongs to
+/// mesh is closed (every edge, its ends welded by position as `weld` does, belongs to
 /// exactly two faces) and the volume its faces enclose,
 /// each face turned to the side its vertex normals agree with (as [`is_convex`] turns it), is
 /// negative. A mirror reflects on the side the ray comes from, whatever its normals say, and a

@@ -438,7 +438,7 @@ impl CmoData {
         Ok(true)
     }
 
-    /// Uploads lists in the GPU layout ([`lists::pack`] of one [`TexelLists`] per CMO, in CMO
+    /// Uploads lists in the GPU layout ([`lists::pack`] of one [`TexelLists`](crate::cubemap::bounds::TexelLists) per CMO, in CMO
     /// order, or built so): their `lo` into the distance buffer, the records and nodes into
     /// buffers allocated to fit ([`CmoData::alloc_lists`]). The pyramids are the pyramid
     /// passes' to build from the distances (or [`CmoData::upload`]'s on the CPU). Fails where

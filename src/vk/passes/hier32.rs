@@ -189,7 +189,7 @@ impl Hier32Pass {
 
 /// Test helper: uploads the distances of `cubes` (one face size), builds their hierarchy on the
 /// GPU and reads it back, one `flatten()`-shaped vector per CMO (see
-/// [`super::pyramid::reduce_on_gpu`]).
+/// `super::pyramid::reduce_on_gpu`).
 pub fn build_hier_gpu(ctx: &GpuContext, cubes: &[CubeMap]) -> VkResult<Vec<Vec<[f32; 2]>>> {
     reduce_on_gpu(
         ctx,

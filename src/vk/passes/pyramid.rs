@@ -236,7 +236,7 @@ impl Pyramid {
 
 /// Test and tool helper: uploads the distances of `cubes` (all of one face size), builds their
 /// pyramid on the GPU and reads it back, one `flatten()`-shaped vector per CMO (see
-/// [`reduce_on_gpu`]).
+/// `reduce_on_gpu`).
 pub fn build_mip_gpu(ctx: &GpuContext, cubes: &[CubeMap]) -> VkResult<Vec<Vec<[f32; 2]>>> {
     reduce_on_gpu(
         ctx,
