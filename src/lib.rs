@@ -6,8 +6,15 @@
 //! # Modules
 //!
 //! Everything outside [`vk`] forbids `unsafe`.
-//! - [`app`]: the commands of the `cubetrace` binary (render, bench, scene export) as functions;
-//!   `src/main.rs` only parses the command line (clap) and calls them.
+//! - [`app`]: the commands of the `cubetrace` binary (render, bench, scene export) as functions:
+//!   their arguments and the lines they print; `src/main.rs` only parses the command line (clap)
+//!   and calls them.
+//! - [`bench`](mod@bench): the speed-against-error harness (`cubetrace bench`) and scaling curves:
+//!   its grids, runs and reports.
+//! - [`render`]: the frame engine between those two and [`vk`]: [`render::FrameRenderer`] (the
+//!   frames of one run and its reuse rules), opened from a plain [`render::RenderSetup`]; the
+//!   sample loop; the checks around a render (memory, textures, validation); glossy frames.
+//!   `app` and `bench` render through it; it knows neither.
 //! - [`method`]: [`Method`], the one method type of the CLI, the harness and the renderer, and
 //!   what each method supports.
 //! - [`scene`]: the scene as data: scene files (TOML + OBJ/MTL/PNG), built-in scenes, mesh
@@ -17,7 +24,6 @@
 //! - [`camera`]: the camera and its pixel convention (Vulkan's, pixel centres at +0.5).
 //! - [`shading`]: the view-independent shading shared by the capture and the reference.
 //! - [`reference`](mod@reference): the exact CPU ray tracer that every accuracy figure is measured against.
-//! - [`bench`](mod@bench): the speed-against-error harness (`cubetrace bench`) and scaling curves.
 //! - [`metrics`]: error of a traced reflection against the reference.
 //! - [`ranges`]: depth ranges and ray length of a GPU frame, and the f32 precision check.
 //! - [`memory`]: the memory a render needs against what the machine and the device have.
@@ -136,6 +142,7 @@ pub mod output;
 pub mod placement;
 pub mod ranges;
 pub mod reference;
+pub mod render;
 pub mod scene;
 pub mod shading;
 pub mod vk;

@@ -22,6 +22,8 @@
 //!   any), over the whole frame, and over the **resolved** mirror pixels (mirror pixels of both
 //!   frames that the tracer resolved; NaN when there are none): the image quality of what the
 //!   tracer claims, apart from what the fallback filled.
+//!   A colour against a Monte Carlo truth (a glossy frame) has only the first, over the truth's
+//!   mirror pixels ([`psnr_over`]).
 //! - **same triangle**: where the traced frame carries the triangle of each hit
 //!   ([`Traced::triangle`]), the share of resolved mirror pixels whose hit triangle (global
 //!   index, `u32::MAX` where the ray left the scene) is the reference's
@@ -225,6 +227,27 @@ fn psnr(squared_error: f64, n: usize) -> f64 {
     } else {
         10.0 * (1.0 / mse).log10()
     }
+}
+
+/// PSNR (dB) of `got` against `truth` over the pixels where `mask` is set, linear RGB clamped
+/// to [0, 1]: infinite where equal, NaN over no pixel.
+pub fn psnr_over(got: &[Vec3], truth: &[Vec3], mask: &[u8]) -> f64 {
+    let (mut sum, mut n) = (0.0f64, 0usize);
+    for k in 0..truth.len() {
+        if mask[k] == 0 {
+            continue;
+        }
+        let d = got[k].clamp(Vec3::ZERO, Vec3::ONE) - truth[k].clamp(Vec3::ZERO, Vec3::ONE);
+        sum += f64::from(d.length_squared()) / 3.0;
+        n += 1;
+    }
+    if n == 0 {
+        return f64::NAN;
+    }
+    if sum == 0.0 {
+        return f64::INFINITY;
+    }
+    10.0 * (n as f64 / sum).log10()
 }
 
 /// Compares `traced` with `reference` over the mirror pixels of either (see the module docs).
@@ -687,5 +710,19 @@ mod tests {
             r.same_triangle.is_nan() && r.psnr_resolved_db.is_nan(),
             "{r:?}"
         );
+    }
+
+    #[test]
+    fn psnr_over_the_mask_only() {
+        let truth = vec![Vec3::splat(0.5); 4];
+        let mut got = truth.clone();
+        got[3] = Vec3::ONE; // outside the mask
+        let mask = [1, 1, 1, 0];
+        assert_eq!(psnr_over(&got, &truth, &mask), f64::INFINITY);
+        // Negative: inside the mask, 0.1 off on one pixel of three: MSE 0.01 / 3.
+        got[0] = Vec3::splat(0.6);
+        let db = psnr_over(&got, &truth, &mask);
+        assert!((db - 10.0 * (300.0f64).log10()).abs() < 1e-4, "{db}");
+        assert!(psnr_over(&got, &truth, &[0; 4]).is_nan());
     }
 }

@@ -258,6 +258,21 @@ pub fn traced_channels(
     channels
 }
 
+/// Writes `colour` as an 8-bit sRGB PNG, or as an EXR of the channels `exr` gives (asked for
+/// only then), atomically: the one writer of every frame.
+pub fn write_image<'a>(
+    path: &Path,
+    format: Format,
+    (width, height): (u32, u32),
+    colour: &[Vec3],
+    exr: impl FnOnce() -> Vec<(&'a str, Channel)>,
+) -> Result<()> {
+    match format {
+        Format::Png => write_atomic(path, &png_bytes(width, height, colour)?),
+        Format::Exr => write_exr(path, width, height, exr()),
+    }
+}
+
 /// Writes a traced (GPU) frame of the scene whose geometry is `world` as PNG or EXR, chosen by
 /// the extension of `path` ([`traced_channels`]).
 #[cfg(any(test, feature = "test-hooks"))]
@@ -267,33 +282,26 @@ pub fn write_traced(
     surface_position: &[Vec3],
     world: &WorldGeometry,
 ) -> Result<()> {
-    match Format::from_path(path)? {
-        Format::Png => write_atomic(
-            path,
-            &png_bytes(traced.width, traced.height, &traced.colour)?,
-        ),
-        Format::Exr => write_exr(
-            path,
-            traced.width,
-            traced.height,
-            traced_channels(traced, surface_position, world),
-        ),
-    }
+    write_image(
+        path,
+        Format::from_path(path)?,
+        (traced.width, traced.height),
+        &traced.colour,
+        || traced_channels(traced, surface_position, world),
+    )
 }
 
 /// Writes a reference frame of the scene whose geometry is `world` as PNG or EXR, chosen by the
 /// extension of `path` ([`frame_channels`]).
 #[cfg(any(test, feature = "test-hooks"))]
 pub fn write_frame(path: &Path, frame: &Frame, world: &WorldGeometry) -> Result<()> {
-    match Format::from_path(path)? {
-        Format::Png => write_atomic(path, &png_bytes(frame.width, frame.height, &frame.colour)?),
-        Format::Exr => write_exr(
-            path,
-            frame.width,
-            frame.height,
-            frame_channels(frame, world),
-        ),
-    }
+    write_image(
+        path,
+        Format::from_path(path)?,
+        (frame.width, frame.height),
+        &frame.colour,
+        || frame_channels(frame, world),
+    )
 }
 
 #[cfg(test)]

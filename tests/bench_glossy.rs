@@ -24,11 +24,13 @@ use std::path::Path;
 use std::process::Command;
 
 use cubetrace::Method;
-use cubetrace::app::frame_renderer::{self, FrameRenderer};
 use cubetrace::bench::MethodSpec;
 use cubetrace::bench::glossy::{self, GlossyConfig, GlossyReport, Tracing};
 use cubetrace::film::{FilmSettings, PixelFilter};
+use cubetrace::metrics::psnr_over;
 use cubetrace::reference::Tracer;
+use cubetrace::render::glossy::{mc_frame, method_warning, reference_frame};
+use cubetrace::render::{FrameRenderer, samples};
 use cubetrace::scene::Scene;
 use cubetrace::vk::GpuContext;
 use cubetrace::vk::frame::{Fallback, GpuRenderer, RenderOptions};
@@ -56,11 +58,11 @@ fn config(scenes: &[&str], powers: &[f32], methods: &[Method], spp: &[u32]) -> G
 
 /// The commands' rule: a method that warns on the glossy scene traces the mirror direction only.
 fn mirror_only(scene: &Scene, m: Method) -> bool {
-    cubetrace::app::glossy::method_warning(scene, m, 1).is_some()
+    method_warning(scene, m, 1).is_some()
 }
 
 fn run(ctx: &GpuContext, cfg: &GlossyConfig) -> GlossyReport {
-    glossy::run(ctx, cfg, &mirror_only, &|_| {}).unwrap_or_else(|e| panic!("{e:#}"))
+    glossy::run(ctx, cfg, &|_| {}).unwrap_or_else(|e| panic!("{e:#}"))
 }
 
 /// A built-in scene at 32x24 with 32-texel CMOs, its reflectors at `power`, and its camera.
@@ -81,11 +83,11 @@ fn the_bench_renders_the_commands_frames() {
         spp,
         filter: PixelFilter::Box,
     };
-    let (mine, half) = glossy::reference_frame(&s, &t, &cam, 8, true);
-    let theirs = frame_renderer::reference_frame(&s, &t, &cam, 1, film(8), false).0;
+    let (mine, half) = reference_frame(&s, &t, &cam, 8, true);
+    let theirs = samples::reference_frame(&s, &t, &cam, 1, film(8), false).0;
     assert!(bits(&mine.colour) == bits(&theirs.colour));
     assert_eq!(mine.mask, theirs.mask);
-    let four = frame_renderer::reference_frame(&s, &t, &cam, 1, film(4), false).0;
+    let four = samples::reference_frame(&s, &t, &cam, 1, film(4), false).0;
     assert!(
         bits(&mine.colour) != bits(&four.colour),
         "negative: 4 spp is another frame"
@@ -100,34 +102,34 @@ fn the_bench_renders_the_commands_frames() {
         ..RenderOptions::default()
     };
     let mut r = GpuRenderer::new(&ctx, &s, &cam, options).unwrap();
-    let (ladder4, passes) = glossy::mc_frame(&ctx, &mut r, &s, &cam, 4, true).unwrap();
+    let (ladder4, passes) = mc_frame(&ctx, &mut r, &s, &cam, 4, true).unwrap();
     let trace = cubetrace::vk::frame::pass_name(Method::Bvh);
     assert!(passes.iter().any(|(n, _)| n == trace), "{passes:?}");
     let line = ["sphere-room", "--method", "bvh", "--spp", "4"];
     let mut fr = FrameRenderer::new(&render_args(&line), &s, &cam).unwrap();
     let cli = fr.render(&s, &cam).unwrap();
     assert!(bits(&ladder4) == bits(cli.colour()), "render --spp 4");
-    let (ladder2, _) = glossy::mc_frame(&ctx, &mut r, &s, &cam, 2, true).unwrap();
+    let (ladder2, _) = mc_frame(&ctx, &mut r, &s, &cam, 2, true).unwrap();
     assert!(bits(&ladder2) != bits(cli.colour()), "negative: 2 spp");
     // The renderer is reused along the ladder: back at 4 spp, the same frame.
-    let (again, _) = glossy::mc_frame(&ctx, &mut r, &s, &cam, 4, true).unwrap();
+    let (again, _) = mc_frame(&ctx, &mut r, &s, &cam, 4, true).unwrap();
     assert!(bits(&again) == bits(&ladder4));
 
     // At one sample the pixel centre is the film's only offset: the commands' frames again.
-    let one = frame_renderer::reference_frame(&s, &t, &cam, 1, film(1), false).0;
-    assert!(bits(&glossy::reference_frame(&s, &t, &cam, 1, false).0.colour) == bits(&one.colour));
+    let one = samples::reference_frame(&s, &t, &cam, 1, film(1), false).0;
+    assert!(bits(&reference_frame(&s, &t, &cam, 1, false).0.colour) == bits(&one.colour));
     let line = ["sphere-room", "--method", "bvh", "--spp", "1"];
     let mut fr1 = FrameRenderer::new(&render_args(&line), &s, &cam).unwrap();
     let cli1 = fr1.render(&s, &cam).unwrap();
-    let (centre1, _) = glossy::mc_frame(&ctx, &mut r, &s, &cam, 1, false).unwrap();
+    let (centre1, _) = mc_frame(&ctx, &mut r, &s, &cam, 1, false).unwrap();
     assert!(bits(&centre1) == bits(cli1.colour()), "render --spp 1");
     // At the pixel centre the GPU's 16 samples are the reference's 16 (the same keys), up to
     // rounding; negative: the reference's 15 (other keys) are another estimate.
-    let (centre16, _) = glossy::mc_frame(&ctx, &mut r, &s, &cam, 16, false).unwrap();
-    let cpu = |spp| glossy::reference_frame(&s, &t, &cam, spp, false).0;
+    let (centre16, _) = mc_frame(&ctx, &mut r, &s, &cam, 16, false).unwrap();
+    let cpu = |spp| reference_frame(&s, &t, &cam, spp, false).0;
     let (r16, r15) = (cpu(16), cpu(15));
-    let same = glossy::psnr_over(&centre16, &r16.colour, &r16.mask);
-    let other = glossy::psnr_over(&centre16, &r15.colour, &r16.mask);
+    let same = psnr_over(&centre16, &r16.colour, &r16.mask);
+    let other = psnr_over(&centre16, &r15.colour, &r16.mask);
     eprintln!(
         "bvh at the pixel centre, 16 spp: {same:.2} dB against the reference's 16, {other:.2} against its 15"
     );
@@ -260,14 +262,13 @@ fn rows_for_every_scene_power_and_method_and_bvh_converges() {
             // Negatives: a black and a grey frame against the run's reference fail the row
             // bounds of every method.
             let (s, cam) = glossy_scene(scene, power);
-            let truth =
-                glossy::reference_frame(&s, &Tracer::new(&s), &cam, cfg.reference_spp, false).0;
+            let truth = reference_frame(&s, &Tracer::new(&s), &cam, cfg.reference_spp, false).0;
             for (what, c) in [
                 ("black", glam::Vec3::ZERO),
                 ("grey", glam::Vec3::splat(0.5)),
             ] {
                 let frame = vec![c; truth.colour.len()];
-                let db = glossy::psnr_over(&frame, &truth.colour, &truth.mask);
+                let db = psnr_over(&frame, &truth.colour, &truth.mask);
                 eprintln!("{scene} power {power}: a {what} frame {db:.2} dB");
                 for &m in &methods {
                     let label = MethodSpec::plain(m).label();
@@ -285,10 +286,10 @@ fn rows_for_every_scene_power_and_method_and_bvh_converges() {
 /// against wrong ones: power 64's ladder against power 256's reference and the mirror's.
 fn wrong_lobe_stops_rising(ctx: &GpuContext) {
     let (s, cam) = glossy_scene("sphere-room", 64.0);
-    let truth = glossy::reference_frame(&s, &Tracer::new(&s), &cam, 1024, false).0;
+    let truth = reference_frame(&s, &Tracer::new(&s), &cam, 1024, false).0;
     let wrong = |power: f32| {
         let (w, _) = glossy_scene("sphere-room", power);
-        glossy::reference_frame(&w, &Tracer::new(&w), &cam, 1024, false).0
+        reference_frame(&w, &Tracer::new(&w), &cam, 1024, false).0
     };
     let (w16, w256, mirror) = (
         wrong(16.0),
@@ -303,8 +304,8 @@ fn wrong_lobe_stops_rising(ctx: &GpuContext) {
     let mut r = GpuRenderer::new(ctx, &s, &cam, options).unwrap();
     let mut at = Vec::new();
     for spp in [4, 64, 256] {
-        let (c, _) = glossy::mc_frame(ctx, &mut r, &s, &cam, spp, false).unwrap();
-        let score = |f: &cubetrace::reference::Frame| glossy::psnr_over(&c, &f.colour, &truth.mask);
+        let (c, _) = mc_frame(ctx, &mut r, &s, &cam, spp, false).unwrap();
+        let score = |f: &cubetrace::reference::Frame| psnr_over(&c, &f.colour, &truth.mask);
         at.push((score(&truth), score(&w16), score(&w256), score(&mirror)));
     }
     drop(r);

@@ -148,7 +148,7 @@ fn bench_reports_cost_per_ray_ratios_and_floor() {
     let report = bench::run(&ctx, &cfg, &indicatif::ProgressBar::hidden()).expect("bench");
     assert!(report.runs.iter().all(|r| r.floor.is_none()));
     assert_eq!(report.ratios[0].compute_ns_per_ray, None);
-    bench::check_validation(&ctx).expect("validation");
+    cubetrace::render::check_validation(&ctx).expect("validation");
     common::finish_gpu(ctx);
 }
 
@@ -238,7 +238,7 @@ fn bench_with_bounces() {
         scene.cmo.resolution,
     );
     assert!(e.same_triangle < bvh.same_triangle, "{e:?} against {bvh:?}");
-    bench::check_validation(&ctx).expect("validation");
+    cubetrace::render::check_validation(&ctx).expect("validation");
     common::finish_gpu(ctx);
 }
 
@@ -279,7 +279,7 @@ fn bench_refuses_what_render_refuses_for_memory() {
         let (scene, camera, _) = app::render::load_scene(&args).expect("scene");
         let options = app::render::gpu_options(&args).expect("options");
         let what = format!("a {w}x{h} frame with --method {}", args.method);
-        app::render::check_gpu_memory(
+        cubetrace::render::checks::check_gpu_memory(
             &what,
             &scene,
             &camera,
@@ -454,6 +454,6 @@ fn placement_axis_sets_the_search_beside_the_scenes_centres() {
         ..one
     };
     assert_eq!(bench::report::placement_table(&one), "");
-    bench::check_validation(&ctx).expect("validation");
+    cubetrace::render::check_validation(&ctx).expect("validation");
     common::finish_gpu(ctx);
 }

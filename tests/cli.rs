@@ -1208,7 +1208,7 @@ fn a_large_texture_is_named_in_the_refusal() {
         device_is_host: false,
     };
     let check = |scene: &cubetrace::scene::Scene| {
-        cubetrace::app::render::check_gpu_memory(
+        cubetrace::render::checks::check_gpu_memory(
             "a 64x48 frame with --method compute",
             scene,
             &camera,
@@ -1227,7 +1227,7 @@ fn a_large_texture_is_named_in_the_refusal() {
     ] {
         assert!(e.contains(needle), "'{needle}' in: {e}");
     }
-    let e = cubetrace::app::render::check_textures(&scene, 128 << 20, "lavapipe")
+    let e = cubetrace::render::checks::check_textures(&scene, 128 << 20, "lavapipe")
         .unwrap_err()
         .to_string();
     assert!(e.contains("texture 'floor-8k' 8192x8192: 256.0 MiB"), "{e}");
@@ -1237,7 +1237,7 @@ fn a_large_texture_is_named_in_the_refusal() {
     scene.textures.last_mut().unwrap().width = 4096;
     scene.textures.last_mut().unwrap().height = 4096;
     check(&scene).unwrap();
-    cubetrace::app::render::check_textures(&scene, 128 << 20, "lavapipe").unwrap();
+    cubetrace::render::checks::check_textures(&scene, 128 << 20, "lavapipe").unwrap();
 }
 
 /// The host phases are logged each under its own name (the reference's BVH no longer takes

@@ -16,10 +16,10 @@ use common::render_args as args;
 use common::{finish_gpu, finish_renderer, gpu_context};
 
 use cubetrace::Method;
-use cubetrace::app::frame_renderer::{self, FrameRenderer, RenderedFrame};
 use cubetrace::camera::Camera;
 use cubetrace::film::{FilmSettings, PixelFilter, sample_offsets};
 use cubetrace::reference;
+use cubetrace::render::{FrameRenderer, RenderedFrame, samples};
 use cubetrace::scene::{self, Scene};
 use cubetrace::vk::GpuContext;
 use cubetrace::vk::frame::{Fallback, GpuFrame, GpuRenderer, RECORD_HIT, RenderOptions};
@@ -150,7 +150,7 @@ fn reference_box_filter_is_the_mean_of_jittered_renders() {
         spp: 1,
         filter: PixelFilter::Box,
     };
-    let (f1, _) = frame_renderer::reference_frame(&scene, &tracer, &camera, 1, one, false);
+    let (f1, _) = samples::reference_frame(&scene, &tracer, &camera, 1, one, false);
     let plain = reference::render(&scene, &tracer, &camera, 1);
     assert_eq!(
         vec3_bits(&f1.colour),
@@ -159,7 +159,7 @@ fn reference_box_filter_is_the_mean_of_jittered_renders() {
     );
     assert_eq!(f1.mask, plain.mask);
     let film = FilmSettings { spp: 4, ..one };
-    let (f4, kept) = frame_renderer::reference_frame(&scene, &tracer, &camera, 1, film, true);
+    let (f4, kept) = samples::reference_frame(&scene, &tracer, &camera, 1, film, true);
     assert_eq!(kept.len(), 4);
     let mean_at = |offsets: &[Vec2]| -> Vec<Vec3> {
         let frames: Vec<_> = offsets

@@ -21,12 +21,11 @@ use common::render_args as args;
 use common::{finish_gpu, gpu_context, psnr};
 
 use cubetrace::Method;
-use cubetrace::app::frame_renderer::{self, FrameRenderer};
-use cubetrace::app::glossy;
 use cubetrace::camera::Camera;
 use cubetrace::film::{FilmSettings, PixelFilter};
 use cubetrace::lobe;
 use cubetrace::reference::{self, Tracer};
+use cubetrace::render::{FrameRenderer, glossy, samples};
 use cubetrace::scene::{self, Scene, builtin};
 use cubetrace::vk::frame::{Fallback, GpuFrame, RenderOptions};
 use glam::Vec3;
@@ -95,7 +94,7 @@ fn reference_at(scene: &Scene, tracer: &Tracer, camera: &Camera, spp: u32) -> re
         spp,
         filter: PixelFilter::Box,
     };
-    frame_renderer::reference_frame(scene, tracer, camera, 1, film, false).0
+    samples::reference_frame(scene, tracer, camera, 1, film, false).0
 }
 
 /// At and above the cap every method renders the mirror's frame, bit for bit; the reference too.

@@ -441,10 +441,10 @@ fn cone_pass_equals_cpu_twin() {
     finish_gpu(ctx);
 }
 
-use cubetrace::app::frame_renderer::{self, FrameRenderer};
 use cubetrace::cpu::options::{TraceCriterion, TraceOptions};
 use cubetrace::film::{FilmSettings, PixelFilter};
 use cubetrace::reference::{self, Tracer};
+use cubetrace::render::{FrameRenderer, samples};
 
 /// The reference's box-filtered frame at `spp` samples, as `render --spp` makes it.
 fn reference_at(scene: &Scene, cam: &Camera, spp: u32) -> reference::Frame {
@@ -453,7 +453,7 @@ fn reference_at(scene: &Scene, cam: &Camera, spp: u32) -> reference::Frame {
         filter: PixelFilter::Box,
     };
     let t = Tracer::new(scene);
-    frame_renderer::reference_frame(scene, &t, cam, 1, film, false).0
+    samples::reference_frame(scene, &t, cam, 1, film, false).0
 }
 
 /// `--method bvh --spp spp`'s frame.

@@ -414,10 +414,10 @@ fn hard_cases() {
 }
 
 /// PSNR (dB) of `got` against `truth` over the pixels of `mask`, linear RGB clamped to [0, 1]
-/// (`bench::glossy::psnr_over`).
+/// (`metrics::psnr_over`).
 fn psnr(got: &[Vec3], truth: &[Vec3], mask: &[u8]) -> f64 {
     // At most 120 dB (an MSE floor of 1e-12), also over no pixel.
-    cubetrace::bench::glossy::psnr_over(got, truth, mask).min(120.0)
+    cubetrace::metrics::psnr_over(got, truth, mask).min(120.0)
 }
 
 /// An ssr frame (envmap fallback) of `scene`.
@@ -449,8 +449,7 @@ fn ssr_scores(
         filter: PixelFilter::Box,
     };
     let truth =
-        cubetrace::app::frame_renderer::reference_frame(&g, &Tracer::new(&g), &cam, 1, film, false)
-            .0;
+        cubetrace::render::samples::reference_frame(&g, &Tracer::new(&g), &cam, 1, film, false).0;
     let db = |f: &GpuFrame| psnr(&f.colour, &truth.colour, &truth.mask);
     let mirror = db(&ssr_frame(ctx, &s, &cam));
     let cones = (lobes.iter())

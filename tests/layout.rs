@@ -1,6 +1,9 @@
 //! The source tree keeps the shape the crate documentation (`src/lib.rs`, "Modules") describes:
 //! - no import circle: no module uses, directly or through others, a module that uses it back
 //!   (at every depth of the module path: `vk`, `vk::passes`, `vk::passes::bvh`);
+//! - the frame's layers ([`LAYERS`]): the commands (`app`) above the harness (`bench`), both above
+//!   the frame engine (`render`), which is above the Vulkan backend (`vk`); no module uses one
+//!   of a layer above its own;
 //! - Vulkan stays in `src/vk/`: no `ash::` path and no `unsafe` outside it;
 //! - no function in `src/` is longer than 120 lines;
 //! - the README is at most 350 lines.
@@ -264,6 +267,47 @@ fn an_import_circle_is_found() {
     assert!(
         cycles.iter().any(|c| c.starts_with("depth 2")),
         "{cycles:?}"
+    );
+}
+
+/// The layers of the frame's path, top first: a module of one may use the layers below it, never
+/// one above (`app` runs `bench`, both render through `render`, which drives `vk`).
+const LAYERS: [&str; 4] = ["app", "bench", "render", "vk"];
+
+/// The edges that go up [`LAYERS`], as `from -> to`.
+fn upward_edges(files: &[(String, String)]) -> Vec<String> {
+    let rank = |m: &str| LAYERS.iter().position(|l| *l == m);
+    let mut up = Vec::new();
+    for (from, tos) in graph(files, 1) {
+        for to in tos {
+            if let (Some(a), Some(b)) = (rank(&from), rank(&to))
+                && b < a
+            {
+                up.push(format!("{from} -> {to}"));
+            }
+        }
+    }
+    up
+}
+
+#[test]
+fn no_layer_uses_one_above_it() {
+    let up = upward_edges(&sources());
+    assert!(up.is_empty(), "layers used from below:\n{}", up.join("\n"));
+    // Negative: the frame engine calling the harness, and the harness calling a command, are
+    // caught; the other way round is not.
+    let file = |m: &str, src: &str| (m.to_string(), src.to_string());
+    let bad = vec![
+        file("render::checks", "use crate::bench::check_memory;"),
+        file(
+            "bench::runs",
+            "use crate::{app::render::timed, render::FrameRenderer};",
+        ),
+        file("app", "use crate::bench;"),
+    ];
+    assert_eq!(
+        upward_edges(&bad),
+        vec!["bench -> app".to_string(), "render -> bench".to_string()]
     );
 }
 

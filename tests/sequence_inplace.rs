@@ -6,12 +6,12 @@
 //! criterion's capture, the bounce rounds' own BVH). Negatives: an update that leaves the
 //! vertex buffer or the BVHs stale gives other frames; frames of different times differ. A
 //! topology change falls back to a new renderer, still bit for bit the frame alone. The scene
-//! comparison (`frame_renderer::classify`) is checked on its own, each case with its negative.
+//! comparison (`render::classify`) is checked on its own, each case with its negative.
 
 use clap::Parser;
-use cubetrace::app::frame_renderer::{FrameRenderer, RenderedFrame, SceneChange, classify};
 use cubetrace::app::render::RenderArgs;
 use cubetrace::camera::Camera;
+use cubetrace::render::{FrameRenderer, RenderedFrame, SceneChange, classify};
 use cubetrace::scene::animation::{MeshKey, MeshTrack};
 use cubetrace::scene::{CmoPlacement, Scene, builtin, shapes};
 use cubetrace::vk::frame::{RECORD_HIT, StaleUpdate};

@@ -255,7 +255,7 @@ pub fn bench(mut args: BenchArgs) -> Result<()> {
     } else {
         run_grid(&args, &methods, &ctx, &bar)?
     };
-    bench::check_validation(&ctx)?;
+    crate::render::check_validation(&ctx)?;
     for p in paths {
         println!("wrote {}", p.display());
     }
@@ -437,9 +437,6 @@ fn run_glossy(
     bar: &indicatif::ProgressBar,
 ) -> Result<Vec<PathBuf>> {
     bar.set_length(bench::glossy::planned_steps(cfg));
-    let mirror_only = |scene: &crate::scene::Scene, m: Method| {
-        super::glossy::method_warning(scene, m, 1).is_some()
-    };
     let started = std::cell::Cell::new(false);
     let tick = |what: &str| {
         if started.replace(true) {
@@ -447,7 +444,7 @@ fn run_glossy(
         }
         bar.set_message(what.to_string());
     };
-    let report = bench::glossy::run(ctx, cfg, &mirror_only, &tick)?;
+    let report = bench::glossy::run(ctx, cfg, &tick)?;
     bar.finish_and_clear();
     println!("{}", bench::glossy::markdown(&report));
     bench::glossy::write(&report, &args.out)

@@ -3,7 +3,11 @@
 //! line (clap) into the argument structs defined here and calls one function per command.
 //!
 //! - [`render`]: `cubetrace render` (one frame of one method, optionally compared with the
-//!   reference); [`summary`]: its summary line and the fallback's warning.
+//!   reference): its arguments, the scene they prepare, the [`crate::render::RenderSetup`] they
+//!   give the frame engine ([`crate::render`]) and the lines it prints; [`summary`]: its
+//!   summary line and the fallback's warning.
+//! - [`options`]: the tracer and fallback options of `render` and how they become the
+//!   renderer's options and the scene's CMO overrides.
 //! - [`sequence`]: `cubetrace render` of several frames (`--frames`, an animated scene), with
 //!   [`frames`]: the sequence flags, frame lists and output names.
 //! - [`bench`](mod@bench): `cubetrace bench` (the harness of [`crate::bench`] and its scaling curves).
@@ -15,14 +19,14 @@
 //! Invariants: every check that can refuse a command (arguments, scene, output path, memory)
 //! runs before the work it protects, and a refusal is an `Err` with a message naming the
 //! argument or file; nothing here exits the process or prints an error itself (`main` does).
-//! The argument structs are the command line's: their doc comments are its `--help`.
+//! The argument structs are the command line's: their doc comments are its `--help`. The frames
+//! themselves (the renderer and its reuse, the samples, the checks, the writer) are
+//! [`crate::render`]'s.
 
 pub mod bench;
 pub mod export;
 pub mod farm;
-pub mod frame_renderer;
 pub mod frames;
-pub mod glossy;
 pub mod options;
 pub mod render;
 pub mod sequence;
@@ -56,12 +60,17 @@ impl GpuArgs {
         }
     }
 
-    /// The GPU context of the chosen device.
-    pub fn context(&self) -> Result<GpuContext> {
-        Ok(GpuContext::new(ContextOptions {
+    /// How to create the GPU context of the chosen device.
+    pub fn context_options(&self) -> ContextOptions {
+        ContextOptions {
             validation: self.validation(),
             device_index: self.device,
-        })?)
+        }
+    }
+
+    /// The GPU context of the chosen device.
+    pub fn context(&self) -> Result<GpuContext> {
+        Ok(GpuContext::new(self.context_options())?)
     }
 }
 

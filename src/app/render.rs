@@ -4,9 +4,11 @@
 //!
 //! The order is the command's promise: the scene and its overrides are loaded and checked, then
 //! the output path, then (GPU methods) the bounce rule, the device and the memory the render
-//! needs ([`check_gpu_memory`], the one estimate of [`crate::vk::budget::estimate`], also the
-//! bench's) or (reference) the host memory; only then anything is rendered. A refusal at any
-//! step leaves no file behind.
+//! needs ([`crate::render::checks`], the one estimate of [`crate::vk::budget::estimate`], also
+//! the bench's) or (reference) the host memory; only then anything is rendered. A refusal at
+//! any step leaves no file behind. The frame is [`crate::render`]'s ([`FrameRenderer`], opened
+//! from the plain [`RenderSetup`] of [`render_setup`]); this module keeps the arguments, the
+//! scene they prepare and the lines printed.
 
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -14,16 +16,15 @@ use std::time::{Duration, Instant};
 use anyhow::Result;
 
 use super::GpuArgs;
-use super::frame_renderer::{self, FrameRenderer, FrameSetup, RenderedFrame};
 use super::options::TraceArgs;
 use super::summary::{self, FallbackCount};
 use crate::Method;
 use crate::camera::Camera;
-use crate::memory;
 use crate::metrics;
 use crate::output::{self, Format};
 use crate::placement::Placement;
 use crate::reference;
+use crate::render::{self as engine, FrameRenderer, RenderSetup, RenderedFrame};
 use crate::scene::{self, Scene};
 use crate::vk::GpuContext;
 use crate::vk::frame::{GpuFrame, RenderOptions};
@@ -166,7 +167,7 @@ pub fn render(args: RenderArgs) -> Result<()> {
     args.check_method()?;
     let (scene, camera, placement) = load_scene(&args)?;
     let target = check_target(&args, &scene)?;
-    if let Some(warning) = crate::app::glossy::method_warning(&scene, args.method, args.bounces) {
+    if let Some(warning) = engine::glossy::method_warning(&scene, args.method, args.bounces) {
         log::warn!("{warning}");
     }
     if args.method.is_gpu() {
@@ -184,59 +185,34 @@ pub fn film_settings(args: &RenderArgs, scene: &Scene) -> crate::film::FilmSetti
     }
 }
 
+/// The plain set-up of a run's frames ([`crate::render::RenderSetup`]) from the command line:
+/// the film, the output's format, `--compare`, and for GPU methods the device and the renderer's
+/// options (refused where the method cannot trace `--bounces`).
+pub fn render_setup(args: &RenderArgs, scene: &Scene) -> Result<RenderSetup> {
+    let format = match &args.output {
+        Some(p) => Format::from_path(p)?,
+        None => Format::Png,
+    };
+    let gpu = if args.method.is_gpu() {
+        Some((args.gpu.context_options(), gpu_options(args)?))
+    } else {
+        None
+    };
+    Ok(RenderSetup {
+        method: args.method,
+        bounces: args.bounces,
+        film: film_settings(args, scene),
+        format,
+        compare: args.compare,
+        gpu,
+    })
+}
+
 impl FrameRenderer {
-    /// Device and checks once (GPU methods: the device, the textures and the memory the frame
-    /// needs, then the GPU renderer and its pipelines; the reference: the host memory, then its
-    /// BVH); nothing rendered yet.
+    /// The renderer of the command line's frames: [`render_setup`], then
+    /// [`FrameRenderer::open`] (the device and the checks once); nothing rendered yet.
     pub fn new(args: &RenderArgs, scene: &Scene, camera: &Camera) -> Result<Self> {
-        let film = film_settings(args, scene);
-        let format = match &args.output {
-            Some(p) => Format::from_path(p)?,
-            None => Format::Png,
-        };
-        let size = format!(
-            "a {}x{} frame with --method {}",
-            camera.width, camera.height, args.method
-        );
-        let gpu = if args.method.is_gpu() {
-            let options = gpu_options(args)?;
-            let ctx = args.gpu.context()?;
-            let report = ctx.report();
-            check_textures(
-                scene,
-                u64::from(report.max_storage_buffer_range),
-                &report.name,
-            )?;
-            let limits =
-                memory::Limits::of_device(ctx.device_local_heap_bytes(), ctx.device_is_cpu())?;
-            check_gpu_memory(
-                &size,
-                scene,
-                camera,
-                &options,
-                format,
-                args.compare,
-                &report.name,
-                &limits,
-            )?;
-            Some((ctx, options))
-        } else {
-            let pixels = u64::from(camera.width) * u64::from(camera.height);
-            memory::check(
-                &size,
-                memory::reference_bytes(pixels, format),
-                memory::host_available()?,
-            )?;
-            None
-        };
-        let setup = FrameSetup {
-            method: args.method,
-            bounces: args.bounces,
-            film,
-            keep_samples: args.compare && film.spp > 1,
-            gpu,
-        };
-        FrameRenderer::from_setup(setup, scene, camera)
+        FrameRenderer::open(&render_setup(args, scene)?, scene, camera)
     }
 }
 
@@ -372,84 +348,6 @@ pub fn check_file_name(path: &Path) -> Result<()> {
     }
 }
 
-/// Refuses a GPU render that would not fit: the host bytes (the read-back, the output and with
-/// `compare` the reference; on a CPU device the device's bytes too) against `limits.host`, then
-/// the device bytes of [`crate::vk::budget::estimate`] (CMOs, frame, bounce queues, reflector
-/// check) against `limits.device`. `size` names the frame (`a WxH frame with --method M`),
-/// `device` the device. The bench's [`crate::bench::check_memory`] holds the same estimate
-/// against the same limits.
-#[allow(clippy::too_many_arguments)]
-pub fn check_gpu_memory(
-    size: &str,
-    scene: &Scene,
-    camera: &Camera,
-    options: &RenderOptions,
-    format: Format,
-    compare: bool,
-    device: &str,
-    limits: &memory::Limits,
-) -> Result<()> {
-    let estimate = crate::vk::budget::estimate(scene, camera, options);
-    let pixels = u64::from(camera.width) * u64::from(camera.height);
-    let mut host = memory::gpu_host_bytes(pixels, format, compare);
-    if limits.device_is_host {
-        // A CPU device's memory is the machine's.
-        host += estimate.total();
-    }
-    let gpu_size = format!(
-        "{size} ({} CMOs of {}^2 texels per face: {} of GPU data)",
-        scene.cmo_centres().len(),
-        scene.cmo.resolution,
-        memory::human(estimate.total())
-    );
-    let advice = memory::advice(&crate::vk::budget::largest_items(scene, camera, options));
-    memory::check_with(&gpu_size, host, limits.host.clone(), &advice)?;
-    memory::check_with(
-        &format!(
-            "{size} ({} of CMO data, {} per frame, {} of scene data) on {device}",
-            memory::human(estimate.cmo),
-            memory::human(estimate.frame),
-            memory::human(estimate.scene),
-        ),
-        estimate.total(),
-        Some(limits.device.clone()),
-        &advice,
-    )
-}
-
-/// Refuses a scene whose textures do not fit the one storage buffer that holds them all
-/// (`maxStorageBufferRange` of the device, `limit` bytes), naming the largest textures.
-pub fn check_textures(scene: &Scene, limit: u64, device: &str) -> Result<()> {
-    let need = crate::vk::budget::texel_buffer_bytes(scene);
-    if need <= limit {
-        return Ok(());
-    }
-    let mut textures: Vec<_> = scene.textures.iter().collect();
-    textures.sort_by_key(|t| std::cmp::Reverse(crate::vk::budget::texture_bytes(t)));
-    let listed: Vec<String> = textures
-        .iter()
-        .take(3)
-        .map(|t| {
-            format!(
-                "texture '{}' {}x{}: {}",
-                t.name,
-                t.width,
-                t.height,
-                memory::human(crate::vk::budget::texture_bytes(t))
-            )
-        })
-        .collect();
-    anyhow::bail!(
-        "scene '{}': its textures take {} in one GPU buffer, more than {device} can bind \
-         (maxStorageBufferRange = {}); the largest: {}; scale them down (each halving of a \
-         texture's sides takes 3/4 off)",
-        scene.name,
-        memory::human(need),
-        memory::human(limit),
-        listed.join(", ")
-    )
-}
-
 /// The renderer's options of a GPU render, refused where the method cannot trace `--bounces`.
 pub fn gpu_options(args: &RenderArgs) -> Result<RenderOptions> {
     args.check_method()?;
@@ -507,7 +405,7 @@ fn render_gpu(
             ctx
         )
     );
-    crate::bench::check_validation(ctx)?;
+    engine::check_validation(ctx)?;
     if args.compare {
         for line in compare_with_reference(args, scene, camera, renderer.film(), &rendered) {
             println!("{line}");
@@ -654,7 +552,7 @@ pub(super) fn compare_with_reference(
     }
     let keep = film.spp > 1;
     let (refr, ref_samples) =
-        frame_renderer::reference_frame(scene, &tracer, camera, args.bounces, film, keep);
+        engine::samples::reference_frame(scene, &tracer, camera, args.bounces, film, keep);
     // The GPU records hold each path's last hit (the first reflected one for one bounce).
     let refr = refr.with_last_hits(&tracer);
     let centres = scene.cmo_centres();
@@ -692,7 +590,7 @@ pub(super) fn compare_with_reference(
 
 /// The `--compare` line of a glossy scene. A reflected ray's hit is one sample of the lobe, so
 /// hits cannot be compared; the colour can, against the lobe's integral: the reference at
-/// `spp` samples at the film's offsets (`bench::glossy::reference_frame`, bit for bit
+/// `spp` samples at the film's offsets ([`engine::glossy::reference_frame`], bit for bit
 /// `cubetrace reference --spp N`), whose own accuracy is the PSNR of its even-numbered samples
 /// against all of them (an unbiased estimate's error falls as 1/sqrt(spp), so the full frame is
 /// about 3 dB closer to the truth than that). PSNR over the reference's mirror pixels.
@@ -703,9 +601,9 @@ fn glossy_comparison(
     spp: u32,
     rendered: &RenderedFrame,
 ) -> String {
-    let (truth, half) = crate::bench::glossy::reference_frame(scene, tracer, camera, spp, true);
-    let psnr = crate::bench::glossy::psnr_over(rendered.colour(), &truth.colour, &truth.mask);
-    let half_psnr = crate::bench::glossy::psnr_over(&half, &truth.colour, &truth.mask);
+    let (truth, half) = engine::glossy::reference_frame(scene, tracer, camera, spp, true);
+    let psnr = metrics::psnr_over(rendered.colour(), &truth.colour, &truth.mask);
+    let half_psnr = metrics::psnr_over(&half, &truth.colour, &truth.mask);
     format!(
         "against a converged reference ({spp} spp; its half-spp PSNR {half_psnr:.2} dB, glossy \
          reflectors: {}): {} mirror pixels, PSNR {psnr:.2} dB over mirror pixels",

@@ -30,12 +30,12 @@ use std::time::Instant;
 
 use anyhow::{Context as _, Result};
 
-use super::frame_renderer::{FrameRenderer, RenderedFrame};
 use super::frames::{frame_path, output_pattern, parse_frames};
 use super::render::{self, RenderArgs};
 use super::shard;
 use crate::camera::Camera;
 use crate::output::{self, Format};
+use crate::render::{self as engine, FrameRenderer, RenderedFrame};
 use crate::scene::{self, Scene};
 
 /// `cubetrace render`: a still scene without `--frames` is one frame, rendered by
@@ -163,7 +163,7 @@ fn run_sequence(args: RenderArgs, given: Option<Vec<i64>>) -> Result<()> {
     }
     bar.finish_and_clear();
     if let Some(ctx) = renderer.as_ref().and_then(|r| r.context()) {
-        crate::bench::check_validation(ctx)?;
+        engine::check_validation(ctx)?;
     }
     let wall = start.elapsed();
     let rendered = todo.len();
@@ -212,7 +212,7 @@ fn load_base(args: &RenderArgs) -> Result<Scene> {
     for problem in crate::placement::diagnose(&scene) {
         log::warn!("{problem}");
     }
-    if let Some(warning) = crate::app::glossy::method_warning(&scene, args.method, args.bounces) {
+    if let Some(warning) = engine::glossy::method_warning(&scene, args.method, args.bounces) {
         log::warn!("{warning}");
     }
     Ok(scene)

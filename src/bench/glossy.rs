@@ -13,8 +13,8 @@
 //!   integral (without rendering anything more). Its wall time is reported: it is the cost of
 //!   the truth, not of a method.
 //! - **Every requested GPU method but `bvh`, once**: its deterministic image at the pixel centre.
-//!   A method that traces the mirror direction only is marked [`Tracing::Mirror`] (the caller
-//!   says which, from `app::glossy::method_warning`), one that traces the cone [`Tracing::Cone`].
+//!   A method that traces the mirror direction only is marked [`Tracing::Mirror`] (where the
+//!   commands warn so, [`method_warning`]), one that traces the cone [`Tracing::Cone`].
 //! - **`bvh` Monte Carlo at a ladder of spp** ([`mc_frame`]), one renderer per scene and power.
 //!
 //! Where the samples lie ([`GlossyConfig::film`]): by default every sample is at the pixel
@@ -49,16 +49,18 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context as _, Result, bail};
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use serde::Serialize;
 
 use super::{DeviceInfo, MethodSpec, PassStats, Stats, git_commit, pass_stats};
 use crate::Method;
 use crate::camera::Camera;
 use crate::files::write_atomic;
-use crate::film::{Film, PixelFilter, aov_sample, sample_offsets};
 use crate::lobe::{self, MIRROR_POWER};
+use crate::metrics::psnr_over;
 use crate::reference::{self, Tracer};
+use crate::render::checks::check_validation;
+use crate::render::glossy::{mc_frame, method_warning, reference_frame};
 use crate::scene::Scene;
 use crate::vk::frame::{GpuRenderer, pass_name};
 use crate::vk::{GpuContext, PassTime};
@@ -258,27 +260,6 @@ pub fn check_ladder(spp: &[u32]) -> Result<()> {
     Ok(())
 }
 
-/// PSNR (dB) of `got` against `truth` over the pixels where `mask` is set, linear RGB clamped
-/// to [0, 1]: infinite where equal, NaN over no pixel.
-pub fn psnr_over(got: &[Vec3], truth: &[Vec3], mask: &[u8]) -> f64 {
-    let (mut sum, mut n) = (0.0f64, 0usize);
-    for k in 0..truth.len() {
-        if mask[k] == 0 {
-            continue;
-        }
-        let d = got[k].clamp(Vec3::ZERO, Vec3::ONE) - truth[k].clamp(Vec3::ZERO, Vec3::ONE);
-        sum += f64::from(d.length_squared()) / 3.0;
-        n += 1;
-    }
-    if n == 0 {
-        return f64::NAN;
-    }
-    if sum == 0.0 {
-        return f64::INFINITY;
-    }
-    10.0 * (n as f64 / sum).log10()
-}
-
 /// The passes that fill and pre-filter the CMOs ([`crate::vk::frame::GpuRenderer`]'s CMO
 /// stages): they run on a frame whose scene changed since the last capture, and not on the
 /// others.
@@ -352,92 +333,6 @@ pub fn versus(ladder: &[LadderPoint], frame_ns: f64, reused_ns: f64, psnr_db: f6
     }
 }
 
-/// The sample offsets from the pixel centre of a frame of `spp` samples: the film's
-/// ([`sample_offsets`]) with `film`, else all zero (module docs).
-pub fn offsets(spp: u32, film: bool) -> Vec<Vec2> {
-    if film {
-        sample_offsets(spp)
-    } else {
-        vec![Vec2::ZERO; spp.max(1) as usize]
-    }
-}
-
-/// The converged reference's frame at `spp` samples (box filter, [`offsets`]), plus the colour
-/// of its even-numbered samples alone. With `film`, bit for bit the frame of
-/// `cubetrace reference --spp N` (`app::frame_renderer::reference_frame`).
-pub fn reference_frame(
-    scene: &Scene,
-    tracer: &Tracer,
-    camera: &Camera,
-    spp: u32,
-    film: bool,
-) -> (reference::Frame, Vec<Vec3>) {
-    let offsets = offsets(spp, film);
-    let aov = aov_sample(&offsets);
-    let (w, h) = (camera.width, camera.height);
-    let (mut all, mut half) = (
-        Film::new(w, h, PixelFilter::Box),
-        Film::new(w, h, PixelFilter::Box),
-    );
-    let bar = indicatif::ProgressBar::hidden();
-    let mut kept = None;
-    for (s, &o) in offsets.iter().enumerate() {
-        let cam = jittered(camera, o);
-        let key = lobe::sample_key(spp, s as u32);
-        let frame = reference::render_sample(scene, tracer, &cam, 1, key, &bar);
-        all.add(o, &frame.colour);
-        if s % 2 == 0 {
-            half.add(o, &frame.colour);
-        }
-        if s == aov {
-            kept = Some(frame);
-        }
-    }
-    let mut frame = kept.unwrap_or_else(|| reference::Frame::new(w, h));
-    frame.colour = all.resolve();
-    (frame, half.resolve())
-}
-
-fn jittered(camera: &Camera, offset: Vec2) -> Camera {
-    Camera {
-        jitter: offset,
-        ..camera.clone()
-    }
-}
-
-/// One Monte Carlo frame of `renderer` at `spp` samples, each sample's camera jittered by its
-/// offset ([`offsets`]) and keyed by [`lobe::sample_key`], box filter: with `film`, the frame
-/// of `render --method bvh --spp N` (`app::frame_renderer`). Its colour and the pass times
-/// summed over the samples, per pass in the first sample's order.
-pub fn mc_frame(
-    ctx: &GpuContext,
-    renderer: &mut GpuRenderer,
-    scene: &Scene,
-    camera: &Camera,
-    spp: u32,
-    film: bool,
-) -> Result<(Vec<Vec3>, Vec<PassTime>)> {
-    let offsets = offsets(spp, film);
-    let mut film = Film::new(camera.width, camera.height, PixelFilter::Box);
-    let mut passes: Vec<PassTime> = Vec::new();
-    for (s, &o) in offsets.iter().enumerate() {
-        let cam = jittered(camera, o);
-        if renderer.camera() != &cam {
-            renderer.set_camera(ctx, scene, &cam)?;
-        }
-        renderer.set_sample(ctx, scene, lobe::sample_key(spp, s as u32))?;
-        let frame = renderer.render(ctx)?;
-        film.add(o, &frame.colour);
-        for (name, ns) in frame.pass_times {
-            match passes.iter_mut().find(|(n, _)| *n == name) {
-                Some(p) => p.1 += ns,
-                None => passes.push((name, ns)),
-            }
-        }
-    }
-    Ok((film.resolve(), passes))
-}
-
 /// The figures every row of one scene and power shares.
 struct Case<'a> {
     name: &'a str,
@@ -503,7 +398,7 @@ impl Case<'_> {
                 colour = c;
             }
             rows.push(self.row(Method::Bvh, Tracing::MonteCarlo, spp, &colour, &pass_ns));
-            super::check_validation(ctx)?;
+            check_validation(ctx)?;
         }
         Ok(rows)
     }
@@ -526,7 +421,7 @@ impl Case<'_> {
             cfg.frames,
         )
         .with_context(|| format!("scene '{}', method {method}", self.name))?;
-        super::check_validation(ctx)?;
+        check_validation(ctx)?;
         Ok(self.row(method, tracing, 1, &g.frame.colour, &g.pass_ns))
     }
 }
@@ -537,15 +432,10 @@ pub fn planned_steps(cfg: &GlossyConfig) -> u64 {
     (cfg.scenes.len() * cfg.powers.len() * (1 + cfg.methods.len() + cfg.spp.len())) as u64
 }
 
-/// Runs `--glossy`: every scene x power (module docs). `mirror_only(scene, method)` says whether
-/// `method` traces the mirror direction only on `scene` (the commands' warning,
-/// `app::glossy::method_warning`); `tick` is called before each step with what it renders.
-pub fn run(
-    ctx: &GpuContext,
-    cfg: &GlossyConfig,
-    mirror_only: &dyn Fn(&Scene, Method) -> bool,
-    tick: &dyn Fn(&str),
-) -> Result<GlossyReport> {
+/// Runs `--glossy`: every scene x power (module docs). A method traces the mirror direction
+/// only where the commands warn so ([`crate::render::glossy::method_warning`] at one bounce);
+/// `tick` is called before each step with what it renders.
+pub fn run(ctx: &GpuContext, cfg: &GlossyConfig, tick: &dyn Fn(&str)) -> Result<GlossyReport> {
     check_powers(&cfg.powers)?;
     check_ladder(&cfg.spp)?;
     if cfg.scenes.is_empty() {
@@ -606,7 +496,7 @@ pub fn run(
                 power,
                 truth,
             };
-            rows.extend(case_rows(ctx, cfg, &case, mirror_only, tick)?);
+            rows.extend(case_rows(ctx, cfg, &case, tick)?);
         }
     }
     Ok(GlossyReport {
@@ -630,13 +520,12 @@ fn case_rows(
     ctx: &GpuContext,
     cfg: &GlossyConfig,
     case: &Case,
-    mirror_only: &dyn Fn(&Scene, Method) -> bool,
     tick: &dyn Fn(&str),
 ) -> Result<Vec<GlossyRow>> {
     let mut rows = Vec::new();
     for &method in &cfg.methods {
         tick(&format!("{}: power {}: {method}", case.name, case.power));
-        let tracing = if mirror_only(&case.scene, method) {
+        let tracing = if method_warning(&case.scene, method, 1).is_some() {
             Tracing::Mirror
         } else {
             Tracing::Cone
@@ -957,19 +846,5 @@ mod tests {
             let e = check_ladder(&bad).unwrap_err().to_string();
             assert!(e.starts_with("--glossy-spp: "), "{bad:?}: {e}");
         }
-    }
-
-    #[test]
-    fn psnr_over_the_mask_only() {
-        let truth = vec![Vec3::splat(0.5); 4];
-        let mut got = truth.clone();
-        got[3] = Vec3::ONE; // outside the mask
-        let mask = [1, 1, 1, 0];
-        assert_eq!(psnr_over(&got, &truth, &mask), f64::INFINITY);
-        // Negative: inside the mask, 0.1 off on one pixel of three: MSE 0.01 / 3.
-        got[0] = Vec3::splat(0.6);
-        let db = psnr_over(&got, &truth, &mask);
-        assert!((db - 10.0 * (300.0f64).log10()).abs() < 1e-4, "{db}");
-        assert!(psnr_over(&got, &truth, &[0; 4]).is_nan());
     }
 }

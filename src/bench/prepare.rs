@@ -1,18 +1,16 @@
 #![forbid(unsafe_code)]
 //! The bench's scenes prepared for a run (loaded, overridden, placed: [`prepare_scene_placed`])
-//! and the checks around the runs: memory before ([`check_memory`]), validation after
-//! ([`check_validation`]).
+//! and the grid's memory check before the runs ([`check_memory`], per scene
+//! [`crate::render::checks::check_runs_memory`]).
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 
 use super::config::{BenchConfig, BenchPlacement};
 use super::spec::MethodSpec;
 use crate::camera::Camera;
 use crate::memory;
-use crate::output::Format;
 use crate::placement::{PlacementChoice, override_placement};
 use crate::scene::{self, Scene};
-use crate::vk::GpuContext;
 
 /// Loads a scene by name or path and applies the overrides of `cfg` and its frame size to its
 /// first camera.
@@ -87,29 +85,10 @@ pub fn check_memory(
     limits: &memory::Limits,
 ) -> Result<()> {
     for (scene, camera) in prepared {
-        let pixels = u64::from(camera.width) * u64::from(camera.height);
-        let cmos = scene.cmo_centres().len() as u32;
-        let device = cfg
-            .methods
-            .iter()
+        let options = (cfg.methods.iter())
             .filter(|m| m.kind.is_gpu() && runs_at(m, cfg.bounces))
-            .map(|m| {
-                let options = m.render_options(cfg.bounces, cfg.reflector_check);
-                crate::vk::budget::estimate(scene, camera, &options).total()
-            })
-            .max()
-            .unwrap_or(0);
-        let mut host = memory::reference_bytes(pixels, Format::Png)
-            + memory::gpu_host_bytes(pixels, Format::Png, true);
-        if limits.device_is_host {
-            host += device;
-        }
-        let what = format!(
-            "bench scene '{}' at {}x{} ({cmos} CMOs of {}^2 texels per face)",
-            scene.name, camera.width, camera.height, scene.cmo.resolution
-        );
-        memory::check(&what, host, limits.host.clone())?;
-        memory::check(&what, device, Some(limits.device.clone()))?;
+            .map(|m| m.render_options(cfg.bounces, cfg.reflector_check));
+        crate::render::checks::check_runs_memory(scene, camera, options, limits)?;
     }
     Ok(())
 }
@@ -119,16 +98,4 @@ pub(super) fn runs_at(spec: &MethodSpec, bounces: u32) -> bool {
     spec.kind
         .check_bounces(bounces, crate::vk::passes::bounce::MAX_BOUNCES, &spec.trace)
         .is_ok()
-}
-
-/// Fails if the validation layer (when on) reported errors.
-pub fn check_validation(ctx: &GpuContext) -> Result<()> {
-    let errors = ctx.validation_errors();
-    if !errors.is_empty() {
-        bail!(
-            "the validation layer reported errors:\n{}",
-            errors.join("\n")
-        );
-    }
-    Ok(())
 }

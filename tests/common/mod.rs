@@ -68,7 +68,7 @@ pub fn finish_gpu(ctx: GpuContext) {
 /// Asserts that the GPU context `fr` created for itself reported no validation error, then
 /// drops the renderer and asserts again (leaks are reported when the device is destroyed).
 /// Panics when `fr` has no GPU context: call it for GPU methods only.
-pub fn finish_renderer(fr: cubetrace::app::frame_renderer::FrameRenderer) {
+pub fn finish_renderer(fr: cubetrace::render::FrameRenderer) {
     let ctx = fr.context().expect("a GPU method's renderer has a context");
     let log = ctx.validation_log();
     assert_eq!(
@@ -169,11 +169,11 @@ pub fn corpus_scene(name: &str) -> cubetrace::scene::Scene {
 }
 
 /// PSNR (dB) of `got` against `truth` over the pixels of `mask`, linear RGB clamped to [0, 1]
-/// (`bench::glossy::psnr_over`), over more than 50 pixels.
+/// (`metrics::psnr_over`), over more than 50 pixels.
 pub fn psnr(got: &[Vec3], truth: &[Vec3], mask: &[u8]) -> f64 {
     let n = mask.iter().filter(|&&m| m != 0).count();
     assert!(n > 50, "{n} mirror pixels");
-    cubetrace::bench::glossy::psnr_over(got, truth, mask)
+    cubetrace::metrics::psnr_over(got, truth, mask)
 }
 
 /// The glossy accuracy checks' predicate: the cone frame's PSNR `cone` is more than `min_gain`

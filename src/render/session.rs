@@ -1,7 +1,9 @@
 #![forbid(unsafe_code)]
-//! [`FrameRenderer`]: the frames of one `cubetrace render` run, one or many, through one code
-//! path. The device, the pipelines and the scene buffers are built once ([`FrameRenderer::new`]);
-//! each frame ([`FrameRenderer::render`]) renders its samples ([`crate::film`]) and filters them.
+//! [`FrameRenderer`]: the frames of one run (a `cubetrace render`, one frame or a sequence),
+//! through one code path. It is opened from a plain [`RenderSetup`] ([`FrameRenderer::open`]:
+//! the device, the checks of [`super::checks`], the pipelines and the scene buffers, once); each
+//! frame ([`FrameRenderer::render`]) renders its samples ([`super::samples`], [`crate::film`])
+//! and filters them, and [`RenderedFrame::write`] writes it (PNG or EXR, [`crate::output`]).
 //!
 //! Reuse ([`SceneChange`], from a comparison of the scene with the last frame's that allocates
 //! nothing):
@@ -27,38 +29,17 @@ use glam::Vec3;
 
 use crate::Method;
 use crate::camera::Camera;
-use crate::film::{Film, FilmSettings, aov_sample};
+use crate::film::FilmSettings;
+use crate::memory;
 use crate::metrics::Traced;
 use crate::output::{self, Format};
 use crate::reference;
 use crate::scene::{Scene, WorldGeometry};
-use crate::vk::GpuContext;
 use crate::vk::frame::{GpuFrame, GpuRenderer, RenderOptions, StaleUpdate};
+use crate::vk::{ContextOptions, GpuContext};
 
-/// Writes `colour` as an 8-bit sRGB PNG, or as an EXR of the channels `exr` gives, atomically.
-fn write_colour_or_exr<'a>(
-    path: &std::path::Path,
-    format: Format,
-    (width, height): (u32, u32),
-    colour: &[Vec3],
-    exr: impl FnOnce() -> Vec<(&'a str, output::Channel)>,
-) -> Result<()> {
-    match format {
-        Format::Png => output::write_atomic(path, &output::png_bytes(width, height, colour)?),
-        Format::Exr => output::write_exr(path, width, height, exr()),
-    }
-}
-
-/// One sample of a frame, kept for `--compare`'s per-sample figures.
-#[derive(Clone, Debug)]
-pub struct SampleFrame {
-    /// The sample's camera jitter.
-    pub offset: glam::Vec2,
-    /// GPU methods: the sample as traced and its primary hits.
-    pub traced: Option<(Traced, Vec<Vec3>)>,
-    /// The reference: the sample's frame.
-    pub reference: Option<reference::Frame>,
-}
+use super::checks;
+use super::samples::{self, SampleFrame};
 
 /// How a frame's scene differs from the one the renderer holds ([`FrameRenderer::render`]).
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -139,12 +120,12 @@ impl RenderedFrame {
     pub fn write(&self, path: &std::path::Path, format: Format) -> Result<()> {
         match (&self.gpu, &self.reference) {
             (Some(g), _) => {
-                write_colour_or_exr(path, format, (self.width, self.height), &g.colour, || {
+                output::write_image(path, format, (self.width, self.height), &g.colour, || {
                     output::traced_channels(&g.traced(), &g.surface_position, &self.world)
                 })
             }
             (None, Some(r)) => {
-                write_colour_or_exr(path, format, (self.width, self.height), &r.colour, || {
+                output::write_image(path, format, (self.width, self.height), &r.colour, || {
                     output::frame_channels(r, &self.world)
                 })
             }
@@ -165,8 +146,25 @@ enum Backend {
     },
 }
 
-/// What a [`FrameRenderer`] is built from, checked ([`FrameRenderer::new`] builds it from the
-/// command line).
+/// What a run renders with, as plain values: `cubetrace render` builds it from its arguments
+/// (`app::render`), a caller of its own by hand. [`FrameRenderer::open`] checks it against the
+/// scene and the device and builds the renderer.
+#[derive(Clone, Copy, Debug)]
+pub struct RenderSetup {
+    pub method: Method,
+    pub bounces: u32,
+    pub film: FilmSettings,
+    /// The output's format (its bytes count in the memory check).
+    pub format: Format,
+    /// Whether the frames are compared with the reference (`--compare`): its memory is counted,
+    /// and at more than one sample every sample is kept ([`RenderedFrame::samples`]).
+    pub compare: bool,
+    /// GPU methods: the device to open and the renderer's options; `None` for the reference.
+    pub gpu: Option<(ContextOptions, RenderOptions)>,
+}
+
+/// What a [`FrameRenderer`] is built from, checked ([`FrameRenderer::open`] checks a
+/// [`RenderSetup`] and builds it).
 pub struct FrameSetup {
     pub method: Method,
     pub bounces: u32,
@@ -262,7 +260,53 @@ pub fn classify(old: &Scene, new: &Scene) -> SceneChange {
 }
 
 impl FrameRenderer {
-    /// The renderer of checked parts ([`FrameRenderer::new`] checks the command line's and
+    /// Device and checks once (GPU methods: the device, the textures and the memory the frame
+    /// needs ([`checks`]), then the GPU renderer and its pipelines; the reference: the host
+    /// memory, then its BVH); nothing rendered yet.
+    pub fn open(setup: &RenderSetup, scene: &Scene, camera: &Camera) -> Result<Self> {
+        let size = format!(
+            "a {}x{} frame with --method {}",
+            camera.width, camera.height, setup.method
+        );
+        let gpu = match setup.gpu {
+            Some((context, options)) => {
+                let ctx = GpuContext::new(context)?;
+                let report = ctx.report();
+                checks::check_textures(
+                    scene,
+                    u64::from(report.max_storage_buffer_range),
+                    &report.name,
+                )?;
+                let limits =
+                    memory::Limits::of_device(ctx.device_local_heap_bytes(), ctx.device_is_cpu())?;
+                checks::check_gpu_memory(
+                    &size,
+                    scene,
+                    camera,
+                    &options,
+                    setup.format,
+                    setup.compare,
+                    &report.name,
+                    &limits,
+                )?;
+                Some((ctx, options))
+            }
+            None => {
+                checks::check_reference_memory(&size, camera, setup.format)?;
+                None
+            }
+        };
+        let frame_setup = FrameSetup {
+            method: setup.method,
+            bounces: setup.bounces,
+            film: setup.film,
+            keep_samples: setup.compare && setup.film.spp > 1,
+            gpu,
+        };
+        FrameRenderer::from_setup(frame_setup, scene, camera)
+    }
+
+    /// The renderer of checked parts ([`FrameRenderer::open`] checks a [`RenderSetup`] and
     /// builds them): with a device, its GPU renderer and pipelines are built; without one, the
     /// reference's tracer. Nothing is rendered yet.
     pub fn from_setup(setup: FrameSetup, scene: &Scene, camera: &Camera) -> Result<Self> {
@@ -340,7 +384,7 @@ impl FrameRenderer {
         }
     }
 
-    /// Keeps every sample of the frames for `--compare` (set by [`FrameRenderer::new`] when
+    /// Keeps every sample of the frames for `--compare` (set by [`FrameRenderer::open`] when
     /// `--compare` is given at more than one sample).
     pub fn keep_samples(&mut self, keep: bool) {
         self.keep_samples = keep;
@@ -380,9 +424,9 @@ impl FrameRenderer {
                 let Some(r) = renderer.as_deref_mut() else {
                     anyhow::bail!("no GPU renderer");
                 };
-                gpu_samples(ctx, r, scene, camera, self.film, self.keep_samples)?
+                samples::gpu_frame(ctx, r, scene, camera, self.film, self.keep_samples)?
             }
-            Backend::Reference { tracer } => reference_samples(
+            Backend::Reference { tracer } => samples::reference_frame_samples(
                 scene,
                 tracer,
                 camera,
@@ -485,127 +529,4 @@ impl FrameRenderer {
     pub fn method(&self) -> Method {
         self.method
     }
-}
-
-/// What a frame's sample loop gives: the GPU or reference AOV frame (filtered colour), the
-/// kept samples, whether it captured, and the GPU milliseconds.
-type Samples = (
-    Option<GpuFrame>,
-    Option<reference::Frame>,
-    Vec<SampleFrame>,
-    bool,
-    f64,
-);
-
-/// The camera of sample `offset`.
-fn sample_camera(camera: &Camera, offset: glam::Vec2) -> Camera {
-    Camera {
-        jitter: offset,
-        ..camera.clone()
-    }
-}
-
-/// The GPU samples of one frame: each sample's camera set ([`GpuRenderer::set_camera`], a no-op
-/// where it is the renderer's already), rendered and filtered.
-fn gpu_samples(
-    ctx: &GpuContext,
-    renderer: &mut GpuRenderer,
-    scene: &Scene,
-    camera: &Camera,
-    film: FilmSettings,
-    keep: bool,
-) -> Result<Samples> {
-    let offsets = film.offsets();
-    let aov = aov_sample(&offsets);
-    let mut acc = Film::new(camera.width, camera.height, film.filter);
-    let (mut captured, mut gpu_ms) = (false, 0.0);
-    let mut kept = Vec::new();
-    let mut aov_frame = None;
-    for (s, &o) in offsets.iter().enumerate() {
-        let cam = sample_camera(camera, o);
-        if renderer.camera() != &cam {
-            renderer.set_camera(ctx, scene, &cam)?;
-        }
-        renderer.set_sample(ctx, scene, crate::lobe::sample_key(film.spp, s as u32))?;
-        let frame = renderer.render(ctx)?;
-        captured |= frame.captured;
-        gpu_ms += frame.pass_times.iter().map(|(_, t)| t).sum::<f64>() * 1e-6;
-        acc.add(o, &frame.colour);
-        if keep {
-            kept.push(SampleFrame {
-                offset: o,
-                traced: Some((frame.traced(), frame.surface_position.clone())),
-                reference: None,
-            });
-        }
-        if s == aov {
-            aov_frame = Some(frame);
-        }
-    }
-    let mut frame = aov_frame.ok_or_else(|| anyhow::anyhow!("no sample rendered"))?;
-    frame.colour = acc.resolve();
-    Ok((Some(frame), None, kept, captured, gpu_ms))
-}
-
-/// The reference's samples of one frame: the same offsets and filter as the GPU's. Large frames
-/// show a progress bar of rows (indicatif hides it off a terminal).
-fn reference_samples(
-    scene: &Scene,
-    tracer: &reference::Tracer,
-    camera: &Camera,
-    bounces: u32,
-    film: FilmSettings,
-    keep: bool,
-) -> Samples {
-    let offsets = film.offsets();
-    let aov = aov_sample(&offsets);
-    let mut acc = Film::new(camera.width, camera.height, film.filter);
-    let mut kept = Vec::new();
-    let mut aov_frame = None;
-    let bar = indicatif::ProgressBar::new(0).with_style(
-        indicatif::ProgressStyle::with_template("reference {bar:40} {pos}/{len} rows {elapsed}")
-            .expect("the template is valid"),
-    );
-    // Small frames finish before a bar would help.
-    let work = u64::from(camera.width) * u64::from(camera.height) * (u64::from(bounces) + 1);
-    if work * u64::from(film.spp) < 2_000_000 {
-        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
-    }
-    for (s, &o) in offsets.iter().enumerate() {
-        let cam = sample_camera(camera, o);
-        let key = crate::lobe::sample_key(film.spp, s as u32);
-        let frame = reference::render_sample(scene, tracer, &cam, bounces, key, &bar);
-        acc.add(o, &frame.colour);
-        if keep {
-            kept.push(SampleFrame {
-                offset: o,
-                traced: None,
-                reference: Some(frame.clone()),
-            });
-        }
-        if s == aov {
-            aov_frame = Some(frame);
-        }
-    }
-    bar.finish_and_clear();
-    let mut frame = aov_frame.unwrap_or_else(|| reference::Frame::new(camera.width, camera.height));
-    frame.colour = acc.resolve();
-    (None, Some(frame), kept, false, 0.0)
-}
-
-/// The reference's frame at the film `film` of scene and camera, every sample kept where
-/// `keep` (`--compare`): the comparison's other side.
-pub fn reference_frame(
-    scene: &Scene,
-    tracer: &reference::Tracer,
-    camera: &Camera,
-    bounces: u32,
-    film: FilmSettings,
-    keep: bool,
-) -> (reference::Frame, Vec<SampleFrame>) {
-    let (_, frame, kept, _, _) = reference_samples(scene, tracer, camera, bounces, film, keep);
-    (
-        frame.unwrap_or_else(|| reference::Frame::new(camera.width, camera.height)),
-        kept,
-    )
 }
