@@ -15,7 +15,8 @@
 //! - **Every requested GPU method but `bvh`, once**: its deterministic image at the pixel centre.
 //!   A method that traces the mirror direction only is marked [`Tracing::Mirror`] (where the
 //!   commands warn so, [`method_warning`]), one that traces the cone [`Tracing::Cone`].
-//! - **`bvh` Monte Carlo at a ladder of spp** ([`mc_frame`]), one renderer per scene and power.
+//! - **`bvh` Monte Carlo at a ladder of spp** ([`crate::render::glossy::mc_frame`]), one
+//!   renderer per scene and power ([`TimedRenderer`]).
 //!
 //! Where the samples lie ([`GlossyConfig::film`]): by default every sample is at the pixel
 //! centre and only the lobe is sampled (sample keys [`lobe::sample_key`]), so that the truth is
@@ -60,9 +61,10 @@ use crate::lobe::{self, MIRROR_POWER};
 use crate::metrics::psnr_over;
 use crate::reference::{self, Tracer};
 use crate::render::checks::check_validation;
-use crate::render::glossy::{mc_frame, method_warning, reference_frame};
+use crate::render::glossy::{method_warning, reference_frame};
+use crate::render::timed::TimedRenderer;
 use crate::scene::Scene;
-use crate::vk::frame::{GpuRenderer, pass_name};
+use crate::vk::frame::pass_name;
 use crate::vk::{GpuContext, PassTime};
 
 /// The default specular powers: cones of about 23, 12 and 6 degrees ([`lobe::cone_half_angle`]).
@@ -380,7 +382,7 @@ impl Case<'_> {
         tick: &dyn Fn(&str),
     ) -> Result<Vec<GlossyRow>> {
         let options = MethodSpec::plain(Method::Bvh).render_options(1, cfg.reflector_check);
-        let mut renderer = GpuRenderer::new(ctx, &self.scene, self.camera, options)
+        let mut renderer = TimedRenderer::new(ctx, &self.scene, self.camera, options)
             .with_context(|| format!("scene '{}', method bvh", self.name))?;
         let mut rows = Vec::new();
         for &spp in &cfg.spp {
@@ -391,7 +393,7 @@ impl Case<'_> {
             let mut pass_ns = Vec::new();
             let mut colour = Vec::new();
             for k in 0..cfg.warmup + cfg.frames.max(1) {
-                let (c, p) = mc_frame(ctx, &mut renderer, &self.scene, self.camera, spp, cfg.film)?;
+                let (c, p) = renderer.mc_frame(&self.scene, self.camera, spp, cfg.film)?;
                 if k >= cfg.warmup {
                     pass_ns.push(p);
                 }

@@ -1,8 +1,12 @@
 #![forbid(unsafe_code)]
 //! The speed-against-error harness behind `cubetrace bench` (and `cargo bench --bench paths`).
 //!
-//! A run is one scene x one [`MethodSpec`]. Each GPU run builds one
-//! [`GpuRenderer`](crate::vk::frame::GpuRenderer) (everything allocated once), renders `warmup`
+//! The bench keeps the grids, the figures of each run and the reports; every frame it times is
+//! rendered by the frame engine ([`crate::render`]: [`crate::render::timed`] on the bench's one
+//! device, the glossy frames through [`crate::render::glossy`]), as `cubetrace render` renders it.
+//!
+//! A run is one scene x one [`MethodSpec`]. Each GPU run builds one renderer
+//! ([`crate::render::timed::TimedRenderer`], everything allocated once), renders `warmup`
 //! frames that are thrown away, then `frames` timed frames. It reports, per pass, the median, min
 //! and max of the GPU timestamps; the tracing pass's median per mirror pixel; the mean `cells`,
 //! `texels` and `traces` counters of the pixel records over mirror pixels; the CMO memory; and the

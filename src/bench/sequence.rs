@@ -4,9 +4,9 @@
 //! capture reused between frames (`reuse`, as `render --frames` does when only the camera moves)
 //! and with the capture run for every frame (`recapture`, as when a mesh moves).
 //!
-//! One renderer per method and mode, built before the clock starts (its set-up, device aside,
-//! is reported apart); each frame is the scene at that frame, the renderer pointed at its camera
-//! ([`GpuRenderer::set_camera`]), rendered and read back. Wall time covers that loop (host work
+//! One renderer per method and mode ([`TimedRenderer`]), built before the clock starts (its
+//! set-up, device aside, is reported apart); each frame is the scene at that frame, the renderer
+//! pointed at its camera ([`TimedRenderer::camera_frame`]), rendered and read back. Wall time covers that loop (host work
 //! and read-back included); GPU time is the sum of the frame's timestamped passes, median over
 //! the frames. `captured` counts the frames that ran the capture: 1 with reuse (the first), every
 //! frame with recapture, 0 for a method that reads no cube map (bvh).
@@ -20,9 +20,10 @@ use serde::Serialize;
 use super::{DeviceInfo, git_commit};
 use crate::Method;
 use crate::files::write_atomic;
+use crate::render::timed::TimedRenderer;
 use crate::scene::Scene;
 use crate::vk::GpuContext;
-use crate::vk::frame::{Fallback, GpuRenderer, RenderOptions};
+use crate::vk::frame::{Fallback, RenderOptions};
 
 /// Whether the renderer keeps its capture between frames.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -103,7 +104,7 @@ pub fn run(
                 ..RenderOptions::default()
             };
             let setup = Instant::now();
-            let mut renderer = GpuRenderer::new(ctx, &s0, &c0, options)
+            let mut renderer = TimedRenderer::new(ctx, &s0, &c0, options)
                 .with_context(|| format!("--method {method}"))?;
             let setup_s = setup.elapsed().as_secs_f64();
             let mut gpu_ms = Vec::new();
@@ -111,11 +112,7 @@ pub fn run(
             let start = Instant::now();
             for &f in frames {
                 let (s, c) = at(f)?;
-                renderer.set_camera(ctx, &s, &c)?;
-                if mode == Mode::Recapture {
-                    renderer.invalidate_capture();
-                }
-                let frame = renderer.render(ctx)?;
+                let frame = renderer.camera_frame(&s, &c, mode == Mode::Recapture)?;
                 captured += usize::from(frame.captured);
                 gpu_ms.push(frame.pass_times.iter().map(|(_, t)| t).sum::<f64>() * 1e-6);
                 tick();

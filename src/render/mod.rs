@@ -9,6 +9,8 @@
 //! - [`samples`]: the sample loop of the GPU and of the reference (jittered cameras, lobe
 //!   sample keys, the film), which the frame renderer and the bench's Monte Carlo frames share.
 //! - [`checks`]: the checks around a render: memory and textures before, validation after.
+//! - [`timed`]: frames timed one after another on the caller's device (the bench's runs: whole
+//!   frames, a sequence's frames, Monte Carlo frames).
 //! - [`glossy`]: glossy reflectors: the warning for a method that cannot sample their lobe, and
 //!   the converged reference and Monte Carlo frames a glossy frame is measured with.
 //!
@@ -19,6 +21,7 @@ pub mod checks;
 pub mod glossy;
 pub mod samples;
 pub mod session;
+pub mod timed;
 
 pub use checks::check_validation;
 pub use samples::SampleFrame;
