@@ -13,8 +13,10 @@
 //!   its grids, runs and reports.
 //! - [`render`]: the frame engine between those two and [`vk`]: [`render::FrameRenderer`] (the
 //!   frames of one run and its reuse rules), opened from a plain [`render::RenderSetup`]; the
-//!   sample loop; the checks around a render (memory, textures, validation); glossy frames.
-//!   `app` and `bench` render through it; it knows neither.
+//!   run's scene prepared from a plain [`render::scene::SceneSetup`]; the sample loop; the
+//!   bench's timed frames; the checks around a render (memory, textures, validation); glossy
+//!   frames. `app` and `bench` render through it; it knows neither (`tests/layout.rs` checks the
+//!   layers).
 //! - [`method`]: [`Method`], the one method type of the CLI, the harness and the renderer, and
 //!   what each method supports.
 //! - [`scene`]: the scene as data: scene files (TOML + OBJ/MTL/PNG), built-in scenes, mesh
@@ -64,8 +66,9 @@
 //! places to visit.
 //!
 //! Each module's documentation (`//!`) holds its algorithm, invariants, known limits and
-//! measurements. `tests/layout.rs` checks the shape: no import circle, no function over 120
-//! lines, no `ash` or `unsafe` outside `src/vk/`, and a README of at most 350 lines.
+//! measurements. `tests/layout.rs` checks the shape: no import circle, no module using a layer
+//! above its own (`app`, `bench`, `render`, `vk`), no function over 120 lines, no `ash` or
+//! `unsafe` outside `src/vk/`, and a README of at most 350 lines.
 //!
 //! # Conventions
 //!

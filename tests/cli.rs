@@ -1113,7 +1113,7 @@ fn png_size(path: &Path) -> (u32, u32) {
 
 #[test]
 fn one_frame_side_keeps_the_camera_aspect() {
-    use cubetrace::app::render::frame_size;
+    use cubetrace::render::scene::frame_size;
     assert_eq!(frame_size((640, 480), None, Some(60)), (80, 60));
     assert_eq!(frame_size((640, 480), Some(100), None), (100, 75));
     assert_eq!(frame_size((640, 480), Some(3), None), (3, 2));

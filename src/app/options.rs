@@ -7,7 +7,7 @@ use clap::ValueEnum;
 
 use crate::Method;
 use crate::cpu::options::{TraceCriterion, TraceOptions, TraceSampling};
-use crate::scene::Scene;
+use crate::render::scene::SceneSetup;
 use crate::vk::frame::{Fallback, RenderOptions};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -221,11 +221,10 @@ impl TraceArgs {
         .collect()
     }
 
-    /// Applies the CMO overrides to the scene.
-    pub fn apply(&self, scene: &mut Scene) {
-        crate::placement::override_placement(scene, self.placement, self.cmos);
-        if let Some(size) = self.cube_size {
-            scene.cmo.resolution = size;
-        }
+    /// The CMO overrides in the scene's set-up ([`SceneSetup`]: placement, count, face size).
+    pub fn apply(&self, setup: &mut SceneSetup) {
+        setup.placement = self.placement;
+        setup.cmos = self.cmos;
+        setup.cube_size = self.cube_size;
     }
 }

@@ -24,8 +24,9 @@ use crate::metrics;
 use crate::output::{self, Format};
 use crate::placement::Placement;
 use crate::reference;
+use crate::render::scene::{SceneSetup, timed};
 use crate::render::{self as engine, FrameRenderer, RenderSetup, RenderedFrame};
-use crate::scene::{self, Scene};
+use crate::scene::Scene;
 use crate::vk::GpuContext;
 use crate::vk::frame::{GpuFrame, RenderOptions};
 
@@ -148,19 +149,6 @@ impl RenderArgs {
     }
 }
 
-/// The frame size: the camera's, or `--width`/`--height`; one of them alone keeps the camera's
-/// aspect ratio (the other side rounded, at least 1).
-pub fn frame_size(camera: (u32, u32), width: Option<u32>, height: Option<u32>) -> (u32, u32) {
-    let (w, h) = (f64::from(camera.0), f64::from(camera.1));
-    let other = |given: u32, ratio: f64| ((f64::from(given) * ratio).round().max(1.0)) as u32;
-    match (width, height) {
-        (Some(x), Some(y)) => (x, y),
-        (Some(x), None) => (x, other(x, h / w)),
-        (None, Some(y)) => (other(y, w / h), y),
-        (None, None) => camera,
-    }
-}
-
 /// `cubetrace render`.
 pub fn render(args: RenderArgs) -> Result<()> {
     let start = Instant::now();
@@ -216,29 +204,33 @@ impl FrameRenderer {
     }
 }
 
-/// Loads the scene, applies the CMO overrides, the subdivision and the frame size to it and its
-/// camera, resolves a CMO placement search for that camera and logs the scene's problems.
-pub fn load_scene(args: &RenderArgs) -> Result<(Scene, Camera, Option<Placement>)> {
-    let mut scene = timed("scene load", || scene::load(&args.scene))?;
-    args.trace.apply(&mut scene);
-    if args.subdivide > 0 {
-        timed("subdivision", || {
-            crate::cpu::reflection_point::subdivide_non_reflectors(&mut scene, args.subdivide)
-        });
-    }
-    let mut camera = scene.camera(args.camera.as_deref())?.clone();
-    (camera.width, camera.height) =
-        frame_size((camera.width, camera.height), args.width, args.height);
-    scene::check_resolution(camera.width, camera.height)
-        .map_err(|e| anyhow::anyhow!("--width/--height: {e}"))?;
-    let placement = if args.method.captures_cmos() {
-        let p = timed("CMO placement", || {
-            crate::placement::resolve(&mut scene, &camera)
-        });
-        p.inspect(log_placement)
-    } else {
-        None
+/// The plain set-up of the run's scene ([`SceneSetup`]) from the command line: the scene, its
+/// CMO overrides, `--subdivide`, `--camera`, `--width`/`--height`; `search`: whether a
+/// placement search the scene asks for runs now (for the chosen camera).
+pub fn scene_setup(args: &RenderArgs, search: bool) -> SceneSetup {
+    let mut setup = SceneSetup {
+        scene: args.scene.clone(),
+        subdivide: args.subdivide,
+        camera: args.camera.clone(),
+        width: args.width,
+        height: args.height,
+        search,
+        size_name: "--width/--height",
+        ..SceneSetup::default()
     };
+    args.trace.apply(&mut setup);
+    setup
+}
+
+/// Loads the scene, applies the CMO overrides, the subdivision and the frame size to it and its
+/// camera, resolves a CMO placement search for that camera ([`engine::scene::prepare`]) and
+/// logs the search and the scene's problems.
+pub fn load_scene(args: &RenderArgs) -> Result<(Scene, Camera, Option<Placement>)> {
+    let (scene, camera, placement) =
+        engine::scene::prepare(&scene_setup(args, args.method.captures_cmos()))?;
+    if let Some(p) = &placement {
+        log_placement(p);
+    }
     timed("reflector convexity", || {
         scene.self_capture();
     });
@@ -275,15 +267,6 @@ pub fn log_placement(p: &Placement) {
             100.0 * share
         );
     }
-}
-
-/// Runs one host phase of the command and logs its name and time (info; `-v`), so that no
-/// phase's time is credited to another.
-pub fn timed<T>(phase: &str, f: impl FnOnce() -> T) -> T {
-    let start = Instant::now();
-    let out = f();
-    log::info!("{phase}: {:.2?}", start.elapsed());
-    out
 }
 
 /// The output path (`-o`, else `out/SCENE-METHOD.png`), checked before any time is spent on the

@@ -196,19 +196,11 @@ fn check_paths(pattern: &Path, jobs: &[FrameJob]) -> Result<Format> {
     Ok(format)
 }
 
-/// The scene with the command line's overrides (CMOs, subdivision), before any frame.
+/// The scene with the command line's overrides (CMOs, subdivision), before any frame; its
+/// camera and frame size checked ([`engine::scene::prepare`], no placement search: the sequence
+/// searches per frame).
 fn load_base(args: &RenderArgs) -> Result<Scene> {
-    let mut scene = render::timed("scene load", || scene::load(&args.scene))?;
-    args.trace.apply(&mut scene);
-    if args.subdivide > 0 {
-        render::timed("subdivision", || {
-            crate::cpu::reflection_point::subdivide_non_reflectors(&mut scene, args.subdivide)
-        });
-    }
-    // The camera exists and the frame size is good before anything renders.
-    let camera = scene.camera(args.camera.as_deref())?;
-    let (w, h) = render::frame_size((camera.width, camera.height), args.width, args.height);
-    scene::check_resolution(w, h).map_err(|e| anyhow::anyhow!("--width/--height: {e}"))?;
+    let (scene, _, _) = engine::scene::prepare(&render::scene_setup(args, false))?;
     for problem in crate::placement::diagnose(&scene) {
         log::warn!("{problem}");
     }
@@ -286,7 +278,7 @@ impl SequencePlacement {
 fn frame_camera(args: &RenderArgs, scene: &Scene, frame: i64) -> Result<Camera> {
     let mut camera = scene.camera(args.camera.as_deref())?.clone();
     (camera.width, camera.height) =
-        render::frame_size((camera.width, camera.height), args.width, args.height);
+        engine::scene::frame_size((camera.width, camera.height), args.width, args.height);
     if let Some(why) = camera.view_error() {
         anyhow::bail!(
             "frame {frame}: camera '{}': eye, target and up do not span a view there: {why}; \

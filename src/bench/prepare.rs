@@ -3,17 +3,18 @@
 //! and the grid's memory check before the runs ([`check_memory`], per scene
 //! [`crate::render::checks::check_runs_memory`]).
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 
 use super::config::{BenchConfig, BenchPlacement};
 use super::spec::MethodSpec;
 use crate::camera::Camera;
 use crate::memory;
-use crate::placement::{PlacementChoice, override_placement};
-use crate::scene::{self, Scene};
+use crate::placement::PlacementChoice;
+use crate::render::scene::SceneSetup;
+use crate::scene::Scene;
 
 /// Loads a scene by name or path and applies the overrides of `cfg` and its frame size to its
-/// first camera.
+/// first camera ([`crate::render::scene::prepare`]).
 pub fn prepare_scene(
     name: &str,
     width: u32,
@@ -44,31 +45,23 @@ pub fn prepare_scene_placed(
     placement: BenchPlacement,
     search: bool,
 ) -> Result<(Scene, Camera, Option<crate::placement::Placement>)> {
-    let mut scene = scene::load(name)?;
     let choice = match placement {
         BenchPlacement::Scene => None,
         BenchPlacement::Axis => Some(PlacementChoice::Axis),
         BenchPlacement::Auto => Some(PlacementChoice::Auto),
     };
-    override_placement(&mut scene, choice, cmos);
-    if let Some(n) = cube_size {
-        scene.cmo.resolution = n;
-    }
-    let mut camera = scene
-        .cameras
-        .first()
-        .with_context(|| format!("scene '{name}' has no camera"))?
-        .clone();
-    camera.width = width;
-    camera.height = height;
     // A placement search runs once, for this camera, not in every `cmo_centres` call.
-    let searched = if search {
-        crate::placement::resolve(&mut scene, &camera)
-    } else {
-        None
-    };
-    scene::check_resolution(width, height).map_err(|e| anyhow::anyhow!("frame size: {e}"))?;
-    Ok((scene, camera, searched))
+    crate::render::scene::prepare(&SceneSetup {
+        scene: name.to_string(),
+        placement: choice,
+        cmos,
+        cube_size,
+        width: Some(width),
+        height: Some(height),
+        search,
+        size_name: "frame size",
+        ..SceneSetup::default()
+    })
 }
 
 /// Refuses, before anything renders, a grid whose largest run would not fit in `limits`

@@ -6,6 +6,9 @@
 //! - [`session`]: [`FrameRenderer`], the frames of one run through one code path, and its reuse
 //!   rules (camera only, geometry in place, rebuild); [`RenderSetup`], the plain value it is
 //!   opened from; [`RenderedFrame`] and its writer (PNG or EXR, [`crate::output`]).
+//! - [`scene`]: the run's scene prepared from a plain [`scene::SceneSetup`] (loaded once,
+//!   overridden, subdivided, its camera sized and checked, its placement searched), which
+//!   `render` builds from its arguments and the bench from its configuration.
 //! - [`samples`]: the sample loop of the GPU and of the reference (jittered cameras, lobe
 //!   sample keys, the film), which the frame renderer and the bench's Monte Carlo frames share.
 //! - [`checks`]: the checks around a render: memory and textures before, validation after.
@@ -20,6 +23,7 @@
 pub mod checks;
 pub mod glossy;
 pub mod samples;
+pub mod scene;
 pub mod session;
 pub mod timed;
 
