@@ -1,13 +1,14 @@
-//! GPU memory of a render, estimated before anything is allocated, from the sizes that
-//! [`super::frame::GpuRenderer::new`] and the objects it creates use: the shared stages' here,
-//! each method's from its [`MethodSpec`]. Pure arithmetic: no Vulkan
-//! call. The scene's own buffers are counted too ([`scene_bytes`]: vertices, indices and the
+//! GPU memory of a render, estimated before anything is allocated: the bytes of the frame plan
+//! ([`FramePlan`], the one decision of what a frame allocates, which
+//! [`super::frame::GpuRenderer::new`] reads too), the shared stages' sizes here, each method's
+//! from its [`MethodSpec`](super::methods::MethodSpec). Pure arithmetic: no Vulkan call. The scene's own buffers are counted too ([`scene_bytes`]: vertices, indices and the
 //! textures' texels, which one 8192^2 texture makes 256 MiB), and [`largest_items`] names what
 //! takes the most, so that a refusal can say what to shrink. The BVHs are per triangle and not
 //! counted.
 
-use super::methods::{self, MethodSpec};
-use super::options::RenderOptions;
+use super::frame::plan::{CapturePlan, FramePlan, SceneFacts};
+use super::methods;
+use super::options::{Fallback, RenderOptions};
 use super::passes::bvh::BvhRay;
 use super::passes::capture_lists;
 use super::passes::cmo::CaptureContents;
@@ -30,28 +31,47 @@ pub fn cmo_bytes_per_texel(self_reflections: bool) -> u64 {
 /// captured, and with triangle IDs the capture's u32 target and `CmoData`'s ID buffer (4 B
 /// each). IDs without colour take 8 B less per texel than colour without IDs.
 pub fn cmo_bytes_per_texel_with(self_reflections: bool, contents: CaptureContents) -> u64 {
-    4 + 4
-        + if contents.colour { 16 } else { 0 }
-        + if contents.triangle_ids { 4 + 4 } else { 0 }
-        + if self_reflections { 16 + 16 } else { 0 }
+    cmo_data_bytes_per_texel(self_reflections, contents)
+        + raster_target_bytes_per_texel(self_reflections, contents)
+}
+
+/// Bytes per texel of the CMO data itself: the f32 distance, the RGBA f32 colour where
+/// captured, the u32 triangle ID where captured, the RGBA f32 normal with self-reflections.
+fn cmo_data_bytes_per_texel(self_reflections: bool, contents: CaptureContents) -> u64 {
+    4 + if contents.colour { 16 } else { 0 }
+        + if contents.triangle_ids { 4 } else { 0 }
+        + if self_reflections { 16 } else { 0 }
+}
+
+/// Bytes per texel of the rasterised capture's layered targets (the colour is rendered into the
+/// CMO data's image): the f32 distance, the u32 ID where captured, the RGBA f32 normal with
+/// self-reflections. The bounded criterion's lists' capture has none of them.
+fn raster_target_bytes_per_texel(self_reflections: bool, contents: CaptureContents) -> u64 {
+    4 + if contents.triangle_ids { 4 } else { 0 } + if self_reflections { 16 } else { 0 }
 }
 
 /// Bytes per frame pixel: the pixel records, the frame colour (RGBA f32), the G-buffer (colour,
 /// position, normal: RGBA f32 each; triangle ID u32; depth f32), the method's own
-/// ([`MethodSpec::bytes_per_pixel`]), and the trace fallback's ray queue for every method that
+/// ([`MethodSpec::bytes_per_pixel`](super::methods::MethodSpec::bytes_per_pixel)), and the trace fallback's ray queue for every method that
 /// can leave a pixel unresolved (counted whatever the fallback: an upper bound). The CWBVH
 /// itself is per triangle, like the scene's buffers, and not counted. The reference allocates
 /// no frame on the GPU but is counted as one without a method's own bytes.
 pub fn frame_bytes_per_pixel(method: Method) -> u64 {
-    let records = size_of::<PixelRecord>() as u64;
-    let gbuffer = 3 * 16 + 4 + 4;
-    let own = methods::spec(method).map_or(0, |s| s.bytes_per_pixel());
     let fallback_queue = if method.can_leave_unresolved() {
         size_of::<BvhRay>() as u64
     } else {
         0
     };
-    records + 16 + gbuffer + own + fallback_queue
+    shared_bytes_per_pixel(method) + fallback_queue
+}
+
+/// [`frame_bytes_per_pixel`] without the fallback's queue: the records, the frame colour, the
+/// G-buffer and the method's own.
+fn shared_bytes_per_pixel(method: Method) -> u64 {
+    let records = size_of::<PixelRecord>() as u64;
+    let gbuffer = 3 * 16 + 4 + 4;
+    let own = methods::spec(method).map_or(0, |s| s.bytes_per_pixel());
+    records + 16 + gbuffer + own
 }
 
 /// What a render allocates on the device, in bytes.
@@ -158,8 +178,12 @@ pub fn largest_items(
 
 /// The device memory of one render of `width` x `height` pixels with `cmos` CMOs of
 /// `cube_size` texels per face side, capturing what the method needs
-/// ([`MethodSpec::needs`]) with the tracer options `trace`. The reference, which allocates
-/// no CMO on the GPU, counts none.
+/// ([`MethodSpec::needs`](super::methods::MethodSpec::needs)) with the tracer options `trace`: the bytes of the frame plan
+/// ([`FramePlan::from_facts`]) of a scene without glossy reflectors or triangles to check, one
+/// bounce, and the trace fallback's queue for every method that can leave a pixel unresolved
+/// (whatever the fallback: an upper bound). With the `bounded` criterion it counts the lists'
+/// records but not their pool (see [`lists_bytes`]). The reference, which allocates no CMO on the
+/// GPU, counts none.
 pub fn device_bytes(
     width: u32,
     height: u32,
@@ -169,14 +193,27 @@ pub fn device_bytes(
     self_reflections: bool,
     trace: &TraceOptions,
 ) -> DeviceBytes {
-    let pixels = u64::from(width) * u64::from(height);
-    DeviceBytes {
-        frame: pixels * frame_bytes_per_pixel(method),
-        cmo: methods::spec(method).map_or(0, |s| {
-            cmo_bytes(s, cmos, cube_size, self_reflections, trace)
-        }),
-        scene: 0,
-    }
+    let facts = SceneFacts {
+        cmos,
+        cube_size,
+        self_reflections,
+        glossy: false,
+        check_triangles: false,
+    };
+    let options = RenderOptions {
+        method,
+        trace: *trace,
+        fallback: Fallback::Trace,
+        bounces: 1,
+        ..RenderOptions::default()
+    };
+    let no_pool = || (Vec::new(), Default::default());
+    plan_bytes(&FramePlan::from_facts(
+        &facts,
+        (width, height),
+        &options,
+        no_pool,
+    ))
 }
 
 /// Bytes of the `bounded` criterion's lists ([`super::passes::lists`]) for `cmos` CMOs of
@@ -192,39 +229,66 @@ pub fn lists_bytes(cmos: u32, cube_size: u32, pool_capacity: u64) -> u64 {
     super::passes::lists::lists_bytes(cmos, cube_size, pool_capacity)
 }
 
-/// The CMO bytes of a method: captured, the data and the capture's targets (its depth target
-/// one face at a time), the pyramid where it needs one, its own per-CMO data, and with the
-/// `bounded` criterion the lists' records ([`lists_bytes`] without the pool); without a
-/// capture, the one-texel placeholder (distance, triangle ID and a colour texel per face).
-fn cmo_bytes(
-    spec: &dyn MethodSpec,
-    cmos: u32,
-    cube_size: u32,
-    self_reflections: bool,
-    trace: &TraceOptions,
-) -> u64 {
-    let needs = spec.needs(trace);
-    if !needs.capture {
-        return u64::from(cmos) * 6 * (4 + 4 + 16);
+/// The device bytes of a frame plan, without the scene's buffers (`scene` 0; [`estimate`] adds
+/// them): the frame's per-pixel buffers and queues, and the CMOs with the stages that fill and
+/// pre-filter them.
+pub fn plan_bytes(plan: &FramePlan) -> DeviceBytes {
+    let (width, height) = (plan.width, plan.height);
+    let fallback_queue = if plan.fallback {
+        plan.pixels() * size_of::<BvhRay>() as u64
+    } else {
+        0
+    };
+    DeviceBytes {
+        frame: plan.pixels() * shared_bytes_per_pixel(plan.method)
+            + fallback_queue
+            + bounce_bytes(width, height, plan.bounces)
+            + reflector_check_bytes(width, height, plan.reflector_check),
+        cmo: plan_cmo_bytes(plan),
+        scene: 0,
     }
-    let face = u64::from(cube_size) * u64::from(cube_size);
-    let texels = u64::from(cmos) * 6 * face;
+}
+
+/// The CMO bytes of a plan: without a capture, the one-texel placeholder (distance, triangle ID
+/// and a colour texel per face); with one, the data, the rasterised capture's targets where it
+/// is created (its depth target one face at a time), the pyramid where the method needs one,
+/// the method's own per-CMO data, the `bounded` criterion's lists and their capture
+/// ([`list_capture_bytes_of`]), and the cone's chain and pyramid ([`cone_bytes_of`], less the
+/// colour, counted with the data).
+fn plan_cmo_bytes(plan: &FramePlan) -> u64 {
+    let Some(spec) = methods::spec(plan.method) else {
+        return 0;
+    };
+    let cmo = &plan.cmo;
+    if cmo.capture.is_none() {
+        return u64::from(cmo.count) * 6 * (4 + 4 + 16);
+    }
+    let (count, size) = (cmo.count, cmo.size);
+    let face = u64::from(size) * u64::from(size);
+    let contents = cmo.needs.contents;
+    let raster = if cmo.raster_capture() {
+        cmo.texels() * raster_target_bytes_per_texel(cmo.self_reflections, contents) + face * 4
+    } else {
+        0
+    };
     // [min, max] f32 pairs per cell.
-    let pyramid = if needs.pyramid {
-        u64::from(cmos) * mip_len(cube_size) as u64 * 8
+    let pyramid = if cmo.needs.pyramid {
+        u64::from(count) * mip_len(size) as u64 * 8
     } else {
         0
     };
-    let lists = if trace.criterion == crate::cpu::options::TraceCriterion::Bounded {
-        lists_bytes(cmos, cube_size, 0)
+    let lists = if cmo.lists() {
+        lists_bytes(count, size, 0)
     } else {
         0
     };
-    texels * cmo_bytes_per_texel_with(self_reflections, needs.contents)
-        + face * 4
+    cmo.texels() * cmo_data_bytes_per_texel(cmo.self_reflections, contents)
+        + raster
         + pyramid
-        + spec.cmo_bytes(cmos, cube_size)
+        + spec.cmo_bytes(count, size)
         + lists
+        + list_capture_bytes_of(plan)
+        + cone_chain_bytes(plan)
 }
 
 /// The device bytes `--bounces N` adds to a render of `width` x `height` pixels: for N >= 2,
@@ -247,81 +311,77 @@ pub fn reflector_check_bytes(width: u32, height: u32, runs: bool) -> u64 {
     u64::from(width) * u64::from(height) * size_of::<BvhRay>() as u64
 }
 
-/// The device memory of one render of `scene` seen by `camera` with `options`: the CMOs, the
-/// frame's buffers, the bounce queues, the reflector check's queue and the scene's buffers
-/// ([`scene_bytes`]). The one estimate that `render` and `bench` check before anything is
-/// allocated.
+/// The device memory of one render of `scene` seen by `camera` with `options`: the bytes of its
+/// frame plan ([`FramePlan::of`], [`plan_bytes`]: the CMOs, the frame's buffers, the bounce
+/// queues, the reflector check's queue) and the scene's buffers ([`scene_bytes`]). The one
+/// estimate that `render` and `bench` check before anything is allocated.
 pub fn estimate(scene: &Scene, camera: &Camera, options: &RenderOptions) -> DeviceBytes {
-    let (width, height) = (camera.width, camera.height);
-    let base = device_bytes(
-        width,
-        height,
-        options.method,
-        scene.cmo_centres().len() as u32,
-        scene.cmo.resolution,
-        scene.captures_reflectors(),
-        &options.trace,
-    );
-    let check = options.reflector_check
-        && options.method.has_reflector_check()
-        && !scene.check_triangles().is_empty();
     DeviceBytes {
-        frame: base.frame
-            + bounce_bytes(width, height, options.bounces)
-            + reflector_check_bytes(width, height, check),
         scene: scene_bytes(scene),
-        cmo: base.cmo + list_capture_bytes(scene, options) + cone_bytes(scene, options),
+        ..plan_bytes(&FramePlan::of(scene, camera, options))
     }
 }
 
-/// What cone tracing adds for a glossy scene, as [`super::frame::GpuRenderer::new`] allocates it:
-/// for a method that reads the pre-filtered chain ([`super::methods::MethodSpec::glossy`]:
-/// `fragment`, `compute`, `ssr`), the chain (`mip_len(N)` RGBA f32 per CMO) and the colour
-/// capture where the method captures none; for the cube-map cone pass
-/// ([`super::passes::cone`]: `fragment`, `compute`), the 2x2 pyramid where the method builds
-/// none (compute); 0 otherwise. ssr's screen-space chains are in neither (its
-/// `bytes_per_pixel`).
+/// What cone tracing adds for a glossy scene, as [`super::frame::GpuRenderer::new`] allocates it
+/// ([`cone_bytes_of`] of the scene's plan).
 pub fn cone_bytes(scene: &Scene, options: &RenderOptions) -> u64 {
-    use super::methods::technique::Glossy;
-    let Some(spec) = methods::spec(options.method) else {
+    cone_bytes_of(&FramePlan::sized(
+        scene,
+        &GpuSceneData::new(scene),
+        (0, 0),
+        options,
+    ))
+}
+
+/// What cone tracing adds to a plan ([`FramePlan::cone`]: a method that reads the pre-filtered
+/// chain, [`super::methods::MethodSpec::glossy`]: `fragment`, `compute`, `ssr`, on a glossy
+/// scene): the chain (`mip_len(N)` RGBA f32 per CMO), the CMO colour where the method itself
+/// captures none, and for the cube-map cone pass ([`super::passes::cone`]: `fragment`,
+/// `compute`) the 2x2 pyramid where the method builds none (compute); 0 otherwise. ssr's
+/// screen-space chains are in neither (its `bytes_per_pixel`).
+pub fn cone_bytes_of(plan: &FramePlan) -> u64 {
+    let colour = if plan.cone.is_some() && !plan.cmo.method_contents.colour {
+        plan.cmo.texels() * 16
+    } else {
+        0
+    };
+    cone_chain_bytes(plan) + colour
+}
+
+/// The cone's chain and own pyramid in a plan ([`cone_bytes_of`] without the CMO colour, which
+/// the CMO data counts).
+fn cone_chain_bytes(plan: &FramePlan) -> u64 {
+    let Some(cone) = plan.cone else {
         return 0;
     };
-    let needs = spec.needs(&options.trace);
-    if !spec.glossy().reads_chain() || !needs.capture || scene.glossy_reflectors().is_empty() {
-        return 0;
-    }
-    let cmos = scene.cmo_centres().len() as u64;
-    let size = scene.cmo.resolution;
-    let cells = cmos * mip_len(size) as u64;
-    let colour = if needs.contents.colour {
-        0
-    } else {
-        cmos * 6 * u64::from(size) * u64::from(size) * 16
-    };
-    let pyramid = if needs.pyramid || spec.glossy() != Glossy::ConeStage {
-        0
-    } else {
+    let cells = u64::from(plan.cmo.count) * mip_len(plan.cmo.size) as u64;
+    let pyramid = if cone.stage && cone.own_pyramid {
         cells * 8
+    } else {
+        0
     };
-    cells * 16 + colour + pyramid
+    cells * 16 + pyramid
 }
 
 /// What the `bounded` criterion's capture adds to [`device_bytes`] for `scene` (which knows
-/// the triangles): the node pool at the capacity the frame allocates (the CPU bound of
-/// [`capture_lists::capacity`], the texels each triangle can touch), its job buffer, and the
-/// per-texel heads and overflow words; 0 for other criteria and methods that run no capture.
+/// the triangles): [`list_capture_bytes_of`] of the scene's plan.
 pub fn list_capture_bytes(scene: &Scene, options: &RenderOptions) -> u64 {
-    let Some(spec) = methods::spec(options.method) else {
+    let data = GpuSceneData::new(scene);
+    list_capture_bytes_of(&FramePlan::sized(scene, &data, (0, 0), options))
+}
+
+/// What the `bounded` criterion's capture adds to a plan: the node pool at the capacity the
+/// frame allocates (the CPU bound of [`capture_lists::capacity`], the texels each triangle can
+/// touch), its job buffer, and the per-texel heads and overflow words; 0 for other criteria,
+/// methods that run no capture, and lists uploaded instead of captured.
+pub fn list_capture_bytes_of(plan: &FramePlan) -> u64 {
+    let Some(CapturePlan::Lists {
+        views, capacity, ..
+    }) = &plan.cmo.capture
+    else {
         return 0;
     };
-    if options.trace.criterion != crate::cpu::options::TraceCriterion::Bounded
-        || !spec.needs(&options.trace).capture
-    {
-        return 0;
-    }
-    let size = scene.cmo.resolution;
-    let views = capture_lists::scene_views(scene);
-    let capacity = capture_lists::capacity(&GpuSceneData::new(scene), &views, size);
+    let size = plan.cmo.size;
     let texels = views.len() as u64 * 6 * u64::from(size) * u64::from(size);
     lists_bytes(0, size, capacity.nodes)
         + capacity.jobs * size_of::<capture_lists::ListsJob>() as u64
@@ -414,13 +474,17 @@ mod tests {
             criterion: crate::cpu::options::TraceCriterion::Bounded,
             ..exact
         };
+        // The lists' records (16 B per texel) replace the rasterised capture's targets (the f32
+        // distance and u32 ID per texel, the depth of one face), which the lists' capture does
+        // not create.
+        let texels = 2 * 6 * 256 * 256;
         for m in [Method::Fragment, Method::Compute] {
             let b = device_bytes(160, 120, m, 2, 256, false, &bounded);
             let e = device_bytes(160, 120, m, 2, 256, false, &exact);
             assert_eq!(
                 b.cmo - e.cmo,
-                2 * 6 * 256 * 256 * 16,
-                "{m}: the lists' records"
+                texels * 16 - (texels * 8 + 256 * 256 * 4),
+                "{m}: the lists' records for the raster targets"
             );
         }
     }
@@ -455,6 +519,84 @@ mod tests {
             ..bounded
         };
         assert_eq!(list_capture_bytes(&scene, &bvh), 0);
+    }
+
+    /// The bounded criterion creates a rasterised capture (and its targets) only where the
+    /// frame reads the CMO colour, a glossy scene's cone chain: the plan says so and the
+    /// estimate counts it only then.
+    #[test]
+    fn bounded_raster_targets_only_on_a_glossy_scene() {
+        let bounded = RenderOptions {
+            method: Method::Compute,
+            trace: TraceOptions {
+                criterion: crate::cpu::options::TraceCriterion::Bounded,
+                ..TraceOptions::default()
+            },
+            ..RenderOptions::default()
+        };
+        let mut scene = crate::scene::builtin::by_name("sphere-room").unwrap();
+        let mut camera = scene.cameras[0].clone();
+        (camera.width, camera.height) = (64, 48);
+        let plain = FramePlan::of(&scene, &camera, &bounded);
+        assert!(
+            !plain.cmo.raster_capture() && plain.cone.is_none(),
+            "{plain:?}"
+        );
+        // The same plan with the colour capture: its targets, and nothing else, on top.
+        let mut with = plain.clone();
+        let Some(CapturePlan::Lists { colour, .. }) = &mut with.cmo.capture else {
+            panic!("a bounded capture: {with:?}");
+        };
+        *colour = true;
+        let size = u64::from(scene.cmo.resolution);
+        let targets = plain.cmo.texels() * (4 + 4) + size * size * 4;
+        assert_eq!(
+            plan_bytes(&with).cmo,
+            plan_bytes(&plain).cmo + targets,
+            "the capture's f32 distance and u32 ID per texel, one face's depth"
+        );
+        scene.make_reflectors_glossy(64.0);
+        let glossy = FramePlan::of(&scene, &camera, &bounded);
+        assert!(
+            glossy.cmo.raster_capture() && glossy.cone.is_some(),
+            "{glossy:?}"
+        );
+        let e = estimate(&scene, &camera, &bounded);
+        assert!(e.cmo >= plan_bytes(&plain).cmo + targets, "{e:?}");
+        // Negative: the exact criterion's raster capture is no colour capture of the lists.
+        let exact = FramePlan::of(&scene, &camera, &RenderOptions::default());
+        assert!(
+            exact.cmo.raster_capture() && !exact.cmo.lists(),
+            "{exact:?}"
+        );
+    }
+
+    /// The scene-less estimate is the bytes of a plan by the same rules: one bounce, the
+    /// fallback queue where the method can leave a pixel unresolved, no reflector check.
+    #[test]
+    fn device_bytes_is_a_plan_of_the_same_rules() {
+        let scene = crate::scene::builtin::by_name("default").unwrap();
+        let mut camera = scene.cameras[0].clone();
+        (camera.width, camera.height) = (32, 24);
+        let options = RenderOptions {
+            reflector_check: false,
+            ..RenderOptions::default()
+        };
+        let cmos = scene.cmo_centres().len() as u32;
+        let bare = device_bytes(
+            32,
+            24,
+            options.method,
+            cmos,
+            scene.cmo.resolution,
+            scene.captures_reflectors(),
+            &options.trace,
+        );
+        let e = estimate(&scene, &camera, &options);
+        assert_eq!((bare.frame, bare.cmo), (e.frame, e.cmo));
+        // Negative: the reflector check's queue is in the scene's plan only.
+        let checked = estimate(&scene, &camera, &RenderOptions::default());
+        assert_eq!(checked.frame, e.frame + reflector_check_bytes(32, 24, true));
     }
 
     #[test]

@@ -8,6 +8,7 @@ use ash::vk;
 use glam::Vec3;
 use gpu_allocator::MemoryLocation;
 
+use super::plan::FramePlan;
 use super::stages::{AfterMethod, CmoStages, cone_stage};
 use super::{FLAG_COLOUR, Fallback, FrameParams, GpuRenderer, PixelRecord, RenderOptions};
 use crate::camera::Camera;
@@ -18,9 +19,7 @@ use crate::vk::backend::buffer::Buffer;
 use crate::vk::backend::context::GpuContext;
 use crate::vk::backend::error::{VkError, VkResult};
 use crate::vk::backend::timestamps::Timestamps;
-use crate::vk::methods;
-use crate::vk::methods::technique::{Glossy, has_glossy_reflector};
-use crate::vk::methods::{FrameInputs, MethodSpec};
+use crate::vk::methods::{self, FrameInputs, MethodSpec};
 use crate::vk::passes::bounce::MAX_BOUNCES;
 use crate::vk::passes::composite::Composite;
 use crate::vk::passes::cone::ConePrefilter;
@@ -141,24 +140,25 @@ impl GpuRenderer {
                 detail: "no CMO centres".into(),
             });
         }
-        let spec = check_method(&options)?;
-        spec.check_device(ctx)?;
-        let mut needs = spec.needs(&options.trace);
+        check_method(&options)?.check_device(ctx)?;
         let data = GpuSceneData::new(scene);
-        // The pre-filtered CMO colour chain, for a method that reads it, on a glossy scene only.
-        let cone = spec.glossy().reads_chain() && needs.capture && has_glossy_reflector(&data);
-        needs.contents.colour |= cone;
+        // What the frame allocates: the one plan the memory estimate counts too.
+        let mut plan = FramePlan::new(scene, &data, camera, &options);
+        if lists.is_some() {
+            plan = plan.with_uploaded_lists();
+        }
         let scene_buffers = SceneBuffers::new(ctx, &data)?;
         let mut stages = CmoStages::new(
             ctx,
             scene,
-            (&data, &scene_buffers),
-            &needs,
+            &scene_buffers,
+            &plan.cmo,
             &options.trace,
             ranges.capture_near,
             lists,
         )?;
-        if cone {
+        // The pre-filtered CMO colour chain, for a method that reads it, on a glossy scene only.
+        if plan.cone.is_some() {
             stages.cmo.alloc_cone(ctx)?;
             let p = ConePrefilter::new(ctx)?;
             let b = p.bind(ctx, &stages.cmo, scene.background)?;
@@ -193,14 +193,8 @@ impl GpuRenderer {
         };
         let method = methods::create(options.method, &inputs)?;
         let check_triangles = scene.check_triangles();
-        let cone = cone_stage(
-            ctx,
-            cone && spec.glossy() == Glossy::ConeStage,
-            &stages.cmo,
-            !needs.pyramid,
-            (&gbuffer, &params, &records),
-        )?;
-        let after = AfterMethod::new(&inputs, &check_triangles, method.as_ref())?;
+        let cone = cone_stage(ctx, plan.cone, &stages.cmo, (&gbuffer, &params, &records))?;
+        let after = AfterMethod::new(&inputs, &plan, &check_triangles, method.as_ref())?;
         let composite = Composite::new(
             ctx,
             &gbuffer,
@@ -241,6 +235,7 @@ impl GpuRenderer {
             sample: 0,
             check_triangles,
             lists_uploaded: lists.is_some(),
+            plan,
         })
     }
 }

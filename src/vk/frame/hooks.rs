@@ -1,5 +1,6 @@
 //! The tests' hooks on the renderer (`test-hooks` feature only): wrong updates for the negatives,
-//! and frames without the cone pass.
+//! frames without the cone pass, and the device's live allocations (for the memory estimate's
+//! check).
 
 use super::{GpuRenderer, StaleUpdate};
 use crate::camera::Camera;
@@ -39,4 +40,14 @@ impl GpuRenderer {
     pub fn skip_cone(&mut self, skip: bool) {
         self.cone_skipped = skip;
     }
+}
+
+/// The device's live allocations, each with its name and bytes (the allocator's report): what
+/// the tests hold the memory estimate against. A renderer's are those that appear while it is
+/// created and live.
+pub fn live_allocations(ctx: &GpuContext) -> Vec<(String, u64)> {
+    let report = ctx.device().allocator().generate_report();
+    (report.allocations.into_iter())
+        .map(|a| (a.name, a.size))
+        .collect()
 }

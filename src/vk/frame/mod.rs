@@ -37,6 +37,8 @@
 //! - `mod.rs`: the renderer's type ([`GpuRenderer`]), its accessors, and the names the harness
 //!   reads (pass names, timestamp scopes);
 //! - `gpu_frame.rs`: the frame read back ([`GpuFrame`]) and what the metrics read of it;
+//! - `plan.rs`: the frame plan ([`FramePlan`]): which stages a frame allocates and at what
+//!   sizes, decided once for creation and for the memory estimate;
 //! - `create.rs`: the checks before anything is allocated, [`GpuRenderer::new`] and its variants
 //!   for tests, and the helpers the updates share with creation;
 //! - `stages.rs`: the shared stages around the method (the CMO stages, the cone stage, the
@@ -112,12 +114,16 @@ mod create;
 mod gpu_frame;
 #[cfg(feature = "test-hooks")]
 mod hooks;
+pub mod plan;
 mod read_back;
 mod record;
 mod stages;
 mod update;
 
 pub use gpu_frame::{GpuFrame, shown_objects};
+#[cfg(feature = "test-hooks")]
+pub use hooks::live_allocations;
+pub use plan::FramePlan;
 
 use std::any::Any;
 
@@ -255,6 +261,8 @@ pub struct GpuRenderer {
     /// Whether the bounded criterion's lists were uploaded at creation
     /// ([`GpuRenderer::with_lists`]): they do not follow the geometry.
     lists_uploaded: bool,
+    /// What creation allocated ([`FramePlan`], the plan the memory estimate counts).
+    plan: FramePlan,
 }
 
 /// What an update leaves stale: the tests' negative (`update_geometry_leaving`, `test-hooks`
@@ -336,6 +344,12 @@ impl GpuRenderer {
     /// The G-buffer (for reading it back in the tests).
     pub fn gbuffer(&self) -> &Gbuffer {
         &self.gbuffer
+    }
+
+    /// The plan the renderer was created by ([`FramePlan`]: what it allocated; a geometry
+    /// update may grow the bounded capture's pool beyond its bound).
+    pub fn plan(&self) -> &FramePlan {
+        &self.plan
     }
 
     /// The options this renderer was built with.

@@ -2,19 +2,20 @@
 //! capture, pyramid) before the G-buffer, the cone stage, and the reflector check, fallback and
 //! bounce rounds after the method's passes.
 
+use glam::Vec3;
+
+use super::plan::{CapturePlan, CmoPlan, ConePlan, FramePlan};
 use super::{CmoCapture, Fallback};
-use crate::cpu::options::{TraceCriterion, TraceOptions};
-use crate::cubemap::bounds::DEFAULT_DEPTH;
+use crate::cpu::options::TraceOptions;
+use crate::cubemap::bounds::{DEFAULT_DEPTH, PoolBound};
 use crate::scene::Scene;
-use crate::scene::gpu_data::GpuSceneData;
 use crate::vk::backend::buffer::Buffer;
 use crate::vk::backend::context::GpuContext;
-use crate::vk::backend::error::VkResult;
+use crate::vk::backend::error::{VkError, VkResult};
 use crate::vk::methods::{FrameInputs, Needs, Technique};
 use crate::vk::passes::bounce::BouncePasses;
 use crate::vk::passes::bvh::{AppendKind, BvhPasses, ReflectorCheck};
 use crate::vk::passes::capture::Capture;
-use crate::vk::passes::capture_lists;
 use crate::vk::passes::capture_lists::{CaptureLists, ListTargets};
 use crate::vk::passes::cmo::CmoData;
 use crate::vk::passes::cone::{ConePrefilter, ConePrefilterBindings, ConeStage};
@@ -34,21 +35,23 @@ pub(super) struct CmoStages {
 }
 
 impl CmoStages {
-    /// `gpu`: the scene's data and its buffers. With `--criterion bounded` the capture is the
-    /// lists' (`passes::capture_lists`: per-texel bounds and candidate lists, their `lo` as the
+    /// The CMO data and stages `plan` says ([`CmoPlan`]) for `scene` uploaded into
+    /// `scene_buffers`. With `--criterion bounded` the capture is the lists'
+    /// (`passes::capture_lists`: per-texel bounds and candidate lists, their `lo` as the
     /// distances, node pool sized by its CPU bound), or for tests the lists built on the CPU
-    /// (`lists`), uploaded once.
+    /// (`lists`, [`CapturePlan::Uploaded`]), uploaded once.
     pub(super) fn new(
         ctx: &GpuContext,
         scene: &Scene,
-        gpu: (&GpuSceneData, &SceneBuffers),
-        needs: &Needs,
+        scene_buffers: &SceneBuffers,
+        plan: &CmoPlan,
         trace: &TraceOptions,
         capture_near: f32,
         lists: Option<&PackedLists>,
     ) -> VkResult<Self> {
         let centres = scene.cmo_centres();
-        if !needs.capture {
+        let needs = &plan.needs;
+        let Some(capture) = &plan.capture else {
             // One texel per face and no capture: composite binds the data, nothing reads it
             // but the environment-map fallback of a ray the BVH loop's cap cut.
             let cmo =
@@ -64,9 +67,8 @@ impl CmoStages {
                 pyramid: None,
                 cone_prefilter: None,
             });
-        }
-        let size = scene.cmo.resolution;
-        let self_reflections = scene.captures_reflectors();
+        };
+        let (size, self_reflections) = (plan.size, plan.self_reflections);
         let mut cmo = CmoData::with_contents(
             ctx,
             &centres,
@@ -76,13 +78,10 @@ impl CmoStages {
             trace,
             needs.contents,
         )?;
-        // The bounded criterion's lists keep no colour: where the frame reads it (the cone pass
-        // of a glossy scene), a rasterised capture fills it first.
-        let bounded = trace.criterion == TraceCriterion::Bounded;
         let raster = || {
             Capture::with_contents(
                 ctx,
-                gpu.1,
+                scene_buffers,
                 &centres,
                 size,
                 self_reflections,
@@ -90,22 +89,33 @@ impl CmoStages {
                 needs.contents,
             )
         };
-        let colour_capture = if bounded && needs.contents.colour {
-            let c = raster()?;
-            if lists.is_some() {
+        // The bounded criterion's lists keep no colour: where the frame reads it (the cone pass
+        // of a glossy scene), a rasterised capture fills it first.
+        let colour_capture = match capture {
+            CapturePlan::Lists { colour: true, .. } => Some(Box::new(raster()?)),
+            CapturePlan::Uploaded { colour: true } => {
                 // The lists are uploaded once below: the colour is captured once, before.
+                let c = raster()?;
                 ctx.submit_and_wait("cmo colour", |rec| c.record(rec, &cmo, scene.background))?;
                 None
-            } else {
-                Some(Box::new(c))
             }
-        } else {
-            None
+            _ => None,
         };
-        let capture = if bounded {
-            Self::list_capture(ctx, scene, gpu, &mut cmo, lists)?
-        } else {
-            Some(CmoCapture::Raster(Box::new(raster()?)))
+        let capture = match capture {
+            CapturePlan::Raster => Some(CmoCapture::Raster(Box::new(raster()?))),
+            CapturePlan::Lists {
+                views, capacity, ..
+            } => Some(Self::list_capture(
+                ctx,
+                scene_buffers,
+                &mut cmo,
+                views,
+                *capacity,
+            )?),
+            CapturePlan::Uploaded { .. } => {
+                Self::upload_lists(ctx, &mut cmo, lists)?;
+                None
+            }
         };
         let pyramid = pyramid_stage(ctx, &cmo, needs)?;
         Ok(CmoStages {
@@ -117,40 +127,50 @@ impl CmoStages {
         })
     }
 
-    /// `--criterion bounded`'s capture into `cmo` (see [`CmoStages::new`]); `None` where the
-    /// lists were uploaded.
+    /// `--criterion bounded`'s capture into `cmo` (see [`CmoStages::new`]) over the plan's
+    /// views, its node pool at the plan's bound.
     fn list_capture(
         ctx: &GpuContext,
-        scene: &Scene,
-        (data, scene_buffers): (&GpuSceneData, &SceneBuffers),
+        scene_buffers: &SceneBuffers,
         cmo: &mut CmoData,
-        lists: Option<&PackedLists>,
-    ) -> VkResult<Option<CmoCapture>> {
-        if let Some(lists) = lists {
-            ctx.submit_and_wait("cmo clear", |rec| {
-                cmo.record_clear(rec);
-                Ok(())
-            })?;
-            cmo.upload_lists(ctx, lists)?;
-            return Ok(None);
-        }
-        let views = capture_lists::scene_views(scene);
-        let capacity = capture_lists::capacity(data, &views, cmo.size());
+        views: &[(Vec3, bool)],
+        capacity: PoolBound,
+    ) -> VkResult<CmoCapture> {
         cmo.alloc_lists(ctx, capacity.nodes)?;
         let targets = ListTargets {
             distance: cmo.distance(),
             records: cmo.lists(),
             nodes: cmo.nodes(),
         };
-        Ok(Some(CmoCapture::Lists(Box::new(CaptureLists::new(
+        Ok(CmoCapture::Lists(Box::new(CaptureLists::new(
             ctx,
             scene_buffers,
             cmo.size(),
             DEFAULT_DEPTH,
-            &views,
+            views,
             capacity,
             Some(targets),
-        )?))))
+        )?)))
+    }
+
+    /// The bounded criterion's lists built on the CPU, uploaded into `cmo` once
+    /// ([`super::GpuRenderer::with_lists`]) instead of a capture.
+    fn upload_lists(
+        ctx: &GpuContext,
+        cmo: &mut CmoData,
+        lists: Option<&PackedLists>,
+    ) -> VkResult<()> {
+        let Some(lists) = lists else {
+            return Err(VkError::Usage {
+                what: "CMO lists".into(),
+                detail: "planned as uploaded, but none were given".into(),
+            });
+        };
+        ctx.submit_and_wait("cmo clear", |rec| {
+            cmo.record_clear(rec);
+            Ok(())
+        })?;
+        cmo.upload_lists(ctx, lists)
     }
 }
 
@@ -168,19 +188,19 @@ fn pyramid_stage(
     Ok(Some((p, b)))
 }
 
-/// Fragment's and compute's cone stage (`cone`: a glossy scene and one of them), after their
-/// trace; `own_pyramid` where the method builds no 2x2 pyramid (compute).
+/// Fragment's and compute's cone stage, where the plan has one ([`ConePlan::stage`]: a glossy
+/// scene and one of them), after their trace; with its own 2x2 pyramid where the method builds
+/// none (compute, [`ConePlan::own_pyramid`]).
 pub(super) fn cone_stage(
     ctx: &GpuContext,
-    cone: bool,
+    cone: Option<ConePlan>,
     cmo: &CmoData,
-    own_pyramid: bool,
     (gbuffer, params, records): (&Gbuffer, &Buffer, &Buffer),
 ) -> VkResult<Option<ConeStage>> {
-    if !cone {
+    let Some(cone) = cone.filter(|c| c.stage) else {
         return Ok(None);
-    }
-    ConeStage::new(ctx, cmo, own_pyramid, gbuffer, params, records).map(Some)
+    };
+    ConeStage::new(ctx, cmo, cone.own_pyramid, gbuffer, params, records).map(Some)
 }
 
 /// The shared stages after the method's passes, where the options and the method use them.
@@ -194,12 +214,16 @@ impl AfterMethod {
     /// `check_triangles`: [`Scene::check_triangles`], the reflector check's.
     pub(super) fn new(
         i: &FrameInputs<'_>,
+        plan: &FramePlan,
         check_triangles: &[u32],
         method: &dyn Technique,
     ) -> VkResult<Self> {
-        let options = i.options;
-        let fallback = fallback_passes(i)?;
-        let check = if options.reflector_check && options.method.has_reflector_check() {
+        let fallback = if plan.fallback {
+            fallback_passes(i)?
+        } else {
+            None
+        };
+        let check = if plan.reflector_check {
             ReflectorCheck::new(
                 i.ctx,
                 check_triangles,
@@ -213,14 +237,14 @@ impl AfterMethod {
         } else {
             None
         };
-        let bounce = if options.bounces == 1 {
+        let bounce = if !plan.bounce_passes() {
             None
         } else {
             // One BVH for the method's, the fallback's and the bounce rounds' rays.
             let shared = method.bvh().or(fallback.as_ref()).map(|b| &b.tracer);
             Some(BouncePasses::new(
                 i.ctx,
-                options.bounces,
+                plan.bounces,
                 i.data,
                 i.scene,
                 i.gbuffer,
@@ -238,8 +262,8 @@ impl AfterMethod {
     }
 }
 
-/// [`Fallback::Trace`]'s BVH passes, where the method can leave a record unresolved
-/// ([`Method::can_leave_unresolved`]).
+/// [`Fallback::Trace`]'s BVH passes, where the plan has them ([`FramePlan::fallback`]: the
+/// method can leave a record unresolved, [`Method::can_leave_unresolved`]).
 fn fallback_passes(inputs: &FrameInputs<'_>) -> VkResult<Option<BvhPasses>> {
     let kind = match inputs.options.fallback {
         Fallback::Trace => AppendKind::Unresolved,
@@ -247,9 +271,6 @@ fn fallback_passes(inputs: &FrameInputs<'_>) -> VkResult<Option<BvhPasses>> {
         Fallback::TraceFromTDone => AppendKind::UnresolvedFromTDone,
         Fallback::Flag | Fallback::Envmap | Fallback::Background => return Ok(None),
     };
-    if !inputs.options.method.can_leave_unresolved() {
-        return Ok(None);
-    }
     let i = inputs;
     BvhPasses::new(
         i.ctx, kind, i.data, i.scene, i.gbuffer, i.params, i.records, i.t_hi,
