@@ -42,7 +42,7 @@
 //!   - `vk/passes/`: stages shared by methods: capture, pyramids, cone pre-filter and pass,
 //!     G-buffer, BVH, bounces, composite;
 //!   - `vk/methods/`: one file per GPU method, each a `MethodSpec` and a `Technique`;
-//!   - `vk/frame.rs`: `GpuRenderer`, the shared stages and one technique;
+//!   - `vk/frame/`: `GpuRenderer`, the shared stages and one technique, and the frame plan;
 //!   - `vk/budget.rs`: the one memory estimate of a frame, built from the methods'.
 //!
 //! Outside `src/`: `spirv/` holds the WGSL shaders, one per pass, compiled by naga in `build.rs`
