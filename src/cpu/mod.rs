@@ -164,10 +164,12 @@ impl WorkLog for Vec<Work> {
 
 use crate::cubemap::CubeMap;
 use crate::cubemap::face::{
-    FACE_COUNT, Texel, neighbour_across, st_to_texel_coord, texel_centre_dir, to_face_local,
+    FACE_COUNT, Texel, edge_inclusive, face_coord, neighbour_across, st_to_texel_coord,
+    texel_centre_dir, to_face_local,
 };
 use crate::cubemap::frustum::{
-    CellRect, Interval, SIDE_SEGMENT, SIDE_X0, SIDE_Y1, cell_interval, r_at,
+    CellRect, Clip, Interval, PlaneBound, SIDE_SEGMENT, SIDE_X0, SIDE_X1, SIDE_Y0, SIDE_Y1, SIDE_Z,
+    cell_interval, r_at,
 };
 use crate::cubemap::pyramid::{Hier32, MipPyramid};
 
@@ -596,26 +598,7 @@ pub fn locate(
     } else {
         (size / 2, size / 2)
     };
-    let mut best: Option<(Texel, Interval)> = None;
-    for dy in -1i32..=1 {
-        for dx in -1i32..=1 {
-            let x = cx as i32 + dx;
-            let y = cy as i32 + dy;
-            if x < 0 || y < 0 || x >= size as i32 || y >= size as i32 {
-                continue;
-            }
-            let tex = Texel {
-                face,
-                x: x as u32,
-                y: y as u32,
-            };
-            let iv = texel_interval(seg, tex, size, lo, hi);
-            if iv.crosses() && iv.t1 > t && best.is_none_or(|(_, b)| iv.t0 < b.t0) {
-                best = Some((tex, iv));
-            }
-        }
-    }
-    best
+    texel_search(seg, face, (cx, cy), None, t, size, lo, hi)
 }
 
 /// The next texel after `cur` (crossed over `iv`) within its face: among the neighbours in the
@@ -633,25 +616,103 @@ pub fn next_texel(
     let ld = to_face_local(cur.face, seg.d);
     let mx = ld.x * la.z - la.x * ld.z;
     let my = ld.y * la.z - la.y * ld.z;
+    texel_search(
+        seg,
+        cur.face,
+        (cur.x, cur.y),
+        Some((mx, my)),
+        iv.t1,
+        size,
+        lo,
+        hi,
+    )
+}
+
+/// The 3x3 texel search of [`locate`] and [`next_texel`] (the shader's `texel_search`): of the
+/// texels of `face` around `centre` (with `ahead` = `Some((mx, my))`, only the 8 neighbours on
+/// the ray's side of the centre, by the signs of `mx`, `my`), the crossed one with the smallest
+/// `t0` among those with `t1 > t` (the first in row order on ties).
+///
+/// The neighbourhood's distinct planes are clipped once: each column's two x planes, each row's
+/// two y planes and the face's z plane, 13 divisions instead of the 45 of nine
+/// [`texel_interval`]s. Each candidate's interval is still [`texel_interval`]'s, bit for bit:
+/// [`cell_interval`] clips `[lo, hi]` by the planes x0, x1, y0, y1, z in that order
+/// ([`Clip::plane`]); its first two steps depend on the column alone and are the same calls on
+/// the same operands here (the column's `Clip`). What [`Clip::plane`] does with a plane to any
+/// interval depends on the plane alone (`b = -al / be` compared with `t0` or `t1`, or the
+/// half-open test where `be` is 0 or NaN), so the row planes and the z plane are clipped once
+/// ([`PlaneBound::new`], the same f32 operations) and applied per candidate by
+/// [`Clip::bound`], the same comparisons in the same plane order. Nothing is reordered and no
+/// min/max is taken: ties (the earlier plane keeps an end, `+0` against `-0` included), the
+/// entry and exit sides, NaN bounds (they fail every comparison) and the dropped intervals
+/// ([`Interval::EMPTY`]) come out as before.
+#[allow(clippy::too_many_arguments)]
+pub fn texel_search(
+    seg: &Segment,
+    face: u32,
+    centre: (u32, u32),
+    ahead: Option<(f32, f32)>,
+    t: f32,
+    size: u32,
+    lo: f32,
+    hi: f32,
+) -> Option<(Texel, Interval)> {
+    let la = to_face_local(face, seg.a);
+    let ld = to_face_local(face, seg.d);
+    let edge = edge_inclusive(face);
+    let n = size;
+    // Column or row `i` (offset i - 1) of the centre `c`, where it lies on the face.
+    let on_face = |c: u32, i: usize| {
+        let k = c as i64 + i as i64 - 1;
+        (k >= 0 && k < n as i64).then_some(k as u32)
+    };
+    let start = Clip::new(lo, hi);
+    let cols: [Option<Clip>; 3] = std::array::from_fn(|i| {
+        on_face(centre.0, i).map(|x| {
+            let (f0, f1) = (face_coord(x, n), face_coord(x + 1, n));
+            let inc0 = if x == 0 { edge[0] } else { true };
+            let inc1 = if x + 1 == n { edge[1] } else { false };
+            start
+                .plane(la.x - f0 * la.z, ld.x - f0 * ld.z, inc0, SIDE_X0)
+                .plane(f1 * la.z - la.x, f1 * ld.z - ld.x, inc1, SIDE_X1)
+        })
+    });
+    let rows: [Option<(PlaneBound, PlaneBound)>; 3] = std::array::from_fn(|i| {
+        on_face(centre.1, i).map(|y| {
+            let (f0, f1) = (face_coord(y, n), face_coord(y + 1, n));
+            let inc0 = if y == 0 { edge[2] } else { true };
+            let inc1 = if y + 1 == n { edge[3] } else { false };
+            (
+                PlaneBound::new(la.y - f0 * la.z, ld.y - f0 * ld.z, inc0),
+                PlaneBound::new(f1 * la.z - la.y, f1 * ld.z - ld.y, inc1),
+            )
+        })
+    });
+    let z = PlaneBound::new(la.z, ld.z, false);
     let mut best: Option<(Texel, Interval)> = None;
     for dy in -1i32..=1 {
         for dx in -1i32..=1 {
-            if (dx == 0 && dy == 0) || (dx as f32) * mx < 0.0 || (dy as f32) * my < 0.0 {
+            if let Some((mx, my)) = ahead
+                && ((dx == 0 && dy == 0) || (dx as f32) * mx < 0.0 || (dy as f32) * my < 0.0)
+            {
                 continue;
             }
-            let x = cur.x as i32 + dx;
-            let y = cur.y as i32 + dy;
-            if x < 0 || y < 0 || x >= size as i32 || y >= size as i32 {
+            let (Some(col), Some((y0, y1))) = (cols[(dx + 1) as usize], rows[(dy + 1) as usize])
+            else {
                 continue;
-            }
-            let tex = Texel {
-                face: cur.face,
-                x: x as u32,
-                y: y as u32,
             };
-            let niv = texel_interval(seg, tex, size, lo, hi);
-            if niv.crosses() && niv.t1 > iv.t1 && best.is_none_or(|(_, b)| niv.t0 < b.t0) {
-                best = Some((tex, niv));
+            let iv = col
+                .bound(y0, SIDE_Y0)
+                .bound(y1, SIDE_Y1)
+                .bound(z, SIDE_Z)
+                .interval();
+            if iv.crosses() && iv.t1 > t && best.is_none_or(|(_, b)| iv.t0 < b.t0) {
+                let tex = Texel {
+                    face,
+                    x: (centre.0 as i32 + dx) as u32,
+                    y: (centre.1 as i32 + dy) as u32,
+                };
+                best = Some((tex, iv));
             }
         }
     }

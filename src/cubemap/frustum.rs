@@ -184,32 +184,116 @@ pub fn cell_interval(la: Vec3, ld: Vec3, cell: &CellRect, t_lo: f32, t_hi: f32) 
         fy1 * ld.z - ld.y,
         ld.z,
     ];
-    let mut iv = Interval {
-        t0: t_lo,
-        t1: t_hi,
-        entry: SIDE_SEGMENT,
-        exit: SIDE_SEGMENT,
-    };
-    let mut keep = true;
+    let mut c = Clip::new(t_lo, t_hi);
     for k in 0..5 {
-        let (al, be) = (alpha[k], beta[k]);
+        c = c.plane(alpha[k], beta[k], inc[k], k as u32);
+    }
+    c.interval()
+}
+
+/// An interval being clipped by the planes `alpha + t beta >= 0` in turn ([`cell_interval`]'s
+/// steps; the shaders' `Clip`, `clip_plane`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Clip {
+    /// The interval so far.
+    pub iv: Interval,
+    /// False once a plane parallel to the ray has dropped it.
+    pub keep: bool,
+}
+
+impl Clip {
+    /// `[t_lo, t_hi]`, both ends the segment's.
+    pub fn new(t_lo: f32, t_hi: f32) -> Clip {
+        Clip {
+            iv: Interval {
+                t0: t_lo,
+                t1: t_hi,
+                entry: SIDE_SEGMENT,
+                exit: SIDE_SEGMENT,
+            },
+            keep: true,
+        }
+    }
+
+    /// Clipped by the plane `al + t be >= 0` (side `k`; `inc`: whether the plane belongs to the
+    /// cell). `b = -al / be` bounds the entry where `be > 0` (it replaces `t0` only where larger:
+    /// the earlier plane keeps a tie), the exit where `be < 0`; `be` zero or NaN keeps or drops
+    /// the interval by the half-open rule.
+    pub fn plane(self, al: f32, be: f32, inc: bool, k: u32) -> Clip {
+        let mut out = self;
         if be > 0.0 {
             let b = -al / be;
-            if b > iv.t0 {
-                iv.t0 = b;
-                iv.entry = k as u32;
+            if b > out.iv.t0 {
+                out.iv.t0 = b;
+                out.iv.entry = k;
             }
         } else if be < 0.0 {
             let b = -al / be;
-            if b < iv.t1 {
-                iv.t1 = b;
-                iv.exit = k as u32;
+            if b < out.iv.t1 {
+                out.iv.t1 = b;
+                out.iv.exit = k;
             }
-        } else if al < 0.0 || (al == 0.0 && !inc[k]) || al.is_nan() {
-            keep = false;
+        } else if al < 0.0 || (al == 0.0 && !inc) || al.is_nan() {
+            out.keep = false;
         }
+        out
     }
-    if keep { iv } else { Interval::EMPTY }
+
+    /// [`Clip::plane`] of a plane clipped once ([`PlaneBound::new`]), side `k`: the same
+    /// comparisons on the same `b`.
+    pub fn bound(self, p: PlaneBound, k: u32) -> Clip {
+        let mut out = self;
+        if p.lo > out.iv.t0 {
+            out.iv.t0 = p.lo;
+            out.iv.entry = k;
+        }
+        if p.hi < out.iv.t1 {
+            out.iv.t1 = p.hi;
+            out.iv.exit = k;
+        }
+        out.keep = out.keep && p.keep;
+        out
+    }
+
+    /// The interval, or [`Interval::EMPTY`] where a plane dropped it.
+    pub fn interval(self) -> Interval {
+        if self.keep { self.iv } else { Interval::EMPTY }
+    }
+}
+
+/// What [`Clip::plane`] does with one plane to any interval, computed once for several cells
+/// (`cpu::texel_search`): `b = -al / be` as the entry bound `lo` (`-inf`: none) or the exit
+/// bound `hi` (`+inf`: none), and whether the plane keeps the interval. `-inf > t0` and
+/// `+inf < t1` hold for no `t0`, `t1` (NaN included), so [`Clip::bound`] changes nothing through
+/// a bound the plane does not set, as [`Clip::plane`]; a NaN `b` fails its comparison in both.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlaneBound {
+    /// Entry bound (`-inf` where the plane bounds no entry).
+    pub lo: f32,
+    /// Exit bound (`+inf` where the plane bounds no exit).
+    pub hi: f32,
+    /// False where the plane drops every interval (parallel, outside).
+    pub keep: bool,
+}
+
+impl PlaneBound {
+    /// The plane `al + t be >= 0` (`inc`: whether it belongs to the cell), with
+    /// [`Clip::plane`]'s operations and tests.
+    pub fn new(al: f32, be: f32, inc: bool) -> PlaneBound {
+        let mut p = PlaneBound {
+            lo: f32::NEG_INFINITY,
+            hi: f32::INFINITY,
+            keep: true,
+        };
+        if be > 0.0 {
+            p.lo = -al / be;
+        } else if be < 0.0 {
+            p.hi = -al / be;
+        } else if al < 0.0 || (al == 0.0 && !inc) || al.is_nan() {
+            p.keep = false;
+        }
+        p
+    }
 }
 
 /// `r(t) = |a + t d|` on CMO-local vectors, summed in x, y, z order (the shader must match).

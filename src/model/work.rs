@@ -181,7 +181,8 @@ pub const FRAGMENT_BLOCKS: &[Block] = &[
     b("face", FRAGMENT, &["mip_start"]),
     // One turn of the march (`mip_turn`'s own code).
     b("turn", FRAGMENT, &["mip_turn"]),
-    // The 3x3 texel search (`locate` after a skip, `next_texel` after a texel).
+    // The 3x3 texel search (`locate` after a skip, `next_texel` after a texel): the
+    // neighbourhood's 13 planes clipped once, combined per candidate (its callees included).
     b("texel_search", FRAGMENT, &["texel_search"]),
     // One cell test of the pyramid (the inner loop).
     b(
