@@ -121,7 +121,11 @@ fn check_stages(r: &GpuRenderer, label: &str) {
     let plan = r.plan();
     let cone_stage = plan.cone.is_some_and(|c| c.stage);
     assert_eq!(r.cone().is_some(), cone_stage, "{label}: cone stage");
-    assert_eq!(r.cmo().cone().is_some(), plan.cone.is_some(), "{label}: chain");
+    assert_eq!(
+        r.cmo().cone().is_some(),
+        plan.cone.is_some(),
+        "{label}: chain"
+    );
     let kept = matches!(
         plan.cmo.capture,
         Some(CapturePlan::Raster | CapturePlan::Lists { .. })
@@ -189,7 +193,11 @@ fn the_estimate_is_what_the_renderer_allocates() {
         created.sort_by_key(|a| std::cmp::Reverse(a.1));
         let held: u64 = created.iter().map(|a| a.1).sum();
         let plan = FramePlan::of(&s, &cam, &options);
-        assert_eq!(r.plan(), &plan, "{label}: the estimate's plan is the renderer's");
+        assert_eq!(
+            r.plan(),
+            &plan,
+            "{label}: the estimate's plan is the renderer's"
+        );
         check_stages(&r, &label);
         let estimate = budget::estimate(&s, &cam, &options);
         eprintln!("{label}: held {held}, estimate {estimate:?}");
