@@ -46,6 +46,8 @@ struct ListsParams {
     walk_cap: u32,
     // Invocations per dispatch row of `jobs` and `resolve` (64 x groups in x).
     row: u32,
+    // Entries the clip queue holds.
+    clip_capacity: u32,
 }
 
 // One CMO: its centre and whether it captures the reflectors.
@@ -82,8 +84,16 @@ struct ListsCounters {
     nodes_dropped: atomic<u32>,
     walks_capped: atomic<u32>,
     tiles_capped: atomic<u32>,
-    _pad0: u32,
-    _pad1: u32,
+    // Texels queued for the clips (may exceed the capacity), and those that did not fit.
+    clips: atomic<u32>,
+    clips_dropped: atomic<u32>,
+}
+
+// The `clips` dispatch's size (`vkCmdDispatchIndirect`).
+struct ListsArgs {
+    x: u32,
+    y: u32,
+    z: u32,
 }
 
 @group(1) @binding(0) var<storage, read> lists_params: ListsParams;
@@ -104,6 +114,9 @@ struct ListsCounters {
 @group(1) @binding(13) var<storage, read_write> lists_node_lo: array<u32>;
 @group(1) @binding(14) var<storage, read_write> lists_node_hi: array<u32>;
 @group(1) @binding(15) var<storage, read_write> lists_node_next: array<u32>;
+// The clip queue: per entry the job index and the texel `x | y << 16`.
+@group(1) @binding(16) var<storage, read_write> lists_clips: array<vec2<u32>>;
+@group(1) @binding(17) var<storage, read_write> lists_clip_args: ListsArgs;
 
 fn lists_node(i: u32) -> ListsNode {
     return ListsNode(lists_node_triangle[i], lists_node_lo[i], lists_node_hi[i], lists_node_next[i]);
@@ -178,7 +191,42 @@ fn jobs(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
 }
 
-// The job loop is a grid-stride loop over the jobs the `jobs` pass appended.
+// Pushes the node `(triangle, lo, hi)` onto texel `texel`'s list, or, with the pool full,
+// lowers the texel's overflow to `lo`.
+fn lists_push(texel: u32, triangle: u32, lo: f32, hi: f32) {
+    let node = atomicAdd(&lists_counters.nodes, 1u);
+    if node < lists_params.node_capacity {
+        lists_node_triangle[node] = triangle;
+        lists_node_lo[node] = bitcast<u32>(lo);
+        lists_node_hi[node] = bitcast<u32>(hi);
+        lists_node_next[node] = atomicExchange(&lists_heads[texel], node);
+    } else {
+        atomicMin(&lists_overflow[texel], bitcast<u32>(lo));
+        atomicAdd(&lists_counters.nodes_dropped, 1u);
+    }
+}
+
+// A job's triangle in its face's frame, CMO-local.
+struct ListsLocal {
+    l0: vec3<f32>,
+    l1: vec3<f32>,
+    l2: vec3<f32>,
+}
+
+fn lists_local(job: ListsJob) -> ListsLocal {
+    let centre = lists_views[job.cmo_face / 6u].centre;
+    let face = job.cmo_face % 6u;
+    return ListsLocal(
+        to_face_local(face, lists_vertex(job.triangle, 0u) - centre),
+        to_face_local(face, lists_vertex(job.triangle, 1u) - centre),
+        to_face_local(face, lists_vertex(job.triangle, 2u) - centre),
+    );
+}
+
+// The job loop is a grid-stride loop over the jobs the `jobs` pass appended. No clip runs here:
+// lavapipe executes both arms of a divergent branch, so a clip in this loop would cost every
+// texel. A texel the fast paths leave goes to the clip queue; with the queue full it gets the
+// whole triangle's bounds (sound, looser; `clips_dropped`).
 @compute @workgroup_size(8, 8)
 fn texels(
     @builtin(local_invocation_id) lid: vec3<u32>,
@@ -192,28 +240,52 @@ fn texels(
         let job = lists_jobs[j];
         let x = (job.rect_x & 0xffffu) + (job.tile & 0xffffu) * CB_TILE + lid.x;
         let y = (job.rect_y & 0xffffu) + (job.tile >> 16u) * CB_TILE + lid.y;
-        let cmo = job.cmo_face / 6u;
-        let face = job.cmo_face % 6u;
-        let centre = lists_views[cmo].centre;
-        let l0 = to_face_local(face, lists_vertex(job.triangle, 0u) - centre);
-        let l1 = to_face_local(face, lists_vertex(job.triangle, 1u) - centre);
-        let l2 = to_face_local(face, lists_vertex(job.triangle, 2u) - centre);
-        let whole = job.whole != 0u;
+        let l = lists_local(job);
         if x <= (job.rect_x >> 16u) && y <= (job.rect_y >> 16u) {
-            let b = cb_texel_bound(l0, l1, l2, whole, job.m, job.e, x, y, size);
-            if b.hit {
-                let texel = (job.cmo_face * size + y) * size + x;
-                let node = atomicAdd(&lists_counters.nodes, 1u);
-                if node < lists_params.node_capacity {
-                    lists_node_triangle[node] = job.triangle;
-                    lists_node_lo[node] = bitcast<u32>(b.lo);
-                    lists_node_hi[node] = bitcast<u32>(b.hi);
-                    lists_node_next[node] = atomicExchange(&lists_heads[texel], node);
-                } else {
-                    atomicMin(&lists_overflow[texel], bitcast<u32>(b.lo));
-                    atomicAdd(&lists_counters.nodes_dropped, 1u);
+            let w = cb_texel_centre_unit(x, y, size);
+            var b = cb_whole_bound(l.l0, l.l1, l.l2, w, job.e);
+            if job.whole == 0u {
+                let f = cf_texel_cone(l.l0, l.l1, l.l2, cb_texel_k(x, y, size, job.m), w, job.e);
+                b = CbBound(f.lo, f.hi, f.kind == CF_INSIDE);
+                if f.kind == CF_CLIP {
+                    let q = atomicAdd(&lists_counters.clips, 1u);
+                    if q < lists_params.clip_capacity {
+                        lists_clips[q] = vec2<u32>(j, x | (y << 16u));
+                    } else {
+                        atomicAdd(&lists_counters.clips_dropped, 1u);
+                        b = cb_whole_bound(l.l0, l.l1, l.l2, w, job.e);
+                    }
                 }
             }
+            if b.hit {
+                lists_push((job.cmo_face * size + y) * size + x, job.triangle, b.lo, b.hi);
+            }
+        }
+    }
+}
+
+// Sizes the `clips` dispatch: one invocation per queued texel, in groups of 64, at most
+// 65535 groups (the kernel strides).
+@compute @workgroup_size(1)
+fn clip_args() {
+    let n = min(atomicLoad(&lists_counters.clips), lists_params.clip_capacity);
+    lists_clip_args = ListsArgs(min((n + 63u) / 64u, 65535u), 1u, 1u);
+}
+
+// The four clips of every queued texel (`cb_clip_bound`).
+@compute @workgroup_size(64)
+fn clips(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let n = min(atomicLoad(&lists_counters.clips), lists_params.clip_capacity);
+    let size = lists_params.size;
+    for (var i = gid.x; i < n; i += nwg.x * 64u) {
+        let entry = lists_clips[i];
+        let job = lists_jobs[entry.x];
+        let x = entry.y & 0xffffu;
+        let y = entry.y >> 16u;
+        let l = lists_local(job);
+        let b = cb_clip_bound(l.l0, l.l1, l.l2, job.m, job.e, x, y, size);
+        if b.hit {
+            lists_push((job.cmo_face * size + y) * size + x, job.triangle, b.lo, b.hi);
         }
     }
 }

@@ -3,6 +3,7 @@
 // near-centre rule). Every expression keeps the CPU twin's f32 operation order; products that feed
 // a sum go through `prod` (shared/frustum.wgsl), so that GPU bits equal the CPU's.
 //! import shared/frustum.wgsl
+//! import shared/capture_fast.wgsl
 
 const CB_MAX_POLY: u32 = 8u;
 const CB_E_SCALE: f32 = 0.000003814697265625; // 2^-18
@@ -432,35 +433,41 @@ struct CbBound {
     hit: bool,
 }
 
-// `texel_bound`: (lo, hi, hit) of the face-local triangle `l*` in texel (x, y) of a rect with
-// margin `m` and error budget `e` (the whole triangle for a `whole` rect).
-fn cb_texel_bound(l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>, whole: bool, m: f32, e: f32, x: u32, y: u32, size: u32) -> CbBound {
-    let w = cb_texel_centre_unit(x, y, size);
-    let k = vec4<f32>(face_coord(x, size) - m, face_coord(x + 1u, size) + m, face_coord(y, size) - m, face_coord(y + 1u, size) + m);
-    let none = CbStage(vec3<f32>(0.0), 0.0, vec3<f32>(0.0), 0.0, 0u);
-    var c = CbChain(k, w, array<CbStage, 4>(none, none, none, none), 0u, f32_inf(), 0.0);
-    var overflow = whole;
-    if !whole {
-        cb_in1(&c, l0);
-        cb_in1(&c, l1);
-        cb_in1(&c, l2);
-        cb_close1(&c);
-        cb_close2(&c);
-        cb_close3(&c);
-        cb_close4(&c);
-        let n = CB_MAX_POLY;
-        overflow = c.s[1].seen > n || c.s[2].seen > n || c.s[3].seen > n || c.count > n;
-        if !overflow && c.count == 0u {
-            return CbBound(0.0, 0.0, false);
-        }
-    }
-    var d_min = c.d_min;
-    var r_max = c.r_max;
-    if overflow {
-        // The whole triangle (`whole`, or a clip that overflowed).
-        d_min = min(min(cb_dot(l0, w), cb_dot(l1, w)), cb_dot(l2, w));
-        r_max = max(max(sqrt(cb_dot(l0, l0)), sqrt(cb_dot(l1, l1))), sqrt(cb_dot(l2, l2)));
-    }
+// The widened texel planes `(u min, u max, v min, v max)` of texel (x, y) with margin `m`.
+fn cb_texel_k(x: u32, y: u32, size: u32, m: f32) -> vec4<f32> {
+    return vec4<f32>(face_coord(x, size) - m, face_coord(x + 1u, size) + m, face_coord(y, size) - m, face_coord(y + 1u, size) + m);
+}
+
+// `texel_bound`'s whole-triangle bounds (a `whole` rect, or a clip that overflowed).
+fn cb_whole_bound(l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>, w: vec3<f32>, e: f32) -> CbBound {
+    let d_min = min(min(cb_dot(l0, w), cb_dot(l1, w)), cb_dot(l2, w));
+    let r_max = max(max(sqrt(cb_dot(l0, l0)), sqrt(cb_dot(l1, l1))), sqrt(cb_dot(l2, l2)));
     let lo = d_min - e;
     return CbBound(select(0.0, lo, lo > 0.0), r_max + e, true);
+}
+
+// `texel_bound`'s clipped path: (lo, hi, hit) of the face-local triangle `l*` in texel (x, y)
+// of a rect (not `whole`) with margin `m` and error budget `e`, by the four clips. The fast
+// paths (`cf_texel_cone`) run in the `texels` pass; only the texels they leave come here.
+fn cb_clip_bound(l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>, m: f32, e: f32, x: u32, y: u32, size: u32) -> CbBound {
+    let w = cb_texel_centre_unit(x, y, size);
+    let k = cb_texel_k(x, y, size, m);
+    let none = CbStage(vec3<f32>(0.0), 0.0, vec3<f32>(0.0), 0.0, 0u);
+    var c = CbChain(k, w, array<CbStage, 4>(none, none, none, none), 0u, f32_inf(), 0.0);
+    cb_in1(&c, l0);
+    cb_in1(&c, l1);
+    cb_in1(&c, l2);
+    cb_close1(&c);
+    cb_close2(&c);
+    cb_close3(&c);
+    cb_close4(&c);
+    let n = CB_MAX_POLY;
+    if c.s[1].seen > n || c.s[2].seen > n || c.s[3].seen > n || c.count > n {
+        return cb_whole_bound(l0, l1, l2, w, e);
+    }
+    if c.count == 0u {
+        return CbBound(0.0, 0.0, false);
+    }
+    let lo = c.d_min - e;
+    return CbBound(select(0.0, lo, lo > 0.0), c.r_max + e, true);
 }

@@ -118,6 +118,7 @@
 use glam::Vec3;
 
 use super::face::{FACE_COUNT, Texel, face_coord, to_face_local};
+use super::texel_cone::{TexelCone, texel_cone};
 
 /// Entries kept per texel by default. Every entry is a node of the GPU's pool whatever the
 /// depth: the depth bounds only the sorted prefix the tracer reads (and the resolve's
@@ -303,6 +304,23 @@ impl FaceRect {
         let bound = (area / texel * (1.0 + 1.0 / 1024.0) + 4.0).ceil();
         (bound as u64).min(self.texels())
     }
+
+    /// The texels the fast paths ([`crate::cubemap::texel_cone`]) are expected to leave to the
+    /// clips: those within `r` (as in [`FaceRect::steiner`]) of P's boundary, whose
+    /// neighbourhood has area `<= 2 L r + pi r^2`, with a quarter more for rounding. Every texel
+    /// of a `whole` rect takes the whole triangle's bounds, none is clipped. Sizes the GPU's clip
+    /// queue only: a texel that finds it full takes the whole triangle's bounds (sound).
+    pub fn boundary(&self, size: u32) -> u64 {
+        if self.whole {
+            return 0;
+        }
+        let n = f64::from(size);
+        let r = std::f64::consts::SQRT_2 * (2.0 * f64::from(self.m) + 2.0 / n);
+        let area = 2.0 * f64::from(self.perimeter) * r + std::f64::consts::PI * r * r;
+        let texel = (2.0 / n) * (2.0 / n);
+        let bound = (area / texel * 1.25 + 8.0).ceil();
+        (bound as u64).min(self.texels())
+    }
 }
 
 /// Texels per side of a GPU job tile (the `texels` pass's workgroup is TILE x TILE).
@@ -450,20 +468,31 @@ pub fn texel_bound(
     y: u32,
     size: u32,
 ) -> Option<(f32, f32)> {
+    let w = texel_centre_unit(x, y, size);
     let mut q = Poly::triangle(local);
     if !rect.whole {
         let m = rect.m;
-        q = clip(&q, PLANE_U_MIN, face_coord(x, size) - m);
-        q = clip(&q, PLANE_U_MAX, face_coord(x + 1, size) + m);
-        q = clip(&q, PLANE_V_MIN, face_coord(y, size) - m);
-        q = clip(&q, PLANE_V_MAX, face_coord(y + 1, size) + m);
+        let k = [
+            face_coord(x, size) - m,
+            face_coord(x + 1, size) + m,
+            face_coord(y, size) - m,
+            face_coord(y + 1, size) + m,
+        ];
+        match texel_cone(local, k, w, rect.e) {
+            TexelCone::Outside => return None,
+            TexelCone::Inside(lo, hi) => return Some((lo, hi)),
+            TexelCone::Clip => {}
+        }
+        q = clip(&q, PLANE_U_MIN, k[0]);
+        q = clip(&q, PLANE_U_MAX, k[1]);
+        q = clip(&q, PLANE_V_MIN, k[2]);
+        q = clip(&q, PLANE_V_MAX, k[3]);
         if q.overflow {
             q = Poly::triangle(local);
         } else if q.n == 0 {
             return None;
         }
     }
-    let w = texel_centre_unit(x, y, size);
     let mut d_min = f32::INFINITY;
     let mut r_max = 0.0f32;
     for i in 0..q.n as usize {
@@ -565,6 +594,8 @@ fn capture_lists_with(
 pub struct PoolBound {
     pub jobs: u64,
     pub nodes: u64,
+    /// Texels the GPU's clip queue is sized for ([`FaceRect::boundary`]).
+    pub clips: u64,
     /// Texels of every rect (the nodes' trivial bound).
     pub rect_texels: u64,
 }
@@ -585,6 +616,7 @@ pub fn pool_bound(
             if let Some(rect) = face_rect(tri, centre, face, size) {
                 b.jobs += rect.tiles();
                 b.nodes += rect.steiner(size);
+                b.clips += rect.boundary(size);
                 b.rect_texels += rect.texels();
             }
         }

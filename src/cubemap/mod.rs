@@ -12,6 +12,7 @@ pub mod bounds;
 pub mod face;
 pub mod frustum;
 pub mod pyramid;
+pub mod texel_cone;
 
 use glam::Vec3;
 

@@ -42,7 +42,9 @@ use crate::vk::backend::context::{GpuContext, Recorder};
 use crate::vk::backend::error::{VkError, VkResult};
 use crate::vk::backend::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
 use crate::vk::backend::shaders::CAPTURE_LISTS;
-use crate::vk::backend::sync::{ALL, ALL_READS, COMPUTE_READ, COMPUTE_WRITE, TRANSFER_WRITE};
+use crate::vk::backend::sync::{
+    ALL, ALL_READS, COMPUTE_READ, COMPUTE_WRITE, INDIRECT_READ, TRANSFER_WRITE,
+};
 use crate::vk::backend::timestamps::{Scope, Timestamps};
 
 /// WGSL `ListsParams`.
@@ -57,6 +59,7 @@ pub struct ListsParams {
     pub node_capacity: u32,
     pub walk_cap: u32,
     pub row: u32,
+    pub clip_capacity: u32,
 }
 
 /// WGSL `ListsView`: one CMO.
@@ -104,8 +107,10 @@ pub struct ListCounters {
     pub nodes_dropped: u32,
     pub walks_capped: u32,
     pub tiles_capped: u32,
-    pub _pad0: u32,
-    pub _pad1: u32,
+    /// Texels queued for the clips (may exceed the capacity), and those that did not fit (they
+    /// got the whole triangle's bounds).
+    pub clips: u32,
+    pub clips_dropped: u32,
 }
 
 /// Per texel: `[head, bits(complete_to), bits(hi), count_kept]`.
@@ -170,6 +175,7 @@ pub fn capacity(data: &GpuSceneData, cmos: &[(Vec3, bool)], size: u32) -> PoolBo
         let b = bounds::pool_bound(&tris, &flags, centre, size);
         sum.jobs += b.jobs;
         sum.nodes += b.nodes;
+        sum.clips += b.clips;
         sum.rect_texels += b.rect_texels;
     }
     sum
@@ -200,18 +206,26 @@ fn texels_groups(capacity: PoolBound) -> [u32; 3] {
     [capacity.jobs.clamp(1, u64::from(MAX_GROUPS_X)) as u32, 1, 1]
 }
 
-/// Every `@group(1)` resource of the three passes by binding: the pass's own buffers (params,
-/// views, jobs, heads, overflow, face overflow, counters) and the targets.
-fn group1_resources<'a>(own: [&'a Buffer; 7], out: ListTargets<'a>) -> Vec<(u32, Resource<'a>)> {
+/// Every `@group(1)` resource of the passes by binding: the pass's own buffers (params, views,
+/// jobs, heads, overflow, face overflow, counters; then the clip queue and its dispatch size)
+/// and the targets.
+fn group1_resources<'a>(own: [&'a Buffer; 9], out: ListTargets<'a>) -> Vec<(u32, Resource<'a>)> {
     let mut all: Vec<(u32, Resource<'a>)> = (0u32..)
-        .zip(own)
+        .zip(&own[..7])
         .map(|(i, b)| (i, Resource::Buffer(b)))
         .collect();
     all.push((7, Resource::Buffer(out.distance)));
     for (i, b) in out.records.iter().chain(out.nodes).enumerate() {
         all.push((8 + i as u32, Resource::Buffer(b)));
     }
+    all.push((16, Resource::Buffer(own[7])));
+    all.push((17, Resource::Buffer(own[8])));
     all
+}
+
+/// Bytes of the clip queue for `capacity` (two u32 per queued texel).
+pub fn clip_queue_bytes(capacity: PoolBound) -> u64 {
+    capacity.clips.max(1) * 8
 }
 
 /// The `@group(1)` set of pass `p`: the resources of `all` its entry point uses.
@@ -301,8 +315,11 @@ fn check_inputs(
 pub struct CaptureLists {
     jobs: ComputePipeline,
     texels: ComputePipeline,
+    clip_args: ComputePipeline,
+    clips: ComputePipeline,
     resolve: ComputePipeline,
-    sets: [(BindGroup, BindGroup); 3],
+    /// The sets of `jobs`, `texels`, `clip_args`, `clips`, `resolve`.
+    sets: [(BindGroup, BindGroup); 5],
     params_buf: Buffer,
     views_buf: Buffer,
     job_buf: Buffer,
@@ -310,6 +327,8 @@ pub struct CaptureLists {
     overflow: Buffer,
     face_overflow: Buffer,
     counters: Buffer,
+    clip_buf: Buffer,
+    clip_args_buf: Buffer,
     /// Distance, records and nodes when the caller gave none ([`ListTargets`]).
     own: Option<OwnTargets>,
     params: ListsParams,
@@ -437,9 +456,11 @@ impl CaptureLists {
             node_capacity: capacity.nodes as u32,
             walk_cap: WALK_CAP,
             row: ROW,
+            clip_capacity: capacity.clips.min(u64::from(u32::MAX / 2)) as u32,
         };
         let pipe = |e| ComputePipeline::new(ctx, &CAPTURE_LISTS, e, ComputeOptions::default());
         let (jobs, texels_pipe, resolve) = (pipe("jobs")?, pipe("texels")?, pipe("resolve")?);
+        let (clip_args, clips) = (pipe("clip_args")?, pipe("clips")?);
         let views = list_views(cmos);
         let st = vk::BufferUsageFlags::STORAGE_BUFFER;
         let params_buf = ctx.create_buffer_init("capture_lists params", st, &[params])?;
@@ -452,6 +473,14 @@ impl CaptureLists {
             ctx,
             "capture_lists counters",
             size_of::<ListCounters>() as u64,
+        )?;
+        let clip_buf = storage(ctx, "capture_lists clips", clip_queue_bytes(capacity))?;
+        let clip_args_buf = Buffer::new(
+            ctx.device(),
+            "capture_lists clip args",
+            12,
+            st | vk::BufferUsageFlags::INDIRECT_BUFFER,
+            gpu_allocator::MemoryLocation::GpuOnly,
         )?;
         let own = match targets {
             Some(_) => None,
@@ -473,6 +502,8 @@ impl CaptureLists {
                 &overflow,
                 &face_overflow,
                 &counters,
+                &clip_buf,
+                &clip_args_buf,
             ],
             out,
         );
@@ -493,12 +524,16 @@ impl CaptureLists {
         let sets = [
             sets_for(&jobs)?,
             sets_for(&texels_pipe)?,
+            sets_for(&clip_args)?,
+            sets_for(&clips)?,
             sets_for(&resolve)?,
         ];
         let texels_groups = texels_groups(capacity);
         Ok(CaptureLists {
             jobs,
             texels: texels_pipe,
+            clip_args,
+            clips,
             resolve,
             sets,
             params_buf,
@@ -508,6 +543,8 @@ impl CaptureLists {
             overflow,
             face_overflow,
             counters,
+            clip_buf,
+            clip_args_buf,
             own,
             params,
             views,
@@ -556,8 +593,17 @@ impl CaptureLists {
         self.texels.dispatch(rec, &[s0, s1], self.texels_groups);
         end(&mut ts, s);
         rec.memory_barrier(COMPUTE_WRITE, rw);
-        let s = scope(&mut ts, "capture_lists.resolve")?;
+        let s = scope(&mut ts, "capture_lists.clips")?;
         let (s0, s1) = &self.sets[2];
+        self.clip_args.dispatch(rec, &[s0, s1], [1, 1, 1]);
+        rec.memory_barrier(COMPUTE_WRITE, INDIRECT_READ);
+        let (s0, s1) = &self.sets[3];
+        self.clips
+            .dispatch_indirect(rec, &[s0, s1], &self.clip_args_buf, 0)?;
+        end(&mut ts, s);
+        rec.memory_barrier(COMPUTE_WRITE, rw);
+        let s = scope(&mut ts, "capture_lists.resolve")?;
+        let (s0, s1) = &self.sets[4];
         self.resolve.dispatch(rec, &[s0, s1], self.resolve_groups);
         end(&mut ts, s);
         rec.memory_barrier(COMPUTE_WRITE, ALL_READS);
@@ -611,6 +657,9 @@ impl CaptureLists {
         if capacity.jobs.max(1) * 32 > self.job_buf.size() {
             self.job_buf = storage(ctx, "capture_lists jobs", capacity.jobs.max(1) * 32)?;
         }
+        if clip_queue_bytes(capacity) > self.clip_buf.size() {
+            self.clip_buf = storage(ctx, "capture_lists clips", clip_queue_bytes(capacity))?;
+        }
         let out = targets.or(self.own_targets()).ok_or_else(no_targets)?;
         let own = [
             &self.params_buf,
@@ -620,11 +669,15 @@ impl CaptureLists {
             &self.overflow,
             &self.face_overflow,
             &self.counters,
+            &self.clip_buf,
+            &self.clip_args_buf,
         ];
         let all = group1_resources(own, out);
         let groups = [
             group1_set(&self.jobs, &all)?,
             group1_set(&self.texels, &all)?,
+            group1_set(&self.clip_args, &all)?,
+            group1_set(&self.clips, &all)?,
             group1_set(&self.resolve, &all)?,
         ];
         for (set, g) in self.sets.iter_mut().zip(groups) {
@@ -633,6 +686,7 @@ impl CaptureLists {
         self.views = list_views(cmos);
         self.params.job_capacity = capacity.jobs as u32;
         self.params.node_capacity = capacity.nodes as u32;
+        self.params.clip_capacity = capacity.clips.min(u64::from(u32::MAX / 2)) as u32;
         self.texels_groups = texels_groups(capacity);
         ctx.write_buffer(&self.views_buf, &self.views)?;
         ctx.write_buffer(&self.params_buf, &[self.params])
@@ -748,7 +802,8 @@ mod tests {
                 job_capacity,
                 node_capacity,
                 walk_cap,
-                row
+                row,
+                clip_capacity
             ]
         )
         .unwrap();
@@ -773,8 +828,8 @@ mod tests {
                 nodes_dropped,
                 walks_capped,
                 tiles_capped,
-                _pad0,
-                _pad1
+                clips,
+                clips_dropped
             ]
         )
         .unwrap();
