@@ -2,15 +2,20 @@
 // `src/cubemap/bounds.rs`, whose module docs derive the bounds; `src/vk/passes/capture_lists.rs`
 // records the three passes, each over every CMO in one dispatch):
 // - `jobs`: one invocation per (triangle, CMO, face): steps 1-4 (`cb_face_rect`), then one job
-//   per 8x8 tile of the texel rect, appended through `lists_counters.jobs`. A job that does not
-//   fit the job buffer (or a rect of more than `LISTS_TILE_CAP` tiles) sets its face's
-//   `lists_face_overflow` to 0: every texel of that face is then unknown from distance 0 (sound).
-// - `texels`: 8x8 workgroups over the jobs (grid-stride); an invocation tests its texel of the
-//   job's tile (step 5, `cb_texel_bound`: the four clips streamed, no polygon stored, no
-//   workgroup memory or barrier) and pushes a node `{triangle, lo, hi, next}` onto the
-//   texel's list (`lists_heads`, atomicExchange). With the node pool full the texel's
-//   `lists_overflow` takes the atomicMin of the lost entry's `lo` bits (non-negative floats
-//   order as u32) and `nodes_dropped` counts it.
+//   per 8x8 tile of the texel rect that is not wholly outside the triangle (`cf_tile_outside`),
+//   appended through `lists_counters.jobs`. A job that does not fit the job buffer (or a rect
+//   of more than `LISTS_TILE_CAP` tiles) sets its face's `lists_face_overflow` to 0: every
+//   texel of that face is then unknown from distance 0 (sound).
+// - `texels`: 8x8 workgroups over the jobs (grid-stride; dispatch sized by `texel_args`); an
+//   invocation runs the fast paths on its texel of the job's tile (`cf_texel_cone`): wholly
+//   inside the triangle, a node with the corner bounds; undecided, an entry of the clip queue
+//   (`lists_clips`). A node `{triangle, lo, hi, next}` goes onto the texel's list
+//   (`lists_heads`, atomicExchange). With the node pool full the texel's `lists_overflow`
+//   takes the atomicMin of the lost entry's `lo` bits (non-negative floats order as u32) and
+//   `nodes_dropped` counts it.
+// - `clips`: one invocation per queued texel (dispatch sized by `clip_args`): step 5's four
+//   clips (`cb_clip_bound`: streamed, no polygon stored, no workgroup memory or barrier), a
+//   node where the triangle touches the texel.
 // - `resolve`: one invocation per texel: selection of the `depth` smallest `(lo, triangle)` by
 //   payload swapping along the list (the first `count_kept` nodes from the head end up sorted),
 //   `complete_to = min(overflow, face overflow, smallest lo beyond depth)`, then the record
@@ -89,7 +94,7 @@ struct ListsCounters {
     clips_dropped: atomic<u32>,
 }
 
-// The `clips` dispatch's size (`vkCmdDispatchIndirect`).
+// A dispatch's size (`vkCmdDispatchIndirect`).
 struct ListsArgs {
     x: u32,
     y: u32,
@@ -116,7 +121,8 @@ struct ListsArgs {
 @group(1) @binding(15) var<storage, read_write> lists_node_next: array<u32>;
 // The clip queue: per entry the job index and the texel `x | y << 16`.
 @group(1) @binding(16) var<storage, read_write> lists_clips: array<vec2<u32>>;
-@group(1) @binding(17) var<storage, read_write> lists_clip_args: ListsArgs;
+// The sizes of the `texels` and `clips` dispatches.
+@group(1) @binding(17) var<storage, read_write> lists_args: array<ListsArgs, 2>;
 
 fn lists_node(i: u32) -> ListsNode {
     return ListsNode(lists_node_triangle[i], lists_node_lo[i], lists_node_hi[i], lists_node_next[i]);
@@ -167,16 +173,23 @@ fn jobs(@builtin(global_invocation_id) gid: vec3<u32>) {
         atomicAdd(&lists_counters.tiles_capped, 1u);
         return;
     }
-    let base = atomicAdd(&lists_counters.jobs, tiles);
+    // A tile wholly outside the triangle gets no job (`cf_tile_outside`; never for a `whole`
+    // rect, whose texels all take the whole triangle's bounds).
+    let g = cf_edges(l0, l1, l2, r.e);
     let cap = lists_params.job_capacity;
-    if base + tiles > cap || base + tiles < base {
-        atomicMin(&lists_face_overflow[cmo_face], 0u);
-        atomicAdd(&lists_counters.jobs_dropped, tiles);
-    }
     for (var k = 0u; k < tiles; k++) {
-        let j = base + k;
-        if j >= cap || j < base {
-            break;
+        let tx = r.x0 + (k % tiles_x) * CB_TILE;
+        let ty = r.y0 + (k / tiles_x) * CB_TILE;
+        let tx1 = min(tx + CB_TILE - 1u, r.x1);
+        let ty1 = min(ty + CB_TILE - 1u, r.y1);
+        if r.whole == 0u && cf_tile_outside(g, tx, tx1, ty, ty1, size, r.m) {
+            continue;
+        }
+        let j = atomicAdd(&lists_counters.jobs, 1u);
+        if j >= cap {
+            atomicMin(&lists_face_overflow[cmo_face], 0u);
+            atomicAdd(&lists_counters.jobs_dropped, 1u);
+            continue;
         }
         lists_jobs[j] = ListsJob(
             t,
@@ -264,12 +277,21 @@ fn texels(
     }
 }
 
+// Sizes the `texels` dispatch: a workgroup per job, at most 65535 (the kernel strides). An
+// idle workgroup is not free on lavapipe, so the dispatch follows the jobs appended, not the
+// capacity.
+@compute @workgroup_size(1)
+fn texel_args() {
+    let n = min(atomicLoad(&lists_counters.jobs), lists_params.job_capacity);
+    lists_args[0] = ListsArgs(min(n, 65535u), 1u, 1u);
+}
+
 // Sizes the `clips` dispatch: one invocation per queued texel, in groups of 64, at most
 // 65535 groups (the kernel strides).
 @compute @workgroup_size(1)
 fn clip_args() {
     let n = min(atomicLoad(&lists_counters.clips), lists_params.clip_capacity);
-    lists_clip_args = ListsArgs(min((n + 63u) / 64u, 65535u), 1u, 1u);
+    lists_args[1] = ListsArgs(min((n + 63u) / 64u, 65535u), 1u, 1u);
 }
 
 // The four clips of every queued texel (`cb_clip_bound`).

@@ -30,8 +30,13 @@
 //! 3. `z_min = min z over P`; `z_min <= 4 E`: the whole face (cannot happen after 1, kept as a
 //!    guard); else the texel margin `m = 2^-20 + 4 E / z_min` (face units).
 //! 4. The rect: the bbox of P's `(x / z, y / z)` widened by `m`, to texels by [`texel_floor`].
-//! 5. Per texel of the rect ([`texel_bound`]): clip the *triangle* (not P: four clips instead
-//!    of eight, half the error) to the texel's cone widened by `m` -> Q; empty: not touched.
+//! 5. Per 8x8 tile of the rect, skip the tile when it lies wholly outside the triangle
+//!    ([`crate::cubemap::texel_cone::tile_outside`]). Per texel of the other tiles
+//!    ([`texel_bound`]): first the fast paths of [`crate::cubemap::texel_cone`] (the texel's
+//!    widened cone wholly outside the triangle: not touched; wholly inside it: bounds from the
+//!    four corner rays, with their own derived slack); for the texels they leave, clip the
+//!    *triangle* (not P: four clips instead of eight, half the error) to the texel's cone
+//!    widened by `m` -> Q; empty: not touched.
 //!    With `w` the f32 unit texel-centre direction, `lo = max(0, min_i dot(q_i, w) - E)`
 //!    (written `lo > 0 ? lo : 0`),
 //!    `hi = max_i |q_i| + E`: `|p| >= dot(p, w)` (Cauchy-Schwarz, `|w| <= 1` up to 2 ulps),
@@ -118,7 +123,7 @@
 use glam::Vec3;
 
 use super::face::{FACE_COUNT, Texel, face_coord, to_face_local};
-use super::texel_cone::{TexelCone, texel_cone};
+use super::texel_cone::{TexelCone, edges, texel_cone, tile_outside};
 
 /// Entries kept per texel by default. Every entry is a node of the GPU's pool whatever the
 /// depth: the depth bounds only the sorted prefix the tracer reads (and the resolve's
@@ -554,15 +559,25 @@ fn capture_lists_with(
                 continue;
             };
             let local = face_local(tri, centre, face);
-            for y in rect.y0..=rect.y1 {
-                for x in rect.x0..=rect.x1 {
-                    if let Some((lo, hi)) = texel_bound(&local, &rect, x, y, size) {
-                        let i = Texel { face, x, y }.index(size);
-                        lists[i].push(Entry {
-                            triangle: t as u32,
-                            lo,
-                            hi,
-                        });
+            let g = edges(&local);
+            for ty in (rect.y0..=rect.y1).step_by(TILE as usize) {
+                for tx in (rect.x0..=rect.x1).step_by(TILE as usize) {
+                    let x1 = (tx + TILE - 1).min(rect.x1);
+                    let y1 = (ty + TILE - 1).min(rect.y1);
+                    if !rect.whole && tile_outside(&g, [tx, x1], [ty, y1], size, rect.m) {
+                        continue;
+                    }
+                    for y in ty..=y1 {
+                        for x in tx..=x1 {
+                            if let Some((lo, hi)) = texel_bound(&local, &rect, x, y, size) {
+                                let i = Texel { face, x, y }.index(size);
+                                lists[i].push(Entry {
+                                    triangle: t as u32,
+                                    lo,
+                                    hi,
+                                });
+                            }
+                        }
                     }
                 }
             }

@@ -47,6 +47,9 @@
 
 use glam::Vec3;
 
+use super::bounds::dot3;
+use super::face::face_coord;
+
 /// `2^-20 = 16 u`: `d_j / (R^2 |c_j|_1)`, and the constant term of `rho`.
 const EDGE_SLACK: f32 = 1.0 / 1_048_576.0;
 /// `2^-18 = 64 u`: `d_h / R^3`.
@@ -76,19 +79,18 @@ fn cross3(a: Vec3, b: Vec3) -> Vec3 {
     )
 }
 
-use super::bounds::dot3;
-
-/// The per-triangle values the texel tests share.
+/// The per-triangle values the tests share: the edge planes `N_i`, `h`, `d_h` and
+/// `unit = 2^-20 R^2`.
 #[derive(Debug, Clone, Copy)]
-struct Edges {
+pub struct Edges {
     n: [Vec3; 3],
-    /// `R^2` and `d_h`.
-    r2: f32,
     h: f32,
     d_h: f32,
+    unit: f32,
 }
 
-fn edges(l: &[Vec3; 3]) -> Edges {
+/// The [`Edges`] of the face-local triangle `l`.
+pub fn edges(l: &[Vec3; 3]) -> Edges {
     let mut r = 0.0f32;
     for v in l {
         r = r.max(v.x.abs()).max(v.y.abs()).max(v.z.abs());
@@ -97,9 +99,49 @@ fn edges(l: &[Vec3; 3]) -> Edges {
     let r2 = r * r;
     Edges {
         n,
-        r2,
         h: dot3(l[0], n[1]),
         d_h: DET_SLACK * r2 * r,
+        unit: EDGE_SLACK * r2,
+    }
+}
+
+/// The corner directions `c_j` of the widened planes `k` and their `|c_j|_1`.
+fn corners(k: [f32; 4]) -> ([Vec3; 4], [f32; 4]) {
+    let c = [
+        Vec3::new(k[0], k[2], 1.0),
+        Vec3::new(k[1], k[2], 1.0),
+        Vec3::new(k[0], k[3], 1.0),
+        Vec3::new(k[1], k[3], 1.0),
+    ];
+    (c, c.map(|c| c.x.abs() + c.y.abs() + 1.0))
+}
+
+/// Bit 0: some edge plane has the four corners of `k` outside; bit 1: every edge plane has them
+/// inside; 4 when the orientation is not sure (`|h| <= d_h`; neither may then be used).
+fn classify(g: &Edges, k: [f32; 4]) -> u32 {
+    let (c, a) = corners(k);
+    let mut any_out = 0;
+    let mut all_in = 2;
+    for n in &g.n {
+        let (mut out, mut inside) = (true, true);
+        for j in 0..4 {
+            let v = dot3(*n, c[j]);
+            let sv = if g.h > 0.0 { v } else { -v };
+            let d = g.unit * a[j];
+            out &= sv < -d;
+            inside &= sv > d;
+        }
+        if out {
+            any_out = 1;
+        }
+        if !inside {
+            all_in = 0;
+        }
+    }
+    if g.h.abs() > g.d_h {
+        any_out | all_in
+    } else {
+        4
     }
 }
 
@@ -108,61 +150,43 @@ fn edges(l: &[Vec3; 3]) -> Edges {
 /// budget `E` (module docs).
 pub fn texel_cone(l: &[Vec3; 3], k: [f32; 4], w: Vec3, e: f32) -> TexelCone {
     let g = edges(l);
-    if !(g.h.abs() > g.d_h) {
-        return TexelCone::Clip;
+    match classify(&g, k) {
+        1 | 3 => TexelCone::Outside,
+        2 if g.h.abs() >= CONDITION * g.d_h => inside_bounds(&g, k, w, e),
+        _ => TexelCone::Clip,
     }
-    let c = [
-        Vec3::new(k[0], k[2], 1.0),
-        Vec3::new(k[1], k[2], 1.0),
-        Vec3::new(k[0], k[3], 1.0),
-        Vec3::new(k[1], k[3], 1.0),
-    ];
-    let unit = EDGE_SLACK * g.r2;
-    let mut d = [0.0f32; 4];
-    for j in 0..4 {
-        d[j] = unit * (c[j].x.abs() + c[j].y.abs() + 1.0);
-    }
-    let mut inside = true;
-    for i in 0..3 {
-        let mut out = 0;
-        for j in 0..4 {
-            let v = dot3(g.n[i], c[j]);
-            let sv = if g.h > 0.0 { v } else { -v };
-            if sv < -d[j] {
-                out += 1;
-            }
-            if !(sv > d[j]) {
-                inside = false;
-            }
-        }
-        if out == 4 {
-            return TexelCone::Outside;
-        }
-    }
-    if !inside || !(g.h.abs() >= CONDITION * g.d_h) {
-        return TexelCone::Clip;
-    }
-    inside_bounds(&g, &c, &d, w, e)
 }
 
-fn inside_bounds(g: &Edges, c: &[Vec3; 4], d: &[f32; 4], w: Vec3, e: f32) -> TexelCone {
+/// Whether the tile of texels `[x0, x1] x [y0, y1]` of a face of size `size`, widened by the
+/// margin `m`, lies wholly outside the triangle of `g`: each of its texels' widened cones lies in
+/// the tile's (the corners are convex combinations), so none of them meets the triangle. The
+/// GPU's `jobs` pass emits no job for such a tile, and the capture skips its texels.
+pub fn tile_outside(g: &Edges, x: [u32; 2], y: [u32; 2], size: u32, m: f32) -> bool {
+    let k = [
+        face_coord(x[0], size) - m,
+        face_coord(x[1] + 1, size) + m,
+        face_coord(y[0], size) - m,
+        face_coord(y[1] + 1, size) + m,
+    ];
+    matches!(classify(g, k), 1 | 3)
+}
+
+fn inside_bounds(g: &Edges, k: [f32; 4], w: Vec3, e: f32) -> TexelCone {
+    let (c, a) = corners(k);
     let n = g.n[0] + g.n[1] + g.n[2];
     let mut rho_d = 0.0f32;
     let mut rho_w = 0.0f32;
     let mut lo = f32::INFINITY;
     let mut hi = 0.0f32;
     for j in 0..4 {
+        let dd = 4.0 * (g.unit * a[j]);
         let den = dot3(n, c[j]);
-        let dd = 4.0 * d[j];
-        if !(den.abs() >= CONDITION * dd) {
-            return TexelCone::Clip;
-        }
         let cw = dot3(c[j], w);
-        if !(cw > 0.0) {
+        if !(den.abs() >= CONDITION * dd && cw > 0.0) {
             return TexelCone::Clip;
         }
         rho_d = rho_d.max(dd / den.abs());
-        rho_w = rho_w.max(DOT_SLACK * (c[j].x.abs() + c[j].y.abs() + 1.0) / cw);
+        rho_w = rho_w.max(DOT_SLACK * a[j] / cw);
         let t = g.h / den;
         lo = lo.min(t * cw);
         hi = hi.max(t * dot3(c[j], c[j]).sqrt());
@@ -170,4 +194,130 @@ fn inside_bounds(g: &Edges, c: &[Vec3; 4], d: &[f32; 4], w: Vec3, e: f32) -> Tex
     let rho = g.d_h / g.h.abs() + rho_d + rho_w + EDGE_SLACK;
     let lo = lo * (1.0 - 2.0 * rho) - e;
     TexelCone::Inside(if lo > 0.0 { lo } else { 0.0 }, hi * (1.0 + 2.0 * rho) + e)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cubemap::bounds::{face_local, face_rect, texel_centre_unit};
+    use glam::DVec3;
+
+    const SIZE: u32 = 16;
+    /// The +Z face (face-local = CMO-local there).
+    const FACE: u32 = 4;
+
+    fn rng(state: &mut u64) -> f64 {
+        *state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (*state >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    /// Distance (f64) along direction `d` from the centre to the triangle, `None` on a miss.
+    fn hit(l: &[Vec3; 3], d: DVec3) -> Option<f64> {
+        let [a, b, c] = l.map(|v| v.as_dvec3());
+        let (e1, e2) = (b - a, c - a);
+        let p = d.cross(e2);
+        let det = e1.dot(p);
+        let (s, q) = (-a, (-a).cross(e1));
+        let (u, v) = (s.dot(p) / det, d.dot(q) / det);
+        let t = e2.dot(q) / det;
+        (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > 0.0).then(|| t * d.length())
+    }
+
+    /// The triangle's distances over a 5x5 grid of directions in texel `(x, y)` (unwidened,
+    /// edges included): `None` where a direction misses.
+    fn samples(l: &[Vec3; 3], x: u32, y: u32) -> Vec<Option<f64>> {
+        let f = |k: u32, i: u32| -1.0 + (2.0 * k as f64 + i as f64 / 2.0) / SIZE as f64;
+        let mut out = Vec::new();
+        for j in 0..=4 {
+            for i in 0..=4 {
+                out.push(hit(l, DVec3::new(f(x, i), f(y, j), 1.0)));
+            }
+        }
+        out
+    }
+
+    /// Random triangles in front of the +Z face, large and small, with their rect's margin
+    /// and error budget.
+    fn cases() -> Vec<([Vec3; 3], f32, f32)> {
+        let mut s = 7u64;
+        let mut out = Vec::new();
+        while out.len() < 300 {
+            let z = 0.5 + 3.0 * rng(&mut s);
+            let spread = if out.len() % 2 == 0 { 2.0 } else { 0.3 };
+            let mut v = || {
+                let zz = z * (0.7 + 0.6 * rng(&mut s));
+                let x = (rng(&mut s) * 2.0 - 1.0) * spread * zz;
+                let y = (rng(&mut s) * 2.0 - 1.0) * spread * zz;
+                Vec3::new(x as f32, y as f32, zz as f32)
+            };
+            let tri = [v(), v(), v()];
+            if let Some(r) = face_rect(&tri, Vec3::ZERO, FACE, SIZE).filter(|r| !r.whole) {
+                out.push((face_local(&tri, Vec3::ZERO, FACE), r.m, r.e));
+            }
+        }
+        out
+    }
+
+    fn planes(x: u32, y: u32, m: f32) -> [f32; 4] {
+        [
+            face_coord(x, SIZE) - m,
+            face_coord(x + 1, SIZE) + m,
+            face_coord(y, SIZE) - m,
+            face_coord(y + 1, SIZE) + m,
+        ]
+    }
+
+    /// Violations of the fast paths' promises over every texel of every case, with `lo` and
+    /// `hi` scaled by `scale` and the triangle the tests see shifted by `shift` (the samples are
+    /// always of the true triangle); also how many texels each path took.
+    fn violations(scale: (f64, f64), shift: Vec3) -> (usize, [usize; 3]) {
+        let (mut bad, mut taken) = (0, [0; 3]);
+        for (l, m, e) in cases() {
+            let seen = l.map(|v| v + shift);
+            let g = edges(&seen);
+            for y in 0..SIZE {
+                for x in 0..SIZE {
+                    let s = samples(&l, x, y);
+                    let w = texel_centre_unit(x, y, SIZE);
+                    match texel_cone(&seen, planes(x, y, m), w, e) {
+                        TexelCone::Outside => {
+                            taken[0] += 1;
+                            bad += s.iter().filter(|d| d.is_some()).count();
+                        }
+                        TexelCone::Inside(lo, hi) => {
+                            taken[1] += 1;
+                            let (lo, hi) = (lo as f64 * scale.0, hi as f64 * scale.1);
+                            let out = |d: &Option<f64>| d.is_none_or(|d| d < lo || d > hi);
+                            bad += s.iter().filter(|d| out(d)).count();
+                        }
+                        TexelCone::Clip => taken[2] += 1,
+                    }
+                    if tile_outside(&g, [x, x], [y, y], SIZE, m) {
+                        bad += s.iter().filter(|d| d.is_some()).count();
+                    }
+                }
+            }
+        }
+        (bad, taken)
+    }
+
+    #[test]
+    fn fast_paths_keep_their_promises() {
+        let (bad, taken) = violations((1.0, 1.0), Vec3::ZERO);
+        assert_eq!(bad, 0, "paths taken (outside, inside, clip): {taken:?}");
+        // Every path is exercised, the fast ones on most texels.
+        assert!(taken.iter().all(|&n| n > 1000), "{taken:?}");
+        assert!(taken[2] * 4 < taken[0] + taken[1], "{taken:?}");
+    }
+
+    #[test]
+    fn a_perturbed_bound_or_triangle_breaks_them() {
+        // `hi` 0.1 % short, `lo` 1 % long (it is below the nearest point by the cone's
+        // obliquity, up to 0.4 % at N = 16), a triangle moved by a tenth of a texel.
+        assert!(violations((1.0, 0.999), Vec3::ZERO).0 > 0);
+        assert!(violations((1.01, 1.0), Vec3::ZERO).0 > 0);
+        assert!(violations((1.0, 1.0), Vec3::new(0.0125, 0.0, 0.0)).0 > 0);
+    }
 }

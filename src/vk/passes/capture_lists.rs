@@ -3,12 +3,17 @@
 //! [`crate::cubemap::bounds`], whose module docs derive the bounds).
 //!
 //! Invariants:
-//! - Three dispatches over every CMO at once: `jobs` (one invocation per (triangle, CMO, face),
-//!   one job per 8x8 tile of its texel rect), `texels` (a node per touched texel, pushed onto
-//!   the texel's linked list), `resolve` (the `depth` smallest `(lo, triangle)` sorted at the
-//!   head of each list, then the per-texel record and `lo`). [`CaptureLists::record`] clears the
-//!   heads, overflows and counters first and records the barriers between the passes and one
-//!   after (compute writes -> any shader read).
+//! - Dispatches over every CMO at once: `jobs` (one invocation per (triangle, CMO, face), one
+//!   job per 8x8 tile of its texel rect that is not wholly outside the triangle), `texels` (the
+//!   fast paths per texel: a node per texel wholly inside the triangle, the texels they cannot
+//!   decide queued for `clips`), `clips` (the four clips of each queued texel, a node where the
+//!   triangle touches it), `resolve` (the `depth` smallest `(lo, triangle)` sorted at the head
+//!   of each list, then the per-texel record and `lo`). `texels` and `clips` are indirect
+//!   dispatches sized on the GPU from the jobs and the queue (`texel_args`, `clip_args`): on
+//!   lavapipe an idle workgroup, or a branch no lane takes, still costs its instructions. Nodes
+//!   are pushed onto each texel's linked list. [`CaptureLists::record`] clears the heads,
+//!   overflows and counters first and records the barriers between the passes and one after
+//!   (compute writes -> any shader read).
 //! - Per texel, CMO-major, `(face N + y) N + x` (like [`CmoData`](super::cmo::CmoData)'s
 //!   distance): the record `[head, bits(complete_to), bits(hi), count_kept]`
 //!   ([`TexelRecord`]); the first `count_kept` nodes from `head` ([`ListNode`]) are the
@@ -23,7 +28,9 @@
 //! - Capacities come from the CPU ([`capacity`], the same f32 rect as the GPU's, so the job
 //!   buffer never fills on a conforming driver). A full job buffer (or a rect over 60000 tiles:
 //!   a whole face beyond N = 1952) makes its whole face unknown (`complete_to = 0`); a full
-//!   node pool lowers the texel's `complete_to` to the lost entry's `lo`; a list walk capped at
+//!   node pool lowers the texel's `complete_to` to the lost entry's `lo`; a full clip queue
+//!   ([`bounds::PoolBound::clips`]) gives the texel the whole triangle's bounds (sound, looser;
+//!   `clips_dropped`); a list walk capped at
 //!   `walk_cap` node visits (lavapipe's loop limit) sets `complete_to = 0`. All three are counted ([`ListCounters`]).
 //! - Which triangles: captured objects' (`GpuObject::captured`), reflectors only for a CMO with
 //!   `reflectors` set (the capture's rule), with no facing cull.
@@ -201,11 +208,6 @@ fn list_views(cmos: &[(Vec3, bool)]) -> Vec<ListsView> {
         .collect()
 }
 
-/// The `texels` pass's workgroups for `capacity`.
-fn texels_groups(capacity: PoolBound) -> [u32; 3] {
-    [capacity.jobs.clamp(1, u64::from(MAX_GROUPS_X)) as u32, 1, 1]
-}
-
 /// Every `@group(1)` resource of the passes by binding: the pass's own buffers (params, views,
 /// jobs, heads, overflow, face overflow, counters; then the clip queue and its dispatch size)
 /// and the targets.
@@ -315,11 +317,12 @@ fn check_inputs(
 pub struct CaptureLists {
     jobs: ComputePipeline,
     texels: ComputePipeline,
+    texel_args: ComputePipeline,
     clip_args: ComputePipeline,
     clips: ComputePipeline,
     resolve: ComputePipeline,
-    /// The sets of `jobs`, `texels`, `clip_args`, `clips`, `resolve`.
-    sets: [(BindGroup, BindGroup); 5],
+    /// The sets of `jobs`, `texels`, `clip_args`, `clips`, `resolve`, `texel_args`.
+    sets: [(BindGroup, BindGroup); 6],
     params_buf: Buffer,
     views_buf: Buffer,
     job_buf: Buffer,
@@ -328,14 +331,13 @@ pub struct CaptureLists {
     face_overflow: Buffer,
     counters: Buffer,
     clip_buf: Buffer,
-    clip_args_buf: Buffer,
+    args_buf: Buffer,
     /// Distance, records and nodes when the caller gave none ([`ListTargets`]).
     own: Option<OwnTargets>,
     params: ListsParams,
     /// What the views buffer holds.
     views: Vec<ListsView>,
     jobs_groups: [u32; 3],
-    texels_groups: [u32; 3],
     resolve_groups: [u32; 3],
 }
 
@@ -461,6 +463,7 @@ impl CaptureLists {
         let pipe = |e| ComputePipeline::new(ctx, &CAPTURE_LISTS, e, ComputeOptions::default());
         let (jobs, texels_pipe, resolve) = (pipe("jobs")?, pipe("texels")?, pipe("resolve")?);
         let (clip_args, clips) = (pipe("clip_args")?, pipe("clips")?);
+        let texel_args = pipe("texel_args")?;
         let views = list_views(cmos);
         let st = vk::BufferUsageFlags::STORAGE_BUFFER;
         let params_buf = ctx.create_buffer_init("capture_lists params", st, &[params])?;
@@ -475,10 +478,10 @@ impl CaptureLists {
             size_of::<ListCounters>() as u64,
         )?;
         let clip_buf = storage(ctx, "capture_lists clips", clip_queue_bytes(capacity))?;
-        let clip_args_buf = Buffer::new(
+        let args_buf = Buffer::new(
             ctx.device(),
-            "capture_lists clip args",
-            12,
+            "capture_lists dispatch args",
+            24,
             st | vk::BufferUsageFlags::INDIRECT_BUFFER,
             gpu_allocator::MemoryLocation::GpuOnly,
         )?;
@@ -503,7 +506,7 @@ impl CaptureLists {
                 &face_overflow,
                 &counters,
                 &clip_buf,
-                &clip_args_buf,
+                &args_buf,
             ],
             out,
         );
@@ -527,11 +530,12 @@ impl CaptureLists {
             sets_for(&clip_args)?,
             sets_for(&clips)?,
             sets_for(&resolve)?,
+            sets_for(&texel_args)?,
         ];
-        let texels_groups = texels_groups(capacity);
         Ok(CaptureLists {
             jobs,
             texels: texels_pipe,
+            texel_args,
             clip_args,
             clips,
             resolve,
@@ -544,12 +548,11 @@ impl CaptureLists {
             face_overflow,
             counters,
             clip_buf,
-            clip_args_buf,
+            args_buf,
             own,
             params,
             views,
             jobs_groups: linear_groups(triangles * 6 * k),
-            texels_groups,
             resolve_groups: linear_groups(texels),
         })
     }
@@ -588,9 +591,13 @@ impl CaptureLists {
         self.jobs.dispatch(rec, &[s0, s1], self.jobs_groups);
         end(&mut ts, s);
         rec.memory_barrier(COMPUTE_WRITE, rw);
+        let (s0, s1) = &self.sets[5];
+        self.texel_args.dispatch(rec, &[s0, s1], [1, 1, 1]);
+        rec.memory_barrier(COMPUTE_WRITE, INDIRECT_READ);
         let s = scope(&mut ts, "capture_lists.texels")?;
         let (s0, s1) = &self.sets[1];
-        self.texels.dispatch(rec, &[s0, s1], self.texels_groups);
+        self.texels
+            .dispatch_indirect(rec, &[s0, s1], &self.args_buf, 0)?;
         end(&mut ts, s);
         rec.memory_barrier(COMPUTE_WRITE, rw);
         let s = scope(&mut ts, "capture_lists.clips")?;
@@ -599,7 +606,7 @@ impl CaptureLists {
         rec.memory_barrier(COMPUTE_WRITE, INDIRECT_READ);
         let (s0, s1) = &self.sets[3];
         self.clips
-            .dispatch_indirect(rec, &[s0, s1], &self.clip_args_buf, 0)?;
+            .dispatch_indirect(rec, &[s0, s1], &self.args_buf, 12)?;
         end(&mut ts, s);
         rec.memory_barrier(COMPUTE_WRITE, rw);
         let s = scope(&mut ts, "capture_lists.resolve")?;
@@ -670,7 +677,7 @@ impl CaptureLists {
             &self.face_overflow,
             &self.counters,
             &self.clip_buf,
-            &self.clip_args_buf,
+            &self.args_buf,
         ];
         let all = group1_resources(own, out);
         let groups = [
@@ -679,6 +686,7 @@ impl CaptureLists {
             group1_set(&self.clip_args, &all)?,
             group1_set(&self.clips, &all)?,
             group1_set(&self.resolve, &all)?,
+            group1_set(&self.texel_args, &all)?,
         ];
         for (set, g) in self.sets.iter_mut().zip(groups) {
             set.1 = g;
@@ -687,7 +695,6 @@ impl CaptureLists {
         self.params.job_capacity = capacity.jobs as u32;
         self.params.node_capacity = capacity.nodes as u32;
         self.params.clip_capacity = capacity.clips.min(u64::from(u32::MAX / 2)) as u32;
-        self.texels_groups = texels_groups(capacity);
         ctx.write_buffer(&self.views_buf, &self.views)?;
         ctx.write_buffer(&self.params_buf, &[self.params])
     }
