@@ -440,6 +440,77 @@ fn tiny_pools_stay_sound() {
     finish_gpu(ctx);
 }
 
+/// Every entry of the CPU's full lists is kept with bounds at least as wide (or lies beyond
+/// `complete_to`), and `lo` is no higher; the GPU may hold more entries. `Err` names the first
+/// texel where not.
+fn check_looser(gpu: &TexelLists, full: &TexelLists) -> Result<(), String> {
+    for i in 0..full.lo.len() {
+        let kept = &gpu.entries[gpu.offsets[i] as usize..gpu.offsets[i + 1] as usize];
+        let all = &full.entries[full.offsets[i] as usize..full.offsets[i + 1] as usize];
+        for f in all {
+            let covered = kept
+                .iter()
+                .any(|e| e.triangle == f.triangle && e.lo <= f.lo && e.hi >= f.hi);
+            if !covered && gpu.complete_to[i] > f.lo {
+                return Err(format!("texel {i}: {f:?} lost or narrowed"));
+            }
+        }
+        if gpu.lo[i] > full.lo[i] {
+            return Err(format!(
+                "texel {i}: lo {} above the CPU's {}",
+                gpu.lo[i], full.lo[i]
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// A clip queue of 3 entries: the texels that did not fit take their triangle's whole bounds
+/// (wider, sound) and are counted.
+#[test]
+fn a_full_clip_queue_stays_sound() {
+    let ctx = gpu_context();
+    let a = small_triangles();
+    let data = tiny_scene(&[(&a, false)]);
+    let cmos = [(Vec3::new(0.25, -0.5, 0.75), false)];
+    let size = 16;
+    let cap = full_capacity(&data, &cmos, size);
+    let full = cpu_lists(&data, &cmos, size, u32::MAX);
+    let (g, _) = run(&ctx, &data, &cmos, size, 16, PoolBound { clips: 3, ..cap });
+    eprintln!("tiny clip queue: {:?}", g.counters);
+    assert!(g.counters.clips > 3 && g.counters.clips_dropped == g.counters.clips - 3);
+    check_looser(&g.cmos[0], &full[0]).unwrap();
+    // The full queue's texels differ from the twin's, and narrowing one breaks the check.
+    assert!(compare(&g.cmos[0], &full[0]).is_err());
+    let (i, k) = (0..full[0].lo.len())
+        .find_map(|i| {
+            let (a, b) = (
+                g.cmos[0].offsets[i] as usize,
+                g.cmos[0].offsets[i + 1] as usize,
+            );
+            let all =
+                &full[0].entries[full[0].offsets[i] as usize..full[0].offsets[i + 1] as usize];
+            (a..b)
+                .find(|&k| {
+                    all.iter().any(|f| {
+                        let e = g.cmos[0].entries[k];
+                        f.triangle == e.triangle && f.lo > e.lo
+                    })
+                })
+                .map(|k| (i, k))
+        })
+        .expect("some texel took the whole triangle's bounds");
+    let mut bad = g.cmos[0].clone();
+    let f = full[0].entries[full[0].offsets[i] as usize..full[0].offsets[i + 1] as usize]
+        .iter()
+        .find(|f| f.triangle == bad.entries[k].triangle)
+        .copied()
+        .unwrap();
+    bad.entries[k].lo = f.lo * 1.01 + 1e-3;
+    assert!(check_looser(&bad, &full[0]).is_err());
+    finish_gpu(ctx);
+}
+
 /// A walk cap of 2 node visits: the capped texels are unknown from 0 (sound) and counted.
 #[test]
 fn capped_walks_stay_sound() {

@@ -372,7 +372,7 @@ pub fn list_capture_bytes(scene: &Scene, options: &RenderOptions) -> u64 {
 
 /// What the `bounded` criterion's capture adds to a plan: the node pool at the capacity the
 /// frame allocates (the CPU bound of [`capture_lists::capacity`], the texels each triangle can
-/// touch), its job buffer, and the per-texel heads and overflow words; 0 for other criteria,
+/// touch), its job buffer and clip queue, and the per-texel heads and overflow words; 0 for other criteria,
 /// methods that run no capture, and lists uploaded instead of captured.
 pub fn list_capture_bytes_of(plan: &FramePlan) -> u64 {
     let Some(CapturePlan::Lists {
@@ -385,6 +385,7 @@ pub fn list_capture_bytes_of(plan: &FramePlan) -> u64 {
     let texels = views.len() as u64 * 6 * u64::from(size) * u64::from(size);
     lists_bytes(0, size, capacity.nodes)
         + capacity.jobs * size_of::<capture_lists::ListsJob>() as u64
+        + capture_lists::clip_queue_bytes(*capacity)
         + texels * 8
 }
 
