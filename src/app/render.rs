@@ -173,9 +173,9 @@ pub fn film_settings(args: &RenderArgs, scene: &Scene) -> crate::film::FilmSetti
     }
 }
 
-/// The plain set-up of a run's frames ([`crate::render::RenderSetup`]) from the command line:
-/// the film, the output's format, `--compare`, and for GPU methods the device and the renderer's
-/// options (refused where the method cannot trace `--bounces`).
+/// The plain set-up of a run's frames ([`crate::render::RenderSetup`]) from the command line,
+/// checked by [`RenderArgs::check_method`] before: the film, the output's format, `--compare`,
+/// and for GPU methods the device and the renderer's options.
 pub fn render_setup(args: &RenderArgs, scene: &Scene) -> Result<RenderSetup> {
     let format = match &args.output {
         Some(p) => Format::from_path(p)?,
@@ -197,10 +197,16 @@ pub fn render_setup(args: &RenderArgs, scene: &Scene) -> Result<RenderSetup> {
 }
 
 impl FrameRenderer {
-    /// The renderer of the command line's frames: [`render_setup`], then
-    /// [`FrameRenderer::open`] (the device and the checks once); nothing rendered yet.
+    /// The renderer of the command line's frames, for a caller that has not checked them (the
+    /// commands check first and [`FrameRenderer::open`] the [`render_setup`] themselves): the
+    /// set-up, the method's options checked (GPU methods), then [`FrameRenderer::open`] (the
+    /// device and the checks once); nothing rendered yet.
     pub fn new(args: &RenderArgs, scene: &Scene, camera: &Camera) -> Result<Self> {
-        FrameRenderer::open(&render_setup(args, scene)?, scene, camera)
+        let setup = render_setup(args, scene)?;
+        if args.method.is_gpu() {
+            args.check_method()?;
+        }
+        FrameRenderer::open(&setup, scene, camera)
     }
 }
 
@@ -331,9 +337,9 @@ pub fn check_file_name(path: &Path) -> Result<()> {
     }
 }
 
-/// The renderer's options of a GPU render, refused where the method cannot trace `--bounces`.
+/// The renderer's options of a GPU render: the tracer's and `--bounces` (the command checks
+/// them first, once: [`RenderArgs::check_method`]).
 pub fn gpu_options(args: &RenderArgs) -> Result<RenderOptions> {
-    args.check_method()?;
     let options = args.trace.options(args.method);
     Ok(RenderOptions {
         bounces: args.bounces,
@@ -341,7 +347,7 @@ pub fn gpu_options(args: &RenderArgs) -> Result<RenderOptions> {
     })
 }
 
-/// The GPU render: device, memory check and renderer ([`FrameRenderer::new`]), the frame's
+/// The GPU render: device, memory check and renderer ([`FrameRenderer::open`]), the frame's
 /// samples, file, summary, validation and the optional comparison.
 fn render_gpu(
     args: &RenderArgs,
@@ -352,7 +358,7 @@ fn render_gpu(
     start: Instant,
 ) -> Result<()> {
     let loaded = start.elapsed();
-    let mut renderer = FrameRenderer::new(args, scene, camera)?;
+    let mut renderer = FrameRenderer::open(&render_setup(args, scene)?, scene, camera)?;
     let created = start.elapsed();
     let rendered = renderer.render(scene, camera)?;
     let render_time = start.elapsed();
@@ -636,7 +642,7 @@ fn per_sample_summary(per: &[metrics::ErrorReport]) -> String {
     )
 }
 
-/// The reference render: host memory check and BVH ([`FrameRenderer::new`]), the frame's
+/// The reference render: host memory check and BVH ([`FrameRenderer::open`]), the frame's
 /// samples (with a progress bar on large frames), file and the `wrote ...` line.
 fn render_reference(
     args: &RenderArgs,
@@ -645,7 +651,7 @@ fn render_reference(
     target: &Target,
     start: Instant,
 ) -> Result<()> {
-    let mut renderer = FrameRenderer::new(args, scene, camera)?;
+    let mut renderer = FrameRenderer::open(&render_setup(args, scene)?, scene, camera)?;
     let rendered = renderer.render(scene, camera)?;
     let render_time = start.elapsed();
     rendered.write(&target.path, target.format)?;

@@ -139,7 +139,10 @@ fn run_sequence(args: RenderArgs, given: Option<Vec<i64>>) -> Result<()> {
         bar.set_message(format!("frame {}", job.frame));
         let r = match &mut renderer {
             Some(r) => r,
-            None => renderer.insert(FrameRenderer::new(&args, &scene, &camera)?),
+            None => {
+                let setup = render::render_setup(&args, &scene)?;
+                renderer.insert(FrameRenderer::open(&setup, &scene, &camera)?)
+            }
         };
         let frame = r
             .render(&scene, &camera)

@@ -83,7 +83,7 @@ pub fn reference_frame(
     let bar = indicatif::ProgressBar::hidden();
     let mut kept = None;
     let each = |s: usize, o: Vec2, frame: reference::Frame| {
-        if s % 2 == 0 {
+        if s.is_multiple_of(2) {
             half.add(o, &frame.colour);
         }
         if s == aov {

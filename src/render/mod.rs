@@ -17,8 +17,9 @@
 //! - [`glossy`]: glossy reflectors: the warning for a method that cannot sample their lobe, and
 //!   the converged reference and Monte Carlo frames a glossy frame is measured with.
 //!
-//! Nothing here parses arguments or prints: a refusal is an `Err` naming what to change, and
-//! the commands say the rest.
+//! Nothing here parses arguments or prints a line (it logs, and a large reference frame draws a
+//! progress bar on a terminal): a refusal is an `Err` naming what to change, and the commands
+//! say the rest.
 
 pub mod checks;
 pub mod glossy;

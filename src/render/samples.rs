@@ -6,7 +6,7 @@
 //! [`gpu_samples`] and [`reference_samples`] are the one loop of each backend; what a caller
 //! keeps of each sample (the AOV sample, every sample for `--compare`, the pass times of the
 //! bench's Monte Carlo ladder, the even-numbered half of a converged reference) it takes in the
-//! closure it passes. The frame renderer's frames ([`gpu_frame`], [`reference_frame_samples`]),
+//! closure it passes. The frame renderer's frames (`gpu_frame`, `reference_frame_samples`),
 //! the comparison's reference ([`reference_frame`]) and the bench's glossy frames
 //! ([`super::glossy`]) all run through them, so a frame of the bench is bit for bit the frame of
 //! `cubetrace render` at the same samples.
