@@ -225,6 +225,17 @@ fn group1_resources<'a>(own: [&'a Buffer; 9], out: ListTargets<'a>) -> Vec<(u32,
     all
 }
 
+/// The `texels` and `clips` dispatch sizes (two `VkDispatchIndirectCommand`s).
+fn args_buffer(ctx: &GpuContext) -> VkResult<Buffer> {
+    Buffer::new(
+        ctx.device(),
+        "capture_lists dispatch args",
+        24,
+        vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::INDIRECT_BUFFER,
+        gpu_allocator::MemoryLocation::GpuOnly,
+    )
+}
+
 /// Bytes of the clip queue for `capacity` (two u32 per queued texel).
 pub fn clip_queue_bytes(capacity: PoolBound) -> u64 {
     capacity.clips.max(1) * 8
@@ -315,13 +326,9 @@ fn check_inputs(
 
 /// The three pipelines, their bindings and buffers for one scene and CMO set.
 pub struct CaptureLists {
-    jobs: ComputePipeline,
-    texels: ComputePipeline,
-    texel_args: ComputePipeline,
-    clip_args: ComputePipeline,
-    clips: ComputePipeline,
-    resolve: ComputePipeline,
-    /// The sets of `jobs`, `texels`, `clip_args`, `clips`, `resolve`, `texel_args`.
+    /// The passes in recording order: `jobs`, `texel_args`, `texels`, `clip_args`, `clips`,
+    /// `resolve`; `sets` holds their `@group(0)` and `@group(1)` sets in the same order.
+    passes: [ComputePipeline; 6],
     sets: [(BindGroup, BindGroup); 6],
     params_buf: Buffer,
     views_buf: Buffer,
@@ -461,9 +468,14 @@ impl CaptureLists {
             clip_capacity: capacity.clips.min(u64::from(u32::MAX / 2)) as u32,
         };
         let pipe = |e| ComputePipeline::new(ctx, &CAPTURE_LISTS, e, ComputeOptions::default());
-        let (jobs, texels_pipe, resolve) = (pipe("jobs")?, pipe("texels")?, pipe("resolve")?);
-        let (clip_args, clips) = (pipe("clip_args")?, pipe("clips")?);
-        let texel_args = pipe("texel_args")?;
+        let passes = [
+            pipe("jobs")?,
+            pipe("texel_args")?,
+            pipe("texels")?,
+            pipe("clip_args")?,
+            pipe("clips")?,
+            pipe("resolve")?,
+        ];
         let views = list_views(cmos);
         let st = vk::BufferUsageFlags::STORAGE_BUFFER;
         let params_buf = ctx.create_buffer_init("capture_lists params", st, &[params])?;
@@ -478,13 +490,7 @@ impl CaptureLists {
             size_of::<ListCounters>() as u64,
         )?;
         let clip_buf = storage(ctx, "capture_lists clips", clip_queue_bytes(capacity))?;
-        let args_buf = Buffer::new(
-            ctx.device(),
-            "capture_lists dispatch args",
-            24,
-            st | vk::BufferUsageFlags::INDIRECT_BUFFER,
-            gpu_allocator::MemoryLocation::GpuOnly,
-        )?;
+        let args_buf = args_buffer(ctx)?;
         let own = match targets {
             Some(_) => None,
             None => Some(OwnTargets {
@@ -511,35 +517,26 @@ impl CaptureLists {
             out,
         );
         let sets_for = |p: &ComputePipeline| -> VkResult<(BindGroup, BindGroup)> {
-            let used = |g: u32, b: u32| {
+            let used = |b: u32| {
                 p.entry
                     .bindings
                     .iter()
-                    .any(|u| u.group == g && u.binding == b)
+                    .any(|u| u.group == 0 && u.binding == b)
             };
             let scene_res: Vec<_> = scene
                 .resources()
                 .into_iter()
-                .filter(|(b, _)| used(0, *b))
+                .filter(|(b, _)| used(*b))
                 .collect();
             Ok((p.bind_group(0, &scene_res)?, group1_set(p, &all)?))
         };
-        let sets = [
-            sets_for(&jobs)?,
-            sets_for(&texels_pipe)?,
-            sets_for(&clip_args)?,
-            sets_for(&clips)?,
-            sets_for(&resolve)?,
-            sets_for(&texel_args)?,
-        ];
+        let mut sets = Vec::with_capacity(passes.len());
+        for p in &passes {
+            sets.push(sets_for(p)?);
+        }
         Ok(CaptureLists {
-            jobs,
-            texels: texels_pipe,
-            texel_args,
-            clip_args,
-            clips,
-            resolve,
-            sets,
+            passes,
+            sets: sets.try_into().ok().expect("one set pair per pass"),
             params_buf,
             views_buf,
             job_buf,
@@ -587,31 +584,25 @@ impl CaptureLists {
         rec.fill_buffer(&self.counters, 0);
         rec.memory_barrier(TRANSFER_WRITE, COMPUTE_READ);
         let rw = (COMPUTE_READ.0, COMPUTE_READ.1 | COMPUTE_WRITE.1);
-        let (s0, s1) = &self.sets[0];
-        self.jobs.dispatch(rec, &[s0, s1], self.jobs_groups);
+        let [jobs, texel_args, texels, clip_args, clips, resolve] = &self.passes;
+        let set = |i: usize| [&self.sets[i].0, &self.sets[i].1];
+        jobs.dispatch(rec, &set(0), self.jobs_groups);
         end(&mut ts, s);
         rec.memory_barrier(COMPUTE_WRITE, rw);
-        let (s0, s1) = &self.sets[5];
-        self.texel_args.dispatch(rec, &[s0, s1], [1, 1, 1]);
+        texel_args.dispatch(rec, &set(1), [1, 1, 1]);
         rec.memory_barrier(COMPUTE_WRITE, INDIRECT_READ);
         let s = scope(&mut ts, "capture_lists.texels")?;
-        let (s0, s1) = &self.sets[1];
-        self.texels
-            .dispatch_indirect(rec, &[s0, s1], &self.args_buf, 0)?;
+        texels.dispatch_indirect(rec, &set(2), &self.args_buf, 0)?;
         end(&mut ts, s);
         rec.memory_barrier(COMPUTE_WRITE, rw);
         let s = scope(&mut ts, "capture_lists.clips")?;
-        let (s0, s1) = &self.sets[2];
-        self.clip_args.dispatch(rec, &[s0, s1], [1, 1, 1]);
+        clip_args.dispatch(rec, &set(3), [1, 1, 1]);
         rec.memory_barrier(COMPUTE_WRITE, INDIRECT_READ);
-        let (s0, s1) = &self.sets[3];
-        self.clips
-            .dispatch_indirect(rec, &[s0, s1], &self.args_buf, 12)?;
+        clips.dispatch_indirect(rec, &set(4), &self.args_buf, 12)?;
         end(&mut ts, s);
         rec.memory_barrier(COMPUTE_WRITE, rw);
         let s = scope(&mut ts, "capture_lists.resolve")?;
-        let (s0, s1) = &self.sets[4];
-        self.resolve.dispatch(rec, &[s0, s1], self.resolve_groups);
+        resolve.dispatch(rec, &set(5), self.resolve_groups);
         end(&mut ts, s);
         rec.memory_barrier(COMPUTE_WRITE, ALL_READS);
         Ok(())
@@ -680,14 +671,11 @@ impl CaptureLists {
             &self.args_buf,
         ];
         let all = group1_resources(own, out);
-        let groups = [
-            group1_set(&self.jobs, &all)?,
-            group1_set(&self.texels, &all)?,
-            group1_set(&self.clip_args, &all)?,
-            group1_set(&self.clips, &all)?,
-            group1_set(&self.resolve, &all)?,
-            group1_set(&self.texel_args, &all)?,
-        ];
+        let groups = self
+            .passes
+            .iter()
+            .map(|p| group1_set(p, &all))
+            .collect::<VkResult<Vec<_>>>()?;
         for (set, g) in self.sets.iter_mut().zip(groups) {
             set.1 = g;
         }
