@@ -1,6 +1,6 @@
 // capture_lists: the `bounded` criterion's sound per-texel bounds and candidate lists (the GPU of
 // `src/cubemap/bounds.rs`, whose module docs derive the bounds; `src/vk/passes/capture_lists.rs`
-// records the three passes, each over every CMO in one dispatch):
+// records the passes, each over every CMO in one dispatch):
 // - `jobs`: one invocation per (triangle, CMO, face): steps 1-4 (`cb_face_rect`), then one job
 //   per 8x8 tile of the texel rect that is not wholly outside the triangle (`cf_tile_outside`),
 //   appended through `lists_counters.jobs`. A job that does not fit the job buffer (or a rect
