@@ -16,13 +16,17 @@ use common::{finish_gpu, gpu_context};
 
 use std::time::Instant;
 
-use cubetrace::cubemap::bounds::{PoolBound, TexelLists, capture_lists};
+use cubetrace::cubemap::bounds::{
+    PoolBound, TexelLists, capture_lists, face_local, face_rect, texel_centre_unit,
+};
+use cubetrace::cubemap::face::face_coord;
+use cubetrace::cubemap::texel_cone::{TexelCone, edges, texel_cone, tile_outside};
 use cubetrace::scene::gpu_data::{GpuMaterial, GpuObject, GpuSceneData, GpuVertex};
 use cubetrace::vk::GpuContext;
 use cubetrace::vk::backend::timestamps::Timestamps;
 use cubetrace::vk::passes::capture_lists::{CaptureLists, GpuLists, capacity, scene_triangles};
 use cubetrace::vk::passes::scene_buffers::SceneBuffers;
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
 /// A scene of `objects` (triangles, reflector flag), every object captured.
 fn tiny_scene(objects: &[(&[[Vec3; 3]], bool)]) -> GpuSceneData {
@@ -579,4 +583,126 @@ fn capture_cost_on_a_builtin_scene() {
     }
     drop(scene);
     finish_gpu(ctx);
+}
+
+// The capture's fast paths (`cubetrace::cubemap::texel_cone`) on the CPU: f64 samples of random
+// triangles against what each path promises.
+
+const CONE_SIZE: u32 = 16;
+/// The +Z face (face-local = CMO-local there).
+const CONE_FACE: u32 = 4;
+
+fn rng(state: &mut u64) -> f64 {
+    *state = state
+        .wrapping_mul(6_364_136_223_846_793_005)
+        .wrapping_add(1_442_695_040_888_963_407);
+    (*state >> 11) as f64 / (1u64 << 53) as f64
+}
+
+/// Distance (f64) along direction `d` from the centre to the triangle, `None` on a miss.
+fn hit(l: &[Vec3; 3], d: DVec3) -> Option<f64> {
+    let [a, b, c] = l.map(|v| v.as_dvec3());
+    let (e1, e2) = (b - a, c - a);
+    let p = d.cross(e2);
+    let det = e1.dot(p);
+    let (s, q) = (-a, (-a).cross(e1));
+    let (u, v) = (s.dot(p) / det, d.dot(q) / det);
+    let t = e2.dot(q) / det;
+    (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > 0.0).then(|| t * d.length())
+}
+
+/// The triangle's distances over a 5x5 grid of directions in texel `(x, y)` (unwidened,
+/// edges included): `None` where a direction misses.
+fn samples(l: &[Vec3; 3], x: u32, y: u32) -> Vec<Option<f64>> {
+    let f = |k: u32, i: u32| -1.0 + (2.0 * k as f64 + i as f64 / 2.0) / CONE_SIZE as f64;
+    let mut out = Vec::new();
+    for j in 0..=4 {
+        for i in 0..=4 {
+            out.push(hit(l, DVec3::new(f(x, i), f(y, j), 1.0)));
+        }
+    }
+    out
+}
+
+/// Random triangles in front of the +Z face, large and small, with their rect's margin
+/// and error budget.
+fn cases() -> Vec<([Vec3; 3], f32, f32)> {
+    let mut s = 7u64;
+    let mut out = Vec::new();
+    while out.len() < 300 {
+        let z = 0.5 + 3.0 * rng(&mut s);
+        let spread = if out.len() % 2 == 0 { 2.0 } else { 0.3 };
+        let mut v = || {
+            let zz = z * (0.7 + 0.6 * rng(&mut s));
+            let x = (rng(&mut s) * 2.0 - 1.0) * spread * zz;
+            let y = (rng(&mut s) * 2.0 - 1.0) * spread * zz;
+            Vec3::new(x as f32, y as f32, zz as f32)
+        };
+        let tri = [v(), v(), v()];
+        if let Some(r) = face_rect(&tri, Vec3::ZERO, CONE_FACE, CONE_SIZE).filter(|r| !r.whole) {
+            out.push((face_local(&tri, Vec3::ZERO, CONE_FACE), r.m, r.e));
+        }
+    }
+    out
+}
+
+fn planes(x: u32, y: u32, m: f32) -> [f32; 4] {
+    [
+        face_coord(x, CONE_SIZE) - m,
+        face_coord(x + 1, CONE_SIZE) + m,
+        face_coord(y, CONE_SIZE) - m,
+        face_coord(y + 1, CONE_SIZE) + m,
+    ]
+}
+
+/// Violations of the fast paths' promises over every texel of every case, with `lo` and
+/// `hi` scaled by `scale` and the triangle the tests see shifted by `shift` (the samples are
+/// always of the true triangle); also how many texels each path took.
+fn violations(scale: (f64, f64), shift: Vec3) -> (usize, [usize; 3]) {
+    let (mut bad, mut taken) = (0, [0; 3]);
+    for (l, m, e) in cases() {
+        let seen = l.map(|v| v + shift);
+        let g = edges(&seen);
+        for y in 0..CONE_SIZE {
+            for x in 0..CONE_SIZE {
+                let s = samples(&l, x, y);
+                let w = texel_centre_unit(x, y, CONE_SIZE);
+                match texel_cone(&seen, planes(x, y, m), w, e) {
+                    TexelCone::Outside => {
+                        taken[0] += 1;
+                        bad += s.iter().filter(|d| d.is_some()).count();
+                    }
+                    TexelCone::Inside(lo, hi) => {
+                        taken[1] += 1;
+                        let (lo, hi) = (lo as f64 * scale.0, hi as f64 * scale.1);
+                        let out = |d: &Option<f64>| d.is_none_or(|d| d < lo || d > hi);
+                        bad += s.iter().filter(|d| out(d)).count();
+                    }
+                    TexelCone::Clip => taken[2] += 1,
+                }
+                if tile_outside(&g, [x, x], [y, y], CONE_SIZE, m) {
+                    bad += s.iter().filter(|d| d.is_some()).count();
+                }
+            }
+        }
+    }
+    (bad, taken)
+}
+
+#[test]
+fn fast_paths_keep_their_promises() {
+    let (bad, taken) = violations((1.0, 1.0), Vec3::ZERO);
+    assert_eq!(bad, 0, "paths taken (outside, inside, clip): {taken:?}");
+    // Every path is exercised, the fast ones on most texels.
+    assert!(taken.iter().all(|&n| n > 1000), "{taken:?}");
+    assert!(taken[2] * 4 < taken[0] + taken[1], "{taken:?}");
+}
+
+#[test]
+fn a_perturbed_bound_or_triangle_breaks_them() {
+    // `hi` 0.1 % short, `lo` 1 % long (it is below the nearest point by the cone's
+    // obliquity, up to 0.4 % at N = 16), a triangle moved by a tenth of a texel.
+    assert!(violations((1.0, 0.999), Vec3::ZERO).0 > 0);
+    assert!(violations((1.01, 1.0), Vec3::ZERO).0 > 0);
+    assert!(violations((1.0, 1.0), Vec3::new(0.0125, 0.0, 0.0)).0 > 0);
 }

@@ -123,6 +123,7 @@
 use glam::Vec3;
 
 use super::face::{FACE_COUNT, Texel, face_coord, to_face_local};
+pub use super::texel_cone::dot3;
 use super::texel_cone::{TexelCone, edges, texel_cone, tile_outside};
 
 /// Entries kept per texel by default. Every entry is a node of the GPU's pool whatever the
@@ -245,11 +246,6 @@ pub fn clip(poly: &Poly, kind: u32, k: f32) -> Poly {
         fa = fb;
     }
     out
-}
-
-/// `dot(a, b)` in the shader's order, each product rounded on its own.
-pub fn dot3(a: Vec3, b: Vec3) -> f32 {
-    a.x * b.x + a.y * b.y + a.z * b.z
 }
 
 fn max_abs(v: Vec3) -> f32 {

@@ -69,6 +69,19 @@ pub struct ListsParams {
     pub clip_capacity: u32,
 }
 
+impl ListsParams {
+    /// The parameters with the job, node and clip-queue capacities of `capacity` (checked
+    /// against the shader's u32 indices by the caller).
+    fn with_capacity(self, capacity: PoolBound) -> Self {
+        ListsParams {
+            job_capacity: capacity.jobs as u32,
+            node_capacity: capacity.nodes as u32,
+            clip_capacity: capacity.clips.min(u64::from(u32::MAX / 2)) as u32,
+            ..self
+        }
+    }
+}
+
 /// WGSL `ListsView`: one CMO.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -236,9 +249,10 @@ fn args_buffer(ctx: &GpuContext) -> VkResult<Buffer> {
     )
 }
 
-/// Bytes of the clip queue for `capacity` (two u32 per queued texel).
+/// Bytes of the clip queue for `capacity` (two u32 per queued texel; the buffer itself holds at
+/// least one entry).
 pub fn clip_queue_bytes(capacity: PoolBound) -> u64 {
-    capacity.clips.max(1) * 8
+    capacity.clips * 8
 }
 
 /// The `@group(1)` set of pass `p`: the resources of `all` its entry point uses.
@@ -461,11 +475,9 @@ impl CaptureLists {
             depth,
             cmo_count: k as u32,
             triangle_count: triangles as u32,
-            job_capacity: capacity.jobs as u32,
-            node_capacity: capacity.nodes as u32,
             walk_cap: WALK_CAP,
             row: ROW,
-            clip_capacity: capacity.clips.min(u64::from(u32::MAX / 2)) as u32,
+            ..ListsParams::default().with_capacity(capacity)
         };
         let pipe = |e| ComputePipeline::new(ctx, &CAPTURE_LISTS, e, ComputeOptions::default());
         let passes = [
@@ -489,7 +501,11 @@ impl CaptureLists {
             "capture_lists counters",
             size_of::<ListCounters>() as u64,
         )?;
-        let clip_buf = storage(ctx, "capture_lists clips", clip_queue_bytes(capacity))?;
+        let clip_buf = storage(
+            ctx,
+            "capture_lists clips",
+            clip_queue_bytes(capacity).max(8),
+        )?;
         let args_buf = args_buffer(ctx)?;
         let own = match targets {
             Some(_) => None,
@@ -655,8 +671,12 @@ impl CaptureLists {
         if capacity.jobs.max(1) * 32 > self.job_buf.size() {
             self.job_buf = storage(ctx, "capture_lists jobs", capacity.jobs.max(1) * 32)?;
         }
-        if clip_queue_bytes(capacity) > self.clip_buf.size() {
-            self.clip_buf = storage(ctx, "capture_lists clips", clip_queue_bytes(capacity))?;
+        if clip_queue_bytes(capacity).max(8) > self.clip_buf.size() {
+            self.clip_buf = storage(
+                ctx,
+                "capture_lists clips",
+                clip_queue_bytes(capacity).max(8),
+            )?;
         }
         let out = targets.or(self.own_targets()).ok_or_else(no_targets)?;
         let own = [
@@ -680,9 +700,7 @@ impl CaptureLists {
             set.1 = g;
         }
         self.views = list_views(cmos);
-        self.params.job_capacity = capacity.jobs as u32;
-        self.params.node_capacity = capacity.nodes as u32;
-        self.params.clip_capacity = capacity.clips.min(u64::from(u32::MAX / 2)) as u32;
+        self.params = self.params.with_capacity(capacity);
         ctx.write_buffer(&self.views_buf, &self.views)?;
         ctx.write_buffer(&self.params_buf, &[self.params])
     }
