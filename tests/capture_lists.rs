@@ -366,6 +366,34 @@ fn a_lowered_range_limit_splits_the_lists_and_matches() {
     finish_gpu(ctx);
 }
 
+/// The small triangles seen from one CMO at N = 16: scene, CMOs, size, full capacity, and the
+/// CPU twin's full lists (no depth limit).
+fn tiny_case() -> (
+    GpuSceneData,
+    [(Vec3, bool); 1],
+    u32,
+    PoolBound,
+    Vec<TexelLists>,
+) {
+    let data = tiny_scene(&[(&small_triangles(), false)]);
+    let cmos = [(Vec3::new(0.25, -0.5, 0.75), false)];
+    let size = 16;
+    let cap = full_capacity(&data, &cmos, size);
+    let full = cpu_lists(&data, &cmos, size, u32::MAX);
+    (data, cmos, size, cap, full)
+}
+
+/// `Err` where the GPU's `lo` of texel `i` is above the full lists' (unsound).
+fn lo_not_above(gpu: &TexelLists, full: &TexelLists, i: usize) -> Result<(), String> {
+    if gpu.lo[i] > full.lo[i] {
+        return Err(format!(
+            "texel {i}: lo {} above the CPU's {}",
+            gpu.lo[i], full.lo[i]
+        ));
+    }
+    Ok(())
+}
+
 /// What the GPU kept is the CPU's (full lists) and `complete_to` bounds what it lost; `Err`
 /// names the first texel where not.
 fn check_sound(gpu: &TexelLists, full: &TexelLists) -> Result<(), String> {
@@ -388,12 +416,7 @@ fn check_sound(gpu: &TexelLists, full: &TexelLists) -> Result<(), String> {
                 ));
             }
         }
-        if gpu.lo[i] > full.lo[i] {
-            return Err(format!(
-                "texel {i}: lo {} above the CPU's {}",
-                gpu.lo[i], full.lo[i]
-            ));
-        }
+        lo_not_above(gpu, full, i)?;
     }
     Ok(())
 }
@@ -401,12 +424,7 @@ fn check_sound(gpu: &TexelLists, full: &TexelLists) -> Result<(), String> {
 #[test]
 fn tiny_pools_stay_sound() {
     let ctx = gpu_context();
-    let a = small_triangles();
-    let data = tiny_scene(&[(&a, false)]);
-    let cmos = [(Vec3::new(0.25, -0.5, 0.75), false)];
-    let size = 16;
-    let cap = full_capacity(&data, &cmos, size);
-    let full = cpu_lists(&data, &cmos, size, u32::MAX);
+    let (data, cmos, size, cap, full) = tiny_case();
     for (what, tiny) in [
         (
             "nodes",
@@ -459,12 +477,7 @@ fn check_looser(gpu: &TexelLists, full: &TexelLists) -> Result<(), String> {
                 return Err(format!("texel {i}: {f:?} lost or narrowed"));
             }
         }
-        if gpu.lo[i] > full.lo[i] {
-            return Err(format!(
-                "texel {i}: lo {} above the CPU's {}",
-                gpu.lo[i], full.lo[i]
-            ));
-        }
+        lo_not_above(gpu, full, i)?;
     }
     Ok(())
 }
@@ -474,12 +487,7 @@ fn check_looser(gpu: &TexelLists, full: &TexelLists) -> Result<(), String> {
 #[test]
 fn a_full_clip_queue_stays_sound() {
     let ctx = gpu_context();
-    let a = small_triangles();
-    let data = tiny_scene(&[(&a, false)]);
-    let cmos = [(Vec3::new(0.25, -0.5, 0.75), false)];
-    let size = 16;
-    let cap = full_capacity(&data, &cmos, size);
-    let full = cpu_lists(&data, &cmos, size, u32::MAX);
+    let (data, cmos, size, cap, full) = tiny_case();
     let (g, _) = run(&ctx, &data, &cmos, size, 16, PoolBound { clips: 3, ..cap });
     eprintln!("tiny clip queue: {:?}", g.counters);
     assert!(g.counters.clips > 3 && g.counters.clips_dropped == g.counters.clips - 3);
