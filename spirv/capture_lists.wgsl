@@ -256,8 +256,10 @@ fn texels(
         let l = lists_local(job);
         if x <= (job.rect_x >> 16u) && y <= (job.rect_y >> 16u) {
             let w = cb_texel_centre_unit(x, y, size);
-            var b = cb_whole_bound(l.l0, l.l1, l.l2, w, job.e);
-            if job.whole == 0u {
+            var b = CbBound(0.0, 0.0, false);
+            // A `whole` rect's texels, and a texel the full queue turned away: the whole triangle.
+            var whole = job.whole != 0u;
+            if !whole {
                 let f = cf_texel_cone(l.l0, l.l1, l.l2, cb_texel_k(x, y, size, job.m), w, job.e);
                 b = CbBound(f.lo, f.hi, f.kind == CF_INSIDE);
                 if f.kind == CF_CLIP {
@@ -266,9 +268,12 @@ fn texels(
                         lists_clips[q] = vec2<u32>(j, x | (y << 16u));
                     } else {
                         atomicAdd(&lists_counters.clips_dropped, 1u);
-                        b = cb_whole_bound(l.l0, l.l1, l.l2, w, job.e);
+                        whole = true;
                     }
                 }
+            }
+            if whole {
+                b = cb_whole_bound(l.l0, l.l1, l.l2, w, job.e);
             }
             if b.hit {
                 lists_push((job.cmo_face * size + y) * size + x, job.triangle, b.lo, b.hi);
