@@ -12,6 +12,14 @@ use serde::Serialize;
 
 use crate::cpu::options::{TraceCriterion, TraceOptions};
 
+mod bvh;
+mod compute;
+mod envmap;
+mod fragment;
+mod reference;
+mod reflection_point;
+mod ssr;
+
 /// How reflections are computed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, ValueEnum, Serialize)]
 #[serde(rename_all = "kebab-case")]
@@ -44,6 +52,80 @@ pub enum Method {
 /// Why a method refuses a setting: the CLI's words, for the user.
 pub type Refusal = String;
 
+/// What one method is and supports: written in the method's own file under `src/method/`
+/// (`src/method/compute.rs`), read through [`Method::info`] and the methods of [`Method`].
+#[derive(Clone, Copy, Debug)]
+pub struct MethodInfo {
+    /// The name on the command line, in file names and in the harness's tables.
+    pub name: &'static str,
+    /// Whether it runs on the GPU.
+    pub gpu: bool,
+    /// Whether it runs the cubemap tracer ([`Method::traces_cubemaps`]).
+    pub traces_cubemaps: bool,
+    /// Whether a cubemap tracer implements the approximate criteria (threshold, sign change);
+    /// one that does not refuses them ([`Method::check_trace`]).
+    pub approximate_criteria: bool,
+    /// Whether it reads the CMOs' data for its own result ([`Method::reads_cmos`]).
+    pub reads_cmos: bool,
+    /// Whether it captures CMOs ([`Method::captures_cmos`]).
+    pub captures_cmos: bool,
+    /// Whether it can leave a mirror pixel unresolved ([`Method::can_leave_unresolved`]).
+    pub can_leave_unresolved: bool,
+    /// Whether its records name the triangle they hit ([`Method::names_hits`]).
+    pub names_hits: NamesHits,
+    /// What it makes of a glossy reflector's lobe.
+    pub glossy: GlossyLobe,
+    /// The likely cause, in the CLI's words, of many pixels left to the fallback that the
+    /// method's nature explains ([`Method::known_limit`]).
+    pub known_limit: Option<&'static str>,
+    /// Whether its records hold a per-pixel outcome (`face`) and iteration count (`cells`)
+    /// that `render -v` summarises.
+    pub outcomes_in_records: bool,
+    /// Whether it searches a reflection point per vertex of the other objects: its quality
+    /// depends on their tessellation (the bench adds a row with them subdivided) and its search
+    /// steps have a table of their own in the bench's report.
+    pub vertex_search: bool,
+}
+
+/// Whether a method's records name the triangle they hit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NamesHits {
+    /// Every hit is verified against its triangle.
+    Always,
+    /// With the exact or bounded criterion; not with the approximate ones (N = 0 bounces, the
+    /// mirrors' own material, is open whatever the criterion).
+    ExactOrBounded,
+    /// No record names its triangle: one reflection only.
+    Never,
+}
+
+/// What a method makes of a glossy reflector's lobe ([`crate::lobe`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GlossyLobe {
+    /// Samples the lobe of every reflection (the reference).
+    SampledEverywhere,
+    /// Samples the lobe of the first reflection (Monte Carlo, `--spp`); later ones follow the
+    /// mirror direction.
+    SampledFirst,
+    /// Cone traces the lobe on the cube maps' pre-filtered colour on the first reflection;
+    /// later ones follow the mirror direction.
+    ConeTracedFirst,
+    /// Cone traces the lobe and traces one reflection only.
+    ConeTracedOnly,
+    /// Traces the mirror direction only: glossy reflectors show as perfect mirrors.
+    MirrorOnly,
+}
+
+impl GlossyLobe {
+    /// Whether the method renders the lobe by cone tracing (once per frame, not by samples).
+    pub fn cone_traced(self) -> bool {
+        matches!(
+            self,
+            GlossyLobe::ConeTracedFirst | GlossyLobe::ConeTracedOnly
+        )
+    }
+}
+
 impl Method {
     /// Every method, in the order the CLI and the harness list them.
     pub const ALL: [Method; 7] = [
@@ -66,17 +148,37 @@ impl Method {
         Method::Bvh,
     ];
 
+    /// The method `render` and `bench` use when none is given, and the library's
+    /// [`RenderOptions`](crate::vk::RenderOptions) default.
+    pub const DEFAULT: Method = Method::Compute;
+
+    /// The ground truth every figure is measured against (the exact CPU ray tracer).
+    pub const TRUTH: Method = Method::Reference;
+
+    /// The exact GPU tracer: the bench's baseline of cost and accuracy, the cost model's
+    /// reference row, and the glossy bench's Monte Carlo ladder.
+    pub const EXACT_GPU: Method = Method::Bvh;
+
+    /// The method whose cost curves `bench --scaling` draws.
+    pub const SCALING: Method = Method::Fragment;
+
+    /// What the method is and supports, from its own file under `src/method/` (one line per
+    /// method: the registry).
+    pub fn info(self) -> &'static MethodInfo {
+        match self {
+            Method::Compute => &compute::INFO,
+            Method::Fragment => &fragment::INFO,
+            Method::Envmap => &envmap::INFO,
+            Method::Ssr => &ssr::INFO,
+            Method::ReflectionPoint => &reflection_point::INFO,
+            Method::Bvh => &bvh::INFO,
+            Method::Reference => &reference::INFO,
+        }
+    }
+
     /// The name on the command line, in file names and in the harness's tables.
     pub fn name(self) -> &'static str {
-        match self {
-            Method::Reference => "reference",
-            Method::Envmap => "envmap",
-            Method::Fragment => "fragment",
-            Method::Compute => "compute",
-            Method::Ssr => "ssr",
-            Method::ReflectionPoint => "reflection-point",
-            Method::Bvh => "bvh",
-        }
+        self.info().name
     }
 
     /// The method named `name` (the CLI's spelling).
@@ -86,24 +188,24 @@ impl Method {
 
     /// Whether the method runs on the GPU (every method but the reference).
     pub fn is_gpu(self) -> bool {
-        self != Method::Reference
+        self.info().gpu
     }
 
     /// Whether the method runs the cubemap tracer, so that the tracer options (criterion,
     /// sampling, acceleration, strict, steps, eps) matter.
     pub fn traces_cubemaps(self) -> bool {
-        matches!(self, Method::Fragment | Method::Compute)
+        self.info().traces_cubemaps
     }
 
     /// Whether the method reads the CMOs' data for its own result (not only for an
     /// environment-map fallback): the cubemap tracers and the environment map.
     pub fn reads_cmos(self) -> bool {
-        matches!(self, Method::Fragment | Method::Compute | Method::Envmap)
+        self.info().reads_cmos
     }
 
     /// Whether the method can leave a mirror pixel unresolved, so that `--fallback` matters.
     pub fn can_leave_unresolved(self) -> bool {
-        !matches!(self, Method::Envmap | Method::Bvh | Method::Reference)
+        self.info().can_leave_unresolved
     }
 
     /// Whether the reflector check (the exact trace of the reflectors the CMOs do not capture)
@@ -116,13 +218,24 @@ impl Method {
     /// reflections can be traced from them: compute, bvh, the reference, and fragment with the
     /// exact or bounded criterion.
     pub fn names_hits(self, criterion: TraceCriterion) -> bool {
-        match self {
-            Method::Compute | Method::Bvh | Method::Reference => true,
-            Method::Fragment => {
+        match self.info().names_hits {
+            NamesHits::Always => true,
+            NamesHits::Never => false,
+            NamesHits::ExactOrBounded => {
                 matches!(criterion, TraceCriterion::Exact | TraceCriterion::Bounded)
             }
-            Method::Envmap | Method::Ssr | Method::ReflectionPoint => false,
         }
+    }
+
+    /// What the method makes of a glossy reflector's lobe.
+    pub fn glossy(self) -> GlossyLobe {
+        self.info().glossy
+    }
+
+    /// Why the method, by its nature, leaves mirror pixels to the fallback: the likely cause
+    /// that `render`'s fallback warning names (`None`: no known limit of the method).
+    pub fn known_limit(self) -> Option<&'static str> {
+        self.info().known_limit
     }
 
     /// Refuses a bounce count the method cannot trace: more than `max`, or other than 1 for a
@@ -137,9 +250,10 @@ impl Method {
         if bounces > max {
             return Err(format!("--bounces {bounces}: at most {max}"));
         }
-        let named = self.names_hits(trace.criterion) || (self == Method::Fragment && bounces == 0);
+        let by_criterion = self.info().names_hits == NamesHits::ExactOrBounded;
+        let named = self.names_hits(trace.criterion) || (by_criterion && bounces == 0);
         if bounces != 1 && !named {
-            let with = if self == Method::Fragment {
+            let with = if by_criterion {
                 format!(" with --criterion {}", criterion_name(trace.criterion))
             } else {
                 String::new()
@@ -157,7 +271,7 @@ impl Method {
     /// Whether the method captures CMOs (every GPU method but bvh), so that `--cmos` and
     /// `--cube-size` matter.
     pub fn captures_cmos(self) -> bool {
-        self.is_gpu() && self != Method::Bvh
+        self.info().captures_cmos
     }
 
     /// Refuses the first option of `given` (flags as typed, those of [`METHOD_OPTIONS`]) that
@@ -174,12 +288,13 @@ impl Method {
         self.check_trace(trace)
     }
 
-    /// Refuses tracer options the method does not implement (compute: the exact and bounded
-    /// criteria only).
+    /// Refuses tracer options the method does not implement (a cubemap tracer without
+    /// [`MethodInfo::approximate_criteria`]: the exact and bounded criteria only).
     pub fn check_trace(self, trace: &TraceOptions) -> Result<(), Refusal> {
-        if self == Method::Compute && trace.approx().is_some() {
+        let info = self.info();
+        if info.traces_cubemaps && !info.approximate_criteria && trace.approx().is_some() {
             return Err(format!(
-                "--criterion {}: --method compute implements the exact and bounded criteria only \
+                "--criterion {}: --method {self} implements the exact and bounded criteria only \
                  (use --method fragment for the approximate criteria)",
                 criterion_name(trace.criterion)
             ));

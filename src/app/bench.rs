@@ -215,7 +215,7 @@ pub fn check_options(args: &BenchArgs, methods: &[Method]) -> Result<()> {
         let readers = option.methods();
         if !methods.iter().any(|m| readers.contains(m)) {
             let chosen: Vec<&str> = methods.iter().map(|m| m.name()).collect();
-            let first = methods.first().copied().unwrap_or(Method::Reference);
+            let first = methods.first().copied().unwrap_or(Method::TRUTH);
             anyhow::bail!(
                 "--methods {}: none of them reads {flag} ({})",
                 chosen.join(","),
@@ -310,7 +310,7 @@ fn run_scaling(
     bar: &indicatif::ProgressBar,
 ) -> Result<Vec<PathBuf>> {
     let cfg = bench::scaling::ScalingConfig {
-        method: bench::MethodSpec::plain(Method::Fragment),
+        method: bench::MethodSpec::plain(Method::SCALING),
         axes: bench::scaling::Axis::ALL.to_vec(),
         max_cube: args.max_cube,
         width: args.width,
@@ -414,7 +414,7 @@ pub fn glossy_config(
         powers,
         // bvh runs the ladder and the reference is the truth: neither is a row of its own.
         methods: (methods.iter().copied())
-            .filter(|m| m.is_gpu() && *m != Method::Bvh)
+            .filter(|m| m.is_gpu() && *m != Method::EXACT_GPU)
             .collect(),
         width: args.width,
         height: args.height,

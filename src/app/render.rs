@@ -408,8 +408,8 @@ fn log_gpu_frame(frame: &GpuFrame, method: Method) {
     for (pass, ns) in &frame.pass_times {
         log::info!("{pass:>16}: {:9.3} ms", ns * 1e-6);
     }
-    if method == Method::Ssr {
-        log::info!("ssr: {}", ssr_outcomes(frame));
+    if method.info().outcomes_in_records {
+        log::info!("{method}: {}", ssr_outcomes(frame));
     }
     if let Some(s) = &frame.search {
         log::info!(
@@ -442,7 +442,7 @@ fn log_gpu_frame(frame: &GpuFrame, method: Method) {
         log::info!(
             "bvh: {} rays traced ({}), {} cut by the loop cap",
             b.count,
-            if method == Method::Bvh {
+            if method == Method::EXACT_GPU {
                 "every mirror ray"
             } else {
                 "the fallback's"

@@ -121,23 +121,15 @@ pub fn fallback_warning(
             inward.join(", ")
         )
     } else {
-        match method {
-            Method::Ssr => "likely cause: the method's known limit: --method ssr finds only what \
-                the frame shows, so rays that leave the screen, point towards the camera or pass \
-                behind a visible surface go to the fallback (--method compute traces them)"
-                .into(),
-            Method::ReflectionPoint => "likely cause: the method's known limit: --method \
-                reflection-point draws the reflections of the other objects' vertices, and mirror \
-                pixels no reflected triangle covers go to the fallback (--subdivide N adds \
-                vertices)"
-                .into(),
-            _ if c.start_hits * 2 > c.left() => format!(
+        match method.known_limit() {
+            Some(limit) => limit.into(),
+            None if c.start_hits * 2 > c.left() => format!(
                 "likely cause: the reflector sees itself ({} of these rays meet the mirror they \
                  leave, which the CMOs do not capture: the reflector check hands them to the \
                  fallback)",
                 c.start_hits
             ),
-            _ => match placement {
+            None => match placement {
                 Some(p) => placement_cause(p),
                 None => "likely causes: the CMOs do not see what these rays hit: a CMO centre \
                          placed away from the reflector or behind other geometry, or too few \

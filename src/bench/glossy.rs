@@ -381,7 +381,7 @@ impl Case<'_> {
         cfg: &GlossyConfig,
         tick: &dyn Fn(&str),
     ) -> Result<Vec<GlossyRow>> {
-        let options = MethodSpec::plain(Method::Bvh).render_options(1, cfg.reflector_check);
+        let options = MethodSpec::plain(Method::EXACT_GPU).render_options(1, cfg.reflector_check);
         let mut renderer = TimedRenderer::new(ctx, &self.scene, self.camera, options)
             .with_context(|| format!("scene '{}', method bvh", self.name))?;
         let mut rows = Vec::new();
@@ -399,7 +399,13 @@ impl Case<'_> {
                 }
                 colour = c;
             }
-            rows.push(self.row(Method::Bvh, Tracing::MonteCarlo, spp, &colour, &pass_ns));
+            rows.push(self.row(
+                Method::EXACT_GPU,
+                Tracing::MonteCarlo,
+                spp,
+                &colour,
+                &pass_ns,
+            ));
             check_validation(ctx)?;
         }
         Ok(rows)
@@ -449,7 +455,7 @@ pub fn run(ctx: &GpuContext, cfg: &GlossyConfig, tick: &dyn Fn(&str)) -> Result<
     if let Some(m) = cfg
         .methods
         .iter()
-        .find(|m| !m.is_gpu() || **m == Method::Bvh)
+        .find(|m| !m.is_gpu() || **m == Method::EXACT_GPU)
     {
         bail!(
             "--glossy: {m} is not a method rendered once (bvh runs the ladder, the reference is the truth)"
@@ -558,7 +564,7 @@ fn case_rows(
 fn check_memory(ctx: &GpuContext, cfg: &GlossyConfig, prepared: &[(Scene, Camera)]) -> Result<()> {
     let grid = super::BenchConfig {
         scenes: cfg.scenes.clone(),
-        methods: (cfg.methods.iter().chain([&Method::Bvh]))
+        methods: (cfg.methods.iter().chain([&Method::EXACT_GPU]))
             .map(|&m| MethodSpec::plain(m))
             .collect(),
         width: cfg.width,

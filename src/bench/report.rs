@@ -225,7 +225,7 @@ pub fn runs_table(report: &BenchReport) -> String {
             num(r.fallback_ns.median * 1e-6, 3),
             pct(r.checked_share),
             num(r.check_ns.median * 1e-6, 3),
-            if r.kind == Method::Reference {
+            if r.kind == Method::TRUTH {
                 "-".into()
             } else {
                 num(r.total_ns.median * 1e-6, 2)
@@ -320,7 +320,7 @@ pub const PLOT_FLOOR_PCT: f64 = 0.01;
 pub fn speed_error_svg(report: &BenchReport) -> Result<String> {
     let points: Vec<Point> = summarise(&report.runs)
         .into_iter()
-        .filter(|m| m.kind != Method::Reference)
+        .filter(|m| m.kind != Method::TRUTH)
         .map(|m| Point {
             label: m.method,
             cost: m.trace_ns_per_mirror_px,
@@ -345,9 +345,7 @@ pub fn speed_error_scenes_svg(report: &BenchReport) -> Result<String> {
     let points: Vec<Point> = report
         .runs
         .iter()
-        .filter(|r| {
-            r.kind != Method::Reference && r.method == super::MethodSpec::plain(r.kind).label()
-        })
+        .filter(|r| r.kind != Method::TRUTH && r.method == super::MethodSpec::plain(r.kind).label())
         .map(|r| Point {
             label: format!("{}: {}", r.method, r.scene),
             cost: r.trace_ns_per_mirror_px,
@@ -372,7 +370,7 @@ pub fn search_table(report: &BenchReport) -> String {
     let runs: Vec<&RunResult> = report
         .runs
         .iter()
-        .filter(|r| r.kind == Method::ReflectionPoint)
+        .filter(|r| r.kind.info().vertex_search)
         .collect();
     if runs.is_empty() {
         return String::new();
@@ -419,7 +417,7 @@ pub fn placement_table(report: &BenchReport) -> String {
         let bvh = report
             .runs
             .iter()
-            .find(|b| b.scene == r.scene && b.kind == Method::Bvh)
+            .find(|b| b.scene == r.scene && b.kind == Method::EXACT_GPU)
             .map(|b| r.total_ns.median / b.total_ns.median);
         let _ = writeln!(
             s,

@@ -262,10 +262,11 @@ pub fn run(
     bar.set_length(plans.iter().map(|(_, p)| p.len() as u64).sum::<u64>() + curve_points);
     let mut points = Vec::new();
     for (axis, plan) in plans {
-        // The triangle axis also runs compute and bvh (each once).
+        // The triangle axis also runs the default method (compute) and the exact GPU tracer
+        // (bvh), each once.
         let mut methods = vec![(cfg.method, gpu)];
         if axis == Axis::Triangles {
-            for kind in [super::Method::Compute, super::Method::Bvh] {
+            for kind in [super::Method::DEFAULT, super::Method::EXACT_GPU] {
                 let spec = MethodSpec::plain(kind);
                 if let (Some(g), true) = (
                     kind.is_gpu().then_some(kind),
@@ -331,6 +332,10 @@ fn tessellation_curve(
 ) -> Result<Vec<TessellationPoint>> {
     let mut out = Vec::new();
     let mut reference: Option<(String, crate::reference::Frame)> = None;
+    // The method whose quality depends on the other objects' tessellation (reflection-point).
+    let tessellated = (Method::ALL.into_iter())
+        .find(|m| m.info().vertex_search)
+        .expect("a method searches per vertex");
     for (name, scale) in &cfg.tessellation_series {
         let (name, scale) = (name.as_str(), *scale);
         let (scene, camera) = prepare_scene(name, cfg.width, cfg.height, None, None)?;
@@ -346,7 +351,7 @@ fn tessellation_curve(
             let mut sub = scene.clone();
             subdivide_non_reflectors(&mut sub, level);
             let options = RenderOptions {
-                method: Method::ReflectionPoint,
+                method: tessellated,
                 fallback: Fallback::Envmap,
                 reflection_point: RpOptions {
                     search_scale: scale,

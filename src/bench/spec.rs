@@ -53,12 +53,16 @@ impl MethodSpec {
             };
             return format!("{}-sub{}", plain.label(), self.subdivide);
         }
-        // The compute path has two settings on its own hierarchy: the exact criterion (named
-        // by the method alone) and the bounded one.
-        if self.kind == Method::Compute && self.trace.criterion == TraceCriterion::Bounded {
-            return "compute-bounded".into();
+        // A cubemap tracer without the approximate criteria (compute) has two settings: the
+        // exact criterion (named by the method alone) and the bounded one.
+        let info = self.kind.info();
+        if info.traces_cubemaps
+            && !info.approximate_criteria
+            && self.trace.criterion == TraceCriterion::Bounded
+        {
+            return format!("{}-bounded", self.kind.name());
         }
-        if !self.kind.traces_cubemaps() || self.kind == Method::Compute {
+        if !info.traces_cubemaps || !info.approximate_criteria {
             return self.kind.name().into();
         }
         let t = &self.trace;
@@ -130,7 +134,7 @@ pub fn method_grid(kinds: &[Method], quick: bool) -> Vec<MethodSpec> {
     let mut out = Vec::new();
     for &kind in kinds {
         if kind.traces_cubemaps() {
-            if quick || kind == Method::Compute {
+            if quick || !kind.info().approximate_criteria {
                 out.push(MethodSpec::plain(kind));
             } else {
                 out.extend(fragment_grid(kind));
@@ -145,7 +149,7 @@ pub fn method_grid(kinds: &[Method], quick: bool) -> Vec<MethodSpec> {
             });
         } else {
             out.push(MethodSpec::plain(kind));
-            if kind == Method::ReflectionPoint {
+            if kind.info().vertex_search {
                 out.push(MethodSpec {
                     subdivide: RP_BENCH_SUBDIVIDE,
                     ..MethodSpec::plain(kind)

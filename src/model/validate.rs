@@ -251,7 +251,7 @@ impl Training {
     /// Whether `m` is a training row. `bvh` reads no cube map, so its rows match any cube size.
     pub fn contains(&self, m: &Measured) -> bool {
         m.scene == self.scene
-            && (m.method == Method::Bvh || self.cube.is_none_or(|c| c == m.cube))
+            && (!m.method.captures_cmos() || self.cube.is_none_or(|c| c == m.cube))
             && self.subgroup.is_none_or(|s| s == m.subgroup)
     }
 

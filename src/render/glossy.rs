@@ -10,7 +10,7 @@ use glam::{Vec2, Vec3};
 
 use crate::camera::Camera;
 use crate::film::{Film, PixelFilter, aov_sample, sample_offsets};
-use crate::method::Method;
+use crate::method::{GlossyLobe, Method};
 use crate::reference::{self, Tracer};
 use crate::scene::Scene;
 use crate::vk::frame::GpuRenderer;
@@ -29,23 +29,21 @@ pub fn method_warning(scene: &Scene, method: Method, bounces: u32) -> Option<Str
         return None;
     }
     let names = names.join(", ");
-    match method {
-        Method::Reference => None,
-        Method::Bvh if bounces <= 1 => None,
-        // One reflection only: `--bounces` above 1 is refused for ssr.
-        Method::Ssr => None,
-        Method::Fragment | Method::Compute if bounces <= 1 => None,
-        m @ (Method::Fragment | Method::Compute) => Some(format!(
+    let m = method;
+    match method.glossy() {
+        GlossyLobe::SampledEverywhere | GlossyLobe::ConeTracedOnly => None,
+        GlossyLobe::SampledFirst | GlossyLobe::ConeTracedFirst if bounces <= 1 => None,
+        GlossyLobe::ConeTracedFirst => Some(format!(
             "--method {m} cone traces the glossy reflectors ({names}) on the first reflection \
              only: with --bounces {bounces} the later reflections follow the mirror direction \
              (--method reference samples every one)"
         )),
-        Method::Bvh => Some(format!(
-            "--method bvh samples the lobe of the glossy reflectors ({names}) on the first \
+        GlossyLobe::SampledFirst => Some(format!(
+            "--method {m} samples the lobe of the glossy reflectors ({names}) on the first \
              reflection only: with --bounces {bounces} the later reflections follow the mirror \
              direction (--method reference samples every one)"
         )),
-        m => Some(format!(
+        GlossyLobe::MirrorOnly => Some(format!(
             "--method {m} cannot render glossy reflections yet: it traces the mirror direction \
              only, so the glossy reflectors ({names}) show as perfect mirrors (--method bvh and \
              --method reference sample their lobe)"

@@ -55,7 +55,7 @@ pub struct RenderOptions {
 impl Default for RenderOptions {
     fn default() -> Self {
         RenderOptions {
-            method: Method::Compute,
+            method: Method::DEFAULT,
             trace: TraceOptions::default(),
             fallback: Fallback::default(),
             ssr: SsrOptions::default(),

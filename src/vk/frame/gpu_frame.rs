@@ -25,15 +25,16 @@ pub struct GpuFrame {
     pub records: Vec<PixelRecord>,
     /// GPU time per pass, in recording order.
     pub pass_times: Vec<PassTime>,
-    /// The BVH queue's counter: rays traced and rays cut by the loop cap ([`Method::Bvh`](crate::method::Method::Bvh):
+    /// The BVH queue's counter: rays traced and rays cut by the loop cap (`--method bvh`:
     /// every mirror ray; [`Fallback::Trace`](crate::vk::options::Fallback::Trace): the fallback rays).
     pub bvh: Option<BvhCounter>,
     /// The lists' capture counters (`--criterion bounded`: nodes, what a full pool or job buffer
     /// dropped, walks capped; each dropped entry made its texel unknown from its `lo` on).
     pub lists: Option<ListCounters>,
-    /// Ray count, subgroup size and per-ray counters ([`Method::Compute`](crate::method::Method::Compute) only).
+    /// Ray count, subgroup size and per-ray counters (`--method compute` only).
     pub compute: Option<ComputeStats>,
-    /// Iteration counts of the searches ([`Method::ReflectionPoint`](crate::method::Method::ReflectionPoint) only).
+    /// Iteration counts of the searches (`--method reflection-point`
+    /// only).
     pub search: Option<SearchStats>,
     /// Whether this frame ran the CMO stages (capture, pyramid, the method's CMO stage): the
     /// first frame and the first after [`GpuRenderer::set_camera`](super::GpuRenderer::set_camera) changed what the capture

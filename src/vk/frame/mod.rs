@@ -316,22 +316,22 @@ impl GpuRenderer {
         any.downcast_ref()
     }
 
-    /// The compute path's passes ([`Method::Compute`] only).
+    /// The compute path's passes (`--method compute` only).
     pub fn compute_path(&self) -> Option<&ComputePath> {
         self.method_as()
     }
 
-    /// The screen-space method's passes ([`Method::Ssr`] only).
+    /// The screen-space method's passes (`--method ssr` only).
     pub fn ssr_passes(&self) -> Option<&SsrPasses> {
         self.method_as()
     }
 
-    /// The reflection-point method's passes ([`Method::ReflectionPoint`] only).
+    /// The reflection-point method's passes (`--method reflection-point` only).
     pub fn reflection_point_passes(&self) -> Option<&ReflectionPointPasses> {
         self.method_as()
     }
 
-    /// The BVH passes ([`Method::Bvh`]'s or [`Fallback::Trace`]'s).
+    /// The BVH passes (`--method bvh`'s or [`Fallback::Trace`]'s).
     pub fn bvh_passes(&self) -> Option<&BvhPasses> {
         self.method.bvh().or(self.fallback.as_ref())
     }

@@ -69,6 +69,10 @@ use super::technique::{FrameInputs, GeometryInputs, MethodSpec, Needs, Scope, Te
 pub struct Bvh;
 
 impl MethodSpec for Bvh {
+    fn method(&self) -> crate::method::Method {
+        crate::method::Method::Bvh
+    }
+
     fn trace_pass(&self) -> &'static Pass {
         &BVH_TRACE
     }

@@ -669,6 +669,10 @@ impl ComputePath {
 pub struct Compute;
 
 impl MethodSpec for Compute {
+    fn method(&self) -> crate::method::Method {
+        crate::method::Method::Compute
+    }
+
     fn trace_pass(&self) -> &'static Pass {
         &COMPUTE_TRACE
     }

@@ -39,6 +39,10 @@ use super::technique::{FrameInputs, MethodSpec, Needs, Technique};
 pub struct Envmap;
 
 impl MethodSpec for Envmap {
+    fn method(&self) -> crate::method::Method {
+        crate::method::Method::Envmap
+    }
+
     fn trace_pass(&self) -> &'static Pass {
         &ENVMAP
     }

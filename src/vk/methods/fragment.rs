@@ -81,6 +81,10 @@ use super::technique::{CameraInputs, FrameInputs, Glossy, MethodSpec, Needs, Sco
 pub struct Fragment;
 
 impl MethodSpec for Fragment {
+    fn method(&self) -> crate::method::Method {
+        crate::method::Method::Fragment
+    }
+
     fn trace_pass(&self) -> &'static Pass {
         &FRAGMENT_TRACE
     }

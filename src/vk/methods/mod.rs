@@ -1,5 +1,5 @@
 //! One file per GPU method, each a [`MethodSpec`] and a [`Technique`] ([`technique`] has the
-//! interface and its invariants). Adding a method: its file here and one line in [`spec`].
+//! interface and its invariants). Adding a method: its file here and one line in [`SPECS`].
 pub mod bvh;
 pub mod compute;
 pub mod envmap;
@@ -15,17 +15,20 @@ pub use technique::{
 use crate::method::Method;
 use crate::vk::backend::error::{VkError, VkResult};
 
+/// Every GPU method's description, one line per method (each names its method:
+/// [`MethodSpec::method`]).
+pub const SPECS: [&dyn MethodSpec; 6] = [
+    &compute::Compute,
+    &fragment::Fragment,
+    &envmap::Envmap,
+    &ssr::Ssr,
+    &reflection_point::ReflectionPoint,
+    &bvh::Bvh,
+];
+
 /// The description of a GPU method; `None` for the reference, which runs on the CPU.
 pub fn spec(method: Method) -> Option<&'static dyn MethodSpec> {
-    Some(match method {
-        Method::Compute => &compute::Compute,
-        Method::Fragment => &fragment::Fragment,
-        Method::Envmap => &envmap::Envmap,
-        Method::Ssr => &ssr::Ssr,
-        Method::ReflectionPoint => &reflection_point::ReflectionPoint,
-        Method::Bvh => &bvh::Bvh,
-        Method::Reference => return None,
-    })
+    SPECS.into_iter().find(|s| s.method() == method)
 }
 
 /// Allocates `method`'s passes for a frame ([`MethodSpec::create`]).

@@ -661,6 +661,10 @@ pub const TARGETS_PASS: &str = "reflection_point_targets";
 pub struct ReflectionPoint;
 
 impl MethodSpec for ReflectionPoint {
+    fn method(&self) -> crate::method::Method {
+        crate::method::Method::ReflectionPoint
+    }
+
     fn trace_pass(&self) -> &'static Pass {
         &REFLECTION_POINT_SEARCH
     }

@@ -622,6 +622,10 @@ impl SsrPasses {
 pub struct Ssr;
 
 impl MethodSpec for Ssr {
+    fn method(&self) -> crate::method::Method {
+        crate::method::Method::Ssr
+    }
+
     fn trace_pass(&self) -> &'static Pass {
         &SSR
     }

@@ -126,6 +126,9 @@ impl Glossy {
 
 /// What a method is before it is allocated: one per GPU method, in `super::spec`.
 pub trait MethodSpec: Sync {
+    /// The method it describes (the one place, in the method's own file, that names it).
+    fn method(&self) -> crate::method::Method;
+
     /// The method's tracing pass: its timestamp scope in the harness's tables.
     fn trace_pass(&self) -> &'static Pass;
 
