@@ -49,14 +49,17 @@ use crate::model::weights;
 use crate::model::work::{self, Frame, blocks};
 use crate::output::write_atomic;
 
-/// The methods the model replays, in table order.
-pub const METHODS: [Method; 5] = [
-    Method::Compute,
-    Method::Fragment,
-    Method::Ssr,
-    Method::ReflectionPoint,
-    Method::Bvh,
-];
+/// The methods the model replays, in table order ([`crate::model::methods::MODELS`]).
+pub const METHODS: [Method; 5] = {
+    let m = crate::model::methods::MODELS;
+    [
+        m[0].method,
+        m[1].method,
+        m[2].method,
+        m[3].method,
+        m[4].method,
+    ]
+};
 
 /// The corpus's largest scene (by triangles), added to the GPU predictions of `--model-from`
 /// where the path exists (the bench run from the repository's root).

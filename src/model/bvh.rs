@@ -12,7 +12,8 @@
 
 use glam::Vec3;
 
-use super::work::{BUF_BVH_NODES, BUF_BVH_TRIS, Frame, Iter};
+use super::frame::{BUF_BVH_NODES, BUF_BVH_TRIS, Frame};
+use super::rays::Iter;
 use crate::cpu::watertight::intersect;
 use crate::vk::passes::bvh::BvhData;
 
@@ -22,7 +23,7 @@ const STACK: usize = 32;
 const PAD: f32 = 9.536_743e-7;
 const START_ULPS: f32 = 3.814_697_3e-6;
 
-// Indices into `work::BVH_BLOCKS`.
+// Indices into `methods::bvh::BVH_BLOCKS`.
 pub const B_SETUP: usize = 0;
 pub const B_ITERATION: usize = 1;
 pub const B_NODE: usize = 2;
@@ -34,8 +35,8 @@ pub const B_SHADE: usize = 5;
 pub const L_ITER: u16 = 10;
 
 /// bvh_trace.wgsl's nest.
-pub const BVH_PROGRAM: &[super::work::Stmt] = {
-    use super::work::Stmt::{Block, Loop};
+pub const BVH_PROGRAM: &[super::blocks::Stmt] = {
+    use super::blocks::Stmt::{Block, Loop};
     &[
         Block(B_SETUP),
         Loop(
@@ -204,7 +205,7 @@ fn triangle_turn(
     let tri = b.tris[(3 * k) as usize][3].to_bits();
     out.tests += 1;
     let base = tri_base(k);
-    it.execs.push(super::work::Exec {
+    it.execs.push(super::rays::Exec {
         block: B_TRIANGLE,
         loads: vec![base, base + 16, base + 32],
     });
@@ -214,7 +215,7 @@ fn triangle_turn(
     {
         let ignored = match (ray.from, ray.e) {
             (Some((f, fc)), Some(e)) if e >= 0.0 => {
-                it.execs.push(super::work::Exec {
+                it.execs.push(super::rays::Exec {
                     block: B_START_RULE,
                     loads: Vec::new(),
                 });
@@ -240,7 +241,7 @@ pub fn nearest(
     top: &mut Iter,
 ) -> BvhOut {
     let mut out = BvhOut::default();
-    top.execs.push(super::work::Exec {
+    top.execs.push(super::rays::Exec {
         block: B_SETUP,
         loads: Vec::new(),
     });
@@ -257,7 +258,7 @@ pub fn nearest(
     let run = top.run_mut(L_ITER);
     for _ in 0..MAX_ITERATIONS {
         let mut it = Iter::default();
-        it.execs.push(super::work::Exec {
+        it.execs.push(super::rays::Exec {
             block: B_ITERATION,
             loads: Vec::new(),
         });
@@ -287,7 +288,7 @@ pub fn nearest(
             out.nodes += 1;
             let mask = node_hits(b, n, o, ray.inv, ray.oct, ray.t_lo, t_best);
             let base = node_base(n);
-            it.execs.push(super::work::Exec {
+            it.execs.push(super::rays::Exec {
                 block: B_NODE,
                 loads: (0..5).map(|i| base + 16 * i).collect(),
             });
@@ -301,7 +302,7 @@ pub fn nearest(
         if sp == 0 {
             out.hit = best;
             if best.is_some() {
-                top.execs.push(super::work::Exec {
+                top.execs.push(super::rays::Exec {
                     block: B_SHADE,
                     loads: Vec::new(),
                 });

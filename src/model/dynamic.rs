@@ -866,14 +866,7 @@ fn counter_step(f: &Func, var: u32, cont: u32, known: &BTreeMap<u32, u64>) -> Op
 /// ray, `main` for the thesis layout; fragment's `fs_exact_mip`; bvh's and compute's `main`;
 /// ssr's `fs_main`; reflection-point's `search`.
 pub fn entry_point(method: Method, one_lane: bool) -> Option<&'static str> {
-    match method {
-        Method::Compute if one_lane => Some("main_lanes1"),
-        Method::Compute | Method::Bvh => Some("main"),
-        Method::Fragment => Some("fs_exact_mip"),
-        Method::Ssr => Some("fs_main"),
-        Method::ReflectionPoint => Some("search"),
-        Method::Envmap | Method::Reference => None,
-    }
+    super::methods::model(method).map(|m| (m.entry_point)(one_lane))
 }
 
 /// The known parameters of each function reached from an entry point: a parameter that every

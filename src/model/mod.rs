@@ -21,8 +21,12 @@
 //! give the same numbers (one thread, no hash maps, a fixed-seed shuffle for the negative).
 #![forbid(unsafe_code)]
 
+pub mod blocks;
 pub mod bvh;
 pub mod dynamic;
+pub mod frame;
+pub mod methods;
+pub mod rays;
 pub mod replay;
 pub mod validate;
 pub mod warps;

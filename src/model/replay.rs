@@ -37,9 +37,15 @@
 
 use serde::Serialize;
 
-use super::warps::{Assembly, Items, LAVAPIPE_TILE, Lane, WIDTHS};
-use super::work::{self, ComputeRay, Frame, Iter, Stmt};
-pub use super::work::{ComputeLanes, ModelSettings, TexelLayout};
+use super::blocks::Stmt;
+use super::frame::Frame;
+pub use super::frame::{ComputeLanes, ModelSettings, TexelLayout};
+pub use super::methods::compute::lavapipe_compute_group;
+use super::methods::model;
+use super::rays::{ComputeRay, Iter};
+pub use super::rays::{FrameWork, Recorded};
+use super::warps::{Assembly, Items, Lane, WIDTHS};
+use super::work;
 use crate::method::Method;
 use crate::scene::Scene;
 
@@ -88,20 +94,10 @@ pub fn model_frame(
     replay(&rec, width, mode, default_assembly(method))
 }
 
-/// The warp assembly a GPU uses for `method` (module docs of [`super::warps`]).
+/// The warp assembly a GPU uses for `method` (module docs of [`super::warps`]; the method's
+/// model, [`super::methods`]).
 pub fn default_assembly(method: Method) -> Assembly {
-    match method {
-        Method::Fragment | Method::Ssr => Assembly::Quads,
-        Method::ReflectionPoint => Assembly::Dispatch,
-        _ => Assembly::Queue,
-    }
-}
-
-/// `compute_trace`'s workgroup size on lavapipe at subgroup size `width`: 256 invocations, or 128
-/// where 256 would be more than the 32 subgroups lavapipe allows per workgroup
-/// (`vk::methods::compute::workgroup_size`).
-pub fn lavapipe_compute_group(width: u32) -> u32 {
-    if 256 / width.max(1) > 32 { 128 } else { 256 }
+    model(method).map_or(Assembly::Queue, |m| m.assembly)
 }
 
 /// How lavapipe hands `method`'s tracing pass to its threads ([`Items`]) at subgroup size
@@ -109,128 +105,18 @@ pub fn lavapipe_compute_group(width: u32) -> u32 {
 /// bvh's of 64 rays, reflection-point's of 64 scene vertices (their `@workgroup_size`), the
 /// full-screen fragment passes' 64x64 bins.
 pub fn lavapipe_items(method: Method, width: u32, lanes: u32) -> Items {
-    match method {
-        Method::Fragment | Method::Ssr => Items::Tiles(LAVAPIPE_TILE),
-        Method::Compute => Items::Groups(lavapipe_compute_group(width) / lanes.max(1)),
-        _ => Items::Groups(64),
-    }
-}
-
-/// One frame's recorded work for one method.
-pub struct Recorded {
-    pub method: Method,
-    pub settings: ModelSettings,
-    /// Image size and, per pixel (row-major), its ray.
-    pub img: (u32, u32),
-    pub ray_at: Vec<Option<usize>>,
-    pub work: FrameWork,
-}
-
-/// Per-ray work: compute's phases, or a tree over a static loop nest.
-pub enum FrameWork {
-    Compute(Vec<ComputeRay>),
-    Tree {
-        program: &'static [Stmt],
-        rays: Vec<Iter>,
-        /// What a lane that is not a ray runs (a non-mirror pixel: the set-up).
-        idle: Iter,
-    },
-}
-
-impl Recorded {
-    pub fn rays(&self) -> usize {
-        match &self.work {
-            FrameWork::Compute(r) => r.len(),
-            FrameWork::Tree { rays, .. } => rays.len(),
-        }
-    }
+    model(method).map_or(Items::Groups(64), |m| (m.lavapipe_items)(width, lanes))
 }
 
 /// Runs `method`'s CPU twin on every ray of `frame` and keeps its work.
 pub fn record(frame: &Frame, method: Method) -> anyhow::Result<Recorded> {
-    let work = match method {
-        Method::Compute => FrameWork::Compute(
-            frame
-                .rays
-                .iter()
-                .map(|r| work::compute_ray(frame, r))
-                .collect(),
+    match model(method) {
+        Some(m) => (m.record)(frame),
+        None => anyhow::bail!(
+            "model: --method {} has no model (it traces nothing per ray)",
+            method.name()
         ),
-        Method::Fragment => {
-            let mut idle = Iter::default();
-            idle.execs.push(work::Exec {
-                block: work::F_RAY_SETUP,
-                loads: Vec::new(),
-            });
-            FrameWork::Tree {
-                program: work::FRAGMENT_PROGRAM,
-                rays: frame
-                    .rays
-                    .iter()
-                    .map(|r| work::fragment_ray(frame, r))
-                    .collect(),
-                idle,
-            }
-        }
-        Method::Ssr => {
-            let mut idle = Iter::default();
-            idle.execs.push(work::Exec {
-                block: work::S_RAY_SETUP,
-                loads: Vec::new(),
-            });
-            FrameWork::Tree {
-                program: work::SSR_PROGRAM,
-                rays: work::ssr_rays(frame)
-                    .into_iter()
-                    .map(|(it, _)| it)
-                    .collect(),
-                idle,
-            }
-        }
-        Method::Bvh => FrameWork::Tree {
-            program: super::bvh::BVH_PROGRAM,
-            rays: super::bvh::bvh_rays(frame).0,
-            idle: Iter::default(),
-        },
-        Method::ReflectionPoint => {
-            // One invocation per scene vertex, in the dispatch's order; reflectors' vertices
-            // leave at once (idle lanes).
-            let mut rays = Vec::new();
-            let ray_at = work::reflection_point_vertices(frame)
-                .into_iter()
-                .map(|v| {
-                    v.map(|(it, _)| {
-                        rays.push(it);
-                        rays.len() - 1
-                    })
-                })
-                .collect();
-            return Ok(Recorded {
-                method,
-                settings: frame.settings.clone(),
-                img: (0, 0),
-                ray_at,
-                work: FrameWork::Tree {
-                    program: work::REFLECTION_POINT_PROGRAM,
-                    rays,
-                    idle: Iter::default(),
-                },
-            });
-        }
-        Method::Envmap | Method::Reference => {
-            anyhow::bail!(
-                "model: --method {} has no model (it traces nothing per ray)",
-                method.name()
-            )
-        }
-    };
-    Ok(Recorded {
-        method,
-        settings: frame.settings.clone(),
-        img: (frame.settings.width, frame.settings.height),
-        ray_at: frame.ray_at.clone(),
-        work,
-    })
+    }
 }
 
 /// Sums over the issues of a replay.
