@@ -3,10 +3,30 @@
 //! and the harness know, with what each supports.
 //!
 //! [`Method`] is the command line's `--method` (a clap [`ValueEnum`]), the harness's method
-//! column (its serde name is the CLI's) and the GPU renderer's choice. The rules that decide
-//! what a method supports (bounces, fallback, reflector check, tracer options) are written here
-//! once, as data and pure functions, so the CLI, the bench and the renderer cannot disagree.
-//! Nothing here touches the GPU: the passes a method records live in `vk::methods`.
+//! column (its serde name is the CLI's) and the GPU renderer's choice. What a method is and
+//! supports (its name, the options it reads, bounces, fallback, reflector check, tracer
+//! options, glossy lobe, known limits) is written once, as data in the method's own file
+//! ([`MethodInfo`], `src/method/<name>.rs`), and read through the methods of [`Method`], so
+//! the CLI, the bench and the renderer cannot disagree. Nothing here touches the GPU: the
+//! passes a method records live in `vk::methods`.
+//!
+//! # The registry and the variant rule
+//!
+//! This file is the registry: the enum, [`Method::ALL`] and [`Method::GPU`], the roles
+//! generic code asks for ([`Method::DEFAULT`], [`Method::TRUTH`], [`Method::EXACT_GPU`],
+//! [`Method::SCALING`]) and one line per method in [`Method::info`]. A variant (`Method::Ssr`)
+//! is named only here and in that method's own files: those whose module path has a part equal
+//! to its name (`method::ssr`, `vk::methods::ssr`, `model::methods::ssr`, `cpu::ssr`).
+//! Everywhere else the code asks the method (`m.glossy()`, `m.known_limit()`,
+//! `m.info().vertex_search`) or uses a role constant. Test modules (`#[cfg(test)]`), `tests/`
+//! and `benches/` may name variants. `tests/layout.rs` lists every place that breaks the rule
+//! and fails on any not on its short list of modules still to move (the bench's per-scene
+//! ratios and the cost model's report, whose columns name methods).
+//!
+//! Adding a method takes a variant, its place in [`Method::ALL`] (and [`Method::GPU`]) and its
+//! line in [`Method::info`] here, and its file under `src/method/`; a GPU method also its file
+//! under `src/vk/methods/` and a line in `vk::methods::SPECS`; a method the cost model replays
+//! its file under `src/model/methods/` and a line in `model::methods::MODELS`.
 use clap::ValueEnum;
 use serde::Serialize;
 
@@ -81,6 +101,9 @@ pub struct MethodInfo {
     /// Whether its records hold a per-pixel outcome (`face`) and iteration count (`cells`)
     /// that `render -v` summarises.
     pub outcomes_in_records: bool,
+    /// The method-specific flags it reads, each under the condition on the tracer options
+    /// that [`METHOD_OPTIONS`] states (`--strict`: with the exact criterion).
+    pub options: &'static [&'static str],
     /// Whether it searches a reflection point per vertex of the other objects: its quality
     /// depends on their tessellation (the bench adds a row with them subdivided) and its search
     /// steps have a table of their own in the bench's report.
@@ -384,12 +407,9 @@ impl MethodOption {
     }
 }
 
-fn fragment_exact(m: Method, t: &TraceOptions) -> bool {
-    m == Method::Fragment && t.criterion == TraceCriterion::Exact
-}
-
-fn fragment_approx(m: Method, t: &TraceOptions) -> bool {
-    m == Method::Fragment && t.approx().is_some()
+/// Whether `m` lists `flag` among its own options ([`MethodInfo::options`]).
+fn reads(m: Method, flag: &str) -> bool {
+    m.info().options.contains(&flag)
 }
 
 /// Every method-specific option of `render` and `bench`. Options every method reads
@@ -405,7 +425,7 @@ pub const METHOD_OPTIONS: &[MethodOption] = &[
     },
     MethodOption {
         flag: "--sampling",
-        applies: fragment_approx,
+        applies: |m, t| reads(m, "--sampling") && t.approx().is_some(),
         condition: " with --criterion threshold or sign-change",
         methods_text: "",
         why: "",
@@ -413,7 +433,9 @@ pub const METHOD_OPTIONS: &[MethodOption] = &[
     MethodOption {
         flag: "--steps",
         applies: |m, t| {
-            fragment_approx(m, t) && t.sampling != crate::cpu::options::TraceSampling::PerTexel
+            reads(m, "--steps")
+                && t.approx().is_some()
+                && t.sampling != crate::cpu::options::TraceSampling::PerTexel
         },
         condition: " with --criterion threshold or sign-change and --sampling constant-step or \
                     constant-angle",
@@ -422,28 +444,28 @@ pub const METHOD_OPTIONS: &[MethodOption] = &[
     },
     MethodOption {
         flag: "--eps",
-        applies: |m, t| m == Method::Fragment && t.criterion == TraceCriterion::Threshold,
+        applies: |m, t| reads(m, "--eps") && t.criterion == TraceCriterion::Threshold,
         condition: " with --criterion threshold",
         methods_text: "",
         why: "",
     },
     MethodOption {
         flag: "--no-accel",
-        applies: fragment_exact,
+        applies: |m, t| reads(m, "--no-accel") && t.criterion == TraceCriterion::Exact,
         condition: " with the exact criterion (the default)",
         methods_text: "",
         why: "",
     },
     MethodOption {
         flag: "--strict",
-        applies: fragment_exact,
+        applies: |m, t| reads(m, "--strict") && t.criterion == TraceCriterion::Exact,
         condition: " with the exact criterion (the default)",
         methods_text: "",
         why: "",
     },
     MethodOption {
         flag: "--quick",
-        applies: |m, _| m == Method::Fragment,
+        applies: |m, _| reads(m, "--quick"),
         condition: " (its parameter grid)",
         methods_text: "",
         why: "",
@@ -485,35 +507,35 @@ pub const METHOD_OPTIONS: &[MethodOption] = &[
     },
     MethodOption {
         flag: "--ssr-iterations",
-        applies: |m, _| m == Method::Ssr,
+        applies: |m, _| reads(m, "--ssr-iterations"),
         condition: "",
         methods_text: "",
         why: "",
     },
     MethodOption {
         flag: "--ssr-thickness",
-        applies: |m, _| m == Method::Ssr,
+        applies: |m, _| reads(m, "--ssr-thickness"),
         condition: "",
         methods_text: "",
         why: "",
     },
     MethodOption {
         flag: "--rp-iterations",
-        applies: |m, _| m == Method::ReflectionPoint,
+        applies: |m, _| reads(m, "--rp-iterations"),
         condition: "",
         methods_text: "",
         why: "",
     },
     MethodOption {
         flag: "--rp-scale",
-        applies: |m, _| m == Method::ReflectionPoint,
+        applies: |m, _| reads(m, "--rp-scale"),
         condition: "",
         methods_text: "",
         why: "",
     },
     MethodOption {
         flag: "--rp-open",
-        applies: |m, _| m == Method::ReflectionPoint,
+        applies: |m, _| reads(m, "--rp-open"),
         condition: "",
         methods_text: "",
         why: "",

@@ -14,5 +14,6 @@ pub(super) const INFO: MethodInfo = MethodInfo {
     glossy: GlossyLobe::ConeTracedFirst,
     known_limit: None,
     outcomes_in_records: false,
+    options: &[],
     vertex_search: false,
 };

@@ -14,5 +14,13 @@ pub(super) const INFO: MethodInfo = MethodInfo {
     glossy: GlossyLobe::ConeTracedFirst,
     known_limit: None,
     outcomes_in_records: false,
+    options: &[
+        "--sampling",
+        "--steps",
+        "--eps",
+        "--no-accel",
+        "--strict",
+        "--quick",
+    ],
     vertex_search: false,
 };

@@ -13,5 +13,6 @@ pub(super) const INFO: MethodInfo = MethodInfo {
     glossy: GlossyLobe::SampledEverywhere,
     known_limit: None,
     outcomes_in_records: false,
+    options: &[],
     vertex_search: false,
 };

@@ -19,5 +19,6 @@ pub(super) const INFO: MethodInfo = MethodInfo {
                 vertices)",
     ),
     outcomes_in_records: false,
+    options: &["--rp-iterations", "--rp-scale", "--rp-open"],
     vertex_search: true,
 };

@@ -17,5 +17,6 @@ pub(super) const INFO: MethodInfo = MethodInfo {
                 behind a visible surface go to the fallback (--method compute traces them)",
     ),
     outcomes_in_records: true,
+    options: &["--ssr-iterations", "--ssr-thickness"],
     vertex_search: false,
 };
