@@ -18,7 +18,7 @@
 //!   frames. `app` and `bench` render through it; it knows neither (`tests/layout.rs` checks the
 //!   layers).
 //! - [`method`]: [`Method`], the one method type of the CLI, the harness and the renderer, and
-//!   what each method supports.
+//!   what each method supports (one file per method under `src/method/`).
 //! - [`scene`]: the scene as data: scene files (TOML + OBJ/MTL/PNG), built-in scenes, mesh
 //!   hygiene. It imports no algorithm (only the leaves [`camera`], [`shading`], [`files`] and
 //!   [`lobe`]).
@@ -36,7 +36,8 @@
 //! - [`cubemap`]: cube face mapping and distance hierarchies (pure data, no GPU).
 //! - [`cpu`]: CPU twins of the GPU passes, with the shaders' names and loop structure.
 //! - [`model`]: the SIMT cost model: lockstep warp replay of the CPU twins' work counters (a
-//!   model, not a measurement).
+//!   model, not a measurement); each replayed method's blocks and recording in
+//!   `src/model/methods/`.
 //! - [`vk`]: the Vulkan backend (ash); the only module tree that may use `unsafe`:
 //!   - `vk/backend/`: instance, device, buffers, images, shaders, pipelines, timestamps;
 //!   - `vk/passes/`: stages shared by methods: capture, pyramids, cone pre-filter and pass,
@@ -53,22 +54,32 @@
 //!
 //! # One name per method
 //!
-//! Method M's host code is `src/vk/methods/M.rs`, its CPU twin `src/cpu/M.rs`, its shaders
-//! `spirv/M*.wgsl` and its test `tests/M.rs` (`envmap` shares `fragment`'s deferred pass, twin
-//! and test). A GPU method is two small traits in `src/vk/methods/technique.rs`: its `MethodSpec`
-//! says, before anything is allocated, what it needs of the shared stages (capture contents,
+//! Method M's knowledge is in files named after it: what it is and supports in
+//! `src/method/M.rs` (a [`method::MethodInfo`]: name, the options it reads, capabilities,
+//! glossy lobe, known limits), its host code in `src/vk/methods/M.rs`, its cost model in
+//! `src/model/methods/M.rs`, its CPU twin `src/cpu/M.rs`, its shaders `spirv/M*.wgsl` and its
+//! test `tests/M.rs` (`envmap` shares `fragment`'s deferred pass, twin and test). A GPU method
+//! is two small traits in `src/vk/methods/technique.rs`: its `MethodSpec` says, before anything
+//! is allocated, which method it is, what it needs of the shared stages (capture contents,
 //! pyramid, glossy handling), its device memory and how to create it; its `Technique` records
-//! its passes into the frame's command buffer and reports its statistics for the bench. A new
-//! method takes a file under `src/vk/methods/` implementing both, a [`Method`] variant (with its
-//! capability rules) and a line in `vk::methods::spec`; the cost model (`model/work.rs`,
-//! `model/replay.rs`, `bench/model.rs`), the bench's per-scene ratios, glossy handling and the
-//! printed statistics still name methods one by one, so `grep -rn "Method::" src` lists the
-//! places to visit.
+//! its passes into the frame's command buffer and reports its statistics for the bench.
+//!
+//! A new method takes a [`Method`] variant with its place in `Method::ALL` (and `GPU`), its line in
+//! [`Method::info`] and its file under `src/method/`; on the GPU, its file under `src/vk/methods/`
+//! and a line in `vk::methods::SPECS`; in the cost model (optional), its file under
+//! `src/model/methods/` and a line in `model::methods::MODELS`. Generic code asks the method
+//! ([`Method::glossy`], [`Method::known_limit`], ...) or names a role ([`Method::DEFAULT`],
+//! [`Method::TRUTH`], [`Method::EXACT_GPU`], [`Method::SCALING`]). `tests/layout.rs` proves the
+//! rule it can read: no variant is named in code outside `src/method.rs` and the files of a module
+//! path with that method's name, test modules aside, except in the modules it lists with their
+//! counts (the bench's per-scene ratios and the cost model's report, whose output columns are named
+//! methods); each count must match, so the list is lowered as places move.
 //!
 //! Each module's documentation (`//!`) holds its algorithm, invariants, known limits and
 //! measurements. `tests/layout.rs` checks the shape: no import circle, no module using a layer
 //! above its own (`app`, `bench`, `render`, `vk`), no function over 120 lines, no `ash` or
-//! `unsafe` outside `src/vk/`, and a README of at most 350 lines.
+//! `unsafe` outside `src/vk/`, the method variant rule above, and a README of at most 350
+//! lines.
 //!
 //! # Conventions
 //!

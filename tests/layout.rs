@@ -6,6 +6,9 @@
 //!   of a layer above its own;
 //! - Vulkan stays in `src/vk/`: no `ash::` path and no `unsafe` outside it;
 //! - no function in `src/` is longer than 120 lines;
+//! - a method variant (`Method::Ssr`) is named only in the registry (`src/method.rs`) and in
+//!   that method's own files (a module path with its name: `method::ssr`, `vk::methods::ssr`),
+//!   test modules aside, except in the modules [`VARIANTS_NOT_YET_MOVED`] lists with their counts;
 //! - the README is at most 350 lines.
 //!
 //! The checks read the sources as text (paths written `crate::a::b` or `super::a`, and
