@@ -172,7 +172,7 @@ impl Method {
     ];
 
     /// The method `render` and `bench` use when none is given, and the library's
-    /// [`RenderOptions`](crate::vk::RenderOptions) default.
+    /// [`RenderOptions`](crate::vk::options::RenderOptions) default.
     pub const DEFAULT: Method = Method::Compute;
 
     /// The ground truth every figure is measured against (the exact CPU ray tracer).

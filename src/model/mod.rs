@@ -19,6 +19,11 @@
 //! CMOs, addresses and the texel layout), [`warps`] (queue order, quad and tile order) and
 //! [`replay`] (the two modes, what is not modelled). Deterministic: the same scene and settings
 //! give the same numbers (one thread, no hash maps, a fixed-seed shuffle for the negative).
+//!
+//! Rooms: [`frame`] (the frame a replay runs on: settings, rays, CMOs, addresses), [`blocks`]
+//! (a shader's counted blocks and loop nest), [`rays`] (what a ray ran, a frame's recording),
+//! [`methods`] (one file per replayed method: its blocks, loop nest, warp assembly, entry point
+//! and recording); [`work`] gathers them under the names the harness and the tests use.
 #![forbid(unsafe_code)]
 
 pub mod blocks;

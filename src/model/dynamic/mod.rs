@@ -32,7 +32,7 @@
 //! early through the header test of a shorter bound computed at run time (those loops are
 //! [`LoopKind::Unknown`] and count once).
 //!
-//! The SPIR-V is read in [`spirv`] and walked in [`eval`]; this module gives the weights of a
+//! The SPIR-V is read in `spirv` and walked in `eval`; this module gives the weights of a
 //! method's blocks from them.
 #![forbid(unsafe_code)]
 
