@@ -552,6 +552,20 @@ mod tests {
         check_options(&args, &methods)
     }
 
+    /// `--methods` runs every method by default: its default is the registry's list, in order
+    /// (a method added to [`Method::ALL`] and not here fails this).
+    #[test]
+    fn methods_default_is_every_method() {
+        let args = Cli::try_parse_from(["bench"]).unwrap().args;
+        let all: Vec<&str> = Method::ALL.iter().map(|m| m.name()).collect();
+        assert_eq!(args.methods, all);
+        // Negative: a list given replaces the default.
+        let args = Cli::try_parse_from(["bench", "--methods", "bvh"])
+            .unwrap()
+            .args;
+        assert_eq!(args.methods, ["bvh"]);
+    }
+
     /// `--placement` is the grid's: refused where no chosen method captures CMOs and in the
     /// modes that render each scene's own placement; the default value is never refused.
     #[test]
