@@ -1,8 +1,13 @@
 //! The command line as a user meets it: the built binary run in a temporary folder, on small
 //! frames. Output paths, refusals before the render, messages. Every check has its negative
 //! side: the same command with the problem removed must pass.
+//!
+//! This crate also holds, each in its module of `tests/cli/`: `scale_out` (`cubetrace farm
+//! slurm|k8s` and `--shard`).
 
 mod common;
+#[path = "cli/scale_out.rs"]
+mod scale_out;
 
 use std::path::Path;
 use std::process::Command;

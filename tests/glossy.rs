@@ -14,7 +14,12 @@
 //!   the frame; a wrong lobe (power 4x, or none: the mirror) stays far from the truth.
 //! - `bvh` draws the reference's directions (same hits at one sample) and its frame converges to
 //!   the converged reference; a wrong exponent (4x) does not.
+//!
+//! This crate also holds, each in its module of `tests/glossy/`: `glossy_cone` (cone tracing on the
+//! cube maps: the pre-filtered chain and the cone lookups against their CPU twins).
 mod common;
+#[path = "glossy/glossy_cone.rs"]
+mod glossy_cone;
 use common::bits::{frame_bits, vec3_bits};
 use common::render::first_frame;
 use common::render_args as args;

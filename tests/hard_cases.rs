@@ -48,7 +48,17 @@
 //! last is the one case where strict mode removes wrong hits
 //! (`strict_mode_removes_unseen_occluder_hits_at_cube_size_3`), so it stays; everywhere else it
 //! only adds unresolved pixels.
+//!
+//! This crate also holds, each in its module of `tests/hard_cases/`: `corpus` (the real-scene
+//! corpus of `tests/scenes/` on every GPU method) and `fuzz_inputs` (fixed-seed fuzzing of extreme
+//! and malformed scene inputs through the binary, every method).
 mod common;
+#[path = "hard_cases/corpus.rs"]
+mod corpus;
+#[path = "common/fuzz_cases.rs"]
+mod fuzz_cases;
+#[path = "hard_cases/fuzz_inputs.rs"]
+mod fuzz_inputs;
 use common::render::{first_frame, sized_camera};
 use common::{finish_gpu, gpu_context, meets};
 

@@ -6,7 +6,12 @@
 //! The twin reads what the GPU read: the G-buffer (world position, colour) and each record's
 //! reflected ray; it rebuilds the depth keys and the pyramid itself and runs the same traversal.
 //! Agreement is exact (bit for bit: outcome, hit pixel, iterations, final depth, colour, point).
+//!
+//! This crate also holds, each in its module of `tests/ssr/`: `glossy_ssr` (`--method ssr` on
+//! glossy reflectors: the Hi-Z chapter's cone tracing).
 mod common;
+#[path = "ssr/glossy_ssr.rs"]
+mod glossy_ssr;
 use common::render::{first_frame, sized_camera};
 use common::{finish_gpu, gpu_context};
 

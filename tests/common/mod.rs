@@ -14,6 +14,15 @@ pub mod trace_probe;
 use cubetrace::vk::{ContextOptions, GpuContext};
 use glam::Vec3;
 
+/// The name under which the test harness lists test `name` of the module whose `module_path!()`
+/// is `module_path`: the module path without the crate's name, as `--exact` takes it.
+pub fn test_name(module_path: &str, name: &str) -> String {
+    match module_path.split_once("::") {
+        Some((_, module)) => format!("{module}::{name}"),
+        None => name.to_string(),
+    }
+}
+
 /// `render`'s arguments parsed from `line` (what follows `cubetrace render`), as the command
 /// line parses them.
 pub fn render_args(line: &[&str]) -> cubetrace::app::render::RenderArgs {
