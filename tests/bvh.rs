@@ -372,7 +372,7 @@ fn fallback_trace_finishes_every_unresolved_ray() {
                 method: Method::Compute,
                 fallback,
                 // The fallback alone: the reflector check also hands the fallback the rays whose
-                // cubemap hit is at their own start (tests/reflector_check.rs).
+                // cubemap hit is at their own start (tests/frame/reflector_check.rs).
                 reflector_check: false,
                 ..RenderOptions::default()
             };

@@ -87,7 +87,7 @@ fn compute_render(
         trace: TraceOptions::default(),
         fallback: Fallback::Flag,
         // The twins model the tracing pass alone; the reflector check, which runs after it, is
-        // judged in tests/reflector_check.rs.
+        // judged in tests/frame/reflector_check.rs.
         reflector_check: false,
         ..RenderOptions::default()
     };

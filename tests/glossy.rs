@@ -129,7 +129,7 @@ fn mirror_cap_is_the_mirrors_frame_for_every_method() {
         let warning = glossy::method_warning(&glossy, method, 1);
         assert_eq!(glossy::method_warning(&mirror, method, 1), None, "{method}");
         if matches!(method, Method::Fragment | Method::Compute) {
-            // Cone traced (tests/glossy_cone.rs): another frame, no warning.
+            // Cone traced (tests/glossy/glossy_cone.rs): another frame, no warning.
             assert!(
                 mirror_bits != on_glossy,
                 "negative: {method} cone traces the lobe"
@@ -138,7 +138,7 @@ fn mirror_cap_is_the_mirrors_frame_for_every_method() {
             let over = glossy::method_warning(&glossy, method, 2).unwrap_or_default();
             assert!(over.contains("--bounces 2"), "{over}");
         } else if method == Method::Ssr {
-            // ssr cone traces the lobe (tests/glossy_ssr.rs).
+            // ssr cone traces the lobe (tests/ssr/glossy_ssr.rs).
             assert!(mirror_bits != on_glossy, "negative: ssr renders the lobe");
             assert_eq!(warning, None);
         } else if method == Method::Bvh {

@@ -291,7 +291,7 @@ fn bounded_frames_find_the_first_hit_on_thin_geometry() {
         }
         if name == "bunny" || cube != 32 {
             // The dense mesh's triangles are larger than a texel here: the exact criterion
-            // finds them too (tests/stress_capture.rs).
+            // finds them too (tests/bounded/stress_capture.rs).
             continue;
         }
         let frame = render(&ctx, &scene, Method::Compute, TraceCriterion::Exact, None);

@@ -354,7 +354,7 @@ fn drop_entries_drops_only_the_named_triangles() {
 }
 
 #[test]
-#[ignore = "writes files: STRESS_EXPORT_DIR=dir cargo test --test stress_capture -- --ignored export"]
+#[ignore = "writes files: STRESS_EXPORT_DIR=dir cargo test --test bounded -- --ignored export"]
 fn stress_scenes_export_and_load_back() {
     let dir = std::env::var("STRESS_EXPORT_DIR").expect("STRESS_EXPORT_DIR");
     for &name in STRESS {

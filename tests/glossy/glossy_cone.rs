@@ -614,7 +614,7 @@ fn bounded_cone_matches_the_centre_sampled_cone() {
     finish_gpu(ctx);
 }
 
-/// The accuracy table, printed (run by hand: `cargo test --release --test glossy_cone
+/// The accuracy table, printed (run by hand: `cargo test --release --test glossy
 /// accuracy_table -- --ignored --nocapture`; `CONE_SCENES` picks scenes, comma-separated).
 #[test]
 #[ignore = "minutes: the converged reference of 15 scene/power pairs"]

@@ -171,8 +171,8 @@ fn every_method_renders_every_corpus_scene() {
         if !scene.glossy_reflectors().is_empty() {
             // A glossy reflector's ray is one lobe sample: no hit to judge (the glossy
             // comparison is the converged reference's PSNR, tests/cli.rs and
-            // tests/glossy_cone.rs). The bounded criterion cone-traces it too, from the colour
-            // of a rasterised capture beside its lists.
+            // tests/glossy/glossy_cone.rs). The bounded criterion cone-traces it too, from the
+            // colour of a rasterised capture beside its lists.
             let frame = render(
                 &ctx,
                 &scene,

@@ -8,7 +8,7 @@
 //!   Negative: the mean at the mirrored offsets differs.
 //! - The GPU film likewise (compute), through `FrameRenderer`; a second frame of another camera
 //!   in the same `FrameRenderer` equals that frame rendered alone and reuses the capture; a moved
-//!   mesh captures again (tests/sequence_inplace.rs checks the in-place geometry update).
+//!   mesh captures again (tests/sequence/sequence_inplace.rs checks the in-place geometry update).
 use crate::common;
 use common::bits::{frame_bits, vec3_bits};
 use common::render::first_frame;

@@ -497,7 +497,7 @@ fn cone_ssr_beats_mirror_ssr_small() {
 /// sphere-room, torus and default by more than 1.3 dB (measured: 1.70, 1.86, 1.56). Prints the
 /// table of every built-in scene at powers 16, 64, 256, which asserts nothing more: cone ssr
 /// does not gain everywhere (torus at power 16 loses 0.34 dB, bowl gains under 0.1). Slow
-/// (the reference): `cargo test --release --test glossy_ssr -- --ignored psnr --nocapture`.
+/// (the reference): `cargo test --release --test ssr -- --ignored psnr --nocapture`.
 #[test]
 #[ignore = "a minute: repeats cone_ssr_beats_mirror_ssr_small at 48x36 against 1024-spp references"]
 fn psnr_against_the_converged_reference() {

@@ -28,7 +28,7 @@ use glam::Vec3;
 
 #[derive(Clone, Copy)]
 enum Scene {
-    /// A box room with a floating box occluder (as in tests/cpu_trace.rs).
+    /// A box room with a floating box occluder (as in tests/tracer/cpu_trace.rs).
     BoxRoom,
     /// A spherical room with a sphere occluder.
     SphereRoom,
