@@ -23,8 +23,8 @@ use cubetrace::camera::Camera;
 use cubetrace::check_layout;
 use cubetrace::metrics;
 use cubetrace::reference::{self, NO_ID, Tracer, reflect};
+use cubetrace::scene::Scene;
 use cubetrace::scene::gpu_data::GpuSceneData;
-use cubetrace::scene::{self, Scene};
 use cubetrace::vk::backend::shaders::{BVH_QUEUE, BVH_TRACE, FRAGMENT_TRACE};
 use cubetrace::vk::frame::{
     Fallback, GpuFrame, GpuRenderer, PixelRecord, RECORD_ESCAPED, RECORD_HIT, RECORD_UNRESOLVED,
@@ -41,11 +41,7 @@ use gpu_allocator::MemoryLocation;
 const SCENES: [&str; 5] = ["default", "sphere-room", "teapot", "torus", "bowl"];
 
 fn load(name: &str, width: u32, height: u32) -> (Scene, Camera) {
-    let s = scene::load(name).unwrap_or_else(|e| panic!("{name}: {e}"));
-    let mut cam = s.camera(None).unwrap_or_else(|e| panic!("{e}")).clone();
-    cam.width = width;
-    cam.height = height;
-    (s, cam)
+    common::render::load_sized(name, (width, height))
 }
 
 #[test]

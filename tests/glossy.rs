@@ -40,12 +40,7 @@ const HEIGHT: u32 = 24;
 
 /// A built-in scene at 32x24 with small CMOs, and its camera.
 fn small(name: &str) -> (Scene, Camera) {
-    let mut s = scene::load(name).unwrap_or_else(|e| panic!("{e}"));
-    s.cmo.resolution = 32;
-    let mut cam = s.camera(None).unwrap_or_else(|e| panic!("{e}")).clone();
-    (cam.width, cam.height) = (WIDTH, HEIGHT);
-    s.cameras = vec![cam.clone()];
-    (s, cam)
+    common::render::scene_at(name, 32, None, (WIDTH, HEIGHT))
 }
 
 /// The scene with every reflector's material at specular power `power`.

@@ -21,7 +21,6 @@ use common::render_args;
 use common::{finish_gpu, finish_renderer, gpu_context};
 
 use std::path::Path;
-use std::process::Command;
 
 use cubetrace::Method;
 use cubetrace::bench::MethodSpec;
@@ -404,16 +403,8 @@ fn json_is_deterministic_apart_from_timings() {
 }
 
 fn cli(args: &[&str], cwd: &Path) -> (Option<i32>, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_cubetrace"))
-        .args(args)
-        .current_dir(cwd)
-        .env("XDG_RUNTIME_DIR", "/tmp")
-        .output()
-        .unwrap();
-    (
-        out.status.code(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
+    let o = common::binary::run(args, cwd);
+    (o.code, o.stderr)
 }
 
 /// Bad `--glossy` (and `--glossy-spp`) values: exit 1, one error naming the flag and the value,

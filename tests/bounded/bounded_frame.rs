@@ -33,7 +33,7 @@ use crate::stress;
 use common::render::first_frame_of;
 use common::{finish_gpu, gpu_context};
 use cubetrace::Method;
-use cubetrace::cpu::options::{TraceCriterion, TraceOptions};
+use cubetrace::cpu::options::TraceCriterion;
 use cubetrace::cpu::verify::triangle_corners;
 use cubetrace::cubemap::bounds::{DEFAULT_DEPTH, TexelLists, capture_lists};
 use cubetrace::metrics;
@@ -99,13 +99,8 @@ fn failure(j: &Judged) -> Option<String> {
 
 fn options(method: Method, criterion: TraceCriterion) -> RenderOptions {
     RenderOptions {
-        method,
-        trace: TraceOptions {
-            criterion,
-            ..TraceOptions::default()
-        },
         fallback: Fallback::Flag,
-        ..RenderOptions::default()
+        ..common::render::criterion_options(method, criterion)
     }
 }
 

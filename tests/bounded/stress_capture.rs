@@ -43,7 +43,6 @@
 //! `bounded` had the same triangle on 100 % of resolved pixels in every run; the exact
 //! criterion 67 to 100 %.
 
-use crate::common;
 use crate::quality;
 use crate::stress;
 

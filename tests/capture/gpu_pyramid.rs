@@ -4,7 +4,7 @@
 //! under the validation layer when installed and fails on any validation error.
 use crate::common;
 use common::bits::compare_cells;
-use common::{finish_gpu, gpu_context};
+use common::{distance_cube, finish_gpu, gpu_context};
 
 use cubetrace::check_layout;
 use cubetrace::cubemap::CubeMap;
@@ -14,34 +14,14 @@ use cubetrace::vk::backend::shaders::PYRAMID;
 use cubetrace::vk::passes::pyramid::{
     MAX_GROUPS_X, PyramidParams, WORKGROUP, build_mip_gpu, level_params, mip_len,
 };
-use glam::Vec3;
 
 const SIZES: [u32; 8] = [1, 2, 3, 5, 16, 32, 33, 64];
-
-/// Deterministic distances in [0.5, 64.5): about 1 texel in 11 is +inf, and face `inf_face`
-/// (if any) is +inf entirely.
-fn pyramid_cube(size: u32, seed: u64, inf_face: Option<u32>) -> CubeMap {
-    let mut c = CubeMap::new(size, Vec3::ZERO);
-    let mut s = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
-    c.fill(|t, _| {
-        s = s
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        let d = if Some(t.face) == inf_face || (s >> 33).is_multiple_of(11) {
-            f32::INFINITY
-        } else {
-            0.5 + (s >> 40) as f32 / (1u64 << 24) as f32 * 64.0
-        };
-        (d, [0.0; 4])
-    });
-    c
-}
 
 /// The K = 1 and K = 2 scenes used for every size: one with scattered +inf texels, one with a
 /// whole +inf face besides.
 fn scenes(size: u32) -> Vec<Vec<CubeMap>> {
-    let a = pyramid_cube(size, u64::from(size), None);
-    let b = pyramid_cube(size, u64::from(size) + 1000, Some(size % 6));
+    let a = distance_cube(size, u64::from(size), None);
+    let b = distance_cube(size, u64::from(size) + 1000, Some(size % 6));
     vec![vec![a.clone()], vec![a, b]]
 }
 
@@ -187,7 +167,7 @@ fn check_cells_against_texels(cube: &CubeMap, flat: &[[f32; 2]]) -> Result<(), S
 #[test]
 fn mismatched_sizes_and_empty_input_are_refused() {
     let ctx = gpu_context();
-    let cubes = [pyramid_cube(4, 1, None), pyramid_cube(5, 2, None)];
+    let cubes = [distance_cube(4, 1, None), distance_cube(5, 2, None)];
     let err = build_mip_gpu(&ctx, &cubes).expect_err("sizes differ");
     assert!(err.to_string().contains("face size"), "{err}");
     assert!(build_mip_gpu(&ctx, &[]).is_err());
@@ -204,7 +184,7 @@ fn record_with_timestamps_and_refuse_small_buffers() {
     use gpu_allocator::MemoryLocation;
 
     let ctx = gpu_context();
-    let cube = pyramid_cube(9, 7, Some(2));
+    let cube = distance_cube(9, 7, Some(2));
     let distance = ctx
         .create_buffer_init(
             "cmo_distance",
@@ -269,7 +249,10 @@ fn multi_row_dispatch_equals_cpu() {
 
     let ctx = gpu_context();
     let size = 17u32;
-    let cubes = [pyramid_cube(size, 5, None), pyramid_cube(size, 6, Some(4))];
+    let cubes = [
+        distance_cube(size, 5, None),
+        distance_cube(size, 6, Some(4)),
+    ];
     // Level 1: 2 * 6 * 9 * 9 = 972 cells = 16 workgroups of 64 -> 3 x 6 (two idle workgroups).
     let (_, groups) = level_params(2, size, 3)[0];
     assert_eq!(groups, [3, 6, 1]);

@@ -3,37 +3,13 @@
 //! arguments), and `--shard` / the schedulers' array indices pick chunks whose frames are the
 //! frames of one run. Every check has its negative.
 
+use crate::common::binary::{self, Outcome};
 use std::path::Path;
 use std::process::Command;
 
-#[derive(Debug)]
-struct Outcome {
-    code: Option<i32>,
-    stdout: String,
-    stderr: String,
-}
-
-fn outcome(out: std::process::Output) -> Outcome {
-    Outcome {
-        code: out.status.code(),
-        stdout: String::from_utf8_lossy(&out.stdout).into_owned(),
-        stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
-    }
-}
-
 /// The binary with `args` in `cwd`, with `env` set and no scheduler variables inherited.
 fn run_env(args: &[&str], cwd: &Path, env: &[(&str, &str)]) -> Outcome {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_cubetrace"));
-    cmd.args(args)
-        .current_dir(cwd)
-        .env("XDG_RUNTIME_DIR", "/tmp");
-    for k in SCHEDULER_VARS {
-        cmd.env_remove(k);
-    }
-    for (k, v) in env {
-        cmd.env(k, v);
-    }
-    outcome(cmd.output().unwrap())
+    binary::run_with(args, cwd, env, &SCHEDULER_VARS)
 }
 
 fn run(args: &[&str], cwd: &Path) -> Outcome {
@@ -101,7 +77,7 @@ fn run_task(dir: &Path, script: &Path, task: Option<&str>) -> Result<Vec<String>
     if let Some(t) = task {
         cmd.env("SLURM_ARRAY_TASK_ID", t);
     }
-    let o = outcome(cmd.output().unwrap());
+    let o = Outcome::of(cmd.output().unwrap());
     if o.code != Some(0) {
         return Err(o);
     }

@@ -1,14 +1,17 @@
 //! Shared by the test suites: a GPU context under the validation layer and the check that it
 //! reported nothing; closed-form intersections for synthetic scenes ([`analytic`]); values as
-//! bits for bit-for-bit comparisons ([`bits`]); one GPU frame of a scene ([`render`]).
+//! bits for bit-for-bit comparisons ([`bits`]); one GPU frame of a scene ([`render`]); the built
+//! binary run in a folder ([`binary`]).
 // Each test crate compiles this module and uses only part of it.
 #![allow(dead_code)]
 
 pub mod analytic;
+pub mod binary;
 pub mod bits;
 pub mod hit_probe;
 pub mod render;
 pub mod selftest;
+pub mod spirv_words;
 pub mod trace_probe;
 
 use cubetrace::vk::{ContextOptions, GpuContext};
@@ -145,6 +148,25 @@ impl Rng {
     }
 }
 
+/// A cube map of `size` at the origin with deterministic distances in [0.5, 64.5) (from
+/// `seed`): about 1 texel in 11 is +inf, and face `inf_face` (if any) is +inf entirely.
+pub fn distance_cube(size: u32, seed: u64, inf_face: Option<u32>) -> cubetrace::cubemap::CubeMap {
+    let mut c = cubetrace::cubemap::CubeMap::new(size, Vec3::ZERO);
+    let mut s = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+    c.fill(|t, _| {
+        s = s
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        let d = if Some(t.face) == inf_face || (s >> 33).is_multiple_of(11) {
+            f32::INFINITY
+        } else {
+            0.5 + (s >> 40) as f32 / (1u64 << 24) as f32 * 64.0
+        };
+        (d, [0.0; 4])
+    });
+    c
+}
+
 /// Where the ray `o + t d` meets global triangle `tri`, in f64 (Möller-Trumbore, the
 /// reference's test) with the barycentric bounds widened by `1e-6` (the f32 rounding of the
 /// data the GPU and the CPU twin read): `None` for a triangle the ray misses, a degenerate one
@@ -166,6 +188,12 @@ pub fn meets(tracer: &cubetrace::reference::Tracer, o: Vec3, d: Vec3, tri: u32) 
     let v = d.dot(q) / det;
     let t = e2.dot(q) / det;
     (u >= -TOL && v >= -TOL && u + v <= 1.0 + TOL && t > 0.0).then_some(t)
+}
+
+/// Writes built-in scene `name` into `dir` as `scene export` does; the scene file's path.
+pub fn export_to(name: &str, dir: &std::path::Path) -> std::path::PathBuf {
+    let scene = cubetrace::scene::builtin::by_name(name).unwrap();
+    cubetrace::scene::export::export(&scene, dir).unwrap()
 }
 
 /// Corpus scene `name` as its file loads (`tests/scenes/NAME/scene.toml`).

@@ -16,7 +16,7 @@ use cubetrace::camera::Camera;
 use cubetrace::metrics::Traced;
 use cubetrace::output;
 use cubetrace::reference::{self, Frame, NO_ID, Tracer};
-use cubetrace::scene::{self, Scene, builtin};
+use cubetrace::scene::{Scene, builtin};
 use cubetrace::vk::GpuContext;
 use cubetrace::vk::frame::{Fallback, GpuRenderer, RenderOptions};
 use glam::Vec3;
@@ -27,11 +27,7 @@ const WIDTH: u32 = 96;
 const HEIGHT: u32 = 72;
 
 fn load(name: &str) -> (Scene, Camera) {
-    let s = scene::load(name).unwrap_or_else(|e| panic!("{name}: {e}"));
-    let mut cam = s.camera(None).unwrap_or_else(|e| panic!("{e}")).clone();
-    cam.width = WIDTH;
-    cam.height = HEIGHT;
-    (s, cam)
+    common::render::load_sized(name, (WIDTH, HEIGHT))
 }
 
 /// One u32 channel of an EXR file.

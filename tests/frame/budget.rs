@@ -17,9 +17,9 @@
 use crate::common;
 
 use cubetrace::camera::Camera;
-use cubetrace::cpu::options::{TraceCriterion, TraceOptions};
+use cubetrace::cpu::options::TraceCriterion;
 use cubetrace::method::Method;
-use cubetrace::scene::{self, Scene};
+use cubetrace::scene::Scene;
 use cubetrace::vk::budget;
 use cubetrace::vk::frame::plan::{CapturePlan, FramePlan};
 use cubetrace::vk::frame::{Fallback, GpuRenderer, RenderOptions, live_allocations};
@@ -38,26 +38,11 @@ const UNCOUNTED: [&str; 7] = [
 ];
 
 fn scene_of(name: &str, glossy: Option<f32>) -> (Scene, Camera) {
-    let mut s = scene::load(name).unwrap_or_else(|e| panic!("{e}"));
-    s.cmo.resolution = 64;
-    if let Some(p) = glossy {
-        s.make_reflectors_glossy(p);
-    }
-    let mut cam = s.camera(None).unwrap_or_else(|e| panic!("{e}")).clone();
-    (cam.width, cam.height) = (64, 48);
-    s.cameras = vec![cam.clone()];
-    (s, cam)
+    common::render::scene_at(name, 64, glossy, (64, 48))
 }
 
 fn options(method: Method, criterion: TraceCriterion) -> RenderOptions {
-    RenderOptions {
-        method,
-        trace: TraceOptions {
-            criterion,
-            ..TraceOptions::default()
-        },
-        ..RenderOptions::default()
-    }
+    common::render::criterion_options(method, criterion)
 }
 
 /// The option combinations: scene, glossy power, options.

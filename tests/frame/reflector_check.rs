@@ -20,7 +20,7 @@ use cubetrace::Method;
 use cubetrace::camera::Camera;
 use cubetrace::metrics;
 use cubetrace::reference::{self, Frame, Tracer};
-use cubetrace::scene::{self, Scene};
+use cubetrace::scene::Scene;
 use cubetrace::vk::GpuContext;
 use cubetrace::vk::frame::{
     Fallback, GpuFrame, RECORD_HIT, RECORD_UNRESOLVED, REFLECTOR_CHECK_PASS, RenderOptions,
@@ -31,10 +31,7 @@ const SIZE: (u32, u32) = (96, 72);
 const PATHS: [Method; 2] = [Method::Compute, Method::Fragment];
 
 fn load(name: &str) -> (Scene, Camera) {
-    let s = scene::load(name).unwrap_or_else(|e| panic!("{name}: {e}"));
-    let mut cam = s.camera(None).unwrap_or_else(|e| panic!("{e}")).clone();
-    (cam.width, cam.height) = SIZE;
-    (s, cam)
+    common::render::load_sized(name, SIZE)
 }
 
 /// One frame with the CLI's default fallback (`trace`); whether the renderer built the check;

@@ -237,21 +237,13 @@ use cubetrace::Method;
 use cubetrace::camera::Camera;
 use cubetrace::cpu::cone::{ConeScene, cone_pixel};
 use cubetrace::cubemap::pyramid::MipPyramid;
-use cubetrace::scene::{self, Scene};
+use cubetrace::scene::Scene;
 use cubetrace::vk::GpuContext;
 use cubetrace::vk::frame::{Fallback, GpuFrame, GpuRenderer, RenderOptions};
 
 /// A built-in scene at `w x h` with CMOs of face size 64, every reflector at `power`.
 fn glossy_scene(name: &str, power: Option<f32>, w: u32, h: u32) -> (Scene, Camera) {
-    let mut s = scene::load(name).unwrap_or_else(|e| panic!("{e}"));
-    s.cmo.resolution = 64;
-    if let Some(p) = power {
-        s.make_reflectors_glossy(p);
-    }
-    let mut cam = s.camera(None).unwrap_or_else(|e| panic!("{e}")).clone();
-    (cam.width, cam.height) = (w, h);
-    s.cameras = vec![cam.clone()];
-    (s, cam)
+    common::render::scene_at(name, 64, power, (w, h))
 }
 
 fn renderer(ctx: &GpuContext, scene: &Scene, cam: &Camera, method: Method) -> GpuRenderer {

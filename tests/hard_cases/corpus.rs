@@ -23,7 +23,7 @@ use common::render::first_frame;
 use common::{finish_gpu, gpu_context};
 
 use cubetrace::Method;
-use cubetrace::cpu::options::{TraceCriterion, TraceOptions};
+use cubetrace::cpu::options::TraceCriterion;
 use cubetrace::reference::{self, Frame, Tracer};
 use cubetrace::scene::Scene;
 use cubetrace::vk::GpuContext;
@@ -56,13 +56,8 @@ fn load(name: &str) -> Scene {
 
 fn options(method: Method, criterion: TraceCriterion) -> RenderOptions {
     RenderOptions {
-        method,
-        trace: TraceOptions {
-            criterion,
-            ..TraceOptions::default()
-        },
         fallback: Fallback::Trace,
-        ..RenderOptions::default()
+        ..common::render::criterion_options(method, criterion)
     }
 }
 

@@ -2,18 +2,13 @@
 //! carried into calls, dead arms removed; on hand-made modules with known counts, and on the
 //! shipped shaders.
 
+use crate::common::spirv_words::inst;
 use std::collections::BTreeSet;
 
 use cubetrace::method::Method;
 use cubetrace::model::dynamic::{self, Arms, Contexts, Counting, Eval, LoopKind, Module};
 use cubetrace::model::weights::{self, ShaderFunctions};
 use cubetrace::model::work::{COMPUTE_BLOCKS, blocks};
-
-fn inst(op: u32, operands: &[u32]) -> Vec<u32> {
-    let mut v = vec![((operands.len() as u32 + 1) << 16) | op];
-    v.extend_from_slice(operands);
-    v
-}
 
 fn name(id: u32, s: &str) -> Vec<u32> {
     let mut bytes = s.as_bytes().to_vec();

@@ -1,6 +1,7 @@
 //! The cost model's harness: SPIR-V block weights, the validation split,
 //! and `bench --model`'s JSON. Tiny: one 16x12 frame where the device runs; no speed asserted.
 
+use crate::common::spirv_words::inst;
 use std::path::Path;
 use std::process::Command;
 
@@ -420,12 +421,6 @@ fn the_fit_recovers_known_coefficients_across_subgroup_sizes() {
         (c2.vector_ns - 2.0).abs() > 0.2 || (c2.lane_ns - 5.0).abs() > 0.5,
         "{c2:?}"
     );
-}
-
-fn inst(op: u32, operands: &[u32]) -> Vec<u32> {
-    let mut v = vec![((operands.len() as u32 + 1) << 16) | op];
-    v.extend_from_slice(operands);
-    v
 }
 
 /// A hand-made module: function `f` loads and stores through a storage-buffer pointer, loads a

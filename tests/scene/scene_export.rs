@@ -6,23 +6,17 @@
 //! comparison must fail.
 use crate::common;
 use common::render::first_frame;
-use common::{finish_gpu, gpu_context};
-
-use std::path::{Path, PathBuf};
+use common::{export_to, finish_gpu, gpu_context};
 
 use cubetrace::Method;
 use cubetrace::camera::Camera;
 use cubetrace::reference::{self, Tracer};
-use cubetrace::scene::{self, Scene, builtin, export};
+use cubetrace::scene::{self, Scene, builtin};
 use cubetrace::vk::GpuContext;
 use cubetrace::vk::frame::{Fallback, RenderOptions};
 
 const WIDTH: u32 = 40;
 const HEIGHT: u32 = 30;
-
-fn export_to(name: &str, dir: &Path) -> PathBuf {
-    export::export(&builtin::by_name(name).unwrap(), dir).unwrap()
-}
 
 /// The scene's first camera at the test's size, with a small cube to keep the GPU passes quick.
 fn small(mut scene: Scene) -> (Scene, Camera) {

@@ -2,17 +2,15 @@
 //! binary: each must give one clear message naming the file (and line or field), a non-zero
 //! exit, no panic, and no output file.
 
-use std::path::{Path, PathBuf};
+use crate::common::binary::run;
+use crate::common::export_to;
+use std::path::Path;
 use std::process::Command;
 
 use cubetrace::cpu::verify::triangle_corners;
 use cubetrace::reference::{self, Tracer};
-use cubetrace::scene::{self, builtin, export};
+use cubetrace::scene::{self, builtin};
 use glam::Vec3;
-
-fn export_to(name: &str, dir: &Path) -> PathBuf {
-    export::export(&builtin::by_name(name).unwrap(), dir).unwrap()
-}
 
 #[test]
 fn every_builtin_round_trips_through_export() {
@@ -81,23 +79,6 @@ fn round_trip_negative_edited_export_differs() {
 }
 
 // ---- Bad input through the binary ----
-
-struct Outcome {
-    code: Option<i32>,
-    stderr: String,
-}
-
-fn run(args: &[&str], cwd: &Path) -> Outcome {
-    let out = Command::new(env!("CARGO_BIN_EXE_cubetrace"))
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .unwrap();
-    Outcome {
-        code: out.status.code(),
-        stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
-    }
-}
 
 /// Renders `scene` to `out.png` in `dir`; asserts a clean failure whose message contains every
 /// one of `needles`, and that no image (nor temporary file) was left behind.

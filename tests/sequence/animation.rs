@@ -4,33 +4,13 @@
 //! rendered alone, `--skip-existing` leaves existing files alone, bad `--frames` are refused.
 //! Each check has its negative.
 
+use crate::common::binary::{Outcome, run};
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 use cubetrace::film::PixelFilter;
 use cubetrace::scene::animation::{CameraKey, CameraTrack, MeshKey, MeshTrack};
 use cubetrace::scene::{self, builtin, export};
 use glam::Vec3;
-
-struct Outcome {
-    code: Option<i32>,
-    stdout: String,
-    stderr: String,
-}
-
-fn run(args: &[&str], cwd: &Path) -> Outcome {
-    let out = Command::new(env!("CARGO_BIN_EXE_cubetrace"))
-        .args(args)
-        .current_dir(cwd)
-        .env("XDG_RUNTIME_DIR", "/tmp")
-        .output()
-        .unwrap();
-    Outcome {
-        code: out.status.code(),
-        stdout: String::from_utf8_lossy(&out.stdout).into_owned(),
-        stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
-    }
-}
 
 fn ok(o: &Outcome) {
     assert_eq!(

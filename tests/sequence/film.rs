@@ -20,7 +20,7 @@ use cubetrace::camera::Camera;
 use cubetrace::film::{FilmSettings, PixelFilter, sample_offsets};
 use cubetrace::reference;
 use cubetrace::render::{FrameRenderer, RenderedFrame, samples};
-use cubetrace::scene::{self, Scene};
+use cubetrace::scene::Scene;
 use cubetrace::vk::GpuContext;
 use cubetrace::vk::frame::{Fallback, GpuFrame, GpuRenderer, RECORD_HIT, RenderOptions};
 use glam::{Vec2, Vec3};
@@ -29,11 +29,8 @@ const WIDTH: u32 = 40;
 const HEIGHT: u32 = 30;
 
 fn scene_and_camera(name: &str) -> (Scene, Camera) {
-    let mut s = scene::load(name).unwrap_or_else(|e| panic!("{e}"));
+    let (mut s, cam) = common::render::load_sized(name, (WIDTH, HEIGHT));
     s.cmo.resolution = 64;
-    let mut cam = s.camera(None).unwrap_or_else(|e| panic!("{e}")).clone();
-    cam.width = WIDTH;
-    cam.height = HEIGHT;
     (s, cam)
 }
 

@@ -18,8 +18,9 @@
 //!   bounds derived from measurement. Negatives: mirror ssr, and a lobe 4x too wide, fail the
 //!   same check. The claim repeated at 48x36 against 1024 spp is ignored by default (minutes).
 use crate::common;
+use crate::with_thin_panel;
 use common::bits::frame_bits;
-use common::render::first_frame;
+use common::render::{first_frame, load_sized};
 use common::{finish_gpu, gpu_context};
 
 use cubetrace::Method;
@@ -32,8 +33,7 @@ use cubetrace::cubemap::pyramid::mip_len;
 use cubetrace::film::{FilmSettings, PixelFilter};
 use cubetrace::lobe;
 use cubetrace::reference::Tracer;
-use cubetrace::scene::shapes::cuboid;
-use cubetrace::scene::{self, Material, MeshInstance, Scene, Transform, builtin};
+use cubetrace::scene::{Scene, builtin};
 use cubetrace::vk::GpuContext;
 use cubetrace::vk::backend::shaders::{SSR_BLUR, SSR_VISIBILITY};
 use cubetrace::vk::frame::{
@@ -56,13 +56,6 @@ const HEIGHT: u32 = 48;
 const CONE_TOLERANCE: f32 = 1e-3;
 const CONE_OUTLIERS: f64 = 0.02;
 const CONE_OUTLIER_TOLERANCE: f32 = 0.1;
-
-fn load(name: &str, size: (u32, u32)) -> (Scene, Camera) {
-    let s = scene::load(name).unwrap_or_else(|e| panic!("{e}"));
-    let mut cam = s.camera(None).unwrap_or_else(|e| panic!("{e}")).clone();
-    (cam.width, cam.height) = size;
-    (s, cam)
-}
 
 fn glossy(scene: &Scene, power: f32) -> Scene {
     let mut s = scene.clone();
@@ -156,7 +149,7 @@ fn shared_structs_match_naga_layout() {
 #[test]
 fn mirror_cap_keeps_the_mirrors_frame_and_creates_no_glossy_pass() {
     let ctx = gpu_context();
-    let (mirror, cam) = load("sphere-room", (32, 24));
+    let (mirror, cam) = load_sized("sphere-room", (32, 24));
     let mirror_frame = render(&ctx, &mirror, &cam);
     assert!(mirror_frame.cone.is_none());
     for power in [lobe::MIRROR_POWER, 5000.0] {
@@ -285,7 +278,7 @@ fn gpu_matches_cpu_twin_on_every_builtin_scene() {
     let ctx = gpu_context();
     for (name, _) in builtin::NAMES {
         for power in [0.0, 64.0] {
-            let (s, cam) = load(name, (WIDTH, HEIGHT));
+            let (s, cam) = load_sized(name, (WIDTH, HEIGHT));
             let r = render(&ctx, &glossy(&s, power), &cam);
             let (max, vis, chain) = r.cone.as_ref().expect("glossy passes");
             let t = twin(&r);
@@ -343,7 +336,7 @@ fn hard_cases() {
     let ctx = gpu_context();
     let mut edge_hits = 0;
     for name in ["default", "sphere-room", "torus"] {
-        let (s, cam) = load(name, (WIDTH, HEIGHT));
+        let (s, cam) = load_sized(name, (WIDTH, HEIGHT));
         let mirror = render(&ctx, &s, &cam);
         let g64 = render(&ctx, &glossy(&s, 64.0), &cam);
         let (w, h) = (WIDTH, HEIGHT);
@@ -442,7 +435,7 @@ fn ssr_scores(
     spp: u32,
     lobes: &[f32],
 ) -> (f64, Vec<f64>) {
-    let (s, cam) = load(name, size);
+    let (s, cam) = load_sized(name, size);
     let g = glossy(&s, power);
     let film = FilmSettings {
         spp,
@@ -522,26 +515,6 @@ fn psnr_against_the_converged_reference() {
     }
     assert!(failed.is_empty(), "{failed:#?}");
     finish_gpu(ctx);
-}
-
-/// sphere-room with a thin panel (2 cm, facing the camera) right of the sphere, well in front of
-/// the far wall (as `tests/ssr.rs`): rays from the sphere's right rim run behind it.
-fn with_thin_panel() -> Scene {
-    let mut scene = builtin::sphere_room();
-    let m = scene.materials.len() as u32;
-    scene.materials.push(Material {
-        name: "panel".into(),
-        diffuse: Vec3::new(0.9, 0.2, 0.6),
-        texture: None,
-        specular_power: None,
-    });
-    scene.meshes.push(MeshInstance {
-        name: "panel".into(),
-        parts: cuboid(Vec3::ZERO, Vec3::new(1.0, 1.1, 0.02), false, [m; 6], 1.0),
-        transform: Transform::translation(Vec3::new(1.5, 0.9, 0.0)),
-        reflector: false,
-    });
-    scene
 }
 
 #[test]
