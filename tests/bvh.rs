@@ -27,7 +27,7 @@ use cubetrace::scene::Scene;
 use cubetrace::scene::gpu_data::GpuSceneData;
 use cubetrace::vk::backend::shaders::{BVH_QUEUE, BVH_TRACE, FRAGMENT_TRACE};
 use cubetrace::vk::frame::{
-    Fallback, GpuFrame, GpuRenderer, PixelRecord, RECORD_ESCAPED, RECORD_HIT, RECORD_UNRESOLVED,
+    Fallback, GpuRenderer, PixelRecord, RECORD_ESCAPED, RECORD_HIT, RECORD_UNRESOLVED,
     RenderOptions,
 };
 use cubetrace::vk::passes::bvh::{
@@ -377,14 +377,13 @@ fn fallback_trace_finishes_every_unresolved_ray() {
         };
         let traced = render(Fallback::Trace);
         let from_t_done = render(Fallback::TraceFromTDone);
-        let unresolved = |f: &GpuFrame| {
-            (0..f.records.len())
-                .filter(|&k| f.mask[k] != 0 && f.records[k].status == RECORD_UNRESOLVED)
-                .count()
-        };
         let fallback = traced.fallback_pixels();
         for f in [&traced, &from_t_done] {
-            assert_eq!(unresolved(f), 0, "{name}: unresolved pixels left");
+            assert_eq!(
+                common::render::unresolved_pixels(f),
+                0,
+                "{name}: unresolved pixels left"
+            );
             let counter = f.bvh.expect("the trace fallback's counter");
             assert_eq!(counter.cut, 0, "{name}");
             assert_eq!(

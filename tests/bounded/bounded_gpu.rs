@@ -7,7 +7,7 @@
 //! triangle dropped), which must change the hits. Runs under the validation layer when
 //! installed and fails on any error it reports.
 use crate::common;
-use common::render::sized_camera;
+use common::render::{sized_camera, unresolved_pixels};
 use common::{finish_gpu, gpu_context};
 
 use cubetrace::Method;
@@ -450,9 +450,7 @@ fn the_walk_budget_ends_rays_as_the_twin_does() {
     for method in [Method::Fragment, Method::Compute] {
         let (f, from) = render_from(&ctx, &s, method, &lists);
         let (bad, compared) = twin.differences(&f, &from, true);
-        let spent = (0..f.records.len())
-            .filter(|&k| f.mask[k] != 0 && f.records[k].status == RECORD_UNRESOLVED)
-            .count();
+        let spent = unresolved_pixels(&f);
         let (off, _) = unlimited.differences(&f, &from, true);
         eprintln!(
             "{method}: {spent} of {compared} rays unresolved; {bad} differ from the twin, {off} from the twin without the budget"

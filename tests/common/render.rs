@@ -5,7 +5,7 @@ use cubetrace::Method;
 use cubetrace::camera::Camera;
 use cubetrace::cpu::options::{TraceCriterion, TraceOptions};
 use cubetrace::scene::Scene;
-use cubetrace::vk::frame::{GpuFrame, GpuRenderer, RenderOptions};
+use cubetrace::vk::frame::{GpuFrame, GpuRenderer, RECORD_UNRESOLVED, RenderOptions};
 use cubetrace::vk::{GpuContext, VkResult};
 
 /// The options of `method` under `criterion`, the others the library's defaults.
@@ -18,6 +18,13 @@ pub fn criterion_options(method: Method, criterion: TraceCriterion) -> RenderOpt
         },
         ..RenderOptions::default()
     }
+}
+
+/// The mirror pixels of `frame` whose record is unresolved.
+pub fn unresolved_pixels(frame: &GpuFrame) -> usize {
+    (0..frame.records.len())
+        .filter(|&k| frame.mask[k] != 0 && frame.records[k].status == RECORD_UNRESOLVED)
+        .count()
 }
 
 /// `scene`'s first camera at `size` (width, height).
