@@ -8,6 +8,14 @@
 //! - `stress_capture`: the stress scenes themselves, and the exact criterion missing their thin
 //!   parts.
 
+mod common;
+#[allow(dead_code)]
+#[path = "common/quality.rs"]
+mod quality;
+#[allow(dead_code)]
+#[path = "common/stress.rs"]
+mod stress;
+
 #[path = "bounded/bounded_cpu.rs"]
 mod bounded_cpu;
 #[path = "bounded/bounded_frame.rs"]
@@ -16,12 +24,5 @@ mod bounded_frame;
 mod bounded_gpu;
 #[path = "bounded/capture_lists.rs"]
 mod capture_lists;
-mod common;
-#[allow(dead_code)]
-#[path = "common/quality.rs"]
-mod quality;
-#[allow(dead_code)]
-#[path = "common/stress.rs"]
-mod stress;
 #[path = "bounded/stress_capture.rs"]
 mod stress_capture;

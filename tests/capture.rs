@@ -8,6 +8,7 @@
 //! - `depth_range`: a scene spanning 1e-3 to 1e5 on both GPU paths, and one beyond f32 refused.
 
 mod common;
+
 #[path = "capture/depth_range.rs"]
 mod depth_range;
 #[path = "capture/gpu_pyramid.rs"]

@@ -6,10 +6,11 @@
 //! slurm|k8s` and `--shard`).
 
 mod common;
-use common::binary::{Outcome, run, run_env};
+
 #[path = "cli/scale_out.rs"]
 mod scale_out;
 
+use common::binary::{Outcome, run, run_env};
 use std::path::Path;
 
 use cubetrace::Method;

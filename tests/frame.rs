@@ -8,11 +8,12 @@
 //! - `reflector_check`: the exact check of the reflectors the CMOs do not capture;
 //! - `scene_sparse`: no mesh, no reflector, a reflector alone, on every GPU method.
 
+mod common;
+
 #[path = "frame/aov.rs"]
 mod aov;
 #[path = "frame/budget.rs"]
 mod budget;
-mod common;
 #[path = "frame/gpu_bounce.rs"]
 mod gpu_bounce;
 #[path = "frame/reflector_check.rs"]

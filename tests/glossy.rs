@@ -18,8 +18,10 @@
 //! This crate also holds, each in its module of `tests/glossy/`: `glossy_cone` (cone tracing on the
 //! cube maps: the pre-filtered chain and the cone lookups against their CPU twins).
 mod common;
+
 #[path = "glossy/glossy_cone.rs"]
 mod glossy_cone;
+
 use common::bits::{frame_bits, vec3_bits};
 use common::render::first_frame;
 use common::render_args as args;

@@ -53,12 +53,14 @@
 //! corpus of `tests/scenes/` on every GPU method) and `fuzz_inputs` (fixed-seed fuzzing of extreme
 //! and malformed scene inputs through the binary, every method).
 mod common;
-#[path = "hard_cases/corpus.rs"]
-mod corpus;
 #[path = "common/fuzz_cases.rs"]
 mod fuzz_cases;
+
+#[path = "hard_cases/corpus.rs"]
+mod corpus;
 #[path = "hard_cases/fuzz_inputs.rs"]
 mod fuzz_inputs;
+
 use common::render::{first_frame, sized_camera};
 use common::{finish_gpu, gpu_context, meets};
 

@@ -8,6 +8,7 @@
 //! JSON).
 
 mod common;
+
 #[path = "model/model_dynamic.rs"]
 mod model_dynamic;
 #[path = "model/model_harness.rs"]

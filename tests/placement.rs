@@ -2,8 +2,9 @@
 //! (`cmo_placement`), and placement by default on corpus scenes and sequences
 //! (`placement_default`).
 
+mod common;
+
 #[path = "placement/cmo_placement.rs"]
 mod cmo_placement;
-mod common;
 #[path = "placement/placement_default.rs"]
 mod placement_default;

@@ -9,6 +9,7 @@
 //! - `self_reflections`: the per-reflector `self_reflections` override and its `auto`.
 
 mod common;
+
 #[path = "scene/fuzz_scene.rs"]
 mod fuzz_scene;
 #[path = "scene/scene_export.rs"]

@@ -3,9 +3,10 @@
 //! whose meshes move in place (`sequence_inplace`). Each frame is bit for bit the frame rendered
 //! alone.
 
+mod common;
+
 #[path = "sequence/animation.rs"]
 mod animation;
-mod common;
 #[path = "sequence/film.rs"]
 mod film;
 #[path = "sequence/sequence_inplace.rs"]

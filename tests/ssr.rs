@@ -10,8 +10,10 @@
 //! This crate also holds, each in its module of `tests/ssr/`: `glossy_ssr` (`--method ssr` on
 //! glossy reflectors: the Hi-Z chapter's cone tracing).
 mod common;
+
 #[path = "ssr/glossy_ssr.rs"]
 mod glossy_ssr;
+
 use common::render::{first_frame, sized_camera, unresolved_pixels};
 use common::{finish_gpu, gpu_context};
 

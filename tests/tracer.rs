@@ -13,6 +13,7 @@
 //!   reflector with inward normals).
 
 mod common;
+
 #[path = "tracer/cpu_trace.rs"]
 mod cpu_trace;
 #[path = "tracer/gpu_twin.rs"]

@@ -2,6 +2,13 @@
 //! reported nothing; closed-form intersections for synthetic scenes ([`analytic`]); values as
 //! bits for bit-for-bit comparisons ([`bits`]); one GPU frame of a scene ([`render`]); the built
 //! binary run in a folder ([`binary`]).
+//!
+//! The suites are one crate per method (`tests/compute.rs`, `fragment`, which holds `envmap`,
+//! `ssr`, `reflection_point`, `bvh`, `reference`) and one per shared concern (`tracer`,
+//! `capture`, `bounded`, `frame`, `hard_cases`, `scene`, `placement`, `sequence`, `glossy`,
+//! `bench`, `cli`, `model`, `vk_backbone`, `layout`, `records`). Crate `NAME` is `tests/NAME.rs`;
+//! the files it gathers are its modules in `tests/NAME/`, and its doc says what each holds. A
+//! helper two crates need lives here, once.
 // Each test crate compiles this module and uses only part of it.
 #![allow(dead_code)]
 
