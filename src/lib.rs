@@ -125,7 +125,7 @@
 //!   fail there.
 //! - **Every comparison has a negative**: a moved CMO centre, a shifted triangle ID, a turned
 //!   normal must make it fail. The GPU tests run under the validation layer when installed.
-//! - **Real scenes** (`tests/corpus.rs`): ten scenes built from public meshes as their exporters
+//! - **Real scenes** (`tests/hard_cases/corpus.rs`): ten scenes built from public meshes as their exporters
 //!   wrote them (`tests/scenes/`, provenance and licences in its `PROVENANCE.md`: an interior in
 //!   centimetres, a 117k-triangle truck, CAD plates in millimetres, a robot link, an open mug,
 //!   slivers and collinear n-gons, Blender's negative `Ns` and JPEG textures, a room 3.9 km out,

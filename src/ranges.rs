@@ -52,8 +52,8 @@
 //! 4.2e5 5.8%, and at 1.05e6 32%: the image turns to noise. (Before the G-buffer recomputed its
 //! start points on the pixel-centre ray, 1.05e5 was already 26%: the rasteriser's interpolated
 //! positions are coarser than f32 rounding.) [`FrameRanges::check`] refuses such a scene with
-//! the numbers (`tests/depth_range.rs`). Distances are squared in f32 by the tracer: an extent over 2^60 is
-//! refused too.
+//! the numbers (`tests/capture/depth_range.rs`). Distances are squared in f32 by the tracer: an
+//! extent over 2^60 is refused too.
 use glam::Vec3;
 
 use crate::camera::Camera;

@@ -23,11 +23,11 @@ use cubetrace::camera::Camera;
 use cubetrace::check_layout;
 use cubetrace::metrics;
 use cubetrace::reference::{self, NO_ID, Tracer, reflect};
+use cubetrace::scene::Scene;
 use cubetrace::scene::gpu_data::GpuSceneData;
-use cubetrace::scene::{self, Scene};
 use cubetrace::vk::backend::shaders::{BVH_QUEUE, BVH_TRACE, FRAGMENT_TRACE};
 use cubetrace::vk::frame::{
-    Fallback, GpuFrame, GpuRenderer, PixelRecord, RECORD_ESCAPED, RECORD_HIT, RECORD_UNRESOLVED,
+    Fallback, GpuRenderer, PixelRecord, RECORD_ESCAPED, RECORD_HIT, RECORD_UNRESOLVED,
     RenderOptions,
 };
 use cubetrace::vk::passes::bvh::{
@@ -41,11 +41,7 @@ use gpu_allocator::MemoryLocation;
 const SCENES: [&str; 5] = ["default", "sphere-room", "teapot", "torus", "bowl"];
 
 fn load(name: &str, width: u32, height: u32) -> (Scene, Camera) {
-    let s = scene::load(name).unwrap_or_else(|e| panic!("{name}: {e}"));
-    let mut cam = s.camera(None).unwrap_or_else(|e| panic!("{e}")).clone();
-    cam.width = width;
-    cam.height = height;
-    (s, cam)
+    common::render::load_sized(name, (width, height))
 }
 
 #[test]
@@ -372,7 +368,7 @@ fn fallback_trace_finishes_every_unresolved_ray() {
                 method: Method::Compute,
                 fallback,
                 // The fallback alone: the reflector check also hands the fallback the rays whose
-                // cubemap hit is at their own start (tests/reflector_check.rs).
+                // cubemap hit is at their own start (tests/frame/reflector_check.rs).
                 reflector_check: false,
                 ..RenderOptions::default()
             };
@@ -381,14 +377,13 @@ fn fallback_trace_finishes_every_unresolved_ray() {
         };
         let traced = render(Fallback::Trace);
         let from_t_done = render(Fallback::TraceFromTDone);
-        let unresolved = |f: &GpuFrame| {
-            (0..f.records.len())
-                .filter(|&k| f.mask[k] != 0 && f.records[k].status == RECORD_UNRESOLVED)
-                .count()
-        };
         let fallback = traced.fallback_pixels();
         for f in [&traced, &from_t_done] {
-            assert_eq!(unresolved(f), 0, "{name}: unresolved pixels left");
+            assert_eq!(
+                common::render::unresolved_pixels(f),
+                0,
+                "{name}: unresolved pixels left"
+            );
             let counter = f.bvh.expect("the trace fallback's counter");
             assert_eq!(counter.cut, 0, "{name}");
             assert_eq!(

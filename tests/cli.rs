@@ -1,42 +1,22 @@
 //! The command line as a user meets it: the built binary run in a temporary folder, on small
 //! frames. Output paths, refusals before the render, messages. Every check has its negative
 //! side: the same command with the problem removed must pass.
+//!
+//! This crate also holds, each in its module of `tests/cli/`: `scale_out` (`cubetrace farm
+//! slurm|k8s` and `--shard`).
 
 mod common;
 
+#[path = "cli/scale_out.rs"]
+mod scale_out;
+
+use common::binary::{Outcome, run, run_env};
 use std::path::Path;
-use std::process::Command;
 
 use cubetrace::Method;
 use cubetrace::scene::{builtin, export};
 use cubetrace::vk::budget;
 use cubetrace::vk::frame::{Fallback, GpuRenderer, RenderOptions};
-
-struct Outcome {
-    code: Option<i32>,
-    stdout: String,
-    stderr: String,
-}
-
-fn run_env(args: &[&str], cwd: &Path, env: &[(&str, &str)]) -> Outcome {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_cubetrace"));
-    cmd.args(args)
-        .current_dir(cwd)
-        .env("XDG_RUNTIME_DIR", "/tmp");
-    for (k, v) in env {
-        cmd.env(k, v);
-    }
-    let out = cmd.output().unwrap();
-    Outcome {
-        code: out.status.code(),
-        stdout: String::from_utf8_lossy(&out.stdout).into_owned(),
-        stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
-    }
-}
-
-fn run(args: &[&str], cwd: &Path) -> Outcome {
-    run_env(args, cwd, &[])
-}
 
 /// Every file under `dir`, relative, sorted.
 fn files(dir: &Path) -> Vec<String> {

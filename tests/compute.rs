@@ -14,7 +14,7 @@
 mod common;
 use common::bits::cell_bits;
 use common::render::first_frame;
-use common::{finish_gpu, gpu_context};
+use common::{distance_cube, finish_gpu, gpu_context};
 
 use std::cell::Cell;
 use std::path::{Path, PathBuf};
@@ -68,11 +68,8 @@ fn compute_context() -> GpuContext {
 }
 
 fn compute_scene(name: &str, cube_size: u32) -> (Scene, Camera) {
-    let mut s = scene::load(name).unwrap_or_else(|e| panic!("{name}: {e}"));
+    let (mut s, cam) = common::render::load_sized(name, (WIDTH, HEIGHT));
     s.cmo.resolution = cube_size;
-    let mut cam = s.camera(None).unwrap_or_else(|e| panic!("{e}")).clone();
-    cam.width = WIDTH;
-    cam.height = HEIGHT;
     (s, cam)
 }
 
@@ -87,7 +84,7 @@ fn compute_render(
         trace: TraceOptions::default(),
         fallback: Fallback::Flag,
         // The twins model the tracing pass alone; the reflector check, which runs after it, is
-        // judged in tests/reflector_check.rs.
+        // judged in tests/frame/reflector_check.rs.
         reflector_check: false,
         ..RenderOptions::default()
     };
@@ -163,31 +160,12 @@ fn compute_struct_layouts_match_naga() {
     .unwrap();
 }
 
-/// Deterministic distances in [0.5, 64.5), about 1 texel in 11 +inf, and face `inf_face` all
-/// +inf.
-fn hier_cube(size: u32, seed: u64, inf_face: Option<u32>) -> CubeMap {
-    let mut c = CubeMap::new(size, Vec3::ZERO);
-    let mut s = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
-    c.fill(|t, _| {
-        s = s
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(1_442_695_040_888_963_407);
-        let d = if Some(t.face) == inf_face || (s >> 33).is_multiple_of(11) {
-            f32::INFINITY
-        } else {
-            0.5 + (s >> 40) as f32 / (1u64 << 24) as f32 * 64.0
-        };
-        (d, [0.0; 4])
-    });
-    c
-}
-
 #[test]
 fn hier32_gpu_matches_cpu_bit_for_bit() {
     let ctx = compute_context();
     for size in [1u32, 3, 4, 5, 32, 33, 48, 64, 100, 128, 256, 1000] {
-        let a = hier_cube(size, u64::from(size), None);
-        let b = hier_cube(size, u64::from(size) + 77, Some(size % 6));
+        let a = distance_cube(size, u64::from(size), None);
+        let b = distance_cube(size, u64::from(size) + 77, Some(size % 6));
         let cubes = vec![a, b];
         let gpu = build_hier_gpu(&ctx, &cubes).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(gpu.len(), 2);
@@ -208,7 +186,7 @@ fn hier32_gpu_matches_cpu_bit_for_bit() {
 fn hier32_comparison_detects_a_changed_texel() {
     let ctx = compute_context();
     for size in [33u32, 64] {
-        let cube = hier_cube(size, 5, None);
+        let cube = distance_cube(size, 5, None);
         let gpu =
             build_hier_gpu(&ctx, std::slice::from_ref(&cube)).unwrap_or_else(|e| panic!("{e}"));
         // Lower one finite texel below every other: its cells' minimum changes on every level.

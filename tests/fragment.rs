@@ -49,7 +49,7 @@ fn options(method: Method, trace: TraceOptions) -> RenderOptions {
         method,
         trace,
         // The twins model the tracing pass alone; the reflector check, which runs after it, is
-        // judged in tests/reflector_check.rs.
+        // judged in tests/frame/reflector_check.rs.
         reflector_check: false,
         fallback: Fallback::Envmap,
         ..RenderOptions::default()
@@ -112,7 +112,7 @@ fn twin_disagreements(
         let r = twin(Vec3::from_array(rec.origin), Vec3::from_array(rec.dir));
         let t = r.texel;
         // Colours of verified hits are shaded at the hit (`hit_shade` and `Tracer::shade`,
-        // within 2.4e-7 of each other: tests/gpu_verify.rs); others are the same bits.
+        // within 2.4e-7 of each other: tests/tracer/gpu_verify.rs); others are the same bits.
         let colour_same = if r.triangle != u32::MAX {
             (r.colour - Vec3::from_array(rec.colour))
                 .abs()
@@ -150,8 +150,8 @@ fn twins(ctx: &GpuContext, r: &GpuRenderer, opts: &TraceOptions) -> Vec<CmoTrace
 
 /// The exact criterion on the GPU and on the CPU twin, over the same captured cube maps and
 /// the same rays, agree on every mirror pixel of every built-in scene: status, deciding CMO,
-/// texel and riser flag. (tests/gpu_twin.rs shows the tracers bit-identical on synthetic data;
-/// this checks the frame around them: the captured data, the pyramid the GPU built, the ray
+/// texel and riser flag. (tests/tracer/gpu_twin.rs shows the tracers bit-identical on synthetic
+/// data; this checks the frame around them: the captured data, the pyramid the GPU built, the ray
 /// each pixel traces, and the ray length.) The bound is zero disagreements: lavapipe does not
 /// contract multiply-adds, so the f32 arithmetic is the same.
 #[test]
@@ -639,8 +639,8 @@ fn gpu_ray_comparison_rejects_a_shifted_pixel_and_face_normals() {
 /// (`cpu::fragment::envmap_fallback`), on every unresolved mirror pixel of frames whose
 /// capture holds no colour: the compute and fragment paths (exact criterion) and screen-space
 /// reflections, whose unresolved pixels are many. Colours within 1e-5 per channel (the shading
-/// of a hit agrees to 2.4e-7: tests/gpu_verify.rs). Negative: a twin reading IDs shifted by one
-/// triangle disagrees.
+/// of a hit agrees to 2.4e-7: tests/tracer/gpu_verify.rs). Negative: a twin reading IDs shifted
+/// by one triangle disagrees.
 #[test]
 fn envmap_fallback_shades_from_triangle_ids_as_its_cpu_twin() {
     let ctx = gpu_context();

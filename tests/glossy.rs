@@ -14,7 +14,14 @@
 //!   the frame; a wrong lobe (power 4x, or none: the mirror) stays far from the truth.
 //! - `bvh` draws the reference's directions (same hits at one sample) and its frame converges to
 //!   the converged reference; a wrong exponent (4x) does not.
+//!
+//! This crate also holds, each in its module of `tests/glossy/`: `glossy_cone` (cone tracing on the
+//! cube maps: the pre-filtered chain and the cone lookups against their CPU twins).
 mod common;
+
+#[path = "glossy/glossy_cone.rs"]
+mod glossy_cone;
+
 use common::bits::{frame_bits, vec3_bits};
 use common::render::first_frame;
 use common::render_args as args;
@@ -35,12 +42,7 @@ const HEIGHT: u32 = 24;
 
 /// A built-in scene at 32x24 with small CMOs, and its camera.
 fn small(name: &str) -> (Scene, Camera) {
-    let mut s = scene::load(name).unwrap_or_else(|e| panic!("{e}"));
-    s.cmo.resolution = 32;
-    let mut cam = s.camera(None).unwrap_or_else(|e| panic!("{e}")).clone();
-    (cam.width, cam.height) = (WIDTH, HEIGHT);
-    s.cameras = vec![cam.clone()];
-    (s, cam)
+    common::render::scene_at(name, 32, None, (WIDTH, HEIGHT))
 }
 
 /// The scene with every reflector's material at specular power `power`.
@@ -124,7 +126,7 @@ fn mirror_cap_is_the_mirrors_frame_for_every_method() {
         let warning = glossy::method_warning(&glossy, method, 1);
         assert_eq!(glossy::method_warning(&mirror, method, 1), None, "{method}");
         if matches!(method, Method::Fragment | Method::Compute) {
-            // Cone traced (tests/glossy_cone.rs): another frame, no warning.
+            // Cone traced (tests/glossy/glossy_cone.rs): another frame, no warning.
             assert!(
                 mirror_bits != on_glossy,
                 "negative: {method} cone traces the lobe"
@@ -133,7 +135,7 @@ fn mirror_cap_is_the_mirrors_frame_for_every_method() {
             let over = glossy::method_warning(&glossy, method, 2).unwrap_or_default();
             assert!(over.contains("--bounces 2"), "{over}");
         } else if method == Method::Ssr {
-            // ssr cone traces the lobe (tests/glossy_ssr.rs).
+            // ssr cone traces the lobe (tests/ssr/glossy_ssr.rs).
             assert!(mirror_bits != on_glossy, "negative: ssr renders the lobe");
             assert_eq!(warning, None);
         } else if method == Method::Bvh {

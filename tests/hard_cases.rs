@@ -1,8 +1,8 @@
 //! Hard cases for the whole GPU frame (`GpuRenderer`), scene by scene. The ray-level cases
 //! (rays through or within 1e-6 of a CMO centre, along cube edges, through corners, crossing
 //! four faces, parallel to face and cell planes, origins on boundaries) are in
-//! `tests/cpu_trace.rs` (CPU) and `tests/gpu_twin.rs` (`special_rays`: the GPU matches the CPU
-//! bit for bit on them); this file adds what only a frame shows.
+//! `tests/tracer/cpu_trace.rs` (CPU) and `tests/tracer/gpu_twin.rs` (`special_rays`: the GPU
+//! matches the CPU bit for bit on them); this file adds what only a frame shows.
 //!
 //! The judge is **the same ray**: each mirror pixel's record holds the GPU's reflected ray
 //! (`origin`, `dir`); the exact CPU tracer follows that very ray through the scene's
@@ -48,7 +48,19 @@
 //! last is the one case where strict mode removes wrong hits
 //! (`strict_mode_removes_unseen_occluder_hits_at_cube_size_3`), so it stays; everywhere else it
 //! only adds unresolved pixels.
+//!
+//! This crate also holds, each in its module of `tests/hard_cases/`: `corpus` (the real-scene
+//! corpus of `tests/scenes/` on every GPU method) and `fuzz_inputs` (fixed-seed fuzzing of extreme
+//! and malformed scene inputs through the binary, every method).
 mod common;
+#[path = "common/fuzz_cases.rs"]
+mod fuzz_cases;
+
+#[path = "hard_cases/corpus.rs"]
+mod corpus;
+#[path = "hard_cases/fuzz_inputs.rs"]
+mod fuzz_inputs;
+
 use common::render::{first_frame, sized_camera};
 use common::{finish_gpu, gpu_context, meets};
 
@@ -123,7 +135,7 @@ fn render_with(
         fallback: Fallback::Flag,
         // The judge follows the cubemap trace's model (the non-reflector triangles); the
         // reflector check, which adds hits on the reflectors, is judged against the whole
-        // reference in tests/reflector_check.rs.
+        // reference in tests/frame/reflector_check.rs.
         reflector_check: false,
         ..RenderOptions::default()
     };

@@ -2,8 +2,17 @@
 //! efficiency, the two modes, the counters against the twins' own, and the BVH twin against the
 //! GPU's `bvh_trace` ray for ray (on lavapipe, under the validation layer). Tiny scenes
 //! (sphere-room at 32x24, cube 32; the BVH comparison every built-in scene at 64x48).
+//!
+//! This crate also holds, each in its module of `tests/model/`: `model_dynamic` (the dynamic block
+//! weights) and `model_harness` (SPIR-V block weights, the validation split, `bench --model`'s
+//! JSON).
 
 mod common;
+
+#[path = "model/model_dynamic.rs"]
+mod model_dynamic;
+#[path = "model/model_harness.rs"]
+mod model_harness;
 
 use cubetrace::Method;
 use cubetrace::model::bvh::{self, BvhOut};

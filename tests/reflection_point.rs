@@ -7,7 +7,7 @@
 //! The twin reads what the GPU read: the reflector textures T_P and T_N and the search's
 //! parameters, read back after the frame, and the scene's vertices.
 mod common;
-use common::render::{first_frame, sized_camera};
+use common::render::{first_frame, sized_camera, unresolved_pixels};
 use common::{finish_gpu, gpu_context};
 
 use cubetrace::Method;
@@ -22,7 +22,7 @@ use cubetrace::scene::{Scene, builtin};
 use cubetrace::vk::GpuContext;
 use cubetrace::vk::backend::shaders::{REFLECTION_POINT_RASTER, REFLECTION_POINT_SEARCH};
 use cubetrace::vk::frame::shown_objects;
-use cubetrace::vk::frame::{Fallback, GpuFrame, GpuRenderer, RECORD_UNRESOLVED, RenderOptions};
+use cubetrace::vk::frame::{Fallback, GpuFrame, GpuRenderer, RenderOptions};
 use cubetrace::vk::methods::reflection_point::{RpCamera, RpParams};
 use glam::Vec3;
 
@@ -326,10 +326,7 @@ fn error_against_the_reference_per_builtin_scene() {
             let flip = cubetrace::bench::flip_mean(&reference, &traced);
             let (total, share, _, interior) = same_surface(&scene, &reference, &r.frame);
             let mirror = r.frame.mirror_pixels() as f64;
-            let unresolved = (0..r.frame.records.len())
-                .filter(|&k| r.frame.mask[k] != 0 && r.frame.records[k].status == RECORD_UNRESOLVED)
-                .count() as f64
-                / mirror;
+            let unresolved = unresolved_pixels(&r.frame) as f64 / mirror;
             let stats = r.frame.search.unwrap();
             eprintln!(
                 "{name} subdivided {level}: unresolved {:.1}%, wrong surface {:.1}%, PSNR {:.2} dB, \

@@ -6,8 +6,15 @@
 //! The twin reads what the GPU read: the G-buffer (world position, colour) and each record's
 //! reflected ray; it rebuilds the depth keys and the pyramid itself and runs the same traversal.
 //! Agreement is exact (bit for bit: outcome, hit pixel, iterations, final depth, colour, point).
+//!
+//! This crate also holds, each in its module of `tests/ssr/`: `glossy_ssr` (`--method ssr` on
+//! glossy reflectors: the Hi-Z chapter's cone tracing).
 mod common;
-use common::render::{first_frame, sized_camera};
+
+#[path = "ssr/glossy_ssr.rs"]
+mod glossy_ssr;
+
+use common::render::{first_frame, sized_camera, unresolved_pixels};
 use common::{finish_gpu, gpu_context};
 
 use cubetrace::Method;
@@ -525,10 +532,7 @@ fn error_against_the_reference_per_builtin_scene() {
         );
         let flip = cubetrace::bench::flip_mean(&reference, &traced);
         let mirror = r.frame.mirror_pixels() as f64;
-        let unresolved = (0..r.frame.records.len())
-            .filter(|&k| r.frame.mask[k] != 0 && r.frame.records[k].status == RECORD_UNRESOLVED)
-            .count() as f64
-            / mirror;
+        let unresolved = unresolved_pixels(&r.frame) as f64 / mirror;
         eprintln!(
             "{name}: unresolved {:.1}%, wrong surface {:.1}%, PSNR {:.2} dB, FLIP {flip:?}",
             100.0 * report.unresolved,

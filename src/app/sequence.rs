@@ -23,7 +23,7 @@
 //! - Each frame is the scene at that frame ([`Scene::at_frame`]) seen by the chosen camera at
 //!   the frame's time, rendered by one [`FrameRenderer`] for the whole run (the capture is
 //!   reused where only the camera moved); a frame within a sequence is byte-identical to the
-//!   same frame rendered alone (`tests/animation.rs`). `-v` logs whether each frame captured.
+//!   same frame rendered alone (`tests/sequence/animation.rs`). `-v` logs whether each frame captured.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;

@@ -42,8 +42,8 @@
 //! - **Occlusion**: where the 2x2 min/max pyramid shows a surface in front of the hit's
 //!   distance minus the cone's radius inside the footprint, the level is capped at the coarsest
 //!   level without one ([`cone_visible_level`]); that surface, seen from the CMO, need not be in
-//!   the cone. Measured (`tests/glossy_cone.rs`, `occlusion_and_horizon_measured`): the cap and
-//!   the below-the-surface darkening each move PSNR by less than 0.5 dB either way.
+//!   the cone. Measured (`tests/glossy/glossy_cone.rs`, `occlusion_and_horizon_measured`): the cap
+//!   and the below-the-surface darkening each move PSNR by less than 0.5 dB either way.
 //! - **Below the surface**: the part of the cone below the reflector's plane is absorbed, as the
 //!   reference's samples are: the colour is scaled by `1 - clamp((theta - beta) / (2 theta), 0,
 //!   1/2)`, `beta` the axis's elevation.

@@ -4,7 +4,7 @@
 //!
 //! Invariant: [`trace_ray`] is the CPU twin of the WGSL `trace_ray`: for the same CMOs (built
 //! with [`TraceOptions::params`]) and the same options, the GPU must give the same status, CMO,
-//! texel and riser flag, and (see `tests/gpu_twin.rs`) the same `t` and point bits.
+//! texel and riser flag, and (see `tests/tracer/gpu_twin.rs`) the same `t` and point bits.
 
 use glam::Vec3;
 

@@ -4,7 +4,7 @@
 //! pre-convolved colour chain) and `spirv/ssr_cone.wgsl` ([`cone_colour`]: the cone tracing after
 //! [`super::ssr::trace`]). The same loops with the same f32 operations in the same order, so that
 //! the pyramids and the chain compare bit for bit; the cone's colour depends on the device's
-//! `tan`, `acos`, `exp2` and `log2` (`tests/glossy_ssr.rs` states the tolerance).
+//! `tan`, `acos`, `exp2` and `log2` (`tests/ssr/glossy_ssr.rs` states the tolerance).
 //!
 //! Every buffer has the min pyramid's levels ([`super::ssr::hiz_levels`]).
 //!

@@ -2,7 +2,7 @@
 //! Watertight ray-triangle intersection (Woop, Benthin and Wald, "Watertight Ray/Triangle
 //! Intersection", JCGT 2(1), 2013), single precision, the CPU twin of
 //! `spirv/shared/watertight.wgsl`: the same operations in the same order, so that both give the
-//! same bits (checked on the device by `tests/gpu_verify.rs`).
+//! same bits (checked on the device by `tests/tracer/gpu_verify.rs`).
 //!
 //! The ray is translated to the origin and sheared so that it runs along the local `+z` axis
 //! (`kz` its dominant axis; `kx`, `ky` the next two, swapped when `d[kz] < 0` to keep the

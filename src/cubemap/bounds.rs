@@ -89,8 +89,8 @@
 //! - Inputs must be finite (the scene loader refuses others); `R` in the normal range.
 //! - Other drivers: Vulkan lets division round to 2.5 ulp and `sqrt` inherit `inversesqrt`'s
 //!   precision, and a driver may fuse `a * b + c`. The GPU's bits may then differ from this
-//!   twin's (lavapipe's do not: `tests/capture_lists.rs`), but the bounds stay sound: a few ulps
-//!   more in `s` (a shifted plane), in `u = x / z` (inside `2^-20`) and in `|w|` (`<= 9 u R`)
+//!   twin's (lavapipe's do not: `tests/bounded/capture_lists.rs`), but the bounds stay sound: a few
+//!   ulps more in `s` (a shifted plane), in `u = x / z` (inside `2^-20`) and in `|w|` (`<= 9 u R`)
 //!   still fit the `16 u R` left in `E`.
 //! - The error terms above are first-order (products of two `u` are dropped); the budget keeps a
 //!   factor `64 / 48` for them.
@@ -129,8 +129,8 @@ use super::texel_cone::{TexelCone, edges, texel_cone, tile_outside};
 /// Entries kept per texel by default. Every entry is a node of the GPU's pool whatever the
 /// depth: the depth bounds only the sorted prefix the tracer reads (and the resolve's
 /// `depth x list` selection), so it costs time, not memory. At 16, a texel crossing a fence or
-/// a dense mesh overflowed and the ray went unresolved (`tests/bounded_frame.rs` at cube size
-/// 32: 35 of 1027 fence pixels, 56 of 1102 bunny pixels); at 64, 0 and 9.
+/// a dense mesh overflowed and the ray went unresolved (`tests/bounded/bounded_frame.rs` at cube
+/// size 32: 35 of 1027 fence pixels, 56 of 1102 bunny pixels); at 64, 0 and 9.
 pub const DEFAULT_DEPTH: u32 = 64;
 
 /// Vertices a clipped polygon holds (fixed arrays, as in a shader): a triangle clipped by four

@@ -61,7 +61,7 @@
 //! fitted per scene, cube size or subgroup size, and the block weights are not fitted at all
 //! (they are instruction counts). One global pair over every method is fitted too and its
 //! held-out score reported beside ([`Validation::global`]). [`fit`] reads the training rows
-//! alone, which tests/model_harness.rs checks by perturbing a held-out row.
+//! alone, which tests/model/model_harness.rs checks by perturbing a held-out row.
 //!
 //! # A missed row
 //! Where a held-out row misses the target, [`RowResult::miss`] names the block whose share of

@@ -16,8 +16,8 @@
 //!   in-place update cannot take the new scene (it says why, logged at debug level): a new
 //!   renderer is built on the same device.
 //!
-//! Either way the frame is bit for bit the frame rendered alone (`tests/film.rs`,
-//! `tests/sequence_inplace.rs`). The samples of one frame share its capture: only the first
+//! Either way the frame is bit for bit the frame rendered alone (`tests/sequence/film.rs`,
+//! `tests/sequence/sequence_inplace.rs`). The samples of one frame share its capture: only the first
 //! sample of a frame can capture. The reference rebuilds its tracer wherever the scene changed
 //! but for its cameras.
 

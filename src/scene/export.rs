@@ -1,6 +1,6 @@
 //! Writes a scene out as `scene.toml` plus one OBJ per mesh, one MTL and PNG textures. Floats
 //! are written in Rust's shortest round-trip form, so loading the export gives back the same
-//! numbers bit for bit (tests/scene_export.rs renders every built-in and its export and finds
+//! numbers bit for bit (tests/scene/scene_export.rs renders every built-in and its export and finds
 //! the frames byte-identical).
 //!
 //! Each file is written atomically (a temporary file renamed into place), `scene.toml` last, so

@@ -1,9 +1,9 @@
-//! The scenes of `tests/fuzz_inputs.rs`: small scene folders (scene.toml, OBJ and MTL) drawn
-//! with a fixed seed, each of one [`Category`] of extreme but legal (or plainly wrong) inputs,
-//! with what a refusal of it must name. The categories are the inputs that once broke a method
-//! (far and huge triangles, an eye or a CMO centre in a surface's plane, inward normals) and
-//! what exporters write (sliver triangles, n-gons with collinear or repeated corners, a far
-//! offset, an `up` vector along the view).
+//! The scenes of `tests/hard_cases/fuzz_inputs.rs`: small scene folders (scene.toml, OBJ and MTL)
+//! drawn with a fixed seed, each of one [`Category`] of extreme but legal (or plainly wrong)
+//! inputs, with what a refusal of it must name. The categories are the inputs that once broke a
+//! method (far and huge triangles, an eye or a CMO centre in a surface's plane, inward normals) and
+//! what exporters write (sliver triangles, n-gons with collinear or repeated corners, a far offset,
+//! an `up` vector along the view).
 use glam::{DVec3, Vec3};
 
 /// What kind of input a case is. Every category appears in every pass ([`categories`]).

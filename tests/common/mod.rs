@@ -1,18 +1,37 @@
 //! Shared by the test suites: a GPU context under the validation layer and the check that it
 //! reported nothing; closed-form intersections for synthetic scenes ([`analytic`]); values as
-//! bits for bit-for-bit comparisons ([`bits`]); one GPU frame of a scene ([`render`]).
+//! bits for bit-for-bit comparisons ([`bits`]); one GPU frame of a scene ([`render`]); the built
+//! binary run in a folder ([`binary`]).
+//!
+//! The suites are one crate per method (`tests/compute.rs`, `fragment`, which holds `envmap`,
+//! `ssr`, `reflection_point`, `bvh`, `reference`) and one per shared concern (`tracer`,
+//! `capture`, `bounded`, `frame`, `hard_cases`, `scene`, `placement`, `sequence`, `glossy`,
+//! `bench`, `cli`, `model`, `vk_backbone`, `layout`, `records`). Crate `NAME` is `tests/NAME.rs`;
+//! the files it gathers are its modules in `tests/NAME/`, and its doc says what each holds. A
+//! helper two crates need lives here, once.
 // Each test crate compiles this module and uses only part of it.
 #![allow(dead_code)]
 
 pub mod analytic;
+pub mod binary;
 pub mod bits;
 pub mod hit_probe;
 pub mod render;
 pub mod selftest;
+pub mod spirv_words;
 pub mod trace_probe;
 
 use cubetrace::vk::{ContextOptions, GpuContext};
 use glam::Vec3;
+
+/// The name under which the test harness lists test `name` of the module whose `module_path!()`
+/// is `module_path`: the module path without the crate's name, as `--exact` takes it.
+pub fn test_name(module_path: &str, name: &str) -> String {
+    match module_path.split_once("::") {
+        Some((_, module)) => format!("{module}::{name}"),
+        None => name.to_string(),
+    }
+}
 
 /// `render`'s arguments parsed from `line` (what follows `cubetrace render`), as the command
 /// line parses them.
@@ -136,6 +155,25 @@ impl Rng {
     }
 }
 
+/// A cube map of `size` at the origin with deterministic distances in [0.5, 64.5) (from
+/// `seed`): about 1 texel in 11 is +inf, and face `inf_face` (if any) is +inf entirely.
+pub fn distance_cube(size: u32, seed: u64, inf_face: Option<u32>) -> cubetrace::cubemap::CubeMap {
+    let mut c = cubetrace::cubemap::CubeMap::new(size, Vec3::ZERO);
+    let mut s = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+    c.fill(|t, _| {
+        s = s
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        let d = if Some(t.face) == inf_face || (s >> 33).is_multiple_of(11) {
+            f32::INFINITY
+        } else {
+            0.5 + (s >> 40) as f32 / (1u64 << 24) as f32 * 64.0
+        };
+        (d, [0.0; 4])
+    });
+    c
+}
+
 /// Where the ray `o + t d` meets global triangle `tri`, in f64 (Möller-Trumbore, the
 /// reference's test) with the barycentric bounds widened by `1e-6` (the f32 rounding of the
 /// data the GPU and the CPU twin read): `None` for a triangle the ray misses, a degenerate one
@@ -157,6 +195,12 @@ pub fn meets(tracer: &cubetrace::reference::Tracer, o: Vec3, d: Vec3, tri: u32) 
     let v = d.dot(q) / det;
     let t = e2.dot(q) / det;
     (u >= -TOL && v >= -TOL && u + v <= 1.0 + TOL && t > 0.0).then_some(t)
+}
+
+/// Writes built-in scene `name` into `dir` as `scene export` does; the scene file's path.
+pub fn export_to(name: &str, dir: &std::path::Path) -> std::path::PathBuf {
+    let scene = cubetrace::scene::builtin::by_name(name).unwrap();
+    cubetrace::scene::export::export(&scene, dir).unwrap()
 }
 
 /// Corpus scene `name` as its file loads (`tests/scenes/NAME/scene.toml`).

@@ -54,7 +54,7 @@ pub const TRACE_MAX_SIZE: u32 = 4096;
 pub const TRACE_MAX_STEPS: u32 = 65536;
 
 /// WGSL `TraceConfig` (uniform, `@group(1) @binding(0)`). Layout checked against naga's in
-/// `tests/gpu_twin.rs`.
+/// `tests/tracer/gpu_twin.rs`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct TraceConfig {

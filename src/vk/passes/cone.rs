@@ -29,7 +29,7 @@ use crate::vk::backend::timestamps::Timestamps;
 use crate::vk::passes::cmo::CmoData;
 
 /// WGSL `ConePrefilterParams` (read-only storage buffer, one per level). Layout checked
-/// against naga's in `tests/glossy_cone.rs`.
+/// against naga's in `tests/glossy/glossy_cone.rs`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct ConePrefilterParams {

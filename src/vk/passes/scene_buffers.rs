@@ -1,7 +1,7 @@
 //! The scene's GPU buffers: `@group(0)` of every pass that imports `spirv/shared/scene.wgsl`.
 //!
 //! Invariants: the contents are [`GpuSceneData`] as is (layouts checked against naga's in
-//! tests/gpu_raster.rs); `indices` is in global triangle order (`WorldGeometry::triangles`),
+//! tests/capture/gpu_raster.rs); `indices` is in global triangle order (`WorldGeometry::triangles`),
 //! so a draw's `vertex_index / 3` is the global triangle index. Where only the geometry's
 //! placement changes (a mesh moved), [`SceneBuffers::write_geometry`] rewrites the vertices in
 //! place and every bind group over these buffers stays valid.

@@ -1,0 +1,239 @@
+//! The dynamic block weights (`model::dynamic`): loops per trip, constants of the entry point
+//! carried into calls, dead arms removed; on hand-made modules with known counts, and on the
+//! shipped shaders.
+
+use crate::common::spirv_words::inst;
+use std::collections::BTreeSet;
+
+use cubetrace::method::Method;
+use cubetrace::model::dynamic::{self, Arms, Contexts, Counting, Eval, LoopKind, Module};
+use cubetrace::model::weights::{self, ShaderFunctions};
+use cubetrace::model::work::{COMPUTE_BLOCKS, blocks};
+
+fn name(id: u32, s: &str) -> Vec<u32> {
+    let mut bytes = s.as_bytes().to_vec();
+    bytes.resize((bytes.len() / 4 + 1) * 4, 0);
+    let mut o = vec![id];
+    o.extend(
+        bytes
+            .chunks_exact(4)
+            .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])),
+    );
+    inst(5, &o)
+}
+
+/// What the hand-made module's loop tests its counter against.
+#[derive(Clone, Copy)]
+enum Bound {
+    /// A constant (`%8`, whose value is given).
+    Constant(u32),
+    /// A value loaded from memory (no fixed trip count).
+    Loaded,
+}
+
+/// A hand-made module:
+/// - `f`: `for (var i = 0; i < bound; i++) { out = (i + 1) * (i + 1); }`, 13 instructions per
+///   trip (header branch; load, compare, branch; the break's branch; add, multiply, store,
+///   branch; load, add, store, branch) and 2 around it (entry branch, return);
+/// - `g(flag)`: `if flag { out = (x * x) * x... }`: 7 instructions, 2 when `flag` is false;
+/// - `entry`: calls `g(false)`; `entry2(p)`: calls `g(p)`.
+fn module(bound: Bound) -> Vec<u32> {
+    let mut w = vec![0x0723_0203, 0x0001_0300, 0, 100, 0];
+    for (id, n) in [(10, "f"), (40, "g"), (50, "entry"), (60, "entry2")] {
+        w.extend(name(id, n));
+    }
+    w.extend(inst(32, &[3, 7, 1])); // OpTypePointer Function %3
+    w.extend(inst(32, &[4, 6, 1])); // OpTypePointer Private %4
+    w.extend(inst(43, &[1, 6, 0])); // %6 = 0
+    w.extend(inst(43, &[1, 7, 1])); // %7 = 1
+    let b = match bound {
+        Bound::Constant(n) => n,
+        Bound::Loaded => 0,
+    };
+    w.extend(inst(43, &[1, 8, b])); // %8 = the bound
+    w.extend(inst(42, &[5, 12])); // %12 = false
+    w.extend(inst(59, &[4, 20, 6])); // %20: a private variable
+    // f
+    w.extend(inst(54, &[1, 10, 0, 9]));
+    w.extend(inst(248, &[11]));
+    w.extend(inst(59, &[3, 22, 7, 6])); // var i = 0
+    w.extend(inst(249, &[13]));
+    w.extend(inst(248, &[13])); // header
+    w.extend(inst(246, &[14, 15, 0]));
+    w.extend(inst(249, &[16]));
+    w.extend(inst(248, &[16]));
+    w.extend(inst(61, &[1, 23, 22])); // load i
+    let bound_id = match bound {
+        Bound::Constant(_) => 8,
+        Bound::Loaded => 29,
+    };
+    if let Bound::Loaded = bound {
+        w.extend(inst(61, &[1, 29, 20])); // the bound from memory
+    }
+    w.extend(inst(176, &[5, 24, 23, bound_id])); // i < bound
+    w.extend(inst(247, &[17, 0]));
+    w.extend(inst(250, &[24, 17, 18]));
+    w.extend(inst(248, &[18]));
+    w.extend(inst(249, &[14])); // break
+    w.extend(inst(248, &[17]));
+    w.extend(inst(128, &[1, 25, 23, 7]));
+    w.extend(inst(132, &[1, 26, 25, 25]));
+    w.extend(inst(62, &[20, 26]));
+    w.extend(inst(249, &[15]));
+    w.extend(inst(248, &[15])); // continue: i += 1
+    w.extend(inst(61, &[1, 27, 22]));
+    w.extend(inst(128, &[1, 28, 27, 7]));
+    w.extend(inst(62, &[22, 28]));
+    w.extend(inst(249, &[13]));
+    w.extend(inst(248, &[14]));
+    w.extend(inst(253, &[]));
+    w.extend(inst(56, &[]));
+    // g(flag)
+    w.extend(inst(54, &[1, 40, 0, 9]));
+    w.extend(inst(55, &[5, 41]));
+    w.extend(inst(248, &[42]));
+    w.extend(inst(247, &[44, 0]));
+    w.extend(inst(250, &[41, 43, 44]));
+    w.extend(inst(248, &[43]));
+    w.extend(inst(61, &[1, 45, 20]));
+    w.extend(inst(132, &[1, 46, 45, 45]));
+    w.extend(inst(132, &[1, 47, 46, 46]));
+    w.extend(inst(62, &[20, 47]));
+    w.extend(inst(249, &[44]));
+    w.extend(inst(248, &[44]));
+    w.extend(inst(253, &[]));
+    w.extend(inst(56, &[]));
+    // entry: g(false); entry2(p): g(p)
+    w.extend(inst(54, &[1, 50, 0, 9]));
+    w.extend(inst(248, &[51]));
+    w.extend(inst(57, &[1, 52, 40, 12]));
+    w.extend(inst(253, &[]));
+    w.extend(inst(56, &[]));
+    w.extend(inst(54, &[1, 60, 0, 9]));
+    w.extend(inst(55, &[5, 61]));
+    w.extend(inst(248, &[62]));
+    w.extend(inst(57, &[1, 63, 40, 61]));
+    w.extend(inst(253, &[]));
+    w.extend(inst(56, &[]));
+    w
+}
+
+/// `name`'s dynamic count in `m` with the constants of `entry`, callees included.
+fn dynamic_count(m: &Module, name: &str, entry: &str) -> (f64, Vec<LoopKind>) {
+    let ctx = Contexts::from_entry(m, entry).unwrap();
+    let id = m.id(name).unwrap();
+    let mut e = Eval::new(m, BTreeSet::new(), Arms::Both);
+    let known = ctx.by_function.get(&id).cloned().unwrap_or_default();
+    let c = e.function(id, &known);
+    (c.all, e.loops.iter().map(|l| l.kind).collect())
+}
+
+fn static_count(words: &[u32], name: &str) -> u64 {
+    let f = ShaderFunctions::parse("hand", words).unwrap();
+    f.expanded(name, &BTreeSet::new()).unwrap()
+}
+
+/// A loop with a fixed trip count counts its body per trip; the static count, once. Negatives:
+/// another bound gives another count, and a bound loaded from memory counts the body once.
+#[test]
+fn a_counted_loop_costs_its_body_per_trip() {
+    let words = module(Bound::Constant(8));
+    let m = Module::parse("hand", &words).unwrap();
+    assert_eq!(static_count(&words, "f"), 15);
+    assert_eq!(
+        dynamic_count(&m, "f", "entry"),
+        (2.0 + 13.0 * 8.0, vec![LoopKind::Exact(8)])
+    );
+    let three = Module::parse("hand", &module(Bound::Constant(3))).unwrap();
+    assert_eq!(dynamic_count(&three, "f", "entry").0, 2.0 + 13.0 * 3.0);
+    let words = module(Bound::Loaded);
+    let loaded = Module::parse("hand", &words).unwrap();
+    let (n, loops) = dynamic_count(&loaded, "f", "entry");
+    assert_eq!(loops, vec![LoopKind::Unknown]);
+    // Once: the loaded bound adds its load.
+    assert_eq!(n, 2.0 + 14.0);
+    assert_eq!(static_count(&words, "f"), 16);
+}
+
+/// A parameter every live call passes the same constant folds its branch: `g(false)` from
+/// `entry` costs its branch and return only. Negative: from `entry2`, whose argument is not a
+/// constant, both arms count, as in the static count.
+#[test]
+fn an_entry_points_constant_removes_the_dead_arm() {
+    let words = module(Bound::Constant(8));
+    let m = Module::parse("hand", &words).unwrap();
+    assert_eq!(static_count(&words, "g"), 7);
+    assert_eq!(dynamic_count(&m, "g", "entry").0, 2.0);
+    assert_eq!(dynamic_count(&m, "g", "entry2").0, 7.0);
+    // The entry point itself: its call, its return, and g's live part.
+    assert_eq!(dynamic_count(&m, "entry", "entry").0, 2.0 + 2.0);
+}
+
+const MODELLED: [Method; 5] = [
+    Method::Compute,
+    Method::Fragment,
+    Method::Ssr,
+    Method::ReflectionPoint,
+    Method::Bvh,
+];
+
+/// Every block of every modelled method has a positive dynamic weight and lane operations
+/// below it, for both of compute's entry points.
+#[test]
+fn every_block_has_a_dynamic_weight() {
+    for m in MODELLED {
+        for one in [false, true] {
+            let (w, lane) = dynamic::weights_by(m, Counting::Dynamic, one).unwrap();
+            assert_eq!(w.len(), blocks(m).len(), "{}", m.name());
+            for (i, (x, l)) in w.iter().zip(&lane).enumerate() {
+                let b = blocks(m)[i].name;
+                assert!(*x > 0.0 && l <= x, "{} {b}: {x} {l}", m.name());
+            }
+        }
+    }
+}
+
+/// bvh's node visit runs its 8-child loop 8 times: the dynamic weight is several times the
+/// static one. Negative: the traversal's iteration block (no counted loop of its own) is not.
+#[test]
+fn the_bvh_node_counts_its_children_per_trip() {
+    let st = weights::weights(Method::Bvh).unwrap();
+    let dy = dynamic::weights(Method::Bvh, false, Arms::Both).unwrap();
+    let index = |n: &str| {
+        blocks(Method::Bvh)
+            .iter()
+            .position(|b| b.name == n)
+            .unwrap()
+    };
+    let per_trip = |i: usize| {
+        dy[i].loops.iter().any(|l| l.kind == LoopKind::Exact(8)) && dy[i].cost.all > 4.0 * st[i]
+    };
+    assert!(
+        per_trip(index("node")),
+        "{:?} {}",
+        dy[index("node")],
+        st[index("node")]
+    );
+    assert!(!per_trip(index("iteration")));
+}
+
+/// compute's `advance` calls the bounded classification only under the bounded entry points:
+/// under `main_lanes1` that arm is dead and its instructions do not count. Negative: under
+/// `main_lanes1_bounded` they do.
+#[test]
+fn the_bounded_arm_of_advance_is_dead_in_the_exact_entry_point() {
+    let i = COMPUTE_BLOCKS
+        .iter()
+        .position(|b| b.name == "advance")
+        .unwrap();
+    let exact = dynamic::block_weights(COMPUTE_BLOCKS, "main_lanes1", Arms::Both).unwrap();
+    let bounded =
+        dynamic::block_weights(COMPUTE_BLOCKS, "main_lanes1_bounded", Arms::Both).unwrap();
+    let f = ShaderFunctions::of("compute_trace.wgsl").unwrap();
+    let pick = f
+        .expanded("classify_bounded_pick", &BTreeSet::new())
+        .unwrap() as f64;
+    let (a, b) = (exact[i].cost.all, bounded[i].cost.all);
+    assert!(a + 0.5 * pick < b, "exact {a}, bounded {b}, pick {pick}");
+    assert!(b <= weights::weights(Method::Compute).unwrap()[i] * 1.01 + pick);
+}
