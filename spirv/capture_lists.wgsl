@@ -19,7 +19,8 @@
 // - `resolve`: one invocation per texel: selection of the `depth` smallest `(lo, triangle)` by
 //   payload swapping along the list (the first `count_kept` nodes from the head end up sorted),
 //   `complete_to = min(overflow, face overflow, smallest lo beyond depth)`, then the record
-//   `vec4(head, bits(complete_to), bits(hi), count_kept)` and `lo` into `lists_distance`
+//   `vec4(head, bits(complete_to), bits(hi), count_kept)`, the first gap into `lists_gap`, and
+//   `lo` into `lists_distance`
 //   (CMO-major, `(face N + y) N + x`, like the CMO distance buffer). The walk is capped at
 //   `walk_cap` node visits (lavapipe's 65535 back-edges per invocation): a capped texel gets
 //   `complete_to = 0` and is counted in `walks_capped`.
@@ -123,6 +124,9 @@ struct ListsArgs {
 @group(1) @binding(16) var<storage, read_write> lists_clips: array<vec2<u32>>;
 // The sizes of the `texels` and `clips` dispatches.
 @group(1) @binding(17) var<storage, read_write> lists_args: array<ListsArgs, 2>;
+// The texels' first gaps, packed (`resolve`; the tracers' `cmo_gap`, shared/trace.wgsl), as
+// `lists_distance`.
+@group(1) @binding(18) var<storage, read_write> lists_gap: array<u32>;
 
 fn lists_node(i: u32) -> ListsNode {
     return ListsNode(lists_node_triangle[i], lists_node_lo[i], lists_node_hi[i], lists_node_next[i]);
@@ -317,6 +321,14 @@ fn clips(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     }
 }
 
+// The gap `(g0, g1)` in one word, each end rounded inwards to bfloat16 (`g1` down in the high
+// half, `g0` up in the low half; `cubemap::bounds::pack_gap`). Both are >= +0.0, so truncating
+// the bits rounds down.
+fn pack_gap(g1: f32, g0: f32) -> u32 {
+    let b0 = bitcast<u32>(g0);
+    return (bitcast<u32>(g1) & 0xffff0000u) | ((b0 >> 16u) + select(0u, 1u, (b0 & 0xffffu) != 0u));
+}
+
 // Whether node a sorts before node b: (lo, triangle), lo by its bits (never -0.0 or NaN).
 fn lists_before(a: ListsNode, b: ListsNode) -> bool {
     return a.lo < b.lo || (a.lo == b.lo && a.triangle < b.triangle);
@@ -339,6 +351,11 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
     var capped = false;
     var hi = -f32_inf();
     var rest = f32_inf();
+    // The first gap (`cubemap::bounds::first_gap`): the end of the first run of overlapping
+    // entries, and the lo of the first entry past it (`gap_found`).
+    var gap_end = 0.0;
+    var gap_next = f32_inf();
+    var gap_found = false;
     let depth = lists_params.depth;
     for (var i = 0u; i <= depth; i++) {
         if node == LISTS_NIL {
@@ -376,6 +393,16 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
             lists_set_payload(node, bn);
         }
         hi = max(hi, bitcast<f32>(bn.hi));
+        if i == 0u {
+            gap_end = bitcast<f32>(bn.hi);
+        } else if !gap_found {
+            if bitcast<f32>(bn.lo) > gap_end {
+                gap_next = bitcast<f32>(bn.lo);
+                gap_found = true;
+            } else {
+                gap_end = max(gap_end, bitcast<f32>(bn.hi));
+            }
+        }
         kept += 1u;
         node = cur.next;
     }
@@ -396,4 +423,5 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
     lists_rec_hi[texel] = bitcast<u32>(hi);
     lists_rec_count[texel] = kept;
     lists_distance[texel] = lo;
+    lists_gap[texel] = pack_gap(min(gap_next, complete), gap_end);
 }

@@ -1,4 +1,5 @@
-// The `pyramid` pass: one level of the 2x2 [min, max] distance pyramid per dispatch.
+// The `pyramid` pass: one level of the 2x2 [min, max] distance pyramid per dispatch (`main`),
+// or of the `bounded` criterion's gaps (`gaps`, at the end).
 //
 // CPU twin: `cubetrace::cubemap::pyramid::MipPyramid::build` (+ `flatten`). Each invocation
 // writes one destination cell: the min and max over the (up to) 2x2 source cells below it. A
@@ -38,6 +39,10 @@ struct PyramidParams {
 @group(0) @binding(0) var<storage, read> params: PyramidParams;
 @group(0) @binding(1) var<storage, read> cmo_distance: array<f32>;
 @group(0) @binding(2) var<storage, read_write> cmo_mip: array<vec2<f32>>;
+// The `gaps` entry point's: the `bounded` criterion's packed first gaps (`[g1, g0]` in bfloat16
+// halves, `cubemap::bounds::pack_gap`), laid out as `cmo_distance` and `cmo_mip`.
+@group(0) @binding(3) var<storage, read> gap_texels: array<u32>;
+@group(0) @binding(4) var<storage, read_write> gap_mip: array<u32>;
 
 // Workgroup size; the dispatch is 2-D only to stay under maxComputeWorkGroupCount[0].
 const WG: u32 = 64u;
@@ -52,40 +57,97 @@ fn source_cell(k: u32, face: u32, x: u32, y: u32) -> vec2<f32> {
     return cmo_mip[k * params.mip_len + params.src_offset + local];
 }
 
+// The destination cell of invocation `gid`: CMO, face, x, y and its index within the CMO's
+// level (`ok` false past the last cell).
+struct Dest {
+    ok: bool,
+    k: u32,
+    face: u32,
+    x: u32,
+    y: u32,
+    in_cmo: u32,
+}
+
+fn dest(gid: vec3<u32>, groups: vec3<u32>) -> Dest {
+    let index = gid.y * (groups.x * WG) + gid.x;
+    let w = params.dst_width;
+    let per_face = w * w;
+    let per_cmo = 6u * per_face;
+    let in_cmo = index % per_cmo;
+    let face = in_cmo / per_face;
+    return Dest(index < params.cmo_count * per_cmo, index / per_cmo, face, in_cmo % w, (in_cmo % per_face) / w, in_cmo);
+}
+
 @compute @workgroup_size(64)
 fn main(
     @builtin(global_invocation_id) gid: vec3<u32>,
     @builtin(num_workgroups) groups: vec3<u32>,
 ) {
-    let index = gid.y * (groups.x * WG) + gid.x;
-    let w = params.dst_width;
-    let per_face = w * w;
-    let per_cmo = 6u * per_face;
+    let d = dest(gid, groups);
     // No barrier in this shader, so an early return is uniform-safe.
-    if index >= params.cmo_count * per_cmo {
+    if !d.ok {
         return;
     }
-    let k = index / per_cmo;
-    let in_cmo = index % per_cmo;
-    let face = in_cmo / per_face;
-    let x = in_cmo % w;
-    let y = (in_cmo % per_face) / w;
-
-    let sx = 2u * x;
-    let sy = 2u * y;
+    let sx = 2u * d.x;
+    let sy = 2u * d.y;
     let sw = params.src_width;
-    var mm = source_cell(k, face, sx, sy);
+    var mm = source_cell(d.k, d.face, sx, sy);
     if sx + 1u < sw {
-        let c = source_cell(k, face, sx + 1u, sy);
+        let c = source_cell(d.k, d.face, sx + 1u, sy);
         mm = vec2<f32>(min(mm.x, c.x), max(mm.y, c.y));
     }
     if sy + 1u < sw {
-        let c = source_cell(k, face, sx, sy + 1u);
+        let c = source_cell(d.k, d.face, sx, sy + 1u);
         mm = vec2<f32>(min(mm.x, c.x), max(mm.y, c.y));
         if sx + 1u < sw {
-            let d = source_cell(k, face, sx + 1u, sy + 1u);
-            mm = vec2<f32>(min(mm.x, d.x), max(mm.y, d.y));
+            let e = source_cell(d.k, d.face, sx + 1u, sy + 1u);
+            mm = vec2<f32>(min(mm.x, e.x), max(mm.y, e.y));
         }
     }
-    cmo_mip[k * params.mip_len + params.dst_offset + in_cmo] = mm;
+    cmo_mip[d.k * params.mip_len + params.dst_offset + d.in_cmo] = mm;
+}
+
+// `[g1, g0]` of a packed gap word (shared/trace.wgsl's `unpack_gap`).
+fn gap_unpack(w: u32) -> vec2<f32> {
+    return vec2<f32>(bitcast<f32>(w & 0xffff0000u), bitcast<f32>(w << 16u));
+}
+
+// Source gap cell `(x, y)` of `face` in CMO `k`, unpacked.
+fn gap_source(k: u32, face: u32, x: u32, y: u32) -> vec2<f32> {
+    let local = (face * params.src_width + y) * params.src_width + x;
+    if params.from_texels != 0u {
+        return gap_unpack(gap_texels[k * params.texels_per_cmo + local]);
+    }
+    return gap_unpack(gap_mip[k * params.mip_len + params.src_offset + local]);
+}
+
+// The gaps' pyramid (`cpu::bounded::Bounded::gaps`, `MipPyramid::over_cells`): as `main`, the
+// min of `g1` (x) and the max of `g0` (y) over the 2x2 children in the same order. The unpacked
+// halves are bfloat16 values, so packing the result again is exact.
+@compute @workgroup_size(64)
+fn gaps(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
+    let d = dest(gid, groups);
+    if !d.ok {
+        return;
+    }
+    let sx = 2u * d.x;
+    let sy = 2u * d.y;
+    let sw = params.src_width;
+    var g = gap_source(d.k, d.face, sx, sy);
+    if sx + 1u < sw {
+        let c = gap_source(d.k, d.face, sx + 1u, sy);
+        g = vec2<f32>(min(g.x, c.x), max(g.y, c.y));
+    }
+    if sy + 1u < sw {
+        let c = gap_source(d.k, d.face, sx, sy + 1u);
+        g = vec2<f32>(min(g.x, c.x), max(g.y, c.y));
+        if sx + 1u < sw {
+            let e = gap_source(d.k, d.face, sx + 1u, sy + 1u);
+            g = vec2<f32>(min(g.x, e.x), max(g.y, e.y));
+        }
+    }
+    gap_mip[d.k * params.mip_len + params.dst_offset + d.in_cmo] = (bitcast<u32>(g.x) & 0xffff0000u) | (bitcast<u32>(g.y) >> 16u);
 }

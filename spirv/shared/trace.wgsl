@@ -12,6 +12,11 @@
 // - binding 1 `cmo_centres`: CMO k's centre in `.xyz` (w unused).
 // - binding 2 `cmo_distance`: CMO k's texels at `k * 6 * N * N`, index `(face * N + y) * N + x`.
 // - binding 3 `cmo_mip`: CMO k's 2x2 pyramid (levels 1..) at `k * mip_len`, `[min, max]`.
+// - bindings 15, 16 `cmo_gap`, `cmo_gap_mip`: the `bounded` criterion's first gaps
+//   (`cpu::bounded::Bounded::gaps`), a word per cell packing `[g1, g0]` rounded inwards to
+//   bfloat16 (`cubemap::bounds::pack_gap`): CMO k's texels at `k * 6 N N` (as `cmo_distance`),
+//   their 2x2 pyramid at `k * mip_len` (as `cmo_mip`; a cell the min of `g1` and the max of
+//   `g0`); placeholders, never read, for the other criteria (`gaps` false in `mip_turn`).
 // Distances are `+inf` where nothing was captured and never NaN (WGSL's min/max leave NaN
 // implementation-defined where Rust's ignore it). The near-centre radius `0.5 * min D` is
 // computed here from the data (min over the top mip
@@ -94,6 +99,8 @@ struct TraceConfig {
 @group(1) @binding(1) var<storage, read> cmo_centres: array<vec4<f32>>;
 @group(1) @binding(2) var<storage, read> cmo_distance: array<f32>;
 @group(1) @binding(3) var<storage, read> cmo_mip: array<vec2<f32>>;
+@group(1) @binding(15) var<storage, read> cmo_gap: array<u32>;
+@group(1) @binding(16) var<storage, read> cmo_gap_mip: array<u32>;
 
 // What one world ray found over the CMOs (Rust `ProbeResult` has the same layout).
 struct TraceOut {
@@ -591,6 +598,28 @@ fn mip_get(k: u32, l: u32, face: u32, x: u32, y: u32) -> vec2<f32> {
     return cmo_mip[k * trace_config.mip_len + lev.x + (face * lev.z + y) * lev.y + x];
 }
 
+// `[g1, g0]` of a packed gap word (`cubemap::bounds::unpack_gap`).
+fn unpack_gap(w: u32) -> vec2<f32> {
+    return vec2<f32>(bitcast<f32>(w & 0xffff0000u), bitcast<f32>(w << 16u));
+}
+
+// The gap `[g1, g0]` of cell (x, y) of gap level l (0: the texels) on `face`, CMO k.
+fn gap_get(k: u32, l: u32, face: u32, x: u32, y: u32) -> vec2<f32> {
+    let n = trace_config.size;
+    if l == 0u {
+        return unpack_gap(cmo_gap[k * 6u * n * n + (face * n + y) * n + x]);
+    }
+    let lev = trace_config.mip_levels[l];
+    return unpack_gap(cmo_gap_mip[k * trace_config.mip_len + lev.x + (face * lev.z + y) * lev.y + x]);
+}
+
+// Whether distances `rb` (rmin, rmax) lie strictly inside the gap of that cell
+// (`cpu::bounded::Bounded::in_gap`).
+fn in_gap(k: u32, l: u32, face: u32, x: u32, y: u32, rb: vec2<f32>) -> bool {
+    let g = gap_get(k, l, face, x, y);
+    return rb.x > g.y && rb.y < g.x;
+}
+
 // Thesis alg. 2 over the 2x2 pyramid (`cpu::mip::trace_mip`), the same decisions in the same
 // order, written for a CPU driver. Lavapipe runs a shader's lanes in lockstep: it executes the
 // body of every branch for all lanes, masked (an `if` costs its body whether any lane takes it or
@@ -622,7 +651,7 @@ fn trace_mip(k: u32, seg: Segment, cut: f32, variant: u32) -> TraceResult {
             var checked: array<u32, TRACE_MIP_MAX_LEVELS>;
             mip_start(&m, seg, faces.face[f], faces.iv[f].t0);
             loop {
-                let turn = mip_turn(k, seg, &m, &checked, lo, hi, reach, &c);
+                let turn = mip_turn(k, seg, &m, &checked, lo, hi, reach, &c, false);
                 if turn == MIP_DONE {
                     break;
                 }
@@ -707,7 +736,7 @@ fn mip_passed(m: ptr<function, MipMarch>) {
 // the cell is due) or every level is checked (MIP_TEXEL: `cur` is the next texel to classify);
 // MIP_DONE where the face has no texel left (or at MAX_FACE_STEPS). `c.cells` counts the cells
 // tested (each a turn of the inner loop). One exit: no early return in the hot loop.
-fn mip_turn(k: u32, seg: Segment, m: ptr<function, MipMarch>, checked: ptr<function, array<u32, TRACE_MIP_MAX_LEVELS>>, lo: f32, hi: f32, reach: f32, c: ptr<function, Counters>) -> u32 {
+fn mip_turn(k: u32, seg: Segment, m: ptr<function, MipMarch>, checked: ptr<function, array<u32, TRACE_MIP_MAX_LEVELS>>, lo: f32, hi: f32, reach: f32, c: ptr<function, Counters>, gaps: bool) -> u32 {
     let n = trace_config.size;
     let top = trace_config.mip_top;
     let face = (*m).face;
@@ -758,8 +787,12 @@ fn mip_turn(k: u32, seg: Segment, m: ptr<function, MipMarch>, checked: ptr<funct
                 let civ = cell_interval((*m).la, (*m).ld, rect, lo, hi);
                 let inf = inflated(civ, lo, hi, reach);
                 var skip = false;
-                if inf.ok {
-                    skip = any((*m).last_skip != vec3<u32>(level, cell.x, cell.y)) && r_bounds(seg.a, seg.d, inf.lo, inf.hi).y < mip_get(k, level, face, cell.x, cell.y).x;
+                if inf.ok && any((*m).last_skip != vec3<u32>(level, cell.x, cell.y)) {
+                    let rb = r_bounds(seg.a, seg.d, inf.lo, inf.hi);
+                    skip = rb.y < mip_get(k, level, face, cell.x, cell.y).x;
+                    if gaps && !skip {
+                        skip = in_gap(k, level, face, cell.x, cell.y, rb);
+                    }
                 }
                 if skip {
                     (*m).last_skip = vec3<u32>(level, cell.x, cell.y);

@@ -20,7 +20,8 @@
 // The triangles' corners come from the scene (shared/hit.wgsl, @group(SCENE_GROUP)).
 //
 // Texel T crossed over [t0, t1] (`rmin, rmax` of r over it):
-// - `rmax < lo` or `rmin > hi`: nothing here (kind 0, the traversal goes on);
+// - `rmax < lo` or `rmin > hi`, or inside the texel's first gap (binding 15, shared/trace.wgsl's
+//   `in_gap`): nothing here (kind 0, the traversal goes on);
 // - complete_to finite: `r(t0) >= complete_to` is behind at t0; else the list is known up to
 //   t_known = the larger root of r(t) = complete_to, clamped to [t0, t1] (t1 when +inf);
 // - candidates: the entries in order until one has `lo > rmax`; the watertight intersection of
@@ -33,7 +34,8 @@
 // is claimed from it.
 //
 // Traversal: the exact criterion's 2x2 pyramid march (shared/trace.wgsl's stepper `mip_turn`,
-// CPU twin `cpu::mip`; the pyramid's min is the texels' `lo`), classifying with
+// CPU twin `cpu::mip`; the pyramid's min is the texels' `lo`) with the gaps' pyramid (`gaps`
+// true: a cell is skipped, too, where the ray lies inside its gap), classifying with
 // `classify_bounded_pick`.
 //
 // Loop caps: `count_kept` entries at most, and at most BOUNDED_MAX_ENTRIES; the march is
@@ -138,7 +140,7 @@ fn classify_bounded_pick(k: u32, seg: Segment, texel: Texel, iv: Interval, walks
     let lo = cmo_distance[i];
     let hi = bitcast<f32>(cmo_list_hi[i]);
     let rb = r_bounds(seg.a, seg.d, iv.t0, iv.t1);
-    if rb.y < lo || rb.x > hi {
+    if rb.y < lo || rb.x > hi || in_gap(k, 0u, texel.face, texel.x, texel.y, rb) {
         return none;
     }
     let behind_t0 = BoundedOutcome(Outcome(2u, iv.t0, false), bounded_no_pick(), 0u);
@@ -235,7 +237,7 @@ fn trace_mip_bounded(k: u32, seg: Segment, cut: f32, edges: ptr<function, u32>) 
             mip_start(&m, seg, faces.face[f], faces.iv[f].t0);
             loop {
                 let cells = c.cells;
-                let turn = mip_turn(k, seg, &m, &checked, lo, hi, reach, &c);
+                let turn = mip_turn(k, seg, &m, &checked, lo, hi, reach, &c, true);
                 if turn == MIP_DONE {
                     break;
                 }

@@ -8,7 +8,10 @@
 //! CMO's distance is the texel lower bound `lo`), and hand each remaining texel `T`, crossed over
 //! `[t0, t1]`, to [`classify_bounded`]:
 //! 1. `rmax < lo` or `rmin > hi` (`r_bounds` over `[t0, t1]`): the ray is in front of, or beyond,
-//!    everything `T` holds: nothing here, the traversal goes on.
+//!    everything `T` holds; or `g0 < rmin` and `rmax < g1` for `T`'s first gap `(g0, g1)`
+//!    ([`crate::cubemap::bounds::first_gap`]): it passes between two surfaces. Nothing here, the
+//!    traversal goes on. The fragment path's pyramid march skips whole cells the same way, over
+//!    the gaps' pyramid ([`Bounded::gaps`]: the largest `g0` and smallest `g1` of the cell).
 //! 2. The known part: with `complete_to = L` finite, the list holds every triangle nearer than
 //!    `L` only. `r(t0) >= L`: nothing of `T` is known: **behind** at `t0`. Otherwise the known
 //!    part ends at `t_known = min(t1, the larger root of r(t) = L)` (`r` is convex and
@@ -30,7 +33,10 @@
 //! 1. **Skipped stretches are empty.** A cell or texel is skipped only where the ray's largest
 //!    distance from the centre over its interval is below the smallest `lo` of its texels: no
 //!    surface point in those cones is that near, so the ray meets nothing there. Step 1's
-//!    `rmin > hi` skip needs `complete_to = +inf`, so `hi` bounds every triangle of `T`.
+//!    `rmin > hi` skip needs `complete_to = +inf`, so `hi` bounds every triangle of `T`. A gap
+//!    skip: every triangle touching the cone is a kept entry with `[lo, hi]` outside the gap,
+//!    or was dropped with `lo >= complete_to >= g1`; a cell's gap lies inside each of its
+//!    texels' gaps.
 //! 2. **Texels decide in order.** Let the ray's true first hit be at `t*`, on triangle `X`, in
 //!    texel `T*`'s cone. Every texel before `T*` along the ray either was skipped (empty by 1),
 //!    or tested its candidates: any hit it reports is a real intersection at `t >= t_lo`, so
@@ -55,6 +61,7 @@ use super::{CmoTracer, Counters, Outcome, Segment};
 use crate::cubemap::bounds::TexelLists;
 use crate::cubemap::face::Texel;
 use crate::cubemap::frustum::{Interval, r_at, r_bounds};
+use crate::cubemap::pyramid::MipPyramid;
 
 /// Texels whose list one single-CMO trace may walk (module docs, step 3): the next texel that
 /// would walk its list is behind at its entry instead, and that behind ends the ray unresolved
@@ -80,17 +87,30 @@ pub struct Bounded {
     pub corners: Vec<[Vec3; 3]>,
     /// The walk budget ([`WALK_BUDGET`]; the GPU's is that constant, tests may raise it).
     pub walk_budget: u32,
+    /// The lists' first gaps and their 2x2 pyramid (level 0 the texels' `[g1, g0]`,
+    /// [`TexelLists::gaps`]; a cell keeps the min of `g1` and the max of `g0`), which the
+    /// traversals skip through (module docs, step 1).
+    pub gaps: MipPyramid,
 }
 
 impl Bounded {
     /// The CPU twin of what the GPU holds: `lists` over `corners`, the walk budget
     /// [`WALK_BUDGET`].
     pub fn new(lists: TexelLists, corners: Vec<[Vec3; 3]>) -> Bounded {
+        let gaps = MipPyramid::over_cells(lists.size, lists.gaps());
         Bounded {
             lists,
             corners,
             walk_budget: WALK_BUDGET,
+            gaps,
         }
+    }
+
+    /// Whether distances `rb = (rmin, rmax)` lie strictly inside the gap `[g1, g0]` of cell
+    /// `(x, y)` of `face` at pyramid level `level` (0: a texel): nothing there (step 1).
+    pub fn in_gap(&self, level: usize, face: u32, x: u32, y: u32, rb: (f32, f32)) -> bool {
+        let [g1, g0] = self.gaps.levels[level].get(face, x, y);
+        rb.0 > g0 && rb.1 < g1
     }
 
     /// Whether a trace that walked `walks` lists spent the budget (step 3).
@@ -123,7 +143,7 @@ pub fn classify_bounded(
     }
     let (lo, hi, complete_to) = b.lists.bounds_at(texel);
     let (rmin, rmax) = r_bounds(seg.a, seg.d, iv.t0, iv.t1);
-    if rmax < lo || rmin > hi {
+    if rmax < lo || rmin > hi || b.in_gap(0, texel.face, texel.x, texel.y, (rmin, rmax)) {
         return None;
     }
     let mut t_known = iv.t1;

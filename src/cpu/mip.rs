@@ -4,7 +4,9 @@
 //! front of it there (`rmax < min`, ALGORITHM.md fact 3; the thesis's endpoint test is not
 //! used). After a skip the walk resumes at the texel following the cell's exit (alg. 4's
 //! boundary, from the frustum inequalities). A cell found not skippable is remembered per level
-//! (`checked`) until the walk leaves it, like alg. 2's `B(i)`.
+//! (`checked`) until the walk leaves it, like alg. 2's `B(i)`. With the `bounded` criterion a
+//! cell is skipped, too, where the ray's distances there lie inside the cell's gap
+//! ([`super::bounded::Bounded::in_gap`]): between the surfaces its lists hold.
 
 use super::{
     CmoTracer, Counters, NoLog, Segment, TraceResult, Work, WorkLog, classify, escaped,
@@ -66,11 +68,15 @@ pub fn trace_mip_logged<L: WorkLog + ?Sized>(
                         });
                         let civ = cell_interval(la, ld, &lev.rect(face, cx, cy, n), lo, hi);
                         let skip = match civ.inflated(lo, hi, reach) {
-                            Some((a, b)) => {
-                                (last_skip != (l, cx, cy))
-                                    && r_bounds(seg.a, seg.d, a, b).1 < lev.get(face, cx, cy)[0]
+                            Some((a, b)) if last_skip != (l, cx, cy) => {
+                                let rb = r_bounds(seg.a, seg.d, a, b);
+                                rb.1 < lev.get(face, cx, cy)[0]
+                                    || tr
+                                        .bounded
+                                        .as_ref()
+                                        .is_some_and(|g| g.in_gap(l, face, cx, cy, rb))
                             }
-                            None => false,
+                            _ => false,
                         };
                         if skip {
                             last_skip = (l, cx, cy);

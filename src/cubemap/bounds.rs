@@ -12,6 +12,15 @@
 //!   the cone is nearer. This is what the CMO's distance (and so its pyramids) holds.
 //! - `hi`: the largest kept `hi` when nothing was dropped, `+inf` when something was, `-inf`
 //!   for an empty texel.
+//! - the first gap `(g0, g1)` ([`first_gap`]): a range of distances that no surface in the cone
+//!   takes. Walking the kept entries in order, `g0` is the end (the largest `hi`) of the run of
+//!   entries that overlap the first one, and `g1` the `lo` of the first entry that starts past
+//!   it, or `complete_to` when it comes first. A ray whose distances over the texel lie strictly
+//!   inside `(g0, g1)` meets nothing there: every kept entry's `[lo, hi]` lies outside the
+//!   range, and a dropped one starts at or past `complete_to >= g1`. Behind a captured surface
+//!   and in front of the next one, a ray passes through such gaps texel after texel; the
+//!   tracer skips them, and whole cells of them through a pyramid over the gaps
+//!   ([`TexelLists::gaps`]). Each end is stored rounded inwards to bfloat16 ([`pack_gap`]).
 //!
 //! # Capture (the CPU twin of `spirv/capture_lists.wgsl`)
 //!
@@ -514,6 +523,43 @@ pub fn resolve_texel(list: &mut Vec<Entry>, depth: u32) -> (f32, f32, f32) {
     texel_summary(list, complete_to)
 }
 
+/// The first gap of a texel (module docs) from its kept entries, sorted by `(lo, triangle)`,
+/// and its `complete_to`, as `[g1, g0]` (the far end first: a pyramid over gaps keeps the min
+/// of the far ends and the max of the near ends, [`crate::cubemap::pyramid::MipPyramid::over_cells`]).
+/// An empty texel's gap is `(0, complete_to)`. The GPU's `resolve` (`spirv/capture_lists.wgsl`)
+/// computes the same while it sorts, with the same comparisons.
+pub fn first_gap(kept: &[Entry], complete_to: f32) -> [f32; 2] {
+    let mut end = 0.0f32;
+    let mut next = f32::INFINITY;
+    for (i, e) in kept.iter().enumerate() {
+        if i == 0 {
+            end = e.hi;
+        } else if e.lo > end {
+            next = e.lo;
+            break;
+        } else {
+            end = end.max(e.hi);
+        }
+    }
+    [next.min(complete_to), end]
+}
+
+/// A gap `[g1, g0]` in one word, as the GPU stores it (one word per texel, like the lists'
+/// records, so the gaps fit wherever the records do): each end rounded inwards to bfloat16,
+/// `g1` down into the high half, `g0` up into the low half. Rounding inwards only narrows the
+/// gap, so it stays sound; the relative loss is below `2^-7`. Both ends are `>= +0.0`, whose
+/// bits order as the values: truncating rounds down, and a truncated non-zero remainder adds
+/// one unit to round up (`+inf` stays `+inf`; the largest finite value rounds up to `+inf`).
+pub fn pack_gap([g1, g0]: [f32; 2]) -> u32 {
+    let b0 = g0.to_bits();
+    (g1.to_bits() & 0xffff_0000) | ((b0 >> 16) + u32::from(b0 & 0xffff != 0))
+}
+
+/// `[g1, g0]` of a packed gap ([`pack_gap`]).
+pub fn unpack_gap(w: u32) -> [f32; 2] {
+    [f32::from_bits(w & 0xffff_0000), f32::from_bits(w << 16)]
+}
+
 /// `(lo, hi, complete_to)` of a texel from its kept (sorted) entries and `complete_to`.
 pub fn texel_summary(kept: &[Entry], complete_to: f32) -> (f32, f32, f32) {
     let first = kept.first().map_or(f32::INFINITY, |e| e.lo);
@@ -670,6 +716,23 @@ impl TexelLists {
     pub fn entries_at(&self, t: Texel) -> &[Entry] {
         let i = t.index(self.size);
         &self.entries[self.offsets[i] as usize..self.offsets[i + 1] as usize]
+    }
+
+    /// Every texel's first gap packed into a word ([`first_gap`], [`pack_gap`]), in the texels'
+    /// order: what the GPU's `resolve` writes.
+    pub fn packed_gaps(&self) -> Vec<u32> {
+        (0..self.lo.len())
+            .map(|i| {
+                let kept = &self.entries[self.offsets[i] as usize..self.offsets[i + 1] as usize];
+                pack_gap(first_gap(kept, self.complete_to[i]))
+            })
+            .collect()
+    }
+
+    /// Every texel's first gap `[g1, g0]` as the tracers read it: packed and unpacked
+    /// ([`pack_gap`]: rounded inwards), in the texels' order.
+    pub fn gaps(&self) -> Vec<[f32; 2]> {
+        self.packed_gaps().into_iter().map(unpack_gap).collect()
     }
 
     /// `(lo, hi, complete_to)` of a texel.

@@ -113,15 +113,31 @@ pub struct MipPyramid {
 impl MipPyramid {
     /// Builds the pyramid from a capture.
     pub fn build(cube: &CubeMap) -> MipPyramid {
-        let mut levels = vec![texel_level(cube)];
+        MipPyramid::from_texels(cube.size, texel_level(cube))
+    }
+
+    /// The pyramid over texel cells given as `[x, y]` pairs (`6 N N`, the texels' order):
+    /// each level keeps the min of `x` and the max of `y` over its 2x2 block (the bounded
+    /// criterion's gaps, [`crate::cubemap::bounds::TexelLists::gaps`], are such pairs).
+    pub fn over_cells(size: u32, cells: Vec<[f32; 2]>) -> MipPyramid {
+        assert_eq!(cells.len(), (FACE_COUNT * size * size) as usize);
+        let texels = MinMaxLevel {
+            width: size,
+            height: size,
+            group: (1, 1),
+            span: (1, 1),
+            cells,
+        };
+        MipPyramid::from_texels(size, texels)
+    }
+
+    fn from_texels(size: u32, texels: MinMaxLevel) -> MipPyramid {
+        let mut levels = vec![texels];
         while levels.last().is_some_and(|l| l.width > 1 || l.height > 1) {
             let next = reduce(levels.last().expect("non-empty"), 2, 2);
             levels.push(next);
         }
-        MipPyramid {
-            size: cube.size,
-            levels,
-        }
+        MipPyramid { size, levels }
     }
 }
 

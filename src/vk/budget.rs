@@ -277,8 +277,11 @@ fn plan_cmo_bytes(plan: &FramePlan) -> u64 {
     } else {
         0
     };
+    // The records, and the gaps: a word per texel, and per cell of their pyramid where the
+    // method builds one.
     let lists = if cmo.lists() {
-        lists_bytes(count, size, 0)
+        let gap_cells = cmo.texels() + pyramid / 8;
+        lists_bytes(count, size, 0) + gap_cells * 4
     } else {
         0
     };

@@ -215,7 +215,7 @@ pub struct GpuRenderer {
     /// the cone pass pre-filters (the lists' capture keeps none), recorded before the lists'
     /// capture, which then writes its own distances over this one's.
     colour_capture: Option<Box<Capture>>,
-    pyramid: Option<(Pyramid, PyramidBindings)>,
+    pyramid: Vec<(Pyramid, PyramidBindings)>,
     /// The pre-filtered CMO colour chain (`cone_prefilter`), where the method reads it on a
     /// glossy scene ([`MethodSpec::glossy`](super::methods::MethodSpec::glossy)).
     cone_prefilter: Option<(ConePrefilter, ConePrefilterBindings)>,

@@ -79,8 +79,13 @@ impl GpuRenderer {
             scope(CONE_PREFILTER.name, &mut || p.record(rec, b, None))?;
             rec.memory_barrier(SHADER_WRITE, SHADER_READ);
         }
-        if let Some((p, b)) = &self.pyramid {
-            scope("pyramid", &mut || p.record(rec, b, None))?;
+        if !self.pyramid.is_empty() {
+            scope("pyramid", &mut || {
+                for (p, b) in &self.pyramid {
+                    p.record(rec, b, None)?;
+                }
+                Ok(())
+            })?;
             rec.memory_barrier(SHADER_WRITE, SHADER_READ);
         }
         self.method.record_cmo_stage(rec, scope)?;

@@ -16,7 +16,7 @@ use crate::vk::methods::{FrameInputs, Needs, Technique};
 use crate::vk::passes::bounce::BouncePasses;
 use crate::vk::passes::bvh::{AppendKind, BvhPasses, ReflectorCheck};
 use crate::vk::passes::capture::Capture;
-use crate::vk::passes::capture_lists::{CaptureLists, ListTargets};
+use crate::vk::passes::capture_lists::CaptureLists;
 use crate::vk::passes::cmo::CmoData;
 use crate::vk::passes::cone::{ConePrefilter, ConePrefilterBindings, ConeStage};
 use crate::vk::passes::gbuffer::Gbuffer;
@@ -30,7 +30,8 @@ pub(super) struct CmoStages {
     pub(super) cmo: CmoData,
     pub(super) capture: Option<CmoCapture>,
     pub(super) colour_capture: Option<Box<Capture>>,
-    pub(super) pyramid: Option<(Pyramid, PyramidBindings)>,
+    /// The distances' pyramid, then the lists' gaps' where the capture is listed.
+    pub(super) pyramid: Vec<(Pyramid, PyramidBindings)>,
     pub(super) cone_prefilter: Option<(ConePrefilter, ConePrefilterBindings)>,
 }
 
@@ -64,7 +65,7 @@ impl CmoStages {
                 cmo,
                 capture: None,
                 colour_capture: None,
-                pyramid: None,
+                pyramid: Vec::new(),
                 cone_prefilter: None,
             });
         };
@@ -117,7 +118,9 @@ impl CmoStages {
                 None
             }
         };
-        let pyramid = pyramid_stage(ctx, &cmo, needs)?;
+        let listed = matches!(capture, Some(CmoCapture::Lists(_)))
+            || matches!(plan.capture, Some(CapturePlan::Uploaded { .. }));
+        let pyramid = pyramid_stage(ctx, &cmo, needs, listed)?;
         Ok(CmoStages {
             cmo,
             capture,
@@ -137,11 +140,7 @@ impl CmoStages {
         capacity: PoolBound,
     ) -> VkResult<CmoCapture> {
         cmo.alloc_lists(ctx, capacity.nodes)?;
-        let targets = ListTargets {
-            distance: cmo.distance(),
-            records: cmo.lists(),
-            nodes: cmo.nodes(),
-        };
+        let targets = cmo.list_targets();
         Ok(CmoCapture::Lists(Box::new(CaptureLists::new(
             ctx,
             scene_buffers,
@@ -174,18 +173,27 @@ impl CmoStages {
     }
 }
 
-/// The pyramid pass over the CMO data's distances, where the method needs one.
+/// The pyramid pass over the CMO data's distances, where the method needs one, and over the
+/// lists' gaps where the capture made lists (`listed`).
 fn pyramid_stage(
     ctx: &GpuContext,
     cmo: &CmoData,
     needs: &Needs,
-) -> VkResult<Option<(Pyramid, PyramidBindings)>> {
+    listed: bool,
+) -> VkResult<Vec<(Pyramid, PyramidBindings)>> {
     if !needs.pyramid {
-        return Ok(None);
+        return Ok(Vec::new());
     }
     let p = Pyramid::new(ctx)?;
     let b = p.bind(ctx, cmo.distance(), cmo.mip(), cmo.count(), cmo.size())?;
-    Ok(Some((p, b)))
+    let mut out = vec![(p, b)];
+    if listed {
+        let [texels, mip] = cmo.gaps();
+        let g = Pyramid::gaps(ctx)?;
+        let b = g.bind(ctx, texels, mip, cmo.count(), cmo.size())?;
+        out.push((g, b));
+    }
+    Ok(out)
 }
 
 /// Fragment's and compute's cone stage, where the plan has one ([`ConePlan::stage`]: a glossy

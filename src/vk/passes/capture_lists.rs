@@ -235,6 +235,7 @@ fn group1_resources<'a>(own: [&'a Buffer; 9], out: ListTargets<'a>) -> Vec<(u32,
     }
     all.push((16, Resource::Buffer(own[7])));
     all.push((17, Resource::Buffer(own[8])));
+    all.push((18, Resource::Buffer(out.gaps)));
     all
 }
 
@@ -372,6 +373,8 @@ pub struct ListTargets<'a> {
     pub records: &'a [Buffer; 4],
     /// `triangle`, `bits(lo)`, `bits(hi)`, `next`: a u32 per node each.
     pub nodes: &'a [Buffer; 4],
+    /// The texels' first gaps, a word per texel ([`bounds::pack_gap`]), laid out as `distance`.
+    pub gaps: &'a Buffer,
 }
 
 /// The result buffers a capture allocated itself (no [`ListTargets`] given).
@@ -379,6 +382,7 @@ struct OwnTargets {
     distance: Buffer,
     records: [Buffer; 4],
     nodes: [Buffer; 4],
+    gaps: Buffer,
 }
 
 impl OwnTargets {
@@ -387,6 +391,7 @@ impl OwnTargets {
             distance: &self.distance,
             records: &self.records,
             nodes: &self.nodes,
+            gaps: &self.gaps,
         }
     }
 }
@@ -398,6 +403,9 @@ pub struct GpuLists {
     pub counters: ListCounters,
     /// The raw records (per texel, CMO-major).
     pub records: Vec<TexelRecord>,
+    /// Per CMO, its texels' first gaps as `resolve` packed them (the CPU's
+    /// [`TexelLists::packed_gaps`]).
+    pub gaps: Vec<Vec<u32>>,
 }
 
 impl CaptureLists {
@@ -513,6 +521,7 @@ impl CaptureLists {
                 distance: storage(ctx, "capture_lists distance", texels * 4)?,
                 records: column_buffers(ctx, RECORD_NAMES, texels)?,
                 nodes: column_buffers(ctx, NODE_NAMES, capacity.nodes)?,
+                gaps: storage(ctx, "capture_lists gaps", texels * 4)?,
             }),
         };
         let out = targets
@@ -762,8 +771,10 @@ impl CaptureLists {
         let nodes: Vec<[u32; 4]> = read(out.nodes)?;
         let counters = self.read_counters(ctx)?;
         let dist: Vec<f32> = ctx.read_buffer(out.distance)?;
+        let all_gaps: Vec<u32> = ctx.read_buffer(out.gaps)?;
         let n = self.params.size as usize;
         let per_cmo = 6 * n * n;
+        let gaps = all_gaps.chunks(per_cmo).map(<[u32]>::to_vec).collect();
         let mut cmos = Vec::new();
         for c in 0..self.params.cmo_count as usize {
             let mut l = TexelLists {
@@ -792,6 +803,7 @@ impl CaptureLists {
             cmos,
             counters,
             records,
+            gaps,
         })
     }
 }

@@ -11,6 +11,7 @@
 //! | 5 | `cmo_triangle` | `6 N N` u32 per CMO: global triangle index, `u32::MAX` where empty | with [`CaptureContents::triangle_ids`]; else a one-u32 placeholder (composite binds it; never read) |
 //! | 6 to 9 | `cmo_list_head`, `_complete`, `_hi`, `_count` | `6 N N` u32 per CMO each: the words of `[head, complete_to, hi, count]` ([`super::lists`]) | with [`CmoData::alloc_lists`]; else one-word placeholders (`compute_trace` binds them; only its `_bounded` entry points read them) |
 //! | 10 to 13 | `cmo_node_triangle`, `_lo`, `_hi`, `_next` | the lists' node pool, a u32 per node each ([`super::lists`]) | likewise |
+//! | 15, 16 | `cmo_gap`, `cmo_gap_mip` | the lists' first gaps, a packed word per texel (`6 N N` per CMO) and per cell of their pyramid (`mip_len(N)` per CMO, with a pyramid) ([`crate::cubemap::bounds::pack_gap`]) | with [`CmoData::alloc_lists`]; else one-word placeholders |
 //! | 14 | `cmo_cone` | `mip_len(N)` vec4 per CMO: the pre-filtered colour chain ([`crate::cpu::cone`], `spirv/shared/cone.wgsl`) | with [`CmoData::alloc_cone`] (a glossy scene); else absent (only the cone passes use it) |
 //!
 //! The capture pass writes distance, colour and normals; the pyramid pass writes `cmo_mip`.
@@ -42,6 +43,9 @@ use super::lists::{self, PackedLists};
 
 /// Binding of `cmo_cone` in `@group(1)` (`spirv/shared/cone.wgsl`).
 pub const CONE_BINDING: u32 = 14;
+
+/// Binding of `cmo_gap` in `@group(1)`, `cmo_gap_mip` the next (`spirv/shared/trace.wgsl`).
+pub const GAP_BINDING: u32 = 15;
 
 /// Entries of [`TraceConfig::mip_levels`] (index 0 unused: level 0 is the texels).
 pub const TRACE_MIP_MAX_LEVELS: usize = 16;
@@ -204,6 +208,9 @@ pub struct CmoData {
     lists: [Buffer; 4],
     nodes: [Buffer; 4],
     pool_capacity: u64,
+    /// The lists' first gaps (bindings 15 and 16): a word per texel, and a word per cell of
+    /// their pyramid where there is one; one-word placeholders without lists.
+    gaps: [Buffer; 2],
 }
 
 /// Format of the colour capture: linear RGBA, f32 so that the CPU twins read the same bits.
@@ -223,6 +230,14 @@ pub(super) fn storage(ctx: &GpuContext, name: &str, bytes: u64) -> VkResult<Buff
 }
 
 /// Four storage buffers of `words` u32 each, named `names` (the one-word bindings of the
+/// The gap buffers: `texels` words and `cells` words of pyramid (at least one word each).
+fn gap_buffers(ctx: &GpuContext, texels: u64, cells: u64) -> VkResult<[Buffer; 2]> {
+    Ok([
+        storage(ctx, "cmo_gap", texels.max(1) * 4)?,
+        storage(ctx, "cmo_gap_mip", cells.max(1) * 4)?,
+    ])
+}
+
 /// lists' records or pool, [`super::lists`]).
 pub(super) fn column_buffers(
     ctx: &GpuContext,
@@ -369,6 +384,7 @@ impl CmoData {
             lists: column_buffers(ctx, lists::RECORD_COLUMNS, 1)?,
             nodes: column_buffers(ctx, lists::NODE_COLUMNS, 1)?,
             pool_capacity: 0,
+            gaps: gap_buffers(ctx, 1, 1)?,
         })
     }
 
@@ -386,7 +402,30 @@ impl CmoData {
         self.lists = column_buffers(ctx, lists::RECORD_COLUMNS, texels)?;
         self.nodes = column_buffers(ctx, lists::NODE_COLUMNS, capacity)?;
         self.pool_capacity = capacity;
+        let cells = if self.config.mip_top > 0 {
+            u64::from(self.count) * u64::from(self.config.mip_len)
+        } else {
+            1
+        };
+        self.gaps = gap_buffers(ctx, texels, cells)?;
         Ok(())
+    }
+
+    /// Where the `bounded` capture writes (after [`CmoData::alloc_lists`]): the distances, the
+    /// records, the pool and the texels' gaps.
+    pub fn list_targets(&self) -> super::capture_lists::ListTargets<'_> {
+        super::capture_lists::ListTargets {
+            distance: &self.distance,
+            records: &self.lists,
+            nodes: &self.nodes,
+            gaps: &self.gaps[0],
+        }
+    }
+
+    /// The lists' gaps: the texels' (binding 15) and their pyramid's (binding 16), a packed
+    /// word per cell ([`crate::cubemap::bounds::pack_gap`]).
+    pub fn gaps(&self) -> &[Buffer; 2] {
+        &self.gaps
     }
 
     /// Allocates `cmo_cone` (binding 14, uninitialised), the pre-filtered colour chain of cone
@@ -459,6 +498,7 @@ impl CmoData {
         }
         self.alloc_lists(ctx, packed.nodes.len() as u64)?;
         ctx.write_buffer(&self.distance, &packed.lo)?;
+        ctx.write_buffer(&self.gaps[0], &lists::packed_gaps(packed))?;
         for (b, c) in self.lists.iter().zip(lists::columns(&packed.records)) {
             ctx.write_buffer(b, &c)?;
         }
@@ -630,6 +670,7 @@ impl CmoData {
                 .lists
                 .iter()
                 .chain(&self.nodes)
+                .chain(&self.gaps)
                 .map(Buffer::size)
                 .sum::<u64>()
             + colour.layer_bytes().unwrap_or(0) * u64::from(colour.layers)
@@ -664,6 +705,8 @@ impl CmoData {
         if let Some(c) = &self.cone {
             r.push((CONE_BINDING, Resource::Buffer(c)));
         }
+        r.push((GAP_BINDING, Resource::Buffer(&self.gaps[0])));
+        r.push((GAP_BINDING + 1, Resource::Buffer(&self.gaps[1])));
         r
     }
 

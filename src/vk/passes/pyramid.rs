@@ -92,6 +92,8 @@ pub fn level_params(
 /// The pass's pipeline. Create once, record every frame.
 pub struct Pyramid {
     pipeline: ComputePipeline,
+    /// Whether it builds the gaps' pyramid ([`Pyramid::gaps`]) rather than the distances'.
+    gaps: bool,
 }
 
 /// Per-level parameters and descriptor sets for one `(distance, mip, K, N)`; see the module docs
@@ -126,7 +128,23 @@ impl Pyramid {
     /// Builds the pipeline.
     pub fn new(ctx: &GpuContext) -> VkResult<Pyramid> {
         let pipeline = ComputePipeline::new(ctx, &PYRAMID, "main", ComputeOptions::default())?;
-        Ok(Pyramid { pipeline })
+        Ok(Pyramid {
+            pipeline,
+            gaps: false,
+        })
+    }
+
+    /// Builds the pipeline of the `bounded` criterion's gap pyramid (the `gaps` entry point):
+    /// [`Pyramid::bind`]'s `distance` is then the texels' packed gaps (a word each,
+    /// [`crate::cubemap::bounds::pack_gap`]) and `mip` gets a packed word per cell, the min of
+    /// `g1` and the max of `g0` over each 2x2 block
+    /// ([`crate::cubemap::pyramid::MipPyramid::over_cells`]).
+    pub fn gaps(ctx: &GpuContext) -> VkResult<Pyramid> {
+        let pipeline = ComputePipeline::new(ctx, &PYRAMID, "gaps", ComputeOptions::default())?;
+        Ok(Pyramid {
+            pipeline,
+            gaps: true,
+        })
     }
 
     /// Creates the per-level parameters and descriptor sets reading `distance` (K blocks of
@@ -171,7 +189,8 @@ impl Pyramid {
                 "K = {cmo_count}, N = {size} overflows the shader's u32 indices"
             )));
         }
-        for (buf, need) in [(distance, texels * 4), (mip, cells * 8)] {
+        let cell_bytes = if self.gaps { 4 } else { 8 };
+        for (buf, need) in [(distance, texels * 4), (mip, cells * cell_bytes)] {
             if buf.size() < need {
                 return Err(usage(format!(
                     "buffer `{}` has {} bytes, K = {cmo_count}, N = {size} needs {need}",
@@ -200,12 +219,13 @@ impl Pyramid {
                 MemoryLocation::CpuToGpu,
             )?;
             buf.write(0, &[params])?;
+            let first = if self.gaps { 3 } else { 1 };
             let set = self.pipeline.bind_group(
                 0,
                 &[
                     (0, Resource::Buffer(&buf)),
-                    (1, Resource::Buffer(distance)),
-                    (2, Resource::Buffer(mip)),
+                    (first, Resource::Buffer(distance)),
+                    (first + 1, Resource::Buffer(mip)),
                 ],
             )?;
             bindings.sets.push(set);
@@ -227,7 +247,11 @@ impl Pyramid {
         super::record_levels(
             rec,
             &self.pipeline,
-            PYRAMID.name,
+            if self.gaps {
+                "gap_pyramid"
+            } else {
+                PYRAMID.name
+            },
             (&bindings.sets, &bindings.groups),
             timestamps,
         )
