@@ -77,6 +77,10 @@ const MAX_BATCHES: u32 = 65536u;
 @group(2) @binding(4) var<storage, read_write> ray_stats: array<vec4<u32>>;
 // Per CMO: the near-centre cut radius, computed once per frame by `dispatch_args`.
 @group(2) @binding(5) var<storage, read> cmo_cut: array<f32>;
+// The `bounded` criterion's gaps over the hierarchy (`cpu::bounded::Bounded::gap_hier`): a
+// packed word per cell (shared/trace.wgsl's `unpack_gap`), laid out as `cmo_hier`; a one-word
+// placeholder, never read, for the other criteria.
+@group(2) @binding(7) var<storage, read> cmo_gap_hier: array<u32>;
 
 struct RayState {
     // The world ray.
@@ -168,7 +172,7 @@ fn node_ctx(st: ptr<function, RayState>) -> NodeCtx {
 }
 
 // Test of child j of the ray's current node (`cpu::alg3::lane_test`).
-fn lane_test(st: ptr<function, RayState>, nc: NodeCtx, j: u32) -> LaneTest {
+fn lane_test(st: ptr<function, RayState>, nc: NodeCtx, j: u32, bounded: bool) -> LaneTest {
     let none = LaneTest(false, f32_inf());
     let n = trace_config.size;
     let cl = nc.cl;
@@ -202,6 +206,7 @@ fn lane_test(st: ptr<function, RayState>, nc: NodeCtx, j: u32) -> LaneTest {
     var lo = iv.t0;
     var hi = iv.t1;
     var bound: f32;
+    var cell = 0u;
     if cl == 0u {
         bound = distance_at((*st).k, Texel(face, cx, cy));
     } else {
@@ -209,10 +214,19 @@ fn lane_test(st: ptr<function, RayState>, nc: NodeCtx, j: u32) -> LaneTest {
         ok = inf.ok;
         lo = inf.lo;
         hi = inf.hi;
-        bound = cmo_hier[(*st).k * hier_config.hier_len + cd.x + (face * cd.z + cy) * cd.y + cx].x;
+        cell = (*st).k * hier_config.hier_len + cd.x + (face * cd.z + cy) * cd.y + cx;
+        bound = cmo_hier[cell].x;
     }
     if !ok {
         return none;
+    }
+    // The bounded criterion: a cell is skipped, too, where the ray lies inside its gap
+    // (`r_bounds`' max is the r_max below, the same operations).
+    if bounded && cl != 0u {
+        let rb = r_bounds(seg.a, seg.d, lo, hi);
+        let g = unpack_gap(cmo_gap_hier[cell]);
+        let skip = rb.y < bound || (rb.x > g.y && rb.y < g.x);
+        return LaneTest(!skip, iv.t0);
     }
     let r_max = max(r_at(seg.a, seg.d, lo), r_at(seg.a, seg.d, hi));
     return LaneTest(select(!(r_max < bound), r_max >= bound, cl == 0u), iv.t0);
@@ -583,7 +597,7 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
                 }
                 var cand = false;
                 if testing {
-                    let t = lane_test(&st, nc, lane + lanes * c);
+                    let t = lane_test(&st, nc, lane + lanes * c, bounded);
                     cand = t.cand;
                     if cand || !one {
                         key_set(big, st.level, c, t.key);

@@ -42,6 +42,10 @@ struct Hier32Params {
 @group(0) @binding(0) var<storage, read> params: Hier32Params;
 @group(0) @binding(1) var<storage, read> cmo_distance: array<f32>;
 @group(0) @binding(2) var<storage, read_write> cmo_hier: array<vec2<f32>>;
+// The `gaps` entry point's: the `bounded` criterion's packed first gaps (`[g1, g0]` in bfloat16
+// halves, `cubemap::bounds::pack_gap`), laid out as `cmo_distance` and `cmo_hier`.
+@group(0) @binding(3) var<storage, read> gap_texels: array<u32>;
+@group(0) @binding(4) var<storage, read_write> gap_hier: array<u32>;
 
 // Workgroup size; the dispatch is 2-D only to stay under maxComputeWorkGroupCount[0].
 const WG: u32 = 64u;
@@ -55,34 +59,83 @@ fn source_cell(k: u32, face: u32, x: u32, y: u32) -> vec2<f32> {
     return cmo_hier[k * params.hier_len + params.src_offset + local];
 }
 
+// The destination cell of invocation `gid` (`ok` false past the last cell).
+struct Dest {
+    ok: bool,
+    k: u32,
+    face: u32,
+    sx: u32,
+    sy: u32,
+    in_cmo: u32,
+}
+
+fn dest(gid: vec3<u32>, groups: vec3<u32>) -> Dest {
+    let index = gid.y * (groups.x * WG) + gid.x;
+    let w = params.dst_width;
+    let per_face = w * params.dst_height;
+    let per_cmo = 6u * per_face;
+    let in_cmo = index % per_cmo;
+    let x = in_cmo % w;
+    let y = (in_cmo % per_face) / w;
+    return Dest(index < params.cmo_count * per_cmo, index / per_cmo, in_cmo / per_face, params.gx * x, params.gy * y, in_cmo);
+}
+
 @compute @workgroup_size(64)
 fn main(
     @builtin(global_invocation_id) gid: vec3<u32>,
     @builtin(num_workgroups) groups: vec3<u32>,
 ) {
-    let index = gid.y * (groups.x * WG) + gid.x;
-    let w = params.dst_width;
-    let per_face = w * params.dst_height;
-    let per_cmo = 6u * per_face;
-    if index >= params.cmo_count * per_cmo {
+    let d = dest(gid, groups);
+    // No barrier in this shader, so an early return is uniform-safe.
+    if !d.ok {
         return;
     }
-    let k = index / per_cmo;
-    let in_cmo = index % per_cmo;
-    let face = in_cmo / per_face;
-    let x = in_cmo % w;
-    let y = (in_cmo % per_face) / w;
-    let sx = params.gx * x;
-    let sy = params.gy * y;
-    var mm = source_cell(k, face, sx, sy);
-    for (var cy = sy; cy < sy + params.gy && cy < params.src_height; cy++) {
-        for (var cx = sx; cx < sx + params.gx && cx < params.src_width; cx++) {
-            if cx == sx && cy == sy {
+    var mm = source_cell(d.k, d.face, d.sx, d.sy);
+    for (var cy = d.sy; cy < d.sy + params.gy && cy < params.src_height; cy++) {
+        for (var cx = d.sx; cx < d.sx + params.gx && cx < params.src_width; cx++) {
+            if cx == d.sx && cy == d.sy {
                 continue;
             }
-            let c = source_cell(k, face, cx, cy);
+            let c = source_cell(d.k, d.face, cx, cy);
             mm = vec2<f32>(min(mm.x, c.x), max(mm.y, c.y));
         }
     }
-    cmo_hier[k * params.hier_len + params.dst_offset + in_cmo] = mm;
+    cmo_hier[d.k * params.hier_len + params.dst_offset + d.in_cmo] = mm;
+}
+
+// Source gap cell `(x, y)` of `face` in CMO `k`, unpacked (`[g1, g0]`).
+fn gap_source(k: u32, face: u32, x: u32, y: u32) -> vec2<f32> {
+    let local = (face * params.src_height + y) * params.src_width + x;
+    var w: u32;
+    if params.from_texels != 0u {
+        w = gap_texels[k * params.texels_per_cmo + local];
+    } else {
+        w = gap_hier[k * params.hier_len + params.src_offset + local];
+    }
+    return vec2<f32>(bitcast<f32>(w & 0xffff0000u), bitcast<f32>(w << 16u));
+}
+
+// The gaps' hierarchy (`cpu::bounded::Bounded::gap_hier`, `Hier32::over_cells`): as `main`, the
+// min of `g1` (x) and the max of `g0` (y) over the block in the same order; the unpacked halves
+// are bfloat16 values, so packing the result again is exact.
+@compute @workgroup_size(64)
+fn gaps(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
+    let d = dest(gid, groups);
+    if !d.ok {
+        return;
+    }
+    var g = gap_source(d.k, d.face, d.sx, d.sy);
+    for (var cy = d.sy; cy < d.sy + params.gy && cy < params.src_height; cy++) {
+        for (var cx = d.sx; cx < d.sx + params.gx && cx < params.src_width; cx++) {
+            if cx == d.sx && cy == d.sy {
+                continue;
+            }
+            let c = gap_source(d.k, d.face, cx, cy);
+            g = vec2<f32>(min(g.x, c.x), max(g.y, c.y));
+        }
+    }
+    gap_hier[d.k * params.hier_len + params.dst_offset + d.in_cmo] = (bitcast<u32>(g.x) & 0xffff0000u) | (bitcast<u32>(g.y) >> 16u);
 }

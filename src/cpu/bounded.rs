@@ -11,7 +11,8 @@
 //!    everything `T` holds; or `g0 < rmin` and `rmax < g1` for `T`'s first gap `(g0, g1)`
 //!    ([`crate::cubemap::bounds::first_gap`]): it passes between two surfaces. Nothing here, the
 //!    traversal goes on. The fragment path's pyramid march skips whole cells the same way, over
-//!    the gaps' pyramid ([`Bounded::gaps`]: the largest `g0` and smallest `g1` of the cell).
+//!    the gaps' pyramid ([`Bounded::gaps`]: the largest `g0` and smallest `g1` of the cell), and
+//!    the compute path's over their 8x4/4x8 hierarchy ([`Bounded::gap_hier`]).
 //! 2. The known part: with `complete_to = L` finite, the list holds every triangle nearer than
 //!    `L` only. `r(t0) >= L`: nothing of `T` is known: **behind** at `t0`. Otherwise the known
 //!    part ends at `t_known = min(t1, the larger root of r(t) = L)` (`r` is convex and
@@ -61,7 +62,7 @@ use super::{CmoTracer, Counters, Outcome, Segment};
 use crate::cubemap::bounds::TexelLists;
 use crate::cubemap::face::Texel;
 use crate::cubemap::frustum::{Interval, r_at, r_bounds};
-use crate::cubemap::pyramid::MipPyramid;
+use crate::cubemap::pyramid::{Hier32, MipPyramid};
 
 /// Texels whose list one single-CMO trace may walk (module docs, step 3): the next texel that
 /// would walk its list is behind at its entry instead, and that behind ends the ray unresolved
@@ -91,19 +92,30 @@ pub struct Bounded {
     /// [`TexelLists::gaps`]; a cell keeps the min of `g1` and the max of `g0`), which the
     /// traversals skip through (module docs, step 1).
     pub gaps: MipPyramid,
+    /// The same gaps over the compute path's 8x4/4x8 hierarchy ([`Hier32::over_cells`]).
+    pub gap_hier: Hier32,
 }
 
 impl Bounded {
     /// The CPU twin of what the GPU holds: `lists` over `corners`, the walk budget
     /// [`WALK_BUDGET`].
     pub fn new(lists: TexelLists, corners: Vec<[Vec3; 3]>) -> Bounded {
-        let gaps = MipPyramid::over_cells(lists.size, lists.gaps());
+        let cells = lists.gaps();
+        let gap_hier = Hier32::over_cells(lists.size, cells.clone());
+        let gaps = MipPyramid::over_cells(lists.size, cells);
         Bounded {
             lists,
             corners,
             walk_budget: WALK_BUDGET,
             gaps,
+            gap_hier,
         }
+    }
+
+    /// [`Bounded::in_gap`] for a cell of the compute path's hierarchy ([`Bounded::gap_hier`]).
+    pub fn in_hier_gap(&self, level: usize, face: u32, x: u32, y: u32, rb: (f32, f32)) -> bool {
+        let [g1, g0] = self.gap_hier.levels[level].get(face, x, y);
+        rb.0 > g0 && rb.1 < g1
     }
 
     /// Whether distances `rb = (rmin, rmax)` lie strictly inside the gap `[g1, g0]` of cell

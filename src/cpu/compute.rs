@@ -9,7 +9,8 @@
 //!   `gx x gy` (32) cells of level `l - 1` as children, child `j` at `(j % gx, j / gx)`.
 //! - Visiting a node, logical lane `j` tests child `j`: interval from the frustum inequalities,
 //!   then the range test. A cell is a candidate unless its widened interval is empty or the ray
-//!   is entirely in front of it (`rmax < min`); a texel is a candidate iff crossed and
+//!   is entirely in front of it (`rmax < min`), or, with the `bounded` criterion, inside its gap
+//!   ([`super::bounded::Bounded::in_hier_gap`]); a texel is a candidate iff crossed and
 //!   `rmax >= D` (the surface model's "not entirely in front"). The 32-bit candidate mask comes
 //!   from ballots and is kept per level, with each lane's key `t0` (the exact entry parameter).
 //! - The first candidate along the ray (smallest key, ties: lowest `j`; a subgroup min then a
@@ -136,9 +137,15 @@ fn lane_test(tr: &CmoTracer, st: &RayState, j: u32) -> (bool, f32) {
     let iv = cell_interval(st.la, st.ld, &rect, lo, hi);
     match iv.inflated(lo, hi, seg_reach(st.seg.a, st.seg.d)) {
         Some((a, b)) => {
-            // Skip iff entirely in front; a NaN keeps the cell (conservative).
-            let in_front = r_bounds(st.seg.a, st.seg.d, a, b).1 < child.get(face, cx, cy)[0];
-            (!in_front, iv.t0)
+            // Skip iff entirely in front, or (bounded) inside the cell's gap; a NaN keeps the
+            // cell (conservative).
+            let rb = r_bounds(st.seg.a, st.seg.d, a, b);
+            let skip = rb.1 < child.get(face, cx, cy)[0]
+                || tr
+                    .bounded
+                    .as_ref()
+                    .is_some_and(|g| g.in_hier_gap(cl, face, cx, cy, rb));
+            (!skip, iv.t0)
         }
         None => (false, f32::INFINITY),
     }

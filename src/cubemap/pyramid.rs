@@ -229,21 +229,36 @@ pub fn hier32_layout(size: u32) -> Vec<(u32, u32)> {
 impl Hier32 {
     /// Builds the hierarchy from a capture.
     pub fn build(cube: &CubeMap) -> Hier32 {
-        let layout = hier32_layout(cube.size);
+        Hier32::from_texels(cube.size, texel_level(cube))
+    }
+
+    /// The hierarchy over texel cells given as `[x, y]` pairs, as
+    /// [`MipPyramid::over_cells`]: a cell keeps the min of `x` and the max of `y`.
+    pub fn over_cells(size: u32, cells: Vec<[f32; 2]>) -> Hier32 {
+        assert_eq!(cells.len(), (FACE_COUNT * size * size) as usize);
+        let texels = MinMaxLevel {
+            width: size,
+            height: size,
+            group: (1, 1),
+            span: (1, 1),
+            cells,
+        };
+        Hier32::from_texels(size, texels)
+    }
+
+    fn from_texels(size: u32, texels: MinMaxLevel) -> Hier32 {
+        let layout = hier32_layout(size);
         assert!(
             layout.len() <= HIER_MAX_LEVELS,
             "cube size too large for the hierarchy"
         );
-        let mut levels = vec![texel_level(cube)];
+        let mut levels = vec![texels];
         for l in 1..layout.len() {
             let (gx, gy) = hier32_group(l);
             let next = reduce(&levels[l - 1], gx, gy);
             levels.push(next);
         }
-        Hier32 {
-            size: cube.size,
-            levels,
-        }
+        Hier32 { size, levels }
     }
 
     /// Index of the root level.

@@ -281,7 +281,7 @@ fn plan_cmo_bytes(plan: &FramePlan) -> u64 {
     // method builds one.
     let lists = if cmo.lists() {
         let gap_cells = cmo.texels() + pyramid / 8;
-        lists_bytes(count, size, 0) + gap_cells * 4
+        lists_bytes(count, size, 0) + gap_cells * 4 + spec.cmo_list_bytes(count, size)
     } else {
         0
     };

@@ -341,9 +341,17 @@ pub fn check_device(ctx: &GpuContext) -> VkResult<()> {
     }
 }
 
+/// Whether `cmo` holds the `bounded` criterion's lists (its gaps then get a hierarchy).
+fn bounded(cmo: &CmoData) -> bool {
+    cmo.config().criterion == TraceConfig::CRITERION_BOUNDED
+}
+
 /// The compute path's buffers, each allocated once.
 struct ComputeBuffers {
     hier: Buffer,
+    /// The `bounded` criterion's gaps over the hierarchy (a packed word per cell,
+    /// [`crate::cubemap::bounds::pack_gap`]); a one-word placeholder for the other criteria.
+    gap_hier: Buffer,
     hier_config: Buffer,
     dispatch_params: Buffer,
     cut: Buffer,
@@ -379,6 +387,11 @@ impl ComputeBuffers {
         let indirect = vk::BufferUsageFlags::INDIRECT_BUFFER;
         Ok(ComputeBuffers {
             hier: storage("cmo_hier", cells.max(1) * 8, transfer_src)?,
+            gap_hier: storage(
+                "cmo_gap_hier",
+                if bounded(cmo) { cells.max(1) * 4 } else { 4 },
+                transfer_src,
+            )?,
             hier_config: ctx.create_buffer_init(
                 "hier_config",
                 vk::BufferUsageFlags::STORAGE_BUFFER,
@@ -476,6 +489,7 @@ impl TracePass {
                 (3, Resource::Buffer(&b.hier)),
                 (4, Resource::Buffer(&b.stats)),
                 (5, Resource::Buffer(&b.cut)),
+                (7, Resource::Buffer(&b.gap_hier)),
             ];
             if let Some(m) = mode {
                 resources.push((6, Resource::Buffer(m)));
@@ -514,6 +528,8 @@ pub struct ComputePath {
     height: u32,
     hier_pass: Hier32Pass,
     hier_bindings: Hier32Bindings,
+    /// The gaps' hierarchy (the `bounded` criterion).
+    gap_pass: Option<(Hier32Pass, Hier32Bindings)>,
     append: GraphicsPipeline,
     append_set: BindGroup,
     dispatch_args: ComputePipeline,
@@ -537,7 +553,7 @@ impl ComputePath {
     ) -> VkResult<Self> {
         check_device(ctx)?;
         let (lane_cap, entry) = ray_lanes(ctx)?;
-        let entry = if cmo.config().criterion == TraceConfig::CRITERION_BOUNDED {
+        let entry = if bounded(cmo) {
             bounded_entry(entry)
         } else {
             entry
@@ -547,6 +563,13 @@ impl ComputePath {
         let hier_pass = Hier32Pass::new(ctx)?;
         let hier_bindings =
             hier_pass.bind(ctx, cmo.distance(), &b.hier, cmo.count(), cmo.size())?;
+        let gap_pass = if bounded(cmo) {
+            let p = Hier32Pass::gaps(ctx)?;
+            let bindings = p.bind(ctx, &cmo.gaps()[0], &b.gap_hier, cmo.count(), cmo.size())?;
+            Some((p, bindings))
+        } else {
+            None
+        };
         let append = GraphicsPipeline::new(
             ctx,
             &APPEND,
@@ -589,6 +612,7 @@ impl ComputePath {
             height,
             hier_pass,
             hier_bindings,
+            gap_pass,
             append,
             append_set,
             dispatch_args,
@@ -602,6 +626,9 @@ impl ComputePath {
     /// capture and before [`ComputePath::record_trace`]).
     pub fn record_hier(&self, rec: &Recorder<'_>) {
         self.hier_pass.record(rec, &self.hier_bindings);
+        if let Some((p, b)) = &self.gap_pass {
+            p.record(rec, b);
+        }
     }
 
     /// `append`: zeroes the counter, then queues one ray per mirror pixel of the G-buffer.
@@ -703,6 +730,11 @@ impl MethodSpec for Compute {
     /// The 8x4/4x8 hierarchy: `[min, max]` f32 pairs per cell.
     fn cmo_bytes(&self, cmos: u32, size: u32) -> u64 {
         u64::from(cmos) * hier32_len(size) as u64 * 8
+    }
+
+    /// The hierarchy of the lists' gaps: a packed word per cell.
+    fn cmo_list_bytes(&self, cmos: u32, size: u32) -> u64 {
+        u64::from(cmos) * hier32_len(size) as u64 * 4
     }
 
     fn check_device(&self, ctx: &GpuContext) -> VkResult<()> {

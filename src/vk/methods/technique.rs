@@ -144,6 +144,12 @@ pub trait MethodSpec: Sync {
         0
     }
 
+    /// Device bytes the method adds to its per-CMO data where the CMOs hold the `bounded`
+    /// criterion's lists (the compute path's hierarchy of their gaps); none by default.
+    fn cmo_list_bytes(&self, _cmos: u32, _size: u32) -> u64 {
+        0
+    }
+
     /// How the method renders a glossy reflector on the GPU ([`Glossy`]); the mirror direction
     /// only by default.
     fn glossy(&self) -> Glossy {

@@ -88,6 +88,8 @@ pub fn level_params(cmo_count: u32, size: u32) -> Vec<(Hier32Params, [u32; 3])> 
 /// The pass's pipeline. Create once, record every frame.
 pub struct Hier32Pass {
     pipeline: ComputePipeline,
+    /// Whether it builds the gaps' hierarchy ([`Hier32Pass::gaps`]).
+    gaps: bool,
 }
 
 /// Per-level parameters and descriptor sets for one `(distance, hier, K, N)`.
@@ -108,7 +110,22 @@ impl Hier32Pass {
     /// Builds the pipeline.
     pub fn new(ctx: &GpuContext) -> VkResult<Self> {
         let pipeline = ComputePipeline::new(ctx, &HIER32, "main", ComputeOptions::default())?;
-        Ok(Hier32Pass { pipeline })
+        Ok(Hier32Pass {
+            pipeline,
+            gaps: false,
+        })
+    }
+
+    /// Builds the pipeline of the `bounded` criterion's gap hierarchy (the `gaps` entry point):
+    /// [`Hier32Pass::bind`]'s `distance` is then the texels' packed gaps (a word each,
+    /// [`crate::cubemap::bounds::pack_gap`]) and `hier` gets a packed word per cell
+    /// ([`crate::cubemap::pyramid::Hier32::over_cells`]).
+    pub fn gaps(ctx: &GpuContext) -> VkResult<Self> {
+        let pipeline = ComputePipeline::new(ctx, &HIER32, "gaps", ComputeOptions::default())?;
+        Ok(Hier32Pass {
+            pipeline,
+            gaps: true,
+        })
     }
 
     /// Parameters and descriptor sets reading `distance` (K blocks of `6 N N` f32) and writing
@@ -138,7 +155,8 @@ impl Hier32Pass {
                 "K = {cmo_count}, N = {size} overflows the shader's u32 indices"
             )));
         }
-        for (buf, need) in [(distance, texels * 4), (hier, cells * 8)] {
+        let cell_bytes = if self.gaps { 4 } else { 8 };
+        for (buf, need) in [(distance, texels * 4), (hier, cells * cell_bytes)] {
             if buf.size() < need {
                 return Err(usage(format!(
                     "buffer `{}` has {} bytes, K = {cmo_count}, N = {size} needs {need}",
@@ -161,12 +179,13 @@ impl Hier32Pass {
                 MemoryLocation::CpuToGpu,
             )?;
             buf.write(0, &[params])?;
+            let first = if self.gaps { 3 } else { 1 };
             b.sets.push(self.pipeline.bind_group(
                 0,
                 &[
                     (0, Resource::Buffer(&buf)),
-                    (1, Resource::Buffer(distance)),
-                    (2, Resource::Buffer(hier)),
+                    (first, Resource::Buffer(distance)),
+                    (first + 1, Resource::Buffer(hier)),
                 ],
             )?);
             b._params.push(buf);
