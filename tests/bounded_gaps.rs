@@ -74,7 +74,7 @@ fn wrong(
     how: Traversal,
 ) -> (usize, Counters) {
     let mut bad = 0;
-    let mut work = Counters::default();
+    let work = std::cell::Cell::new(Counters::default());
     for &(o, d) in rays {
         let ray = WorldRay {
             origin: o,
@@ -85,8 +85,10 @@ fn wrong(
         };
         let m = trace_world_ray(std::slice::from_ref(tr), &ray, None, |tr, s| {
             let r = trace_one(tr, s, how);
-            work.texels += r.counters.texels;
-            work.cells += r.counters.cells;
+            let mut w = work.get();
+            w.texels += r.counters.texels;
+            w.cells += r.counters.cells;
+            work.set(w);
             r
         });
         let first = brute(tris, o, d);
@@ -100,7 +102,7 @@ fn wrong(
         };
         bad += usize::from(!ok);
     }
-    (bad, work)
+    (bad, work.get())
 }
 
 /// Every traversal over the CPU twin's lists gives the first hit with the gaps, uses them, and
