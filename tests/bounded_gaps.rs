@@ -88,6 +88,8 @@ fn wrong(
             let mut w = work.get();
             w.texels += r.counters.texels;
             w.cells += r.counters.cells;
+            w.walks += r.counters.walks;
+            w.triangles += r.counters.triangles;
             work.set(w);
             r
         });
@@ -162,7 +164,7 @@ fn packing_narrows_the_gap() {
     let mut checked = 0;
     for _ in 0..100_000 {
         let (a, b) = (f(), f());
-        if !(a.is_finite() && b.is_finite()) {
+        if !(a.is_normal() && b.is_normal()) {
             continue;
         }
         let [g1, g0] = unpack_gap(pack_gap([a, b]));
@@ -215,7 +217,7 @@ fn the_gpu_gaps_are_the_twins() {
         bad.entries[j].hi = bad.entries[j + 1].lo;
         assert_ne!(bad.packed_gaps()[i], gpu.gaps[k][i], "CMO {k} texel {i}");
     }
-    assert!(real > 1000, "{real} texels with a finite gap");
+    assert!(real > 100, "{real} texels with a finite gap");
     check_pyramids(&ctx, &gpu.gaps, size);
     drop(pass);
     drop(buffers);
