@@ -478,17 +478,20 @@ mod tests {
             criterion: crate::cpu::options::TraceCriterion::Bounded,
             ..exact
         };
-        // The lists' records (16 B per texel) replace the rasterised capture's targets (the f32
+        // The lists' records (16 B per texel) and gaps (4 B per texel, and per cell of the
+        // method's hierarchy of them) replace the rasterised capture's targets (the f32
         // distance and u32 ID per texel, the depth of one face), which the lists' capture does
         // not create.
         let texels = 2 * 6 * 256 * 256;
-        for m in [Method::Fragment, Method::Compute] {
+        let mip = 2 * mip_len(256) as u64 * 4;
+        let hier = 2 * crate::cubemap::pyramid::hier32_len(256) as u64 * 4;
+        for (m, gap_levels) in [(Method::Fragment, mip), (Method::Compute, hier)] {
             let b = device_bytes(160, 120, m, 2, 256, false, &bounded);
             let e = device_bytes(160, 120, m, 2, 256, false, &exact);
             assert_eq!(
                 b.cmo - e.cmo,
-                texels * 16 - (texels * 8 + 256 * 256 * 4),
-                "{m}: the lists' records for the raster targets"
+                texels * 20 + gap_levels - (texels * 8 + 256 * 256 * 4),
+                "{m}: the lists' records and gaps for the raster targets"
             );
         }
     }
