@@ -333,7 +333,9 @@ fn trace_structs_match_naga_layout() {
         .unwrap_or_else(|e| panic!("{e}"));
     check_layout!(ProbeParams, l("ProbeParams"), [count, pad0, pad1, pad2])
         .unwrap_or_else(|e| panic!("{e}"));
-    // Group 1 is the shared tracer's: config, centres, distance, mip.
+    // Group 1 is the shared tracer's: config, centres, distance, mip, and the `bounded`
+    // criterion's gaps, which the pyramid march reads only for that criterion (naga counts a
+    // binding any reachable function reads; the CMO data binds placeholders otherwise).
     let ep = TRACE_PROBE.entry_point("main").expect("main");
     let g1: Vec<_> = ep
         .bindings
@@ -347,7 +349,9 @@ fn trace_structs_match_naga_layout() {
             (0, "trace_config"),
             (1, "cmo_centres"),
             (2, "cmo_distance"),
-            (3, "cmo_mip")
+            (3, "cmo_mip"),
+            (15, "cmo_gap"),
+            (16, "cmo_gap_mip")
         ]
     );
 }

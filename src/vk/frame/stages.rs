@@ -16,7 +16,7 @@ use crate::vk::methods::{FrameInputs, Needs, Technique};
 use crate::vk::passes::bounce::BouncePasses;
 use crate::vk::passes::bvh::{AppendKind, BvhPasses, ReflectorCheck};
 use crate::vk::passes::capture::Capture;
-use crate::vk::passes::capture_lists::CaptureLists;
+use crate::vk::passes::capture_lists::{CaptureLists, ListTargets};
 use crate::vk::passes::cmo::CmoData;
 use crate::vk::passes::cone::{ConePrefilter, ConePrefilterBindings, ConeStage};
 use crate::vk::passes::gbuffer::Gbuffer;
@@ -140,7 +140,7 @@ impl CmoStages {
         capacity: PoolBound,
     ) -> VkResult<CmoCapture> {
         cmo.alloc_lists(ctx, capacity.nodes)?;
-        let targets = cmo.list_targets();
+        let targets = ListTargets::of(cmo);
         Ok(CmoCapture::Lists(Box::new(CaptureLists::new(
             ctx,
             scene_buffers,

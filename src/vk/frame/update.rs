@@ -14,6 +14,7 @@ use crate::vk::backend::error::{VkError, VkResult};
 use crate::vk::methods;
 use crate::vk::methods::GeometryInputs;
 use crate::vk::passes::capture_lists;
+use crate::vk::passes::capture_lists::ListTargets;
 use crate::vk::passes::scene_buffers::SceneBuffers;
 
 /// What [`GpuRenderer::update_geometry`] writes (its `geometry_plan`): the scene as uploaded,
@@ -266,7 +267,7 @@ impl GpuRenderer {
             (Some(CmoCapture::Lists(c)), Some((views, capacity))) => {
                 // A pool too small for the moved geometry is allocated again, and rebound.
                 let grown = self.cmo.grow_pool(ctx, capacity.nodes)?;
-                let targets = self.cmo.list_targets();
+                let targets = ListTargets::of(&self.cmo);
                 c.update(ctx, &self._scene, &views, capacity, Some(targets))?;
                 if grown {
                     self.method.rebind_cmo(ctx, &self.cmo)?;

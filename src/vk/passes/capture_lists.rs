@@ -38,7 +38,7 @@ use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
-use super::cmo::{column_buffers, storage};
+use super::cmo::{CmoData, column_buffers, storage};
 use super::lists;
 use super::scene_buffers::SceneBuffers;
 use crate::cubemap::bounds::{self, PoolBound, TexelLists};
@@ -375,6 +375,19 @@ pub struct ListTargets<'a> {
     pub nodes: &'a [Buffer; 4],
     /// The texels' first gaps, a word per texel ([`bounds::pack_gap`]), laid out as `distance`.
     pub gaps: &'a Buffer,
+}
+
+impl<'a> ListTargets<'a> {
+    /// The CMO data's own buffers (after [`CmoData::alloc_lists`]): its distances, records,
+    /// pool and the texels' gaps.
+    pub fn of(cmo: &'a CmoData) -> Self {
+        ListTargets {
+            distance: cmo.distance(),
+            records: cmo.lists(),
+            nodes: cmo.nodes(),
+            gaps: &cmo.gaps()[0],
+        }
+    }
 }
 
 /// The result buffers a capture allocated itself (no [`ListTargets`] given).

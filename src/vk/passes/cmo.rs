@@ -411,17 +411,6 @@ impl CmoData {
         Ok(())
     }
 
-    /// Where the `bounded` capture writes (after [`CmoData::alloc_lists`]): the distances, the
-    /// records, the pool and the texels' gaps.
-    pub fn list_targets(&self) -> super::capture_lists::ListTargets<'_> {
-        super::capture_lists::ListTargets {
-            distance: &self.distance,
-            records: &self.lists,
-            nodes: &self.nodes,
-            gaps: &self.gaps[0],
-        }
-    }
-
     /// The lists' gaps: the texels' (binding 15) and their pyramid's (binding 16), a packed
     /// word per cell ([`crate::cubemap::bounds::pack_gap`]).
     pub fn gaps(&self) -> &[Buffer; 2] {
