@@ -11,7 +11,7 @@
 // levels concatenated, face-major, row-major (the layout of `cmo_mip`, see spirv/pyramid.wgsl).
 
 // Shared with Rust as `vk::passes::cone::ConePrefilterParams`; layout checked by
-// tests/glossy_cone.rs.
+// tests/glossy/glossy_cone.rs.
 struct ConePrefilterParams {
     // Number of CMOs K.
     cmo_count: u32,

@@ -1,6 +1,6 @@
 // Cone probe pass: evaluates the cone lookups of spirv/shared/cone.wgsl for a list of queries,
 // one result per query. It exists to compare them with their CPU twins (`cubetrace::cpu::cone`,
-// tests/glossy_cone.rs); the cone pass and ssr call the same functions.
+// tests/glossy/glossy_cone.rs); the cone pass and ssr call the same functions.
 // Group 0 (bindings 8 to 10, clear of shared/mirror.wgsl's 0 to 3): the queries and results;
 // group 1: the CMO data (`CmoData`, with `cmo_cone`).
 //! import shared/cone.wgsl

@@ -16,7 +16,7 @@
 // row-major. Level 1 reads the texels (a texel d is the cell [d, d]); level l > 1 reads level
 // l - 1 of the same block. Levels are square (ceil(N / 2^l) on both sides).
 
-// Shared with Rust as `vk::passes::pyramid::PyramidParams`; layout checked by tests/gpu_pyramid.rs.
+// Shared with Rust as `vk::passes::pyramid::PyramidParams`; layout checked by tests/capture/gpu_pyramid.rs.
 struct PyramidParams {
     // Number of CMOs K.
     cmo_count: u32,

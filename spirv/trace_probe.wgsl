@@ -1,6 +1,6 @@
 // Trace probe pass: traces a list of world rays with the shared tracer (`shared/trace.wgsl`) and
 // writes one `TraceOut` per ray. It exists to compare the GPU tracer with its CPU twin
-// (`tests/gpu_twin.rs`); the frame's fragment trace pass calls the same `trace_ray`.
+// (`tests/tracer/gpu_twin.rs`); the frame's fragment trace pass calls the same `trace_ray`.
 // Group 0: the rays and results; group 1: the CMO data declared by `shared/trace.wgsl`.
 //! import shared/trace.wgsl
 

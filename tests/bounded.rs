@@ -4,6 +4,8 @@
 //! - `bounded_cpu`: the CPU twin (`cpu::bounded`) on lists sound by construction;
 //! - `capture_lists`: the GPU list capture against its CPU twin, bit for bit;
 //! - `bounded_gpu`: both GPU paths over uploaded lists against each other and the twin;
+//! - `bounded_gaps`: the gaps the traversals skip through: sound on the CPU, the GPU's bit for
+//!   bit;
 //! - `bounded_frame`: the criterion end to end on stress scenes against the reference;
 //! - `stress_capture`: the stress scenes themselves, and the exact criterion missing their thin
 //!   parts.
@@ -20,6 +22,8 @@ mod stress;
 mod bounded_cpu;
 #[path = "bounded/bounded_frame.rs"]
 mod bounded_frame;
+#[path = "bounded/bounded_gaps.rs"]
+mod bounded_gaps;
 #[path = "bounded/bounded_gpu.rs"]
 mod bounded_gpu;
 #[path = "bounded/capture_lists.rs"]

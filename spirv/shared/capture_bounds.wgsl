@@ -225,7 +225,7 @@ fn cb_texel_centre_unit(x: u32, y: u32, size: u32) -> vec3<f32> {
 // last clip's into the min and max (`cb_out`), and the closing edges run in clip order at the
 // end. Starting a cycle at another vertex only rotates the clip's output, so the set and the
 // counts are those of `cb_clip` four times, the bits too (the CPU twin `texel_bound` builds
-// the polygons; `tests/capture_lists.rs` compares bits). More than `CB_MAX_POLY` outputs of
+// the polygons; `tests/bounded/capture_lists.rs` compares bits). More than `CB_MAX_POLY` outputs of
 // any clip is the polygons' overflow. Lavapipe turns the polygons' stores at a per-lane index
 // into loops over the slots; the stream has none.
 struct CbStage {

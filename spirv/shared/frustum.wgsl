@@ -41,10 +41,10 @@ fn is_nan_f32(x: f32) -> bool {
 // contracts `a * b + c` into a fused multiply-add). Every such product in the tracer goes
 // through here, so that this is the one place to change for a driver that contracts.
 // Measured: lavapipe (Mesa 22.3.6, LLVM 15) never fuses; it lowers even an explicit WGSL `fma`
-// to a multiply and an add (`tests/gpu_twin.rs` is bit-identical either way). naga emits no
+// to a multiply and an add (`tests/tracer/gpu_twin.rs` is bit-identical either way). naga emits no
 // `NoContraction` decoration, and drivers for real GPUs may fuse `a * b + c`; the fix then is
 // to round the product on its own here (e.g. multiply it by a 1.0 the compiler cannot see
-// through, read from a uniform), and to check with `tests/gpu_twin.rs` on that GPU.
+// through, read from a uniform), and to check with `tests/tracer/gpu_twin.rs` on that GPU.
 fn prod(a: f32, b: f32) -> f32 {
     return a * b;
 }

@@ -2,7 +2,7 @@
 // the view-independent shading of `src/shading.rs`, written expression for expression so that a
 // captured texel and the CPU reference shade a point alike.
 //
-// Layouts mirror `src/scene/gpu_data.rs` (checked against naga's layout in tests/gpu_raster.rs).
+// Layouts mirror `src/scene/gpu_data.rs` (checked against naga's layout in tests/capture/gpu_raster.rs).
 // Every pass that imports this file binds the scene as @group(SCENE_GROUP), a constant its root
 // file defines: 0 where the scene is the pass's first group, another where group 0 is taken
 // (the trace passes: fragment_trace 2, compute_trace 3).

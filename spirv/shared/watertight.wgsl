@@ -1,6 +1,6 @@
 // Watertight ray-triangle intersection (Woop, Benthin and Wald 2013), the GPU twin of
 // `src/cpu/watertight.rs`: the same operations in the same order, so that both give the same bits
-// (`tests/gpu_verify.rs`). Conventions (see the Rust module): no culling, inclusive edges, t > 0 in
+// (`tests/tracer/gpu_verify.rs`). Conventions (see the Rust module): no culling, inclusive edges, t > 0 in
 // units of |d|, det == 0 (degenerate, or a ray in the triangle's plane) never hits, no fused
 // multiply-add (lavapipe does not contract; see `prod` in shared/frustum.wgsl for other drivers).
 

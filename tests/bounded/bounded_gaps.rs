@@ -10,8 +10,7 @@
 //! - **The gap pyramids** (`pyramid` and `hier32` passes, `gaps` entry points) equal
 //!   `MipPyramid::over_cells` and `Hier32::over_cells`, bit for bit. Negative: one texel
 //!   perturbed.
-mod common;
-use common::{finish_gpu, gpu_context};
+use crate::common::{finish_gpu, gpu_context};
 
 use cubetrace::cpu::bounded::NO_TRIANGLE;
 use cubetrace::cpu::multi::{MultiStatus, Traversal, WorldRay, trace_one, trace_world_ray};
