@@ -3,11 +3,12 @@
 //
 // CPU twin: `cubetrace::cubemap::pyramid::MipPyramid::build` (+ `flatten`). Each invocation
 // writes one destination cell: the min and max over the (up to) 2x2 source cells below it. A
-// source child outside the source level is skipped, which is what the CPU does by padding with
-// empty cells `[+inf, -inf]` (min(+inf, x) = x and max(-inf, x) = x for every non-NaN x). The
-// fold starts from child (0, 0), which always exists (dst x < ceil(w / 2) implies 2x < w), and
-// visits the children in the CPU's order (row-major), so the result is bit-identical to the CPU's
-// for every non-NaN input, +inf texels and whole +inf faces included, without an inf literal.
+// source child outside the source level is replaced by its neighbour inside (`children`), whose
+// value min and max already hold; the CPU pads with empty cells `[+inf, -inf]` instead
+// (min(+inf, x) = x and max(-inf, x) = x for every non-NaN x). Child (0, 0) always exists
+// (dst x < ceil(w / 2) implies 2x < w), and min and max are exact, so the result is
+// bit-identical to the CPU's for every non-NaN input, +inf texels and whole +inf faces
+// included, without an inf literal.
 // (Distances are >= 0 by definition; should +0.0 and -0.0 meet in one cell, which of the two is
 // the min is left to the implementation, on the CPU as here.)
 //
@@ -78,6 +79,21 @@ fn dest(gid: vec3<u32>, groups: vec3<u32>) -> Dest {
     return Dest(index < params.cmo_count * per_cmo, index / per_cmo, face, in_cmo % w, (in_cmo % per_face) / w, in_cmo);
 }
 
+// The 2x2 children of `d`'s cell as (x0, y0, x1, y1), clamped to the source level: a child
+// past the level's edge repeats its neighbour, which min and max leave unchanged (as the CPU's
+// empty padding cells do).
+fn children(d: Dest) -> vec4<u32> {
+    let sx = 2u * d.x;
+    let sy = 2u * d.y;
+    let last = params.src_width - 1u;
+    return vec4<u32>(sx, sy, min(sx + 1u, last), min(sy + 1u, last));
+}
+
+// [min, max] of two cells.
+fn fold(a: vec2<f32>, b: vec2<f32>) -> vec2<f32> {
+    return vec2<f32>(min(a.x, b.x), max(a.y, b.y));
+}
+
 @compute @workgroup_size(64)
 fn main(
     @builtin(global_invocation_id) gid: vec3<u32>,
@@ -88,23 +104,10 @@ fn main(
     if !d.ok {
         return;
     }
-    let sx = 2u * d.x;
-    let sy = 2u * d.y;
-    let sw = params.src_width;
-    var mm = source_cell(d.k, d.face, sx, sy);
-    if sx + 1u < sw {
-        let c = source_cell(d.k, d.face, sx + 1u, sy);
-        mm = vec2<f32>(min(mm.x, c.x), max(mm.y, c.y));
-    }
-    if sy + 1u < sw {
-        let c = source_cell(d.k, d.face, sx, sy + 1u);
-        mm = vec2<f32>(min(mm.x, c.x), max(mm.y, c.y));
-        if sx + 1u < sw {
-            let e = source_cell(d.k, d.face, sx + 1u, sy + 1u);
-            mm = vec2<f32>(min(mm.x, e.x), max(mm.y, e.y));
-        }
-    }
-    cmo_mip[d.k * params.mip_len + params.dst_offset + d.in_cmo] = mm;
+    let c = children(d);
+    let top = fold(source_cell(d.k, d.face, c.x, c.y), source_cell(d.k, d.face, c.z, c.y));
+    let bottom = fold(source_cell(d.k, d.face, c.x, c.w), source_cell(d.k, d.face, c.z, c.w));
+    cmo_mip[d.k * params.mip_len + params.dst_offset + d.in_cmo] = fold(top, bottom);
 }
 
 // `[g1, g0]` of a packed gap word (shared/trace.wgsl's `unpack_gap`).
@@ -133,21 +136,9 @@ fn gaps(
     if !d.ok {
         return;
     }
-    let sx = 2u * d.x;
-    let sy = 2u * d.y;
-    let sw = params.src_width;
-    var g = gap_source(d.k, d.face, sx, sy);
-    if sx + 1u < sw {
-        let c = gap_source(d.k, d.face, sx + 1u, sy);
-        g = vec2<f32>(min(g.x, c.x), max(g.y, c.y));
-    }
-    if sy + 1u < sw {
-        let c = gap_source(d.k, d.face, sx, sy + 1u);
-        g = vec2<f32>(min(g.x, c.x), max(g.y, c.y));
-        if sx + 1u < sw {
-            let e = gap_source(d.k, d.face, sx + 1u, sy + 1u);
-            g = vec2<f32>(min(g.x, e.x), max(g.y, e.y));
-        }
-    }
+    let c = children(d);
+    let top = fold(gap_source(d.k, d.face, c.x, c.y), gap_source(d.k, d.face, c.z, c.y));
+    let bottom = fold(gap_source(d.k, d.face, c.x, c.w), gap_source(d.k, d.face, c.z, c.w));
+    let g = fold(top, bottom);
     gap_mip[d.k * params.mip_len + params.dst_offset + d.in_cmo] = (bitcast<u32>(g.x) & 0xffff0000u) | (bitcast<u32>(g.y) >> 16u);
 }

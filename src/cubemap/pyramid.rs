@@ -70,6 +70,18 @@ fn texel_level(cube: &CubeMap) -> MinMaxLevel {
     }
 }
 
+/// The texel level of `cells` given as pairs (`6 N N`, the texels' order).
+fn cell_level(size: u32, cells: Vec<[f32; 2]>) -> MinMaxLevel {
+    assert_eq!(cells.len(), (FACE_COUNT * size * size) as usize);
+    MinMaxLevel {
+        width: size,
+        height: size,
+        group: (1, 1),
+        span: (1, 1),
+        cells,
+    }
+}
+
 /// Reduces `lower` by blocks of `gx x gy`; out-of-range children are empty.
 fn reduce(lower: &MinMaxLevel, gx: u32, gy: u32) -> MinMaxLevel {
     let width = lower.width.div_ceil(gx);
@@ -120,15 +132,7 @@ impl MipPyramid {
     /// each level keeps the min of `x` and the max of `y` over its 2x2 block (the bounded
     /// criterion's gaps, [`crate::cubemap::bounds::TexelLists::gaps`], are such pairs).
     pub fn over_cells(size: u32, cells: Vec<[f32; 2]>) -> MipPyramid {
-        assert_eq!(cells.len(), (FACE_COUNT * size * size) as usize);
-        let texels = MinMaxLevel {
-            width: size,
-            height: size,
-            group: (1, 1),
-            span: (1, 1),
-            cells,
-        };
-        MipPyramid::from_texels(size, texels)
+        MipPyramid::from_texels(size, cell_level(size, cells))
     }
 
     fn from_texels(size: u32, texels: MinMaxLevel) -> MipPyramid {
@@ -235,15 +239,7 @@ impl Hier32 {
     /// The hierarchy over texel cells given as `[x, y]` pairs, as
     /// [`MipPyramid::over_cells`]: a cell keeps the min of `x` and the max of `y`.
     pub fn over_cells(size: u32, cells: Vec<[f32; 2]>) -> Hier32 {
-        assert_eq!(cells.len(), (FACE_COUNT * size * size) as usize);
-        let texels = MinMaxLevel {
-            width: size,
-            height: size,
-            group: (1, 1),
-            span: (1, 1),
-            cells,
-        };
-        Hier32::from_texels(size, texels)
+        Hier32::from_texels(size, cell_level(size, cells))
     }
 
     fn from_texels(size: u32, texels: MinMaxLevel) -> Hier32 {
