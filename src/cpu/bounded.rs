@@ -114,15 +114,13 @@ impl Bounded {
 
     /// [`Bounded::in_gap`] for a cell of the compute path's hierarchy ([`Bounded::gap_hier`]).
     pub fn in_hier_gap(&self, level: usize, face: u32, x: u32, y: u32, rb: (f32, f32)) -> bool {
-        let [g1, g0] = self.gap_hier.levels[level].get(face, x, y);
-        rb.0 > g0 && rb.1 < g1
+        inside(self.gap_hier.levels[level].get(face, x, y), rb)
     }
 
     /// Whether distances `rb = (rmin, rmax)` lie strictly inside the gap `[g1, g0]` of cell
     /// `(x, y)` of `face` at pyramid level `level` (0: a texel): nothing there (step 1).
     pub fn in_gap(&self, level: usize, face: u32, x: u32, y: u32, rb: (f32, f32)) -> bool {
-        let [g1, g0] = self.gaps.levels[level].get(face, x, y);
-        rb.0 > g0 && rb.1 < g1
+        inside(self.gaps.levels[level].get(face, x, y), rb)
     }
 
     /// Whether a trace that walked `walks` lists spent the budget (step 3).
@@ -179,6 +177,11 @@ pub fn classify_bounded(
         None if cut => Some(Outcome::Behind { t: t_known }),
         None => None,
     }
+}
+
+/// Whether `rb = (rmin, rmax)` lies strictly inside the gap `[g1, g0]`.
+fn inside([g1, g0]: [f32; 2], rb: (f32, f32)) -> bool {
+    rb.0 > g0 && rb.1 < g1
 }
 
 /// The larger root of `|a + t d| = radius` (the same operations as the exact criterion's patch
