@@ -8,7 +8,7 @@
 //! - no function in `src/` is longer than 120 lines;
 //! - a method variant (`Method::Ssr`) is named only in the registry (`src/method.rs`) and in
 //!   that method's own files (a module path with its name: `method::ssr`, `vk::methods::ssr`),
-//!   test modules aside, except in the modules [`VARIANTS_NOT_YET_MOVED`] lists with their counts;
+//!   test modules aside;
 //! - the README is at most 350 lines.
 //!
 //! The checks read the sources as text (paths written `crate::a::b` or `super::a`, and
@@ -574,15 +574,6 @@ fn variants_outside(files: &[(String, String)], variants: &[String]) -> Vec<Stri
     out
 }
 
-/// The module of a place of [`variants_outside`]: `bench::model` of `bench::model:12 Method::Bvh`.
-fn place_module(place: &str) -> &str {
-    let at = place.split(' ').next().unwrap_or("");
-    at.rsplit_once(':').map_or(at, |(module, _)| module)
-}
-
-/// Modules still naming method variants, with how many places; the list only shrinks.
-const VARIANTS_NOT_YET_MOVED: &[(&str, usize)] = &[("bench::model", 16), ("bench::ratios", 9)];
-
 #[test]
 fn only_the_registry_and_a_methods_own_files_name_its_variant() {
     let files = sources();
@@ -594,34 +585,13 @@ fn only_the_registry_and_a_methods_own_files_name_its_variant() {
     let variants = method_variants(registry);
     assert!(variants.len() >= 7, "the variants were read: {variants:?}");
     let outside = variants_outside(&files, &variants);
-    let mut left: Vec<String> = Vec::new();
-    for (module, count) in VARIANTS_NOT_YET_MOVED {
-        let here = outside
-            .iter()
-            .filter(|p| place_module(p) == *module)
-            .count();
-        assert!(here <= *count, "{module}: {here} places, listed {count}");
-        left.extend((here < *count).then(|| format!("{module}: {here}, listed {count}")));
-    }
-    let unlisted: Vec<&String> = outside
-        .iter()
-        .filter(|p| {
-            !VARIANTS_NOT_YET_MOVED
-                .iter()
-                .any(|(m, _)| *m == place_module(p))
-        })
-        .collect();
     assert!(
-        unlisted.is_empty() && left.is_empty(),
+        outside.is_empty(),
         "{} places name a method variant outside src/method.rs and the method's own files \
          (ask the method instead: a property in its file under src/method/, or a registry \
-         constant such as Method::DEFAULT):\n{}\nlist counts to lower: {left:?}",
-        unlisted.len(),
-        unlisted
-            .iter()
-            .map(|s| s.as_str())
-            .collect::<Vec<_>>()
-            .join("\n")
+         constant such as Method::DEFAULT):\n{}",
+        outside.len(),
+        outside.join("\n")
     );
     // Negatives: a variant named in a wrong file is caught, in its own file or the registry
     // it is not; a glob import is caught anywhere but the registry; test modules, comments and
