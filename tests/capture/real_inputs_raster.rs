@@ -463,7 +463,7 @@ fn capture_differences(gpu: &CubeMap, cpu: &CubeMap) -> usize {
 }
 
 /// A CMO centre in a wall's plane: the GPU capture agrees with the CPU ray-cast capture
-/// (`reference::capture`: the wall, met at t = 0, is not seen) on all but a few texels (rays
+/// (`cpu::capture::capture`: the wall, met at t = 0, is not seen) on all but a few texels (rays
 /// grazing an edge; none measured). The frame itself is refused: the CMO cannot capture the
 /// wall it lies in, which mirror rays may meet (the fuzz pass measured 6 of 27 mirror pixels
 /// on the wrong surface with a centre in the floor). Negative: the capture from a centre 1.4e-3 off the wall (near plane 1e-6),
@@ -483,7 +483,7 @@ fn cmo_centre_in_a_plane_captures_what_the_reference_sees() {
         "{message}"
     );
     let tracer = Tracer::new(&scene);
-    let cpu = reference::capture(&scene, &tracer, centre, 32);
+    let cpu = cubetrace::cpu::capture::capture(&scene, &tracer, centre, 32);
     let gpu = gpu_capture(&ctx, &scene, centre, 1e-6);
     let bad = capture_differences(&gpu, &cpu);
     eprintln!(

@@ -410,7 +410,7 @@ fn verified_hits_gpu_equal_cpu_bit_for_bit() {
         let scene = builtin::by_name(name).unwrap();
         let tracer = Tracer::new(&scene);
         let centre = scene.cmo_centres()[0];
-        let cube = reference::capture(&scene, &tracer, centre, size);
+        let cube = cubetrace::cpu::capture::capture(&scene, &tracer, centre, size);
         let ids = cube.triangle.clone();
         let triangles = triangle_corners(&tracer.world);
         let buffers = SceneBuffers::new(&ctx, &GpuSceneData::new(&scene)).unwrap();
