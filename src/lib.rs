@@ -77,8 +77,8 @@
 //! Each module's documentation (`//!`) holds its algorithm, invariants, known limits and
 //! measurements. `tests/layout.rs` checks the shape: no import circle, no module using a layer
 //! above its own (`app`, `bench`, `render`, `vk`), no function over 120 lines, no `ash` or
-//! `unsafe` outside `src/vk/`, the method variant rule above, and a README of at most 350
-//! lines.
+//! `unsafe` outside `src/vk/`, the method variant rule above, a README of at most 350 lines,
+//! and no issue numbers, commit hashes or dates in the README, `src/`, `spirv/` or `tests/`.
 //!
 //! # Conventions
 //!
