@@ -71,15 +71,14 @@
 //! ([`Method::glossy`], [`Method::known_limit`], ...) or names a role ([`Method::DEFAULT`],
 //! [`Method::TRUTH`], [`Method::EXACT_GPU`], [`Method::SCALING`]). `tests/layout.rs` proves the
 //! rule it can read: no variant is named in code outside `src/method.rs` and the files of a module
-//! path with that method's name, test modules aside, except in the modules it lists with their
-//! counts (the bench's per-scene ratios and the cost model's report, whose output columns are named
-//! methods); each count must match, so the list is lowered as places move.
+//! path with that method's name, test modules aside. The bench's reports are keyed by method
+//! (rows built from [`Method::ALL`] and the role constants), so none of them names a variant.
 //!
 //! Each module's documentation (`//!`) holds its algorithm, invariants, known limits and
 //! measurements. `tests/layout.rs` checks the shape: no import circle, no module using a layer
 //! above its own (`app`, `bench`, `render`, `vk`), no function over 120 lines, no `ash` or
-//! `unsafe` outside `src/vk/`, the method variant rule above, and a README of at most 350
-//! lines.
+//! `unsafe` outside `src/vk/`, the method variant rule above, a README of at most 350 lines,
+//! and no issue numbers, commit hashes or dates in the README, `src/`, `spirv/` or `tests/`.
 //!
 //! # Conventions
 //!

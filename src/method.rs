@@ -20,8 +20,7 @@
 //! Everywhere else the code asks the method (`m.glossy()`, `m.known_limit()`,
 //! `m.info().vertex_search`) or uses a role constant. Test modules (`#[cfg(test)]`), `tests/`
 //! and `benches/` may name variants. `tests/layout.rs` lists every place that breaks the rule
-//! and fails on any not on its short list of modules still to move (the bench's per-scene
-//! ratios and the cost model's report, whose columns name methods).
+//! and fails on any.
 //!
 //! Adding a method takes a variant, its place in [`Method::ALL`] (and [`Method::GPU`]) and its
 //! line in [`Method::info`] here, and its file under `src/method/`; a GPU method also its file
@@ -105,8 +104,9 @@ pub struct MethodInfo {
     /// that [`METHOD_OPTIONS`] states (`--strict`: with the exact criterion).
     pub options: &'static [&'static str],
     /// Whether it searches a reflection point per vertex of the other objects: its quality
-    /// depends on their tessellation (the bench adds a row with them subdivided) and its search
-    /// steps have a table of their own in the bench's report.
+    /// depends on their tessellation (the bench adds a row with them subdivided), its search
+    /// steps have a table of their own in the bench's report, and its cost is per vertex, not
+    /// per ray (the bench's cost-per-ray table leaves it out).
     pub vertex_search: bool,
 }
 

@@ -164,7 +164,7 @@ fn strict_help_claims_what_the_hard_cases_show() {
     let help = help.split_whitespace().collect::<Vec<_>>().join(" ");
     assert!(help.contains("tests/hard_cases.rs"), "{help}");
     assert!(help.contains("against the reference"), "{help}");
-    // The old claim, which the bench's wrong-surface figures for strict mode contradict.
+    // A claim the bench's wrong-surface figures for strict mode contradict.
     assert!(!help.contains("Never a silent wrong hit"), "{help}");
 }
 

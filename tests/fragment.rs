@@ -753,7 +753,7 @@ fn exact_frames_take_no_more_cmo_memory_than_colour_and_distance() {
 }
 
 /// The environment-map fallback shades what the colour capture stored: over a CPU capture
-/// (`reference::capture`, which keeps both the colour and the triangle ID of each texel), the
+/// (`cpu::capture::capture`, which keeps both the colour and the triangle ID of each texel), the
 /// fallback looked up from the CMO centre along each texel's centre direction equals that
 /// texel's captured colour within 1e-3 on all but a few texels (measured 0 of 6144 on
 /// sphere-room and 7 of 6144 on bowl, bound 0.5%; the capture's hit is in f64, the fallback's in
@@ -772,7 +772,7 @@ fn envmap_fallback_shades_what_the_colour_capture_stored() {
         };
         let centre = scene.cmo_centres()[0];
         let size = 32;
-        let cube = reference::capture(&scene, &tracer, centre, size);
+        let cube = cubetrace::cpu::capture::capture(&scene, &tracer, centre, size);
         let cmos = [CmoTracer::new(
             cube.clone(),
             TraceOptions::default().params(),

@@ -8,8 +8,10 @@
 //! - no function in `src/` is longer than 120 lines;
 //! - a method variant (`Method::Ssr`) is named only in the registry (`src/method.rs`) and in
 //!   that method's own files (a module path with its name: `method::ssr`, `vk::methods::ssr`),
-//!   test modules aside, except in the modules [`VARIANTS_NOT_YET_MOVED`] lists with their counts;
-//! - the README is at most 350 lines.
+//!   test modules aside;
+//! - the README is at most 350 lines;
+//! - no words only the authors understand (an issue number, a commit hash, a date, "today")
+//!   in the README, `src/`, `spirv/` or `tests/`.
 //!
 //! The checks read the sources as text (paths written `crate::a::b` or `super::a`, and
 //! `use` groups `crate::{a, b}`), which is how this crate writes its imports. Each check has a
@@ -482,6 +484,154 @@ fn the_readme_is_at_most_350_lines() {
     assert_eq!(readme_too_long(&"line\n".repeat(README_MAX_LINES)), None);
 }
 
+/// Words only the authors understand, in any case: pointers to a conversation or a moment
+/// rather than to the code (`issue 38`, `#38`, "today", "as before", "the redesign",
+/// "since 2026", a date `2026-12-02`) and commit hashes (7 to 40 hex digits with both a digit
+/// and a letter, not after `0x`). Each as `line: what`.
+fn authors_words(text: &str) -> Vec<String> {
+    const PHRASES: [&str; 3] = ["today", "as before", "the redesign"];
+    let mut out = Vec::new();
+    for (n, line) in text.lines().enumerate() {
+        let lower = line.to_lowercase();
+        let bytes = lower.as_bytes();
+        let word_at = |k: usize, len: usize| {
+            let before = k.checked_sub(1).map(|b| bytes[b]);
+            let after = bytes.get(k + len).copied();
+            let inner = |c: Option<u8>| c.is_some_and(|c| c.is_ascii_alphanumeric() || c == b'_');
+            !inner(before) && !inner(after)
+        };
+        let digits_at = |k: usize| bytes[k..].iter().take_while(|c| c.is_ascii_digit()).count();
+        let mut found: Vec<String> = Vec::new();
+        for phrase in PHRASES {
+            for (k, _) in lower.match_indices(phrase) {
+                if word_at(k, phrase.len()) {
+                    found.push(format!("\"{phrase}\""));
+                }
+            }
+        }
+        for (k, _) in lower.match_indices("issue ") {
+            if word_at(k, 5) && digits_at(k + 6) > 0 {
+                found.push("an issue number".into());
+            }
+        }
+        for (k, _) in lower.match_indices('#') {
+            let d = digits_at(k + 1);
+            if d >= 2 && word_at(k + 1, d) {
+                found.push("an issue number".into());
+            }
+        }
+        for (k, _) in lower.match_indices("since 20") {
+            if word_at(k, 5) && digits_at(k + 6) == 4 {
+                found.push("\"since <year>\"".into());
+            }
+        }
+        // Dates and hashes: runs of hex digits and dashes between word boundaries.
+        let mut k = 0;
+        while k < bytes.len() {
+            let len = bytes[k..]
+                .iter()
+                .take_while(|c| c.is_ascii_hexdigit())
+                .count();
+            if len == 0 {
+                k += 1;
+                continue;
+            }
+            let run = &lower[k..k + len];
+            // A number: `1e13`, `1e13f32`, the exponent or fraction of `1.2676506e30`.
+            let mantissa = run.trim_end_matches("f32").trim_end_matches("f64");
+            let number = lower[..k].ends_with('.')
+                || mantissa.bytes().filter(|c| !c.is_ascii_digit()).count() <= 1
+                    && mantissa.bytes().all(|c| c.is_ascii_digit() || c == b'e');
+            let bounded = word_at(k, len) && !lower[..k].ends_with("0x") && !number;
+            let date = len == 4
+                && run.starts_with("20")
+                && run.bytes().all(|c| c.is_ascii_digit())
+                && lower[k + 4..].len() >= 6
+                && {
+                    let rest = &bytes[k + 4..k + 10];
+                    rest[0] == b'-'
+                        && rest[3] == b'-'
+                        && rest[1..3].iter().chain(&rest[4..6]).all(u8::is_ascii_digit)
+                };
+            if date {
+                found.push("a date".into());
+            } else if bounded
+                && (7..=40).contains(&len)
+                && run.bytes().any(|c| c.is_ascii_digit())
+                && run.bytes().any(|c| c.is_ascii_alphabetic())
+            {
+                found.push(format!("a commit hash ({run})"));
+            }
+            k += len;
+        }
+        out.extend(found.into_iter().map(|f| format!("{}: {f}", n + 1)));
+    }
+    out
+}
+
+/// The files [`authors_words`] reads: the README and every text file under `src/`, `spirv/`
+/// and `tests/`, but the test scenes' data (`tests/scenes/`, with checksums and licences) and
+/// the records' hashes (`tests/records/hashes.txt`), and this file, which names the words.
+fn documented_files() -> Vec<PathBuf> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut files = vec![root.join("README.md")];
+    let mut stack: Vec<PathBuf> = ["src", "spirv", "tests"]
+        .iter()
+        .map(|d| root.join(d))
+        .collect();
+    while let Some(dir) = stack.pop() {
+        for e in std::fs::read_dir(&dir).expect("readable") {
+            let p = e.expect("entry").path();
+            if p.starts_with(root.join("tests/scenes"))
+                || p.ends_with("tests/records/hashes.txt")
+                || p.ends_with("tests/layout.rs")
+            {
+                continue;
+            }
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.extension().is_some_and(|x| {
+                ["rs", "wgsl", "md", "sh", "txt", "toml"].contains(&x.to_str().unwrap_or(""))
+            }) {
+                files.push(p);
+            }
+        }
+    }
+    files.sort();
+    files
+}
+
+#[test]
+fn no_words_only_the_authors_understand() {
+    let files = documented_files();
+    assert!(files.len() > 100, "the files were read: {}", files.len());
+    let mut found = Vec::new();
+    for p in &files {
+        let text = std::fs::read_to_string(p).unwrap_or_default();
+        let rel = p.strip_prefix(env!("CARGO_MANIFEST_DIR")).unwrap_or(p);
+        found.extend(
+            authors_words(&text)
+                .into_iter()
+                .map(|w| format!("{}:{w}", rel.display())),
+        );
+    }
+    assert!(
+        found.is_empty(),
+        "words only the authors understand (say it in plain terms: what the code does, what \
+         was measured, on which scene):\n{}",
+        found.join("\n")
+    );
+    // Negatives: each kind is found; hex constants, long numbers, words of hex letters and a
+    // test's own `#[...]` are not.
+    let made_up = "see issue 38\n(#12)\nas measured today\nworks as before\nafter the redesign\n\
+                   since 2026 it\non 2026-12-02\nat 23b29a4\n";
+    let caught = authors_words(made_up);
+    assert_eq!(caught.len(), 8, "{caught:?}");
+    let quiet = "0x9e3779b9 and 6364136223846793005, a facade, #[cfg(test)], 2^-20, \
+                 e-2026 issues, 1.2676506e30, 9.5367431640625e-7, [1e13f32], `2048x2048`\n";
+    assert_eq!(authors_words(quiet), Vec::<String>::new());
+}
+
 /// The variants of `Method`, read from its enum in `src/method.rs` (the last word of each
 /// comma-separated entry, so that attributes before a variant are skipped).
 fn method_variants(registry: &str) -> Vec<String> {
@@ -574,15 +724,6 @@ fn variants_outside(files: &[(String, String)], variants: &[String]) -> Vec<Stri
     out
 }
 
-/// The module of a place of [`variants_outside`]: `bench::model` of `bench::model:12 Method::Bvh`.
-fn place_module(place: &str) -> &str {
-    let at = place.split(' ').next().unwrap_or("");
-    at.rsplit_once(':').map_or(at, |(module, _)| module)
-}
-
-/// Modules still naming method variants, with how many places; the list only shrinks.
-const VARIANTS_NOT_YET_MOVED: &[(&str, usize)] = &[("bench::model", 16), ("bench::ratios", 9)];
-
 #[test]
 fn only_the_registry_and_a_methods_own_files_name_its_variant() {
     let files = sources();
@@ -594,34 +735,13 @@ fn only_the_registry_and_a_methods_own_files_name_its_variant() {
     let variants = method_variants(registry);
     assert!(variants.len() >= 7, "the variants were read: {variants:?}");
     let outside = variants_outside(&files, &variants);
-    let mut left: Vec<String> = Vec::new();
-    for (module, count) in VARIANTS_NOT_YET_MOVED {
-        let here = outside
-            .iter()
-            .filter(|p| place_module(p) == *module)
-            .count();
-        assert!(here <= *count, "{module}: {here} places, listed {count}");
-        left.extend((here < *count).then(|| format!("{module}: {here}, listed {count}")));
-    }
-    let unlisted: Vec<&String> = outside
-        .iter()
-        .filter(|p| {
-            !VARIANTS_NOT_YET_MOVED
-                .iter()
-                .any(|(m, _)| *m == place_module(p))
-        })
-        .collect();
     assert!(
-        unlisted.is_empty() && left.is_empty(),
+        outside.is_empty(),
         "{} places name a method variant outside src/method.rs and the method's own files \
          (ask the method instead: a property in its file under src/method/, or a registry \
-         constant such as Method::DEFAULT):\n{}\nlist counts to lower: {left:?}",
-        unlisted.len(),
-        unlisted
-            .iter()
-            .map(|s| s.as_str())
-            .collect::<Vec<_>>()
-            .join("\n")
+         constant such as Method::DEFAULT):\n{}",
+        outside.len(),
+        outside.join("\n")
     );
     // Negatives: a variant named in a wrong file is caught, in its own file or the registry
     // it is not; a glob import is caught anywhere but the registry; test modules, comments and

@@ -401,7 +401,7 @@ struct Located {
 //   t0, t1 (NaN included), so a bound a plane does not set changes nothing, as in
 //   `clip_plane`; a NaN b fails its comparison in both. Nothing is reordered and no min/max is
 //   taken, so ties (the earlier plane keeps the end, +0 against -0 included) and sides come
-//   out as before; `keep` is the conjunction of the same per-plane tests, and the interval is
+//   out as `clip_plane` makes them; `keep` is the conjunction of the same per-plane tests, and the interval is
 //   `interval_empty()` where it is false, as `frustum_interval` returns.
 // Measured on lavapipe: the pass's time per ray did not change beyond noise (probably its
 // compiler already shared the planes the nine inlined copies have in common); the pipelines

@@ -20,6 +20,10 @@
 //!   and fragment over bvh at width 32 as the extra sphere gets finer; where a cube-map tracer
 //!   would overtake the BVH (ratio below 1), interpolated in log triangles, if it does.
 //!
+//! The output is keyed by method: rows of `method` (and `over`, `one_lane`) built from
+//! [`METHODS`], [`Method::traces_cubemaps`] and [`Method::EXACT_GPU`] ([`tracers`],
+//! [`gpu_pairs`]), so no method is named here and a new modelled method gets its rows.
+//!
 //! `--model-from A.json,B.json,...` reads earlier `bench.json` files instead of rendering (one
 //! per lavapipe subgroup size, cube size and process: `benches/model-measure.sh` takes them; a
 //! row in several files is one row measured in several processes, [`measured_from_files`]),
@@ -41,6 +45,7 @@ use super::plot::{self, Point};
 use super::scaling::{TRIANGLE_SEGMENTS, tessellated_scene};
 use super::{BenchReport, Method, MethodSpec, prepare_scene};
 use crate::model::dynamic::{Counting, weights_by};
+use crate::model::methods::one_lane_layout;
 use crate::model::replay::{
     ComputeLanes, Mode, ModelSettings, Recorded, ReplayStats, default_assembly, record, replay,
 };
@@ -84,6 +89,9 @@ pub const ASSUMPTIONS: &[&str] = &[
 #[derive(Clone, Debug, Serialize)]
 pub struct GpuMethod {
     pub method: Method,
+    /// Whether these are the figures of the method's one-lane-per-ray layout (compute's
+    /// `main_lanes1`, [`one_lane_layout`]), not of its default layout.
+    pub one_lane: bool,
     /// Weighted warp-steps per ray, static weights.
     pub cost_per_ray: f64,
     /// Weighted warp-steps per ray, dynamic weights ([`crate::model::dynamic`]).
@@ -96,7 +104,8 @@ pub struct GpuMethod {
 }
 
 impl GpuMethod {
-    /// The figures of `stats` (`method`'s replay; `one_lane`: compute's `main_lanes1`).
+    /// The figures of `stats` (`method`'s replay; `one_lane`: its one-lane layout, compute's
+    /// `main_lanes1`).
     pub fn of(stats: &ReplayStats, method: Method, one_lane: bool) -> Result<GpuMethod> {
         let (ws, _) = weights_by(method, Counting::Static, one_lane)?;
         let (wd, _) = weights_by(method, Counting::Dynamic, one_lane)?;
@@ -107,6 +116,7 @@ impl GpuMethod {
             .unwrap_or((0, 0.0));
         Ok(GpuMethod {
             method,
+            one_lane,
             cost_per_ray: weights::cost(stats, &ws),
             dynamic_cost_per_ray: weights::cost(stats, &wd),
             simd_efficiency: stats.simd_efficiency,
@@ -117,32 +127,105 @@ impl GpuMethod {
     }
 }
 
+/// A ratio of weighted warp-steps per ray: `method`'s (in its one-lane layout where
+/// `one_lane`) over `over`'s.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct ModelRatio {
+    pub method: Method,
+    pub one_lane: bool,
+    pub over: Method,
+    /// With static weights (`None`: a method not replayed, or a ratio not finite).
+    pub ratio: Option<f64>,
+    /// With dynamic weights ([`crate::model::dynamic`]).
+    pub dynamic: Option<f64>,
+}
+
+impl ModelRatio {
+    /// The ratio of `(method, one_lane)` over `over` among `methods`.
+    fn of(methods: &[GpuMethod], (method, one_lane): (Method, bool), over: Method) -> ModelRatio {
+        let find =
+            |k: Method, one: bool| methods.iter().find(|g| g.method == k && g.one_lane == one);
+        let (a, b) = (find(method, one_lane), find(over, false));
+        let ratio =
+            |cost: fn(&GpuMethod) -> f64| Some(cost(a?) / cost(b?)).filter(|r| r.is_finite());
+        ModelRatio {
+            method,
+            one_lane,
+            over,
+            ratio: ratio(|g| g.cost_per_ray),
+            dynamic: ratio(|g| g.dynamic_cost_per_ray),
+        }
+    }
+
+    /// The column heading: `compute/bvh`, `compute 1 lane/ray / bvh`.
+    fn heading(&self) -> String {
+        if self.one_lane {
+            format!("{} 1 lane/ray / {}", self.method.name(), self.over.name())
+        } else {
+            format!("{}/{}", self.method.name(), self.over.name())
+        }
+    }
+}
+
+/// The cube-map tracers among the modelled methods, in [`METHODS`]' order: the methods whose
+/// ratios the predictions track.
+pub fn tracers() -> Vec<Method> {
+    METHODS
+        .into_iter()
+        .filter(|m| m.traces_cubemaps())
+        .collect()
+}
+
+/// The ratios of the GPU predictions, `((method, one_lane), over)`: each cube-map tracer over
+/// the tracers after it, over the exact GPU tracer ([`Method::EXACT_GPU`]) and, where it has
+/// one, its one-lane layout over the exact GPU tracer.
+pub fn gpu_pairs() -> Vec<((Method, bool), Method)> {
+    let tracers = tracers();
+    let mut out = Vec::new();
+    for (k, &m) in tracers.iter().enumerate() {
+        out.extend(tracers[k + 1..].iter().map(|&after| ((m, false), after)));
+        out.push(((m, false), Method::EXACT_GPU));
+        if one_lane_layout(m) {
+            out.push(((m, true), Method::EXACT_GPU));
+        }
+    }
+    out
+}
+
 /// Per scene and width, the GPU-mode predictions.
+///
+/// In `model.json` (and `bench.json`'s `model`): `{"scene": ..., "cube": 256, "width": 32,
+/// "methods": [{"method": "compute", "one_lane": false, "cost_per_ray": ..., ...}, ...],
+/// "ratios": [{"method": "compute", "one_lane": false, "over": "fragment", "ratio": 2.1,
+/// "dynamic": 1.9}, ...]}`.
 #[derive(Clone, Debug, Serialize)]
 pub struct GpuPrediction {
     pub scene: String,
     pub cube: u32,
     pub width: u32,
+    /// Every modelled method's figures in [`METHODS`]' order, then those of the one-lane
+    /// layouts (`one_lane`: compute in `main_lanes1`'s layout, one lane per ray and 32 rays per
+    /// warp, which shows how much of compute over bvh is the thesis layout's one ray per
+    /// 32-lane warp).
     pub methods: Vec<GpuMethod>,
-    pub compute_over_fragment: Option<f64>,
-    pub compute_over_bvh: Option<f64>,
-    pub fragment_over_bvh: Option<f64>,
-    /// compute in `main_lanes1`'s layout (one lane per ray, 32 rays per warp) over bvh: how much
-    /// of `compute_over_bvh` is the thesis layout's one ray per 32-lane warp.
-    pub compute_one_lane_over_bvh: Option<f64>,
-    /// The same four ratios with dynamic weights.
-    pub dynamic: DynamicRatios,
-    /// compute's figures in `main_lanes1`'s layout.
-    pub compute_one_lane: Option<GpuMethod>,
+    /// The ratios of [`gpu_pairs`], in that order.
+    pub ratios: Vec<ModelRatio>,
 }
 
-/// [`GpuPrediction`]'s ratios with dynamic weights.
-#[derive(Clone, Debug, Default, Serialize)]
-pub struct DynamicRatios {
-    pub compute_over_fragment: Option<f64>,
-    pub compute_over_bvh: Option<f64>,
-    pub fragment_over_bvh: Option<f64>,
-    pub compute_one_lane_over_bvh: Option<f64>,
+impl GpuPrediction {
+    /// The figures of `method` in its default layout.
+    pub fn method(&self, method: Method) -> Option<&GpuMethod> {
+        self.methods
+            .iter()
+            .find(|g| g.method == method && !g.one_lane)
+    }
+
+    /// The ratio of `method` (default layout) over `over`, if tracked.
+    pub fn ratio(&self, method: Method, over: Method) -> Option<&ModelRatio> {
+        self.ratios
+            .iter()
+            .find(|r| (r.method, r.one_lane, r.over) == (method, false, over))
+    }
 }
 
 /// One point of the triangle axis (GPU mode, width 32).
@@ -150,11 +233,18 @@ pub struct DynamicRatios {
 pub struct TrianglePoint {
     pub scene: String,
     pub triangles: usize,
-    pub compute_over_bvh: f64,
-    pub fragment_over_bvh: f64,
-    /// The same with dynamic weights.
-    pub compute_over_bvh_dynamic: f64,
-    pub fragment_over_bvh_dynamic: f64,
+    /// Each cube-map tracer ([`tracers`]) over the exact GPU tracer, static and dynamic weights.
+    pub ratios: Vec<ModelRatio>,
+}
+
+/// Where a cube-map tracer would overtake the exact GPU tracer on the triangle axis.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct Crossover {
+    pub method: Method,
+    pub over: Method,
+    /// Triangles at width 32 (static weights), interpolated ([`crossover`]); `None`: it does
+    /// not on the axis.
+    pub triangles: Option<f64>,
 }
 
 /// Everything `--model` adds.
@@ -166,10 +256,9 @@ pub struct ModelReport {
     pub lavapipe_dynamic: Validation,
     pub gpu: Vec<GpuPrediction>,
     pub triangles: Vec<TrianglePoint>,
-    /// Triangles where compute (then fragment) tracing would overtake the BVH at width 32, if
-    /// it does on the axis.
-    pub compute_overtakes_bvh_at: Option<f64>,
-    pub fragment_overtakes_bvh_at: Option<f64>,
+    /// Per cube-map tracer ([`tracers`]), the triangles where it would overtake the exact GPU
+    /// tracer at width 32, if it does on the axis.
+    pub overtakes: Vec<Crossover>,
 }
 
 /// The measured rows of a report: each method's default setting, for the methods modelled.
@@ -360,51 +449,28 @@ pub fn gpu_prediction(
         let stats = rec.stats(name, cube, dims, m, width, Mode::Gpu)?;
         methods.push(GpuMethod::of(&stats, m, false)?);
     }
-    // compute again in the one-lane layout: the same recording, replayed with one lane per ray.
-    let key = (name.to_string(), cube, Method::Compute);
-    let compute_one_lane = match rec.recorded.get_mut(&key) {
-        Some(r) => {
-            let saved = r.settings.compute_lanes;
-            r.settings.compute_lanes = ComputeLanes::One;
-            let s = replay(r, width, Mode::Gpu, default_assembly(Method::Compute));
-            r.settings.compute_lanes = saved;
-            Some(GpuMethod::of(&s?, Method::Compute, true)?)
-        }
-        None => None,
-    };
-    let find = |k: Method| methods.iter().find(|g| g.method == k);
-    let ratio = |a: Option<&GpuMethod>, b: Option<&GpuMethod>, dynamic: bool| {
-        let c = |g: &GpuMethod| {
-            if dynamic {
-                g.dynamic_cost_per_ray
-            } else {
-                g.cost_per_ray
-            }
+    // A method with a one-lane layout again in that layout: the same recording, replayed with
+    // one lane per ray.
+    for m in METHODS.into_iter().filter(|&m| one_lane_layout(m)) {
+        let Some(r) = rec.recorded.get_mut(&(name.to_string(), cube, m)) else {
+            continue;
         };
-        Some(c(a?) / c(b?)).filter(|r| r.is_finite())
-    };
-    let (c, f, b) = (
-        find(Method::Compute),
-        find(Method::Fragment),
-        find(Method::Bvh),
-    );
-    let one = compute_one_lane.as_ref();
+        let saved = r.settings.compute_lanes;
+        r.settings.compute_lanes = ComputeLanes::One;
+        let s = replay(r, width, Mode::Gpu, default_assembly(m));
+        r.settings.compute_lanes = saved;
+        methods.push(GpuMethod::of(&s?, m, true)?);
+    }
+    let ratios = gpu_pairs()
+        .into_iter()
+        .map(|(m, over)| ModelRatio::of(&methods, m, over))
+        .collect();
     Ok(GpuPrediction {
         scene: name.to_string(),
         cube,
         width,
-        compute_over_fragment: ratio(c, f, false),
-        compute_over_bvh: ratio(c, b, false),
-        fragment_over_bvh: ratio(f, b, false),
-        compute_one_lane_over_bvh: ratio(one, b, false),
-        dynamic: DynamicRatios {
-            compute_over_fragment: ratio(c, f, true),
-            compute_over_bvh: ratio(c, b, true),
-            fragment_over_bvh: ratio(f, b, true),
-            compute_one_lane_over_bvh: ratio(one, b, true),
-        },
-        compute_one_lane,
         methods,
+        ratios,
     })
 }
 
@@ -421,25 +487,28 @@ pub fn triangle_axis(dims: (u32, u32)) -> Result<Vec<TrianglePoint>> {
         }
         let settings = ModelSettings::new(scene.cmo.resolution, dims.0, dims.1);
         let frame = work::frame(&scene, &settings)?;
-        let c = |m: Method| -> Result<GpuMethod> {
-            let rec = record(&frame, m)?;
-            let s = replay(&rec, 32, Mode::Gpu, default_assembly(m))?;
-            GpuMethod::of(&s, m, false)
-        };
-        let (bvh, compute, fragment) = (c(Method::Bvh)?, c(Method::Compute)?, c(Method::Fragment)?);
+        let methods = std::iter::once(Method::EXACT_GPU)
+            .chain(tracers())
+            .map(|m| -> Result<GpuMethod> {
+                let rec = record(&frame, m)?;
+                let s = replay(&rec, 32, Mode::Gpu, default_assembly(m))?;
+                GpuMethod::of(&s, m, false)
+            })
+            .collect::<Result<Vec<_>>>()?;
         out.push(TrianglePoint {
             scene: scene.name.clone(),
             triangles: scene.world().triangles.len(),
-            compute_over_bvh: compute.cost_per_ray / bvh.cost_per_ray,
-            fragment_over_bvh: fragment.cost_per_ray / bvh.cost_per_ray,
-            compute_over_bvh_dynamic: compute.dynamic_cost_per_ray / bvh.dynamic_cost_per_ray,
-            fragment_over_bvh_dynamic: fragment.dynamic_cost_per_ray / bvh.dynamic_cost_per_ray,
+            ratios: tracers()
+                .into_iter()
+                .map(|m| ModelRatio::of(&methods, (m, false), Method::EXACT_GPU))
+                .collect(),
         });
     }
     Ok(out)
 }
 
-/// The first triangle count where `ratio` falls below 1, interpolated in log triangles.
+/// The first triangle count where `ratio` falls below 1, interpolated in log triangles (a
+/// point without the ratio counts as not below 1).
 pub fn crossover(points: &[TrianglePoint], ratio: impl Fn(&TrianglePoint) -> f64) -> Option<f64> {
     let first = points.first()?;
     if ratio(first) < 1.0 {
@@ -493,8 +562,20 @@ pub fn run(
         assumptions: ASSUMPTIONS.iter().map(|s| s.to_string()).collect(),
         lavapipe,
         lavapipe_dynamic,
-        compute_overtakes_bvh_at: crossover(&triangles, |p| p.compute_over_bvh),
-        fragment_overtakes_bvh_at: crossover(&triangles, |p| p.fragment_over_bvh),
+        overtakes: tracers()
+            .into_iter()
+            .map(|method| Crossover {
+                method,
+                over: Method::EXACT_GPU,
+                triangles: crossover(&triangles, |p| {
+                    p.ratios
+                        .iter()
+                        .find(|r| r.method == method)
+                        .and_then(|r| r.ratio)
+                        .unwrap_or(f64::NAN)
+                }),
+            })
+            .collect(),
         gpu,
         triangles,
     })
@@ -554,66 +635,130 @@ pub fn lavapipe_table(v: &Validation) -> String {
 
 /// The GPU predictions as a Markdown table.
 pub fn gpu_table(gpu: &[GpuPrediction]) -> String {
-    let mut s = String::from(
+    let pairs = gpu_pairs();
+    let headings: Vec<String> = pairs
+        .iter()
+        .map(|&((method, one_lane), over)| {
+            let r = ModelRatio {
+                method,
+                one_lane,
+                over,
+                ratio: None,
+                dynamic: None,
+            };
+            r.heading()
+        })
+        .collect();
+    // SIMD efficiency and sectors of the cube-map tracers and the exact GPU tracer.
+    let shown: Vec<Method> = METHODS
+        .into_iter()
+        .filter(|&m| m.traces_cubemaps() || m == Method::EXACT_GPU)
+        .collect();
+    let names = |what: &str| {
+        shown
+            .iter()
+            .enumerate()
+            .map(|(k, m)| {
+                if k == 0 {
+                    format!("{what} {}", m.name())
+                } else {
+                    m.name().to_string()
+                }
+            })
+            .collect::<Vec<_>>()
+            .join(" | ")
+    };
+    let n = 3 + 2 * pairs.len() + 2 * shown.len();
+    let mut s = format!(
         "MODEL predictions, GPU mode (not measured; assumptions below).\n\n\
          Ratios of weighted warp-steps per ray, static weights, then dynamic (model::dynamic).\n\n\
-         | scene | cube | width | compute/fragment | compute/bvh | compute 1 lane/ray / bvh | fragment/bvh | dynamic: compute/fragment | compute/bvh | compute 1 lane/ray / bvh | fragment/bvh | SIMD eff. compute | fragment | bvh | sectors/ray compute | fragment | bvh |\n\
-         |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+         | scene | cube | width | {} | dynamic: {} | {} | {} |\n|---|{}\n",
+        headings.join(" | "),
+        headings.join(" | "),
+        names("SIMD eff."),
+        names("sectors/ray"),
+        "---:|".repeat(n - 1),
     );
     for g in gpu {
-        let m = |k: Method| g.methods.iter().find(|x| x.method == k);
-        let eff = |k| opt(m(k).map(|x| x.simd_efficiency));
-        let sec = |k| m(k).map_or("-".into(), |x| format!("{:.1}", x.sectors_per_ray));
+        let ratio = |f: fn(&ModelRatio) -> Option<f64>| {
+            pairs
+                .iter()
+                .map(|&((m, one_lane), over)| {
+                    let r = g
+                        .ratios
+                        .iter()
+                        .find(|r| (r.method, r.one_lane, r.over) == (m, one_lane, over));
+                    opt(r.and_then(f))
+                })
+                .collect::<Vec<_>>()
+                .join(" | ")
+        };
+        let per = |f: fn(&GpuMethod) -> String| {
+            shown
+                .iter()
+                .map(|&k| g.method(k).map_or("-".into(), f))
+                .collect::<Vec<_>>()
+                .join(" | ")
+        };
         s += &format!(
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            "| {} | {} | {} | {} | {} | {} | {} |\n",
             scene_label(&g.scene),
             g.cube,
             g.width,
-            opt(g.compute_over_fragment),
-            opt(g.compute_over_bvh),
-            opt(g.compute_one_lane_over_bvh),
-            opt(g.fragment_over_bvh),
-            opt(g.dynamic.compute_over_fragment),
-            opt(g.dynamic.compute_over_bvh),
-            opt(g.dynamic.compute_one_lane_over_bvh),
-            opt(g.dynamic.fragment_over_bvh),
-            eff(Method::Compute),
-            eff(Method::Fragment),
-            eff(Method::Bvh),
-            sec(Method::Compute),
-            sec(Method::Fragment),
-            sec(Method::Bvh),
+            ratio(|r| r.ratio),
+            ratio(|r| r.dynamic),
+            per(|x| opt(Some(x.simd_efficiency))),
+            per(|x| format!("{:.1}", x.sectors_per_ray)),
         );
     }
     s
 }
 
 /// The triangle axis and the crossovers as Markdown.
-pub fn triangle_table(r: &ModelReport) -> String {
-    let mut s = String::from(
+pub fn triangle_table(triangles: &[TrianglePoint], overtakes: &[Crossover]) -> String {
+    let headings: Vec<String> = tracers()
+        .into_iter()
+        .map(|m| format!("{}/{}", m.name(), Method::EXACT_GPU.name()))
+        .collect();
+    let dynamic: Vec<String> = headings.iter().map(|h| format!("dynamic {h}")).collect();
+    let mut s = format!(
         "MODEL, GPU mode width 32, the triangle axis of `bench --scaling` (sphere-room + a UV \
          sphere), static and dynamic weights:\n\n\
-         | scene | triangles | compute/bvh | fragment/bvh | dynamic compute/bvh | dynamic fragment/bvh |\n\
-         |---|---:|---:|---:|---:|---:|\n",
+         | scene | triangles | {} | {} |\n|---|---:|{}\n",
+        headings.join(" | "),
+        dynamic.join(" | "),
+        "---:|".repeat(2 * headings.len()),
     );
-    for p in &r.triangles {
+    for p in triangles {
+        let cells = |f: fn(&ModelRatio) -> Option<f64>| {
+            p.ratios
+                .iter()
+                .map(|x| opt(f(x)))
+                .collect::<Vec<_>>()
+                .join(" | ")
+        };
         s += &format!(
-            "| {} | {} | {:.2} | {:.2} | {:.2} | {:.2} |\n",
+            "| {} | {} | {} | {} |\n",
             p.scene,
             p.triangles,
-            p.compute_over_bvh,
-            p.fragment_over_bvh,
-            p.compute_over_bvh_dynamic,
-            p.fragment_over_bvh_dynamic
+            cells(|x| x.ratio),
+            cells(|x| x.dynamic)
         );
     }
-    let at = |v: Option<f64>, what: &str| match v {
-        Some(t) => format!("{what} would overtake the BVH at about {t:.0} triangles (model).\n"),
-        None => format!("{what} does not overtake the BVH on this axis (model).\n"),
-    };
-    s + "\n"
-        + &at(r.compute_overtakes_bvh_at, "compute")
-        + &at(r.fragment_overtakes_bvh_at, "fragment")
+    s += "\n";
+    for c in overtakes {
+        s += &match c.triangles {
+            Some(t) => format!(
+                "{} would overtake the BVH at about {t:.0} triangles (model).\n",
+                c.method.name()
+            ),
+            None => format!(
+                "{} does not overtake the BVH on this axis (model).\n",
+                c.method.name()
+            ),
+        };
+    }
+    s
 }
 
 /// A scene's short name: a scene file's folder (`tests/scenes/<name>/scene.toml`).
@@ -633,22 +778,23 @@ fn scene_label(scene: &str) -> &str {
 /// (static and dynamic) and over bvh's, SIMD efficiency, sectors per ray, and the block that
 /// holds the largest share of the dynamic cost.
 pub fn per_ray_table(gpu: &[GpuPrediction]) -> String {
-    let mut s = String::from(
+    let mut s = format!(
         "MODEL, per-ray work at width 32 (GPU mode; weighted issued warp-steps per ray, static \
          and dynamic weights; the dominant block by its share of the dynamic cost).\n\n\
-         | scene | method | steps/ray static | dynamic | over bvh static | dynamic | SIMD eff. | sectors/ray | dominant block (dynamic) |\n\
+         | scene | method | steps/ray static | dynamic | over {} static | dynamic | SIMD eff. | sectors/ray | dominant block (dynamic) |\n\
          |---|---|---:|---:|---:|---:|---:|---:|---|\n",
+        Method::EXACT_GPU.name()
     );
     for g in gpu.iter().filter(|g| g.width == 32) {
-        let Some(bvh) = g.methods.iter().find(|m| m.method == Method::Bvh) else {
+        let Some(bvh) = g.method(Method::EXACT_GPU) else {
             continue;
         };
-        let one = g
-            .compute_one_lane
-            .iter()
-            .map(|m| (m, "compute, 1 lane/ray"));
-        let rows = g.methods.iter().map(|m| (m, m.method.name())).chain(one);
-        for (m, label) in rows {
+        for m in &g.methods {
+            let label = if m.one_lane {
+                format!("{}, 1 lane/ray", m.method.name())
+            } else {
+                m.method.name().to_string()
+            };
             s += &format!(
                 "| {} | {} | {:.0} | {:.0} | {:.2} | {:.2} | {:.2} | {:.1} | {} ({:.0} %) |\n",
                 scene_label(&g.scene),
@@ -679,7 +825,7 @@ pub fn markdown(r: &ModelReport) -> String {
     s += "\n";
     s += &gpu_table(&r.gpu);
     s += "\n";
-    s += &triangle_table(r);
+    s += &triangle_table(&r.triangles, &r.overtakes);
     s += "\nAssumptions:\n\n";
     for a in &r.assumptions {
         s += &format!("- {a}\n");
@@ -718,4 +864,119 @@ pub fn write(r: &ModelReport, dir: &Path) -> Result<Vec<PathBuf>> {
     let plot = dir.join("model.svg");
     write_atomic(&plot, svg(r)?.as_bytes())?;
     Ok(vec![json, md, plot])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A method's figures with cost `cost` (static) and `2 * cost` (dynamic).
+    fn figures(method: Method, one_lane: bool, cost: f64) -> GpuMethod {
+        GpuMethod {
+            method,
+            one_lane,
+            cost_per_ray: cost,
+            dynamic_cost_per_ray: 2.0 * cost,
+            simd_efficiency: 0.5,
+            sectors_per_ray: 3.0,
+            dominant_block: "b".into(),
+            dominant_share: 0.25,
+        }
+    }
+
+    #[test]
+    fn the_gpu_tables_have_a_column_per_tracked_ratio() {
+        let mut methods: Vec<GpuMethod> = METHODS
+            .into_iter()
+            .map(|m| figures(m, false, if m == Method::Compute { 4.0 } else { 2.0 }))
+            .collect();
+        methods.push(figures(Method::Compute, true, 1.0));
+        let ratios = gpu_pairs()
+            .into_iter()
+            .map(|(m, over)| ModelRatio::of(&methods, m, over))
+            .collect();
+        let g = GpuPrediction {
+            scene: "tests/scenes/mug/scene.toml".into(),
+            cube: 64,
+            width: 32,
+            methods,
+            ratios,
+        };
+        let table = gpu_table(std::slice::from_ref(&g));
+        let lines: Vec<&str> = table.lines().collect();
+        assert_eq!(
+            lines[4],
+            "| scene | cube | width | compute/fragment | compute/bvh | compute 1 lane/ray / bvh \
+             | fragment/bvh | dynamic: compute/fragment | compute/bvh | compute 1 lane/ray / bvh \
+             | fragment/bvh | SIMD eff. compute | fragment | bvh | sectors/ray compute | fragment \
+             | bvh |"
+        );
+        assert_eq!(
+            lines[6],
+            "| mug | 64 | 32 | 2.00 | 2.00 | 0.50 | 1.00 | 2.00 | 2.00 | 0.50 | 1.00 | 0.50 | 0.50 \
+             | 0.50 | 3.0 | 3.0 | 3.0 |"
+        );
+        assert_eq!(lines[5].matches('|').count(), lines[4].matches('|').count());
+        assert_eq!(
+            g.ratio(Method::Compute, Method::Bvh).unwrap().dynamic,
+            Some(2.0)
+        );
+        let per_ray = per_ray_table(std::slice::from_ref(&g));
+        assert!(per_ray.contains("| over bvh static |"), "{per_ray}");
+        assert!(
+            per_ray.contains("| mug | compute, 1 lane/ray | 1 | 2 | 0.50 | 0.50 |"),
+            "{per_ray}"
+        );
+        // Negative: a method not replayed leaves its ratios empty, not made up.
+        let without_bvh: Vec<GpuMethod> = g
+            .methods
+            .iter()
+            .filter(|m| m.method != Method::Bvh)
+            .cloned()
+            .collect();
+        let r = ModelRatio::of(&without_bvh, (Method::Compute, false), Method::Bvh);
+        assert_eq!((r.ratio, r.dynamic), (None, None));
+    }
+
+    #[test]
+    fn the_triangle_table_names_each_tracer_over_the_exact_tracer() {
+        let methods: Vec<GpuMethod> = [Method::Bvh, Method::Compute, Method::Fragment]
+            .into_iter()
+            .zip([1.0, 3.0, 0.5])
+            .map(|(m, c)| figures(m, false, c))
+            .collect();
+        let point = TrianglePoint {
+            scene: "s".into(),
+            triangles: 100,
+            ratios: tracers()
+                .into_iter()
+                .map(|m| ModelRatio::of(&methods, (m, false), Method::EXACT_GPU))
+                .collect(),
+        };
+        let overtakes = [
+            Crossover {
+                method: Method::Compute,
+                over: Method::Bvh,
+                triangles: None,
+            },
+            Crossover {
+                method: Method::Fragment,
+                over: Method::Bvh,
+                triangles: Some(100.0),
+            },
+        ];
+        let t = triangle_table(&[point], &overtakes);
+        assert!(
+            t.contains(
+                "| scene | triangles | compute/bvh | fragment/bvh | dynamic compute/bvh | \
+                 dynamic fragment/bvh |\n|---|---:|---:|---:|---:|---:|\n\
+                 | s | 100 | 3.00 | 0.50 | 3.00 | 0.50 |\n"
+            ),
+            "{t}"
+        );
+        assert!(t.ends_with(
+            "\ncompute does not overtake the BVH on this axis (model).\n\
+             fragment would overtake the BVH at about 100 triangles (model).\n"
+        ));
+    }
 }

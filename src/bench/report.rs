@@ -17,7 +17,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Result;
 
 use super::plot::{self, Point};
-use super::{BenchReport, Method, RunResult};
+use super::{BenchReport, Method, RunResult, SceneRatios};
 use crate::output::write_atomic;
 
 /// One method pooled over the scenes of a report.
@@ -265,28 +265,35 @@ pub fn ratios_table(report: &BenchReport) -> String {
         .map_or("small frame".to_string(), |f| {
             format!("{}x{}", f.width, f.height)
         });
-    let mut s = format!(
-        "| scene | reference ns/ray | envmap ns/ray | fragment ns/ray | compute ns/ray | ssr ns/ray | bvh ns/ray | fragment / reference | compute / reference | compute / fragment | compute / bvh | fragment floor ({floor} / full) | compute floor ({floor} / full) |\n\
-         |---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n"
+    let (columns, floors, pairs) = (
+        SceneRatios::columns(),
+        SceneRatios::floor_columns(),
+        SceneRatios::pairs(),
     );
+    let mut head = String::from("| scene |");
+    for m in &columns {
+        let _ = write!(head, " {} ns/ray |", m.name());
+    }
+    for (m, over) in &pairs {
+        let _ = write!(head, " {} / {} |", m.name(), over.name());
+    }
+    for m in &floors {
+        let _ = write!(head, " {} floor ({floor} / full) |", m.name());
+    }
+    let n = columns.len() + pairs.len() + floors.len();
+    let mut s = format!("{head}\n|---|{}\n", "---:|".repeat(n));
     for r in &report.ratios {
-        let _ = writeln!(
-            s,
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
-            r.scene,
-            opt(r.reference_ns_per_ray, 0),
-            opt(r.envmap_ns_per_ray, 0),
-            opt(r.fragment_ns_per_ray, 0),
-            opt(r.compute_ns_per_ray, 0),
-            opt(r.ssr_ns_per_ray, 0),
-            opt(r.bvh_ns_per_ray, 0),
-            opt(r.fragment_over_reference, 3),
-            opt(r.compute_over_reference, 3),
-            opt(r.compute_over_fragment, 3),
-            opt(r.compute_over_bvh, 3),
-            opt(r.fragment_floor, 3),
-            opt(r.compute_floor, 3),
-        );
+        let mut row = format!("| {} |", r.scene);
+        for m in &columns {
+            let _ = write!(row, " {} |", opt(r.ns_per_ray(*m), 0));
+        }
+        for (m, over) in &pairs {
+            let _ = write!(row, " {} |", opt(r.ratio(*m, *over), 3));
+        }
+        for m in &floors {
+            let _ = write!(row, " {} |", opt(r.floor(*m), 3));
+        }
+        let _ = writeln!(s, "{row}");
     }
     s
 }
@@ -588,6 +595,26 @@ mod tests {
         let summary = summary_table(&report(vec![run("a", good)]));
         assert_eq!(cell(&summary, "mask mismatch %"), "0.00");
         assert_eq!(cell(&summary, "PSNR frame dB"), "30.00");
+    }
+
+    #[test]
+    fn the_cost_per_ray_table_has_a_column_per_method_and_ratio() {
+        let r = report(vec![run("a", ErrorReport::exact(100))]);
+        let table = ratios_table(&r);
+        assert_eq!(
+            table.lines().next().unwrap(),
+            "| scene | reference ns/ray | envmap ns/ray | fragment ns/ray | compute ns/ray | ssr ns/ray \
+             | bvh ns/ray | fragment / reference | compute / reference | compute / fragment | \
+             compute / bvh | fragment floor (small frame / full) | compute floor (small frame / \
+             full) |"
+        );
+        // One cell per column in every row: the envmap run's cost, '-' for the rest.
+        let cells = |line: &str| line.matches('|').count();
+        let lines: Vec<&str> = table.lines().collect();
+        assert_eq!(lines.len(), 3, "{table}");
+        assert!(lines.iter().all(|l| cells(l) == cells(lines[0])), "{table}");
+        assert_eq!(cell(&table, "envmap ns/ray"), "0");
+        assert_eq!(cell(&table, "compute / bvh"), "-");
     }
 
     /// A fresh, empty folder under the system's temporary folder.

@@ -1,6 +1,7 @@
 #![forbid(unsafe_code)]
 //! CPU twins of the tracing passes, written loop-for-loop as the WGSL shaders will read: f32
-//! math, fixed-size arrays, no recursion, no allocation per ray.
+//! math, fixed-size arrays, no recursion, no allocation per ray; and the CPU twin of the CMO
+//! capture ([`capture`]: a ray per texel centre, traced by the reference).
 //!
 //! # Surface model: exact per texel, sphere patches
 //! Texel `i` (distance `D_i`) is the piece of the sphere `|x| = D_i` (CMO-local) inside the
@@ -62,6 +63,7 @@
 
 pub mod approx;
 pub mod bounded;
+pub mod capture;
 pub mod closure;
 pub mod compute;
 pub mod cone;
@@ -645,7 +647,7 @@ pub fn next_texel(
 /// [`Clip::bound`], the same comparisons in the same plane order. Nothing is reordered and no
 /// min/max is taken: ties (the earlier plane keeps an end, `+0` against `-0` included), the
 /// entry and exit sides, NaN bounds (they fail every comparison) and the dropped intervals
-/// ([`Interval::EMPTY`]) come out as before.
+/// ([`Interval::EMPTY`]) come out as [`texel_interval`] makes them.
 #[allow(clippy::too_many_arguments)]
 pub fn texel_search(
     seg: &Segment,

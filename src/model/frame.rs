@@ -164,7 +164,8 @@ pub struct Frame {
 
 /// Sets up `scene`'s frame at `settings` (module docs, "What it assumes").
 pub fn frame(scene: &Scene, settings: &ModelSettings) -> anyhow::Result<Frame> {
-    use crate::reference::{Tracer, capture, reflect};
+    use crate::cpu::capture::capture;
+    use crate::reference::{Tracer, reflect};
     let s = settings;
     if s.width == 0 || s.height == 0 || s.width > 4096 || s.height > 4096 {
         anyhow::bail!(

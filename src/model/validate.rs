@@ -44,8 +44,8 @@
 //! workgroups; it is 1.00-1.18 on the built-in scenes.
 //!
 //! # Repeats
-//! lavapipe's time of the same row varies more between processes (up to 1.7x measured,
-//! 2026-12-02) than between the frames of one. A row measured in several processes
+//! lavapipe's time of the same row varies more between processes (up to 1.7x measured) than
+//! between the frames of one. A row measured in several processes
 //! (`--model-from` with the row in several files) takes the median of their medians
 //! ([`Measured::repeats`]); the report gives their spread.
 //!

@@ -19,7 +19,7 @@
 //!   found by the reference tracer (as the harness's twins do), in row-major pixel order: the
 //!   compute queue's order (the append pass writes the records in pixel order on the CPU here;
 //!   a GPU's atomic append would interleave whole warps of the raster order).
-//! - The CMOs: `reference::capture` at the scene's CMO centres, default trace options (the
+//! - The CMOs: `cpu::capture::capture` at the scene's CMO centres, default trace options (the
 //!   exact criterion, the pyramid, verified hits): the default `--method compute / fragment`.
 //! - Addresses ([`Addr`]): every buffer starts at its own aligned base (per CMO and level),
 //!   so loads of different buffers never share a sector. [`TexelLayout::Linear`] is the GPU

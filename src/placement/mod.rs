@@ -17,7 +17,7 @@
 //! by tracing the sample with the CPU twin of the GPU's exact tracer
 //! ([`crate::cpu::multi::trace_cmos_verified`]: the pyramid march, every hit verified against the
 //! captured triangle IDs, as `compute` and `fragment` do), over CPU captures
-//! ([`crate::reference::capture`]) of each centre at a small face size: the share of rays that
+//! ([`crate::cpu::capture::capture`]) of each centre at a small face size: the share of rays that
 //! end unresolved. Each step adds the candidate that lowers the share most (first in candidate
 //! order on ties), scoring only the rays the centres chosen so far leave unresolved, and stops
 //! when none lowers it. The final share is traced again over the whole sample. Deterministic.
@@ -41,10 +41,11 @@ use rayon::prelude::*;
 
 use crate::camera::Camera;
 use crate::cpu::CmoTracer;
+use crate::cpu::capture::capture_shaded;
 use crate::cpu::multi::{MultiStatus, Traversal, Verify, trace_cmos_verified};
 use crate::cpu::options::TraceOptions;
 use crate::cpu::verify::triangle_corners;
-use crate::reference::{self, Tracer};
+use crate::reference::Tracer;
 use crate::scene::{CmoPlacement, Scene, SelfReflections};
 
 mod diagnose;
@@ -245,7 +246,7 @@ pub fn search(scene: &Scene, cameras: &[Camera], count: u32, opts: &PlacementOpt
     let params = TraceOptions::default().params();
     let capture = |c: Vec3| {
         CmoTracer::new(
-            reference::capture_shaded(scene, &tracer, c, opts.cube_size, false),
+            capture_shaded(scene, &tracer, c, opts.cube_size, false),
             params,
         )
     };

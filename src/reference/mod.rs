@@ -71,8 +71,6 @@
 //! Rendering is parallel over rows with `rayon`; every pixel is computed independently, so the
 //! output is the same bits for the same scene whatever the thread count.
 
-mod cmo_capture;
-
 use glam::{DVec3, Vec2, Vec3, Vec3A};
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
@@ -85,8 +83,6 @@ use crate::shading::albedo;
 /// "No object / no primitive / no triangle" in [`Frame`] ids (the scene's one numbering,
 /// [`WorldGeometry::ids`]).
 pub use crate::scene::NO_ID;
-
-pub use cmo_capture::{capture, capture_shaded};
 
 /// The per-pixel result of a render, row-major, row 0 at the top.
 #[derive(Clone, Debug, PartialEq)]

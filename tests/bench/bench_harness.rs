@@ -118,14 +118,20 @@ fn bench_reports_cost_per_ray_ratios_and_floor() {
         panic!("one scene, one row: {:?}", report.ratios)
     };
     let (Some(c), Some(fr), Some(rf)) = (
-        ratios.compute_ns_per_ray,
-        ratios.fragment_ns_per_ray,
-        ratios.reference_ns_per_ray,
+        ratios.ns_per_ray(Method::Compute),
+        ratios.ns_per_ray(Method::Fragment),
+        ratios.ns_per_ray(Method::Reference),
     ) else {
         panic!("missing per-ray cost: {ratios:?}")
     };
-    assert_eq!(ratios.compute_over_reference, Some(c / rf));
-    assert_eq!(ratios.compute_over_fragment, Some(c / fr));
+    assert_eq!(
+        ratios.ratio(Method::Compute, Method::Reference),
+        Some(c / rf)
+    );
+    assert_eq!(
+        ratios.ratio(Method::Compute, Method::Fragment),
+        Some(c / fr)
+    );
     let files = bench::report::write(&report, out.path()).expect("write");
     let md = std::fs::read_to_string(&files[1]).expect("bench.md");
     assert!(md.contains("## Cost per ray") && md.contains("| sphere-room | "));
@@ -137,7 +143,29 @@ fn bench_reports_cost_per_ray_ratios_and_floor() {
     let pooled_svg = std::fs::read_to_string(&files[2]).expect("speed-error.svg");
     assert!(pooled_svg.contains("Pareto front") && !pooled_svg.contains(": sphere-room"));
     let json = std::fs::read_to_string(&files[0]).expect("bench.json");
-    assert!(json.contains("\"compute_over_reference\""));
+    let json: serde_json::Value = serde_json::from_str(&json).expect("bench.json is JSON");
+    // Within a rounding of the text (serde_json's parsing is not exactly round trip).
+    let near = |v: &serde_json::Value, x: f64| {
+        v.as_f64().is_some_and(|v| (v - x).abs() <= 1e-12 * x.abs())
+    };
+    let pairs = json["ratios"][0]["ratios"]
+        .as_array()
+        .expect("ratios[0].ratios");
+    assert!(
+        pairs.iter().any(|p| p["method"] == "compute"
+            && p["over"] == "reference"
+            && near(&p["ratio"], c / rf)),
+        "{pairs:?}"
+    );
+    let costs = json["ratios"][0]["methods"]
+        .as_array()
+        .expect("ratios[0].methods");
+    assert!(
+        costs
+            .iter()
+            .any(|m| m["method"] == "compute" && near(&m["ns_per_ray"], c)),
+        "{costs:?}"
+    );
 
     // Without the floor runs, no floor figure is reported.
     let cfg = BenchConfig {
@@ -147,7 +175,7 @@ fn bench_reports_cost_per_ray_ratios_and_floor() {
     };
     let report = bench::run(&ctx, &cfg, &indicatif::ProgressBar::hidden()).expect("bench");
     assert!(report.runs.iter().all(|r| r.floor.is_none()));
-    assert_eq!(report.ratios[0].compute_ns_per_ray, None);
+    assert_eq!(report.ratios[0].ns_per_ray(Method::Compute), None);
     cubetrace::render::check_validation(&ctx).expect("validation");
     common::finish_gpu(ctx);
 }

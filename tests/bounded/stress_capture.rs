@@ -8,7 +8,8 @@
 //!   triangle in CMO-local f32: what `bounded` must equal) within the targets. Negative: the
 //!   reference without the thin part is judged behind on every pixel whose first hit was thin.
 //! - `exact_capture_misses_thin_geometry`: the `exact` criterion (centre-sampled capture,
-//!   verified hits) reports hits behind the first hit: the old capture fails the new target.
+//!   verified hits) reports hits behind the first hit: the centre-sampled capture fails the
+//!   bounded criterion's target.
 //!   Asserted on the five thin scenes (fence, wire grid, chain link, foliage, edge-on fins) at
 //!   every size and CMO count, and on the relief at 16; the relief at 64 and the bunny are
 //!   logged (the exact capture finds their first hits there, or misses 1 to 6).

@@ -4,8 +4,8 @@
 //!
 //! The span scene: a mirror sphere of radius 1 over a textured floor, a slab 1e-3 thick beside
 //! it, a 2e-3 speck 1e-2 above the sphere, and a cube 1e5 behind the camera (its near face at
-//! z = 1e5, 2e5 wide) that the mirror shows. The old ranges (near = 1e-4 x far on a
-//! `[near, far]` projection) clipped the whole near scene there: 0 mirror pixels.
+//! z = 1e5, 2e5 wide) that the mirror shows. Ranges with near = 1e-4 x far on a
+//! `[near, far]` projection clip the whole near scene there: 0 mirror pixels.
 use crate::common;
 use common::{finish_gpu, gpu_context};
 
@@ -215,7 +215,7 @@ fn scene_spanning_1e_minus_3_to_1e5_matches_the_reference() {
     eprintln!("{ranges:?}");
     ranges.check(&scene, true).expect("f32 holds this scene");
     // The near planes come from the geometry: the eye is 1.6 from the floor (near 0.73), the
-    // CMO centre 1.0 from it (capture near 0.29); the old near plane was 1e-4 x far = 42.
+    // CMO centre 1.0 from it (capture near 0.29); a near plane of 1e-4 x far would be 42.
     assert!(ranges.near > 0.5 && ranges.near < 1.5, "{ranges:?}");
     assert!(
         ranges.capture_near > 0.2 && ranges.capture_near < 0.3,
@@ -232,7 +232,7 @@ fn scene_spanning_1e_minus_3_to_1e5_matches_the_reference() {
     finish_gpu(ctx);
 }
 
-/// Negative tests of [`check_span`]: the old near plane, 1e-4 x far (42 here), clips the near
+/// Negative tests of [`check_span`]: a near plane of 1e-4 x far (42 here) clips the near
 /// scene (the check must fail); a ray length that stops short of the far cube (1e3) loses it
 /// from the mirror (the check must fail again).
 #[test]

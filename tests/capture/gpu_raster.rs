@@ -1,5 +1,5 @@
 //! The rasterising passes against the CPU: `capture` against the CPU ray-cast capture
-//! (`reference::capture`), `gbuffer` against the reference's primary hits. Needs a Vulkan driver
+//! (`cpu::capture::capture`), `gbuffer` against the reference's primary hits. Needs a Vulkan driver
 //! (CI: lavapipe); runs under the validation layer when installed and fails on any error.
 use crate::common;
 use common::{finish_gpu, gpu_context};
@@ -245,8 +245,8 @@ fn torus_and_sphere() -> Scene {
     scene
 }
 
-/// Negative for the per-reflector choice: a GPU capture that draws every reflector (the old
-/// global switch on) differs from the CPU capture of the same scene under auto.
+/// Negative for the per-reflector choice: a GPU capture that draws every reflector (one switch
+/// for all reflectors, on) differs from the CPU capture of the same scene under auto.
 #[test]
 fn capture_comparison_fails_when_every_reflector_is_drawn() {
     let ctx = gpu_context();
@@ -256,7 +256,7 @@ fn capture_comparison_fails_when_every_reflector_is_drawn() {
     let mut on = scene.clone();
     on.self_reflections = SelfReflections::On;
     let gpu = gpu_capture(&ctx, &on, &centres, 16);
-    let cpu = reference::capture(&scene, &tracer, centres[0], 16);
+    let cpu = cubetrace::cpu::capture::capture(&scene, &tracer, centres[0], 16);
     let bad = capture_mismatches(&gpu[0], &cpu, CAPTURE_DISTANCE_REL, CAPTURE_COLOUR_TOL);
     let share = bad as f64 / cpu.distance.len() as f64;
     eprintln!(
@@ -281,7 +281,7 @@ fn capture_matches_cpu_ray_cast_capture() {
         let tracer = Tracer::new(&scene);
         let gpu = gpu_capture(&ctx, &scene, &centres, size);
         for (k, g) in gpu.iter().enumerate() {
-            let cpu = reference::capture(&scene, &tracer, centres[k], size);
+            let cpu = cubetrace::cpu::capture::capture(&scene, &tracer, centres[k], size);
             let bad = capture_mismatches(g, &cpu, CAPTURE_DISTANCE_REL, CAPTURE_COLOUR_TOL);
             let share = bad as f64 / cpu.distance.len() as f64;
             eprintln!(
@@ -325,7 +325,7 @@ fn capture_comparison_fails_for_a_moved_centre_or_face_swap() {
     let size = 16;
     let centre = scene.cmo_centres()[0];
     let tracer = Tracer::new(&scene);
-    let cpu = reference::capture(&scene, &tracer, centre, size);
+    let cpu = cubetrace::cpu::capture::capture(&scene, &tracer, centre, size);
     let total = cpu.distance.len() as f64;
     // Moved by 2 cm along each axis: every wall's distance along a fixed direction changes by
     // far more than the tolerance (a move parallel to a plane would leave that plane's

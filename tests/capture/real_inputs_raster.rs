@@ -13,7 +13,7 @@
 //!
 //! Each check compares the GPU frame's mask and seen points with the reference's primary hits
 //! ([`same_view`]); its negative perturbs the input the same check is given (a frame with the
-//! wall forced in, the old near plane) and must fail.
+//! wall forced in, a near plane floored at the far extent times 2^-40) and must fail.
 use crate::common;
 use common::render::first_frame_of;
 use common::{finish_gpu, gpu_context};
@@ -264,8 +264,9 @@ fn sine_scaled_edge_on(p: Vec3, tri: &[Vec3; 3]) -> bool {
 }
 
 /// A sliver triangle 3.2 from the eye, in a plane 1.8 from it, is neither culled nor refused:
-/// `bvh` and `compute` see what the reference sees. The test as it was (the bound divided by
-/// the sliver's sine) put the eye in its plane and refused the scene. Negative: an eye 1e-7
+/// `bvh` and `compute` see what the reference sees. An edge-on test with the bound divided by
+/// the sliver's sine ([`sine_scaled_edge_on`]) puts the eye in its plane and would refuse the
+/// scene. Negative: an eye 1e-7
 /// above the sliver itself (on the surface, to rounding), looking along the floor, is refused
 /// by every method, naming the triangle.
 #[test]
@@ -280,7 +281,7 @@ fn a_sliver_in_view_is_drawn_not_refused() {
         .map(|i| world.positions[i as usize]);
     assert!(
         sine_scaled_edge_on(camera.eye, &tri),
-        "the old test must have culled this sliver: the case is the hard one"
+        "the sine-scaled test must have culled this sliver: the case is the hard one"
     );
     let (offset, bound) = cubetrace::camera::eye_plane_offset(camera.eye, &tri);
     assert!(offset > 1.7 && bound < 1e-5, "{offset} {bound}");
@@ -326,10 +327,10 @@ fn with_far_vertex(x: f32) -> Scene {
     )
 }
 
-/// A vertex at 1e13 or 1e18 (it once gave background only on compute, fragment and bvh): `bvh`
-/// and `fragment` (G-buffer and capture) see what the reference sees. (`compute` shares both
-/// passes; it is left out here because such a triangle costs it seconds per frame.) Negative: the old near plane's floor (the far
-/// extent times 2^-40, here 9 and 9e5 units) clips the room, and the check fails.
+/// A vertex at 1e13 or 1e18: `bvh` and `fragment` (G-buffer and capture) see what the
+/// reference sees, not the background. (`compute` shares both passes; it is left out here
+/// because such a triangle costs it seconds per frame.) Negative: a near plane floored at the
+/// far extent times 2^-40 (here 9 and 9e5 units) clips the room, and the check fails.
 #[test]
 fn a_far_vertex_leaves_the_near_scene_in_view() {
     let ctx = gpu_context();
@@ -367,7 +368,7 @@ fn a_far_vertex_leaves_the_near_scene_in_view() {
             camera.eye,
             100,
         )
-        .expect_err("the old near plane clips the room");
+        .expect_err("a near plane floored at far x 2^-40 clips the room");
         eprintln!("{x:e}, old near plane {}: {err}", old.near);
     }
     finish_gpu(ctx);
@@ -463,7 +464,7 @@ fn capture_differences(gpu: &CubeMap, cpu: &CubeMap) -> usize {
 }
 
 /// A CMO centre in a wall's plane: the GPU capture agrees with the CPU ray-cast capture
-/// (`reference::capture`: the wall, met at t = 0, is not seen) on all but a few texels (rays
+/// (`cpu::capture::capture`: the wall, met at t = 0, is not seen) on all but a few texels (rays
 /// grazing an edge; none measured). The frame itself is refused: the CMO cannot capture the
 /// wall it lies in, which mirror rays may meet (the fuzz pass measured 6 of 27 mirror pixels
 /// on the wrong surface with a centre in the floor). Negative: the capture from a centre 1.4e-3 off the wall (near plane 1e-6),
@@ -483,7 +484,7 @@ fn cmo_centre_in_a_plane_captures_what_the_reference_sees() {
         "{message}"
     );
     let tracer = Tracer::new(&scene);
-    let cpu = reference::capture(&scene, &tracer, centre, 32);
+    let cpu = cubetrace::cpu::capture::capture(&scene, &tracer, centre, 32);
     let gpu = gpu_capture(&ctx, &scene, centre, 1e-6);
     let bad = capture_differences(&gpu, &cpu);
     eprintln!(

@@ -33,12 +33,13 @@
 //! closer than `tol` along the ray are the same surface to f32 data (a shared edge, coplanar
 //! pieces): neither behind nor in front. A missed thin object puts the twin's hit a wall away
 //! (0.1 to 3 units here; `tol` is some 1e-6): [`Quality::min_behind`] shows the gap.
+use cubetrace::cpu::capture::capture;
 use cubetrace::cpu::multi::{MultiResult, MultiStatus, Traversal, Verify, trace_cmos_verified};
 use cubetrace::cpu::verify::triangle_corners;
 use cubetrace::cpu::watertight::intersect;
 use cubetrace::cpu::{CmoTracer, TraceParams};
 use cubetrace::cubemap::bounds::TexelLists;
-use cubetrace::reference::{Hit, Tracer, capture, reflect};
+use cubetrace::reference::{Hit, Tracer, reflect};
 use cubetrace::scene::Scene;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -335,7 +336,7 @@ pub fn watertight_twin(bench: &Bench, centre: Vec3) -> Twin<'_> {
 }
 
 /// The `exact` criterion's CPU twin (what `--method fragment` and `--method compute` run by
-/// default): centre-sampled captures (`reference::capture`, one per CMO centre, face size
+/// default): centre-sampled captures (`cpu::capture::capture`, one per CMO centre, face size
 /// `size`), traced with the pyramid and every hit verified (`cpu::multi::trace_cmos_verified`).
 pub fn exact_twin(bench: &Bench, size: u32) -> Twin<'_> {
     let cmos: Vec<CmoTracer> = bench

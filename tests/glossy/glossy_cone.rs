@@ -346,8 +346,8 @@ const CONE_TWIN_TOL: f32 = 2.5e-4;
 
 /// The `cone` pass on the GPU against `cpu::cone::cone_pixel` over the records the frame had
 /// before it, for fragment and compute: every glossy pixel within [`CONE_TWIN_TOL`] per channel.
-/// Only the colour of glossy pixels may change. Negatives: the level 1/256 higher (within the
-/// former allowance, 1 % of the pixels beyond 1e-3 and none beyond 0.25) must fail the
+/// Only the colour of glossy pixels may change. Negatives: the level 1/256 higher (within a
+/// looser allowance, 1 % of the pixels beyond 1e-3 and none beyond 0.25) must fail the
 /// tolerance; and the level one higher, the angle of power 4x, and the mirror image (the
 /// record's exact colour) must differ beyond 1e-3 on more than 10 % of the pixels.
 #[test]
@@ -383,7 +383,7 @@ fn cone_pass_equals_cpu_twin() {
             over, 0,
             "{method}: {over} of {n} beyond the tolerance, max {max}"
         );
-        // Negative within the former allowance (1 % of the pixels beyond 1e-3, none beyond
+        // Negative within a looser allowance (1 % of the pixels beyond 1e-3, none beyond
         // 0.25): the level 1/256 off.
         let nudged = twin(
             &ctx,
@@ -400,8 +400,8 @@ fn cone_pass_equals_cpu_twin() {
         eprintln!("{method}: level + 1/256: {over} of {n} beyond {CONE_TWIN_TOL:e}, max {max:e}");
         assert!(
             over_old * 100 <= n && max <= 0.25,
-            "negative level + 1/256: {over_old} of {n} beyond 1e-3, max {max}: no longer \
-             within the former allowance"
+            "negative level + 1/256: {over_old} of {n} beyond 1e-3, max {max}: not \
+             within the looser allowance"
         );
         assert!(over > 0, "negative level + 1/256: within the tolerance");
         // Negatives far off.

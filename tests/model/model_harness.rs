@@ -295,12 +295,19 @@ fn bench_model_json_has_the_columns() {
         .collect();
     assert!(widths.contains(&32) && widths.contains(&64), "{widths:?}");
     let g = &m["gpu"][0];
-    for k in [
-        "compute_over_bvh",
-        "compute_over_fragment",
-        "fragment_over_bvh",
+    // The ratios, keyed by method: static and dynamic weights, the one-lane layout's too.
+    let ratios = g["ratios"].as_array().expect("gpu[0].ratios");
+    for (method, one_lane, over) in [
+        ("compute", false, "bvh"),
+        ("compute", false, "fragment"),
+        ("fragment", false, "bvh"),
+        ("compute", true, "bvh"),
     ] {
-        assert!(g[k].is_number(), "{k} in {g}");
+        let r = ratios
+            .iter()
+            .find(|r| r["method"] == method && r["one_lane"] == one_lane && r["over"] == over)
+            .unwrap_or_else(|| panic!("{method} (one lane: {one_lane}) over {over} in {g}"));
+        assert!(r["ratio"].is_number() && r["dynamic"].is_number(), "{r}");
     }
     assert!(g["methods"][0]["sectors_per_ray"].is_number());
     // Per-ray work beside bvh: static and dynamic weighted steps, the dominant block.
@@ -308,13 +315,32 @@ fn bench_model_json_has_the_columns() {
         assert!(g["methods"][0][k].is_number(), "{k} in {g}");
     }
     assert!(g["methods"][0]["dominant_block"].is_string());
-    assert!(g["dynamic"]["compute_over_bvh"].is_number(), "{g}");
+    assert!(
+        g["methods"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|m| m["method"] == "compute" && m["one_lane"] == true),
+        "{g}"
+    );
     assert!(
         m["lavapipe_dynamic"]["rows"]
             .as_array()
             .is_some_and(|r| r.len() == rows.len())
     );
     assert!(m["triangles"].as_array().is_some_and(|t| !t.is_empty()));
+    assert!(
+        m["triangles"][0]["ratios"][0]["ratio"].is_number(),
+        "{}",
+        m["triangles"]
+    );
+    assert!(
+        m["overtakes"]
+            .as_array()
+            .is_some_and(|o| o.iter().any(|c| c["method"] == "compute")),
+        "{}",
+        m["overtakes"]
+    );
     assert!(m["assumptions"][0].as_str().unwrap().contains("MODEL"));
     let md = std::fs::read_to_string(d.path().join("bench.md")).unwrap();
     assert!(md.contains("## Cost model"), "{md}");

@@ -53,10 +53,9 @@ fn fallback_share(ctx: &GpuContext, scene: &Scene) -> (f64, usize) {
 const FRAME_SHARE: f64 = 0.02;
 
 /// The searched placement leaves at most 2 % of the mirror pixels to the fallback on each
-/// scene; the negative is the same predicate on the placement a scene without centres had
-/// before the search became the default (one CMO on the reflectors' axis, self-reflections as
-/// the scene says), which fails it on every scene (measured: searched 0.30-0.77 %, the old
-/// default 11.8-99.3 %).
+/// scene; the negative is the same predicate on the axis placement (one CMO on the reflectors'
+/// axis, self-reflections as the scene says), which fails it on every scene (measured: searched
+/// 0.30-0.77 %, axis 11.8-99.3 %).
 #[test]
 fn the_search_resolves_what_the_axis_placement_leaves() {
     let ctx = gpu_context();

@@ -101,7 +101,7 @@ fn torus_captures_itself_under_auto() {
     let reflector_texels = |s: &scene::Scene| {
         let tracer = Tracer::new(s);
         let centre = s.cmo_centres()[0];
-        let cube = reference::capture(s, &tracer, centre, 16);
+        let cube = cubetrace::cpu::capture::capture(s, &tracer, centre, 16);
         cube.triangle
             .iter()
             .filter(|&&t| t != reference::NO_ID && tracer.is_reflector(t))

@@ -11,9 +11,9 @@ use common::hit_probe::{
     verify_cpu, verify_gpu, watertight_cpu, watertight_gpu,
 };
 use cubetrace::check_layout;
+use cubetrace::cpu::capture::capture;
 use cubetrace::cpu::verify::triangle_corners;
 use cubetrace::cubemap::face::dir_to_texel;
-use cubetrace::reference;
 use cubetrace::reference::{Hit, Tracer};
 use cubetrace::scene::builtin;
 use cubetrace::scene::gpu_data::GpuSceneData;
@@ -410,7 +410,7 @@ fn verified_hits_gpu_equal_cpu_bit_for_bit() {
         let scene = builtin::by_name(name).unwrap();
         let tracer = Tracer::new(&scene);
         let centre = scene.cmo_centres()[0];
-        let cube = reference::capture(&scene, &tracer, centre, size);
+        let cube = capture(&scene, &tracer, centre, size);
         let ids = cube.triangle.clone();
         let triangles = triangle_corners(&tracer.world);
         let buffers = SceneBuffers::new(&ctx, &GpuSceneData::new(&scene)).unwrap();

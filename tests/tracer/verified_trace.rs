@@ -5,11 +5,12 @@
 use crate::common;
 
 use common::Rng;
+use cubetrace::cpu::capture::capture;
 use cubetrace::cpu::multi::{MultiResult, MultiStatus, Traversal, Verify, trace_cmos_verified};
 use cubetrace::cpu::verify::{NO_TRIANGLE, triangle_corners};
 use cubetrace::cpu::watertight::intersect;
 use cubetrace::cpu::{CmoTracer, TraceParams};
-use cubetrace::reference::{Tracer, capture, reflect};
+use cubetrace::reference::{Tracer, reflect};
 use cubetrace::scene::builtin;
 use glam::Vec3;
 

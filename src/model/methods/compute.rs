@@ -19,6 +19,7 @@ pub const MODEL: MethodModel = MethodModel {
     assembly: Assembly::Queue,
     lavapipe_items: |width, lanes| Items::Groups(lavapipe_compute_group(width) / lanes.max(1)),
     entry_point: |one_lane| if one_lane { "main_lanes1" } else { "main" },
+    one_lane_layout: true,
     record,
 };
 

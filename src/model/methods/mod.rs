@@ -29,6 +29,10 @@ pub struct MethodModel {
     pub lavapipe_items: fn(width: u32, lanes: u32) -> Items,
     /// The entry point of its tracing pass (compute: the one-lane layout's with `true`).
     pub entry_point: fn(one_lane: bool) -> &'static str,
+    /// Whether its tracing pass has a second layout with one lane per ray (compute's
+    /// `main_lanes1`, replayed with [`ComputeLanes::One`](super::frame::ComputeLanes::One)),
+    /// which the bench's GPU predictions set beside its default layout.
+    pub one_lane_layout: bool,
     /// Runs its CPU twin on every ray of a frame and keeps the work.
     pub record: fn(&Frame) -> anyhow::Result<Recorded>,
 }
@@ -56,6 +60,12 @@ pub fn blocks(method: Method) -> &'static [Block] {
 /// The index of block `name` in `blocks(method)`.
 pub fn block_index(method: Method, name: &str) -> Option<usize> {
     blocks(method).iter().position(|b| b.name == name)
+}
+
+/// Whether `method`'s tracing pass has a one-lane-per-ray layout beside its default
+/// ([`MethodModel::one_lane_layout`]).
+pub fn one_lane_layout(method: Method) -> bool {
+    model(method).is_some_and(|m| m.one_lane_layout)
 }
 
 /// The static loop nest of a tree-shaped method (not compute, whose replay is its own).

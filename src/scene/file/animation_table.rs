@@ -1,73 +1,15 @@
-//! The scene file's `[animation]` table: its form ([`AnimationFile`], the tracks and their keys)
-//! and its check into an [`Animation`] ([`animation`]).
+//! The scene file's `[animation]` table: its check into an [`Animation`] ([`animation`]); its
+//! form ([`AnimationFile`], the tracks and their keys) is with the rest of the file's in `form`.
 
 use glam::Vec3;
-use serde::{Deserialize, Serialize};
 use toml::Spanned;
 
-use super::{ScaleFile, exact_opt, scale_opt};
+use super::form::{AnimationFile, CameraKeyFile, MeshKeyFile, ScaleFile};
 use crate::scene::animation::{
     Animation, CameraKey, CameraTrack, Interpolation, MAX_FPS, MAX_FRAME, MeshKey, MeshTrack,
 };
 use crate::scene::source::Source;
 use crate::scene::{Scene, SceneError};
-
-/// `[animation]`: frame rate, default range, interpolation and the tracks.
-#[derive(Debug, Deserialize, Serialize, Default)]
-#[serde(deny_unknown_fields)]
-pub(crate) struct AnimationFile {
-    pub fps: Option<Spanned<f64>>,
-    #[serde(default, deserialize_with = "exact_opt")]
-    pub frames: Option<Spanned<[i64; 2]>>,
-    pub interpolation: Option<Spanned<String>>,
-    #[serde(rename = "camera", default, skip_serializing_if = "Vec::is_empty")]
-    pub cameras: Vec<Spanned<CameraTrackFile>>,
-    #[serde(rename = "mesh", default, skip_serializing_if = "Vec::is_empty")]
-    pub meshes: Vec<Spanned<MeshTrackFile>>,
-}
-
-/// `[[animation.camera]]`: the keys of one camera (by name; default the first).
-#[derive(Debug, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub(crate) struct CameraTrackFile {
-    pub camera: Option<Spanned<String>>,
-    #[serde(rename = "key", default)]
-    pub keys: Vec<Spanned<CameraKeyFile>>,
-}
-
-#[derive(Debug, Deserialize, Serialize, Default)]
-#[serde(deny_unknown_fields)]
-pub(crate) struct CameraKeyFile {
-    pub time: Option<Spanned<f64>>,
-    #[serde(default, deserialize_with = "exact_opt")]
-    pub eye: Option<Spanned<[f32; 3]>>,
-    #[serde(default, deserialize_with = "exact_opt")]
-    pub target: Option<Spanned<[f32; 3]>>,
-    #[serde(default, deserialize_with = "exact_opt")]
-    pub up: Option<Spanned<[f32; 3]>>,
-    pub fov_y_deg: Option<Spanned<f32>>,
-}
-
-/// `[[animation.mesh]]`: the transform keys of one mesh (by name).
-#[derive(Debug, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub(crate) struct MeshTrackFile {
-    pub mesh: Spanned<String>,
-    #[serde(rename = "key", default)]
-    pub keys: Vec<Spanned<MeshKeyFile>>,
-}
-
-#[derive(Debug, Deserialize, Serialize, Default)]
-#[serde(deny_unknown_fields)]
-pub(crate) struct MeshKeyFile {
-    pub time: Option<Spanned<f64>>,
-    #[serde(default, deserialize_with = "exact_opt")]
-    pub translate: Option<Spanned<[f32; 3]>>,
-    #[serde(default, deserialize_with = "exact_opt")]
-    pub rotate_deg: Option<Spanned<[f32; 3]>>,
-    #[serde(default, deserialize_with = "scale_opt")]
-    pub scale: Option<Spanned<ScaleFile>>,
-}
 
 /// `[animation]`: `fps` finite and positive, `frames` an ordered range of frame numbers,
 /// `interpolation` a known name, then each track (a known camera or mesh, animated once, its

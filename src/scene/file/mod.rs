@@ -87,14 +87,17 @@
 //!   twice without names gives `ball`, `ball-2`).
 //!
 //! A reflector whose OBJ holds no triangles is an error (it would be an invisible mirror).
+//!
+//! The file's form (the tables as serde reads and writes them, and the readers of exact-length
+//! arrays) is in `form`, the `[animation]` table's check in `animation_table`; this module
+//! checks the other values and loads the meshes into a [`Scene`].
 
 mod animation_table;
+mod form;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use glam::Vec3;
-use serde::de::Error as _;
-use serde::{Deserialize, Deserializer, Serialize};
 use toml::Spanned;
 
 use super::limits;
@@ -108,80 +111,11 @@ use super::{
 use crate::camera::Camera;
 use crate::shading::Shading;
 use animation_table::animation;
-pub(crate) use animation_table::{
-    AnimationFile, CameraKeyFile, CameraTrackFile, MeshKeyFile, MeshTrackFile,
+pub(crate) use form::{
+    AnimationFile, CameraFile, CameraKeyFile, CameraTrackFile, CmoFile, FilmFile, MeshFile,
+    MeshKeyFile, MeshTrackFile, ScaleFile, SceneFile, SelfReflectionsFile, ShadingFile,
+    ShadingModel, SpecularPowerFile, TransformFile,
 };
-
-#[derive(Debug, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub(crate) struct SceneFile {
-    pub name: Option<String>,
-    #[serde(default = "default_background", deserialize_with = "exact")]
-    pub background: Spanned<[f32; 3]>,
-    pub self_reflections: Option<Spanned<SelfReflectionsFile>>,
-    #[serde(default)]
-    pub shading: ShadingFile,
-    #[serde(rename = "mesh", default)]
-    pub meshes: Vec<MeshFile>,
-    #[serde(rename = "camera", default)]
-    pub cameras: Vec<CameraFile>,
-    pub cmo: Option<CmoFile>,
-    pub film: Option<FilmFile>,
-    pub animation: Option<AnimationFile>,
-}
-
-/// `self_reflections`: a TOML boolean, or the string `"auto"` (checked on load).
-#[derive(Debug, Deserialize, Serialize, Clone, PartialEq, Eq)]
-#[serde(untagged)]
-pub(crate) enum SelfReflectionsFile {
-    Bool(bool),
-    Word(String),
-}
-
-fn default_background() -> Spanned<[f32; 3]> {
-    Spanned::new(0..0, [0.0; 3])
-}
-
-#[derive(Debug, Deserialize, Serialize, Clone, Copy, PartialEq, Eq, Default)]
-#[serde(rename_all = "lowercase")]
-pub(crate) enum ShadingModel {
-    Unlit,
-    #[default]
-    Lambert,
-}
-
-#[derive(Debug, Deserialize, Serialize, Default)]
-#[serde(deny_unknown_fields)]
-pub(crate) struct ShadingFile {
-    #[serde(default)]
-    pub model: ShadingModel,
-    pub ambient: Option<Spanned<f32>>,
-    #[serde(default, deserialize_with = "exact_opt")]
-    pub light_direction: Option<Spanned<[f32; 3]>>,
-    pub light_intensity: Option<Spanned<f32>>,
-}
-
-#[derive(Debug, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub(crate) struct MeshFile {
-    pub name: Option<Spanned<String>>,
-    pub obj: Spanned<PathBuf>,
-    #[serde(default)]
-    pub reflector: bool,
-    /// A reflector's glossiness (see [`Gloss`]): a Phong specular power, or `"mtl"`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub specular_power: Option<Spanned<SpecularPowerFile>>,
-    #[serde(default)]
-    pub transform: TransformFile,
-}
-
-/// `specular_power`: a TOML number, or the string `"mtl"` (checked on load).
-#[derive(Debug, Deserialize, Serialize, Clone, PartialEq)]
-#[serde(untagged)]
-pub(crate) enum SpecularPowerFile {
-    Number(f32),
-    Word(String),
-}
 
 /// How a reflector of the scene file is glossy (its `specular_power`).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -193,159 +127,6 @@ pub(crate) enum Gloss {
     Power(f32),
     /// `specular_power = "mtl"`: each part has its MTL material's `Ns` (a mirror without one).
     Mtl,
-}
-
-#[derive(Debug, Deserialize, Serialize, Clone, Copy)]
-#[serde(untagged)]
-pub(crate) enum ScaleFile {
-    Uniform(f32),
-    PerAxis([f32; 3]),
-}
-
-#[derive(Debug, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub(crate) struct TransformFile {
-    #[serde(default = "zero3", deserialize_with = "exact")]
-    pub translate: Spanned<[f32; 3]>,
-    #[serde(default = "zero3", deserialize_with = "exact")]
-    pub rotate_deg: Spanned<[f32; 3]>,
-    #[serde(default = "one", deserialize_with = "scale_value")]
-    pub scale: Spanned<ScaleFile>,
-}
-
-fn zero3() -> Spanned<[f32; 3]> {
-    Spanned::new(0..0, [0.0; 3])
-}
-fn one() -> Spanned<ScaleFile> {
-    Spanned::new(0..0, ScaleFile::Uniform(1.0))
-}
-
-impl Default for TransformFile {
-    fn default() -> Self {
-        Self {
-            translate: zero3(),
-            rotate_deg: zero3(),
-            scale: one(),
-        }
-    }
-}
-
-#[derive(Debug, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub(crate) struct CameraFile {
-    pub name: Option<Spanned<String>>,
-    #[serde(deserialize_with = "exact")]
-    pub eye: Spanned<[f32; 3]>,
-    #[serde(deserialize_with = "exact")]
-    pub target: Spanned<[f32; 3]>,
-    #[serde(default = "up", deserialize_with = "exact")]
-    pub up: Spanned<[f32; 3]>,
-    #[serde(default = "fov")]
-    pub fov_y_deg: Spanned<f32>,
-    #[serde(deserialize_with = "exact")]
-    pub resolution: Spanned<[u32; 2]>,
-}
-
-fn up() -> Spanned<[f32; 3]> {
-    Spanned::new(0..0, [0.0, 1.0, 0.0])
-}
-fn fov() -> Spanned<f32> {
-    Spanned::new(0..0, 50.0)
-}
-
-#[derive(Debug, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub(crate) struct CmoFile {
-    #[serde(default, deserialize_with = "exact_list_opt")]
-    pub centres: Option<Spanned<Vec<[f32; 3]>>>,
-    pub count: Option<Spanned<u32>>,
-    /// With `count`: `"axis"` (the default: along the reflectors' longest axis) or `"auto"`
-    /// (searched for the camera by `cubetrace::placement`).
-    pub placement: Option<Spanned<String>>,
-    #[serde(default = "cube_res")]
-    pub resolution: Spanned<u32>,
-}
-
-/// `[film]`: samples per pixel and the pixel filter.
-#[derive(Debug, Deserialize, Serialize, Default)]
-#[serde(deny_unknown_fields)]
-pub(crate) struct FilmFile {
-    pub spp: Option<Spanned<u32>>,
-    pub filter: Option<Spanned<String>>,
-}
-
-fn cube_res() -> Spanned<u32> {
-    Spanned::new(0..0, 256)
-}
-
-/// `items` as an array of exactly `N` (serde's own array impl does not refuse extra items).
-fn exact_array<T, const N: usize, E: serde::de::Error>(items: Vec<T>) -> Result<[T; N], E> {
-    let n = items.len();
-    items.try_into().map_err(|_| {
-        E::custom(format!(
-            "expected an array of exactly {N} numbers, found {n}"
-        ))
-    })
-}
-
-fn exact<'de, D, T, const N: usize>(d: D) -> Result<Spanned<[T; N]>, D::Error>
-where
-    D: Deserializer<'de>,
-    T: Deserialize<'de>,
-{
-    let v = Spanned::<Vec<T>>::deserialize(d)?;
-    let span = v.span();
-    Ok(Spanned::new(span, exact_array(v.into_inner())?))
-}
-
-fn exact_opt<'de, D, T, const N: usize>(d: D) -> Result<Option<Spanned<[T; N]>>, D::Error>
-where
-    D: Deserializer<'de>,
-    T: Deserialize<'de>,
-{
-    exact(d).map(Some)
-}
-
-/// `cmo.centres`: a list of arrays of exactly `N`.
-type SpannedList<T, const N: usize> = Option<Spanned<Vec<[T; N]>>>;
-
-fn exact_list_opt<'de, D, T, const N: usize>(d: D) -> Result<SpannedList<T, N>, D::Error>
-where
-    D: Deserializer<'de>,
-    T: Deserialize<'de>,
-{
-    let v = Spanned::<Vec<Vec<T>>>::deserialize(d)?;
-    let span = v.span();
-    let items = v
-        .into_inner()
-        .into_iter()
-        .map(exact_array)
-        .collect::<Result<Vec<_>, D::Error>>()?;
-    Ok(Some(Spanned::new(span, items)))
-}
-
-/// `scale`: one number, or an array of exactly 3.
-fn scale_value<'de, D: Deserializer<'de>>(d: D) -> Result<Spanned<ScaleFile>, D::Error> {
-    #[derive(Deserialize)]
-    #[serde(untagged)]
-    enum Raw {
-        Uniform(f32),
-        PerAxis(Vec<f32>),
-    }
-    let v = Spanned::<Raw>::deserialize(d)
-        .map_err(|_| D::Error::custom("scale must be a number or an array of 3 numbers"))?;
-    let span = v.span();
-    Ok(Spanned::new(
-        span,
-        match v.into_inner() {
-            Raw::Uniform(s) => ScaleFile::Uniform(s),
-            Raw::PerAxis(s) => ScaleFile::PerAxis(exact_array(s)?),
-        },
-    ))
-}
-
-fn scale_opt<'de, D: Deserializer<'de>>(d: D) -> Result<Option<Spanned<ScaleFile>>, D::Error> {
-    scale_value(d).map(Some)
 }
 
 /// Checks an image size: both sides in `1..=MAX_IMAGE_SIDE`.

@@ -89,9 +89,10 @@
 //!
 //! How the shared stages and the frame are checked (each comparison with a negative that must
 //! fail):
-//! - Capture against a CPU ray-cast capture of the same CMO (`reference::capture`): distances within
-//!   1e-4 relative and colours within 1e-3, except texels whose centre ray grazes a triangle edge
-//!   (0 to 0.05 % measured, bound 1 %). Negative: a moved centre or swapped faces.
+//! - Capture against a CPU ray-cast capture of the same CMO (`cpu::capture::capture`):
+//!   distances within 1e-4 relative and colours within 1e-3, except texels whose centre ray
+//!   grazes a triangle edge (0 to 0.05 % measured, bound 1 %). Negative: a moved centre or
+//!   swapped faces.
 //! - G-buffer against the reference's primary hits (mask, position, colour per pixel); its start
 //!   points within 9.3 f32 roundings of `|eye| + t` and 2.6e-5 rad of the reference's normal
 //!   (negative: an eye moved by 1e-5 of the scene).

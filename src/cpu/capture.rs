@@ -5,7 +5,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::{NO_ID, Tracer};
+use crate::reference::{NO_ID, Tracer};
 use crate::scene::Scene;
 
 /// The CPU capture of one cubemap object: for every texel, a ray from `centre` through the texel
