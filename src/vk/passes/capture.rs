@@ -8,7 +8,7 @@
 //!   CMO-major, then `(face * N + y) * N + x`.
 //! - Distance is the f32 world distance to the CMO centre, `+inf` where nothing was drawn (the
 //!   clear value); colour is linear RGBA with alpha 1 on surfaces and the background with alpha 0
-//!   elsewhere, as [`crate::reference::capture`] (the CPU check of this pass) produces.
+//!   elsewhere, as [`crate::cpu::capture::capture`] (the CPU check of this pass) produces.
 //! - Reflectors are drawn only with self-reflections on, and only then are the normal/mirror
 //!   image and buffer allocated.
 //! - With [`CaptureContents::triangle_ids`] the pass also writes each texel's global triangle
