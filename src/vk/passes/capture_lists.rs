@@ -14,7 +14,7 @@
 //!   are pushed onto each texel's linked list. [`CaptureLists::record`] clears the heads,
 //!   overflows and counters first and records the barriers between the passes and one after
 //!   (compute writes -> any shader read).
-//! - Per texel, CMO-major, `(face N + y) N + x` (like [`CmoData`](super::cmo::CmoData)'s
+//! - Per texel, CMO-major, `(face N + y) N + x` (like [`CmoData`]'s
 //!   distance): the record `[head, bits(complete_to), bits(hi), count_kept]`
 //!   ([`TexelRecord`]); the first `count_kept` nodes from `head` ([`ListNode`]) are the
 //!   texel's entries in order; `lo` in the distance buffer ([`ListTargets`]: the pass's own, or
