@@ -485,7 +485,7 @@ fn the_readme_is_at_most_350_lines() {
 }
 
 /// Words only the authors understand, in any case: pointers to a conversation or a moment
-/// rather than to the code (`issue 38`, `#38`, "today", "as before", "the redesign",
+/// rather than to the code (`issue 123`, `#123`, "today", "as before", "the redesign",
 /// "since 2026", a date `2026-12-02`) and commit hashes (7 to 40 hex digits with both a digit
 /// and a letter, not after `0x`). Each as `line: what`.
 fn authors_words(text: &str) -> Vec<String> {
@@ -623,7 +623,7 @@ fn no_words_only_the_authors_understand() {
     );
     // Negatives: each kind is found; hex constants, long numbers, words of hex letters and a
     // test's own `#[...]` are not.
-    let made_up = "see issue 38\n(#12)\nas measured today\nworks as before\nafter the redesign\n\
+    let made_up = "see issue 123\n(#12)\nas measured today\nworks as before\nafter the redesign\n\
                    since 2026 it\non 2026-12-02\nat 23b29a4\n";
     let caught = authors_words(made_up);
     assert_eq!(caught.len(), 8, "{caught:?}");
