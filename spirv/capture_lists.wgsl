@@ -1,18 +1,25 @@
 // capture_lists: the `bounded` criterion's sound per-texel bounds and candidate lists (the GPU of
 // `src/cubemap/bounds.rs`, whose module docs derive the bounds; `src/vk/passes/capture_lists.rs`
 // records the passes, each over every CMO in one dispatch):
-// - `jobs`: one invocation per (triangle, CMO, face): steps 1-4 (`cb_face_rect`), then one job
-//   per 8x8 tile of the texel rect that is not wholly outside the triangle (`cf_tile_outside`),
-//   appended through `lists_counters.jobs`. A job that does not fit the job buffer (or a rect
-//   of more than `LISTS_TILE_CAP` tiles) sets its face's `lists_face_overflow` to 0: every
-//   texel of that face is then unknown from distance 0 (sound).
-// - `texels`: 8x8 workgroups over the jobs (grid-stride; dispatch sized by `texel_args`); an
-//   invocation runs the fast paths on its texel of the job's tile (`cf_texel_cone`): wholly
-//   inside the triangle, a node with the corner bounds; undecided, an entry of the clip queue
-//   (`lists_clips`). A node `{triangle, lo, hi, next}` goes onto the texel's list
-//   (`lists_heads`, atomicExchange). With the node pool full the texel's `lists_overflow`
-//   takes the atomicMin of the lost entry's `lo` bits (non-negative floats order as u32) and
-//   `nodes_dropped` counts it.
+// - `faces`: one invocation per (triangle, CMO, face): step 0 (`cb_face_missed`, a few
+//   products); the pairs it keeps go to the face queue (`lists_clips`, whose buffer the clips
+//   use only later), sized on the CPU (`PoolBound::pairs`). A pair that does not fit makes its
+//   face unknown (as below).
+// - `jobs`: one invocation per queued pair (dispatch sized by `job_args`): steps 1-4
+//   (`cb_face_rect`), then one job per 8x8 tile of the texel rect that is not wholly outside
+//   the triangle (`cf_tile_outside`). A tile whose part of the rect holds at most
+//   `LISTS_SMALL` texels is a small job. Jobs take slots of one buffer, tile jobs from the
+//   front and small ones from the back, counted in `lists_counters.jobs` (all) and
+//   `tile_jobs` / `small_jobs`. A job that does not fit the job buffer (or a rect of more than
+//   `LISTS_TILE_CAP` tiles) sets its face's `lists_face_overflow` to 0: every texel of that
+//   face is then unknown from distance 0 (sound).
+// - `texels`: 8x8 workgroups over the jobs (grid-stride; dispatch sized by `texel_args`): a
+//   tile job per workgroup, or 64 / LISTS_SMALL small jobs. An invocation runs the fast paths
+//   on its texel (`cf_texel_cone`): wholly inside the triangle, a node with the corner bounds;
+//   undecided, an entry of the clip queue (`lists_clips`). A node `{triangle, lo, hi, next}`
+//   goes onto the texel's list (`lists_heads`, atomicExchange). With the node pool full the
+//   texel's `lists_overflow` takes the atomicMin of the lost entry's `lo` bits (non-negative
+//   floats order as u32) and `nodes_dropped` counts it.
 // - `clips`: one invocation per queued texel (dispatch sized by `clip_args`): step 5's four
 //   clips (`cb_clip_bound`: streamed, no polygon stored, no workgroup memory or barrier), a
 //   node where the triangle touches the texel.
@@ -41,6 +48,10 @@ const LISTS_NIL: u32 = 0xffffffffu;
 // Tiles one (triangle, face) may emit (its loop stays below lavapipe's 65535 back-edges per
 // invocation): a whole face up to N = 1952; beyond, such a face is unknown (`tiles_capped`).
 const LISTS_TILE_CAP: u32 = 60000u;
+// A tile whose part of the rect holds at most this many texels is a small job: `texels` runs
+// 64 / LISTS_SMALL of them per workgroup, a lane per texel, where a tile job takes a whole 8x8
+// workgroup (a dense mesh's triangles cover a few texels each).
+const LISTS_SMALL: u32 = 16u;
 
 struct ListsParams {
     size: u32,
@@ -54,6 +65,8 @@ struct ListsParams {
     row: u32,
     // Entries the clip queue holds.
     clip_capacity: u32,
+    // Entries the face queue holds (in the clip queue's buffer, used before the clips).
+    pair_capacity: u32,
 }
 
 // One CMO: its centre and whether it captures the reflectors.
@@ -93,6 +106,14 @@ struct ListsCounters {
     // Texels queued for the clips (may exceed the capacity), and those that did not fit.
     clips: atomic<u32>,
     clips_dropped: atomic<u32>,
+    // Of the jobs kept: the tile jobs (from the buffer's front) and the small jobs (from its
+    // back; `LISTS_SMALL`).
+    tile_jobs: atomic<u32>,
+    small_jobs: atomic<u32>,
+    // (Triangle, CMO face) pairs `faces` queued (may exceed the capacity), and those that did
+    // not fit (their face is then unknown).
+    pairs: atomic<u32>,
+    pairs_dropped: atomic<u32>,
 }
 
 // A dispatch's size (`vkCmdDispatchIndirect`).
@@ -122,8 +143,8 @@ struct ListsArgs {
 @group(1) @binding(15) var<storage, read_write> lists_node_next: array<u32>;
 // The clip queue: per entry the job index and the texel `x | y << 16`.
 @group(1) @binding(16) var<storage, read_write> lists_clips: array<vec2<u32>>;
-// The sizes of the `texels` and `clips` dispatches.
-@group(1) @binding(17) var<storage, read_write> lists_args: array<ListsArgs, 2>;
+// The sizes of the `texels`, `clips` and `jobs` dispatches.
+@group(1) @binding(17) var<storage, read_write> lists_args: array<ListsArgs, 3>;
 // The texels' first gaps, packed (`resolve`; the tracers' `cmo_gap`, shared/trace.wgsl), as
 // `lists_distance`.
 @group(1) @binding(18) var<storage, read_write> lists_gap: array<u32>;
@@ -143,8 +164,12 @@ fn lists_vertex(t: u32, corner: u32) -> vec3<f32> {
     return scene_vertices[scene_indices[3u * t + corner]].position;
 }
 
+// Step 0 (`face_missed`) on every (triangle, CMO, face): the pairs it keeps go to the face
+// queue (the clip queue's buffer, free until `texels`) for `jobs`. Cheap and branch-free, so
+// that on lavapipe, which runs every lane of a subgroup through `jobs`' clips, only the kept
+// pairs pay for them.
 @compute @workgroup_size(64)
-fn jobs(@builtin(global_invocation_id) gid: vec3<u32>) {
+fn faces(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x + gid.y * lists_params.row;
     let per_triangle = 6u * lists_params.cmo_count;
     if i >= lists_params.triangle_count * per_triangle {
@@ -152,13 +177,51 @@ fn jobs(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let t = i / per_triangle;
     let cmo_face = i % per_triangle;
-    let cmo = cmo_face / 6u;
-    let face = cmo_face % 6u;
-    let view = lists_views[cmo];
+    let view = lists_views[cmo_face / 6u];
     let object = scene_vertices[scene_indices[3u * t]].object;
     if !scene_is_captured(object) || (view.reflectors == 0u && scene_is_reflector(object)) {
         return;
     }
+    let face = cmo_face % 6u;
+    let l0 = to_face_local(face, lists_vertex(t, 0u) - view.centre);
+    let l1 = to_face_local(face, lists_vertex(t, 1u) - view.centre);
+    let l2 = to_face_local(face, lists_vertex(t, 2u) - view.centre);
+    if cb_face_missed(l0, l1, l2) {
+        return;
+    }
+    let q = atomicAdd(&lists_counters.pairs, 1u);
+    if q < lists_params.pair_capacity {
+        lists_clips[q] = vec2<u32>(t, cmo_face);
+    } else {
+        atomicMin(&lists_face_overflow[cmo_face], 0u);
+        atomicAdd(&lists_counters.pairs_dropped, 1u);
+    }
+}
+
+// Sizes the `jobs` dispatch: one invocation per queued pair, in groups of 64, rows of at most
+// 65535 groups (no invocation takes two pairs: a pair's tile loop may take up to
+// LISTS_TILE_CAP of lavapipe's 65535 back-edges).
+@compute @workgroup_size(1)
+fn job_args() {
+    let n = min(atomicLoad(&lists_counters.pairs), lists_params.pair_capacity);
+    let groups = (n + 63u) / 64u;
+    lists_args[2] = ListsArgs(min(groups, 65535u), (groups + 65534u) / 65535u, 1u);
+}
+
+// Steps 1-4 and the tiles of every queued pair.
+@compute @workgroup_size(64)
+fn jobs(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = gid.x + gid.y * nwg.x * 64u;
+    if i < min(atomicLoad(&lists_counters.pairs), lists_params.pair_capacity) {
+        let pair = lists_clips[i];
+        lists_pair_jobs(pair.x, pair.y);
+    }
+}
+
+// The jobs of triangle `t` on CMO face `cmo_face`.
+fn lists_pair_jobs(t: u32, cmo_face: u32) {
+    let face = cmo_face % 6u;
+    let view = lists_views[cmo_face / 6u];
     let w0 = lists_vertex(t, 0u);
     let w1 = lists_vertex(t, 1u);
     let w2 = lists_vertex(t, 2u);
@@ -189,11 +252,18 @@ fn jobs(@builtin(global_invocation_id) gid: vec3<u32>) {
         if r.whole == 0u && cf_tile_outside(g, tx, tx1, ty, ty1, size, r.m) {
             continue;
         }
-        let j = atomicAdd(&lists_counters.jobs, 1u);
-        if j >= cap {
+        if atomicAdd(&lists_counters.jobs, 1u) >= cap {
             atomicMin(&lists_face_overflow[cmo_face], 0u);
             atomicAdd(&lists_counters.jobs_dropped, 1u);
             continue;
+        }
+        // Kept jobs take disjoint slots: at most `cap` of them, tile jobs counted from the
+        // front, small ones from the back.
+        var j = 0u;
+        if (tx1 - tx + 1u) * (ty1 - ty + 1u) <= LISTS_SMALL {
+            j = cap - 1u - atomicAdd(&lists_counters.small_jobs, 1u);
+        } else {
+            j = atomicAdd(&lists_counters.tile_jobs, 1u);
         }
         lists_jobs[j] = ListsJob(
             t,
@@ -240,58 +310,91 @@ fn lists_local(job: ListsJob) -> ListsLocal {
     );
 }
 
-// The job loop is a grid-stride loop over the jobs the `jobs` pass appended. No clip runs here:
-// lavapipe executes both arms of a divergent branch, so a clip in this loop would cost every
-// texel. A texel the fast paths leave goes to the clip queue; with the queue full it gets the
-// whole triangle's bounds (sound, looser; `clips_dropped`).
+// The job loop is a grid-stride loop over the jobs the `jobs` pass appended: a tile job per
+// workgroup (a lane per texel of its 8x8 tile), then the small jobs, 64 / LISTS_SMALL per
+// workgroup (lane `l` takes texel `l % LISTS_SMALL` of its tile's part of the rect, row by row).
+// Both kinds run the same per-texel code. No clip runs here: lavapipe executes both arms of a
+// divergent branch, so a clip in this loop would cost every texel. A texel the fast paths leave
+// goes to the clip queue; with the queue full it gets the whole triangle's bounds (sound,
+// looser; `clips_dropped`).
 @compute @workgroup_size(8, 8)
 fn texels(
     @builtin(local_invocation_id) lid: vec3<u32>,
     @builtin(workgroup_id) wid: vec3<u32>,
     @builtin(num_workgroups) nwg: vec3<u32>,
 ) {
-    let count = min(atomicLoad(&lists_counters.jobs), lists_params.job_capacity);
-    let size = lists_params.size;
+    let cap = lists_params.job_capacity;
+    let tile_jobs = min(atomicLoad(&lists_counters.tile_jobs), cap);
+    let small_jobs = min(atomicLoad(&lists_counters.small_jobs), cap);
+    let per_group = 64u / LISTS_SMALL;
+    let count = tile_jobs + (small_jobs + per_group - 1u) / per_group;
+    let lane = lid.x + 8u * lid.y;
     let stride = nwg.x * nwg.y;
-    for (var j = wid.x + wid.y * nwg.x; j < count; j += stride) {
+    for (var v = wid.x + wid.y * nwg.x; v < count; v += stride) {
+        var j = v;
+        var valid = true;
+        var dx = lid.x;
+        var dy = lid.y;
+        if v >= tile_jobs {
+            let s = (v - tile_jobs) * per_group + lane / LISTS_SMALL;
+            valid = s < small_jobs;
+            j = cap - 1u - min(s, small_jobs - 1u);
+        }
         let job = lists_jobs[j];
-        let x = (job.rect_x & 0xffffu) + (job.tile & 0xffffu) * CB_TILE + lid.x;
-        let y = (job.rect_y & 0xffffu) + (job.tile >> 16u) * CB_TILE + lid.y;
-        let l = lists_local(job);
-        if x <= (job.rect_x >> 16u) && y <= (job.rect_y >> 16u) {
-            let w = cb_texel_centre_unit(x, y, size);
-            var b = CbBound(0.0, 0.0, false);
-            // A `whole` rect's texels, and a texel the full queue turned away: the whole triangle.
-            var whole = job.whole != 0u;
-            if !whole {
-                let f = cf_texel_cone(l.l0, l.l1, l.l2, cb_texel_k(x, y, size, job.m), w, job.e);
-                b = CbBound(f.lo, f.hi, f.kind == CF_INSIDE);
-                if f.kind == CF_CLIP {
-                    let q = atomicAdd(&lists_counters.clips, 1u);
-                    if q < lists_params.clip_capacity {
-                        lists_clips[q] = vec2<u32>(j, x | (y << 16u));
-                    } else {
-                        atomicAdd(&lists_counters.clips_dropped, 1u);
-                        whole = true;
-                    }
-                }
-            }
-            if whole {
-                b = cb_whole_bound(l.l0, l.l1, l.l2, w, job.e);
-            }
-            if b.hit {
-                lists_push((job.cmo_face * size + y) * size + x, job.triangle, b.lo, b.hi);
-            }
+        let tx = (job.rect_x & 0xffffu) + (job.tile & 0xffffu) * CB_TILE;
+        let ty = (job.rect_y & 0xffffu) + (job.tile >> 16u) * CB_TILE;
+        if v >= tile_jobs {
+            let w = min(tx + CB_TILE - 1u, job.rect_x >> 16u) - tx + 1u;
+            let k = lane % LISTS_SMALL;
+            dx = k % w;
+            dy = k / w;
+        }
+        let x = tx + dx;
+        let y = ty + dy;
+        if valid && x <= min(tx + CB_TILE - 1u, job.rect_x >> 16u) && y <= min(ty + CB_TILE - 1u, job.rect_y >> 16u) {
+            lists_texel(j, job, x, y);
         }
     }
 }
 
-// Sizes the `texels` dispatch: a workgroup per job, at most 65535 (the kernel strides). An
-// idle workgroup is not free on lavapipe, so the dispatch follows the jobs appended, not the
-// capacity.
+// The fast paths for texel (x, y) of job `j` (`texels`).
+fn lists_texel(j: u32, job: ListsJob, x: u32, y: u32) {
+    let size = lists_params.size;
+    let l = lists_local(job);
+    let w = cb_texel_centre_unit(x, y, size);
+    var b = CbBound(0.0, 0.0, false);
+    // A `whole` rect's texels, and a texel the full queue turned away: the whole triangle.
+    var whole = job.whole != 0u;
+    if !whole {
+        let f = cf_texel_cone(l.l0, l.l1, l.l2, cb_texel_k(x, y, size, job.m), w, job.e);
+        b = CbBound(f.lo, f.hi, f.kind == CF_INSIDE);
+        if f.kind == CF_CLIP {
+            let q = atomicAdd(&lists_counters.clips, 1u);
+            if q < lists_params.clip_capacity {
+                lists_clips[q] = vec2<u32>(j, x | (y << 16u));
+            } else {
+                atomicAdd(&lists_counters.clips_dropped, 1u);
+                whole = true;
+            }
+        }
+    }
+    if whole {
+        b = cb_whole_bound(l.l0, l.l1, l.l2, w, job.e);
+    }
+    if b.hit {
+        lists_push((job.cmo_face * size + y) * size + x, job.triangle, b.lo, b.hi);
+    }
+}
+
+// Sizes the `texels` dispatch: a workgroup per tile job and per 64 / LISTS_SMALL small jobs, at
+// most 65535 (the kernel strides). An idle workgroup is not free on lavapipe, so the dispatch
+// follows the jobs appended, not the capacity.
 @compute @workgroup_size(1)
 fn texel_args() {
-    let n = min(atomicLoad(&lists_counters.jobs), lists_params.job_capacity);
+    let cap = lists_params.job_capacity;
+    let per_group = 64u / LISTS_SMALL;
+    let small = min(atomicLoad(&lists_counters.small_jobs), cap);
+    let n = min(atomicLoad(&lists_counters.tile_jobs), cap) + (small + per_group - 1u) / per_group;
     lists_args[0] = ListsArgs(min(n, 65535u), 1u, 1u);
 }
 

@@ -150,6 +150,24 @@ fn cb_near_centre(l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>, e: f32) -> bool {
     return p.n > 0u || p.overflow != 0u;
 }
 
+const CB_MISS_SLACK: f32 = 0.0009765625; // 2^-10
+
+// `face_missed`: the face-local triangle's three corners outside one side plane of the face
+// frustum dilated by 2^-7, each by more than 2^-10 of the coordinates its plane value sums.
+fn cb_out_by(p: vec3<f32>, kind: u32, k: f32) -> bool {
+    let a = select(p.y, p.x, kind < CB_PLANE_V_MIN);
+    return cb_plane_value(p, kind, k) < -(CB_MISS_SLACK * (abs(a) + abs(p.z)));
+}
+
+fn cb_plane_missed(l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>, kind: u32, k: f32) -> bool {
+    return cb_out_by(l0, kind, k) && cb_out_by(l1, kind, k) && cb_out_by(l2, kind, k);
+}
+
+fn cb_face_missed(l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>) -> bool {
+    let d = 1.0 + CB_FACE_DILATION;
+    return cb_plane_missed(l0, l1, l2, CB_PLANE_U_MIN, -d) || cb_plane_missed(l0, l1, l2, CB_PLANE_U_MAX, d) || cb_plane_missed(l0, l1, l2, CB_PLANE_V_MIN, -d) || cb_plane_missed(l0, l1, l2, CB_PLANE_V_MAX, d);
+}
+
 // `FaceRect` (without the pool bound's area and perimeter); `hit` 0 when the face is skipped.
 struct CbRect {
     x0: u32,

@@ -452,23 +452,28 @@ fn log_gpu_frame(frame: &GpuFrame, method: Method) {
     }
     if let Some(l) = &frame.lists {
         log::info!(
-            "capture lists: {} nodes, {} jobs; dropped {} nodes and {} jobs (full buffers), {} \
-             list walks and {} face tilings capped",
+            "capture lists: {} nodes, {} jobs ({} small), {} faces queued; dropped {} nodes, {} \
+             jobs and {} faces (full buffers), {} list walks and {} face tilings capped",
             l.nodes,
             l.jobs,
+            l.small_jobs,
+            l.pairs,
             l.nodes_dropped,
             l.jobs_dropped,
+            l.pairs_dropped,
             l.walks_capped,
             l.tiles_capped
         );
-        let cut = l.nodes_dropped + l.jobs_dropped + l.walks_capped + l.tiles_capped;
+        let cut =
+            l.nodes_dropped + l.jobs_dropped + l.pairs_dropped + l.walks_capped + l.tiles_capped;
         if cut > 0 {
             log::warn!(
-                "--criterion bounded: the capture's lists were cut ({} nodes and {} jobs \
-                 dropped, {} walks and {} tilings capped): rays through those texels past the \
-                 cut go to the next CMO or the fallback",
+                "--criterion bounded: the capture's lists were cut ({} nodes, {} jobs and {} \
+                 faces dropped, {} walks and {} tilings capped): rays through those texels past \
+                 the cut go to the next CMO or the fallback",
                 l.nodes_dropped,
                 l.jobs_dropped,
+                l.pairs_dropped,
                 l.walks_capped,
                 l.tiles_capped
             );

@@ -27,6 +27,9 @@
 //! Written like a shader (fixed arrays, f32, the same operations in the same order as the WGSL;
 //! every product rounded on its own, see `prod` in `spirv/shared/frustum.wgsl`). Per (triangle,
 //! face), `l_i = to_face_local(face, v_i - centre)` (the permutation is exact):
+//! 0. [`face_missed`]: the three corners outside one side plane of the dilated face frustum,
+//!    each by a relative slack far above the plane value's rounding: skip the face. (This runs
+//!    before step 1, so a triangle near the centre skips the faces it surely misses.)
 //! 1. `R = max_i |l_i|_inf`, `E = 2^-18 R` ([`E_SCALE`]). `R` is CMO-local on purpose: the
 //!    tracer intersects the same rounded local corners (`corner - centre`), so the bounds are
 //!    sound for what is traced, and a scene far from the world's origin keeps the precision of
@@ -225,6 +228,32 @@ pub fn plane_value(p: Vec3, kind: u32, k: f32) -> f32 {
     }
 }
 
+/// Relative slack of [`face_missed`]: `2^-10`.
+pub const MISS_SLACK: f32 = 1.0 / 1024.0;
+
+/// Step 0: whether the face-local triangle `l` surely misses the face's frustum dilated by
+/// `2^-7`: its three vertices lie outside the same side plane, each by more than `2^-10` of the
+/// two coordinates the plane value sums. The plane value rounds by under `3 u (|x| + 2 |z|)`,
+/// far inside that slack, so each vertex really lies in the open half-space outside the plane,
+/// and so does the whole (convex) triangle: it meets no texel cone of the face. Cheap (no
+/// clip), and the GPU's `faces` pass runs it on every (triangle, face) so that the costly steps
+/// 1-4 run only on the pairs it keeps.
+pub fn face_missed(l: &[Vec3; 3]) -> bool {
+    let d = 1.0 + FACE_DILATION;
+    let out = |p: Vec3, kind: u32, k: f32| {
+        let a = if kind < PLANE_V_MIN { p.x } else { p.y };
+        plane_value(p, kind, k) < -(MISS_SLACK * (a.abs() + p.z.abs()))
+    };
+    [
+        (PLANE_U_MIN, -d),
+        (PLANE_U_MAX, d),
+        (PLANE_V_MIN, -d),
+        (PLANE_V_MAX, d),
+    ]
+    .into_iter()
+    .any(|(kind, k)| l.iter().all(|&p| out(p, kind, k)))
+}
+
 /// Sutherland-Hodgman: `poly` clipped to `plane_value(., kind, k) >= 0`. A crossing edge's new
 /// vertex is interpolated from its inside end: `i + (o - i) s`, `s = min(f_i / (f_i - f_o), 1)`.
 pub fn clip(poly: &Poly, kind: u32, k: f32) -> Poly {
@@ -395,6 +424,9 @@ fn face_rect_with(
 ) -> Option<FaceRect> {
     let l = face_local(tri, centre, face);
     let sound = margins == Margins::Sound;
+    if sound && face_missed(&l) {
+        return None;
+    }
     let e = if sound { error_budget(&l) } else { 0.0 };
     if sound && near_centre(&l, e) {
         return Some(whole_face(face, size, e));
@@ -655,6 +687,8 @@ pub struct PoolBound {
     pub clips: u64,
     /// Texels of every rect (the nodes' trivial bound).
     pub rect_texels: u64,
+    /// (Triangle, face) pairs that [`face_missed`] keeps: the GPU's face queue.
+    pub pairs: u64,
 }
 
 /// [`PoolBound`] of one CMO at `centre`.
@@ -670,6 +704,9 @@ pub fn pool_bound(
             continue;
         }
         for face in 0..FACE_COUNT {
+            if !face_missed(&face_local(tri, centre, face)) {
+                b.pairs += 1;
+            }
             if let Some(rect) = face_rect(tri, centre, face, size) {
                 b.jobs += rect.tiles();
                 b.nodes += rect.steiner(size);
@@ -1082,5 +1119,70 @@ mod tests {
         // Negative: far from the centre it is not.
         let far = tri.map(|v| v + Vec3::new(0.0, 1.0, 0.0));
         assert!((0..FACE_COUNT).all(|f| face_rect(&far, centre, f, 8).is_none_or(|r| !r.whole)));
+    }
+
+    /// Whether the f64 point `p` (face-local) lies in the closed face frustum `|x|, |y| <= z`.
+    fn in_face(p: glam::DVec3) -> bool {
+        p.z >= 0.0 && p.x.abs() <= p.z && p.y.abs() <= p.z
+    }
+
+    /// Step 0 keeps its promise: a triangle it skips has no point in the face's frustum (f64
+    /// samples over the triangle), and it skips many (so the property was exercised). The
+    /// triangles include near-centre and edge-on ones (`test_triangles`).
+    #[test]
+    fn face_missed_triangles_miss_the_face() {
+        let mut rng = Rng(11);
+        let (mut missed, mut kept) = (0, 0);
+        for scale in [1e-3f32, 1.0, 1e3] {
+            let tris = test_triangles(&mut rng, Vec3::ZERO, 400);
+            for tri in tris.iter().map(|t| t.map(|v| v * scale)) {
+                for face in 0..FACE_COUNT {
+                    let l = face_local(&tri, Vec3::ZERO, face);
+                    if !face_missed(&l) {
+                        kept += 1;
+                        continue;
+                    }
+                    missed += 1;
+                    let [a, b, c] = l.map(|v| v.as_dvec3());
+                    for i in 0..=16 {
+                        for j in 0..=16 - i {
+                            let (u, v) = (f64::from(i) / 16.0, f64::from(j) / 16.0);
+                            let p = a + (b - a) * u + (c - a) * v;
+                            assert!(!in_face(p), "{tri:?} face {face}: {p} is in the face");
+                        }
+                    }
+                }
+            }
+        }
+        assert!(missed > 1000 && kept > 1000, "{missed} missed, {kept} kept");
+    }
+
+    /// Step 0's slack: a corner just outside a side plane (by less than the slack) keeps the
+    /// face; the same corner well outside skips it. Negative for the test above: a triangle
+    /// that reaches into the face is never skipped.
+    #[test]
+    fn face_missed_keeps_what_touches_the_face() {
+        let d = 1.0 + FACE_DILATION;
+        // Every corner at u = -d (1 + t), z = 1: outside the dilated u-min plane by t d.
+        let at = |t: f32| {
+            [
+                Vec3::new(-d * (1.0 + t), 0.0, 1.0),
+                Vec3::new(-d * (1.0 + t), 0.5, 1.0),
+                Vec3::new(-2.0 * d * (1.0 + t), 0.0, 2.0),
+            ]
+        };
+        assert!(face_missed(&at(1e-2)));
+        assert!(!face_missed(&at(1e-4)));
+        // One corner inside the face: never skipped.
+        let mut tri = at(1.0);
+        tri[1] = Vec3::new(0.0, 0.0, 1.0);
+        assert!(!face_missed(&tri));
+        // Behind the centre (z < 0): outside every side plane at once.
+        let behind = [
+            Vec3::new(0.0, 0.0, -1.0),
+            Vec3::new(0.1, 0.0, -1.0),
+            Vec3::new(0.0, 0.1, -1.0),
+        ];
+        assert!(face_missed(&behind));
     }
 }

@@ -160,9 +160,10 @@ fn assert_nothing_dropped(g: &GpuLists) {
             c.jobs_dropped,
             c.nodes_dropped,
             c.walks_capped,
-            c.tiles_capped
+            c.tiles_capped,
+            c.pairs_dropped
         ),
-        (0, 0, 0, 0),
+        (0, 0, 0, 0, 0),
         "{c:?}"
     );
 }
@@ -319,6 +320,12 @@ fn gpu_matches_the_cpu_twin_on_corpus_scenes() {
         let (g, secs) = run(&ctx, &data, &cmos, size, 16, cap);
         eprintln!("{name} N = {size}: {cap:?}, {:?}, {secs:.3} s", g.counters);
         assert_nothing_dropped(&g);
+        // Step 0 keeps the same (triangle, face) pairs on the GPU as on the CPU, and both kinds
+        // of job ran (tile jobs and small ones), so the bit-for-bit match below covers both.
+        let c = g.counters;
+        assert_eq!(u64::from(c.pairs), cap.pairs, "{name}");
+        assert!(c.tile_jobs > 0 && c.small_jobs > 0, "{name}: {c:?}");
+        assert_eq!(c.tile_jobs + c.small_jobs, c.jobs, "{name}");
         compare_all(&g, &cpu_lists(&data, &cmos, size, 16));
     }
     finish_gpu(ctx);
@@ -460,12 +467,20 @@ fn tiny_pools_stay_sound() {
                 ..cap
             },
         ),
+        (
+            "faces",
+            PoolBound {
+                pairs: cap.pairs / 2,
+                ..cap
+            },
+        ),
     ] {
         let (g, _) = run(&ctx, &data, &cmos, size, 16, tiny);
         eprintln!("tiny {what}: {:?}", g.counters);
         match what {
             "nodes" => assert!(g.counters.nodes_dropped > 0),
-            _ => assert!(g.counters.jobs_dropped > 0),
+            "jobs" => assert!(g.counters.jobs_dropped > 0),
+            _ => assert!(g.counters.pairs_dropped > 0),
         }
         check_sound(&g.cmos[0], &full[0]).unwrap();
         // Negative: a texel that lost an entry with complete_to raised to +inf.
@@ -576,7 +591,10 @@ fn capped_walks_stay_sound() {
 #[test]
 fn capture_cost_on_a_builtin_scene() {
     let ctx = gpu_context();
-    let (data, cmos) = builtin("sphere-room");
+    // Another scene (a built-in name or a scene file) through CUBETRACE_COST_SCENE, to time
+    // the passes with `--nocapture`.
+    let name = std::env::var("CUBETRACE_COST_SCENE").unwrap_or("sphere-room".into());
+    let (data, cmos) = builtin(&name);
     let scene = SceneBuffers::new(&ctx, &data).unwrap();
     for size in [64, 256] {
         let t0 = Instant::now();
@@ -600,7 +618,7 @@ fn capture_cost_on_a_builtin_scene() {
                 .map(|(n, ns)| format!("{n} {:.1} ms", ns / 1e6))
                 .collect();
             eprintln!(
-                "COST sphere-room, 1 CMO, N = {size}, run {run}: {wall:.3} s wall; {}; pool \
+                "COST {name}, 1 CMO, N = {size}, run {run}: {wall:.3} s wall; {}; pool \
                  bound on the CPU {cpu_bound:.3} s",
                 times.join(", ")
             );

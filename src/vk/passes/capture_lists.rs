@@ -3,17 +3,19 @@
 //! [`crate::cubemap::bounds`], whose module docs derive the bounds).
 //!
 //! Invariants:
-//! - Dispatches over every CMO at once: `jobs` (one invocation per (triangle, CMO, face), one
-//!   job per 8x8 tile of its texel rect that is not wholly outside the triangle), `texels` (the
-//!   fast paths per texel: a node per texel wholly inside the triangle, the texels they cannot
-//!   decide queued for `clips`), `clips` (the four clips of each queued texel, a node where the
-//!   triangle touches it), `resolve` (the `depth` smallest `(lo, triangle)` sorted at the head
-//!   of each list, then the per-texel record and `lo`). `texels` and `clips` are indirect
-//!   dispatches sized on the GPU from the jobs and the queue (`texel_args`, `clip_args`): on
-//!   lavapipe an idle workgroup, or a branch no lane takes, still costs its instructions. Nodes
-//!   are pushed onto each texel's linked list. [`CaptureLists::record`] clears the heads,
-//!   overflows and counters first and records the barriers between the passes and one after
-//!   (compute writes -> any shader read).
+//! - Dispatches over every CMO at once: `faces` (one invocation per (triangle, CMO, face):
+//!   step 0, [`bounds::face_missed`]; the pairs it keeps go to a queue), `jobs` (one invocation
+//!   per queued pair: one job per 8x8 tile of its texel rect that is not wholly outside the
+//!   triangle; a tile whose part of the rect holds at most 16 texels is a small job, run four
+//!   to a workgroup), `texels` (the fast paths per texel: a node per texel wholly inside the
+//!   triangle, the texels they cannot decide queued for `clips`), `clips` (the four clips of
+//!   each queued texel, a node where the triangle touches it), `resolve` (the `depth` smallest
+//!   `(lo, triangle)` sorted at the head of each list, then the per-texel record and `lo`).
+//!   `jobs`, `texels` and `clips` are indirect dispatches sized on the GPU from the queues and
+//!   the jobs (`job_args`, `texel_args`, `clip_args`): on lavapipe an idle workgroup, or a
+//!   branch no lane takes, still costs its instructions. Nodes are pushed onto each texel's
+//!   linked list. [`CaptureLists::record`] clears the heads, overflows and counters first and
+//!   records the barriers between the passes and one after (compute writes -> any shader read).
 //! - Per texel, CMO-major, `(face N + y) N + x` (like [`CmoData`]'s
 //!   distance): the record `[head, bits(complete_to), bits(hi), count_kept]`
 //!   ([`TexelRecord`]); the first `count_kept` nodes from `head` ([`ListNode`]) are the
@@ -67,6 +69,7 @@ pub struct ListsParams {
     pub walk_cap: u32,
     pub row: u32,
     pub clip_capacity: u32,
+    pub pair_capacity: u32,
 }
 
 impl ListsParams {
@@ -77,6 +80,7 @@ impl ListsParams {
             job_capacity: capacity.jobs as u32,
             node_capacity: capacity.nodes as u32,
             clip_capacity: capacity.clips.min(u64::from(u32::MAX / 2)) as u32,
+            pair_capacity: capacity.pairs.min(u64::from(u32::MAX / 2)) as u32,
             ..self
         }
     }
@@ -131,6 +135,14 @@ pub struct ListCounters {
     /// got the whole triangle's bounds).
     pub clips: u32,
     pub clips_dropped: u32,
+    /// Of the jobs kept: whole 8x8 tiles, and small ones (a tile's part of the rect of at most
+    /// 16 texels, run several to a workgroup).
+    pub tile_jobs: u32,
+    pub small_jobs: u32,
+    /// (Triangle, CMO face) pairs queued for `jobs` (may exceed the capacity), and those that
+    /// did not fit (their face is unknown).
+    pub pairs: u32,
+    pub pairs_dropped: u32,
 }
 
 /// Per texel: `[head, bits(complete_to), bits(hi), count_kept]`.
@@ -197,6 +209,7 @@ pub fn capacity(data: &GpuSceneData, cmos: &[(Vec3, bool)], size: u32) -> PoolBo
         sum.nodes += b.nodes;
         sum.clips += b.clips;
         sum.rect_texels += b.rect_texels;
+        sum.pairs += b.pairs;
     }
     sum
 }
@@ -239,21 +252,22 @@ fn group1_resources<'a>(own: [&'a Buffer; 9], out: ListTargets<'a>) -> Vec<(u32,
     all
 }
 
-/// The `texels` and `clips` dispatch sizes (two `VkDispatchIndirectCommand`s).
+/// The `texels`, `clips` and `jobs` dispatch sizes (three `VkDispatchIndirectCommand`s).
 fn args_buffer(ctx: &GpuContext) -> VkResult<Buffer> {
     Buffer::new(
         ctx.device(),
         "capture_lists dispatch args",
-        24,
+        36,
         vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::INDIRECT_BUFFER,
         gpu_allocator::MemoryLocation::GpuOnly,
     )
 }
 
-/// Bytes of the clip queue for `capacity` (two u32 per queued texel; the buffer itself holds at
-/// least one entry).
+/// Bytes of the clip queue for `capacity`: two u32 per queued texel, or per queued (triangle,
+/// face) pair (the face queue uses the buffer first); the buffer itself holds at least one
+/// entry.
 pub fn clip_queue_bytes(capacity: PoolBound) -> u64 {
-    capacity.clips * 8
+    capacity.clips.max(capacity.pairs) * 8
 }
 
 /// The `@group(1)` set of pass `p`: the resources of `all` its entry point uses.
@@ -343,8 +357,8 @@ fn check_inputs(
 pub struct CaptureLists {
     /// The passes in recording order: `jobs`, `texel_args`, `texels`, `clip_args`, `clips`,
     /// `resolve`; `sets` holds their `@group(0)` and `@group(1)` sets in the same order.
-    passes: [ComputePipeline; 6],
-    sets: [(BindGroup, BindGroup); 6],
+    passes: [ComputePipeline; 8],
+    sets: [(BindGroup, BindGroup); 8],
     params_buf: Buffer,
     views_buf: Buffer,
     job_buf: Buffer,
@@ -359,7 +373,7 @@ pub struct CaptureLists {
     params: ListsParams,
     /// What the views buffer holds.
     views: Vec<ListsView>,
-    jobs_groups: [u32; 3],
+    faces_groups: [u32; 3],
     resolve_groups: [u32; 3],
 }
 
@@ -502,6 +516,8 @@ impl CaptureLists {
         };
         let pipe = |e| ComputePipeline::new(ctx, &CAPTURE_LISTS, e, ComputeOptions::default());
         let passes = [
+            pipe("faces")?,
+            pipe("job_args")?,
             pipe("jobs")?,
             pipe("texel_args")?,
             pipe("texels")?,
@@ -587,7 +603,7 @@ impl CaptureLists {
             own,
             params,
             views,
-            jobs_groups: linear_groups(triangles * 6 * k),
+            faces_groups: linear_groups(triangles * 6 * k),
             resolve_groups: linear_groups(texels),
         })
     }
@@ -622,25 +638,38 @@ impl CaptureLists {
         rec.fill_buffer(&self.counters, 0);
         rec.memory_barrier(TRANSFER_WRITE, COMPUTE_READ);
         let rw = (COMPUTE_READ.0, COMPUTE_READ.1 | COMPUTE_WRITE.1);
-        let [jobs, texel_args, texels, clip_args, clips, resolve] = &self.passes;
+        let [
+            faces,
+            job_args,
+            jobs,
+            texel_args,
+            texels,
+            clip_args,
+            clips,
+            resolve,
+        ] = &self.passes;
         let set = |i: usize| [&self.sets[i].0, &self.sets[i].1];
-        jobs.dispatch(rec, &set(0), self.jobs_groups);
+        faces.dispatch(rec, &set(0), self.faces_groups);
+        rec.memory_barrier(COMPUTE_WRITE, rw);
+        job_args.dispatch(rec, &set(1), [1, 1, 1]);
+        rec.memory_barrier(COMPUTE_WRITE, INDIRECT_READ);
+        jobs.dispatch_indirect(rec, &set(2), &self.args_buf, 24)?;
         end(&mut ts, s);
         rec.memory_barrier(COMPUTE_WRITE, rw);
-        texel_args.dispatch(rec, &set(1), [1, 1, 1]);
+        texel_args.dispatch(rec, &set(3), [1, 1, 1]);
         rec.memory_barrier(COMPUTE_WRITE, INDIRECT_READ);
         let s = scope(&mut ts, "capture_lists.texels")?;
-        texels.dispatch_indirect(rec, &set(2), &self.args_buf, 0)?;
+        texels.dispatch_indirect(rec, &set(4), &self.args_buf, 0)?;
         end(&mut ts, s);
         rec.memory_barrier(COMPUTE_WRITE, rw);
         let s = scope(&mut ts, "capture_lists.clips")?;
-        clip_args.dispatch(rec, &set(3), [1, 1, 1]);
+        clip_args.dispatch(rec, &set(5), [1, 1, 1]);
         rec.memory_barrier(COMPUTE_WRITE, INDIRECT_READ);
-        clips.dispatch_indirect(rec, &set(4), &self.args_buf, 12)?;
+        clips.dispatch_indirect(rec, &set(6), &self.args_buf, 12)?;
         end(&mut ts, s);
         rec.memory_barrier(COMPUTE_WRITE, rw);
         let s = scope(&mut ts, "capture_lists.resolve")?;
-        resolve.dispatch(rec, &set(5), self.resolve_groups);
+        resolve.dispatch(rec, &set(7), self.resolve_groups);
         end(&mut ts, s);
         rec.memory_barrier(COMPUTE_WRITE, ALL_READS);
         Ok(())
@@ -841,7 +870,8 @@ mod tests {
                 node_capacity,
                 walk_cap,
                 row,
-                clip_capacity
+                clip_capacity,
+                pair_capacity
             ]
         )
         .unwrap();
@@ -867,7 +897,11 @@ mod tests {
                 walks_capped,
                 tiles_capped,
                 clips,
-                clips_dropped
+                clips_dropped,
+                tile_jobs,
+                small_jobs,
+                pairs,
+                pairs_dropped
             ]
         )
         .unwrap();
