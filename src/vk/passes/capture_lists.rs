@@ -270,6 +270,21 @@ pub fn clip_queue_bytes(capacity: PoolBound) -> u64 {
     capacity.clips.max(capacity.pairs) * 8
 }
 
+/// The passes' pipelines, in recording order.
+fn pipelines(ctx: &GpuContext) -> VkResult<[ComputePipeline; 8]> {
+    let pipe = |e| ComputePipeline::new(ctx, &CAPTURE_LISTS, e, ComputeOptions::default());
+    Ok([
+        pipe("faces")?,
+        pipe("job_args")?,
+        pipe("jobs")?,
+        pipe("texel_args")?,
+        pipe("texels")?,
+        pipe("clip_args")?,
+        pipe("clips")?,
+        pipe("resolve")?,
+    ])
+}
+
 /// The `@group(1)` set of pass `p`: the resources of `all` its entry point uses.
 fn group1_set(p: &ComputePipeline, all: &[(u32, Resource<'_>)]) -> VkResult<BindGroup> {
     let used = |b: u32| {
@@ -514,17 +529,7 @@ impl CaptureLists {
             row: ROW,
             ..ListsParams::default().with_capacity(capacity)
         };
-        let pipe = |e| ComputePipeline::new(ctx, &CAPTURE_LISTS, e, ComputeOptions::default());
-        let passes = [
-            pipe("faces")?,
-            pipe("job_args")?,
-            pipe("jobs")?,
-            pipe("texel_args")?,
-            pipe("texels")?,
-            pipe("clip_args")?,
-            pipe("clips")?,
-            pipe("resolve")?,
-        ];
+        let passes = pipelines(ctx)?;
         let views = list_views(cmos);
         let st = vk::BufferUsageFlags::STORAGE_BUFFER;
         let params_buf = ctx.create_buffer_init("capture_lists params", st, &[params])?;
