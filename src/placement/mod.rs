@@ -285,7 +285,7 @@ fn search_by(
         )
     };
     let points = candidates(scene, opts.grid);
-    let cmos: Vec<CmoTracer> = points.iter().map(|&c| capture(c)).collect();
+    let cmos: Vec<CmoTracer> = points.par_iter().map(|&c| capture(c)).collect();
     log::debug!(
         "cmo placement: {} rays sampled, {} candidates captured at {}: {:.2?}",
         rays.len(),
