@@ -1,6 +1,6 @@
 //! CMO placement: the greedy search for CMO centres and the scene file's `[cmo] placement`
-//! (`cmo_placement`), and placement by default on corpus scenes and sequences
-//! (`placement_default`).
+//! (`cmo_placement`), placement by default on corpus scenes and sequences
+//! (`placement_default`), and the search's shortcuts, which keep its result (`search_cost`).
 
 mod common;
 
@@ -8,3 +8,5 @@ mod common;
 mod cmo_placement;
 #[path = "placement/placement_default.rs"]
 mod placement_default;
+#[path = "placement/search_cost.rs"]
+mod search_cost;

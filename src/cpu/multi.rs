@@ -23,6 +23,8 @@
 //! again from `t0` in the next round, so the round makes no progress and the ray ends
 //! unresolved (the fallback fills it) unless another CMO resolves it.
 
+use std::borrow::Borrow;
+
 use glam::Vec3;
 
 use super::verify::{Neighbourhood, VerifyRay, verify_hit};
@@ -123,7 +125,7 @@ pub fn trace_cmos_by(
 
 /// [`trace_cmos`] with verified hits when `verify` is given (module docs, "Verified hits").
 pub fn trace_cmos_verified(
-    cmos: &[CmoTracer],
+    cmos: &[impl Borrow<CmoTracer>],
     origin: Vec3,
     dir: Vec3,
     t_lo: f32,
@@ -138,7 +140,7 @@ pub fn trace_cmos_verified(
 
 /// [`trace_cmos_by`] with verified hits when `verify` is given.
 pub fn trace_cmos_verified_by(
-    cmos: &[CmoTracer],
+    cmos: &[impl Borrow<CmoTracer>],
     origin: Vec3,
     dir: Vec3,
     t_lo: f32,
@@ -170,7 +172,7 @@ pub struct WorldRay {
 /// [`trace_cmos_verified_by`] on a [`WorldRay`]. With CMOs of the `bounded` criterion
 /// ([`CmoTracer::bounded`]) a hit names its triangle itself and is not verified again.
 pub fn trace_world_ray(
-    cmos: &[CmoTracer],
+    cmos: &[impl Borrow<CmoTracer>],
     ray: &WorldRay,
     verify: Option<Verify>,
     trace: impl Fn(&CmoTracer, &Segment) -> TraceResult,
@@ -187,7 +189,7 @@ pub fn trace_world_ray(
     let mut last = TraceResult::default();
     'rounds: for _round in 0..MAX_ROUNDS {
         let mut progress = false;
-        for (k, tr) in cmos.iter().enumerate() {
+        for (k, tr) in cmos.iter().map(Borrow::borrow).enumerate() {
             let seg = Segment {
                 a: origin - tr.cube.centre,
                 d: dir,

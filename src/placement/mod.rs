@@ -30,10 +30,18 @@
 //! unresolved with 8 CMOs captured, 0.3 % with 2 left out). A view with no mirror pixel gets one
 //! CMO on the reflectors' axis.
 //!
+//! Cost: the search runs before the first frame (`render -v` and the bench state its time), and
+//! the captures of the candidates are most of it. They trace a BVH without the objects the
+//! capture leaves out ([`Tracer::keeping`]: the same hits), a step stops counting a candidate's
+//! rays once it is known to lose (`best_step`: the same pick), and the axis placement reuses the
+//! captures of the candidates among its centres. `search_exhaustive` (test hooks) runs without
+//! these, and the tests check that it gives the same placement.
+//!
 //! What the sample cannot promise: the frame's own share differs by the sampling error (a few
 //! rays in a hundred at 512 rays) and by the face size (a finer capture verifies more hits on
 //! small triangles). `render` states both shares under `-v`.
 
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 use glam::Vec3;
@@ -158,7 +166,7 @@ struct Scorer<'a> {
 }
 
 impl Scorer<'_> {
-    fn unresolved(&self, cmos: &[CmoTracer], ray: &Ray) -> bool {
+    fn unresolved(&self, cmos: &[&CmoTracer], ray: &Ray) -> bool {
         let verify = Verify {
             triangles: &self.corners,
         };
@@ -175,14 +183,14 @@ impl Scorer<'_> {
     }
 
     /// The rays of `open` (indices into the sample) that `cmos` leave unresolved.
-    fn left(&self, cmos: &[CmoTracer], open: &[usize]) -> Vec<usize> {
+    fn left(&self, cmos: &[&CmoTracer], open: &[usize]) -> Vec<usize> {
         open.par_iter()
             .copied()
             .filter(|&i| self.unresolved(cmos, &self.rays[i]))
             .collect()
     }
 
-    fn share(&self, cmos: &[CmoTracer]) -> f64 {
+    fn share(&self, cmos: &[&CmoTracer]) -> f64 {
         if self.rays.is_empty() {
             return 0.0;
         }
@@ -223,6 +231,30 @@ fn candidates(scene: &Scene, grid: u32) -> Vec<Vec3> {
 
 /// Chooses up to `count` centres for the cameras' view of `scene` (see the module docs).
 pub fn search(scene: &Scene, cameras: &[Camera], count: u32, opts: &PlacementOptions) -> Placement {
+    search_by(scene, cameras, count, opts, true)
+}
+
+/// [`search`] without its shortcuts (module docs, "Cost"): the captures over every triangle,
+/// every ray of every candidate counted at each step, the axis centres captured again. The
+/// tests check that both give the same [`Placement`].
+#[cfg(any(test, feature = "test-hooks"))]
+pub fn search_exhaustive(
+    scene: &Scene,
+    cameras: &[Camera],
+    count: u32,
+    opts: &PlacementOptions,
+) -> Placement {
+    search_by(scene, cameras, count, opts, false)
+}
+
+/// [`search`], with its shortcuts or without.
+fn search_by(
+    scene: &Scene,
+    cameras: &[Camera],
+    count: u32,
+    opts: &PlacementOptions,
+    shortcuts: bool,
+) -> Placement {
     let start = Instant::now();
     let tracer = Tracer::new(scene);
     let rays = reflected_rays(&tracer, cameras, opts.samples);
@@ -243,15 +275,17 @@ pub fn search(scene: &Scene, cameras: &[Camera], count: u32, opts: &PlacementOpt
         corners: triangle_corners(&tracer.world),
         t_hi: 2.0 * tracer.world.extent().max(f32::MIN_POSITIVE),
     };
+    let shown = shortcuts.then(|| shown_only(&tracer)).flatten();
+    let capture_tracer = shown.as_ref().unwrap_or(&tracer);
     let params = TraceOptions::default().params();
     let capture = |c: Vec3| {
         CmoTracer::new(
-            capture_shaded(scene, &tracer, c, opts.cube_size, false),
+            capture_shaded(scene, capture_tracer, c, opts.cube_size, false),
             params,
         )
     };
     let points = candidates(scene, opts.grid);
-    let cmos: Vec<CmoTracer> = points.iter().map(|&c| capture(c)).collect();
+    let cmos: Vec<CmoTracer> = points.par_iter().map(|&c| capture(c)).collect();
     log::debug!(
         "cmo placement: {} rays sampled, {} candidates captured at {}: {:.2?}",
         rays.len(),
@@ -259,18 +293,28 @@ pub fn search(scene: &Scene, cameras: &[Camera], count: u32, opts: &PlacementOpt
         opts.cube_size,
         start.elapsed()
     );
-    let (chosen, unresolved) = greedy(&scorer, &cmos, count, opts.target);
-    let set: Vec<CmoTracer> = chosen.iter().map(|&k| cmos[k].clone()).collect();
+    let (chosen, unresolved) = greedy(&scorer, &cmos, count, opts.target, shortcuts);
+    let set: Vec<&CmoTracer> = chosen.iter().map(|&k| &cmos[k]).collect();
     let all: Vec<usize> = (0..rays.len()).collect();
     let left: Vec<&Ray> = scorer.left(&set, &all).iter().map(|&i| &rays[i]).collect();
     let mut unresolved = unresolved;
     if let Some(last) = unresolved.last_mut() {
         *last = left.len() as f64 / rays.len().max(1) as f64;
     }
-    let axis: Vec<CmoTracer> = scene
-        .axis_centres(chosen.len().max(1) as u32)
-        .into_iter()
-        .map(capture)
+    // The axis placement of as many CMOs; a centre that is a candidate (one to three CMOs) has
+    // its capture already: the same centre gives the same capture.
+    let axis_centres = scene.axis_centres(chosen.len().max(1) as u32);
+    let known = |c: &Vec3| {
+        let bits = |v: &Vec3| v.to_array().map(f32::to_bits);
+        (points.iter().position(|p| bits(p) == bits(c))).filter(|_| shortcuts)
+    };
+    let fresh: Vec<CmoTracer> = (axis_centres.iter())
+        .filter(|c| known(c).is_none())
+        .map(|&c| capture(c))
+        .collect();
+    let mut fresh_iter = fresh.iter();
+    let axis: Vec<&CmoTracer> = (axis_centres.iter())
+        .filter_map(|c| known(c).map(|k| &cmos[k]).or_else(|| fresh_iter.next()))
         .collect();
     let axis_unresolved = scorer.share(&axis);
     Placement {
@@ -284,46 +328,87 @@ pub fn search(scene: &Scene, cameras: &[Camera], count: u32, opts: &PlacementOpt
     }
 }
 
+/// A tracer over the triangles a capture can show (`None` where that is all of them): the
+/// objects left out of the capture (reflectors without self-reflections) pass every ray on, so
+/// a BVH without them gives the capture the same hits ([`Tracer::keeping`]), sooner.
+fn shown_only(tracer: &Tracer) -> Option<Tracer> {
+    let world = &tracer.world;
+    let shown = |g: u32| world.objects[world.triangle_object[g as usize] as usize].captured;
+    let hidden = (0..world.triangles.len() as u32).any(|g| !shown(g));
+    hidden.then(|| tracer.keeping(shown))
+}
+
 /// The greedy steps: the chosen candidates (indices into `cmos`) and the sampled unresolved
-/// share after each.
-fn greedy(scorer: &Scorer, cmos: &[CmoTracer], count: u32, target: f64) -> (Vec<usize>, Vec<f64>) {
+/// share after each. `cut`: whether a step stops counting a candidate known to lose
+/// ([`best_step`]); the same steps either way.
+fn greedy(
+    scorer: &Scorer,
+    cmos: &[CmoTracer],
+    count: u32,
+    target: f64,
+    cut: bool,
+) -> (Vec<usize>, Vec<f64>) {
     let n = scorer.rays.len();
     let mut open: Vec<usize> = (0..n).collect();
     let mut chosen: Vec<usize> = Vec::new();
     let mut unresolved: Vec<f64> = Vec::new();
     while chosen.len() < count.max(1) as usize && !open.is_empty() {
-        // Per candidate, how many of the open rays the set with it still leaves unresolved.
-        let scores: Vec<usize> = (0..cmos.len())
-            .into_par_iter()
-            .map(|k| {
-                if chosen.contains(&k) {
-                    return usize::MAX;
-                }
-                let set: Vec<CmoTracer> = chosen
-                    .iter()
-                    .chain([&k])
-                    .map(|&i| cmos[i].clone())
-                    .collect();
-                open.iter()
-                    .filter(|&&i| scorer.unresolved(&set, &scorer.rays[i]))
-                    .count()
-            })
-            .collect();
-        let Some((k, &left)) = scores.iter().enumerate().min_by_key(|&(k, &s)| (s, k)) else {
+        let Some((k, left)) = best_step(scorer, cmos, &chosen, &open, cut) else {
             break;
         };
-        if left >= open.len() && !chosen.is_empty() {
+        if left.len() >= open.len() && !chosen.is_empty() {
             break;
         }
         chosen.push(k);
-        let set: Vec<CmoTracer> = chosen.iter().map(|&i| cmos[i].clone()).collect();
-        open = scorer.left(&set, &open);
+        open = left;
         unresolved.push(open.len() as f64 / n.max(1) as f64);
         if open.len() as f64 <= target * n as f64 {
             break;
         }
     }
     (chosen, unresolved)
+}
+
+/// One greedy step: the candidate (an index into `cmos`, not in `chosen`) whose set after
+/// `chosen` leaves the fewest of the `open` rays unresolved, the first in candidate order on
+/// ties, and the rays it leaves; `None` when every candidate is chosen.
+///
+/// A candidate stops counting as soon as it is known to lose: once its count so far, with its
+/// index, passes the least (count, index) that a candidate has finished with (a count only
+/// grows, so its own would too). The winner never stops, so the step picks what counting every
+/// ray of every candidate picks, whatever the order the threads finish in. Without `cut` every
+/// candidate counts every ray.
+fn best_step(
+    scorer: &Scorer,
+    cmos: &[CmoTracer],
+    chosen: &[usize],
+    open: &[usize],
+    cut: bool,
+) -> Option<(usize, Vec<usize>)> {
+    let key = |count: usize, k: usize| ((count as u64) << 32) | k as u64;
+    let best = AtomicU64::new(u64::MAX);
+    let mut left: Vec<Option<Vec<usize>>> = (0..cmos.len())
+        .into_par_iter()
+        .map(|k| {
+            if chosen.contains(&k) {
+                return None;
+            }
+            let set: Vec<&CmoTracer> = chosen.iter().chain([&k]).map(|&i| &cmos[i]).collect();
+            let mut left = Vec::new();
+            for &i in open {
+                if scorer.unresolved(&set, &scorer.rays[i]) {
+                    left.push(i);
+                    if cut && key(left.len(), k) > best.load(Ordering::Relaxed) {
+                        return None;
+                    }
+                }
+            }
+            best.fetch_min(key(left.len(), k), Ordering::Relaxed);
+            Some(left)
+        })
+        .collect();
+    let k = (best.into_inner() & u64::from(u32::MAX)) as usize;
+    Some((k, left.get_mut(k)?.take()?))
 }
 
 /// How the CMO centres are chosen when the command line overrides the scene's
