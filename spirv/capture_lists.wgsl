@@ -432,11 +432,6 @@ fn pack_gap(g1: f32, g0: f32) -> u32 {
     return (bitcast<u32>(g1) & 0xffff0000u) | ((b0 >> 16u) + select(0u, 1u, (b0 & 0xffffu) != 0u));
 }
 
-// Whether node a sorts before node b: (lo, triangle), lo by its bits (never -0.0 or NaN).
-fn lists_before(a: ListsNode, b: ListsNode) -> bool {
-    return a.lo < b.lo || (a.lo == b.lo && a.triangle < b.triangle);
-}
-
 @compute @workgroup_size(64)
 fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
     let texel = gid.x + gid.y * lists_params.row;
@@ -466,7 +461,10 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
         let cur = lists_node(node);
         var best = node;
-        var bn = cur;
+        // The scan reads each node's sort key `(lo, triangle)` (lo by its bits: never -0.0 or
+        // NaN) and its link, not its `hi`.
+        var b_lo = cur.lo;
+        var b_tri = cur.triangle;
         var j = cur.next;
         loop {
             if j == LISTS_NIL {
@@ -477,16 +475,19 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
                 capped = true;
                 break;
             }
-            let nj = lists_node(j);
-            if lists_before(nj, bn) {
+            let lo = lists_node_lo[j];
+            let tri = lists_node_triangle[j];
+            if lo < b_lo || (lo == b_lo && tri < b_tri) {
                 best = j;
-                bn = nj;
+                b_lo = lo;
+                b_tri = tri;
             }
-            j = nj.next;
+            j = lists_node_next[j];
         }
         if capped {
             break;
         }
+        let bn = ListsNode(b_tri, b_lo, lists_node_hi[best], 0u);
         if i == depth {
             rest = bitcast<f32>(bn.lo);
             break;
