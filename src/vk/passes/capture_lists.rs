@@ -370,8 +370,9 @@ fn check_inputs(
 
 /// The three pipelines, their bindings and buffers for one scene and CMO set.
 pub struct CaptureLists {
-    /// The passes in recording order: `jobs`, `texel_args`, `texels`, `clip_args`, `clips`,
-    /// `resolve`; `sets` holds their `@group(0)` and `@group(1)` sets in the same order.
+    /// The passes in recording order (`pipelines`): `faces`, `job_args`, `jobs`,
+    /// `texel_args`, `texels`, `clip_args`, `clips`, `resolve`; `sets` holds their `@group(0)`
+    /// and `@group(1)` sets in the same order.
     passes: [ComputePipeline; 8],
     sets: [(BindGroup, BindGroup); 8],
     params_buf: Buffer,
