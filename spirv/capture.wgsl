@@ -16,11 +16,14 @@
 // `fs_self` also writes the unit normal and the mirror flag: only when some reflector of the scene
 // sees itself (model only what the scene needs). Which reflectors are drawn is decided per object
 // (`GpuObject.captured`, Scene::self_capture).
+// Each face's draw covers only its own triangles: `capture_triangles[first..first + count]` of its
+// view, global triangle indices in increasing order (`WorldGeometry::triangles` order, the index
+// buffer's), made on the CPU (`vk::passes::capture::face_triangles`: the objects the capture
+// shows, less the triangles proven outside the face), so vertex `v` of a draw is corner `v % 3`
+// of triangle `capture_triangles[first + v / 3]`.
 // The `_ids` entry points also write the triangle ID: the global index of the triangle the texel's
-// centre ray sees (`WorldGeometry::triangles` order: the index buffer is in that order, and every
-// draw is of every triangle, so `vertex_index` = 3 * triangle + corner; the vertex shader culls
-// the reflectors' that are not captured), as a u32 target cleared to u32::MAX. The
-// `_ids_only` ones leave the colour out, for frames whose methods shade at verified hits instead.
+// centre ray sees, as a u32 target cleared to u32::MAX. The `_ids_only` ones leave the colour
+// out, for frames whose methods shade at verified hits instead.
 
 // The scene's bind group (shared/scene.wgsl).
 const SCENE_GROUP: u32 = 0u;
@@ -32,12 +35,15 @@ struct CaptureView {
     centre: vec3<f32>,
     face: u32,
     near: f32,
-    // 1: draw the reflectors that see themselves (scene_is_captured); 0: cull every reflector.
+    // 1: the reflectors that see themselves are drawn; 0: no reflector is (`face_triangles`).
     reflectors: u32,
-    _pad2: vec2<u32>,
+    // The face's triangles in `capture_triangles`.
+    first: u32,
+    count: u32,
 }
 
 @group(1) @binding(0) var<storage, read> capture_views: array<CaptureView>;
+@group(1) @binding(1) var<storage, read> capture_triangles: array<u32>;
 
 struct CaptureVarying {
     @builtin(position) clip: vec4<f32>,
@@ -51,21 +57,16 @@ struct CaptureVarying {
 
 @vertex
 fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) view: u32) -> CaptureVarying {
-    let v = scene_vertices[scene_indices[vertex]];
     let cv = capture_views[view];
+    let triangle = capture_triangles[cv.first + vertex / 3u];
+    let t = 3u * triangle;
+    let v = scene_vertices[scene_indices[t + vertex % 3u]];
     let l = to_face_local(cv.face, v.position - cv.centre);
     var out: CaptureVarying;
     out.clip = vec4<f32>(l.x, l.y, cv.near, l.z);
-    if (cv.reflectors == 0u && scene_is_reflector(v.object)) || !scene_is_captured(v.object) {
-        // All three vertices of a culled triangle (its object's: a reflector that does not see
-        // itself, or every reflector in a capture without reflectors) go to one point outside
-        // the clip volume: the triangle is culled, and the index buffer keeps its global order.
-        out.clip = vec4<f32>(2.0, 2.0, 0.0, 1.0);
-    }
     // A triangle whose plane passes through the centre is seen edge-on (shared/eye_plane.wgsl):
-    // culled the same way. Tested in CMO-local coordinates, which round to their own scale (the
-    // projection above uses them).
-    let t = 3u * (vertex / 3u);
+    // its three vertices go to one point outside the clip volume, so it is culled. Tested in
+    // CMO-local coordinates, which round to their own scale (the projection above uses them).
     let a = scene_vertices[scene_indices[t]].position - cv.centre;
     let b = scene_vertices[scene_indices[t + 1u]].position - cv.centre;
     let c = scene_vertices[scene_indices[t + 2u]].position - cv.centre;
@@ -77,7 +78,7 @@ fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) view: u3
     out.uv = v.uv;
     out.object = v.object;
     out.view = view;
-    out.triangle = vertex / 3u;
+    out.triangle = triangle;
     return out;
 }
 

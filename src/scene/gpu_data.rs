@@ -81,9 +81,8 @@ pub struct GpuSceneData {
     /// Triangle list in [`crate::scene::WorldGeometry::triangles`] order: global triangle `k`
     /// is `indices[3k..3k + 3]`.
     pub indices: Vec<u32>,
-    /// Indices of the captured triangles ([`GpuObject::captured`]): what the capture rasterises
-    /// (it draws every triangle and culls the others in the vertex shader, so that
-    /// `vertex_index / 3` stays the global triangle index).
+    /// Indices of the captured triangles ([`GpuObject::captured`]): what the capture may
+    /// rasterise (each face draws those of them that can reach it, by their global indices).
     pub capture_index_count: u32,
     pub objects: Vec<GpuObject>,
     pub materials: Vec<GpuMaterial>,

@@ -3,7 +3,8 @@
 //! [`super::frame::GpuRenderer::new`] reads too), the shared stages' sizes here, each method's
 //! from its [`MethodSpec`](super::methods::MethodSpec). Pure arithmetic: no Vulkan call. The scene's own buffers are counted too ([`scene_bytes`]: vertices, indices and the
 //! textures' texels, which one 8192^2 texture makes 256 MiB), and [`largest_items`] names what
-//! takes the most, so that a refusal can say what to shrink. The BVHs are per triangle and not
+//! takes the most, so that a refusal can say what to shrink. The BVHs and the rasterised
+//! capture's per-face triangle lists (`passes::capture::face_triangles`) are per triangle and not
 //! counted.
 
 use super::frame::plan::{CapturePlan, FramePlan, SceneFacts};

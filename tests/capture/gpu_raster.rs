@@ -49,6 +49,7 @@ fn gpu_capture_with(
     let near = 1e-5 * scene.world().extent();
     let cap = Capture::with_contents(
         ctx,
+        &data,
         &buffers,
         centres,
         size,
@@ -211,7 +212,7 @@ fn shared_structs_match_naga_layout() {
     check_layout!(
         CaptureView,
         l("CaptureView"),
-        [centre, face, near, reflectors, _pad2]
+        [centre, face, near, reflectors, first, count]
     )
     .unwrap();
     check_layout!(
@@ -425,7 +426,7 @@ fn capture_without_colour_keeps_ids_and_saves_memory() {
         triangle_ids: false,
     };
     let centres = scene.cmo_centres();
-    assert!(Capture::with_contents(&ctx, &buffers, &centres, 8, false, 1e-4, none).is_err());
+    assert!(Capture::with_contents(&ctx, &data, &buffers, &centres, 8, false, 1e-4, none).is_err());
     assert!(
         CmoData::with_contents(
             &ctx,
@@ -438,6 +439,67 @@ fn capture_without_colour_keeps_ids_and_saves_memory() {
         )
         .is_err()
     );
+    finish_gpu(ctx);
+}
+
+/// Moving a capture's CMO (`Capture::set_views`) makes its faces' triangle lists again: moved
+/// from outside the room (few triangles per face, a small list buffer) to the scene's own
+/// centre (walls in every face: the lists outgrow the buffer, which is made again and rebound),
+/// it captures what a capture created there does, bit for bit. Negative: the capture before the
+/// move differs.
+#[test]
+fn moved_capture_makes_its_face_lists_again() {
+    let ctx = gpu_context();
+    let scene = builtin::sphere_room();
+    let data = GpuSceneData::new(&scene);
+    let buffers = SceneBuffers::new(&ctx, &data).unwrap();
+    let both = CaptureContents {
+        colour: true,
+        triangle_ids: true,
+    };
+    let near = 1e-5 * scene.world().extent();
+    let inside = scene.cmo_centres()[0];
+    let outside = inside + Vec3::new(0.0, 0.0, 4.0 * scene.world().extent());
+    let size = 16;
+    let run = |cap: &Capture| {
+        let cmo = CmoData::with_contents(
+            &ctx,
+            &[inside],
+            size,
+            false,
+            false,
+            &TraceOptions::default(),
+            both,
+        )
+        .unwrap();
+        ctx.submit_and_wait("capture", |rec| cap.record(rec, &cmo, scene.background))
+            .unwrap();
+        let c = cmo.read_back(&ctx).unwrap().remove(0);
+        let bits: Vec<u32> = c.distance.iter().map(|d| d.to_bits()).collect();
+        (bits, c.triangle)
+    };
+    let new = |c: Vec3| {
+        Capture::with_contents(&ctx, &data, &buffers, &[c], size, false, near, both).unwrap()
+    };
+    let mut moved = new(outside);
+    let before = run(&moved);
+    let (small, _) = cubetrace::vk::passes::capture::face_triangles(&data, &[outside], false);
+    let (large, _) = cubetrace::vk::passes::capture::face_triangles(&data, &[inside], false);
+    assert!(
+        large.len() > small.len(),
+        "{} !> {}",
+        large.len(),
+        small.len()
+    );
+    moved.set_views(&ctx, &data, &[inside], near).unwrap();
+    let after = run(&moved);
+    let fresh = run(&new(inside));
+    assert!(
+        fresh.1.iter().any(|&t| t != u32::MAX),
+        "the capture saw nothing"
+    );
+    assert_eq!(after, fresh);
+    assert_ne!(before, fresh, "the comparison is blind");
     finish_gpu(ctx);
 }
 

@@ -441,8 +441,17 @@ fn gpu_capture(ctx: &GpuContext, scene: &Scene, centre: Vec3, near: f32) -> Cube
         triangle_ids: true,
     };
     let reflectors = scene.captures_reflectors();
-    let cap =
-        Capture::with_contents(ctx, &buffers, &[centre], 32, reflectors, near, contents).unwrap();
+    let cap = Capture::with_contents(
+        ctx,
+        &data,
+        &buffers,
+        &[centre],
+        32,
+        reflectors,
+        near,
+        contents,
+    )
+    .unwrap();
     let opts = TraceOptions::default();
     let cmo =
         CmoData::with_contents(ctx, &[centre], 32, reflectors, false, &opts, contents).unwrap();

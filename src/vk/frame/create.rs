@@ -151,6 +151,7 @@ impl GpuRenderer {
         let mut stages = CmoStages::new(
             ctx,
             scene,
+            &data,
             &scene_buffers,
             &plan.cmo,
             &options.trace,

@@ -9,6 +9,7 @@ use super::{CmoCapture, Fallback};
 use crate::cpu::options::TraceOptions;
 use crate::cubemap::bounds::{DEFAULT_DEPTH, PoolBound};
 use crate::scene::Scene;
+use crate::scene::gpu_data::GpuSceneData;
 use crate::vk::backend::buffer::Buffer;
 use crate::vk::backend::context::GpuContext;
 use crate::vk::backend::error::{VkError, VkResult};
@@ -41,9 +42,11 @@ impl CmoStages {
     /// (`passes::capture_lists`: per-texel bounds and candidate lists, their `lo` as the
     /// distances, node pool sized by its CPU bound), or for tests the lists built on the CPU
     /// (`lists`, [`CapturePlan::Uploaded`]), uploaded once.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn new(
         ctx: &GpuContext,
         scene: &Scene,
+        data: &GpuSceneData,
         scene_buffers: &SceneBuffers,
         plan: &CmoPlan,
         trace: &TraceOptions,
@@ -82,6 +85,7 @@ impl CmoStages {
         let raster = || {
             Capture::with_contents(
                 ctx,
+                data,
                 scene_buffers,
                 &centres,
                 size,

@@ -260,10 +260,12 @@ impl GpuRenderer {
         }
         self.cmo.set_centres(ctx, &centres)?;
         if let Some(c) = &mut self.colour_capture {
-            c.set_views(ctx, &centres, ranges.capture_near)?;
+            c.set_views(ctx, &data, &centres, ranges.capture_near)?;
         }
         match (&mut self.capture, lists) {
-            (Some(CmoCapture::Raster(c)), _) => c.set_views(ctx, &centres, ranges.capture_near)?,
+            (Some(CmoCapture::Raster(c)), _) => {
+                c.set_views(ctx, &data, &centres, ranges.capture_near)?
+            }
             (Some(CmoCapture::Lists(c)), Some((views, capacity))) => {
                 // A pool too small for the moved geometry is allocated again, and rebound.
                 let grown = self.cmo.grow_pool(ctx, capacity.nodes)?;

@@ -14,17 +14,24 @@
 //! - With [`CaptureContents::triangle_ids`] the pass also writes each texel's global triangle
 //!   index (`u32::MAX` where empty, the clear value) into the CMO's triangle buffer; without
 //!   [`CaptureContents::colour`] it writes no colour (the CMO's colour image is a placeholder,
-//!   left readable). The scene's index buffer is in global triangle order and every triangle is
-//!   drawn (the vertex shader culls the reflectors' when self-reflections are off), so
-//!   `vertex_index / 3` is the global triangle index. (Drawing only the runs of non-reflector
-//!   triangles, with several draws and `firstVertex > 0`, crashed lavapipe at 128-bit vectors:
-//!   `malloc(): invalid size`.)
+//!   left readable).
+//! - Each face draws only its own triangles ([`face_triangles`]): those of the objects the
+//!   capture shows (reflectors only with self-reflections on) that step 0 of the bounded
+//!   capture ([`bounds::face_missed`]) does not prove outside the face, in global order, so the
+//!   depth test breaks ties between them as a draw of every triangle does and the images are the
+//!   same. The vertex shader reads the global triangle index from the face's list (vertex
+//!   pulling: one draw per face from vertex 0, `instance_index` the face's view; a draw with
+//!   `firstVertex > 0` crashed lavapipe at 128-bit vectors, `malloc(): invalid size`). On a
+//!   dense mesh most triangles lie in one or two of the six faces, and lavapipe ran the vertex
+//!   shader of every triangle for every face.
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
 use super::cmo::{CaptureContents, CmoData};
 use super::scene_buffers::SceneBuffers;
+use crate::cubemap::bounds;
+use crate::scene::gpu_data::GpuSceneData;
 use crate::vk::backend::buffer::Buffer;
 use crate::vk::backend::context::{GpuContext, Recorder};
 use crate::vk::backend::error::{VkError, VkResult};
@@ -46,9 +53,52 @@ pub struct CaptureView {
     pub face: u32,
     /// Near plane along the face axis (world units): nearer geometry is clipped.
     pub near: f32,
-    /// 1: draw the reflectors (self-reflections on); 0: cull them in the vertex shader.
+    /// 1: the reflectors are drawn (self-reflections on); 0: they are not ([`face_triangles`]).
     pub reflectors: u32,
-    pub _pad2: [u32; 2],
+    /// The face's triangles: `capture_triangles[first..first + count]` ([`face_triangles`]).
+    pub first: u32,
+    pub count: u32,
+}
+
+/// Per view (`6 k + face` of CMO k at `centres[k]`), the global indices of the triangles its
+/// draw rasterises, in increasing order: those of captured objects (`GpuObject::captured`;
+/// reflectors only where `reflectors`), less those [`bounds::face_missed`] proves outside the
+/// face (all three corners outside one side plane of the face frustum, dilated, with a slack
+/// far above the rounding: no texel centre of the face is in the triangle, so it makes no
+/// fragment). Returns the lists concatenated and each view's `(first, count)`.
+pub fn face_triangles(
+    data: &GpuSceneData,
+    centres: &[Vec3],
+    reflectors: bool,
+) -> (Vec<u32>, Vec<(u32, u32)>) {
+    use rayon::prelude::*;
+    let corner =
+        |t: usize, i: usize| Vec3::from(data.vertices[data.indices[3 * t + i] as usize].position);
+    let drawn = |t: usize| {
+        let o = &data.objects[data.vertices[data.indices[3 * t] as usize].object as usize];
+        o.captured != 0 && (reflectors || o.reflector == 0)
+    };
+    let triangles = data.indices.len() / 3;
+    let lists: Vec<Vec<u32>> = (0..6 * centres.len())
+        .into_par_iter()
+        .map(|view| {
+            let (centre, face) = (centres[view / 6], (view % 6) as u32);
+            (0..triangles)
+                .filter(|&t| {
+                    let tri = || [corner(t, 0), corner(t, 1), corner(t, 2)];
+                    drawn(t) && !bounds::face_missed(&bounds::face_local(&tri(), centre, face))
+                })
+                .map(|t| t as u32)
+                .collect()
+        })
+        .collect();
+    let mut all = Vec::with_capacity(lists.iter().map(Vec::len).sum());
+    let mut spans = Vec::with_capacity(lists.len());
+    for l in lists {
+        spans.push((all.len() as u32, l.len() as u32));
+        all.extend(l);
+    }
+    (all, spans)
 }
 
 /// The capture pass for one scene: pipeline and targets.
@@ -59,11 +109,12 @@ pub struct Capture {
     views_buf: Buffer,
     /// What `views_buf` holds.
     views: Vec<CaptureView>,
+    /// Every face's triangles ([`face_triangles`]), at least one entry.
+    triangles_buf: Buffer,
     distance: Image,
     normal: Option<Image>,
     triangle: Option<Image>,
     depth: Image,
-    draw_indices: u32,
     size: u32,
     contents: CaptureContents,
 }
@@ -119,11 +170,12 @@ fn capture_pipeline(
 }
 
 impl Capture {
-    /// Prepares the capture of CMOs at `centres` with faces of `size` texels. Geometry nearer
-    /// than `near` to a centre (along a face axis) is clipped. Captures colour, no triangle IDs
-    /// ([`CaptureContents`]'s default).
+    /// Prepares the capture of CMOs at `centres` with faces of `size` texels, of the scene
+    /// `data` uploaded into `scene`. Geometry nearer than `near` to a centre (along a face axis)
+    /// is clipped. Captures colour, no triangle IDs ([`CaptureContents`]'s default).
     pub fn new(
         ctx: &GpuContext,
+        data: &GpuSceneData,
         scene: &SceneBuffers,
         centres: &[Vec3],
         size: u32,
@@ -132,6 +184,7 @@ impl Capture {
     ) -> VkResult<Self> {
         Self::with_contents(
             ctx,
+            data,
             scene,
             centres,
             size,
@@ -142,8 +195,10 @@ impl Capture {
     }
 
     /// [`Self::new`] capturing `contents` (the [`CmoData`] it records into must have the same).
+    #[allow(clippy::too_many_arguments)]
     pub fn with_contents(
         ctx: &GpuContext,
+        data: &GpuSceneData,
         scene: &SceneBuffers,
         centres: &[Vec3],
         size: u32,
@@ -161,23 +216,26 @@ impl Capture {
             });
         }
         let (pipeline, fragment) = capture_pipeline(ctx, self_reflections, contents)?;
-        let views: Vec<CaptureView> = centres
-            .iter()
-            .flat_map(|c| {
-                (0..6).map(move |face| CaptureView {
-                    centre: c.to_array(),
-                    face,
-                    near,
-                    reflectors: u32::from(self_reflections),
-                    ..CaptureView::default()
-                })
+        let (triangles, spans) = face_triangles(data, centres, self_reflections);
+        log::debug!(
+            "capture: {} triangle draws over {} faces of a scene of {} triangles",
+            triangles.len(),
+            spans.len(),
+            data.indices.len() / 3
+        );
+        let views: Vec<CaptureView> = (0..6 * centres.len())
+            .map(|k| CaptureView {
+                centre: centres[k / 6].to_array(),
+                face: (k % 6) as u32,
+                near,
+                reflectors: u32::from(self_reflections),
+                first: spans[k].0,
+                count: spans[k].1,
             })
             .collect();
-        let views_buf = ctx.create_buffer_init(
-            "capture views",
-            vk::BufferUsageFlags::STORAGE_BUFFER,
-            &views,
-        )?;
+        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let views_buf = ctx.create_buffer_init("capture views", storage, &views)?;
+        let triangles_buf = triangles_buffer(ctx, &triangles)?;
         // Only the scene bindings the two entry points use (the IDs-only entry points shade
         // nothing, and a bind group may not supply a binding its shaders do not use).
         let used = |b: u32| {
@@ -193,7 +251,7 @@ impl Capture {
             .filter(|(b, _)| used(*b))
             .collect();
         let scene_set = pipeline.bind_group(0, &scene_resources)?;
-        let view_set = pipeline.bind_group(1, &[(0, Resource::Buffer(&views_buf))])?;
+        let view_set = view_set(&pipeline, &views_buf, &triangles_buf)?;
         let layers = 6 * centres.len() as u32;
         let target_usage =
             vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC;
@@ -237,11 +295,11 @@ impl Capture {
             view_set,
             views_buf,
             views,
+            triangles_buf,
             distance,
             normal,
             triangle,
             depth,
-            draw_indices: scene.index_count,
             size,
             contents,
         })
@@ -262,9 +320,17 @@ impl Capture {
     }
 
     /// Moves the CMOs to `centres` (as many as at creation) and every face's near plane to
-    /// `near`: the next [`Capture::record`] is that of a capture created with them (a mesh or a
-    /// CMO moved, [`crate::vk::frame::GpuRenderer::update_geometry`]).
-    pub fn set_views(&mut self, ctx: &GpuContext, centres: &[Vec3], near: f32) -> VkResult<()> {
+    /// `near`, for the scene `data` (its vertices moved or not): the next [`Capture::record`] is
+    /// that of a capture created with them (a mesh or a CMO moved,
+    /// [`crate::vk::frame::GpuRenderer::update_geometry`]). The faces' triangle lists are made
+    /// again, in a larger buffer (rebound) where they outgrow theirs.
+    pub fn set_views(
+        &mut self,
+        ctx: &GpuContext,
+        data: &GpuSceneData,
+        centres: &[Vec3],
+        near: f32,
+    ) -> VkResult<()> {
         if 6 * centres.len() != self.views.len() {
             return Err(VkError::Usage {
                 what: "capture".into(),
@@ -275,9 +341,18 @@ impl Capture {
                 ),
             });
         }
+        let (triangles, spans) =
+            face_triangles(data, centres, self.views.iter().any(|v| v.reflectors != 0));
         for (k, v) in self.views.iter_mut().enumerate() {
             v.centre = centres[k / 6].to_array();
             v.near = near;
+            (v.first, v.count) = spans[k];
+        }
+        if size_of_val(triangles.as_slice()) as u64 > self.triangles_buf.size() {
+            self.triangles_buf = triangles_buffer(ctx, &triangles)?;
+            self.view_set = view_set(&self.pipeline, &self.views_buf, &self.triangles_buf)?;
+        } else if !triangles.is_empty() {
+            ctx.write_buffer(&self.triangles_buf, &triangles)?;
         }
         ctx.write_buffer(&self.views_buf, &self.views)
     }
@@ -342,7 +417,7 @@ impl Capture {
         }
         rec.prepare_render_targets(&images, Some(&self.depth), ALL_READS);
         let sets = [&self.scene_set, &self.view_set];
-        for layer in 0..self.distance.desc().layers {
+        for (layer, view) in (0..self.distance.desc().layers).zip(&self.views) {
             let mut colour = Vec::with_capacity(images.len());
             for (img, clear) in images.iter().zip(clears.iter().copied()) {
                 let view = img.layer_view(layer).ok_or_else(|| VkError::Usage {
@@ -364,7 +439,7 @@ impl Capture {
             }
             // With nothing to draw this is an empty draw that still clears the face.
             self.pipeline
-                .draw(rec, &target, &sets, self.draw_indices, layer)?;
+                .draw(rec, &target, &sets, 3 * view.count, layer)?;
         }
         // The colour image (or, without colour, its placeholder, never written) ends readable.
         rec.image_barrier(
@@ -394,5 +469,139 @@ impl Capture {
         }
         rec.memory_barrier(TRANSFER_WRITE, ALL_READS);
         Ok(())
+    }
+}
+
+/// The faces' triangle lists on the device (at least one entry: a buffer is never empty).
+fn triangles_buffer(ctx: &GpuContext, triangles: &[u32]) -> VkResult<Buffer> {
+    let one = [0u32];
+    let data = if triangles.is_empty() {
+        &one[..]
+    } else {
+        triangles
+    };
+    ctx.create_buffer_init(
+        "capture face triangles",
+        vk::BufferUsageFlags::STORAGE_BUFFER,
+        data,
+    )
+}
+
+/// The `@group(1)` set: the views and the faces' triangle lists.
+fn view_set(
+    pipeline: &GraphicsPipeline,
+    views: &Buffer,
+    triangles: &Buffer,
+) -> VkResult<BindGroup> {
+    pipeline.bind_group(
+        1,
+        &[
+            (0, Resource::Buffer(views)),
+            (1, Resource::Buffer(triangles)),
+        ],
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cpu::capture::capture_shaded;
+    use crate::reference::Tracer;
+    use crate::scene::builtin;
+
+    /// The triangles the CPU capture `cube` sees in the face of view `k` that the view's list
+    /// lacks.
+    fn missing(
+        lists: &(Vec<u32>, Vec<(u32, u32)>),
+        cube: &crate::cubemap::CubeMap,
+        k: usize,
+    ) -> Vec<u32> {
+        let (all, spans) = lists;
+        let (first, count) = spans[k];
+        let list = &all[first as usize..(first + count) as usize];
+        let n = (cube.size * cube.size) as usize;
+        let face = k % 6;
+        let mut seen: Vec<u32> = cube.triangle[face * n..(face + 1) * n]
+            .iter()
+            .copied()
+            .filter(|&t| t != u32::MAX)
+            .collect();
+        seen.sort_unstable();
+        seen.dedup();
+        seen.into_iter()
+            .filter(|t| list.binary_search(t).is_err())
+            .collect()
+    }
+
+    /// Every triangle the CPU capture (ray cast from the centre through each texel centre) sees
+    /// in a face is in that face's list, the lists are in global order, and they are shorter
+    /// than a draw of every triangle per face. Negative: a list with one seen triangle taken
+    /// out fails the same check.
+    #[test]
+    fn face_lists_keep_every_triangle_a_face_sees() {
+        for scene in [
+            builtin::sphere_room(),
+            builtin::teapot(),
+            builtin::default(),
+        ] {
+            let data = GpuSceneData::new(&scene);
+            let tracer = Tracer::new(&scene);
+            let reflectors = scene.captures_reflectors();
+            let centres = scene.cmo_centres();
+            let lists = face_triangles(&data, &centres, reflectors);
+            let triangles = data.indices.len() / 3;
+            for (c, &centre) in centres.iter().enumerate() {
+                let cube = capture_shaded(&scene, &tracer, centre, 32, false);
+                for face in 0..6 {
+                    let k = 6 * c + face;
+                    assert!(
+                        missing(&lists, &cube, k).is_empty(),
+                        "view {k}: {:?}",
+                        missing(&lists, &cube, k)
+                    );
+                    let (first, count) = lists.1[k];
+                    let list = &lists.0[first as usize..(first + count) as usize];
+                    assert!(
+                        list.windows(2).all(|w| w[0] < w[1]),
+                        "view {k} out of order"
+                    );
+                }
+                let drawn: u32 = lists.1[6 * c..6 * c + 6].iter().map(|s| s.1).sum();
+                assert!(
+                    (drawn as usize) < 3 * triangles,
+                    "{drawn} drawn of 6 x {triangles}"
+                );
+                // Negative: drop a triangle face 0 sees from its list.
+                let mut cut = lists.clone();
+                let (first, count) = cut.1[6 * c];
+                let seen = cube.triangle[..(32 * 32)]
+                    .iter()
+                    .find(|&&t| t != u32::MAX)
+                    .copied();
+                let seen = seen.expect("face 0 sees something");
+                let list = &mut cut.0[first as usize..(first + count) as usize];
+                let at = list.binary_search(&seen).unwrap();
+                list[at..].rotate_left(1);
+                cut.1[6 * c].1 -= 1;
+                assert_eq!(missing(&cut, &cube, 6 * c), vec![seen]);
+            }
+        }
+    }
+
+    /// Objects the capture does not show are in no list: without self-reflections no reflector
+    /// triangle is drawn, with them the teapot's are.
+    #[test]
+    fn face_lists_follow_the_objects_the_capture_shows() {
+        let scene = builtin::teapot();
+        let data = GpuSceneData::new(&scene);
+        let reflector = |t: u32| {
+            let v = data.vertices[data.indices[3 * t as usize] as usize];
+            data.objects[v.object as usize].reflector != 0
+        };
+        let centres = scene.cmo_centres();
+        let (off, _) = face_triangles(&data, &centres, false);
+        assert!(!off.iter().any(|&t| reflector(t)));
+        let (on, _) = face_triangles(&data, &centres, true);
+        assert!(on.iter().any(|&t| reflector(t)));
     }
 }
