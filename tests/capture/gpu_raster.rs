@@ -21,7 +21,7 @@ use cubetrace::scene::shapes::uv_sphere;
 use cubetrace::scene::{MeshInstance, Scene, SelfReflections, Transform, builtin};
 use cubetrace::vk::GpuContext;
 use cubetrace::vk::backend::shaders::{CAPTURE, GBUFFER};
-use cubetrace::vk::passes::capture::{Capture, CaptureView};
+use cubetrace::vk::passes::capture::{Capture, CaptureView, face_triangles};
 use cubetrace::vk::passes::cmo::{CaptureContents, CmoData};
 use cubetrace::vk::passes::gbuffer::{Gbuffer, GbufferCamera};
 use cubetrace::vk::passes::scene_buffers::SceneBuffers;
@@ -58,6 +58,19 @@ fn gpu_capture_with(
         contents,
     )
     .unwrap();
+    record_capture(ctx, &cap, scene, centres, size, contents)
+}
+
+/// Records `cap` (of `centres`, faces of `size`, capturing `contents`) into new CMO data and
+/// reads it back; also returns the CMO data's bytes.
+fn record_capture(
+    ctx: &GpuContext,
+    cap: &Capture,
+    scene: &Scene,
+    centres: &[Vec3],
+    size: u32,
+    contents: CaptureContents,
+) -> (Vec<CubeMap>, u64) {
     let cmo = CmoData::with_contents(
         ctx,
         centres,
@@ -462,19 +475,9 @@ fn moved_capture_makes_its_face_lists_again() {
     let outside = inside + Vec3::new(0.0, 0.0, 4.0 * scene.world().extent());
     let size = 16;
     let run = |cap: &Capture| {
-        let cmo = CmoData::with_contents(
-            &ctx,
-            &[inside],
-            size,
-            false,
-            false,
-            &TraceOptions::default(),
-            both,
-        )
-        .unwrap();
-        ctx.submit_and_wait("capture", |rec| cap.record(rec, &cmo, scene.background))
-            .unwrap();
-        let c = cmo.read_back(&ctx).unwrap().remove(0);
+        let c = record_capture(&ctx, cap, &scene, &[inside], size, both)
+            .0
+            .remove(0);
         let bits: Vec<u32> = c.distance.iter().map(|d| d.to_bits()).collect();
         (bits, c.triangle)
     };
@@ -483,8 +486,8 @@ fn moved_capture_makes_its_face_lists_again() {
     };
     let mut moved = new(outside);
     let before = run(&moved);
-    let (small, _) = cubetrace::vk::passes::capture::face_triangles(&data, &[outside], false);
-    let (large, _) = cubetrace::vk::passes::capture::face_triangles(&data, &[inside], false);
+    let (small, _) = face_triangles(&data, &[outside], false);
+    let (large, _) = face_triangles(&data, &[inside], false);
     assert!(
         large.len() > small.len(),
         "{} !> {}",
