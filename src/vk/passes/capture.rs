@@ -62,7 +62,8 @@ pub struct CaptureView {
 
 /// Per view (`6 k + face` of CMO k at `centres[k]`), the global indices of the triangles its
 /// draw rasterises, in increasing order: those of captured objects (`GpuObject::captured`;
-/// reflectors only where `reflectors`), less those [`bounds::face_missed`] proves outside the
+/// reflectors only where `reflectors`: [`super::capture_lists::scene_triangles`], the lists'
+/// rule), less those [`bounds::face_missed`] proves outside the
 /// face (all three corners outside one side plane of the face frustum, dilated, with a slack
 /// far above the rounding: no texel centre of the face is in the triangle, so it makes no
 /// fragment). Returns the lists concatenated and each view's `(first, count)`.
@@ -72,21 +73,14 @@ pub fn face_triangles(
     reflectors: bool,
 ) -> (Vec<u32>, Vec<(u32, u32)>) {
     use rayon::prelude::*;
-    let corner =
-        |t: usize, i: usize| Vec3::from(data.vertices[data.indices[3 * t + i] as usize].position);
-    let drawn = |t: usize| {
-        let o = &data.objects[data.vertices[data.indices[3 * t] as usize].object as usize];
-        o.captured != 0 && (reflectors || o.reflector == 0)
-    };
-    let triangles = data.indices.len() / 3;
+    let (tris, shown) = super::capture_lists::scene_triangles(data, reflectors);
     let lists: Vec<Vec<u32>> = (0..6 * centres.len())
         .into_par_iter()
         .map(|view| {
             let (centre, face) = (centres[view / 6], (view % 6) as u32);
-            (0..triangles)
+            (0..tris.len())
                 .filter(|&t| {
-                    let tri = || [corner(t, 0), corner(t, 1), corner(t, 2)];
-                    drawn(t) && !bounds::face_missed(&bounds::face_local(&tri(), centre, face))
+                    shown[t] && !bounds::face_missed(&bounds::face_local(&tris[t], centre, face))
                 })
                 .map(|t| t as u32)
                 .collect()
