@@ -378,7 +378,8 @@ struct Located {
     iv: Interval,
 }
 
-// The 3x3 texel search of `locate` and `next_texel`: of the texels of `face` around (cx, cy)
+// The 3x3 texel search of `locate`, `next_texel` and `mip_turn`, where the texel they try first
+// is not certified (`texel_certified`): of the texels of `face` around (cx, cy)
 // (with `ahead`, only the 8 neighbours on the ray's side of the centre, by the signs of `mx`,
 // `my`), the one crossed with the smallest entry among those whose interval ends after `t`
 // (the first in row order on ties).
@@ -559,12 +560,65 @@ fn travel_signs(seg: Segment, face: u32) -> vec2<f32> {
 // The texel of `face` whose interval contains or follows t (`cpu::locate`).
 fn locate(seg: Segment, face: u32, t: f32, size: u32, lo: f32, hi: f32) -> Located {
     let c = locate_centre(seg, face, t, size);
+    let one = texel_certified(seg, face, c.x, c.y, t, size, lo, hi);
+    if one.found {
+        return one;
+    }
     return texel_search(seg, face, c.x, c.y, false, 0.0, 0.0, t, size, lo, hi);
 }
 
-// The next texel after `cur` within its face (`cpu::next_texel`).
+// `cpu::certified`: texel (x, y) of `face` with its interval, `found` where it is crossed with
+// t0 <= t < t1. Then it is the answer of every texel search around it, and of an `ahead` search
+// around a neighbour it is across a strict side of (`across_exit`); the proof is there.
+fn texel_certified(seg: Segment, face: u32, x: u32, y: u32, t: f32, size: u32, lo: f32, hi: f32) -> Located {
+    let tex = Texel(face, x, y);
+    // |x| < 2^126 on the bits (false for NaN, which a compiler may assume away in a compare).
+    let limit = vec3<u32>(CERTIFIED_LIMIT_BITS);
+    let mag = vec3<u32>(0x7fffffffu);
+    let planes_finite = all((bitcast<vec3<u32>>(seg.a) & mag) < limit) && all((bitcast<vec3<u32>>(seg.d) & mag) < limit);
+    let iv = texel_interval(seg, tex, size, lo, hi);
+    return Located(planes_finite && crosses(iv) && iv.t1 > t && iv.t0 <= t, tex, iv);
+}
+
+// The bits of `cpu::CERTIFIED_LIMIT`, 2^126.
+const CERTIFIED_LIMIT_BITS: u32 = 0x7e800000u;
+
+// The texel across side `exit` of `cur` (`cpu::across_exit`): `ok` where it is on the face and
+// the ray moves across that side strictly (`m`: `travel_signs`).
+struct Across {
+    ok: bool,
+    x: u32,
+    y: u32,
+}
+
+fn across_exit(cur: Texel, exit: u32, m: vec2<f32>, size: u32) -> Across {
+    var d = vec2<i32>(0, 0);
+    if exit == SIDE_X0 {
+        d.x = -1;
+    } else if exit == SIDE_X1 {
+        d.x = 1;
+    } else if exit == SIDE_Y0 {
+        d.y = -1;
+    } else if exit == SIDE_Y1 {
+        d.y = 1;
+    }
+    let p = vec2<i32>(i32(cur.x), i32(cur.y)) + d;
+    let n = i32(size);
+    let strict = f32(d.x) * m.x > 0.0 || f32(d.y) * m.y > 0.0;
+    return Across(strict && p.x >= 0 && p.y >= 0 && p.x < n && p.y < n, u32(max(p.x, 0)), u32(max(p.y, 0)));
+}
+
+// The next texel after `cur` within its face (`cpu::next_texel`): the texel across its exit
+// side where its certificate holds, else the 3x3 search.
 fn next_texel(seg: Segment, cur: Texel, iv: Interval, size: u32, lo: f32, hi: f32) -> Located {
     let m = travel_signs(seg, cur.face);
+    let a = across_exit(cur, iv.exit, m, size);
+    if a.ok {
+        let one = texel_certified(seg, cur.face, a.x, a.y, iv.t1, size, lo, hi);
+        if one.found {
+            return one;
+        }
+    }
     return texel_search(seg, cur.face, cur.x, cur.y, true, m.x, m.y, iv.t1, size, lo, hi);
 }
 
@@ -694,6 +748,10 @@ struct MipMarch {
     vtex: vec2<u32>,
     // The cell skipped last (level, x, y), which the located texel may still touch.
     last_skip: vec3<u32>,
+    // The side the search due after a skip starts across (`cpu::locate_after_skip`; SIDE_Z
+    // or above: none, `locate`) and the skipped cell's rect (x0, x1, y0, y1).
+    across: u32,
+    skip_rect: vec4<u32>,
     // The search due at the top of the next turn: `locate` at `search_t` (ahead false) or
     // `next_texel` after `cur` (ahead true, search_t its exit).
     search: bool,
@@ -716,6 +774,8 @@ fn mip_start(m: ptr<function, MipMarch>, seg: Segment, face: u32, t0: f32) {
     (*m).valid = 0u;
     (*m).vtex = vec2<u32>(0u, 0u);
     (*m).last_skip = vec3<u32>(none, none, none);
+    (*m).across = SIDE_SEGMENT;
+    (*m).skip_rect = vec4<u32>(0u, 0u, 0u, 0u);
     (*m).search = true;
     (*m).ahead = false;
     (*m).search_t = t0;
@@ -743,11 +803,43 @@ fn mip_turn(k: u32, seg: Segment, m: ptr<function, MipMarch>, checked: ptr<funct
     var turn = MIP_DONE;
     if (*m).step < MAX_FACE_STEPS {
         if (*m).search {
+            // The search due: one texel tried first, its certificate (`texel_certified`), then
+            // the 3x3 search where it does not hold (`cpu::locate_counted`,
+            // `cpu::locate_after_skip`, `cpu::next_texel_counted`).
+            let t = (*m).search_t;
             var centre = vec2<u32>((*m).cur.tex.x, (*m).cur.tex.y);
-            if !(*m).ahead {
-                centre = locate_centre(seg, face, (*m).search_t, n);
+            var first = centre;
+            var tried = true;
+            var face_done = false;
+            if (*m).ahead {
+                let a = across_exit((*m).cur.tex, (*m).cur.iv.exit, (*m).signs, n);
+                first = vec2<u32>(a.x, a.y);
+                tried = a.ok;
+            } else {
+                centre = locate_centre(seg, face, t, n);
+                let r = (*m).skip_rect;
+                let side = (*m).across;
+                // After a skip through a side: the texel across it, at p(t)'s other coordinate
+                // clamped into the cell; none past the face's edge.
+                var p = vec2<i32>(i32(centre.x), i32(centre.y));
+                if side == SIDE_X0 || side == SIDE_X1 {
+                    p = vec2<i32>(select(i32(r.y) , i32(r.x) - 1, side == SIDE_X0), i32(clamp(centre.y, r.z, r.w - 1u)));
+                } else if side == SIDE_Y0 || side == SIDE_Y1 {
+                    p = vec2<i32>(i32(clamp(centre.x, r.x, r.y - 1u)), select(i32(r.w), i32(r.z) - 1, side == SIDE_Y0));
+                }
+                face_done = p.x < 0 || p.y < 0 || p.x >= i32(n) || p.y >= i32(n);
+                centre = vec2<u32>(u32(max(p.x, 0)), u32(max(p.y, 0)));
+                first = centre;
+                tried = !face_done;
             }
-            (*m).cur = texel_search(seg, face, centre.x, centre.y, (*m).ahead, (*m).signs.x, (*m).signs.y, (*m).search_t, n, lo, hi);
+            var found = Located(false, Texel(0u, 0u, 0u), interval_empty());
+            if tried {
+                found = texel_certified(seg, face, first.x, first.y, t, n, lo, hi);
+            }
+            if !found.found && !face_done {
+                found = texel_search(seg, face, centre.x, centre.y, (*m).ahead, (*m).signs.x, (*m).signs.y, t, n, lo, hi);
+            }
+            (*m).cur = found;
             (*m).search = false;
         }
         // Without a search, `cur` is the texel the last one found.
@@ -801,6 +893,11 @@ fn mip_turn(k: u32, seg: Segment, m: ptr<function, MipMarch>, checked: ptr<funct
                         t_exit = civ.t1;
                     }
                     (*m).search_t = max(t_exit, iv.t1);
+                    (*m).across = SIDE_SEGMENT;
+                    if crosses(civ) && civ.t1 == (*m).search_t && civ.exit < SIDE_Z {
+                        (*m).across = civ.exit;
+                        (*m).skip_rect = vec4<u32>(rect.x0, rect.x1, rect.y0, rect.y1);
+                    }
                     (*m).search = true;
                     (*m).ahead = false;
                     (*m).step += 1u;

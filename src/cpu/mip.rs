@@ -2,15 +2,16 @@
 //! pyramid. At each texel, levels are checked coarsest first; a cell entered for the first time
 //! is tested over its (conservatively widened) interval, and skipped when the ray is entirely in
 //! front of it there (`rmax < min`, ALGORITHM.md fact 3; the thesis's endpoint test is not
-//! used). After a skip the walk resumes at the texel following the cell's exit (alg. 4's
-//! boundary, from the frustum inequalities). A cell found not skippable is remembered per level
+//! used). After a skip the walk resumes at the texel across the cell's exit side (alg. 4's
+//! boundary, from the frustum inequalities; [`super::locate_after_skip`]). A cell found not skippable is remembered per level
 //! (`checked`) until the walk leaves it, like alg. 2's `B(i)`. With the `bounded` criterion a
 //! cell is skipped, too, where the ray's distances there lie inside the cell's gap
 //! ([`super::bounded::Bounded::in_gap`]): between the surfaces its lists hold.
 
 use super::{
     CmoTracer, Counters, NoLog, Segment, TraceResult, Work, WorkLog, classify, escaped,
-    faces_crossed, finish, locate, next_texel, split_near_centre,
+    faces_crossed, finish, locate_after_skip, locate_counted, next_texel_counted,
+    split_near_centre,
 };
 use crate::cubemap::face::to_face_local;
 use crate::cubemap::frustum::{cell_interval, r_bounds, seg_reach};
@@ -48,9 +49,10 @@ pub fn trace_mip_logged<L: WorkLog + ?Sized>(
             let mut checked = [(u32::MAX, u32::MAX); MIP_MAX_LEVELS];
             // The cell skipped last, which the located texel may still touch by rounding.
             let mut last_skip = (usize::MAX, u32::MAX, u32::MAX);
-            let mut cur = locate(seg, face, faces.iv[f].t0, n, lo, hi);
+            let (mut cur, full) = locate_counted(seg, face, faces.iv[f].t0, n, lo, hi);
             log.log(Work::Search {
                 found: cur.is_some(),
+                full,
             });
             'walk: while let Some((tex, iv)) = cur {
                 let mut l = top;
@@ -66,7 +68,8 @@ pub fn trace_mip_logged<L: WorkLog + ?Sized>(
                             x: cx,
                             y: cy,
                         });
-                        let civ = cell_interval(la, ld, &lev.rect(face, cx, cy, n), lo, hi);
+                        let rect = lev.rect(face, cx, cy, n);
+                        let civ = cell_interval(la, ld, &rect, lo, hi);
                         let skip = match civ.inflated(lo, hi, reach) {
                             Some((a, b)) if last_skip != (l, cx, cy) => {
                                 let rb = r_bounds(seg.a, seg.d, a, b);
@@ -81,9 +84,12 @@ pub fn trace_mip_logged<L: WorkLog + ?Sized>(
                         if skip {
                             last_skip = (l, cx, cy);
                             let t_exit = if civ.crosses() { civ.t1 } else { iv.t1 };
-                            cur = locate(seg, face, t_exit.max(iv.t1), n, lo, hi);
+                            let t = t_exit.max(iv.t1);
+                            let full;
+                            (cur, full) = locate_after_skip(seg, &rect, &civ, t, n, lo, hi);
                             log.log(Work::Search {
                                 found: cur.is_some(),
+                                full,
                             });
                             continue 'walk;
                         }
@@ -96,9 +102,11 @@ pub fn trace_mip_logged<L: WorkLog + ?Sized>(
                 if let Some(o) = classify(tr, seg, tex, &iv, &mut c) {
                     return finish(seg, tex, o, c);
                 }
-                cur = next_texel(seg, tex, &iv, n, lo, hi);
+                let full;
+                (cur, full) = next_texel_counted(seg, tex, &iv, n, lo, hi);
                 log.log(Work::Search {
                     found: cur.is_some(),
+                    full,
                 });
             }
         }

@@ -64,9 +64,9 @@ pub use super::methods::compute::{
     compute_ray,
 };
 pub use super::methods::fragment::{
-    F_CELL_TEST, F_CLASSIFY, F_CMO_TRACE, F_FACE, F_RAY_SETUP, F_SHADE, F_TEXEL_SEARCH, F_TURN,
-    F_VERIFY, FRAGMENT_BLOCKS, FRAGMENT_PROGRAM, L_CELL, L_FACE, L_PIECE, L_TRACE, L_TURN,
-    fragment_ray,
+    F_CELL_TEST, F_CLASSIFY, F_CMO_TRACE, F_FACE, F_RAY_SETUP, F_SHADE, F_TEXEL_CHECK,
+    F_TEXEL_SEARCH, F_TURN, F_VERIFY, FRAGMENT_BLOCKS, FRAGMENT_PROGRAM, L_CELL, L_FACE, L_PIECE,
+    L_TRACE, L_TURN, fragment_ray,
 };
 pub use super::methods::reflection_point::{
     L_START, L_WALK, L_WALK_INVERSE, R_FINISH, R_SCORE, R_START, R_START_ARMS, R_WALK_STEP,

@@ -47,8 +47,9 @@ pub const FRAGMENT_BLOCKS: &[Block] = &[
     b("face", FRAGMENT, &["mip_start"]),
     // One turn of the march (`mip_turn`'s own code).
     b("turn", FRAGMENT, &["mip_turn"]),
-    // The 3x3 texel search (`locate` after a skip, `next_texel` after a texel): the
-    // neighbourhood's 13 planes clipped once, combined per candidate (its callees included).
+    // The 3x3 texel search (`locate` after a skip, `next_texel` after a texel), where the
+    // texel tried first is not certified: the neighbourhood's 13 planes clipped once,
+    // combined per candidate (its callees included).
     b("texel_search", FRAGMENT, &["texel_search"]),
     // One cell test of the pyramid (the inner loop).
     b(
@@ -62,6 +63,9 @@ pub const FRAGMENT_BLOCKS: &[Block] = &[
     b("verify", FRAGMENT, &["verify_decision"]),
     // Shading a hit for the record.
     b("shade", FRAGMENT, &["hit_shade"]),
+    // The texel tried first at a search and its certificate (`texel_certified`: one
+    // interval), every search.
+    b("texel_check", FRAGMENT, &["texel_certified"]),
 ];
 
 /// Fragment's loops: the traces (rounds x CMOs, flattened), pieces, faces, turns of the march,
@@ -89,6 +93,7 @@ pub const FRAGMENT_PROGRAM: &[Stmt] = &[
                             L_TURN,
                             &[
                                 Stmt::Block(F_TURN),
+                                Stmt::Block(F_TEXEL_CHECK),
                                 Stmt::Block(F_TEXEL_SEARCH),
                                 Stmt::Loop(L_CELL, &[Stmt::Block(F_CELL_TEST)]),
                                 Stmt::Block(F_CLASSIFY),
@@ -113,6 +118,7 @@ pub const F_CELL_TEST: usize = 5;
 pub const F_CLASSIFY: usize = 6;
 pub const F_VERIFY: usize = 7;
 pub const F_SHADE: usize = 8;
+pub const F_TEXEL_CHECK: usize = 9;
 
 /// A fragment ray's work in fragment_trace.wgsl's loop nest ([`FRAGMENT_PROGRAM`]).
 pub fn fragment_ray(frame: &Frame, ray: &MirrorRay) -> Iter {
@@ -140,10 +146,13 @@ pub fn fragment_ray(frame: &Frame, ray: &MirrorRay) -> Iter {
                         .new_turn(L_FACE)
                         .exec(F_FACE, Vec::new());
                 }
-                Work::Search { .. } => {
+                Work::Search { full, .. } => {
                     let turn = trace.last_turn(L_PIECE).last_turn(L_FACE).new_turn(L_TURN);
                     turn.exec(F_TURN, Vec::new());
-                    turn.exec(F_TEXEL_SEARCH, Vec::new());
+                    turn.exec(F_TEXEL_CHECK, Vec::new());
+                    if full {
+                        turn.exec(F_TEXEL_SEARCH, Vec::new());
+                    }
                 }
                 Work::Cell { level, face, x, y } => {
                     let turn = trace.last_turn(L_PIECE).last_turn(L_FACE).last_turn(L_TURN);
