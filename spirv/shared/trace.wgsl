@@ -539,6 +539,41 @@ fn search_candidate(q: TexelSearch, best: Located, col: Clip, row: RowBounds, z:
     return best;
 }
 
+// `cell_interval` with the face's z plane clipped once per face (`z`: `plane_bound(la.z, ld.z,
+// false)`) and the face's edge bits given (`edge_inclusive_bits`): the same bits
+// (`cubemap::frustum::cell_interval_face`; `apply_bound` of a plane's `PlaneBound` makes
+// `clip_plane`'s comparisons, `texel_search`'s argument).
+fn cell_interval_face(la: vec3<f32>, ld: vec3<f32>, cell: CellRect, edge: u32, z: PlaneBound, t_lo: f32, t_hi: f32) -> Interval {
+    let n = cell.size;
+    let inc = owned_sides(edge, cell.x0, cell.x1, cell.y0, cell.y1, n);
+    let fx0 = face_coord(cell.x0, n);
+    let fx1 = face_coord(cell.x1, n);
+    let fy0 = face_coord(cell.y0, n);
+    let fy1 = face_coord(cell.y1, n);
+    var c = Clip(Interval(t_lo, t_hi, SIDE_SEGMENT, SIDE_SEGMENT), true);
+    c = clip_plane(c, la.x - prod(fx0, la.z), ld.x - prod(fx0, ld.z), inc.x, SIDE_X0);
+    c = clip_plane(c, prod(fx1, la.z) - la.x, prod(fx1, ld.z) - ld.x, inc.y, SIDE_X1);
+    c = clip_plane(c, la.y - prod(fy0, la.z), ld.y - prod(fy0, ld.z), inc.z, SIDE_Y0);
+    c = clip_plane(c, prod(fy1, la.z) - la.y, prod(fy1, ld.z) - ld.y, inc.w, SIDE_Y1);
+    c = apply_bound(c, z, SIDE_Z);
+    if c.keep {
+        return c.iv;
+    }
+    return interval_empty();
+}
+
+// `r_bounds` from the ray's closest approach `closest` (t*, r(t*)), made once per ray
+// (`cubemap::frustum::r_bounds_from`): the same operations on the same operands.
+fn r_bounds_from(a: vec3<f32>, d: vec3<f32>, closest: vec2<f32>, t0: f32, t1: f32) -> vec2<f32> {
+    let r0 = r_at(a, d, t0);
+    let r1 = r_at(a, d, t1);
+    var rmin = min(r0, r1);
+    if closest.x > t0 && closest.x < t1 {
+        rmin = min(min(closest.y, r0), r1);
+    }
+    return vec2<f32>(rmin, max(r0, r1));
+}
+
 // The texel (x, y) of `face` around which `locate` searches for t: the one the point at t
 // projects to, or the face's middle where the point is not in front of the face.
 fn locate_centre(seg: Segment, face: u32, t: f32, size: u32) -> vec2<u32> {
@@ -736,6 +771,11 @@ struct MipMarch {
     la: vec3<f32>,
     ld: vec3<f32>,
     signs: vec2<f32>,
+    // The cell tests' constants: the face's edge bits and z plane, the ray's closest approach
+    // to the centre (t*, r(t*)).
+    edge: u32,
+    z: PlaneBound,
+    closest: vec2<f32>,
     // Bit l: the caller's `checked[l]` was written (none before); `checked[l]` is the level-l
     // cell last found not skippable, packed `x | y << 16` (cells are under 2^11 for
     // N <= TRACE_MAX_SIZE). Lavapipe keeps an array indexed by a variable in memory and reads
@@ -770,6 +810,10 @@ fn mip_start(m: ptr<function, MipMarch>, seg: Segment, face: u32, t0: f32) {
     (*m).la = to_face_local(face, seg.a);
     (*m).ld = to_face_local(face, seg.d);
     (*m).signs = travel_signs(seg, face);
+    (*m).edge = edge_inclusive_bits(face);
+    (*m).z = plane_bound((*m).la.z, (*m).ld.z, false);
+    let ts = closest_t(seg.a, seg.d);
+    (*m).closest = vec2<f32>(ts, r_at(seg.a, seg.d, ts));
     (*m).written = 0u;
     (*m).valid = 0u;
     (*m).vtex = vec2<u32>(0u, 0u);
@@ -876,11 +920,11 @@ fn mip_turn(k: u32, seg: Segment, m: ptr<function, MipMarch>, checked: ptr<funct
                 (*c).cells += 1u;
                 let span = 1u << level;
                 let rect = CellRect(face, min(cell.x * span, n), min((cell.x + 1u) * span, n), min(cell.y * span, n), min((cell.y + 1u) * span, n), n);
-                let civ = cell_interval((*m).la, (*m).ld, rect, lo, hi);
+                let civ = cell_interval_face((*m).la, (*m).ld, rect, (*m).edge, (*m).z, lo, hi);
                 let inf = inflated(civ, lo, hi, reach);
                 var skip = false;
                 if inf.ok && any((*m).last_skip != vec3<u32>(level, cell.x, cell.y)) {
-                    let rb = r_bounds(seg.a, seg.d, inf.lo, inf.hi);
+                    let rb = r_bounds_from(seg.a, seg.d, (*m).closest, inf.lo, inf.hi);
                     skip = rb.y < mip_get(k, level, face, cell.x, cell.y).x;
                     if gaps && !skip {
                         skip = in_gap(k, level, face, cell.x, cell.y, rb);

@@ -14,7 +14,7 @@ use super::{
     split_near_centre,
 };
 use crate::cubemap::face::to_face_local;
-use crate::cubemap::frustum::{cell_interval, r_bounds, seg_reach};
+use crate::cubemap::frustum::{Closest, PlaneBound, cell_interval_face, r_bounds_from, seg_reach};
 
 /// Most pyramid levels (N = 2048 has 12).
 pub const MIP_MAX_LEVELS: usize = 16;
@@ -36,6 +36,8 @@ pub fn trace_mip_logged<L: WorkLog + ?Sized>(
     let mut c = Counters::default();
     let pieces = split_near_centre(seg, tr.cut_radius);
     let reach = seg_reach(seg.a, seg.d);
+    // The ray's constants of the cell tests: its closest approach, and per face the z plane.
+    let closest = Closest::of(seg.a, seg.d);
     for p in 0..pieces.count as usize {
         log.log(Work::Piece);
         let [lo, hi] = pieces.range[p];
@@ -45,6 +47,7 @@ pub fn trace_mip_logged<L: WorkLog + ?Sized>(
             let face = faces.face[f];
             let la = to_face_local(face, seg.a);
             let ld = to_face_local(face, seg.d);
+            let z = PlaneBound::new(la.z, ld.z, false);
             // checked[l]: the level-l cell last found not skippable (u32::MAX: none).
             let mut checked = [(u32::MAX, u32::MAX); MIP_MAX_LEVELS];
             // The cell skipped last, which the located texel may still touch by rounding.
@@ -69,10 +72,10 @@ pub fn trace_mip_logged<L: WorkLog + ?Sized>(
                             y: cy,
                         });
                         let rect = lev.rect(face, cx, cy, n);
-                        let civ = cell_interval(la, ld, &rect, lo, hi);
+                        let civ = cell_interval_face(la, ld, &rect, z, lo, hi);
                         let skip = match civ.inflated(lo, hi, reach) {
                             Some((a, b)) if last_skip != (l, cx, cy) => {
-                                let rb = r_bounds(seg.a, seg.d, a, b);
+                                let rb = r_bounds_from(seg.a, seg.d, closest, a, b);
                                 rb.1 < lev.get(face, cx, cy)[0]
                                     || tr
                                         .bounded

@@ -55,7 +55,7 @@ pub const FRAGMENT_BLOCKS: &[Block] = &[
     b(
         "cell_test",
         FRAGMENT,
-        &["cell_interval", "inflated", "r_bounds", "mip_get"],
+        &["cell_interval_face", "inflated", "r_bounds_from", "mip_get"],
     ),
     // The exact classification of a texel.
     b("classify", FRAGMENT, &["classify_with"]),
