@@ -411,7 +411,25 @@ struct Located {
 fn texel_search(seg: Segment, face: u32, cx: u32, cy: u32, ahead: bool, mx: f32, my: f32, t: f32, size: u32, lo: f32, hi: f32) -> Located {
     let la = to_face_local(face, seg.a);
     let ld = to_face_local(face, seg.d);
-    let edge = edge_inclusive_bits(face);
+    let f = FaceConsts(la, ld, edge_inclusive_bits(face), plane_bound(la.z, ld.z, false));
+    return texel_search_face(f, face, cx, cy, ahead, mx, my, t, size, lo, hi);
+}
+
+// What the texel tests on one face share: the face-local ray, the face's edge bits
+// (`edge_inclusive_bits`) and its z plane (`plane_bound(la.z, ld.z, false)`), made once per
+// face by the march (`mip_start`) and per call elsewhere: the same values either way.
+struct FaceConsts {
+    la: vec3<f32>,
+    ld: vec3<f32>,
+    edge: u32,
+    z: PlaneBound,
+}
+
+// `texel_search` on the face constants `f`.
+fn texel_search_face(f: FaceConsts, face: u32, cx: u32, cy: u32, ahead: bool, mx: f32, my: f32, t: f32, size: u32, lo: f32, hi: f32) -> Located {
+    let la = f.la;
+    let ld = f.ld;
+    let edge = f.edge;
     var q: TexelSearch;
     q.face = face;
     q.c = vec2<i32>(i32(cx), i32(cy));
@@ -430,7 +448,7 @@ fn texel_search(seg: Segment, face: u32, cx: u32, cy: u32, ahead: bool, mx: f32,
     let r0 = search_row(la, ld, fy.x, fy.y, edge, cy - 1u, size);
     let r1 = search_row(la, ld, fy.y, fy.z, edge, cy, size);
     let r2 = search_row(la, ld, fy.z, fy.w, edge, cy + 1u, size);
-    let z = plane_bound(la.z, ld.z, false);
+    let z = f.z;
     var best = Located(false, Texel(0u, 0u, 0u), interval_empty());
     // Row order, written out.
     best = search_candidate(q, best, c0, r0, z, -1, -1);
@@ -544,6 +562,13 @@ fn search_candidate(q: TexelSearch, best: Located, col: Clip, row: RowBounds, z:
 // (`cubemap::frustum::cell_interval_face`; `apply_bound` of a plane's `PlaneBound` makes
 // `clip_plane`'s comparisons, `texel_search`'s argument).
 fn cell_interval_face(la: vec3<f32>, ld: vec3<f32>, cell: CellRect, edge: u32, z: PlaneBound, t_lo: f32, t_hi: f32) -> Interval {
+    return clip_cell_face(la, ld, cell, edge, z, t_lo, t_hi);
+}
+
+// `cell_interval_face`'s steps. The cost model's `cell_test` block names `cell_interval_face`,
+// and a function a block names is counted in that block only (`model::weights`), so the texel
+// check (`texel_certified_face`) calls this one: each block counts its own call.
+fn clip_cell_face(la: vec3<f32>, ld: vec3<f32>, cell: CellRect, edge: u32, z: PlaneBound, t_lo: f32, t_hi: f32) -> Interval {
     let n = cell.size;
     let inc = owned_sides(edge, cell.x0, cell.x1, cell.y0, cell.y1, n);
     let fx0 = face_coord(cell.x0, n);
@@ -613,6 +638,15 @@ fn texel_certified(seg: Segment, face: u32, x: u32, y: u32, t: f32, size: u32, l
     let planes_finite = all((bitcast<vec3<u32>>(seg.a) & mag) < limit) && all((bitcast<vec3<u32>>(seg.d) & mag) < limit);
     let iv = texel_interval(seg, tex, size, lo, hi);
     return Located(planes_finite && crosses(iv) && iv.t1 > t && iv.t0 <= t, tex, iv);
+}
+
+// `texel_certified` on the face constants `f` of `face` (`cell_interval_face`: the same bits).
+fn texel_certified_face(seg: Segment, f: FaceConsts, face: u32, x: u32, y: u32, t: f32, size: u32, lo: f32, hi: f32) -> Located {
+    let limit = vec3<u32>(CERTIFIED_LIMIT_BITS);
+    let mag = vec3<u32>(0x7fffffffu);
+    let planes_finite = all((bitcast<vec3<u32>>(seg.a) & mag) < limit) && all((bitcast<vec3<u32>>(seg.d) & mag) < limit);
+    let iv = clip_cell_face(f.la, f.ld, cell_rect_texel(face, x, y, size), f.edge, f.z, lo, hi);
+    return Located(planes_finite && crosses(iv) && iv.t1 > t && iv.t0 <= t, Texel(face, x, y), iv);
 }
 
 // The bits of `cpu::CERTIFIED_LIMIT`, 2^126.
@@ -851,6 +885,7 @@ fn mip_turn(k: u32, seg: Segment, m: ptr<function, MipMarch>, checked: ptr<funct
             // the 3x3 search where it does not hold (`cpu::locate_counted`,
             // `cpu::locate_after_skip`, `cpu::next_texel_counted`).
             let t = (*m).search_t;
+            let fc = FaceConsts((*m).la, (*m).ld, (*m).edge, (*m).z);
             var centre = vec2<u32>((*m).cur.tex.x, (*m).cur.tex.y);
             var first = centre;
             var tried = true;
@@ -878,10 +913,10 @@ fn mip_turn(k: u32, seg: Segment, m: ptr<function, MipMarch>, checked: ptr<funct
             }
             var found = Located(false, Texel(0u, 0u, 0u), interval_empty());
             if tried {
-                found = texel_certified(seg, face, first.x, first.y, t, n, lo, hi);
+                found = texel_certified_face(seg, fc, face, first.x, first.y, t, n, lo, hi);
             }
             if !found.found && !face_done {
-                found = texel_search(seg, face, centre.x, centre.y, (*m).ahead, (*m).signs.x, (*m).signs.y, t, n, lo, hi);
+                found = texel_search_face(fc, face, centre.x, centre.y, (*m).ahead, (*m).signs.x, (*m).signs.y, t, n, lo, hi);
             }
             (*m).cur = found;
             (*m).search = false;

@@ -50,7 +50,7 @@ pub const FRAGMENT_BLOCKS: &[Block] = &[
     // The 3x3 texel search (`locate` after a skip, `next_texel` after a texel), where the
     // texel tried first is not certified: the neighbourhood's 13 planes clipped once,
     // combined per candidate (its callees included).
-    b("texel_search", FRAGMENT, &["texel_search"]),
+    b("texel_search", FRAGMENT, &["texel_search_face"]),
     // One cell test of the pyramid (the inner loop).
     b(
         "cell_test",
@@ -63,9 +63,9 @@ pub const FRAGMENT_BLOCKS: &[Block] = &[
     b("verify", FRAGMENT, &["verify_decision"]),
     // Shading a hit for the record.
     b("shade", FRAGMENT, &["hit_shade"]),
-    // The texel tried first at a search and its certificate (`texel_certified`: one
-    // interval), every search.
-    b("texel_check", FRAGMENT, &["texel_certified"]),
+    // The texel tried first at a search and its certificate (`texel_certified_face`: one
+    // interval on the face's constants), every search.
+    b("texel_check", FRAGMENT, &["texel_certified_face"]),
 ];
 
 /// Fragment's loops: the traces (rounds x CMOs, flattened), pieces, faces, turns of the march,
