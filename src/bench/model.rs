@@ -268,7 +268,7 @@ pub fn measured_of(report: &BenchReport) -> Vec<Measured> {
         .iter()
         .filter(|r| METHODS.contains(&r.kind) && r.method == MethodSpec::plain(r.kind).label())
         .map(|r| Measured {
-            scene: r.scene.clone(),
+            scene: r.source.clone(),
             method: r.kind,
             cube: r.cube_size,
             subgroup: report.device.subgroup_size,
@@ -323,7 +323,13 @@ pub fn measured_from_files(paths: &[PathBuf]) -> Result<Vec<Measured>> {
                 .as_f64()
                 .with_context(|| field(&format!("runs[{i}].trace_ns.median")))?;
             let m = Measured {
-                scene: f("scene").as_str().unwrap_or_default().to_string(),
+                // Where the row's scene is loaded from: `source` (files written before it existed
+                // hold built-in scenes only, by `scene`).
+                scene: f("source")
+                    .as_str()
+                    .or(f("scene").as_str())
+                    .unwrap_or_default()
+                    .to_string(),
                 method: kind,
                 cube: num("cube_size")? as u32,
                 subgroup,
@@ -613,7 +619,7 @@ pub fn lavapipe_table(v: &Validation) -> String {
     for r in &v.rows {
         s += &format!(
             "| {} | {} | {} | {} | {} | {} | {:.2} | {:.0} | {:.0}-{:.0} | {:.0} | {:+.0} % | {:.3} | {:.2} | {} |\n",
-            r.scene,
+            scene_label(&r.scene),
             r.method.name(),
             r.cube,
             r.subgroup,

@@ -11,6 +11,9 @@ use crate::metrics::ErrorReport;
 #[derive(Clone, Debug, Serialize)]
 pub struct RunResult {
     pub scene: String,
+    /// What the scene was loaded from: the `--scenes` entry (a built-in's name or a scene file's
+    /// path), so that a later step (the cost model, `--model-from`) can load it again.
+    pub source: String,
     pub method: String,
     pub kind: Method,
     /// Tracer options as text (criterion, sampling, accel, steps, eps); empty for non-tracers.
@@ -76,6 +79,7 @@ impl RunResult {
     pub fn unmeasured(scene: &str, label: String, kind: Method) -> RunResult {
         RunResult {
             scene: scene.into(),
+            source: scene.into(),
             method: label,
             kind,
             params: String::new(),

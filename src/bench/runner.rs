@@ -74,7 +74,7 @@ pub fn run(
             let overrides = (cfg.cube_size, cfg.cmos);
             let (scene, camera, searched) =
                 prepare_scene_placed(name, cfg.width, cfg.height, overrides, p, search)?;
-            labels.push(p.label(name, several));
+            labels.push((p.label(name, several), name.as_str()));
             prepared.push((scene, camera));
             search_ms.push(searched.map(|s| s.time.as_secs_f64() * 1e3));
         }
@@ -84,7 +84,9 @@ pub fn run(
     let mut runs = Vec::new();
     // Heat map paths given so far: two scenes of one (sanitised) name get their own files.
     let mut heat_paths: Vec<String> = Vec::new();
-    for ((name, (mut scene, camera)), search_ms) in labels.iter().zip(prepared).zip(search_ms) {
+    for (((name, source), (mut scene, camera)), search_ms) in
+        labels.iter().zip(prepared).zip(search_ms)
+    {
         if several {
             scene.name = name.clone();
         }
@@ -92,7 +94,7 @@ pub fn run(
         // The reference is needed for every error figure, even when it is not a listed method.
         let refr = run_reference_bounces(&scene, &camera, cfg.warmup, cfg.frames, cfg.bounces);
         bar.inc(1);
-        let sc = SceneRuns::new(name, &scene, &camera, refr);
+        let sc = SceneRuns::new(name, source, &scene, &camera, refr);
         for spec in &cfg.methods {
             if !spec.kind.is_gpu() {
                 runs.push(sc.reference_result(cfg, spec));
@@ -149,6 +151,8 @@ fn planned_steps(cfg: &BenchConfig) -> u64 {
 struct SceneRuns<'a> {
     /// The name the scene was given by (`--scenes`), for messages.
     name: &'a str,
+    /// The `--scenes` entry it was loaded from (a built-in's name or a file's path).
+    source: &'a str,
     scene: &'a Scene,
     camera: &'a Camera,
     refr: ReferenceRun,
@@ -161,10 +165,17 @@ struct SceneRuns<'a> {
 }
 
 impl<'a> SceneRuns<'a> {
-    fn new(name: &'a str, scene: &'a Scene, camera: &'a Camera, refr: ReferenceRun) -> Self {
+    fn new(
+        name: &'a str,
+        source: &'a str,
+        scene: &'a Scene,
+        camera: &'a Camera,
+        refr: ReferenceRun,
+    ) -> Self {
         let world = scene.world();
         SceneRuns {
             name,
+            source,
             scene,
             camera,
             centres: scene.cmo_centres(),
@@ -198,6 +209,7 @@ impl<'a> SceneRuns<'a> {
             triangles: self.triangles,
             mirror_pixels: self.mirror,
             frames: cfg.frames.max(1),
+            source: self.source.to_string(),
             ..RunResult::unmeasured(&self.scene.name, spec.label(), spec.kind)
         }
     }

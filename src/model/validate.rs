@@ -141,6 +141,7 @@ impl Coefficients {
 /// One measured row: the tracing pass of a method's default setting on lavapipe.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Measured {
+    /// The scene as loaded: a built-in's name or a scene file's path.
     pub scene: String,
     pub method: Method,
     pub cube: u32,

@@ -652,3 +652,50 @@ fn a_miss_is_compared_with_the_closest_training_row() {
         assert!(m1024.contains("default/compute/cube1024/sg16"), "{m1024}");
     }
 }
+
+/// A scene given to `--scenes` as a file's path is modelled too: the rows carry where the bench
+/// loaded each scene (`source`), and the model loads it from there, in the bench's own run and
+/// from its file (`--model-from`). Negative: the same file without `source` fails, naming the
+/// scene it cannot load by its name.
+#[test]
+fn the_model_loads_a_scene_given_by_its_path() {
+    let d = tempfile::tempdir().unwrap();
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/scenes/facing/scene.toml"
+    );
+    let scenes = format!("default,{path}");
+    let v = bench_run(
+        d.path(),
+        &scenes,
+        "fragment,bvh",
+        &["--model", "--defaults-only"],
+    );
+    let runs = v["runs"].as_array().expect("runs");
+    assert!(runs.iter().any(|r| r["source"] == path), "{runs:?}");
+    let rows = v["model"]["lavapipe"]["rows"].as_array().expect("rows");
+    assert!(rows.iter().any(|r| r["scene"] == path), "{rows:?}");
+    let model_from = |file: &Path, out: &Path| {
+        cli(&[
+            "bench",
+            "--model",
+            "--model-from",
+            file.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+        ])
+    };
+    let json = d.path().join("bench.json");
+    let o = model_from(&json, &d.path().join("again"));
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let mut old = v.clone();
+    for r in old["runs"].as_array_mut().unwrap() {
+        r.as_object_mut().unwrap().remove("source");
+    }
+    let stripped = d.path().join("old.json");
+    std::fs::write(&stripped, serde_json::to_string(&old).unwrap()).unwrap();
+    let o = model_from(&stripped, &d.path().join("old"));
+    assert!(!o.status.success());
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(e.contains("unknown scene 'facing'"), "{e}");
+}
