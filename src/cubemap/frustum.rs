@@ -153,42 +153,12 @@ impl Interval {
 }
 
 /// `[t0, t1]` of the segment `la + t ld`, `t in [t_lo, t_hi]` (face-local `la`, `ld`) inside the
-/// frustum of `cell`, from the five affine inequalities of ALGORITHM.md.
+/// frustum of `cell`, from the five affine inequalities of ALGORITHM.md: the four side planes
+/// ([`side_planes`]), then the face's plane `z >= 0`.
 pub fn cell_interval(la: Vec3, ld: Vec3, cell: &CellRect, t_lo: f32, t_hi: f32) -> Interval {
-    let n = cell.size;
-    let fx0 = face_coord(cell.x0, n);
-    let fx1 = face_coord(cell.x1, n);
-    let fy0 = face_coord(cell.y0, n);
-    let fy1 = face_coord(cell.y1, n);
-    let edge = edge_inclusive(cell.face);
-    // Inclusive (owned) sides: interior lower sides yes, interior upper sides no, face edges by
-    // the face tie rule.
-    let inc = [
-        if cell.x0 == 0 { edge[0] } else { true },
-        if cell.x1 == n { edge[1] } else { false },
-        if cell.y0 == 0 { edge[2] } else { true },
-        if cell.y1 == n { edge[3] } else { false },
-        false,
-    ];
-    let alpha = [
-        la.x - fx0 * la.z,
-        fx1 * la.z - la.x,
-        la.y - fy0 * la.z,
-        fy1 * la.z - la.y,
-        la.z,
-    ];
-    let beta = [
-        ld.x - fx0 * ld.z,
-        fx1 * ld.z - ld.x,
-        ld.y - fy0 * ld.z,
-        fy1 * ld.z - ld.y,
-        ld.z,
-    ];
-    let mut c = Clip::new(t_lo, t_hi);
-    for k in 0..5 {
-        c = c.plane(alpha[k], beta[k], inc[k], k as u32);
-    }
-    c.interval()
+    side_planes(la, ld, cell, t_lo, t_hi)
+        .plane(la.z, ld.z, false, SIDE_Z)
+        .interval()
 }
 
 /// [`cell_interval`] with the face's z plane clipped once for every cell of a face (`z`:
@@ -203,39 +173,32 @@ pub fn cell_interval_face(
     t_lo: f32,
     t_hi: f32,
 ) -> Interval {
+    side_planes(la, ld, cell, t_lo, t_hi)
+        .bound(z, SIDE_Z)
+        .interval()
+}
+
+/// `[t_lo, t_hi]` clipped by the four side planes of `cell`, in the order x0, x1, y0, y1 (the
+/// first four steps of [`cell_interval`]). Inclusive (owned) sides: interior lower sides yes,
+/// interior upper sides no, face edges by the face tie rule.
+fn side_planes(la: Vec3, ld: Vec3, cell: &CellRect, t_lo: f32, t_hi: f32) -> Clip {
     let n = cell.size;
     let fx0 = face_coord(cell.x0, n);
     let fx1 = face_coord(cell.x1, n);
     let fy0 = face_coord(cell.y0, n);
     let fy1 = face_coord(cell.y1, n);
     let edge = edge_inclusive(cell.face);
+    let inc = [
+        if cell.x0 == 0 { edge[0] } else { true },
+        if cell.x1 == n { edge[1] } else { false },
+        if cell.y0 == 0 { edge[2] } else { true },
+        if cell.y1 == n { edge[3] } else { false },
+    ];
     Clip::new(t_lo, t_hi)
-        .plane(
-            la.x - fx0 * la.z,
-            ld.x - fx0 * ld.z,
-            if cell.x0 == 0 { edge[0] } else { true },
-            SIDE_X0,
-        )
-        .plane(
-            fx1 * la.z - la.x,
-            fx1 * ld.z - ld.x,
-            if cell.x1 == n { edge[1] } else { false },
-            SIDE_X1,
-        )
-        .plane(
-            la.y - fy0 * la.z,
-            ld.y - fy0 * ld.z,
-            if cell.y0 == 0 { edge[2] } else { true },
-            SIDE_Y0,
-        )
-        .plane(
-            fy1 * la.z - la.y,
-            fy1 * ld.z - ld.y,
-            if cell.y1 == n { edge[3] } else { false },
-            SIDE_Y1,
-        )
-        .bound(z, SIDE_Z)
-        .interval()
+        .plane(la.x - fx0 * la.z, ld.x - fx0 * ld.z, inc[0], SIDE_X0)
+        .plane(fx1 * la.z - la.x, fx1 * ld.z - ld.x, inc[1], SIDE_X1)
+        .plane(la.y - fy0 * la.z, ld.y - fy0 * ld.z, inc[2], SIDE_Y0)
+        .plane(fy1 * la.z - la.y, fy1 * ld.z - ld.y, inc[3], SIDE_Y1)
 }
 
 /// An interval being clipped by the planes `alpha + t beta >= 0` in turn ([`cell_interval`]'s
