@@ -232,6 +232,20 @@ fn rp_start_arms(s: vec2<i32>, d: i32) -> vec2<i32> {
     return vec2<i32>(-1, -1);
 }
 
+// The unit normal at the texel a walk ended on (`search`'s finish; the same operations as
+// `rp_score`'s). A function of its own so that the cost model's `finish` block names it, not
+// `scene_normalize`, which `rp_score` calls too (a function a block names is counted in that
+// block only).
+fn rp_found_normal(t: vec2<i32>) -> vec3<f32> {
+    return scene_normalize(textureLoad(reflector_normal, t, 0).xyz);
+}
+
+// `v` mirrored in the found texel's plane (`rp_mirror`), for the cost model's `finish` block as
+// `rp_found_normal` is.
+fn rp_virtual_vertex(v: vec3<f32>, p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    return rp_mirror(v, p, n);
+}
+
 @compute @workgroup_size(64)
 fn search(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.y * 65535u * 64u + gid.x;
@@ -257,7 +271,7 @@ fn search(@builtin(global_invocation_id) gid: vec3<u32>) {
     var capped = fwd.capped;
     out.status = RP_FOUND;
     var p = textureLoad(reflector_position, t, 0).xyz;
-    var n = scene_normalize(textureLoad(reflector_normal, t, 0).xyz);
+    var n = rp_found_normal(t);
     if !capped && rp_dot(v - p, n) < 0.0 {
         let inv = rp_walk(t, v, true, false);
         out.inverse_iterations = inv.iterations;
@@ -265,13 +279,13 @@ fn search(@builtin(global_invocation_id) gid: vec3<u32>) {
         capped = inv.capped;
         out.status = RP_HIDDEN;
         p = textureLoad(reflector_position, t, 0).xyz;
-        n = scene_normalize(textureLoad(reflector_normal, t, 0).xyz);
+        n = rp_found_normal(t);
     }
     if capped {
         out.status = RP_CAP;
     }
     out.texel = t;
-    out.position = rp_mirror(v, p, n);
+    out.position = rp_virtual_vertex(v, p, n);
     out.path = length(rp.eye - p) + length(v - p);
     rp_vertices[i] = out;
 }

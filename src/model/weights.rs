@@ -334,6 +334,25 @@ impl ShaderFunctions {
         self.expanded_by(name, excluded, |f| f.lane)
     }
 
+    /// The functions that call `name`, one entry per call site, by name (a function without a
+    /// name as `#id`), in id order; empty where nothing calls it or it does not exist.
+    pub fn callers(&self, name: &str) -> Vec<String> {
+        let Some(&id) = self.names.get(name) else {
+            return Vec::new();
+        };
+        let name_of = |caller: u32| {
+            self.names
+                .iter()
+                .find(|(_, i)| **i == caller)
+                .map_or_else(|| format!("#{caller}"), |(n, _)| n.clone())
+        };
+        self.by_id
+            .iter()
+            .flat_map(|(&caller, f)| f.calls.iter().filter(|&&c| c == id).map(move |_| caller))
+            .map(name_of)
+            .collect()
+    }
+
     fn expanded_by(
         &self,
         name: &str,

@@ -60,7 +60,7 @@ pub const REFLECTION_POINT_BLOCKS: &[Block] = &[
     // One texel's score (5 on the first forward step, 9 after).
     b("score", RP, &["rp_score"]),
     // The virtual vertex (mirror in the final texel's plane).
-    b("finish", RP, &["rp_mirror", "scene_normalize"]),
+    b("finish", RP, &["rp_virtual_vertex", "rp_found_normal"]),
     // One distance of the start texel's crosshair search (up to 4 arm texels read).
     b("start_arms", RP, &["rp_start_arms"]),
 ];
