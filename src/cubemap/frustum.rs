@@ -154,7 +154,7 @@ impl Interval {
 
 /// `[t0, t1]` of the segment `la + t ld`, `t in [t_lo, t_hi]` (face-local `la`, `ld`) inside the
 /// frustum of `cell`, from the five affine inequalities of ALGORITHM.md: the four side planes
-/// ([`side_planes`]), then the face's plane `z >= 0`.
+/// (`side_planes`), then the face's plane `z >= 0`.
 pub fn cell_interval(la: Vec3, ld: Vec3, cell: &CellRect, t_lo: f32, t_hi: f32) -> Interval {
     side_planes(la, ld, cell, t_lo, t_hi)
         .plane(la.z, ld.z, false, SIDE_Z)
