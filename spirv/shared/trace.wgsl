@@ -409,10 +409,7 @@ struct Located {
 // that carry the search compile faster (`render default`'s renderer set-up took 3.3-3.7 s
 // before, 2.0-2.7 s after, on a loaded 2-core machine).
 fn texel_search(seg: Segment, face: u32, cx: u32, cy: u32, ahead: bool, mx: f32, my: f32, t: f32, size: u32, lo: f32, hi: f32) -> Located {
-    let la = to_face_local(face, seg.a);
-    let ld = to_face_local(face, seg.d);
-    let f = FaceConsts(la, ld, edge_inclusive_bits(face), plane_bound(la.z, ld.z, false));
-    return texel_search_face(f, face, cx, cy, ahead, mx, my, t, size, lo, hi);
+    return texel_search_face(face_consts(seg, face), face, cx, cy, ahead, mx, my, t, size, lo, hi);
 }
 
 // What the texel tests on one face share: the face-local ray, the face's edge bits
@@ -423,6 +420,12 @@ struct FaceConsts {
     ld: vec3<f32>,
     edge: u32,
     z: PlaneBound,
+}
+
+fn face_consts(seg: Segment, face: u32) -> FaceConsts {
+    let la = to_face_local(face, seg.a);
+    let ld = to_face_local(face, seg.d);
+    return FaceConsts(la, ld, edge_inclusive_bits(face), plane_bound(la.z, ld.z, false));
 }
 
 // `texel_search` on the face constants `f`.
@@ -587,8 +590,8 @@ fn clip_cell_face(la: vec3<f32>, ld: vec3<f32>, cell: CellRect, edge: u32, z: Pl
     return interval_empty();
 }
 
-// `r_bounds` from the ray's closest approach `closest` (t*, r(t*)), made once per ray
-// (`cubemap::frustum::r_bounds_from`): the same operations on the same operands.
+// `r_bounds` from the ray's closest approach `closest` (t*, r(t*)), made once per face march
+// (`mip_start`; `cubemap::frustum::r_bounds_from`): the same operations on the same operands.
 fn r_bounds_from(a: vec3<f32>, d: vec3<f32>, closest: vec2<f32>, t0: f32, t1: f32) -> vec2<f32> {
     let r0 = r_at(a, d, t0);
     let r1 = r_at(a, d, t1);
@@ -632,21 +635,23 @@ fn locate(seg: Segment, face: u32, t: f32, size: u32, lo: f32, hi: f32) -> Locat
 // around a neighbour it is across a strict side of (`across_exit`); the proof is there.
 fn texel_certified(seg: Segment, face: u32, x: u32, y: u32, t: f32, size: u32, lo: f32, hi: f32) -> Located {
     let tex = Texel(face, x, y);
-    // |x| < 2^126 on the bits (false for NaN, which a compiler may assume away in a compare).
+    let iv = texel_interval(seg, tex, size, lo, hi);
+    return Located(certifiable(seg) && crosses(iv) && iv.t1 > t && iv.t0 <= t, tex, iv);
+}
+
+// The certificate's bound on the ray (`cpu::certified`): every component of `a` and `d` below
+// 2^126 in magnitude, tested on the bits (false for NaN, which a compiler may assume away in a
+// compare).
+fn certifiable(seg: Segment) -> bool {
     let limit = vec3<u32>(CERTIFIED_LIMIT_BITS);
     let mag = vec3<u32>(0x7fffffffu);
-    let planes_finite = all((bitcast<vec3<u32>>(seg.a) & mag) < limit) && all((bitcast<vec3<u32>>(seg.d) & mag) < limit);
-    let iv = texel_interval(seg, tex, size, lo, hi);
-    return Located(planes_finite && crosses(iv) && iv.t1 > t && iv.t0 <= t, tex, iv);
+    return all((bitcast<vec3<u32>>(seg.a) & mag) < limit) && all((bitcast<vec3<u32>>(seg.d) & mag) < limit);
 }
 
 // `texel_certified` on the face constants `f` of `face` (`cell_interval_face`: the same bits).
 fn texel_certified_face(seg: Segment, f: FaceConsts, face: u32, x: u32, y: u32, t: f32, size: u32, lo: f32, hi: f32) -> Located {
-    let limit = vec3<u32>(CERTIFIED_LIMIT_BITS);
-    let mag = vec3<u32>(0x7fffffffu);
-    let planes_finite = all((bitcast<vec3<u32>>(seg.a) & mag) < limit) && all((bitcast<vec3<u32>>(seg.d) & mag) < limit);
     let iv = clip_cell_face(f.la, f.ld, cell_rect_texel(face, x, y, size), f.edge, f.z, lo, hi);
-    return Located(planes_finite && crosses(iv) && iv.t1 > t && iv.t0 <= t, Texel(face, x, y), iv);
+    return Located(certifiable(seg) && crosses(iv) && iv.t1 > t && iv.t0 <= t, Texel(face, x, y), iv);
 }
 
 // The bits of `cpu::CERTIFIED_LIMIT`, 2^126.
@@ -801,14 +806,11 @@ const MIP_DONE: u32 = 2u;
 // The pyramid march over one face of one piece between turns.
 struct MipMarch {
     face: u32,
-    // The face-local ray and `next_texel`'s signs of travel.
-    la: vec3<f32>,
-    ld: vec3<f32>,
+    // The face's constants (the face-local ray, edge bits, z plane), `next_texel`'s signs of
+    // travel and the ray's closest approach to the centre (t*, r(t*)), for the texel and cell
+    // tests.
+    f: FaceConsts,
     signs: vec2<f32>,
-    // The cell tests' constants: the face's edge bits and z plane, the ray's closest approach
-    // to the centre (t*, r(t*)).
-    edge: u32,
-    z: PlaneBound,
     closest: vec2<f32>,
     // Bit l: the caller's `checked[l]` was written (none before); `checked[l]` is the level-l
     // cell last found not skippable, packed `x | y << 16` (cells are under 2^11 for
@@ -841,11 +843,8 @@ struct MipMarch {
 fn mip_start(m: ptr<function, MipMarch>, seg: Segment, face: u32, t0: f32) {
     let none = 0xffffffffu;
     (*m).face = face;
-    (*m).la = to_face_local(face, seg.a);
-    (*m).ld = to_face_local(face, seg.d);
+    (*m).f = face_consts(seg, face);
     (*m).signs = travel_signs(seg, face);
-    (*m).edge = edge_inclusive_bits(face);
-    (*m).z = plane_bound((*m).la.z, (*m).ld.z, false);
     let ts = closest_t(seg.a, seg.d);
     (*m).closest = vec2<f32>(ts, r_at(seg.a, seg.d, ts));
     (*m).written = 0u;
@@ -885,7 +884,7 @@ fn mip_turn(k: u32, seg: Segment, m: ptr<function, MipMarch>, checked: ptr<funct
             // the 3x3 search where it does not hold (`cpu::locate_counted`,
             // `cpu::locate_after_skip`, `cpu::next_texel_counted`).
             let t = (*m).search_t;
-            let fc = FaceConsts((*m).la, (*m).ld, (*m).edge, (*m).z);
+            let fc = (*m).f;
             var centre = vec2<u32>((*m).cur.tex.x, (*m).cur.tex.y);
             var first = centre;
             var tried = true;
@@ -902,7 +901,7 @@ fn mip_turn(k: u32, seg: Segment, m: ptr<function, MipMarch>, checked: ptr<funct
                 // clamped into the cell; none past the face's edge.
                 var p = vec2<i32>(i32(centre.x), i32(centre.y));
                 if side == SIDE_X0 || side == SIDE_X1 {
-                    p = vec2<i32>(select(i32(r.y) , i32(r.x) - 1, side == SIDE_X0), i32(clamp(centre.y, r.z, r.w - 1u)));
+                    p = vec2<i32>(select(i32(r.y), i32(r.x) - 1, side == SIDE_X0), i32(clamp(centre.y, r.z, r.w - 1u)));
                 } else if side == SIDE_Y0 || side == SIDE_Y1 {
                     p = vec2<i32>(i32(clamp(centre.x, r.x, r.y - 1u)), select(i32(r.w), i32(r.z) - 1, side == SIDE_Y0));
                 }
@@ -955,7 +954,7 @@ fn mip_turn(k: u32, seg: Segment, m: ptr<function, MipMarch>, checked: ptr<funct
                 (*c).cells += 1u;
                 let span = 1u << level;
                 let rect = CellRect(face, min(cell.x * span, n), min((cell.x + 1u) * span, n), min(cell.y * span, n), min((cell.y + 1u) * span, n), n);
-                let civ = cell_interval_face((*m).la, (*m).ld, rect, (*m).edge, (*m).z, lo, hi);
+                let civ = cell_interval_face((*m).f.la, (*m).f.ld, rect, (*m).f.edge, (*m).f.z, lo, hi);
                 let inf = inflated(civ, lo, hi, reach);
                 var skip = false;
                 if inf.ok && any((*m).last_skip != vec3<u32>(level, cell.x, cell.y)) {

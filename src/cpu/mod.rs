@@ -768,7 +768,7 @@ pub fn next_texel_counted(
     let ld = to_face_local(cur.face, seg.d);
     let mx = ld.x * la.z - la.x * ld.z;
     let my = ld.y * la.z - la.y * ld.z;
-    if let Some((tex, _)) = across_exit(cur, iv.exit, mx, my, size)
+    if let Some(tex) = across_exit(cur, iv.exit, mx, my, size)
         && let Some(next) = certified(seg, tex, iv.t1, size, lo, hi)
     {
         return (Some((tex, next)), false);
@@ -787,14 +787,8 @@ pub fn next_texel_counted(
 }
 
 /// The texel across side `exit` of `cur`, where it is on the face and the ray moves across
-/// that side strictly (`mx`, `my`: [`next_texel`]'s signs of motion), with its offset.
-pub fn across_exit(
-    cur: Texel,
-    exit: u32,
-    mx: f32,
-    my: f32,
-    size: u32,
-) -> Option<(Texel, (i32, i32))> {
+/// that side strictly (`mx`, `my`: [`next_texel`]'s signs of motion).
+pub fn across_exit(cur: Texel, exit: u32, mx: f32, my: f32, size: u32) -> Option<Texel> {
     let (dx, dy) = match exit {
         SIDE_X0 => (-1, 0),
         SIDE_X1 => (1, 0),
@@ -806,14 +800,11 @@ pub fn across_exit(
     let y = cur.y as i64 + dy as i64;
     let n = size as i64;
     let strict = (dx as f32) * mx > 0.0 || (dy as f32) * my > 0.0;
-    (strict && x >= 0 && y >= 0 && x < n && y < n).then_some((
-        Texel {
-            face: cur.face,
-            x: x as u32,
-            y: y as u32,
-        },
-        (dx, dy),
-    ))
+    (strict && x >= 0 && y >= 0 && x < n && y < n).then_some(Texel {
+        face: cur.face,
+        x: x as u32,
+        y: y as u32,
+    })
 }
 
 /// The 3x3 texel search of [`locate`] and [`next_texel`] (the shader's `texel_search`): of the

@@ -307,7 +307,7 @@ fn weak_search(leave_out: &'static str) -> Box<SearchFn> {
                 )
             }
             Some((cur, iv)) => (
-                across_exit(cur, iv.exit, m.0, m.1, size).map(|(tex, _)| tex),
+                across_exit(cur, iv.exit, m.0, m.1, size),
                 (cur.x, cur.y),
                 Some(m),
             ),
