@@ -5,6 +5,7 @@
 //!
 //! - `cpu_trace`: the CPU tracers (walk, mip march, alg. 3, approximate criteria, several CMOs)
 //!   on analytic cube maps;
+//! - `face_order`: the faces a trace marches, in order, on the GPU against the CPU;
 //! - `gpu_twin`: the GPU tracer (`trace_probe` pass) against its CPU twin, ray by ray;
 //! - `texel_search`: the 3x3 texel search against the nine-interval search it replaced;
 //! - `verified_trace`: verified hits in the CPU tracer;
@@ -16,6 +17,8 @@ mod common;
 
 #[path = "tracer/cpu_trace.rs"]
 mod cpu_trace;
+#[path = "tracer/face_order.rs"]
+mod face_order;
 #[path = "tracer/gpu_twin.rs"]
 mod gpu_twin;
 #[path = "tracer/gpu_verify.rs"]

@@ -219,49 +219,88 @@ fn split_near_centre(seg: Segment, radius: f32) -> Pieces {
     return out;
 }
 
-// The faces a piece crosses, in order of entry t (ties: lower face index first).
+// The faces a piece crosses, in order of entry t (ties: lower face index first), and the entry
+// t of each (`cpu::FaceList`'s `iv[i].t0`, the only field the tracers read).
 struct FaceList {
     count: u32,
     face: array<u32, 6>,
-    iv: array<Interval, 6>,
+    t0: array<f32, 6>,
 }
 
-// The list is what inserting the crossed faces in index order, each after the faces of no
-// larger entry t, gives (the CPU's stable sort): face f goes to rank = the crossed faces g < f
-// with t0_g <= t0_f plus the crossed faces g > f with t0_g < t0_f (t0 is never NaN where
-// `crosses`). Written without the insertion loop, whose moves at a per-lane position lavapipe ran
-// lane by lane: ranks from pairwise comparisons, then each slot filled by the face of its rank
-// (`benches/results/lavapipe-shaders.md`: 8 to 12 % of the fragment and compute paths' cost per
-// ray).
-// The six intervals stay in a loop: written out, they cost the pipelines 40 to 500 ms more to
-// create (this function is inlined at every call site), for no measurable gain per ray.
+// A face's sort key: its entry t (+inf where the piece does not cross it) and its index.
+struct FaceKey {
+    t: f32,
+    f: u32,
+}
+
+// One compare-exchange of the sorting network: `a` ends the one of the two that sorts first,
+// by entry t, then by face index.
+fn face_keys_order(a: ptr<function, FaceKey>, b: ptr<function, FaceKey>) {
+    let x = *a;
+    let y = *b;
+    let swap = y.t < x.t || (y.t == x.t && y.f < x.f);
+    *a = FaceKey(select(x.t, y.t, swap), select(x.f, y.f, swap));
+    *b = FaceKey(select(y.t, x.t, swap), select(y.f, x.f, swap));
+}
+
+// The faces the piece [lo, hi] of `seg` crosses (`cpu::faces_crossed`): each face's interval
+// (`face_interval`), then their order (`face_order`). The six intervals stay in a loop: written
+// out, they cost the pipelines 40 to 500 ms more to create (this function is inlined at every
+// call site), for no measurable gain per ray.
 fn faces_crossed(seg: Segment, lo: f32, hi: f32, size: u32) -> FaceList {
-    var iv: array<Interval, FACE_COUNT>;
+    var t0: array<f32, FACE_COUNT>;
     for (var f = 0u; f < FACE_COUNT; f++) {
-        iv[f] = cell_interval(to_face_local(f, seg.a), to_face_local(f, seg.d), cell_rect_face(f, size), lo, hi);
+        let iv = face_interval(f, to_face_local(f, seg.a), to_face_local(f, seg.d), lo, hi);
+        t0[f] = select(f32_inf(), iv.t0, crosses(iv));
     }
+    return face_order(t0);
+}
+
+// The crossed faces in order of entry t `t0` (+inf for a face not crossed; `cpu::face_order`):
+// what inserting the crossed faces in index order, each after the faces of no larger entry t,
+// gives (the CPU's stable sort), which is the order of the keys (t0, face), all distinct, with
+// the faces not crossed last (a crossed face's t0 is below its t1, so neither NaN nor +inf).
+// The keys go through the optimal sorting network for six (12 compare-exchanges in 5 rounds,
+// Knuth TAOCP vol. 3, 5.3.4), straight-line code on six registers: the insertion loop moved
+// entries at a per-lane position, which lavapipe ran lane by lane, and the ranks that replaced it
+// took 36 pairwise comparisons and 36 per-lane copies. `tests/tracer/face_order.rs` holds it to
+// the CPU on every key tuple over four values, ties and +inf included.
+fn face_order(t0: array<f32, FACE_COUNT>) -> FaceList {
+    var k0 = FaceKey(t0[0], 0u);
+    var k1 = FaceKey(t0[1], 1u);
+    var k2 = FaceKey(t0[2], 2u);
+    var k3 = FaceKey(t0[3], 3u);
+    var k4 = FaceKey(t0[4], 4u);
+    var k5 = FaceKey(t0[5], 5u);
+    face_keys_order(&k0, &k5);
+    face_keys_order(&k1, &k3);
+    face_keys_order(&k2, &k4);
+    face_keys_order(&k1, &k2);
+    face_keys_order(&k3, &k4);
+    face_keys_order(&k0, &k3);
+    face_keys_order(&k2, &k5);
+    face_keys_order(&k0, &k1);
+    face_keys_order(&k2, &k3);
+    face_keys_order(&k4, &k5);
+    face_keys_order(&k1, &k2);
+    face_keys_order(&k3, &k4);
     var fl: FaceList;
-    fl.count = 0u;
-    // rank[f]: the slot of face f (FACE_COUNT where not crossed).
-    var rank: array<u32, FACE_COUNT>;
-    for (var f = 0u; f < FACE_COUNT; f++) {
-        var r = 0u;
-        for (var g = 0u; g < FACE_COUNT; g++) {
-            let before = select(iv[g].t0 < iv[f].t0, iv[g].t0 <= iv[f].t0, g < f);
-            r += select(0u, 1u, g != f && crosses(iv[g]) && before);
-        }
-        rank[f] = select(FACE_COUNT, r, crosses(iv[f]));
-        fl.count += select(0u, 1u, crosses(iv[f]));
-    }
-    for (var k = 0u; k < FACE_COUNT; k++) {
-        for (var f = 0u; f < FACE_COUNT; f++) {
-            if rank[f] == k {
-                fl.face[k] = f;
-                fl.iv[k] = iv[f];
-            }
-        }
-    }
+    fl.face = array<u32, 6>(k0.f, k1.f, k2.f, k3.f, k4.f, k5.f);
+    fl.t0 = array<f32, 6>(k0.t, k1.t, k2.t, k3.t, k4.t, k5.t);
+    let inf = f32_inf();
+    fl.count = select(0u, 1u, k0.t < inf) + select(0u, 1u, k1.t < inf) + select(0u, 1u, k2.t < inf)
+        + select(0u, 1u, k3.t < inf) + select(0u, 1u, k4.t < inf) + select(0u, 1u, k5.t < inf);
     return fl;
+}
+
+// `cell_interval` of a whole face (`cell_rect_face`), without the rectangle's arithmetic: its
+// side planes at face coordinates -1 and 1 (`face_coord(0, n)` and `face_coord(n, n)`, exactly,
+// for every size) and its edges owned as `edge_inclusive_bits` says (`owned_sides` of the whole
+// face): the same operands in the same order, so the same bits.
+fn face_interval(face: u32, la: vec3<f32>, ld: vec3<f32>, lo: f32, hi: f32) -> Interval {
+    let e = edge_inclusive_bits(face);
+    let owned = vec4<bool>((e & 1u) != 0u, (e & 2u) != 0u, (e & 4u) != 0u, (e & 8u) != 0u);
+    return frustum_interval(la, ld, vec4<f32>(-1.0, 1.0, -1.0, 1.0), owned, lo, hi);
 }
 
 fn texel_interval(seg: Segment, t: Texel, size: u32, lo: f32, hi: f32) -> Interval {
@@ -706,7 +745,7 @@ fn trace_walk(k: u32, seg: Segment, cut: f32) -> TraceResult {
         let hi = pieces.range[p].y;
         let faces = faces_crossed(seg, lo, hi, n);
         for (var f = 0u; f < faces.count; f++) {
-            var cur = locate(seg, faces.face[f], faces.iv[f].t0, n, lo, hi);
+            var cur = locate(seg, faces.face[f], faces.t0[f], n, lo, hi);
             for (var step = 0u; step < MAX_FACE_STEPS && cur.found; step++) {
                 c.texels += 1u;
                 let o = classify(k, seg, cur.tex, cur.iv);
@@ -777,7 +816,7 @@ fn trace_mip(k: u32, seg: Segment, cut: f32, variant: u32) -> TraceResult {
         for (var f = 0u; f < faces.count; f++) {
             var m: MipMarch;
             var checked: array<u32, TRACE_MIP_MAX_LEVELS>;
-            mip_start(&m, seg, faces.face[f], faces.iv[f].t0);
+            mip_start(&m, seg, faces.face[f], faces.t0[f]);
             loop {
                 let turn = mip_turn(k, seg, &m, &checked, lo, hi, reach, &c, false);
                 if turn == MIP_DONE {
@@ -1087,7 +1126,7 @@ fn trace_sampled(k: u32, seg: Segment, cut: f32) -> TraceResult {
             let hi = pieces.range[p].y;
             let faces = faces_crossed(seg, lo, hi, n);
             for (var f = 0u; f < faces.count; f++) {
-                var cur = locate(seg, faces.face[f], faces.iv[f].t0, n, lo, hi);
+                var cur = locate(seg, faces.face[f], faces.t0[f], n, lo, hi);
                 while cur.found {
                     if budget == 0u {
                         return escaped(seg, st.c);

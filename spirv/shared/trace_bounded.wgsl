@@ -76,7 +76,7 @@ fn bounded_spent(walks: u32) -> bool {
 
 // Back-edges a ray may take before `trace_ray_bounded` stops it (below lavapipe's 65535).
 const BOUNDED_MAX_EDGES: u32 = 60000u;
-// Back-edges of one single-CMO trace outside the texel walk: `faces_crossed` (78 per piece),
+// Back-edges of one single-CMO trace outside the texel walk: `faces_crossed` (6 per piece),
 // `cut_radius` (6 cells of the top level, or 6 texels), the piece and face loops.
 const BOUNDED_TRACE_EDGES: u32 = 200u;
 
@@ -234,7 +234,7 @@ fn trace_mip_bounded(k: u32, seg: Segment, cut: f32, edges: ptr<function, u32>) 
         for (var f = 0u; f < faces.count; f++) {
             var m: MipMarch;
             var checked: array<u32, TRACE_MIP_MAX_LEVELS>;
-            mip_start(&m, seg, faces.face[f], faces.iv[f].t0);
+            mip_start(&m, seg, faces.face[f], faces.t0[f]);
             loop {
                 let cells = c.cells;
                 let turn = mip_turn(k, seg, &m, &checked, lo, hi, reach, &c, true);

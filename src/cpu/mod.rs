@@ -169,8 +169,8 @@ impl WorkLog for Vec<Work> {
 
 use crate::cubemap::CubeMap;
 use crate::cubemap::face::{
-    FACE_COUNT, Texel, edge_inclusive, face_coord, neighbour_across, st_to_texel_coord,
-    texel_centre_dir, to_face_local,
+    Texel, edge_inclusive, face_coord, neighbour_across, st_to_texel_coord, texel_centre_dir,
+    to_face_local,
 };
 use crate::cubemap::frustum::{
     CellRect, Clip, Interval, PlaneBound, SIDE_SEGMENT, SIDE_X0, SIDE_X1, SIDE_Y0, SIDE_Y1, SIDE_Z,
@@ -390,21 +390,32 @@ pub struct FaceList {
     pub iv: [Interval; 6],
 }
 
-/// Faces crossed by `seg` over `[lo, hi]`, sorted (insertion sort, as a shader would).
+/// Faces crossed by `seg` over `[lo, hi]`, in order of entry ([`face_order`]).
 pub fn faces_crossed(seg: &Segment, lo: f32, hi: f32, size: u32) -> FaceList {
-    let mut fl = FaceList {
-        count: 0,
-        face: [0; 6],
-        iv: [Interval::EMPTY; 6],
-    };
-    for f in 0..FACE_COUNT {
-        let iv = cell_interval(
+    let iv: [Interval; 6] = std::array::from_fn(|f| {
+        let f = f as u32;
+        cell_interval(
             to_face_local(f, seg.a),
             to_face_local(f, seg.d),
             &CellRect::face(f, size),
             lo,
             hi,
-        );
+        )
+    });
+    face_order(&iv)
+}
+
+/// The faces whose interval `iv[f]` is crossed, sorted by entry `t0` with ties in face order:
+/// each inserted in index order after the faces of no larger `t0` (a stable insertion sort).
+/// The shaders reach the same list by a sorting network on the keys `(t0, face)`
+/// (`spirv/shared/trace.wgsl`'s `face_order`).
+pub fn face_order(iv: &[Interval; 6]) -> FaceList {
+    let mut fl = FaceList {
+        count: 0,
+        face: [0; 6],
+        iv: [Interval::EMPTY; 6],
+    };
+    for (f, &iv) in (0u32..).zip(iv) {
         if iv.crosses() {
             let mut k = fl.count as usize;
             while k > 0 && fl.iv[k - 1].t0 > iv.t0 {
