@@ -15,6 +15,7 @@ mod model_dynamic;
 mod model_harness;
 
 use cubetrace::Method;
+use cubetrace::cpu::Status;
 use cubetrace::model::bvh::{self, BvhOut};
 use cubetrace::model::replay::TexelLayout;
 use cubetrace::model::replay::{
@@ -216,11 +217,22 @@ fn compute_visits_match_the_twin_counters() {
         (texels, cells)
     };
     let mut total = 0;
+    let mut decided = 0;
     for r in &rays {
         assert_eq!(counted(r), (r.texels, r.cells));
         total += r.texels;
+        // A step decides only where it classifies, and a ray that hits decided at least once.
+        let steps = r.phases.iter().filter_map(|p| match p {
+            Phase::Step(s) => Some(s),
+            _ => None,
+        });
+        let decides: Vec<_> = steps.filter(|s| s.decide).collect();
+        assert!(decides.iter().all(|s| s.classify.is_some()));
+        assert!(!r.hit || !decides.is_empty());
+        decided += decides.len();
     }
     assert!(total > 0);
+    assert!(decided > 0);
     // Negative: one visit dropped.
     let r = rays
         .iter_mut()
@@ -238,12 +250,14 @@ fn compute_visits_match_the_twin_counters() {
 }
 
 /// Fragment: the classified texels of the work tree equal the twin's `texels` counter summed
-/// over the ray's traces (the pyramid march), and so do the cell tests.
-/// Negative: a tree with one classify removed.
+/// over the ray's traces (the pyramid march), and so do the cell tests; the deciding texels
+/// (`decide`) equal the traces that end in a hit or behind.
+/// Negative: a tree with one classify removed, and one with one decide removed.
 #[test]
 fn fragment_classify_count_matches_the_twin() {
     let s = settings(32);
     let frame = work::frame(&scene(), &s).expect("frame");
+    let mut decided = 0;
     let mut checked = 0;
     for ray in frame.rays.iter().step_by(7) {
         let tree = work::fragment_ray(&frame, ray);
@@ -257,7 +271,7 @@ fn fragment_classify_count_matches_the_twin() {
             t_lo: 0.0,
             t_hi: frame.t_hi,
         };
-        let tally = std::cell::RefCell::new((0u32, 0u32));
+        let tally = std::cell::RefCell::new((0u32, 0u32, 0usize));
         cubetrace::cpu::multi::trace_world_ray(
             &frame.cmos,
             &wr,
@@ -269,6 +283,7 @@ fn fragment_classify_count_matches_the_twin() {
                 let mut t = tally.borrow_mut();
                 t.0 += r.counters.texels;
                 t.1 += r.counters.cells;
+                t.2 += usize::from(matches!(r.status, Status::Hit | Status::Behind));
                 r
             },
         );
@@ -277,6 +292,13 @@ fn fragment_classify_count_matches_the_twin() {
         cells += t.1;
         assert_eq!(tree.count(work::F_CLASSIFY), texels as usize);
         assert_eq!(tree.count(work::F_CELL_TEST), cells as usize);
+        assert_eq!(tree.count(work::F_DECIDE), t.2);
+        decided += t.2;
+        if t.2 > 0 {
+            let mut bad = tree.clone();
+            remove_one(&mut bad, work::F_DECIDE);
+            assert_ne!(bad.count(work::F_DECIDE), t.2);
+        }
         checked += 1;
         if texels > 0 {
             // Negative: remove one classify.
@@ -286,6 +308,7 @@ fn fragment_classify_count_matches_the_twin() {
         }
     }
     assert!(checked > 5);
+    assert!(decided > 0);
 }
 
 fn remove_one(it: &mut work::Iter, block: usize) -> bool {

@@ -370,11 +370,19 @@ fn classify(k: u32, seg: Segment, texel: Texel, iv: Interval) -> Outcome {
 // `classify`; `strict_code` false (a constant) leaves `--strict` out: the production variant's
 // code (`TRACE_EXACT_MIP`, picked only without `--strict`: `vk::passes::cmo::exact_mip_only`).
 fn classify_with(k: u32, seg: Segment, texel: Texel, iv: Interval, strict_code: bool) -> Outcome {
-    let n = trace_config.size;
     let d = distance_at(k, texel);
     if !texel_not_in_front(seg, iv, d) {
         return Outcome(0u, 0.0, false);
     }
+    return classify_candidate(k, seg, texel, iv, d, strict_code);
+}
+
+// The outcome of a candidate texel (distance `d`, not entirely in front): a hit or behind, so
+// the single-CMO trace's last texel. A function of its own so that the cost model counts it
+// where a lane's texel is a candidate, not at every texel classified (`model::methods`'
+// `decide` blocks).
+fn classify_candidate(k: u32, seg: Segment, texel: Texel, iv: Interval, d: f32, strict_code: bool) -> Outcome {
+    let n = trace_config.size;
     let r0 = r_at(seg.a, seg.d, iv.t0);
     if r0 <= d {
         // First root after t0 of |a + t d| = D: the larger root (r(t0) <= D, r convex).

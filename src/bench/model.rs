@@ -101,6 +101,8 @@ pub struct GpuMethod {
     /// The block with the largest share of the dynamic cost, and that share.
     pub dominant_block: String,
     pub dominant_share: f64,
+    /// Every block's share of the dynamic cost, largest first (`model.json` only).
+    pub block_shares: Vec<(String, f64)>,
 }
 
 impl GpuMethod {
@@ -109,11 +111,19 @@ impl GpuMethod {
     pub fn of(stats: &ReplayStats, method: Method, one_lane: bool) -> Result<GpuMethod> {
         let (ws, _) = weights_by(method, Counting::Static, one_lane)?;
         let (wd, _) = weights_by(method, Counting::Dynamic, one_lane)?;
-        let (i, share) = weights::shares(stats, &wd)
-            .into_iter()
+        let shares = weights::shares(stats, &wd);
+        let (i, share) = shares
+            .iter()
+            .copied()
             .enumerate()
             .max_by(|a, b| a.1.total_cmp(&b.1))
             .unwrap_or((0, 0.0));
+        let mut block_shares: Vec<(String, f64)> = blocks(method)
+            .iter()
+            .zip(&shares)
+            .map(|(b, &s)| (b.name.to_string(), s))
+            .collect();
+        block_shares.sort_by(|a, b| b.1.total_cmp(&a.1));
         Ok(GpuMethod {
             method,
             one_lane,
@@ -123,6 +133,7 @@ impl GpuMethod {
             sectors_per_ray: stats.sectors_per_ray,
             dominant_block: blocks(method).get(i).map_or("-", |b| b.name).to_string(),
             dominant_share: share,
+            block_shares,
         })
     }
 }
@@ -887,6 +898,7 @@ mod tests {
             sectors_per_ray: 3.0,
             dominant_block: "b".into(),
             dominant_share: 0.25,
+            block_shares: vec![("b".into(), 0.25)],
         }
     }
 

@@ -107,6 +107,8 @@ pub struct Step {
     pub visit: Option<Visit>,
     /// The classified texel's distance load (the step picked a texel).
     pub classify: Option<u64>,
+    /// The classified texel decides the trace (a hit or behind): `classify_candidate` runs.
+    pub decide: bool,
 }
 
 /// A node visit: the children's bound loads by logical lane j (children that exist), and the

@@ -486,4 +486,6 @@ fn compute_step(steps: &[&work::Step], lanes: u32, width: u32, mode: Mode, acc: 
         .collect();
     let refs: Vec<&[u64]> = loads.iter().map(|a| a.as_slice()).collect();
     acc.issue_if(lavapipe, C_CLASSIFY, width, refs.len() as u64 * l, &refs);
+    let deciding = steps.iter().filter(|s| s.decide).count() as u64;
+    acc.issue_if(lavapipe, C_DECIDE, width, deciding * l, &[]);
 }

@@ -722,6 +722,7 @@ const NAMED_CALLERS: &[(&str, &str, &[&str])] = &[
     (FRAG, "r_bounds_from", &["mip_turn"]),
     (FRAG, "mip_get", &["mip_turn"]),
     (FRAG, "classify_with", &["trace_mip", "classify"]),
+    (FRAG, "classify_candidate", &["classify_with"]),
     (FRAG, "verify_decision", &["trace_ray_verified"]),
     (FRAG, "hit_shade", &["trace_pixel", "fs_bounded"]),
     (FRAG, "texel_certified_face", &["mip_turn"]),
@@ -743,6 +744,7 @@ const NAMED_CALLERS: &[(&str, &str, &[&str])] = &[
     (COMP, "ray_bits", &["trace_queued", "trace_queued"]),
     (COMP, "advance", &["trace_queued"]),
     (COMP, "classify", &["advance", "trace_walk"]),
+    (COMP, "classify_candidate", &["classify_with"]),
     (COMP, "hit_shade", &["trace_queued"]),
     (
         COMP,

@@ -8,9 +8,9 @@
 //! - **Loops per trip.** A loop whose trip count the code fixes (a counter from a constant start,
 //!   stepped by a constant in the continue block, tested against a bound known where the block
 //!   runs, with no other way out) counts its body that many times ([`LoopKind::Exact`]: e.g.
-//!   `bvh_node_hits`' 8 children, `children_crossed`'s 8 columns, `faces_crossed`' 6 faces and
-//!   its 6 x 6 ranking). A counted loop with another exit (a `break` or `return` inside:
-//!   `enter_face`'s turns) and a loop with no such counter count once, as the static count does
+//!   `bvh_node_hits`' 8 children, `children_crossed`'s 8 columns, `faces_crossed`' 6 faces).
+//!   A counted loop with another exit (a `break` or `return` inside: `enter_face`'s turns) and
+//!   a loop with no such counter count once, as the static count does
 //!   ([`LoopKind::Early`], [`LoopKind::Unknown`]): the twins do not log their trips. The loops
 //!   whose trips the replay counts as blocks (a march's turns, a traversal's iterations) are
 //!   such loops, their bodies' blocks excluded, so they stay once per count.
@@ -24,7 +24,11 @@
 //!   [`Arms::Both`], which is lavapipe's execution (every arm under a mask) and a GPU warp whose
 //!   lanes diverge; [`Arms::Cheaper`] takes the cheaper path through every such `if`, what a warp
 //!   pays if all its lanes agree on the cheap side: a lower bound. The twins do not log which
-//!   arm each lane takes inside a block, so the model gives the two ends.
+//!   arm each lane takes inside a block, so the model gives the two ends. Where an arm is heavy
+//!   and rare, it is a function named by a block of its own that the twins log: the texel
+//!   classification's candidate arm (`classify_candidate`, the `decide` blocks of fragment and
+//!   compute) runs at a trace's deciding texel only, and a warp issues it where one of its
+//!   lanes decides (lavapipe mode: every turn the classification runs, as lavapipe masks it).
 //!
 //! # Where it stops
 //! Only integer and boolean values fold (comparisons, logic, `+ - *`, selects); a value loaded

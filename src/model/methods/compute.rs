@@ -68,8 +68,11 @@ pub const COMPUTE_BLOCKS: &[Block] = &[
     // Shading a hit for the record.
     b("shade", COMPUTE, &["hit_shade"]),
     // A piece's faces, found on its first visit inside `enter_face` (six frustum intervals and
-    // their ranking): a block of its own, so that `enter_face`'s other calls do not carry it.
+    // their order): a block of its own, so that `enter_face`'s other calls do not carry it.
     b("faces_crossed", COMPUTE, &["faces_crossed"]),
+    // A candidate texel's outcome (its hit or behind, inside `classify`): the step of a trace's
+    // deciding texel, so a warp issues it only where one of its rays decides.
+    b("decide", COMPUTE, &["classify_candidate"]),
 ];
 
 // Indices into COMPUTE_BLOCKS.
@@ -86,6 +89,7 @@ pub const C_ADVANCE: usize = 9;
 pub const C_CLASSIFY: usize = 10;
 pub const C_SHADE: usize = 11;
 pub const C_FACES_CROSSED: usize = 12;
+pub const C_DECIDE: usize = 13;
 
 /// A compute ray's work as `trace_queued` runs it (settle phases and steps).
 pub fn compute_ray(frame: &Frame, ray: &MirrorRay) -> ComputeRay {
@@ -113,7 +117,15 @@ pub fn compute_ray(frame: &Frame, ray: &MirrorRay) -> ComputeRay {
         out.texels += t.result.counters.texels;
         out.cells += t.result.counters.cells;
         let mut step = Step::default();
-        for e in &t.events {
+        // The texel that decides a hit or behind: the trace's last one classified.
+        let deciding = matches!(t.result.status, Status::Hit | Status::Behind)
+            .then(|| {
+                t.events
+                    .iter()
+                    .rposition(|e| matches!(e, Work::Classify(_)))
+            })
+            .flatten();
+        for (i, e) in t.events.iter().enumerate() {
             match *e {
                 Work::Visit {
                     face,
@@ -149,7 +161,10 @@ pub fn compute_ray(frame: &Frame, ray: &MirrorRay) -> ComputeRay {
                         crossed,
                     });
                 }
-                Work::Classify(tex) => step.classify = Some(addr.distance(k, n, tex)),
+                Work::Classify(tex) => {
+                    step.classify = Some(addr.distance(k, n, tex));
+                    step.decide = deciding == Some(i);
+                }
                 Work::Step { left_face, done: _ } => {
                     if !settle.is_empty() {
                         out.phases.push(Phase::Settle(std::mem::take(&mut settle)));

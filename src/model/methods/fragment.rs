@@ -57,7 +57,8 @@ pub const FRAGMENT_BLOCKS: &[Block] = &[
         FRAGMENT,
         &["cell_interval_face", "inflated", "r_bounds_from", "mip_get"],
     ),
-    // The exact classification of a texel.
+    // The exact classification of a texel: its distance and whether it is a candidate (not
+    // entirely in front).
     b("classify", FRAGMENT, &["classify_with"]),
     // Verification of a hit against the captured triangle IDs.
     b("verify", FRAGMENT, &["verify_decision"]),
@@ -66,6 +67,9 @@ pub const FRAGMENT_BLOCKS: &[Block] = &[
     // The texel tried first at a search and its certificate (`texel_certified_face`: one
     // interval on the face's constants), every search.
     b("texel_check", FRAGMENT, &["texel_certified_face"]),
+    // A candidate texel's outcome (its hit or behind): the turn of a trace's deciding texel, so
+    // a warp issues it only where one of its lanes decides.
+    b("decide", FRAGMENT, &["classify_candidate"]),
 ];
 
 /// Fragment's loops: the traces (rounds x CMOs, flattened), pieces, faces, turns of the march,
@@ -97,6 +101,7 @@ pub const FRAGMENT_PROGRAM: &[Stmt] = &[
                                 Stmt::Block(F_TEXEL_SEARCH),
                                 Stmt::Loop(L_CELL, &[Stmt::Block(F_CELL_TEST)]),
                                 Stmt::Block(F_CLASSIFY),
+                                Stmt::Block(F_DECIDE),
                             ],
                         ),
                     ],
@@ -119,6 +124,7 @@ pub const F_CLASSIFY: usize = 6;
 pub const F_VERIFY: usize = 7;
 pub const F_SHADE: usize = 8;
 pub const F_TEXEL_CHECK: usize = 9;
+pub const F_DECIDE: usize = 10;
 
 /// A fragment ray's work in fragment_trace.wgsl's loop nest ([`FRAGMENT_PROGRAM`]).
 pub fn fragment_ray(frame: &Frame, ray: &MirrorRay) -> Iter {
@@ -135,7 +141,15 @@ pub fn fragment_ray(frame: &Frame, ray: &MirrorRay) -> Iter {
         let k = t.k as u32;
         let trace = top.new_turn(L_TRACE);
         trace.exec(F_CMO_TRACE, Vec::new());
-        for e in &t.events {
+        // The texel that decides a hit or behind: the trace's last one classified.
+        let deciding = matches!(t.result.status, Status::Hit | Status::Behind)
+            .then(|| {
+                t.events
+                    .iter()
+                    .rposition(|e| matches!(e, Work::Classify(_)))
+            })
+            .flatten();
+        for (i, e) in t.events.iter().enumerate() {
             match *e {
                 Work::Piece => {
                     trace.new_turn(L_PIECE);
@@ -162,6 +176,9 @@ pub fn fragment_ray(frame: &Frame, ray: &MirrorRay) -> Iter {
                 Work::Classify(tex) => {
                     let turn = trace.last_turn(L_PIECE).last_turn(L_FACE).last_turn(L_TURN);
                     turn.exec(F_CLASSIFY, vec![addr.distance(k, n, tex)]);
+                    if deciding == Some(i) {
+                        turn.exec(F_DECIDE, Vec::new());
+                    }
                 }
                 _ => {}
             }
