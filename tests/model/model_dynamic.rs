@@ -237,3 +237,98 @@ fn the_bounded_arm_of_advance_is_dead_in_the_exact_entry_point() {
     assert!(a + 0.5 * pick < b, "exact {a}, bounded {b}, pick {pick}");
     assert!(b <= weights::weights(Method::Compute).unwrap()[i] * 1.01 + pick);
 }
+
+/// A hand-made module for the scalar variables (`Func::scalar_vars`), the shape of naga's
+/// short-circuit temporaries:
+/// - `h(flag)`: `var tmp; if flag { tmp = first } else { tmp = false }; if tmp { out = (x * x)
+///   * x }`: entry branch 1, each arm's store and branch 2, the load and branch 2, the second
+///   `if`'s arm 5 (load, two multiplies, store, branch), return 1;
+/// - `entry3`: calls `h(false)`; `entry4(p)`: calls `h(p)`.
+fn temporary_module(first: bool) -> Vec<u32> {
+    let mut w = vec![0x0723_0203, 0x0001_0300, 0, 100, 0];
+    for (id, n) in [(70, "h"), (90, "entry3"), (95, "entry4")] {
+        w.extend(name(id, n));
+    }
+    w.extend(inst(32, &[74, 7, 5])); // OpTypePointer Function bool
+    w.extend(inst(32, &[4, 6, 1])); // OpTypePointer Private %1
+    w.extend(inst(41, &[5, 13])); // %13 = true
+    w.extend(inst(42, &[5, 12])); // %12 = false
+    w.extend(inst(59, &[4, 20, 6])); // %20: a private variable
+    // h(flag)
+    w.extend(inst(54, &[1, 70, 0, 9]));
+    w.extend(inst(55, &[5, 71]));
+    w.extend(inst(248, &[72]));
+    w.extend(inst(59, &[74, 73, 7])); // var tmp
+    w.extend(inst(247, &[76, 0]));
+    w.extend(inst(250, &[71, 75, 77]));
+    w.extend(inst(248, &[75]));
+    w.extend(inst(62, &[73, if first { 13 } else { 12 }]));
+    w.extend(inst(249, &[76]));
+    w.extend(inst(248, &[77]));
+    w.extend(inst(62, &[73, 12]));
+    w.extend(inst(249, &[76]));
+    w.extend(inst(248, &[76]));
+    w.extend(inst(61, &[5, 78, 73])); // load tmp
+    w.extend(inst(247, &[80, 0]));
+    w.extend(inst(250, &[78, 79, 80]));
+    w.extend(inst(248, &[79]));
+    w.extend(inst(61, &[1, 81, 20]));
+    w.extend(inst(132, &[1, 82, 81, 81]));
+    w.extend(inst(132, &[1, 83, 82, 82]));
+    w.extend(inst(62, &[20, 83]));
+    w.extend(inst(249, &[80]));
+    w.extend(inst(248, &[80]));
+    w.extend(inst(253, &[]));
+    w.extend(inst(56, &[]));
+    // entry3: h(false); entry4(p): h(p)
+    w.extend(inst(54, &[1, 90, 0, 9]));
+    w.extend(inst(248, &[91]));
+    w.extend(inst(57, &[1, 92, 70, 12]));
+    w.extend(inst(253, &[]));
+    w.extend(inst(56, &[]));
+    w.extend(inst(54, &[1, 95, 0, 9]));
+    w.extend(inst(55, &[5, 96]));
+    w.extend(inst(248, &[97]));
+    w.extend(inst(57, &[1, 98, 70, 96]));
+    w.extend(inst(253, &[]));
+    w.extend(inst(56, &[]));
+    w
+}
+
+/// A temporary stored on the path walked carries its value to its load: `h(false)` stores
+/// `false`, so the second `if` folds and its arm is dead (the driver's promotion of the
+/// variable to a register does the same). Negatives: `h(p)` with the arms storing `true` and
+/// `false` counts the second arm (the arms disagree at the merge); with both arms storing
+/// `false` it is dead for any `p` (they agree).
+#[test]
+fn a_temporary_carries_its_stored_value_to_its_load() {
+    let m = Module::parse("hand", &temporary_module(true)).unwrap();
+    assert_eq!(dynamic_count(&m, "h", "entry3").0, 1.0 + 2.0 + 1.0 + 1.0);
+    assert_eq!(
+        dynamic_count(&m, "h", "entry4").0,
+        1.0 + 2.0 * 2.0 + 2.0 + 5.0 + 1.0
+    );
+    let same = Module::parse("hand", &temporary_module(false)).unwrap();
+    assert_eq!(
+        dynamic_count(&same, "h", "entry4").0,
+        1.0 + 2.0 * 2.0 + 1.0 + 1.0
+    );
+}
+
+/// The production fragment entry point (`fs_exact_mip`) passes `strict_code = false` down to
+/// `classify_candidate`, whose `!strict_code || strict == 0 || decisive_patch_hit(..)` naga
+/// writes through temporaries: the `--strict` test is dead there and is not called on a live
+/// path. Negative: under the generic `fs_main` (strict read from the config at run time) it is.
+#[test]
+fn the_strict_test_is_dead_in_the_production_fragment_entry() {
+    let m = Module::of("fragment_trace.wgsl").unwrap();
+    let strict = m.id("decisive_patch_hit").unwrap();
+    let called = |entry: &str| {
+        Contexts::from_entry(&m, entry)
+            .unwrap()
+            .by_function
+            .contains_key(&strict)
+    };
+    assert!(!called("fs_exact_mip"));
+    assert!(called("fs_main"));
+}

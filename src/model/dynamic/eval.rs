@@ -1,7 +1,11 @@
 #![forbid(unsafe_code)]
 //! The walk of a function's structured control flow that gives its dynamic cost ([`Eval`]):
 //! loops counted per trip where the code fixes their trips, calls followed with their known
-//! arguments, one or both arms of an `if` that does not fold.
+//! arguments, one or both arms of an `if` that does not fold. A variable that is only stored to
+//! and loaded from whole (`Func::scalar_vars`: naga's temporaries, such as the value of a
+//! short-circuit `a || b`) carries a known value from its store to its loads along the path
+//! walked, as a driver's promotion of variables to registers does: its value after an `if` is
+//! the one every arm that reaches the merge agrees on, and a loop forgets the variables it stores.
 use std::collections::{BTreeMap, BTreeSet};
 
 use crate::model::weights::{OP_FUNCTION_CALL, OP_LOAD, OP_STORE};
@@ -17,6 +21,13 @@ pub struct LoopNote {
     pub function: String,
     pub header: u32,
     pub kind: LoopKind,
+}
+
+/// The key under which `known` holds a scalar variable's value (SPIR-V ids stay below 2^31).
+const VAR_KEY: u32 = 1 << 31;
+
+fn var_key(var: u32) -> u32 {
+    var | VAR_KEY
 }
 
 /// A walk's end: the stop reached (a merge or continue target of an enclosing construct), or
@@ -57,6 +68,16 @@ impl<'m> Eval<'m> {
             return Cost::default();
         };
         let mut known = m.constants.clone();
+        for (&var, init) in &f.inits {
+            if let Some(&v) = f
+                .scalar_vars
+                .contains(&var)
+                .then(|| m.constants.get(init))
+                .flatten()
+            {
+                known.insert(var_key(var), v);
+            }
+        }
         for (p, v) in f.params.iter().zip(ctx) {
             if let Some(v) = v {
                 known.insert(*p, *v);
@@ -70,7 +91,12 @@ impl<'m> Eval<'m> {
     }
 
     /// The instructions of block `b` (calls expanded), folding what it can into `known`.
-    pub(super) fn block_insts(&mut self, b: &BasicBlock, known: &mut BTreeMap<u32, u64>) -> Cost {
+    pub(super) fn block_insts(
+        &mut self,
+        f: &Func,
+        b: &BasicBlock,
+        known: &mut BTreeMap<u32, u64>,
+    ) -> Cost {
         // The terminator (a branch or return) counts, as in the static count.
         let mut c = Cost {
             all: 1.0,
@@ -78,6 +104,23 @@ impl<'m> Eval<'m> {
         };
         for i in &b.insts {
             if i.dead {
+                continue;
+            }
+            if i.op == OP_STORE && f.scalar_vars.contains(&i.operands[0]) {
+                let key = var_key(i.operands[0]);
+                match known.get(&i.operands[1]).copied() {
+                    Some(v) => known.insert(key, v),
+                    None => known.remove(&key),
+                };
+            }
+            if i.op == OP_LOAD
+                && let Some(&v) = f
+                    .scalar_vars
+                    .contains(&i.operands[2])
+                    .then(|| known.get(&var_key(i.operands[2])))
+                    .flatten()
+            {
+                known.insert(i.operands[1], v);
                 continue;
             }
             if let Some(v) = fold(i.op, &i.operands, known) {
@@ -121,6 +164,10 @@ impl<'m> Eval<'m> {
                 return (total, None);
             };
             if let Some((merge, cont)) = blk.loop_merge {
+                // A variable the loop stores is unknown inside it and after it (the header's
+                // stores, walked on `known` by `trip`, included).
+                let body = loop_blocks(f, b, merge);
+                forget_stored(f, &body, known);
                 let kind = trips(f, b, merge, cont, known);
                 self.loops.push(LoopNote {
                     function: self.m.name(fid).to_string(),
@@ -128,11 +175,12 @@ impl<'m> Eval<'m> {
                     kind,
                 });
                 let trip = self.trip(fid, f, b, merge, cont, known);
+                forget_stored(f, &body, known);
                 total = total + trip * kind.trips() as f64;
                 b = merge;
                 continue;
             }
-            total = total + self.block_insts(blk, known);
+            total = total + self.block_insts(f, blk, known);
             let (op, o) = (&blk.term.0, &blk.term.1);
             let targets: Vec<u32> = match *op {
                 OP_BRANCH => {
@@ -163,12 +211,29 @@ impl<'m> Eval<'m> {
     ) -> Path {
         let mut inner: Vec<u32> = stops.to_vec();
         inner.extend(merge);
-        let paths: Vec<Path> = targets
-            .iter()
-            .map(|t| self.walk(fid, f, *t, &inner, &mut known.clone()))
-            .collect();
+        let mut paths: Vec<Path> = Vec::with_capacity(targets.len());
+        let mut ends = Vec::with_capacity(targets.len());
+        for t in targets {
+            let mut k = known.clone();
+            paths.push(self.walk(fid, f, *t, &inner, &mut k));
+            ends.push(k);
+        }
+        // An arm that leaves for an enclosing construct's merge or continue target (a `break`)
+        // carries its stores where this walk does not follow: forget the variables it changed.
+        for (p, k) in paths.iter().zip(&ends) {
+            if p.1.is_some() && p.1 != merge {
+                forget_changed(known, k);
+            }
+        }
         let rest = match merge {
             Some(mg) if paths.iter().any(|p| p.1 == Some(mg)) => {
+                let reaching: Vec<&BTreeMap<u32, u64>> = paths
+                    .iter()
+                    .zip(&ends)
+                    .filter(|(p, _)| p.1 == Some(mg))
+                    .map(|(_, k)| k)
+                    .collect();
+                merge_vars(known, &reaching);
                 Some(self.walk(fid, f, mg, stops, known))
             }
             _ => None,
@@ -204,7 +269,7 @@ impl<'m> Eval<'m> {
         known: &mut BTreeMap<u32, u64>,
     ) -> Cost {
         let blk = &f.blocks[&header];
-        let mut c = self.block_insts(blk, known);
+        let mut c = self.block_insts(f, blk, known);
         let targets: Vec<u32> = match blk.term.0 {
             OP_BRANCH => vec![blk.term.1[0]],
             OP_BRANCH_CONDITIONAL => blk.term.1[1..3].to_vec(),
@@ -221,6 +286,54 @@ impl<'m> Eval<'m> {
             c = c + tail;
         }
         c
+    }
+}
+
+/// The scalar variables' values where the arms `reaching` a merge meet: those they all agree on.
+fn merge_vars(known: &mut BTreeMap<u32, u64>, reaching: &[&BTreeMap<u32, u64>]) {
+    let keys: BTreeSet<u32> = known
+        .range(VAR_KEY..)
+        .map(|(k, _)| *k)
+        .chain(
+            reaching
+                .iter()
+                .flat_map(|k| k.range(VAR_KEY..).map(|(k, _)| *k)),
+        )
+        .collect();
+    for key in keys {
+        let first = reaching.first().and_then(|k| k.get(&key)).copied();
+        match first {
+            Some(v) if reaching.iter().all(|k| k.get(&key) == Some(&v)) => {
+                known.insert(key, v);
+            }
+            _ => {
+                known.remove(&key);
+            }
+        }
+    }
+}
+
+/// Forgets the scalar variables whose value in `other` differs from `known`'s.
+fn forget_changed(known: &mut BTreeMap<u32, u64>, other: &BTreeMap<u32, u64>) {
+    let keys: BTreeSet<u32> = known
+        .range(VAR_KEY..)
+        .chain(other.range(VAR_KEY..))
+        .filter(|(k, v)| known.get(k) != Some(v) || other.get(k) != Some(v))
+        .map(|(k, _)| *k)
+        .collect();
+    for k in keys {
+        known.remove(&k);
+    }
+}
+
+/// Forgets the values of the scalar variables stored anywhere in `blocks` (a loop's).
+fn forget_stored(f: &Func, blocks: &BTreeSet<u32>, known: &mut BTreeMap<u32, u64>) {
+    for l in blocks {
+        for i in f.blocks.get(l).map_or(&[][..], |b| &b.insts) {
+            if i.op == OP_STORE && f.scalar_vars.contains(&i.operands[0]) {
+                known.remove(&var_key(i.operands[0]));
+            }
+        }
     }
 }
 

@@ -148,6 +148,10 @@ pub(super) struct Func {
     pub(super) blocks: BTreeMap<u32, BasicBlock>,
     /// Function variables' constant initialisers.
     pub(super) inits: BTreeMap<u32, u32>,
+    /// The function's variables that are only stored to and loaded from, whole: no access
+    /// chain, call or other instruction takes their address (naga's temporaries, e.g. the
+    /// value of a short-circuit `a || b`), so a load reads the last store on the path walked.
+    pub(super) scalar_vars: BTreeSet<u32>,
 }
 
 /// A pass's functions with their control flow, by WGSL name.
@@ -270,8 +274,11 @@ impl Module {
                     }
                     block = Some((o[0], BasicBlock::default()));
                 }
-                OP_VARIABLE if o.len() >= 4 => {
-                    f.inits.insert(o[1], o[3]);
+                OP_VARIABLE if o.len() >= 2 => {
+                    f.scalar_vars.insert(o[1]);
+                    if o.len() >= 4 {
+                        f.inits.insert(o[1], o[3]);
+                    }
                 }
                 OP_LOOP_MERGE if o.len() >= 2 => {
                     if let Some((_, b)) = block.as_mut() {
@@ -304,6 +311,7 @@ impl Module {
         }
         for f in funcs.values_mut() {
             remove_unused(f);
+            keep_scalar_vars(f);
         }
         let names = funcs
             .keys()
@@ -331,6 +339,24 @@ impl Module {
     pub(super) fn name(&self, id: u32) -> &str {
         self.ids.get(&id).map_or("?", String::as_str)
     }
+}
+
+/// Keeps in `f.scalar_vars` only the variables every use of which is the pointer of a whole
+/// `OpStore` or `OpLoad`.
+pub(super) fn keep_scalar_vars(f: &mut Func) {
+    let mut escaped = BTreeSet::new();
+    for b in f.blocks.values() {
+        for i in &b.insts {
+            for (k, w) in i.operands.iter().enumerate() {
+                let pointer = (i.op == OP_STORE && k == 0) || (i.op == OP_LOAD && k == 2);
+                if !pointer {
+                    escaped.insert(*w);
+                }
+            }
+        }
+        escaped.extend(b.term.1.iter().copied());
+    }
+    f.scalar_vars.retain(|v| !escaped.contains(v));
 }
 
 /// Marks pure instructions whose results nothing uses as dead, until none is left.
