@@ -10,7 +10,7 @@ use serde::Serialize;
 
 use crate::cpu::multi::{Verify, WorldRay, trace_world_ray};
 use crate::cpu::verify::{Neighbourhood, triangle_corners};
-use crate::cpu::{CmoTracer, TraceParams, TraceResult, Work};
+use crate::cpu::{CmoTracer, Status, TraceParams, TraceResult, Work};
 use crate::cubemap::face::Texel;
 use crate::cubemap::pyramid::{hier32_flat_layout, mip_flat_layout};
 use crate::scene::Scene;
@@ -231,6 +231,19 @@ pub(super) struct TraceLog {
     pub(super) k: usize,
     pub(super) events: Vec<Work>,
     pub(super) result: TraceResult,
+}
+
+impl TraceLog {
+    /// The index in `events` of the texel classification that decided the trace (its last one,
+    /// where the trace ends in a hit or behind): where `classify_candidate` runs.
+    pub(super) fn deciding(&self) -> Option<usize> {
+        if !matches!(self.result.status, Status::Hit | Status::Behind) {
+            return None;
+        }
+        self.events
+            .iter()
+            .rposition(|e| matches!(e, Work::Classify(_)))
+    }
 }
 
 /// Runs `ray` through the CMOs with verified hits (`trace_world_ray`), each single-CMO trace by

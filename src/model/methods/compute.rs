@@ -117,14 +117,7 @@ pub fn compute_ray(frame: &Frame, ray: &MirrorRay) -> ComputeRay {
         out.texels += t.result.counters.texels;
         out.cells += t.result.counters.cells;
         let mut step = Step::default();
-        // The texel that decides a hit or behind: the trace's last one classified.
-        let deciding = matches!(t.result.status, Status::Hit | Status::Behind)
-            .then(|| {
-                t.events
-                    .iter()
-                    .rposition(|e| matches!(e, Work::Classify(_)))
-            })
-            .flatten();
+        let deciding = t.deciding();
         for (i, e) in t.events.iter().enumerate() {
             match *e {
                 Work::Visit {

@@ -141,14 +141,7 @@ pub fn fragment_ray(frame: &Frame, ray: &MirrorRay) -> Iter {
         let k = t.k as u32;
         let trace = top.new_turn(L_TRACE);
         trace.exec(F_CMO_TRACE, Vec::new());
-        // The texel that decides a hit or behind: the trace's last one classified.
-        let deciding = matches!(t.result.status, Status::Hit | Status::Behind)
-            .then(|| {
-                t.events
-                    .iter()
-                    .rposition(|e| matches!(e, Work::Classify(_)))
-            })
-            .flatten();
+        let deciding = t.deciding();
         for (i, e) in t.events.iter().enumerate() {
             match *e {
                 Work::Piece => {
