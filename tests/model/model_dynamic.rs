@@ -332,3 +332,75 @@ fn the_strict_test_is_dead_in_the_production_fragment_entry() {
     assert!(!called("fs_exact_mip"));
     assert!(called("fs_main"));
 }
+
+/// A hand-made module for a temporary stored inside a loop, `k()`: `var tmp = false` (stored
+/// before the loop); `loop { if x == 0 { break; } tmp = true; }` (when `store_in_loop`); then
+/// `if tmp { out = (x * x) * x }` (those 4 instructions only when `arm`); `entry5` calls `k()`.
+fn loop_module(arm: bool, store_in_loop: bool) -> Vec<u32> {
+    let mut w = vec![0x0723_0203, 0x0001_0300, 0, 200, 0];
+    for (id, n) in [(100, "k"), (120, "entry5")] {
+        w.extend(name(id, n));
+    }
+    w.extend(inst(32, &[74, 7, 5])); // OpTypePointer Function bool
+    w.extend(inst(32, &[4, 6, 1])); // OpTypePointer Private %1
+    w.extend(inst(43, &[1, 6, 0])); // %6 = 0
+    w.extend(inst(41, &[5, 13])); // %13 = true
+    w.extend(inst(42, &[5, 12])); // %12 = false
+    w.extend(inst(59, &[4, 20, 6])); // %20: a private variable
+    w.extend(inst(54, &[1, 100, 0, 9]));
+    w.extend(inst(248, &[101]));
+    w.extend(inst(59, &[74, 102, 7])); // var tmp
+    w.extend(inst(62, &[102, 12])); // tmp = false
+    w.extend(inst(249, &[103]));
+    w.extend(inst(248, &[103])); // header
+    w.extend(inst(246, &[104, 105, 0]));
+    w.extend(inst(249, &[106]));
+    w.extend(inst(248, &[106]));
+    w.extend(inst(61, &[1, 107, 20]));
+    w.extend(inst(170, &[5, 108, 107, 6])); // x == 0
+    w.extend(inst(247, &[109, 0]));
+    w.extend(inst(250, &[108, 110, 109]));
+    w.extend(inst(248, &[110]));
+    w.extend(inst(249, &[104])); // break
+    w.extend(inst(248, &[109]));
+    if store_in_loop {
+        w.extend(inst(62, &[102, 13])); // tmp = true
+    }
+    w.extend(inst(249, &[105]));
+    w.extend(inst(248, &[105])); // continue
+    w.extend(inst(249, &[103]));
+    w.extend(inst(248, &[104])); // after the loop
+    w.extend(inst(61, &[5, 111, 102])); // load tmp
+    w.extend(inst(247, &[113, 0]));
+    w.extend(inst(250, &[111, 112, 113]));
+    w.extend(inst(248, &[112]));
+    if arm {
+        w.extend(inst(61, &[1, 114, 20]));
+        w.extend(inst(132, &[1, 115, 114, 114]));
+        w.extend(inst(132, &[1, 116, 115, 115]));
+        w.extend(inst(62, &[20, 116]));
+    }
+    w.extend(inst(249, &[113]));
+    w.extend(inst(248, &[113]));
+    w.extend(inst(253, &[]));
+    w.extend(inst(56, &[]));
+    w.extend(inst(54, &[1, 120, 0, 9]));
+    w.extend(inst(248, &[121]));
+    w.extend(inst(57, &[1, 122, 100]));
+    w.extend(inst(253, &[]));
+    w.extend(inst(56, &[]));
+    w
+}
+
+/// A loop forgets the temporaries it stores: `tmp` is `false` before the loop and may be `true`
+/// after it, so the `if tmp` after the loop counts its arm (its 4 instructions). Negative: with
+/// no store in the loop, `tmp` is `false` after it and the arm is dead.
+#[test]
+fn a_loop_forgets_the_temporaries_it_stores() {
+    let count = |arm: bool, store: bool| {
+        let m = Module::parse("hand", &loop_module(arm, store)).unwrap();
+        dynamic_count(&m, "k", "entry5").0
+    };
+    assert_eq!(count(true, true) - count(false, true), 4.0);
+    assert_eq!(count(true, false) - count(false, false), 0.0);
+}
