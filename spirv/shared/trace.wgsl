@@ -681,9 +681,7 @@ fn locate(seg: Segment, face: u32, t: f32, size: u32, lo: f32, hi: f32) -> Locat
 // t0 <= t < t1. Then it is the answer of every texel search around it, and of an `ahead` search
 // around a neighbour it is across a strict side of (`across_exit`); the proof is there.
 fn texel_certified(seg: Segment, face: u32, x: u32, y: u32, t: f32, size: u32, lo: f32, hi: f32) -> Located {
-    let tex = Texel(face, x, y);
-    let iv = texel_interval(seg, tex, size, lo, hi);
-    return Located(certifiable(seg) && crosses(iv) && iv.t1 > t && iv.t0 <= t, tex, iv);
+    return texel_certified_face(seg, face_consts(seg, face), face, x, y, t, size, lo, hi);
 }
 
 // The certificate's bound on the ray (`cpu::certified`): every component of `a` and `d` below
@@ -695,7 +693,8 @@ fn certifiable(seg: Segment) -> bool {
     return all((bitcast<vec3<u32>>(seg.a) & mag) < limit) && all((bitcast<vec3<u32>>(seg.d) & mag) < limit);
 }
 
-// `texel_certified` on the face constants `f` of `face` (`cell_interval_face`: the same bits).
+// `texel_certified` on the face constants `f` of `face` (made once per face by the march): the
+// texel's interval by `clip_cell_face`, the same bits as `texel_interval`'s.
 fn texel_certified_face(seg: Segment, f: FaceConsts, face: u32, x: u32, y: u32, t: f32, size: u32, lo: f32, hi: f32) -> Located {
     let iv = clip_cell_face(f.la, f.ld, cell_rect_texel(face, x, y, size), f.edge, f.z, lo, hi);
     return Located(certifiable(seg) && crosses(iv) && iv.t1 > t && iv.t0 <= t, Texel(face, x, y), iv);

@@ -3,8 +3,8 @@
 //! is tested over its (conservatively widened) interval, and skipped when the ray is entirely in
 //! front of it there (`rmax < min`, ALGORITHM.md fact 3; the thesis's endpoint test is not
 //! used). After a skip the walk resumes at the texel across the cell's exit side (alg. 4's
-//! boundary, from the frustum inequalities; [`super::locate_after_skip`]). A cell found not skippable is remembered per level
-//! (`checked`) until the walk leaves it, like alg. 2's `B(i)`. With the `bounded` criterion a
+//! boundary, from the frustum inequalities; [`super::locate_after_skip`]). A cell found not
+//! skippable is remembered per level (`checked`) until the walk leaves it, like alg. 2's `B(i)`. With the `bounded` criterion a
 //! cell is skipped, too, where the ray's distances there lie inside the cell's gap
 //! ([`super::bounded::Bounded::in_gap`]): between the surfaces its lists hold.
 

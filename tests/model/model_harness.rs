@@ -710,8 +710,9 @@ const RP: &str = "reflection_point_search.wgsl";
 /// that call it (one entry per call site, in the order `ShaderFunctions::callers` gives).
 const NAMED_CALLERS: &[(&str, &str, &[&str])] = &[
     // fragment (`fragment_trace`): the march's host is `mip_turn`; `fs_bounded`,
-    // `trace_mip_bounded`, `classify` and `texel_search` (the walk's search) are not reached from
-    // `fs_exact_mip` (`trace_one` takes `trace_mip` under TRACE_EXACT_MIP).
+    // `trace_mip_bounded`, `classify`, `texel_search` and `texel_certified` (the walk's search
+    // and certificate) are not reached from `fs_exact_mip` (`trace_one` takes `trace_mip` under
+    // TRACE_EXACT_MIP).
     (FRAG, "mirror_ray", &["trace_pixel", "fs_bounded"]),
     (FRAG, "trace_mip", &["trace_one", "trace_one"]),
     (FRAG, "mip_start", &["trace_mip", "trace_mip_bounded"]),
@@ -725,7 +726,11 @@ const NAMED_CALLERS: &[(&str, &str, &[&str])] = &[
     (FRAG, "classify_candidate", &["classify_with"]),
     (FRAG, "verify_decision", &["trace_ray_verified"]),
     (FRAG, "hit_shade", &["trace_pixel", "fs_bounded"]),
-    (FRAG, "texel_certified_face", &["mip_turn"]),
+    (
+        FRAG,
+        "texel_certified_face",
+        &["mip_turn", "texel_certified"],
+    ),
     // compute (`compute_trace`), as found (not each checked against the replay's logging).
     (COMP, "settle", &["trace_queued"]),
     (COMP, "start_trace", &["settle"]),
