@@ -9,7 +9,9 @@
 // `j % lanes`, round `j / lanes`, so with lanes < 32 each lane tests 32 / lanes children and the
 // 32-bit mask is assembled from 32 / lanes ballots; S / lanes rays share a subgroup (e.g. lanes
 // 0..32 and 32..64 at S = 64), and each takes its bits of the ballot (`ray_bits`).
-// With S = 32 and `main` this is the thesis's 8 rays x 32 lanes per workgroup.
+// With S = 32 and `main` this is the thesis's 8 rays x 32 lanes per workgroup. `main_wave` keeps
+// one ray per lane (as `main_lanes1`) and spreads the crossed children of the subgroup's rays
+// over its lanes (`wave_tests`).
 //
 // Per ray (every lane of a ray holds the same copy of the ray's state, computed redundantly):
 // per CMO (handoff), per piece of the segment and per face crossed in order of t, a depth-first
@@ -166,13 +168,33 @@ struct NodeCtx {
 }
 
 fn node_ctx(st: ptr<function, RayState>) -> NodeCtx {
-    let lvl = (*st).level;
+    return node_ctx_at((*st).level, (*st).node[(*st).level]);
+}
+
+// The context of node `nd` at level `lvl` (the wave layout builds it for another lane's ray).
+fn node_ctx_at(lvl: u32, nd: vec2<u32>) -> NodeCtx {
     let cl = lvl - 1u;
-    return NodeCtx(cl, hier_config.dims[cl], child_grid(lvl), (*st).node[lvl], hier_config.shape[cl].zw);
+    return NodeCtx(cl, hier_config.dims[cl], child_grid(lvl), nd, hier_config.shape[cl].zw);
+}
+
+// What a lane test reads of its ray: the face-local ray, the piece's [lo, hi], the face, the
+// CMO and the segment's ray (fields of `RayState`; the wave layout passes them between lanes).
+struct TestRay {
+    la: vec3<f32>,
+    ld: vec3<f32>,
+    range: vec2<f32>,
+    face: u32,
+    k: u32,
+    a: vec3<f32>,
+    d: vec3<f32>,
+}
+
+fn test_ray(st: ptr<function, RayState>) -> TestRay {
+    return TestRay((*st).la, (*st).ld, (*st).range, (*st).cur_face, (*st).k, (*st).seg.a, (*st).seg.d);
 }
 
 // Test of child j of the ray's current node (`cpu::alg3::lane_test`).
-fn lane_test(st: ptr<function, RayState>, nc: NodeCtx, j: u32, bounded: bool) -> LaneTest {
+fn lane_test(tr: TestRay, nc: NodeCtx, j: u32, bounded: bool) -> LaneTest {
     let none = LaneTest(false, f32_inf());
     let n = trace_config.size;
     let cl = nc.cl;
@@ -187,9 +209,8 @@ fn lane_test(st: ptr<function, RayState>, nc: NodeCtx, j: u32, bounded: bool) ->
     if cx >= cd.y || cy >= cd.z {
         return none;
     }
-    let range = (*st).range;
-    let face = (*st).cur_face;
-    let seg = (*st).seg;
+    let range = tr.range;
+    let face = tr.face;
     // One frustum interval for both kinds of child: at the texel level (cl = 0) the span is
     // 1 x 1 and cx < N, cy < N, so this is `cell_rect_texel(face, cx, cy, n)` field for field.
     let span = nc.span;
@@ -197,7 +218,7 @@ fn lane_test(st: ptr<function, RayState>, nc: NodeCtx, j: u32, bounded: bool) ->
     if rect.x0 >= rect.x1 || rect.y0 >= rect.y1 {
         return none;
     }
-    let iv = cell_interval((*st).la, (*st).ld, rect, range.x, range.y);
+    let iv = cell_interval(tr.la, tr.ld, rect, range.x, range.y);
     // Then one r_max over the range that counts, against the texel's distance or the cell's
     // least distance: `texel_not_in_front` (crossed, `r_max >= D`) at the texel level, else the
     // inflated interval and `r_bounds(..).y < min` (skip iff entirely in front; a NaN keeps the
@@ -208,13 +229,13 @@ fn lane_test(st: ptr<function, RayState>, nc: NodeCtx, j: u32, bounded: bool) ->
     var bound: f32;
     var cell = 0u;
     if cl == 0u {
-        bound = distance_at((*st).k, Texel(face, cx, cy));
+        bound = distance_at(tr.k, Texel(face, cx, cy));
     } else {
-        let inf = inflated(iv, range.x, range.y, seg_reach(seg.a, seg.d));
+        let inf = inflated(iv, range.x, range.y, seg_reach(tr.a, tr.d));
         ok = inf.ok;
         lo = inf.lo;
         hi = inf.hi;
-        cell = (*st).k * hier_config.hier_len + cd.x + (face * cd.z + cy) * cd.y + cx;
+        cell = tr.k * hier_config.hier_len + cd.x + (face * cd.z + cy) * cd.y + cx;
         bound = cmo_hier[cell].x;
     }
     if !ok {
@@ -223,12 +244,12 @@ fn lane_test(st: ptr<function, RayState>, nc: NodeCtx, j: u32, bounded: bool) ->
     // The bounded criterion: a cell is skipped, too, where the ray lies inside its gap
     // (`r_bounds`' max is the r_max below, the same operations).
     if bounded && cl != 0u {
-        let rb = r_bounds(seg.a, seg.d, lo, hi);
+        let rb = r_bounds(tr.a, tr.d, lo, hi);
         let g = unpack_gap(cmo_gap_hier[cell]);
         let skip = rb.y < bound || (rb.x > g.y && rb.y < g.x);
         return LaneTest(!skip, iv.t0);
     }
-    let r_max = max(r_at(seg.a, seg.d, lo), r_at(seg.a, seg.d, hi));
+    let r_max = max(r_at(tr.a, tr.d, lo), r_at(tr.a, tr.d, hi));
     return LaneTest(select(!(r_max < bound), r_max >= bound, cl == 0u), iv.t0);
 }
 
@@ -242,7 +263,12 @@ fn lane_test(st: ptr<function, RayState>, nc: NodeCtx, j: u32, bounded: bool) ->
 // per child with max / min, gives every comparison of `lane_test` the same outcome: 2 (gx + gy)
 // + 1 planes per node instead of 5 per child. The per-ray cost this saves:
 // `benches/results/lavapipe-shaders.md`, "What was kept".
-fn children_crossed(st: ptr<function, RayState>, nc: NodeCtx) -> u32 {
+//
+// `keys` (a constant: the wave layout): each crossed child's key, the entry t that `lane_test`
+// would return (its interval's largest entry bound, here `pair_key`: the same bound values, so
+// equal to it, up to the sign of a zero, which no comparison of the pick tells apart), is kept at
+// `keys_one[level * MAX_CELLS_ONE + j]`, since the lane that tests the child may be another.
+fn children_crossed(st: ptr<function, RayState>, nc: NodeCtx, keys: bool) -> u32 {
     let n = trace_config.size;
     let la = (*st).la;
     let ld = (*st).ld;
@@ -264,18 +290,19 @@ fn children_crossed(st: ptr<function, RayState>, nc: NodeCtx) -> u32 {
     );
     let texel = nc.cl == 0u;
     let reach = seg_reach((*st).seg.a, (*st).seg.d);
+    let lvl = (*st).level;
     var bits = 0u;
     for (var ix = 0u; ix < 8u; ix++) {
         let cx = nc.nd.x * g.x + ix;
         let col = slab(start, la.x, ld.x, la.z, ld.z, cx, nc.span.x, n, edge, SIDE_X0, ix < g.x && cx < nc.cd.y);
-        bits |= pair_bit(col, row[0], z, texel, range, reach) << ix;
-        bits |= pair_bit(col, row[1], z, texel, range, reach) << ((ix + g.x) & 31u);
-        bits |= pair_bit(col, row[2], z, texel, range, reach) << ((ix + 2u * g.x) & 31u);
-        bits |= pair_bit(col, row[3], z, texel, range, reach) << ((ix + 3u * g.x) & 31u);
-        bits |= pair_bit(col, row[4], z, texel, range, reach) << ((ix + 4u * g.x) & 31u);
-        bits |= pair_bit(col, row[5], z, texel, range, reach) << ((ix + 5u * g.x) & 31u);
-        bits |= pair_bit(col, row[6], z, texel, range, reach) << ((ix + 6u * g.x) & 31u);
-        bits |= pair_bit(col, row[7], z, texel, range, reach) << ((ix + 7u * g.x) & 31u);
+        bits |= pair_keyed(col, row[0], z, texel, range, reach, keys, lvl, (ix) & 31u);
+        bits |= pair_keyed(col, row[1], z, texel, range, reach, keys, lvl, (ix + g.x) & 31u);
+        bits |= pair_keyed(col, row[2], z, texel, range, reach, keys, lvl, (ix + 2u * g.x) & 31u);
+        bits |= pair_keyed(col, row[3], z, texel, range, reach, keys, lvl, (ix + 3u * g.x) & 31u);
+        bits |= pair_keyed(col, row[4], z, texel, range, reach, keys, lvl, (ix + 4u * g.x) & 31u);
+        bits |= pair_keyed(col, row[5], z, texel, range, reach, keys, lvl, (ix + 5u * g.x) & 31u);
+        bits |= pair_keyed(col, row[6], z, texel, range, reach, keys, lvl, (ix + 6u * g.x) & 31u);
+        bits |= pair_keyed(col, row[7], z, texel, range, reach, keys, lvl, (ix + 7u * g.x) & 31u);
     }
     return bits;
 }
@@ -309,10 +336,24 @@ fn slab(start: Clip, a: f32, d: f32, az: f32, dz: f32, c: u32, span: u32, n: u32
     return Slab(r.iv.t0, r.iv.t1, exists && k0 < k1 && r.keep);
 }
 
+// `pair_bit` at bit `j`, keeping the child's key where it passes and `keys` (a constant) asks.
+fn pair_keyed(col: Slab, row: Slab, z: Clip, texel: bool, range: vec2<f32>, reach: f32, keys: bool, lvl: u32, j: u32) -> u32 {
+    let b = pair_bit(col, row, z, texel, range, reach);
+    if keys && b != 0u {
+        key_set(true, lvl, j, pair_key(col, row, z));
+    }
+    return b << j;
+}
+
+// The entry t of the child at (`col`, `row`): the largest of its planes' entry bounds.
+fn pair_key(col: Slab, row: Slab, z: Clip) -> f32 {
+    return max(max(col.t0, row.t0), z.iv.t0);
+}
+
 // 1 where the child at (`col`, `row`) passes: `crosses` at the texel level, `inflated` above
 // (none where the face's plane `z` drops the interval).
 fn pair_bit(col: Slab, row: Slab, z: Clip, texel: bool, range: vec2<f32>, reach: f32) -> u32 {
-    let t0 = max(max(col.t0, row.t0), z.iv.t0);
+    let t0 = pair_key(col, row, z);
     let t1 = min(min(col.t1, row.t1), z.iv.t1);
     let ok = select(inflated(Interval(t0, t1, SIDE_SEGMENT, SIDE_SEGMENT), range.x, range.y, reach).ok, t0 < t1, texel);
     return select(0u, 1u, ok && col.ok && row.ok && z.keep);
@@ -529,9 +570,161 @@ fn key_set(big: bool, lvl: u32, c: u32, key: f32) {
     }
 }
 
+// The wave layout's lane tests of one traversal step (`main_wave`: one ray per lane, as in
+// `main_lanes1`, but a ray's crossed children are tested by whichever lanes are free). Item i of
+// the subgroup's list is the crossed child of the ray on lane o with pre(o) <= i < pre(o) + n(o)
+// (n: the lane's crossed children, pre: their exclusive prefix sum), in increasing j; round r
+// tests items r S .. r S + S - 1, item i on lane i - r S, with its ray's `TestRay` and node
+// shuffled from lane o (`wave_owner`: a binary search over pre). A round's candidate bits (1 << j)
+// are OR-ed over each ray's lanes by a segmented scan and read back by the ray's lane. The rounds
+// number ceil(sum n / S) where `main_lanes1` runs max n; the keys came from `children_crossed`.
+// Called in subgroup-uniform control flow (the trip count and every shuffle are uniform).
+// `crossed`: this lane's ray's crossed children (0 when it is not testing), `nc` its node.
+fn wave_tests(st: ptr<function, RayState>, nc: NodeCtx, crossed: u32, sg_lane: u32, sg_size: u32, bounded: bool) -> u32 {
+    let items = wave_items(crossed, sg_lane);
+    let tr = test_ray(st);
+    let lvl = (*st).level;
+    var mask = 0u;
+    for (var base = 0u; base < items.total; base += sg_size) {
+        let it = wave_item(tr, lvl, nc.nd, crossed, items.pre, base + sg_lane, sg_size);
+        var bit = 0u;
+        if base + sg_lane < items.total {
+            let t = lane_test(it.tr, it.nc, it.j, bounded);
+            bit = select(0u, 1u << it.j, t.cand);
+        }
+        mask |= wave_collect(bit, max(it.first, base) - base, items.pre, items.n, base, sg_lane, sg_size);
+    }
+    return mask;
+}
+
+// This lane's crossed children `n`, their exclusive prefix sum over the subgroup `pre`, and the
+// subgroup's total.
+struct WaveItems {
+    n: u32,
+    pre: u32,
+    total: u32,
+}
+
+fn wave_items(crossed: u32, sg_lane: u32) -> WaveItems {
+    let n = countOneBits(crossed);
+    var s = wave_sum_bit(n, 0u, sg_lane);
+    s += wave_sum_bit(n, 1u, sg_lane);
+    s += wave_sum_bit(n, 2u, sg_lane);
+    s += wave_sum_bit(n, 3u, sg_lane);
+    s += wave_sum_bit(n, 4u, sg_lane);
+    s += wave_sum_bit(n, 5u, sg_lane);
+    return WaveItems(n, s.x, s.y);
+}
+
+// Bit `b` of `n` (n <= 32: six bits) summed over the lanes below this one and over the subgroup,
+// by one ballot. (`subgroupExclusiveAdd` / `subgroupAdd` would do it, but lavapipe 22.3 with its
+// CPU caps limited to SSE4.1 crashes on a shader holding them at 256 and 512 bits.)
+fn wave_sum_bit(n: u32, b: u32, sg_lane: u32) -> vec2<u32> {
+    let m = subgroupBallot(((n >> b) & 1u) != 0u);
+    let k = vec4<u32>(0u, 1u, 2u, 3u);
+    let word = vec4<u32>(sg_lane / 32u);
+    let below = select(vec4<u32>(0u), vec4<u32>(0xffffffffu), k < word) | select(vec4<u32>(0u), vec4<u32>((1u << (sg_lane % 32u)) - 1u), k == word);
+    let c = countOneBits(m & below);
+    let t = countOneBits(m);
+    return vec2<u32>(c.x + c.y + c.z + c.w, t.x + t.y + t.z + t.w) << vec2<u32>(b);
+}
+
+// Item `i` of a round: its ray's test inputs and node, the child j, and the first item of its
+// ray (`first`, the ray's `pre`).
+struct WaveItem {
+    tr: TestRay,
+    nc: NodeCtx,
+    j: u32,
+    first: u32,
+}
+
+// Item `i`, fetched from the lane that owns it (`wave_owner`): every lane runs it, whether it has
+// an item this round or not (the shuffles must be uniform).
+fn wave_item(tr: TestRay, lvl: u32, nd: vec2<u32>, crossed: u32, pre: u32, i: u32, sg_size: u32) -> WaveItem {
+    let o = wave_owner(pre, i, sg_size);
+    let first = subgroupShuffle(pre, o);
+    let j = nth_bit(subgroupShuffle(crossed, o), i - first);
+    let other = TestRay(
+        subgroupShuffle(tr.la, o), subgroupShuffle(tr.ld, o), subgroupShuffle(tr.range, o),
+        subgroupShuffle(tr.face, o), subgroupShuffle(tr.k, o), subgroupShuffle(tr.a, o),
+        subgroupShuffle(tr.d, o),
+    );
+    let nc = node_ctx_at(subgroupShuffle(lvl, o), subgroupShuffle(nd, o));
+    return WaveItem(other, nc, j, first);
+}
+
+// The lane of the subgroup whose items hold item `i`: the last lane o with pre(o) <= i (the
+// binary search over the non-decreasing exclusive sums; a lane without items shares its pre
+// with the next, so the last such lane is the one that has items). Straight-line: one guarded
+// step per power of two below the subgroup size (uniform), no loop.
+fn wave_owner(pre: u32, i: u32, sg_size: u32) -> u32 {
+    var o = wave_owner_step(pre, i, 0u, 64u, sg_size);
+    o = wave_owner_step(pre, i, o, 32u, sg_size);
+    o = wave_owner_step(pre, i, o, 16u, sg_size);
+    o = wave_owner_step(pre, i, o, 8u, sg_size);
+    o = wave_owner_step(pre, i, o, 4u, sg_size);
+    o = wave_owner_step(pre, i, o, 2u, sg_size);
+    return wave_owner_step(pre, i, o, 1u, sg_size);
+}
+
+fn wave_owner_step(pre: u32, i: u32, o: u32, step: u32, sg_size: u32) -> u32 {
+    if step >= sg_size {
+        return o;
+    }
+    let p = subgroupShuffle(pre, o + step);
+    return select(o, o + step, p <= i);
+}
+
+// The position of the k-th (from 0) set bit of `m` (k < countOneBits(m)): five halvings,
+// straight-line.
+fn nth_bit(m: u32, k: u32) -> u32 {
+    var p = nth_bit_step(vec3<u32>(m, k, 0u), 16u);
+    p = nth_bit_step(p, 8u);
+    p = nth_bit_step(p, 4u);
+    p = nth_bit_step(p, 2u);
+    return nth_bit_step(p, 1u).z;
+}
+
+// (bits left, rank left, position): past the low `w` bits where the rank lies above them.
+fn nth_bit_step(p: vec3<u32>, w: u32) -> vec3<u32> {
+    let c = countOneBits(p.x & ((1u << w) - 1u));
+    if p.y >= c {
+        return vec3<u32>(p.x >> w, p.y - c, p.z + w);
+    }
+    return p;
+}
+
+// One round's candidate bits for this lane's ray: the OR of `bit` over the lanes holding its
+// items this round (a segmented inclusive scan: lane i's segment starts at lane `start`, its
+// owner's first item of the round), read at the segment's last lane. `pre`, `n`: this lane's own
+// items, which lie at lanes [max(pre, base), min(pre + n, base + S)) - base of the round.
+fn wave_collect(bit: u32, start: u32, pre: u32, n: u32, base: u32, sg_lane: u32, sg_size: u32) -> u32 {
+    var v = bit;
+    v = wave_scan_step(v, start, 1u, sg_lane, sg_size);
+    v = wave_scan_step(v, start, 2u, sg_lane, sg_size);
+    v = wave_scan_step(v, start, 4u, sg_lane, sg_size);
+    v = wave_scan_step(v, start, 8u, sg_lane, sg_size);
+    v = wave_scan_step(v, start, 16u, sg_lane, sg_size);
+    v = wave_scan_step(v, start, 32u, sg_lane, sg_size);
+    v = wave_scan_step(v, start, 64u, sg_lane, sg_size);
+    let lo = max(pre, base);
+    let hi = min(pre + n, base + sg_size);
+    let own = hi > lo;
+    let got = subgroupShuffle(v, select(0u, hi - 1u - base, own));
+    return select(0u, got, own);
+}
+
+fn wave_scan_step(v: u32, start: u32, d: u32, sg_lane: u32, sg_size: u32) -> u32 {
+    if d >= sg_size {
+        return v;
+    }
+    let u = subgroupShuffle(v, select(sg_lane - d, sg_lane, sg_lane < d));
+    return select(v, v | u, sg_lane >= start + d);
+}
+
 // Traces queued ray `index` (absent when `valid` is false: the lanes still take part in the
 // subgroup operations) and writes its record. Called in subgroup-uniform control flow.
-fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells: u32, big: bool, bounded: bool) {
+fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells: u32, big: bool, bounded: bool, wave: bool, sg_size: u32) {
     // One lane per ray (uniform over the dispatch).
     let one = lanes == 1u;
     var st: RayState;
@@ -586,8 +779,13 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
             if one {
                 rest = 0u;
                 if testing {
-                    rest = children_crossed(&st, nc);
+                    rest = children_crossed(&st, nc, wave);
                 }
+            }
+            if wave {
+                // The crossed children of every ray of the subgroup, spread over its lanes.
+                mask = wave_tests(&st, nc, rest, half, sg_size, bounded);
+                rest = 0u;
             }
             for (var i = 0u; i < cells && rest != 0u; i++) {
                 var c = i;
@@ -597,7 +795,7 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
                 }
                 var cand = false;
                 if testing {
-                    let t = lane_test(&st, nc, lane + lanes * c, bounded);
+                    let t = lane_test(test_ray(&st), nc, lane + lanes * c, bounded);
                     cand = t.cand;
                     if cand || !one {
                         key_set(big, st.level, c, t.key);
@@ -726,7 +924,7 @@ fn main(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, 32u, false, false, false);
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, 32u, false, false, false, false);
 }
 
 @compute @workgroup_size(256)
@@ -738,7 +936,7 @@ fn main_lanes1(
     @builtin(subgroup_id) sg_id: u32,
 ) {
     let retrace = trace_mode != 0u;
-    trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, select(1u, 32u, retrace), retrace, true, false);
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, select(1u, 32u, retrace), retrace, true, false, false);
 }
 
 @compute @workgroup_size(128)
@@ -749,7 +947,7 @@ fn main_wg128(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, 32u, false, false, false);
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, 32u, false, false, false, false);
 }
 
 @compute @workgroup_size(128)
@@ -761,7 +959,7 @@ fn main_lanes1_wg128(
     @builtin(subgroup_id) sg_id: u32,
 ) {
     let retrace = trace_mode != 0u;
-    trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, select(1u, 32u, retrace), retrace, true, false);
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, select(1u, 32u, retrace), retrace, true, false, false);
 }
 
 // The same four with the `bounded` criterion.
@@ -773,7 +971,7 @@ fn main_bounded(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, 32u, false, false, true);
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, 32u, false, false, true, false);
 }
 
 @compute @workgroup_size(256)
@@ -785,7 +983,7 @@ fn main_lanes1_bounded(
     @builtin(subgroup_id) sg_id: u32,
 ) {
     let retrace = trace_mode != 0u;
-    trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, select(1u, 32u, retrace), retrace, true, true);
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, select(1u, 32u, retrace), retrace, true, true, false);
 }
 
 @compute @workgroup_size(128)
@@ -796,7 +994,7 @@ fn main_wg128_bounded(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, 32u, false, false, true);
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, 32u, false, false, true, false);
 }
 
 @compute @workgroup_size(128)
@@ -808,12 +1006,64 @@ fn main_lanes1_wg128_bounded(
     @builtin(subgroup_id) sg_id: u32,
 ) {
     let retrace = trace_mode != 0u;
-    trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, select(1u, 32u, retrace), retrace, true, true);
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, select(1u, 32u, retrace), retrace, true, true, false);
+}
+
+// `main_wave`: one ray per lane as `main_lanes1` (the same two dispatches, `trace_mode` 1 the
+// thesis layout's retrace), with the crossed children of the subgroup's rays spread over its
+// lanes (`wave_tests`); the same four sizes and criteria.
+@compute @workgroup_size(256)
+fn main_wave(
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(subgroup_size) sg_size: u32,
+    @builtin(subgroup_invocation_id) sg_lane: u32,
+    @builtin(subgroup_id) sg_id: u32,
+) {
+    let retrace = trace_mode != 0u;
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, select(1u, 32u, retrace), retrace, true, false, true);
+}
+
+@compute @workgroup_size(128)
+fn main_wave_wg128(
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(subgroup_size) sg_size: u32,
+    @builtin(subgroup_invocation_id) sg_lane: u32,
+    @builtin(subgroup_id) sg_id: u32,
+) {
+    let retrace = trace_mode != 0u;
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, select(1u, 32u, retrace), retrace, true, false, true);
+}
+
+@compute @workgroup_size(256)
+fn main_wave_bounded(
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(subgroup_size) sg_size: u32,
+    @builtin(subgroup_invocation_id) sg_lane: u32,
+    @builtin(subgroup_id) sg_id: u32,
+) {
+    let retrace = trace_mode != 0u;
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, select(1u, 32u, retrace), retrace, true, true, true);
+}
+
+@compute @workgroup_size(128)
+fn main_wave_wg128_bounded(
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(subgroup_size) sg_size: u32,
+    @builtin(subgroup_invocation_id) sg_lane: u32,
+    @builtin(subgroup_id) sg_id: u32,
+) {
+    let retrace = trace_mode != 0u;
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, select(1u, 32u, retrace), retrace, true, true, true);
 }
 
 // `group_size`: the entry point's workgroup size (a constant); `big`: `main_lanes1`'s keys
-// (`key_get`, a constant); `bounded`: the `bounded` criterion (a constant).
-fn trace_all(wg: vec3<u32>, groups: vec3<u32>, sg_size: u32, sg_lane: u32, sg_id: u32, group_size: u32, lane_cap: u32, retrace: bool, big: bool, bounded: bool) {
+// (`key_get`, a constant); `bounded`: the `bounded` criterion (a constant); `wave`: the wave
+// layout's lane tests (`main_wave`, a constant).
+fn trace_all(wg: vec3<u32>, groups: vec3<u32>, sg_size: u32, sg_lane: u32, sg_id: u32, group_size: u32, lane_cap: u32, retrace: bool, big: bool, bounded: bool, wave: bool) {
     let lanes = min(min(sg_size, 32u), lane_cap);
     if min(sg_size, 32u) < 4u {
         // Unsupported (refused on the Rust side); uniform over the whole dispatch.
@@ -844,6 +1094,6 @@ fn trace_all(wg: vec3<u32>, groups: vec3<u32>, sg_size: u32, sg_lane: u32, sg_id
                 continue;
             }
         }
-        trace_queued(valid, index, lane, half, lanes, cells, big, bounded);
+        trace_queued(valid, index, lane, half, lanes, cells, big, bounded, wave && !retrace, sg_size);
     }
 }

@@ -6,8 +6,9 @@
 //!   twin `cpu::compute` over the GPU's own capture (every field bit for bit, counters included),
 //!   and against the reference (the fragment path's accuracy);
 //! - subgroup sizes 4, 8 and 16 (`LP_NATIVE_VECTOR_WIDTH` = 128, 256, 512, in child processes)
-//!   give byte-identical EXR output (skipped, with the reason, on drivers other than lavapipe,
-//!   which ignore that variable).
+//!   give byte-identical EXR output in the three lane layouts (skipped, with the reason, on
+//!   drivers other than lavapipe, which ignore that variable);
+//! - the wave layout writes what the one-lane layout writes on every built-in scene.
 //!
 //! Every comparison has a negative test. Runs under the validation layer when installed and
 //! fails on any validation error.
@@ -436,6 +437,8 @@ fn report(scene: &Scene, label: &str, refr: &reference::Frame, f: &GpuFrame) -> 
 fn compute_matches_fragment_cpu_twin_and_reference_on_every_scene() {
     let ctx = compute_context();
     let subgroup = ctx.report().subgroup_size;
+    // Read by `wave_layout_matches_the_twin_on_every_scene`, which runs this test again.
+    eprintln!("compute_trace entry: {}", ray_lanes(&ctx).unwrap().1);
     let mut total = 0usize;
     let mut envmap_worse = 0usize;
     for &(name, _) in scene::builtin::NAMES {
@@ -535,6 +538,30 @@ fn compute_matches_fragment_cpu_twin_and_reference_on_every_scene() {
     finish_gpu(ctx);
 }
 
+/// The wave layout (`CUBETRACE_RAY_LANES=wave`) against fragment, the CPU twin (every field of
+/// every record, counters included) and the reference on every built-in scene: the test above,
+/// run again in a child process with the variable set (it is read when the renderer is made).
+/// The child says which entry point it ran, so a child that ignored the variable fails here.
+#[test]
+fn wave_layout_matches_the_twin_on_every_scene() {
+    let name = common::test_name(
+        module_path!(),
+        "compute_matches_fragment_cpu_twin_and_reference_on_every_scene",
+    );
+    let o = Command::new(std::env::current_exe().unwrap())
+        .args(["--exact", &name, "--nocapture"])
+        .env(RAY_LANES_ENV, "wave")
+        .env("XDG_RUNTIME_DIR", "/tmp")
+        .output()
+        .unwrap_or_else(|e| panic!("spawning the test binary: {e}"));
+    let text = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "child failed:\n{text}");
+    assert!(
+        text.contains("compute_trace entry: main_wave"),
+        "the child did not run main_wave:\n{text}"
+    );
+}
+
 /// Odd configurations: tiny cubes (N <= 4: the texels are the root, no hierarchy buffer; N = 5:
 /// one level), N = 17, and three or five CMOs placed automatically (more handoffs): compute ==
 /// fragment on every decision and == the CPU twin on every field.
@@ -632,11 +659,11 @@ struct ChildRun {
     exr: Vec<u8>,
 }
 
-fn run_child(width_bits: u32, lanes: u32, cube_size: u32, out: &Path, validate: bool) -> ChildRun {
+fn run_child(width_bits: u32, lanes: &str, cube_size: u32, out: &Path, validate: bool) -> ChildRun {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_cubetrace"));
     cmd.env("LP_NATIVE_VECTOR_WIDTH", width_bits.to_string())
         .env("GALLIUM_OVERRIDE_CPU_CAPS", "sse4.1")
-        .env(RAY_LANES_ENV, lanes.to_string())
+        .env(RAY_LANES_ENV, lanes)
         .env("XDG_RUNTIME_DIR", "/tmp")
         .env_remove("RUST_LOG")
         .args([
@@ -707,9 +734,10 @@ fn subgroup_sizes_4_8_16_give_identical_output() {
     }
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("gpu_compute");
     std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
-    // Both entry points (thesis layout, lane cap 32; lane cap 1) at every size.
+    // The three entry points (thesis layout, lane cap 32; lane cap 1; the wave layout) at every
+    // size.
     let mut runs = Vec::new();
-    for lanes in [32u32, 1] {
+    for lanes in ["32", "1", "wave"] {
         for (bits, size) in [(128u32, 4u32), (256, 8), (512, 16)] {
             let r = run_child(
                 bits,
@@ -734,11 +762,111 @@ fn subgroup_sizes_4_8_16_give_identical_output() {
         );
     }
     // Negative: other CMO data gives another file.
-    let other = run_child(256, 32, 40, &dir.join("sg8-n40.exr"), validate);
+    let other = run_child(256, "32", 40, &dir.join("sg8-n40.exr"), validate);
     assert!(other.exr != runs[1].2.exr, "the EXR comparison is blind");
 }
 
-/// A lane cap other than 32 or 1 in `CUBETRACE_RAY_LANES` is refused with a clear error.
+/// `cubetrace render SCENE --method compute --fallback flag ARGS` with
+/// `CUBETRACE_RAY_LANES=lanes` (the native subgroup size), written to `out`: the EXR's bytes
+/// (colour, hit position, triangle IDs, the unresolved flag).
+fn render_with_lanes(
+    scene: &str,
+    lanes: &str,
+    args: &[&str],
+    out: &Path,
+    validate: bool,
+) -> Vec<u8> {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_cubetrace"));
+    cmd.env(RAY_LANES_ENV, lanes)
+        .env("XDG_RUNTIME_DIR", "/tmp")
+        .env_remove("RUST_LOG")
+        .args([
+            "render",
+            scene,
+            "--method",
+            "compute",
+            "--width",
+            &WIDTH.to_string(),
+        ])
+        .args(["--height", &HEIGHT.to_string(), "--fallback", "flag"])
+        .args(args)
+        .arg("-o")
+        .arg(out);
+    if validate {
+        cmd.arg("--validate");
+    }
+    let o = cmd
+        .output()
+        .unwrap_or_else(|e| panic!("spawning cubetrace: {e}"));
+    let text = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{scene} with {lanes}:\n{text}");
+    std::fs::read(out).unwrap_or_else(|e| panic!("{}: {e}", out.display()))
+}
+
+/// The wave layout (`main_wave`: one ray per lane, the subgroup's crossed children spread over
+/// its lanes, the keys from `children_crossed`) writes the same EXR as `main_lanes1` on every
+/// built-in scene and two corpus scenes, and with the `bounded` criterion on two of them (the
+/// pick, every candidate bit and the counters are in the records). Negative: the same scene at
+/// another cube size differs.
+#[test]
+fn wave_layout_renders_what_the_one_lane_layout_renders() {
+    let ctx = GpuContext::new(ContextOptions::for_tests()).unwrap_or_else(|e| panic!("{e}"));
+    let validate = ctx.validation_enabled();
+    drop(ctx);
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("gpu_compute_wave");
+    std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
+    let scenes = env!("CARGO_MANIFEST_DIR").to_owned() + "/tests/scenes";
+    let mut runs: Vec<(String, Vec<&str>)> = scene::builtin::NAMES
+        .iter()
+        .map(|&(name, _)| (name.to_owned(), vec!["--cube-size", "64"]))
+        .collect();
+    for corpus in ["mug", "robot-table"] {
+        runs.push((
+            format!("{scenes}/{corpus}/scene.toml"),
+            vec!["--cube-size", "64"],
+        ));
+    }
+    for name in ["default", "teapot"] {
+        runs.push((
+            name.to_owned(),
+            vec!["--cube-size", "64", "--criterion", "bounded"],
+        ));
+    }
+    let mut teapot = Vec::new();
+    for (k, (scene, args)) in runs.iter().enumerate() {
+        let one = render_with_lanes(
+            scene,
+            "1",
+            args,
+            &dir.join(format!("{k}-one.exr")),
+            validate,
+        );
+        let wave = render_with_lanes(
+            scene,
+            "wave",
+            args,
+            &dir.join(format!("{k}-wave.exr")),
+            validate,
+        );
+        assert!(
+            one == wave,
+            "{scene} {args:?}: main_wave's EXR differs from main_lanes1's"
+        );
+        if scene == "teapot" && args.len() == 2 {
+            teapot = wave;
+        }
+    }
+    // With `--fallback flag` the unresolved channel is the cube maps' own: a coarser capture
+    // leaves other pixels unresolved.
+    let other = ["--cube-size", "48"];
+    let moved = render_with_lanes("teapot", "wave", &other, &dir.join("moved.exr"), validate);
+    assert!(
+        !teapot.is_empty() && moved != teapot,
+        "the EXR comparison is blind"
+    );
+}
+
+/// A layout other than 32, 1 or wave in `CUBETRACE_RAY_LANES` is refused with a clear error.
 #[test]
 fn bad_ray_lanes_is_a_clear_error() {
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("gpu_compute");
@@ -756,7 +884,7 @@ fn bad_ray_lanes_is_a_clear_error() {
     let text = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success(), "accepted a lane cap of 7");
     assert!(
-        text.contains(RAY_LANES_ENV) && text.contains("expected 32 or 1"),
+        text.contains(RAY_LANES_ENV) && text.contains("expected 32, 1 or wave"),
         "{text}"
     );
     assert!(!out.exists(), "left an output behind");

@@ -691,7 +691,7 @@ fn span_records_child() {
 /// envmap baseline included. Limited to AVX it ran on an Intel CI machine but still crashed on an
 /// AMD EPYC one; limited to SSE4.1 it runs on both. Both widths run with that limit, and their
 /// records are equal (spirv/README.md, "What lavapipe does").
-fn span_records(lanes: u32, bits: u32, far: f32) -> ((Vec<u8>, Vec<PixelRecord>), (u32, u32)) {
+fn span_records(lanes: &str, bits: u32, far: f32) -> ((Vec<u8>, Vec<PixelRecord>), (u32, u32)) {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("records");
     let mut child = Command::new(std::env::current_exe().unwrap());
@@ -703,7 +703,7 @@ fn span_records(lanes: u32, bits: u32, far: f32) -> ((Vec<u8>, Vec<PixelRecord>)
         .args(["--ignored", "--exact", &child_test, "--nocapture"])
         .env(RECORDS_OUT_ENV, &out)
         .env("CUBETRACE_TEST_SPAN_FAR", far.to_string())
-        .env("CUBETRACE_RAY_LANES", lanes.to_string())
+        .env("CUBETRACE_RAY_LANES", lanes)
         .env("LP_NATIVE_VECTOR_WIDTH", bits.to_string())
         .env("XDG_RUNTIME_DIR", "/tmp")
         .output()
@@ -731,8 +731,8 @@ fn record_differences(a: &(Vec<u8>, Vec<PixelRecord>), b: &(Vec<u8>, Vec<PixelRe
         .count()
 }
 
-/// `main_lanes1` (1 lane per ray) gives the same records as `main` (the thesis layout) on the
-/// span scene, at subgroup sizes 4 and 8 (each child reports the size `compute_trace` ran at,
+/// `main_lanes1` (1 lane per ray) and `main_wave` (1 ray per lane, the child tests spread over
+/// the subgroup) give the same records as `main` (the thesis layout) on the span scene, at subgroup sizes 4 and 8 (each child reports the size `compute_trace` ran at,
 /// checked against the one asked for), and the two sizes give the same records. Before `main_retrace`, lavapipe's loop limit (65535
 /// iterations per invocation, spirv/README.md "Known defect") cut 1004 of its 2570 mirror rays
 /// at 560 steps there (unresolved, `t_done` 0), where `main` needs up to 1581 steps but runs 8
@@ -744,11 +744,13 @@ fn compute_lane_layouts_agree_on_the_span_scene() {
     let mut by_width = Vec::new();
     let mut ran_at = Vec::new();
     for bits in [128, 256] {
-        let (wide, wide_ran) = span_records(32, bits, FAR);
-        let (one, one_ran) = span_records(1, bits, FAR);
-        // The child ran at the subgroup size asked for: every workgroup of both layouts.
+        let (wide, wide_ran) = span_records("32", bits, FAR);
+        let (one, one_ran) = span_records("1", bits, FAR);
+        let (wave, wave_ran) = span_records("wave", bits, FAR);
+        // The child ran at the subgroup size asked for: every workgroup of the three layouts.
         assert_eq!(wide_ran, (bits / 32, bits / 32), "width {bits}");
         assert_eq!(one_ran, wide_ran, "width {bits}");
+        assert_eq!(wave_ran, wide_ran, "width {bits}");
         ran_at.push(wide_ran);
         let mirror = wide.0.iter().filter(|&&m| m == 1).count();
         let unresolved = (0..wide.1.len())
@@ -760,9 +762,11 @@ fn compute_lane_layouts_agree_on_the_span_scene() {
                 .count()
         };
         eprintln!(
-            "width {bits}: {mirror} mirror pixels, {unresolved} unresolved, cut: {} (main), {} (main_lanes1)",
+            "width {bits}: {mirror} mirror pixels, {unresolved} unresolved, cut: {} (main), {} \
+             (main_lanes1), {} (main_wave)",
             cut(&wide),
-            cut(&one)
+            cut(&one),
+            cut(&wave)
         );
         assert!(mirror > 2000 && unresolved * 100 <= mirror * 6);
         // The loop limit cuts `main` too on long enough traversals (an earlier kernel was cut on
@@ -770,6 +774,11 @@ fn compute_lane_layouts_agree_on_the_span_scene() {
         assert_eq!(cut(&wide), 0, "width {bits}");
         let d = record_differences(&one, &wide);
         assert_eq!(d, 0, "width {bits}: {d} of {mirror} records differ");
+        let d = record_differences(&wave, &wide);
+        assert_eq!(
+            d, 0,
+            "width {bits}: {d} of {mirror} records differ (main_wave)"
+        );
         let k = (0..one.1.len())
             .find(|&k| one.0[k] == 1 && one.1[k].status != RECORD_UNRESOLVED)
             .unwrap();
@@ -785,8 +794,8 @@ fn compute_lane_layouts_agree_on_the_span_scene() {
     // And the sizes agree record for record.
     let d = record_differences(&by_width[0], &by_width[1]);
     assert_eq!(d, 0, "subgroup sizes 4 and 8: {d} records differ");
-    let (moved, _) = span_records(32, 256, 0.5 * FAR);
-    let (wide, _) = span_records(32, 256, FAR);
+    let (moved, _) = span_records("32", 256, 0.5 * FAR);
+    let (wide, _) = span_records("32", 256, FAR);
     let d = record_differences(&moved, &wide);
     assert!(d > 100, "moving the far cube changed {d} records");
 }

@@ -161,8 +161,9 @@ pub struct DispatchParams {
     pub retrace_rays_per_group: u32,
 }
 
-/// Environment variable that overrides [`ray_lanes`]'s cap: `32` (the thesis layout, entry
-/// `main`) or `1` (entry `main_lanes1`). Anything else is refused.
+/// Environment variable that overrides [`ray_lanes`]'s layout: `32` (the thesis layout, entry
+/// `main`), `1` (entry `main_lanes1`) or `wave` (entry `main_wave`: one ray per lane, the rays'
+/// child tests spread over the subgroup's lanes). Anything else is refused.
 pub const RAY_LANES_ENV: &str = "CUBETRACE_RAY_LANES";
 
 /// The most lanes `compute_trace` gives one ray, and the entry point that does it: 1
@@ -175,26 +176,29 @@ pub const RAY_LANES_ENV: &str = "CUBETRACE_RAY_LANES";
 /// iterations per invocation; spirv/README.md, "Known defect"), so both layouts give the same
 /// records. Where [`workgroup_size`] is 128, the `_wg128` twin of the entry point.
 pub fn ray_lanes(ctx: &GpuContext) -> VkResult<(u32, &'static str)> {
-    let cap = match std::env::var(RAY_LANES_ENV) {
+    let layout = match std::env::var(RAY_LANES_ENV) {
         Ok(v) => match v.trim() {
-            "32" => 32,
-            "1" => 1,
+            "32" => "main",
+            "1" => "main_lanes1",
+            "wave" => "main_wave",
             other => {
                 return Err(VkError::Usage {
                     what: RAY_LANES_ENV.into(),
-                    detail: format!("`{other}`: expected 32 or 1"),
+                    detail: format!("`{other}`: expected 32, 1 or wave"),
                 });
             }
         },
-        Err(_) if ctx.report().device_type == vk::PhysicalDeviceType::CPU => 1,
-        Err(_) => 32,
+        Err(_) if ctx.report().device_type == vk::PhysicalDeviceType::CPU => "main_lanes1",
+        Err(_) => "main",
     };
     let small = workgroup_size(ctx.report()) == 128;
-    Ok(match (cap == 1, small) {
-        (true, false) => (1, "main_lanes1"),
-        (true, true) => (1, "main_lanes1_wg128"),
-        (false, false) => (32, "main"),
-        (false, true) => (32, "main_wg128"),
+    Ok(match (layout, small) {
+        ("main_lanes1", false) => (1, "main_lanes1"),
+        ("main_lanes1", true) => (1, "main_lanes1_wg128"),
+        ("main_wave", false) => (1, "main_wave"),
+        ("main_wave", true) => (1, "main_wave_wg128"),
+        (_, false) => (32, "main"),
+        (_, true) => (32, "main_wg128"),
     })
 }
 
@@ -206,6 +210,8 @@ pub fn bounded_entry(entry: &'static str) -> &'static str {
         "main_lanes1" => "main_lanes1_bounded",
         "main_wg128" => "main_wg128_bounded",
         "main_lanes1_wg128" => "main_lanes1_wg128_bounded",
+        "main_wave" => "main_wave_bounded",
+        "main_wave_wg128" => "main_wave_wg128_bounded",
         other => other,
     }
 }
