@@ -192,6 +192,53 @@ fn gpu_mode_at_least_as_efficient_as_lavapipe() {
     );
 }
 
+/// The wave layout's replay: every crossed child is tested once (the lane tests' rounds hold at
+/// least `crossed / width` of them and at most what the one-lane layout's rounds take, which run
+/// until the warp's busiest lane is done), each round fetches its items and gathers their bits
+/// (`wave_item`, `wave_collect`: one issue per round), and the prefix sums run once per turn
+/// (`wave_items`: as often as the pick). Negatives: the one-lane layout issues no wave block,
+/// and its lane-test rounds are strictly more on this scene at width 32.
+#[test]
+fn wave_layout_spreads_the_crossed_children_over_the_warp() {
+    let rec = recorded(Method::Compute, ComputeLanes::Wave);
+    let FrameWork::Compute(rays) = &rec.work else {
+        panic!("compute work")
+    };
+    let crossed: u64 = (rays.iter().flat_map(|r| &r.phases))
+        .filter_map(|p| match p {
+            Phase::Step(s) => s.visit.as_ref(),
+            _ => None,
+        })
+        .map(|v| u64::from(v.crossed.count_ones()))
+        .sum();
+    assert!(crossed > 0);
+    let n = rays.len() as f64;
+    let one = recorded(Method::Compute, ComputeLanes::One);
+    for width in [8u32, 32] {
+        let a = default_assembly(Method::Compute);
+        let wave = replay(&rec, width, Mode::Gpu, a).expect("replay");
+        let lanes1 = replay(&one, width, Mode::Gpu, a).expect("replay");
+        let steps = |s: &ReplayStats, b: usize| (s.steps_per_ray[b] * n).round() as u64;
+        let tests = steps(&wave, work::C_LANE_TEST);
+        eprintln!(
+            "width {width}: {crossed} crossed children, lane-test rounds {tests} (wave), {} \
+             (one lane)",
+            steps(&lanes1, work::C_LANE_TEST)
+        );
+        assert!(tests >= crossed.div_ceil(u64::from(width)), "width {width}");
+        assert!(tests <= steps(&lanes1, work::C_LANE_TEST), "width {width}");
+        assert_eq!(steps(&wave, work::C_WAVE_ITEM), tests);
+        assert_eq!(steps(&wave, work::C_WAVE_COLLECT), tests);
+        assert_eq!(steps(&wave, work::C_WAVE_ITEMS), steps(&wave, work::C_PICK));
+        for b in [work::C_WAVE_ITEMS, work::C_WAVE_ITEM, work::C_WAVE_COLLECT] {
+            assert_eq!(steps(&lanes1, b), 0, "width {width}: block {b}");
+        }
+        if width == 32 {
+            assert!(tests < steps(&lanes1, work::C_LANE_TEST));
+        }
+    }
+}
+
 /// The texels and cells alg. 3's node visits test (children per visit, from the work log) equal
 /// the twin's own `Counters` (incremented by the traversal itself), ray by ray. The negative:
 /// dropping one visit from a ray breaks the equality.

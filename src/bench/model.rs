@@ -20,7 +20,7 @@
 //!   and fragment over bvh at width 32 as the extra sphere gets finer; where a cube-map tracer
 //!   would overtake the BVH (ratio below 1), interpolated in log triangles, if it does.
 //!
-//! The output is keyed by method: rows of `method` (and `over`, `one_lane`) built from
+//! The output is keyed by method: rows of `method` (and `over`, `layout`) built from
 //! [`METHODS`], [`Method::traces_cubemaps`] and [`Method::EXACT_GPU`] ([`tracers`],
 //! [`gpu_pairs`]), so no method is named here and a new modelled method gets its rows.
 //!
@@ -45,9 +45,9 @@ use super::plot::{self, Point};
 use super::scaling::{TRIANGLE_SEGMENTS, tessellated_scene};
 use super::{BenchReport, Method, MethodSpec, prepare_scene};
 use crate::model::dynamic::{Counting, weights_by};
-use crate::model::methods::one_lane_layout;
+use crate::model::methods::{Layout, layouts};
 use crate::model::replay::{
-    ComputeLanes, Mode, ModelSettings, Recorded, ReplayStats, default_assembly, record, replay,
+    Mode, ModelSettings, Recorded, ReplayStats, default_assembly, record, replay,
 };
 use crate::model::validate::{self, Measured, Modelled, Training, Validation};
 use crate::model::weights;
@@ -89,9 +89,9 @@ pub const ASSUMPTIONS: &[&str] = &[
 #[derive(Clone, Debug, Serialize)]
 pub struct GpuMethod {
     pub method: Method,
-    /// Whether these are the figures of the method's one-lane-per-ray layout (compute's
-    /// `main_lanes1`, [`one_lane_layout`]), not of its default layout.
-    pub one_lane: bool,
+    /// The layout these figures are of: the method's default, or one of compute's others
+    /// ([`layouts`]: `main_lanes1`, `main_wave`).
+    pub layout: Layout,
     /// Weighted warp-steps per ray, static weights.
     pub cost_per_ray: f64,
     /// Weighted warp-steps per ray, dynamic weights ([`crate::model::dynamic`]).
@@ -106,11 +106,10 @@ pub struct GpuMethod {
 }
 
 impl GpuMethod {
-    /// The figures of `stats` (`method`'s replay; `one_lane`: its one-lane layout, compute's
-    /// `main_lanes1`).
-    pub fn of(stats: &ReplayStats, method: Method, one_lane: bool) -> Result<GpuMethod> {
-        let (ws, _) = weights_by(method, Counting::Static, one_lane)?;
-        let (wd, _) = weights_by(method, Counting::Dynamic, one_lane)?;
+    /// The figures of `stats` (`method`'s replay in `layout`).
+    pub fn of(stats: &ReplayStats, method: Method, layout: Layout) -> Result<GpuMethod> {
+        let (ws, _) = weights_by(method, Counting::Static, layout)?;
+        let (wd, _) = weights_by(method, Counting::Dynamic, layout)?;
         let shares = weights::shares(stats, &wd);
         let (i, share) = shares
             .iter()
@@ -126,7 +125,7 @@ impl GpuMethod {
         block_shares.sort_by(|a, b| b.1.total_cmp(&a.1));
         Ok(GpuMethod {
             method,
-            one_lane,
+            layout,
             cost_per_ray: weights::cost(stats, &ws),
             dynamic_cost_per_ray: weights::cost(stats, &wd),
             simd_efficiency: stats.simd_efficiency,
@@ -138,12 +137,12 @@ impl GpuMethod {
     }
 }
 
-/// A ratio of weighted warp-steps per ray: `method`'s (in its one-lane layout where
-/// `one_lane`) over `over`'s.
+/// A ratio of weighted warp-steps per ray: `method`'s (in `layout`) over `over`'s (in its
+/// default layout).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct ModelRatio {
     pub method: Method,
-    pub one_lane: bool,
+    pub layout: Layout,
     pub over: Method,
     /// With static weights (`None`: a method not replayed, or a ratio not finite).
     pub ratio: Option<f64>,
@@ -152,28 +151,31 @@ pub struct ModelRatio {
 }
 
 impl ModelRatio {
-    /// The ratio of `(method, one_lane)` over `over` among `methods`.
-    fn of(methods: &[GpuMethod], (method, one_lane): (Method, bool), over: Method) -> ModelRatio {
-        let find =
-            |k: Method, one: bool| methods.iter().find(|g| g.method == k && g.one_lane == one);
-        let (a, b) = (find(method, one_lane), find(over, false));
+    /// The ratio of `(method, layout)` over `over` among `methods`.
+    fn of(methods: &[GpuMethod], (method, layout): (Method, Layout), over: Method) -> ModelRatio {
+        let find = |k: Method, l: Layout| methods.iter().find(|g| g.method == k && g.layout == l);
+        let (a, b) = (find(method, layout), find(over, Layout::Default));
         let ratio =
             |cost: fn(&GpuMethod) -> f64| Some(cost(a?) / cost(b?)).filter(|r| r.is_finite());
         ModelRatio {
             method,
-            one_lane,
+            layout,
             over,
             ratio: ratio(|g| g.cost_per_ray),
             dynamic: ratio(|g| g.dynamic_cost_per_ray),
         }
     }
 
-    /// The column heading: `compute/bvh`, `compute 1 lane/ray / bvh`.
+    /// The column heading: `compute/bvh`, `compute 1 lane/ray / bvh`, `compute wave / bvh`.
     fn heading(&self) -> String {
-        if self.one_lane {
-            format!("{} 1 lane/ray / {}", self.method.name(), self.over.name())
-        } else {
-            format!("{}/{}", self.method.name(), self.over.name())
+        match self.layout {
+            Layout::Default => format!("{}/{}", self.method.name(), self.over.name()),
+            l => format!(
+                "{} {} / {}",
+                self.method.name(),
+                l.label(),
+                self.over.name()
+            ),
         }
     }
 }
@@ -187,18 +189,20 @@ pub fn tracers() -> Vec<Method> {
         .collect()
 }
 
-/// The ratios of the GPU predictions, `((method, one_lane), over)`: each cube-map tracer over
-/// the tracers after it, over the exact GPU tracer ([`Method::EXACT_GPU`]) and, where it has
-/// one, its one-lane layout over the exact GPU tracer.
-pub fn gpu_pairs() -> Vec<((Method, bool), Method)> {
+/// The ratios of the GPU predictions, `((method, layout), over)`: each cube-map tracer over
+/// the tracers after it, over the exact GPU tracer ([`Method::EXACT_GPU`]) and, in each of its
+/// other layouts, over the exact GPU tracer.
+pub fn gpu_pairs() -> Vec<((Method, Layout), Method)> {
     let tracers = tracers();
     let mut out = Vec::new();
     for (k, &m) in tracers.iter().enumerate() {
-        out.extend(tracers[k + 1..].iter().map(|&after| ((m, false), after)));
-        out.push(((m, false), Method::EXACT_GPU));
-        if one_lane_layout(m) {
-            out.push(((m, true), Method::EXACT_GPU));
-        }
+        out.extend(
+            tracers[k + 1..]
+                .iter()
+                .map(|&after| ((m, Layout::Default), after)),
+        );
+        out.push(((m, Layout::Default), Method::EXACT_GPU));
+        out.extend(layouts(m).iter().map(|&l| ((m, l), Method::EXACT_GPU)));
     }
     out
 }
@@ -206,18 +210,18 @@ pub fn gpu_pairs() -> Vec<((Method, bool), Method)> {
 /// Per scene and width, the GPU-mode predictions.
 ///
 /// In `model.json` (and `bench.json`'s `model`): `{"scene": ..., "cube": 256, "width": 32,
-/// "methods": [{"method": "compute", "one_lane": false, "cost_per_ray": ..., ...}, ...],
-/// "ratios": [{"method": "compute", "one_lane": false, "over": "fragment", "ratio": 2.1,
+/// "methods": [{"method": "compute", "layout": "default", "cost_per_ray": ..., ...}, ...],
+/// "ratios": [{"method": "compute", "layout": "default", "over": "fragment", "ratio": 2.1,
 /// "dynamic": 1.9}, ...]}`.
 #[derive(Clone, Debug, Serialize)]
 pub struct GpuPrediction {
     pub scene: String,
     pub cube: u32,
     pub width: u32,
-    /// Every modelled method's figures in [`METHODS`]' order, then those of the one-lane
-    /// layouts (`one_lane`: compute in `main_lanes1`'s layout, one lane per ray and 32 rays per
-    /// warp, which shows how much of compute over bvh is the thesis layout's one ray per
-    /// 32-lane warp).
+    /// Every modelled method's figures in [`METHODS`]' order, then those of its other layouts
+    /// (`layout`: compute in `main_lanes1`'s, one lane per ray and 32 rays per warp, which shows
+    /// how much of compute over bvh is the thesis layout's one ray per 32-lane warp; and in
+    /// `main_wave`'s, one ray per lane with the child tests spread over the warp).
     pub methods: Vec<GpuMethod>,
     /// The ratios of [`gpu_pairs`], in that order.
     pub ratios: Vec<ModelRatio>,
@@ -228,14 +232,14 @@ impl GpuPrediction {
     pub fn method(&self, method: Method) -> Option<&GpuMethod> {
         self.methods
             .iter()
-            .find(|g| g.method == method && !g.one_lane)
+            .find(|g| g.method == method && g.layout == Layout::Default)
     }
 
     /// The ratio of `method` (default layout) over `over`, if tracked.
     pub fn ratio(&self, method: Method, over: Method) -> Option<&ModelRatio> {
         self.ratios
             .iter()
-            .find(|r| (r.method, r.one_lane, r.over) == (method, false, over))
+            .find(|r| (r.method, r.layout, r.over) == (method, Layout::Default, over))
     }
 }
 
@@ -464,19 +468,20 @@ pub fn gpu_prediction(
     let mut methods = Vec::new();
     for m in METHODS {
         let stats = rec.stats(name, cube, dims, m, width, Mode::Gpu)?;
-        methods.push(GpuMethod::of(&stats, m, false)?);
+        methods.push(GpuMethod::of(&stats, m, Layout::Default)?);
     }
-    // A method with a one-lane layout again in that layout: the same recording, replayed with
-    // one lane per ray.
-    for m in METHODS.into_iter().filter(|&m| one_lane_layout(m)) {
-        let Some(r) = rec.recorded.get_mut(&(name.to_string(), cube, m)) else {
-            continue;
-        };
-        let saved = r.settings.compute_lanes;
-        r.settings.compute_lanes = ComputeLanes::One;
-        let s = replay(r, width, Mode::Gpu, default_assembly(m));
-        r.settings.compute_lanes = saved;
-        methods.push(GpuMethod::of(&s?, m, true)?);
+    // A method with other layouts again in each: the same recording, replayed in that layout.
+    for m in METHODS {
+        for &layout in layouts(m) {
+            let Some(r) = rec.recorded.get_mut(&(name.to_string(), cube, m)) else {
+                continue;
+            };
+            let saved = r.settings.compute_lanes;
+            r.settings.compute_lanes = layout.compute_lanes();
+            let s = replay(r, width, Mode::Gpu, default_assembly(m));
+            r.settings.compute_lanes = saved;
+            methods.push(GpuMethod::of(&s?, m, layout)?);
+        }
     }
     let ratios = gpu_pairs()
         .into_iter()
@@ -509,7 +514,7 @@ pub fn triangle_axis(dims: (u32, u32)) -> Result<Vec<TrianglePoint>> {
             .map(|m| -> Result<GpuMethod> {
                 let rec = record(&frame, m)?;
                 let s = replay(&rec, 32, Mode::Gpu, default_assembly(m))?;
-                GpuMethod::of(&s, m, false)
+                GpuMethod::of(&s, m, Layout::Default)
             })
             .collect::<Result<Vec<_>>>()?;
         out.push(TrianglePoint {
@@ -517,7 +522,7 @@ pub fn triangle_axis(dims: (u32, u32)) -> Result<Vec<TrianglePoint>> {
             triangles: scene.world().triangles.len(),
             ratios: tracers()
                 .into_iter()
-                .map(|m| ModelRatio::of(&methods, (m, false), Method::EXACT_GPU))
+                .map(|m| ModelRatio::of(&methods, (m, Layout::Default), Method::EXACT_GPU))
                 .collect(),
         });
     }
@@ -655,10 +660,10 @@ pub fn gpu_table(gpu: &[GpuPrediction]) -> String {
     let pairs = gpu_pairs();
     let headings: Vec<String> = pairs
         .iter()
-        .map(|&((method, one_lane), over)| {
+        .map(|&((method, layout), over)| {
             let r = ModelRatio {
                 method,
-                one_lane,
+                layout,
                 over,
                 ratio: None,
                 dynamic: None,
@@ -700,11 +705,11 @@ pub fn gpu_table(gpu: &[GpuPrediction]) -> String {
         let ratio = |f: fn(&ModelRatio) -> Option<f64>| {
             pairs
                 .iter()
-                .map(|&((m, one_lane), over)| {
+                .map(|&((m, layout), over)| {
                     let r = g
                         .ratios
                         .iter()
-                        .find(|r| (r.method, r.one_lane, r.over) == (m, one_lane, over));
+                        .find(|r| (r.method, r.layout, r.over) == (m, layout, over));
                     opt(r.and_then(f))
                 })
                 .collect::<Vec<_>>()
@@ -807,10 +812,9 @@ pub fn per_ray_table(gpu: &[GpuPrediction]) -> String {
             continue;
         };
         for m in &g.methods {
-            let label = if m.one_lane {
-                format!("{}, 1 lane/ray", m.method.name())
-            } else {
-                m.method.name().to_string()
+            let label = match m.layout {
+                Layout::Default => m.method.name().to_string(),
+                l => format!("{}, {}", m.method.name(), l.label()),
             };
             s += &format!(
                 "| {} | {} | {:.0} | {:.0} | {:.2} | {:.2} | {:.2} | {:.1} | {} ({:.0} %) |\n",
@@ -888,10 +892,10 @@ mod tests {
     use super::*;
 
     /// A method's figures with cost `cost` (static) and `2 * cost` (dynamic).
-    fn figures(method: Method, one_lane: bool, cost: f64) -> GpuMethod {
+    fn figures(method: Method, layout: Layout, cost: f64) -> GpuMethod {
         GpuMethod {
             method,
-            one_lane,
+            layout,
             cost_per_ray: cost,
             dynamic_cost_per_ray: 2.0 * cost,
             simd_efficiency: 0.5,
@@ -906,9 +910,13 @@ mod tests {
     fn the_gpu_tables_have_a_column_per_tracked_ratio() {
         let mut methods: Vec<GpuMethod> = METHODS
             .into_iter()
-            .map(|m| figures(m, false, if m == Method::Compute { 4.0 } else { 2.0 }))
+            .map(|m| {
+                let cost = if m == Method::Compute { 4.0 } else { 2.0 };
+                figures(m, Layout::Default, cost)
+            })
             .collect();
-        methods.push(figures(Method::Compute, true, 1.0));
+        methods.push(figures(Method::Compute, Layout::OneLane, 1.0));
+        methods.push(figures(Method::Compute, Layout::Wave, 3.0));
         let ratios = gpu_pairs()
             .into_iter()
             .map(|(m, over)| ModelRatio::of(&methods, m, over))
@@ -925,14 +933,14 @@ mod tests {
         assert_eq!(
             lines[4],
             "| scene | cube | width | compute/fragment | compute/bvh | compute 1 lane/ray / bvh \
-             | fragment/bvh | dynamic: compute/fragment | compute/bvh | compute 1 lane/ray / bvh \
-             | fragment/bvh | SIMD eff. compute | fragment | bvh | sectors/ray compute | fragment \
-             | bvh |"
+             | compute wave / bvh | fragment/bvh | dynamic: compute/fragment | compute/bvh \
+             | compute 1 lane/ray / bvh | compute wave / bvh | fragment/bvh | SIMD eff. compute \
+             | fragment | bvh | sectors/ray compute | fragment | bvh |"
         );
         assert_eq!(
             lines[6],
-            "| mug | 64 | 32 | 2.00 | 2.00 | 0.50 | 1.00 | 2.00 | 2.00 | 0.50 | 1.00 | 0.50 | 0.50 \
-             | 0.50 | 3.0 | 3.0 | 3.0 |"
+            "| mug | 64 | 32 | 2.00 | 2.00 | 0.50 | 1.50 | 1.00 | 2.00 | 2.00 | 0.50 | 1.50 | 1.00 \
+             | 0.50 | 0.50 | 0.50 | 3.0 | 3.0 | 3.0 |"
         );
         assert_eq!(lines[5].matches('|').count(), lines[4].matches('|').count());
         assert_eq!(
@@ -942,7 +950,8 @@ mod tests {
         let per_ray = per_ray_table(std::slice::from_ref(&g));
         assert!(per_ray.contains("| over bvh static |"), "{per_ray}");
         assert!(
-            per_ray.contains("| mug | compute, 1 lane/ray | 1 | 2 | 0.50 | 0.50 |"),
+            per_ray.contains("| mug | compute, 1 lane/ray | 1 | 2 | 0.50 | 0.50 |")
+                && per_ray.contains("| mug | compute, wave | 3 | 6 | 1.50 | 1.50 |"),
             "{per_ray}"
         );
         // Negative: a method not replayed leaves its ratios empty, not made up.
@@ -952,7 +961,11 @@ mod tests {
             .filter(|m| m.method != Method::Bvh)
             .cloned()
             .collect();
-        let r = ModelRatio::of(&without_bvh, (Method::Compute, false), Method::Bvh);
+        let r = ModelRatio::of(
+            &without_bvh,
+            (Method::Compute, Layout::Default),
+            Method::Bvh,
+        );
         assert_eq!((r.ratio, r.dynamic), (None, None));
     }
 
@@ -961,14 +974,14 @@ mod tests {
         let methods: Vec<GpuMethod> = [Method::Bvh, Method::Compute, Method::Fragment]
             .into_iter()
             .zip([1.0, 3.0, 0.5])
-            .map(|(m, c)| figures(m, false, c))
+            .map(|(m, c)| figures(m, Layout::Default, c))
             .collect();
         let point = TrianglePoint {
             scene: "s".into(),
             triangles: 100,
             ratios: tracers()
                 .into_iter()
-                .map(|m| ModelRatio::of(&methods, (m, false), Method::EXACT_GPU))
+                .map(|m| ModelRatio::of(&methods, (m, Layout::Default), Method::EXACT_GPU))
                 .collect(),
         };
         let overtakes = [

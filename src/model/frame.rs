@@ -23,6 +23,8 @@ pub enum ComputeLanes {
     Thesis,
     /// `main_lanes1`: one lane per ray (what CPU devices, lavapipe, run).
     One,
+    /// `main_wave`: one ray per lane, the warp's crossed children spread over its lanes.
+    Wave,
     /// `One` in lavapipe mode, `Thesis` in GPU mode (what `ray_lanes` picks).
     Auto,
 }

@@ -211,7 +211,8 @@ pub fn replay(
                         }
                     })
                     .collect();
-                replay_compute(&slot, lanes, width, mode, &mut acc);
+                let wave = rec.settings.compute_lanes == ComputeLanes::Wave;
+                replay_compute(&slot, lanes, wave, width, mode, &mut acc);
             }
         }
         FrameWork::Tree {
@@ -263,7 +264,7 @@ pub fn replay(
 /// Lanes per ray of compute_trace at `width` (module docs).
 pub fn compute_lanes(lanes: ComputeLanes, width: u32, mode: Mode) -> u32 {
     match (lanes, mode) {
-        (ComputeLanes::One, _) | (ComputeLanes::Auto, Mode::Lavapipe) => 1,
+        (ComputeLanes::One | ComputeLanes::Wave, _) | (ComputeLanes::Auto, Mode::Lavapipe) => 1,
         (ComputeLanes::Thesis, _) | (ComputeLanes::Auto, Mode::Gpu) => width.min(32),
     }
 }
@@ -324,7 +325,14 @@ fn replay_body(prog: &[Stmt], lanes: &[Option<&Iter>], width: u32, mode: Mode, a
 }
 
 /// One compute_trace subgroup: `slot[s]` the ray on lanes `s * lanes ..` (module docs).
-fn replay_compute(slot: &[Option<&ComputeRay>], lanes: u32, width: u32, mode: Mode, acc: &mut Acc) {
+fn replay_compute(
+    slot: &[Option<&ComputeRay>],
+    lanes: u32,
+    wave: bool,
+    width: u32,
+    mode: Mode,
+    acc: &mut Acc,
+) {
     use work::*;
     let lavapipe = mode == Mode::Lavapipe;
     let l = lanes as u64;
@@ -397,7 +405,7 @@ fn replay_compute(slot: &[Option<&ComputeRay>], lanes: u32, width: u32, mode: Mo
                     _ => None,
                 })
                 .collect();
-            compute_step(&steps, lanes, width, mode, acc);
+            compute_step(&steps, lanes, wave, width, mode, acc);
             for (s, p) in pos.iter_mut().enumerate() {
                 if matches!(slot[s].and_then(|r| r.phases.get(*p)), Some(Phase::Step(_))) {
                     *p += 1;
@@ -416,8 +424,41 @@ fn replay_compute(slot: &[Option<&ComputeRay>], lanes: u32, width: u32, mode: Mo
     }
 }
 
+/// The wave layout's lane tests of one turn (`wave_tests`): uniform code, so every block issues
+/// on every turn that reaches it. The item list is the testing lanes' crossed children in lane
+/// order (`crossed`); round r takes items r * width .. r * width + width - 1, one per lane, and
+/// runs `wave_item`, `lane_test` (on the lanes that hold an item) and `wave_collect`. `busy`:
+/// the lanes with a ray (`wave_items` runs on them all).
+fn wave_tests(crossed: &[Vec<u64>], busy: u64, width: u32, lavapipe: bool, acc: &mut Acc) {
+    use work::*;
+    acc.issue(C_WAVE_ITEMS, width, busy, &[]);
+    let items: Vec<u64> = crossed.iter().flatten().copied().collect();
+    let rounds = items.len().div_ceil(width as usize);
+    // lavapipe runs a loop's body at least once (module docs).
+    let rounds = if lavapipe { rounds.max(1) } else { rounds };
+    for r in 0..rounds {
+        let round: Vec<[u64; 1]> = (items.iter())
+            .skip(r * width as usize)
+            .take(width as usize)
+            .map(|&a| [a])
+            .collect();
+        let refs: Vec<&[u64]> = round.iter().map(|a| a.as_slice()).collect();
+        let n = refs.len() as u64;
+        acc.issue(C_WAVE_ITEM, width, n, &[]);
+        acc.issue_if(lavapipe, C_LANE_TEST, width, n, &refs);
+        acc.issue(C_WAVE_COLLECT, width, n, &[]);
+    }
+}
+
 /// One turn of compute_trace's hot loop over the busy rays' `steps`.
-fn compute_step(steps: &[&work::Step], lanes: u32, width: u32, mode: Mode, acc: &mut Acc) {
+fn compute_step(
+    steps: &[&work::Step],
+    lanes: u32,
+    wave: bool,
+    width: u32,
+    mode: Mode,
+    acc: &mut Acc,
+) {
     use work::*;
     let lavapipe = mode == Mode::Lavapipe;
     let l = lanes as u64;
@@ -431,7 +472,7 @@ fn compute_step(steps: &[&work::Step], lanes: u32, width: u32, mode: Mode, acc: 
             testing.len() as u64,
             &[],
         );
-        // Round c: each testing lane tests its c-th crossed child.
+        // Each testing lane's crossed children, in increasing j, by their loads.
         let crossed: Vec<Vec<u64>> = testing
             .iter()
             .map(|v| {
@@ -442,7 +483,16 @@ fn compute_step(steps: &[&work::Step], lanes: u32, width: u32, mode: Mode, acc: 
                     .collect()
             })
             .collect();
-        let most = crossed.iter().map(Vec::len).max().unwrap_or(0);
+        if wave {
+            wave_tests(&crossed, steps.len() as u64, width, lavapipe, acc);
+        }
+        // Round c: each testing lane tests its c-th crossed child (none left to the wave
+        // layout's own loop).
+        let most = if wave {
+            0
+        } else {
+            crossed.iter().map(Vec::len).max().unwrap_or(0)
+        };
         let rounds = if lavapipe { most.max(1) } else { most };
         for c in 0..rounds {
             let loads: Vec<[u64; 1]> = crossed

@@ -82,6 +82,7 @@ use anyhow::{Result, bail, ensure};
 use serde::Serialize;
 
 use super::dynamic::{Counting, weights_by};
+use super::methods::Layout;
 use super::replay::{Mode, ModelSettings, ReplayStats, model_frame};
 use super::{weights, work};
 use crate::method::Method;
@@ -327,7 +328,8 @@ pub fn modelled_with(
         m.key(),
         m.subgroup
     );
-    let (w, lane) = weights_by(m.method, counting, true)?;
+    // Lavapipe runs compute's one-lane layout (`vk::methods::compute::ray_lanes`).
+    let (w, lane) = weights_by(m.method, counting, Layout::OneLane)?;
     let stats = stats.clone();
     let (vector_blocks, lane_blocks) = split(&stats.steps_per_ray, &w, &lane, m.subgroup);
     let item_costs: Vec<f64> = stats

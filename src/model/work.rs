@@ -60,8 +60,8 @@ pub use super::frame::{
 pub use super::methods::bvh::BVH_BLOCKS;
 pub use super::methods::compute::{
     C_ADVANCE, C_CHILDREN_CROSSED, C_CLASSIFY, C_DECIDE, C_ENTER_FACE, C_FACES_CROSSED, C_HANDOFF,
-    C_LANE_TEST, C_PICK, C_SETTLE, C_SHADE, C_START_TRACE, C_VERIFY, C_VISIT, COMPUTE_BLOCKS,
-    compute_ray,
+    C_LANE_TEST, C_PICK, C_SETTLE, C_SHADE, C_START_TRACE, C_VERIFY, C_VISIT, C_WAVE_COLLECT,
+    C_WAVE_ITEM, C_WAVE_ITEMS, COMPUTE_BLOCKS, compute_ray,
 };
 pub use super::methods::fragment::{
     F_CELL_TEST, F_CLASSIFY, F_CMO_TRACE, F_DECIDE, F_FACE, F_RAY_SETUP, F_SHADE, F_TEXEL_CHECK,

@@ -7,6 +7,7 @@ use std::collections::BTreeSet;
 
 use cubetrace::method::Method;
 use cubetrace::model::dynamic::{self, Arms, Contexts, Counting, Eval, LoopKind, Module};
+use cubetrace::model::methods::Layout;
 use cubetrace::model::weights::{self, ShaderFunctions};
 use cubetrace::model::work::{COMPUTE_BLOCKS, blocks};
 
@@ -178,12 +179,12 @@ const MODELLED: [Method; 5] = [
 ];
 
 /// Every block of every modelled method has a positive dynamic weight and lane operations
-/// below it, for both of compute's entry points.
+/// below it, in each of compute's entry points.
 #[test]
 fn every_block_has_a_dynamic_weight() {
     for m in MODELLED {
-        for one in [false, true] {
-            let (w, lane) = dynamic::weights_by(m, Counting::Dynamic, one).unwrap();
+        for layout in [Layout::Default, Layout::OneLane, Layout::Wave] {
+            let (w, lane) = dynamic::weights_by(m, Counting::Dynamic, layout).unwrap();
             assert_eq!(w.len(), blocks(m).len(), "{}", m.name());
             for (i, (x, l)) in w.iter().zip(&lane).enumerate() {
                 let b = blocks(m)[i].name;
@@ -198,7 +199,7 @@ fn every_block_has_a_dynamic_weight() {
 #[test]
 fn the_bvh_node_counts_its_children_per_trip() {
     let st = weights::weights(Method::Bvh).unwrap();
-    let dy = dynamic::weights(Method::Bvh, false, Arms::Both).unwrap();
+    let dy = dynamic::weights(Method::Bvh, Layout::Default, Arms::Both).unwrap();
     let index = |n: &str| {
         blocks(Method::Bvh)
             .iter()

@@ -295,18 +295,20 @@ fn bench_model_json_has_the_columns() {
         .collect();
     assert!(widths.contains(&32) && widths.contains(&64), "{widths:?}");
     let g = &m["gpu"][0];
-    // The ratios, keyed by method: static and dynamic weights, the one-lane layout's too.
+    // The ratios, keyed by method and layout: static and dynamic weights, compute's one-lane
+    // and wave layouts too.
     let ratios = g["ratios"].as_array().expect("gpu[0].ratios");
-    for (method, one_lane, over) in [
-        ("compute", false, "bvh"),
-        ("compute", false, "fragment"),
-        ("fragment", false, "bvh"),
-        ("compute", true, "bvh"),
+    for (method, layout, over) in [
+        ("compute", "default", "bvh"),
+        ("compute", "default", "fragment"),
+        ("fragment", "default", "bvh"),
+        ("compute", "one-lane", "bvh"),
+        ("compute", "wave", "bvh"),
     ] {
         let r = ratios
             .iter()
-            .find(|r| r["method"] == method && r["one_lane"] == one_lane && r["over"] == over)
-            .unwrap_or_else(|| panic!("{method} (one lane: {one_lane}) over {over} in {g}"));
+            .find(|r| r["method"] == method && r["layout"] == layout && r["over"] == over)
+            .unwrap_or_else(|| panic!("{method} ({layout}) over {over} in {g}"));
         assert!(r["ratio"].is_number() && r["dynamic"].is_number(), "{r}");
     }
     assert!(g["methods"][0]["sectors_per_ray"].is_number());
@@ -320,7 +322,7 @@ fn bench_model_json_has_the_columns() {
             .as_array()
             .unwrap()
             .iter()
-            .any(|m| m["method"] == "compute" && m["one_lane"] == true),
+            .any(|m| m["method"] == "compute" && m["layout"] == "wave"),
         "{g}"
     );
     assert!(
@@ -738,9 +740,18 @@ const NAMED_CALLERS: &[(&str, &str, &[&str])] = &[
     (COMP, "handoff", &["settle"]),
     (COMP, "verify_decision", &["handoff", "trace_ray_verified"]),
     (COMP, "node_ctx", &["trace_queued"]),
-    (COMP, "child_grid", &["node_ctx", "advance", "trace_queued"]),
+    (
+        COMP,
+        "child_grid",
+        &["node_ctx_at", "advance", "trace_queued"],
+    ),
     (COMP, "children_crossed", &["trace_queued"]),
-    (COMP, "lane_test", &["trace_queued"]),
+    // The wave layout calls `lane_test` (and `test_ray`, once per turn) from `wave_tests`.
+    (COMP, "lane_test", &["wave_tests", "trace_queued"]),
+    (COMP, "test_ray", &["wave_tests", "trace_queued"]),
+    (COMP, "wave_items", &["wave_tests"]),
+    (COMP, "wave_item", &["wave_tests"]),
+    (COMP, "wave_collect", &["wave_tests"]),
     (
         COMP,
         "key_get",

@@ -50,14 +50,15 @@ mod spirv;
 pub use eval::{Ctx, Eval, LoopNote};
 pub use spirv::{Arms, Cost, LoopKind, Module};
 
+use super::methods::Layout;
 use super::work::{Block, blocks};
 use crate::method::Method;
 
-/// The entry point a method's default dispatch runs: compute's `main_lanes1` for one lane per
-/// ray, `main` for the thesis layout; fragment's `fs_exact_mip`; bvh's and compute's `main`;
-/// ssr's `fs_main`; reflection-point's `search`.
-pub fn entry_point(method: Method, one_lane: bool) -> Option<&'static str> {
-    super::methods::model(method).map(|m| (m.entry_point)(one_lane))
+/// The entry point a method's dispatch runs in `layout`: compute's `main` (the thesis layout),
+/// `main_lanes1` or `main_wave`; fragment's `fs_exact_mip`; bvh's `main`; ssr's `fs_main`;
+/// reflection-point's `search`.
+pub fn entry_point(method: Method, layout: Layout) -> Option<&'static str> {
+    super::methods::model(method).map(|m| (m.entry_point)(layout))
 }
 
 /// The known parameters of each function reached from an entry point: a parameter that every
@@ -144,9 +145,9 @@ pub fn block_weights(blocks: &[Block], entry: &str, arms: Arms) -> Result<Vec<Bl
 }
 
 /// Instructions per block of a method, counted dynamically (module docs), with `Arms::Both`
-/// unless asked; `one_lane` picks compute's entry point.
-pub fn weights(method: Method, one_lane: bool, arms: Arms) -> Result<Vec<BlockWeight>> {
-    let Some(entry) = entry_point(method, one_lane) else {
+/// unless asked; `layout` picks compute's entry point.
+pub fn weights(method: Method, layout: Layout, arms: Arms) -> Result<Vec<BlockWeight>> {
+    let Some(entry) = entry_point(method, layout) else {
         bail!("model: --method {} has no blocks", method.name());
     };
     block_weights(blocks(method), entry, arms)
@@ -172,12 +173,12 @@ impl Counting {
     }
 }
 
-/// [`super::weights::weights`] and [`super::weights::lane_weights`] under `counting`; `one_lane` picks compute's entry point
-/// for the dynamic count (`main_lanes1`, else `main`; the static count does not depend on it).
+/// [`super::weights::weights`] and [`super::weights::lane_weights`] under `counting`; `layout`
+/// picks compute's entry point for the dynamic count (the static count does not depend on it).
 pub fn weights_by(
     method: Method,
     counting: Counting,
-    one_lane: bool,
+    layout: Layout,
 ) -> Result<(Vec<f64>, Vec<f64>)> {
     match counting {
         Counting::Static => Ok((
@@ -185,7 +186,7 @@ pub fn weights_by(
             super::weights::lane_weights(method)?,
         )),
         Counting::Dynamic => {
-            let w = weights(method, one_lane, Arms::Both)?;
+            let w = weights(method, layout, Arms::Both)?;
             Ok((
                 w.iter().map(|b| b.cost.all).collect(),
                 w.iter().map(|b| b.cost.lane).collect(),

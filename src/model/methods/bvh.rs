@@ -18,7 +18,7 @@ pub const MODEL: MethodModel = MethodModel {
     assembly: Assembly::Queue,
     lavapipe_items: |_, _| Items::Groups(64),
     entry_point: |_| "main",
-    one_lane_layout: false,
+    layouts: &[],
     record,
 };
 

@@ -9,7 +9,7 @@ use crate::model::frame::{Addr, Frame, MirrorRay, run_logged, verify_loads};
 use crate::model::rays::{ComputeRay, FrameWork, Phase, Recorded, SettleTurn, Step, Visit};
 use crate::model::warps::{Assembly, Items};
 
-use super::MethodModel;
+use super::{Layout, MethodModel};
 
 /// What the cost model knows of compute.
 pub const MODEL: MethodModel = MethodModel {
@@ -18,8 +18,12 @@ pub const MODEL: MethodModel = MethodModel {
     program: None,
     assembly: Assembly::Queue,
     lavapipe_items: |width, lanes| Items::Groups(lavapipe_compute_group(width) / lanes.max(1)),
-    entry_point: |one_lane| if one_lane { "main_lanes1" } else { "main" },
-    one_lane_layout: true,
+    entry_point: |layout| match layout {
+        Layout::Default => "main",
+        Layout::OneLane => "main_lanes1",
+        Layout::Wave => "main_wave",
+    },
+    layouts: &[Layout::OneLane, Layout::Wave],
     record,
 };
 
@@ -58,7 +62,7 @@ pub const COMPUTE_BLOCKS: &[Block] = &[
     // The 1-lane layout's exact pre-test of a node's children (`main_lanes1` only).
     b("children_crossed", COMPUTE, &["children_crossed"]),
     // One round of lane tests: each lane of a ray tests one child (with its ballot).
-    b("lane_test", COMPUTE, &["lane_test"]),
+    b("lane_test", COMPUTE, &["lane_test", "test_ray"]),
     // The pick of the first candidate (min key over the ray's lanes, ballot of the holders).
     b("pick", COMPUTE, &["key_get", "ray_bits"]),
     // One traversal step: descend, backtrack, next face, or classify.
@@ -73,6 +77,12 @@ pub const COMPUTE_BLOCKS: &[Block] = &[
     // A candidate texel's outcome (its hit or behind, inside `classify`): the step of a trace's
     // deciding texel, so a warp issues it only where one of its rays decides.
     b("decide", COMPUTE, &["classify_candidate"]),
+    // The wave layout (`main_wave`): the prefix sums of a turn's crossed children, one round's
+    // item fetched from its ray's lane (the node's `child_grid` too, which `visit` names), and
+    // the round's candidate bits gathered back.
+    b("wave_items", COMPUTE, &["wave_items"]),
+    b("wave_item", COMPUTE, &["wave_item", "child_grid"]),
+    b("wave_collect", COMPUTE, &["wave_collect"]),
 ];
 
 // Indices into COMPUTE_BLOCKS.
@@ -90,6 +100,9 @@ pub const C_CLASSIFY: usize = 10;
 pub const C_SHADE: usize = 11;
 pub const C_FACES_CROSSED: usize = 12;
 pub const C_DECIDE: usize = 13;
+pub const C_WAVE_ITEMS: usize = 14;
+pub const C_WAVE_ITEM: usize = 15;
+pub const C_WAVE_COLLECT: usize = 16;
 
 /// A compute ray's work as `trace_queued` runs it (settle phases and steps).
 pub fn compute_ray(frame: &Frame, ray: &MirrorRay) -> ComputeRay {

@@ -3,8 +3,10 @@
 //! its shader's blocks and loop nest, how a GPU and lavapipe group its invocations, the entry
 //! point of its tracing pass, and how its CPU twin's work is recorded. A method without a file
 //! here (envmap, the reference) traces nothing per ray and has no model.
+use serde::Serialize;
+
 use super::blocks::{Block, Stmt};
-use super::frame::Frame;
+use super::frame::{ComputeLanes, Frame};
 use super::rays::Recorded;
 use super::warps::{Assembly, Items};
 use crate::method::Method;
@@ -27,12 +29,11 @@ pub struct MethodModel {
     /// How lavapipe hands its tracing pass to its threads at subgroup size `width`, `lanes`
     /// lanes per ray.
     pub lavapipe_items: fn(width: u32, lanes: u32) -> Items,
-    /// The entry point of its tracing pass (compute: the one-lane layout's with `true`).
-    pub entry_point: fn(one_lane: bool) -> &'static str,
-    /// Whether its tracing pass has a second layout with one lane per ray (compute's
-    /// `main_lanes1`, replayed with [`ComputeLanes::One`](super::frame::ComputeLanes::One)),
-    /// which the bench's GPU predictions set beside its default layout.
-    pub one_lane_layout: bool,
+    /// The entry point of its tracing pass in a layout.
+    pub entry_point: fn(Layout) -> &'static str,
+    /// The layouts of its tracing pass beside its default ([`Layout`]: compute's `main_lanes1`
+    /// and `main_wave`), which the bench's GPU predictions set beside the default.
+    pub layouts: &'static [Layout],
     /// Runs its CPU twin on every ray of a frame and keeps the work.
     pub record: fn(&Frame) -> anyhow::Result<Recorded>,
 }
@@ -62,10 +63,42 @@ pub fn block_index(method: Method, name: &str) -> Option<usize> {
     blocks(method).iter().position(|b| b.name == name)
 }
 
-/// Whether `method`'s tracing pass has a one-lane-per-ray layout beside its default
-/// ([`MethodModel::one_lane_layout`]).
-pub fn one_lane_layout(method: Method) -> bool {
-    model(method).is_some_and(|m| m.one_lane_layout)
+/// The layouts of `method`'s tracing pass beside its default ([`MethodModel::layouts`]).
+pub fn layouts(method: Method) -> &'static [Layout] {
+    model(method).map_or(&[], |m| m.layouts)
+}
+
+/// A layout of a tracing pass over a warp's lanes. Only compute has more than its default.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Layout {
+    /// The method's GPU default (compute: the thesis layout, `main`, 32 lanes per ray).
+    Default,
+    /// compute's `main_lanes1`: one lane per ray, its children tested in rounds by that lane.
+    OneLane,
+    /// compute's `main_wave`: one ray per lane, the warp's crossed children spread over its
+    /// lanes.
+    Wave,
+}
+
+impl Layout {
+    /// How compute's replay lays the rays over lanes in this layout.
+    pub fn compute_lanes(self) -> ComputeLanes {
+        match self {
+            Layout::Default => ComputeLanes::Thesis,
+            Layout::OneLane => ComputeLanes::One,
+            Layout::Wave => ComputeLanes::Wave,
+        }
+    }
+
+    /// The label of a table column: "" (the default), "1 lane/ray", "wave".
+    pub fn label(self) -> &'static str {
+        match self {
+            Layout::Default => "",
+            Layout::OneLane => "1 lane/ray",
+            Layout::Wave => "wave",
+        }
+    }
 }
 
 /// The static loop nest of a tree-shaped method (not compute, whose replay is its own).

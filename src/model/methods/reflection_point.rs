@@ -19,7 +19,7 @@ pub const MODEL: MethodModel = MethodModel {
     assembly: Assembly::Dispatch,
     lavapipe_items: |_, _| Items::Groups(64),
     entry_point: |_| "search",
-    one_lane_layout: false,
+    layouts: &[],
     record,
 };
 

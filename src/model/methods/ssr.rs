@@ -17,7 +17,7 @@ pub const MODEL: MethodModel = MethodModel {
     assembly: Assembly::Quads,
     lavapipe_items: |_, _| Items::Tiles(LAVAPIPE_TILE),
     entry_point: |_| "fs_main",
-    one_lane_layout: false,
+    layouts: &[],
     record,
 };
 
