@@ -277,34 +277,68 @@ fn children_crossed(st: ptr<function, RayState>, nc: NodeCtx, keys: bool) -> u32
     let g = nc.g;
     let start = Clip(Interval(range.x, range.y, SIDE_SEGMENT, SIDE_SEGMENT), true);
     let z = clip_plane(start, la.z, ld.z, false, 4u);
-    // The rows, written out (a loop would keep them in an array, read lane by lane).
-    let row = array<Slab, 8>(
-        row_slab(start, la, ld, nc, edge, n, 0u),
-        row_slab(start, la, ld, nc, edge, n, 1u),
-        row_slab(start, la, ld, nc, edge, n, 2u),
-        row_slab(start, la, ld, nc, edge, n, 3u),
-        row_slab(start, la, ld, nc, edge, n, 4u),
-        row_slab(start, la, ld, nc, edge, n, 5u),
-        row_slab(start, la, ld, nc, edge, n, 6u),
-        row_slab(start, la, ld, nc, edge, n, 7u),
+    // The grid's long side and its short side: at most 8 and 5 children (a node has at most 32
+    // children and at most 8 on a side: 8x4 and 4x8 below the root, up to 5x5 at the root). So
+    // 8 x 5 pairs cover every child, where 8 columns x 8 rows would take 64.
+    let long_x = g.x >= g.y;
+    let x = Axis(la.x, ld.x, nc.nd.x * g.x, g.x, nc.cd.y, nc.span.x, edge, SIDE_X0);
+    let y = Axis(la.y, ld.y, nc.nd.y * g.y, g.y, nc.cd.z, nc.span.y, edge >> 2u, SIDE_Y0);
+    let long = pick_axis(x, y, long_x);
+    let short = pick_axis(y, x, long_x);
+    // The short side's slabs, written out (a loop would keep them in an array, read lane by lane).
+    let s = array<Slab, 5>(
+        axis_slab(start, short, la.z, ld.z, n, 0u),
+        axis_slab(start, short, la.z, ld.z, n, 1u),
+        axis_slab(start, short, la.z, ld.z, n, 2u),
+        axis_slab(start, short, la.z, ld.z, n, 3u),
+        axis_slab(start, short, la.z, ld.z, n, 4u),
     );
+    // Child (column cx, row cy) is bit cx + cy * g.x: a step along the long side moves the bit
+    // by `dl`, along the short side by `ds`.
+    let dl = select(g.x, 1u, long_x);
+    let ds = select(1u, g.x, long_x);
     let texel = nc.cl == 0u;
     let reach = seg_reach((*st).seg.a, (*st).seg.d);
     let lvl = (*st).level;
     var bits = 0u;
-    for (var ix = 0u; ix < 8u; ix++) {
-        let cx = nc.nd.x * g.x + ix;
-        let col = slab(start, la.x, ld.x, la.z, ld.z, cx, nc.span.x, n, edge, SIDE_X0, ix < g.x && cx < nc.cd.y);
-        bits |= pair_keyed(col, row[0], z, texel, range, reach, keys, lvl, (ix) & 31u);
-        bits |= pair_keyed(col, row[1], z, texel, range, reach, keys, lvl, (ix + g.x) & 31u);
-        bits |= pair_keyed(col, row[2], z, texel, range, reach, keys, lvl, (ix + 2u * g.x) & 31u);
-        bits |= pair_keyed(col, row[3], z, texel, range, reach, keys, lvl, (ix + 3u * g.x) & 31u);
-        bits |= pair_keyed(col, row[4], z, texel, range, reach, keys, lvl, (ix + 4u * g.x) & 31u);
-        bits |= pair_keyed(col, row[5], z, texel, range, reach, keys, lvl, (ix + 5u * g.x) & 31u);
-        bits |= pair_keyed(col, row[6], z, texel, range, reach, keys, lvl, (ix + 6u * g.x) & 31u);
-        bits |= pair_keyed(col, row[7], z, texel, range, reach, keys, lvl, (ix + 7u * g.x) & 31u);
+    for (var l = 0u; l < 8u; l++) {
+        let c = axis_slab(start, long, la.z, ld.z, n, l);
+        let j = l * dl;
+        bits |= pair_keyed(c, s[0], z, texel, range, reach, keys, lvl, j & 31u);
+        bits |= pair_keyed(c, s[1], z, texel, range, reach, keys, lvl, (j + ds) & 31u);
+        bits |= pair_keyed(c, s[2], z, texel, range, reach, keys, lvl, (j + 2u * ds) & 31u);
+        bits |= pair_keyed(c, s[3], z, texel, range, reach, keys, lvl, (j + 3u * ds) & 31u);
+        bits |= pair_keyed(c, s[4], z, texel, range, reach, keys, lvl, (j + 4u * ds) & 31u);
     }
     return bits;
+}
+
+// One side of a node's children grid as `slab` reads it: the face-local ray's components on
+// that axis, the node's first child index on it, the children on it, the level's size on it
+// (the child exists below it), the span in texels, the face's edge bits (`owned_sides`) and the
+// lower plane's side (SIDE_X0 or SIDE_Y0).
+struct Axis {
+    a: f32,
+    d: f32,
+    first: u32,
+    g: u32,
+    size: u32,
+    span: u32,
+    edge: u32,
+    side: u32,
+}
+
+fn pick_axis(a: Axis, b: Axis, take_a: bool) -> Axis {
+    if take_a {
+        return a;
+    }
+    return b;
+}
+
+// The slab of child `i` along `ax`.
+fn axis_slab(start: Clip, ax: Axis, az: f32, dz: f32, n: u32, i: u32) -> Slab {
+    let c = ax.first + i;
+    return slab(start, ax.a, ax.d, az, dz, c, ax.span, n, ax.edge, ax.side, i < ax.g && c < ax.size);
 }
 
 // One column's or row's part of `children_crossed`: [t0, t1] clipped by its two planes, and
@@ -313,12 +347,6 @@ struct Slab {
     t0: f32,
     t1: f32,
     ok: bool,
-}
-
-// Row `i` of the node's children.
-fn row_slab(start: Clip, la: vec3<f32>, ld: vec3<f32>, nc: NodeCtx, edge: u32, n: u32, i: u32) -> Slab {
-    let cy = nc.nd.y * nc.g.y + i;
-    return slab(start, la.y, ld.y, la.z, ld.z, cy, nc.span.y, n, edge >> 2u, SIDE_Y0, i < nc.g.y && cy < nc.cd.z);
 }
 
 // Column or row `c` (of cells `span` texels wide) on the axis whose face-local ray components

@@ -45,10 +45,13 @@
 //! Lanes. In the thesis layout (`main`) a ray owns `L = min(S, 32)` lanes of a subgroup of size S,
 //! each testing `32 / L` children, the mask assembled from ballots; `S / L` rays share a subgroup.
 //! `main_lanes1` gives each lane a whole ray (its 32 logical lanes in rounds, tested locally, and
-//! only on the children whose frustum interval passes, `children_crossed`). The renderer picks 1
-//! lane on CPU devices and 32 elsewhere (`CUBETRACE_RAY_LANES` = 1 or 32 overrides): on lavapipe
-//! every lane of a ray repeats the per-ray work and per-lane-indexed data is read lane by lane, so
-//! the thesis layout cost 59.4 ms against 16.2 ms at S = 8 (sphere-room, 160x120).
+//! only on the children whose frustum interval passes, `children_crossed`). `main_wave` also
+//! gives each lane a whole ray, but the crossed children of all the subgroup's rays are tested
+//! by whichever lanes are free: ceil(sum / S) rounds where `main_lanes1` takes as many as its
+//! busiest lane needs. The renderer picks 1 lane on CPU devices and 32 elsewhere
+//! (`CUBETRACE_RAY_LANES` = 1, 32 or `wave` overrides): on lavapipe every lane of a ray repeats
+//! the per-ray work and per-lane-indexed data is read lane by lane, so the thesis layout cost
+//! 59.4 ms against 16.2 ms at S = 8 (sphere-room, 160x120).
 //!
 //! Invariants:
 //! - No workgroup barrier: a ray's lanes are one subgroup's and exchange data only by ballots and
