@@ -226,6 +226,12 @@ impl Method {
         self.info().reads_cmos
     }
 
+    /// Whether the method has lane layouts to choose from (`--compute-layout`: compute's
+    /// `main`, `main_lanes1` and `main_wave`).
+    pub fn has_lane_layouts(self) -> bool {
+        reads(self, "--compute-layout")
+    }
+
     /// Whether the method can leave a mirror pixel unresolved, so that `--fallback` matters.
     pub fn can_leave_unresolved(self) -> bool {
         self.info().can_leave_unresolved
@@ -453,6 +459,13 @@ pub const METHOD_OPTIONS: &[MethodOption] = &[
         flag: "--no-accel",
         applies: |m, t| reads(m, "--no-accel") && t.criterion == TraceCriterion::Exact,
         condition: " with the exact criterion (the default)",
+        methods_text: "",
+        why: "",
+    },
+    MethodOption {
+        flag: "--compute-layout",
+        applies: |m, _| reads(m, "--compute-layout"),
+        condition: "",
         methods_text: "",
         why: "",
     },

@@ -235,7 +235,7 @@ fn dispatch_is_sized_on_the_gpu_and_empty_without_mirror_pixels() {
         .expect("compute path")
         .read_dispatch_args(&ctx)
         .unwrap_or_else(|e| panic!("{e}"));
-    let (lane_cap, _) = ray_lanes(&ctx).unwrap_or_else(|e| panic!("{e}"));
+    let (lane_cap, _) = ray_lanes(&ctx, None).unwrap_or_else(|e| panic!("{e}"));
     let per_group = 256 / ctx.report().subgroup_size.min(32).min(lane_cap);
     assert_eq!(
         DispatchParams::for_lanes(ctx.report().subgroup_size, lane_cap).rays_per_group,
@@ -438,7 +438,7 @@ fn compute_matches_fragment_cpu_twin_and_reference_on_every_scene() {
     let ctx = compute_context();
     let subgroup = ctx.report().subgroup_size;
     // Read by `wave_layout_matches_the_twin_on_every_scene`, which runs this test again.
-    eprintln!("compute_trace entry: {}", ray_lanes(&ctx).unwrap().1);
+    eprintln!("compute_trace entry: {}", ray_lanes(&ctx, None).unwrap().1);
     let mut total = 0usize;
     let mut envmap_worse = 0usize;
     for &(name, _) in scene::builtin::NAMES {
@@ -864,6 +864,68 @@ fn wave_layout_renders_what_the_one_lane_layout_renders() {
         !teapot.is_empty() && moved != teapot,
         "the EXR comparison is blind"
     );
+}
+
+/// `render --compute-layout` picks the entry point (stated under `-v`), over
+/// `CUBETRACE_RAY_LANES`; without either, lavapipe runs `main_lanes1`. A method that has no
+/// layouts refuses the flag, naming it.
+#[test]
+fn compute_layout_flag_picks_the_entry_point() {
+    let run = |args: &[&str], env: Option<&str>| {
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_cubetrace"));
+        cmd.env("XDG_RUNTIME_DIR", "/tmp")
+            .env_remove("RUST_LOG")
+            .env_remove(RAY_LANES_ENV)
+            .args(["-v", "render", "default", "--width", "16", "--height", "12"])
+            .args(args);
+        if let Some(v) = env {
+            cmd.env(RAY_LANES_ENV, v);
+        }
+        let o = cmd
+            .output()
+            .unwrap_or_else(|e| panic!("spawning cubetrace: {e}"));
+        (
+            o.status.success(),
+            String::from_utf8_lossy(&o.stderr).into_owned(),
+        )
+    };
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("gpu_compute_layout");
+    std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
+    let out = dir.join("layout.png");
+    let out = out.to_str().unwrap();
+    for (args, env, entry) in [
+        (vec!["--compute-layout", "wave"], None, "main_wave"),
+        (vec!["--compute-layout", "thesis"], None, "main"),
+        (
+            vec!["--compute-layout", "one-lane"],
+            Some("wave"),
+            "main_lanes1",
+        ),
+        (vec!["--compute-layout", "wave"], Some("32"), "main_wave"),
+        (vec![], None, "main_lanes1"),
+        (vec![], Some("wave"), "main_wave"),
+    ] {
+        let mut a = vec!["--method", "compute", "-o", out];
+        a.extend(args.iter().copied());
+        let (ok, text) = run(&a, env);
+        assert!(ok, "{args:?} {env:?}:\n{text}");
+        assert!(
+            text.contains(&format!("pipeline {entry} created")),
+            "{args:?} {env:?}: not {entry}:\n{text}"
+        );
+    }
+    let (ok, text) = run(
+        &[
+            "--method",
+            "fragment",
+            "--compute-layout",
+            "wave",
+            "-o",
+            out,
+        ],
+        None,
+    );
+    assert!(!ok && text.contains("--compute-layout"), "{text}");
 }
 
 /// A layout other than 32, 1 or wave in `CUBETRACE_RAY_LANES` is refused with a clear error.

@@ -8,7 +8,7 @@ use clap::ValueEnum;
 use crate::Method;
 use crate::cpu::options::{TraceCriterion, TraceOptions, TraceSampling};
 use crate::render::scene::SceneSetup;
-use crate::vk::frame::{Fallback, RenderOptions};
+use crate::vk::frame::{ComputeLayout, Fallback, RenderOptions};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum CriterionArg {
@@ -21,6 +21,27 @@ pub enum CriterionArg {
     /// Sound per-texel bounds and candidate lists: the hit is the nearest listed triangle the
     /// ray meets where the list is complete, provably the first along the ray.
     Bounded,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ComputeLayoutArg {
+    /// Thesis alg. 3: min(S, 32) lanes of a subgroup per ray, one child tested per lane.
+    Thesis,
+    /// One lane per ray, testing its ray's crossed children itself, one per round.
+    OneLane,
+    /// One ray per lane; the crossed children of all the subgroup's rays are tested by whichever
+    /// lanes are free.
+    Wave,
+}
+
+impl ComputeLayoutArg {
+    pub fn layout(self) -> ComputeLayout {
+        match self {
+            ComputeLayoutArg::Thesis => ComputeLayout::Thesis,
+            ComputeLayoutArg::OneLane => ComputeLayout::OneLane,
+            ComputeLayoutArg::Wave => ComputeLayout::Wave,
+        }
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -69,6 +90,11 @@ pub struct TraceArgs {
     /// fragment, compute: intersection criterion [default: exact] (compute: exact or bounded).
     #[arg(long, value_enum)]
     pub criterion: Option<CriterionArg>,
+    /// compute: how rays are laid over a subgroup's lanes; every layout gives the same image
+    /// [default: one-lane on a CPU driver (lavapipe), wave on a GPU; the environment variable
+    /// CUBETRACE_RAY_LANES (32, 1 or wave) sets it where this is not given].
+    #[arg(long, value_enum)]
+    pub compute_layout: Option<ComputeLayoutArg>,
     /// fragment with --criterion threshold or sign-change: sample placement [default:
     /// per-texel].
     #[arg(long, value_enum)]
@@ -174,6 +200,7 @@ impl TraceArgs {
                 ..trace
             },
             reflector_check: !self.no_reflector_check,
+            compute_layout: self.compute_layout.map(ComputeLayoutArg::layout),
             fallback: self.fallback.map_or(defaults.fallback, |f| match f {
                 FallbackArg::Flag => Fallback::Flag,
                 FallbackArg::Envmap => Fallback::Envmap,
@@ -201,6 +228,7 @@ impl TraceArgs {
         [
             ("--criterion", self.criterion.is_some()),
             ("--sampling", self.sampling.is_some()),
+            ("--compute-layout", self.compute_layout.is_some()),
             ("--no-accel", self.no_accel),
             ("--strict", self.strict),
             ("--steps", self.steps.is_some()),

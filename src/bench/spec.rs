@@ -4,7 +4,7 @@
 
 use crate::cpu::options::{TraceCriterion, TraceOptions, TraceSampling};
 use crate::method::Method;
-use crate::vk::frame::RenderOptions;
+use crate::vk::frame::{ComputeLayout, RenderOptions};
 
 /// One method with its parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -16,6 +16,9 @@ pub struct MethodSpec {
     /// ([`crate::cpu::reflection_point::subdivide_non_reflectors`]): the same surfaces, so the
     /// same reference. Used for the reflection-point method, whose quality depends on it.
     pub subdivide: u32,
+    /// compute's lane layout for this run (`None`: the device's default): the full grid sets
+    /// the three side by side (`compute-thesis`, `compute-one-lane`, `compute-wave`).
+    pub layout: Option<ComputeLayout>,
 }
 
 /// The subdivision of the second reflection-point row of the grid.
@@ -27,6 +30,7 @@ impl MethodSpec {
             kind,
             trace: TraceOptions::default(),
             subdivide: 0,
+            layout: None,
         }
     }
 
@@ -39,6 +43,7 @@ impl MethodSpec {
             trace: self.trace,
             bounces,
             reflector_check,
+            compute_layout: self.layout,
             ..RenderOptions::default()
         }
     }
@@ -46,6 +51,13 @@ impl MethodSpec {
     /// A short unique name, also used in file names: `fragment-exact-mip`,
     /// `fragment-threshold-step64`, `envmap`, ...
     pub fn label(&self) -> String {
+        if let Some(layout) = self.layout {
+            let plain = MethodSpec {
+                layout: None,
+                ..*self
+            };
+            return format!("{}-{}", plain.label(), layout.name());
+        }
         if self.subdivide > 0 {
             let plain = MethodSpec {
                 subdivide: 0,
@@ -124,7 +136,7 @@ pub fn fragment_grid(kind: Method) -> Vec<MethodSpec> {
         .map(|trace| MethodSpec {
             kind,
             trace,
-            subdivide: 0,
+            ..MethodSpec::plain(kind)
         })
         .collect()
 }
@@ -138,6 +150,21 @@ pub fn method_grid(kinds: &[Method], quick: bool) -> Vec<MethodSpec> {
                 out.push(MethodSpec::plain(kind));
             } else {
                 out.extend(fragment_grid(kind));
+            }
+            // The lane layouts side by side (compute's three: the same records; `--quick` runs
+            // the device's default alone).
+            if kind.has_lane_layouts() && !quick {
+                out.extend(
+                    [
+                        ComputeLayout::Thesis,
+                        ComputeLayout::OneLane,
+                        ComputeLayout::Wave,
+                    ]
+                    .map(|l| MethodSpec {
+                        layout: Some(l),
+                        ..MethodSpec::plain(kind)
+                    }),
+                );
             }
             // The bounded criterion (proven first hits) beside the exact one, in every grid.
             out.push(MethodSpec {
@@ -174,6 +201,11 @@ mod tests {
         assert_eq!(labels.len(), n, "{labels:?}");
         assert!(labels.contains(&"fragment-exact-mip".to_string()));
         assert!(labels.contains(&"fragment-sign-angle256".to_string()));
+        assert!(labels.contains(&"compute-wave".to_string()));
+        assert!(labels.contains(&"compute-thesis".to_string()));
+        // `--quick` runs compute in the device's layout only.
+        let quick = method_grid(&[Method::Compute], true);
+        assert!(quick.iter().all(|s| s.layout.is_none()), "{quick:?}");
         // Negative: two specs differing only in steps must get different labels.
         let a = fragment_grid(Method::Fragment)[4];
         let mut b = a;

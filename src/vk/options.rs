@@ -31,6 +31,30 @@ pub enum Fallback {
     TraceFromTDone,
 }
 
+/// How the compute method lays rays over a subgroup's lanes (`compute_trace`'s entry points;
+/// [`crate::vk::methods::compute::ray_lanes`]). Every layout writes the same records.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ComputeLayout {
+    /// Thesis alg. 3: min(S, 32) lanes per ray, one child per lane (`main`).
+    Thesis,
+    /// One lane per ray, testing its crossed children itself in rounds (`main_lanes1`).
+    OneLane,
+    /// One ray per lane, the crossed children of all the subgroup's rays tested by whichever
+    /// lanes are free (`main_wave`).
+    Wave,
+}
+
+impl ComputeLayout {
+    /// The name the CLI, `CUBETRACE_RAY_LANES` and the bench's labels use.
+    pub fn name(self) -> &'static str {
+        match self {
+            ComputeLayout::Thesis => "thesis",
+            ComputeLayout::OneLane => "one-lane",
+            ComputeLayout::Wave => "wave",
+        }
+    }
+}
+
 /// Options of a GPU render. [`RenderOptions::default`] is the one source of the defaults: the
 /// CLI (`cubetrace render`) and the bench start from it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -50,6 +74,9 @@ pub struct RenderOptions {
     /// The reflector check after the `Fragment` and `Compute` trace ([`ReflectorCheck`](crate::vk::passes::bvh::ReflectorCheck)): on by
     /// default; ignored by the other methods and where the scene has no reflector to check.
     pub reflector_check: bool,
+    /// `Compute`'s lane layout; `None`: `CUBETRACE_RAY_LANES`, else the device's default
+    /// ([`crate::vk::methods::compute::ray_lanes`]).
+    pub compute_layout: Option<ComputeLayout>,
 }
 
 impl Default for RenderOptions {
@@ -62,6 +89,7 @@ impl Default for RenderOptions {
             reflection_point: RpOptions::default(),
             bounces: 1,
             reflector_check: true,
+            compute_layout: None,
         }
     }
 }

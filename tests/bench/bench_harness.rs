@@ -6,6 +6,55 @@ use crate::common;
 use cubetrace::app;
 use cubetrace::bench::{self, BenchConfig, Method};
 
+/// The full grid runs compute in its three lane layouts beside its default, labelled
+/// `compute-thesis`, `compute-one-lane` and `compute-wave`: the same cells and texels per ray, the
+/// same fallback share and error (the layouts write the same records). Negative: the bounded
+/// criterion's run differs in its counters.
+#[test]
+fn bench_sets_the_compute_layouts_side_by_side() {
+    let ctx = common::gpu_context();
+    let out = tempfile::tempdir().expect("temp dir");
+    let cfg = BenchConfig {
+        scenes: vec!["teapot".into()],
+        methods: bench::method_grid(&[Method::Compute], false),
+        width: 48,
+        height: 36,
+        frames: 1,
+        warmup: 0,
+        cube_size: Some(32),
+        flip: false,
+        heatmaps: false,
+        floor: None,
+        out: out.path().to_path_buf(),
+        ..BenchConfig::default()
+    };
+    let report = bench::run(&ctx, &cfg, &indicatif::ProgressBar::hidden()).expect("bench");
+    let labels: Vec<&str> = report.runs.iter().map(|r| r.method.as_str()).collect();
+    assert_eq!(
+        labels,
+        [
+            "compute",
+            "compute-thesis",
+            "compute-one-lane",
+            "compute-wave",
+            "compute-bounded"
+        ]
+    );
+    let key = |r: &bench::RunResult| {
+        let c = &r.counters;
+        format!(
+            "{} {} {} {} {:?}",
+            c.cells, c.texels, c.traces, r.fallback_share, r.error
+        )
+    };
+    let plain = key(&report.runs[0]);
+    assert!(report.runs[0].counters.cells > 0.0);
+    for r in &report.runs[1..4] {
+        assert_eq!(key(r), plain, "{}", r.method);
+    }
+    assert_ne!(key(&report.runs[4]), plain, "the comparison is blind");
+}
+
 #[test]
 fn bench_reports_cost_per_ray_ratios_and_floor() {
     let ctx = common::gpu_context();

@@ -154,7 +154,7 @@ use crate::ranges::FrameRanges;
 use crate::scene::Scene;
 use crate::scene::gpu_data::GpuSceneData;
 
-pub use super::options::{Fallback, RenderOptions};
+pub use super::options::{ComputeLayout, Fallback, RenderOptions};
 pub use super::passes::records::{
     FLAG_COLOUR, FrameParams, PixelRecord, RECORD_ESCAPED, RECORD_HIT, RECORD_UNRESOLVED,
 };

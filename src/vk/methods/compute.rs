@@ -95,8 +95,8 @@ use crate::vk::backend::shaders::{APPEND, COMPUTE_TRACE, DISPATCH_ARGS, HIER32, 
 use crate::vk::backend::sync::{
     INDIRECT_READ, SHADER_READ, SHADER_WRITE, STORAGE_RW, TRANSFER_WRITE,
 };
+use crate::vk::options::ComputeLayout;
 use crate::vk::passes::cmo::{CaptureContents, CmoData, TraceConfig};
-use crate::vk::passes::gbuffer::Gbuffer;
 use crate::vk::passes::hier32::{Hier32Bindings, Hier32Pass};
 use crate::vk::passes::scene_buffers::SceneBuffers;
 
@@ -164,26 +164,35 @@ pub struct DispatchParams {
     pub retrace_rays_per_group: u32,
 }
 
-/// Environment variable that overrides [`ray_lanes`]'s layout: `32` (the thesis layout, entry
-/// `main`), `1` (entry `main_lanes1`) or `wave` (entry `main_wave`: one ray per lane, the rays'
-/// child tests spread over the subgroup's lanes). Anything else is refused.
+/// Environment variable that sets [`ray_lanes`]'s layout where the render options leave it:
+/// `32` (the thesis layout, entry `main`), `1` (entry `main_lanes1`) or `wave` (entry
+/// `main_wave`: one ray per lane, the rays' child tests spread over the subgroup's lanes).
+/// Anything else is refused.
 pub const RAY_LANES_ENV: &str = "CUBETRACE_RAY_LANES";
 
-/// The most lanes `compute_trace` gives one ray, and the entry point that does it: 1
-/// (`main_lanes1`: S rays per subgroup, each lane running its ray's 32 logical lanes in rounds) on
-/// CPU devices, where every lane repeats the ray's per-ray work so that this layout measured
-/// fastest (`benches/results/lavapipe-shaders.md`, "What was kept"); 32 (`main`, thesis alg. 3:
-/// min(S, 32) lanes per ray) elsewhere. [`RAY_LANES_ENV`] overrides it. With `main_lanes1` the
-/// frame dispatches the same pipeline a second time with `trace_mode` 1, which retraces with the
-/// thesis layout the rays whose step loop the driver's loop limit cut (lavapipe: 65535 loop
-/// iterations per invocation; spirv/README.md, "Known defect"), so both layouts give the same
-/// records. Where [`workgroup_size`] is 128, the `_wg128` twin of the entry point.
-pub fn ray_lanes(ctx: &GpuContext) -> VkResult<(u32, &'static str)> {
-    let layout = match std::env::var(RAY_LANES_ENV) {
-        Ok(v) => match v.trim() {
-            "32" => "main",
-            "1" => "main_lanes1",
-            "wave" => "main_wave",
+/// The most lanes `compute_trace` gives one ray, and the entry point that does it, for
+/// `requested` (the render options' layout), else [`RAY_LANES_ENV`], else the device's default:
+/// [`ComputeLayout::OneLane`] (`main_lanes1`: S rays per subgroup, each lane running its ray's
+/// children in rounds) on CPU devices, where every lane repeats the ray's per-ray work and
+/// shuffles cost a lane's work each, so that this layout measured fastest
+/// (`benches/results/lavapipe-shaders.md`, "What was kept"; `main_wave` took 1.5-2x its time);
+/// [`ComputeLayout::Wave`] (`main_wave`) elsewhere, which the cost model puts at a quarter of the
+/// thesis layout's work per ray at width 32 (`benches/results/lavapipe-model-dynamic.md`).
+/// With one lane per ray the frame dispatches the same pipeline a second time with
+/// `trace_mode` 1, which retraces with the thesis layout the rays whose step loop the driver's
+/// loop limit cut (lavapipe: 65535 loop iterations per invocation; spirv/README.md, "Known
+/// defect"), so every layout gives the same records. Where [`workgroup_size`] is 128, the
+/// `_wg128` twin of the entry point.
+pub fn ray_lanes(
+    ctx: &GpuContext,
+    requested: Option<ComputeLayout>,
+) -> VkResult<(u32, &'static str)> {
+    let layout = match (requested, std::env::var(RAY_LANES_ENV)) {
+        (Some(layout), _) => layout,
+        (None, Ok(v)) => match v.trim() {
+            "32" => ComputeLayout::Thesis,
+            "1" => ComputeLayout::OneLane,
+            "wave" => ComputeLayout::Wave,
             other => {
                 return Err(VkError::Usage {
                     what: RAY_LANES_ENV.into(),
@@ -191,17 +200,19 @@ pub fn ray_lanes(ctx: &GpuContext) -> VkResult<(u32, &'static str)> {
                 });
             }
         },
-        Err(_) if ctx.report().device_type == vk::PhysicalDeviceType::CPU => "main_lanes1",
-        Err(_) => "main",
+        (None, Err(_)) if ctx.report().device_type == vk::PhysicalDeviceType::CPU => {
+            ComputeLayout::OneLane
+        }
+        (None, Err(_)) => ComputeLayout::Wave,
     };
     let small = workgroup_size(ctx.report()) == 128;
     Ok(match (layout, small) {
-        ("main_lanes1", false) => (1, "main_lanes1"),
-        ("main_lanes1", true) => (1, "main_lanes1_wg128"),
-        ("main_wave", false) => (1, "main_wave"),
-        ("main_wave", true) => (1, "main_wave_wg128"),
-        (_, false) => (32, "main"),
-        (_, true) => (32, "main_wg128"),
+        (ComputeLayout::OneLane, false) => (1, "main_lanes1"),
+        (ComputeLayout::OneLane, true) => (1, "main_lanes1_wg128"),
+        (ComputeLayout::Wave, false) => (1, "main_wave"),
+        (ComputeLayout::Wave, true) => (1, "main_wave_wg128"),
+        (ComputeLayout::Thesis, false) => (32, "main"),
+        (ComputeLayout::Thesis, true) => (32, "main_wg128"),
     })
 }
 
@@ -548,20 +559,15 @@ pub struct ComputePath {
 }
 
 impl ComputePath {
-    /// Allocates the hierarchy, the queue and the pipelines. `params` is the frame's
-    /// `FrameParams` uniform and `records` its per-pixel record buffer; `scene` is bound for
-    /// verified hits (`cmo` must carry the triangle IDs).
-    pub fn new(
-        ctx: &GpuContext,
-        cmo: &CmoData,
-        scene: &SceneBuffers,
-        gbuffer: &Gbuffer,
-        params: &Buffer,
-        records: &Buffer,
-        (width, height): (u32, u32),
-    ) -> VkResult<Self> {
+    /// Allocates the hierarchy, the queue and the pipelines for the frame's inputs: its
+    /// `FrameParams` uniform (`params`) and per-pixel record buffer (`records`), the scene (bound
+    /// for verified hits: `cmo` must carry the triangle IDs), and the lane layout its options
+    /// ask for ([`ray_lanes`]).
+    pub fn new(i: &FrameInputs<'_>) -> VkResult<Self> {
+        let (ctx, cmo, scene, gbuffer) = (i.ctx, i.cmo, i.scene, i.gbuffer);
+        let (params, records, (width, height)) = (i.params, i.records, i.gbuffer.extent());
         check_device(ctx)?;
-        let (lane_cap, entry) = ray_lanes(ctx)?;
+        let (lane_cap, entry) = ray_lanes(ctx, i.options.compute_layout)?;
         let entry = if bounded(cmo) {
             bounded_entry(entry)
         } else {
@@ -751,15 +757,7 @@ impl MethodSpec for Compute {
     }
 
     fn create(&self, i: &FrameInputs<'_>) -> VkResult<Box<dyn Technique>> {
-        Ok(Box::new(ComputePath::new(
-            i.ctx,
-            i.cmo,
-            i.scene,
-            i.gbuffer,
-            i.params,
-            i.records,
-            i.gbuffer.extent(),
-        )?))
+        Ok(Box::new(ComputePath::new(i)?))
     }
 }
 
