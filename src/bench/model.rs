@@ -81,7 +81,7 @@ pub const ASSUMPTIONS: &[&str] = &[
     "GPU mode: a block issues when at least one lane needs it; widths 32 and 64",
     "warps (model::warps): compute and bvh = consecutive entries of the row-major mirror-pixel queue (compute: one lane per ray in lavapipe mode, min(width, 32) lanes per ray in GPU mode); fragment and ssr = 2x2 quads in 8x4-pixel tiles, tiles row-major (helper lanes issued, never active); reflection-point = consecutive vertices of its 1-D dispatch",
     "lavapipe check: per method, ns per vector instruction (one per 256-bit AVX2 register the subgroup's lanes fill, at least one: x1 at 4 and 8 lanes, x2 at 16) and ns per lane operation (storage/image access, per-lane array index, subgroup op: run once per lane), fitted on the training rows only (scene default, every cube and subgroup size); register spills, latency and per-dispatch overhead folded in; times the threads' imbalance: lavapipe's threads (one per CPU) take the pass's workgroups (compute 256 rays, 128 at 4 lanes; bvh and reflection-point 64) or 64x64 bins (fragment, ssr) in order, each the next when free, and the pass lasts the greedy makespan (model::validate::imbalance); a row in several processes: the median of their times",
-    "GPU ratios assume the same ns per weighted warp-step for every method: no latency hiding, occupancy or cache model (a throughput view: issued warp instructions per ray); compute's thesis layout spends a 32-lane warp on one ray, which is most of compute/bvh (the 'compute 1 lane/ray' column replays the same work in main_lanes1's layout); its SIMD efficiency counts the lanes that repeat the per-ray work as active",
+    "GPU ratios assume the same ns per weighted warp-step for every method: no latency hiding, occupancy or cache model (a throughput view: issued warp instructions per ray); compute is its GPU default, the wave layout (main_wave: one ray per lane, the warp's crossed children spread over its lanes); the 'compute thesis' column replays the same work in the thesis layout (main: a 32-lane warp per ray, whose SIMD efficiency counts the lanes that repeat the per-ray work as active) and 'compute 1 lane/ray' in main_lanes1's (lavapipe's default)",
     "sectors: distinct 32-byte sectors per warp load, row-major texels per face (model::replay TexelLayout::Linear)",
 ];
 
@@ -915,8 +915,8 @@ mod tests {
                 figures(m, Layout::Default, cost)
             })
             .collect();
+        methods.push(figures(Method::Compute, Layout::Thesis, 3.0));
         methods.push(figures(Method::Compute, Layout::OneLane, 1.0));
-        methods.push(figures(Method::Compute, Layout::Wave, 3.0));
         let ratios = gpu_pairs()
             .into_iter()
             .map(|(m, over)| ModelRatio::of(&methods, m, over))
@@ -932,14 +932,14 @@ mod tests {
         let lines: Vec<&str> = table.lines().collect();
         assert_eq!(
             lines[4],
-            "| scene | cube | width | compute/fragment | compute/bvh | compute 1 lane/ray / bvh \
-             | compute wave / bvh | fragment/bvh | dynamic: compute/fragment | compute/bvh \
-             | compute 1 lane/ray / bvh | compute wave / bvh | fragment/bvh | SIMD eff. compute \
+            "| scene | cube | width | compute/fragment | compute/bvh | compute thesis / bvh \
+             | compute 1 lane/ray / bvh | fragment/bvh | dynamic: compute/fragment | compute/bvh \
+             | compute thesis / bvh | compute 1 lane/ray / bvh | fragment/bvh | SIMD eff. compute \
              | fragment | bvh | sectors/ray compute | fragment | bvh |"
         );
         assert_eq!(
             lines[6],
-            "| mug | 64 | 32 | 2.00 | 2.00 | 0.50 | 1.50 | 1.00 | 2.00 | 2.00 | 0.50 | 1.50 | 1.00 \
+            "| mug | 64 | 32 | 2.00 | 2.00 | 1.50 | 0.50 | 1.00 | 2.00 | 2.00 | 1.50 | 0.50 | 1.00 \
              | 0.50 | 0.50 | 0.50 | 3.0 | 3.0 | 3.0 |"
         );
         assert_eq!(lines[5].matches('|').count(), lines[4].matches('|').count());
@@ -951,7 +951,7 @@ mod tests {
         assert!(per_ray.contains("| over bvh static |"), "{per_ray}");
         assert!(
             per_ray.contains("| mug | compute, 1 lane/ray | 1 | 2 | 0.50 | 0.50 |")
-                && per_ray.contains("| mug | compute, wave | 3 | 6 | 1.50 | 1.50 |"),
+                && per_ray.contains("| mug | compute, thesis | 3 | 6 | 1.50 | 1.50 |"),
             "{per_ray}"
         );
         // Negative: a method not replayed leaves its ratios empty, not made up.

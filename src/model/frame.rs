@@ -25,7 +25,7 @@ pub enum ComputeLanes {
     One,
     /// `main_wave`: one ray per lane, the warp's crossed children spread over its lanes.
     Wave,
-    /// `One` in lavapipe mode, `Thesis` in GPU mode (what `ray_lanes` picks).
+    /// `One` in lavapipe mode, `Wave` in GPU mode (what `ray_lanes` picks).
     Auto,
 }
 

@@ -19,7 +19,9 @@
 //! due), and a ray spans `lanes` lanes: `min(width, 32)` in the thesis layout (`main`: 32 / lanes
 //! rounds of lane tests per node visit, every lane of a ray running the per-ray blocks
 //! redundantly, all counted active), 1 in `main_lanes1` (one lane tests the children that
-//! `children_crossed` leaves, one per round, the rounds running until the last lane's run out).
+//! `children_crossed` leaves, one per round, the rounds running until the last lane's run out)
+//! and 1 in `main_wave`, the GPU default (the crossed children of all the warp's rays in
+//! ceil(sum / width) rounds of one item per lane: `wave_tests`).
 //!
 //! # What it assumes
 //! The warps of [`super::warps`]; the work of [`super::work`] (its assumptions); a block's cost
@@ -193,6 +195,7 @@ pub fn replay(
     let rays = rec.rays();
     match &rec.work {
         FrameWork::Compute(work) => {
+            let layout = compute_layout(rec.settings.compute_lanes, mode);
             let lanes = compute_lanes(rec.settings.compute_lanes, width, mode);
             let slots = width / lanes;
             let items = lavapipe_items(rec.method, width, lanes);
@@ -211,7 +214,7 @@ pub fn replay(
                         }
                     })
                     .collect();
-                let wave = rec.settings.compute_lanes == ComputeLanes::Wave;
+                let wave = layout == ComputeLanes::Wave;
                 replay_compute(&slot, lanes, wave, width, mode, &mut acc);
             }
         }
@@ -261,11 +264,21 @@ pub fn replay(
     })
 }
 
+/// The layout compute_trace runs in `mode`: `lanes`, `Auto` resolved as `ray_lanes` does (one
+/// lane per ray on lavapipe, the wave layout on a GPU).
+pub fn compute_layout(lanes: ComputeLanes, mode: Mode) -> ComputeLanes {
+    match (lanes, mode) {
+        (ComputeLanes::Auto, Mode::Lavapipe) => ComputeLanes::One,
+        (ComputeLanes::Auto, Mode::Gpu) => ComputeLanes::Wave,
+        (l, _) => l,
+    }
+}
+
 /// Lanes per ray of compute_trace at `width` (module docs).
 pub fn compute_lanes(lanes: ComputeLanes, width: u32, mode: Mode) -> u32 {
-    match (lanes, mode) {
-        (ComputeLanes::One | ComputeLanes::Wave, _) | (ComputeLanes::Auto, Mode::Lavapipe) => 1,
-        (ComputeLanes::Thesis, _) | (ComputeLanes::Auto, Mode::Gpu) => width.min(32),
+    match compute_layout(lanes, mode) {
+        ComputeLanes::Thesis => width.min(32),
+        _ => 1,
     }
 }
 

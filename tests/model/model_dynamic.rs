@@ -183,7 +183,7 @@ const MODELLED: [Method; 5] = [
 #[test]
 fn every_block_has_a_dynamic_weight() {
     for m in MODELLED {
-        for layout in [Layout::Default, Layout::OneLane, Layout::Wave] {
+        for layout in [Layout::Default, Layout::Thesis, Layout::OneLane] {
             let (w, lane) = dynamic::weights_by(m, Counting::Dynamic, layout).unwrap();
             assert_eq!(w.len(), blocks(m).len(), "{}", m.name());
             for (i, (x, l)) in w.iter().zip(&lane).enumerate() {

@@ -295,15 +295,15 @@ fn bench_model_json_has_the_columns() {
         .collect();
     assert!(widths.contains(&32) && widths.contains(&64), "{widths:?}");
     let g = &m["gpu"][0];
-    // The ratios, keyed by method and layout: static and dynamic weights, compute's one-lane
-    // and wave layouts too.
+    // The ratios, keyed by method and layout: static and dynamic weights, compute's thesis and
+    // one-lane layouts too.
     let ratios = g["ratios"].as_array().expect("gpu[0].ratios");
     for (method, layout, over) in [
         ("compute", "default", "bvh"),
         ("compute", "default", "fragment"),
         ("fragment", "default", "bvh"),
+        ("compute", "thesis", "bvh"),
         ("compute", "one-lane", "bvh"),
-        ("compute", "wave", "bvh"),
     ] {
         let r = ratios
             .iter()
@@ -322,7 +322,7 @@ fn bench_model_json_has_the_columns() {
             .as_array()
             .unwrap()
             .iter()
-            .any(|m| m["method"] == "compute" && m["layout"] == "wave"),
+            .any(|m| m["method"] == "compute" && m["layout"] == "thesis"),
         "{g}"
     );
     assert!(

@@ -18,12 +18,13 @@ pub const MODEL: MethodModel = MethodModel {
     program: None,
     assembly: Assembly::Queue,
     lavapipe_items: |width, lanes| Items::Groups(lavapipe_compute_group(width) / lanes.max(1)),
+    // The GPU default is the wave layout (`vk::methods::compute::ray_lanes`).
     entry_point: |layout| match layout {
-        Layout::Default => "main",
+        Layout::Default => "main_wave",
+        Layout::Thesis => "main",
         Layout::OneLane => "main_lanes1",
-        Layout::Wave => "main_wave",
     },
-    layouts: &[Layout::OneLane, Layout::Wave],
+    layouts: &[Layout::Thesis, Layout::OneLane],
     record,
 };
 

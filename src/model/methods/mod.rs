@@ -31,8 +31,8 @@ pub struct MethodModel {
     pub lavapipe_items: fn(width: u32, lanes: u32) -> Items,
     /// The entry point of its tracing pass in a layout.
     pub entry_point: fn(Layout) -> &'static str,
-    /// The layouts of its tracing pass beside its default ([`Layout`]: compute's `main_lanes1`
-    /// and `main_wave`), which the bench's GPU predictions set beside the default.
+    /// The layouts of its tracing pass beside its default ([`Layout`]: compute's `main` and
+    /// `main_lanes1`), which the bench's GPU predictions set beside the default.
     pub layouts: &'static [Layout],
     /// Runs its CPU twin on every ray of a frame and keeps the work.
     pub record: fn(&Frame) -> anyhow::Result<Recorded>,
@@ -72,31 +72,31 @@ pub fn layouts(method: Method) -> &'static [Layout] {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Layout {
-    /// The method's GPU default (compute: the thesis layout, `main`, 32 lanes per ray).
+    /// The method's GPU default (compute: `main_wave`, one ray per lane, the warp's crossed
+    /// children spread over its lanes).
     Default,
+    /// compute's thesis layout, `main`: min(width, 32) lanes per ray, one child per lane.
+    Thesis,
     /// compute's `main_lanes1`: one lane per ray, its children tested in rounds by that lane.
     OneLane,
-    /// compute's `main_wave`: one ray per lane, the warp's crossed children spread over its
-    /// lanes.
-    Wave,
 }
 
 impl Layout {
     /// How compute's replay lays the rays over lanes in this layout.
     pub fn compute_lanes(self) -> ComputeLanes {
         match self {
-            Layout::Default => ComputeLanes::Thesis,
+            Layout::Default => ComputeLanes::Auto,
+            Layout::Thesis => ComputeLanes::Thesis,
             Layout::OneLane => ComputeLanes::One,
-            Layout::Wave => ComputeLanes::Wave,
         }
     }
 
-    /// The label of a table column: "" (the default), "1 lane/ray", "wave".
+    /// The label of a table column: "" (the default), "thesis", "1 lane/ray".
     pub fn label(self) -> &'static str {
         match self {
             Layout::Default => "",
+            Layout::Thesis => "thesis",
             Layout::OneLane => "1 lane/ray",
-            Layout::Wave => "wave",
         }
     }
 }
