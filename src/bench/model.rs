@@ -566,8 +566,11 @@ pub fn run(
         }
     }
     // The corpus's largest scene: in the report from earlier files (`--model-from`, which sets
-    // the cube size), where the bench runs from the repository.
-    if gpu_cube.is_some() && Path::new(LARGEST_CORPUS_SCENE).exists() {
+    // the cube size), where the bench runs from the repository, unless the rows have it.
+    if gpu_cube.is_some()
+        && Path::new(LARGEST_CORPUS_SCENE).exists()
+        && !scenes.iter().any(|(s, _)| *s == LARGEST_CORPUS_SCENE)
+    {
         let cube = scenes.first().map_or(256, |s| s.1);
         scenes.push((LARGEST_CORPUS_SCENE, cube));
     }
