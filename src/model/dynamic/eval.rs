@@ -127,10 +127,12 @@ impl<'m> Eval<'m> {
                 known.insert(i.operands[1], v);
                 continue;
             }
-            c = c + Cost {
-                all: 1.0,
-                lane: f64::from(u8::from(i.lane)),
-            };
+            if !i.free {
+                c = c + Cost {
+                    all: 1.0,
+                    lane: f64::from(u8::from(i.lane)),
+                };
+            }
             if i.op == OP_FUNCTION_CALL && i.operands.len() >= 3 {
                 let callee = i.operands[2];
                 let args: Ctx = i.operands[3..]

@@ -29,6 +29,19 @@
 //!   classification's candidate arm (`classify_candidate`, the `decide` blocks of fragment and
 //!   compute) runs at a trace's deciding texel only, and a warp issues it where one of its
 //!   lanes decides (lavapipe mode: every turn the classification runs, as lavapipe masks it).
+//! - **Register moves cost nothing.** naga passes structs through function-local variables:
+//!   `var out = c; out.iv.t0 = b; return out;` is a whole-struct store, a field's access chain
+//!   and store, and a whole-struct load, and a struct argument or result is composed and taken
+//!   apart field by field (`clip_plane` counted 75 instructions, a few comparisons and a
+//!   division of work). Every GPU compiler promotes such variables to registers (mem2reg and
+//!   SROA in LLVM and NIR, `spirv-opt -O`'s local access chain conversion), after which the
+//!   composites are register names. So a load, store or access chain of a function-local
+//!   variable indexed by constants only, and `OpCompositeConstruct`, `OpCompositeExtract`,
+//!   `OpCompositeInsert` and `OpCopyObject`, are walked (their values fold as before) but not
+//!   counted. Still counted: a local array indexed at run time (a lane operation on lavapipe,
+//!   local memory on a GPU), `var<private>` globals, and every buffer, image and subgroup
+//!   operation. Checked on lavapipe rows (the same held-out share as without; the results in
+//!   `benches/results/lavapipe-model-dynamic.md`).
 //!
 //! # Where it stops
 //! Only integer and boolean values fold (comparisons, logic, `+ - *`, selects); a value loaded

@@ -39,6 +39,8 @@ pub(super) const OP_SLESS_THAN: u32 = 177;
 pub(super) const OP_ULESS_THAN_EQUAL: u32 = 178;
 pub(super) const OP_SLESS_THAN_EQUAL: u32 = 179;
 pub(super) const OP_BITWISE_OR: u32 = 197;
+/// `OpCompositeConstruct` (`OpCompositeExtract`, `OpCompositeInsert` and `OpCopyObject` follow).
+pub(super) const OP_COMPOSITE_CONSTRUCT: u32 = 80;
 pub(super) const OP_BITWISE_AND: u32 = 199;
 pub(super) const OP_BRANCH: u32 = 249;
 pub(super) const OP_BRANCH_CONDITIONAL: u32 = 250;
@@ -129,6 +131,8 @@ pub(super) struct Inst {
     pub(super) lane: bool,
     /// Removed as unused (its result feeds nothing).
     pub(super) dead: bool,
+    /// A register move ([`Lanes::register_move`]): walked (its values fold) but not counted.
+    pub(super) free: bool,
 }
 
 #[derive(Clone, Debug, Default)]
@@ -203,6 +207,25 @@ impl LaneTrack {
             }
             _ => {}
         }
+    }
+
+    /// Whether the instruction is a move that a GPU compiler's register promotion removes
+    /// (module docs, "register moves"): a load, store or access chain of a function-local
+    /// variable indexed by constants only (promoted to registers: mem2reg, SROA), or a
+    /// composite construct, extract or insert or an object copy (register names).
+    pub(super) fn register_move(&self, op: u32, o: &[u32]) -> bool {
+        let pointer = match op {
+            OP_LOAD => o.get(2),
+            OP_STORE => o.first(),
+            // The chain's result: dynamic where an index (or the base's) is a run-time value.
+            OP_ACCESS_CHAIN | OP_IN_BOUNDS_ACCESS_CHAIN => o.get(1),
+            OP_COMPOSITE_CONSTRUCT..=OP_COPY_OBJECT => return true,
+            _ => return false,
+        };
+        pointer.is_some_and(|p| {
+            let class = self.class_of.get(p).copied().unwrap_or(0);
+            class == SC_FUNCTION && !self.dynamic.contains(p)
+        })
     }
 
     pub(super) fn is_lane(&self, op: u32, o: &[u32]) -> bool {
@@ -303,6 +326,7 @@ impl Module {
                             operands: o.to_vec(),
                             lane: lanes.is_lane(x, o),
                             dead: false,
+                            free: lanes.register_move(x, o),
                         });
                     }
                 }
