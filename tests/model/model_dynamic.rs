@@ -242,8 +242,8 @@ fn the_bounded_arm_of_advance_is_dead_in_the_exact_entry_point() {
 
 /// A hand-made module for the scalar variables (`Func::scalar_vars`), the shape of naga's
 /// short-circuit temporaries:
-/// - `h(flag)`: `var tmp; if flag { tmp = first } else { tmp = false }; if tmp { out = (x * x)
-///   * x }`: entry branch 1, each arm's branch 1 (its store to the local `tmp` is a register
+/// - `h(flag)`: `var tmp; if flag { tmp = first } else { tmp = false }; if tmp { out = x * x *
+///   x }`: entry branch 1, each arm's branch 1 (its store to the local `tmp` is a register
 ///   move), the branch 1 (the load of `tmp` too), the second `if`'s arm 5 (the private `out`'s
 ///   load, two multiplies, its store, branch), return 1;
 /// - `entry3`: calls `h(false)`; `entry4(p)`: calls `h(p)`.
