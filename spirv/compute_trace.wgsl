@@ -260,8 +260,9 @@ fn lane_test(tr: TestRay, nc: NodeCtx, j: u32, bounded: bool) -> LaneTest {
 // leaves t0 = the largest entry bound and t1 = the smallest exit bound (comparisons skip a NaN
 // bound in every order; +0 and -0 compare equal) and drops the interval where any plane does.
 // So clipping [lo, hi] by each column's two planes and each row's two once, and combining them
-// per child with max / min, gives every comparison of `lane_test` the same outcome: 2 (gx + gy)
-// + 1 planes per node instead of 5 per child. The per-ray cost this saves:
+// per child with max / min, gives every comparison of `lane_test` the same outcome: 2 (8 + 5)
+// + 1 planes per node (the long side's 8 slabs and the short side's 5, below) instead of 5 per
+// child. The per-ray cost this saves:
 // `benches/results/lavapipe-shaders.md`, "What was kept".
 //
 // `keys` (a constant: the wave layout): each crossed child's key, the entry t that `lane_test`

@@ -37,7 +37,7 @@
 //!   SROA in LLVM and NIR, `spirv-opt -O`'s local access chain conversion), after which the
 //!   composites are register names. So a load, store or access chain of a function-local
 //!   variable indexed by constants only, and `OpCompositeConstruct`, `OpCompositeExtract`,
-//!   `OpCompositeInsert` and `OpCopyObject`, are walked (their values fold as before) but not
+//!   `OpCompositeInsert` and `OpCopyObject`, are walked (their values still fold) but not
 //!   counted. Still counted: a local array indexed at run time (a lane operation on lavapipe,
 //!   local memory on a GPU), `var<private>` globals, and every buffer, image and subgroup
 //!   operation. Checked on lavapipe rows (the same held-out share as without; the results in
