@@ -28,7 +28,9 @@ pub struct BenchArgs {
     /// Methods: reference, envmap, fragment, compute, ssr, reflection-point, bvh (comma-separated);
     /// fragment runs its parameter grid (criteria x sampling x acceleration x steps) unless
     /// --quick, and its bounded criterion always; compute the exact and the bounded criterion
-    /// on its hierarchy (`compute`, `compute-bounded`), ssr its defaults
+    /// on its hierarchy (`compute`, `compute-bounded`) and, unless --quick, its three lane
+    /// layouts beside the device's default (`compute-thesis`, `compute-one-lane`,
+    /// `compute-wave`: the same records, the cost of each), ssr its defaults
     /// (64 iterations, no thickness test), reflection-point its defaults (cap 256 steps, search
     /// scale 1) as is and with the other objects subdivided twice (`reflection-point-sub2`), bvh
     /// (exact GPU ray tracing) its one setting.
@@ -39,7 +41,7 @@ pub struct BenchArgs {
     )]
     pub methods: Vec<String>,
     /// fragment: only the default options (exact criterion, pyramid) and the bounded criterion
-    /// instead of its grid.
+    /// instead of its grid; compute: the device's lane layout only.
     #[arg(long)]
     pub quick: bool,
     /// Every method of --methods in its default setting only: no fragment grid, no bounded
