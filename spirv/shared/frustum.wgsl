@@ -34,7 +34,7 @@ fn is_finite_f32(x: f32) -> bool {
 // Rust's `f32::is_nan`, on the bits.
 fn is_nan_f32(x: f32) -> bool {
     let b = bitcast<u32>(x);
-    return (b & 0x7f800000u) == 0x7f800000u && (b & 0x007fffffu) != 0u;
+    return ((b & 0x7f800000u) == 0x7f800000u) & ((b & 0x007fffffu) != 0u);
 }
 
 // A product that is then added to something, rounded on its own as the CPU does (Rust never
@@ -155,24 +155,19 @@ struct Clip {
 }
 
 // Plane k: `alpha + t beta >= 0` (`inc`: whether the plane itself belongs to the cell).
+// Branch-free, with the outcome of testing `be > 0`, `be < 0` and the parallel case in turn
+// (`cubemap::frustum`'s clip step): every comparison is false for a NaN, so a NaN `be` is the
+// parallel case and a NaN bound moves neither end; the quotient is taken once, and where `be` is
+// zero its value is not selected. `&` and `|`, not `&&` and `||`: naga lowers a short-circuit
+// operator to a branch through a temporary.
 fn clip_plane(c: Clip, al: f32, be: f32, inc: bool, k: u32) -> Clip {
-    var out = c;
-    if be > 0.0 {
-        let b = -al / be;
-        if b > out.iv.t0 {
-            out.iv.t0 = b;
-            out.iv.entry = k;
-        }
-    } else if be < 0.0 {
-        let b = -al / be;
-        if b < out.iv.t1 {
-            out.iv.t1 = b;
-            out.iv.exit = k;
-        }
-    } else if al < 0.0 || (al == 0.0 && !inc) || is_nan_f32(al) {
-        out.keep = false;
-    }
-    return out;
+    let b = -al / be;
+    let enter = (be > 0.0) & (b > c.iv.t0);
+    let exit = (be < 0.0) & (b < c.iv.t1);
+    let parallel = !(be > 0.0) & !(be < 0.0);
+    let drop = parallel & ((al < 0.0) | ((al == 0.0) & !inc) | is_nan_f32(al));
+    let iv = Interval(select(c.iv.t0, b, enter), select(c.iv.t1, b, exit), select(c.iv.entry, k, enter), select(c.iv.exit, k, exit));
+    return Clip(iv, c.keep & !drop);
 }
 
 // r(t) = |a + t d| on CMO-local vectors, summed in x, y, z order.
