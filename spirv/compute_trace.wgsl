@@ -254,7 +254,8 @@ fn lane_test(tr: TestRay, nc: NodeCtx, j: u32, bounded: bool) -> LaneTest {
 }
 
 // The children of the ray's current node that pass `lane_test`'s interval test (all of its
-// conditions but the range test), as bits j: the 1-lane layout runs `lane_test` on these alone.
+// conditions but the range test), as bits j: with one ray per lane (`main_lanes1`, `main_wave`)
+// `lane_test` runs on these alone.
 // Exact, not an estimate: a child's `cell_interval` clips the piece's [lo, hi] by its column's
 // planes (x0, x1), its row's (y0, y1) and the face's (z), and whatever the order, `clip_plane`
 // leaves t0 = the largest entry bound and t1 = the smallest exit bound (comparisons skip a NaN
@@ -795,7 +796,7 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
             // Lane tests of the node's children, one ballot per round. With one lane per ray (`one`)
             // the ray's 32 logical lanes are this lane's rounds (j = c), so its mask bits are its own
             // tests: no ballot, the loop ends where no lane tests, and only the candidates' keys are
-            // kept (the others are never read). One call site of `lane_test` for both layouts.
+            // kept (the others are never read). One call site of `lane_test` for these two layouts.
             let testing = busy && st.need_mask;
             var mask = 0u;
             var nc: NodeCtx;

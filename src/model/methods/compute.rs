@@ -60,7 +60,8 @@ pub const COMPUTE_BLOCKS: &[Block] = &[
     b("verify", COMPUTE, &["verify_decision"]),
     // A node visit's set-up (the ray is testing: `need_mask`).
     b("visit", COMPUTE, &["node_ctx", "child_grid"]),
-    // The 1-lane layout's exact pre-test of a node's children (`main_lanes1` only).
+    // The exact pre-test of a node's children with one ray per lane (`main_lanes1`, `main_wave`:
+    // with the keys).
     b("children_crossed", COMPUTE, &["children_crossed"]),
     // One round of lane tests: each lane of a ray tests one child (with its ballot).
     b("lane_test", COMPUTE, &["lane_test", "test_ray"]),

@@ -70,7 +70,8 @@
 //!
 //! Tested on lavapipe at S = 4, 8 and 16 (`LP_NATIVE_VECTOR_WIDTH` 128, 256, 512; at 128 with
 //! `GALLIUM_OVERRIDE_CPU_CAPS=sse4.1`, which avoids a heap corruption of lavapipe's own on AVX2 CPUs),
-//! both layouts writing identical images; S = 32 and 64 only through the twin's emulated ballots.
+//! the three layouts writing identical images; S = 32 and 64 only through the twin's emulated
+//! ballots (the thesis layout) or not at all (the wave layout: no GPU has run it).
 //!
 //! Measured (lavapipe, 2 cores, 320x240, `benches/results/lavapipe-bench-320x240.json`): 3283 to
 //! 4534 ns per mirror ray, 3.9 to 5.0 times the fragment method and 8.6 to 12.8 times the
