@@ -813,7 +813,8 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
                 }
             }
             if wave {
-                // The crossed children of every ray of the subgroup, spread over its lanes.
+                // The crossed children of every ray of the subgroup, spread over its lanes (with
+                // one lane per ray, `half` is the lane's index in the subgroup).
                 mask = wave_tests(&st, nc, rest, half, sg_size, bounded);
                 rest = 0u;
             }

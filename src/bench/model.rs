@@ -45,9 +45,9 @@ use super::plot::{self, Point};
 use super::scaling::{TRIANGLE_SEGMENTS, tessellated_scene};
 use super::{BenchReport, Method, MethodSpec, prepare_scene};
 use crate::model::dynamic::{Counting, weights_by};
-use crate::model::methods::{Layout, layouts};
+use crate::model::methods::layouts;
 use crate::model::replay::{
-    Mode, ModelSettings, Recorded, ReplayStats, default_assembly, record, replay,
+    ComputeLanes, Mode, ModelSettings, Recorded, ReplayStats, default_assembly, record, replay,
 };
 use crate::model::validate::{self, Measured, Modelled, Training, Validation};
 use crate::model::weights;
@@ -89,9 +89,9 @@ pub const ASSUMPTIONS: &[&str] = &[
 #[derive(Clone, Debug, Serialize)]
 pub struct GpuMethod {
     pub method: Method,
-    /// The layout these figures are of: the method's default, or one of compute's others
-    /// ([`layouts`]: `main_lanes1`, `main_wave`).
-    pub layout: Layout,
+    /// The layout these figures are of: `Auto`, the method's GPU default (compute's `main_wave`),
+    /// or one of compute's others ([`layouts`]: `Thesis`, `main`; `One`, `main_lanes1`).
+    pub layout: ComputeLanes,
     /// Weighted warp-steps per ray, static weights.
     pub cost_per_ray: f64,
     /// Weighted warp-steps per ray, dynamic weights ([`crate::model::dynamic`]).
@@ -107,7 +107,7 @@ pub struct GpuMethod {
 
 impl GpuMethod {
     /// The figures of `stats` (`method`'s replay in `layout`).
-    pub fn of(stats: &ReplayStats, method: Method, layout: Layout) -> Result<GpuMethod> {
+    pub fn of(stats: &ReplayStats, method: Method, layout: ComputeLanes) -> Result<GpuMethod> {
         let (ws, _) = weights_by(method, Counting::Static, layout)?;
         let (wd, _) = weights_by(method, Counting::Dynamic, layout)?;
         let shares = weights::shares(stats, &wd);
@@ -142,7 +142,7 @@ impl GpuMethod {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct ModelRatio {
     pub method: Method,
-    pub layout: Layout,
+    pub layout: ComputeLanes,
     pub over: Method,
     /// With static weights (`None`: a method not replayed, or a ratio not finite).
     pub ratio: Option<f64>,
@@ -152,9 +152,14 @@ pub struct ModelRatio {
 
 impl ModelRatio {
     /// The ratio of `(method, layout)` over `over` among `methods`.
-    fn of(methods: &[GpuMethod], (method, layout): (Method, Layout), over: Method) -> ModelRatio {
-        let find = |k: Method, l: Layout| methods.iter().find(|g| g.method == k && g.layout == l);
-        let (a, b) = (find(method, layout), find(over, Layout::Default));
+    fn of(
+        methods: &[GpuMethod],
+        (method, layout): (Method, ComputeLanes),
+        over: Method,
+    ) -> ModelRatio {
+        let find =
+            |k: Method, l: ComputeLanes| methods.iter().find(|g| g.method == k && g.layout == l);
+        let (a, b) = (find(method, layout), find(over, ComputeLanes::Auto));
         let ratio =
             |cost: fn(&GpuMethod) -> f64| Some(cost(a?) / cost(b?)).filter(|r| r.is_finite());
         ModelRatio {
@@ -166,10 +171,10 @@ impl ModelRatio {
         }
     }
 
-    /// The column heading: `compute/bvh`, `compute 1 lane/ray / bvh`, `compute wave / bvh`.
+    /// The column heading: `compute/bvh`, `compute thesis / bvh`, `compute 1 lane/ray / bvh`.
     fn heading(&self) -> String {
         match self.layout {
-            Layout::Default => format!("{}/{}", self.method.name(), self.over.name()),
+            ComputeLanes::Auto => format!("{}/{}", self.method.name(), self.over.name()),
             l => format!(
                 "{} {} / {}",
                 self.method.name(),
@@ -192,16 +197,16 @@ pub fn tracers() -> Vec<Method> {
 /// The ratios of the GPU predictions, `((method, layout), over)`: each cube-map tracer over
 /// the tracers after it, over the exact GPU tracer ([`Method::EXACT_GPU`]) and, in each of its
 /// other layouts, over the exact GPU tracer.
-pub fn gpu_pairs() -> Vec<((Method, Layout), Method)> {
+pub fn gpu_pairs() -> Vec<((Method, ComputeLanes), Method)> {
     let tracers = tracers();
     let mut out = Vec::new();
     for (k, &m) in tracers.iter().enumerate() {
         out.extend(
             tracers[k + 1..]
                 .iter()
-                .map(|&after| ((m, Layout::Default), after)),
+                .map(|&after| ((m, ComputeLanes::Auto), after)),
         );
-        out.push(((m, Layout::Default), Method::EXACT_GPU));
+        out.push(((m, ComputeLanes::Auto), Method::EXACT_GPU));
         out.extend(layouts(m).iter().map(|&l| ((m, l), Method::EXACT_GPU)));
     }
     out
@@ -210,18 +215,17 @@ pub fn gpu_pairs() -> Vec<((Method, Layout), Method)> {
 /// Per scene and width, the GPU-mode predictions.
 ///
 /// In `model.json` (and `bench.json`'s `model`): `{"scene": ..., "cube": 256, "width": 32,
-/// "methods": [{"method": "compute", "layout": "default", "cost_per_ray": ..., ...}, ...],
-/// "ratios": [{"method": "compute", "layout": "default", "over": "fragment", "ratio": 2.1,
+/// "methods": [{"method": "compute", "layout": "auto", "cost_per_ray": ..., ...}, ...],
+/// "ratios": [{"method": "compute", "layout": "auto", "over": "fragment", "ratio": 2.1,
 /// "dynamic": 1.9}, ...]}`.
 #[derive(Clone, Debug, Serialize)]
 pub struct GpuPrediction {
     pub scene: String,
     pub cube: u32,
     pub width: u32,
-    /// Every modelled method's figures in [`METHODS`]' order, then those of its other layouts
-    /// (`layout`: compute in `main_lanes1`'s, one lane per ray and 32 rays per warp, which shows
-    /// how much of compute over bvh is the thesis layout's one ray per 32-lane warp; and in
-    /// `main_wave`'s, one ray per lane with the child tests spread over the warp).
+    /// Every modelled method's figures in [`METHODS`]' order (compute in its GPU default,
+    /// `main_wave`), then those of its other layouts (`layout`: compute in the thesis layout, one
+    /// ray per 32-lane warp, and in `main_lanes1`'s, one lane per ray and 32 rays per warp).
     pub methods: Vec<GpuMethod>,
     /// The ratios of [`gpu_pairs`], in that order.
     pub ratios: Vec<ModelRatio>,
@@ -232,14 +236,14 @@ impl GpuPrediction {
     pub fn method(&self, method: Method) -> Option<&GpuMethod> {
         self.methods
             .iter()
-            .find(|g| g.method == method && g.layout == Layout::Default)
+            .find(|g| g.method == method && g.layout == ComputeLanes::Auto)
     }
 
     /// The ratio of `method` (default layout) over `over`, if tracked.
     pub fn ratio(&self, method: Method, over: Method) -> Option<&ModelRatio> {
         self.ratios
             .iter()
-            .find(|r| (r.method, r.layout, r.over) == (method, Layout::Default, over))
+            .find(|r| (r.method, r.layout, r.over) == (method, ComputeLanes::Auto, over))
     }
 }
 
@@ -468,7 +472,7 @@ pub fn gpu_prediction(
     let mut methods = Vec::new();
     for m in METHODS {
         let stats = rec.stats(name, cube, dims, m, width, Mode::Gpu)?;
-        methods.push(GpuMethod::of(&stats, m, Layout::Default)?);
+        methods.push(GpuMethod::of(&stats, m, ComputeLanes::Auto)?);
     }
     // A method with other layouts again in each: the same recording, replayed in that layout.
     for m in METHODS {
@@ -477,7 +481,7 @@ pub fn gpu_prediction(
                 continue;
             };
             let saved = r.settings.compute_lanes;
-            r.settings.compute_lanes = layout.compute_lanes();
+            r.settings.compute_lanes = layout;
             let s = replay(r, width, Mode::Gpu, default_assembly(m));
             r.settings.compute_lanes = saved;
             methods.push(GpuMethod::of(&s?, m, layout)?);
@@ -514,7 +518,7 @@ pub fn triangle_axis(dims: (u32, u32)) -> Result<Vec<TrianglePoint>> {
             .map(|m| -> Result<GpuMethod> {
                 let rec = record(&frame, m)?;
                 let s = replay(&rec, 32, Mode::Gpu, default_assembly(m))?;
-                GpuMethod::of(&s, m, Layout::Default)
+                GpuMethod::of(&s, m, ComputeLanes::Auto)
             })
             .collect::<Result<Vec<_>>>()?;
         out.push(TrianglePoint {
@@ -522,7 +526,7 @@ pub fn triangle_axis(dims: (u32, u32)) -> Result<Vec<TrianglePoint>> {
             triangles: scene.world().triangles.len(),
             ratios: tracers()
                 .into_iter()
-                .map(|m| ModelRatio::of(&methods, (m, Layout::Default), Method::EXACT_GPU))
+                .map(|m| ModelRatio::of(&methods, (m, ComputeLanes::Auto), Method::EXACT_GPU))
                 .collect(),
         });
     }
@@ -816,7 +820,7 @@ pub fn per_ray_table(gpu: &[GpuPrediction]) -> String {
         };
         for m in &g.methods {
             let label = match m.layout {
-                Layout::Default => m.method.name().to_string(),
+                ComputeLanes::Auto => m.method.name().to_string(),
                 l => format!("{}, {}", m.method.name(), l.label()),
             };
             s += &format!(
@@ -895,7 +899,7 @@ mod tests {
     use super::*;
 
     /// A method's figures with cost `cost` (static) and `2 * cost` (dynamic).
-    fn figures(method: Method, layout: Layout, cost: f64) -> GpuMethod {
+    fn figures(method: Method, layout: ComputeLanes, cost: f64) -> GpuMethod {
         GpuMethod {
             method,
             layout,
@@ -915,11 +919,11 @@ mod tests {
             .into_iter()
             .map(|m| {
                 let cost = if m == Method::Compute { 4.0 } else { 2.0 };
-                figures(m, Layout::Default, cost)
+                figures(m, ComputeLanes::Auto, cost)
             })
             .collect();
-        methods.push(figures(Method::Compute, Layout::Thesis, 3.0));
-        methods.push(figures(Method::Compute, Layout::OneLane, 1.0));
+        methods.push(figures(Method::Compute, ComputeLanes::Thesis, 3.0));
+        methods.push(figures(Method::Compute, ComputeLanes::One, 1.0));
         let ratios = gpu_pairs()
             .into_iter()
             .map(|(m, over)| ModelRatio::of(&methods, m, over))
@@ -966,7 +970,7 @@ mod tests {
             .collect();
         let r = ModelRatio::of(
             &without_bvh,
-            (Method::Compute, Layout::Default),
+            (Method::Compute, ComputeLanes::Auto),
             Method::Bvh,
         );
         assert_eq!((r.ratio, r.dynamic), (None, None));
@@ -977,14 +981,14 @@ mod tests {
         let methods: Vec<GpuMethod> = [Method::Bvh, Method::Compute, Method::Fragment]
             .into_iter()
             .zip([1.0, 3.0, 0.5])
-            .map(|(m, c)| figures(m, Layout::Default, c))
+            .map(|(m, c)| figures(m, ComputeLanes::Auto, c))
             .collect();
         let point = TrianglePoint {
             scene: "s".into(),
             triangles: 100,
             ratios: tracers()
                 .into_iter()
-                .map(|m| ModelRatio::of(&methods, (m, Layout::Default), Method::EXACT_GPU))
+                .map(|m| ModelRatio::of(&methods, (m, ComputeLanes::Auto), Method::EXACT_GPU))
                 .collect(),
         };
         let overtakes = [

@@ -25,8 +25,21 @@ pub enum ComputeLanes {
     One,
     /// `main_wave`: one ray per lane, the warp's crossed children spread over its lanes.
     Wave,
-    /// `One` in lavapipe mode, `Wave` in GPU mode (what `ray_lanes` picks).
+    /// `One` in lavapipe mode, `Wave` in GPU mode (what `ray_lanes` picks); as a method's
+    /// layout in the GPU predictions, its default.
     Auto,
+}
+
+impl ComputeLanes {
+    /// The label of a table column: "" (the default), "thesis", "1 lane/ray", "wave".
+    pub fn label(self) -> &'static str {
+        match self {
+            ComputeLanes::Auto => "",
+            ComputeLanes::Thesis => "thesis",
+            ComputeLanes::One => "1 lane/ray",
+            ComputeLanes::Wave => "wave",
+        }
+    }
 }
 
 /// The byte layout of texel and node addresses for the sector count.

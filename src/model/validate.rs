@@ -82,8 +82,7 @@ use anyhow::{Result, bail, ensure};
 use serde::Serialize;
 
 use super::dynamic::{Counting, weights_by};
-use super::methods::Layout;
-use super::replay::{Mode, ModelSettings, ReplayStats, model_frame};
+use super::replay::{ComputeLanes, Mode, ModelSettings, ReplayStats, model_frame};
 use super::{weights, work};
 use crate::method::Method;
 
@@ -329,7 +328,7 @@ pub fn modelled_with(
         m.subgroup
     );
     // Lavapipe runs compute's one-lane layout (`vk::methods::compute::ray_lanes`).
-    let (w, lane) = weights_by(m.method, counting, Layout::OneLane)?;
+    let (w, lane) = weights_by(m.method, counting, ComputeLanes::One)?;
     let stats = stats.clone();
     let (vector_blocks, lane_blocks) = split(&stats.steps_per_ray, &w, &lane, m.subgroup);
     let item_costs: Vec<f64> = stats

@@ -7,7 +7,7 @@ use std::collections::BTreeSet;
 
 use cubetrace::method::Method;
 use cubetrace::model::dynamic::{self, Arms, Contexts, Counting, Eval, LoopKind, Module};
-use cubetrace::model::methods::Layout;
+use cubetrace::model::replay::ComputeLanes;
 use cubetrace::model::weights::{self, ShaderFunctions};
 use cubetrace::model::work::{COMPUTE_BLOCKS, blocks};
 
@@ -184,7 +184,7 @@ const MODELLED: [Method; 5] = [
 #[test]
 fn every_block_has_a_dynamic_weight() {
     for m in MODELLED {
-        for layout in [Layout::Default, Layout::Thesis, Layout::OneLane] {
+        for layout in [ComputeLanes::Auto, ComputeLanes::Thesis, ComputeLanes::One] {
             let (w, lane) = dynamic::weights_by(m, Counting::Dynamic, layout).unwrap();
             assert_eq!(w.len(), blocks(m).len(), "{}", m.name());
             for (i, (x, l)) in w.iter().zip(&lane).enumerate() {
@@ -200,7 +200,7 @@ fn every_block_has_a_dynamic_weight() {
 #[test]
 fn the_bvh_node_counts_its_children_per_trip() {
     let st = weights::weights(Method::Bvh).unwrap();
-    let dy = dynamic::weights(Method::Bvh, Layout::Default, Arms::Both).unwrap();
+    let dy = dynamic::weights(Method::Bvh, ComputeLanes::Auto, Arms::Both).unwrap();
     let index = |n: &str| {
         blocks(Method::Bvh)
             .iter()

@@ -299,11 +299,11 @@ fn bench_model_json_has_the_columns() {
     // one-lane layouts too.
     let ratios = g["ratios"].as_array().expect("gpu[0].ratios");
     for (method, layout, over) in [
-        ("compute", "default", "bvh"),
-        ("compute", "default", "fragment"),
-        ("fragment", "default", "bvh"),
+        ("compute", "auto", "bvh"),
+        ("compute", "auto", "fragment"),
+        ("fragment", "auto", "bvh"),
         ("compute", "thesis", "bvh"),
-        ("compute", "one-lane", "bvh"),
+        ("compute", "one", "bvh"),
     ] {
         let r = ratios
             .iter()

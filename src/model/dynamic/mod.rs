@@ -63,14 +63,14 @@ mod spirv;
 pub use eval::{Ctx, Eval, LoopNote};
 pub use spirv::{Arms, Cost, LoopKind, Module};
 
-use super::methods::Layout;
+use super::frame::ComputeLanes;
 use super::work::{Block, blocks};
 use crate::method::Method;
 
 /// The entry point a method's dispatch runs in `layout`: compute's `main` (the thesis layout),
 /// `main_lanes1` or `main_wave`; fragment's `fs_exact_mip`; bvh's `main`; ssr's `fs_main`;
 /// reflection-point's `search`.
-pub fn entry_point(method: Method, layout: Layout) -> Option<&'static str> {
+pub fn entry_point(method: Method, layout: ComputeLanes) -> Option<&'static str> {
     super::methods::model(method).map(|m| (m.entry_point)(layout))
 }
 
@@ -159,7 +159,7 @@ pub fn block_weights(blocks: &[Block], entry: &str, arms: Arms) -> Result<Vec<Bl
 
 /// Instructions per block of a method, counted dynamically (module docs), with `Arms::Both`
 /// unless asked; `layout` picks compute's entry point.
-pub fn weights(method: Method, layout: Layout, arms: Arms) -> Result<Vec<BlockWeight>> {
+pub fn weights(method: Method, layout: ComputeLanes, arms: Arms) -> Result<Vec<BlockWeight>> {
     let Some(entry) = entry_point(method, layout) else {
         bail!("model: --method {} has no blocks", method.name());
     };
@@ -191,7 +191,7 @@ impl Counting {
 pub fn weights_by(
     method: Method,
     counting: Counting,
-    layout: Layout,
+    layout: ComputeLanes,
 ) -> Result<(Vec<f64>, Vec<f64>)> {
     match counting {
         Counting::Static => Ok((

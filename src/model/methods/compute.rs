@@ -5,11 +5,11 @@ use crate::cpu::{Status, Work};
 use crate::cubemap::face::Texel;
 use crate::method::Method;
 use crate::model::blocks::{Block, b};
-use crate::model::frame::{Addr, Frame, MirrorRay, run_logged, verify_loads};
+use crate::model::frame::{Addr, ComputeLanes, Frame, MirrorRay, run_logged, verify_loads};
 use crate::model::rays::{ComputeRay, FrameWork, Phase, Recorded, SettleTurn, Step, Visit};
 use crate::model::warps::{Assembly, Items};
 
-use super::{Layout, MethodModel};
+use super::MethodModel;
 
 /// What the cost model knows of compute.
 pub const MODEL: MethodModel = MethodModel {
@@ -20,11 +20,11 @@ pub const MODEL: MethodModel = MethodModel {
     lavapipe_items: |width, lanes| Items::Groups(lavapipe_compute_group(width) / lanes.max(1)),
     // The GPU default is the wave layout (`vk::methods::compute::ray_lanes`).
     entry_point: |layout| match layout {
-        Layout::Default => "main_wave",
-        Layout::Thesis => "main",
-        Layout::OneLane => "main_lanes1",
+        ComputeLanes::Auto | ComputeLanes::Wave => "main_wave",
+        ComputeLanes::Thesis => "main",
+        ComputeLanes::One => "main_lanes1",
     },
-    layouts: &[Layout::Thesis, Layout::OneLane],
+    layouts: &[ComputeLanes::Thesis, ComputeLanes::One],
     record,
 };
 

@@ -48,10 +48,10 @@
 //! only on the children whose frustum interval passes, `children_crossed`). `main_wave` also
 //! gives each lane a whole ray, but the crossed children of all the subgroup's rays are tested
 //! by whichever lanes are free: ceil(sum / S) rounds where `main_lanes1` takes as many as its
-//! busiest lane needs. The renderer picks 1 lane on CPU devices and 32 elsewhere
-//! (`CUBETRACE_RAY_LANES` = 1, 32 or `wave` overrides): on lavapipe every lane of a ray repeats
-//! the per-ray work and per-lane-indexed data is read lane by lane, so the thesis layout cost
-//! 59.4 ms against 16.2 ms at S = 8 (sphere-room, 160x120).
+//! busiest lane needs. The renderer picks `main_lanes1` on CPU devices and `main_wave` elsewhere
+//! ([`ray_lanes`]; `RenderOptions::compute_layout`, else `CUBETRACE_RAY_LANES`, overrides it): on
+//! lavapipe every lane of a ray repeats the per-ray work and per-lane-indexed data is read lane
+//! by lane, so the thesis layout cost 59.4 ms against 16.2 ms at S = 8 (sphere-room, 160x120).
 //!
 //! Invariants:
 //! - No workgroup barrier: a ray's lanes are one subgroup's and exchange data only by ballots and
