@@ -20,5 +20,5 @@ fn fs_main(@builtin(position) position: vec4<f32>) {
     }
     let i = atomicAdd(&ray_counter.count, 1u);
     let from_tri = textureLoad(gbuffer_triangle, vec2<i32>(pixel), 0).x;
-    rays[i] = AppendedRay(ray.origin, pixel.y * frame.width + pixel.x, ray.dir, 0u, from_tri, 0u, 0u, 0u);
+    rays[i] = AppendedRay(ray.origin, pixel.y * frame.width + pixel.x, ray.dir, 0.0, from_tri, 0u, 0u, 0u);
 }

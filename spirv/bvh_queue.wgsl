@@ -1,4 +1,4 @@
-// bvh_queue: the BVH tracer's ray queue (shared/bvh_rays.wgsl). Four entry points, each one
+// bvh_queue: the BVH tracer's ray queue (shared/bvh_rays.wgsl). Seven entry points, each one
 // dispatch:
 // - `append_mirror` (the `bvh` method): every mirror pixel of the G-buffer appends its reflected
 //   ray (`mirror_ray`, the ray the cubemap paths trace) from t = 0, leaving the G-buffer's
@@ -24,6 +24,12 @@
 //   (`frame.check_below`) appends the record's ray, flagged BVH_RAY_CHECK,
 //   from t = 0 under the start rule (leaving the G-buffer's triangle, as `append_mirror`); the
 //   unresolved ones are the fallback's, which traces every triangle anyway.
+// - `append_unresolved_queued`, `append_check_queued` (the rounds of `--bounces` that a cubemap
+//   method traces, vk::passes::bounce): the same two rules per ray of the round's queue (`in_rays`,
+//   one invocation per ray, dispatched with that queue's own `bvh_trace` arguments), for the
+//   pixel's record the method just wrote: the queued ray itself, leaving its own `from_triangle`
+//   and keeping its `bounce`. Every resolved ray is checked (`check_below` is the camera rays'
+//   bound, from the G-buffer's normal).
 // - `args`: one invocation; the `bvh_trace` dispatch from the count: ceil(n / 64) workgroups as
 //   x <= 65535 by y (zero rays: an empty dispatch).
 // Both appends run one invocation per pixel over a 2-D grid of 64-wide workgroups
@@ -37,6 +43,9 @@
 @group(2) @binding(0) var<storage, read_write> bvh_counter: BvhCounter;
 @group(2) @binding(1) var<storage, read_write> bvh_rays: array<BvhRay>;
 @group(2) @binding(2) var<storage, read_write> bvh_dispatch: BvhDispatch;
+// A bounce round's queue (the `_queued` entries).
+@group(2) @binding(3) var<storage, read_write> in_counter: BvhCounter;
+@group(2) @binding(4) var<storage, read> in_rays: array<BvhRay>;
 
 // Relative slack below t_done where a fallback ray starts (see above): 2^-10.
 const FALLBACK_SLACK: f32 = 0.0009765625;
@@ -129,6 +138,40 @@ fn append_check(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     }
     let tri = textureLoad(gbuffer_triangle, pixel, 0).x;
     push(BvhRay(r.origin, i, r.dir, 0.0, tri, 0u, BVH_RAY_CHECK, 0u));
+}
+
+// The ray of the round's queue at invocation `gid`, with its pixel's record, if there is one.
+struct Queued {
+    ok: bool,
+    ray: BvhRay,
+    record: PixelRecord,
+}
+
+fn queued(gid: vec3<u32>, groups: vec3<u32>) -> Queued {
+    let k = pixel_index(gid, groups);
+    var q: Queued;
+    q.ok = k < atomicLoad(&in_counter.count);
+    if q.ok {
+        q.ray = in_rays[k];
+        q.record = records[q.ray.pixel];
+    }
+    return q;
+}
+
+@compute @workgroup_size(64)
+fn append_unresolved_queued(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let q = queued(gid, groups);
+    if q.ok && q.record.status == RECORD_UNRESOLVED {
+        push(BvhRay(q.ray.origin, q.ray.pixel, q.ray.dir, 0.0, q.ray.from_triangle, q.ray.bounce, BVH_RAY_FALLBACK, 0u));
+    }
+}
+
+@compute @workgroup_size(64)
+fn append_check_queued(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let q = queued(gid, groups);
+    if q.ok && q.record.status != RECORD_UNRESOLVED {
+        push(BvhRay(q.ray.origin, q.ray.pixel, q.ray.dir, 0.0, q.ray.from_triangle, q.ray.bounce, BVH_RAY_CHECK, 0u));
+    }
 }
 
 @compute @workgroup_size(1)

@@ -758,8 +758,12 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
     // One lane per ray (uniform over the dispatch).
     let one = lanes == 1u;
     var st: RayState;
+    // Reflections before this ray (0 but in the rounds of `--bounces`): the record's `bounces`
+    // is one more.
+    var bounce = 0u;
     if valid {
         let q = rays[index];
+        bounce = q.bounce;
         st.origin = q.origin;
         st.dir = q.dir;
         st.pixel = q.pixel;
@@ -922,12 +926,24 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
             triangle = st.triangle;
             colour = hit_shade(st.triangle, st.bary.yz);
         }
+        // A bounce round's ray keeps the pixel's `fallback` and `checked` flags and adds its
+        // counters to the path's (as `bvh_trace` does for its rounds): its earlier rounds may
+        // have been finished by the fallback, or changed by the reflector check (a ray the
+        // retrace finishes counts its cut attempt too).
+        var fallback = 0u;
+        var checked = 0u;
+        var sums = st.sums;
+        if bounce > 0u {
+            fallback = records[st.pixel].fallback;
+            checked = records[st.pixel].checked;
+            sums += ray_stats[st.pixel];
+        }
         records[st.pixel] = PixelRecord(
             st.origin, r.status, st.dir, r.cmo, r.point, r.riser, colour,
             r.face, r.x, r.y, r.texels, r.cells, r.traces, r.t, r.t_done, triangle,
-            select(0u, 1u, !st.finished), 0u, 1u, 0u,
+            select(0u, 1u, !st.finished), fallback, bounce + 1u, checked,
         );
-        ray_stats[st.pixel] = st.sums;
+        ray_stats[st.pixel] = sums;
     }
 }
 

@@ -30,6 +30,7 @@ fn group_count(n: u32, rays_per_group: u32) -> u32 {
 @compute @workgroup_size(1)
 fn main() {
     let n = atomicLoad(&ray_counter.count);
+    ray_counter.traced += n;
     dispatch_args = DispatchArgs(group_count(n, dispatch_params.rays_per_group), 1u, 1u);
     var retrace = 0u;
     if dispatch_params.retrace_rays_per_group != 0u {

@@ -128,14 +128,33 @@ fn compute_struct_layouts_match_naga() {
         check_layout!(
             AppendedRay,
             pass.struct_layout("AppendedRay").unwrap(),
-            [origin, pixel, dir, bounce, from_triangle, pad0, pad1, pad2]
+            [origin, pixel, dir, t_min, from_triangle, bounce, pad0, pad1]
         )
         .unwrap();
     }
+    // A bounce round copies a BVH queue into the compute queue: the fields the trace reads lie
+    // at `BvhRay`'s offsets (negative: `flags` is not `bounce`).
+    use cubetrace::vk::passes::bvh::BvhRay;
+    use std::mem::offset_of;
+    assert_eq!(size_of::<AppendedRay>(), size_of::<BvhRay>());
+    for (a, b) in [
+        (offset_of!(AppendedRay, origin), offset_of!(BvhRay, origin)),
+        (offset_of!(AppendedRay, pixel), offset_of!(BvhRay, pixel)),
+        (offset_of!(AppendedRay, dir), offset_of!(BvhRay, dir)),
+        (offset_of!(AppendedRay, t_min), offset_of!(BvhRay, t_min)),
+        (
+            offset_of!(AppendedRay, from_triangle),
+            offset_of!(BvhRay, from_triangle),
+        ),
+        (offset_of!(AppendedRay, bounce), offset_of!(BvhRay, bounce)),
+    ] {
+        assert_eq!(a, b);
+    }
+    assert_ne!(offset_of!(AppendedRay, bounce), offset_of!(BvhRay, flags));
     check_layout!(
         RayCounter,
         DISPATCH_ARGS.struct_layout("RayCounter").unwrap(),
-        [count, subgroup_max, subgroup_min_not, pad0]
+        [count, subgroup_max, subgroup_min_not, traced]
     )
     .unwrap();
     check_layout!(

@@ -4,23 +4,26 @@
 // Rust twins: `cubetrace::vk::methods::compute::{AppendedRay, RayCounter, DispatchArgs}` (layouts checked
 // in tests/compute.rs). Bindings are declared by each pass (their access differs).
 
-// One queued mirror ray.
+// One queued mirror ray. Its fields lie where `BvhRay`'s do (shared/bvh_rays.wgsl; `t_min` unused,
+// `BvhRay::flags` a pad): a round of `--bounces` copies its BVH queue here (`vk::passes::bounce`).
 struct AppendedRay {
-    // World ray origin (the G-buffer position of the mirror pixel).
+    // World ray origin (the G-buffer position of the mirror pixel; the previous hit in a
+    // bounce round).
     origin: vec3<f32>,
     // Pixel index j * width + i (row 0 at the top), where the result goes.
     pixel: u32,
-    // Unit reflected direction, exactly `mirror_ray`'s.
+    // Unit reflected direction, exactly `mirror_ray`'s (the bounce round's in a round).
     dir: vec3<f32>,
-    // Reflections already taken before this ray: always 0, the camera's first reflected ray
-    // (later reflections, `--bounces`, go to the BVH's queue, `BvhRay`).
-    bounce: u32,
-    // The global triangle the ray leaves (the G-buffer's ID; 0xffffffff: none), for the
-    // `bounded` criterion's start rule.
+    // `BvhRay::t_min`'s place: 0.
+    t_min: f32,
+    // The global triangle the ray leaves (the G-buffer's ID, the hit it reflects at in a bounce
+    // round; 0xffffffff: none), for the start rule.
     from_triangle: u32,
+    // Reflections already taken before this ray: 0 for the camera's first reflected ray, k - 1
+    // in round k of `--bounces` (the record's `bounces` is this + 1).
+    bounce: u32,
     pad0: u32,
     pad1: u32,
-    pad2: u32,
 }
 
 // Zeroed (vkCmdFillBuffer) before `append` every frame.
@@ -31,7 +34,9 @@ struct RayCounter {
     subgroup_max: atomic<u32>,
     // Bitwise NOT of the smallest subgroup size (atomicMax of !size over a zeroed word).
     subgroup_min_not: atomic<u32>,
-    pad0: u32,
+    // Rays traced this frame, over the rounds of `--bounces` (`dispatch_args` adds each round's
+    // count; the counter is zeroed before the camera's rays, a round copies in its `count` only).
+    traced: u32,
 }
 
 // VkDispatchIndirectCommand.

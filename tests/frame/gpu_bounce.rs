@@ -20,6 +20,7 @@ use common::{finish_gpu, gpu_context};
 use cubetrace::Method;
 use cubetrace::camera::Camera;
 use cubetrace::check_layout;
+use cubetrace::cpu::options::{TraceCriterion, TraceOptions};
 use cubetrace::reference::{self, NO_ID, Tracer};
 use cubetrace::scene::shapes::{cuboid, quad};
 use cubetrace::scene::{
@@ -376,6 +377,89 @@ fn facing_mirrors_bounce_for_bounce() {
     let c = compare(&render(&ctx, &turned, &camera, Method::Bvh, 5), want);
     eprintln!("turned second mirror, N=5: {c:?}");
     assert!(!c.passes(), "a turned normal must fail: {c:?}");
+    finish_gpu(ctx);
+}
+
+/// Mirror pixels of `frame` whose path took 2 or more reflections, and of those the ones whose
+/// last ray a CMO decided (`cmo` names one: the fallback and the BVH's rounds leave it unset).
+fn later_rounds_by_cmo(frame: &GpuFrame) -> (usize, usize) {
+    let later = (frame.records.iter().zip(&frame.mask))
+        .filter(|(r, m)| **m != 0 && r.bounces >= 2)
+        .map(|(r, _)| r);
+    let (mut multi, mut cube) = (0, 0);
+    for r in later {
+        multi += 1;
+        cube += usize::from(r.cmo != u32::MAX);
+    }
+    (multi, cube)
+}
+
+/// The compute path traces the rounds after its first with the cube maps too (the round's
+/// queue copied into its own, then the reflector check and the fallback over the same rays):
+/// on the facing mirrors at N = 3 most paths of 2 or more reflections end on a ray a CMO
+/// decided, and with the bounded criterion the frame is the reference's, bounce for bounce
+/// (the exact criterion's own error is that of its first round: `passes_cubemap`). Negatives:
+/// `bvh` decides no ray with a CMO, and the compute frame fails against the reference of N = 2.
+#[test]
+fn compute_traces_the_bounce_rounds_with_the_cube_maps() {
+    let ctx = gpu_context();
+    let mut scene = facing_mirrors();
+    // CMOs along the corridor, so that the cube maps see most of what the rays meet.
+    scene.cmo.placement =
+        CmoPlacement::Explicit([-1.0, -4.0, -7.0].map(|z| Vec3::new(0.0, 1.2, z)).to_vec());
+    let camera = sized(&scene.cameras[0], 64, 48);
+    let want = reference_frame(&scene, &camera, 3);
+    let f1 = render(&ctx, &scene, &camera, Method::Compute, 1);
+    let first = compare(&f1, &reference_frame(&scene, &camera, 1));
+    // The first round's share decided by a CMO (the rest is the fallback's and the check's).
+    let first_cube = (f1.records.iter().zip(&f1.mask))
+        .filter(|(r, m)| **m != 0 && r.cmo != u32::MAX)
+        .count() as f64
+        / f1.mirror_pixels().max(1) as f64;
+    for criterion in [TraceCriterion::Exact, TraceCriterion::Bounded] {
+        let options = RenderOptions {
+            method: Method::Compute,
+            bounces: 3,
+            fallback: Fallback::Trace,
+            trace: TraceOptions {
+                criterion,
+                ..TraceOptions::default()
+            },
+            ..RenderOptions::default()
+        };
+        let (frame, _) = first_frame(&ctx, &scene, &camera, options, "facing compute N=3");
+        let c = compare(&frame, &want);
+        let (multi, cube) = later_rounds_by_cmo(&frame);
+        eprintln!(
+            "facing N=3 compute {criterion:?}: {c:?}; {cube} of {multi} later rays by a CMO, \
+             first round {first_cube:.3}"
+        );
+        assert!(multi * 2 >= c.mirror, "paths of 2+ bounces: {multi}");
+        // A path of k reflections took k rays, each traced by `compute_trace` (the counter adds
+        // the rounds' counts).
+        let rays: u32 = (frame.records.iter().zip(&frame.mask))
+            .filter(|(_, m)| **m != 0)
+            .map(|(r, _)| r.bounces)
+            .sum();
+        let traced = frame.compute.as_ref().map(|c| c.rays);
+        assert_eq!(traced, Some(rays), "rays traced over the rounds");
+        assert!(rays as usize > c.mirror, "more rays than mirror pixels");
+        // At least half the first round's share: the later rays start on the mirrors, away
+        // from the centres, and some meet what no CMO sees.
+        assert!(
+            cube as f64 >= 0.5 * first_cube * multi as f64,
+            "later rounds by the cube maps: {cube} of {multi}"
+        );
+        if criterion == TraceCriterion::Bounded {
+            assert!(c.passes(), "bounded N=3: {c:?}");
+        } else {
+            assert!(c.passes_cubemap(&first), "exact N=3: {c:?}");
+        }
+        let other = compare(&frame, &reference_frame(&scene, &camera, 2));
+        assert!(!other.passes_cubemap(&first), "N=3 against N=2: {other:?}");
+    }
+    let (multi, cube) = later_rounds_by_cmo(&render(&ctx, &scene, &camera, Method::Bvh, 3));
+    assert!(multi > 0 && cube == 0, "bvh: {cube} of {multi} by a CMO");
     finish_gpu(ctx);
 }
 

@@ -7,6 +7,8 @@ use crate::vk::backend::error::VkResult;
 use crate::vk::backend::shaders::{BOUNCE_APPEND, CONE_PREFILTER};
 use crate::vk::backend::sync::{ALL, SHADER_READ, SHADER_WRITE, TRANSFER_WRITE};
 use crate::vk::methods::Scope;
+use crate::vk::passes::bounce::RoundPasses;
+use crate::vk::passes::bvh::BvhQueue;
 
 impl GpuRenderer {
     /// Records every pass, runs them and reads the frame back.
@@ -118,10 +120,16 @@ impl GpuRenderer {
             }
         }
         if let Some(b) = &self.bounce {
-            let shared = self.bvh_passes().map(|p| &p.tracer);
+            let frame = RoundPasses {
+                shared: self.bvh_passes().map(|p| &p.tracer),
+                method: self.method.traces_rounds(),
+                check: self.check.as_ref().map(|c| &c.passes),
+                fallback: self.fallback.as_ref(),
+            };
+            let trace = |rec: &Recorder<'_>, q: &BvhQueue| self.method.record_round(rec, q);
             scope(BOUNCE_APPEND.name, &mut || {
                 b.record_own_material(rec);
-                b.record_rounds(rec, shared)
+                b.record_rounds(rec, frame, &trace)
             })?;
         }
         rec.memory_barrier(SHADER_WRITE, SHADER_READ);

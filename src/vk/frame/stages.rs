@@ -14,7 +14,7 @@ use crate::vk::backend::buffer::Buffer;
 use crate::vk::backend::context::GpuContext;
 use crate::vk::backend::error::{VkError, VkResult};
 use crate::vk::methods::{FrameInputs, Needs, Technique};
-use crate::vk::passes::bounce::BouncePasses;
+use crate::vk::passes::bounce::{BouncePasses, RoundPasses};
 use crate::vk::passes::bvh::{AppendKind, BvhPasses, ReflectorCheck};
 use crate::vk::passes::capture::Capture;
 use crate::vk::passes::capture_lists::{CaptureLists, ListTargets};
@@ -252,8 +252,14 @@ impl AfterMethod {
         let bounce = if !plan.bounce_passes() {
             None
         } else {
-            // One BVH for the method's, the fallback's and the bounce rounds' rays.
-            let shared = method.bvh().or(fallback.as_ref()).map(|b| &b.tracer);
+            // One BVH for the method's, the fallback's and the bounce rounds' rays; none for the
+            // rounds where the method traces them.
+            let frame = RoundPasses {
+                shared: method.bvh().or(fallback.as_ref()).map(|b| &b.tracer),
+                method: method.traces_rounds(),
+                check: check.as_ref().map(|c| &c.passes),
+                fallback: fallback.as_ref(),
+            };
             Some(BouncePasses::new(
                 i.ctx,
                 plan.bounces,
@@ -262,7 +268,7 @@ impl AfterMethod {
                 i.gbuffer,
                 i.params,
                 i.records,
-                shared,
+                frame,
                 i.t_hi,
             )?)
         };

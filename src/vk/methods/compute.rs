@@ -94,9 +94,10 @@ use crate::vk::backend::info::DeviceReport;
 use crate::vk::backend::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
 use crate::vk::backend::shaders::{APPEND, COMPUTE_TRACE, DISPATCH_ARGS, HIER32, Pass};
 use crate::vk::backend::sync::{
-    INDIRECT_READ, SHADER_READ, SHADER_WRITE, STORAGE_RW, TRANSFER_WRITE,
+    ALL, INDIRECT_READ, SHADER_READ, SHADER_WRITE, STORAGE_RW, TRANSFER_WRITE,
 };
 use crate::vk::options::ComputeLayout;
+use crate::vk::passes::bvh::BvhQueue;
 use crate::vk::passes::cmo::{CaptureContents, CmoData, TraceConfig};
 use crate::vk::passes::hier32::{Hier32Bindings, Hier32Pass};
 use crate::vk::passes::scene_buffers::SceneBuffers;
@@ -109,7 +110,10 @@ use crate::cubemap::pyramid::{
     HIER_MAX_LEVELS, hier32_flat_layout, hier32_group, hier32_layout, hier32_len,
 };
 
-/// WGSL `AppendedRay` (spirv/shared/compute_rays.wgsl): one queued mirror ray.
+/// WGSL `AppendedRay` (spirv/shared/compute_rays.wgsl): one queued mirror ray. Its fields lie
+/// where a BVH queue's `BvhRay` has them (`t_min` unused here, `flags` a pad), so that a round of
+/// `--bounces` copies its BVH queue into this one and the cubemap trace reads it as it is
+/// (`vk::passes::bounce`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct AppendedRay {
@@ -117,15 +121,16 @@ pub struct AppendedRay {
     /// `j * width + i`.
     pub pixel: u32,
     pub dir: [f32; 3],
-    /// Reflections taken before this ray: always 0, as this queue holds the camera's first
-    /// reflected rays (later ones, `--bounces`, go to the BVH's queue: `vk::passes::bounce`).
-    pub bounce: u32,
-    /// The global triangle the ray leaves (the G-buffer's ID, `u32::MAX` for none): the
-    /// `bounded` criterion's start rule.
+    /// `BvhRay::t_min`'s place: 0, the trace starts at the origin.
+    pub t_min: f32,
+    /// The global triangle the ray leaves (the G-buffer's ID for a camera's reflected ray, the
+    /// hit it reflects at for a later one; `u32::MAX` for none): the start rule.
     pub from_triangle: u32,
+    /// Reflections taken before this ray: 0 for the camera's reflected rays, k - 1 in round k
+    /// of `--bounces` (the record's `bounces` is this + 1).
+    pub bounce: u32,
     pub pad0: u32,
     pub pad1: u32,
-    pub pad2: u32,
 }
 
 /// WGSL `RayCounter`.
@@ -138,7 +143,8 @@ pub struct RayCounter {
     pub subgroup_max: u32,
     /// `!min` subgroup size.
     pub subgroup_min_not: u32,
-    pub pad0: u32,
+    /// Rays traced in the frame, the rounds of `--bounces` included.
+    pub traced: u32,
 }
 
 /// WGSL `DispatchArgs` (= `VkDispatchIndirectCommand`).
@@ -421,7 +427,8 @@ impl ComputeBuffers {
             rays: storage(
                 "ray queue",
                 pixels * size_of::<AppendedRay>() as u64,
-                vk::BufferUsageFlags::empty(),
+                // A bounce round copies its queue in (`ComputePath::record_round`).
+                vk::BufferUsageFlags::TRANSFER_DST,
             )?,
             counter: storage(
                 "ray counter",
@@ -688,6 +695,23 @@ impl ComputePath {
         Ok(())
     }
 
+    /// A round of `--bounces` (`vk::passes::bounce`): the round's BVH queue (`BvhRay`s, the
+    /// fields the trace reads where `AppendedRay` has them) copied into the compute queue, its
+    /// count into the counter's, then `dispatch_args` and `compute_trace` as for the camera's
+    /// rays; the records take `bounce` + 1.
+    pub fn record_round(&self, rec: &Recorder<'_>, queue: &BvhQueue) -> VkResult<()> {
+        let b = &self.buffers;
+        let bytes = queue.rays().size().min(b.rays.size());
+        // The last trace read the compute queue; the round's append wrote its own. Only the
+        // count is replaced: the subgroup sizes and the rays traced carry over the rounds.
+        rec.memory_barrier(ALL, ALL);
+        rec.copy_buffer(queue.counter(), &b.counter, 4);
+        rec.copy_buffer(queue.rays(), &b.rays, bytes);
+        rec.memory_barrier(TRANSFER_WRITE, STORAGE_RW);
+        self.record_dispatch_args(rec);
+        self.record_trace(rec)
+    }
+
     /// The ray count, subgroup sizes and per-pixel counters of the last frame.
     pub fn read_stats(&self, ctx: &GpuContext) -> VkResult<ComputeStats> {
         let counter: Vec<RayCounter> = ctx.read_buffer(&self.buffers.counter)?;
@@ -695,7 +719,7 @@ impl ComputePath {
         let mut per_pixel: Vec<[u32; 4]> = ctx.read_buffer(&self.buffers.stats)?;
         per_pixel.truncate((self.width * self.height) as usize);
         Ok(ComputeStats {
-            rays: c.count,
+            rays: c.traced,
             subgroup_size: (!c.subgroup_min_not, c.subgroup_max),
             per_pixel,
         })
@@ -789,6 +813,15 @@ impl Technique for ComputePath {
             Ok(())
         })?;
         scope(COMPUTE_TRACE.name, &mut || self.record_trace(rec))
+    }
+
+    /// The rounds of `--bounces` are traced with the cube maps too ([`ComputePath::record_round`]).
+    fn traces_rounds(&self) -> bool {
+        true
+    }
+
+    fn record_round(&self, rec: &Recorder<'_>, queue: &BvhQueue) -> VkResult<()> {
+        ComputePath::record_round(self, rec, queue)
     }
 
     fn read_stats(&self, ctx: &GpuContext) -> VkResult<MethodStats> {

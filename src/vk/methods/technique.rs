@@ -24,7 +24,7 @@ use crate::vk::backend::context::{GpuContext, Recorder};
 use crate::vk::backend::error::VkResult;
 use crate::vk::backend::shaders::Pass;
 use crate::vk::options::RenderOptions;
-use crate::vk::passes::bvh::BvhPasses;
+use crate::vk::passes::bvh::{BvhPasses, BvhQueue};
 use crate::vk::passes::cmo::{CaptureContents, CmoData};
 use crate::vk::passes::gbuffer::Gbuffer;
 use crate::vk::passes::scene_buffers::SceneBuffers;
@@ -179,7 +179,7 @@ pub struct MethodStats {
 /// pass's time on lavapipe, so no option turns them off.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ComputeStats {
-    /// Rays the append pass queued.
+    /// Rays the trace took: the append pass queued them, and the rounds of `--bounces` theirs.
     pub rays: u32,
     /// `(min, max)` subgroup size `compute_trace` ran with (`(0, 0)` when no workgroup ran).
     pub subgroup_size: (u32, u32),
@@ -253,5 +253,22 @@ pub trait Technique: Any {
     /// reports its counter.
     fn bvh(&self) -> Option<&BvhPasses> {
         None
+    }
+
+    /// Whether the method traces the rounds of `--bounces` after its first
+    /// ([`Technique::record_round`]); by default the BVH traces them.
+    fn traces_rounds(&self) -> bool {
+        false
+    }
+
+    /// Traces the rays of a round of `--bounces` (`queue`: `BvhRay`s, its dispatch sized) and
+    /// writes their records, leaving unresolved the rays it cannot answer; the reflector check
+    /// and the fallback follow ([`crate::vk::passes::bounce`]). Only where
+    /// [`Technique::traces_rounds`].
+    fn record_round(&self, _rec: &Recorder<'_>, _queue: &BvhQueue) -> VkResult<()> {
+        Err(crate::vk::backend::error::VkError::Usage {
+            what: "bounce round".into(),
+            detail: "the method does not trace bounce rounds".into(),
+        })
     }
 }

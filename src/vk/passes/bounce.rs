@@ -1,12 +1,20 @@
-//! `--bounces N` on the GPU: the reflections after the method's first, as a wavefront of rays
-//! traced by the BVH kernel ([`super::bvh`]), so that a path reflects as the CPU reference's
-//! `finish_path` does, bounce for bounce.
+//! `--bounces N` on the GPU: the reflections after the method's first, as a wavefront of rays,
+//! traced by the method itself where it can (`compute`: the cube maps, then the reflector check
+//! and the exact fallback over the same rays) and by the BVH kernel ([`super::bvh`]) otherwise,
+//! so that a path reflects as the CPU reference's `finish_path` does, bounce for bounce.
 //!
 //! | N | passes (after the method's, and the trace fallback if any) |
 //! |---|---|
 //! | 0 | `bounce_append` (`own_material`) instead of the method's: no ray is traced, every mirror pixel shows its own material (the G-buffer's colour), `bounces` = 0 |
 //! | 1 | none: the method's records are final, `bounces` = 1 |
-//! | ≥ 2 | round 2: `bounce_append` (`append_first`, per pixel), `args`, `bvh_trace`; round k ≥ 3: `bounce_append` (`append_next`, per ray of round k - 1, indirect), `args`, `bvh_trace` |
+//! | ≥ 2 | round 2: `bounce_append` (`append_first`, per pixel), `args`, the round's trace; round k ≥ 3: `bounce_append` (`append_next`, per ray of round k - 1, indirect), `args`, the round's trace |
+//!
+//! The round's trace: `bvh_trace` over the queue; or, where the method traces the rounds
+//! (`Technique::traces_rounds`: `compute`), the queue copied into the method's own
+//! (`ComputePath::record_round`: the layouts agree field for field), `dispatch_args` and
+//! `compute_trace`, then the reflector check (`append_check_queued`, `bvh_trace` over the
+//! reflectors' BVH) and the fallback (`append_unresolved_queued`, `bvh_trace`) over the same
+//! rays, as after the method's own round.
 //!
 //! The rule, per round k = 2..=N (all recorded in the frame's one command buffer; the CPU knows
 //! N, the GPU the ray counts):
@@ -14,46 +22,31 @@
 //!   ray to round k's queue (an atomic counter): from the record's point, along
 //!   `normalize(reflect(d, n))`, `n` the normalised interpolated vertex normal of the hit
 //!   triangle at the hit (the reference's `Tracer::normal` and `reflect`), leaving that triangle
-//!   under the BVH kernel's start rule (the reference's `Tracer::nearest` with `from`), from
-//!   t = 0. Escaped, unresolved and non-reflector records are final.
-//! - Round k's rays are traced by the BVH kernel, exactly, over an indirect dispatch sized on the
-//!   GPU. The record of the pixel is overwritten with the new hit, so a record holds the final
-//!   hit of the pixel's path, and `bounces` = k (the kernel writes the ray's `bounce` + 1).
-//! - Rounds ≥ 2 are always the BVH's, whatever the method: a reflected ray off a curved mirror
-//!   starts anywhere in the scene (no CMO centre is near it), so the cubemap paths would leave
-//!   more of it unresolved than of the camera's rays, and the target is the reference's
-//!   image bounce for bounce. Only round 1 (the camera's reflected rays, which the CMOs were
-//!   placed for) is the method's.
-//! - After round N, a hit on a reflector keeps the colour the kernel shaded there, the
-//!   reflector's own material: the reference's rule after the last bounce.
+//!   under the start rule (the reference's `Tracer::nearest` with `from`), from t = 0. Escaped,
+//!   unresolved and non-reflector records are final.
+//! - Round k's rays are traced over indirect dispatches sized on the GPU. The record of the
+//!   pixel is overwritten with the new hit, so a record holds the final hit of the pixel's path,
+//!   and `bounces` = k (the ray's `bounce` + 1). The pixel's `fallback` and `checked` flags stay
+//!   set once a round set them, and the compute path adds a round's counters to the pixel's.
+//! - With the cube maps, a later ray starts on a reflector, where no CMO centre need be: where
+//!   the CMOs do not see what it meets, it is the fallback's, so the image is the BVH rounds'
+//!   up to the criterion's own error (with `--criterion bounded`, none: the facing mirrors at
+//!   N = 3 equal the reference, every later ray decided by a CMO). The placement search samples
+//!   the later rays too (`crate::placement`).
+//! - After round N, a hit on a reflector keeps the colour shaded there, the reflector's own
+//!   material: the reference's rule after the last bounce.
 //!
 //! A round-1 hit needs its triangle for the next ray: `compute`, `fragment` with the exact
 //! criterion (verified hits) and `bvh` name it; the other methods (and `fragment` with another
-//! criterion) take `bounces` = 1 only. Two queues (each one ray per pixel at most) alternate
-//! between the rounds; they and the BVH are allocated only for N ≥ 2, and the BVH is shared with
-//! the frame's own BVH passes when it has them (`bvh`, `--fallback trace`).
-//!
-//! # Several reflections, as a wavefront
-//!
-//! Several reflections per path (`--bounces N`, 0 to 16, default 1), as a wavefront. The reference
-//! reflects a path up to N times about the hit triangle's interpolated normal and shades a reflector
-//! met after the last bounce with its own material; the GPU does the same. The method traces the
-//! camera's reflected rays (round 1). For each round k = 2..=N, recorded in the frame's one command
-//! buffer, `bounce_append` appends the next reflected ray of every record that hit a reflector
-//! (from the hit point, about the normal interpolated there, leaving that triangle under the BVH
-//! start rule) to a queue through an atomic counter, and `bvh_trace` traces the queue over an
-//! indirect dispatch sized on the GPU. Entry points: `own_material` (N = 0), `append_first` (one
-//! invocation per pixel) and `append_next` (one per ray of the previous round, dispatched with that
-//! queue's own `bvh_trace` arguments).
+//! criterion) take `bounces` = 1 only. `fragment` draws its rays from the G-buffer, one per
+//! pixel, so its later rounds are the BVH's. Two queues (each one ray per pixel at most)
+//! alternate between the rounds; they are allocated only for N ≥ 2, and the BVH only where the
+//! BVH traces the rounds (shared with the frame's own BVH passes when it has them: `bvh`,
+//! `--fallback trace`).
 //!
 //! Invariants:
 //! - A record keeps the final hit of its pixel's path and its `bounces` count (the EXR channel).
-//! - Rounds >= 2 are always traced by the BVH, whatever the method: those rays start anywhere in
-//!   the scene, far from the CMO centres placed for the camera's rays; the cubemap methods keep
-//!   round 1. So the target is the reference's image, bounce for bounce.
 //! - N = 0 traces nothing: mirror pixels show their own material (the G-buffer's colour).
-//! - The two alternating queues and the BVH exist only for N >= 2 (the BVH shared with `bvh` or
-//!   `--fallback trace`).
 //! - Methods whose records name no triangle (`envmap`, `ssr`, `reflection-point`, and the
 //!   approximate criteria) refuse N != 1 (`Method::check_bounces`).
 //!
@@ -62,12 +55,16 @@
 //! 2465 paths reflect 2 or 3 times at 64x48): 2465 of 2465; two facing flat mirrors (N = 1, 2, 5):
 //! 2772 of 2772 each; N = 0: all but the silhouette's 4 of 698. The cubemap paths lose nothing to
 //! the bounces beyond their own first round (bowl: same triangle 91.6 % at N = 3, 90.1 % at N = 1,
-//! self-capture on). Negative: each frame against the reference of another N, and the second
-//! mirror's normals turned by 0.5 degrees, fail. At 320x240 (`render --compare`, lavapipe):
+//! self-capture on). The compute path's later rounds from the cube maps
+//! (`compute_traces_the_bounce_rounds_with_the_cube_maps`, facing mirrors, N = 3, three CMOs):
+//! 922 of 1620 later rays decided by a CMO with the exact criterion (the first round: 71.5 %),
+//! every one of 1615 with the bounded criterion, whose frame equals the reference's. Negative:
+//! each frame against the reference of another N, and the second mirror's normals turned by 0.5
+//! degrees, fail; `bvh` decides no ray with a CMO. At 320x240 (`render --compare`, lavapipe):
 //! teapot N = 3, `bvh`, `compute` and `fragment` 53.2 dB over mirror pixels; bowl N = 3 103.6 dB.
 use ash::vk;
 
-use super::bvh::{BvhQueue, BvhTracer, pixel_groups};
+use super::bvh::{BvhPasses, BvhQueue, BvhTracer, QueuedAppend, pixel_groups};
 use super::gbuffer::Gbuffer;
 use super::scene_buffers::SceneBuffers;
 use crate::scene::gpu_data::GpuSceneData;
@@ -101,16 +98,41 @@ struct Rounds {
     next: ComputePipeline,
     next_frame: Vec<BindGroup>,
     next_queues: [BindGroup; 2],
-    /// The tracer when the frame has none to share.
+    /// The tracer when the frame has none to share (and the method does not trace the rounds).
     tracer: Option<BvhTracer>,
-    /// `bvh_trace`'s queue group (set 2) for each queue.
-    trace_sets: [BindGroup; 2],
+    /// `bvh_trace`'s queue group (set 2) for each queue (none where the method traces them).
+    trace_sets: Option<[BindGroup; 2]>,
+    /// Where the method traces the rounds (`Technique::traces_rounds`): the reflector check's
+    /// and the fallback's appends over each round's queue, where the frame has them.
+    method: Option<MethodRounds>,
+}
+
+/// A method's trace of a round's queue (`Technique::record_round`).
+pub type RoundTrace<'a> = dyn Fn(&Recorder<'_>, &BvhQueue) -> VkResult<()> + 'a;
+
+/// The passes after a method's trace of a round: [`QueuedAppend`]s into the reflector check's
+/// and the fallback's queues, reading either round queue.
+struct MethodRounds {
+    check: Option<QueuedAppend>,
+    fallback: Option<QueuedAppend>,
+}
+
+/// The frame's passes a bounce round may use besides its own: the method's BVH tracer to
+/// share, or the method itself where it traces the rounds, and the reflector check and the
+/// fallback that follow it.
+#[derive(Clone, Copy)]
+pub struct RoundPasses<'a> {
+    pub shared: Option<&'a BvhTracer>,
+    /// The method traces the rounds (`Technique::traces_rounds`).
+    pub method: bool,
+    pub check: Option<&'a BvhPasses>,
+    pub fallback: Option<&'a BvhPasses>,
 }
 
 impl BouncePasses {
     /// The passes for `bounces` reflections over the frame's G-buffer, `FrameParams` buffer
-    /// `params` and `records`; `shared` is the frame's own BVH tracer, if it has one (else, for
-    /// N ≥ 2, the BVH is built here over `data`).
+    /// `params` and `records`; `frame.shared` is the frame's own BVH tracer, if it has one (else,
+    /// for N ≥ 2, the BVH is built here over `data`, unless the method traces the rounds).
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         ctx: &GpuContext,
@@ -120,7 +142,7 @@ impl BouncePasses {
         gbuffer: &Gbuffer,
         params: &Buffer,
         records: &Buffer,
-        shared: Option<&BvhTracer>,
+        frame: RoundPasses<'_>,
         t_hi: f32,
     ) -> VkResult<Self> {
         let (width, height) = gbuffer.extent();
@@ -195,12 +217,25 @@ impl BouncePasses {
             let sets_of = |t: &BvhTracer| -> VkResult<[BindGroup; 2]> {
                 Ok([t.queue_set(&queues[0])?, t.queue_set(&queues[1])?])
             };
-            let (tracer, trace_sets) = match shared {
-                Some(t) => (None, sets_of(t)?),
-                None => {
-                    let t = BvhTracer::new(ctx, data, scene, records, &queues[0], t_hi)?;
-                    let sets = sets_of(&t)?;
-                    (Some(t), sets)
+            let (tracer, trace_sets, method) = if frame.method {
+                let ins = [&queues[0], &queues[1]];
+                let append = |p: Option<&BvhPasses>, check: bool| {
+                    p.map(|p| QueuedAppend::new(ctx, check, records, &p.queue, &ins))
+                        .transpose()
+                };
+                let method = MethodRounds {
+                    check: append(frame.check, true)?,
+                    fallback: append(frame.fallback, false)?,
+                };
+                (None, None, Some(method))
+            } else {
+                match frame.shared {
+                    Some(t) => (None, Some(sets_of(t)?), None),
+                    None => {
+                        let t = BvhTracer::new(ctx, data, scene, records, &queues[0], t_hi)?;
+                        let sets = sets_of(&t)?;
+                        (Some(t), Some(sets), None)
+                    }
                 }
             };
             Some(Rounds {
@@ -212,6 +247,7 @@ impl BouncePasses {
                 next_queues,
                 tracer,
                 trace_sets,
+                method,
             })
         } else {
             None
@@ -248,19 +284,16 @@ impl BouncePasses {
     }
 
     /// N ≥ 2: rounds 2..=N (after the method's passes, and the fallback's, have written the
-    /// records). `shared` is the frame's BVH tracer, the one given to [`BouncePasses::new`].
-    pub fn record_rounds(&self, rec: &Recorder<'_>, shared: Option<&BvhTracer>) -> VkResult<()> {
+    /// records). `frame` as given to [`BouncePasses::new`]; `method` records the method's trace
+    /// of a round's queue where `frame.method` said so, the BVH tracer traces it otherwise.
+    pub fn record_rounds(
+        &self,
+        rec: &Recorder<'_>,
+        frame: RoundPasses<'_>,
+        method: &RoundTrace<'_>,
+    ) -> VkResult<()> {
         let Some(r) = &self.rounds else {
             return Ok(());
-        };
-        let tracer = match (&r.tracer, shared) {
-            (Some(t), _) | (None, Some(t)) => t,
-            (None, None) => {
-                return Err(crate::vk::backend::error::VkError::Usage {
-                    what: "bounce rounds".into(),
-                    detail: "no BVH tracer".into(),
-                });
-            }
         };
         for round in 2..=self.bounces {
             // Round k traces queue (k - 2) % 2, filled from round k - 1's records.
@@ -284,7 +317,40 @@ impl BouncePasses {
                 r.next.dispatch_indirect(rec, &sets, inq.dispatch(), 0)?;
             }
             queue.record_args(rec);
-            tracer.record_trace_with(rec, queue, &r.trace_sets[out])?;
+            match (&r.method, &r.trace_sets) {
+                (Some(m), _) => Self::record_method_round(rec, m, frame, method, out, queue)?,
+                (None, Some(sets)) => {
+                    let tracer = match (&r.tracer, frame.shared) {
+                        (Some(t), _) | (None, Some(t)) => t,
+                        (None, None) => return Err(no_tracer()),
+                    };
+                    tracer.record_trace_with(rec, queue, &sets[out])?;
+                }
+                (None, None) => return Err(no_tracer()),
+            }
+        }
+        Ok(())
+    }
+
+    /// A round the method traces: its trace of `queue` (round queue `k`), then the reflector
+    /// check and the fallback over the same rays, in the order of the method's own round.
+    fn record_method_round(
+        rec: &Recorder<'_>,
+        m: &MethodRounds,
+        frame: RoundPasses<'_>,
+        method: &RoundTrace<'_>,
+        k: usize,
+        queue: &BvhQueue,
+    ) -> VkResult<()> {
+        method(rec, queue)?;
+        for (append, passes) in [(&m.check, frame.check), (&m.fallback, frame.fallback)] {
+            if let (Some(a), Some(p)) = (append, passes) {
+                rec.memory_barrier(ALL, ALL);
+                p.queue.record_clear(rec);
+                a.record(rec, k, queue)?;
+                p.queue.record_args(rec);
+                p.record_trace(rec)?;
+            }
         }
         Ok(())
     }
@@ -293,5 +359,12 @@ impl BouncePasses {
     pub fn last_queue(&self) -> Option<&BvhQueue> {
         let r = self.rounds.as_ref()?;
         Some(&r.queues[((self.bounces - 2) % 2) as usize])
+    }
+}
+
+fn no_tracer() -> crate::vk::backend::error::VkError {
+    crate::vk::backend::error::VkError::Usage {
+        what: "bounce rounds".into(),
+        detail: "no BVH tracer".into(),
     }
 }

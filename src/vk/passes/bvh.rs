@@ -435,6 +435,68 @@ impl BvhAppend {
     }
 }
 
+/// An append per ray of a bounce round's queue into a [`BvhPasses`]' queue, for the rounds of
+/// `--bounces` that a cubemap method traces ([`super::bounce`]): `append_unresolved_queued`
+/// (the fallback's rays) or `append_check_queued` (the reflector check's), each ray of the
+/// round leaving its own triangle and keeping its `bounce`.
+pub struct QueuedAppend {
+    pipeline: ComputePipeline,
+    sets: [BindGroup; 2],
+    /// Group 2 for each round queue the append reads (and the output queue).
+    queue_sets: Vec<BindGroup>,
+}
+
+impl QueuedAppend {
+    /// `check`: the reflector check's rays, else the fallback's; into `out`, reading the rays of
+    /// one of `inputs` and their records in `records`.
+    pub fn new(
+        ctx: &GpuContext,
+        check: bool,
+        records: &Buffer,
+        out: &BvhQueue,
+        inputs: &[&BvhQueue],
+    ) -> VkResult<Self> {
+        let entry = if check {
+            "append_check_queued"
+        } else {
+            "append_unresolved_queued"
+        };
+        let pipeline = ComputePipeline::new(ctx, &BVH_QUEUE, entry, ComputeOptions::default())?;
+        let sets = [
+            pipeline.bind_group(0, &[(3, Resource::Buffer(records))])?,
+            pipeline.bind_group(1, &[])?,
+        ];
+        let queue_sets = (inputs.iter())
+            .map(|q| {
+                pipeline.bind_group(
+                    2,
+                    &[
+                        (0, Resource::Buffer(&out.counter)),
+                        (1, Resource::Buffer(&out.rays)),
+                        (3, Resource::Buffer(&q.counter)),
+                        (4, Resource::Buffer(&q.rays)),
+                    ],
+                )
+            })
+            .collect::<VkResult<Vec<_>>>()?;
+        Ok(QueuedAppend {
+            pipeline,
+            sets,
+            queue_sets,
+        })
+    }
+
+    /// The append over `inputs[k]` of [`QueuedAppend::new`] (`input`, its dispatch sized by
+    /// [`BvhQueue::record_args`]), after the output queue's clear and the records' writer.
+    pub fn record(&self, rec: &Recorder<'_>, k: usize, input: &BvhQueue) -> VkResult<()> {
+        rec.memory_barrier(SHADER_WRITE, STORAGE_RW);
+        rec.memory_barrier(SHADER_WRITE, INDIRECT_READ);
+        let sets = [&self.sets[0], &self.sets[1], &self.queue_sets[k]];
+        self.pipeline
+            .dispatch_indirect(rec, &sets, &input.dispatch, 0)
+    }
+}
+
 /// The uploaded CWBVH and the `bvh_trace` pipeline, bound to one record buffer and one queue.
 pub struct BvhTracer {
     node_count: u32,
