@@ -1,9 +1,12 @@
 //! CMO placement: the greedy search for CMO centres and the scene file's `[cmo] placement`
 //! (`cmo_placement`), placement by default on corpus scenes and sequences
-//! (`placement_default`), and the search's shortcuts, which keep its result (`search_cost`).
+//! (`placement_default`), the search's shortcuts, which keep its result (`search_cost`), and its
+//! sample of the later reflections of `--bounces N` (`bounces`).
 
 mod common;
 
+#[path = "placement/bounces.rs"]
+mod bounces;
 #[path = "placement/cmo_placement.rs"]
 mod cmo_placement;
 #[path = "placement/placement_default.rs"]

@@ -130,13 +130,13 @@ pub struct TraceArgs {
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=i64::from(crate::scene::MAX_CMOS)))]
     pub cmos: Option<u32>,
     /// Every GPU method but bvh: how the CMO centres are chosen (overrides the scene's). `auto`
-    /// (the default of a scene without `[cmo]` centres) samples the camera's reflected rays and
-    /// adds CMOs where they leave the fewest unresolved, until at most 1 % of the sample is,
-    /// within a budget of --cmos N (else the scene's `[cmo]` count, else 8) CMOs and 512 MiB of
-    /// them; it may also leave the reflectors out of the capture where that resolves more (the
-    /// reflector check traces those rays exactly). `axis` spreads --cmos N (default 1) along the
-    /// reflectors' longest axis. `-v` logs the search: its time, the share it leaves, each
-    /// centre.
+    /// (the default of a scene without `[cmo]` centres) samples the camera's reflected rays (with
+    /// --bounces N, their later reflections off reflectors too) and adds CMOs where they leave
+    /// the fewest unresolved, until at most 1 % of the sample is, within a budget of --cmos N
+    /// (else the scene's `[cmo]` count, else 8) CMOs and 512 MiB of them; it may also leave the
+    /// reflectors out of the capture where that resolves more (the reflector check traces those
+    /// rays exactly). `axis` spreads --cmos N (default 1) along the reflectors' longest axis.
+    /// `-v` logs the search: its time, the share it leaves, each centre.
     #[arg(long, value_enum)]
     pub placement: Option<crate::placement::PlacementChoice>,
     /// Every GPU method but bvh: texels per cube face side (overrides the scene's; 1 to 4096).

@@ -50,8 +50,10 @@ pub struct RenderArgs {
     #[arg(long)]
     pub height: Option<u32>,
     /// Maximum number of mirror reflections per path (0..=16). After the last one, a mirror
-    /// shows its own material colour. GPU methods: compute, bvh and fragment (exact criterion);
-    /// the reflections after the first are traced by the BVH.
+    /// shows its own material colour. GPU methods: compute, bvh and fragment (exact criterion).
+    /// compute traces the reflections after the first with the cube maps too (the fallback
+    /// finishes what they cannot answer; the placement search places CMOs for them); fragment
+    /// hands them to the BVH.
     #[arg(long, default_value_t = RenderOptions::default().bounces,
           value_parser = clap::value_parser!(u32).range(0..=16))]
     pub bounces: u32,
@@ -211,8 +213,9 @@ impl FrameRenderer {
 }
 
 /// The plain set-up of the run's scene ([`SceneSetup`]) from the command line: the scene, its
-/// CMO overrides, `--subdivide`, `--camera`, `--width`/`--height`; `search`: whether a
-/// placement search the scene asks for runs now (for the chosen camera).
+/// CMO overrides, `--subdivide`, `--camera`, `--width`/`--height`, `--bounces` (the placement
+/// search's sample follows it); `search`: whether a placement search the scene asks for runs
+/// now (for the chosen camera).
 pub fn scene_setup(args: &RenderArgs, search: bool) -> SceneSetup {
     let mut setup = SceneSetup {
         scene: args.scene.clone(),
@@ -221,6 +224,7 @@ pub fn scene_setup(args: &RenderArgs, search: bool) -> SceneSetup {
         width: args.width,
         height: args.height,
         search,
+        bounces: args.bounces,
         size_name: "--width/--height",
         ..SceneSetup::default()
     };
@@ -249,11 +253,16 @@ pub fn load_scene(args: &RenderArgs) -> Result<(Scene, Camera, Option<Placement>
 /// The `-v` lines of a placement search: the sample, each chosen centre and what it buys.
 pub fn log_placement(p: &Placement) {
     log::info!(
-        "cmo placement: {} CMOs for {} sampled reflected rays in {:.2?}: {:.2}% of them \
+        "cmo placement: {} CMOs for {} sampled reflected rays in {:.2?}{}: {:.2}% of them \
          unresolved (target {:.0}%; {:.2}% with as many along the reflectors' axis){}",
         p.centres.len(),
         p.rays,
         p.time,
+        if p.later_rays > 0 {
+            format!(" ({} of them later reflections of --bounces)", p.later_rays)
+        } else {
+            String::new()
+        },
         100.0 * p.share(),
         100.0 * crate::placement::TARGET_SHARE,
         100.0 * p.axis_unresolved,
@@ -444,6 +453,9 @@ fn log_gpu_frame(frame: &GpuFrame, method: Method) {
             b.count,
             if method == Method::EXACT_GPU {
                 "every mirror ray"
+            } else if frame.compute.is_some() && frame.records.iter().any(|r| r.bounces >= 2) {
+                // The compute path traces the rounds of --bounces, each with its fallback.
+                "the fallback's, in the last round of --bounces"
             } else {
                 "the fallback's"
             },

@@ -270,7 +270,7 @@ impl SequencePlacement {
         } else {
             &self.cameras[..]
         };
-        if let Some(p) = crate::placement::resolve_for(scene, cameras) {
+        if let Some(p) = crate::placement::resolve_for(scene, cameras, args.bounces) {
             render::log_placement(&p);
         }
         self.last = Some((key, scene.cmo.placement.clone(), scene.self_reflections));

@@ -200,6 +200,7 @@ mod tests {
             unresolved: vec![0.3, 0.2],
             axis_unresolved: 0.4,
             rays: 500,
+            later_rays: 0,
             left: crate::placement::Unresolved {
                 own_reflector: 80,
                 other_reflector: 0,

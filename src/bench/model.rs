@@ -509,7 +509,8 @@ pub fn triangle_axis(dims: (u32, u32)) -> Result<Vec<TrianglePoint>> {
         if let Some(mut camera) = scene.cameras.first().cloned() {
             camera.width = dims.0;
             camera.height = dims.1;
-            crate::placement::resolve(&mut scene, &camera);
+            // The model replays one reflection per path.
+            crate::placement::resolve(&mut scene, &camera, 1);
         }
         let settings = ModelSettings::new(scene.cmo.resolution, dims.0, dims.1);
         let frame = work::frame(&scene, &settings)?;

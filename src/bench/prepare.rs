@@ -14,7 +14,8 @@ use crate::render::scene::SceneSetup;
 use crate::scene::Scene;
 
 /// Loads a scene by name or path and applies the overrides of `cfg` and its frame size to its
-/// first camera ([`crate::render::scene::prepare`]).
+/// first camera ([`crate::render::scene::prepare`]); a placement search samples the first
+/// reflected rays alone (its callers follow one reflection per path).
 pub fn prepare_scene(
     name: &str,
     width: u32,
@@ -29,6 +30,7 @@ pub fn prepare_scene(
         (cube_size, cmos),
         BenchPlacement::Scene,
         true,
+        1,
     )?;
     Ok((scene, camera))
 }
@@ -36,7 +38,8 @@ pub fn prepare_scene(
 /// [`prepare_scene`] with a placement of the bench's axis (`cube_size`, `cmos`: the overrides);
 /// also the placement search's result where one ran. `search`: whether a placement search runs
 /// at all (not where no method of the grid captures CMOs: the scene keeps its unresolved
-/// placement, which nothing reads).
+/// placement, which nothing reads). `bounces`: the run's reflections per path, whose later
+/// reflections the search samples too.
 pub fn prepare_scene_placed(
     name: &str,
     width: u32,
@@ -44,6 +47,7 @@ pub fn prepare_scene_placed(
     (cube_size, cmos): (Option<u32>, Option<u32>),
     placement: BenchPlacement,
     search: bool,
+    bounces: u32,
 ) -> Result<(Scene, Camera, Option<crate::placement::Placement>)> {
     let choice = match placement {
         BenchPlacement::Scene => None,
@@ -59,6 +63,7 @@ pub fn prepare_scene_placed(
         width: Some(width),
         height: Some(height),
         search,
+        bounces,
         size_name: "frame size",
         ..SceneSetup::default()
     })

@@ -72,8 +72,15 @@ pub fn run(
     for name in &cfg.scenes {
         for &p in &placements {
             let overrides = (cfg.cube_size, cfg.cmos);
-            let (scene, camera, searched) =
-                prepare_scene_placed(name, cfg.width, cfg.height, overrides, p, search)?;
+            let (scene, camera, searched) = prepare_scene_placed(
+                name,
+                cfg.width,
+                cfg.height,
+                overrides,
+                p,
+                search,
+                cfg.bounces,
+            )?;
             labels.push((p.label(name, several), name.as_str()));
             prepared.push((scene, camera));
             search_ms.push(searched.map(|s| s.time.as_secs_f64() * 1e3));

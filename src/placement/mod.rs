@@ -10,7 +10,13 @@
 //!
 //! The sample: the cameras' mirror pixels on a coarse grid, a few hundred of them evenly spread,
 //! each reflected once about the interpolated normal at its primary hit (the exact
-//! [`Tracer`]). Candidates: a small grid over the reflectors' bounding box grown by half its
+//! [`Tracer`]); then, for `render --bounces N` ([`PlacementOptions::bounces`]), the later
+//! reflections of those paths: while a ray's exact nearest hit is on a reflector, the ray
+//! reflected there, up to N reflections per path (the reference's rule, along the mirror
+//! direction on a glossy reflector too). The first rays come first, as with one reflection, and
+//! the later ones after all of them, path by path; the sample budget counts the first rays only,
+//! and each adds at most N - 1. With N = 1 the sample, and so the placement, is the first rays'
+//! alone. Candidates: a small grid over the reflectors' bounding box grown by half its
 //! largest side every way (a flat mirror's box is flat; a centre in front of it is a candidate
 //! too; a non-convex reflector and facing reflectors get centres outside their hull) and clipped
 //! to the scene's box, plus the axis placements of one to three CMOs. A set of centres is scored
@@ -35,7 +41,9 @@
 //! capture leaves out ([`Tracer::keeping`]: the same hits), a step stops counting a candidate's
 //! rays once it is known to lose (`best_step`: the same pick), and the axis placement reuses the
 //! captures of the candidates among its centres. `search_exhaustive` (test hooks) runs without
-//! these, and the tests check that it gives the same placement.
+//! these, and the tests check that it gives the same placement. With `--bounces N` the later
+//! reflections add their rays to every score (on the corpus's facing mirrors at N = 3: 115 rays
+//! to the 387 first ones).
 //!
 //! What the sample cannot promise: the frame's own share differs by the sampling error (a few
 //! rays in a hundred at 512 rays) and by the face size (a finer capture verifies more hits on
@@ -61,7 +69,7 @@ mod rays;
 
 pub use diagnose::diagnose;
 pub use rays::Unresolved;
-use rays::{Ray, classify, reflected_rays};
+use rays::{Ray, bounce_rays, classify, reflected_rays};
 
 /// The share of sampled rays left unresolved at which the search stops adding CMOs: 1 %, half
 /// the 2 % it aims at for the frame, for the sampling error of its 512 rays (0.6 % at 2 %) and
@@ -100,6 +108,10 @@ pub struct PlacementOptions {
     /// Stop once the sampled unresolved share is at most this ([`TARGET_SHARE`]); 0 adds CMOs
     /// while any lowers it.
     pub target: f64,
+    /// Reflections per path that the sample follows (the render's `--bounces`): 1 (and 0)
+    /// samples the first reflected rays only; N adds each path's later reflections off
+    /// reflectors, up to N in all (module docs).
+    pub bounces: u32,
 }
 
 impl Default for PlacementOptions {
@@ -109,6 +121,7 @@ impl Default for PlacementOptions {
             cube_size: 32,
             grid: 4,
             target: TARGET_SHARE,
+            bounces: 1,
         }
     }
 }
@@ -126,6 +139,9 @@ pub struct Placement {
     pub axis_unresolved: f64,
     /// Reflected rays in the sample.
     pub rays: usize,
+    /// Of [`Placement::rays`], the reflections after the first of their paths
+    /// ([`PlacementOptions::bounces`]).
+    pub later_rays: usize,
     /// What the rays the chosen centres leave unresolved really meet.
     pub left: Unresolved,
     /// The search's wall-clock time.
@@ -143,6 +159,7 @@ impl PartialEq for Placement {
                 p.unresolved.clone(),
                 p.axis_unresolved,
                 p.rays,
+                p.later_rays,
                 p.left,
                 p.self_capture_off,
             )
@@ -257,7 +274,7 @@ fn search_by(
 ) -> Placement {
     let start = Instant::now();
     let tracer = Tracer::new(scene);
-    let rays = reflected_rays(&tracer, cameras, opts.samples);
+    let (rays, later_rays) = sample_rays(&tracer, cameras, opts);
     if rays.is_empty() {
         // No mirror pixel in view: nothing to score, one CMO on the reflectors' axis.
         return Placement {
@@ -265,6 +282,7 @@ fn search_by(
             unresolved: vec![0.0],
             axis_unresolved: 0.0,
             rays: 0,
+            later_rays: 0,
             left: Unresolved::default(),
             time: start.elapsed(),
             self_capture_off: false,
@@ -287,8 +305,10 @@ fn search_by(
     let points = candidates(scene, opts.grid);
     let cmos: Vec<CmoTracer> = points.par_iter().map(|&c| capture(c)).collect();
     log::debug!(
-        "cmo placement: {} rays sampled, {} candidates captured at {}: {:.2?}",
+        "cmo placement: {} rays sampled ({} of them later reflections), {} candidates captured at \
+         {}: {:.2?}",
         rays.len(),
+        later_rays,
         points.len(),
         opts.cube_size,
         start.elapsed()
@@ -322,10 +342,61 @@ fn search_by(
         unresolved,
         axis_unresolved,
         rays: rays.len(),
+        later_rays,
         left: classify(&tracer, &left),
         time: start.elapsed(),
         self_capture_off: false,
     }
+}
+
+/// The sample of the module docs: the cameras' first reflected rays, then the later reflections
+/// of their paths; and how many of it are later reflections.
+fn sample_rays(tracer: &Tracer, cameras: &[Camera], opts: &PlacementOptions) -> (Vec<Ray>, usize) {
+    let mut rays = reflected_rays(tracer, cameras, opts.samples);
+    let later = bounce_rays(tracer, &rays, opts.bounces);
+    let n = later.len();
+    rays.extend(later);
+    (rays, n)
+}
+
+/// The rays [`search`] scores on for `cameras` and `opts` (module docs, in that order): each
+/// ray's origin, unit direction, and the hit it leaves.
+#[cfg(any(test, feature = "test-hooks"))]
+pub fn sample(
+    scene: &Scene,
+    cameras: &[Camera],
+    opts: &PlacementOptions,
+) -> Vec<(Vec3, Vec3, crate::reference::Hit)> {
+    let (rays, _) = sample_rays(&Tracer::new(scene), cameras, opts);
+    rays.iter().map(|r| (r.origin, r.dir, r.from)).collect()
+}
+
+/// The share of [`sample`] that CMOs at `centres` leave unresolved, scored as [`search`] scores
+/// a set (captures at `opts.cube_size`, verified hits); 0 for an empty sample.
+#[cfg(any(test, feature = "test-hooks"))]
+pub fn sample_share(
+    scene: &Scene,
+    cameras: &[Camera],
+    centres: &[Vec3],
+    opts: &PlacementOptions,
+) -> f64 {
+    let tracer = Tracer::new(scene);
+    let (rays, _) = sample_rays(&tracer, cameras, opts);
+    let scorer = Scorer {
+        rays: &rays,
+        corners: triangle_corners(&tracer.world),
+        t_hi: 2.0 * tracer.world.extent().max(f32::MIN_POSITIVE),
+    };
+    let params = TraceOptions::default().params();
+    let cmos: Vec<CmoTracer> = (centres.iter())
+        .map(|&c| {
+            CmoTracer::new(
+                capture_shaded(scene, &tracer, c, opts.cube_size, false),
+                params,
+            )
+        })
+        .collect();
+    scorer.share(&cmos.iter().collect::<Vec<_>>())
 }
 
 /// A tracer over the triangles a capture can show (`None` where that is all of them): the
@@ -448,22 +519,27 @@ pub fn override_placement(scene: &mut Scene, choice: Option<PlacementChoice>, cm
 }
 
 /// Runs the search of [`CmoPlacement::Search`] once for `camera`; see [`resolve_for`].
-pub fn resolve(scene: &mut Scene, camera: &Camera) -> Option<Placement> {
-    resolve_for(scene, std::slice::from_ref(camera))
+pub fn resolve(scene: &mut Scene, camera: &Camera, bounces: u32) -> Option<Placement> {
+    resolve_for(scene, std::slice::from_ref(camera), bounces)
 }
 
 /// Runs the search of [`CmoPlacement::Search`] once for the rays of `cameras` (a sequence's
 /// cameras share one placement) and keeps its centres as the scene's
 /// ([`CmoPlacement::Explicit`]), so that later [`Scene::cmo_centres`] calls (ranges, renderer,
 /// metrics) read them; `None` (and the scene unchanged) for other placements. The count is
-/// capped by [`cmo_budget`] at the scene's face size. A scene far from the origin is searched in
-/// coordinates relative to its anchor ([`crate::ranges::anchor`]), as the frame is traced.
-pub fn resolve_for(scene: &mut Scene, cameras: &[Camera]) -> Option<Placement> {
+/// capped by [`cmo_budget`] at the scene's face size. `bounces`: the render's reflections per
+/// path, whose later reflections the sample follows ([`PlacementOptions::bounces`]; 1 for the
+/// first reflected rays alone). A scene far from the origin is searched in coordinates relative
+/// to its anchor ([`crate::ranges::anchor`]), as the frame is traced.
+pub fn resolve_for(scene: &mut Scene, cameras: &[Camera], bounces: u32) -> Option<Placement> {
     let CmoPlacement::Search { count } = scene.cmo.placement else {
         return None;
     };
     let count = cmo_budget(count, scene.cmo.resolution);
-    let opts = PlacementOptions::default();
+    let opts = PlacementOptions {
+        bounces,
+        ..PlacementOptions::default()
+    };
     // Self-reflections left to `auto` and captured: the search first tries the reflectors left
     // out of the capture (the reflector check traces the rays that meet them exactly, so the
     // image is the same), and keeps that where it meets the target or leaves fewer rays

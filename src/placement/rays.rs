@@ -1,5 +1,6 @@
-//! The sample the placement search scores centres on: the cameras' reflected rays, and what an
-//! unresolved one really meets (for the fallback warning's cause).
+//! The sample the placement search scores centres on: the cameras' reflected rays and, with
+//! several reflections per path, their later bounces; and what an unresolved one really meets
+//! (for the fallback warning's cause).
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -31,6 +32,42 @@ pub(super) fn reflected_rays(tracer: &Tracer, cameras: &[Camera], samples: usize
             rays.into_iter().step_by(stride)
         })
         .collect()
+}
+
+/// The later reflections of the paths that `first` (the sample's first reflected rays) start,
+/// up to `bounces` reflections per path in all (0 and 1: none): while a ray's exact nearest hit
+/// is on a reflector, the ray reflected there about the interpolated normal, as the reference's
+/// paths do ([`reference::finish_path`]). A glossy reflector reflects along the mirror direction
+/// (its lobe's axis), not a sampled one. In the order of `first`, each path's rays in the order
+/// taken; at most `bounces - 1` per first ray. Deterministic.
+pub(super) fn bounce_rays(tracer: &Tracer, first: &[Ray], bounces: u32) -> Vec<Ray> {
+    if bounces <= 1 {
+        return Vec::new();
+    }
+    let paths: Vec<Vec<Ray>> = first
+        .par_iter()
+        .map(|&ray| {
+            let mut ray = ray;
+            let mut out = Vec::new();
+            for _ in 1..bounces {
+                let Some(hit) = tracer.nearest(ray.origin, ray.dir, Some(&ray.from)) else {
+                    break;
+                };
+                if !tracer.is_reflector(hit.triangle) {
+                    break;
+                }
+                let n = tracer.normal(&hit);
+                ray = Ray {
+                    origin: hit.position,
+                    dir: reference::reflect(ray.dir, n).normalize(),
+                    from: hit,
+                };
+                out.push(ray);
+            }
+            out
+        })
+        .collect();
+    paths.into_iter().flatten().collect()
 }
 
 fn camera_rays(tracer: &Tracer, camera: &Camera) -> Vec<Ray> {

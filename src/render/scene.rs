@@ -34,6 +34,10 @@ pub struct SceneSetup {
     /// Whether a placement search the scene asks for runs now, for the camera (only where the
     /// run captures CMOs: otherwise nothing reads the placement).
     pub search: bool,
+    /// The run's reflections per path, whose later reflections the placement search samples
+    /// too ([`crate::placement::PlacementOptions::bounces`]; 0 and 1: the first reflected rays
+    /// alone).
+    pub bounces: u32,
     /// What names the frame size in a refusal (`--width/--height` on the command line).
     pub size_name: &'static str,
 }
@@ -80,7 +84,7 @@ pub fn prepare(setup: &SceneSetup) -> Result<(Scene, Camera, Option<Placement>)>
         .map_err(|e| anyhow::anyhow!("{}: {e}", setup.size_name))?;
     let placement = if setup.search {
         timed("CMO placement", || {
-            crate::placement::resolve(&mut scene, &camera)
+            crate::placement::resolve(&mut scene, &camera, setup.bounces)
         })
     } else {
         None

@@ -138,7 +138,7 @@ fn resolve_stores_the_searched_centres() {
         2,
         &PlacementOptions::default(),
     );
-    let got = placement::resolve(&mut scene, &camera).expect("a search placement");
+    let got = placement::resolve(&mut scene, &camera, 1).expect("a search placement");
     assert_eq!(got, want);
     assert_eq!(
         scene.cmo.placement,
@@ -149,7 +149,7 @@ fn resolve_stores_the_searched_centres() {
     assert_ne!(scene.cmo_centres(), scene.axis_centres(2));
     // Negative: a resolved (or any non-search) placement is left alone.
     let before = scene.clone();
-    assert_eq!(placement::resolve(&mut scene, &camera), None);
+    assert_eq!(placement::resolve(&mut scene, &camera, 1), None);
     assert_eq!(scene, before);
 }
 

@@ -63,7 +63,7 @@ fn the_search_resolves_what_the_axis_placement_leaves() {
         let mut scene = corpus(name);
         let axis_base = scene.clone();
         let cams = scene.cameras.clone();
-        let p = placement::resolve_for(&mut scene, &cams).unwrap();
+        let p = placement::resolve_for(&mut scene, &cams, 1).unwrap();
         assert!(
             matches!(scene.cmo.placement, CmoPlacement::Explicit(ref c) if c.len() == p.centres.len())
         );
@@ -104,12 +104,12 @@ fn the_search_decides_self_capture_only_where_it_is_left_to_it() {
     let mut mug = corpus("mug");
     assert!(mug.captures_reflectors(), "the mug is not convex");
     let cams = mug.cameras.clone();
-    let p = placement::resolve_for(&mut mug, &cams).unwrap();
+    let p = placement::resolve_for(&mut mug, &cams, 1).unwrap();
     assert!(p.self_capture_off);
     assert_eq!(mug.self_reflections, SelfReflections::Off);
     let mut pinned = corpus("mug");
     pinned.self_reflections = SelfReflections::On;
-    let p = placement::resolve_for(&mut pinned, &cams).unwrap();
+    let p = placement::resolve_for(&mut pinned, &cams, 1).unwrap();
     assert!(!p.self_capture_off);
     assert_eq!(pinned.self_reflections, SelfReflections::On);
 }
@@ -121,13 +121,13 @@ fn the_search_is_deterministic_and_keeps_to_its_budget() {
     let mut a = corpus("facing");
     let mut b = corpus("facing");
     let cams = a.cameras.clone();
-    let pa = placement::resolve_for(&mut a, &cams).unwrap();
-    let pb = placement::resolve_for(&mut b, &cams).unwrap();
+    let pa = placement::resolve_for(&mut a, &cams, 1).unwrap();
+    let pb = placement::resolve_for(&mut b, &cams, 1).unwrap();
     assert_eq!(pa.centres, pb.centres);
     assert_eq!(a.cmo.placement, b.cmo.placement);
     let mut one = corpus("facing");
     one.cmo.placement = CmoPlacement::Search { count: 1 };
-    let p1 = placement::resolve_for(&mut one, &cams).unwrap();
+    let p1 = placement::resolve_for(&mut one, &cams, 1).unwrap();
     assert_eq!(p1.centres.len(), 1);
     assert!(
         p1.share() > pa.share(),
@@ -136,7 +136,7 @@ fn the_search_is_deterministic_and_keeps_to_its_budget() {
     );
     let mut explicit = common::corpus_scene("facing");
     let before = explicit.cmo.placement.clone();
-    assert!(placement::resolve_for(&mut explicit, &cams).is_none());
+    assert!(placement::resolve_for(&mut explicit, &cams, 1).is_none());
     assert_eq!(explicit.cmo.placement, before);
     // The memory budget: at 4096-texel faces (1.5 GiB a CMO) one CMO is all it allows.
     assert_eq!(placement::cmo_budget(8, 4096), 1);
@@ -265,7 +265,7 @@ fn a_view_without_mirror_pixels_gets_one_axis_cmo() {
     away.cameras[0].target = away.cameras[0].eye * 2.0;
     let cams = away.cameras.clone();
     let before = away.self_reflections;
-    let p = placement::resolve_for(&mut away, &cams).unwrap();
+    let p = placement::resolve_for(&mut away, &cams, 1).unwrap();
     assert_eq!((p.rays, p.centres.clone()), (0, away.axis_centres(1)));
     assert_eq!(away.self_reflections, before);
     assert!(!p.self_capture_off);
@@ -275,7 +275,7 @@ fn a_view_without_mirror_pixels_gets_one_axis_cmo() {
     finish_gpu(ctx);
     let mut toward = corpus("mug");
     let cams = toward.cameras.clone();
-    let p = placement::resolve_for(&mut toward, &cams).unwrap();
+    let p = placement::resolve_for(&mut toward, &cams, 1).unwrap();
     assert!(p.rays > 100 && p.self_capture_off, "{} rays", p.rays);
 }
 
@@ -289,7 +289,7 @@ fn a_scene_far_from_the_origin_is_placed_in_its_own_box() {
     let anchor = cubetrace::ranges::anchor(&far);
     assert!(anchor.length() > 1000.0, "{anchor}");
     let cams = far.cameras.clone();
-    let p = placement::resolve_for(&mut far, &cams).unwrap();
+    let p = placement::resolve_for(&mut far, &cams, 1).unwrap();
     let (lo, hi) = far.world().bounds(|_| true);
     let inside = |c: glam::Vec3| c.cmpge(lo).all() && c.cmple(hi).all();
     assert!(

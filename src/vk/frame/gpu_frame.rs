@@ -26,7 +26,8 @@ pub struct GpuFrame {
     /// GPU time per pass, in recording order.
     pub pass_times: Vec<PassTime>,
     /// The BVH queue's counter: rays traced and rays cut by the loop cap (`--method bvh`:
-    /// every mirror ray; [`Fallback::Trace`](crate::vk::options::Fallback::Trace): the fallback rays).
+    /// every mirror ray; [`Fallback::Trace`](crate::vk::options::Fallback::Trace): the fallback
+    /// rays, of the last round where `compute` traces the rounds of `--bounces`).
     pub bvh: Option<BvhCounter>,
     /// The lists' capture counters (`--criterion bounded`: nodes, what a full pool or job buffer
     /// dropped, walks capped; each dropped entry made its texel unknown from its `lo` on).

@@ -214,30 +214,8 @@ impl BouncePasses {
                 queue_group(&next, &queues[0], &queues[1])?,
                 queue_group(&next, &queues[1], &queues[0])?,
             ];
-            let sets_of = |t: &BvhTracer| -> VkResult<[BindGroup; 2]> {
-                Ok([t.queue_set(&queues[0])?, t.queue_set(&queues[1])?])
-            };
-            let (tracer, trace_sets, method) = if frame.method {
-                let ins = [&queues[0], &queues[1]];
-                let append = |p: Option<&BvhPasses>, check: bool| {
-                    p.map(|p| QueuedAppend::new(ctx, check, records, &p.queue, &ins))
-                        .transpose()
-                };
-                let method = MethodRounds {
-                    check: append(frame.check, true)?,
-                    fallback: append(frame.fallback, false)?,
-                };
-                (None, None, Some(method))
-            } else {
-                match frame.shared {
-                    Some(t) => (None, Some(sets_of(t)?), None),
-                    None => {
-                        let t = BvhTracer::new(ctx, data, scene, records, &queues[0], t_hi)?;
-                        let sets = sets_of(&t)?;
-                        (Some(t), Some(sets), None)
-                    }
-                }
-            };
+            let (tracer, trace_sets, method) =
+                round_tracer(ctx, &queues, data, scene, records, frame, t_hi)?;
             Some(Rounds {
                 queues,
                 first,
@@ -360,6 +338,48 @@ impl BouncePasses {
         let r = self.rounds.as_ref()?;
         Some(&r.queues[((self.bounces - 2) % 2) as usize])
     }
+}
+
+/// What traces the rounds over `queues`: the method, with the reflector check's and the
+/// fallback's appends (`frame.method`); else the frame's BVH tracer (`frame.shared`) or one built
+/// here over `data`, with its queue groups.
+#[allow(clippy::type_complexity)]
+fn round_tracer(
+    ctx: &GpuContext,
+    queues: &[BvhQueue; 2],
+    data: &GpuSceneData,
+    scene: &SceneBuffers,
+    records: &Buffer,
+    frame: RoundPasses<'_>,
+    t_hi: f32,
+) -> VkResult<(
+    Option<BvhTracer>,
+    Option<[BindGroup; 2]>,
+    Option<MethodRounds>,
+)> {
+    if frame.method {
+        let ins = [&queues[0], &queues[1]];
+        let append = |p: Option<&BvhPasses>, check: bool| {
+            p.map(|p| QueuedAppend::new(ctx, check, records, &p.queue, &ins))
+                .transpose()
+        };
+        let method = MethodRounds {
+            check: append(frame.check, true)?,
+            fallback: append(frame.fallback, false)?,
+        };
+        return Ok((None, None, Some(method)));
+    }
+    let sets_of = |t: &BvhTracer| -> VkResult<[BindGroup; 2]> {
+        Ok([t.queue_set(&queues[0])?, t.queue_set(&queues[1])?])
+    };
+    Ok(match frame.shared {
+        Some(t) => (None, Some(sets_of(t)?), None),
+        None => {
+            let t = BvhTracer::new(ctx, data, scene, records, &queues[0], t_hi)?;
+            let sets = sets_of(&t)?;
+            (Some(t), Some(sets), None)
+        }
+    })
 }
 
 fn no_tracer() -> crate::vk::backend::error::VkError {
