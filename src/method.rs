@@ -470,6 +470,13 @@ pub const METHOD_OPTIONS: &[MethodOption] = &[
         why: "",
     },
     MethodOption {
+        flag: "--bvh-bounces",
+        applies: |m, _| reads(m, "--bvh-bounces"),
+        condition: "",
+        methods_text: "",
+        why: "",
+    },
+    MethodOption {
         flag: "--strict",
         applies: |m, t| reads(m, "--strict") && t.criterion == TraceCriterion::Exact,
         condition: " with the exact criterion (the default)",

@@ -95,6 +95,11 @@ pub struct TraceArgs {
     /// CUBETRACE_RAY_LANES (32, 1 or wave) sets it where this is not given].
     #[arg(long, value_enum)]
     pub compute_layout: Option<ComputeLayoutArg>,
+    /// compute with --bounces N: the BVH traces the reflections after the first (as it does for
+    /// fragment), instead of the cube maps; for comparison, the image is the same up to the
+    /// criterion's own error.
+    #[arg(long)]
+    pub bvh_bounces: bool,
     /// fragment with --criterion threshold or sign-change: sample placement [default:
     /// per-texel].
     #[arg(long, value_enum)]
@@ -201,6 +206,7 @@ impl TraceArgs {
             },
             reflector_check: !self.no_reflector_check,
             compute_layout: self.compute_layout.map(ComputeLayoutArg::layout),
+            bvh_bounces: self.bvh_bounces,
             fallback: self.fallback.map_or(defaults.fallback, |f| match f {
                 FallbackArg::Flag => Fallback::Flag,
                 FallbackArg::Envmap => Fallback::Envmap,
@@ -229,6 +235,7 @@ impl TraceArgs {
             ("--criterion", self.criterion.is_some()),
             ("--sampling", self.sampling.is_some()),
             ("--compute-layout", self.compute_layout.is_some()),
+            ("--bvh-bounces", self.bvh_bounces),
             ("--no-accel", self.no_accel),
             ("--strict", self.strict),
             ("--steps", self.steps.is_some()),

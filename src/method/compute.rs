@@ -14,6 +14,6 @@ pub(super) const INFO: MethodInfo = MethodInfo {
     glossy: GlossyLobe::ConeTracedFirst,
     known_limit: None,
     outcomes_in_records: false,
-    options: &["--compute-layout", "--quick"],
+    options: &["--compute-layout", "--bvh-bounces", "--quick"],
     vertex_search: false,
 };

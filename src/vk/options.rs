@@ -67,10 +67,15 @@ pub struct RenderOptions {
     pub ssr: SsrOptions,
     /// Options of `ReflectionPoint` (iteration cap).
     pub reflection_point: RpOptions,
-    /// Reflections per path, 0..=[`MAX_BOUNCES`](crate::vk::passes::bounce::MAX_BOUNCES) (the reference's `bounces`): the method traces
-    /// the first, the BVH the rest ([`crate::vk::passes::bounce`]); 0 shows the mirrors' own material.
-    /// `Compute`, `Fragment` (exact criterion) and `Bvh` only; the other methods take 1.
+    /// Reflections per path, 0..=[`MAX_BOUNCES`](crate::vk::passes::bounce::MAX_BOUNCES) (the
+    /// reference's `bounces`): the method traces the first, and `Compute` the rest too (unless
+    /// [`RenderOptions::bvh_bounces`]), the BVH otherwise ([`crate::vk::passes::bounce`]); 0 shows
+    /// the mirrors' own material. `Compute`, `Fragment` (exact criterion) and `Bvh` only; the
+    /// other methods take 1.
     pub bounces: u32,
+    /// `Compute`: the BVH traces the reflections after the first (as for `Fragment`), not the
+    /// cube maps (`--bvh-bounces`; for comparison).
+    pub bvh_bounces: bool,
     /// The reflector check after the `Fragment` and `Compute` trace ([`ReflectorCheck`](crate::vk::passes::bvh::ReflectorCheck)): on by
     /// default; ignored by the other methods and where the scene has no reflector to check.
     pub reflector_check: bool,
@@ -88,6 +93,7 @@ impl Default for RenderOptions {
             ssr: SsrOptions::default(),
             reflection_point: RpOptions::default(),
             bounces: 1,
+            bvh_bounces: false,
             reflector_check: true,
             compute_layout: None,
         }

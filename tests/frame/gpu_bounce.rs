@@ -399,7 +399,8 @@ fn later_rounds_by_cmo(frame: &GpuFrame) -> (usize, usize) {
 /// on the facing mirrors at N = 3 most paths of 2 or more reflections end on a ray a CMO
 /// decided, and with the bounded criterion the frame is the reference's, bounce for bounce
 /// (the exact criterion's own error is that of its first round: `passes_cubemap`). Negatives:
-/// `bvh` decides no ray with a CMO, and the compute frame fails against the reference of N = 2.
+/// `bvh` and compute with `--bvh-bounces` decide no later ray with a CMO, and the compute frame
+/// fails against the reference of N = 2.
 #[test]
 fn compute_traces_the_bounce_rounds_with_the_cube_maps() {
     let ctx = gpu_context();
@@ -460,6 +461,29 @@ fn compute_traces_the_bounce_rounds_with_the_cube_maps() {
     }
     let (multi, cube) = later_rounds_by_cmo(&render(&ctx, &scene, &camera, Method::Bvh, 3));
     assert!(multi > 0 && cube == 0, "bvh: {cube} of {multi} by a CMO");
+    // `--bvh-bounces`: compute's later rounds are the BVH's again.
+    let options = RenderOptions {
+        method: Method::Compute,
+        bounces: 3,
+        bvh_bounces: true,
+        fallback: Fallback::Trace,
+        ..RenderOptions::default()
+    };
+    let (frame, _) = first_frame(&ctx, &scene, &camera, options, "facing compute N=3 bvh");
+    let (multi, cube) = later_rounds_by_cmo(&frame);
+    assert!(
+        multi > 0 && cube == 0,
+        "--bvh-bounces: {cube} of {multi} by a CMO"
+    );
+    assert!(
+        compare(&frame, &want).passes_cubemap(&first),
+        "--bvh-bounces N=3"
+    );
+    assert_eq!(
+        frame.compute.as_ref().map(|c| c.rays as usize),
+        Some(frame.mirror_pixels()),
+        "--bvh-bounces: compute traces the first round only"
+    );
     finish_gpu(ctx);
 }
 

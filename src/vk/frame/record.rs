@@ -122,7 +122,7 @@ impl GpuRenderer {
         if let Some(b) = &self.bounce {
             let frame = RoundPasses {
                 shared: self.bvh_passes().map(|p| &p.tracer),
-                method: self.method.traces_rounds(),
+                method: self.method.traces_rounds() && !self.options.bvh_bounces,
                 check: self.check.as_ref().map(|c| &c.passes),
                 fallback: self.fallback.as_ref(),
             };

@@ -256,7 +256,7 @@ impl AfterMethod {
             // rounds where the method traces them.
             let frame = RoundPasses {
                 shared: method.bvh().or(fallback.as_ref()).map(|b| &b.tracer),
-                method: method.traces_rounds(),
+                method: method.traces_rounds() && !i.options.bvh_bounces,
                 check: check.as_ref().map(|c| &c.passes),
                 fallback: fallback.as_ref(),
             };
