@@ -26,7 +26,10 @@
 //! ([`crate::cpu::capture::capture`]) of each centre at a small face size: the share of rays that
 //! end unresolved. Each step adds the candidate that lowers the share most (first in candidate
 //! order on ties), scoring only the rays the centres chosen so far leave unresolved, and stops
-//! when none lowers it. The final share is traced again over the whole sample. Deterministic.
+//! when none lowers it. The final share is traced again over the whole sample. Before all this,
+//! the cheapest set is tried: one CMO on the reflectors' axis; where it meets the target, the
+//! search ends with it, after one capture instead of the candidates' (the corpus's slivers and
+//! the torus: 13-14 ms instead of 95-104). Deterministic.
 //!
 //! Under `self_reflections = "auto"` with a reflector that would be captured (not convex),
 //! [`resolve_for`] first searches with the reflectors left out of the capture and keeps that
@@ -302,6 +305,28 @@ fn search_by(
             params,
         )
     };
+    // The cheapest set first: one CMO on the reflectors' axis (the placement without a
+    // search). Where it leaves at most the target unresolved, the search ends with it, at the
+    // cost of one capture instead of the candidates'.
+    let all: Vec<usize> = (0..rays.len()).collect();
+    let axis_one = scene.axis_centres(1);
+    if let [centre] = axis_one[..] {
+        let left = scorer.left(&[&capture(centre)], &all);
+        let share = left.len() as f64 / rays.len() as f64;
+        if share <= opts.target {
+            let left: Vec<&Ray> = left.iter().map(|&i| &rays[i]).collect();
+            return Placement {
+                centres: axis_one,
+                unresolved: vec![share],
+                axis_unresolved: share,
+                rays: rays.len(),
+                later_rays,
+                left: classify(&tracer, &left),
+                time: start.elapsed(),
+                self_capture_off: false,
+            };
+        }
+    }
     let points = candidates(scene, opts.grid);
     let cmos: Vec<CmoTracer> = points.par_iter().map(|&c| capture(c)).collect();
     log::debug!(
@@ -315,7 +340,6 @@ fn search_by(
     );
     let (chosen, unresolved) = greedy(&scorer, &cmos, count, opts.target, shortcuts);
     let set: Vec<&CmoTracer> = chosen.iter().map(|&k| &cmos[k]).collect();
-    let all: Vec<usize> = (0..rays.len()).collect();
     let left: Vec<&Ray> = scorer.left(&set, &all).iter().map(|&i| &rays[i]).collect();
     let mut unresolved = unresolved;
     if let Some(last) = unresolved.last_mut() {

@@ -168,6 +168,27 @@ fn without_the_occluder_the_axis_centre_is_fine() {
     assert!(p.axis_unresolved < 0.05, "{}", p.axis_unresolved);
 }
 
+/// The search tries the axis centre first and ends with it where it meets the target: behind
+/// the box, at a target of its own share, the axis centre is kept; at the default target the
+/// greedy search runs and moves it (negative).
+#[test]
+fn the_axis_centre_ends_the_search_where_it_meets_the_target() {
+    let scene = occluded_mirror(true);
+    let camera = std::slice::from_ref(&scene.cameras[0]);
+    let at = |target: f64| PlacementOptions {
+        target,
+        ..PlacementOptions::default()
+    };
+    // One CMO: `axis_unresolved` is then the axis centre's own share.
+    let p = search(&scene, camera, 1, &at(placement::TARGET_SHARE));
+    assert!(p.axis_unresolved > 0.3, "{}", p.axis_unresolved);
+    assert_ne!(p.centres[0], scene.axis_centres(1)[0]);
+    let loose = search(&scene, camera, 3, &at(p.axis_unresolved));
+    assert_eq!(loose.centres, scene.axis_centres(1));
+    assert_eq!(loose.unresolved, vec![p.axis_unresolved]);
+    assert_eq!(loose.axis_unresolved, p.axis_unresolved);
+}
+
 fn with_cmo(dir: &Path, cmo: &str) -> std::path::PathBuf {
     let path = scene::export::export(&builtin::sphere_room(), dir).unwrap();
     let text = std::fs::read_to_string(&path).unwrap();
