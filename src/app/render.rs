@@ -462,6 +462,21 @@ fn log_gpu_frame(frame: &GpuFrame, method: Method) {
             b.cut
         );
     }
+    for (k, r) in frame.rounds.iter().enumerate() {
+        log::info!(
+            "bounce round {}: {} rays{}",
+            k + 2,
+            r.rays,
+            if r.method {
+                format!(
+                    " through the cube maps, {} of them finished by the fallback",
+                    r.fallback
+                )
+            } else {
+                " traced by the BVH".to_string()
+            }
+        );
+    }
     if let Some(l) = &frame.lists {
         log::info!(
             "capture lists: {} nodes, {} jobs ({} small), {} faces queued; dropped {} nodes, {} \

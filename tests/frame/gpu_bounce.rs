@@ -445,6 +445,15 @@ fn compute_traces_the_bounce_rounds_with_the_cube_maps() {
         let traced = frame.compute.as_ref().map(|c| c.rays);
         assert_eq!(traced, Some(rays), "rays traced over the rounds");
         assert!(rays as usize > c.mirror, "more rays than mirror pixels");
+        // Round k's count: the paths that took k reflections or more; all through the cube maps.
+        assert_eq!(frame.rounds.len(), 2);
+        for (k, r) in (2..).zip(&frame.rounds) {
+            let reached = (frame.records.iter().zip(&frame.mask))
+                .filter(|(rec, m)| **m != 0 && rec.bounces >= k)
+                .count();
+            assert_eq!(r.rays as usize, reached, "round {k}: {r:?}");
+            assert!(r.method && r.fallback <= r.rays, "round {k}: {r:?}");
+        }
         // At least half the first round's share: the later rays start on the mirrors, away
         // from the centres, and some meet what no CMO sees.
         assert!(
@@ -474,6 +483,12 @@ fn compute_traces_the_bounce_rounds_with_the_cube_maps() {
     assert!(
         multi > 0 && cube == 0,
         "--bvh-bounces: {cube} of {multi} by a CMO"
+    );
+    assert!(
+        frame
+            .rounds
+            .iter()
+            .all(|r| !r.method && r.fallback == 0 && r.rays > 0)
     );
     assert!(
         compare(&frame, &want).passes_cubemap(&first),

@@ -156,7 +156,12 @@ impl Recorder<'_> {
 
     /// Copies `size` bytes from the start of `src` to the start of `dst`.
     pub fn copy_buffer(&self, src: &Buffer, dst: &Buffer, size: u64) {
-        let region = [vk::BufferCopy::default().size(size)];
+        self.copy_buffer_to(src, dst, 0, size);
+    }
+
+    /// Copies `size` bytes from the start of `src` to `dst` at byte `offset`.
+    pub fn copy_buffer_to(&self, src: &Buffer, dst: &Buffer, offset: u64, size: u64) {
+        let region = [vk::BufferCopy::default().dst_offset(offset).size(size)];
         // SAFETY: both buffers are alive for the submission and at least `size` bytes long
         // (checked by callers in this module).
         unsafe {

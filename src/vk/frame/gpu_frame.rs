@@ -7,6 +7,7 @@ use crate::cpu::reflection_point::SearchStats;
 use crate::metrics::Traced;
 use crate::vk::backend::timestamps::PassTime;
 use crate::vk::methods::compute::ComputeStats;
+use crate::vk::passes::bounce::RoundCount;
 use crate::vk::passes::bvh::BvhCounter;
 use crate::vk::passes::capture_lists::ListCounters;
 
@@ -34,6 +35,8 @@ pub struct GpuFrame {
     pub lists: Option<ListCounters>,
     /// Ray count, subgroup size and per-ray counters (`--method compute` only).
     pub compute: Option<ComputeStats>,
+    /// What each round 2..=N of `--bounces N` traced (empty for N < 2).
+    pub rounds: Vec<RoundCount>,
     /// Iteration counts of the searches (`--method reflection-point`
     /// only).
     pub search: Option<SearchStats>,

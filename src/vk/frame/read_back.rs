@@ -29,6 +29,10 @@ impl GpuRenderer {
             Some(b) => Some(b.queue.read_counter(ctx)?),
             None => None,
         };
+        let rounds = match &self.bounce {
+            Some(b) => b.read_counts(ctx)?,
+            None => Vec::new(),
+        };
         let lists = match &self.capture {
             Some(CmoCapture::Lists(c)) => Some(c.read_counters(ctx)?),
             _ => None,
@@ -69,6 +73,7 @@ impl GpuRenderer {
             bvh,
             lists,
             compute: stats.compute,
+            rounds,
             search: stats.search,
             captured: false,
         })

@@ -105,6 +105,21 @@ struct Rounds {
     /// Where the method traces the rounds (`Technique::traces_rounds`): the reflector check's
     /// and the fallback's appends over each round's queue, where the frame has them.
     method: Option<MethodRounds>,
+    /// Per round k (index k - 2), two words: the rays queued, and of those the ones the fallback
+    /// traced where the method traces the rounds ([`RoundCount`]); copied from the queues'
+    /// counters.
+    counts: Buffer,
+}
+
+/// What one round of `--bounces` traced ([`BouncePasses::read_counts`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RoundCount {
+    /// Rays queued (paths still reflecting).
+    pub rays: u32,
+    /// Whether the method traced them (its cube maps), else the BVH.
+    pub method: bool,
+    /// Of those, the ones the fallback traced (0 where the BVH traced all).
+    pub fallback: u32,
 }
 
 /// A method's trace of a round's queue (`Technique::record_round`).
@@ -214,6 +229,13 @@ impl BouncePasses {
                 queue_group(&next, &queues[0], &queues[1])?,
                 queue_group(&next, &queues[1], &queues[0])?,
             ];
+            let counts = Buffer::new(
+                ctx.device(),
+                "bounce round counts",
+                u64::from(MAX_BOUNCES) * 8,
+                vk::BufferUsageFlags::TRANSFER_DST | vk::BufferUsageFlags::TRANSFER_SRC,
+                gpu_allocator::MemoryLocation::GpuOnly,
+            )?;
             let (tracer, trace_sets, method) =
                 round_tracer(ctx, &queues, data, scene, records, frame, t_hi)?;
             Some(Rounds {
@@ -226,6 +248,7 @@ impl BouncePasses {
                 tracer,
                 trace_sets,
                 method,
+                counts,
             })
         } else {
             None
@@ -273,6 +296,10 @@ impl BouncePasses {
         let Some(r) = &self.rounds else {
             return Ok(());
         };
+        rec.fill_buffer(&r.counts, 0);
+        // Where round k's counts go: its rays, then its fallback rays.
+        let count_at =
+            |round: u32, fallback: bool| u64::from(round - 2) * 8 + if fallback { 4 } else { 0 };
         for round in 2..=self.bounces {
             // Round k traces queue (k - 2) % 2, filled from round k - 1's records.
             let out = ((round - 2) % 2) as usize;
@@ -295,8 +322,16 @@ impl BouncePasses {
                 r.next.dispatch_indirect(rec, &sets, inq.dispatch(), 0)?;
             }
             queue.record_args(rec);
+            rec.memory_barrier(ALL, ALL);
+            rec.copy_buffer_to(queue.counter(), &r.counts, count_at(round, false), 4);
             match (&r.method, &r.trace_sets) {
-                (Some(m), _) => Self::record_method_round(rec, m, frame, method, out, queue)?,
+                (Some(m), _) => {
+                    Self::record_method_round(rec, m, frame, method, out, queue)?;
+                    if let Some(f) = frame.fallback.filter(|_| m.fallback.is_some()) {
+                        rec.memory_barrier(ALL, ALL);
+                        rec.copy_buffer_to(f.queue.counter(), &r.counts, count_at(round, true), 4);
+                    }
+                }
                 (None, Some(sets)) => {
                     let tracer = match (&r.tracer, frame.shared) {
                         (Some(t), _) | (None, Some(t)) => t,
@@ -331,6 +366,21 @@ impl BouncePasses {
             }
         }
         Ok(())
+    }
+
+    /// What each round 2..=N traced in the last frame (empty for N < 2).
+    pub fn read_counts(&self, ctx: &GpuContext) -> VkResult<Vec<RoundCount>> {
+        let Some(r) = &self.rounds else {
+            return Ok(Vec::new());
+        };
+        let counts: Vec<[u32; 2]> = ctx.read_buffer(&r.counts)?;
+        Ok((counts.iter().take(self.bounces as usize - 1))
+            .map(|&[rays, fallback]| RoundCount {
+                rays,
+                method: r.method.is_some(),
+                fallback,
+            })
+            .collect())
     }
 
     /// The queue of the last round's rays (tests: what it traced), N ≥ 2.
