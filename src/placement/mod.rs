@@ -185,7 +185,16 @@ struct Scorer<'a> {
     t_hi: f32,
 }
 
-impl Scorer<'_> {
+impl<'a> Scorer<'a> {
+    /// Scores `rays` against the triangles of `tracer`'s scene.
+    fn new(tracer: &Tracer, rays: &'a [Ray]) -> Self {
+        Scorer {
+            rays,
+            corners: triangle_corners(&tracer.world),
+            t_hi: 2.0 * tracer.world.extent().max(f32::MIN_POSITIVE),
+        }
+    }
+
     fn unresolved(&self, cmos: &[&CmoTracer], ray: &Ray) -> bool {
         let verify = Verify {
             triangles: &self.corners,
@@ -291,20 +300,10 @@ fn search_by(
             self_capture_off: false,
         };
     }
-    let scorer = Scorer {
-        rays: &rays,
-        corners: triangle_corners(&tracer.world),
-        t_hi: 2.0 * tracer.world.extent().max(f32::MIN_POSITIVE),
-    };
+    let scorer = Scorer::new(&tracer, &rays);
     let shown = shortcuts.then(|| shown_only(&tracer)).flatten();
     let capture_tracer = shown.as_ref().unwrap_or(&tracer);
-    let params = TraceOptions::default().params();
-    let capture = |c: Vec3| {
-        CmoTracer::new(
-            capture_shaded(scene, capture_tracer, c, opts.cube_size, false),
-            params,
-        )
-    };
+    let capture = |c: Vec3| scoring_capture(scene, capture_tracer, c, opts.cube_size);
     // The cheapest set first: one CMO on the reflectors' axis (the placement without a
     // search). Where it leaves at most the target unresolved, the search ends with it, at the
     // cost of one capture instead of the candidates'.
@@ -406,21 +405,18 @@ pub fn sample_share(
 ) -> f64 {
     let tracer = Tracer::new(scene);
     let (rays, _) = sample_rays(&tracer, cameras, opts);
-    let scorer = Scorer {
-        rays: &rays,
-        corners: triangle_corners(&tracer.world),
-        t_hi: 2.0 * tracer.world.extent().max(f32::MIN_POSITIVE),
-    };
-    let params = TraceOptions::default().params();
+    let scorer = Scorer::new(&tracer, &rays);
     let cmos: Vec<CmoTracer> = (centres.iter())
-        .map(|&c| {
-            CmoTracer::new(
-                capture_shaded(scene, &tracer, c, opts.cube_size, false),
-                params,
-            )
-        })
+        .map(|&c| scoring_capture(scene, &tracer, c, opts.cube_size))
         .collect();
     scorer.share(&cmos.iter().collect::<Vec<_>>())
+}
+
+/// The CMO at `centre` as the search scores it: captured by `tracer` at face size `size`,
+/// without colour, traced with the default options.
+fn scoring_capture(scene: &Scene, tracer: &Tracer, centre: Vec3, size: u32) -> CmoTracer {
+    let capture = capture_shaded(scene, tracer, centre, size, false);
+    CmoTracer::new(capture, TraceOptions::default().params())
 }
 
 /// A tracer over the triangles a capture can show (`None` where that is all of them): the

@@ -7,7 +7,6 @@ use crate::vk::backend::error::VkResult;
 use crate::vk::backend::shaders::{BOUNCE_APPEND, CONE_PREFILTER};
 use crate::vk::backend::sync::{ALL, SHADER_READ, SHADER_WRITE, TRANSFER_WRITE};
 use crate::vk::methods::Scope;
-use crate::vk::passes::bounce::RoundPasses;
 use crate::vk::passes::bvh::BvhQueue;
 
 impl GpuRenderer {
@@ -120,12 +119,12 @@ impl GpuRenderer {
             }
         }
         if let Some(b) = &self.bounce {
-            let frame = RoundPasses {
-                shared: self.bvh_passes().map(|p| &p.tracer),
-                method: self.method.traces_rounds() && !self.options.bvh_bounces,
-                check: self.check.as_ref().map(|c| &c.passes),
-                fallback: self.fallback.as_ref(),
-            };
+            let frame = super::stages::round_passes(
+                self.method.as_ref(),
+                self.options.bvh_bounces,
+                &self.check,
+                &self.fallback,
+            );
             let trace = |rec: &Recorder<'_>, q: &BvhQueue| self.method.record_round(rec, q);
             scope(BOUNCE_APPEND.name, &mut || {
                 b.record_own_material(rec);

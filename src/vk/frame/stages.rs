@@ -252,14 +252,7 @@ impl AfterMethod {
         let bounce = if !plan.bounce_passes() {
             None
         } else {
-            // One BVH for the method's, the fallback's and the bounce rounds' rays; none for the
-            // rounds where the method traces them.
-            let frame = RoundPasses {
-                shared: method.bvh().or(fallback.as_ref()).map(|b| &b.tracer),
-                method: method.traces_rounds() && !i.options.bvh_bounces,
-                check: check.as_ref().map(|c| &c.passes),
-                fallback: fallback.as_ref(),
-            };
+            let frame = round_passes(method, i.options.bvh_bounces, &check, &fallback);
             Some(BouncePasses::new(
                 i.ctx,
                 plan.bounces,
@@ -277,6 +270,23 @@ impl AfterMethod {
             fallback,
             bounce,
         })
+    }
+}
+
+/// What the bounce rounds use of the frame's passes ([`RoundPasses`]), at creation and when
+/// recording: one BVH for the method's, the fallback's and the rounds' rays (none for the rounds
+/// where the method traces them, unless `bvh_bounces`), the reflector check and the fallback.
+pub(super) fn round_passes<'a>(
+    method: &'a dyn Technique,
+    bvh_bounces: bool,
+    check: &'a Option<ReflectorCheck>,
+    fallback: &'a Option<BvhPasses>,
+) -> RoundPasses<'a> {
+    RoundPasses {
+        shared: method.bvh().or(fallback.as_ref()).map(|b| &b.tracer),
+        method: method.traces_rounds() && !bvh_bounces,
+        check: check.as_ref().map(|c| &c.passes),
+        fallback: fallback.as_ref(),
     }
 }
 
