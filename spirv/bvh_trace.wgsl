@@ -62,7 +62,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         // start rule ignores (a self-captured reflector's own surface, verified at t ~ 0). That
         // is no hit; the pixel is unresolved again (`checked` = 2) and the fallback, which runs
         // next, traces the ray against every triangle.
-        if r.status == RECORD_HIT && bvh_start_hit(ray.origin, ray.from_triangle, r.triangle) {
+        if r.status == RECORD_HIT && bvh_start_hit(ray.origin, ray.from_triangle, r.triangle, r.t * length(ray.dir)) {
             records[ray.pixel].status = RECORD_UNRESOLVED;
             records[ray.pixel].checked = 2u;
             return;

@@ -50,8 +50,9 @@
 //! only adds unresolved pixels.
 //!
 //! This crate also holds, each in its module of `tests/hard_cases/`: `corpus` (the real-scene
-//! corpus of `tests/scenes/` on every GPU method) and `fuzz_inputs` (fixed-seed fuzzing of extreme
-//! and malformed scene inputs through the binary, every method).
+//! corpus of `tests/scenes/` on every GPU method), `fuzz_inputs` (fixed-seed fuzzing of extreme
+//! and malformed scene inputs through the binary, every method) and `start_rule` (a reflected
+//! ray from a G-buffer point interpolated past a crease).
 mod common;
 #[path = "common/fuzz_cases.rs"]
 mod fuzz_cases;
@@ -60,6 +61,8 @@ mod fuzz_cases;
 mod corpus;
 #[path = "hard_cases/fuzz_inputs.rs"]
 mod fuzz_inputs;
+#[path = "hard_cases/start_rule.rs"]
+mod start_rule;
 
 use common::render::{first_frame, sized_camera};
 use common::{finish_gpu, gpu_context, meets};

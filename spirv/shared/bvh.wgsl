@@ -29,6 +29,16 @@
 // whose error Vulkan does not bound; its distance from F's plane is the part of that error we can
 // see (an error within the plane moves the start along the surface, which the rule does not
 // need), doubled, plus 16 f32 ulps of the coordinates for the f32 plane distances themselves.
+// Past an edge the error within the plane does matter: the rasteriser can interpolate o beyond
+// F's edge, and there o lies off the surface, behind the neighbour across that edge, whose plane
+// holds the edge and so passes within |s_F(o)| + x_F(o) of o, `x_F(o)` how far o's projection
+// lies past F's farthest edge line. A ray leaving o over that edge meets the neighbour within
+// about x_F(o) of o (for a convex crease; the plane is tilted towards the ray). So a neighbour
+// whose plane passes within the reach r = e + 2 x_F(o) of o is ignored too, where the hit lies
+// within r of o; a hit farther out is real (a grazing ray that meets the next triangle of a
+// concave crease 2.6e-3 away, on `default`). Without the reach a ray from a point interpolated
+// 2e-5 past a crease of the teapot met the neighbour at t = 1.5e-5: a wrong surface that every
+// GPU method drew (tests/hard_cases/start_rule.rs). Inside F, r = e: only `e` decides.
 // A neighbour's plane within e of o may meet the ray ahead of or behind the exact start: the
 // hit is rounding, as in the reference. Every other hit with t > 0 (and t >= t_min) counts.
 //
@@ -144,9 +154,9 @@ fn bvh_corner(k: u32) -> vec3<f32> {
 }
 
 // Whether the start rule ignores a hit on global triangle `tri` for a ray leaving global
-// triangle `from_tri` at `o` (the rule `bvh_nearest` applies; false where either is
-// BVH_NO_TRIANGLE).
-fn bvh_start_hit(o: vec3<f32>, from_tri: u32, tri: u32) -> bool {
+// triangle `from_tri` at `o`, `dist` from `o` (the rule `bvh_nearest` applies; false where
+// either is BVH_NO_TRIANGLE).
+fn bvh_start_hit(o: vec3<f32>, from_tri: u32, tri: u32, dist: f32) -> bool {
     if from_tri == BVH_NO_TRIANGLE || tri == BVH_NO_TRIANGLE {
         return false;
     }
@@ -156,7 +166,8 @@ fn bvh_start_hit(o: vec3<f32>, from_tri: u32, tri: u32) -> bool {
     let a = hit_vertex(tri, 0u).position;
     let b = hit_vertex(tri, 1u).position;
     let c = hit_vertex(tri, 2u).position;
-    return bvh_start_ignores(o, from_tri, f0, f1, f2, bvh_start_tolerance(o, f0, f1, f2), tri, a, b, c);
+    let e = bvh_start_tolerance(o, f0, f1, f2);
+    return bvh_start_ignores(o, from_tri, f0, f1, f2, e, bvh_start_reach(o, f0, f1, f2, e), tri, a, b, c, dist);
 }
 
 fn bvh_miss() -> BvhHit {
@@ -175,11 +186,13 @@ fn bvh_nearest(o: vec3<f32>, d: vec3<f32>, t_min: f32, from_tri: u32) -> BvhHit 
     var f1 = vec3<f32>(0.0);
     var f2 = vec3<f32>(0.0);
     var e = -1.0;
+    var r = -1.0;
     if from_tri != BVH_NO_TRIANGLE {
         f0 = hit_vertex(from_tri, 0u).position;
         f1 = hit_vertex(from_tri, 1u).position;
         f2 = hit_vertex(from_tri, 2u).position;
         e = bvh_start_tolerance(o, f0, f1, f2);
+        r = bvh_start_reach(o, f0, f1, f2, e);
     }
     let inv = bvh_inv_dir(d);
     let oct = select(4u, 0u, inv.x < 0.0) | select(2u, 0u, inv.y < 0.0) | select(1u, 0u, inv.z < 0.0);
@@ -211,7 +224,7 @@ fn bvh_nearest(o: vec3<f32>, d: vec3<f32>, t_min: f32, from_tri: u32) -> BvhHit 
             if w.hit && w.t >= t_lo && (w.t < best.t || !best.hit || (w.t == best.t && tri < best.triangle)) {
                 var start = false;
                 if e >= 0.0 {
-                    start = bvh_start_ignores(o, from_tri, f0, f1, f2, e, tri, a, b, c);
+                    start = bvh_start_ignores(o, from_tri, f0, f1, f2, e, r, tri, a, b, c, w.t * length(d));
                 }
                 if !start {
                     best.hit = true;

@@ -93,22 +93,24 @@ fn bounded_no_pick() -> BoundedPick {
 }
 
 // The start rule in CMO-local coordinates for a ray leaving `from_tri` at `o`: its corners
-// and tolerance (`e` < 0: no start triangle).
+// tolerance and reach (`e` < 0: no start triangle).
 struct BoundedStart {
     f0: vec3<f32>,
     f1: vec3<f32>,
     f2: vec3<f32>,
     e: f32,
+    r: f32,
 }
 
 fn bounded_start(o: vec3<f32>, from_tri: u32, centre: vec3<f32>) -> BoundedStart {
     if from_tri == TRACE_NO_TRIANGLE {
-        return BoundedStart(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), -1.0);
+        return BoundedStart(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), -1.0, -1.0);
     }
     let f0 = hit_vertex(from_tri, 0u).position - centre;
     let f1 = hit_vertex(from_tri, 1u).position - centre;
     let f2 = hit_vertex(from_tri, 2u).position - centre;
-    return BoundedStart(f0, f1, f2, bvh_start_tolerance(o, f0, f1, f2));
+    let e = bvh_start_tolerance(o, f0, f1, f2);
+    return BoundedStart(f0, f1, f2, e, bvh_start_reach(o, f0, f1, f2, e));
 }
 
 // Outcome of a texel (shared/trace.wgsl's kinds: 0 none, 1 hit, 2 behind) and, for a hit, its
@@ -189,7 +191,7 @@ fn classify_bounded_pick(k: u32, seg: Segment, texel: Texel, iv: Interval, walks
         if best.found && (w.t > best.t || (w.t == best.t && tri > best.triangle)) {
             continue;
         }
-        if start.e >= 0.0 && bvh_start_ignores(seg.a, seg.from_tri, start.f0, start.f1, start.f2, start.e, tri, a, b, c) {
+        if start.e >= 0.0 && bvh_start_ignores(seg.a, seg.from_tri, start.f0, start.f1, start.f2, start.e, start.r, tri, a, b, c, w.t * length(seg.d)) {
             continue;
         }
         best = BoundedPick(true, w.t, tri, w.bary);

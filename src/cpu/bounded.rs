@@ -220,7 +220,10 @@ fn nearest_candidate(
         let Some(h) = intersect_sheared(seg.a, &sh, local) else {
             continue;
         };
-        if h.t < seg.t_lo || h.t > t_max || start.ignores(e.triangle, world, local) {
+        if h.t < seg.t_lo
+            || h.t > t_max
+            || start.ignores(e.triangle, world, local, h.t * seg.d.length())
+        {
             continue;
         }
         if best.is_none_or(|x| h.t < x.t || (h.t == x.t && e.triangle < x.triangle)) {
@@ -236,13 +239,14 @@ fn nearest_candidate(
 
 /// The start rule of `spirv/shared/bvh.wgsl` (`bvh_start_ignores`) in CMO-local coordinates: a
 /// ray that leaves triangle F at `o` ignores hits on F and on F's neighbours (a corner at a
-/// bit-identical world position) whose plane passes within
-/// `e = 2 |s_F(o)| + 2^-18 max(|o|_inf, |F's corners|_inf)` of `o`.
+/// bit-identical world position) whose plane passes within `e` of `o` ([`start_tolerance`]),
+/// or within the reach `r` with the hit within `r` of `o` too ([`start_reach`]).
 struct StartRule {
     from: u32,
     o: Vec3,
     world: [Vec3; 3],
     e: f32,
+    r: f32,
 }
 
 impl StartRule {
@@ -251,13 +255,13 @@ impl StartRule {
         match b.corners.get(seg.from as usize) {
             Some(&world) => {
                 let f = world.map(|p| p - centre);
-                let m = o.abs().max(f[0].abs()).max(f[1].abs().max(f[2].abs()));
-                let e = 2.0 * plane_distance(o, f) + START_ULPS * m.max_element();
+                let e = start_tolerance(o, f);
                 StartRule {
                     from: seg.from,
                     o,
                     world,
                     e,
+                    r: start_reach(o, f, e),
                 }
             }
             None => StartRule {
@@ -265,17 +269,56 @@ impl StartRule {
                 o,
                 world: [Vec3::NAN; 3],
                 e: -1.0,
+                r: -1.0,
             },
         }
     }
 
-    fn ignores(&self, tri: u32, world: &[Vec3; 3], local: [Vec3; 3]) -> bool {
+    /// Whether a hit on `tri` (corners `world`, and `local` in CMO-local coordinates), `dist`
+    /// from `o`, is ignored.
+    fn ignores(&self, tri: u32, world: &[Vec3; 3], local: [Vec3; 3], dist: f32) -> bool {
         if self.from == NO_TRIANGLE {
             return false;
         }
+        let plane = plane_distance(self.o, local);
         tri == self.from
-            || (shares_corner(&self.world, world) && plane_distance(self.o, local) <= self.e)
+            || (shares_corner(&self.world, world)
+                && start_ignores_neighbour(plane, self.e, self.r, dist))
     }
+}
+
+/// The start rule's tolerance `e` for a ray leaving triangle `f` at `o` (`bvh_start_tolerance`
+/// in `spirv/shared/start.wgsl`, bit for bit; the rule and why `e` is what it is:
+/// `spirv/shared/bvh.wgsl`): `2 |s_F(o)| + 2^-18 max(|o|, |f|)`.
+pub fn start_tolerance(o: Vec3, f: [Vec3; 3]) -> f32 {
+    let m = o.abs().max(f[0].abs()).max(f[1].abs().max(f[2].abs()));
+    2.0 * plane_distance(o, f) + START_ULPS * m.max_element()
+}
+
+/// The start rule's reach `r` for a ray leaving `f` at `o` with tolerance `e`
+/// (`bvh_start_reach`, bit for bit): `e + 2 x_F(o)`, `e` inside `f`.
+pub fn start_reach(o: Vec3, f: [Vec3; 3], e: f32) -> f32 {
+    e + 2.0 * outside_distance(o, f)
+}
+
+/// The start rule's decision on a neighbour (`bvh_start_ignores` past its `from_tri` test):
+/// ignored where its plane passes within `e` of `o`, or within `r` of `o` with the hit `dist`
+/// from `o` within `r` too.
+pub fn start_ignores_neighbour(plane: f32, e: f32, r: f32, dist: f32) -> bool {
+    plane <= e || (plane <= r && dist <= r)
+}
+
+/// How far `o`, projected on the plane of `f`, lies beyond the farthest of `f`'s edge lines: 0
+/// inside `f` and for a degenerate triangle (`bvh_outside_distance`, bit for bit).
+pub fn outside_distance(o: Vec3, f: [Vec3; 3]) -> f32 {
+    let n = (f[1] - f[0]).cross(f[2] - f[0]);
+    let l = n.length();
+    if l.is_nan() || l <= 0.0 {
+        return 0.0;
+    }
+    let inside = |a: Vec3, b: Vec3| (b - a).cross(o - a).dot(n) / ((b - a).length() * l);
+    let (w0, w1, w2) = (inside(f[0], f[1]), inside(f[1], f[2]), inside(f[2], f[0]));
+    0.0f32.max(-w0).max((-w1).max(-w2))
 }
 
 /// Distance of `p` from the plane of `t` (infinite for a degenerate triangle).

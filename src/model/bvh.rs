@@ -21,7 +21,6 @@ use crate::vk::passes::bvh::BvhData;
 const MAX_ITERATIONS: u32 = 7000;
 const STACK: usize = 32;
 const PAD: f32 = 9.536_743e-7;
-const START_ULPS: f32 = 3.814_697_3e-6;
 
 // Indices into `methods::bvh::BVH_BLOCKS`.
 pub const B_SETUP: usize = 0;
@@ -144,15 +143,25 @@ fn same(a: Vec3, b: Vec3) -> bool {
 }
 
 /// The start rule (`bvh_start_ignores`) for a ray leaving `f` (its triangle `from`) at `o`.
-fn start_ignores(o: Vec3, from: u32, f: [Vec3; 3], e: f32, tri: u32, t: [Vec3; 3]) -> bool {
+fn start_ignores(
+    o: Vec3,
+    from: u32,
+    f: [Vec3; 3],
+    (e, r): (f32, f32),
+    tri: u32,
+    t: [Vec3; 3],
+    dist: f32,
+) -> bool {
+    let plane = plane_distance(o, t[0], t[1], t[2]);
     tri == from
         || (f.iter().any(|&x| t.iter().any(|&y| same(x, y)))
-            && plane_distance(o, t[0], t[1], t[2]) <= e)
+            && crate::cpu::bounded::start_ignores_neighbour(plane, e, r, dist))
 }
 
 /// What the traversal keeps of its ray: the origin, the direction and its reciprocal, the
 /// octant that orders a node's children, the lower bound on `t`, the triangle it leaves (with
-/// its corners) and the start rule's tolerance there (`bvh_start_tolerance`).
+/// its corners) and the start rule's tolerance and reach there (`bvh_start_tolerance`,
+/// `bvh_start_reach`).
 struct Ray {
     o: Vec3,
     d: Vec3,
@@ -160,14 +169,14 @@ struct Ray {
     oct: u32,
     t_lo: f32,
     from: Option<(u32, [Vec3; 3])>,
-    e: Option<f32>,
+    e: Option<(f32, f32)>,
 }
 
 impl Ray {
     fn new(o: Vec3, d: Vec3, t_min: f32, from: Option<(u32, [Vec3; 3])>) -> Ray {
-        let e = from.map(|(_, [f0, f1, f2])| {
-            let m = o.abs().max(f0.abs()).max(f1.abs().max(f2.abs()));
-            2.0 * plane_distance(o, f0, f1, f2) + START_ULPS * m.max_element()
+        let e = from.map(|(_, f)| {
+            let e = crate::cpu::bounded::start_tolerance(o, f);
+            (e, crate::cpu::bounded::start_reach(o, f, e))
         });
         let inv = inv_dir(d);
         let oct = (if inv.x < 0.0 { 0 } else { 4 })
@@ -214,12 +223,12 @@ fn triangle_turn(
         && best.is_none_or(|(bt, btri)| h.t < bt || (h.t == bt && tri < btri))
     {
         let ignored = match (ray.from, ray.e) {
-            (Some((f, fc)), Some(e)) if e >= 0.0 => {
+            (Some((f, fc)), Some(e)) if e.0 >= 0.0 => {
                 it.execs.push(super::rays::Exec {
                     block: B_START_RULE,
                     loads: Vec::new(),
                 });
-                start_ignores(ray.o, f, fc, e, tri, t)
+                start_ignores(ray.o, f, fc, e, tri, t, h.t * ray.d.length())
             }
             _ => false,
         };

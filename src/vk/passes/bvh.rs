@@ -37,7 +37,9 @@
 //! - The start rule (spirv/shared/bvh.wgsl has the derivation): a ray ignores hits on
 //!   `from_triangle` and on its neighbours (a corner at a bit-identical position) whose plane
 //!   passes within `e = 2 |s_F(o)| + 2^-18 max|coordinates|` of the origin, `s_F(o)` the
-//!   origin's distance from `from_triangle`'s plane: the GPU analogue of
+//!   origin's distance from `from_triangle`'s plane, or within `r = e + 2 x_F(o)` with the hit
+//!   within `r` of the origin too, `x_F(o)` how far it lies past the triangle's farthest edge
+//!   line (0 inside): the GPU analogue of
 //!   [`Tracer::nearest`](crate::reference::Tracer::nearest)'s rule, with the G-buffer's
 //!   interpolated position for the reference's f32 hit point.
 //!
