@@ -129,12 +129,16 @@ fn swapped(tracer: &Tracer, frame: &GpuFrame, cases: &[Case]) -> GpuFrame {
     out
 }
 
+/// A frame of the test: scene, size, the runs (method, criterion) that are exact there, and
+/// whether its case is a neighbour the rule ignores (else one it keeps).
+type FrameCase<'a> = (&'a str, (u32, u32), &'a [(Method, TraceCriterion)], bool);
+
 #[test]
 fn a_start_past_its_triangles_edge_ignores_only_the_neighbour_it_is_behind() {
     use Method::{Bvh, Compute, Fragment};
     use TraceCriterion::{Bounded, Exact};
     let ctx = gpu_context();
-    let frames: [(&str, (u32, u32), &[(Method, TraceCriterion)], bool); 2] = [
+    let frames: [FrameCase; 2] = [
         (
             "teapot",
             (96, 72),
