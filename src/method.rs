@@ -232,6 +232,12 @@ impl Method {
         reads(self, "--compute-layout")
     }
 
+    /// Whether the method traces the reflections after the first with its own cube maps, so
+    /// that `--bvh-bounces` (the BVH for them instead) is a comparison to run.
+    pub fn traces_bounce_rounds(self) -> bool {
+        reads(self, "--bvh-bounces")
+    }
+
     /// Whether the method can leave a mirror pixel unresolved, so that `--fallback` matters.
     pub fn can_leave_unresolved(self) -> bool {
         self.info().can_leave_unresolved

@@ -86,8 +86,11 @@ pub struct BenchArgs {
     #[arg(long)]
     pub no_floor: bool,
     /// Reflections per path for the reference and the methods that trace several (compute,
-    /// fragment with the exact criterion, bvh; the others are skipped when N != 1). Not used by
-    /// --scaling.
+    /// fragment with the exact criterion, bvh; the others are skipped when N != 1). With N > 1
+    /// the grid (not --defaults-only) runs compute twice, its later reflections through its cube
+    /// maps and through the BVH (`compute-bvh-bounces`, render's --bvh-bounces), and bench.md
+    /// gains a "Bounce rounds" table: each round's rays, what traced them, the fallback's share.
+    /// Not used by --scaling.
     #[arg(long, default_value_t = crate::vk::options::RenderOptions::default().bounces,
           value_parser = clap::value_parser!(u32).range(0..=16))]
     pub bounces: u32,
@@ -461,13 +464,14 @@ pub fn grid_config(args: &BenchArgs, methods: &[Method]) -> bench::BenchConfig {
         } else {
             args.scenes.clone()
         },
-        methods: if args.defaults_only {
-            methods
+        methods: match (args.defaults_only, args.bounces > 1) {
+            (true, _) => methods
                 .iter()
                 .map(|m| bench::MethodSpec::plain(*m))
-                .collect()
-        } else {
-            bench::method_grid(methods, args.quick)
+                .collect(),
+            (false, false) => bench::method_grid(methods, args.quick),
+            // compute's later reflections through its cube maps and through the BVH, side by side.
+            (false, true) => bench::with_bvh_bounces(bench::method_grid(methods, args.quick)),
         },
         width: args.width,
         height: args.height,

@@ -57,7 +57,7 @@ pub use runner::{BenchReport, run};
 pub use runs::{
     GpuRun, ReferenceRun, flip_mean, run_gpu, run_gpu_with, run_reference, run_reference_bounces,
 };
-pub use spec::{MethodSpec, RP_BENCH_SUBDIVIDE, fragment_grid, method_grid};
+pub use spec::{MethodSpec, RP_BENCH_SUBDIVIDE, fragment_grid, method_grid, with_bvh_bounces};
 pub use stats::{Counters, PassStats, Stats, frame_stats, pass_stats};
 
 pub use crate::method::Method;

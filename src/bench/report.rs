@@ -447,6 +447,52 @@ pub fn placement_table(report: &BenchReport) -> String {
     s
 }
 
+/// With `--bounces N > 1`: per GPU run, each round after the first (its rays, what traced
+/// them, the share the fallback finished), the `bounce_append` pass that holds those rounds and
+/// the frame; empty at one bounce.
+pub fn rounds_table(report: &BenchReport) -> String {
+    let runs: Vec<&RunResult> = report
+        .runs
+        .iter()
+        .filter(|r| !r.rounds.is_empty())
+        .collect();
+    if runs.is_empty() {
+        return String::new();
+    }
+    let mut s = String::from(
+        "\n## Bounce rounds\n\n| scene | method | rounds 2.. (rays, traced by, fallback %) | bounce_append ms | frame ms | wrong surface % |\n|---|---|---|---:|---:|---:|\n",
+    );
+    for r in runs {
+        let rounds: Vec<String> = (r.rounds.iter())
+            .map(|c| {
+                let by = if c.method { "cube maps" } else { "BVH" };
+                let fallback = f64::from(c.fallback) / f64::from(c.rays.max(1));
+                format!("{} {by} {}", c.rays, pct(fallback))
+            })
+            .collect();
+        let append = (r.passes.iter())
+            .find(|p| p.pass == crate::vk::frame::BOUNCE_PASS)
+            .map(|p| p.ns.median / 1e6);
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} | {} |",
+            r.scene,
+            r.method,
+            rounds.join("; "),
+            opt(append, 1),
+            num(r.total_ns.median / 1e6, 1),
+            pct(r.error.wrong_surface)
+        );
+    }
+    s.push_str(
+        "\nrays: the round's queued rays (paths still reflecting); traced by: the method's cube maps \
+         (`compute`) or the BVH (`-bvh-bounces`, and every method that does not trace them); fallback %: \
+         of the round's rays, those the exact fallback finished; bounce_append ms: the pass of all the \
+         rounds after the first (median); wrong surface: of the mirror pixels, their paths' last hits.\n",
+    );
+    s
+}
+
 /// The Markdown document of `bench.md`: the header, then the summary, cost-per-ray (ratios),
 /// runs and per-pass tables, each under its own heading, each the same text that
 /// [`summary_table`], [`ratios_table`], [`runs_table`] and [`passes_table`] return (so the
@@ -467,7 +513,7 @@ pub fn markdown(report: &BenchReport) -> String {
         ratios_table(report),
         runs_table(report),
         passes_table(report),
-        search_table(report) + &placement_table(report)
+        search_table(report) + &placement_table(report) + &rounds_table(report)
     ) + &report.model.as_ref().map_or(String::new(), |m| {
         format!("\n{}", super::model::markdown(m))
     })

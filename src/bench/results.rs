@@ -6,6 +6,7 @@ use serde::Serialize;
 use super::stats::{Counters, PassStats, Stats};
 use crate::method::Method;
 use crate::metrics::ErrorReport;
+use crate::vk::passes::bounce::RoundCount;
 
 /// The result of one scene x method.
 #[derive(Clone, Debug, Serialize)]
@@ -71,6 +72,10 @@ pub struct RunResult {
     /// ([`BenchPlacement::Auto`](super::BenchPlacement::Auto), or a scene without `[cmo]` centres)
     /// and the method captures.
     pub placement_ms: Option<f64>,
+    /// With `--bounces N > 1`, each round after the first of the last frame: its rays, whether
+    /// the method's cube maps traced them (else the BVH) and how many of them the fallback
+    /// finished ([`RoundCount`]); empty at one bounce and for the reference.
+    pub rounds: Vec<RoundCount>,
 }
 
 impl RunResult {
@@ -108,6 +113,7 @@ impl RunResult {
             flip_mean: None,
             heatmap: None,
             placement_ms: None,
+            rounds: Vec::new(),
         }
     }
 }

@@ -308,6 +308,7 @@ impl<'a> SceneRuns<'a> {
                 None
             },
             heatmap,
+            rounds: g.frame.rounds.clone(),
             triangles: scene.world().triangles.len(),
             ..self.base(cfg, spec)
         })

@@ -19,6 +19,9 @@ pub struct MethodSpec {
     /// compute's lane layout for this run (`None`: the device's default): the full grid sets
     /// the three side by side (`compute-thesis`, `compute-one-lane`, `compute-wave`).
     pub layout: Option<ComputeLayout>,
+    /// [`RenderOptions::bvh_bounces`]: with `--bounces N`, the BVH traces the reflections after
+    /// the first instead of the method's cube maps (`compute-bvh-bounces`; [`with_bvh_bounces`]).
+    pub bvh_bounces: bool,
 }
 
 /// The subdivision of the second reflection-point row of the grid.
@@ -31,6 +34,7 @@ impl MethodSpec {
             trace: TraceOptions::default(),
             subdivide: 0,
             layout: None,
+            bvh_bounces: false,
         }
     }
 
@@ -44,6 +48,7 @@ impl MethodSpec {
             bounces,
             reflector_check,
             compute_layout: self.layout,
+            bvh_bounces: self.bvh_bounces,
             ..RenderOptions::default()
         }
     }
@@ -51,6 +56,13 @@ impl MethodSpec {
     /// A short unique name, also used in file names: `fragment-exact-mip`,
     /// `fragment-threshold-step64`, `envmap`, ...
     pub fn label(&self) -> String {
+        if self.bvh_bounces {
+            let plain = MethodSpec {
+                bvh_bounces: false,
+                ..*self
+            };
+            return format!("{}-bvh-bounces", plain.label());
+        }
         if let Some(layout) = self.layout {
             let plain = MethodSpec {
                 layout: None,
@@ -182,6 +194,24 @@ pub fn method_grid(kinds: &[Method], quick: bool) -> Vec<MethodSpec> {
                     ..MethodSpec::plain(kind)
                 });
             }
+        }
+    }
+    out
+}
+
+/// `specs` with, after each spec of a method that traces the later reflections with its cube
+/// maps ([`Method::traces_bounce_rounds`]) in the device's default layout, the same spec with
+/// the BVH tracing them ([`MethodSpec::bvh_bounces`]): the grid at `--bounces N > 1` sets the
+/// two side by side.
+pub fn with_bvh_bounces(specs: Vec<MethodSpec>) -> Vec<MethodSpec> {
+    let mut out = Vec::new();
+    for s in specs {
+        out.push(s);
+        if s.kind.traces_bounce_rounds() && s.layout.is_none() && !s.bvh_bounces {
+            out.push(MethodSpec {
+                bvh_bounces: true,
+                ..s
+            });
         }
     }
     out

@@ -534,3 +534,108 @@ fn placement_axis_sets_the_search_beside_the_scenes_centres() {
     cubetrace::render::check_validation(&ctx).expect("validation");
     common::finish_gpu(ctx);
 }
+
+/// With `--bounces N > 1` the grid sets compute's later reflections through its cube maps beside
+/// the same runs with the BVH tracing them (`-bvh-bounces`), and the report's "Bounce rounds"
+/// table gives each round's rays, what traced them and the fallback's share. The second round
+/// starts from the same first round, so it queues the same rays either way; the bounded pair
+/// is exact, so every round matches. Negatives: at one bounce the grid has no such row and the
+/// report no rounds, and the BVH's rounds leave nothing to the fallback.
+#[test]
+fn bench_sets_the_bounce_rounds_through_the_cube_maps_beside_the_bvhs() {
+    use clap::Parser;
+    #[derive(Parser)]
+    struct Bench {
+        #[command(flatten)]
+        args: app::bench::BenchArgs,
+    }
+    let grid = |bounces: &str| {
+        let a = [
+            "bench",
+            "--methods",
+            "compute,bvh",
+            "--quick",
+            "--bounces",
+            bounces,
+        ];
+        let args = Bench::try_parse_from(a).expect("bench arguments").args;
+        let methods = app::bench::parse_methods(&args.methods).expect("methods");
+        app::bench::grid_config(&args, &methods).methods
+    };
+    let labels = |specs: &[bench::MethodSpec]| -> Vec<String> {
+        specs.iter().map(bench::MethodSpec::label).collect()
+    };
+    let three = grid("3");
+    assert_eq!(
+        labels(&three),
+        [
+            "compute",
+            "compute-bvh-bounces",
+            "compute-bounded",
+            "compute-bounded-bvh-bounces",
+            "bvh"
+        ]
+    );
+    assert_eq!(labels(&grid("1")), ["compute", "compute-bounded", "bvh"]);
+    let ctx = common::gpu_context();
+    let out = tempfile::tempdir().expect("temp dir");
+    let cfg = |bounces: u32, methods: Vec<bench::MethodSpec>| BenchConfig {
+        scenes: vec!["teapot".into()],
+        methods,
+        width: 48,
+        height: 36,
+        frames: 1,
+        warmup: 0,
+        cube_size: Some(32),
+        flip: false,
+        heatmaps: false,
+        floor: None,
+        bounces,
+        out: out.path().to_path_buf(),
+        ..BenchConfig::default()
+    };
+    let hidden = indicatif::ProgressBar::hidden();
+    let report = bench::run(&ctx, &cfg(3, three), &hidden).expect("bench");
+    let run = |label: &str| {
+        (report.runs.iter())
+            .find(|r| r.method == label)
+            .unwrap_or_else(|| panic!("no run {label}"))
+    };
+    for (cubes, bvh) in [
+        ("compute", "compute-bvh-bounces"),
+        ("compute-bounded", "compute-bounded-bvh-bounces"),
+    ] {
+        let (c, b) = (&run(cubes).rounds, &run(bvh).rounds);
+        eprintln!("{cubes}: {c:?}; {bvh}: {b:?}");
+        assert_eq!((c.len(), b.len()), (2, 2), "{cubes}");
+        assert!(c.iter().all(|r| r.method) && b.iter().all(|r| !r.method));
+        assert!(b.iter().all(|r| r.fallback == 0), "{bvh}");
+        assert!(c[0].rays > 0 && c[0].rays == b[0].rays, "{cubes}");
+    }
+    let (c, b) = (run("compute-bounded"), run("compute-bounded-bvh-bounces"));
+    assert_eq!(
+        c.rounds,
+        b.rounds
+            .iter()
+            .map(|r| bench_round(r, true))
+            .collect::<Vec<_>>()
+    );
+    assert_eq!(c.error.wrong_surface, 0.0);
+    assert!(run("bvh").rounds.iter().all(|r| !r.method));
+    let table = bench::report::rounds_table(&report);
+    assert!(table.contains("| teapot | compute | ") && table.contains("cube maps"));
+    assert!(table.contains("| teapot | compute-bvh-bounces | ") && table.contains(" BVH "));
+    // Negative: one bounce has no rounds to show.
+    let one = bench::run(&ctx, &cfg(1, grid("1")), &hidden).expect("bench");
+    assert!(one.runs.iter().all(|r| r.rounds.is_empty()));
+    assert!(bench::report::rounds_table(&one).is_empty());
+    common::finish_gpu(ctx);
+}
+
+/// `r` as traced by the cube maps (`method`) with the same rays and no fallback.
+fn bench_round(
+    r: &cubetrace::vk::passes::bounce::RoundCount,
+    method: bool,
+) -> cubetrace::vk::passes::bounce::RoundCount {
+    cubetrace::vk::passes::bounce::RoundCount { method, ..*r }
+}

@@ -193,6 +193,9 @@ pub const FALLBACK_PASS: &str = "fallback";
 /// `append_check` and `args`, then `bvh_trace` over the reflectors' BVH).
 pub const REFLECTOR_CHECK_PASS: &str = "reflector_check";
 
+/// The pass name of the `--bounces` rounds after the first (its timestamp scope).
+pub const BOUNCE_PASS: &str = crate::vk::backend::shaders::BOUNCE_APPEND.name;
+
 /// Depth range and ray length for a scene seen by a camera: `(near, far, t_hi)` of
 /// [`FrameRanges`] (the G-buffer's near plane, the scene's far extent from the eye, which is no
 /// clip plane, and the ray length), without the precision check.

@@ -112,7 +112,7 @@ struct Rounds {
 }
 
 /// What one round of `--bounces` traced ([`BouncePasses::read_counts`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct RoundCount {
     /// Rays queued (paths still reflecting).
     pub rays: u32,
