@@ -285,7 +285,11 @@ fn search_by(
     shortcuts: bool,
 ) -> Placement {
     let start = Instant::now();
-    let tracer = Tracer::new(scene);
+    let (tracer, shown) = if shortcuts {
+        tracers(scene)
+    } else {
+        (Tracer::new(scene), None)
+    };
     let (rays, later_rays) = sample_rays(&tracer, cameras, opts);
     if rays.is_empty() {
         // No mirror pixel in view: nothing to score, one CMO on the reflectors' axis.
@@ -301,7 +305,6 @@ fn search_by(
         };
     }
     let scorer = Scorer::new(&tracer, &rays);
-    let shown = shortcuts.then(|| shown_only(&tracer)).flatten();
     let capture_tracer = shown.as_ref().unwrap_or(&tracer);
     let capture = |c: Vec3| scoring_capture(scene, capture_tracer, c, opts.cube_size);
     // The cheapest set first: one CMO on the reflectors' axis (the placement without a
@@ -419,14 +422,16 @@ fn scoring_capture(scene: &Scene, tracer: &Tracer, centre: Vec3, size: u32) -> C
     CmoTracer::new(capture, TraceOptions::default().params())
 }
 
-/// A tracer over the triangles a capture can show (`None` where that is all of them): the
-/// objects left out of the capture (reflectors without self-reflections) pass every ray on, so
-/// a BVH without them gives the capture the same hits ([`Tracer::keeping`]), sooner.
-fn shown_only(tracer: &Tracer) -> Option<Tracer> {
-    let world = &tracer.world;
-    let shown = |g: u32| world.objects[world.triangle_object[g as usize] as usize].captured;
-    let hidden = (0..world.triangles.len() as u32).any(|g| !shown(g));
-    hidden.then(|| tracer.keeping(shown))
+/// The scene's tracer and one over the triangles a capture can show (`None` where that is all
+/// of them), built together ([`Tracer::split`]): the objects left out of the capture
+/// (reflectors without self-reflections) pass every ray on, so a BVH without them gives the
+/// capture the same hits ([`Tracer::keeping`]), sooner.
+fn tracers(scene: &Scene) -> (Tracer, Option<Tracer>) {
+    let world = scene.world();
+    let shown: Vec<bool> = (world.triangle_object.iter())
+        .map(|&o| world.objects[o as usize].captured)
+        .collect();
+    Tracer::split(world, |g| shown[g as usize])
 }
 
 /// The greedy steps: the chosen candidates (indices into `cmos`) and the sampled unresolved

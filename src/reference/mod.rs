@@ -228,6 +228,9 @@ pub struct Tracer {
     anchor: Vec3,
     /// The twin over the geometry moved by `-anchor`, built on first use.
     local: std::sync::OnceLock<Box<Tracer>>,
+    /// A second BVH over the triangles this one's leaves out, queried beside it
+    /// ([`Tracer::split`]): the two answer as one BVH over them all.
+    rest: Option<Box<Tracer>>,
 }
 
 struct Tri<'a>(&'a [Vec3; 3]);
@@ -441,7 +444,32 @@ impl Tracer {
             tris,
             order,
             local: std::sync::OnceLock::new(),
+            rest: None,
         }
+    }
+
+    /// The tracer over all of `world`'s triangles and, where `keep` leaves some out, the
+    /// [`Tracer::keeping`] of those it keeps, built together: the first holds the second's BVH
+    /// (copied) and one over the rest, so the triangles are sorted into BVHs once, not twice.
+    /// The same hits as [`Tracer::from_world`] and [`Tracer::keeping`] (the nearest, ties to the
+    /// lower index, which no BVH changes).
+    pub fn split(world: WorldGeometry, keep: impl Fn(u32) -> bool) -> (Tracer, Option<Tracer>) {
+        let (kept, rest): (Vec<u32>, Vec<u32>) =
+            (0..world.triangles.len() as u32).partition(|&i| keep(i));
+        if rest.is_empty() || kept.is_empty() {
+            return (Self::from_world(world), None);
+        }
+        let shown = Self::over(world.clone(), kept);
+        let full = Tracer {
+            anchor: shown.anchor,
+            world: shown.world.clone(),
+            bvh: shown.bvh.clone(),
+            tris: shown.tris.clone(),
+            order: shown.order.clone(),
+            local: std::sync::OnceLock::new(),
+            rest: Some(Box::new(Self::over(world, rest))),
+        };
+        (full, Some(shown))
     }
 
     /// The tracer a frame is traced with, and the anchor its coordinates are relative to:
@@ -462,6 +490,7 @@ impl Tracer {
             }
             // Over the same triangles (all of them but for a tracer `keeping` some).
             let mut kept = self.order.clone();
+            kept.extend(self.rest.iter().flat_map(|r| r.order.iter().copied()));
             kept.sort_unstable();
             Box::new(Tracer::over(world, kept))
         });
@@ -496,11 +525,7 @@ impl Tracer {
         from: Option<&Hit>,
         accept: impl Fn(&Hit) -> bool,
     ) -> Option<Hit> {
-        if self.tris.is_empty() {
-            return None;
-        }
         let (o, d) = (origin.as_dvec3(), dir.as_dvec3());
-        let mut best: Option<(u32, Intersection)> = None;
         let candidate = |triangle: u32, x: &Intersection| Hit {
             t: x.t as f32,
             position: (o + d * x.t).as_vec3(),
@@ -508,6 +533,30 @@ impl Tracer {
             bary: Vec2::new(x.u as f32, x.v as f32),
             error: hit_error(o, d, x.t, x.kappa, x.s),
         };
+        let accept = |g: u32, x: &Intersection| accept(&candidate(g, x));
+        let mine = self.nearest_in_bvh(o, d, from, &accept);
+        let rest = (self.rest.as_ref()).and_then(|r| r.nearest_in_bvh(o, d, from, &accept));
+        // The nearer of the two, ties to the lower index: one BVH's choice over them all.
+        let best = match (mine, rest) {
+            (Some(a), Some(b)) => Some(if (b.1.t, b.0) < (a.1.t, a.0) { b } else { a }),
+            (a, b) => a.or(b),
+        };
+        best.map(|(triangle, x)| candidate(triangle, &x))
+    }
+
+    /// [`Tracer::nearest_accepting`] in this tracer's own BVH: the global index and the exact
+    /// intersection of its nearest accepted hit.
+    fn nearest_in_bvh(
+        &self,
+        o: DVec3,
+        d: DVec3,
+        from: Option<&Hit>,
+        accept: &impl Fn(u32, &Intersection) -> bool,
+    ) -> Option<(u32, Intersection)> {
+        if self.tris.is_empty() {
+            return None;
+        }
+        let mut best: Option<(u32, Intersection)> = None;
         // The start point itself (see the module docs).
         let left = from.map(|f| {
             let t = self.world.triangles[f.triangle as usize];
@@ -552,7 +601,7 @@ impl Tracer {
                             None => true,
                             Some((bg, b)) => x.t < b.t || (x.t == b.t && global < *bg),
                         };
-                    if better && !at_start(global, tri) && accept(&candidate(global, &x)) {
+                    if better && !at_start(global, tri) && accept(global, &x) {
                         best = Some((global, x));
                     }
                 }
@@ -571,7 +620,7 @@ impl Tracer {
                 (None, None) => {}
             }
         }
-        best.map(|(triangle, x)| candidate(triangle, &x))
+        best
     }
 
     /// Interpolated, normalised vertex normal at a hit (the rasteriser's shading normal).

@@ -93,3 +93,62 @@ fn a_capture_over_the_shown_triangles_is_the_full_one() {
         }
     }
 }
+
+/// `Tracer::split` answers as the tracers it stands for: its first tracer as `Tracer::new` over
+/// every triangle, its second as `Tracer::keeping` of the captured ones, hit for hit (every
+/// field, bit for bit) on rays from points across each scene's box and on reflected rays that
+/// leave a hit (the start rule). Negative: the kept triangles' tracer alone misses hits the
+/// whole one finds, so the rest's BVH is queried.
+#[test]
+fn the_split_tracer_answers_as_the_whole_one() {
+    let bits = |h: Option<cubetrace::reference::Hit>| {
+        h.map(|h| {
+            let p = h.position.to_array().map(f32::to_bits);
+            let b = h.bary.to_array().map(f32::to_bits);
+            (h.t.to_bits(), p, h.triangle, b, h.error.to_bits())
+        })
+    };
+    for name in ["teapot", "bowl", "default"] {
+        let mut s = scene::builtin::by_name(name).unwrap();
+        s.self_reflections = SelfReflections::Off;
+        let whole = Tracer::new(&s);
+        let world = s.world();
+        let shown: Vec<bool> = (world.triangle_object.iter())
+            .map(|&o| world.objects[o as usize].captured)
+            .collect();
+        let (full, kept) = Tracer::split(world.clone(), |g| shown[g as usize]);
+        let kept = kept.unwrap_or_else(|| panic!("{name}: nothing left out"));
+        let keeping = whole.keeping(|g| shown[g as usize]);
+        let (lo, hi) = world.bounds(|_| true);
+        let (mut rays, mut differ) = (0, 0);
+        for i in 0..400u32 {
+            let f = |k: u32| ((i * k) % 97) as f32 / 97.0;
+            let o = lo + (hi - lo) * Vec3::new(f(13), f(29), f(53));
+            let d = Vec3::new(f(7) - 0.5, f(11) - 0.5, f(17) - 0.5).normalize();
+            let first = whole.nearest(o, d, None);
+            assert_eq!(
+                bits(full.nearest(o, d, None)),
+                bits(first),
+                "{name} ray {i}"
+            );
+            assert_eq!(
+                bits(kept.nearest(o, d, None)),
+                bits(keeping.nearest(o, d, None))
+            );
+            rays += 1;
+            differ += usize::from(bits(kept.nearest(o, d, None)) != bits(first));
+            // The ray reflected at its hit, leaving it.
+            if let Some(h) = first {
+                let r = cubetrace::reference::reflect(d, whole.normal(&h)).normalize();
+                let a = whole.nearest(h.position, r, Some(&h));
+                assert_eq!(
+                    bits(full.nearest(h.position, r, Some(&h))),
+                    bits(a),
+                    "{name} {i}"
+                );
+            }
+        }
+        eprintln!("{name}: {rays} rays, {differ} where the kept triangles alone answer otherwise");
+        assert!(differ > 0, "{name}: the rest's BVH was never needed");
+    }
+}
