@@ -14,20 +14,8 @@ use cubetrace::bench::{self, BenchConfig, Method};
 fn bench_sets_the_compute_layouts_side_by_side() {
     let ctx = common::gpu_context();
     let out = tempfile::tempdir().expect("temp dir");
-    let cfg = BenchConfig {
-        scenes: vec!["teapot".into()],
-        methods: bench::method_grid(&[Method::Compute], false),
-        width: 48,
-        height: 36,
-        frames: 1,
-        warmup: 0,
-        cube_size: Some(32),
-        flip: false,
-        heatmaps: false,
-        floor: None,
-        out: out.path().to_path_buf(),
-        ..BenchConfig::default()
-    };
+    let methods = bench::method_grid(&[Method::Compute], false);
+    let cfg = small_teapot(out.path(), methods, 1);
     let report = bench::run(&ctx, &cfg, &indicatif::ProgressBar::hidden()).expect("bench");
     let labels: Vec<&str> = report.runs.iter().map(|r| r.method.as_str()).collect();
     assert_eq!(
@@ -579,21 +567,7 @@ fn bench_sets_the_bounce_rounds_through_the_cube_maps_beside_the_bvhs() {
     assert_eq!(labels(&grid("1")), ["compute", "compute-bounded", "bvh"]);
     let ctx = common::gpu_context();
     let out = tempfile::tempdir().expect("temp dir");
-    let cfg = |bounces: u32, methods: Vec<bench::MethodSpec>| BenchConfig {
-        scenes: vec!["teapot".into()],
-        methods,
-        width: 48,
-        height: 36,
-        frames: 1,
-        warmup: 0,
-        cube_size: Some(32),
-        flip: false,
-        heatmaps: false,
-        floor: None,
-        bounces,
-        out: out.path().to_path_buf(),
-        ..BenchConfig::default()
-    };
+    let cfg = |bounces: u32, methods| small_teapot(out.path(), methods, bounces);
     let hidden = indicatif::ProgressBar::hidden();
     let report = bench::run(&ctx, &cfg(3, three), &hidden).expect("bench");
     let run = |label: &str| {
@@ -630,6 +604,30 @@ fn bench_sets_the_bounce_rounds_through_the_cube_maps_beside_the_bvhs() {
     assert!(one.runs.iter().all(|r| r.rounds.is_empty()));
     assert!(bench::report::rounds_table(&one).is_empty());
     common::finish_gpu(ctx);
+}
+
+/// A bench of `methods` on the teapot at 48x36 with 32-texel faces, one frame, no floor run,
+/// FLIP or heat maps, at `bounces`, writing into `out`.
+fn small_teapot(
+    out: &std::path::Path,
+    methods: Vec<bench::MethodSpec>,
+    bounces: u32,
+) -> BenchConfig {
+    BenchConfig {
+        scenes: vec!["teapot".into()],
+        methods,
+        width: 48,
+        height: 36,
+        frames: 1,
+        warmup: 0,
+        cube_size: Some(32),
+        flip: false,
+        heatmaps: false,
+        floor: None,
+        bounces,
+        out: out.to_path_buf(),
+        ..BenchConfig::default()
+    }
 }
 
 /// `r` as traced by the cube maps (`method`) with the same rays and no fallback.
