@@ -6,7 +6,7 @@ use serde::Serialize;
 use super::stats::{Counters, PassStats, Stats};
 use crate::method::Method;
 use crate::metrics::ErrorReport;
-use crate::vk::passes::bounce::RoundCount;
+use crate::vk::frame::RoundCount;
 
 /// The result of one scene x method.
 #[derive(Clone, Debug, Serialize)]

@@ -5,6 +5,7 @@ use crate::common;
 
 use cubetrace::app;
 use cubetrace::bench::{self, BenchConfig, Method};
+use cubetrace::vk::frame::RoundCount;
 
 /// The full grid runs compute in its three lane layouts beside its default, labelled
 /// `compute-thesis`, `compute-one-lane` and `compute-wave`: the same cells and texels per ray, the
@@ -591,7 +592,7 @@ fn bench_sets_the_bounce_rounds_through_the_cube_maps_beside_the_bvhs() {
         c.rounds,
         b.rounds
             .iter()
-            .map(|r| bench_round(r, true))
+            .map(|r| RoundCount { method: true, ..*r })
             .collect::<Vec<_>>()
     );
     assert_eq!(c.error.wrong_surface, 0.0);
@@ -628,12 +629,4 @@ fn small_teapot(
         out: out.to_path_buf(),
         ..BenchConfig::default()
     }
-}
-
-/// `r` as traced by the cube maps (`method`) with the same rays and no fallback.
-fn bench_round(
-    r: &cubetrace::vk::passes::bounce::RoundCount,
-    method: bool,
-) -> cubetrace::vk::passes::bounce::RoundCount {
-    cubetrace::vk::passes::bounce::RoundCount { method, ..*r }
 }

@@ -121,6 +121,7 @@ mod record;
 mod stages;
 mod update;
 
+pub use super::passes::bounce::RoundCount;
 pub use gpu_frame::{GpuFrame, shown_objects};
 #[cfg(feature = "test-hooks")]
 pub use hooks::live_allocations;
