@@ -5,11 +5,14 @@
 //! - `scene_files`: export and load round trip; each class of bad input through the binary;
 //! - `scene_limits`: the bounds a file's numbers must keep, and the CMO limit;
 //! - `scene_export`: every built-in, exported and loaded back, renders byte-identically;
+//! - `exporter_quirks`: what real exporters write that the loader once refused or read wrong;
 //! - `fuzz_scene`: a fixed-seed fuzz pass over the loader;
 //! - `self_reflections`: the per-reflector `self_reflections` override and its `auto`.
 
 mod common;
 
+#[path = "scene/exporter_quirks.rs"]
+mod exporter_quirks;
 #[path = "scene/fuzz_scene.rs"]
 mod fuzz_scene;
 #[path = "scene/scene_export.rs"]

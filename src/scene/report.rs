@@ -45,6 +45,8 @@ pub enum WarningKind {
     EmptyMesh,
     /// A scene with no meshes.
     NoMeshes,
+    /// OBJ or MTL text (outside comments) that is not UTF-8, read as Latin-1.
+    Latin1Text,
 }
 
 /// One (merged) warning.

@@ -226,7 +226,7 @@ fn byte_order_marks_are_skipped() {
 }
 
 #[test]
-fn latin1_in_comments_is_fine_elsewhere_an_error_naming_the_line() {
+fn latin1_in_comments_is_fine_elsewhere_read_as_latin1_naming_the_line() {
     let obj = [
         b"# caf\xE9 cr\xE8me\n".as_slice(),
         QUAD_OBJ.as_bytes(),
@@ -234,22 +234,27 @@ fn latin1_in_comments_is_fine_elsewhere_an_error_naming_the_line() {
     ]
     .concat();
     let mtl = b"# r\xE9sum\xE9\nnewmtl grey # gr\xEDs\nKd 0.5\n";
-    let (scene, _) = load_ok(&obj, Some(mtl));
+    let (scene, report) = load_ok(&obj, Some(mtl));
     assert_eq!(diffuse(&scene), Vec3::splat(0.5));
-    // Outside a comment: an error naming the file, the line and the byte.
+    assert!(report.warnings.is_empty(), "{:?}", report.warnings);
+    // Outside a comment: read as Latin-1 (Windows exporters' names), a warning naming the file
+    // and the line.
     let bad = QUAD_OBJ
         .replace("usemtl grey", "usemtl gr\u{1}y")
         .into_bytes();
     let bad: Vec<u8> = bad.iter().map(|&b| if b == 1 { 0xE9 } else { b }).collect();
-    let e = load(&bad, Some(b"newmtl grey\nKd 0.5\n")).unwrap_err();
-    assert!(e.contains("mesh.obj:6"), "{e}");
-    assert!(e.contains("0xE9"), "{e}");
-    let e = load(
+    let (_, report) = load_ok(&bad, Some(b"newmtl grey\nKd 0.5\n"));
+    let w = &report.warnings[0];
+    assert_eq!((w.kind, &w.lines[..]), (WarningKind::Latin1Text, &[6][..]));
+    assert!(w.to_string().contains("mesh.obj"), "{w}");
+    assert!(report.warnings[1].to_string().contains("'gr\u{e9}y'"));
+    let (_, report) = load_ok(
         QUAD_OBJ.as_bytes(),
         Some(b"newmtl grey\nKd 0.5\nnewmtl caf\xE9\n"),
-    )
-    .unwrap_err();
-    assert!(e.contains("lib.mtl:3"), "{e}");
+    );
+    let w = &report.warnings[0];
+    assert_eq!((w.kind, &w.lines[..]), (WarningKind::Latin1Text, &[3][..]));
+    assert!(w.to_string().contains("lib.mtl"), "{w}");
 }
 
 #[test]

@@ -5,6 +5,7 @@
 use std::path::Path;
 
 use super::MAX_INPUT_BYTES;
+use crate::scene::report::{LoadReport, WarningKind};
 use crate::scene::{MAX_COORDINATE, SceneError};
 
 pub(super) fn obj_err(path: &Path, line: usize, reason: impl Into<String>) -> SceneError {
@@ -15,8 +16,11 @@ pub(super) fn obj_err(path: &Path, line: usize, reason: impl Into<String>) -> Sc
     }
 }
 
-/// Reads an OBJ or MTL file, refusing files over [`MAX_INPUT_BYTES`].
-pub(super) fn read_input(path: &Path) -> Result<Vec<u8>, SceneError> {
+/// Reads an OBJ or MTL file, refusing files over [`MAX_INPUT_BYTES`] and binary files (a NUL
+/// byte: an FBX, binary STL, `.blend` or glTF named where an OBJ was meant). A line whose text
+/// before its comment is not UTF-8 is read as Latin-1 (ISO 8859-1, which Windows exporters write
+/// names in), with a warning naming it; the bytes returned are then UTF-8 outside comments.
+pub(super) fn read_input(path: &Path, report: &mut LoadReport) -> Result<Vec<u8>, SceneError> {
     let len = std::fs::metadata(path)
         .map_err(|e| SceneError::io(path, e))?
         .len();
@@ -28,21 +32,127 @@ pub(super) fn read_input(path: &Path) -> Result<Vec<u8>, SceneError> {
             ),
         });
     }
-    std::fs::read(path).map_err(|e| SceneError::io(path, e))
+    let bytes = std::fs::read(path).map_err(|e| SceneError::io(path, e))?;
+    if let Some((line, raw)) = split_lines(&bytes)
+        .enumerate()
+        .find(|(_, l)| l.contains(&0))
+    {
+        let column = raw.iter().position(|&b| b == 0).expect("found") + 1;
+        return Err(obj_err(
+            path,
+            line + 1,
+            format!(
+                "byte 0x00 at column {column}: a binary file, not OBJ or MTL text \
+                 (export the model as Wavefront OBJ)"
+            ),
+        ));
+    }
+    Ok(latin1_as_utf8(bytes, path, report))
 }
 
-/// Splits a file into numbered lines (from 1) without their comments. Skips a UTF-8 byte
-/// order mark; a line's comment may hold any bytes, the rest must be UTF-8.
+/// `bytes` with the text before each line's comment that is not UTF-8 read as Latin-1 (each
+/// byte the code point of its value) and written as UTF-8, one warning naming those lines;
+/// every line end becomes `\n`. UTF-8 files come back unchanged.
+fn latin1_as_utf8(bytes: Vec<u8>, path: &Path, report: &mut LoadReport) -> Vec<u8> {
+    if std::str::from_utf8(&bytes).is_ok() {
+        return bytes;
+    }
+    let mut out = Vec::with_capacity(bytes.len() + bytes.len() / 8);
+    for (k, raw) in split_lines(&bytes).enumerate() {
+        if k > 0 {
+            out.push(b'\n');
+        }
+        let h = raw.iter().position(|&b| b == b'#').unwrap_or(raw.len());
+        let (code, comment) = raw.split_at(h);
+        if std::str::from_utf8(code).is_ok() {
+            out.extend_from_slice(raw);
+            continue;
+        }
+        report.warn(
+            WarningKind::Latin1Text,
+            path,
+            Some(k + 1),
+            "text that is not UTF-8, read as Latin-1 (ISO 8859-1)",
+        );
+        let text: String = code.iter().map(|&b| char::from(b)).collect();
+        out.extend_from_slice(text.as_bytes());
+        out.extend_from_slice(comment);
+    }
+    out
+}
+
+/// The lines of a file without their ends: a line ends at LF, CRLF or a lone CR (as classic
+/// Mac OS programs wrote them).
+fn split_lines(bytes: &[u8]) -> impl Iterator<Item = &[u8]> {
+    let mut rest = Some(bytes);
+    std::iter::from_fn(move || {
+        let r = rest?;
+        let Some(end) = r.iter().position(|&b| b == b'\n' || b == b'\r') else {
+            rest = None;
+            return Some(r);
+        };
+        let crlf = r[end] == b'\r' && r.get(end + 1) == Some(&b'\n');
+        rest = Some(&r[end + 1 + usize::from(crlf)..]);
+        Some(&r[..end])
+    })
+}
+
+/// How Microsoft's C runtime before 2015 printed NaN and infinity (`1.#QNAN0`, `-1.#IND00`,
+/// `1.#INF00`): a digit and `.`, then `#`, one of these and digits. Read as a comment, they
+/// would be the number before the `#`.
+const MSVC_NON_FINITE: [&[u8]; 4] = [b"QNAN", b"SNAN", b"IND", b"INF"];
+
+/// The error for an MSVC-printed NaN or infinity at `h` (the line's first `#`), if it is one.
+fn msvc_non_finite(raw: &[u8], h: usize, path: &Path, line: usize) -> Option<SceneError> {
+    let after = &raw[h + 1..];
+    let end = after
+        .iter()
+        .position(|b| b.is_ascii_whitespace())
+        .map_or(raw.len(), |i| h + 1 + i);
+    let word = &raw[h + 1..end];
+    let printed = raw[..h].ends_with(b".")
+        && raw[..h - 1].last().is_some_and(u8::is_ascii_digit)
+        && MSVC_NON_FINITE.iter().any(|m| {
+            word.len() >= m.len()
+                && word[..m.len()].eq_ignore_ascii_case(m)
+                && word[m.len()..].iter().all(u8::is_ascii_digit)
+        });
+    if !printed {
+        return None;
+    }
+    let start = raw[..h]
+        .iter()
+        .rposition(|b| b.is_ascii_whitespace())
+        .map_or(0, |i| i + 1);
+    Some(obj_err(
+        path,
+        line,
+        format!(
+            "'{}' is how Microsoft's C runtime prints NaN or infinity: not a finite number",
+            String::from_utf8_lossy(&raw[start..end])
+        ),
+    ))
+}
+
+/// Splits a file into numbered lines (from 1, [`split_lines`]) without their comments. Skips a
+/// UTF-8 byte order mark; a line's comment may hold any bytes, the rest must be UTF-8 (as
+/// [`read_input`] returns it). A `#` right after a number that starts an MSVC NaN or infinity
+/// (`1.#QNAN0`) is an error naming the line, not a comment.
 pub(super) fn text_lines<'a>(
     bytes: &'a [u8],
     path: &Path,
 ) -> Result<Vec<(usize, &'a str)>, SceneError> {
     let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
     let mut out = Vec::new();
-    for (k, raw) in bytes.split(|&b| b == b'\n').enumerate() {
+    for (k, raw) in split_lines(bytes).enumerate() {
         let line = k + 1;
         let code = match raw.iter().position(|&b| b == b'#') {
-            Some(h) => &raw[..h],
+            Some(h) => {
+                if let Some(e) = msvc_non_finite(raw, h, path, line) {
+                    return Err(e);
+                }
+                &raw[..h]
+            }
             None => raw,
         };
         let text = std::str::from_utf8(code).map_err(|e| {

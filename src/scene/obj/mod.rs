@@ -13,9 +13,12 @@
 //! source line on failure.
 //!
 //! What the loader accepts:
-//! - UTF-8 text, with or without a byte order mark, LF or CRLF line ends, spaces or tabs.
-//!   Comments (`#` to the end of the line) may hold any bytes (Latin-1 ones included); a byte
-//!   that is not UTF-8 outside a comment is an error naming the line and column.
+//! - UTF-8 text, with or without a byte order mark, LF, CRLF or CR (classic Mac OS) line ends,
+//!   spaces or tabs. Comments (`#` to the end of the line) may hold any bytes; a line whose
+//!   text outside its comment is not UTF-8 is read as Latin-1 (Windows exporters' names), with a
+//!   warning naming it. A NUL byte (a binary file: FBX, STL, `.blend`) is an error naming the
+//!   line and column, and so is a NaN or infinity as Microsoft's C runtime printed them
+//!   (`1.#QNAN0`, `-1.#IND00`), which would otherwise read as a number and a comment.
 //! - `v`, `vt`, `vn`, `f`, `o`, `g`, `usemtl`, `mtllib`; other statements (`s`, curves, ...)
 //!   are ignored. Extra values after `v x y z` (a `w`, vertex colours) are ignored, a `vt` with
 //!   one value gets v = 0. `l` and `p` elements and faces with fewer than 3 vertices are
@@ -192,7 +195,7 @@ pub(crate) fn parse_obj_str(text: &str, path: &Path) -> Result<(Vec<MeshPart>, u
 
 /// Loads an OBJ file with its MTL materials and `map_Kd` textures; warnings go to `report`.
 pub(crate) fn load_obj_file(path: &Path, report: &mut LoadReport) -> Result<LoadedObj, SceneError> {
-    let bytes = read_input(path)?;
+    let bytes = read_input(path, report)?;
     let obj = validate_obj(&bytes, path, report)?;
     let (mtl_texts, origin) = read_libraries(&obj, report)?;
     let (models, materials) = parse_with_tobj(&obj, &mtl_texts, path)?;

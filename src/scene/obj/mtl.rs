@@ -260,7 +260,7 @@ pub(super) fn read_libraries<'a>(
     let mut origin: Vec<&Path> = Vec::new();
     let mut previous: HashMap<String, (PathBuf, usize)> = HashMap::new();
     for (mtl_path, _) in &obj.libraries {
-        let bytes = read_input(mtl_path)?;
+        let bytes = read_input(mtl_path, report)?;
         let entries = validate_mtl(&bytes, mtl_path, report)?;
         for m in &entries {
             origin.push(mtl_path);
