@@ -137,3 +137,101 @@ fn msvc_nan_is_refused_not_read_as_a_comment() {
     )]);
     assert_eq!(triangles(&scene), 1);
 }
+
+/// A 4 x 4 DDS texture of one DXT1 (BC1) block, pure red, byte for byte as Pillow 13.0.0
+/// writes it (`Image.new("RGB", (4, 4), "red").save(f, pixel_format="DXT1")`).
+fn dds_dxt1_red() -> Vec<u8> {
+    let words = |d: &mut Vec<u8>, w: &[u32]| w.iter().for_each(|v| d.extend(v.to_le_bytes()));
+    let mut d = b"DDS ".to_vec();
+    words(&mut d, &[124, 0x81007, 4, 4, 28, 0, 0]);
+    words(&mut d, &[0; 11]);
+    words(&mut d, &[32, 4]);
+    d.extend(b"DXT1");
+    words(&mut d, &[24, 0, 0, 0, 0, 0x1000, 0, 0, 0, 0]);
+    d.extend([0x00, 0xF8, 0x00, 0xF8, 0, 0, 0, 0]);
+    d
+}
+
+/// The first texel of the test mesh's texture, if it has one.
+fn first_texel(scene: &Scene) -> Option<[u8; 4]> {
+    let t = &scene.textures[material(scene).1? as usize];
+    Some(t.rgba8[..4].try_into().unwrap())
+}
+
+/// A PNG of one pixel of `rgb`.
+fn png(rgb: [u8; 3]) -> Vec<u8> {
+    let mut out = std::io::Cursor::new(Vec::new());
+    image::RgbImage::from_pixel(1, 1, image::Rgb(rgb))
+        .write_to(&mut out, image::ImageFormat::Png)
+        .unwrap();
+    out.into_inner()
+}
+
+#[test]
+fn quoted_and_miscased_file_names_are_found() {
+    let red = png([255, 0, 0]);
+    for (mtllib, map_kd, texture) in [
+        ("\"my lib.mtl\"", "\"my tex.png\"", "my tex.png"),
+        ("My Lib.MTL", "Textures\\Tex.PNG", "textures/tex.png"),
+        ("C:\\Export\\MY LIB.mtl", "E:\\maps\\TEX.png", "tex.png"),
+    ] {
+        let obj = QUAD_OBJ.replace("mtllib lib.mtl", &format!("mtllib {mtllib}"));
+        let mtl = format!("newmtl tex\nKd 1 1 1\nmap_Kd {map_kd}\n");
+        let (scene, report) = load_ok(&[
+            ("mesh.obj", obj.as_bytes()),
+            ("my lib.mtl", mtl.as_bytes()),
+            (texture, &red),
+        ]);
+        assert!(
+            report.warnings.is_empty(),
+            "{mtllib}: {:?}",
+            report.warnings
+        );
+        assert_eq!(first_texel(&scene), Some([255, 0, 0, 255]), "{map_kd}");
+    }
+    // Negative: a name that no file has in any case is missing, with the warning naming it.
+    let obj = QUAD_OBJ.replace("mtllib lib.mtl", "mtllib \"my lib.mtl\"");
+    let mtl = b"newmtl tex\nKd 1 1 1\nmap_Kd Texture.png\n";
+    let (scene, report) = load_ok(&[
+        ("mesh.obj", obj.as_bytes()),
+        ("my lib.mtl", mtl),
+        ("tex.png", &red),
+    ]);
+    assert_eq!(report.count(WarningKind::MissingTexture), 1);
+    assert!(report.warnings[0].to_string().contains("'Texture.png'"));
+    assert_eq!(first_texel(&scene), None);
+}
+
+#[test]
+fn textures_are_decoded_by_their_content() {
+    let mtl = |file: &str| format!("newmtl tex\nKd 1 1 1\nmap_Kd {file}\n");
+    // A JPEG named .png; a DXT1 DDS (game exports).
+    let mut jpeg = std::io::Cursor::new(Vec::new());
+    image::RgbImage::from_pixel(8, 8, image::Rgb([0, 0, 255]))
+        .write_to(&mut jpeg, image::ImageFormat::Jpeg)
+        .unwrap();
+    let dds = dds_dxt1_red();
+    for (file, bytes, texel) in [
+        ("tex.png", jpeg.get_ref().as_slice(), [0, 0, 254, 255]),
+        ("tex.dds", &dds, [255, 0, 0, 255]),
+    ] {
+        let (scene, report) = load_ok(&[
+            ("mesh.obj", QUAD_OBJ.as_bytes()),
+            ("lib.mtl", mtl(file).as_bytes()),
+            (file, bytes),
+        ]);
+        assert!(report.warnings.is_empty(), "{file}: {:?}", report.warnings);
+        let got = first_texel(&scene).unwrap();
+        let near = got.iter().zip(texel).all(|(&a, b)| a.abs_diff(b) <= 2);
+        assert!(near, "{file}: {got:?}");
+    }
+    // Negative: bytes of no image format under a .png name warn, naming the texture.
+    let (scene, report) = load_ok(&[
+        ("mesh.obj", QUAD_OBJ.as_bytes()),
+        ("lib.mtl", mtl("tex.png").as_bytes()),
+        ("tex.png", b"not an image"),
+    ]);
+    assert_eq!(report.count(WarningKind::MissingTexture), 1);
+    assert!(report.warnings[0].to_string().contains("tex.png"));
+    assert_eq!(first_texel(&scene), None);
+}

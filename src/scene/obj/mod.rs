@@ -39,14 +39,15 @@
 //!   one more, empty-bodied library so that `tobj` splits parts at every change of name, as the
 //!   file does.)
 //! - MTL: `newmtl`, `Kd` (1 value = grey, or 3), `map_Kd` (options such as `-s` are skipped
-//!   with a warning; any format the `image` crate reads: PNG, JPEG, BMP, TGA, GIF, TIFF, WebP,
-//!   PNM) and `Ns` (the Phong specular power; a reflector uses it only where its scene file says
+//!   with a warning; any format the `image` crate reads, told by the file's first bytes, else
+//!   its extension: PNG, JPEG, BMP, TGA, GIF, TIFF, WebP, PNM, DDS) and `Ns` (the Phong specular power; a reflector uses it only where its scene file says
 //!   `specular_power = "mtl"`: a value below 0, as Blender 2.79 writes, is taken as 0, and one
 //!   that is not a number is ignored, each with a warning); other statements are ignored.
 //!   Errors name the MTL file and line.
-//! - Files named by `mtllib` and `map_Kd` are looked for as written, then with Windows
-//!   separators read as `/`, then by their file name alone beside the naming file
-//!   ([`find_beside`]: an exporter's absolute `E:\...` path). One that is still missing, or a
+//! - Files named by `mtllib` and `map_Kd` are looked for as written (in double quotes or
+//!   not), then with Windows separators read as `/`, then by their file name alone beside the
+//!   naming file (an exporter's absolute `E:\...` path), then these two with letter case
+//!   ignored ([`find_beside`]: a Windows export's `Wood.JPG` for `wood.jpg`). One that is still missing, or a
 //!   texture that cannot be decoded, is a warning naming the file and line: the material keeps
 //!   its `Kd` (a missing library's materials are grey).
 //!
@@ -95,10 +96,16 @@ pub(crate) struct LoadedObj {
 }
 
 /// The file a material library or texture statement names, as exporters write it, relative to
-/// `dir` (the folder of the file that names it): the name as written, with Windows separators
-/// (`\`) read as `/`; failing that (an absolute path from the exporter's machine, such as
-/// `E:\textures\wood.jpg`), the file name alone in `dir`. `None` where neither exists.
+/// `dir` (the folder of the file that names it), tried in this order: the name as written
+/// (without a pair of double quotes around it); with Windows separators (`\`) read as `/`; the
+/// file name alone in `dir` (an absolute path from the exporter's machine, such as
+/// `E:\textures\wood.jpg`); then each of the last two with its letter case ignored (a Windows
+/// export on a case-sensitive file system: `Wood.JPG` for `wood.jpg`). `None` where none exists.
 pub(crate) fn find_beside(dir: &Path, name: &str) -> Option<PathBuf> {
+    let name = name
+        .strip_prefix('"')
+        .and_then(|n| n.strip_suffix('"'))
+        .unwrap_or(name);
     let written = dir.join(name);
     if written.is_file() {
         return Some(written);
@@ -110,7 +117,34 @@ pub(crate) fn find_beside(dir: &Path, name: &str) -> Option<PathBuf> {
     }
     let file = slashed.rsplit('/').next().filter(|f| !f.is_empty())?;
     let alone = dir.join(file);
-    alone.is_file().then_some(alone)
+    if alone.is_file() {
+        return Some(alone);
+    }
+    any_case(dir, &slashed).or_else(|| any_case(dir, file))
+}
+
+/// The file at `relative` (`/`-separated) below `dir`, each name that is missing as written
+/// matched with its letter case ignored (the first in sorted order where several differ only
+/// in case); `None` where there is none.
+fn any_case(dir: &Path, relative: &str) -> Option<PathBuf> {
+    let mut at = dir.to_path_buf();
+    for name in relative.split('/').filter(|n| !n.is_empty() && *n != ".") {
+        let exact = at.join(name);
+        if name == ".." || exact.exists() {
+            at = exact;
+            continue;
+        }
+        let wanted = name.to_lowercase();
+        let mut matches: Vec<PathBuf> = std::fs::read_dir(&at)
+            .ok()?
+            .filter_map(|e| e.ok())
+            .filter(|e| e.file_name().to_string_lossy().to_lowercase() == wanted)
+            .map(|e| e.path())
+            .collect();
+        matches.sort();
+        at = matches.into_iter().next()?;
+    }
+    at.is_file().then_some(at)
 }
 
 /// Parses the normalised OBJ with `tobj`. `mtl_texts[k]` is the normalised text of library `k`

@@ -335,8 +335,15 @@ pub(super) fn load_materials(
     }
 }
 
+/// Decodes a texture, its format told by its first bytes (exporters and downloads name JPEG
+/// files `.png` and the like), else by its extension.
 fn load_texture(path: &Path) -> Result<Texture, String> {
-    let img = image::open(path).map_err(|e| e.to_string())?.to_rgba8();
+    let img = image::ImageReader::open(path)
+        .and_then(|r| r.with_guessed_format())
+        .map_err(|e| e.to_string())?
+        .decode()
+        .map_err(|e| e.to_string())?
+        .to_rgba8();
     Ok(Texture {
         name: path
             .file_stem()
