@@ -47,6 +47,10 @@ pub enum WarningKind {
     NoMeshes,
     /// OBJ or MTL text (outside comments) that is not UTF-8, read as Latin-1.
     Latin1Text,
+    /// OBJ vertex colours (`v x y z r g b`), which are ignored.
+    VertexColours,
+    /// A part without texture coordinates whose material has a texture.
+    TextureWithoutTexcoords,
 }
 
 /// One (merged) warning.

@@ -235,3 +235,34 @@ fn textures_are_decoded_by_their_content() {
     assert!(report.warnings[0].to_string().contains("tex.png"));
     assert_eq!(first_texel(&scene), None);
 }
+
+#[test]
+fn vertex_colours_and_untextured_parts_are_named_in_warnings() {
+    // MeshLab and Open3D write vertex colours; the renderer has none, so the warning counts
+    // them and names their lines.
+    let obj = "v 0 0 -1 1 0 0\nv 1 0 -1 0 1 0\nv 0 1 -1 0 0 1\nv 1 1 -1\nf 1 2 3\nf 2 4 3\n";
+    let (scene, report) = load_ok(&[("mesh.obj", obj.as_bytes())]);
+    assert_eq!(triangles(&scene), 2);
+    assert_eq!(report.count(WarningKind::VertexColours), 3);
+    assert_eq!(report.warnings[0].lines, [1, 2, 3]);
+    // A textured material on faces without `vt` (Blender's export with UVs off).
+    let red = png([255, 0, 0]);
+    let untextured = "mtllib lib.mtl\nv 0 0 -1\nv 1 0 -1\nv 0 1 -1\nusemtl tex\nf 1 2 3\n";
+    let mtl = b"newmtl tex\nmap_Kd tex.png\n";
+    let files = |obj: &'static str| {
+        [
+            ("mesh.obj", obj.as_bytes()),
+            ("lib.mtl", mtl),
+            ("tex.png", &red),
+        ]
+    };
+    let (_, report) = load_ok(&files(untextured));
+    assert_eq!(report.count(WarningKind::TextureWithoutTexcoords), 1);
+    let w = report.warnings[0].to_string();
+    assert!(w.contains("material 'tex'") && w.contains("line 5"), "{w}");
+    // Negatives: a `v x y z w` and faces with texture coordinates warn about nothing.
+    let (_, report) = load_ok(&[("mesh.obj", b"v 0 0 -1 1\nv 1 0 -1 1\nv 0 1 -1 1\nf 1 2 3\n")]);
+    assert!(report.warnings.is_empty(), "{:?}", report.warnings);
+    let (_, report) = load_ok(&files(QUAD_OBJ));
+    assert!(report.warnings.is_empty(), "{:?}", report.warnings);
+}

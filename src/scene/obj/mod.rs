@@ -20,15 +20,19 @@
 //!   line and column, and so is a NaN or infinity as Microsoft's C runtime printed them
 //!   (`1.#QNAN0`, `-1.#IND00`), which would otherwise read as a number and a comment.
 //! - `v`, `vt`, `vn`, `f`, `o`, `g`, `usemtl`, `mtllib`; other statements (`s`, curves, ...)
-//!   are ignored. Extra values after `v x y z` (a `w`, vertex colours) are ignored, a `vt` with
-//!   one value gets v = 0. `l` and `p` elements and faces with fewer than 3 vertices are
-//!   skipped with a warning that counts them and names their lines.
+//!   are ignored. Extra values after `v x y z` are ignored: a `w`, and vertex colours
+//!   (`v x y z r g b`, which MeshLab, Open3D, trimesh and Blender write) with a warning that
+//!   counts them (the renderer has no per-vertex colour; the material colours the faces). A
+//!   `vt` with one value gets v = 0. `l` and `p` elements and faces with fewer than 3
+//!   vertices are skipped with a warning that counts them and names their lines.
 //! - Polygons: convex ones are fanned from their first vertex (the triangles `tobj`'s own
 //!   `triangulate` makes); others are ear-clipped (`earcut`) in the plane of their Newell
 //!   normal; a polygon whose triangles do not cover exactly its area (self-intersecting) is
 //!   fanned from its first corner, as `tobj` and Blender do, with a warning naming the line.
 //!   Corners on the line of their neighbours are left out first (CAD and Blender n-gons hold
 //!   them; ear clipping them made triangles of aspect up to 1e16).
+//! - A part without texture coordinates whose material has a texture is coloured by the texel
+//!   at uv (0, 0), with a warning naming it and its `usemtl` line.
 //! - Texture coordinates and normals per face corner: a face without `vt` in a part whose other
 //!   faces have them gets uv (0, 0) at its corners (with a warning), a corner without `vn` gets
 //!   the computed normal. (`tobj` drops a part's texture coordinates or normals when some
@@ -40,16 +44,17 @@
 //!   file does.)
 //! - MTL: `newmtl`, `Kd` (1 value = grey, or 3), `map_Kd` (options such as `-s` are skipped
 //!   with a warning; any format the `image` crate reads, told by the file's first bytes, else
-//!   its extension: PNG, JPEG, BMP, TGA, GIF, TIFF, WebP, PNM, DDS) and `Ns` (the Phong specular power; a reflector uses it only where its scene file says
+//!   its extension: PNG, JPEG, BMP, TGA, GIF, TIFF, WebP, PNM, DDS) and `Ns` (the Phong
+//!   specular power; a reflector uses it only where its scene file says
 //!   `specular_power = "mtl"`: a value below 0, as Blender 2.79 writes, is taken as 0, and one
 //!   that is not a number is ignored, each with a warning); other statements are ignored.
 //!   Errors name the MTL file and line.
 //! - Files named by `mtllib` and `map_Kd` are looked for as written (in double quotes or
 //!   not), then with Windows separators read as `/`, then by their file name alone beside the
 //!   naming file (an exporter's absolute `E:\...` path), then these two with letter case
-//!   ignored ([`find_beside`]: a Windows export's `Wood.JPG` for `wood.jpg`). One that is still missing, or a
-//!   texture that cannot be decoded, is a warning naming the file and line: the material keeps
-//!   its `Kd` (a missing library's materials are grey).
+//!   ignored ([`find_beside`]: a Windows export's `Wood.JPG` for `wood.jpg`). One that is
+//!   still missing, or a texture that cannot be decoded, is a warning naming the file and
+//!   line: the material keeps its `Kd` (a missing library's materials are grey).
 //!
 //! Every error names the file and the line: numbers that do not parse or are not finite (NaN,
 //! inf), a vertex coordinate beyond 2^60 ([`MAX_COORDINATE`]: scale a mesh in its transform
@@ -269,6 +274,19 @@ pub(crate) fn load_obj_file(path: &Path, report: &mut LoadReport) -> Result<Load
         };
         let (p, d) = finish_part(info, raw, material, path, report);
         dropped += d;
+        let m = &out.materials[material as usize];
+        if m.texture.is_some() && !info.any_vt && !p.triangles.is_empty() {
+            report.warn(
+                WarningKind::TextureWithoutTexcoords,
+                path,
+                info.material.as_ref().map(|(_, line)| *line),
+                format!(
+                    "part '{}' has no texture coordinates (vt) for the texture of material \
+                     '{}': its texel at uv (0, 0) colours the whole part",
+                    p.name, m.name
+                ),
+            );
+        }
         if !p.triangles.is_empty() {
             out.parts.push(p);
         }

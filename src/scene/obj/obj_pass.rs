@@ -91,6 +91,14 @@ pub(super) fn validate_obj<'a>(
             "v" => {
                 let v = numbers(args, 3, "vertex position (v)", path, line)?;
                 within_coordinate_bound(&v[..3], path, line)?;
+                if v.len() >= 6 {
+                    report.warn(
+                        WarningKind::VertexColours,
+                        path,
+                        Some(line),
+                        "vertex colours (v x y z r g b) ignored: the material colours the faces",
+                    );
+                }
                 obj.statements.push(Statement::Position([v[0], v[1], v[2]]));
                 counts[0] += 1;
             }
