@@ -320,6 +320,56 @@ pub fn compare(
     r
 }
 
+/// Compares `colour` (with its mirror `mask` and, per pixel, whether its tracer `resolved` it;
+/// `None`: every pixel) with `truth`, the converged frame of a scene with a glossy reflector.
+/// There a reflected ray's hit is one sample of the lobe, so hits are not compared: the figures
+/// are those of the colours and the masks, over the mirror pixels of either frame as
+/// [`compare`] counts them (mask mismatch, unresolved, PSNR over them and over the frame), and
+/// every hit figure (wrong surface, the overall error share, angles, PSNR over resolved pixels,
+/// same triangle) is NaN: not measured.
+pub fn compare_colour(
+    truth: &Frame,
+    colour: &[Vec3],
+    mask: &[u8],
+    resolved: Option<&[u8]>,
+) -> ErrorReport {
+    let mut r = ErrorReport {
+        error: f64::NAN,
+        wrong_surface: f64::NAN,
+        angular_mean_deg: f64::NAN,
+        angular_p95_deg: f64::NAN,
+        psnr_resolved_db: f64::NAN,
+        same_triangle: f64::NAN,
+        ..ErrorReport::default()
+    };
+    let (mut unresolved, mut se, mut se_frame) = (0usize, 0f64, 0f64);
+    for k in 0..truth.colour.len() {
+        let d = (truth.colour[k].clamp(Vec3::ZERO, Vec3::ONE)
+            - colour[k].clamp(Vec3::ZERO, Vec3::ONE))
+        .as_dvec3()
+        .length_squared();
+        se_frame += d;
+        let (t, g) = (truth.mask[k] != 0, mask[k] != 0);
+        if !t && !g {
+            continue;
+        }
+        r.mirror_pixels += 1;
+        se += d;
+        match (t, g) {
+            (true, false) => r.mask_missed += 1,
+            (false, true) => r.mask_extra += 1,
+            _ => unresolved += usize::from(resolved.is_some_and(|v| v[k] == 0)),
+        }
+    }
+    r.mask_mismatch = r.mask_missed + r.mask_extra;
+    let n = r.mirror_pixels.max(1) as f64;
+    r.mask_mismatch_fraction = r.mask_mismatch as f64 / n;
+    r.unresolved = unresolved as f64 / n;
+    r.psnr_db = psnr(se, r.mirror_pixels);
+    r.psnr_frame_db = psnr(se_frame, truth.colour.len());
+    r
+}
+
 /// Wrong surfaces off the reflectors (the verified-hit target's measure): of the reference's
 /// mirror pixels whose reflected ray hits a non-reflector object, the share that `pixels` (the
 /// verdicts of [`classify`]) calls [`PixelClass::WrongSurface`]. A reflector seeing itself is
@@ -442,6 +492,42 @@ mod tests {
         assert!(r.psnr_frame_db.is_infinite());
         assert_eq!((r.mask_mismatch, r.error), (0, 0.0));
         assert_eq!(r, ErrorReport::exact(3));
+    }
+
+    /// A glossy scene's comparison by colour: identical frames are perfect and leave every hit
+    /// figure unmeasured (NaN), even with hits that disagree. Negatives: a changed colour, a
+    /// mirror pixel of one frame only and an unresolved pixel each show.
+    #[test]
+    fn colour_comparison_leaves_hits_out() {
+        let (f, t, _) = pair();
+        let r = compare_colour(&f, &t.colour, &t.mask, Some(&t.resolved));
+        assert_eq!(
+            (r.mirror_pixels, r.mask_mismatch, r.unresolved),
+            (3, 0, 0.0)
+        );
+        assert!(r.psnr_db.is_infinite() && r.psnr_frame_db.is_infinite());
+        for hit in [
+            r.wrong_surface,
+            r.error,
+            r.angular_mean_deg,
+            r.same_triangle,
+        ] {
+            assert!(hit.is_nan());
+        }
+        let mut colour = t.colour.clone();
+        colour[1] = Vec3::splat(0.6);
+        let changed = compare_colour(&f, &colour, &t.mask, None);
+        assert!(changed.psnr_db.is_finite() && changed.psnr_db > 20.0);
+        let mut mask = t.mask.clone();
+        mask[3] = 1;
+        let extra = compare_colour(&f, &t.colour, &mask, None);
+        assert_eq!((extra.mirror_pixels, extra.mask_extra), (4, 1));
+        let mut resolved = t.resolved.clone();
+        resolved[2] = 0;
+        let open = compare_colour(&f, &t.colour, &t.mask, Some(&resolved));
+        assert_eq!(open.unresolved, 1.0 / 3.0);
+        // Without the tracer's verdicts every pixel counts as resolved.
+        assert_eq!(compare_colour(&f, &t.colour, &t.mask, None).unresolved, 0.0);
     }
 
     /// Wrong surfaces count only where the reference shows a non-reflector object: a wrong hit

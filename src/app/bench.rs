@@ -97,6 +97,15 @@ pub struct BenchArgs {
     /// fragment, compute: skip the reflector check (to show what it changes and costs).
     #[arg(long)]
     pub no_reflector_check: bool,
+    /// Scenes with a glossy reflector: samples per pixel of the converged reference (the CPU
+    /// reference's Monte Carlo integral of the lobe) that their frames are measured against,
+    /// as `render --compare` does. A reflected ray's hit is one sample of the lobe there, so
+    /// their rows give the colour's figures (PSNR, mask mismatch, unresolved) and `-` for every
+    /// hit figure (wrong surface, angles, same triangle), and the summary pools those over the
+    /// other scenes.
+    #[arg(long, default_value_t = bench::COMPARE_SPP,
+          value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub compare_spp: u32,
     /// Cost curves instead of the grid: against cube size, screen size, CMO count and triangle
     /// count (fragment, exact criterion with the pyramid); then the reflection-point method's
     /// error against the reference as the other objects are subdivided (the tessellation curve).
@@ -485,6 +494,7 @@ pub fn grid_config(args: &BenchArgs, methods: &[Method]) -> bench::BenchConfig {
         floor: (!args.no_floor).then_some(bench::FLOOR_FRAME),
         bounces: args.bounces,
         reflector_check: !args.no_reflector_check,
+        compare_spp: args.compare_spp,
         out: args.out.clone(),
     }
 }

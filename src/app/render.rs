@@ -568,6 +568,7 @@ pub(super) fn compare_with_reference(
             &tracer,
             camera,
             args.compare_spp,
+            args.bounces,
             rendered,
         )];
     }
@@ -610,8 +611,8 @@ pub(super) fn compare_with_reference(
 }
 
 /// The `--compare` line of a glossy scene. A reflected ray's hit is one sample of the lobe, so
-/// hits cannot be compared; the colour can, against the lobe's integral: the reference at
-/// `spp` samples at the film's offsets ([`engine::glossy::reference_frame`], bit for bit
+/// hits cannot be compared; the colour can, against the lobe's integral: the reference of the
+/// frame's `bounces` at `spp` samples at the film's offsets ([`engine::glossy::reference_frame`], bit for bit
 /// `cubetrace reference --spp N`), whose own accuracy is the PSNR of its even-numbered samples
 /// against all of them (an unbiased estimate's error falls as 1/sqrt(spp), so the full frame is
 /// about 3 dB closer to the truth than that). PSNR over the reference's mirror pixels.
@@ -620,9 +621,11 @@ fn glossy_comparison(
     tracer: &reference::Tracer,
     camera: &Camera,
     spp: u32,
+    bounces: u32,
     rendered: &RenderedFrame,
 ) -> String {
-    let (truth, half) = engine::glossy::reference_frame(scene, tracer, camera, spp, true);
+    let (truth, half) =
+        engine::glossy::reference_frame_bounces(scene, tracer, camera, bounces, spp, true);
     let psnr = metrics::psnr_over(rendered.colour(), &truth.colour, &truth.mask);
     let half_psnr = metrics::psnr_over(&half, &truth.colour, &truth.mask);
     format!(

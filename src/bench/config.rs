@@ -44,6 +44,10 @@ pub struct BenchConfig {
     pub bounces: u32,
     /// [`RenderOptions::reflector_check`] for the GPU runs (`--no-reflector-check`: off).
     pub reflector_check: bool,
+    /// Scenes with a glossy reflector: samples per pixel of the converged reference their
+    /// frames are measured against (`--compare-spp`). A reflected ray's hit is there one sample
+    /// of the lobe, so hits are not compared ([`crate::metrics::compare_colour`]).
+    pub compare_spp: u32,
     pub out: PathBuf,
 }
 
@@ -69,10 +73,14 @@ impl Default for BenchConfig {
             floor: Some(FLOOR_FRAME),
             bounces: RenderOptions::default().bounces,
             reflector_check: RenderOptions::default().reflector_check,
+            compare_spp: COMPARE_SPP,
             out: PathBuf::from("out/bench"),
         }
     }
 }
+
+/// The default [`BenchConfig::compare_spp`], as `render --compare-spp`.
+pub const COMPARE_SPP: u32 = 256;
 
 /// The small frame of the floor measurement ([`BenchConfig::floor`]).
 pub const FLOOR_FRAME: (u32, u32) = (16, 12);

@@ -48,7 +48,7 @@ mod stats;
 
 /// The validation check after the runs is the renderer's ([`crate::render::checks`]).
 pub use crate::render::checks::check_validation;
-pub use config::{BenchConfig, BenchPlacement, FLOOR_FRAME};
+pub use config::{BenchConfig, BenchPlacement, COMPARE_SPP, FLOOR_FRAME};
 pub use machine::{DeviceInfo, driver_threads, git_commit};
 pub use prepare::{check_memory, prepare_scene, prepare_scene_placed};
 pub use ratios::SceneRatios;

@@ -104,7 +104,8 @@ pub fn summarise(runs: &[RunResult]) -> Vec<Summary> {
                 texels: weighted(&|r| r.counters.texels),
                 mask_mismatch: weighted(&|r| r.error.mask_mismatch_fraction),
                 unresolved: weighted(&|r| r.error.unresolved),
-                wrong_surface: weighted(&|r| r.error.wrong_surface),
+                // Not measured on a glossy scene (NaN): pooled over the others.
+                wrong_surface: weighted_known(&|r| r.error.wrong_surface),
                 angular_mean_deg: weighted_known(&|r| r.error.angular_mean_deg),
                 angular_p95_deg: rs
                     .iter()
@@ -189,7 +190,7 @@ pub fn summary_table(report: &BenchReport) -> String {
             num(m.texels, 1),
             pct(m.mask_mismatch),
             pct(m.unresolved),
-            pct(m.wrong_surface),
+            pct_known(m.wrong_surface),
             num(m.angular_mean_deg, 3),
             num(m.angular_p95_deg, 3),
             num(m.psnr_db, 2),
@@ -237,7 +238,7 @@ pub fn runs_table(report: &BenchReport) -> String {
             r.error.mask_missed,
             r.error.mask_extra,
             pct(r.error.unresolved),
-            pct(r.error.wrong_surface),
+            pct_known(r.error.wrong_surface),
             pct_known(r.wrong_off_reflector),
             num(r.error.angular_mean_deg, 3),
             num(r.error.angular_p95_deg, 3),
@@ -333,6 +334,8 @@ pub fn speed_error_svg(report: &BenchReport) -> Result<String> {
             cost: m.trace_ns_per_mirror_px,
             error: 100.0 * (m.mask_mismatch + m.unresolved + m.wrong_surface),
         })
+        // A method run on glossy scenes only has no hit figures to place it by.
+        .filter(|p| !p.error.is_nan())
         .collect();
     plot::scatter(
         &format!("speed against error on {}", report.device.name),
@@ -353,6 +356,8 @@ pub fn speed_error_scenes_svg(report: &BenchReport) -> Result<String> {
         .runs
         .iter()
         .filter(|r| r.kind != Method::TRUTH && r.method == super::MethodSpec::plain(r.kind).label())
+        // A glossy scene's rows have no hit figures (`metrics::compare_colour`).
+        .filter(|r| !r.error.error.is_nan())
         .map(|r| Point {
             label: format!("{}: {}", r.method, r.scene),
             cost: r.trace_ns_per_mirror_px,
@@ -503,7 +508,9 @@ pub fn markdown(report: &BenchReport) -> String {
          every GPU method renders with the render default `--fallback trace`: the mirror pixels it leaves unresolved are finished exactly by the BVH \
          (fallback %: their share; fallback ns: that pass's cost, apart from the tracing pass; frame ns: all passes, capture and fallback included). \
          Error: against the exact CPU reference, over the mirror pixels of either frame (mask mismatch: a mirror pixel of one frame only; \
-         PSNR frame: the whole image).\n\n## Cost per ray\n\n{}\nns/ray: the tracing pass's median time over the rays it traced (GPU: the method's mirror pixels; \
+         PSNR frame: the whole image). A scene with a glossy reflector is measured by colour against a converged reference \
+         (`--compare-spp` samples at the pixel centre): a reflected ray's hit is one sample of the lobe there, so its hit figures \
+         (wrong surface, angles, PSNR resolved, same triangle) are `-` and the summary pools them over the other scenes.\n\n## Cost per ray\n\n{}\nns/ray: the tracing pass's median time over the rays it traced (GPU: the method's mirror pixels; \
          reference: the CPU wall time of its reflected-ray phase over its first reflected rays, shading at the hit included). \
          Default settings: `fragment` is fragment-exact-mip.\n\n## Runs\n\n{}\n## GPU time per pass\n\n{}\n\
          Heat maps (`heat/SCENE-METHOD.png`): grey = not a mirror pixel; black to red = angular error of the hit point, \

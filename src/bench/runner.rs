@@ -17,7 +17,7 @@ use super::spec::MethodSpec;
 use super::stats::{Counters, Stats, frame_stats, optional_pass, pass_stats};
 use crate::camera::Camera;
 use crate::memory;
-use crate::metrics::{self, ErrorReport, PixelError};
+use crate::metrics::{self, ErrorReport, PixelError, Traced};
 use crate::reference::Frame;
 use crate::render::checks::check_validation;
 use crate::scene::Scene;
@@ -100,8 +100,14 @@ pub fn run(
         bar.set_message(format!("{name}: reference"));
         // The reference is needed for every error figure, even when it is not a listed method.
         let refr = run_reference_bounces(&scene, &camera, cfg.warmup, cfg.frames, cfg.bounces);
+        let truth = converged_truth(&scene, &camera, cfg.bounces, cfg.compare_spp, || {
+            bar.set_message(format!(
+                "{name}: converged reference ({} spp)",
+                cfg.compare_spp
+            ))
+        });
         bar.inc(1);
-        let sc = SceneRuns::new(name, source, &scene, &camera, refr);
+        let sc = SceneRuns::new(name, source, &scene, &camera, refr, truth);
         for spec in &cfg.methods {
             if !spec.kind.is_gpu() {
                 runs.push(sc.reference_result(cfg, spec));
@@ -154,6 +160,34 @@ fn planned_steps(cfg: &BenchConfig) -> u64 {
     (cfg.scenes.len() * placements * (1 + gpu_methods + floor_runs)) as u64
 }
 
+/// The converged frame that a scene with a glossy reflector is measured against
+/// ([`crate::render::glossy::reference_frame_bounces`] of `bounces` at `spp` samples, all at the pixel centre as the
+/// grid's frames are: the lobe's integral there); `None` for a scene of mirrors, whose frames
+/// are compared hit by hit with the reference's.
+fn converged_truth(
+    scene: &Scene,
+    camera: &Camera,
+    bounces: u32,
+    spp: u32,
+    announce: impl FnOnce(),
+) -> Option<Frame> {
+    if scene.glossy_reflectors().is_empty() {
+        return None;
+    }
+    announce();
+    let tracer = crate::reference::Tracer::new(scene);
+    let glossy = crate::render::glossy::reference_frame_bounces;
+    Some(glossy(scene, &tracer, camera, bounces, spp, false).0)
+}
+
+/// A GPU run's error figures ([`SceneRuns::measure`]).
+struct Measured {
+    error: ErrorReport,
+    wrong_off_reflector: f64,
+    flip_mean: Option<f64>,
+    heatmap: Option<String>,
+}
+
 /// One scene's runs: the scene, its reference frame and the figures every run of it repeats.
 struct SceneRuns<'a> {
     /// The name the scene was given by (`--scenes`), for messages.
@@ -163,6 +197,9 @@ struct SceneRuns<'a> {
     scene: &'a Scene,
     camera: &'a Camera,
     refr: ReferenceRun,
+    /// A scene with a glossy reflector: the converged frame every run is measured against,
+    /// by colour ([`converged_truth`]).
+    truth: Option<Frame>,
     centres: Vec<glam::Vec3>,
     /// Per object of the scene's world: whether it is a reflector.
     reflector: Vec<bool>,
@@ -178,6 +215,7 @@ impl<'a> SceneRuns<'a> {
         scene: &'a Scene,
         camera: &'a Camera,
         refr: ReferenceRun,
+        truth: Option<Frame>,
     ) -> Self {
         let world = scene.world();
         SceneRuns {
@@ -190,6 +228,7 @@ impl<'a> SceneRuns<'a> {
             triangles: world.triangles.len(),
             mirror: refr.frame.mirror_pixels(),
             refr,
+            truth,
         }
     }
 
@@ -221,9 +260,14 @@ impl<'a> SceneRuns<'a> {
         }
     }
 
-    /// The reference's row: its wall times, exact by definition.
+    /// The reference's row: its wall times, exact by definition (on a glossy scene its frame
+    /// of one lobe sample per pixel, measured against the converged one).
     fn reference_result(&self, cfg: &BenchConfig, spec: &MethodSpec) -> RunResult {
         let refr = &self.refr;
+        let error = match &self.truth {
+            Some(t) => metrics::compare_colour(t, &refr.frame.colour, &refr.frame.mask, None),
+            None => ErrorReport::exact(self.mirror),
+        };
         let wall = Stats::of(&refr.wall_ns).unwrap_or_default();
         let reflected = Stats::of(&refr.reflected_ns).unwrap_or_default();
         RunResult {
@@ -232,7 +276,7 @@ impl<'a> SceneRuns<'a> {
             total_ns: wall,
             trace_ns_per_mirror_px: reflected.median / self.mirror.max(1) as f64,
             ns_per_ray: reflected.median / refr.reflected_rays.max(1) as f64,
-            error: ErrorReport::exact(self.mirror),
+            error,
             ..self.base(cfg, spec)
         }
     }
@@ -262,26 +306,12 @@ impl<'a> SceneRuns<'a> {
         let g = run_gpu_with(ctx, scene, self.camera, options, cfg.warmup, cfg.frames)
             .with_context(|| format!("scene '{name}', method {label}"))?;
         let traced = g.frame.traced();
-        let refr = &self.refr.frame;
-        let (position, resolution) = (&g.frame.surface_position, scene.cmo.resolution);
-        let pixels = metrics::classify(refr, &traced, position, &self.centres, resolution);
-        let error = metrics::compare(refr, &traced, position, &self.centres, resolution);
+        let at = (&g.frame.surface_position[..], scene.cmo.resolution);
+        let m = self.measure(cfg, &scene.name, &label, &traced, at, heat_paths)?;
         let passes = pass_stats(&g.pass_ns);
         let trace_ns = frame_stats(&g.pass_ns, Some(pass_name(spec.kind)));
         let floor = self.floor_run(ctx, cfg, bar, scene, spec, trace_ns)?;
         let rays = g.frame.mirror_pixels();
-        let heatmap = if cfg.heatmaps {
-            Some(write_heatmap(
-                cfg,
-                &scene.name,
-                &label,
-                refr,
-                &pixels,
-                heat_paths,
-            )?)
-        } else {
-            None
-        };
         Ok(RunResult {
             fallback_ns: optional_pass(&g.pass_ns, &passes, crate::vk::frame::FALLBACK_PASS),
             check_ns: optional_pass(&g.pass_ns, &passes, crate::vk::frame::REFLECTOR_CHECK_PASS),
@@ -296,21 +326,61 @@ impl<'a> SceneRuns<'a> {
             floor,
             counters: Counters::of(&g.frame),
             cmo_bytes: g.cmo_bytes,
-            error,
+            error: m.error,
+            wrong_off_reflector: m.wrong_off_reflector,
+            flip_mean: m.flip_mean,
+            heatmap: m.heatmap,
+            rounds: g.frame.rounds.clone(),
+            triangles: scene.world().triangles.len(),
+            ..self.base(cfg, spec)
+        })
+    }
+
+    /// The error figures of a GPU run's frame `traced` (`at`: its primary mirror hits and the
+    /// cube size, for the texel footprint): hit by hit against the reference, with the heat
+    /// map; on a glossy scene by colour against the converged frame, without a heat map (its
+    /// pixel verdicts are hits') and with NaN for the wrong surfaces off the reflectors.
+    fn measure(
+        &self,
+        cfg: &BenchConfig,
+        scene: &str,
+        label: &str,
+        traced: &Traced,
+        at: (&[glam::Vec3], u32),
+        heat_paths: &mut Vec<String>,
+    ) -> Result<Measured> {
+        let (position, resolution) = at;
+        let against = self.truth.as_ref().unwrap_or(&self.refr.frame);
+        let flip_mean = if cfg.flip {
+            flip_mean(against, traced)
+        } else {
+            None
+        };
+        if let Some(truth) = &self.truth {
+            let resolved = Some(&traced.resolved[..]);
+            return Ok(Measured {
+                error: metrics::compare_colour(truth, &traced.colour, &traced.mask, resolved),
+                wrong_off_reflector: f64::NAN,
+                flip_mean,
+                heatmap: None,
+            });
+        }
+        let refr = &self.refr.frame;
+        let pixels = metrics::classify(refr, traced, position, &self.centres, resolution);
+        let heatmap = if cfg.heatmaps {
+            Some(write_heatmap(cfg, scene, label, refr, &pixels, heat_paths)?)
+        } else {
+            None
+        };
+        Ok(Measured {
+            error: metrics::compare(refr, traced, position, &self.centres, resolution),
             wrong_off_reflector: metrics::wrong_surface_off_reflector(
                 refr,
                 &self.reflector,
                 &pixels,
             ),
-            flip_mean: if cfg.flip {
-                flip_mean(refr, &traced)
-            } else {
-                None
-            },
+            flip_mean,
             heatmap,
-            rounds: g.frame.rounds.clone(),
-            triangles: scene.world().triangles.len(),
-            ..self.base(cfg, spec)
         })
     }
 

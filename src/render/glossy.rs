@@ -71,6 +71,20 @@ pub fn reference_frame(
     spp: u32,
     film: bool,
 ) -> (reference::Frame, Vec<Vec3>) {
+    reference_frame_bounces(scene, tracer, camera, 1, spp, film)
+}
+
+/// [`reference_frame`] of paths of up to `bounces` reflections, every one of them sampled from
+/// its lobe (`render --method reference --bounces N --spp M`): what a frame of `--bounces N`
+/// is measured against.
+pub fn reference_frame_bounces(
+    scene: &Scene,
+    tracer: &Tracer,
+    camera: &Camera,
+    bounces: u32,
+    spp: u32,
+    film: bool,
+) -> (reference::Frame, Vec<Vec3>) {
     let offsets = offsets(spp, film);
     let aov = aov_sample(&offsets);
     let (w, h) = (camera.width, camera.height);
@@ -89,7 +103,7 @@ pub fn reference_frame(
         }
     };
     samples::reference_samples(
-        scene, tracer, camera, 1, spp, &offsets, &bar, &mut all, each,
+        scene, tracer, camera, bounces, spp, &offsets, &bar, &mut all, each,
     );
     let mut frame = kept.unwrap_or_else(|| reference::Frame::new(w, h));
     frame.colour = all.resolve();

@@ -471,3 +471,107 @@ fn bad_glossy_values_are_refused_naming_the_flag() {
     assert_eq!(parse(&["0", " 1023 "]).unwrap(), vec![0.0, 1023.0]);
     assert!(parse(&["-0.5"]).is_err());
 }
+
+/// The converged reference of `--bounces N` (what `render --compare` and the grid measure a
+/// glossy frame of N bounces against) samples every reflection: bit for bit `render --method
+/// reference --bounces 2 --spp 8` on the glossy teapot, which sees itself. Negative: the
+/// one-bounce reference is another frame there.
+#[test]
+fn the_converged_reference_follows_the_bounces() {
+    let (s, cam) = glossy_scene("teapot", 64.0);
+    let t = Tracer::new(&s);
+    let film = FilmSettings {
+        spp: 8,
+        filter: PixelFilter::Box,
+    };
+    let two = cubetrace::render::glossy::reference_frame_bounces(&s, &t, &cam, 2, 8, true).0;
+    let theirs = samples::reference_frame(&s, &t, &cam, 2, film, false).0;
+    assert!(bits(&two.colour) == bits(&theirs.colour));
+    let one = reference_frame(&s, &t, &cam, 8, true).0;
+    assert!(
+        bits(&one.colour) != bits(&two.colour),
+        "negative: one bounce"
+    );
+}
+
+/// The grid (`bench`, not `--glossy`) measures a scene with a glossy reflector by colour against
+/// a converged reference: its rows have no hit figures (NaN, `-` in `bench.md`, no heat map),
+/// their mirror pixels are the converged frame's (computed here), and cone-traced `compute`
+/// scores above `bvh`'s single lobe sample. A mirror scene beside it keeps its hit figures, and
+/// the summary pools those over it alone. Negative: against the one-sample reference (the
+/// grid's comparison before), `bvh` would match the reference's own sample and score far above
+/// `compute`, so the order of the two PSNRs fails.
+#[test]
+fn the_grid_measures_a_glossy_scene_against_a_converged_reference() {
+    let ctx = gpu_context();
+    let out = tempfile::tempdir().expect("temp dir");
+    let cfg = cubetrace::bench::BenchConfig {
+        scenes: vec!["sphere-room-glossy".into(), "sphere-room".into()],
+        methods: [Method::Compute, Method::EXACT_GPU]
+            .map(MethodSpec::plain)
+            .to_vec(),
+        width: WIDTH,
+        height: HEIGHT,
+        frames: 1,
+        warmup: 0,
+        cube_size: Some(32),
+        flip: false,
+        floor: None,
+        compare_spp: 64,
+        out: out.path().to_path_buf(),
+        ..cubetrace::bench::BenchConfig::default()
+    };
+    let bar = indicatif::ProgressBar::hidden();
+    let report = cubetrace::bench::run(&ctx, &cfg, &bar).unwrap_or_else(|e| panic!("{e:#}"));
+    let row = |scene: &str, method: &str| {
+        (report.runs.iter())
+            .find(|r| r.scene == scene && r.method == method)
+            .unwrap_or_else(|| panic!("no row {scene} {method}"))
+    };
+    let (scene, cam) = glossy_scene("sphere-room-glossy", 64.0);
+    let truth = reference_frame(&scene, &Tracer::new(&scene), &cam, 8, false).0;
+    for method in ["compute", "bvh"] {
+        let r = row("sphere-room-glossy", method);
+        let e = &r.error;
+        for hit in [
+            e.wrong_surface,
+            e.angular_mean_deg,
+            e.same_triangle,
+            r.wrong_off_reflector,
+        ] {
+            assert!(hit.is_nan(), "{method}: a hit figure on a glossy scene");
+        }
+        assert_eq!(e.mirror_pixels, truth.mirror_pixels(), "{method}");
+        assert_eq!(e.mask_mismatch, 0, "{method}");
+        assert!(e.psnr_db.is_finite(), "{method}");
+        assert!(r.heatmap.is_none(), "{method}: a heat map of hit verdicts");
+        let m = row("sphere-room", method);
+        assert!(m.error.wrong_surface.is_finite() && m.heatmap.is_some());
+    }
+    let (cone, sample) = (
+        row("sphere-room-glossy", "compute").error.psnr_db,
+        row("sphere-room-glossy", "bvh").error.psnr_db,
+    );
+    assert!(
+        cone > sample + 3.0,
+        "compute {cone:.2} dB, bvh {sample:.2} dB"
+    );
+    let summary = cubetrace::bench::report::summarise(&report.runs);
+    let pooled = summary.iter().find(|s| s.method == "compute").unwrap();
+    assert_eq!(
+        pooled.wrong_surface,
+        row("sphere-room", "compute").error.wrong_surface
+    );
+    let md = cubetrace::bench::report::markdown(&report);
+    let line = (md.lines())
+        .find(|l| l.starts_with("| sphere-room-glossy | compute |"))
+        .expect("the glossy compute row");
+    let header = (md.lines())
+        .find(|l| l.starts_with("| scene | method | mirror px |"))
+        .unwrap();
+    let wrong = (header.split('|').map(str::trim))
+        .position(|c| c == "wrong %")
+        .unwrap();
+    assert_eq!(line.split('|').map(str::trim).nth(wrong), Some("-"));
+    finish_gpu(ctx);
+}
