@@ -266,3 +266,23 @@ fn vertex_colours_and_untextured_parts_are_named_in_warnings() {
     let (_, report) = load_ok(&files(QUAD_OBJ));
     assert!(report.warnings.is_empty(), "{:?}", report.warnings);
 }
+
+#[test]
+fn continued_lines_join_and_later_lines_keep_their_numbers() {
+    // The OBJ format's `\` continues a statement on the next line.
+    let obj = b"v 0 0 -1\nv 1 0 \\\n -1\nv 1 1 -1\r\nv 0 1 -1\nf 1 2 \\\n\t3 \\  \n 4\nf 1 2 x\n";
+    let e = load(&[("mesh.obj", obj)]).unwrap_err();
+    assert!(e.contains("mesh.obj:9") && e.contains("'x'"), "{e}");
+    let (scene, report) = load_ok(&[("mesh.obj", &obj[..obj.len() - 8])]);
+    assert!(report.warnings.is_empty(), "{:?}", report.warnings);
+    assert_eq!(triangles(&scene), 2);
+    let p = &scene.meshes[1].parts[0];
+    assert_eq!(
+        p.source_line(0).unwrap(),
+        format!("{}:6", p.source.as_ref().unwrap().file.display())
+    );
+    // Negative: a `\` in a comment continues nothing (an exporter's Windows path).
+    let obj = b"# C:\\models\\\nv 0 0 -1\nv 1 0 -1\nv 0 1 -1 # \\\nf 1 2 3\n";
+    let (scene, _) = load_ok(&[("mesh.obj", obj)]);
+    assert_eq!(triangles(&scene), 1);
+}

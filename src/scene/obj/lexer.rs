@@ -19,7 +19,8 @@ pub(super) fn obj_err(path: &Path, line: usize, reason: impl Into<String>) -> Sc
 /// Reads an OBJ or MTL file, refusing files over [`MAX_INPUT_BYTES`] and binary files (a NUL
 /// byte: an FBX, binary STL, `.blend` or glTF named where an OBJ was meant). A line whose text
 /// before its comment is not UTF-8 is read as Latin-1 (ISO 8859-1, which Windows exporters write
-/// names in), with a warning naming it; the bytes returned are then UTF-8 outside comments.
+/// names in), with a warning naming it; the bytes returned are then UTF-8 outside comments,
+/// with the lines that a `\` continues joined ([`join_continued_lines`]).
 pub(super) fn read_input(path: &Path, report: &mut LoadReport) -> Result<Vec<u8>, SceneError> {
     let len = std::fs::metadata(path)
         .map_err(|e| SceneError::io(path, e))?
@@ -47,7 +48,7 @@ pub(super) fn read_input(path: &Path, report: &mut LoadReport) -> Result<Vec<u8>
             ),
         ));
     }
-    Ok(latin1_as_utf8(bytes, path, report))
+    Ok(join_continued_lines(latin1_as_utf8(bytes, path, report)))
 }
 
 /// `bytes` with the text before each line's comment that is not UTF-8 read as Latin-1 (each
@@ -77,6 +78,38 @@ fn latin1_as_utf8(bytes: Vec<u8>, path: &Path, report: &mut LoadReport) -> Vec<u
         let text: String = code.iter().map(|&b| char::from(b)).collect();
         out.extend_from_slice(text.as_bytes());
         out.extend_from_slice(comment);
+    }
+    out
+}
+
+/// `bytes` with each line that ends in `\` before its comment (the OBJ format's line
+/// continuation) joined with the next, and an empty line left after the joined one so that
+/// the later lines keep their numbers (errors in a joined line name its first line); every
+/// line end becomes `\n`. Files without continuations come back unchanged.
+fn join_continued_lines(bytes: Vec<u8>) -> Vec<u8> {
+    fn code(line: &[u8]) -> &[u8] {
+        let h = line.iter().position(|&b| b == b'#').unwrap_or(line.len());
+        line[..h].trim_ascii_end()
+    }
+    if !split_lines(&bytes).any(|l| code(l).ends_with(b"\\")) {
+        return bytes;
+    }
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut joined = 0;
+    for (k, raw) in split_lines(&bytes).enumerate() {
+        if k > 0 && joined == 0 {
+            out.push(b'\n');
+        }
+        let text = code(raw);
+        if let Some(head) = text.strip_suffix(b"\\") {
+            out.extend_from_slice(head);
+            out.push(b' ');
+            joined += 1;
+        } else {
+            out.extend_from_slice(raw);
+            out.extend(std::iter::repeat_n(b'\n', joined));
+            joined = 0;
+        }
     }
     out
 }

@@ -14,11 +14,12 @@
 //!
 //! What the loader accepts:
 //! - UTF-8 text, with or without a byte order mark, LF, CRLF or CR (classic Mac OS) line ends,
-//!   spaces or tabs. Comments (`#` to the end of the line) may hold any bytes; a line whose
-//!   text outside its comment is not UTF-8 is read as Latin-1 (Windows exporters' names), with a
-//!   warning naming it. A NUL byte (a binary file: FBX, STL, `.blend`) is an error naming the
-//!   line and column, and so is a NaN or infinity as Microsoft's C runtime printed them
-//!   (`1.#QNAN0`, `-1.#IND00`), which would otherwise read as a number and a comment.
+//!   spaces or tabs; a line ending in `\` is continued on the next (errors name its first).
+//!   Comments (`#` to the end of the line) may hold any bytes; a line whose text outside its
+//!   comment is not UTF-8 is read as Latin-1 (Windows exporters' names), with a warning naming
+//!   it. A NUL byte (a binary file: FBX, STL, `.blend`) is an error naming the line and column,
+//!   and so is a NaN or infinity as Microsoft's C runtime printed them (`1.#QNAN0`,
+//!   `-1.#IND00`), which would otherwise read as a number and a comment.
 //! - `v`, `vt`, `vn`, `f`, `o`, `g`, `usemtl`, `mtllib`; other statements (`s`, curves, ...)
 //!   are ignored. Extra values after `v x y z` are ignored: a `w`, and vertex colours
 //!   (`v x y z r g b`, which MeshLab, Open3D, trimesh and Blender write) with a warning that
