@@ -53,6 +53,7 @@ struct CaptureVarying {
     @location(3) @interpolate(flat) object: u32,
     @location(4) @interpolate(flat) view: u32,
     @location(5) @interpolate(flat) triangle: u32,
+    @location(6) colour: vec3<f32>,
 }
 
 @vertex
@@ -76,6 +77,7 @@ fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) view: u3
     out.world = v.position;
     out.normal = v.normal;
     out.uv = v.uv;
+    out.colour = scene_vertex_colour(v);
     out.object = v.object;
     out.view = view;
     out.triangle = triangle;
@@ -100,7 +102,7 @@ fn capture_distance(in: CaptureVarying) -> f32 {
 
 @fragment
 fn fs_main(in: CaptureVarying) -> CaptureOut {
-    return CaptureOut(vec4<f32>(scene_shade(in.object, in.uv, in.normal), 1.0), capture_distance(in));
+    return CaptureOut(vec4<f32>(scene_shade(in.object, in.uv, in.normal, in.colour), 1.0), capture_distance(in));
 }
 
 // With self-reflections a reflector is captured only where it faces the CMO centre (its normal,
@@ -116,7 +118,7 @@ fn fs_self(in: CaptureVarying) -> CaptureSelfOut {
     }
     let mirror = select(0.0, 1.0, reflector);
     return CaptureSelfOut(
-        vec4<f32>(scene_shade(in.object, in.uv, in.normal), 1.0),
+        vec4<f32>(scene_shade(in.object, in.uv, in.normal, in.colour), 1.0),
         capture_distance(in),
         vec4<f32>(scene_normalize(in.normal), mirror),
     );
@@ -139,7 +141,7 @@ struct CaptureIdsOut {
 
 @fragment
 fn fs_main_ids(in: CaptureVarying) -> CaptureIdsOut {
-    return CaptureIdsOut(vec4<f32>(scene_shade(in.object, in.uv, in.normal), 1.0), capture_distance(in), in.triangle);
+    return CaptureIdsOut(vec4<f32>(scene_shade(in.object, in.uv, in.normal, in.colour), 1.0), capture_distance(in), in.triangle);
 }
 
 struct CaptureSelfIdsOut {
@@ -155,7 +157,7 @@ fn fs_self_ids(in: CaptureVarying) -> CaptureSelfIdsOut {
         discard;
     }
     return CaptureSelfIdsOut(
-        vec4<f32>(scene_shade(in.object, in.uv, in.normal), 1.0),
+        vec4<f32>(scene_shade(in.object, in.uv, in.normal, in.colour), 1.0),
         capture_distance(in),
         capture_normal_mirror(in),
         in.triangle,

@@ -44,6 +44,7 @@ struct GbufferVarying {
     @location(2) uv: vec2<f32>,
     @location(3) @interpolate(flat) object: u32,
     @location(4) @interpolate(flat) triangle: u32,
+    @location(5) colour: vec3<f32>,
 }
 
 @vertex
@@ -63,6 +64,7 @@ fn vs_main(@builtin(vertex_index) vertex: u32) -> GbufferVarying {
     out.world = v.position;
     out.normal = v.normal;
     out.uv = v.uv;
+    out.colour = scene_vertex_colour(v);
     out.object = v.object;
     out.triangle = vertex / 3u;
     return out;
@@ -109,6 +111,7 @@ fn fs_main(in: GbufferVarying) -> GbufferOut {
     var world = in.world;
     var normal = in.normal;
     var uv = in.uv;
+    var colour = in.colour;
     let u = h.y;
     let v = h.z;
     let w = 1.0 - u - v;
@@ -116,6 +119,7 @@ fn fs_main(in: GbufferVarying) -> GbufferOut {
         world = o + d * h.x;
         normal = v0.normal * w + v1.normal * u + v2.normal * v;
         uv = v0.uv * w + v1.uv * u + v2.uv * v;
+        colour = scene_vertex_colour(v0) * w + scene_vertex_colour(v1) * u + scene_vertex_colour(v2) * v;
     }
     let mirror = select(0.0, 1.0, scene_is_reflector(in.object));
     // A glossy reflector's specular power p goes into the normal's w as -1 - p (at most -1; see
@@ -123,7 +127,7 @@ fn fs_main(in: GbufferVarying) -> GbufferOut {
     let power = scene_objects[in.object].specular_power;
     let normal_w = select(1.0, -1.0 - power, power >= 0.0);
     return GbufferOut(
-        vec4<f32>(scene_shade(in.object, uv, normal), 1.0),
+        vec4<f32>(scene_shade(in.object, uv, normal, colour), 1.0),
         vec4<f32>(world, mirror),
         vec4<f32>(normal, normal_w),
         in.triangle,

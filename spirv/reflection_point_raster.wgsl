@@ -57,6 +57,7 @@ struct VirtualVarying {
     @location(1) normal: vec3<f32>,
     @location(2) uv: vec2<f32>,
     @location(3) @interpolate(flat) object: u32,
+    @location(4) colour: vec3<f32>,
 }
 
 @vertex
@@ -77,6 +78,7 @@ fn vs_virtual(@builtin(vertex_index) vertex: u32) -> VirtualVarying {
     out.world = v.position;
     out.normal = v.normal;
     out.uv = v.uv;
+    out.colour = scene_vertex_colour(v);
     out.object = v.object;
     return out;
 }
@@ -93,7 +95,7 @@ fn fs_virtual(in: VirtualVarying) -> VirtualOut {
         discard;
     }
     return VirtualOut(
-        vec4<f32>(scene_shade(in.object, in.uv, in.normal), f32(in.object)),
+        vec4<f32>(scene_shade(in.object, in.uv, in.normal, in.colour), f32(in.object)),
         vec4<f32>(in.world, 1.0),
     );
 }

@@ -346,6 +346,7 @@ mod tests {
             captured: true,
             normals_inward: false,
             specular_power: None,
+            vertex_colours: false,
             first_triangle,
             triangle_count,
         };

@@ -6,7 +6,8 @@
 //! - `aov`: the EXR's object and primitive IDs mean the same for `bvh` as for the reference;
 //! - `gpu_bounce`: `--bounces N` on the GPU against the reference, bounce for bounce;
 //! - `reflector_check`: the exact check of the reflectors the CMOs do not capture;
-//! - `scene_sparse`: no mesh, no reflector, a reflector alone, on every GPU method.
+//! - `scene_sparse`: no mesh, no reflector, a reflector alone, on every GPU method;
+//! - `vertex_colours`: an OBJ's vertex colours shade every pass as the reference.
 
 mod common;
 
@@ -20,3 +21,5 @@ mod gpu_bounce;
 mod reflector_check;
 #[path = "frame/scene_sparse.rs"]
 mod scene_sparse;
+#[path = "frame/vertex_colours.rs"]
+mod vertex_colours;

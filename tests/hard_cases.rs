@@ -994,6 +994,7 @@ fn hard_geometry() -> Scene {
             name: name.into(),
             normals: vec![n; positions.len()],
             uvs: Vec::new(),
+            colours: Vec::new(),
             positions,
             triangles,
             material: m,

@@ -20,5 +20,6 @@ fn hit_shade(tri: u32, bary: vec2<f32>) -> vec3<f32> {
     let w = 1.0 - u - v;
     let n = scene_normalize(v0.normal * w + v1.normal * u + v2.normal * v);
     let uv = v0.uv * w + v1.uv * u + v2.uv * v;
-    return scene_shade(v0.object, uv, n);
+    let c = scene_vertex_colour(v0) * w + scene_vertex_colour(v1) * u + scene_vertex_colour(v2) * v;
+    return scene_shade(v0.object, uv, n, c);
 }

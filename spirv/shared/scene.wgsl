@@ -11,9 +11,11 @@ struct GpuVertex {
     position: vec3<f32>,
     object: u32,
     normal: vec3<f32>,
-    _pad: u32,
+    // The vertex colour (`WorldGeometry::colours`; 1 where the scene has none): red here, green
+    // and blue in `colour_gb`.
+    colour_r: f32,
     uv: vec2<f32>,
-    _pad2: vec2<u32>,
+    colour_gb: vec2<f32>,
 }
 
 struct GpuObject {
@@ -27,6 +29,8 @@ struct GpuObject {
     // A glossy reflector's Phong specular power (below lobe::MIRROR_POWER, src/lobe.rs); -1 on a
     // mirror and on every non-reflector.
     specular_power: f32,
+    // 1 where its vertex colours multiply its material's colour (`ObjectInfo::vertex_colours`).
+    vertex_colours: u32,
 }
 
 struct GpuMaterial {
@@ -119,9 +123,18 @@ fn scene_normalize(n: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(0.0);
 }
 
-// `Shading::shade` of a point with interpolated (not yet normalised) normal `n`.
-fn scene_shade(object: u32, uv: vec2<f32>, n: vec3<f32>) -> vec3<f32> {
-    let albedo = scene_albedo(object, uv);
+// A vertex's colour (`GpuVertex::colour_r`, `colour_gb`).
+fn scene_vertex_colour(v: GpuVertex) -> vec3<f32> {
+    return vec3<f32>(v.colour_r, v.colour_gb);
+}
+
+// `Tracer::shade` of a point with interpolated (not yet normalised) normal `n` and vertex colour
+// `colour` (read only where the object has vertex colours: `albedo * colour`, as the reference).
+fn scene_shade(object: u32, uv: vec2<f32>, n: vec3<f32>, colour: vec3<f32>) -> vec3<f32> {
+    var albedo = scene_albedo(object, uv);
+    if scene_objects[object].vertex_colours != 0u {
+        albedo = albedo * colour;
+    }
     if scene_shading.model == 0u {
         return albedo;
     }

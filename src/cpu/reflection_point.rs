@@ -407,6 +407,7 @@ pub fn subdivide_non_reflectors(scene: &mut Scene, levels: u32) {
 fn subdivide_part(part: &mut MeshPart) {
     let mut midpoints: HashMap<(u32, u32), u32> = HashMap::new();
     let has_uv = part.uvs.len() == part.positions.len();
+    let has_colour = part.colours.len() == part.positions.len();
     let mut mid = |part: &mut MeshPart, a: u32, b: u32| -> u32 {
         let key = (a.min(b), a.max(b));
         *midpoints.entry(key).or_insert_with(|| {
@@ -417,6 +418,9 @@ fn subdivide_part(part: &mut MeshPart) {
                 .push((part.normals[i] + part.normals[j]).normalize_or_zero());
             if has_uv {
                 part.uvs.push((part.uvs[i] + part.uvs[j]) * 0.5);
+            }
+            if has_colour {
+                part.colours.push((part.colours[i] + part.colours[j]) * 0.5);
             }
             part.positions.len() as u32 - 1
         })

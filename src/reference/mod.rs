@@ -638,6 +638,19 @@ impl Tracer {
         a * (1.0 - u - v) + b * u + c * v
     }
 
+    /// The vertex colour at a hit, interpolated as [`Tracer::uv`]; `None` where the hit
+    /// object has no vertex colours ([`crate::scene::ObjectInfo::vertex_colours`]).
+    pub fn vertex_colour(&self, hit: &Hit) -> Option<Vec3> {
+        let object = self.world.triangle_object[hit.triangle as usize];
+        if !self.world.objects[object as usize].vertex_colours {
+            return None;
+        }
+        let [a, b, c] =
+            self.world.triangles[hit.triangle as usize].map(|i| self.world.colours[i as usize]);
+        let (u, v) = (hit.bary.x, hit.bary.y);
+        Some(a * (1.0 - u - v) + b * u + c * v)
+    }
+
     /// The Phong specular power of a glossy reflector's triangle ([`crate::lobe`]); `None` on
     /// a mirror and on every non-reflector.
     pub fn specular_power(&self, triangle: u32) -> Option<f32> {
@@ -653,10 +666,9 @@ impl Tracer {
         let object =
             &self.world.objects[self.world.triangle_object[hit.triangle as usize] as usize];
         let material = &scene.materials[object.material as usize];
-        scene.shading.shade(
-            albedo(material, &scene.textures, self.uv(hit)),
-            self.normal(hit),
-        )
+        let albedo = albedo(material, &scene.textures, self.uv(hit));
+        let albedo = self.vertex_colour(hit).map_or(albedo, |c| albedo * c);
+        scene.shading.shade(albedo, self.normal(hit))
     }
 }
 

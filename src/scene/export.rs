@@ -125,11 +125,18 @@ fn write_materials(scene: &Scene, dir: &Path, tex_names: &[String]) -> anyhow::R
 fn obj_text(mesh: &MeshInstance, mat_names: &[String]) -> Result<String, std::fmt::Error> {
     let mut obj = format!("# Written by {MARK} (object space).\nmtllib materials.mtl\n");
     let mut base = 1;
+    // Vertex colours are all or none per file (the loader's rule): white where a part has none.
+    let coloured = mesh.parts.iter().any(|p| !p.colours.is_empty());
     for part in &mesh.parts {
         writeln!(obj, "o {}", safe(&part.name))?;
         writeln!(obj, "usemtl {}", mat_names[part.material as usize])?;
-        for p in &part.positions {
-            writeln!(obj, "v {} {} {}", p.x, p.y, p.z)?;
+        for (k, p) in part.positions.iter().enumerate() {
+            write!(obj, "v {} {} {}", p.x, p.y, p.z)?;
+            if coloured {
+                let c = part.colours.get(k).copied().unwrap_or(glam::Vec3::ONE);
+                write!(obj, " {} {} {}", c.x, c.y, c.z)?;
+            }
+            writeln!(obj)?;
         }
         for n in &part.normals {
             writeln!(obj, "vn {} {} {}", n.x, n.y, n.z)?;

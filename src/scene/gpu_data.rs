@@ -8,6 +8,7 @@
 //! a point with the same arithmetic.
 
 use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
 
 use super::Scene;
 use crate::shading::{Shading, srgb_to_linear};
@@ -19,9 +20,12 @@ pub struct GpuVertex {
     pub position: [f32; 3],
     pub object: u32,
     pub normal: [f32; 3],
-    pub _pad: u32,
+    /// The vertex colour's red ([`crate::scene::WorldGeometry::colours`]; 1 where the scene
+    /// has none), in the slot that aligns `normal`.
+    pub colour_r: f32,
     pub uv: [f32; 2],
-    pub _pad2: [u32; 2],
+    /// The vertex colour's green and blue.
+    pub colour_gb: [f32; 2],
 }
 
 #[repr(C)]
@@ -38,6 +42,9 @@ pub struct GpuObject {
     /// A glossy reflector's Phong specular power ([`crate::scene::ObjectInfo::specular_power`]);
     /// -1 on a mirror and on every non-reflector.
     pub specular_power: f32,
+    /// 1 where its vertex colours multiply its material's colour
+    /// ([`crate::scene::ObjectInfo::vertex_colours`]).
+    pub vertex_colours: u32,
 }
 
 #[repr(C)]
@@ -102,13 +109,15 @@ impl GpuSceneData {
                 vertex_object[i as usize] = o;
             }
         }
+        let colour = |i: usize| world.colours.get(i).copied().unwrap_or(Vec3::ONE);
         let vertices = (0..world.positions.len())
             .map(|i| GpuVertex {
                 position: world.positions[i].to_array(),
                 object: vertex_object[i],
                 normal: world.normals[i].to_array(),
                 uv: world.uvs[i].to_array(),
-                ..GpuVertex::default()
+                colour_r: colour(i).x,
+                colour_gb: [colour(i).y, colour(i).z],
             })
             .collect();
         let captured = |t: usize| world.objects[world.triangle_object[t] as usize].captured;
@@ -166,6 +175,7 @@ impl GpuSceneData {
                     reflector: o.reflector as u32 | (o.normals_inward as u32) << 1,
                     captured: o.captured as u32,
                     specular_power: o.specular_power.unwrap_or(-1.0),
+                    vertex_colours: o.vertex_colours as u32,
                 })
                 .collect(),
             materials: scene

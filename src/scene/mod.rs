@@ -308,6 +308,9 @@ pub struct MeshPart {
     pub normals: Vec<Vec3>,
     /// Empty, or one texture coordinate per position.
     pub uvs: Vec<Vec2>,
+    /// Empty, or one linear RGB colour per position (an OBJ's `v x y z r g b`), which
+    /// multiplies the material's colour.
+    pub colours: Vec<Vec3>,
     pub triangles: Vec<[u32; 3]>,
     /// Index into [`Scene::materials`].
     pub material: u32,
@@ -546,6 +549,7 @@ impl Scene {
                         same!(p.positions[i], q.positions[j], format!("{w} position"));
                         same!(p.normals[i], q.normals[j], format!("{w} normal"));
                         same!(p.uvs.get(i), q.uvs.get(j), format!("{w} uv"));
+                        same!(p.colours.get(i), q.colours.get(j), format!("{w} colour"));
                     }
                 }
                 let (ma, mb) = (

@@ -47,7 +47,7 @@ pub enum WarningKind {
     NoMeshes,
     /// OBJ or MTL text (outside comments) that is not UTF-8, read as Latin-1.
     Latin1Text,
-    /// OBJ vertex colours (`v x y z r g b`), which are ignored.
+    /// OBJ vertex colours (`v x y z r g b`) on only some of a file's vertices: all ignored.
     VertexColours,
     /// A part without texture coordinates whose material has a texture.
     TextureWithoutTexcoords,

@@ -21,6 +21,9 @@ pub struct ObjectInfo {
     /// A glossy reflector's Phong specular power (below [`crate::lobe::MIRROR_POWER`]); `None`
     /// on a mirror and on every non-reflector.
     pub specular_power: Option<f32>,
+    /// Its part has vertex colours ([`WorldGeometry::colours`]), which multiply its
+    /// material's colour.
+    pub vertex_colours: bool,
     /// Range of this object's triangles in [`WorldGeometry::triangles`].
     pub first_triangle: u32,
     pub triangle_count: u32,
@@ -43,6 +46,9 @@ pub struct WorldGeometry {
     pub normals: Vec<Vec3>,
     /// One per vertex; zero where a part has no texture coordinates.
     pub uvs: Vec<Vec2>,
+    /// Empty where no part has vertex colours; else one linear RGB colour per vertex, white
+    /// where a part has none (read only for an object with [`ObjectInfo::vertex_colours`]).
+    pub colours: Vec<Vec3>,
     pub triangles: Vec<[u32; 3]>,
     /// Object id of each triangle.
     pub triangle_object: Vec<u32>,
@@ -53,6 +59,7 @@ impl WorldGeometry {
     pub(super) fn build(scene: &Scene) -> Self {
         let mut w = WorldGeometry::default();
         let self_capture = scene.self_capture();
+        let coloured = (scene.meshes.iter()).any(|m| m.parts.iter().any(|p| !p.colours.is_empty()));
         for (mesh, &self_capture) in scene.meshes.iter().zip(&self_capture) {
             let normals_inward = scene.front_turned(mesh);
             let m = mesh.transform.matrix();
@@ -70,6 +77,14 @@ impl WorldGeometry {
                     w.uvs
                         .extend(std::iter::repeat_n(Vec2::ZERO, part.positions.len()));
                 }
+                let vertex_colours =
+                    part.colours.len() == part.positions.len() && !part.colours.is_empty();
+                if coloured && vertex_colours {
+                    w.colours.extend_from_slice(&part.colours);
+                } else if coloured {
+                    w.colours
+                        .extend(std::iter::repeat_n(Vec3::ONE, part.positions.len()));
+                }
                 w.objects.push(ObjectInfo {
                     name: format!("{}/{}", mesh.name, part.name),
                     material: part.material,
@@ -81,6 +96,7 @@ impl WorldGeometry {
                     } else {
                         None
                     },
+                    vertex_colours,
                     first_triangle: w.triangles.len() as u32,
                     triangle_count: part.triangles.len() as u32,
                 });

@@ -43,6 +43,7 @@ fn tiny_scene(objects: &[(&[[Vec3; 3]], bool)]) -> GpuSceneData {
             reflector: u32::from(*reflector),
             captured: 1,
             specular_power: -1.0,
+            vertex_colours: 0,
         });
         for t in tris.iter() {
             for v in t {

@@ -196,13 +196,19 @@ fn shared_structs_match_naga_layout() {
     check_layout!(
         GpuVertex,
         l("GpuVertex"),
-        [position, object, normal, _pad, uv, _pad2]
+        [position, object, normal, colour_r, uv, colour_gb]
     )
     .unwrap();
     check_layout!(
         GpuObject,
         l("GpuObject"),
-        [material, reflector, captured, specular_power]
+        [
+            material,
+            reflector,
+            captured,
+            specular_power,
+            vertex_colours
+        ]
     )
     .unwrap();
     check_layout!(GpuMaterial, l("GpuMaterial"), [diffuse, texture]).unwrap();

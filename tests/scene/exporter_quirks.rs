@@ -236,15 +236,28 @@ fn textures_are_decoded_by_their_content() {
     assert_eq!(first_texel(&scene), None);
 }
 
+/// The colours of `mesh.obj`'s first part.
+fn colours(scene: &Scene) -> Vec<Vec3> {
+    scene.meshes[1].parts[0].colours.clone()
+}
+
 #[test]
 fn vertex_colours_and_untextured_parts_are_named_in_warnings() {
-    // MeshLab and Open3D write vertex colours; the renderer has none, so the warning counts
-    // them and names their lines.
+    // MeshLab, Open3D, trimesh and Blender write vertex colours: kept, one per vertex, in the
+    // order of first use (the loader renumbers the vertices the triangles use).
+    let all = "v 0 0 -1 1 0 0\nv 1 0 -1 0 1 0\nv 0 1 -1 0 0 1\nv 1 1 -1 0.5 0.5 0.5\n\
+               f 1 2 3\nf 2 4 3\n";
+    let (scene, report) = load_ok(&[("mesh.obj", all.as_bytes())]);
+    assert!(report.warnings.is_empty(), "{:?}", report.warnings);
+    let want = [Vec3::X, Vec3::Y, Vec3::Z, Vec3::splat(0.5)];
+    assert_eq!(colours(&scene), want);
+    // Negative: where some `v` have none, none is kept, and the warning names the others.
     let obj = "v 0 0 -1 1 0 0\nv 1 0 -1 0 1 0\nv 0 1 -1 0 0 1\nv 1 1 -1\nf 1 2 3\nf 2 4 3\n";
     let (scene, report) = load_ok(&[("mesh.obj", obj.as_bytes())]);
     assert_eq!(triangles(&scene), 2);
-    assert_eq!(report.count(WarningKind::VertexColours), 3);
-    assert_eq!(report.warnings[0].lines, [1, 2, 3]);
+    assert!(colours(&scene).is_empty());
+    assert_eq!(report.count(WarningKind::VertexColours), 1);
+    assert_eq!(report.warnings[0].lines, [4]);
     // A textured material on faces without `vt` (Blender's export with UVs off).
     let red = png([255, 0, 0]);
     let untextured = "mtllib lib.mtl\nv 0 0 -1\nv 1 0 -1\nv 0 1 -1\nusemtl tex\nf 1 2 3\n";

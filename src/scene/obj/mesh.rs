@@ -20,6 +20,8 @@ pub(super) struct RawPart {
     positions: Vec<Vec3>,
     uvs: Vec<Vec2>,
     normals: Vec<Vec3>,
+    /// Empty, or one linear RGB colour per position ([`ObjPass::colours`]).
+    colours: Vec<Vec3>,
     triangles: Vec<[u32; 3]>,
     /// The source line of each triangle's polygon.
     lines: Vec<u32>,
@@ -107,8 +109,14 @@ pub(super) fn triangulate_models(
             .chunks_exact(3)
             .map(|n| Vec3::new(n[0], n[1], n[2]))
             .collect();
+        let colours: Vec<Vec3> = (m.vertex_color.chunks_exact(3))
+            .map(|c| Vec3::new(c[0], c[1], c[2]))
+            .collect();
         let expect = |len: usize, wanted: bool| len == if wanted { positions.len() } else { 0 };
-        if !expect(uvs.len(), info.any_vt) || !expect(normals.len(), info.any_vn) {
+        if !expect(uvs.len(), info.any_vt)
+            || !expect(normals.len(), info.any_vn)
+            || !expect(colours.len(), obj.colours)
+        {
             return Err(mismatch());
         }
         // Keep only the vertices the triangles use, numbered in the order they first use them
@@ -131,6 +139,7 @@ pub(super) fn triangulate_models(
             positions: pick(&positions, &kept),
             uvs: pick(&uvs, &kept),
             normals: pick(&normals, &kept),
+            colours: pick(&colours, &kept),
             triangles,
             lines: tri_lines,
         });
@@ -212,6 +221,13 @@ pub(super) fn finish_part(
             positions,
             normals,
             uvs: raw.uvs,
+            // All white multiplies by one: the part is left without colours (the export writes
+            // white for the parts of a file with colours elsewhere).
+            colours: if raw.colours.iter().all(|&c| c == Vec3::ONE) {
+                Vec::new()
+            } else {
+                raw.colours
+            },
             triangles,
             material,
             source: Some(crate::scene::PartSource {

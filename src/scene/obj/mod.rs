@@ -21,10 +21,11 @@
 //!   and so is a NaN or infinity as Microsoft's C runtime printed them (`1.#QNAN0`,
 //!   `-1.#IND00`), which would otherwise read as a number and a comment.
 //! - `v`, `vt`, `vn`, `f`, `o`, `g`, `usemtl`, `mtllib`; other statements (`s`, curves, ...)
-//!   are ignored. Extra values after `v x y z` are ignored: a `w`, and vertex colours
-//!   (`v x y z r g b`, which MeshLab, Open3D, trimesh and Blender write) with a warning that
-//!   counts them (the renderer has no per-vertex colour; the material colours the faces). A
-//!   `vt` with one value gets v = 0. `l` and `p` elements and faces with fewer than 3
+//!   are ignored. A `w` after `v x y z` is ignored. Vertex colours (`v x y z r g b`, which
+//!   MeshLab, Open3D, trimesh and Blender write) multiply the material's colour
+//!   ([`crate::scene::MeshPart::colours`]) where every `v` of the file has one; where only
+//!   some have one, none is kept, with a warning naming the lines without. A part whose
+//!   colours are all white is left without them. A `vt` with one value gets v = 0. `l` and `p` elements and faces with fewer than 3
 //!   vertices are skipped with a warning that counts them and names their lines.
 //! - Polygons: convex ones are fanned from their first vertex (the triangles `tobj`'s own
 //!   `triangulate` makes); others are ear-clipped (`earcut`) in the plane of their Newell

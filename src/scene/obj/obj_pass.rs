@@ -13,7 +13,8 @@ use crate::scene::report::{LoadReport, WarningKind};
 
 /// One OBJ statement the validation pass keeps, in file order, as the tokens `tobj` will read.
 pub(super) enum Statement<'a> {
-    Position([&'a str; 3]),
+    /// `v x y z`, with the vertex colour `r g b` where the line has one.
+    Position([&'a str; 3], Option<[&'a str; 3]>),
     Texcoord([&'a str; 2]),
     Normal([&'a str; 3]),
     /// `o` or `g` (the keyword) with its name (empty: unnamed).
@@ -65,6 +66,10 @@ pub(super) struct ObjPass<'a> {
     pub(super) face_lines: Vec<usize>,
     /// Material libraries and the line naming each (first mention).
     pub(super) libraries: Vec<(PathBuf, usize)>,
+    /// Every `v` has a colour (`v x y z r g b`, as MeshLab, Open3D, trimesh and Blender write
+    /// them): `tobj` reads them into the parts' vertex colours. Where only some have one, none
+    /// is kept (with a warning naming the lines without).
+    pub(super) colours: bool,
 }
 
 const UNNAMED: &str = "unnamed_object";
@@ -81,8 +86,11 @@ pub(super) fn validate_obj<'a>(
         parts: vec![PartInfo::new(UNNAMED.into(), None)],
         face_lines: Vec::new(),
         libraries: Vec::new(),
+        colours: false,
     };
     let mut counts = [0usize; 3];
+    // Lines of the `v` without a colour.
+    let mut plain: Vec<usize> = Vec::new();
     for (line, text) in text_lines(bytes, path)? {
         let Some((key, args)) = keyword(text) else {
             continue;
@@ -91,15 +99,12 @@ pub(super) fn validate_obj<'a>(
             "v" => {
                 let v = numbers(args, 3, "vertex position (v)", path, line)?;
                 within_coordinate_bound(&v[..3], path, line)?;
-                if v.len() >= 6 {
-                    report.warn(
-                        WarningKind::VertexColours,
-                        path,
-                        Some(line),
-                        "vertex colours (v x y z r g b) ignored: the material colours the faces",
-                    );
+                let colour = (v.len() >= 6).then(|| [v[3], v[4], v[5]]);
+                if colour.is_none() {
+                    plain.push(line);
                 }
-                obj.statements.push(Statement::Position([v[0], v[1], v[2]]));
+                obj.statements
+                    .push(Statement::Position([v[0], v[1], v[2]], colour));
                 counts[0] += 1;
             }
             "vt" => {
@@ -132,6 +137,18 @@ pub(super) fn validate_obj<'a>(
             "usemtl" => obj.use_material(args, path, line)?,
             "mtllib" => obj.add_libraries(args, dir, path, line, report)?,
             _ => {}
+        }
+    }
+    obj.colours = counts[0] > 0 && plain.is_empty();
+    if !obj.colours && plain.len() < counts[0] {
+        for line in plain {
+            report.warn(
+                WarningKind::VertexColours,
+                path,
+                Some(line),
+                "vertex without a colour where others have one (v x y z r g b): every vertex \
+                 colour of the file ignored",
+            );
         }
     }
     Ok(obj)
@@ -279,7 +296,10 @@ pub(super) fn normalised_obj(obj: &ObjPass, libraries: usize) -> String {
     let (vt_base, vn_base) = (1 + need_vt as u32, 1 + need_vn as u32);
     for s in &obj.statements {
         let w = match s {
-            Statement::Position([x, y, z]) => writeln!(out, "v {x} {y} {z}"),
+            Statement::Position([x, y, z], Some([r, g, b])) if obj.colours => {
+                writeln!(out, "v {x} {y} {z} {r} {g} {b}")
+            }
+            Statement::Position([x, y, z], _) => writeln!(out, "v {x} {y} {z}"),
             Statement::Texcoord([u, v]) => writeln!(out, "vt {u} {v}"),
             Statement::Normal([x, y, z]) => writeln!(out, "vn {x} {y} {z}"),
             Statement::Name(key, name) => writeln!(out, "{key} {name}"),
