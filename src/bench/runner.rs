@@ -277,6 +277,8 @@ impl<'a> SceneRuns<'a> {
             trace_ns_per_mirror_px: reflected.median / self.mirror.max(1) as f64,
             ns_per_ray: reflected.median / refr.reflected_rays.max(1) as f64,
             error,
+            // Its own figure, 0 on a mirror scene; not measured on a glossy one.
+            wrong_off_reflector: if self.truth.is_some() { f64::NAN } else { 0.0 },
             ..self.base(cfg, spec)
         }
     }
