@@ -51,6 +51,11 @@ pub enum WarningKind {
     VertexColours,
     /// A part without texture coordinates whose material has a texture.
     TextureWithoutTexcoords,
+    /// A material statement read leniently: a `Kd` of four numbers (RGBA: the alpha dropped)
+    /// or with float noise below 0 (taken as 0), `Kd`/`Ns`/`map_Kd` before any `newmtl`
+    /// (ignored), a `usemtl` without a name (the default material) or an `mtllib` without one
+    /// (ignored).
+    LenientMaterial,
 }
 
 /// One (merged) warning.

@@ -317,9 +317,9 @@ fn mtl_errors_name_the_line() {
         ),
         (b"newmtl grey\nKd 0.1 nan 0.3\n", "lib.mtl:2", "non-finite"),
         (
-            b"Kd 0.1 0.2 0.3\nnewmtl grey\n",
-            "lib.mtl:1",
-            "before any newmtl",
+            b"newmtl grey\nKd 0.1 -0.01 0.3\n",
+            "lib.mtl:2",
+            "outside [0",
         ),
         (b"newmtl grey\nKd\n", "lib.mtl:2", "needs 1 numbers"),
         (b"newmtl\n", "lib.mtl:1", "needs a material name"),
@@ -327,6 +327,32 @@ fn mtl_errors_name_the_line() {
     for (mtl, place, what) in cases {
         let e = load(QUAD_OBJ.as_bytes(), Some(mtl)).unwrap_err();
         assert!(e.contains(place) && e.contains(what), "{e}");
+    }
+}
+
+/// Material statements real files get slightly wrong load with a warning naming the line:
+/// a `Kd` before any `newmtl` is ignored, an RGBA `Kd` drops its alpha, float noise below 0
+/// is 0, an empty `usemtl` gives the default material and an empty `mtllib` is ignored.
+/// Negatives: a `Kd` clearly below 0 and one of five numbers stay errors naming the line.
+#[test]
+fn lenient_material_statements_load_with_warnings() {
+    let mtl = b"Kd 0.1 0.2 0.3\nnewmtl grey\nKd 0.5 -0.000001 0.25 1.0\n";
+    let (scene, report) = load_ok(QUAD_OBJ.as_bytes(), Some(mtl));
+    assert_eq!(diffuse(&scene), Vec3::new(0.5, 0.0, 0.25));
+    assert_eq!(report.count(WarningKind::LenientMaterial), 3);
+    let lines: Vec<&[usize]> = report.warnings.iter().map(|w| &w.lines[..]).collect();
+    assert_eq!(lines, [&[1][..], &[3], &[3]]);
+    let obj = format!("mtllib\nmtllib lib.mtl\n{QUAD}usemtl\nf 1 2 3 4\n");
+    let (scene, report) = load_ok(obj.as_bytes(), Some(b"newmtl grey\nKd 0.1 0.2 0.3\n"));
+    assert_eq!(diffuse(&scene), Vec3::splat(0.8), "the default material");
+    assert_eq!(report.count(WarningKind::LenientMaterial), 2);
+    assert_eq!(report.count(WarningKind::UndefinedMaterial), 0);
+    for (mtl, what) in [
+        (&b"newmtl grey\nKd 0.5 -0.01 0.25\n"[..], "outside [0"),
+        (b"newmtl grey\nKd 0.5 0.1 0.25 1 1\n", "found 5"),
+    ] {
+        let e = load(QUAD_OBJ.as_bytes(), Some(mtl)).unwrap_err();
+        assert!(e.contains("lib.mtl:2") && e.contains(what), "{e}");
     }
 }
 

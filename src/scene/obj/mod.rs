@@ -50,7 +50,10 @@
 //!   specular power; a reflector uses it only where its scene file says
 //!   `specular_power = "mtl"`: a value below 0, as Blender 2.79 writes, is taken as 0, and one
 //!   that is not a number is ignored, each with a warning); other statements are ignored.
-//!   Errors name the MTL file and line.
+//!   Slips real files make are warnings naming the line: a `Kd` of four numbers (RGBA) drops
+//!   the alpha, a `Kd` component within 1e-3 below 0 is 0, a `Kd`, `Ns` or `map_Kd` before any
+//!   `newmtl` is ignored; in the OBJ, an empty `usemtl` gives the default material and an
+//!   empty `mtllib` is ignored. Errors name the MTL file and line.
 //! - Files named by `mtllib` and `map_Kd` are looked for as written (in double quotes or
 //!   not), then with Windows separators read as `/`, then by their file name alone beside the
 //!   naming file (an exporter's absolute `E:\...` path), then these two with letter case
@@ -259,7 +262,12 @@ pub(crate) fn load_obj_file(path: &Path, report: &mut LoadReport) -> Result<Load
     for raw in raw_parts {
         let info = &obj.parts[raw.part];
         let found = raw.material_id.filter(|&id| id < defined);
-        if let (None, Some((name, line))) = (found, &info.material) {
+        // An empty `usemtl` was warned about where it stands.
+        let named = info
+            .material
+            .as_ref()
+            .filter(|(n, _)| n != obj_pass::NO_MATERIAL);
+        if let (None, Some((name, line))) = (found, named) {
             warn_undefined_material(&obj, name, *line, path, report);
         }
         let material = match found {

@@ -14,6 +14,10 @@ use super::{LoadedObj, find_beside};
 use crate::scene::report::{LoadReport, WarningKind};
 use crate::scene::{MAX_COLOUR, Material, SceneError, Texture};
 
+/// How far below 0 a `Kd` component may lie and be taken as 0 (an exporter's float noise);
+/// below that it is an error.
+const KD_NOISE: f32 = 1e-3;
+
 /// One `newmtl` of an MTL file, checked.
 struct MtlEntry<'a> {
     name: &'a str,
@@ -66,7 +70,13 @@ fn validate_mtl<'a>(
             continue;
         }
         let Some(current) = out.last_mut() else {
-            return Err(obj_err(path, line, format!("{key} before any newmtl")));
+            report.warn(
+                WarningKind::LenientMaterial,
+                path,
+                Some(line),
+                format!("{key} before any newmtl ignored"),
+            );
+            continue;
         };
         if key == "Ns" {
             current.shininess = specular_exponent(args, current.name, path, line, report);
@@ -84,7 +94,32 @@ fn validate_mtl<'a>(
                 );
                 continue;
             }
-            let v = numbers(args, 1, "diffuse colour (Kd)", path, line)?;
+            let mut v = numbers(args, 1, "diffuse colour (Kd)", path, line)?;
+            if v.len() == 4 {
+                report.warn(
+                    WarningKind::LenientMaterial,
+                    path,
+                    Some(line),
+                    format!(
+                        "Kd of four numbers (RGBA): material '{}' drops the alpha",
+                        current.name
+                    ),
+                );
+                v.truncate(3);
+            }
+            for a in &mut v {
+                // Float noise below 0 (an exporter's -0.000001) is 0.
+                let x: f32 = a.parse().unwrap_or(f32::NAN);
+                if (-KD_NOISE..0.0).contains(&x) {
+                    report.warn(
+                        WarningKind::LenientMaterial,
+                        path,
+                        Some(line),
+                        format!("Kd of {a} taken as 0 (material '{}')", current.name),
+                    );
+                    *a = "0";
+                }
+            }
             if let Some(a) = v.iter().find(|a| {
                 let x: f32 = a.parse().unwrap_or(f32::NAN);
                 !(0.0..=MAX_COLOUR).contains(&x)

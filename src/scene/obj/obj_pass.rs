@@ -5,9 +5,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use super::find_beside;
-use super::lexer::{
-    Corner, corner, keyword, numbers, obj_err, text_lines, within_coordinate_bound,
-};
+use super::lexer::{Corner, corner, keyword, numbers, text_lines, within_coordinate_bound};
 use crate::scene::SceneError;
 use crate::scene::report::{LoadReport, WarningKind};
 
@@ -73,6 +71,9 @@ pub(super) struct ObjPass<'a> {
 }
 
 const UNNAMED: &str = "unnamed_object";
+/// The material name an empty `usemtl` stands for: one no MTL defines (a control character),
+/// so that its faces get the default material as an undefined name's do, without that warning.
+pub(super) const NO_MATERIAL: &str = "\u{1}default";
 
 /// The validation pass over an OBJ file (see the module docs).
 pub(super) fn validate_obj<'a>(
@@ -134,7 +135,7 @@ pub(super) fn validate_obj<'a>(
                 "point element (p) skipped",
             ),
             "o" | "g" => obj.name_part(key, args),
-            "usemtl" => obj.use_material(args, path, line)?,
+            "usemtl" => obj.use_material(args, line, path, report),
             "mtllib" => obj.add_libraries(args, dir, path, line, report)?,
             _ => {}
         }
@@ -217,10 +218,18 @@ impl<'a> ObjPass<'a> {
 
     /// A `usemtl` statement: a material change starts a new part (unless the current one has
     /// no faces yet).
-    fn use_material(&mut self, args: &'a str, path: &Path, line: usize) -> Result<(), SceneError> {
-        if args.is_empty() {
-            return Err(obj_err(path, line, "usemtl needs a material name"));
-        }
+    fn use_material(&mut self, args: &'a str, line: usize, path: &Path, report: &mut LoadReport) {
+        let args = if args.is_empty() {
+            report.warn(
+                WarningKind::LenientMaterial,
+                path,
+                Some(line),
+                "usemtl without a name: the faces after it get the default material",
+            );
+            NO_MATERIAL
+        } else {
+            args
+        };
         let current = self.current();
         if current.material.as_ref().map(|m| m.0.as_str()) != Some(args) {
             let material = Some((args.to_string(), line));
@@ -232,7 +241,6 @@ impl<'a> ObjPass<'a> {
             }
         }
         self.statements.push(Statement::UseMtl(args));
-        Ok(())
     }
 
     /// An `mtllib` statement: each library it names (relative to `dir`, [`find_beside`]) is
@@ -246,7 +254,13 @@ impl<'a> ObjPass<'a> {
         report: &mut LoadReport,
     ) -> Result<(), SceneError> {
         if args.is_empty() {
-            return Err(obj_err(path, line, "mtllib needs a file name"));
+            report.warn(
+                WarningKind::LenientMaterial,
+                path,
+                Some(line),
+                "mtllib without a file name ignored",
+            );
+            return Ok(());
         }
         // One name with spaces, or several names.
         let files: Vec<&str> = if find_beside(dir, args).is_some() {
