@@ -299,3 +299,26 @@ fn continued_lines_join_and_later_lines_keep_their_numbers() {
     let (scene, _) = load_ok(&[("mesh.obj", obj)]);
     assert_eq!(triangles(&scene), 1);
 }
+
+/// A material with a texture and no `Kd` shows the texture as it is (Blender's and three.js's
+/// importers read it so; a `Kd` beside it multiplies it, as the MTL format says). Negatives:
+/// with the texture missing, the material is the default grey; with `Kd 0.5`, half.
+#[test]
+fn a_texture_without_kd_is_shown_as_it_is() {
+    let red = png([255, 0, 0]);
+    let files = |mtl: &'static [u8], tex: &'static str| {
+        load_ok(&[
+            ("mesh.obj", QUAD_OBJ.as_bytes()),
+            ("lib.mtl", mtl),
+            (tex, &red),
+        ])
+        .0
+    };
+    let plain = files(b"newmtl tex\nmap_Kd tex.png\n", "tex.png");
+    assert_eq!(material(&plain).0, Vec3::ONE);
+    assert!(material(&plain).1.is_some());
+    let missing = files(b"newmtl tex\nmap_Kd tex.png\n", "other.png");
+    assert_eq!(material(&missing), (Vec3::splat(0.8), None));
+    let half = files(b"newmtl tex\nKd 0.5 0.5 0.5\nmap_Kd tex.png\n", "tex.png");
+    assert_eq!(material(&half).0, Vec3::splat(0.5));
+}

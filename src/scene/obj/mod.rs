@@ -44,7 +44,8 @@
 //!   the faces get the default material (grey 0.8). (The normalised copy declares such names in
 //!   one more, empty-bodied library so that `tobj` splits parts at every change of name, as the
 //!   file does.)
-//! - MTL: `newmtl`, `Kd` (1 value = grey, or 3), `map_Kd` (options such as `-s` are skipped
+//! - MTL: `newmtl`, `Kd` (1 value = grey, or 3; it multiplies `map_Kd`; without it a textured
+//!   material shows its texture as it is, a plain one is grey 0.8), `map_Kd` (options such as `-s` are skipped
 //!   with a warning; any format the `image` crate reads, told by the file's first bytes, else
 //!   its extension: PNG, JPEG, BMP, TGA, GIF, TIFF, WebP, PNM, DDS) and `Ns` (the Phong
 //!   specular power; a reflector uses it only where its scene file says

@@ -362,7 +362,16 @@ pub(super) fn load_materials(
         };
         out.materials.push(Material {
             name: m.name.clone(),
-            diffuse: m.diffuse.map_or(Vec3::splat(0.8), Vec3::from_array),
+            // Without `Kd`, a texture shows as it is (as Blender's and three.js's importers
+            // read it), a plain material is the default grey.
+            diffuse: m.diffuse.map_or(
+                if texture.is_some() {
+                    Vec3::ONE
+                } else {
+                    Vec3::splat(0.8)
+                },
+                Vec3::from_array,
+            ),
             texture,
             // As read; the scene file decides whether a reflector honours it (`merge`).
             specular_power: m.shininess,
