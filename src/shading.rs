@@ -64,6 +64,20 @@ pub fn srgb_to_linear(c: u8) -> f32 {
     }
 }
 
+/// sRGB transfer function, decode, of an encoded value `c` in [0, 1] as a float (an OBJ
+/// vertex colour); below 0 is 0, 1 is 1 exactly, above 1 follows the curve.
+pub fn srgb_decode(c: f32) -> f32 {
+    if c <= 0.0 {
+        0.0
+    } else if c == 1.0 {
+        1.0
+    } else if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
 /// sRGB transfer function, encode (linear to 8-bit, clamped, rounded to nearest).
 pub fn linear_to_srgb(c: f32) -> u8 {
     let c = if c.is_nan() { 0.0 } else { c.clamp(0.0, 1.0) };

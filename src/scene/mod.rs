@@ -308,8 +308,10 @@ pub struct MeshPart {
     pub normals: Vec<Vec3>,
     /// Empty, or one texture coordinate per position.
     pub uvs: Vec<Vec2>,
-    /// Empty, or one linear RGB colour per position (an OBJ's `v x y z r g b`), which
-    /// multiplies the material's colour.
+    /// Empty, or one colour per position as an OBJ's `v x y z r g b` holds it: sRGB-encoded,
+    /// as Blender writes it (and MeshLab and Open3D store 8-bit colours), decoded to linear
+    /// RGB in the world ([`crate::scene::WorldGeometry::colours`]), where it multiplies the
+    /// material's colour.
     pub colours: Vec<Vec3>,
     pub triangles: Vec<[u32; 3]>,
     /// Index into [`Scene::materials`].

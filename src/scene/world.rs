@@ -3,6 +3,7 @@
 use glam::{DVec3, Vec2, Vec3};
 
 use super::Scene;
+use crate::shading::srgb_decode;
 
 /// One mesh part in world space.
 #[derive(Clone, Debug)]
@@ -46,8 +47,8 @@ pub struct WorldGeometry {
     pub normals: Vec<Vec3>,
     /// One per vertex; zero where a part has no texture coordinates.
     pub uvs: Vec<Vec2>,
-    /// Empty where no part has vertex colours; else one linear RGB colour per vertex, white
-    /// where a part has none (read only for an object with [`ObjectInfo::vertex_colours`]).
+    /// Empty where no part has vertex colours; else one linear RGB colour per vertex (the
+    /// part's sRGB colours decoded), white where a part has none (read only for an object with [`ObjectInfo::vertex_colours`]).
     pub colours: Vec<Vec3>,
     pub triangles: Vec<[u32; 3]>,
     /// Object id of each triangle.
@@ -80,7 +81,8 @@ impl WorldGeometry {
                 let vertex_colours =
                     part.colours.len() == part.positions.len() && !part.colours.is_empty();
                 if coloured && vertex_colours {
-                    w.colours.extend_from_slice(&part.colours);
+                    let linear = |c: &Vec3| Vec3::from_array(c.to_array().map(srgb_decode));
+                    w.colours.extend(part.colours.iter().map(linear));
                 } else if coloured {
                     w.colours
                         .extend(std::iter::repeat_n(Vec3::ONE, part.positions.len()));

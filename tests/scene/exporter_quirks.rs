@@ -251,6 +251,19 @@ fn vertex_colours_and_untextured_parts_are_named_in_warnings() {
     assert!(report.warnings.is_empty(), "{:?}", report.warnings);
     let want = [Vec3::X, Vec3::Y, Vec3::Z, Vec3::splat(0.5)];
     assert_eq!(colours(&scene), want);
+    // They are sRGB-encoded, as Blender writes them (its 0.5 linear as 0.7353): the world holds
+    // them decoded, and white for the mirror's vertices (before the mesh's).
+    let world = scene.world();
+    assert_eq!(
+        world.colours[..4],
+        [Vec3::ONE, Vec3::ONE, Vec3::ONE, Vec3::X]
+    );
+    assert!(
+        (world.colours[6] - Vec3::splat(0.214_041))
+            .abs()
+            .max_element()
+            < 1e-5
+    );
     // Negative: where some `v` have none, none is kept, and the warning names the others.
     let obj = "v 0 0 -1 1 0 0\nv 1 0 -1 0 1 0\nv 0 1 -1 0 0 1\nv 1 1 -1\nf 1 2 3\nf 2 4 3\n";
     let (scene, report) = load_ok(&[("mesh.obj", obj.as_bytes())]);

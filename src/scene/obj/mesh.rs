@@ -20,7 +20,7 @@ pub(super) struct RawPart {
     positions: Vec<Vec3>,
     uvs: Vec<Vec2>,
     normals: Vec<Vec3>,
-    /// Empty, or one linear RGB colour per position ([`ObjPass::colours`]).
+    /// Empty, or one sRGB-encoded colour per position ([`ObjPass::colours`]).
     colours: Vec<Vec3>,
     triangles: Vec<[u32; 3]>,
     /// The source line of each triangle's polygon.

@@ -22,7 +22,7 @@
 //!   `-1.#IND00`), which would otherwise read as a number and a comment.
 //! - `v`, `vt`, `vn`, `f`, `o`, `g`, `usemtl`, `mtllib`; other statements (`s`, curves, ...)
 //!   are ignored. A `w` after `v x y z` is ignored. Vertex colours (`v x y z r g b`, which
-//!   MeshLab, Open3D, trimesh and Blender write) multiply the material's colour
+//!   MeshLab, Open3D, trimesh and Blender write, sRGB-encoded) multiply the material's colour
 //!   ([`crate::scene::MeshPart::colours`]) where every `v` of the file has one; where only
 //!   some have one, none is kept, with a warning naming the lines without. A part whose
 //!   colours are all white is left without them. A `vt` with one value gets v = 0. `l` and `p` elements and faces with fewer than 3
