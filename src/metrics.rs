@@ -216,6 +216,14 @@ pub fn classify(
         .collect()
 }
 
+/// The squared error of one pixel's linear RGB, each clamped to [0, 1], in f64 ([`psnr`] sums
+/// them).
+fn squared_error(a: Vec3, b: Vec3) -> f64 {
+    (a.clamp(Vec3::ZERO, Vec3::ONE) - b.clamp(Vec3::ZERO, Vec3::ONE))
+        .as_dvec3()
+        .length_squared()
+}
+
 /// PSNR of a summed squared error over `n` RGB pixels: infinite for no error, NaN for no pixel.
 fn psnr(squared_error: f64, n: usize) -> f64 {
     if n == 0 {
@@ -269,10 +277,7 @@ pub fn compare(
         assert_eq!(ids.len(), traced.mask.len(), "one triangle ID per pixel");
     }
     for (k, p) in pixels.iter().enumerate() {
-        let d = (reference.colour[k].clamp(Vec3::ZERO, Vec3::ONE)
-            - traced.colour[k].clamp(Vec3::ZERO, Vec3::ONE))
-        .as_dvec3()
-        .length_squared();
+        let d = squared_error(reference.colour[k], traced.colour[k]);
         se_frame += d;
         if p.class == PixelClass::NotMirror {
             continue;
@@ -344,10 +349,7 @@ pub fn compare_colour(
     };
     let (mut unresolved, mut se, mut se_frame) = (0usize, 0f64, 0f64);
     for k in 0..truth.colour.len() {
-        let d = (truth.colour[k].clamp(Vec3::ZERO, Vec3::ONE)
-            - colour[k].clamp(Vec3::ZERO, Vec3::ONE))
-        .as_dvec3()
-        .length_squared();
+        let d = squared_error(truth.colour[k], colour[k]);
         se_frame += d;
         let (t, g) = (truth.mask[k] != 0, mask[k] != 0);
         if !t && !g {

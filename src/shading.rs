@@ -78,6 +78,20 @@ pub fn srgb_decode(c: f32) -> f32 {
     }
 }
 
+/// sRGB transfer function, encode, as a float: the inverse of [`srgb_decode`] up to rounding
+/// (0 and 1 exactly).
+pub fn srgb_encode(c: f32) -> f32 {
+    if c <= 0.0 {
+        0.0
+    } else if c == 1.0 {
+        1.0
+    } else if c <= 0.003_130_8 {
+        c * 12.92
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    }
+}
+
 /// sRGB transfer function, encode (linear to 8-bit, clamped, rounded to nearest).
 pub fn linear_to_srgb(c: f32) -> u8 {
     let c = if c.is_nan() { 0.0 } else { c.clamp(0.0, 1.0) };

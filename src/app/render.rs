@@ -616,8 +616,9 @@ pub(super) fn compare_with_reference(
 
 /// The `--compare` line of a glossy scene. A reflected ray's hit is one sample of the lobe, so
 /// hits cannot be compared; the colour can, against the lobe's integral: the reference of the
-/// frame's `bounces` at `spp` samples at the film's offsets ([`engine::glossy::reference_frame`], bit for bit
-/// `cubetrace reference --spp N`), whose own accuracy is the PSNR of its even-numbered samples
+/// frame's `bounces` at `spp` samples at the film's offsets
+/// ([`engine::glossy::reference_frame_bounces`], bit for bit `cubetrace reference --bounces B
+/// --spp N`), whose own accuracy is the PSNR of its even-numbered samples
 /// against all of them (an unbiased estimate's error falls as 1/sqrt(spp), so the full frame is
 /// about 3 dB closer to the truth than that). PSNR over the reference's mirror pixels.
 fn glossy_comparison(

@@ -161,9 +161,9 @@ fn planned_steps(cfg: &BenchConfig) -> u64 {
 }
 
 /// The converged frame that a scene with a glossy reflector is measured against
-/// ([`crate::render::glossy::reference_frame_bounces`] of `bounces` at `spp` samples, all at the pixel centre as the
-/// grid's frames are: the lobe's integral there); `None` for a scene of mirrors, whose frames
-/// are compared hit by hit with the reference's.
+/// ([`crate::render::glossy::reference_frame_bounces`] of `bounces` at `spp` samples, all at
+/// the pixel centre as the grid's frames are: the lobe's integral there); `None` for a scene
+/// of mirrors, whose frames are compared hit by hit with the reference's.
 fn converged_truth(
     scene: &Scene,
     camera: &Camera,

@@ -25,6 +25,7 @@ use glam::{Mat4, Vec3, Vec4};
 
 use crate::scene::gpu_data::GpuSceneData;
 use crate::scene::{MeshPart, Scene};
+use crate::shading::{srgb_decode, srgb_encode};
 
 /// Options of the reflection-point method.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -420,7 +421,10 @@ fn subdivide_part(part: &mut MeshPart) {
                 part.uvs.push((part.uvs[i] + part.uvs[j]) * 0.5);
             }
             if has_colour {
-                part.colours.push((part.colours[i] + part.colours[j]) * 0.5);
+                // The colours are sRGB-encoded: the midpoint is the linear colours' mean.
+                let (a, b) = (part.colours[i].to_array(), part.colours[j].to_array());
+                let mid = |k: usize| srgb_encode((srgb_decode(a[k]) + srgb_decode(b[k])) * 0.5);
+                part.colours.push(Vec3::new(mid(0), mid(1), mid(2)));
             }
             part.positions.len() as u32 - 1
         })
@@ -436,6 +440,32 @@ fn subdivide_part(part: &mut MeshPart) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Subdividing keeps a part's colours: a new vertex's sRGB-encoded colour decodes to the
+    /// mean of its edge's linear colours (0 and 1 stay exact). Negative: the mean of the encoded
+    /// values, which the midpoint would be without decoding, is another colour.
+    #[test]
+    fn subdivision_averages_vertex_colours_in_linear_light() {
+        let mut part = MeshPart {
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
+            normals: vec![Vec3::Z; 3],
+            colours: vec![
+                Vec3::new(1.0, 0.0, 0.2),
+                Vec3::new(0.0, 1.0, 0.9),
+                Vec3::ONE,
+            ],
+            triangles: vec![[0, 1, 2]],
+            ..MeshPart::default()
+        };
+        subdivide_part(&mut part);
+        assert_eq!(part.colours.len(), part.positions.len());
+        let (a, b, ab) = (part.colours[0], part.colours[1], part.colours[3]);
+        let linear = |c: Vec3| Vec3::from_array(c.to_array().map(srgb_decode));
+        let mean = (linear(a) + linear(b)) * 0.5;
+        assert!((linear(ab) - mean).abs().max_element() < 1e-6, "{ab}");
+        assert_eq!([srgb_encode(0.0), srgb_encode(1.0)], [0.0, 1.0]);
+        assert!((linear((a + b) * 0.5) - mean).abs().max_element() > 0.05);
+    }
 
     /// A sphere of radius 1 at the origin seen from `eye` on +z, as textures of an orthographic
     /// view (each texel the sphere's point above it), enough to check the search's geometry.

@@ -111,13 +111,16 @@ impl GpuSceneData {
         }
         let colour = |i: usize| world.colours.get(i).copied().unwrap_or(Vec3::ONE);
         let vertices = (0..world.positions.len())
-            .map(|i| GpuVertex {
-                position: world.positions[i].to_array(),
-                object: vertex_object[i],
-                normal: world.normals[i].to_array(),
-                uv: world.uvs[i].to_array(),
-                colour_r: colour(i).x,
-                colour_gb: [colour(i).y, colour(i).z],
+            .map(|i| {
+                let [r, g, b] = colour(i).to_array();
+                GpuVertex {
+                    position: world.positions[i].to_array(),
+                    object: vertex_object[i],
+                    normal: world.normals[i].to_array(),
+                    uv: world.uvs[i].to_array(),
+                    colour_r: r,
+                    colour_gb: [g, b],
+                }
             })
             .collect();
         let captured = |t: usize| world.objects[world.triangle_object[t] as usize].captured;
