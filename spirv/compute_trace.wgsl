@@ -83,6 +83,10 @@ const MAX_BATCHES: u32 = 65536u;
 // packed word per cell (shared/trace.wgsl's `unpack_gap`), laid out as `cmo_hier`; a one-word
 // placeholder, never read, for the other criteria.
 @group(2) @binding(7) var<storage, read> cmo_gap_hier: array<u32>;
+// The cut queue: the queue indices of the rays the first dispatch cut (`ray_counter.cut` of
+// them), which the retrace (`trace_mode` 1) traces; a one-word placeholder, never written, for
+// the thesis layout (no retrace).
+@group(2) @binding(8) var<storage, read_write> cut_rays: array<u32>;
 
 struct RayState {
     // The world ray.
@@ -754,7 +758,10 @@ fn wave_scan_step(v: u32, start: u32, d: u32, sg_lane: u32, sg_size: u32) -> u32
 
 // Traces queued ray `index` (absent when `valid` is false: the lanes still take part in the
 // subgroup operations) and writes its record. Called in subgroup-uniform control flow.
-fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells: u32, big: bool, bounded: bool, wave: bool, sg_size: u32) {
+// `queue_cut`: a ray the step loop leaves unfinished is appended to the cut queue (the first
+// dispatch of `main_lanes1` and `main_wave`, which the retrace follows). `step_cap`: the step
+// loop's cap, MAX_STEPS but where a test lowers it for the first dispatch (`TraceMode`).
+fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells: u32, big: bool, bounded: bool, wave: bool, queue_cut: bool, step_cap: u32, sg_size: u32) {
     // One lane per ray (uniform over the dispatch).
     let one = lanes == 1u;
     var st: RayState;
@@ -779,7 +786,7 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
     var pending = valid;
     var step = 0u;
     loop {
-        if step >= MAX_STEPS {
+        if step >= step_cap {
             break;
         }
         if pending {
@@ -904,7 +911,7 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
             }
     
             step += 1u;
-            if subgroupAny(pending) || step >= MAX_STEPS {
+            if subgroupAny(pending) || step >= step_cap {
                 break;
             }
         }
@@ -914,11 +921,14 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
         if !st.finished {
             // The step loop ended before the ray did: cut by the driver's loop limit (lavapipe:
             // 65535 loop iterations per invocation, all loops together; spirv/README.md, "Known
-            // defect") or MAX_STEPS. Unresolved at the proven-empty prefix, flagged `cut` for
-            // the retrace (`trace_mode` 1).
+            // defect") or the step cap. Unresolved at the proven-empty prefix, flagged `cut`,
+            // and queued for the retrace (`trace_mode` 1) where there is one.
             let t = st.t_done;
             let p = vec3<f32>(st.origin.x + prod(t, st.dir.x), st.origin.y + prod(t, st.dir.y), st.origin.z + prod(t, st.dir.z));
             r = trace_out(STATUS_UNRESOLVED, 0xffffffffu, st.result, p, t, st.traces);
+            if queue_cut {
+                cut_rays[atomicAdd(&ray_counter.cut, 1u)] = index;
+            }
         }
         var colour = frame.background;
         var triangle = VERIFY_NO_TRIANGLE;
@@ -954,14 +964,21 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
 // layout is read from `trace_mode`, so that one pipeline (one compile) serves both of its
 // dispatches:
 // - `trace_mode` 0: 1 lane per ray (its 32 logical lanes in 32 rounds), S rays per subgroup;
-// - `trace_mode` 1: the thesis layout over the rays of the queue whose record the first
-//   dispatch flagged `cut`, the others left alone: it retraces from scratch the rays that the
-//   driver's loop limit cut (spirv/README.md, "Known defect"), one ray per subgroup (at S <= 32)
-//   with min(S, 32) lanes, so with far fewer loop iterations per step. Dispatched
-//   (`retrace_args`, sized by `dispatch_args`) with one batch per subgroup.
+// - `trace_mode` 1: the thesis layout over the rays the first dispatch cut (the cut queue,
+//   `cut_rays`): it retraces from scratch the rays that the driver's loop limit cut
+//   (spirv/README.md, "Known defect"), one ray per subgroup (at S <= 32) with min(S, 32) lanes,
+//   so with far fewer loop iterations per step. Dispatched (`retrace_args`, sized by
+//   `dispatch_args`' `retrace_size` from the queue's length) with one batch per subgroup.
 // The `_wg128` twins run 128-invocation workgroups, for subgroups of 4 (lavapipe's
 // `maxComputeWorkgroupSubgroups` is 32: `vk::methods::compute::workgroup_size`).
-@group(2) @binding(6) var<storage, read> trace_mode: u32;
+// `mode` 0 or 1 as above; `step_cap`: the step loop's cap in mode 0, MAX_STEPS but where a test
+// lowers it (`CUBETRACE_STEP_CAP`, `vk::methods::compute::STEP_CAP_ENV`) to make the retrace
+// run: no scene of the suite has a ray the driver's loop limit cuts.
+struct TraceMode {
+    mode: u32,
+    step_cap: u32,
+}
+@group(2) @binding(6) var<storage, read> trace_mode: TraceMode;
 
 @compute @workgroup_size(256)
 fn main(
@@ -971,7 +988,7 @@ fn main(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, 32u, false, false, false, false);
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, 32u, false, false, false, false, MAX_STEPS);
 }
 
 @compute @workgroup_size(256)
@@ -982,8 +999,9 @@ fn main_lanes1(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    let retrace = trace_mode != 0u;
-    trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, select(1u, 32u, retrace), retrace, true, false, false);
+    let retrace = trace_mode.mode != 0u;
+    let cap = select(trace_mode.step_cap, MAX_STEPS, retrace);
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, select(1u, 32u, retrace), retrace, true, false, false, cap);
 }
 
 @compute @workgroup_size(128)
@@ -994,7 +1012,7 @@ fn main_wg128(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, 32u, false, false, false, false);
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, 32u, false, false, false, false, MAX_STEPS);
 }
 
 @compute @workgroup_size(128)
@@ -1005,8 +1023,9 @@ fn main_lanes1_wg128(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    let retrace = trace_mode != 0u;
-    trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, select(1u, 32u, retrace), retrace, true, false, false);
+    let retrace = trace_mode.mode != 0u;
+    let cap = select(trace_mode.step_cap, MAX_STEPS, retrace);
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, select(1u, 32u, retrace), retrace, true, false, false, cap);
 }
 
 // The same four with the `bounded` criterion.
@@ -1018,7 +1037,7 @@ fn main_bounded(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, 32u, false, false, true, false);
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, 32u, false, false, true, false, MAX_STEPS);
 }
 
 @compute @workgroup_size(256)
@@ -1029,8 +1048,9 @@ fn main_lanes1_bounded(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    let retrace = trace_mode != 0u;
-    trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, select(1u, 32u, retrace), retrace, true, true, false);
+    let retrace = trace_mode.mode != 0u;
+    let cap = select(trace_mode.step_cap, MAX_STEPS, retrace);
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, select(1u, 32u, retrace), retrace, true, true, false, cap);
 }
 
 @compute @workgroup_size(128)
@@ -1041,7 +1061,7 @@ fn main_wg128_bounded(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, 32u, false, false, true, false);
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, 32u, false, false, true, false, MAX_STEPS);
 }
 
 @compute @workgroup_size(128)
@@ -1052,8 +1072,9 @@ fn main_lanes1_wg128_bounded(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    let retrace = trace_mode != 0u;
-    trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, select(1u, 32u, retrace), retrace, true, true, false);
+    let retrace = trace_mode.mode != 0u;
+    let cap = select(trace_mode.step_cap, MAX_STEPS, retrace);
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, select(1u, 32u, retrace), retrace, true, true, false, cap);
 }
 
 // `main_wave`: one ray per lane as `main_lanes1` (the same two dispatches, `trace_mode` 1 the
@@ -1067,8 +1088,9 @@ fn main_wave(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    let retrace = trace_mode != 0u;
-    trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, select(1u, 32u, retrace), retrace, true, false, true);
+    let retrace = trace_mode.mode != 0u;
+    let cap = select(trace_mode.step_cap, MAX_STEPS, retrace);
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, select(1u, 32u, retrace), retrace, true, false, true, cap);
 }
 
 @compute @workgroup_size(128)
@@ -1079,8 +1101,9 @@ fn main_wave_wg128(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    let retrace = trace_mode != 0u;
-    trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, select(1u, 32u, retrace), retrace, true, false, true);
+    let retrace = trace_mode.mode != 0u;
+    let cap = select(trace_mode.step_cap, MAX_STEPS, retrace);
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, select(1u, 32u, retrace), retrace, true, false, true, cap);
 }
 
 @compute @workgroup_size(256)
@@ -1091,8 +1114,9 @@ fn main_wave_bounded(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    let retrace = trace_mode != 0u;
-    trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, select(1u, 32u, retrace), retrace, true, true, true);
+    let retrace = trace_mode.mode != 0u;
+    let cap = select(trace_mode.step_cap, MAX_STEPS, retrace);
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, select(1u, 32u, retrace), retrace, true, true, true, cap);
 }
 
 @compute @workgroup_size(128)
@@ -1103,14 +1127,15 @@ fn main_wave_wg128_bounded(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    let retrace = trace_mode != 0u;
-    trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, select(1u, 32u, retrace), retrace, true, true, true);
+    let retrace = trace_mode.mode != 0u;
+    let cap = select(trace_mode.step_cap, MAX_STEPS, retrace);
+    trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, select(1u, 32u, retrace), retrace, true, true, true, cap);
 }
 
 // `group_size`: the entry point's workgroup size (a constant); `big`: `main_lanes1`'s keys
 // (`key_get`, a constant); `bounded`: the `bounded` criterion (a constant); `wave`: the wave
 // layout's lane tests (`main_wave`, a constant).
-fn trace_all(wg: vec3<u32>, groups: vec3<u32>, sg_size: u32, sg_lane: u32, sg_id: u32, group_size: u32, lane_cap: u32, retrace: bool, big: bool, bounded: bool, wave: bool) {
+fn trace_all(wg: vec3<u32>, groups: vec3<u32>, sg_size: u32, sg_lane: u32, sg_id: u32, group_size: u32, lane_cap: u32, retrace: bool, big: bool, bounded: bool, wave: bool, step_cap: u32) {
     let lanes = min(min(sg_size, 32u), lane_cap);
     if min(sg_size, 32u) < 4u {
         // Unsupported (refused on the Rust side); uniform over the whole dispatch.
@@ -1125,22 +1150,21 @@ fn trace_all(wg: vec3<u32>, groups: vec3<u32>, sg_size: u32, sg_lane: u32, sg_id
         atomicMax(&ray_counter.subgroup_max, sg_size);
         atomicMax(&ray_counter.subgroup_min_not, ~sg_size);
     }
-    let count = atomicLoad(&ray_counter.count);
+    // The retrace runs over the cut queue.
+    var count = atomicLoad(&ray_counter.count);
+    if retrace {
+        count = atomicLoad(&ray_counter.cut);
+    }
     for (var batch = 0u; batch < MAX_BATCHES; batch++) {
-        let index = (wg.x + batch * groups.x) * rays_per_group + slot;
-        var valid = index < count;
+        let i = (wg.x + batch * groups.x) * rays_per_group + slot;
+        let valid = i < count;
         if !subgroupAny(valid) {
             break;
         }
-        if retrace {
-            if valid {
-                valid = records[rays[index].pixel].cut != 0u;
-            }
-            // No cut ray here: skip the batch (the state set-up costs as much as short rays).
-            if !subgroupAny(valid) {
-                continue;
-            }
+        var index = i;
+        if retrace && valid {
+            index = cut_rays[i];
         }
-        trace_queued(valid, index, lane, half, lanes, cells, big, bounded, wave && !retrace, sg_size);
+        trace_queued(valid, index, lane, half, lanes, cells, big, bounded, wave && !retrace, big && !retrace, step_cap, sg_size);
     }
 }

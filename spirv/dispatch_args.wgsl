@@ -18,8 +18,8 @@
 // The texels (`cmo_distance`), read when the texels are the root (N <= 4).
 @group(0) @binding(6) var<storage, read> cut_distance: array<f32>;
 
-// The retrace dispatch after `main_lanes1` (`compute_trace` with `trace_mode` 1): one batch per
-// subgroup for every queued ray.
+// The retrace dispatch after `main_lanes1` or `main_wave` (`compute_trace` with `trace_mode`
+// 1): one batch per subgroup for every ray the first dispatch cut (`retrace_size`).
 @group(0) @binding(7) var<storage, read_write> retrace_args: DispatchArgs;
 
 fn group_count(n: u32, rays_per_group: u32) -> u32 {
@@ -32,11 +32,7 @@ fn main() {
     let n = atomicLoad(&ray_counter.count);
     ray_counter.traced += n;
     dispatch_args = DispatchArgs(group_count(n, dispatch_params.rays_per_group), 1u, 1u);
-    var retrace = 0u;
-    if dispatch_params.retrace_rays_per_group != 0u {
-        retrace = group_count(n, dispatch_params.retrace_rays_per_group);
-    }
-    retrace_args = DispatchArgs(retrace, 1u, 1u);
+    atomicStore(&ray_counter.cut, 0u);
 
     let size = dispatch_params.size;
     let root = cut_hier_config.root;
@@ -59,4 +55,18 @@ fn main() {
         }
         cut_out[k] = cut;
     }
+}
+
+// Sizes the retrace dispatch from the rays the first `compute_trace` dispatch cut (after a
+// barrier from it): none cut (every built-in scene), an empty dispatch. It used to cover every
+// queued ray, each workgroup reading its rays' `cut` flags, and on lavapipe every subgroup ran
+// the whole kernel body once, masked, for nothing: about half of `compute_trace`'s time on
+// `default` (`benches/results/lavapipe-shaders.md`, "The retrace over the cut rays only").
+@compute @workgroup_size(1)
+fn retrace_size() {
+    var retrace = 0u;
+    if dispatch_params.retrace_rays_per_group != 0u {
+        retrace = group_count(atomicLoad(&ray_counter.cut), dispatch_params.retrace_rays_per_group);
+    }
+    retrace_args = DispatchArgs(retrace, 1u, 1u);
 }

@@ -154,7 +154,7 @@ fn compute_struct_layouts_match_naga() {
     check_layout!(
         RayCounter,
         DISPATCH_ARGS.struct_layout("RayCounter").unwrap(),
-        [count, subgroup_max, subgroup_min_not, traced]
+        [count, subgroup_max, subgroup_min_not, traced, cut]
     )
     .unwrap();
     check_layout!(

@@ -37,6 +37,10 @@ struct RayCounter {
     // Rays traced this frame, over the rounds of `--bounces` (`dispatch_args` adds each round's
     // count; the counter is zeroed before the camera's rays, a round copies in its `count` only).
     traced: u32,
+    // Rays of this dispatch whose step loop the driver's loop limit cut, appended by
+    // `compute_trace` to its cut queue for the retrace (zeroed by `dispatch_args` before each
+    // dispatch; `retrace_size` sizes the retrace from it).
+    cut: atomic<u32>,
 }
 
 // VkDispatchIndirectCommand.
@@ -55,8 +59,8 @@ struct DispatchParams {
     // Number of CMOs K and face size N (for the cut radii).
     cmo_count: u32,
     size: u32,
-    // Rays one `main_retrace` workgroup takes per batch (256 / min(S, 32)); 0: no retrace
-    // dispatch (its workgroup count `retrace_args` is then 0).
+    // Rays one retrace workgroup (`main_lanes1` or `main_wave` with `trace_mode` 1) takes per
+    // batch (256 / min(S, 32)); 0: no retrace dispatch (`retrace_args` is then 0).
     retrace_rays_per_group: u32,
 }
 // The largest workgroup count per dimension every Vulkan device accepts.

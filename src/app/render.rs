@@ -437,8 +437,9 @@ fn log_gpu_frame(frame: &GpuFrame, method: Method) {
     if let Some(c) = &frame.compute {
         let [texels, cells, descents, backtracks] = c.summary(&frame.mask);
         log::info!(
-            "compute: {} rays, subgroup size {} (min {}), per ray mean/max: texels {:.1}/{}, cells {:.1}/{}, descents {:.1}/{}, backtracks {:.1}/{}",
+            "compute: {} rays ({} retraced: cut by the driver's loop limit), subgroup size {} (min {}), per ray mean/max: texels {:.1}/{}, cells {:.1}/{}, descents {:.1}/{}, backtracks {:.1}/{}",
             c.rays,
+            c.retraced,
             c.subgroup_size.1,
             c.subgroup_size.0,
             texels.0,

@@ -25,6 +25,7 @@ use cubetrace::vk::frame::{
     Fallback, GpuFrame, GpuRenderer, PixelRecord, RECORD_ESCAPED, RECORD_HIT, RECORD_UNRESOLVED,
     RenderOptions,
 };
+use cubetrace::vk::methods::compute::STEP_CAP_ENV;
 use glam::{Vec2, Vec3};
 
 /// Distance of the far cube's centre from the origin (behind the camera, along +z).
@@ -671,7 +672,8 @@ fn span_records_child() {
     let mut r = GpuRenderer::new(&ctx, &scene, camera, options(Method::Compute)).unwrap();
     let frame = r.render(&ctx).unwrap();
     let (lo, hi) = frame.compute.as_ref().expect("compute stats").subgroup_size;
-    std::fs::write(format!("{out}.subgroup"), format!("{lo} {hi}")).unwrap();
+    let retraced = frame.compute.as_ref().expect("compute stats").retraced;
+    std::fs::write(format!("{out}.subgroup"), format!("{lo} {hi} {retraced}")).unwrap();
     std::fs::write(format!("{out}.mask"), &frame.mask).unwrap();
     std::fs::write(
         &out,
@@ -681,9 +683,14 @@ fn span_records_child() {
     finish_gpu(ctx);
 }
 
+/// A span-scene child's mask and records, the `(min, max)` subgroup size it ran with and the
+/// rays it retraced.
+type SpanRun = ((Vec<u8>, Vec<PixelRecord>), (u32, u32), u32);
+
 /// The span scene's compute records with `lanes` lanes per ray (`CUBETRACE_RAY_LANES`) at
 /// native vector width `bits` (lavapipe's subgroup size: bits / 32), far cube at `far`, and the
-/// `(min, max)` subgroup size `compute_trace` ran with in the child (its `ComputeStats`).
+/// `(min, max)` subgroup size `compute_trace` ran with in the child and the rays it retraced
+/// (its `ComputeStats`).
 ///
 /// The child runs with `GALLIUM_OVERRIDE_CPU_CAPS=sse4.1`: at 128 bits Mesa 22.3's llvmpipe with
 /// 128-bit vectors on a CPU with AVX2 / AVX-512 corrupts its heap ("double free or corruption",
@@ -691,7 +698,13 @@ fn span_records_child() {
 /// envmap baseline included. Limited to AVX it ran on an Intel CI machine but still crashed on an
 /// AMD EPYC one; limited to SSE4.1 it runs on both. Both widths run with that limit, and their
 /// records are equal (spirv/README.md, "What lavapipe does").
-fn span_records(lanes: &str, bits: u32, far: f32) -> ((Vec<u8>, Vec<PixelRecord>), (u32, u32)) {
+fn span_records(lanes: &str, bits: u32, far: f32) -> SpanRun {
+    span_records_capped(lanes, bits, far, None)
+}
+
+/// [`span_records`] with the first dispatch's step loop capped at `cap` steps
+/// (`CUBETRACE_STEP_CAP`), as the driver's loop limit would cut it.
+fn span_records_capped(lanes: &str, bits: u32, far: f32, cap: Option<u32>) -> SpanRun {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("records");
     let mut child = Command::new(std::env::current_exe().unwrap());
@@ -699,6 +712,9 @@ fn span_records(lanes: &str, bits: u32, far: f32) -> ((Vec<u8>, Vec<PixelRecord>
     // llvmpipe's SSE4.1 code rounds differently from its AVX2 code (196 of 2570 records differ).
     child.env("GALLIUM_OVERRIDE_CPU_CAPS", "sse4.1");
     let child_test = common::test_name(module_path!(), "span_records_child");
+    if let Some(cap) = cap {
+        child.env(STEP_CAP_ENV, cap.to_string());
+    }
     let o = child
         .args(["--ignored", "--exact", &child_test, "--nocapture"])
         .env(RECORDS_OUT_ENV, &out)
@@ -720,6 +736,7 @@ fn span_records(lanes: &str, bits: u32, far: f32) -> ((Vec<u8>, Vec<PixelRecord>
     (
         (mask, bytemuck::pod_collect_to_vec(&bytes)),
         (ran[0], ran[1]),
+        ran[2],
     )
 }
 
@@ -744,9 +761,13 @@ fn compute_lane_layouts_agree_on_the_span_scene() {
     let mut by_width = Vec::new();
     let mut ran_at = Vec::new();
     for bits in [128, 256] {
-        let (wide, wide_ran) = span_records("32", bits, FAR);
-        let (one, one_ran) = span_records("1", bits, FAR);
-        let (wave, wave_ran) = span_records("wave", bits, FAR);
+        let (wide, wide_ran, wide_retraced) = span_records("32", bits, FAR);
+        let (one, one_ran, one_retraced) = span_records("1", bits, FAR);
+        let (wave, wave_ran, wave_retraced) = span_records("wave", bits, FAR);
+        eprintln!(
+            "width {bits}: retraced {wide_retraced} (main), {one_retraced} (main_lanes1), \
+             {wave_retraced} (main_wave)"
+        );
         // The child ran at the subgroup size asked for: every workgroup of the three layouts.
         assert_eq!(wide_ran, (bits / 32, bits / 32), "width {bits}");
         assert_eq!(one_ran, wide_ran, "width {bits}");
@@ -779,6 +800,17 @@ fn compute_lane_layouts_agree_on_the_span_scene() {
             d, 0,
             "width {bits}: {d} of {mirror} records differ (main_wave)"
         );
+        // No ray is cut here, so the retrace (the thesis layout over the cut queue) is made to
+        // run by capping the first dispatch's step loop: hundreds of rays are then cut, and
+        // the retrace must give every record the uncapped trace gives.
+        for lanes in ["1", "wave"] {
+            let (capped, _, retraced) = span_records_capped(lanes, bits, FAR, Some(2));
+            eprintln!("width {bits}, {lanes}, 2 steps: {retraced} rays retraced");
+            assert!(retraced >= 100, "{lanes}: {retraced} retraced");
+            let d = record_differences(&capped, &wide);
+            assert_eq!(d, 0, "width {bits}, {lanes}, capped: {d} records differ");
+        }
+        assert_eq!((wide_retraced, one_retraced, wave_retraced), (0, 0, 0));
         let k = (0..one.1.len())
             .find(|&k| one.0[k] == 1 && one.1[k].status != RECORD_UNRESOLVED)
             .unwrap();
@@ -794,8 +826,8 @@ fn compute_lane_layouts_agree_on_the_span_scene() {
     // And the sizes agree record for record.
     let d = record_differences(&by_width[0], &by_width[1]);
     assert_eq!(d, 0, "subgroup sizes 4 and 8: {d} records differ");
-    let (moved, _) = span_records("32", 256, 0.5 * FAR);
-    let (wide, _) = span_records("32", 256, FAR);
+    let (moved, _, _) = span_records("32", 256, 0.5 * FAR);
+    let (wide, _, _) = span_records("32", 256, FAR);
     let d = record_differences(&moved, &wide);
     assert!(d > 100, "moving the far cube changed {d} records");
 }

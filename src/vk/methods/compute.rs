@@ -24,7 +24,7 @@
 //!   invocations, or 128 where 256 would exceed `maxComputeWorkgroupSubgroups`
 //!   ([`workgroup_size`]).
 //! - One `compute_trace` pipeline per renderer: with `main_lanes1`, its two dispatches (the
-//!   1-lane layout, then the retrace of the rays it flagged `cut`) differ in `trace_mode` only.
+//!   1-lane layout, then the retrace of the rays it cut) differ in `trace_mode` only.
 //! - The ray counter is zeroed (`vkCmdFillBuffer`) before `append` in every frame. One fragment
 //!   per pixel (no multisampling), so the queue holds at most `width * height` rays.
 //! - The dispatch is sized for the device's default subgroup size ([`DispatchParams`]); the
@@ -61,9 +61,14 @@
 //! - Workgroups of 256 invocations, or 128 where 256 would exceed `maxComputeWorkgroupSubgroups`
 //!   (lavapipe at S = 4). The kernel assumes full subgroups.
 //! - lavapipe ends every loop of an invocation after 65535 back-edges in all. A ray whose step loop
-//!   ended before the ray did is flagged `cut`; after a `main_lanes1` dispatch the same pipeline
-//!   runs again with `trace_mode` 1, the thesis layout over the cut rays only, from scratch, so both
-//!   layouts give the same records (the 1e-3..1e5 span scene: 1004 of 2570 rays were cut before).
+//!   ended before the ray did is flagged `cut` and its queue index appended to the cut queue;
+//!   after a `main_lanes1` (or `main_wave`) dispatch, `retrace_size` sizes the retrace from the
+//!   queue's length and the same pipeline runs again with `trace_mode` 1, the thesis layout over
+//!   the cut rays only, from scratch, so both layouts give the same records (the 1e-3..1e5 span
+//!   scene: 1004 of 2570 rays were cut by an earlier kernel; none by this one on any scene of the
+//!   suite, so a test cuts them with [`STEP_CAP_ENV`]). The retrace used to cover every queued
+//!   ray, reading its `cut` flag, and lavapipe ran the kernel's body once per subgroup for
+//!   nothing: half of the pass's time on `default`.
 //! - One call site per large function (`settle` holds the handoff with hit verification, the trace
 //!   set-up and `enter_face`): lavapipe inlines every call, and pipeline creation grows with it
 //!   (4.8-5.8 s before, 0.2-0.35 s after).
@@ -145,6 +150,8 @@ pub struct RayCounter {
     pub subgroup_min_not: u32,
     /// Rays traced in the frame, the rounds of `--bounces` included.
     pub traced: u32,
+    /// Rays of the last dispatch that the driver's loop limit cut (the retrace's queue length).
+    pub cut: u32,
 }
 
 /// WGSL `DispatchArgs` (= `VkDispatchIndirectCommand`).
@@ -176,6 +183,29 @@ pub struct DispatchParams {
 /// `main_wave`: one ray per lane, the rays' child tests spread over the subgroup's lanes).
 /// Anything else is refused.
 pub const RAY_LANES_ENV: &str = "CUBETRACE_RAY_LANES";
+
+/// Environment variable that caps the step loop of `compute_trace`'s first dispatch (with
+/// `main_lanes1` or `main_wave`) at that many steps, as the driver's loop limit would cut it, so
+/// that the retrace runs: a test hook (no scene of the suite has a ray that lavapipe's loop
+/// limit cuts). Unset: `MAX_STEPS`.
+pub const STEP_CAP_ENV: &str = "CUBETRACE_STEP_CAP";
+
+/// WGSL `MAX_STEPS` of `compute_trace`: the step loop's cap.
+const MAX_STEPS: u32 = 0x8000_0000;
+
+/// The first dispatch's step cap ([`STEP_CAP_ENV`]).
+fn step_cap() -> VkResult<u32> {
+    match std::env::var(STEP_CAP_ENV) {
+        Ok(v) => match v.trim().parse::<u32>() {
+            Ok(n) if n >= 1 => Ok(n.min(MAX_STEPS)),
+            _ => Err(VkError::Usage {
+                what: STEP_CAP_ENV.into(),
+                detail: format!("`{v}`: expected a whole number of steps, at least 1"),
+            }),
+        },
+        Err(_) => Ok(MAX_STEPS),
+    }
+}
 
 /// The most lanes `compute_trace` gives one ray, and the entry point that does it, for
 /// `requested` (the render options' layout), else [`RAY_LANES_ENV`], else the device's default:
@@ -386,6 +416,9 @@ struct ComputeBuffers {
     counter: Buffer,
     args: Buffer,
     retrace_args: Buffer,
+    /// The cut queue (`cut_rays`): a queue index per ray the first dispatch cut, for the
+    /// retrace; one word where there is no retrace (the thesis layout).
+    cut_rays: Buffer,
     stats: Buffer,
 }
 
@@ -445,6 +478,15 @@ impl ComputeBuffers {
                 size_of::<DispatchArgs>() as u64,
                 indirect,
             )?,
+            cut_rays: storage(
+                "cut queue",
+                if dispatch.retrace_rays_per_group != 0 {
+                    pixels * 4
+                } else {
+                    4
+                },
+                vk::BufferUsageFlags::empty(),
+            )?,
             stats: storage("ray stats", pixels * 16, transfer_src)?,
             cut: storage("cmo_cut", u64::from(cmo.count()) * 4, transfer_src)?,
             dispatch_params: ctx.create_buffer_init(
@@ -497,13 +539,11 @@ impl TracePass {
             .iter()
             .any(|b| b.group == 2 && b.binding == 6);
         let trace_modes = if uses_mode {
-            (0u32..2)
+            let cap = step_cap()?;
+            [[0, cap], [1, MAX_STEPS]]
+                .iter()
                 .map(|mode| {
-                    ctx.create_buffer_init(
-                        "trace_mode",
-                        vk::BufferUsageFlags::STORAGE_BUFFER,
-                        &[mode],
-                    )
+                    ctx.create_buffer_init("trace_mode", vk::BufferUsageFlags::STORAGE_BUFFER, mode)
                 })
                 .collect::<VkResult<Vec<_>>>()?
         } else {
@@ -518,6 +558,7 @@ impl TracePass {
                 (4, Resource::Buffer(&b.stats)),
                 (5, Resource::Buffer(&b.cut)),
                 (7, Resource::Buffer(&b.gap_hier)),
+                (8, Resource::Buffer(&b.cut_rays)),
             ];
             if let Some(m) = mode {
                 resources.push((6, Resource::Buffer(m)));
@@ -562,6 +603,9 @@ pub struct ComputePath {
     append_set: BindGroup,
     dispatch_args: ComputePipeline,
     args_set: BindGroup,
+    /// `retrace_size`: the retrace's workgroup count from the cut queue's length (with a
+    /// retrace dispatch only).
+    retrace_size: Option<(ComputePipeline, BindGroup)>,
     trace: TracePass,
     buffers: ComputeBuffers,
 }
@@ -626,10 +670,29 @@ impl ComputePath {
                 (4, Resource::Buffer(&b.hier_config)),
                 (5, Resource::Buffer(&b.hier)),
                 (6, Resource::Buffer(cmo.distance())),
-                (7, Resource::Buffer(&b.retrace_args)),
             ],
         )?;
         let trace = TracePass::new(ctx, entry, lane_cap, &b, cmo, scene, params, records)?;
+        let retrace_size = match trace.retrace_set {
+            Some(_) => {
+                let p = ComputePipeline::new(
+                    ctx,
+                    &DISPATCH_ARGS,
+                    "retrace_size",
+                    ComputeOptions::default(),
+                )?;
+                let set = p.bind_group(
+                    0,
+                    &[
+                        (0, Resource::Buffer(&b.counter)),
+                        (2, Resource::Buffer(&b.dispatch_params)),
+                        (7, Resource::Buffer(&b.retrace_args)),
+                    ],
+                )?;
+                Some((p, set))
+            }
+            None => None,
+        };
         Ok(ComputePath {
             width,
             height,
@@ -640,6 +703,7 @@ impl ComputePath {
             append_set,
             dispatch_args,
             args_set,
+            retrace_size,
             trace,
             buffers: b,
         })
@@ -675,16 +739,19 @@ impl ComputePath {
     }
 
     /// `compute_trace`: the indirect dispatch over the queue (after a barrier from
-    /// `dispatch_args`; the hierarchy must already be visible); with `main_lanes1`, then its
-    /// retrace (`trace_mode` 1) over the rays it flagged `cut`.
+    /// `dispatch_args`; the hierarchy must already be visible); with `main_lanes1` or
+    /// `main_wave`, then `retrace_size` and the retrace (`trace_mode` 1) over the rays the
+    /// first dispatch cut (their queue indices in the cut queue; none cut, an empty dispatch).
     pub fn record_trace(&self, rec: &Recorder<'_>) -> VkResult<()> {
         rec.memory_barrier(SHADER_WRITE, INDIRECT_READ);
         let t = &self.trace;
         let sets = [&t.sets[0], &t.sets[1], &t.sets[2], &t.sets[3]];
         t.pipeline
             .dispatch_indirect(rec, &sets, &self.buffers.args, 0)?;
-        if let Some(set2) = &t.retrace_set {
+        if let (Some(set2), Some((size, size_set))) = (&t.retrace_set, &self.retrace_size) {
             rec.memory_barrier(SHADER_WRITE, STORAGE_RW);
+            size.dispatch(rec, &[size_set], [1, 1, 1]);
+            rec.memory_barrier(SHADER_WRITE, INDIRECT_READ);
             t.pipeline.dispatch_indirect(
                 rec,
                 &[sets[0], sets[1], set2, sets[3]],
@@ -721,6 +788,7 @@ impl ComputePath {
         Ok(ComputeStats {
             rays: c.traced,
             subgroup_size: (!c.subgroup_min_not, c.subgroup_max),
+            retraced: c.cut,
             per_pixel,
         })
     }

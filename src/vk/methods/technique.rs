@@ -183,6 +183,9 @@ pub struct ComputeStats {
     pub rays: u32,
     /// `(min, max)` subgroup size `compute_trace` ran with (`(0, 0)` when no workgroup ran).
     pub subgroup_size: (u32, u32),
+    /// Rays of the last dispatch (the last round of `--bounces`) that the driver's loop limit
+    /// cut and the retrace traced again (`main_lanes1`, `main_wave`; 0 for the thesis layout).
+    pub retraced: u32,
     /// Per pixel (meaningful on mirror pixels): texels tested, cells tested, descents,
     /// backtracks, summed over the ray's single-CMO traces.
     pub per_pixel: Vec<[u32; 4]>,
