@@ -78,14 +78,16 @@
 //! the three layouts writing identical images; S = 32 and 64 only through the twin's emulated
 //! ballots (the thesis layout) or not at all (the wave layout: no GPU has run it).
 //!
-//! Measured (lavapipe, 2 cores, 320x240, `benches/results/lavapipe-bench-320x240.json`): 3283 to
-//! 4534 ns per mirror ray, 3.9 to 5.0 times the fragment method and 8.6 to 12.8 times the
-//! reference's reflected ray; 78 cells and 37 texels per ray against the fragment path's 14 and 2.
-//! Per subgroup of 8 rays the outer loop (`settle`) turns 4 to 5 times and the step loop 8 to 13
-//! times, and a CPU driver runs every turn's whole body for all 8 rays; `settle` is 35 to 45 % of
-//! the pass. No subgroup width lavapipe offers makes alg. 3 overtake the fragment path (compute /
-//! fragment 2.7 to 2.9 at S = 4, 3.9 to 4.6 at 8, 5.7 to 7.3 at 16); it can only pay on a GPU,
-//! which this work has not measured.
+//! Measured (lavapipe, 2 cores, 320x240, `bench --defaults-only`, medians of 5 frames; the
+//! rows in `benches/results/lavapipe-shaders.md`): 1826 to 2820 ns per mirror ray on `default`,
+//! `teapot` and `truck-garage`, 2.0 times the fragment method and 3.8 to 5.7 times `bvh`; 80 to 92
+//! cells and 38 to 42 texels per ray against the fragment path's 14 and 2. Per subgroup of 8 rays
+//! the outer loop (`settle`) turns 4 to 5 times and the step loop 8 to 13 times, and a CPU
+//! driver runs every turn's whole body for all 8 rays. Lanes that take the next ray as soon as
+//! theirs is done (persistent lanes) did not pay there, tried twice (`lavapipe-shaders.md`,
+//! "What was tried and rejected"). Before the retrace was sized from its queue, the pass cost 2.2 to 2.7 times as
+//! much, and the widths lavapipe offers were measured with that: compute / fragment 2.7 to 2.9
+//! at S = 4, 3.9 to 4.6 at 8, 5.7 to 7.3 at 16.
 
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
