@@ -61,7 +61,7 @@ fn main() {
 // barrier from it): none cut (every built-in scene), an empty dispatch. It used to cover every
 // queued ray, each workgroup reading its rays' `cut` flags, and on lavapipe every subgroup ran
 // the whole kernel body once, masked, for nothing: about half of `compute_trace`'s time on
-// `default` (`benches/results/lavapipe-shaders.md`, "The retrace over the cut rays only").
+// `default` (`benches/results/lavapipe-shaders.md`, "What was kept").
 @compute @workgroup_size(1)
 fn retrace_size() {
     var retrace = 0u;
