@@ -112,10 +112,7 @@ impl GpuRenderer {
                 })?;
             }
             if let Some(c) = self.cone.as_ref().filter(|_| !self.cone_skipped) {
-                scope("cone", &mut || {
-                    c.record(rec);
-                    Ok(())
-                })?;
+                scope("cone", &mut || c.record(rec))?;
             }
         }
         if let Some(b) = &self.bounce {
