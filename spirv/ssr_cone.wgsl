@@ -1,5 +1,8 @@
 // ssr_cone: the cone-tracing pass (section 4.4.5, Listing 4.7), after `ssr`'s Hi-Z trace, one
-// invocation per pixel; it rewrites the colour of the records of glossy pixels whose ray hit.
+// invocation per glossy pixel whose ray hit; it rewrites the colour of their records. Those
+// pixels are queued first (`cone_pixels`, a small body per pixel) and `main` runs over the queue
+// (`queue_args` sizes its dispatch): over every pixel, a CPU driver ran `main`'s whole body,
+// masked, for every subgroup, whether it held such a pixel or not.
 // CPU twin: `cubetrace::cpu::ssr_cone::cone_colour` (same loop and arithmetic; the device's tan,
 // acos, exp2 and log2 differ from Rust's by a few ulp, hence the twin's tolerance).
 //
@@ -39,6 +42,57 @@
 const WG: u32 = 64u;
 const SSR_CONE_SAMPLES: u32 = 7u;
 
+// The queue's head: `main`'s dispatch (`VkDispatchIndirectCommand`, written by `queue_args`)
+// and the number of pixels queued (zeroed before `cone_pixels`).
+struct SsrConeQueueHead {
+    x: u32,
+    y: u32,
+    z: u32,
+    count: atomic<u32>,
+}
+
+// The queued pixels' indices (`j * width + i`).
+@group(0) @binding(9) var<storage, read_write> cone_queue: array<u32>;
+@group(0) @binding(10) var<storage, read_write> cone_head: SsrConeQueueHead;
+
+// The specular power of pixel `index` where `main` cone traces it (a glossy reflector whose ray
+// hit), else -1.
+fn ssr_cone_power(index: u32) -> f32 {
+    let pixel = vec2<i32>(i32(index % ssr.width), i32(index / ssr.width));
+    if textureLoad(gbuffer_position, pixel, 0).w != 1.0 {
+        return -1.0;
+    }
+    let power = lobe_gbuffer_power(textureLoad(gbuffer_normal, pixel, 0).w);
+    if power < 0.0 || records[index].status != RECORD_HIT {
+        return -1.0;
+    }
+    return power;
+}
+
+// Queues the pixels `main` cone traces, one invocation per pixel.
+@compute @workgroup_size(64)
+fn cone_pixels(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
+    let index = gid.y * (groups.x * WG) + gid.x;
+    if index >= ssr.width * ssr.height {
+        return;
+    }
+    if ssr_cone_power(index) >= 0.0 {
+        cone_queue[atomicAdd(&cone_head.count, 1u)] = index;
+    }
+}
+
+// Sizes `main`'s dispatch: one invocation per queued pixel, rows of at most 65535 groups.
+@compute @workgroup_size(1)
+fn queue_args() {
+    let groups = (atomicLoad(&cone_head.count) + WG - 1u) / WG;
+    cone_head.x = min(groups, 65535u);
+    cone_head.y = (groups + 65534u) / 65535u;
+    cone_head.z = 1u;
+}
+
 fn level_index(level: u32, cell: vec2<u32>) -> u32 {
     let l = ssr.levels[level];
     return l.x + cell.y * l.y + cell.x;
@@ -77,20 +131,15 @@ fn main(
     @builtin(global_invocation_id) gid: vec3<u32>,
     @builtin(num_workgroups) groups: vec3<u32>,
 ) {
-    let index = gid.y * (groups.x * WG) + gid.x;
+    let q = gid.y * (groups.x * WG) + gid.x;
     // No barrier in this shader: an early return is uniform-safe.
-    if index >= ssr.width * ssr.height {
+    if q >= atomicLoad(&cone_head.count) {
         return;
     }
+    let index = cone_queue[q];
     let pixel = vec2<u32>(index % ssr.width, index / ssr.width);
-    if textureLoad(gbuffer_position, vec2<i32>(pixel), 0).w != 1.0 {
-        return;
-    }
-    let power = lobe_gbuffer_power(textureLoad(gbuffer_normal, vec2<i32>(pixel), 0).w);
+    let power = ssr_cone_power(index);
     let rec = records[index];
-    if power < 0.0 || rec.status != RECORD_HIT {
-        return;
-    }
     let tan_theta = tan(lobe_cone_angle(power));
     let p1 = vec2<f32>(pixel) + 0.5;
     let q1 = hiz[index];
