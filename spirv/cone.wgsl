@@ -2,10 +2,9 @@
 // compute methods. It runs after the method's trace, the reflector check and
 // the fallback, before the bounce rounds and composite, and only for a scene with a glossy
 // reflector. One invocation per glossy pixel; it rewrites the record's colour of a glossy pixel,
-// nothing else. The glossy pixels are queued first (`glossy_pixels`, one invocation per pixel, a
-// small body) and `main` runs over the queue (`queue_args` sizes its dispatch): run over every
-// pixel, each subgroup of a CPU driver ran `main`'s whole body, masked, whether it held a glossy
-// pixel or not (two thirds of the pass on `sphere-room-glossy` at 320x240). CPU twin: `cubetrace::cpu::cone::cone_pixel` (op for op; within the device's acos, tan,
+// nothing else. The glossy pixels are queued first (`glossy_pixels`; shared/pixel_queue.wgsl):
+// run over every pixel, `main` cost two thirds of the pass on `sphere-room-glossy` at 320x240
+// for the pixels that were not glossy. CPU twin: `cubetrace::cpu::cone::cone_pixel` (op for op; within the device's acos, tan,
 // asin and log2).
 //
 // Per glossy pixel (G-buffer normal w = -1 - p, p < 1024), with the cone's half-angle theta from
@@ -31,21 +30,9 @@
 //   (2 theta), 0, 1/2), beta the axis's elevation above the plane (asin(r . n); r . n from the
 //   camera ray d and the axis r alone: (r . n)^2 = (1 - d . r) / 2 for a mirror reflection).
 //! import shared/cone.wgsl
+//! import shared/pixel_queue.wgsl
 
 const CONE_WG: u32 = 64u;
-
-// The queue's head: the `main` dispatch's size (`VkDispatchIndirectCommand`, written by
-// `queue_args`) and the number of glossy pixels queued (zeroed before `glossy_pixels`).
-struct ConeQueueHead {
-    x: u32,
-    y: u32,
-    z: u32,
-    count: atomic<u32>,
-}
-
-// The glossy pixels' indices (`j * width + i`), in the order `glossy_pixels` queued them.
-@group(0) @binding(4) var<storage, read_write> cone_queue: array<u32>;
-@group(0) @binding(5) var<storage, read_write> cone_head: ConeQueueHead;
 
 // The specular power of pixel `i` where the pass shades it (a reflector with p < 1024), else -1.
 fn cone_power(i: u32) -> f32 {
@@ -71,17 +58,8 @@ fn glossy_pixels(
         return;
     }
     if cone_power(i) >= 0.0 {
-        cone_queue[atomicAdd(&cone_head.count, 1u)] = i;
+        pixel_queue_push(i);
     }
-}
-
-// Sizes `main`'s dispatch: one invocation per queued pixel, rows of at most 65535 groups.
-@compute @workgroup_size(1)
-fn queue_args() {
-    let groups = (atomicLoad(&cone_head.count) + CONE_WG - 1u) / CONE_WG;
-    cone_head.x = min(groups, 65535u);
-    cone_head.y = (groups + 65534u) / 65535u;
-    cone_head.z = 1u;
 }
 
 // The level of the axis hit at distance `dist` from CMO k's centre along `u`, capped by the
@@ -164,11 +142,10 @@ fn main(
     @builtin(global_invocation_id) gid: vec3<u32>,
     @builtin(num_workgroups) groups: vec3<u32>,
 ) {
-    let q = gid.y * (groups.x * CONE_WG) + gid.x;
-    if q >= atomicLoad(&cone_head.count) {
+    let i = pixel_queue_at(gid, groups);
+    if i == 0xffffffffu {
         return;
     }
-    let i = cone_queue[q];
     let power = cone_power(i);
     let rec = records[i];
     let theta = lobe_cone_angle(power);

@@ -1,8 +1,6 @@
 // ssr_cone: the cone-tracing pass (section 4.4.5, Listing 4.7), after `ssr`'s Hi-Z trace, one
 // invocation per glossy pixel whose ray hit; it rewrites the colour of their records. Those
-// pixels are queued first (`cone_pixels`, a small body per pixel) and `main` runs over the queue
-// (`queue_args` sizes its dispatch): over every pixel, a CPU driver ran `main`'s whole body,
-// masked, for every subgroup, whether it held such a pixel or not.
+// pixels are queued first (`cone_pixels`; shared/pixel_queue.wgsl).
 // CPU twin: `cubetrace::cpu::ssr_cone::cone_colour` (same loop and arithmetic; the device's tan,
 // acos, exp2 and log2 differ from Rust's by a few ulp, hence the twin's tolerance).
 //
@@ -32,6 +30,7 @@
 //! import shared/lobe.wgsl
 //! import shared/ssr.wgsl
 //! import shared/ssr_cone.wgsl
+//! import shared/pixel_queue.wgsl
 
 @group(0) @binding(4) var<storage, read> hiz: array<f32>;
 @group(0) @binding(5) var<storage, read> hiz_max: array<f32>;
@@ -41,19 +40,6 @@
 
 const WG: u32 = 64u;
 const SSR_CONE_SAMPLES: u32 = 7u;
-
-// The queue's head: `main`'s dispatch (`VkDispatchIndirectCommand`, written by `queue_args`)
-// and the number of pixels queued (zeroed before `cone_pixels`).
-struct SsrConeQueueHead {
-    x: u32,
-    y: u32,
-    z: u32,
-    count: atomic<u32>,
-}
-
-// The queued pixels' indices (`j * width + i`).
-@group(0) @binding(9) var<storage, read_write> cone_queue: array<u32>;
-@group(0) @binding(10) var<storage, read_write> cone_head: SsrConeQueueHead;
 
 // The specular power of pixel `index` where `main` cone traces it (a glossy reflector whose ray
 // hit), else -1.
@@ -80,17 +66,8 @@ fn cone_pixels(
         return;
     }
     if ssr_cone_power(index) >= 0.0 {
-        cone_queue[atomicAdd(&cone_head.count, 1u)] = index;
+        pixel_queue_push(index);
     }
-}
-
-// Sizes `main`'s dispatch: one invocation per queued pixel, rows of at most 65535 groups.
-@compute @workgroup_size(1)
-fn queue_args() {
-    let groups = (atomicLoad(&cone_head.count) + WG - 1u) / WG;
-    cone_head.x = min(groups, 65535u);
-    cone_head.y = (groups + 65534u) / 65535u;
-    cone_head.z = 1u;
 }
 
 fn level_index(level: u32, cell: vec2<u32>) -> u32 {
@@ -131,12 +108,11 @@ fn main(
     @builtin(global_invocation_id) gid: vec3<u32>,
     @builtin(num_workgroups) groups: vec3<u32>,
 ) {
-    let q = gid.y * (groups.x * WG) + gid.x;
+    let index = pixel_queue_at(gid, groups);
     // No barrier in this shader: an early return is uniform-safe.
-    if q >= atomicLoad(&cone_head.count) {
+    if index == 0xffffffffu {
         return;
     }
-    let index = cone_queue[q];
     let pixel = vec2<u32>(index % ssr.width, index / ssr.width);
     let power = ssr_cone_power(index);
     let rec = records[index];

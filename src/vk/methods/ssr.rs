@@ -82,11 +82,11 @@ use crate::vk::backend::image::Image;
 use crate::vk::backend::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
 use crate::vk::backend::shaders::{Pass, SSR, SSR_BLUR, SSR_CONE, SSR_HIZ, SSR_VISIBILITY};
 use crate::vk::backend::sync::{
-    COMPUTE_READ, COMPUTE_WRITE, INDIRECT_READ, SHADER_READ, SHADER_WRITE, STORAGE_RW,
-    TRANSFER_WRITE,
+    COMPUTE_READ, COMPUTE_WRITE, SHADER_READ, SHADER_WRITE, STORAGE_RW,
 };
 use crate::vk::passes::cmo::{CaptureContents, CmoData};
 use crate::vk::passes::gbuffer::Gbuffer;
+use crate::vk::passes::pixel_queue::PixelQueue;
 
 use super::technique::{
     CameraInputs, FrameInputs, Glossy, MethodSpec, Needs, Scope, Technique, has_glossy_reflector,
@@ -213,13 +213,8 @@ pub struct ConePasses {
     cone_set: BindGroup,
     /// `@group(1)`: the CMOs, for the remainder's pre-filtered colour.
     cone_cmo_set: BindGroup,
-    /// `cone_pixels` (one invocation per pixel: `cone_groups`) and `queue_args`, with their
-    /// group 0; `main` runs over the queue they fill (`cone_head`: its indirect dispatch).
-    cone_select: (ComputePipeline, BindGroup),
-    cone_args: (ComputePipeline, BindGroup),
-    cone_groups: [u32; 3],
-    _cone_queue: Buffer,
-    cone_head: Buffer,
+    /// The pixels `main` cone traces (`cone_pixels`), which it runs over.
+    cone_queue: PixelQueue,
     hiz_max: Buffer,
     visibility_buf: Buffer,
     chain: Buffer,
@@ -340,22 +335,20 @@ impl ConePasses {
             background,
         )?;
         let cone = ComputePipeline::new(ctx, &SSR_CONE, "main", ComputeOptions::default())?;
-        let cone_queue = Buffer::new(
-            ctx.device(),
-            "ssr_cone queue",
-            u64::from(width * height).max(1) * 4,
-            vk::BufferUsageFlags::STORAGE_BUFFER,
-            MemoryLocation::GpuOnly,
+        let cone_queue = PixelQueue::new(
+            ctx,
+            &SSR_CONE,
+            "cone_pixels",
+            &[
+                (0, sampled(&gbuffer.position)),
+                (1, sampled(&gbuffer.normal)),
+                (3, Resource::Buffer(records)),
+                (8, Resource::Buffer(params_buf)),
+            ],
+            u64::from(width) * u64::from(height),
+            groups_for(width * height, workgroup_width(&SSR_CONE)),
         )?;
-        let cone_head = Buffer::new(
-            ctx.device(),
-            "ssr_cone queue head",
-            16,
-            vk::BufferUsageFlags::STORAGE_BUFFER
-                | vk::BufferUsageFlags::INDIRECT_BUFFER
-                | vk::BufferUsageFlags::TRANSFER_DST,
-            MemoryLocation::GpuOnly,
-        )?;
+        let [q, h] = cone_queue.resources();
         let cone_set = cone.bind_group(
             0,
             &[
@@ -368,25 +361,10 @@ impl ConePasses {
                 (6, Resource::Buffer(&visibility_buf)),
                 (7, Resource::Buffer(&chain)),
                 (8, Resource::Buffer(params_buf)),
-                (9, Resource::Buffer(&cone_queue)),
-                (10, Resource::Buffer(&cone_head)),
+                q,
+                h,
             ],
         )?;
-        let select =
-            ComputePipeline::new(ctx, &SSR_CONE, "cone_pixels", ComputeOptions::default())?;
-        let select_set = select.bind_group(
-            0,
-            &[
-                (0, sampled(&gbuffer.position)),
-                (1, sampled(&gbuffer.normal)),
-                (3, Resource::Buffer(records)),
-                (8, Resource::Buffer(params_buf)),
-                (9, Resource::Buffer(&cone_queue)),
-                (10, Resource::Buffer(&cone_head)),
-            ],
-        )?;
-        let args = ComputePipeline::new(ctx, &SSR_CONE, "queue_args", ComputeOptions::default())?;
-        let args_set = args.bind_group(0, &[(10, Resource::Buffer(&cone_head))])?;
         let cone_cmo_set = cone.bind_group(1, &cmo.resources_for(&SSR_CONE, "main"))?;
         Ok(ConePasses {
             cone_cmo_set,
@@ -396,11 +374,7 @@ impl ConePasses {
             blur_steps,
             cone,
             cone_set,
-            cone_select: (select, select_set),
-            cone_args: (args, args_set),
-            cone_groups: groups_for(width * height, workgroup_width(&SSR_CONE)),
-            _cone_queue: cone_queue,
-            cone_head,
+            cone_queue,
             hiz_max,
             visibility_buf,
             chain,
@@ -501,22 +475,10 @@ impl ConePasses {
     }
 
     /// `ssr_cone` (after `ssr`'s records): the pixels to cone trace queued (`cone_pixels`),
-    /// `main`'s dispatch sized from the queue (`queue_args`), then `main` over the queue.
+    /// then `main` over them ([`PixelQueue`]).
     fn record_cone(&self, rec: &Recorder<'_>) -> VkResult<()> {
-        rec.fill_buffer(&self.cone_head, 0);
-        rec.memory_barrier(TRANSFER_WRITE, STORAGE_RW);
-        let (select, select_set) = &self.cone_select;
-        select.dispatch(rec, &[select_set], self.cone_groups);
-        rec.memory_barrier(SHADER_WRITE, STORAGE_RW);
-        let (args, args_set) = &self.cone_args;
-        args.dispatch(rec, &[args_set], [1, 1, 1]);
-        rec.memory_barrier(SHADER_WRITE, INDIRECT_READ);
-        self.cone.dispatch_indirect(
-            rec,
-            &[&self.cone_set, &self.cone_cmo_set],
-            &self.cone_head,
-            0,
-        )
+        self.cone_queue
+            .record(rec, &self.cone, &[&self.cone_set, &self.cone_cmo_set])
     }
 
     /// The max pyramid, the visibility pyramid and the colour chain as the GPU built them

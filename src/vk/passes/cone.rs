@@ -323,19 +323,9 @@ pub struct ConeStage {
     )>,
     pipeline: ComputePipeline,
     sets: [BindGroup; 2],
-    /// `glossy_pixels` (one invocation per pixel: its groups) and `queue_args`, with their
-    /// group 0.
-    select: (ComputePipeline, BindGroup),
-    args: (ComputePipeline, BindGroup),
-    groups: [u32; 3],
-    /// The glossy pixels' queue and its head (`ConeQueueHead`: `main`'s indirect dispatch, then
-    /// the count).
-    _queue: Buffer,
-    head: Buffer,
+    /// The glossy pixels (`glossy_pixels`), which `main` runs over.
+    queue: super::pixel_queue::PixelQueue,
 }
-
-/// Bytes of WGSL `ConeQueueHead`: a `VkDispatchIndirectCommand` and the count.
-const QUEUE_HEAD_BYTES: u64 = 16;
 
 impl ConeStage {
     /// Creates the stage over `cmo` (which must have `cmo_colour` captured and `cmo_cone`
@@ -377,22 +367,19 @@ impl ConeStage {
             layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
         };
         let (width, height) = gbuffer.extent();
-        let queue = Buffer::new(
-            ctx.device(),
-            "cone queue",
-            (u64::from(width) * u64::from(height)).max(1) * 4,
-            vk::BufferUsageFlags::STORAGE_BUFFER,
-            MemoryLocation::GpuOnly,
+        let queue = super::pixel_queue::PixelQueue::new(
+            ctx,
+            &CONE,
+            "glossy_pixels",
+            &[
+                (0, sampled(&gbuffer.position)),
+                (1, sampled(&gbuffer.normal)),
+                (2, Resource::Buffer(params)),
+            ],
+            u64::from(width) * u64::from(height),
+            super::bvh::pixel_groups(width, height),
         )?;
-        let head = Buffer::new(
-            ctx.device(),
-            "cone queue head",
-            QUEUE_HEAD_BYTES,
-            vk::BufferUsageFlags::STORAGE_BUFFER
-                | vk::BufferUsageFlags::INDIRECT_BUFFER
-                | vk::BufferUsageFlags::TRANSFER_DST,
-            MemoryLocation::GpuOnly,
-        )?;
+        let [q, h] = queue.resources();
         let set0 = pipeline.bind_group(
             0,
             &[
@@ -400,25 +387,10 @@ impl ConeStage {
                 (1, sampled(&gbuffer.normal)),
                 (2, Resource::Buffer(params)),
                 (3, Resource::Buffer(records)),
-                (4, Resource::Buffer(&queue)),
-                (5, Resource::Buffer(&head)),
+                q,
+                h,
             ],
         )?;
-        let select_pipeline =
-            ComputePipeline::new(ctx, &CONE, "glossy_pixels", ComputeOptions::default())?;
-        let select_set = select_pipeline.bind_group(
-            0,
-            &[
-                (0, sampled(&gbuffer.position)),
-                (1, sampled(&gbuffer.normal)),
-                (2, Resource::Buffer(params)),
-                (4, Resource::Buffer(&queue)),
-                (5, Resource::Buffer(&head)),
-            ],
-        )?;
-        let args_pipeline =
-            ComputePipeline::new(ctx, &CONE, "queue_args", ComputeOptions::default())?;
-        let args_set = args_pipeline.bind_group(0, &[(5, Resource::Buffer(&head))])?;
         let mut group1 = cmo.resources_for(&CONE, "main");
         if let Some((_, _, buf)) = &pyramid {
             for (b, r) in &mut group1 {
@@ -432,11 +404,7 @@ impl ConeStage {
             pyramid,
             pipeline,
             sets: [set0, set1],
-            select: (select_pipeline, select_set),
-            args: (args_pipeline, args_set),
-            groups: super::bvh::pixel_groups(width, height),
-            _queue: queue,
-            head,
+            queue,
         })
     }
 
@@ -458,18 +426,11 @@ impl ConeStage {
     }
 
     /// Records the `cone` pass (after whatever last wrote the records): the glossy pixels
-    /// queued (`glossy_pixels`), `main`'s dispatch sized from the queue (`queue_args`), then
-    /// `main` over the queue.
+    /// queued (`glossy_pixels`), then `main` over them ([`super::pixel_queue`]).
     pub fn record(&self, rec: &Recorder<'_>) -> VkResult<()> {
-        use crate::vk::backend::sync::{INDIRECT_READ, SHADER_WRITE, STORAGE_RW, TRANSFER_WRITE};
+        use crate::vk::backend::sync::{SHADER_WRITE, STORAGE_RW};
         rec.memory_barrier(SHADER_WRITE, STORAGE_RW);
-        rec.fill_buffer(&self.head, 0);
-        rec.memory_barrier(TRANSFER_WRITE, STORAGE_RW);
-        self.select.0.dispatch(rec, &[&self.select.1], self.groups);
-        rec.memory_barrier(SHADER_WRITE, STORAGE_RW);
-        self.args.0.dispatch(rec, &[&self.args.1], [1, 1, 1]);
-        rec.memory_barrier(SHADER_WRITE, INDIRECT_READ);
-        self.pipeline
-            .dispatch_indirect(rec, &[&self.sets[0], &self.sets[1]], &self.head, 0)
+        self.queue
+            .record(rec, &self.pipeline, &[&self.sets[0], &self.sets[1]])
     }
 }

@@ -9,6 +9,7 @@ pub mod cone;
 pub mod gbuffer;
 pub mod hier32;
 pub mod lists;
+pub mod pixel_queue;
 pub mod pyramid;
 pub mod records;
 pub mod scene_buffers;
