@@ -32,8 +32,6 @@
 //! import shared/cone.wgsl
 //! import shared/pixel_queue.wgsl
 
-const CONE_WG: u32 = 64u;
-
 // The specular power of pixel `i` where the pass shades it (a reflector with p < 1024), else -1.
 fn cone_power(i: u32) -> f32 {
     let pixel = vec2<i32>(i32(i % frame.width), i32(i / frame.width));
@@ -53,7 +51,7 @@ fn glossy_pixels(
     @builtin(global_invocation_id) gid: vec3<u32>,
     @builtin(num_workgroups) groups: vec3<u32>,
 ) {
-    let i = gid.y * (groups.x * CONE_WG) + gid.x;
+    let i = gid.y * (groups.x * PIXEL_QUEUE_WG) + gid.x;
     if i >= frame.width * frame.height {
         return;
     }

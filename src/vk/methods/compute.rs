@@ -85,9 +85,9 @@
 //! the outer loop (`settle`) turns 4 to 5 times and the step loop 8 to 13 times, and a CPU
 //! driver runs every turn's whole body for all 8 rays. Lanes that take the next ray as soon as
 //! theirs is done (persistent lanes) did not pay there, tried twice (`lavapipe-shaders.md`,
-//! "What was tried and rejected"). Before the retrace was sized from its queue, the pass cost 2.2 to 2.7 times as
-//! much, and the widths lavapipe offers were measured with that: compute / fragment 2.7 to 2.9
-//! at S = 4, 3.9 to 4.6 at 8, 5.7 to 7.3 at 16.
+//! "What was tried and rejected"). Before the retrace was sized from its queue, the pass cost
+//! 2.2 to 2.7 times as much, and the widths lavapipe offers were measured with that: compute /
+//! fragment 2.7 to 2.9 at S = 4, 3.9 to 4.6 at 8, 5.7 to 7.3 at 16.
 
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
