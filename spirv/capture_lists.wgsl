@@ -30,7 +30,9 @@
 //   `lo` into `lists_distance`
 //   (CMO-major, `(face N + y) N + x`, like the CMO distance buffer). The walk is capped at
 //   `walk_cap` node visits (lavapipe's 65535 back-edges per invocation): a capped texel gets
-//   `complete_to = 0` and is counted in `walks_capped`.
+//   `complete_to = 0` and is counted in `walks_capped`. Its two loops test their end at the
+//   bottom, so that a subgroup of 8 texels runs the turns of its longest list and no extra
+//   turn with every lane masked.
 // Records and nodes are stored a word per binding (`lists_rec_*`, `lists_node_*`: one u32
 // per texel or node each, `src/vk/passes/lists.rs`), so that no binding exceeds
 // maxStorageBufferRange before the pool holds range / 4 nodes; `ListsNode` is the value a
@@ -455,60 +457,72 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
     var gap_next = f32_inf();
     var gap_found = false;
     let depth = lists_params.depth;
-    for (var i = 0u; i <= depth; i++) {
-        if node == LISTS_NIL {
-            break;
-        }
-        let cur = lists_node(node);
-        var best = node;
-        // The scan reads each node's sort key `(lo, triangle)` (lo by its bits: never -0.0 or
-        // NaN) and its link, not its `hi`.
-        var b_lo = cur.lo;
-        var b_tri = cur.triangle;
-        var j = cur.next;
+    let walk_cap = lists_params.walk_cap;
+    // Turn `i` puts the i-th smallest at `node`, the list's i-th node; turn `depth` only reads
+    // the smallest left (`rest`). Both loops test their end at the bottom, behind a guard: a
+    // subgroup then runs as many turns as its longest remainder (one, masked, where no lane has
+    // any), not one more in which every lane leaves at the top (lavapipe runs each turn's whole
+    // body for all lanes; a list of one node took two outer turns and two scans).
+    var i = 0u;
+    if node != LISTS_NIL {
         loop {
-            if j == LISTS_NIL {
+            let cur = lists_node(node);
+            var best = node;
+            // The scan reads each node's sort key `(lo, triangle)` (lo by its bits: never -0.0
+            // or NaN) and its link, not its `hi`.
+            var b_lo = cur.lo;
+            var b_tri = cur.triangle;
+            var j = cur.next;
+            if j != LISTS_NIL {
+                loop {
+                    steps += 1u;
+                    if steps > walk_cap {
+                        capped = true;
+                        break;
+                    }
+                    let lo = lists_node_lo[j];
+                    let tri = lists_node_triangle[j];
+                    if lo < b_lo || (lo == b_lo && tri < b_tri) {
+                        best = j;
+                        b_lo = lo;
+                        b_tri = tri;
+                    }
+                    j = lists_node_next[j];
+                    if j == LISTS_NIL {
+                        break;
+                    }
+                }
+            }
+            if capped {
                 break;
             }
-            steps += 1u;
-            if steps > lists_params.walk_cap {
-                capped = true;
+            let bn = ListsNode(b_tri, b_lo, lists_node_hi[best], 0u);
+            if i == depth {
+                rest = bitcast<f32>(bn.lo);
                 break;
             }
-            let lo = lists_node_lo[j];
-            let tri = lists_node_triangle[j];
-            if lo < b_lo || (lo == b_lo && tri < b_tri) {
-                best = j;
-                b_lo = lo;
-                b_tri = tri;
+            if best != node {
+                lists_set_payload(best, cur);
+                lists_set_payload(node, bn);
             }
-            j = lists_node_next[j];
-        }
-        if capped {
-            break;
-        }
-        let bn = ListsNode(b_tri, b_lo, lists_node_hi[best], 0u);
-        if i == depth {
-            rest = bitcast<f32>(bn.lo);
-            break;
-        }
-        if best != node {
-            lists_set_payload(best, cur);
-            lists_set_payload(node, bn);
-        }
-        hi = max(hi, bitcast<f32>(bn.hi));
-        if i == 0u {
-            gap_end = bitcast<f32>(bn.hi);
-        } else if !gap_found {
-            if bitcast<f32>(bn.lo) > gap_end {
-                gap_next = bitcast<f32>(bn.lo);
-                gap_found = true;
-            } else {
-                gap_end = max(gap_end, bitcast<f32>(bn.hi));
+            hi = max(hi, bitcast<f32>(bn.hi));
+            if i == 0u {
+                gap_end = bitcast<f32>(bn.hi);
+            } else if !gap_found {
+                if bitcast<f32>(bn.lo) > gap_end {
+                    gap_next = bitcast<f32>(bn.lo);
+                    gap_found = true;
+                } else {
+                    gap_end = max(gap_end, bitcast<f32>(bn.hi));
+                }
+            }
+            kept += 1u;
+            node = cur.next;
+            i += 1u;
+            if node == LISTS_NIL {
+                break;
             }
         }
-        kept += 1u;
-        node = cur.next;
     }
     if capped {
         complete = 0.0;
