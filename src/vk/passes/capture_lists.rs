@@ -368,7 +368,7 @@ fn check_inputs(
     Ok((k, texels, triangles))
 }
 
-/// The three pipelines, their bindings and buffers for one scene and CMO set.
+/// The eight passes' pipelines, their bindings and buffers for one scene and CMO set.
 pub struct CaptureLists {
     /// The passes in recording order (`pipelines`): `faces`, `job_args`, `jobs`,
     /// `texel_args`, `texels`, `clip_args`, `clips`, `resolve`; `sets` holds their `@group(0)`
@@ -614,15 +614,18 @@ impl CaptureLists {
         })
     }
 
-    /// Records the capture: clears, `jobs`, `texels`, `resolve`, with barriers between them and
+    /// Records the capture: the clears, then the passes in order (`faces`, `job_args`, `jobs`,
+    /// `texel_args`, `texels`, `clip_args`, `clips`, `resolve`), with barriers between them and
     /// one after (compute writes -> every later read). The barrier before (after whatever last
     /// read the buffers) is `ALL -> TRANSFER_WRITE`, recorded here too.
     pub fn record(&self, rec: &Recorder<'_>) -> VkResult<()> {
         self.record_timed(rec, None)
     }
 
-    /// [`CaptureLists::record`] with one timestamp scope per pass (`capture_lists.jobs`,
-    /// `capture_lists.texels`, `capture_lists.resolve`; the clears go with `jobs`).
+    /// [`CaptureLists::record`] with one timestamp scope per stage (`capture_lists.jobs`,
+    /// `capture_lists.texels`, `capture_lists.clips`, `capture_lists.resolve`; the clears,
+    /// `faces` and `job_args` go with `jobs`, `clip_args` with `clips`; `texel_args`, one
+    /// invocation, is in none).
     pub fn record_timed(
         &self,
         rec: &Recorder<'_>,
