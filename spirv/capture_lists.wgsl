@@ -23,6 +23,10 @@
 // - `clips`: one invocation per queued texel (dispatch sized by `clip_args`): step 5's four
 //   clips (`cb_clip_bound`: streamed, no polygon stored, no workgroup memory or barrier), a
 //   node where the triangle touches the texel.
+// - The grid-stride loops of `texels` and `clips` test their end at the bottom, behind a
+//   guard: their dispatches are sized for one turn (below 65535 workgroups), and a test at the
+//   top cost a second turn that lavapipe ran, every lane masked: about a quarter of `texels`
+//   and a third of `clips`.
 // - `resolve`: one invocation per texel: selection of the `depth` smallest `(lo, triangle)` by
 //   payload swapping along the list (the first `count_kept` nodes from the head end up sorted),
 //   `complete_to = min(overflow, face overflow, smallest lo beyond depth)`, then the record
@@ -332,29 +336,37 @@ fn texels(
     let count = tile_jobs + (small_jobs + per_group - 1u) / per_group;
     let lane = lid.x + 8u * lid.y;
     let stride = nwg.x * nwg.y;
-    for (var v = wid.x + wid.y * nwg.x; v < count; v += stride) {
-        var j = v;
-        var valid = true;
-        var dx = lid.x;
-        var dy = lid.y;
-        if v >= tile_jobs {
-            let s = (v - tile_jobs) * per_group + lane / LISTS_SMALL;
-            valid = s < small_jobs;
-            j = cap - 1u - min(s, small_jobs - 1u);
-        }
-        let job = lists_jobs[j];
-        let tx = (job.rect_x & 0xffffu) + (job.tile & 0xffffu) * CB_TILE;
-        let ty = (job.rect_y & 0xffffu) + (job.tile >> 16u) * CB_TILE;
-        if v >= tile_jobs {
-            let w = min(tx + CB_TILE - 1u, job.rect_x >> 16u) - tx + 1u;
-            let k = lane % LISTS_SMALL;
-            dx = k % w;
-            dy = k / w;
-        }
-        let x = tx + dx;
-        let y = ty + dy;
-        if valid && x <= min(tx + CB_TILE - 1u, job.rect_x >> 16u) && y <= min(ty + CB_TILE - 1u, job.rect_y >> 16u) {
-            lists_texel(j, job, x, y);
+    var v = wid.x + wid.y * nwg.x;
+    // The end is tested at the bottom, behind a guard (module docs).
+    if v < count {
+        loop {
+            var j = v;
+            var valid = true;
+            var dx = lid.x;
+            var dy = lid.y;
+            if v >= tile_jobs {
+                let s = (v - tile_jobs) * per_group + lane / LISTS_SMALL;
+                valid = s < small_jobs;
+                j = cap - 1u - min(s, small_jobs - 1u);
+            }
+            let job = lists_jobs[j];
+            let tx = (job.rect_x & 0xffffu) + (job.tile & 0xffffu) * CB_TILE;
+            let ty = (job.rect_y & 0xffffu) + (job.tile >> 16u) * CB_TILE;
+            if v >= tile_jobs {
+                let w = min(tx + CB_TILE - 1u, job.rect_x >> 16u) - tx + 1u;
+                let k = lane % LISTS_SMALL;
+                dx = k % w;
+                dy = k / w;
+            }
+            let x = tx + dx;
+            let y = ty + dy;
+            if valid && x <= min(tx + CB_TILE - 1u, job.rect_x >> 16u) && y <= min(ty + CB_TILE - 1u, job.rect_y >> 16u) {
+                lists_texel(j, job, x, y);
+            }
+            v += stride;
+            if v >= count {
+                break;
+            }
         }
     }
 }
@@ -413,15 +425,23 @@ fn clip_args() {
 fn clips(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let n = min(atomicLoad(&lists_counters.clips), lists_params.clip_capacity);
     let size = lists_params.size;
-    for (var i = gid.x; i < n; i += nwg.x * 64u) {
-        let entry = lists_clips[i];
-        let job = lists_jobs[entry.x];
-        let x = entry.y & 0xffffu;
-        let y = entry.y >> 16u;
-        let l = lists_local(job);
-        let b = cb_clip_bound(l.l0, l.l1, l.l2, job.m, job.e, x, y, size);
-        if b.hit {
-            lists_push((job.cmo_face * size + y) * size + x, job.triangle, b.lo, b.hi);
+    // The end is tested at the bottom, behind a guard (module docs).
+    var i = gid.x;
+    if i < n {
+        loop {
+            let entry = lists_clips[i];
+            let job = lists_jobs[entry.x];
+            let x = entry.y & 0xffffu;
+            let y = entry.y >> 16u;
+            let l = lists_local(job);
+            let b = cb_clip_bound(l.l0, l.l1, l.l2, job.m, job.e, x, y, size);
+            if b.hit {
+                lists_push((job.cmo_face * size + y) * size + x, job.triangle, b.lo, b.hi);
+            }
+            i += nwg.x * 64u;
+            if i >= n {
+                break;
+            }
         }
     }
 }
