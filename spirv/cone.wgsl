@@ -51,8 +51,8 @@ fn glossy_pixels(
     @builtin(global_invocation_id) gid: vec3<u32>,
     @builtin(num_workgroups) groups: vec3<u32>,
 ) {
-    let i = gid.y * (groups.x * PIXEL_QUEUE_WG) + gid.x;
-    if i >= frame.width * frame.height {
+    let i = pixel_queue_pixel(gid, groups, frame.width * frame.height);
+    if i == 0xffffffffu {
         return;
     }
     if cone_power(i) >= 0.0 {

@@ -38,7 +38,6 @@
 @group(0) @binding(7) var<storage, read> chain: array<vec4<f32>>;
 @group(0) @binding(8) var<storage, read> ssr: SsrParams;
 
-const WG: u32 = 64u;
 const SSR_CONE_SAMPLES: u32 = 7u;
 
 // The specular power of pixel `index` where `main` cone traces it (a glossy reflector whose ray
@@ -61,8 +60,8 @@ fn cone_pixels(
     @builtin(global_invocation_id) gid: vec3<u32>,
     @builtin(num_workgroups) groups: vec3<u32>,
 ) {
-    let index = gid.y * (groups.x * WG) + gid.x;
-    if index >= ssr.width * ssr.height {
+    let index = pixel_queue_pixel(gid, groups, ssr.width * ssr.height);
+    if index == 0xffffffffu {
         return;
     }
     if ssr_cone_power(index) >= 0.0 {

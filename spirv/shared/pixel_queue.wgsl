@@ -22,6 +22,17 @@ struct PixelQueueHead {
 @group(0) @binding(9) var<storage, read_write> pixel_queue: array<u32>;
 @group(0) @binding(10) var<storage, read_write> pixel_queue_head: PixelQueueHead;
 
+// The pixel of invocation `gid` of a selection entry point's dispatch (one invocation per pixel,
+// workgroups of PIXEL_QUEUE_WG, rows of `groups.x` workgroups), or 0xffffffff past the frame's
+// `pixels`.
+fn pixel_queue_pixel(gid: vec3<u32>, groups: vec3<u32>, pixels: u32) -> u32 {
+    let i = gid.y * (groups.x * PIXEL_QUEUE_WG) + gid.x;
+    if i >= pixels {
+        return 0xffffffffu;
+    }
+    return i;
+}
+
 fn pixel_queue_push(index: u32) {
     pixel_queue[atomicAdd(&pixel_queue_head.count, 1u)] = index;
 }

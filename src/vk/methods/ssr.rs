@@ -345,8 +345,7 @@ impl ConePasses {
                 (3, Resource::Buffer(records)),
                 (8, Resource::Buffer(params_buf)),
             ],
-            u64::from(width) * u64::from(height),
-            groups_for(width * height, workgroup_width(&SSR_CONE)),
+            (width, height),
         )?;
         let [q, h] = cone_queue.resources();
         let cone_set = cone.bind_group(

@@ -366,7 +366,6 @@ impl ConeStage {
             view: img.view(),
             layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
         };
-        let (width, height) = gbuffer.extent();
         let queue = super::pixel_queue::PixelQueue::new(
             ctx,
             &CONE,
@@ -376,8 +375,7 @@ impl ConeStage {
                 (1, sampled(&gbuffer.normal)),
                 (2, Resource::Buffer(params)),
             ],
-            u64::from(width) * u64::from(height),
-            super::bvh::pixel_groups(width, height),
+            gbuffer.extent(),
         )?;
         let [q, h] = queue.resources();
         let set0 = pipeline.bind_group(

@@ -40,16 +40,18 @@ pub struct PixelQueue {
 }
 
 impl PixelQueue {
-    /// The queue of a frame of `pixels` pixels for `pass`, whose entry point `select` (run in
-    /// `groups`) reads `resources` in group 0, besides the queue.
+    /// The queue of a `width` x `height` frame for `pass`, whose entry point `select` (one
+    /// invocation per pixel, in [`super::bvh::pixel_groups`]: workgroups of 64, the shader's
+    /// `PIXEL_QUEUE_WG`, as `pixel_queue_pixel` indexes them) reads `resources` in group 0,
+    /// besides the queue.
     pub fn new(
         ctx: &GpuContext,
         pass: &'static Pass,
         select: &str,
         resources: &[(u32, Resource<'_>)],
-        pixels: u64,
-        groups: [u32; 3],
+        (width, height): (u32, u32),
     ) -> VkResult<Self> {
+        let pixels = u64::from(width) * u64::from(height);
         let name = |what: &str| format!("{} {what}", pass.name);
         let queue = Buffer::new(
             ctx.device(),
@@ -77,7 +79,7 @@ impl PixelQueue {
         Ok(PixelQueue {
             select: (select_pipeline, select_set),
             args: (args, args_set),
-            groups,
+            groups: super::bvh::pixel_groups(width, height),
             queue,
             head,
         })
