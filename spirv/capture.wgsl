@@ -1,7 +1,9 @@
-// capture: rasterises the scene into one face of one cubemap object (CMO) per draw.
+// capture: rasterises the scene into the faces of cubemap objects (CMOs), a face in one or more
+// draws.
 //
-// Draw `instance_index = k` renders view `capture_views[k]` (CMO k / 6, face k % 6) into layer k
-// of the colour and distance images. The projection is the cube face itself: the vertex's
+// Draw `instance_index = k` renders part of a face, `capture_views[k]` (its CMO's centre, its
+// face, its part of the face's triangle list), into that face's layer of the colour and distance
+// images. The projection is the cube face itself: the vertex's
 // CMO-local position in the face's local frame `l = (sc, tc, |ma|)` (src/cubemap/face.rs, the
 // Vulkan cube map face selection) goes to clip space as `(l.x, l.y, z, l.z)`, so that pixel
 // (x, y) of the face, centre at ((x + 0.5) / N, (y + 0.5) / N) in (s, t), sees exactly the
@@ -16,11 +18,14 @@
 // `fs_self` also writes the unit normal and the mirror flag: only when some reflector of the scene
 // sees itself (model only what the scene needs). Which reflectors are drawn is decided per object
 // (`GpuObject.captured`, Scene::self_capture).
-// Each face's draw covers only its own triangles: `capture_triangles[first..first + count]` of its
-// view, global triangle indices in increasing order (`WorldGeometry::triangles` order, the index
-// buffer's), made on the CPU (`vk::passes::capture::face_triangles`: the objects the capture
-// shows, less the triangles proven outside the face), so vertex `v` of a draw is corner `v % 3`
-// of triangle `capture_triangles[first + v / 3]`.
+// A face's draws cover only its own triangles: its list in `capture_triangles`, global triangle
+// indices in increasing order (`WorldGeometry::triangles` order, the index buffer's), made on the
+// CPU (`vk::passes::capture::face_triangles`: the objects the capture shows, less the triangles
+// proven outside the face), cut into consecutive runs, one per draw, drawn in order. Vertex `v`
+// of draw k is corner `v % 3` of triangle `capture_triangles[first + v / 3]` of its view.
+// The varyings are packed into four locations (the uv into the world position's and the normal's
+// w, the three flat indices into one vector): lavapipe's vertex stage moves every location of
+// every vertex, and its capture of a dense scene took about a tenth longer with the eight.
 // The `_ids` entry points also write the triangle ID: the global index of the triangle the texel's
 // centre ray sees, as a u32 target cleared to u32::MAX. The `_ids_only` ones leave the colour
 // out, for frames whose methods shade at verified hits instead.
@@ -47,13 +52,13 @@ struct CaptureView {
 
 struct CaptureVarying {
     @builtin(position) clip: vec4<f32>,
-    @location(0) world: vec3<f32>,
-    @location(1) normal: vec3<f32>,
-    @location(2) uv: vec2<f32>,
-    @location(3) @interpolate(flat) object: u32,
-    @location(4) @interpolate(flat) view: u32,
-    @location(5) @interpolate(flat) triangle: u32,
-    @location(6) colour: vec3<f32>,
+    // xyz: the world position; w: u.
+    @location(0) world_u: vec4<f32>,
+    // xyz: the vertex normal; w: v.
+    @location(1) normal_v: vec4<f32>,
+    @location(2) colour: vec3<f32>,
+    // The object, the view and the triangle.
+    @location(3) @interpolate(flat) ids: vec3<u32>,
 }
 
 @vertex
@@ -74,13 +79,10 @@ fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) view: u3
     if eye_plane_holds(vec3<f32>(0.0), a, b, c) {
         out.clip = vec4<f32>(2.0, 2.0, 0.0, 1.0);
     }
-    out.world = v.position;
-    out.normal = v.normal;
-    out.uv = v.uv;
+    out.world_u = vec4<f32>(v.position, v.uv.x);
+    out.normal_v = vec4<f32>(v.normal, v.uv.y);
     out.colour = scene_vertex_colour(v);
-    out.object = v.object;
-    out.view = view;
-    out.triangle = triangle;
+    out.ids = vec3<u32>(v.object, view, triangle);
     return out;
 }
 
@@ -97,12 +99,12 @@ struct CaptureSelfOut {
 }
 
 fn capture_distance(in: CaptureVarying) -> f32 {
-    return length(in.world - capture_views[in.view].centre);
+    return length(in.world_u.xyz - capture_views[in.ids.y].centre);
 }
 
 @fragment
 fn fs_main(in: CaptureVarying) -> CaptureOut {
-    return CaptureOut(vec4<f32>(scene_shade(in.object, in.uv, in.normal, in.colour), 1.0), capture_distance(in));
+    return CaptureOut(vec4<f32>(scene_shade(in.ids.x, vec2<f32>(in.world_u.w, in.normal_v.w), in.normal_v.xyz, in.colour), 1.0), capture_distance(in));
 }
 
 // With self-reflections a reflector is captured only where it faces the CMO centre (its normal,
@@ -112,25 +114,25 @@ fn fs_main(in: CaptureVarying) -> CaptureOut {
 // reflector parts it can meet face back towards the reflector, and so towards the centre.
 @fragment
 fn fs_self(in: CaptureVarying) -> CaptureSelfOut {
-    let reflector = scene_is_reflector(in.object);
-    if reflector && dot(scene_front_normal(in.object, in.normal), in.world - capture_views[in.view].centre) > 0.0 {
+    let reflector = scene_is_reflector(in.ids.x);
+    if reflector && dot(scene_front_normal(in.ids.x, in.normal_v.xyz), in.world_u.xyz - capture_views[in.ids.y].centre) > 0.0 {
         discard;
     }
     let mirror = select(0.0, 1.0, reflector);
     return CaptureSelfOut(
-        vec4<f32>(scene_shade(in.object, in.uv, in.normal, in.colour), 1.0),
+        vec4<f32>(scene_shade(in.ids.x, vec2<f32>(in.world_u.w, in.normal_v.w), in.normal_v.xyz, in.colour), 1.0),
         capture_distance(in),
-        vec4<f32>(scene_normalize(in.normal), mirror),
+        vec4<f32>(scene_normalize(in.normal_v.xyz), mirror),
     );
 }
 
 // Whether the fragment is kept with self-reflections on (`fs_self`'s test).
 fn capture_self_keeps(in: CaptureVarying) -> bool {
-    return !(scene_is_reflector(in.object) && dot(scene_front_normal(in.object, in.normal), in.world - capture_views[in.view].centre) > 0.0);
+    return !(scene_is_reflector(in.ids.x) && dot(scene_front_normal(in.ids.x, in.normal_v.xyz), in.world_u.xyz - capture_views[in.ids.y].centre) > 0.0);
 }
 
 fn capture_normal_mirror(in: CaptureVarying) -> vec4<f32> {
-    return vec4<f32>(scene_normalize(in.normal), select(0.0, 1.0, scene_is_reflector(in.object)));
+    return vec4<f32>(scene_normalize(in.normal_v.xyz), select(0.0, 1.0, scene_is_reflector(in.ids.x)));
 }
 
 struct CaptureIdsOut {
@@ -141,7 +143,7 @@ struct CaptureIdsOut {
 
 @fragment
 fn fs_main_ids(in: CaptureVarying) -> CaptureIdsOut {
-    return CaptureIdsOut(vec4<f32>(scene_shade(in.object, in.uv, in.normal, in.colour), 1.0), capture_distance(in), in.triangle);
+    return CaptureIdsOut(vec4<f32>(scene_shade(in.ids.x, vec2<f32>(in.world_u.w, in.normal_v.w), in.normal_v.xyz, in.colour), 1.0), capture_distance(in), in.ids.z);
 }
 
 struct CaptureSelfIdsOut {
@@ -157,10 +159,10 @@ fn fs_self_ids(in: CaptureVarying) -> CaptureSelfIdsOut {
         discard;
     }
     return CaptureSelfIdsOut(
-        vec4<f32>(scene_shade(in.object, in.uv, in.normal, in.colour), 1.0),
+        vec4<f32>(scene_shade(in.ids.x, vec2<f32>(in.world_u.w, in.normal_v.w), in.normal_v.xyz, in.colour), 1.0),
         capture_distance(in),
         capture_normal_mirror(in),
-        in.triangle,
+        in.ids.z,
     );
 }
 
@@ -171,7 +173,7 @@ struct CaptureIdsOnlyOut {
 
 @fragment
 fn fs_ids_only(in: CaptureVarying) -> CaptureIdsOnlyOut {
-    return CaptureIdsOnlyOut(capture_distance(in), in.triangle);
+    return CaptureIdsOnlyOut(capture_distance(in), in.ids.z);
 }
 
 struct CaptureSelfIdsOnlyOut {
@@ -185,5 +187,5 @@ fn fs_self_ids_only(in: CaptureVarying) -> CaptureSelfIdsOnlyOut {
     if !capture_self_keeps(in) {
         discard;
     }
-    return CaptureSelfIdsOnlyOut(capture_distance(in), capture_normal_mirror(in), in.triangle);
+    return CaptureSelfIdsOnlyOut(capture_distance(in), capture_normal_mirror(in), in.ids.z);
 }

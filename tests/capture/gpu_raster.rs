@@ -492,8 +492,8 @@ fn moved_capture_makes_its_face_lists_again() {
     };
     let mut moved = new(outside);
     let before = run(&moved);
-    let (small, _) = face_triangles(&data, &[outside], false);
-    let (large, _) = face_triangles(&data, &[inside], false);
+    let small = face_triangles(&data, &[outside], false, near).triangles;
+    let large = face_triangles(&data, &[inside], false, near).triangles;
     assert!(
         large.len() > small.len(),
         "{} !> {}",

@@ -191,7 +191,20 @@ impl GraphicsPipeline {
         vertex_count: u32,
         instance: u32,
     ) -> VkResult<()> {
-        self.draw_in(rec, target, sets, vertex_count, instance, None)
+        self.record(rec, target, sets, &[(vertex_count, instance)], None)
+    }
+
+    /// [`GraphicsPipeline::draw`] with several draws into the one target, in order, each
+    /// `(vertex_count, instance)`: the target is cleared once (and only cleared where `draws` is
+    /// empty).
+    pub fn draws(
+        &self,
+        rec: &Recorder<'_>,
+        target: &RenderTarget,
+        sets: &[&BindGroup],
+        draws: &[(u32, u32)],
+    ) -> VkResult<()> {
+        self.record(rec, target, sets, draws, None)
     }
 
     /// [`GraphicsPipeline::draw`] with the fragments limited to the pixel rectangle `scissor`
@@ -204,6 +217,17 @@ impl GraphicsPipeline {
         sets: &[&BindGroup],
         vertex_count: u32,
         instance: u32,
+        scissor: Option<[u32; 4]>,
+    ) -> VkResult<()> {
+        self.record(rec, target, sets, &[(vertex_count, instance)], scissor)
+    }
+
+    fn record(
+        &self,
+        rec: &Recorder<'_>,
+        target: &RenderTarget,
+        sets: &[&BindGroup],
+        draws: &[(u32, u32)],
         scissor: Option<[u32; 4]>,
     ) -> VkResult<()> {
         if target.colour.len() != self.colour_count
@@ -307,8 +331,10 @@ impl GraphicsPipeline {
                 )
             };
         }
-        // SAFETY: pipeline, dynamic state and sets are bound.
-        unsafe { dev.cmd_draw(cmd, vertex_count, 1, 0, instance) };
+        for &(vertex_count, instance) in draws {
+            // SAFETY: pipeline, dynamic state and sets are bound.
+            unsafe { dev.cmd_draw(cmd, vertex_count, 1, 0, instance) };
+        }
         // SAFETY: closes the rendering scope begun above.
         unsafe { dev.cmd_end_rendering(cmd) };
         Ok(())

@@ -20,10 +20,12 @@
 //!   capture ([`bounds::face_missed`]) does not prove outside the face, in global order, so the
 //!   depth test breaks ties between them as a draw of every triangle does and the images are the
 //!   same. The vertex shader reads the global triangle index from the face's list (vertex
-//!   pulling: one draw per face from vertex 0, `instance_index` the face's view; a draw with
-//!   `firstVertex > 0` crashed lavapipe at 128-bit vectors, `malloc(): invalid size`). On a
-//!   dense mesh most triangles lie in one or two of the six faces, and lavapipe ran the vertex
-//!   shader of every triangle for every face.
+//!   pulling: each draw from vertex 0, `instance_index` its entry of `capture_views`, which
+//!   names its face and its part of the list; a draw with `firstVertex > 0` crashed lavapipe at
+//!   128-bit vectors, `malloc(): invalid size`). On a dense mesh most triangles lie in one or
+//!   two of the six faces, and lavapipe ran the vertex shader of every triangle for every face.
+//! - A face's list is drawn in one draw or several, cut where triangles that may need clipping
+//!   start or end ([`FaceLists::draws`]), in the list's order: the images are those of one draw.
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
@@ -45,7 +47,7 @@ use crate::vk::backend::sync::{
     ALL_READS, COLOUR_WRITE, DEPTH_WRITE, SHADER_READ, TRANSFER_READ, TRANSFER_WRITE,
 };
 
-/// One face of one CMO, as `capture_views[k]` in `spirv/capture.wgsl`.
+/// One draw: part of one face of one CMO, as `capture_views[k]` in `spirv/capture.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct CaptureView {
@@ -55,44 +57,131 @@ pub struct CaptureView {
     pub near: f32,
     /// 1: the reflectors are drawn (self-reflections on); 0: they are not ([`face_triangles`]).
     pub reflectors: u32,
-    /// The face's triangles: `capture_triangles[first..first + count]` ([`face_triangles`]).
+    /// The draw's triangles: `capture_triangles[first..first + count]`, part of its face's list
+    /// ([`face_triangles`]).
     pub first: u32,
     pub count: u32,
 }
 
+/// A run of a face's list that no corner of would clip ([`may_clip`]) is drawn on its own
+/// (its own `vkCmdDraw`) only from this many triangles up; a shorter one joins the draw of the
+/// triangles around it.
+const CLEAN_RUN: usize = 64;
+
+/// The faces' triangle lists and the draws that rasterise them.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FaceLists {
+    /// Every view's list, concatenated.
+    pub triangles: Vec<u32>,
+    /// Per view, its list: `(first, count)` in `triangles`.
+    pub spans: Vec<(u32, u32)>,
+    /// The draws, `(view, first, count)`: each view's span cut into consecutive runs, in order
+    /// (a view with an empty list has none).
+    pub draws: Vec<(u32, u32, u32)>,
+}
+
 /// Per view (`6 k + face` of CMO k at `centres[k]`), the global indices of the triangles its
-/// draw rasterises, in increasing order: those of captured objects (`GpuObject::captured`;
+/// draws rasterise, in increasing order: those of captured objects (`GpuObject::captured`;
 /// reflectors only where `reflectors`: [`super::capture_lists::scene_triangles`], the lists'
 /// rule), less those [`bounds::face_missed`] proves outside the
 /// face (all three corners outside one side plane of the face frustum, dilated, with a slack
 /// far above the rounding: no texel centre of the face is in the triangle, so it makes no
-/// fragment). Returns the lists concatenated and each view's `(first, count)`.
+/// fragment).
+///
+/// Each list is cut into draws where [`may_clip`] changes, runs of fewer than [`CLEAN_RUN`]
+/// triangles that do not clip joining those around them. The draws of a face follow each
+/// other in the list's order, so the depth test sees the triangles in the same order and the
+/// images are those of one draw per face; `near` (the faces' near plane) only decides where
+/// the cuts fall. Why: lavapipe's vertex stage (Mesa's `draw` module) sends a whole batch of
+/// vertices through its slow path (the clipping stage) where one vertex of it lies outside the
+/// clip volume; a face's list holds a few per cent of such triangles (across the face's edges),
+/// spread over a third of its batches (`benches/results/lavapipe-capture.md`). The draws cost
+/// a GPU next to nothing.
 pub fn face_triangles(
     data: &GpuSceneData,
     centres: &[Vec3],
     reflectors: bool,
-) -> (Vec<u32>, Vec<(u32, u32)>) {
+    near: f32,
+) -> FaceLists {
     use rayon::prelude::*;
     let (tris, shown) = super::capture_lists::scene_triangles(data, reflectors);
-    let lists: Vec<Vec<u32>> = (0..6 * centres.len())
+    // Per view: its list and its runs.
+    type Runs = Vec<(u32, u32)>;
+    let lists: Vec<(Vec<u32>, Runs)> = (0..6 * centres.len())
         .into_par_iter()
         .map(|view| {
             let (centre, face) = (centres[view / 6], (view % 6) as u32);
-            (0..tris.len())
-                .filter(|&t| {
-                    shown[t] && !bounds::face_missed(&bounds::face_local(&tris[t], centre, face))
-                })
-                .map(|t| t as u32)
-                .collect()
+            let mut list = Vec::new();
+            let mut clips = Vec::new();
+            for (t, tri) in tris.iter().enumerate() {
+                let l = bounds::face_local(tri, centre, face);
+                if shown[t] && !bounds::face_missed(&l) {
+                    list.push(t as u32);
+                    clips.push(may_clip(&l, near));
+                }
+            }
+            (list, clean_runs(&clips))
         })
         .collect();
-    let mut all = Vec::with_capacity(lists.iter().map(Vec::len).sum());
-    let mut spans = Vec::with_capacity(lists.len());
-    for l in lists {
-        spans.push((all.len() as u32, l.len() as u32));
-        all.extend(l);
+    let mut out = FaceLists {
+        triangles: Vec::with_capacity(lists.iter().map(|l| l.0.len()).sum()),
+        spans: Vec::with_capacity(lists.len()),
+        draws: Vec::new(),
+    };
+    for (view, (list, runs)) in lists.into_iter().enumerate() {
+        let first = out.triangles.len() as u32;
+        out.spans.push((first, list.len() as u32));
+        out.draws
+            .extend(runs.into_iter().map(|(a, n)| (view as u32, first + a, n)));
+        out.triangles.extend(list);
     }
-    (all, spans)
+    out
+}
+
+/// Whether the rasteriser may have to clip the triangle `l` (face-local, CMO-local) in a face
+/// whose near plane is `near`: a corner on or behind the near plane or on or outside a side
+/// plane of the face frustum (`|x|` or `|y|` at least `z`: on lavapipe these too take the slow
+/// path, measured), each by a margin of 2^-10, or the vertex shader's edge-on cull (which moves
+/// the corners outside the clip volume), at four times its bound. Only where the draws are cut
+/// depends on it.
+fn may_clip(l: &[Vec3; 3], near: f32) -> bool {
+    const IN: f32 = 1.0 - 1.0 / 1024.0;
+    let out = |p: &Vec3| p.z <= near / IN || p.x.abs() >= IN * p.z || p.y.abs() >= IN * p.z;
+    if l.iter().any(out) {
+        return true;
+    }
+    let (offset, bound) = crate::camera::eye_plane_offset(Vec3::ZERO, l);
+    offset <= 4.0 * bound
+}
+
+/// The draws of a list whose triangles clip where `clips` says: `(first, count)` runs, in order,
+/// covering it, a run of fewer than [`CLEAN_RUN`] triangles that do not clip joined to the runs
+/// around it.
+fn clean_runs(clips: &[bool]) -> Vec<(u32, u32)> {
+    let mut runs: Vec<(u32, u32)> = Vec::new();
+    let mut clean_from = None;
+    let mut start = 0;
+    for i in 0..=clips.len() {
+        let clean = i < clips.len() && !clips[i];
+        match (clean, clean_from) {
+            (true, None) => clean_from = Some(i),
+            (false, Some(c)) => {
+                if i - c >= CLEAN_RUN {
+                    if c > start {
+                        runs.push((start as u32, (c - start) as u32));
+                    }
+                    runs.push((c as u32, (i - c) as u32));
+                    start = i;
+                }
+                clean_from = None;
+            }
+            _ => {}
+        }
+    }
+    if clips.len() > start {
+        runs.push((start as u32, (clips.len() - start) as u32));
+    }
+    runs
 }
 
 /// The capture pass for one scene: pipeline and targets.
@@ -101,8 +190,10 @@ pub struct Capture {
     scene_set: BindGroup,
     view_set: BindGroup,
     views_buf: Buffer,
-    /// What `views_buf` holds.
+    /// What `views_buf` holds: one entry per draw ([`FaceLists::draws`]).
     views: Vec<CaptureView>,
+    /// Per layer (view `6 k + face`), its draws: a range of `views`.
+    layer_draws: Vec<std::ops::Range<u32>>,
     /// Every face's triangles ([`face_triangles`]), at least one entry.
     triangles_buf: Buffer,
     distance: Image,
@@ -210,26 +301,18 @@ impl Capture {
             });
         }
         let (pipeline, fragment) = capture_pipeline(ctx, self_reflections, contents)?;
-        let (triangles, spans) = face_triangles(data, centres, self_reflections);
+        let lists = face_triangles(data, centres, self_reflections, near);
         log::debug!(
-            "capture: {} triangle draws over {} faces of a scene of {} triangles",
-            triangles.len(),
-            spans.len(),
+            "capture: {} triangle draws in {} draws over {} faces of a scene of {} triangles",
+            lists.triangles.len(),
+            lists.draws.len(),
+            lists.spans.len(),
             data.indices.len() / 3
         );
-        let views: Vec<CaptureView> = (0..6 * centres.len())
-            .map(|k| CaptureView {
-                centre: centres[k / 6].to_array(),
-                face: (k % 6) as u32,
-                near,
-                reflectors: u32::from(self_reflections),
-                first: spans[k].0,
-                count: spans[k].1,
-            })
-            .collect();
+        let (views, layer_draws) = draw_views(&lists, centres, near, self_reflections);
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
         let views_buf = ctx.create_buffer_init("capture views", storage, &views)?;
-        let triangles_buf = triangles_buffer(ctx, &triangles)?;
+        let triangles_buf = triangles_buffer(ctx, &lists.triangles)?;
         // Only the scene bindings the two entry points use (the IDs-only entry points shade
         // nothing, and a bind group may not supply a binding its shaders do not use).
         let used = |b: u32| {
@@ -289,6 +372,7 @@ impl Capture {
             view_set,
             views_buf,
             views,
+            layer_draws,
             triangles_buf,
             distance,
             normal,
@@ -325,30 +409,38 @@ impl Capture {
         centres: &[Vec3],
         near: f32,
     ) -> VkResult<()> {
-        if 6 * centres.len() != self.views.len() {
+        if 6 * centres.len() != self.layer_draws.len() {
             return Err(VkError::Usage {
                 what: "capture".into(),
                 detail: format!(
                     "{} centres for a capture of {} CMOs: the count is fixed at creation",
                     centres.len(),
-                    self.views.len() / 6
+                    self.layer_draws.len() / 6
                 ),
             });
         }
-        let (triangles, spans) =
-            face_triangles(data, centres, self.views.iter().any(|v| v.reflectors != 0));
-        for (k, v) in self.views.iter_mut().enumerate() {
-            v.centre = centres[k / 6].to_array();
-            v.near = near;
-            (v.first, v.count) = spans[k];
-        }
+        let reflectors = self.views.iter().any(|v| v.reflectors != 0);
+        let lists = face_triangles(data, centres, reflectors, near);
+        (self.views, self.layer_draws) = draw_views(&lists, centres, near, reflectors);
+        let triangles = lists.triangles;
+        let mut rebind = false;
         if size_of_val(triangles.as_slice()) as u64 > self.triangles_buf.size() {
             self.triangles_buf = triangles_buffer(ctx, &triangles)?;
-            self.view_set = view_set(&self.pipeline, &self.views_buf, &self.triangles_buf)?;
+            rebind = true;
         } else if !triangles.is_empty() {
             ctx.write_buffer(&self.triangles_buf, &triangles)?;
         }
-        ctx.write_buffer(&self.views_buf, &self.views)
+        if size_of_val(self.views.as_slice()) as u64 > self.views_buf.size() {
+            let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+            self.views_buf = ctx.create_buffer_init("capture views", storage, &self.views)?;
+            rebind = true;
+        } else {
+            ctx.write_buffer(&self.views_buf, &self.views)?;
+        }
+        if rebind {
+            self.view_set = view_set(&self.pipeline, &self.views_buf, &self.triangles_buf)?;
+        }
+        Ok(())
     }
 
     /// Records the capture of every face of every CMO into `cmo`: colour straight into its
@@ -411,7 +503,7 @@ impl Capture {
         }
         rec.prepare_render_targets(&images, Some(&self.depth), ALL_READS);
         let sets = [&self.scene_set, &self.view_set];
-        for (layer, view) in (0..self.distance.desc().layers).zip(&self.views) {
+        for (layer, draws) in (0..self.distance.desc().layers).zip(&self.layer_draws) {
             let mut colour = Vec::with_capacity(images.len());
             for (img, clear) in images.iter().zip(clears.iter().copied()) {
                 let view = img.layer_view(layer).ok_or_else(|| VkError::Usage {
@@ -431,9 +523,12 @@ impl Capture {
                 // face's depth writes.
                 rec.memory_barrier(DEPTH_WRITE, DEPTH_WRITE);
             }
-            // With nothing to draw this is an empty draw that still clears the face.
-            self.pipeline
-                .draw(rec, &target, &sets, 3 * view.count, layer)?;
+            // With nothing to draw this still clears the face.
+            let draws: Vec<(u32, u32)> = draws
+                .clone()
+                .map(|d| (3 * self.views[d as usize].count, d))
+                .collect();
+            self.pipeline.draws(rec, &target, &sets, &draws)?;
         }
         // The colour image (or, without colour, its placeholder, never written) ends readable.
         rec.image_barrier(
@@ -464,6 +559,39 @@ impl Capture {
         rec.memory_barrier(TRANSFER_WRITE, ALL_READS);
         Ok(())
     }
+}
+
+/// The `capture_views` of `lists`' draws (at least one entry: a buffer is never empty) and each
+/// layer's range of them.
+fn draw_views(
+    lists: &FaceLists,
+    centres: &[Vec3],
+    near: f32,
+    reflectors: bool,
+) -> (Vec<CaptureView>, Vec<std::ops::Range<u32>>) {
+    let view = |k: usize, first: u32, count: u32| CaptureView {
+        centre: centres[k / 6].to_array(),
+        face: (k % 6) as u32,
+        near,
+        reflectors: u32::from(reflectors),
+        first,
+        count,
+    };
+    let mut views = Vec::with_capacity(lists.draws.len().max(1));
+    let mut layer_draws = vec![0..0; lists.spans.len()];
+    for &(k, first, count) in &lists.draws {
+        let at = views.len() as u32;
+        let r = &mut layer_draws[k as usize];
+        if r.start == r.end {
+            *r = at..at;
+        }
+        r.end = at + 1;
+        views.push(view(k as usize, first, count));
+    }
+    if views.is_empty() {
+        views.push(view(0, 0, 0));
+    }
+    (views, layer_draws)
 }
 
 /// The faces' triangle lists on the device (at least one entry: a buffer is never empty).
@@ -503,14 +631,12 @@ mod tests {
     use crate::reference::Tracer;
     use crate::scene::builtin;
 
+    const NEAR: f32 = 1e-3;
+
     /// The triangles the CPU capture `cube` sees in the face of view `k` that the view's list
     /// lacks.
-    fn missing(
-        lists: &(Vec<u32>, Vec<(u32, u32)>),
-        cube: &crate::cubemap::CubeMap,
-        k: usize,
-    ) -> Vec<u32> {
-        let (all, spans) = lists;
+    fn missing(lists: &FaceLists, cube: &crate::cubemap::CubeMap, k: usize) -> Vec<u32> {
+        let (all, spans) = (&lists.triangles, &lists.spans);
         let (first, count) = spans[k];
         let list = &all[first as usize..(first + count) as usize];
         let n = (cube.size * cube.size) as usize;
@@ -542,7 +668,7 @@ mod tests {
             let tracer = Tracer::new(&scene);
             let reflectors = scene.captures_reflectors();
             let centres = scene.cmo_centres();
-            let lists = face_triangles(&data, &centres, reflectors);
+            let lists = face_triangles(&data, &centres, reflectors, NEAR);
             let triangles = data.indices.len() / 3;
             for (c, &centre) in centres.iter().enumerate() {
                 let cube = capture_shaded(&scene, &tracer, centre, 32, false);
@@ -553,33 +679,102 @@ mod tests {
                         "view {k}: {:?}",
                         missing(&lists, &cube, k)
                     );
-                    let (first, count) = lists.1[k];
-                    let list = &lists.0[first as usize..(first + count) as usize];
+                    let (first, count) = lists.spans[k];
+                    let list = &lists.triangles[first as usize..(first + count) as usize];
                     assert!(
                         list.windows(2).all(|w| w[0] < w[1]),
                         "view {k} out of order"
                     );
                 }
-                let drawn: u32 = lists.1[6 * c..6 * c + 6].iter().map(|s| s.1).sum();
+                let drawn: u32 = lists.spans[6 * c..6 * c + 6].iter().map(|s| s.1).sum();
                 assert!(
                     (drawn as usize) < 3 * triangles,
                     "{drawn} drawn of 6 x {triangles}"
                 );
                 // Negative: drop a triangle face 0 sees from its list.
                 let mut cut = lists.clone();
-                let (first, count) = cut.1[6 * c];
+                let (first, count) = cut.spans[6 * c];
                 let seen = cube.triangle[..(32 * 32)]
                     .iter()
                     .find(|&&t| t != u32::MAX)
                     .copied();
                 let seen = seen.expect("face 0 sees something");
-                let list = &mut cut.0[first as usize..(first + count) as usize];
+                let list = &mut cut.triangles[first as usize..(first + count) as usize];
                 let at = list.binary_search(&seen).unwrap();
                 list[at..].rotate_left(1);
-                cut.1[6 * c].1 -= 1;
+                cut.spans[6 * c].1 -= 1;
                 assert_eq!(missing(&cut, &cube, 6 * c), vec![seen]);
             }
         }
+    }
+
+    /// The runs cover the list in order, a run of at least [`CLEAN_RUN`] triangles that do not
+    /// clip is a draw of its own, and shorter ones stay with the triangles around them.
+    /// Negative: one more clipping triangle inside a long clean run cuts it.
+    #[test]
+    fn clean_runs_cut_only_at_long_runs_that_do_not_clip() {
+        let covers = |clips: &[bool], runs: &[(u32, u32)]| {
+            let mut at = 0;
+            for &(first, count) in runs {
+                assert_eq!(first, at, "{runs:?}");
+                assert!(count > 0, "{runs:?}");
+                at += count;
+            }
+            assert_eq!(at as usize, clips.len(), "{runs:?}");
+        };
+        let n = CLEAN_RUN;
+        let mut clips = vec![true; 3];
+        clips.extend(vec![false; n]);
+        clips.extend(vec![true; 2]);
+        clips.extend(vec![false; n - 1]);
+        clips.push(true);
+        let runs = clean_runs(&clips);
+        covers(&clips, &runs);
+        let n = n as u32;
+        assert_eq!(runs, vec![(0, 3), (3, n), (3 + n, n + 2)]);
+        assert_eq!(clean_runs(&[]), vec![]);
+        assert_eq!(clean_runs(&[false; 5]), vec![(0, 5)]);
+        assert_eq!(clean_runs(&[true; 5]), vec![(0, 5)]);
+        // Negative: a clipping triangle in the middle of the long clean run.
+        let mut cut = clips.clone();
+        cut[3 + n as usize / 2] = true;
+        let runs = clean_runs(&cut);
+        covers(&cut, &runs);
+        assert_eq!(runs, vec![(0, 5 + 2 * n)]);
+    }
+
+    /// Every view's draws cover its list in order, and the built-ins give some face more than
+    /// one draw (so that the GPU capture tests draw faces in several draws).
+    #[test]
+    fn face_draws_cover_each_list_in_order() {
+        let mut split = 0;
+        for scene in [
+            builtin::sphere_room(),
+            builtin::teapot(),
+            builtin::default(),
+        ] {
+            let data = GpuSceneData::new(&scene);
+            let centres = scene.cmo_centres();
+            let lists = face_triangles(&data, &centres, scene.captures_reflectors(), NEAR);
+            let mut d = lists.draws.iter().peekable();
+            for (k, &(first, count)) in lists.spans.iter().enumerate() {
+                let mut at = first;
+                let mut n = 0;
+                while let Some(&&(view, f, c)) = d.peek().filter(|x| x.0 == k as u32) {
+                    assert_eq!((view, f), (k as u32, at));
+                    at += c;
+                    n += 1;
+                    d.next();
+                }
+                assert_eq!(at, first + count, "view {k}");
+                split += usize::from(n > 1);
+            }
+            assert!(d.next().is_none());
+        }
+        assert!(
+            split > 0,
+            "no face of the built-ins is drawn in several draws"
+        );
     }
 
     /// Objects the capture does not show are in no list: without self-reflections no reflector
@@ -593,9 +788,9 @@ mod tests {
             data.objects[v.object as usize].reflector != 0
         };
         let centres = scene.cmo_centres();
-        let (off, _) = face_triangles(&data, &centres, false);
+        let off = face_triangles(&data, &centres, false, NEAR).triangles;
         assert!(!off.iter().any(|&t| reflector(t)));
-        let (on, _) = face_triangles(&data, &centres, true);
+        let on = face_triangles(&data, &centres, true, NEAR).triangles;
         assert!(on.iter().any(|&t| reflector(t)));
     }
 }
