@@ -39,12 +39,13 @@ struct GbufferCamera {
 
 struct GbufferVarying {
     @builtin(position) clip: vec4<f32>,
-    @location(0) world: vec3<f32>,
-    @location(1) normal: vec3<f32>,
-    @location(2) uv: vec2<f32>,
-    @location(3) @interpolate(flat) object: u32,
-    @location(4) @interpolate(flat) triangle: u32,
-    @location(5) colour: vec3<f32>,
+    // xyz: the world position; w: u (the varyings packed as the capture's: spirv/capture.wgsl).
+    @location(0) world_u: vec4<f32>,
+    // xyz: the vertex normal; w: v.
+    @location(1) normal_v: vec4<f32>,
+    @location(2) colour: vec3<f32>,
+    // The object and the triangle.
+    @location(3) @interpolate(flat) ids: vec2<u32>,
 }
 
 @vertex
@@ -61,12 +62,10 @@ fn vs_main(@builtin(vertex_index) vertex: u32) -> GbufferVarying {
     if eye_plane_holds(gbuffer_camera.eye, a, b, c) {
         out.clip = vec4<f32>(2.0, 2.0, 0.0, 1.0);
     }
-    out.world = v.position;
-    out.normal = v.normal;
-    out.uv = v.uv;
+    out.world_u = vec4<f32>(v.position, v.uv.x);
+    out.normal_v = vec4<f32>(v.normal, v.uv.y);
     out.colour = scene_vertex_colour(v);
-    out.object = v.object;
-    out.triangle = vertex / 3u;
+    out.ids = vec2<u32>(v.object, vertex / 3u);
     return out;
 }
 
@@ -104,13 +103,13 @@ fn fs_main(in: GbufferVarying) -> GbufferOut {
     let c = gbuffer_camera;
     let o = c.eye;
     let d = camera_ray_dir(pixel, c.jitter, c.width, c.height, c.tan_half, c.aspect, c.right, c.up, c.back);
-    let v0 = scene_vertices[scene_indices[3u * in.triangle]];
-    let v1 = scene_vertices[scene_indices[3u * in.triangle + 1u]];
-    let v2 = scene_vertices[scene_indices[3u * in.triangle + 2u]];
+    let v0 = scene_vertices[scene_indices[3u * in.ids.y]];
+    let v1 = scene_vertices[scene_indices[3u * in.ids.y + 1u]];
+    let v2 = scene_vertices[scene_indices[3u * in.ids.y + 2u]];
     let h = gbuffer_plane_hit(o, d, v0.position, v1.position, v2.position);
-    var world = in.world;
-    var normal = in.normal;
-    var uv = in.uv;
+    var world = in.world_u.xyz;
+    var normal = in.normal_v.xyz;
+    var uv = vec2<f32>(in.world_u.w, in.normal_v.w);
     var colour = in.colour;
     let u = h.y;
     let v = h.z;
@@ -121,15 +120,15 @@ fn fs_main(in: GbufferVarying) -> GbufferOut {
         uv = v0.uv * w + v1.uv * u + v2.uv * v;
         colour = scene_vertex_colour(v0) * w + scene_vertex_colour(v1) * u + scene_vertex_colour(v2) * v;
     }
-    let mirror = select(0.0, 1.0, scene_is_reflector(in.object));
+    let mirror = select(0.0, 1.0, scene_is_reflector(in.ids.x));
     // A glossy reflector's specular power p goes into the normal's w as -1 - p (at most -1; see
     // the header); every other covered pixel keeps 1.
-    let power = scene_objects[in.object].specular_power;
+    let power = scene_objects[in.ids.x].specular_power;
     let normal_w = select(1.0, -1.0 - power, power >= 0.0);
     return GbufferOut(
-        vec4<f32>(scene_shade(in.object, uv, normal, colour), 1.0),
+        vec4<f32>(scene_shade(in.ids.x, uv, normal, colour), 1.0),
         vec4<f32>(world, mirror),
         vec4<f32>(normal, normal_w),
-        in.triangle,
+        in.ids.y,
     );
 }
