@@ -95,8 +95,8 @@ pub struct FaceLists {
 /// the cuts fall. Why: lavapipe's vertex stage (Mesa's `draw` module) sends a whole batch of
 /// vertices through its slow path (the clipping stage) where one vertex of it lies outside the
 /// clip volume; a face's list holds a few per cent of such triangles (across the face's edges),
-/// spread over a third of its batches (`benches/results/lavapipe-capture.md`). The draws cost
-/// a GPU next to nothing.
+/// spread over a third of its batches (`benches/results/lavapipe-capture.md`). truck-garage's
+/// 6 faces take 340 draws.
 pub fn face_triangles(
     data: &GpuSceneData,
     centres: &[Vec3],
@@ -114,8 +114,11 @@ pub fn face_triangles(
             let mut list = Vec::new();
             let mut clips = Vec::new();
             for (t, tri) in tris.iter().enumerate() {
+                if !shown[t] {
+                    continue;
+                }
                 let l = bounds::face_local(tri, centre, face);
-                if shown[t] && !bounds::face_missed(&l) {
+                if !bounds::face_missed(&l) {
                     list.push(t as u32);
                     clips.push(may_clip(&l, near));
                 }
@@ -192,8 +195,9 @@ pub struct Capture {
     views_buf: Buffer,
     /// What `views_buf` holds: one entry per draw ([`FaceLists::draws`]).
     views: Vec<CaptureView>,
-    /// Per layer (view `6 k + face`), its draws: a range of `views`.
-    layer_draws: Vec<std::ops::Range<u32>>,
+    /// Per layer (view `6 k + face`), its draws as `GraphicsPipeline::draws` takes them:
+    /// `(vertex count, instance)`, the instance its entry of `views`.
+    layer_draws: Vec<Vec<(u32, u32)>>,
     /// Every face's triangles ([`face_triangles`]), at least one entry.
     triangles_buf: Buffer,
     distance: Image,
@@ -524,11 +528,7 @@ impl Capture {
                 rec.memory_barrier(DEPTH_WRITE, DEPTH_WRITE);
             }
             // With nothing to draw this still clears the face.
-            let draws: Vec<(u32, u32)> = draws
-                .clone()
-                .map(|d| (3 * self.views[d as usize].count, d))
-                .collect();
-            self.pipeline.draws(rec, &target, &sets, &draws)?;
+            self.pipeline.draws(rec, &target, &sets, draws)?;
         }
         // The colour image (or, without colour, its placeholder, never written) ends readable.
         rec.image_barrier(
@@ -562,13 +562,13 @@ impl Capture {
 }
 
 /// The `capture_views` of `lists`' draws (at least one entry: a buffer is never empty) and each
-/// layer's range of them.
+/// layer's draws, `(vertex count, instance)`.
 fn draw_views(
     lists: &FaceLists,
     centres: &[Vec3],
     near: f32,
     reflectors: bool,
-) -> (Vec<CaptureView>, Vec<std::ops::Range<u32>>) {
+) -> (Vec<CaptureView>, Vec<Vec<(u32, u32)>>) {
     let view = |k: usize, first: u32, count: u32| CaptureView {
         centre: centres[k / 6].to_array(),
         face: (k % 6) as u32,
@@ -578,14 +578,9 @@ fn draw_views(
         count,
     };
     let mut views = Vec::with_capacity(lists.draws.len().max(1));
-    let mut layer_draws = vec![0..0; lists.spans.len()];
+    let mut layer_draws = vec![Vec::new(); lists.spans.len()];
     for &(k, first, count) in &lists.draws {
-        let at = views.len() as u32;
-        let r = &mut layer_draws[k as usize];
-        if r.start == r.end {
-            *r = at..at;
-        }
-        r.end = at + 1;
+        layer_draws[k as usize].push((3 * count, views.len() as u32));
         views.push(view(k as usize, first, count));
     }
     if views.is_empty() {
