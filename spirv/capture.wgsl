@@ -34,7 +34,6 @@
 const SCENE_GROUP: u32 = 0u;
 //! import shared/scene.wgsl
 //! import shared/cube.wgsl
-//! import shared/eye_plane.wgsl
 
 struct CaptureView {
     centre: vec3<f32>,
@@ -49,6 +48,10 @@ struct CaptureView {
 
 @group(1) @binding(0) var<storage, read> capture_views: array<CaptureView>;
 @group(1) @binding(1) var<storage, read> capture_triangles: array<u32>;
+
+// An entry of `capture_triangles` whose triangle is seen edge-on from the CMO centre
+// (`capture_mark.wgsl`).
+const CAPTURE_EDGE_ON: u32 = 0xffffffffu;
 
 struct CaptureVarying {
     @builtin(position) clip: vec4<f32>,
@@ -65,20 +68,17 @@ struct CaptureVarying {
 fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) view: u32) -> CaptureVarying {
     let cv = capture_views[view];
     let triangle = capture_triangles[cv.first + vertex / 3u];
-    let t = 3u * triangle;
-    let v = scene_vertices[scene_indices[t + vertex % 3u]];
-    let l = to_face_local(cv.face, v.position - cv.centre);
     var out: CaptureVarying;
-    out.clip = vec4<f32>(l.x, l.y, cv.near, l.z);
-    // A triangle whose plane passes through the centre is seen edge-on (shared/eye_plane.wgsl):
-    // its three vertices go to one point outside the clip volume, so it is culled. Tested in
-    // CMO-local coordinates, which round to their own scale (the projection above uses them).
-    let a = scene_vertices[scene_indices[t]].position - cv.centre;
-    let b = scene_vertices[scene_indices[t + 1u]].position - cv.centre;
-    let c = scene_vertices[scene_indices[t + 2u]].position - cv.centre;
-    if eye_plane_holds(vec3<f32>(0.0), a, b, c) {
+    // A triangle whose plane passes through the centre is seen edge-on (shared/eye_plane.wgsl,
+    // marked by `capture_mark.wgsl`): its three vertices go to one point outside the clip
+    // volume, so it is culled.
+    if triangle == CAPTURE_EDGE_ON {
         out.clip = vec4<f32>(2.0, 2.0, 0.0, 1.0);
+        return out;
     }
+    let v = scene_vertices[scene_indices[3u * triangle + vertex % 3u]];
+    let l = to_face_local(cv.face, v.position - cv.centre);
+    out.clip = vec4<f32>(l.x, l.y, cv.near, l.z);
     out.world_u = vec4<f32>(v.position, v.uv.x);
     out.normal_v = vec4<f32>(v.normal, v.uv.y);
     out.colour = scene_vertex_colour(v);

@@ -511,6 +511,35 @@ fn cmo_centre_in_a_plane_captures_what_the_reference_sees() {
     finish_gpu(ctx);
 }
 
+/// A CMO centre within rounding of a wall's plane (1.2e-7 off it along x, 8.5e-8 from the
+/// plane, far inside the edge-on bound): the capture culls the wall's triangles as seen edge-on
+/// (`spirv/capture_mark.wgsl` marks them once, the vertex shader sends them outside the clip
+/// volume), so no texel holds them, though a rasteriser would draw them there over many
+/// texels. Negative: from 1.4e-3 off the wall the same capture holds them in many texels.
+#[test]
+fn capture_culls_a_wall_seen_edge_on_from_its_centre() {
+    let ctx = gpu_context();
+    let (scene, centre) = centre_on_a_diagonal_wall();
+    let world = scene.world();
+    let wall: Vec<u32> = (0..world.triangles.len() as u32)
+        .filter(|&t| {
+            world.triangles[t as usize].iter().all(|&i| {
+                (world.positions[i as usize].y - world.positions[i as usize].x - 1.25).abs() < 1e-5
+            })
+        })
+        .collect();
+    assert_eq!(wall.len(), 2);
+    let holds_wall = |c: &CubeMap| c.triangle.iter().filter(|t| wall.contains(t)).count();
+    let near = 1e-9;
+    let within = gpu_capture(&ctx, &scene, centre + Vec3::new(1.2e-7, 0.0, 0.0), near);
+    assert_eq!(holds_wall(&within), 0);
+    let off = gpu_capture(&ctx, &scene, centre + Vec3::new(1e-3, -1e-3, 0.0), near);
+    let seen = holds_wall(&off);
+    eprintln!("1.4e-3 off the wall: {seen} texels hold it");
+    assert!(seen > 1000, "{seen}");
+    finish_gpu(ctx);
+}
+
 /// On the built-in scenes the edge-on test culls nothing but the `default` front wall (2
 /// triangles, for the eye; none for any CMO centre, within twice the bound): the passes draw
 /// what they drew before everywhere else, and no built-in is refused.

@@ -26,6 +26,12 @@
 //!   two of the six faces, and lavapipe ran the vertex shader of every triangle for every face.
 //! - A face's list is drawn in one draw or several, cut where triangles that may need clipping
 //!   start or end ([`FaceLists::draws`]), in the list's order: the images are those of one draw.
+//! - A triangle seen edge-on from its CMO centre (`spirv/shared/eye_plane.wgsl`) is culled: a
+//!   compute pass (`spirv/capture_mark.wgsl`) marks it in the lists once per upload (creation,
+//!   [`Capture::set_views`]), with the test and the operations the vertex shader ran on every
+//!   vertex before, and the vertex shader sends a marked triangle's corners outside the clip
+//!   volume. The vertex shader then reads one corner, not its triangle's three (truck-garage's
+//!   capture about a quarter cheaper on lavapipe, `benches/results/lavapipe-capture.md`).
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
@@ -41,8 +47,8 @@ use crate::vk::backend::graphics::{
     ColourTarget, DepthTest, GraphicsDesc, GraphicsPipeline, RenderTarget,
 };
 use crate::vk::backend::image::{Image, ImageDesc};
-use crate::vk::backend::pipeline::{BindGroup, Resource};
-use crate::vk::backend::shaders::CAPTURE;
+use crate::vk::backend::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
+use crate::vk::backend::shaders::{CAPTURE, CAPTURE_MARK};
 use crate::vk::backend::sync::{
     ALL_READS, COLOUR_WRITE, DEPTH_WRITE, SHADER_READ, TRANSFER_READ, TRANSFER_WRITE,
 };
@@ -144,8 +150,8 @@ pub fn face_triangles(
 /// Whether the rasteriser may have to clip the triangle `l` (face-local, CMO-local) in a face
 /// whose near plane is `near`: a corner on or behind the near plane or on or outside a side
 /// plane of the face frustum (`|x|` or `|y|` at least `z`: on lavapipe these too take the slow
-/// path, measured), each by a margin of 2^-10, or the vertex shader's edge-on cull (which moves
-/// the corners outside the clip volume), at four times its bound. Only where the draws are cut
+/// path, measured), each by a margin of 2^-10, or the edge-on cull (the vertex shader moves a
+/// marked triangle's corners outside the clip volume), at four times its bound. Only where the draws are cut
 /// depends on it.
 fn may_clip(l: &[Vec3; 3], near: f32) -> bool {
     const IN: f32 = 1.0 - 1.0 / 1024.0;
@@ -190,6 +196,10 @@ fn clean_runs(clips: &[bool]) -> Vec<(u32, u32)> {
 /// The capture pass for one scene: pipeline and targets.
 pub struct Capture {
     pipeline: GraphicsPipeline,
+    /// `capture_mark.wgsl`: marks the lists' edge-on triangles after each upload, and its
+    /// scene set.
+    mark: ComputePipeline,
+    mark_scene: BindGroup,
     scene_set: BindGroup,
     view_set: BindGroup,
     views_buf: Buffer,
@@ -333,6 +343,22 @@ impl Capture {
             .collect();
         let scene_set = pipeline.bind_group(0, &scene_resources)?;
         let view_set = view_set(&pipeline, &views_buf, &triangles_buf)?;
+        let mark = ComputePipeline::new(ctx, &CAPTURE_MARK, "main", ComputeOptions::default())?;
+        let mark_used = |b: u32| {
+            mark.entry
+                .bindings
+                .iter()
+                .any(|u| u.group == 0 && u.binding == b)
+        };
+        let mark_scene = mark.bind_group(
+            0,
+            &scene
+                .resources()
+                .into_iter()
+                .filter(|(b, _)| mark_used(*b))
+                .collect::<Vec<_>>(),
+        )?;
+        mark_edge_on(ctx, &mark, &mark_scene, &views_buf, &triangles_buf)?;
         let layers = 6 * centres.len() as u32;
         let target_usage =
             vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC;
@@ -372,6 +398,8 @@ impl Capture {
         )?;
         Ok(Capture {
             pipeline,
+            mark,
+            mark_scene,
             scene_set,
             view_set,
             views_buf,
@@ -439,12 +467,29 @@ impl Capture {
             self.views_buf = ctx.create_buffer_init("capture views", storage, &self.views)?;
             rebind = true;
         } else {
-            ctx.write_buffer(&self.views_buf, &self.views)?;
+            // The rest of the (larger) buffer holds views that start past every entry, so that
+            // `capture_mark.wgsl`'s bisection never lands on a stale one.
+            let room = (self.views_buf.size() / size_of::<CaptureView>() as u64) as usize;
+            let mut all = self.views.clone();
+            all.resize(
+                room,
+                CaptureView {
+                    first: u32::MAX,
+                    ..CaptureView::default()
+                },
+            );
+            ctx.write_buffer(&self.views_buf, &all)?;
         }
         if rebind {
             self.view_set = view_set(&self.pipeline, &self.views_buf, &self.triangles_buf)?;
         }
-        Ok(())
+        mark_edge_on(
+            ctx,
+            &self.mark,
+            &self.mark_scene,
+            &self.views_buf,
+            &self.triangles_buf,
+        )
     }
 
     /// Records the capture of every face of every CMO into `cmo`: colour straight into its
@@ -602,6 +647,32 @@ fn triangles_buffer(ctx: &GpuContext, triangles: &[u32]) -> VkResult<Buffer> {
         vk::BufferUsageFlags::STORAGE_BUFFER,
         data,
     )
+}
+
+/// Runs `capture_mark.wgsl` over the lists in `triangles` (the draws `views` cover them) and
+/// waits: the lists' edge-on triangles marked for the vertex shader. Once per upload of the
+/// lists (creation, [`Capture::set_views`]), not per frame.
+fn mark_edge_on(
+    ctx: &GpuContext,
+    mark: &ComputePipeline,
+    scene: &BindGroup,
+    views: &Buffer,
+    triangles: &Buffer,
+) -> VkResult<()> {
+    let set = mark.bind_group(
+        1,
+        &[
+            (0, Resource::Buffer(views)),
+            (1, Resource::Buffer(triangles)),
+        ],
+    )?;
+    // A lane per entry, 64 per workgroup, rows of at most 65535 workgroups.
+    let groups = ((triangles.size() / 4) as u32).div_ceil(64).max(1);
+    let x = groups.min(65535);
+    ctx.submit_and_wait("capture_mark", |rec| {
+        mark.dispatch(rec, &[scene, &set], [x, groups.div_ceil(x), 1]);
+        Ok(())
+    })
 }
 
 /// The `@group(1)` set: the views and the faces' triangle lists.
