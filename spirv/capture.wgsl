@@ -34,24 +34,10 @@
 const SCENE_GROUP: u32 = 0u;
 //! import shared/scene.wgsl
 //! import shared/cube.wgsl
-
-struct CaptureView {
-    centre: vec3<f32>,
-    face: u32,
-    near: f32,
-    // 1: the reflectors that see themselves are drawn; 0: no reflector is (`face_triangles`).
-    reflectors: u32,
-    // The face's triangles in `capture_triangles`.
-    first: u32,
-    count: u32,
-}
+//! import shared/capture_view.wgsl
 
 @group(1) @binding(0) var<storage, read> capture_views: array<CaptureView>;
 @group(1) @binding(1) var<storage, read> capture_triangles: array<u32>;
-
-// An entry of `capture_triangles` whose triangle is seen edge-on from the CMO centre
-// (`capture_mark.wgsl`).
-const CAPTURE_EDGE_ON: u32 = 0xffffffffu;
 
 struct CaptureVarying {
     @builtin(position) clip: vec4<f32>,

@@ -14,22 +14,10 @@
 const SCENE_GROUP: u32 = 0u;
 //! import shared/scene.wgsl
 //! import shared/eye_plane.wgsl
-
-// `capture.wgsl`'s `CaptureView`.
-struct CaptureView {
-    centre: vec3<f32>,
-    face: u32,
-    near: f32,
-    reflectors: u32,
-    first: u32,
-    count: u32,
-}
+//! import shared/capture_view.wgsl
 
 @group(1) @binding(0) var<storage, read> capture_views: array<CaptureView>;
 @group(1) @binding(1) var<storage, read_write> capture_triangles: array<u32>;
-
-// `capture.wgsl`'s marker of an edge-on triangle.
-const CAPTURE_EDGE_ON: u32 = 0xffffffffu;
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
