@@ -88,9 +88,15 @@ fn capture_distance(in: CaptureVarying) -> f32 {
     return length(in.world_u.xyz - capture_views[in.ids.y].centre);
 }
 
+// The shaded colour, alpha 1.
+fn capture_shade(in: CaptureVarying) -> vec4<f32> {
+    let uv = vec2<f32>(in.world_u.w, in.normal_v.w);
+    return vec4<f32>(scene_shade(in.ids.x, uv, in.normal_v.xyz, in.colour), 1.0);
+}
+
 @fragment
 fn fs_main(in: CaptureVarying) -> CaptureOut {
-    return CaptureOut(vec4<f32>(scene_shade(in.ids.x, vec2<f32>(in.world_u.w, in.normal_v.w), in.normal_v.xyz, in.colour), 1.0), capture_distance(in));
+    return CaptureOut(capture_shade(in), capture_distance(in));
 }
 
 // With self-reflections a reflector is captured only where it faces the CMO centre (its normal,
@@ -100,21 +106,16 @@ fn fs_main(in: CaptureVarying) -> CaptureOut {
 // reflector parts it can meet face back towards the reflector, and so towards the centre.
 @fragment
 fn fs_self(in: CaptureVarying) -> CaptureSelfOut {
-    let reflector = scene_is_reflector(in.ids.x);
-    if reflector && dot(scene_front_normal(in.ids.x, in.normal_v.xyz), in.world_u.xyz - capture_views[in.ids.y].centre) > 0.0 {
+    if !capture_self_keeps(in) {
         discard;
     }
-    let mirror = select(0.0, 1.0, reflector);
-    return CaptureSelfOut(
-        vec4<f32>(scene_shade(in.ids.x, vec2<f32>(in.world_u.w, in.normal_v.w), in.normal_v.xyz, in.colour), 1.0),
-        capture_distance(in),
-        vec4<f32>(scene_normalize(in.normal_v.xyz), mirror),
-    );
+    return CaptureSelfOut(capture_shade(in), capture_distance(in), capture_normal_mirror(in));
 }
 
 // Whether the fragment is kept with self-reflections on (`fs_self`'s test).
 fn capture_self_keeps(in: CaptureVarying) -> bool {
-    return !(scene_is_reflector(in.ids.x) && dot(scene_front_normal(in.ids.x, in.normal_v.xyz), in.world_u.xyz - capture_views[in.ids.y].centre) > 0.0);
+    let towards = in.world_u.xyz - capture_views[in.ids.y].centre;
+    return !(scene_is_reflector(in.ids.x) && dot(scene_front_normal(in.ids.x, in.normal_v.xyz), towards) > 0.0);
 }
 
 fn capture_normal_mirror(in: CaptureVarying) -> vec4<f32> {
@@ -129,7 +130,7 @@ struct CaptureIdsOut {
 
 @fragment
 fn fs_main_ids(in: CaptureVarying) -> CaptureIdsOut {
-    return CaptureIdsOut(vec4<f32>(scene_shade(in.ids.x, vec2<f32>(in.world_u.w, in.normal_v.w), in.normal_v.xyz, in.colour), 1.0), capture_distance(in), in.ids.z);
+    return CaptureIdsOut(capture_shade(in), capture_distance(in), in.ids.z);
 }
 
 struct CaptureSelfIdsOut {
@@ -145,7 +146,7 @@ fn fs_self_ids(in: CaptureVarying) -> CaptureSelfIdsOut {
         discard;
     }
     return CaptureSelfIdsOut(
-        vec4<f32>(scene_shade(in.ids.x, vec2<f32>(in.world_u.w, in.normal_v.w), in.normal_v.xyz, in.colour), 1.0),
+        capture_shade(in),
         capture_distance(in),
         capture_normal_mirror(in),
         in.ids.z,

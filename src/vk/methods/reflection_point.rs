@@ -179,29 +179,6 @@ pub struct RpCamera {
     pub near: f32,
 }
 
-/// The scene's group-0 resources that `entries` of `pass` use (a bind group must not supply
-/// more than its layout declares).
-fn scene_resources<'a>(
-    scene: &'a SceneBuffers,
-    pass: &Pass,
-    entries: &[&str],
-) -> Vec<(u32, Resource<'a>)> {
-    let used = |binding: u32| {
-        entries.iter().any(|name| {
-            pass.entry_point(name).is_some_and(|e| {
-                e.bindings
-                    .iter()
-                    .any(|b| b.group == 0 && b.binding == binding)
-            })
-        })
-    };
-    scene
-        .resources()
-        .into_iter()
-        .filter(|(b, _)| used(*b))
-        .collect()
-}
-
 const FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
 /// Workgroups per dispatch row (the smallest `maxComputeWorkGroupCount[0]` Vulkan guarantees).
 const MAX_GROUPS_X: u32 = 65_535;
@@ -315,13 +292,13 @@ impl SearchPipelines {
         let reflector_sets = [
             reflector.bind_group(
                 0,
-                &scene_resources(scene, pass, &["vs_reflector", "fs_reflector"]),
+                &scene.resources_for(pass, &["vs_reflector", "fs_reflector"]),
             )?,
             reflector_set(&reflector, params, closure)?,
         ];
         let search = ComputePipeline::new(ctx, pass, "search", ComputeOptions::default())?;
         let search_sets = [
-            search.bind_group(0, &scene_resources(scene, pass, &["search"]))?,
+            search.bind_group(0, &scene.resources_for(pass, &["search"]))?,
             search.bind_group(
                 1,
                 &[
@@ -364,10 +341,8 @@ impl RasterPipelines {
         let virtual_draw =
             GraphicsPipeline::new(ctx, pass, &draw_desc("vs_virtual", "fs_virtual"))?;
         let virtual_sets = [
-            virtual_draw.bind_group(
-                0,
-                &scene_resources(scene, pass, &["vs_virtual", "fs_virtual"]),
-            )?,
+            virtual_draw
+                .bind_group(0, &scene.resources_for(pass, &["vs_virtual", "fs_virtual"]))?,
             virtual_draw.bind_group(
                 1,
                 &[

@@ -151,8 +151,8 @@ pub fn face_triangles(
 /// whose near plane is `near`: a corner on or behind the near plane or on or outside a side
 /// plane of the face frustum (`|x|` or `|y|` at least `z`: on lavapipe these too take the slow
 /// path, measured), each by a margin of 2^-10, or the edge-on cull (the vertex shader moves a
-/// marked triangle's corners outside the clip volume), at four times its bound. Only where the draws are cut
-/// depends on it.
+/// marked triangle's corners outside the clip volume), at four times its bound. Only where the
+/// draws are cut depends on it.
 fn may_clip(l: &[Vec3; 3], near: f32) -> bool {
     const IN: f32 = 1.0 - 1.0 / 1024.0;
     let out = |p: &Vec3| p.z <= near / IN || p.x.abs() >= IN * p.z || p.y.abs() >= IN * p.z;
@@ -329,35 +329,11 @@ impl Capture {
         let triangles_buf = triangles_buffer(ctx, &lists.triangles)?;
         // Only the scene bindings the two entry points use (the IDs-only entry points shade
         // nothing, and a bind group may not supply a binding its shaders do not use).
-        let used = |b: u32| {
-            ["vs_main", fragment].iter().any(|e| {
-                CAPTURE
-                    .entry_point(e)
-                    .is_some_and(|e| e.bindings.iter().any(|u| u.group == 0 && u.binding == b))
-            })
-        };
-        let scene_resources: Vec<_> = scene
-            .resources()
-            .into_iter()
-            .filter(|(b, _)| used(*b))
-            .collect();
+        let scene_resources = scene.resources_for(&CAPTURE, &["vs_main", fragment]);
         let scene_set = pipeline.bind_group(0, &scene_resources)?;
         let view_set = view_set(&pipeline, &views_buf, &triangles_buf)?;
         let mark = ComputePipeline::new(ctx, &CAPTURE_MARK, "main", ComputeOptions::default())?;
-        let mark_used = |b: u32| {
-            mark.entry
-                .bindings
-                .iter()
-                .any(|u| u.group == 0 && u.binding == b)
-        };
-        let mark_scene = mark.bind_group(
-            0,
-            &scene
-                .resources()
-                .into_iter()
-                .filter(|(b, _)| mark_used(*b))
-                .collect::<Vec<_>>(),
-        )?;
+        let mark_scene = mark.bind_group(0, &scene.resources_for(&CAPTURE_MARK, &["main"]))?;
         mark_edge_on(ctx, &mark, &mark_scene, &views_buf, &triangles_buf)?;
         let layers = 6 * centres.len() as u32;
         let target_usage =

@@ -577,17 +577,7 @@ impl CaptureLists {
             out,
         );
         let sets_for = |p: &ComputePipeline| -> VkResult<(BindGroup, BindGroup)> {
-            let used = |b: u32| {
-                p.entry
-                    .bindings
-                    .iter()
-                    .any(|u| u.group == 0 && u.binding == b)
-            };
-            let scene_res: Vec<_> = scene
-                .resources()
-                .into_iter()
-                .filter(|(b, _)| used(*b))
-                .collect();
+            let scene_res = scene.resources_for(p.pass, &[p.entry.name]);
             Ok((p.bind_group(0, &scene_res)?, group1_set(p, &all)?))
         };
         let mut sets = Vec::with_capacity(passes.len());

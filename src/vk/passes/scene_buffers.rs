@@ -12,6 +12,7 @@ use crate::vk::backend::buffer::Buffer;
 use crate::vk::backend::context::GpuContext;
 use crate::vk::backend::error::{VkError, VkResult};
 use crate::vk::backend::pipeline::Resource;
+use crate::vk::backend::shaders::Pass;
 
 /// `data`, or one zeroed element where it is empty (a scene without meshes or materials): a
 /// storage buffer must hold at least one element of its binding's type. No pass reads it, since
@@ -134,6 +135,24 @@ impl SceneBuffers {
             });
         }
         ctx.write_buffer(&self.vertices, &vertices)
+    }
+
+    /// The resources of [`SceneBuffers::resources`] that `entries` of `pass` use (a bind group
+    /// must not supply more than its layout declares).
+    pub fn resources_for(&self, pass: &Pass, entries: &[&str]) -> Vec<(u32, Resource<'_>)> {
+        let used = |binding: u32| {
+            entries.iter().any(|name| {
+                pass.entry_point(name).is_some_and(|e| {
+                    e.bindings
+                        .iter()
+                        .any(|b| b.group == 0 && b.binding == binding)
+                })
+            })
+        };
+        self.resources()
+            .into_iter()
+            .filter(|(b, _)| used(*b))
+            .collect()
     }
 
     /// The `(binding, resource)` list of `@group(0)`.
