@@ -28,7 +28,8 @@
 //   top cost a second turn that lavapipe ran, every lane masked: about a quarter of `texels`
 //   and a third of `clips`.
 // - `resolve`: one invocation per texel: selection of the `depth` smallest `(lo, triangle)` by
-//   payload swapping along the list (the first `count_kept` nodes from the head end up sorted),
+//   payload swapping along the list, RESOLVE_K of them per scan (the first `count_kept` nodes
+//   from the head end up sorted),
 //   `complete_to = min(overflow, face overflow, smallest lo beyond depth)`, then the record
 //   `vec4(head, bits(complete_to), bits(hi), count_kept)`, the first gap into `lists_gap`, and
 //   `lo` into `lists_distance`
@@ -454,6 +455,34 @@ fn pack_gap(g1: f32, g0: f32) -> u32 {
     return (bitcast<u32>(g1) & 0xffff0000u) | ((b0 >> 16u) + select(0u, 1u, (b0 & 0xffffu) != 0u));
 }
 
+// The RESOLVE_K smallest entries one scan of `resolve` found, in order of (lo bits, triangle),
+// and the nodes holding them; a slot no entry took holds LISTS_NIL keys, which sort after every
+// entry (an entry's lo is a non-negative float: never -0.0 or NaN, so its bits stay below).
+const RESOLVE_K: u32 = 4u;
+
+struct ResolveTop {
+    lo: vec4<u32>,
+    tri: vec4<u32>,
+    at: vec4<u32>,
+}
+
+// `t` with the entry (lo, tri) held by node `at` inserted in order (the largest falls off): slot
+// s takes the entry where it sorts before slot s and not before slot s - 1, and slot s - 1's
+// old value where it sorts before both.
+fn resolve_insert(t: ResolveTop, lo: u32, tri: u32, at: u32) -> ResolveTop {
+    let l = vec4<u32>(lo);
+    let one = vec4<u32>(1u);
+    let zero = vec4<u32>(0u);
+    let b = select(zero, one, l < t.lo) | (select(zero, one, l == t.lo) & select(zero, one, vec4<u32>(tri) < t.tri));
+    let before = b != zero;
+    let shift = vec4<u32>(0u, b.xyz) != zero;
+    return ResolveTop(
+        select(t.lo, select(l, vec4<u32>(lo, t.lo.xyz), shift), before),
+        select(t.tri, select(vec4<u32>(tri), vec4<u32>(tri, t.tri.xyz), shift), before),
+        select(t.at, select(vec4<u32>(at), vec4<u32>(at, t.at.xyz), shift), before),
+    );
+}
+
 @compute @workgroup_size(64)
 fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
     let texel = gid.x + gid.y * lists_params.row;
@@ -465,80 +494,114 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
     let head = atomicLoad(&lists_heads[texel]);
     let over = min(atomicLoad(&lists_overflow[texel]), atomicLoad(&lists_face_overflow[texel / per_face]));
     var complete = bitcast<f32>(over);
-    var node = head;
-    var kept = 0u;
-    var steps = 0u;
-    var capped = false;
+    let none = vec4<u32>(LISTS_NIL);
+    var top_lo = none;
+    var top_tri = none;
+    var top_at = none;
     var hi = -f32_inf();
-    var rest = f32_inf();
-    // The first gap (`cubemap::bounds::first_gap`): the end of the first run of overlapping
-    // entries, and the lo of the first entry past it (`gap_found`).
     var gap_end = 0.0;
     var gap_next = f32_inf();
     var gap_found = false;
+    var kept = 0u;
+    var node = head;
+    var steps = 0u;
+    var capped = false;
+    var rest = f32_inf();
     let depth = lists_params.depth;
     let walk_cap = lists_params.walk_cap;
-    // Turn `i` puts the i-th smallest at `node`, the list's i-th node; turn `depth` only reads
-    // the smallest left (`rest`). Both loops test their end at the bottom, behind a guard: a
-    // subgroup then runs as many turns as its longest remainder (one, masked, where no lane has
-    // any), not one more in which every lane leaves at the top (lavapipe runs each turn's whole
-    // body for all lanes; a list of one node took two outer turns and two scans).
-    var i = 0u;
+    // A list of one node (most texels of a smooth scene) is sorted: its entry is kept as it is
+    // (depth >= 1), and the walk below is skipped.
+    if node != LISTS_NIL {
+        let first = lists_node(node);
+        if first.next == LISTS_NIL {
+            hi = bitcast<f32>(first.hi);
+            gap_end = hi;
+            kept = 1u;
+            node = LISTS_NIL;
+        }
+    }
+    // Each turn scans the list from `node` (the nodes not yet placed) for its RESOLVE_K smallest
+    // entries and places them, in order, on the scan's first nodes by payload swapping; the
+    // `depth`-th placed, the smallest entry left is `rest`. So the first `kept` nodes from the
+    // head hold the `depth` smallest entries sorted by (lo, triangle), a list of n nodes taking
+    // n / RESOLVE_K scans of its remainder where one smallest per scan took n. Both loops test
+    // their end at the bottom, behind a guard: a subgroup then runs as many turns as its longest
+    // remainder needs (one, masked, where no lane has any), not one more in which every lane
+    // leaves at the top (lavapipe runs each turn's whole body for all lanes).
     if node != LISTS_NIL {
         loop {
-            let cur = lists_node(node);
-            var best = node;
-            // The scan reads each node's sort key `(lo, triangle)` (lo by its bits: never -0.0
-            // or NaN) and its link, not its `hi`.
-            var b_lo = cur.lo;
-            var b_tri = cur.triangle;
-            var j = cur.next;
-            if j != LISTS_NIL {
-                loop {
-                    steps += 1u;
-                    if steps > walk_cap {
-                        capped = true;
-                        break;
-                    }
-                    let lo = lists_node_lo[j];
-                    let tri = lists_node_triangle[j];
-                    if lo < b_lo || (lo == b_lo && tri < b_tri) {
-                        best = j;
-                        b_lo = lo;
-                        b_tri = tri;
-                    }
-                    j = lists_node_next[j];
-                    if j == LISTS_NIL {
-                        break;
-                    }
+            top_lo = none;
+            top_tri = none;
+            top_at = none;
+            // The scan's first RESOLVE_K nodes, where its entries go, and the node after them.
+            var pos = none;
+            var after = LISTS_NIL;
+            var seen = 0u;
+            var j = node;
+            // Every update is a select on `live`: lavapipe gave a lane that had left this loop
+            // the values of its neighbours' later turns (spirv/README.md).
+            var live = true;
+            loop {
+                let t = resolve_insert(ResolveTop(top_lo, top_tri, top_at), lists_node_lo[j], lists_node_triangle[j], j);
+                top_lo = select(top_lo, t.lo, live);
+                top_tri = select(top_tri, t.tri, live);
+                top_at = select(top_at, t.at, live);
+                pos = select(pos, vec4<u32>(j), vec4<u32>(seen) == vec4<u32>(0u, 1u, 2u, 3u) & vec4<bool>(live));
+                after = select(after, j, seen == RESOLVE_K && live);
+                seen += select(0u, 1u, live);
+                j = lists_node_next[j];
+                live = live && j != LISTS_NIL;
+                if !live {
+                    break;
+                }
+                steps += 1u;
+                if steps > walk_cap {
+                    capped = true;
+                    break;
                 }
             }
             if capped {
                 break;
             }
-            let bn = ListsNode(b_tri, b_lo, lists_node_hi[best], 0u);
-            if i == depth {
-                rest = bitcast<f32>(bn.lo);
+            let found = min(seen, RESOLVE_K);
+            let placed = min(found, depth - kept);
+            // The scan's entries in order go to its first nodes, each to the list's node at
+            // position `kept`: the payload there moves to the entry's node, and a later entry of
+            // the scan held there is now found at that node. Then the entry counts towards `hi`
+            // and the first gap (`cubemap::bounds::first_gap`). The vectors turn by one after
+            // each placement, so that the next entry and node are always their first component.
+            for (var m = 0u; m < placed; m++) {
+                let dst = pos.x;
+                let src = top_at.x;
+                let lo = top_lo.x;
+                let e_hi = lists_node_hi[src];
+                if src != dst {
+                    lists_set_payload(src, lists_node(dst));
+                    lists_set_payload(dst, ListsNode(top_tri.x, lo, e_hi, 0u));
+                    top_at = select(top_at, vec4<u32>(src), top_at == vec4<u32>(dst));
+                }
+                hi = max(hi, bitcast<f32>(e_hi));
+                if kept == 0u {
+                    gap_end = bitcast<f32>(e_hi);
+                } else if !gap_found {
+                    if bitcast<f32>(lo) > gap_end {
+                        gap_next = bitcast<f32>(lo);
+                        gap_found = true;
+                    } else {
+                        gap_end = max(gap_end, bitcast<f32>(e_hi));
+                    }
+                }
+                kept += 1u;
+                pos = pos.yzwx;
+                top_at = top_at.yzwx;
+                top_lo = top_lo.yzwx;
+                top_tri = top_tri.yzwx;
+            }
+            if found > placed {
+                rest = bitcast<f32>(top_lo.x);
                 break;
             }
-            if best != node {
-                lists_set_payload(best, cur);
-                lists_set_payload(node, bn);
-            }
-            hi = max(hi, bitcast<f32>(bn.hi));
-            if i == 0u {
-                gap_end = bitcast<f32>(bn.hi);
-            } else if !gap_found {
-                if bitcast<f32>(bn.lo) > gap_end {
-                    gap_next = bitcast<f32>(bn.lo);
-                    gap_found = true;
-                } else {
-                    gap_end = max(gap_end, bitcast<f32>(bn.hi));
-                }
-            }
-            kept += 1u;
-            node = cur.next;
-            i += 1u;
+            node = after;
             if node == LISTS_NIL {
                 break;
             }

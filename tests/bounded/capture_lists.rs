@@ -302,6 +302,13 @@ fn gpu_matches_the_cpu_twin_on_a_builtin_scene() {
         assert_nothing_dropped(&g);
         assert!(u64::from(g.counters.nodes) <= cap.nodes);
         compare_all(&g, &cpu_lists(&data, &cmos, size, 16));
+        // `resolve` places four entries per scan of a list: texels of more than eight entries
+        // were compared, and texels whose list runs past the depth (nothing dropped, so a finite
+        // `complete_to` there is the smallest entry left, `rest`).
+        let c = &g.cmos[0];
+        let count = |i: usize| c.offsets[i + 1] - c.offsets[i];
+        assert!((0..c.lo.len()).any(|i| count(i) > 8));
+        assert!((0..c.lo.len()).any(|i| count(i) == 16 && c.complete_to[i].is_finite()));
     }
     finish_gpu(ctx);
 }
@@ -592,8 +599,9 @@ fn capped_walks_stay_sound() {
 #[test]
 fn capture_cost_on_a_builtin_scene() {
     let ctx = gpu_context();
-    // Another scene (a built-in name or a scene file) through CUBETRACE_COST_SCENE, to time
-    // the passes with `--nocapture`.
+    // Another scene (a built-in name or a scene file) through CUBETRACE_COST_SCENE, and another
+    // depth through CUBETRACE_COST_DEPTH (the frame's is 64), to time the passes with
+    // `--nocapture`.
     let name = std::env::var("CUBETRACE_COST_SCENE").unwrap_or("sphere-room".into());
     let (data, cmos) = builtin(&name);
     let scene = SceneBuffers::new(&ctx, &data).unwrap();
@@ -601,10 +609,13 @@ fn capture_cost_on_a_builtin_scene() {
         let t0 = Instant::now();
         let cap = full_capacity(&data, &cmos[..1], size);
         let cpu_bound = t0.elapsed().as_secs_f64();
-        let lists = CaptureLists::new(&ctx, &scene, size, 16, &cmos[..1], cap, None).unwrap();
+        let depth: u32 = std::env::var("CUBETRACE_COST_DEPTH")
+            .map(|d| d.parse().unwrap())
+            .unwrap_or(16);
+        let lists = CaptureLists::new(&ctx, &scene, size, depth, &cmos[..1], cap, None).unwrap();
         // Twice: the first run includes the driver's compilation at the first dispatch.
         for run in 0..2 {
-            let mut ts = Timestamps::new(&ctx, 4).unwrap();
+            let mut ts = Timestamps::new(&ctx, 5).unwrap();
             let t0 = Instant::now();
             ctx.submit_and_wait("capture_lists", |rec| {
                 ts.reset(rec);

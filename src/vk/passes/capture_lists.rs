@@ -612,10 +612,10 @@ impl CaptureLists {
         self.record_timed(rec, None)
     }
 
-    /// [`CaptureLists::record`] with one timestamp scope per stage (`capture_lists.jobs`,
-    /// `capture_lists.texels`, `capture_lists.clips`, `capture_lists.resolve`; the clears,
-    /// `faces` and `job_args` go with `jobs`, `clip_args` with `clips`; `texel_args`, one
-    /// invocation, is in none).
+    /// [`CaptureLists::record`] with one timestamp scope per stage (`capture_lists.faces`,
+    /// `capture_lists.jobs`, `capture_lists.texels`, `capture_lists.clips`,
+    /// `capture_lists.resolve`; the clears go with `faces`, `job_args` with `jobs`, `clip_args`
+    /// with `clips`; `texel_args`, one invocation, is in none).
     pub fn record_timed(
         &self,
         rec: &Recorder<'_>,
@@ -629,7 +629,7 @@ impl CaptureLists {
                 t.end(rec, s);
             }
         };
-        let s = scope(&mut ts, "capture_lists.jobs")?;
+        let s = scope(&mut ts, "capture_lists.faces")?;
         rec.memory_barrier(ALL, TRANSFER_WRITE);
         rec.fill_buffer(&self.heads, NIL);
         rec.fill_buffer(&self.overflow, f32::INFINITY.to_bits());
@@ -649,7 +649,9 @@ impl CaptureLists {
         ] = &self.passes;
         let set = |i: usize| [&self.sets[i].0, &self.sets[i].1];
         faces.dispatch(rec, &set(0), self.faces_groups);
+        end(&mut ts, s);
         rec.memory_barrier(COMPUTE_WRITE, rw);
+        let s = scope(&mut ts, "capture_lists.jobs")?;
         job_args.dispatch(rec, &set(1), [1, 1, 1]);
         rec.memory_barrier(COMPUTE_WRITE, INDIRECT_READ);
         jobs.dispatch_indirect(rec, &set(2), &self.args_buf, 24)?;
