@@ -140,9 +140,38 @@ fn cb_error_budget(l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>) -> f32 {
     return CB_E_SCALE * r;
 }
 
-// `near_centre`.
+// What `cb_clip` by the plane (`kind`, `k`) makes of the triangle `l*` where the answer needs no
+// clip: CB_KEEPS (every corner inside: the same three vertices in the same order, since each
+// edge then pushes its end alone), CB_EMPTIES (every corner outside: no vertex), else CB_CUTS.
+// A NaN plane value is neither inside nor outside: CB_CUTS.
+const CB_KEEPS: u32 = 0u;
+const CB_EMPTIES: u32 = 1u;
+const CB_CUTS: u32 = 2u;
+
+fn cb_plane_effect(l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>, kind: u32, k: f32) -> u32 {
+    let f = vec3<f32>(cb_plane_value(l0, kind, k), cb_plane_value(l1, kind, k), cb_plane_value(l2, kind, k));
+    return select(select(CB_CUTS, CB_EMPTIES, all(f < vec3<f32>(0.0))), CB_KEEPS, all(f >= vec3<f32>(0.0)));
+}
+
+// The effect of clips in a row, from the effect so far `a` and the next plane's `b` on the
+// triangle: a polygon emptied stays empty, one kept takes the next effect, a cut is a cut.
+fn cb_then(a: u32, b: u32) -> u32 {
+    return select(a, b, a == CB_KEEPS);
+}
+
+// `near_centre`. The triangle clipped by the six box planes in turn; where every plane keeps or
+// empties it (a triangle away from the three coordinate planes through the centre, the common
+// case), the clips' outcome is known without them: the triangle (3 vertices, no overflow) or
+// nothing. Only the rest run them.
 fn cb_near_centre(l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>, e: f32) -> bool {
     let h = CB_NEAR_BOX * e;
+    var effect = CB_KEEPS;
+    for (var kind = CB_PLANE_BOX; kind < CB_PLANE_BOX + 6u; kind++) {
+        effect = cb_then(effect, cb_plane_effect(l0, l1, l2, kind, h));
+    }
+    if effect != CB_CUTS {
+        return effect == CB_KEEPS;
+    }
     var p = cb_triangle(l0, l1, l2);
     for (var kind = CB_PLANE_BOX; kind < CB_PLANE_BOX + 6u; kind++) {
         p = cb_clip(p, kind, h);
@@ -191,11 +220,21 @@ fn cb_face_rect(l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>, size: u32) -> CbRec
         return cb_whole_face(size, e);
     }
     let d = 1.0 + CB_FACE_DILATION;
+    // The four clips run only where one of them cuts the triangle (as in `cb_near_centre`): a
+    // triangle inside the face's frustum, most of them, is its own clipped polygon.
+    var effect = cb_plane_effect(l0, l1, l2, CB_PLANE_U_MIN, -d);
+    effect = cb_then(effect, cb_plane_effect(l0, l1, l2, CB_PLANE_U_MAX, d));
+    effect = cb_then(effect, cb_plane_effect(l0, l1, l2, CB_PLANE_V_MIN, -d));
+    effect = cb_then(effect, cb_plane_effect(l0, l1, l2, CB_PLANE_V_MAX, d));
     var p = cb_triangle(l0, l1, l2);
-    p = cb_clip(p, CB_PLANE_U_MIN, -d);
-    p = cb_clip(p, CB_PLANE_U_MAX, d);
-    p = cb_clip(p, CB_PLANE_V_MIN, -d);
-    p = cb_clip(p, CB_PLANE_V_MAX, d);
+    if effect == CB_EMPTIES {
+        p.n = 0u;
+    } else if effect == CB_CUTS {
+        p = cb_clip(p, CB_PLANE_U_MIN, -d);
+        p = cb_clip(p, CB_PLANE_U_MAX, d);
+        p = cb_clip(p, CB_PLANE_V_MIN, -d);
+        p = cb_clip(p, CB_PLANE_V_MAX, d);
+    }
     if p.overflow != 0u {
         return cb_whole_face(size, e);
     }
