@@ -1,7 +1,7 @@
 // capture_lists: the `bounded` criterion's sound per-texel bounds and candidate lists (the GPU of
 // `src/cubemap/bounds.rs`, whose module docs derive the bounds; `src/vk/passes/capture_lists.rs`
 // records the passes, each over every CMO in one dispatch):
-// - `faces`: one invocation per (triangle, CMO, face): step 0 (`cb_face_missed`, a few
+// - `faces`: one invocation per (triangle, CMO), its six faces in turn: step 0 (`cb_face_missed`, a few
 //   products); the pairs it keeps go to the face queue (`lists_clips`, whose buffer the clips
 //   use only later), sized on the CPU (`PoolBound::pairs`). A pair that does not fit makes its
 //   face unknown (as below).
@@ -171,37 +171,40 @@ fn lists_vertex(t: u32, corner: u32) -> vec3<f32> {
     return scene_vertices[scene_indices[3u * t + corner]].position;
 }
 
-// Step 0 (`face_missed`) on every (triangle, CMO, face): the pairs it keeps go to the face
-// queue (the clip queue's buffer, free until `texels`) for `jobs`. Cheap and branch-free, so
-// that on lavapipe, which runs every lane of a subgroup through `jobs`' clips, only the kept
-// pairs pay for them.
+// Step 0 (`face_missed`) on every (triangle, CMO, face), an invocation per (triangle, CMO) taking
+// the six faces in turn (so the corners are read once, not once per face): the pairs it keeps go
+// to the face queue (the clip queue's buffer, free until `texels`) for `jobs`. Cheap and
+// branch-free, so that on lavapipe, which runs every lane of a subgroup through `jobs`' clips,
+// only the kept pairs pay for them.
 @compute @workgroup_size(64)
 fn faces(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x + gid.y * lists_params.row;
-    let per_triangle = 6u * lists_params.cmo_count;
-    if i >= lists_params.triangle_count * per_triangle {
+    let cmos = lists_params.cmo_count;
+    if i >= lists_params.triangle_count * cmos {
         return;
     }
-    let t = i / per_triangle;
-    let cmo_face = i % per_triangle;
-    let view = lists_views[cmo_face / 6u];
+    let t = i / cmos;
+    let cmo = i % cmos;
+    let view = lists_views[cmo];
     let object = scene_vertices[scene_indices[3u * t]].object;
     if !scene_is_captured(object) || (view.reflectors == 0u && scene_is_reflector(object)) {
         return;
     }
-    let face = cmo_face % 6u;
-    let l0 = to_face_local(face, lists_vertex(t, 0u) - view.centre);
-    let l1 = to_face_local(face, lists_vertex(t, 1u) - view.centre);
-    let l2 = to_face_local(face, lists_vertex(t, 2u) - view.centre);
-    if cb_face_missed(l0, l1, l2) {
-        return;
-    }
-    let q = atomicAdd(&lists_counters.pairs, 1u);
-    if q < lists_params.pair_capacity {
-        lists_clips[q] = vec2<u32>(t, cmo_face);
-    } else {
-        atomicMin(&lists_face_overflow[cmo_face], 0u);
-        atomicAdd(&lists_counters.pairs_dropped, 1u);
+    let w0 = lists_vertex(t, 0u) - view.centre;
+    let w1 = lists_vertex(t, 1u) - view.centre;
+    let w2 = lists_vertex(t, 2u) - view.centre;
+    for (var face = 0u; face < 6u; face++) {
+        if cb_face_missed(to_face_local(face, w0), to_face_local(face, w1), to_face_local(face, w2)) {
+            continue;
+        }
+        let cmo_face = cmo * 6u + face;
+        let q = atomicAdd(&lists_counters.pairs, 1u);
+        if q < lists_params.pair_capacity {
+            lists_clips[q] = vec2<u32>(t, cmo_face);
+        } else {
+            atomicMin(&lists_face_overflow[cmo_face], 0u);
+            atomicAdd(&lists_counters.pairs_dropped, 1u);
+        }
     }
 }
 

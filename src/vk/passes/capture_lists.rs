@@ -3,8 +3,8 @@
 //! [`crate::cubemap::bounds`], whose module docs derive the bounds).
 //!
 //! Invariants:
-//! - Dispatches over every CMO at once: `faces` (one invocation per (triangle, CMO, face):
-//!   step 0, [`bounds::face_missed`]; the pairs it keeps go to a queue), `jobs` (one invocation
+//! - Dispatches over every CMO at once: `faces` (one invocation per (triangle, CMO), each face
+//!   in turn: step 0, [`bounds::face_missed`]; the pairs it keeps go to a queue), `jobs` (one invocation
 //!   per queued pair: one job per 8x8 tile of its texel rect that is not wholly outside the
 //!   triangle; a tile whose part of the rect holds at most 16 texels is a small job, run four
 //!   to a workgroup), `texels` (the fast paths per texel: a node per texel wholly inside the
@@ -599,7 +599,7 @@ impl CaptureLists {
             own,
             params,
             views,
-            faces_groups: linear_groups(triangles * 6 * k),
+            faces_groups: linear_groups(triangles * k),
             resolve_groups: linear_groups(texels),
         })
     }
