@@ -1,10 +1,10 @@
 // capture_lists: the `bounded` criterion's sound per-texel bounds and candidate lists (the GPU of
 // `src/cubemap/bounds.rs`, whose module docs derive the bounds; `src/vk/passes/capture_lists.rs`
 // records the passes, each over every CMO in one dispatch):
-// - `faces`: one invocation per (triangle, CMO), its six faces in turn: step 0 (`cb_face_missed`, a few
-//   products); the pairs it keeps go to the face queue (`lists_clips`, whose buffer the clips
-//   use only later), sized on the CPU (`PoolBound::pairs`). A pair that does not fit makes its
-//   face unknown (as below).
+// - `faces`: one invocation per (triangle, CMO), its six faces in turn: step 0
+//   (`cb_face_missed`, a few products); the pairs it keeps go to the face queue (`lists_clips`,
+//   whose buffer the clips use only later), sized on the CPU (`PoolBound::pairs`). A pair that
+//   does not fit makes its face unknown (as below).
 // - `jobs`: one invocation per queued pair (dispatch sized by `job_args`): steps 1-4
 //   (`cb_face_rect`), then one job per 8x8 tile of the texel rect that is not wholly outside
 //   the triangle (`cf_tile_outside`). A tile whose part of the rect holds at most
@@ -502,6 +502,8 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
     var top_tri = none;
     var top_at = none;
     var hi = -f32_inf();
+    // The first gap (`cubemap::bounds::first_gap`): the end of the first run of overlapping
+    // entries, and the lo of the first entry past it (`gap_found`).
     var gap_end = 0.0;
     var gap_next = f32_inf();
     var gap_found = false;
