@@ -114,6 +114,18 @@ pub(crate) fn shader_module(device: &Device, pass: &Pass) -> VkResult<vk::Shader
     Ok(module)
 }
 
+/// Workgroups per dispatch row: the smallest `maxComputeWorkGroupCount[0]` Vulkan guarantees.
+pub const MAX_GROUPS_X: u32 = 65_535;
+
+/// The workgroup counts of a dispatch of `invocations` lanes in workgroups of `workgroup`, laid
+/// in rows of at most `max_x` (at least 1) workgroups; at least one workgroup. The shader
+/// linearises `(x, y)`.
+pub fn dispatch_rows(invocations: u32, workgroup: u32, max_x: u32) -> [u32; 3] {
+    let groups = invocations.div_ceil(workgroup).max(1);
+    let x = groups.min(max_x.max(1));
+    [x, groups.div_ceil(x), 1]
+}
+
 /// Options for [`ComputePipeline::new`].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct ComputeOptions {

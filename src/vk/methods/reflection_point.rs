@@ -108,7 +108,9 @@ use crate::vk::backend::graphics::{
     ColourTarget, DepthTest, GraphicsDesc, GraphicsPipeline, RenderTarget,
 };
 use crate::vk::backend::image::{Image, ImageDesc};
-use crate::vk::backend::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
+use crate::vk::backend::pipeline::{
+    BindGroup, ComputeOptions, ComputePipeline, MAX_GROUPS_X, Resource, dispatch_rows,
+};
 use crate::vk::backend::shaders::{Pass, REFLECTION_POINT_RASTER, REFLECTION_POINT_SEARCH};
 use crate::vk::backend::sync::{COLOUR_WRITE, SHADER_READ, SHADER_WRITE};
 use crate::vk::passes::cmo::CaptureContents;
@@ -180,8 +182,6 @@ pub struct RpCamera {
 }
 
 const FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
-/// Workgroups per dispatch row (the smallest `maxComputeWorkGroupCount[0]` Vulkan guarantees).
-const MAX_GROUPS_X: u32 = 65_535;
 
 /// The closing triangles of open reflectors ([`crate::cpu::closure`]) as a buffer, and their
 /// vertex count (the buffer holds one default vertex when there are none: a storage buffer
@@ -475,8 +475,6 @@ impl ReflectionPointPasses {
             &normal,
             &vertices,
         )?;
-        let groups = (vertex_count as u32).div_ceil(64).max(1);
-        let x = groups.min(MAX_GROUPS_X);
         let RasterPipelines {
             virtual_draw,
             virtual_sets,
@@ -496,7 +494,7 @@ impl ReflectionPointPasses {
             reflector_sets,
             search,
             search_sets,
-            search_groups: [x, groups.div_ceil(x), 1],
+            search_groups: dispatch_rows(vertex_count as u32, 64, MAX_GROUPS_X),
             virtual_draw,
             virtual_sets,
             resolve,

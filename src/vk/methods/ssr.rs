@@ -79,7 +79,9 @@ use crate::vk::backend::context::{GpuContext, Recorder};
 use crate::vk::backend::error::{VkError, VkResult};
 use crate::vk::backend::graphics::{GraphicsDesc, GraphicsPipeline, RenderTarget};
 use crate::vk::backend::image::Image;
-use crate::vk::backend::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
+use crate::vk::backend::pipeline::{
+    BindGroup, ComputeOptions, ComputePipeline, MAX_GROUPS_X, Resource, dispatch_rows,
+};
 use crate::vk::backend::shaders::{Pass, SSR, SSR_BLUR, SSR_CONE, SSR_HIZ, SSR_VISIBILITY};
 use crate::vk::backend::sync::{
     COMPUTE_READ, COMPUTE_WRITE, SHADER_READ, SHADER_WRITE, STORAGE_RW,
@@ -162,9 +164,6 @@ pub struct ConeLevelParams {
     pub background: [f32; 4],
 }
 
-/// Workgroups per dispatch row (the smallest `maxComputeWorkGroupCount[0]` Vulkan guarantees).
-const MAX_GROUPS_X: u32 = 65_535;
-
 /// The two passes of the screen-space method for one frame size, allocated once.
 pub struct SsrPasses {
     hiz: ComputePipeline,
@@ -193,11 +192,9 @@ pub struct ConeBuffers {
 /// workgroups.
 type LevelDispatch = (BindGroup, Buffer, [u32; 3]);
 
-/// The workgroups of a 64-wide dispatch over `cells` cells.
+/// The workgroups of a dispatch over `cells` cells in workgroups of `wg`.
 fn groups_for(cells: u32, wg: u32) -> [u32; 3] {
-    let groups = cells.div_ceil(wg).max(1);
-    let x = groups.min(MAX_GROUPS_X);
-    [x, groups.div_ceil(x), 1]
+    dispatch_rows(cells, wg, MAX_GROUPS_X)
 }
 
 /// The glossy passes (sections 4.4.1 to 4.4.5): `ssr_visibility` (max pyramid and

@@ -47,7 +47,9 @@ use crate::vk::backend::graphics::{
     ColourTarget, DepthTest, GraphicsDesc, GraphicsPipeline, RenderTarget,
 };
 use crate::vk::backend::image::{Image, ImageDesc};
-use crate::vk::backend::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
+use crate::vk::backend::pipeline::{
+    BindGroup, ComputeOptions, ComputePipeline, MAX_GROUPS_X, Resource, dispatch_rows,
+};
 use crate::vk::backend::shaders::{CAPTURE, CAPTURE_MARK};
 use crate::vk::backend::sync::{
     ALL_READS, COLOUR_WRITE, DEPTH_WRITE, SHADER_READ, TRANSFER_READ, TRANSFER_WRITE,
@@ -642,11 +644,10 @@ fn mark_edge_on(
             (1, Resource::Buffer(triangles)),
         ],
     )?;
-    // A lane per entry, 64 per workgroup, rows of at most 65535 workgroups.
-    let groups = ((triangles.size() / 4) as u32).div_ceil(64).max(1);
-    let x = groups.min(65535);
+    // A lane per entry, 64 per workgroup.
+    let groups = dispatch_rows((triangles.size() / 4) as u32, 64, MAX_GROUPS_X);
     ctx.submit_and_wait("capture_mark", |rec| {
-        mark.dispatch(rec, &[scene, &set], [x, groups.div_ceil(x), 1]);
+        mark.dispatch(rec, &[scene, &set], groups);
         Ok(())
     })
 }

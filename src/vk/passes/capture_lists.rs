@@ -7,8 +7,8 @@
 //!   in turn: step 0, [`bounds::face_missed`]; the pairs it keeps go to a queue), `jobs` (one
 //!   invocation per queued pair: one job per 8x8 tile of its texel rect that is not wholly
 //!   outside the triangle; a tile whose part of the rect holds at most 16 texels is a small job,
-//!   run four to a workgroup), `texels` (the fast paths per texel: a node per texel wholly inside the
-//!   triangle, the texels they cannot decide queued for `clips`), `clips` (the four clips of
+//!   run four to a workgroup), `texels` (the fast paths per texel: a node per texel wholly
+//!   inside the triangle, the texels they cannot decide queued for `clips`), `clips` (the four clips of
 //!   each queued texel, a node where the triangle touches it), `resolve` (the `depth` smallest
 //!   `(lo, triangle)` sorted at the head of each list, then the per-texel record and `lo`).
 //!   `jobs`, `texels` and `clips` are indirect dispatches sized on the GPU from the queues and
@@ -49,7 +49,9 @@ use crate::scene::gpu_data::GpuSceneData;
 use crate::vk::backend::buffer::Buffer;
 use crate::vk::backend::context::{GpuContext, Recorder};
 use crate::vk::backend::error::{VkError, VkResult};
-use crate::vk::backend::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
+use crate::vk::backend::pipeline::{
+    BindGroup, ComputeOptions, ComputePipeline, MAX_GROUPS_X, Resource,
+};
 use crate::vk::backend::shaders::CAPTURE_LISTS;
 use crate::vk::backend::sync::{
     ALL, ALL_READS, COMPUTE_READ, COMPUTE_WRITE, INDIRECT_READ, TRANSFER_WRITE,
@@ -170,7 +172,6 @@ pub const WALK_CAP: u32 = 60_000;
 /// Largest `depth` accepted.
 pub const MAX_DEPTH: u32 = 1024;
 const WORKGROUP: u32 = 64;
-const MAX_GROUPS_X: u32 = 65_535;
 
 /// The world triangles and per-triangle capture flags of a scene for one CMO (the shader's
 /// rule: captured objects, reflectors only with `reflectors`).

@@ -23,7 +23,9 @@ use crate::cubemap::pyramid::{mip_flat_layout, mip_len};
 use crate::vk::backend::buffer::Buffer;
 use crate::vk::backend::context::{GpuContext, Recorder};
 use crate::vk::backend::error::{VkError, VkResult};
-use crate::vk::backend::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
+use crate::vk::backend::pipeline::{
+    BindGroup, ComputeOptions, ComputePipeline, MAX_GROUPS_X, Resource, dispatch_rows,
+};
 use crate::vk::backend::shaders::CONE_PREFILTER;
 use crate::vk::backend::timestamps::Timestamps;
 use crate::vk::passes::cmo::CmoData;
@@ -84,9 +86,7 @@ pub fn prefilter_params(
             };
             src = (level.width, level.offset, false);
             let cells = cmo_count * FACE_COUNT * level.width * level.height;
-            let groups = cells.div_ceil(WORKGROUP).max(1);
-            let x = groups.min(super::pyramid::MAX_GROUPS_X);
-            (params, [x, groups.div_ceil(x), 1])
+            (params, dispatch_rows(cells, WORKGROUP, MAX_GROUPS_X))
         })
         .collect()
 }

@@ -23,7 +23,9 @@ use crate::cubemap::pyramid::{hier32_group, hier32_layout};
 use crate::vk::backend::buffer::Buffer;
 use crate::vk::backend::context::{GpuContext, Recorder};
 use crate::vk::backend::error::{VkError, VkResult};
-use crate::vk::backend::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
+use crate::vk::backend::pipeline::{
+    BindGroup, ComputeOptions, ComputePipeline, MAX_GROUPS_X, Resource, dispatch_rows,
+};
 use crate::vk::backend::shaders::HIER32;
 use crate::vk::backend::sync::{COMPUTE_READ, COMPUTE_WRITE};
 
@@ -47,9 +49,6 @@ pub struct Hier32Params {
 
 /// Workgroup size of the pass (fixed by the WGSL).
 pub const WORKGROUP: u32 = 64;
-
-/// Workgroups per dispatch row (the smallest `maxComputeWorkGroupCount[0]` Vulkan guarantees).
-pub const MAX_GROUPS_X: u32 = 65_535;
 
 /// `(params, groups)` of every level above the texels, finest first.
 pub fn level_params(cmo_count: u32, size: u32) -> Vec<(Hier32Params, [u32; 3])> {
@@ -78,9 +77,7 @@ pub fn level_params(cmo_count: u32, size: u32) -> Vec<(Hier32Params, [u32; 3])> 
             };
             src = (level.width, level.height, level.offset, false);
             let cells = cmo_count * FACE_COUNT * level.width * level.height;
-            let groups = cells.div_ceil(WORKGROUP).max(1);
-            let x = groups.min(MAX_GROUPS_X);
-            (params, [x, groups.div_ceil(x), 1])
+            (params, dispatch_rows(cells, WORKGROUP, MAX_GROUPS_X))
         })
         .collect()
 }

@@ -25,7 +25,9 @@ pub use crate::cubemap::pyramid::mip_len;
 use crate::vk::backend::buffer::Buffer;
 use crate::vk::backend::context::{GpuContext, Recorder};
 use crate::vk::backend::error::{VkError, VkResult};
-use crate::vk::backend::pipeline::{BindGroup, ComputeOptions, ComputePipeline, Resource};
+use crate::vk::backend::pipeline::{
+    BindGroup, ComputeOptions, ComputePipeline, Resource, dispatch_rows,
+};
 use crate::vk::backend::shaders::PYRAMID;
 use crate::vk::backend::timestamps::Timestamps;
 
@@ -54,9 +56,8 @@ pub struct PyramidParams {
 /// Workgroup size of the pass (fixed by the WGSL; checked against reflection in the tests).
 pub const WORKGROUP: u32 = 64;
 
-/// Workgroups per dispatch row by default: the smallest `maxComputeWorkGroupCount[0]` Vulkan
-/// guarantees. Larger levels spill into more rows (the shader linearises `(x, y)`).
-pub const MAX_GROUPS_X: u32 = 65_535;
+/// Workgroups per dispatch row by default; larger levels spill into more rows.
+pub use crate::vk::backend::pipeline::MAX_GROUPS_X;
 
 /// `(params, groups)` of every level of the pyramid of K CMOs of face size `size`, finest first,
 /// with at most `max_groups_x` (>= 1) workgroups per dispatch row.
@@ -82,9 +83,7 @@ pub fn level_params(
             };
             src = (level.width, level.offset, false);
             let cells = cmo_count * FACE_COUNT * level.width * level.height;
-            let groups = cells.div_ceil(WORKGROUP).max(1);
-            let x = groups.min(max_groups_x.max(1));
-            (params, [x, groups.div_ceil(x), 1])
+            (params, dispatch_rows(cells, WORKGROUP, max_groups_x))
         })
         .collect()
 }
