@@ -13,9 +13,10 @@
 //   `tile_jobs` / `small_jobs`. A job that does not fit the job buffer (or a rect of more than
 //   `LISTS_TILE_CAP` tiles) sets its face's `lists_face_overflow` to 0: every texel of that
 //   face is then unknown from distance 0 (sound).
-// - `texels`: 8x8 workgroups over the jobs (grid-stride; dispatch sized by `texel_args`): a
-//   tile job per workgroup, or 64 / LISTS_SMALL small jobs. An invocation runs the fast paths
-//   on its texel (`cf_texel_cone`): wholly inside the triangle, a node with the corner bounds;
+// - `texels`: workgroups of 64 over the jobs (grid-stride; dispatch sized by `texel_args`), 16
+//   lanes a job: four tile jobs (up to four texels a lane) or four small jobs (a texel a lane)
+//   per workgroup. An invocation runs the fast paths on its texels
+//   (`cf_texel_cone_edges`): wholly inside the triangle, a node with the corner bounds;
 //   undecided, an entry of the clip queue (`lists_clips`). A node `{triangle, lo, hi, next}`
 //   goes onto the texel's list (`lists_heads`, atomicExchange). With the node pool full the
 //   texel's `lists_overflow` takes the atomicMin of the lost entry's `lo` bits (non-negative
@@ -55,9 +56,9 @@ const LISTS_NIL: u32 = 0xffffffffu;
 // Tiles one (triangle, face) may emit (its loop stays below lavapipe's 65535 back-edges per
 // invocation): a whole face up to N = 1952; beyond, such a face is unknown (`tiles_capped`).
 const LISTS_TILE_CAP: u32 = 60000u;
-// A tile whose part of the rect holds at most this many texels is a small job: `texels` runs
-// 64 / LISTS_SMALL of them per workgroup, a lane per texel, where a tile job takes a whole 8x8
-// workgroup (a dense mesh's triangles cover a few texels each).
+// A tile whose part of the rect holds at most this many texels is a small job: `texels` gives
+// it a lane per texel, where a tile job's lanes take up to four texels each (a dense mesh's
+// triangles cover a few texels each).
 const LISTS_SMALL: u32 = 16u;
 
 struct ListsParams {
@@ -320,52 +321,79 @@ fn lists_local(job: ListsJob) -> ListsLocal {
     );
 }
 
-// The job loop is a grid-stride loop over the jobs the `jobs` pass appended: a tile job per
-// workgroup (a lane per texel of its 8x8 tile), then the small jobs, 64 / LISTS_SMALL per
-// workgroup (lane `l` takes texel `l % LISTS_SMALL` of its tile's part of the rect, row by row).
-// Both kinds run the same per-texel code. No clip runs here: lavapipe executes both arms of a
-// divergent branch, so a clip in this loop would cost every texel. A texel the fast paths leave
-// goes to the clip queue; with the queue full it gets the whole triangle's bounds (sound,
-// looser; `clips_dropped`).
-@compute @workgroup_size(8, 8)
+// Lanes per job in `texels`: a small job's texels (at most LISTS_SMALL) a lane each, a tile job's
+// 64 texels four each (a turn per two rows of the tile).
+const LISTS_JOB_LANES: u32 = 16u;
+
+// The job loop is a grid-stride loop over the jobs the `jobs` pass appended, 64 /
+// LISTS_JOB_LANES of them per workgroup, LISTS_JOB_LANES lanes each: the tile jobs first (lane
+// `l` takes texels `l`, `l + 16`, ... of its 8x8 tile, one per turn, as many turns as the rect's
+// rows in the tile need, so that the job's load, its triangle in the face's frame and its edge
+// planes are made once for up to four texels), then the small jobs (lane `l` takes texel `l` of
+// its tile's part of the rect, row by row). Both kinds run the same
+// per-texel code. No clip runs here: lavapipe executes both arms of a divergent branch, so a
+// clip in this loop would cost every texel. A texel the fast paths leave goes to the clip queue;
+// with the queue full it gets the whole triangle's bounds (sound, looser; `clips_dropped`).
+@compute @workgroup_size(64)
 fn texels(
-    @builtin(local_invocation_id) lid: vec3<u32>,
+    @builtin(local_invocation_index) lane: u32,
     @builtin(workgroup_id) wid: vec3<u32>,
     @builtin(num_workgroups) nwg: vec3<u32>,
 ) {
     let cap = lists_params.job_capacity;
     let tile_jobs = min(atomicLoad(&lists_counters.tile_jobs), cap);
     let small_jobs = min(atomicLoad(&lists_counters.small_jobs), cap);
-    let per_group = 64u / LISTS_SMALL;
-    let count = tile_jobs + (small_jobs + per_group - 1u) / per_group;
-    let lane = lid.x + 8u * lid.y;
+    let per_group = 64u / LISTS_JOB_LANES;
+    let tile_groups = (tile_jobs + per_group - 1u) / per_group;
+    let count = tile_groups + (small_jobs + per_group - 1u) / per_group;
+    let slot = lane / LISTS_JOB_LANES;
+    let sub = lane % LISTS_JOB_LANES;
     let stride = nwg.x * nwg.y;
     var v = wid.x + wid.y * nwg.x;
     // The end is tested at the bottom, behind a guard (module docs).
     if v < count {
         loop {
-            var j = v;
-            var valid = true;
-            var dx = lid.x;
-            var dy = lid.y;
-            if v >= tile_jobs {
-                let s = (v - tile_jobs) * per_group + lane / LISTS_SMALL;
+            let tiles = v < tile_groups;
+            var s = v * per_group + slot;
+            var j = min(s, tile_jobs - 1u);
+            var valid = s < tile_jobs;
+            var turns = 1u;
+            if !tiles {
+                s = (v - tile_groups) * per_group + slot;
                 valid = s < small_jobs;
                 j = cap - 1u - min(s, small_jobs - 1u);
             }
             let job = lists_jobs[j];
             let tx = (job.rect_x & 0xffffu) + (job.tile & 0xffffu) * CB_TILE;
             let ty = (job.rect_y & 0xffffu) + (job.tile >> 16u) * CB_TILE;
-            if v >= tile_jobs {
-                let w = min(tx + CB_TILE - 1u, job.rect_x >> 16u) - tx + 1u;
-                let k = lane % LISTS_SMALL;
-                dx = k % w;
-                dy = k / w;
+            let x1 = min(tx + CB_TILE - 1u, job.rect_x >> 16u);
+            let y1 = min(ty + CB_TILE - 1u, job.rect_y >> 16u);
+            let w = x1 - tx + 1u;
+            // A small job's lanes past its texels skip the set-up, and a tile job takes only
+            // the turns its rows need (the set-up run for every lane cost truck-garage's
+            // `texels` 15 %, benches/results/lavapipe-bounded-cost.md).
+            if tiles {
+                turns = ((y1 - ty + 1u) * CB_TILE + LISTS_JOB_LANES - 1u) / LISTS_JOB_LANES;
+            } else {
+                valid = valid && sub < w * (y1 - ty + 1u);
             }
-            let x = tx + dx;
-            let y = ty + dy;
-            if valid && x <= min(tx + CB_TILE - 1u, job.rect_x >> 16u) && y <= min(ty + CB_TILE - 1u, job.rect_y >> 16u) {
-                lists_texel(j, job, x, y);
+            if valid {
+                let l = lists_local(job);
+                let g = cf_edges(l.l0, l.l1, l.l2, job.e);
+                for (var t = 0u; t < turns; t++) {
+                    let k = sub + t * LISTS_JOB_LANES;
+                    var dx = k % CB_TILE;
+                    var dy = k / CB_TILE;
+                    if !tiles {
+                        dx = k % w;
+                        dy = k / w;
+                    }
+                    let x = tx + dx;
+                    let y = ty + dy;
+                    if x <= x1 && y <= y1 {
+                        lists_texel(j, job, l, g, x, y);
+                    }
+                }
             }
             v += stride;
             if v >= count {
@@ -375,16 +403,16 @@ fn texels(
     }
 }
 
-// The fast paths for texel (x, y) of job `j` (`texels`).
-fn lists_texel(j: u32, job: ListsJob, x: u32, y: u32) {
+// The fast paths for texel (x, y) of job `j` (`texels`), whose triangle in the face's frame is
+// `l` with edge planes `g`.
+fn lists_texel(j: u32, job: ListsJob, l: ListsLocal, g: CfEdges, x: u32, y: u32) {
     let size = lists_params.size;
-    let l = lists_local(job);
     let w = cb_texel_centre_unit(x, y, size);
     var b = CbBound(0.0, 0.0, false);
     // A `whole` rect's texels, and a texel the full queue turned away: the whole triangle.
     var whole = job.whole != 0u;
     if !whole {
-        let f = cf_texel_cone(l.l0, l.l1, l.l2, cb_texel_k(x, y, size, job.m), w, job.e);
+        let f = cf_texel_cone_edges(g, cb_texel_k(x, y, size, job.m), w, job.e);
         b = CbBound(f.lo, f.hi, f.kind == CF_INSIDE);
         if f.kind == CF_CLIP {
             let q = atomicAdd(&lists_counters.clips, 1u);
@@ -404,15 +432,16 @@ fn lists_texel(j: u32, job: ListsJob, x: u32, y: u32) {
     }
 }
 
-// Sizes the `texels` dispatch: a workgroup per tile job and per 64 / LISTS_SMALL small jobs, at
-// most 65535 (the kernel strides). An idle workgroup is not free on lavapipe, so the dispatch
+// Sizes the `texels` dispatch: a workgroup per 64 / LISTS_JOB_LANES tile jobs and as many small
+// jobs, at most 65535 (the kernel strides). An idle workgroup is not free on lavapipe, so the dispatch
 // follows the jobs appended, not the capacity.
 @compute @workgroup_size(1)
 fn texel_args() {
     let cap = lists_params.job_capacity;
-    let per_group = 64u / LISTS_SMALL;
+    let per_group = 64u / LISTS_JOB_LANES;
     let small = min(atomicLoad(&lists_counters.small_jobs), cap);
-    let n = min(atomicLoad(&lists_counters.tile_jobs), cap) + (small + per_group - 1u) / per_group;
+    let tiles = min(atomicLoad(&lists_counters.tile_jobs), cap);
+    let n = (tiles + per_group - 1u) / per_group + (small + per_group - 1u) / per_group;
     lists_args[0] = ListsArgs(min(n, 65535u), 1u, 1u);
 }
 

@@ -116,7 +116,11 @@ fn cf_inside(g: CfEdges, k: vec4<f32>, w: vec3<f32>, e: f32) -> CfCone {
 // `texel_cone`: the face-local triangle `l*`, the widened texel planes `k` (u min, u max,
 // v min, v max), the texel-centre direction `w`, the error budget `e`.
 fn cf_texel_cone(l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>, k: vec4<f32>, w: vec3<f32>, e: f32) -> CfCone {
-    let g = cf_edges(l0, l1, l2, e);
+    return cf_texel_cone_edges(cf_edges(l0, l1, l2, e), k, w, e);
+}
+
+// `texel_cone` with the triangle's `edges` made already (a job's texels share them).
+fn cf_texel_cone_edges(g: CfEdges, k: vec4<f32>, w: vec3<f32>, e: f32) -> CfCone {
     let bits = cf_classify(g, k);
     if bits == 1u || bits == 3u {
         return CfCone(CF_OUTSIDE, 0.0, 0.0);
