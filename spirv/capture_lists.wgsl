@@ -57,8 +57,8 @@ const LISTS_NIL: u32 = 0xffffffffu;
 // invocation): a whole face up to N = 1952; beyond, such a face is unknown (`tiles_capped`).
 const LISTS_TILE_CAP: u32 = 60000u;
 // A tile whose part of the rect holds at most this many texels is a small job: `texels` gives
-// it a lane per texel, where a tile job's lanes take up to four texels each (a dense mesh's
-// triangles cover a few texels each).
+// it a lane per texel (so at most LISTS_JOB_LANES), where a tile job's lanes take up to four
+// texels each (a dense mesh's triangles cover a few texels each).
 const LISTS_SMALL: u32 = 16u;
 
 struct ListsParams {

@@ -362,7 +362,8 @@ impl FaceRect {
     }
 }
 
-/// Texels per side of a GPU job tile (the `texels` pass's workgroup is TILE x TILE).
+/// Texels per side of a GPU job tile (the `texels` pass gives a tile job 16 lanes, up to four
+/// texels each).
 pub const TILE: u32 = 8;
 
 /// The triangle in the face's local frame, CMO-local: `to_face_local(face, v_i - centre)`.
