@@ -330,10 +330,10 @@ const LISTS_JOB_LANES: u32 = 16u;
 // `l` takes texels `l`, `l + 16`, ... of its 8x8 tile, one per turn, as many turns as the rect's
 // rows in the tile need, so that the job's load, its triangle in the face's frame and its edge
 // planes are made once for up to four texels), then the small jobs (lane `l` takes texel `l` of
-// its tile's part of the rect, row by row). Both kinds run the same
-// per-texel code. No clip runs here: lavapipe executes both arms of a divergent branch, so a
-// clip in this loop would cost every texel. A texel the fast paths leave goes to the clip queue;
-// with the queue full it gets the whole triangle's bounds (sound, looser; `clips_dropped`).
+// its tile's part of the rect, row by row). Both kinds run the same per-texel code. No clip
+// runs here: lavapipe executes both arms of a divergent branch, so a clip in this loop would
+// cost every texel. A texel the fast paths leave goes to the clip queue; with the queue full it
+// gets the whole triangle's bounds (sound, looser; `clips_dropped`).
 @compute @workgroup_size(64)
 fn texels(
     @builtin(local_invocation_index) lane: u32,
@@ -432,9 +432,9 @@ fn lists_texel(j: u32, job: ListsJob, l: ListsLocal, g: CfEdges, x: u32, y: u32)
     }
 }
 
-// Sizes the `texels` dispatch: a workgroup per 64 / LISTS_JOB_LANES tile jobs and as many small
-// jobs, at most 65535 (the kernel strides). An idle workgroup is not free on lavapipe, so the dispatch
-// follows the jobs appended, not the capacity.
+// Sizes the `texels` dispatch: a workgroup per 64 / LISTS_JOB_LANES tile jobs and per as many
+// small jobs, at most 65535 (the kernel strides). An idle workgroup is not free on lavapipe, so
+// the dispatch follows the jobs appended, not the capacity.
 @compute @workgroup_size(1)
 fn texel_args() {
     let cap = lists_params.job_capacity;

@@ -505,7 +505,7 @@ fn cb_whole_bound(l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>, w: vec3<f32>, e: 
 
 // `texel_bound`'s clipped path: (lo, hi, hit) of the face-local triangle `l*` in texel (x, y)
 // of a rect (not `whole`) with margin `m` and error budget `e`, by the four clips. The fast
-// paths (`cf_texel_cone`) run in the `texels` pass; only the texels they leave come here.
+// paths (`cf_texel_cone_edges`) run in the `texels` pass; only the texels they leave come here.
 fn cb_clip_bound(l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>, m: f32, e: f32, x: u32, y: u32, size: u32) -> CbBound {
     let w = cb_texel_centre_unit(x, y, size);
     let k = cb_texel_k(x, y, size, m);

@@ -113,13 +113,9 @@ fn cf_inside(g: CfEdges, k: vec4<f32>, w: vec3<f32>, e: f32) -> CfCone {
     return CfCone(CF_INSIDE, select(0.0, lo_e, lo_e > 0.0), prod(hi, g.one + 2.0 * rho) + e);
 }
 
-// `texel_cone`: the face-local triangle `l*`, the widened texel planes `k` (u min, u max,
-// v min, v max), the texel-centre direction `w`, the error budget `e`.
-fn cf_texel_cone(l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>, k: vec4<f32>, w: vec3<f32>, e: f32) -> CfCone {
-    return cf_texel_cone_edges(cf_edges(l0, l1, l2, e), k, w, e);
-}
-
-// `texel_cone` with the triangle's `edges` made already (a job's texels share them).
+// `texel_cone` of the face-local triangle `l*` whose `edges` are `g` (`cf_edges(l0, l1, l2, e)`,
+// made once for a job's texels), the widened texel planes `k` (u min, u max, v min, v max), the
+// texel-centre direction `w`, the error budget `e`.
 fn cf_texel_cone_edges(g: CfEdges, k: vec4<f32>, w: vec3<f32>, e: f32) -> CfCone {
     let bits = cf_classify(g, k);
     if bits == 1u || bits == 3u {
