@@ -370,8 +370,8 @@ fn texels(
             let y1 = min(ty + CB_TILE - 1u, job.rect_y >> 16u);
             let w = x1 - tx + 1u;
             // A small job's lanes past its texels skip the set-up, and a tile job takes only
-            // the turns its rows need (the set-up run for every lane cost truck-garage's
-            // `texels` 15 %, benches/results/lavapipe-bounded-cost.md).
+            // the turns its rows need (the set-up run for every lane made truck-garage's
+            // `texels` 18 % slower, benches/results/lavapipe-shaders.md).
             if tiles {
                 turns = ((y1 - ty + 1u) * CB_TILE + LISTS_JOB_LANES - 1u) / LISTS_JOB_LANES;
             } else {
