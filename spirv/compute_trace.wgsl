@@ -84,7 +84,7 @@ const MAX_BATCHES: u32 = 65536u;
 // placeholder, never read, for the other criteria.
 @group(2) @binding(7) var<storage, read> cmo_gap_hier: array<u32>;
 // The cut queue: the queue indices of the rays the first dispatch cut (`ray_counter.cut` of
-// them), which the retrace (`trace_mode` 1) traces; a one-word placeholder, never written, for
+// them), which the retrace (mode 1) traces; a one-word placeholder, never written, for
 // the thesis layout (no retrace).
 @group(2) @binding(8) var<storage, read_write> cut_rays: array<u32>;
 
@@ -760,7 +760,7 @@ fn wave_scan_step(v: u32, start: u32, d: u32, sg_lane: u32, sg_size: u32) -> u32
 // subgroup operations) and writes its record. Called in subgroup-uniform control flow.
 // `queue_cut`: a ray the step loop leaves unfinished is appended to the cut queue (the first
 // dispatch of `main_lanes1` and `main_wave`, which the retrace follows). `step_cap`: the step
-// loop's cap, MAX_STEPS but where a test lowers it for the first dispatch (`TraceMode`).
+// loop's cap, MAX_STEPS but where a test lowers it for the first dispatch (`HierConfig`).
 fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells: u32, big: bool, bounded: bool, wave: bool, queue_cut: bool, step_cap: u32, sg_size: u32) {
     // One lane per ray (uniform over the dispatch).
     let one = lanes == 1u;
@@ -922,7 +922,7 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
             // The step loop ended before the ray did: cut by the driver's loop limit (lavapipe:
             // 65535 loop iterations per invocation, all loops together; spirv/README.md, "Known
             // defect") or the step cap. Unresolved at the proven-empty prefix, flagged `cut`,
-            // and queued for the retrace (`trace_mode` 1) where there is one.
+            // and queued for the retrace (mode 1) where there is one.
             let t = st.t_done;
             let p = vec3<f32>(st.origin.x + prod(t, st.dir.x), st.origin.y + prod(t, st.dir.y), st.origin.z + prod(t, st.dir.z));
             r = trace_out(STATUS_UNRESOLVED, 0xffffffffu, st.result, p, t, st.traces);
@@ -961,24 +961,19 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
 // layout, min(S, 32) lanes per ray (`lane_cap` a constant, folded by the driver). `main_lanes1`:
 // chosen for CPU devices (`vk::methods::compute::ray_lanes`), where the per-ray work every lane of a ray
 // repeats costs in proportion to the lanes (spirv/README.md, "What lavapipe does"); its
-// layout is read from `trace_mode`, so that one pipeline (one compile) serves both of its
+// layout is read from `hier_config.mode`, so that one pipeline (one compile) serves both of its
 // dispatches:
-// - `trace_mode` 0: 1 lane per ray (its 32 logical lanes in 32 rounds), S rays per subgroup;
-// - `trace_mode` 1: the thesis layout over the rays the first dispatch cut (the cut queue,
+// - mode 0: 1 lane per ray (its 32 logical lanes in 32 rounds), S rays per subgroup;
+// - mode 1: the thesis layout over the rays the first dispatch cut (the cut queue,
 //   `cut_rays`): it retraces from scratch the rays that the driver's loop limit cut
 //   (spirv/README.md, "Known defect"), one ray per subgroup (at S <= 32) with min(S, 32) lanes,
 //   so with far fewer loop iterations per step. Dispatched (`retrace_args`, sized by
 //   `dispatch_args`' `retrace_size` from the queue's length) with one batch per subgroup.
 // The `_wg128` twins run 128-invocation workgroups, for subgroups of 4 (lavapipe's
 // `maxComputeWorkgroupSubgroups` is 32: `vk::methods::compute::workgroup_size`).
-// `mode` 0 or 1 as above; `step_cap`: the step loop's cap in mode 0, MAX_STEPS but where a test
-// lowers it (`CUBETRACE_STEP_CAP`, `vk::methods::compute::STEP_CAP_ENV`) to make the retrace
-// run: no scene of the suite has a ray the driver's loop limit cuts.
-struct TraceMode {
-    mode: u32,
-    step_cap: u32,
-}
-@group(2) @binding(6) var<storage, read> trace_mode: TraceMode;
+// `hier_config.mode` 0 or 1 as above, `hier_config.step_cap` the first dispatch's cap (each
+// dispatch binds its own copy of `hier_config`: a binding of its own for the mode would take
+// the compute stage past lavapipe's 32 storage buffers with the `bounded` criterion's).
 
 @compute @workgroup_size(256)
 fn main(
@@ -999,8 +994,8 @@ fn main_lanes1(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    let retrace = trace_mode.mode != 0u;
-    let cap = select(trace_mode.step_cap, MAX_STEPS, retrace);
+    let retrace = hier_config.mode != 0u;
+    let cap = select(hier_config.step_cap, MAX_STEPS, retrace);
     trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, select(1u, 32u, retrace), retrace, true, false, false, cap);
 }
 
@@ -1023,8 +1018,8 @@ fn main_lanes1_wg128(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    let retrace = trace_mode.mode != 0u;
-    let cap = select(trace_mode.step_cap, MAX_STEPS, retrace);
+    let retrace = hier_config.mode != 0u;
+    let cap = select(hier_config.step_cap, MAX_STEPS, retrace);
     trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, select(1u, 32u, retrace), retrace, true, false, false, cap);
 }
 
@@ -1048,8 +1043,8 @@ fn main_lanes1_bounded(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    let retrace = trace_mode.mode != 0u;
-    let cap = select(trace_mode.step_cap, MAX_STEPS, retrace);
+    let retrace = hier_config.mode != 0u;
+    let cap = select(hier_config.step_cap, MAX_STEPS, retrace);
     trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, select(1u, 32u, retrace), retrace, true, true, false, cap);
 }
 
@@ -1072,12 +1067,12 @@ fn main_lanes1_wg128_bounded(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    let retrace = trace_mode.mode != 0u;
-    let cap = select(trace_mode.step_cap, MAX_STEPS, retrace);
+    let retrace = hier_config.mode != 0u;
+    let cap = select(hier_config.step_cap, MAX_STEPS, retrace);
     trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, select(1u, 32u, retrace), retrace, true, true, false, cap);
 }
 
-// `main_wave`: one ray per lane as `main_lanes1` (the same two dispatches, `trace_mode` 1 the
+// `main_wave`: one ray per lane as `main_lanes1` (the same two dispatches, mode 1 the
 // thesis layout's retrace), with the crossed children of the subgroup's rays spread over its
 // lanes (`wave_tests`); the same four sizes and criteria.
 @compute @workgroup_size(256)
@@ -1088,8 +1083,8 @@ fn main_wave(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    let retrace = trace_mode.mode != 0u;
-    let cap = select(trace_mode.step_cap, MAX_STEPS, retrace);
+    let retrace = hier_config.mode != 0u;
+    let cap = select(hier_config.step_cap, MAX_STEPS, retrace);
     trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, select(1u, 32u, retrace), retrace, true, false, true, cap);
 }
 
@@ -1101,8 +1096,8 @@ fn main_wave_wg128(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    let retrace = trace_mode.mode != 0u;
-    let cap = select(trace_mode.step_cap, MAX_STEPS, retrace);
+    let retrace = hier_config.mode != 0u;
+    let cap = select(hier_config.step_cap, MAX_STEPS, retrace);
     trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, select(1u, 32u, retrace), retrace, true, false, true, cap);
 }
 
@@ -1114,8 +1109,8 @@ fn main_wave_bounded(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    let retrace = trace_mode.mode != 0u;
-    let cap = select(trace_mode.step_cap, MAX_STEPS, retrace);
+    let retrace = hier_config.mode != 0u;
+    let cap = select(hier_config.step_cap, MAX_STEPS, retrace);
     trace_all(wg, groups, sg_size, sg_lane, sg_id, 256u, select(1u, 32u, retrace), retrace, true, true, true, cap);
 }
 
@@ -1127,8 +1122,8 @@ fn main_wave_wg128_bounded(
     @builtin(subgroup_invocation_id) sg_lane: u32,
     @builtin(subgroup_id) sg_id: u32,
 ) {
-    let retrace = trace_mode.mode != 0u;
-    let cap = select(trace_mode.step_cap, MAX_STEPS, retrace);
+    let retrace = hier_config.mode != 0u;
+    let cap = select(hier_config.step_cap, MAX_STEPS, retrace);
     trace_all(wg, groups, sg_size, sg_lane, sg_id, 128u, select(1u, 32u, retrace), retrace, true, true, true, cap);
 }
 

@@ -18,8 +18,8 @@
 // The texels (`cmo_distance`), read when the texels are the root (N <= 4).
 @group(0) @binding(6) var<storage, read> cut_distance: array<f32>;
 
-// The retrace dispatch after `main_lanes1` or `main_wave` (`compute_trace` with `trace_mode`
-// 1): one batch per subgroup for every ray the first dispatch cut (`retrace_size`).
+// The retrace dispatch after `main_lanes1` or `main_wave` (`compute_trace` in mode
+// 1, `HierConfig`): one batch per subgroup for every ray the first dispatch cut (`retrace_size`).
 @group(0) @binding(7) var<storage, read_write> retrace_args: DispatchArgs;
 
 fn group_count(n: u32, rays_per_group: u32) -> u32 {

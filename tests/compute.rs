@@ -121,7 +121,7 @@ fn compute_struct_layouts_match_naga() {
     check_layout!(
         HierConfig,
         COMPUTE_TRACE.struct_layout("HierConfig").unwrap(),
-        [root, hier_len, pad0, pad1, dims, shape]
+        [root, hier_len, mode, step_cap, dims, shape]
     )
     .unwrap();
     for pass in [&APPEND, &COMPUTE_TRACE] {

@@ -59,7 +59,7 @@ struct DispatchParams {
     // Number of CMOs K and face size N (for the cut radii).
     cmo_count: u32,
     size: u32,
-    // Rays one retrace workgroup (`main_lanes1` or `main_wave` with `trace_mode` 1) takes per
+    // Rays one retrace workgroup (`main_lanes1` or `main_wave` in mode 1) takes per
     // batch (256 / min(S, 32)); 0: no retrace dispatch (`retrace_args` is then 0).
     retrace_rays_per_group: u32,
 }
@@ -72,8 +72,13 @@ struct HierConfig {
     root: u32,
     // Cells per CMO in `cmo_hier`: hier32_len(N).
     hier_len: u32,
-    pad0: u32,
-    pad1: u32,
+    // `compute_trace`'s mode (the entries that read it, `main_lanes1` and `main_wave`): 0 the
+    // first dispatch, 1 the retrace; each dispatch binds its own copy of this buffer.
+    mode: u32,
+    // The first dispatch's step loop cap: MAX_STEPS but where a test lowers it
+    // (`CUBETRACE_STEP_CAP`, `vk::methods::compute::STEP_CAP_ENV`) to make the retrace run: no
+    // scene of the suite has a ray the driver's loop limit cuts.
+    step_cap: u32,
     // Level l: (offset in cells within a CMO block (l >= 1), width, height, 0).
     dims: array<vec4<u32>, 8>,
     // Level l: (gx, gy) block of level l - 1 cells per cell, (span x, span y) in texels.

@@ -11,10 +11,9 @@
 // - bindings 6 to 9 `cmo_list_head`, `cmo_list_complete`, `cmo_list_hi`, `cmo_list_count`: per
 //   texel of CMO k at `k * 6 N N + texel_index`, a u32 each: `head`, `bits(complete_to)`,
 //   `bits(hi)`, `count_kept`;
-// - bindings 10 to 13 `cmo_node_triangle`, `cmo_node_lo`, (`cmo_node_hi`, not read here),
-//   `cmo_node_next`: the node pool of all CMOs, a u32 per node each; the first `count_kept`
-//   nodes from `head` along `next` are the texel's entries sorted by (lo, triangle).
-//   BOUNDED_NO_NODE ends a list.
+// - bindings 10 to 13 `cmo_node_triangle`, `cmo_node_lo`, `cmo_node_hi`, `cmo_node_next`:
+//   the node pool of all CMOs, a u32 per node each; the first `count_kept` nodes from `head`
+//   along `next` are the texel's entries sorted by (lo, triangle). BOUNDED_NO_NODE ends a list.
 // A word per binding (4 B per texel or node) keeps each binding within maxStorageBufferRange
 // up to 33.5 M nodes at lavapipe's 128 MiB (`src/vk/passes/lists.rs`).
 // The triangles' corners come from the scene (shared/hit.wgsl, @group(SCENE_GROUP)).
@@ -24,11 +23,11 @@
 //   `in_gap`): nothing here (kind 0, the traversal goes on);
 // - complete_to finite: `r(t0) >= complete_to` is behind at t0; else the list is known up to
 //   t_known = the larger root of r(t) = complete_to, clamped to [t0, t1] (t1 when +inf);
-// - candidates: the entries in order until one has `lo > rmax`; the watertight intersection of
-//   the CMO-local ray with the triangle's corners minus the centre, kept where
-//   `seg.t_lo <= t <= t_known` and not ignored by the start rule (shared/start.wgsl, in
-//   CMO-local coordinates, for a ray leaving `seg.from_tri` at `seg.a`); nearest wins, ties to
-//   the lower triangle: a hit;
+// - candidates: the entries in order until one has `lo > rmax`, but those with `hi < rmin` (the
+//   ray is beyond them all through the texel); the watertight intersection of the CMO-local ray
+//   with the triangle's corners minus the centre, kept where `seg.t_lo <= t <= t_known` and not
+//   ignored by the start rule (shared/start.wgsl, in CMO-local coordinates, for a ray leaving
+//   `seg.from_tri` at `seg.a`); nearest wins, ties to the lower triangle: a hit;
 // - else behind at t_known when t_known < t1, else nothing.
 // A list whose chain ends before `count_kept` nodes (a capture defect) is behind at t0: nothing
 // is claimed from it.
@@ -57,6 +56,7 @@
 @group(1) @binding(9) var<storage, read> cmo_list_count: array<u32>;
 @group(1) @binding(10) var<storage, read> cmo_node_triangle: array<u32>;
 @group(1) @binding(11) var<storage, read> cmo_node_lo: array<u32>;
+@group(1) @binding(12) var<storage, read> cmo_node_hi: array<u32>;
 @group(1) @binding(13) var<storage, read> cmo_node_next: array<u32>;
 
 const BOUNDED_NO_NODE: u32 = 0xffffffffu;
@@ -179,8 +179,12 @@ fn classify_bounded_pick(k: u32, seg: Segment, texel: Texel, iv: Interval, walks
         if bitcast<f32>(cmo_node_lo[node]) > rb.y {
             break;
         }
+        let e_hi = bitcast<f32>(cmo_node_hi[node]);
         let tri = cmo_node_triangle[node];
         node = cmo_node_next[node];
+        if e_hi < rb.x {
+            continue;
+        }
         let a = hit_vertex(tri, 0u).position - centre;
         let b = hit_vertex(tri, 1u).position - centre;
         let c = hit_vertex(tri, 2u).position - centre;

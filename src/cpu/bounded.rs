@@ -19,7 +19,9 @@
 //!    `r(t0) < L`, so `{r < L}` holds `[t0, root)`).
 //! 3. The walk budget: the trace's walks so far, this one included, above [`WALK_BUDGET`]:
 //!    **behind** at `t0`, and the ray ends there unresolved (for the exact fallback).
-//! 4. Candidates: every kept entry with `lo <= rmax`, in list order: the watertight
+//! 4. Candidates: every kept entry with `lo <= rmax`, in list order, but those with
+//!    `hi < rmin` (the ray is beyond that triangle's part of the cone all through `T`: a ray
+//!    running behind a captured surface passes such entries texel after texel): the watertight
 //!    intersection ([`super::watertight`]) of the CMO-local ray `a + t d` with the triangle's
 //!    corners minus the CMO centre, kept when `t_lo <= t <= t_known` and not at the ray's start
 //!    (the start rule, `StartRule`). The nearest kept one (ties: lower triangle) is the **hit**.
@@ -45,7 +47,10 @@
 //!    behind at a point before which the ray is empty in that CMO (steps 2, 3, 5). At `T*`, `X`
 //!    touches the cone at `p(t*)`, `|p(t*)| = r(t*) <= rmax`, so `X` is an entry with
 //!    `lo <= rmax` unless it lies at or beyond `complete_to`, where step 2 stops before `t*`.
-//!    So `T*` reports `X` (or a tie at `t*`), or the CMO hands the ray on before `t*`.
+//!    So `T*` reports `X` (or a tie at `t*`), or the CMO hands the ray on before `t*`. `X`'s
+//!    entry is not passed over as beyond: its `hi >= |p(t*)| >= rmin`. An entry passed over
+//!    could only give an intersection before `t0`, in an earlier texel, which that texel skipped
+//!    as empty or tested.
 //! 3. **Several CMOs.** A CMO that goes behind at `t_b` has shown `[t_lo, t_b]` empty (the
 //!    handoff's `t_done`); the next traces from there. A hit is only ever a candidate's
 //!    intersection, so it is never on a triangle the ray does not meet, and never past a nearer
@@ -172,7 +177,15 @@ pub fn classify_bounded(
     if b.spent(counters.walks) {
         return Some(Outcome::Behind { t: iv.t0 });
     }
-    match nearest_candidate(tr, b, seg, texel, rmax, t_known, &mut counters.triangles) {
+    match nearest_candidate(
+        tr,
+        b,
+        seg,
+        texel,
+        (rmin, rmax),
+        t_known,
+        &mut counters.triangles,
+    ) {
         Some(h) => Some(Outcome::Candidate(h)),
         None if cut => Some(Outcome::Behind { t: t_known }),
         None => None,
@@ -200,7 +213,7 @@ fn nearest_candidate(
     b: &Bounded,
     seg: &Segment,
     texel: Texel,
-    rmax: f32,
+    (rmin, rmax): (f32, f32),
     t_max: f32,
     tested: &mut u32,
 ) -> Option<BoundedHit> {
@@ -211,6 +224,9 @@ fn nearest_candidate(
     for e in b.lists.entries_at(texel) {
         if e.lo > rmax {
             break;
+        }
+        if e.hi < rmin {
+            continue;
         }
         let Some(world) = b.corners.get(e.triangle as usize) else {
             continue;

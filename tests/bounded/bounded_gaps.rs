@@ -5,6 +5,10 @@
 //!   (walk, 2x2 pyramid, 8x4/4x8 hierarchy) gives a hit on the brute-force first triangle and an
 //!   escape only where nothing is hit; the gaps are used (the counters differ from a trace
 //!   without them). Negative: gaps widened to everything make rays pass through surfaces.
+//! - **Entries the ray is beyond** (`hi < rmin` over the texel, `cpu::bounded` step 4) are
+//!   passed over without a triangle test: the first hit kept, fewer candidates tested than with
+//!   every entry's `hi` raised to infinity. Negative: every `hi` lowered below its `lo` makes
+//!   rays pass through surfaces.
 //! - **The GPU's `resolve`** writes, bit for bit, the packed gaps the CPU computes from the very
 //!   lists the GPU kept. Negative: one entry's `hi` raised changes that texel's gap.
 //! - **The gap pyramids** (`pyramid` and `hier32` passes, `gaps` entry points) equal
@@ -150,6 +154,51 @@ fn gap_skips_keep_the_first_hit() {
         }
     }
     assert_eq!(used, [true; 3], "the gaps changed no traversal's work");
+}
+
+/// Every traversal passes over the entries the ray is beyond, keeps the first hit doing so, and
+/// goes wrong where every entry claims to be nearer than it is.
+#[test]
+fn entries_the_ray_is_beyond_are_passed_over() {
+    for seed in [0x2545_f491_u32, 7, 1234] {
+        let (tris, rays) = soup(seed);
+        let captured = vec![true; tris.len()];
+        let lists = capture_lists(&tris, &captured, Vec3::ZERO, N, 64);
+        let tr = CmoTracer::bounded(Vec3::ZERO, lists, tris.clone(), TraceParams::default());
+        let with_hi = |hi: f32| {
+            let mut t = tr.clone();
+            for e in &mut t.bounded.as_mut().unwrap().lists.entries {
+                e.hi = hi;
+            }
+            t
+        };
+        // Nothing is beyond a ray; everything is (the negative).
+        let (raised, lowered) = (with_hi(f32::INFINITY), with_hi(f32::NEG_INFINITY));
+        for how in [Traversal::Walk, Traversal::Mip, Traversal::Alg3(8)] {
+            let (bad, work) = wrong(&tr, &tris, &rays, how);
+            let (bad_raised, all) = wrong(&raised, &tris, &rays, how);
+            let (passed_through, _) = wrong(&lowered, &tris, &rays, how);
+            eprintln!(
+                "seed {seed} {how:?}: {bad} wrong, {} candidates tested; {bad_raised} wrong, {} \
+                 tested with no entry passed over; {passed_through} wrong with every entry passed \
+                 over",
+                work.triangles, all.triangles
+            );
+            assert_eq!(
+                bad + bad_raised,
+                0,
+                "seed {seed} {how:?}: the first hit was lost"
+            );
+            assert!(
+                work.triangles < all.triangles,
+                "seed {seed} {how:?}: no entry was passed over"
+            );
+            assert!(
+                passed_through > 20,
+                "seed {seed} {how:?}: entries passed over wrongly went unnoticed"
+            );
+        }
+    }
 }
 
 /// Packing rounds each end inwards: the unpacked gap lies inside the exact one, within 2^-7.

@@ -24,7 +24,7 @@
 //!   invocations, or 128 where 256 would exceed `maxComputeWorkgroupSubgroups`
 //!   ([`workgroup_size`]).
 //! - One `compute_trace` pipeline per renderer: with `main_lanes1`, its two dispatches (the
-//!   1-lane layout, then the retrace of the rays it cut) differ in `trace_mode` only.
+//!   1-lane layout, then the retrace of the rays it cut) differ in `hier_config.mode` only.
 //! - The ray counter is zeroed (`vkCmdFillBuffer`) before `append` in every frame. One fragment
 //!   per pixel (no multisampling), so the queue holds at most `width * height` rays.
 //! - The dispatch is sized for the device's default subgroup size ([`DispatchParams`]); the
@@ -63,7 +63,7 @@
 //! - lavapipe ends every loop of an invocation after 65535 back-edges in all. A ray whose step loop
 //!   ended before the ray did is flagged `cut` and its queue index appended to the cut queue;
 //!   after a `main_lanes1` (or `main_wave`) dispatch, `retrace_size` sizes the retrace from the
-//!   queue's length and the same pipeline runs again with `trace_mode` 1, the thesis layout over
+//!   queue's length and the same pipeline runs again in mode 1 (`HierConfig::mode`), the thesis layout over
 //!   the cut rays only, from scratch, so both layouts give the same records (the 1e-3..1e5 span
 //!   scene: 1004 of 2570 rays were cut by an earlier kernel; none by this one on any scene of the
 //!   suite, so a test cuts them with [`STEP_CAP_ENV`]). The retrace used to cover every queued
@@ -175,7 +175,7 @@ pub struct DispatchParams {
     pub cmo_count: u32,
     /// Face size N of the CMOs.
     pub size: u32,
-    /// Rays per retrace workgroup (`main_lanes1` with `trace_mode` 1: `256 / min(S, 32)`) with
+    /// Rays per retrace workgroup (`main_lanes1` in mode 1: `256 / min(S, 32)`) with
     /// `lane_cap` 1; 0 otherwise (no retrace dispatch).
     pub retrace_rays_per_group: u32,
 }
@@ -218,7 +218,7 @@ fn step_cap() -> VkResult<u32> {
 /// [`ComputeLayout::Wave`] (`main_wave`) elsewhere, which the cost model puts at a quarter of the
 /// thesis layout's work per ray at width 32 (`benches/results/lavapipe-model-dynamic.md`).
 /// With one lane per ray the frame dispatches the same pipeline a second time with
-/// `trace_mode` 1, which retraces with the thesis layout the rays whose step loop the driver's
+/// mode 1 ([`HierConfig::mode`]), which retraces with the thesis layout the rays whose step loop the driver's
 /// loop limit cut (lavapipe: 65535 loop iterations per invocation; spirv/README.md, "Known
 /// defect"), so every layout gives the same records. Where [`workgroup_size`] is 128, the
 /// `_wg128` twin of the entry point.
@@ -328,8 +328,11 @@ pub struct HierConfig {
     pub root: u32,
     /// `hier32_len(N)`.
     pub hier_len: u32,
-    pub pad0: u32,
-    pub pad1: u32,
+    /// `compute_trace`'s mode, read by `main_lanes1` and `main_wave`: 0 their first dispatch, 1
+    /// the retrace (each binds its own copy, [`ComputeBuffers::hier_configs`]).
+    pub mode: u32,
+    /// The first dispatch's step loop cap ([`step_cap`]).
+    pub step_cap: u32,
     /// Level l: `(offset in cells (l >= 1), width, height, 0)`.
     pub dims: [[u32; 4]; HIER_MAX_LEVELS],
     /// Level l: `(gx, gy, span x, span y)`.
@@ -351,6 +354,8 @@ impl HierConfig {
         let mut c = HierConfig {
             root: (dims.len() - 1) as u32,
             hier_len: hier32_len(size) as u32,
+            mode: 0,
+            step_cap: MAX_STEPS,
             ..HierConfig::default()
         };
         let mut span = (1u32, 1u32);
@@ -411,7 +416,11 @@ struct ComputeBuffers {
     /// The `bounded` criterion's gaps over the hierarchy (a packed word per cell,
     /// [`crate::cubemap::bounds::pack_gap`]); a one-word placeholder for the other criteria.
     gap_hier: Buffer,
-    hier_config: Buffer,
+    /// The hierarchy's layout with the mode of each dispatch of `main_lanes1` and `main_wave`:
+    /// mode 0 with [`step_cap`], mode 1 (the retrace) with `MAX_STEPS`. The mode is not a
+    /// binding of its own: with the `bounded` criterion's lists the compute stage would read 33
+    /// storage buffers, past lavapipe's `maxPerStageDescriptorStorageBuffers` (32).
+    hier_configs: [Buffer; 2],
     dispatch_params: Buffer,
     cut: Buffer,
     rays: Buffer,
@@ -428,7 +437,14 @@ impl ComputeBuffers {
     /// For `cmo`'s CMOs and a frame of `pixels` pixels; `lane_cap` as [`ray_lanes`] says.
     fn new(ctx: &GpuContext, cmo: &CmoData, pixels: u64, lane_cap: u32) -> VkResult<Self> {
         let size = cmo.size();
-        let config = HierConfig::new(size)?;
+        let config = HierConfig {
+            step_cap: step_cap()?,
+            ..HierConfig::new(size)?
+        };
+        let retrace = HierConfig {
+            mode: 1,
+            ..HierConfig::new(size)?
+        };
         let storage = |name: &str, bytes: u64, extra: vk::BufferUsageFlags| {
             Buffer::new(
                 ctx.device(),
@@ -454,11 +470,18 @@ impl ComputeBuffers {
                 if bounded(cmo) { cells.max(1) * 4 } else { 4 },
                 transfer_src,
             )?,
-            hier_config: ctx.create_buffer_init(
-                "hier_config",
-                vk::BufferUsageFlags::STORAGE_BUFFER,
-                std::slice::from_ref(&config),
-            )?,
+            hier_configs: [
+                ctx.create_buffer_init(
+                    "hier_config",
+                    vk::BufferUsageFlags::STORAGE_BUFFER,
+                    std::slice::from_ref(&config),
+                )?,
+                ctx.create_buffer_init(
+                    "hier_config (retrace)",
+                    vk::BufferUsageFlags::STORAGE_BUFFER,
+                    std::slice::from_ref(&retrace),
+                )?,
+            ],
             rays: storage(
                 "ray queue",
                 pixels * size_of::<AppendedRay>() as u64,
@@ -501,15 +524,14 @@ impl ComputeBuffers {
 }
 
 /// The `compute_trace` pipeline through `entry` and its groups: 0 (`params`, `records`), 1 (the
-/// CMO data), 2 (the queue and the hierarchy, with `trace_mode` 0 where the entry reads it), 3
+/// CMO data), 2 (the queue and the hierarchy, its config in mode 0), 3
 /// (the scene, for verified hits: compute_trace's SCENE_GROUP).
 struct TracePass {
     pipeline: ComputePipeline,
     sets: [BindGroup; 4],
-    /// With `main_lanes1`: group 2 of its retrace dispatch (`trace_mode` 1; its dispatch:
-    /// `retrace_args`).
+    /// With `main_lanes1` and `main_wave`: group 2 of their retrace dispatch (the config in
+    /// mode 1; its dispatch: `retrace_args`).
     retrace_set: Option<BindGroup>,
-    _trace_modes: Vec<Buffer>,
     /// The pipeline's entry point (its CMO group's bindings).
     entry: String,
 }
@@ -527,7 +549,7 @@ impl TracePass {
         records: &Buffer,
     ) -> VkResult<Self> {
         // One pipeline (a CPU driver compiles it at creation: about 0.25 s on lavapipe); with
-        // `main_lanes1`, its two dispatches differ in `trace_mode` only.
+        // `main_lanes1` and `main_wave`, their two dispatches differ in `hier_config.mode` only.
         let compile_start = std::time::Instant::now();
         let trace = ComputePipeline::new(ctx, &COMPUTE_TRACE, entry, ComputeOptions::default())?;
         log::info!(
@@ -535,37 +557,20 @@ impl TracePass {
             COMPUTE_TRACE.name,
             compile_start.elapsed().as_secs_f64() * 1e3
         );
-        let uses_mode = trace
-            .entry
-            .bindings
-            .iter()
-            .any(|b| b.group == 2 && b.binding == 6);
-        let trace_modes = if uses_mode {
-            let cap = step_cap()?;
-            [[0, cap], [1, MAX_STEPS]]
-                .iter()
-                .map(|mode| {
-                    ctx.create_buffer_init("trace_mode", vk::BufferUsageFlags::STORAGE_BUFFER, mode)
-                })
-                .collect::<VkResult<Vec<_>>>()?
-        } else {
-            Vec::new()
-        };
-        let set2 = |mode: Option<&Buffer>| {
-            let mut resources = vec![
-                (0, Resource::Buffer(&b.counter)),
-                (1, Resource::Buffer(&b.rays)),
-                (2, Resource::Buffer(&b.hier_config)),
-                (3, Resource::Buffer(&b.hier)),
-                (4, Resource::Buffer(&b.stats)),
-                (5, Resource::Buffer(&b.cut)),
-                (7, Resource::Buffer(&b.gap_hier)),
-                (8, Resource::Buffer(&b.cut_rays)),
-            ];
-            if let Some(m) = mode {
-                resources.push((6, Resource::Buffer(m)));
-            }
-            trace.bind_group(2, &resources)
+        let set2 = |config: &Buffer| {
+            trace.bind_group(
+                2,
+                &[
+                    (0, Resource::Buffer(&b.counter)),
+                    (1, Resource::Buffer(&b.rays)),
+                    (2, Resource::Buffer(config)),
+                    (3, Resource::Buffer(&b.hier)),
+                    (4, Resource::Buffer(&b.stats)),
+                    (5, Resource::Buffer(&b.cut)),
+                    (7, Resource::Buffer(&b.gap_hier)),
+                    (8, Resource::Buffer(&b.cut_rays)),
+                ],
+            )
         };
         let sets = [
             trace.bind_group(
@@ -576,18 +581,17 @@ impl TracePass {
                 ],
             )?,
             trace.bind_group(1, &cmo.resources_for(&COMPUTE_TRACE, entry))?,
-            set2(trace_modes.first())?,
+            set2(&b.hier_configs[0])?,
             trace.bind_group(3, &scene.resources())?,
         ];
-        let retrace_set = match trace_modes.get(1) {
-            Some(m) if lane_cap == 1 => Some(set2(Some(m))?),
+        let retrace_set = match lane_cap {
+            1 => Some(set2(&b.hier_configs[1])?),
             _ => None,
         };
         Ok(TracePass {
             pipeline: trace,
             sets,
             retrace_set,
-            _trace_modes: trace_modes,
             entry: entry.to_string(),
         })
     }
@@ -669,7 +673,7 @@ impl ComputePath {
                 (1, Resource::Buffer(&b.args)),
                 (2, Resource::Buffer(&b.dispatch_params)),
                 (3, Resource::Buffer(&b.cut)),
-                (4, Resource::Buffer(&b.hier_config)),
+                (4, Resource::Buffer(&b.hier_configs[0])),
                 (5, Resource::Buffer(&b.hier)),
                 (6, Resource::Buffer(cmo.distance())),
             ],
@@ -742,7 +746,7 @@ impl ComputePath {
 
     /// `compute_trace`: the indirect dispatch over the queue (after a barrier from
     /// `dispatch_args`; the hierarchy must already be visible); with `main_lanes1` or
-    /// `main_wave`, then `retrace_size` and the retrace (`trace_mode` 1) over the rays the
+    /// `main_wave`, then `retrace_size` and the retrace (mode 1) over the rays the
     /// first dispatch cut (their queue indices in the cut queue; none cut, an empty dispatch).
     pub fn record_trace(&self, rec: &Recorder<'_>) -> VkResult<()> {
         rec.memory_barrier(SHADER_WRITE, INDIRECT_READ);
