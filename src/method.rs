@@ -483,6 +483,13 @@ pub const METHOD_OPTIONS: &[MethodOption] = &[
         why: "",
     },
     MethodOption {
+        flag: "--list-size",
+        applies: |m, t| m.traces_cubemaps() && t.criterion == TraceCriterion::Bounded,
+        condition: " with the bounded criterion",
+        methods_text: "",
+        why: "",
+    },
+    MethodOption {
         flag: "--strict",
         applies: |m, t| reads(m, "--strict") && t.criterion == TraceCriterion::Exact,
         condition: " with the exact criterion (the default)",

@@ -7,6 +7,7 @@
 //! - `bounded_gaps`: the gaps the traversals skip through: sound on the CPU, the GPU's bit for
 //!   bit;
 //! - `bounded_frame`: the criterion end to end on stress scenes against the reference;
+//! - `list_size`: the lists' face size changes the frame's cost, not its image;
 //! - `stress_capture`: the stress scenes themselves, and the exact criterion missing their thin
 //!   parts.
 
@@ -28,5 +29,7 @@ mod bounded_gaps;
 mod bounded_gpu;
 #[path = "bounded/capture_lists.rs"]
 mod capture_lists;
+#[path = "bounded/list_size.rs"]
+mod list_size;
 #[path = "bounded/stress_capture.rs"]
 mod stress_capture;

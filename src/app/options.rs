@@ -9,6 +9,7 @@ use crate::Method;
 use crate::cpu::options::{TraceCriterion, TraceOptions, TraceSampling};
 use crate::render::scene::SceneSetup;
 use crate::vk::frame::{ComputeLayout, Fallback, RenderOptions};
+use crate::vk::options::ListSize;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum CriterionArg {
@@ -65,6 +66,20 @@ pub enum FallbackArg {
     /// Finish the rays exactly: the BVH tracer traces them from the mirror, as `--method bvh`
     /// does (the EXR's `fallback` channel marks them).
     Trace,
+}
+
+/// Parses `--list-size`: `auto`, `cube` or texels per face side (1 to 4096).
+pub fn list_size(s: &str) -> std::result::Result<ListSize, String> {
+    match s {
+        "auto" => Ok(ListSize::Auto),
+        "cube" => Ok(ListSize::Cube),
+        _ => match s.parse::<u32>() {
+            Ok(n @ 1..=4096) => Ok(ListSize::Fixed(n)),
+            _ => Err(format!(
+                "'{s}' is not a list size: `auto`, `cube` or texels per face side, 1 to 4096"
+            )),
+        },
+    }
 }
 
 /// Parses a positive, finite distance (`--eps`, `--ssr-thickness`). Negative numbers reach this
@@ -147,6 +162,16 @@ pub struct TraceArgs {
     /// Every GPU method but bvh: texels per cube face side (overrides the scene's; 1 to 4096).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub cube_size: Option<u32>,
+    /// fragment, compute with --criterion bounded: texels per face side of the per-texel lists
+    /// [default: auto]. The image does not depend on it (every hit is a listed triangle's exact
+    /// intersection, and the exact fallback takes the rays the lists leave); the cost and the
+    /// share of rays left to the fallback do. `auto` takes the smallest of 32, 64, 128, ... below
+    /// the cube size whose lists hold at most 4 triangles per texel on average (by the capture's
+    /// own bound), else the cube size; `cube` the cube size; a number that size. A glossy
+    /// reflector's cone pass reads colour captured at the same size, so there `auto` is the cube
+    /// size. `-v` logs the size taken.
+    #[arg(long, value_parser = list_size)]
+    pub list_size: Option<ListSize>,
     /// compute, fragment, ssr, reflection-point: what fills mirror pixels the method left
     /// unresolved [default: trace]: `trace` finishes their rays exactly with the BVH tracer of
     /// `--method bvh` (the summary line counts them; see `--help` of `render`).
@@ -206,6 +231,7 @@ impl TraceArgs {
             },
             reflector_check: !self.no_reflector_check,
             compute_layout: self.compute_layout.map(ComputeLayoutArg::layout),
+            list_size: self.list_size.unwrap_or(defaults.list_size),
             bvh_bounces: self.bvh_bounces,
             fallback: self.fallback.map_or(defaults.fallback, |f| match f {
                 FallbackArg::Flag => Fallback::Flag,
@@ -243,6 +269,7 @@ impl TraceArgs {
             ("--cmos", self.cmos.is_some()),
             ("--placement", self.placement.is_some()),
             ("--cube-size", self.cube_size.is_some()),
+            ("--list-size", self.list_size.is_some()),
             ("--fallback", self.fallback.is_some()),
             ("--no-reflector-check", self.no_reflector_check),
             ("--ssr-iterations", self.ssr_iterations.is_some()),

@@ -35,7 +35,7 @@ use crate::metrics::Traced;
 use crate::output::{self, Format};
 use crate::reference;
 use crate::scene::{Scene, WorldGeometry};
-use crate::vk::frame::{GpuFrame, GpuRenderer, RenderOptions, StaleUpdate};
+use crate::vk::frame::{FramePlan, GpuFrame, GpuRenderer, RenderOptions, StaleUpdate};
 use crate::vk::{ContextOptions, GpuContext};
 
 use super::checks;
@@ -271,6 +271,7 @@ impl FrameRenderer {
         let gpu = match setup.gpu {
             Some((context, options)) => {
                 let ctx = GpuContext::new(context)?;
+                let options = FramePlan::resolve_list_size(scene, camera, &options);
                 let report = ctx.report();
                 checks::check_textures(
                     scene,

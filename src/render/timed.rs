@@ -21,7 +21,7 @@ use glam::Vec3;
 use crate::camera::Camera;
 use crate::reference::{self, Frame};
 use crate::scene::Scene;
-use crate::vk::frame::{GpuFrame, GpuRenderer, RenderOptions};
+use crate::vk::frame::{FramePlan, GpuFrame, GpuRenderer, RenderOptions};
 use crate::vk::{GpuContext, PassTime};
 
 /// The reference frame of one scene, with its wall times per frame (ns).
@@ -118,6 +118,7 @@ impl<'a> TimedRenderer<'a> {
         camera: &Camera,
         options: RenderOptions,
     ) -> Result<Self> {
+        let options = FramePlan::resolve_list_size(scene, camera, &options);
         let renderer = GpuRenderer::new(ctx, scene, camera, options)?;
         Ok(TimedRenderer { ctx, renderer })
     }

@@ -208,7 +208,8 @@ pub fn device_bytes(
         bounces: 1,
         ..RenderOptions::default()
     };
-    let no_pool = || (Vec::new(), Default::default());
+    // The lists at the cube size (an upper bound), without their pool.
+    let no_pool = |_| (Vec::new(), cube_size, Default::default());
     plan_bytes(&FramePlan::from_facts(
         &facts,
         (width, height),
@@ -396,6 +397,7 @@ pub fn list_capture_bytes_of(plan: &FramePlan) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::vk::options::{AUTO_LIST_LENGTH, AUTO_LIST_MIN, ListSize};
 
     /// A texture counts with its texels and is named first when it is the largest item.
     #[test]
@@ -506,11 +508,13 @@ mod tests {
             method: Method::Compute,
             ..RenderOptions::default()
         };
+        // The lists at the cube size, where the pool below is bounded.
         let bounded = RenderOptions {
             trace: TraceOptions {
                 criterion: crate::cpu::options::TraceCriterion::Bounded,
                 ..TraceOptions::default()
             },
+            list_size: ListSize::Cube,
             ..exact
         };
         let views = capture_lists::scene_views(&scene);
@@ -556,7 +560,7 @@ mod tests {
             panic!("a bounded capture: {with:?}");
         };
         *colour = true;
-        let size = u64::from(scene.cmo.resolution);
+        let size = u64::from(plain.cmo.size);
         let targets = plain.cmo.texels() * (4 + 4) + size * size * 4;
         assert_eq!(
             plan_bytes(&with).cmo,
@@ -577,6 +581,54 @@ mod tests {
             exact.cmo.raster_capture() && !exact.cmo.lists(),
             "{exact:?}"
         );
+    }
+
+    /// `--list-size auto` takes the smallest face size from 32 whose pool bound holds at most
+    /// 8 nodes per texel, below the cube size; the cube size where the frame reads the colour
+    /// (a glossy scene), or where the user fixes it; the resolved options keep it.
+    #[test]
+    fn bounded_lists_take_the_smallest_short_size() {
+        let bounded = |list_size| RenderOptions {
+            method: Method::Compute,
+            trace: TraceOptions {
+                criterion: crate::cpu::options::TraceCriterion::Bounded,
+                ..TraceOptions::default()
+            },
+            list_size,
+            ..RenderOptions::default()
+        };
+        let mut scene = crate::scene::builtin::by_name("default").unwrap();
+        let mut camera = scene.cameras[0].clone();
+        (camera.width, camera.height) = (64, 48);
+        let size = |scene: &Scene, choice| FramePlan::of(scene, &camera, &bounded(choice)).cmo.size;
+        let cube = scene.cmo.resolution;
+        assert_eq!(cube, 256);
+        assert_eq!(size(&scene, ListSize::Auto), AUTO_LIST_MIN);
+        assert_eq!(size(&scene, ListSize::Cube), cube);
+        assert_eq!(size(&scene, ListSize::Fixed(48)), 48);
+        let resolved = FramePlan::resolve_list_size(&scene, &camera, &bounded(ListSize::Auto));
+        assert_eq!(resolved.list_size, ListSize::Fixed(AUTO_LIST_MIN));
+        // Other criteria keep their options (and their cube size).
+        let exact = RenderOptions::default();
+        assert_eq!(FramePlan::resolve_list_size(&scene, &camera, &exact), exact);
+        // The rule: at 32 the bound's mean list exceeds 8 once the walls and floor are split
+        // 64 ways; the size taken is the first where it holds, above 32.
+        let data = |s: &Scene| GpuSceneData::new(s);
+        let mean = |s: &Scene, n: u32| {
+            let views = capture_lists::scene_views(s);
+            let b = capture_lists::capacity(&data(s), &views, n);
+            b.nodes as f64 / (views.len() as f64 * 6.0 * f64::from(n * n))
+        };
+        assert!(mean(&scene, 32) <= AUTO_LIST_LENGTH as f64);
+        let mut dense = scene.clone();
+        crate::cpu::reflection_point::subdivide_non_reflectors(&mut dense, 3);
+        let taken = size(&dense, ListSize::Auto);
+        assert!(taken > AUTO_LIST_MIN && taken < cube, "{taken}");
+        assert!(mean(&dense, taken / 2) > AUTO_LIST_LENGTH as f64);
+        assert!(mean(&dense, taken) <= AUTO_LIST_LENGTH as f64);
+        // A glossy scene's cone pass reads the colour: the cube size.
+        scene.make_reflectors_glossy(64.0);
+        assert_eq!(size(&scene, ListSize::Auto), cube);
     }
 
     /// The scene-less estimate is the bytes of a plan by the same rules: one bounce, the

@@ -55,6 +55,32 @@ impl ComputeLayout {
     }
 }
 
+/// The face size of the `bounded` criterion's per-texel lists (`--list-size`). Every hit the
+/// lists give is a listed triangle's exact intersection, the first along the ray whatever the
+/// texels' size, and the exact fallback takes the rays they leave: the face size changes what
+/// the capture and the trace cost and how many rays reach the fallback, not the image (but for
+/// the last bits of a hit that one tracer finds and the other leaves; `lavapipe-list-size.md`
+/// in `benches/results`). The colour a glossy reflector's cone pass reads is captured at the
+/// same size, so there the cube size is kept.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ListSize {
+    /// The smallest power of two from [`AUTO_LIST_MIN`] up to the cube size whose lists stay
+    /// short: at most [`AUTO_LIST_LENGTH`] nodes per texel by the node pool's bound
+    /// ([`crate::vk::passes::capture_lists::list_size`]); the cube size where the frame reads
+    /// the CMO colour.
+    #[default]
+    Auto,
+    /// The cube size (`--cube-size`, else the scene's).
+    Cube,
+    /// This many texels per face side.
+    Fixed(u32),
+}
+
+/// [`ListSize::Auto`]'s smallest face size.
+pub const AUTO_LIST_MIN: u32 = 32;
+/// [`ListSize::Auto`]'s longest mean list: nodes of the pool's bound per texel.
+pub const AUTO_LIST_LENGTH: u64 = 8;
+
 /// Options of a GPU render. [`RenderOptions::default`] is the one source of the defaults: the
 /// CLI (`cubetrace render`) and the bench start from it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -82,6 +108,8 @@ pub struct RenderOptions {
     /// `Compute`'s lane layout; `None`: `CUBETRACE_RAY_LANES`, else the device's default
     /// ([`crate::vk::methods::compute::ray_lanes`]).
     pub compute_layout: Option<ComputeLayout>,
+    /// The `bounded` criterion's lists' face size ([`ListSize`]); ignored by other criteria.
+    pub list_size: ListSize,
 }
 
 impl Default for RenderOptions {
@@ -96,6 +124,7 @@ impl Default for RenderOptions {
             bvh_bounces: false,
             reflector_check: true,
             compute_layout: None,
+            list_size: ListSize::Auto,
         }
     }
 }

@@ -41,7 +41,7 @@ use cubetrace::reference::{self, Frame, Tracer};
 use cubetrace::scene::Scene;
 use cubetrace::vk::GpuContext;
 use cubetrace::vk::frame::{GpuFrame, GpuRenderer, RECORD_UNRESOLVED};
-use cubetrace::vk::options::{Fallback, RenderOptions};
+use cubetrace::vk::options::{Fallback, ListSize, RenderOptions};
 use cubetrace::vk::passes::lists::pack;
 
 /// Largest unresolved share of the mirror pixels: 2.5x the largest measured (0.8 %, the bunny
@@ -97,9 +97,11 @@ fn failure(j: &Judged) -> Option<String> {
     }
 }
 
+/// The method alone (`--fallback flag`), its lists at the cube size the scenes name.
 fn options(method: Method, criterion: TraceCriterion) -> RenderOptions {
     RenderOptions {
         fallback: Fallback::Flag,
+        list_size: ListSize::Cube,
         ..common::render::criterion_options(method, criterion)
     }
 }

@@ -145,7 +145,7 @@ impl GpuRenderer {
         // What the frame allocates: the one plan the memory estimate counts too.
         let mut plan = FramePlan::new(scene, &data, camera, &options);
         if lists.is_some() {
-            plan = plan.with_uploaded_lists();
+            plan = plan.with_uploaded_lists(scene.cmo.resolution);
         }
         let scene_buffers = SceneBuffers::new(ctx, &data)?;
         let mut stages = CmoStages::new(

@@ -18,7 +18,7 @@ use crate::scene::Scene;
 use crate::scene::gpu_data::GpuSceneData;
 use crate::vk::methods::technique::{Glossy, has_glossy_reflector};
 use crate::vk::methods::{self, MethodSpec, Needs};
-use crate::vk::options::{Fallback, RenderOptions};
+use crate::vk::options::{Fallback, ListSize, RenderOptions};
 use crate::vk::passes::capture_lists;
 use crate::vk::passes::cmo::CaptureContents;
 
@@ -138,13 +138,32 @@ impl FramePlan {
             glossy: has_glossy_reflector(data),
             check_triangles: !scene.check_triangles().is_empty(),
         };
-        // The bounded capture's views and pool bound, computed only where it runs.
-        let lists = || {
+        // The bounded capture's views, face size and pool bound, computed only where it runs.
+        let lists = |choice| {
             let views = capture_lists::scene_views(scene);
-            let capacity = capture_lists::capacity(data, &views, facts.cube_size);
-            (views, capacity)
+            let (size, capacity) = capture_lists::list_size(data, &views, facts.cube_size, choice);
+            (views, size, capacity)
         };
         Self::from_facts(&facts, (width, height), options, lists)
+    }
+
+    /// `options` with [`ListSize::Auto`] resolved to the lists' face size the plan takes
+    /// ([`ListSize::Fixed`]), so that the plans after it (the memory estimate's, the renderer's)
+    /// do not search the sizes again; `options` where no lists are planned.
+    pub fn resolve_list_size(
+        scene: &Scene,
+        camera: &Camera,
+        options: &RenderOptions,
+    ) -> RenderOptions {
+        if options.trace.criterion != TraceCriterion::Bounded || options.list_size != ListSize::Auto
+        {
+            return *options;
+        }
+        let plan = Self::of(scene, camera, options);
+        RenderOptions {
+            list_size: ListSize::Fixed(plan.cmo.size),
+            ..*options
+        }
     }
 
     /// [`FramePlan::new`] building the scene's upload itself.
@@ -153,13 +172,13 @@ impl FramePlan {
     }
 
     /// The plan of a frame of `width` x `height` pixels with `options` on a scene of which
-    /// only `facts` are known; `lists` gives the bounded capture's views and pool bound where
-    /// it runs.
+    /// only `facts` are known; `lists` gives the bounded capture's views, its face size for a
+    /// [`ListSize`] (`capture_lists::list_size`) and the pool bound at it, where it runs.
     pub fn from_facts(
         facts: &SceneFacts,
         (width, height): (u32, u32),
         options: &RenderOptions,
-        lists: impl FnOnce() -> (Vec<(Vec3, bool)>, PoolBound),
+        lists: impl FnOnce(ListSize) -> (Vec<(Vec3, bool)>, u32, PoolBound),
     ) -> Self {
         let spec = methods::spec(options.method);
         let fallback_kind = match options.fallback {
@@ -183,11 +202,12 @@ impl FramePlan {
         }
     }
 
-    /// The plan with the bounded criterion's lists uploaded instead of captured
-    /// ([`super::GpuRenderer::with_lists`]); unchanged for another capture.
-    pub fn with_uploaded_lists(mut self) -> Self {
+    /// The plan with the bounded criterion's lists of face size `size` uploaded instead of
+    /// captured ([`super::GpuRenderer::with_lists`]); unchanged for another capture.
+    pub fn with_uploaded_lists(mut self, size: u32) -> Self {
         if let Some(CapturePlan::Lists { colour, .. }) = self.cmo.capture {
             self.cmo.capture = Some(CapturePlan::Uploaded { colour });
+            self.cmo.size = size;
         }
         self
     }
@@ -215,7 +235,7 @@ impl CmoPlan {
         spec: Option<&'static dyn MethodSpec>,
         cone: bool,
         options: &RenderOptions,
-        lists: impl FnOnce() -> (Vec<(Vec3, bool)>, PoolBound),
+        lists: impl FnOnce(ListSize) -> (Vec<(Vec3, bool)>, u32, PoolBound),
     ) -> Self {
         let Some(spec) = spec else {
             // The reference: no CMO on the GPU.
@@ -247,18 +267,27 @@ impl CmoPlan {
         if !needs.capture {
             return placeholder;
         }
-        let capture = if options.trace.criterion == TraceCriterion::Bounded {
-            let (views, capacity) = lists();
-            CapturePlan::Lists {
+        let (capture, size) = if options.trace.criterion == TraceCriterion::Bounded {
+            // The colour (a glossy reflector's cone pass) is captured at the lists' size: the
+            // cube size's, as asked.
+            let colour = needs.contents.colour;
+            let choice = if colour {
+                ListSize::Cube
+            } else {
+                options.list_size
+            };
+            let (views, size, capacity) = lists(choice);
+            let plan = CapturePlan::Lists {
                 views,
                 capacity,
-                colour: needs.contents.colour,
-            }
+                colour,
+            };
+            (plan, size)
         } else {
-            CapturePlan::Raster
+            (CapturePlan::Raster, facts.cube_size)
         };
         CmoPlan {
-            size: facts.cube_size,
+            size,
             self_reflections: facts.self_reflections,
             capture: Some(capture),
             ..placeholder

@@ -110,13 +110,21 @@ impl CmoStages {
             CapturePlan::Raster => Some(CmoCapture::Raster(Box::new(raster()?))),
             CapturePlan::Lists {
                 views, capacity, ..
-            } => Some(Self::list_capture(
-                ctx,
-                scene_buffers,
-                &mut cmo,
-                views,
-                *capacity,
-            )?),
+            } => {
+                log::info!(
+                    "bounded criterion: lists of {size} texels per face side (cube size {}), a \
+                     pool of {} nodes",
+                    scene.cmo.resolution,
+                    capacity.nodes
+                );
+                Some(Self::list_capture(
+                    ctx,
+                    scene_buffers,
+                    &mut cmo,
+                    views,
+                    *capacity,
+                )?)
+            }
             CapturePlan::Uploaded { .. } => {
                 Self::upload_lists(ctx, &mut cmo, lists)?;
                 None
