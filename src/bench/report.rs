@@ -146,9 +146,15 @@ fn num(x: f64, digits: usize) -> String {
 /// The header lines: device, commit, frame size, frames.
 pub fn header(report: &BenchReport) -> String {
     let r0 = report.runs.first();
+    let lists = if report.runs.iter().any(|r| r.method.contains("bounded")) {
+        " (the bounded criterion's lists at their own face size, `--list-size auto`: `render -v` \
+         names it)"
+    } else {
+        ""
+    };
     format!(
         "Device: {}; commit {}; cubetrace {}; {} CPU threads (reference).\n\
-         Frames: {}x{}, {} timed after {} warm-up; cube size {}{}.\n",
+         Frames: {}x{}, {} timed after {} warm-up; cube size {}{lists}{}.\n",
         report.device.describe(),
         report.git_commit.as_deref().unwrap_or("unknown"),
         report.cubetrace_version,
