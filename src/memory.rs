@@ -235,6 +235,8 @@ pub fn advice(items: &[(String, u64)]) -> String {
         .collect();
     let fix = if first.starts_with("texture") {
         "scale that texture down (each halving of its sides takes 3/4 off)"
+    } else if first.starts_with("CMO") && first.contains("--list-size") {
+        "use a smaller --list-size or fewer CMOs (--cmos)"
     } else if first.starts_with("CMO") {
         "use a smaller --cube-size or fewer CMOs (--cmos)"
     } else if first.starts_with("frame") {
@@ -304,6 +306,16 @@ mod tests {
         // Negative: with the CMOs first, the advice is theirs, not the texture's.
         let a = advice(&items[1..]);
         assert!(a.contains("--cube-size") && !a.contains("texture"), "{a}");
+        // The bounded criterion's lists at a size of their own: that size is the fix.
+        let lists = [(
+            "CMO data (2 CMOs, their lists of 4096^2 texels per face: --list-size)".to_string(),
+            10 << 30,
+        )];
+        let a = advice(&lists);
+        assert!(
+            a.contains("a smaller --list-size") && !a.contains("--cube-size"),
+            "{a}"
+        );
         assert_eq!(advice(&[]), FRAME_ADVICE);
     }
 

@@ -151,15 +151,21 @@ pub fn largest_items(
         .flat_map(|m| &m.parts)
         .map(|p| p.triangles.len())
         .sum();
+    let plan = FramePlan::of(scene, camera, options).cmo;
+    let cmos = scene.cmo_centres().len();
+    let cmo = if plan.lists() && plan.size != scene.cmo.resolution {
+        format!(
+            "CMO data ({cmos} CMOs, their lists of {}^2 texels per face: --list-size)",
+            plan.size
+        )
+    } else {
+        format!(
+            "CMO data ({cmos} CMOs of {}^2 texels per face)",
+            scene.cmo.resolution
+        )
+    };
     items.extend([
-        (
-            format!(
-                "CMO data ({} CMOs of {}^2 texels per face)",
-                scene.cmo_centres().len(),
-                scene.cmo.resolution
-            ),
-            e.cmo,
-        ),
+        (cmo, e.cmo),
         (
             format!(
                 "frame buffers ({}x{}, --method {})",
