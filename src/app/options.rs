@@ -166,7 +166,7 @@ pub struct TraceArgs {
     /// [default: auto]. The image does not depend on it (every hit is a listed triangle's exact
     /// intersection, and the exact fallback takes the rays the lists leave); the cost and the
     /// share of rays left to the fallback do. `auto` takes the smallest of 32, 64, 128, ... below
-    /// the cube size whose lists hold at most 4 triangles per texel on average (by the capture's
+    /// the cube size whose lists hold at most 8 triangles per texel on average (by the capture's
     /// own bound), else the cube size; `cube` the cube size; a number that size. A glossy
     /// reflector's cone pass reads colour captured at the same size, so there `auto` is the cube
     /// size. `-v` logs the size taken.

@@ -64,10 +64,10 @@ impl ComputeLayout {
 /// same size, so there the cube size is kept.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum ListSize {
-    /// The smallest power of two from [`AUTO_LIST_MIN`] up to the cube size whose lists stay
-    /// short: at most [`AUTO_LIST_LENGTH`] nodes per texel by the node pool's bound
-    /// ([`crate::vk::passes::capture_lists::list_size`]); the cube size where the frame reads
-    /// the CMO colour.
+    /// The first of [`AUTO_LIST_MIN`], twice that, ... below the cube size whose lists stay
+    /// short, at most [`AUTO_LIST_LENGTH`] nodes per texel by the node pool's bound, else the
+    /// cube size ([`crate::vk::passes::capture_lists::list_size`]); the cube size where the
+    /// frame reads the CMO colour.
     #[default]
     Auto,
     /// The cube size (`--cube-size`, else the scene's).
@@ -78,7 +78,8 @@ pub enum ListSize {
 
 /// [`ListSize::Auto`]'s smallest face size.
 pub const AUTO_LIST_MIN: u32 = 32;
-/// [`ListSize::Auto`]'s longest mean list: nodes of the pool's bound per texel.
+/// [`ListSize::Auto`]'s longest mean list: nodes of the pool's bound per texel (the help of
+/// `--list-size` states it).
 pub const AUTO_LIST_LENGTH: u64 = 8;
 
 /// Options of a GPU render. [`RenderOptions::default`] is the one source of the defaults: the
