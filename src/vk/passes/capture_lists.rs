@@ -226,7 +226,7 @@ pub fn capacity(data: &GpuSceneData, cmos: &[(Vec3, bool)], size: u32) -> PoolBo
 /// of them pass the capture's `depth` (the ray goes behind there) and the trace walks them. On
 /// lavapipe (`benches/results/lavapipe-list-size.md`) 32 is the cheapest frame on the built-in
 /// scenes, with no ray left to the fallback, and the corpus's dense interiors need 128 to keep
-/// their fallback share under 1 %.
+/// their fallback share at about 1 %.
 pub fn list_size(
     data: &GpuSceneData,
     cmos: &[(Vec3, bool)],
