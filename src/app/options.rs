@@ -168,8 +168,8 @@ pub struct TraceArgs {
     /// share of rays left to the fallback do. `auto` takes the smallest of 32, 64, 128, ... below
     /// the cube size whose lists hold at most 8 triangles per texel on average (by the capture's
     /// own bound), else the cube size; `cube` the cube size; a number that size. A glossy
-    /// reflector's cone pass reads colour captured at the same size, so there `auto` is the cube
-    /// size. `-v` logs the size taken.
+    /// reflector's cone pass reads a capture of its own at the cube size, as with the default
+    /// criterion. `-v` logs the size taken.
     #[arg(long, value_parser = list_size)]
     pub list_size: Option<ListSize>,
     /// compute, fragment, ssr, reflection-point: what fills mirror pixels the method left

@@ -274,11 +274,12 @@ fn plan_cmo_bytes(plan: &FramePlan) -> u64 {
     let (count, size) = (cmo.count, cmo.size);
     let face = u64::from(size) * u64::from(size);
     let contents = cmo.needs.contents;
-    let raster = if cmo.raster_capture() {
+    let raster = if cmo.raster_capture() && cmo.cone_size.is_none() {
         cmo.texels() * raster_target_bytes_per_texel(cmo.self_reflections, contents) + face * 4
     } else {
         0
     };
+
     // [min, max] f32 pairs per cell.
     let pyramid = if cmo.needs.pyramid {
         u64::from(count) * mip_len(size) as u64 * 8
@@ -300,6 +301,25 @@ fn plan_cmo_bytes(plan: &FramePlan) -> u64 {
         + lists
         + list_capture_bytes_of(plan)
         + cone_chain_bytes(plan)
+        + cone_cmo_bytes(plan)
+}
+
+/// The cone pass's own CMOs, where the plan has them ([`super::frame::plan::CmoPlan::cone_size`]):
+/// their data (distance, colour) and their rasterised capture's targets.
+fn cone_cmo_bytes(plan: &FramePlan) -> u64 {
+    let cmo = &plan.cmo;
+    cmo.cone_size.map_or(0, |n| {
+        let face = u64::from(n) * u64::from(n);
+        let texels = u64::from(cmo.count) * 6 * face;
+        let colour = CaptureContents {
+            colour: true,
+            triangle_ids: false,
+        };
+        texels
+            * (cmo_data_bytes_per_texel(cmo.self_reflections, colour)
+                + raster_target_bytes_per_texel(cmo.self_reflections, colour))
+            + face * 4
+    })
 }
 
 /// The device bytes `--bounces N` adds to a render of `width` x `height` pixels: for N >= 2,
@@ -348,7 +368,8 @@ pub fn cone_bytes(scene: &Scene, options: &RenderOptions) -> u64 {
 /// chain, [`super::methods::MethodSpec::glossy`]: `fragment`, `compute`, `ssr`, on a glossy
 /// scene): the chain (`mip_len(N)` RGBA f32 per CMO), the CMO colour where the method itself
 /// captures none, and for the cube-map cone pass ([`super::passes::cone`]: `fragment`,
-/// `compute`) the 2x2 pyramid where the method builds none (compute); 0 otherwise. ssr's
+/// `compute`) the 2x2 pyramid where the method builds none (compute), or the pass's own CMOs
+/// where it has them (the `bounded` lists at a size of their own); 0 otherwise. ssr's
 /// screen-space chains are in neither (its `bytes_per_pixel`).
 pub fn cone_bytes_of(plan: &FramePlan) -> u64 {
     let colour = if plan.cone.is_some() && !plan.cmo.method_contents.colour {
@@ -356,7 +377,7 @@ pub fn cone_bytes_of(plan: &FramePlan) -> u64 {
     } else {
         0
     };
-    cone_chain_bytes(plan) + colour
+    cone_chain_bytes(plan) + colour + cone_cmo_bytes(plan)
 }
 
 /// The cone's chain and own pyramid in a plan ([`cone_bytes_of`] without the CMO colour, which
@@ -365,7 +386,8 @@ fn cone_chain_bytes(plan: &FramePlan) -> u64 {
     let Some(cone) = plan.cone else {
         return 0;
     };
-    let cells = u64::from(plan.cmo.count) * mip_len(plan.cmo.size) as u64;
+    let size = plan.cmo.cone_size.unwrap_or(plan.cmo.size);
+    let cells = u64::from(plan.cmo.count) * mip_len(size) as u64;
     let pyramid = if cone.stage && cone.own_pyramid {
         cells * 8
     } else {
@@ -632,9 +654,20 @@ mod tests {
         assert!(taken > AUTO_LIST_MIN && taken < cube, "{taken}");
         assert!(mean(&dense, taken / 2) > AUTO_LIST_LENGTH as f64);
         assert!(mean(&dense, taken) <= AUTO_LIST_LENGTH as f64);
-        // A glossy scene's cone pass reads the colour: the cube size.
+        // A glossy scene's cone pass reads CMOs of its own at the cube size, and the estimate
+        // counts them; the lists keep their size.
+        let plain = estimate(&scene, &camera, &bounded(ListSize::Auto)).cmo;
         scene.make_reflectors_glossy(64.0);
-        assert_eq!(size(&scene, ListSize::Auto), cube);
+        let glossy = FramePlan::of(&scene, &camera, &bounded(ListSize::Auto));
+        assert_eq!(
+            (glossy.cmo.size, glossy.cmo.cone_size),
+            (AUTO_LIST_MIN, Some(cube))
+        );
+        let cone_cmo = u64::from(cube * cube) * 6 * glossy.cmo.count as u64 * (4 + 16 + 4);
+        assert!(estimate(&scene, &camera, &bounded(ListSize::Auto)).cmo >= plain + cone_cmo);
+        // Negative: the exact criterion's cone pass reads the method's own CMOs.
+        let exact = FramePlan::of(&scene, &camera, &RenderOptions::default());
+        assert_eq!(exact.cmo.cone_size, None);
     }
 
     /// The scene-less estimate is the bytes of a plan by the same rules: one bounce, the

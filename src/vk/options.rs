@@ -60,14 +60,13 @@ impl ComputeLayout {
 /// texels' size, and the exact fallback takes the rays they leave: the face size changes what
 /// the capture and the trace cost and how many rays reach the fallback, not the image (but for
 /// the last bits of a hit that one tracer finds and the other leaves; `lavapipe-list-size.md`
-/// in `benches/results`). The colour a glossy reflector's cone pass reads is captured at the
-/// same size, so there the cube size is kept.
+/// in `benches/results`). A glossy reflector's cone pass reads CMOs of its own at the cube size
+/// (`CmoPlan::cone_size`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum ListSize {
     /// The first of [`AUTO_LIST_MIN`], twice that, ... below the cube size whose lists stay
     /// short, at most [`AUTO_LIST_LENGTH`] nodes per texel by the node pool's bound, else the
-    /// cube size ([`crate::vk::passes::capture_lists::list_size`]); the cube size where the
-    /// frame reads the CMO colour.
+    /// cube size ([`crate::vk::passes::capture_lists::list_size`]).
     #[default]
     Auto,
     /// The cube size (`--cube-size`, else the scene's).

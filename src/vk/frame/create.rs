@@ -159,10 +159,12 @@ impl GpuRenderer {
             lists,
         )?;
         // The pre-filtered CMO colour chain, for a method that reads it, on a glossy scene only.
+        // On the cone pass's own CMOs where it has them.
         if plan.cone.is_some() {
-            stages.cmo.alloc_cone(ctx)?;
+            let cone_cmo = stages.cone_cmo.as_mut().unwrap_or(&mut stages.cmo);
+            cone_cmo.alloc_cone(ctx)?;
             let p = ConePrefilter::new(ctx)?;
-            let b = p.bind(ctx, &stages.cmo, scene.background)?;
+            let b = p.bind(ctx, cone_cmo, scene.background)?;
             stages.cone_prefilter = Some((p, b));
         }
         let gbuffer = Gbuffer::new(ctx, &scene_buffers, camera, ranges.near)?;
@@ -194,7 +196,8 @@ impl GpuRenderer {
         };
         let method = methods::create(options.method, &inputs)?;
         let check_triangles = scene.check_triangles();
-        let cone = cone_stage(ctx, plan.cone, &stages.cmo, (&gbuffer, &params, &records))?;
+        let cone_cmo = stages.cone_cmo.as_ref().unwrap_or(&stages.cmo);
+        let cone = cone_stage(ctx, plan.cone, cone_cmo, (&gbuffer, &params, &records))?;
         let after = AfterMethod::new(&inputs, &plan, &check_triangles, method.as_ref())?;
         let composite = Composite::new(
             ctx,
@@ -212,6 +215,7 @@ impl GpuRenderer {
             height: camera.height,
             _scene: scene_buffers,
             cmo: stages.cmo,
+            cone_cmo: stages.cone_cmo,
             capture: stages.capture,
             colour_capture: stages.colour_capture,
             pyramid: stages.pyramid,

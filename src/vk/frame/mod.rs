@@ -213,6 +213,9 @@ pub struct GpuRenderer {
     height: u32,
     _scene: SceneBuffers,
     cmo: CmoData,
+    /// The cone pass's own CMOs, where the `bounded` lists take a size of their own on a glossy
+    /// scene (`CmoPlan::cone_size`): the colour capture fills them, the cone pass reads them.
+    cone_cmo: Option<CmoData>,
     /// `None` where the method reads no CMO ([`Needs::capture`](super::methods::Needs::capture)): the CMO data is then a
     /// one-texel placeholder, initialised at creation.
     capture: Option<CmoCapture>,

@@ -63,6 +63,11 @@ pub struct CmoPlan {
     pub self_reflections: bool,
     /// The capture pass; `None` where the method reads no CMO (the placeholder).
     pub capture: Option<CapturePlan>,
+    /// Texels per face side of the cone pass's own CMOs under the `bounded` criterion (a glossy
+    /// scene): the rasterised capture's distance and colour at the cube size, what the
+    /// centre-sampled criterion's cone pass reads, whatever size the lists take
+    /// (`--list-size`); `None` where the cone pass reads the method's CMOs.
+    pub cone_size: Option<u32>,
 }
 
 /// The pass that fills the CMO data.
@@ -187,12 +192,17 @@ impl FramePlan {
             Fallback::TraceFromTDone => true,
             Fallback::Flag | Fallback::Envmap | Fallback::Background => false,
         };
-        let cone = spec.and_then(|s| cone_plan(s, facts.glossy, options));
+        let mut cone = spec.and_then(|s| cone_plan(s, facts.glossy, options));
+        let cmo = CmoPlan::new(facts, spec, cone.is_some(), options, lists);
+        if let Some(c) = cone.as_mut().filter(|_| cmo.cone_size.is_some()) {
+            // The method's pyramid, if any, is over the lists' CMOs.
+            c.own_pyramid = true;
+        }
         FramePlan {
             method: options.method,
             width,
             height,
-            cmo: CmoPlan::new(facts, spec, cone.is_some(), options, lists),
+            cmo,
             cone,
             fallback: fallback_kind && options.method.can_leave_unresolved(),
             reflector_check: options.reflector_check
@@ -208,6 +218,7 @@ impl FramePlan {
         if let Some(CapturePlan::Lists { colour, .. }) = self.cmo.capture {
             self.cmo.capture = Some(CapturePlan::Uploaded { colour });
             self.cmo.size = size;
+            self.cmo.cone_size = None;
         }
         self
     }
@@ -251,6 +262,7 @@ impl CmoPlan {
                 needs,
                 self_reflections: false,
                 capture: None,
+                cone_size: None,
             };
         };
         let mut needs = spec.needs(&options.trace);
@@ -263,20 +275,21 @@ impl CmoPlan {
             method_contents,
             self_reflections: false,
             capture: None,
+            cone_size: None,
         };
         if !needs.capture {
             return placeholder;
         }
+        let mut cone_size = None;
         let (capture, size) = if options.trace.criterion == TraceCriterion::Bounded {
-            // The colour (a glossy reflector's cone pass) is captured at the lists' size: the
-            // cube size's, as asked.
             let colour = needs.contents.colour;
-            let choice = if colour {
-                ListSize::Cube
-            } else {
-                options.list_size
-            };
-            let (views, size, capacity) = lists(choice);
+            let (views, size, capacity) = lists(options.list_size);
+            // A glossy reflector's cone pass reads CMOs of its own, captured as the centre-sampled
+            // criterion's at the cube size (distance and colour): the lists' size and `lo` do
+            // not change it.
+            if cone {
+                cone_size = Some(facts.cube_size);
+            }
             let plan = CapturePlan::Lists {
                 views,
                 capacity,
@@ -288,6 +301,7 @@ impl CmoPlan {
         };
         CmoPlan {
             size,
+            cone_size,
             self_reflections: facts.self_reflections,
             capture: Some(capture),
             ..placeholder

@@ -63,7 +63,11 @@ impl GpuRenderer {
     fn record_cmo_stages(&self, rec: &Recorder<'_>, scope: &mut Scope<'_>) -> VkResult<()> {
         if let Some(c) = &self.colour_capture {
             scope("capture", &mut || {
-                c.record(rec, &self.cmo, self.background)?;
+                c.record(
+                    rec,
+                    self.cone_cmo.as_ref().unwrap_or(&self.cmo),
+                    self.background,
+                )?;
                 // The lists' capture writes its distances over this one's copy.
                 rec.memory_barrier(TRANSFER_WRITE, ALL);
                 Ok(())

@@ -18,7 +18,7 @@ use crate::vk::passes::bounce::{BouncePasses, RoundPasses};
 use crate::vk::passes::bvh::{AppendKind, BvhPasses, ReflectorCheck};
 use crate::vk::passes::capture::Capture;
 use crate::vk::passes::capture_lists::{CaptureLists, ListTargets};
-use crate::vk::passes::cmo::CmoData;
+use crate::vk::passes::cmo::{CaptureContents, CmoData};
 use crate::vk::passes::cone::{ConePrefilter, ConePrefilterBindings, ConeStage};
 use crate::vk::passes::gbuffer::Gbuffer;
 use crate::vk::passes::lists::PackedLists;
@@ -29,6 +29,8 @@ use crate::vk::passes::scene_buffers::SceneBuffers;
 /// pyramid, as the method's [`Needs`] say.
 pub(super) struct CmoStages {
     pub(super) cmo: CmoData,
+    /// The cone pass's own CMOs ([`CmoPlan::cone_size`]), which `colour_capture` fills.
+    pub(super) cone_cmo: Option<CmoData>,
     pub(super) capture: Option<CmoCapture>,
     pub(super) colour_capture: Option<Box<Capture>>,
     /// The distances' pyramid, then the lists' gaps' where the capture is listed.
@@ -66,6 +68,7 @@ impl CmoStages {
             })?;
             return Ok(CmoStages {
                 cmo,
+                cone_cmo: None,
                 capture: None,
                 colour_capture: None,
                 pyramid: Vec::new(),
@@ -82,7 +85,7 @@ impl CmoStages {
             trace,
             needs.contents,
         )?;
-        let raster = || {
+        let raster = |size, contents| {
             Capture::with_contents(
                 ctx,
                 data,
@@ -91,23 +94,49 @@ impl CmoStages {
                 size,
                 self_reflections,
                 capture_near,
-                needs.contents,
+                contents,
             )
         };
+        // The cone pass's own CMOs, distance and colour at the cube size, where the lists take
+        // a size of their own.
+        let colour_only = CaptureContents {
+            colour: true,
+            triangle_ids: false,
+        };
+        let cone_cmo = match plan.cone_size {
+            Some(n) => Some(CmoData::with_contents(
+                ctx,
+                &centres,
+                n,
+                self_reflections,
+                false,
+                trace,
+                colour_only,
+            )?),
+            None => None,
+        };
         // The bounded criterion's lists keep no colour: where the frame reads it (the cone pass
-        // of a glossy scene), a rasterised capture fills it first.
-        let colour_capture = match capture {
-            CapturePlan::Lists { colour: true, .. } => Some(Box::new(raster()?)),
-            CapturePlan::Uploaded { colour: true } => {
+        // of a glossy scene), a rasterised capture fills it first, into the cone pass's own
+        // CMOs where it has them.
+        let colour_capture = match (capture, plan.cone_size) {
+            (CapturePlan::Lists { colour: true, .. }, Some(n)) => {
+                Some(Box::new(raster(n, colour_only)?))
+            }
+            (CapturePlan::Lists { colour: true, .. }, None) => {
+                Some(Box::new(raster(size, needs.contents)?))
+            }
+            (CapturePlan::Uploaded { colour: true }, _) => {
                 // The lists are uploaded once below: the colour is captured once, before.
-                let c = raster()?;
+                let c = raster(size, needs.contents)?;
                 ctx.submit_and_wait("cmo colour", |rec| c.record(rec, &cmo, scene.background))?;
                 None
             }
             _ => None,
         };
         let capture = match capture {
-            CapturePlan::Raster => Some(CmoCapture::Raster(Box::new(raster()?))),
+            CapturePlan::Raster => {
+                Some(CmoCapture::Raster(Box::new(raster(size, needs.contents)?)))
+            }
             CapturePlan::Lists {
                 views, capacity, ..
             } => {
@@ -135,6 +164,7 @@ impl CmoStages {
         let pyramid = pyramid_stage(ctx, &cmo, needs, listed)?;
         Ok(CmoStages {
             cmo,
+            cone_cmo,
             capture,
             colour_capture,
             pyramid,

@@ -259,6 +259,9 @@ impl GpuRenderer {
             self._scene.write_geometry(ctx, &data)?;
         }
         self.cmo.set_centres(ctx, &centres)?;
+        if let Some(c) = &mut self.cone_cmo {
+            c.set_centres(ctx, &centres)?;
+        }
         if let Some(c) = &mut self.colour_capture {
             c.set_views(ctx, &data, &centres, ranges.capture_near)?;
         }
