@@ -108,8 +108,15 @@ fn check_stages(r: &GpuRenderer, label: &str) {
     let plan = r.plan();
     let cone_stage = plan.cone.is_some_and(|c| c.stage);
     assert_eq!(r.cone().is_some(), cone_stage, "{label}: cone stage");
+    // The chain is on the cone pass's own CMOs where the plan gives it some.
     assert_eq!(
-        r.cmo().cone().is_some(),
+        r.cone_cmo().is_some(),
+        plan.cmo.cone_size.is_some(),
+        "{label}: cone CMOs"
+    );
+    let chained = r.cone_cmo().unwrap_or(r.cmo());
+    assert_eq!(
+        chained.cone().is_some(),
         plan.cone.is_some(),
         "{label}: chain"
     );

@@ -318,6 +318,11 @@ impl GpuRenderer {
         &self.cmo
     }
 
+    /// The cone pass's own CMO data, where the plan has it (`CmoPlan::cone_size`).
+    pub fn cone_cmo(&self) -> Option<&CmoData> {
+        self.cone_cmo.as_ref()
+    }
+
     /// The method's passes as type `T` (`None` for another method's).
     fn method_as<T: Technique>(&self) -> Option<&T> {
         let any: &dyn Any = self.method.as_ref();

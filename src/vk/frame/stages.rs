@@ -58,22 +58,7 @@ impl CmoStages {
         let centres = scene.cmo_centres();
         let needs = &plan.needs;
         let Some(capture) = &plan.capture else {
-            // One texel per face and no capture: composite binds the data, nothing reads it
-            // but the environment-map fallback of a ray the BVH loop's cap cut.
-            let cmo =
-                CmoData::with_contents(ctx, &centres, 1, false, false, trace, needs.contents)?;
-            ctx.submit_and_wait("cmo placeholder", |rec| {
-                cmo.record_clear(rec);
-                Ok(())
-            })?;
-            return Ok(CmoStages {
-                cmo,
-                cone_cmo: None,
-                capture: None,
-                colour_capture: None,
-                pyramid: Vec::new(),
-                cone_prefilter: None,
-            });
+            return Self::placeholder(ctx, &centres, trace, needs.contents);
         };
         let (size, self_reflections) = (plan.size, plan.self_reflections);
         let mut cmo = CmoData::with_contents(
@@ -168,6 +153,29 @@ impl CmoStages {
             capture,
             colour_capture,
             pyramid,
+            cone_prefilter: None,
+        })
+    }
+
+    /// One texel per face and no capture: composite binds the data, nothing reads it but the
+    /// environment-map fallback of a ray the BVH loop's cap cut.
+    fn placeholder(
+        ctx: &GpuContext,
+        centres: &[Vec3],
+        trace: &TraceOptions,
+        contents: CaptureContents,
+    ) -> VkResult<Self> {
+        let cmo = CmoData::with_contents(ctx, centres, 1, false, false, trace, contents)?;
+        ctx.submit_and_wait("cmo placeholder", |rec| {
+            cmo.record_clear(rec);
+            Ok(())
+        })?;
+        Ok(CmoStages {
+            cmo,
+            cone_cmo: None,
+            capture: None,
+            colour_capture: None,
+            pyramid: Vec::new(),
             cone_prefilter: None,
         })
     }
