@@ -77,7 +77,8 @@ pub enum CapturePlan {
     Raster,
     /// `--criterion bounded`: the lists' capture, its node pool and job buffer at the bound
     /// of the scene's triangles, and the rasterised capture before it where the frame reads
-    /// the colour (`colour`: a glossy scene's cone chain).
+    /// the colour (`colour`: a glossy scene's cone chain), into the cone pass's own CMOs
+    /// ([`CmoPlan::cone_size`]).
     Lists {
         views: Vec<(Vec3, bool)>,
         capacity: PoolBound,

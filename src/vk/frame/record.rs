@@ -68,7 +68,7 @@ impl GpuRenderer {
                     self.cone_cmo.as_ref().unwrap_or(&self.cmo),
                     self.background,
                 )?;
-                // The lists' capture writes its distances over this one's copy.
+                // Its copies into the CMO data complete before anything reads them.
                 rec.memory_barrier(TRANSFER_WRITE, ALL);
                 Ok(())
             })?;
