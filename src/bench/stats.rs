@@ -97,13 +97,17 @@ pub fn frame_stats(pass_ns: &[Vec<PassTime>], pass: Option<&str>) -> Stats {
     Stats::of(&per_frame).unwrap_or_default()
 }
 
-/// Per-pass statistics over frames, in the first frame's pass order.
+/// Per-pass statistics over frames, in the first frame's pass order; passes of one name (a
+/// glossy frame's two captures under `--criterion bounded`: the colour's and the lists') are
+/// summed into one row.
 pub fn pass_stats(pass_ns: &[Vec<PassTime>]) -> Vec<PassStats> {
     let Some(first) = pass_ns.first() else {
         return Vec::new();
     };
+    let mut seen = std::collections::HashSet::new();
     first
         .iter()
+        .filter(|(name, _)| seen.insert(name.as_str()))
         .filter_map(|(name, _)| {
             let v: Vec<f64> = pass_ns
                 .iter()
@@ -147,5 +151,10 @@ mod tests {
         assert_eq!(s[0].pass, "capture");
         assert_eq!((s[0].ns.median, s[0].ns.min, s[0].ns.max), (2.0, 1.0, 3.0));
         assert_eq!(s[1].ns.median, 20.0);
+        // Two passes of one name: one row, their sum.
+        let g = |a: f64, b: f64| vec![("capture".to_string(), a), ("capture".to_string(), b)];
+        let s = pass_stats(&[g(1.0, 10.0), g(3.0, 30.0)]);
+        assert_eq!(s.len(), 1);
+        assert_eq!((s[0].ns.min, s[0].ns.max), (11.0, 33.0));
     }
 }
