@@ -133,7 +133,12 @@ pub fn largest_items(
     camera: &Camera,
     options: &RenderOptions,
 ) -> Vec<(String, u64)> {
-    let e = estimate(scene, camera, options);
+    // [`estimate`], keeping its plan for the CMOs' size.
+    let plan = FramePlan::of(scene, camera, options);
+    let e = DeviceBytes {
+        scene: scene_bytes(scene),
+        ..plan_bytes(&plan)
+    };
     let textures: u64 = scene.textures.iter().map(texture_bytes).sum();
     let mut items: Vec<(String, u64)> = scene
         .textures
@@ -151,12 +156,11 @@ pub fn largest_items(
         .flat_map(|m| &m.parts)
         .map(|p| p.triangles.len())
         .sum();
-    let plan = FramePlan::of(scene, camera, options).cmo;
     let cmos = scene.cmo_centres().len();
-    let cmo = if plan.lists() && plan.size != scene.cmo.resolution {
+    let cmo = if plan.cmo.lists() && plan.cmo.size != scene.cmo.resolution {
         format!(
             "CMO data ({cmos} CMOs, their lists of {}^2 texels per face: --list-size)",
-            plan.size
+            plan.cmo.size
         )
     } else {
         format!(
@@ -279,7 +283,6 @@ fn plan_cmo_bytes(plan: &FramePlan) -> u64 {
     } else {
         0
     };
-
     // [min, max] f32 pairs per cell.
     let pyramid = if cmo.needs.pyramid {
         u64::from(count) * mip_len(size) as u64 * 8

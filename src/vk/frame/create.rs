@@ -20,6 +20,7 @@ use crate::vk::backend::context::GpuContext;
 use crate::vk::backend::error::{VkError, VkResult};
 use crate::vk::backend::timestamps::Timestamps;
 use crate::vk::methods::{self, FrameInputs, MethodSpec};
+use crate::vk::options::ListSize;
 use crate::vk::passes::bounce::MAX_BOUNCES;
 use crate::vk::passes::composite::Composite;
 use crate::vk::passes::cone::ConePrefilter;
@@ -142,10 +143,18 @@ impl GpuRenderer {
         }
         check_method(&options)?.check_device(ctx)?;
         let data = GpuSceneData::new(scene);
-        // What the frame allocates: the one plan the memory estimate counts too.
+        // What the frame allocates: the one plan the memory estimate counts too. Uploaded lists
+        // have the scene's face size.
+        let options = match lists {
+            Some(_) => RenderOptions {
+                list_size: ListSize::Cube,
+                ..options
+            },
+            None => options,
+        };
         let mut plan = FramePlan::new(scene, &data, camera, &options);
         if lists.is_some() {
-            plan = plan.with_uploaded_lists(scene.cmo.resolution);
+            plan = plan.with_uploaded_lists();
         }
         let scene_buffers = SceneBuffers::new(ctx, &data)?;
         let mut stages = CmoStages::new(

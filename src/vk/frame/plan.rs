@@ -213,13 +213,11 @@ impl FramePlan {
         }
     }
 
-    /// The plan with the bounded criterion's lists of face size `size` uploaded instead of
-    /// captured ([`super::GpuRenderer::with_lists`]); unchanged for another capture.
-    pub fn with_uploaded_lists(mut self, size: u32) -> Self {
+    /// The plan with the bounded criterion's lists uploaded instead of captured
+    /// ([`super::GpuRenderer::with_lists`]); unchanged for another capture.
+    pub fn with_uploaded_lists(mut self) -> Self {
         if let Some(CapturePlan::Lists { colour, .. }) = self.cmo.capture {
             self.cmo.capture = Some(CapturePlan::Uploaded { colour });
-            self.cmo.size = size;
-            self.cmo.cone_size = None;
         }
         self
     }

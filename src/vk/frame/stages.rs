@@ -101,19 +101,13 @@ impl CmoStages {
             None => None,
         };
         // The bounded criterion's lists keep no colour: where the frame reads it (the cone pass
-        // of a glossy scene), a rasterised capture fills it first, into the cone pass's own
-        // CMOs where it has them.
-        let colour_capture = match (capture, plan.cone_size) {
-            (CapturePlan::Lists { colour: true, .. }, Some(n)) => {
-                Some(Box::new(raster(n, colour_only)?))
-            }
-            (CapturePlan::Lists { colour: true, .. }, None) => {
-                Some(Box::new(raster(size, needs.contents)?))
-            }
-            (CapturePlan::Uploaded { colour: true }, _) => {
-                // The lists are uploaded once below: the colour is captured once, before.
-                let c = raster(size, needs.contents)?;
-                ctx.submit_and_wait("cmo colour", |rec| c.record(rec, &cmo, scene.background))?;
+        // of a glossy scene), a rasterised capture fills the cone pass's own CMOs.
+        let colour_capture = match (capture, &cone_cmo) {
+            (CapturePlan::Lists { .. }, Some(c)) => Some(Box::new(raster(c.size(), colour_only)?)),
+            (CapturePlan::Uploaded { .. }, Some(c)) => {
+                // The lists are uploaded once: the colour is captured once, here.
+                let r = raster(c.size(), colour_only)?;
+                ctx.submit_and_wait("cmo colour", |rec| r.record(rec, c, scene.background))?;
                 None
             }
             _ => None,

@@ -63,10 +63,10 @@
 //! - lavapipe ends every loop of an invocation after 65535 back-edges in all. A ray whose step loop
 //!   ended before the ray did is flagged `cut` and its queue index appended to the cut queue;
 //!   after a `main_lanes1` (or `main_wave`) dispatch, `retrace_size` sizes the retrace from the
-//!   queue's length and the same pipeline runs again in mode 1 (`HierConfig::mode`), the thesis layout over
-//!   the cut rays only, from scratch, so both layouts give the same records (the 1e-3..1e5 span
-//!   scene: 1004 of 2570 rays were cut by an earlier kernel; none by this one on any scene of the
-//!   suite, so a test cuts them with [`STEP_CAP_ENV`]). The retrace used to cover every queued
+//!   queue's length and the same pipeline runs again in mode 1 (`HierConfig::mode`), the thesis
+//!   layout over the cut rays only, from scratch, so both layouts give the same records (the
+//!   1e-3..1e5 span scene: 1004 of 2570 rays were cut by an earlier kernel; none by this one on
+//!   any scene of the suite, so a test cuts them with [`STEP_CAP_ENV`]). The retrace used to cover every queued
 //!   ray, reading its `cut` flag, and lavapipe ran the kernel's body once per subgroup for
 //!   nothing: half of the pass's time on `default`.
 //! - One call site per large function (`settle` holds the handoff with hit verification, the trace
@@ -217,10 +217,10 @@ fn step_cap() -> VkResult<u32> {
 /// (`benches/results/lavapipe-shaders.md`, "What was kept"; `main_wave` took 1.5-2x its time);
 /// [`ComputeLayout::Wave`] (`main_wave`) elsewhere, which the cost model puts at a quarter of the
 /// thesis layout's work per ray at width 32 (`benches/results/lavapipe-model-dynamic.md`).
-/// With one lane per ray the frame dispatches the same pipeline a second time with
-/// mode 1 ([`HierConfig::mode`]), which retraces with the thesis layout the rays whose step loop the driver's
-/// loop limit cut (lavapipe: 65535 loop iterations per invocation; spirv/README.md, "Known
-/// defect"), so every layout gives the same records. Where [`workgroup_size`] is 128, the
+/// With one lane per ray the frame dispatches the same pipeline a second time in mode 1
+/// ([`HierConfig::mode`]), which retraces with the thesis layout the rays whose step loop the
+/// driver's loop limit cut (lavapipe: 65535 loop iterations per invocation; spirv/README.md,
+/// "Known defect"), so every layout gives the same records. Where [`workgroup_size`] is 128, the
 /// `_wg128` twin of the entry point.
 pub fn ray_lanes(
     ctx: &GpuContext,
