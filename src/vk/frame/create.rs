@@ -124,6 +124,11 @@ impl GpuRenderer {
     ) -> VkResult<Self> {
         let ranges = FrameRanges::new(scene, camera);
         check_ranges(&ranges, scene, &options)?;
+        // The uploaded lists have the scene's face size.
+        let options = RenderOptions {
+            list_size: ListSize::Cube,
+            ..options
+        };
         Self::create(ctx, scene, camera, options, &ranges, Some(lists))
     }
 
@@ -143,15 +148,7 @@ impl GpuRenderer {
         }
         check_method(&options)?.check_device(ctx)?;
         let data = GpuSceneData::new(scene);
-        // What the frame allocates: the one plan the memory estimate counts too. Uploaded lists
-        // have the scene's face size.
-        let options = match lists {
-            Some(_) => RenderOptions {
-                list_size: ListSize::Cube,
-                ..options
-            },
-            None => options,
-        };
+        // What the frame allocates: the one plan the memory estimate counts too.
         let mut plan = FramePlan::new(scene, &data, camera, &options);
         if lists.is_some() {
             plan = plan.with_uploaded_lists();
