@@ -15,7 +15,7 @@
 # training row at 4 lanes). Its files were copied to benches/results/model-rows-4/<run>.json,
 # with the log.
 #
-# What runs (release binary, `bench --defaults-only`: each method's default setting, the rows
+# What runs (release binary, `bench --model-rows`: each method in the setting the model replays, the rows
 # --model reads; each process writes OUT_DIR/<run>/bench.json):
 #   subgroup 8  (LP_NATIVE_VECTOR_WIDTH=256): cube 128 and cube 512, every built-in still scene,
 #               methods compute, fragment, ssr, reflection-point, bvh (bvh once, at cube 128);
@@ -64,7 +64,7 @@ LOG="$OUT/measure.log"
     grep -m1 'model name' /proc/cpuinfo
     echo "cpu family $(grep -m1 'cpu family' /proc/cpuinfo | cut -d: -f2), model $(grep -m1 '^model\s' /proc/cpuinfo | cut -d: -f2)"
 } | tee "$LOG"
-COMMON=(--no-flip --no-heatmaps --no-floor --defaults-only --frames 3 --warmup 1 --width "$W" --height "$H")
+COMMON=(--no-flip --no-heatmaps --no-floor --model-rows --frames 3 --warmup 1 --width "$W" --height "$H")
 FILES=()
 start_all=$(date +%s)
 

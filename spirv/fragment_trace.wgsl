@@ -1,13 +1,13 @@
 // fragment_trace: thesis alg. 1 as a deferred full-screen fragment pass. Every mirror pixel of
 // the G-buffer traces its reflected ray through the CMOs (`trace_ray`: the criterion, sampling
 // and acceleration of `trace_config`, with the occlusion handoff between CMOs) and writes its
-// record. With the exact criterion every hit is verified against the captured triangle IDs
+// record. With the centre criterion every hit is verified against the captured triangle IDs
 // (shared/trace_verified.wgsl): the record's point is on the hit triangle, `triangle` names it and
 // the colour is shaded there (`hit_shade`, the reference's shading). With the thesis's
 // approximate criteria the colour of a hit is the captured colour of the deciding texel.
 //
 // Two entry points, the same code specialised: `fs_main` carries every criterion, sampling and
-// acceleration (chosen at run time by `trace_config`); `fs_exact_mip` only the exact criterion's
+// acceleration (chosen at run time by `trace_config`); `fs_exact_mip` only the centre criterion's
 // mip march, the default options' path (`vk::passes::cmo::exact_mip_only` picks it);
 // `fs_bounded` only the `bounded` criterion (shared/trace_bounded.wgsl: the pyramid march over
 // the candidate lists, the ray leaving the G-buffer's triangle), picked for `--criterion bounded`.
@@ -58,7 +58,7 @@ fn trace_pixel(position: vec4<f32>, variant: u32) {
     var colour = frame.background;
     var r: TraceOut;
     var triangle = VERIFY_NO_TRIANGLE;
-    if variant == TRACE_EXACT_MIP || trace_config.criterion == CRITERION_EXACT {
+    if variant == TRACE_EXACT_MIP || trace_config.criterion == CRITERION_CENTRE {
         let v = trace_ray_verified(ray.origin, ray.dir, 0.0, frame.t_hi, variant);
         r = v.out;
         if r.status == STATUS_HIT {

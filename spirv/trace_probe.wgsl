@@ -23,7 +23,7 @@ struct ProbeParams {
 @group(0) @binding(1) var<storage, read> probe_rays: array<ProbeRay>;
 @group(0) @binding(2) var<storage, read_write> probe_out: array<TraceOut>;
 
-// `main`: any options; `main_exact_mip`: the exact criterion's mip march only (as the
+// `main`: any options; `main_exact_mip`: the centre criterion's mip march only (as the
 // fragment pass's `fs_main` and `fs_exact_mip`); `main_faces` below: one step of them.
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {

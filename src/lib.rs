@@ -118,9 +118,9 @@
 //!   unresolved and wrong-surface shares and PSNR, plus hard cases (grazing rays, shared edges,
 //!   slabs thinner than a texel, scales 1e-3 to 1e5, cube sizes 1 to 2048) with zero wrong hits
 //!   allowed.
-//! - **Thin geometry** (`--criterion bounded`): a fence, a wire grid, chain link, foliage cards,
+//! - **Thin geometry** (the bounded criterion, the default): a fence, a wire grid, chain link, foliage cards,
 //!   a relief, edge-on fins and the Stanford bunny (`tests/scenes/PROVENANCE.md`) at cube sizes
-//!   16 to 256 with 1 to 3 CMOs: no hit behind the reference's first; the exact criterion must
+//!   16 to 256 with 1 to 3 CMOs: no hit behind the reference's first; the centre criterion must
 //!   fail there.
 //! - **Every comparison has a negative**: a moved CMO centre, a shifted triangle ID, a turned
 //!   normal must make it fail. The GPU tests run under the validation layer when installed.

@@ -44,7 +44,7 @@ mod ssr;
 #[serde(rename_all = "kebab-case")]
 pub enum Method {
     /// Cubemap tracing in a compute pass on the GPU over the 8x4/4x8 hierarchy with subgroup
-    /// ballots (thesis alg. 3; exact or bounded criterion). Glossy reflectors: cone traced on the
+    /// ballots (thesis alg. 3; bounded or centre criterion). Glossy reflectors: cone traced on the
     /// cube maps' pre-filtered colour.
     Compute,
     /// Cubemap tracing in a deferred fragment pass on the GPU (thesis alg. 1, 2, 4). Glossy
@@ -60,11 +60,11 @@ pub enum Method {
     /// vertex of the other objects, a local search over the reflector's position and normal
     /// textures; the virtual objects rasterised into the mirror; uncovered pixels get the fallback.
     ReflectionPoint,
-    /// Exact ray tracing of the reflected rays on the GPU: a compute pass over a compressed wide
+    /// Centre ray tracing of the reflected rays on the GPU: a compute pass over a compressed wide
     /// BVH (obvhs), the same triangles and shading as the reference. Glossy reflectors: one lobe
     /// sample per film sample (Monte Carlo, `--spp`).
     Bvh,
-    /// Exact CPU ray tracing against the scene's triangles: the ground truth.
+    /// Centre CPU ray tracing against the scene's triangles: the ground truth.
     Reference,
 }
 
@@ -101,7 +101,7 @@ pub struct MethodInfo {
     /// that `render -v` summarises.
     pub outcomes_in_records: bool,
     /// The method-specific flags it reads, each under the condition on the tracer options
-    /// that [`METHOD_OPTIONS`] states (`--strict`: with the exact criterion).
+    /// that [`METHOD_OPTIONS`] states (`--strict`: with the centre criterion).
     pub options: &'static [&'static str],
     /// Whether it searches a reflection point per vertex of the other objects: its quality
     /// depends on their tessellation (the bench adds a row with them subdivided), its search
@@ -115,9 +115,9 @@ pub struct MethodInfo {
 pub enum NamesHits {
     /// Every hit is verified against its triangle.
     Always,
-    /// With the exact or bounded criterion; not with the approximate ones (N = 0 bounces, the
+    /// With the bounded or centre criterion; not with the approximate ones (N = 0 bounces, the
     /// mirrors' own material, is open whatever the criterion).
-    ExactOrBounded,
+    CentreOrBounded,
     /// No record names its triangle: one reflection only.
     Never,
 }
@@ -251,13 +251,13 @@ impl Method {
 
     /// Whether the method's records name the triangle they hit (verified hits), so that further
     /// reflections can be traced from them: compute, bvh, the reference, and fragment with the
-    /// exact or bounded criterion.
+    /// bounded or centre criterion.
     pub fn names_hits(self, criterion: TraceCriterion) -> bool {
         match self.info().names_hits {
             NamesHits::Always => true,
             NamesHits::Never => false,
-            NamesHits::ExactOrBounded => {
-                matches!(criterion, TraceCriterion::Exact | TraceCriterion::Bounded)
+            NamesHits::CentreOrBounded => {
+                matches!(criterion, TraceCriterion::Centre | TraceCriterion::Bounded)
             }
         }
     }
@@ -285,7 +285,7 @@ impl Method {
         if bounces > max {
             return Err(format!("--bounces {bounces}: at most {max}"));
         }
-        let by_criterion = self.info().names_hits == NamesHits::ExactOrBounded;
+        let by_criterion = self.info().names_hits == NamesHits::CentreOrBounded;
         let named = self.names_hits(trace.criterion) || (by_criterion && bounces == 0);
         if bounces != 1 && !named {
             let with = if by_criterion {
@@ -296,7 +296,7 @@ impl Method {
             return Err(format!(
                 "--bounces {bounces}: --method {}{with} does not name the triangle it hits, so it \
                  traces one reflection only (use compute, bvh, reference or fragment with the \
-                 exact or bounded criterion)",
+                 bounded or centre criterion)",
                 self.name()
             ));
         }
@@ -324,12 +324,12 @@ impl Method {
     }
 
     /// Refuses tracer options the method does not implement (a cubemap tracer without
-    /// [`MethodInfo::approximate_criteria`]: the exact and bounded criteria only).
+    /// [`MethodInfo::approximate_criteria`]: the bounded and centre criteria only).
     pub fn check_trace(self, trace: &TraceOptions) -> Result<(), Refusal> {
         let info = self.info();
         if info.traces_cubemaps && !info.approximate_criteria && trace.approx().is_some() {
             return Err(format!(
-                "--criterion {}: --method {self} implements the exact and bounded criteria only \
+                "--criterion {}: --method {self} implements the bounded and centre criteria only \
                  (use --method fragment for the approximate criteria)",
                 criterion_name(trace.criterion)
             ));
@@ -362,7 +362,7 @@ pub struct MethodOption {
 fn every_trace_setting() -> impl Iterator<Item = TraceOptions> {
     use crate::cpu::options::TraceSampling;
     [
-        TraceCriterion::Exact,
+        TraceCriterion::Centre,
         TraceCriterion::Threshold,
         TraceCriterion::SignChange,
         TraceCriterion::Bounded,
@@ -463,8 +463,8 @@ pub const METHOD_OPTIONS: &[MethodOption] = &[
     },
     MethodOption {
         flag: "--no-accel",
-        applies: |m, t| reads(m, "--no-accel") && t.criterion == TraceCriterion::Exact,
-        condition: " with the exact criterion (the default)",
+        applies: |m, t| reads(m, "--no-accel") && t.criterion == TraceCriterion::Centre,
+        condition: " with --criterion centre",
         methods_text: "",
         why: "",
     },
@@ -485,14 +485,14 @@ pub const METHOD_OPTIONS: &[MethodOption] = &[
     MethodOption {
         flag: "--list-size",
         applies: |m, t| m.traces_cubemaps() && t.criterion == TraceCriterion::Bounded,
-        condition: " with the bounded criterion",
+        condition: " with the bounded criterion (the default)",
         methods_text: "",
         why: "",
     },
     MethodOption {
         flag: "--strict",
-        applies: |m, t| reads(m, "--strict") && t.criterion == TraceCriterion::Exact,
-        condition: " with the exact criterion (the default)",
+        applies: |m, t| reads(m, "--strict") && t.criterion == TraceCriterion::Centre,
+        condition: " with --criterion centre",
         methods_text: "",
         why: "",
     },
@@ -617,7 +617,7 @@ impl std::fmt::Display for Method {
 /// The CLI's name of a criterion.
 pub fn criterion_name(c: TraceCriterion) -> &'static str {
     match c {
-        TraceCriterion::Exact => "exact",
+        TraceCriterion::Centre => "centre",
         TraceCriterion::Threshold => "threshold",
         TraceCriterion::SignChange => "sign-change",
         TraceCriterion::Bounded => "bounded",
@@ -658,23 +658,26 @@ mod tests {
     /// setting: refused exactly where its rule says the method ignores it.
     #[test]
     fn method_options_are_refused_where_ignored() {
-        let exact = TraceOptions::default();
+        let centre = TraceOptions {
+            criterion: TraceCriterion::Centre,
+            ..TraceOptions::default()
+        };
         let e = Method::Compute
-            .check_options(&["--ssr-iterations"], &exact)
+            .check_options(&["--ssr-iterations"], &centre)
             .unwrap_err();
         assert!(
             e.starts_with("--ssr-iterations applies only to --method ssr, not to --method compute"),
             "{e}"
         );
         for flag in ["--strict", "--no-accel", "--steps"] {
-            let e = Method::Bvh.check_options(&[flag], &exact).unwrap_err();
+            let e = Method::Bvh.check_options(&[flag], &centre).unwrap_err();
             assert!(
                 e.starts_with(flag) && e.contains("not to --method bvh"),
                 "{e}"
             );
         }
         let e = Method::Reference
-            .check_options(&["--compare"], &exact)
+            .check_options(&["--compare"], &centre)
             .unwrap_err();
         assert!(e.contains("compare the reference with itself"), "{e}");
         for o in METHOD_OPTIONS {
@@ -716,17 +719,17 @@ mod tests {
         // Negative: each method keeps the options it reads, and flags outside the table pass.
         assert!(
             Method::Ssr
-                .check_options(&["--ssr-iterations"], &exact)
+                .check_options(&["--ssr-iterations"], &centre)
                 .is_ok()
         );
         assert!(
             Method::Fragment
-                .check_options(&["--strict", "--no-accel"], &exact)
+                .check_options(&["--strict", "--no-accel"], &centre)
                 .is_ok()
         );
         let threshold = TraceOptions {
             criterion: TraceCriterion::Threshold,
-            ..exact
+            ..centre
         };
         assert!(
             Method::Fragment
@@ -735,22 +738,25 @@ mod tests {
         );
         assert!(
             Method::Bvh
-                .check_options(&["--width", "--bounces"], &exact)
+                .check_options(&["--width", "--bounces"], &centre)
                 .is_ok()
         );
         // With the method right but the tracer setting wrong, the message says which setting.
         let e = Method::Fragment
-            .check_options(&["--eps"], &exact)
+            .check_options(&["--eps"], &centre)
             .unwrap_err();
         assert!(e.contains("only with --criterion threshold"), "{e}");
     }
 
     #[test]
     fn bounce_rule() {
-        let exact = TraceOptions::default();
+        let centre = TraceOptions {
+            criterion: TraceCriterion::Centre,
+            ..TraceOptions::default()
+        };
         let threshold = TraceOptions {
             criterion: TraceCriterion::Threshold,
-            ..exact
+            ..centre
         };
         for m in [
             Method::Compute,
@@ -758,16 +764,16 @@ mod tests {
             Method::Reference,
             Method::Fragment,
         ] {
-            assert!(m.check_bounces(3, 16, &exact).is_ok(), "{m}");
+            assert!(m.check_bounces(3, 16, &centre).is_ok(), "{m}");
         }
         for m in [Method::Envmap, Method::Ssr, Method::ReflectionPoint] {
-            assert!(m.check_bounces(1, 16, &exact).is_ok(), "{m}");
-            let e = m.check_bounces(2, 16, &exact).unwrap_err();
+            assert!(m.check_bounces(1, 16, &centre).is_ok(), "{m}");
+            let e = m.check_bounces(2, 16, &centre).unwrap_err();
             assert!(e.contains(m.name()), "{e}");
         }
         assert!(Method::Fragment.check_bounces(2, 16, &threshold).is_err());
         assert!(Method::Fragment.check_bounces(0, 16, &threshold).is_ok());
-        assert!(Method::Compute.check_bounces(17, 16, &exact).is_err());
+        assert!(Method::Compute.check_bounces(17, 16, &centre).is_err());
     }
 
     #[test]
@@ -782,7 +788,13 @@ mod tests {
             assert!(m.check_bounces(3, 16, &bounded).is_ok(), "{m}");
         }
         assert_eq!(criterion_name(TraceCriterion::Bounded), "bounded");
-        // The exact criterion's and the approximate criteria's options do not apply to it.
+        // It is the default, so a bare `--strict` is refused (it asks for the centre criterion).
+        assert_eq!(TraceOptions::default().criterion, TraceCriterion::Bounded);
+        let e = Method::Fragment
+            .check_options(&["--strict"], &TraceOptions::default())
+            .unwrap_err();
+        assert!(e.contains("--criterion centre"), "{e}");
+        // The centre criterion's and the approximate criteria's options do not apply to it.
         for flag in ["--strict", "--no-accel", "--sampling", "--steps", "--eps"] {
             let e = Method::Fragment
                 .check_options(&[flag], &bounded)
@@ -795,6 +807,6 @@ mod tests {
             ..bounded
         };
         let e = Method::Compute.check_trace(&threshold).unwrap_err();
-        assert!(e.contains("exact and bounded"), "{e}");
+        assert!(e.contains("bounded and centre"), "{e}");
     }
 }

@@ -17,7 +17,7 @@
 //!   index within that object's triangle list as loaded; 4294967295 where there is no hit. GPU
 //!   records name a global triangle (an index into the scene's whole triangle list, the GPU
 //!   scene data's order); the writer maps it to these IDs. GPU methods that do not name the
-//!   triangle they hit (no exact criterion) write neither channel.
+//!   triangle they hit (no centre criterion) write neither channel.
 //! - `bounces` (u32): the reflections the pixel's path took.
 //! - GPU frames only: `unresolved` (f32, 1 on mirror pixels no CMO could decide) and, with the
 //!   BVH tracer (`bvh`, `--fallback trace`), `fallback` (f32, 1 where the BVH finished the ray

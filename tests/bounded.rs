@@ -8,7 +8,7 @@
 //!   bit;
 //! - `bounded_frame`: the criterion end to end on stress scenes against the reference;
 //! - `list_size`: the lists' face size changes the frame's cost, not its image;
-//! - `stress_capture`: the stress scenes themselves, and the exact criterion missing their thin
+//! - `stress_capture`: the stress scenes themselves, and the centre criterion missing their thin
 //!   parts.
 
 mod common;

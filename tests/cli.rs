@@ -692,10 +692,13 @@ fn a_render_too_large_for_memory_is_refused_before_it_starts() {
         );
         assert!(!o.stderr.contains(started), "{method}: {}", o.stderr);
     }
-    // The GPU's CMO data counts too: a tiny frame with huge cube maps.
+    // The GPU's CMO data counts too: a tiny frame with huge cube maps (the centre criterion's;
+    // the bounded default's lists take their own, smaller size).
     let o = run_env(
         &[
             "render",
+            "--criterion",
+            "centre",
             "--cube-size",
             "4096",
             "--cmos",
@@ -773,8 +776,10 @@ fn gpu_estimate_covers_the_cmo_allocation() {
         Method::Ssr,
         Method::ReflectionPoint,
     ] {
+        // The centre criterion: the scene-less estimate cannot know the bounded lists' size.
         let options = RenderOptions {
             method,
+            trace: common::render::centre(),
             fallback: Fallback::Envmap,
             ..RenderOptions::default()
         };
@@ -879,10 +884,12 @@ fn the_summary_shows_the_fallback_share_and_warns_above_the_threshold() {
         assert_eq!(o.code, Some(0), "{}", o.stderr);
         o
     };
-    let traced = render("teapot", &[]);
+    // The centre criterion: the bounded default leaves none of the teapot's pixels.
+    let centre = ["--criterion", "centre"];
+    let traced = render("teapot", &centre);
     let (fallback, unresolved) = summary_counts(&traced.stdout);
     assert_eq!(unresolved, 0, "{}", traced.stdout);
-    let flagged = render("teapot", &["--fallback", "flag"]);
+    let flagged = render("teapot", &["--criterion", "centre", "--fallback", "flag"]);
     let (none, left) = summary_counts(&flagged.stdout);
     assert_eq!((none, left), (0, fallback), "{}", flagged.stdout);
     // The teapot's compute frame leaves about 30 % to the fallback: above the threshold.
@@ -978,7 +985,15 @@ fn options_the_method_ignores_are_refused() {
     // Negative: with a method that reads them, the same options run.
     for extra in [
         &["--method", "ssr", "--ssr-iterations", "5"][..],
-        &["--method", "fragment", "--strict", "--cube-size", "16"],
+        &[
+            "--method",
+            "fragment",
+            "--criterion",
+            "centre",
+            "--strict",
+            "--cube-size",
+            "16",
+        ],
     ] {
         let mut args = vec![
             "render", "bowl", "-o", "x.png", "--width", "4", "--height", "3",

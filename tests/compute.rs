@@ -82,7 +82,7 @@ fn compute_render(
 ) -> (GpuFrame, Vec<CubeMap>) {
     let options = RenderOptions {
         method,
-        trace: TraceOptions::default(),
+        trace: common::render::centre(),
         fallback: Fallback::Flag,
         // The twins model the tracing pass alone; the reflector check, which runs after it, is
         // judged in tests/frame/reflector_check.rs.
@@ -645,7 +645,7 @@ fn fragment_comparison_detects_other_cmo_data() {
     finish_gpu(ctx);
 }
 
-/// The compute method refuses the approximate criteria (it implements the exact and bounded
+/// The compute method refuses the approximate criteria (it implements the bounded and centre
 /// ones only).
 #[test]
 fn compute_refuses_approximate_criteria() {
@@ -659,7 +659,7 @@ fn compute_refuses_approximate_criteria() {
     options.trace.criterion = cubetrace::cpu::options::TraceCriterion::Threshold;
     let err = GpuRenderer::new(&ctx, &scene, &camera, options).err();
     assert!(
-        err.is_some_and(|e| e.to_string().contains("exact and bounded criteria")),
+        err.is_some_and(|e| e.to_string().contains("bounded and centre criteria")),
         "the threshold criterion was accepted"
     );
     finish_gpu(ctx);
@@ -678,7 +678,14 @@ struct ChildRun {
     exr: Vec<u8>,
 }
 
-fn run_child(width_bits: u32, lanes: &str, cube_size: u32, out: &Path, validate: bool) -> ChildRun {
+fn run_child(
+    width_bits: u32,
+    lanes: &str,
+    cube_size: u32,
+    criterion: &str,
+    out: &Path,
+    validate: bool,
+) -> ChildRun {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_cubetrace"));
     cmd.env("LP_NATIVE_VECTOR_WIDTH", width_bits.to_string())
         .env("GALLIUM_OVERRIDE_CPU_CAPS", "sse4.1")
@@ -699,6 +706,8 @@ fn run_child(width_bits: u32, lanes: &str, cube_size: u32, out: &Path, validate:
             &cube_size.to_string(),
             "--fallback",
             "flag",
+            "--criterion",
+            criterion,
             "-o",
         ])
         .arg(out);
@@ -754,35 +763,36 @@ fn subgroup_sizes_4_8_16_give_identical_output() {
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("gpu_compute");
     std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{e}"));
     // The three entry points (thesis layout, lane cap 32; lane cap 1; the wave layout) at every
-    // size.
-    let mut runs = Vec::new();
-    for lanes in ["32", "1", "wave"] {
-        for (bits, size) in [(128u32, 4u32), (256, 8), (512, 16)] {
-            let r = run_child(
-                bits,
-                lanes,
-                48,
-                &dir.join(format!("sg{size}-lanes{lanes}.exr")),
-                validate,
+    // size, with both criteria that compute implements.
+    for criterion in ["bounded", "centre"] {
+        let mut runs = Vec::new();
+        for lanes in ["32", "1", "wave"] {
+            for (bits, size) in [(128u32, 4u32), (256, 8), (512, 16)] {
+                let file = format!("sg{size}-lanes{lanes}-{criterion}.exr");
+                let r = run_child(bits, lanes, 48, criterion, &dir.join(file), validate);
+                assert_eq!(
+                    r.subgroup,
+                    (size, size),
+                    "LP_NATIVE_VECTOR_WIDTH={bits}: the kernel ran with subgroup sizes {:?}",
+                    r.subgroup
+                );
+                runs.push((size, lanes, r));
+            }
+        }
+        for (size, lanes, r) in &runs[1..] {
+            assert!(
+                r.exr == runs[0].2.exr,
+                "{criterion}: subgroup {size} with lane cap {lanes} differs from subgroup 4 \
+                 with lane cap 32"
             );
-            assert_eq!(
-                r.subgroup,
-                (size, size),
-                "LP_NATIVE_VECTOR_WIDTH={bits}: the kernel ran with subgroup sizes {:?}",
-                r.subgroup
-            );
-            runs.push((size, lanes, r));
+        }
+        // Negative: other CMO data gives another file (the centre criterion's: the bounded
+        // image does not depend on the cube size, its lists taking 32 texels at both).
+        if criterion == "centre" {
+            let other = run_child(256, "32", 40, criterion, &dir.join("sg8-n40.exr"), validate);
+            assert!(other.exr != runs[1].2.exr, "the EXR comparison is blind");
         }
     }
-    for (size, lanes, r) in &runs[1..] {
-        assert!(
-            r.exr == runs[0].2.exr,
-            "subgroup {size} with lane cap {lanes} differs from subgroup 4 with lane cap 32"
-        );
-    }
-    // Negative: other CMO data gives another file.
-    let other = run_child(256, "32", 40, &dir.join("sg8-n40.exr"), validate);
-    assert!(other.exr != runs[1].2.exr, "the EXR comparison is blind");
 }
 
 /// `cubetrace render SCENE --method compute --fallback flag ARGS` with
@@ -824,9 +834,10 @@ fn render_with_lanes(
 
 /// The wave layout (`main_wave`: one ray per lane, the subgroup's crossed children spread over
 /// its lanes, the keys from `children_crossed`) writes the same EXR as `main_lanes1` on every
-/// built-in scene and two corpus scenes, and with the `bounded` criterion on two of them (the
-/// pick, every candidate bit and the counters are in the records). Negative: the same scene at
-/// another cube size differs.
+/// built-in scene and two corpus scenes with the default (`bounded`: the pick, every candidate
+/// bit and the counters are in the records), and with the `centre` criterion on two of them.
+/// Negative: the same scene at another cube size differs (the centre criterion's frame: the
+/// bounded one does not depend on it).
 #[test]
 fn wave_layout_renders_what_the_one_lane_layout_renders() {
     let ctx = GpuContext::new(ContextOptions::for_tests()).unwrap_or_else(|e| panic!("{e}"));
@@ -848,7 +859,7 @@ fn wave_layout_renders_what_the_one_lane_layout_renders() {
     for name in ["default", "teapot"] {
         runs.push((
             name.to_owned(),
-            vec!["--cube-size", "64", "--criterion", "bounded"],
+            vec!["--cube-size", "64", "--criterion", "centre"],
         ));
     }
     let mut teapot = Vec::new();
@@ -871,13 +882,13 @@ fn wave_layout_renders_what_the_one_lane_layout_renders() {
             one == wave,
             "{scene} {args:?}: main_wave's EXR differs from main_lanes1's"
         );
-        if scene == "teapot" && args.len() == 2 {
+        if scene == "teapot" && args.len() == 4 {
             teapot = wave;
         }
     }
     // With `--fallback flag` the unresolved channel is the cube maps' own: a coarser capture
     // leaves other pixels unresolved.
-    let other = ["--cube-size", "48"];
+    let other = ["--cube-size", "48", "--criterion", "centre"];
     let moved = render_with_lanes("teapot", "wave", &other, &dir.join("moved.exr"), validate);
     assert!(
         !teapot.is_empty() && moved != teapot,
@@ -886,8 +897,8 @@ fn wave_layout_renders_what_the_one_lane_layout_renders() {
 }
 
 /// `render --compute-layout` picks the entry point (stated under `-v`), over
-/// `CUBETRACE_RAY_LANES`; without either, lavapipe runs `main_lanes1`. A method that has no
-/// layouts refuses the flag, naming it.
+/// `CUBETRACE_RAY_LANES`; without either, lavapipe runs `main_lanes1` (`main_lanes1_bounded`
+/// with the default criterion). A method that has no layouts refuses the flag, naming it.
 #[test]
 fn compute_layout_flag_picks_the_entry_point() {
     let run = |args: &[&str], env: Option<&str>| {
@@ -924,7 +935,7 @@ fn compute_layout_flag_picks_the_entry_point() {
         (vec![], None, "main_lanes1"),
         (vec![], Some("wave"), "main_wave"),
     ] {
-        let mut a = vec!["--method", "compute", "-o", out];
+        let mut a = vec!["--method", "compute", "--criterion", "centre", "-o", out];
         a.extend(args.iter().copied());
         let (ok, text) = run(&a, env);
         assert!(ok, "{args:?} {env:?}:\n{text}");
@@ -933,6 +944,12 @@ fn compute_layout_flag_picks_the_entry_point() {
             "{args:?} {env:?}: not {entry}:\n{text}"
         );
     }
+    // The default criterion's entries carry its name.
+    let (ok, text) = run(&["--method", "compute", "-o", out], None);
+    assert!(
+        ok && text.contains("pipeline main_lanes1_bounded created"),
+        "{text}"
+    );
     let (ok, text) = run(
         &[
             "--method",

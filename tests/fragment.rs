@@ -148,7 +148,7 @@ fn twins(ctx: &GpuContext, r: &GpuRenderer, opts: &TraceOptions) -> Vec<CmoTrace
         .collect()
 }
 
-/// The exact criterion on the GPU and on the CPU twin, over the same captured cube maps and
+/// The centre criterion on the GPU and on the CPU twin, over the same captured cube maps and
 /// the same rays, agree on every mirror pixel of every built-in scene: status, deciding CMO,
 /// texel and riser flag. (tests/tracer/gpu_twin.rs shows the tracers bit-identical on synthetic
 /// data; this checks the frame around them: the captured data, the pyramid the GPU built, the ray
@@ -174,7 +174,7 @@ fn fragment_matches_cpu_twin_on_every_scene() {
             let opts = TraceOptions {
                 accel,
                 strict,
-                ..TraceOptions::default()
+                ..common::render::centre()
             };
             let (frame, r) = render(&ctx, &scene, options(Method::Fragment, opts));
             let cmos = twins(&ctx, &r, &opts);
@@ -214,7 +214,7 @@ fn envmap_matches_cpu_twin() {
     let ctx = gpu_context();
     for name in ["default", "bowl"] {
         let scene = builtin::by_name(name).unwrap();
-        let opts = TraceOptions::default();
+        let opts = common::render::centre();
         let (frame, r) = render(&ctx, &scene, options(Method::Envmap, opts));
         let cmos = twins(&ctx, &r, &opts);
         let bg = scene.background;
@@ -239,7 +239,7 @@ fn twin_comparison_detects_perturbed_data() {
     let ctx = gpu_context();
     let scene = builtin::sphere_room();
     let (_, _, t_hi) = scene_ranges(&scene, &camera(&scene));
-    let opts = TraceOptions::default();
+    let opts = common::render::centre();
     let (frame, r) = render(&ctx, &scene, options(Method::Fragment, opts));
     let bg = scene.background;
     let tracer = Tracer::new(&scene);
@@ -292,7 +292,7 @@ fn twin_comparison_detects_perturbed_data() {
     finish_gpu(ctx);
 }
 
-/// Accuracy bounds per scene for the fragment tracer (exact criterion, acceleration on) at
+/// Accuracy bounds per scene for the fragment tracer (centre criterion, acceleration on) at
 /// 96x72 with the scene's own CMOs and cube size: `(max unresolved, max wrong surface, min PSNR
 /// dB)`. Measured on lavapipe (Mesa 22.3.6):
 ///
@@ -368,12 +368,12 @@ fn fragment_accuracy_against_reference_with_envmap_for_contrast() {
         let (frag, _) = render(
             &ctx,
             &scene,
-            options(Method::Fragment, TraceOptions::default()),
+            options(Method::Fragment, common::render::centre()),
         );
         let (env, _) = render(
             &ctx,
             &scene,
-            options(Method::Envmap, TraceOptions::default()),
+            options(Method::Envmap, common::render::centre()),
         );
         let f = error_report(&scene, &frag, &reference);
         let e = error_report(&scene, &env, &reference);
@@ -433,7 +433,7 @@ fn fragment_accuracy_against_reference_with_envmap_for_contrast() {
         if dim.psnr_db >= least.1 || (least.0 > 0.0 && common::quality(&moved).0 >= least.0) {
             failures.push(format!("{name}: envmap negatives pass: {dim:?} {moved:?}"));
         }
-        // Contrast: parallax is what the exact criterion adds; without it the environment map
+        // Contrast: parallax is what the centre criterion adds; without it the environment map
         // hits the wrong surface on more pixels.
         assert!(e.wrong_surface > f.wrong_surface, "{name}: envmap {e:?}");
     }
@@ -453,7 +453,7 @@ fn accuracy_bounds_reject_perturbed_frames() {
     let (mut frame, _) = render(
         &ctx,
         &scene,
-        options(Method::Fragment, TraceOptions::default()),
+        options(Method::Fragment, common::render::centre()),
     );
     assert!(within(&error_report(&scene, &frame, &reference), bounds));
     let centre = scene.cmo_centres()[0];
@@ -474,7 +474,7 @@ fn accuracy_bounds_reject_perturbed_frames() {
     let (coarse, _) = render(
         &ctx,
         &coarse_scene,
-        options(Method::Fragment, TraceOptions::default()),
+        options(Method::Fragment, common::render::centre()),
     );
     // Measured against the fine footprint, as the bounds are.
     let coarse = error_report(&scene, &coarse, &reference);
@@ -595,7 +595,7 @@ fn gpu_reflected_rays_match_the_cpus_own() {
     for name in ["default", "sphere-room", "bowl", "teapot", "torus"] {
         let scene = builtin::by_name(name).unwrap();
         for method in [Method::Fragment, Method::Compute] {
-            let (frame, _) = render(&ctx, &scene, options(method, TraceOptions::default()));
+            let (frame, _) = render(&ctx, &scene, options(method, common::render::centre()));
             let r = gpu_rays_against_cpu(&scene, &frame, &camera(&scene), (0, 0), false);
             eprintln!("{name} {method:?}: {r:?}");
             let mirror = frame.mask.iter().filter(|&&m| m != 0).count();
@@ -621,7 +621,7 @@ fn gpu_ray_comparison_rejects_a_shifted_pixel_and_face_normals() {
         let (frame, _) = render(
             &ctx,
             &scene,
-            options(Method::Fragment, TraceOptions::default()),
+            options(Method::Fragment, common::render::centre()),
         );
         for (offset, flat) in [((1, 0), false), ((0, 0), true)] {
             let r = gpu_rays_against_cpu(&scene, &frame, &camera(&scene), offset, flat);
@@ -637,7 +637,7 @@ fn gpu_ray_comparison_rejects_a_shifted_pixel_and_face_normals() {
 /// Composite's environment-map fallback shades from the capture's triangle IDs
 /// (`envmap_fallback` in `spirv/composite.wgsl`) as its CPU twin does
 /// (`cpu::fragment::envmap_fallback`), on every unresolved mirror pixel of frames whose
-/// capture holds no colour: the compute and fragment paths (exact criterion) and screen-space
+/// capture holds no colour: the compute and fragment paths (centre criterion) and screen-space
 /// reflections, whose unresolved pixels are many. Colours within 1e-5 per channel (the shading
 /// of a hit agrees to 2.4e-7: tests/tracer/gpu_verify.rs). Negative: a twin reading IDs shifted
 /// by one triangle disagrees.
@@ -652,7 +652,7 @@ fn envmap_fallback_shades_from_triangle_ids_as_its_cpu_twin() {
         let scene = builtin::by_name(name).unwrap();
         let opts = RenderOptions {
             fallback: Fallback::Envmap,
-            ..options(method, TraceOptions::default())
+            ..options(method, common::render::centre())
         };
         let (frame, r) = render(&ctx, &scene, opts);
         assert!(
@@ -721,7 +721,7 @@ fn exact_frames_take_no_more_cmo_memory_than_colour_and_distance() {
     for method in [Method::Compute, Method::Fragment] {
         let opts = RenderOptions {
             fallback: Fallback::Envmap,
-            ..options(method, TraceOptions::default())
+            ..options(method, common::render::centre())
         };
         let (_, r) = render(&ctx, &scene, opts);
         let pyramid = method == Method::Fragment;
@@ -745,7 +745,7 @@ fn exact_frames_take_no_more_cmo_memory_than_colour_and_distance() {
         assert!(
             budget::cmo_bytes_per_texel_with(
                 s,
-                capture_contents(Method::Compute, &TraceOptions::default())
+                capture_contents(Method::Compute, &common::render::centre())
             ) < budget::cmo_bytes_per_texel(s)
         );
     }
@@ -775,7 +775,7 @@ fn envmap_fallback_shades_what_the_colour_capture_stored() {
         let cube = cubetrace::cpu::capture::capture(&scene, &tracer, centre, size);
         let cmos = [CmoTracer::new(
             cube.clone(),
-            TraceOptions::default().params(),
+            common::render::centre().params(),
         )];
         let bg = scene.background;
         let differ = |shift: u32| {

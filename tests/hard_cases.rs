@@ -25,7 +25,7 @@
 //! triangle ([`meets`], f64) or meets it but the reference's triangle is another, met earlier
 //! (not a tie on a shared edge or vertex).
 //!
-//! Every case runs on both tracers of the exact criterion (the fragment pass and the compute
+//! Every case runs on both tracers of the centre criterion (the fragment pass and the compute
 //! kernel) and on each one's CPU twin over the captures read back from the GPU
 //! ([`judge_paths`]) in the default mode, and on the fragment pass in strict mode
 //! (`TraceOptions::strict`, `--strict`), and asserts zero wrong hits and a minimum share of
@@ -219,7 +219,7 @@ fn judge(scene: &Scene, frame: &GpuFrame, shift: Vec3) -> Verdicts {
     v
 }
 
-/// The two tracers of the exact criterion whose hard cases this file runs.
+/// The two tracers of the centre criterion whose hard cases this file runs.
 const PATHS: [Method; 2] = [Method::Fragment, Method::Compute];
 
 /// The CPU twin of `frame` (rendered by `r` with `method`): the same rays traced by
@@ -479,17 +479,17 @@ fn explain(
     }
 }
 
-/// The exact criterion as `cubetrace render` runs it by default (verified hits).
+/// The centre criterion as `cubetrace render --criterion centre` runs it (verified hits).
 fn exact() -> TraceOptions {
-    TraceOptions::default()
+    common::render::centre()
 }
 
-/// The exact criterion in strict mode (`TraceOptions::strict`, `--strict`): a patch hit counts
+/// The centre criterion in strict mode (`TraceOptions::strict`, `--strict`): a patch hit counts
 /// only where the texel and its neighbours decide it.
 fn strict() -> TraceOptions {
     TraceOptions {
         strict: true,
-        ..TraceOptions::default()
+        ..common::render::centre()
     }
 }
 

@@ -218,16 +218,17 @@ const VARIANTS: &[Variant] = &[
     ),
     v("bvh", &["--method", "bvh"], Scenes::All),
     v("reference", &["--method", "reference"], Scenes::All),
-    // The criteria: bounded where the method takes it (the glossy scene too: cone traced from a
-    // rasterised colour capture beside the lists), the approximate ones (fragment only).
+    // The criteria: the default is bounded (the glossy scene's cone traced from a rasterised
+    // colour capture beside the lists); the centre-sampled one where the method takes it, the
+    // approximate ones (fragment only).
     v(
-        "compute-bounded",
-        &["--method", "compute", "--criterion", "bounded"],
+        "compute-centre",
+        &["--method", "compute", "--criterion", "centre"],
         only(&["default", "teapot", "sphere-room-glossy"]),
     ),
     v(
-        "fragment-bounded",
-        &["--method", "fragment", "--criterion", "bounded"],
+        "fragment-centre",
+        &["--method", "fragment", "--criterion", "centre"],
         only(&["bowl"]),
     ),
     v(

@@ -4,7 +4,7 @@
 // `src/cpu/options.rs` (`TraceOptions`), whose GPU form is `TraceConfig` below.
 //
 // Entry: `trace_ray(origin, dir, t_lo, t_hi)` on a world-space ray, over the `cmo_count` CMOs,
-// with any options; `trace_ray_variant(.., TRACE_EXACT_MIP)` carries only the exact criterion's
+// with any options; `trace_ray_variant(.., TRACE_EXACT_MIP)` carries only the centre criterion's
 // mip march (the production path), for options with `criterion` exact and `accel` set.
 //
 // Data (all passes that import this file bind the same @group(1)):
@@ -40,7 +40,7 @@ const MAX_FACE_STEPS: u32 = 65536u;
 // Cap on `steps` of constant-step/constant-angle sampling (`TraceConfig::new` refuses more).
 const MAX_SAMPLE_STEPS: u32 = 65536u;
 
-const CRITERION_EXACT: u32 = 0u;
+const CRITERION_CENTRE: u32 = 0u;
 const CRITERION_THRESHOLD: u32 = 1u;
 const CRITERION_SIGN_CHANGE: u32 = 2u;
 // Sound per-texel bounds and candidate lists (shared/trace_bounded.wgsl; `trace_one` never
@@ -54,7 +54,7 @@ const SAMPLING_PER_TEXEL: u32 = 2u;
 // folds the constant and drops the code of the other methods (specialisation by entry point).
 // TRACE_ANY: every criterion, sampling and acceleration, chosen at run time by `trace_config`.
 const TRACE_ANY: u32 = 0u;
-// TRACE_EXACT_MIP: the exact criterion with the mip march only (`criterion` exact, `accel` 1,
+// TRACE_EXACT_MIP: the centre criterion with the mip march only (`criterion` exact, `accel` 1,
 // `strict` 0; the Rust side picks it only then: `vk::passes::cmo::exact_mip_only`).
 const TRACE_EXACT_MIP: u32 = 1u;
 
@@ -76,7 +76,7 @@ struct TraceConfig {
     criterion: u32,
     // Approximate criteria only: 0 constant step, 1 constant angle, 2 per texel.
     sampling: u32,
-    // Exact criterion only: 0 per-texel walk, 1 2x2 mip march.
+    // Centre criterion only: 0 per-texel walk, 1 2x2 mip march.
     accel: u32,
     // Sample intervals of constant-step/constant-angle sampling (steps + 1 samples).
     steps: u32,
@@ -1158,7 +1158,7 @@ fn trace_one(k: u32, seg: Segment, variant: u32) -> TraceResult {
     if variant == TRACE_EXACT_MIP {
         return trace_mip(k, seg, cut, TRACE_EXACT_MIP);
     }
-    if trace_config.criterion != CRITERION_EXACT {
+    if trace_config.criterion != CRITERION_CENTRE {
         return trace_sampled(k, seg, cut);
     } else if trace_config.accel != 0u {
         return trace_mip(k, seg, cut, TRACE_ANY);

@@ -7,7 +7,7 @@
 //
 // Data (@group(1), besides shared/trace.wgsl's; Rust `cubetrace::vk::passes::lists`):
 // - binding 2 `cmo_distance`: the texel's `lo` (so the pyramids, cut radius and skip tests of
-//   the exact criterion work unchanged);
+//   the centre criterion work unchanged);
 // - bindings 6 to 9 `cmo_list_head`, `cmo_list_complete`, `cmo_list_hi`, `cmo_list_count`: per
 //   texel of CMO k at `k * 6 N N + texel_index`, a u32 each: `head`, `bits(complete_to)`,
 //   `bits(hi)`, `count_kept`;
@@ -32,7 +32,7 @@
 // A list whose chain ends before `count_kept` nodes (a capture defect) is behind at t0: nothing
 // is claimed from it.
 //
-// Traversal: the exact criterion's 2x2 pyramid march (shared/trace.wgsl's stepper `mip_turn`,
+// Traversal: the centre criterion's 2x2 pyramid march (shared/trace.wgsl's stepper `mip_turn`,
 // CPU twin `cpu::mip`; the pyramid's min is the texels' `lo`) with the gaps' pyramid (`gaps`
 // true: a cell is skipped, too, where the ray lies inside its gap), classifying with
 // `classify_bounded_pick`.

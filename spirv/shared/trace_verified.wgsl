@@ -1,6 +1,6 @@
 // Verified hits in the trace passes: the WGSL twin of
 // `cpu::multi::trace_cmos_verified_by`, whose module docs give the rule for a failed
-// verification and why it is safe. A hit the exact criterion decides at texel T of CMO k is
+// verification and why it is safe. A hit the centre criterion decides at texel T of CMO k is
 // verified (shared/verify.wgsl) over T's 3x3 neighbourhood of captured triangle IDs; with no
 // verified hit, T counts as behind at its entry and the occlusion handoff goes on from there.
 // Needs the capture's triangle IDs (@group(1) binding 5 below, `CmoData`'s `cmo_triangle`) and

@@ -1,5 +1,5 @@
 // Verified hits: the GPU twin of `src/cpu/verify.rs` (its module docs state the rule and its proof
-// sketch). Where the exact criterion decides a hit at texel T of a CMO, the ray is intersected
+// sketch). Where the centre criterion decides a hit at texel T of a CMO, the ray is intersected
 // (watertight) with the triangles whose IDs the capture stored in T's 3x3 neighbourhood; the
 // nearest intersection in [t_done, t_hi] whose direction from the CMO centre falls in the
 // neighbourhood is the hit, on a real triangle; with none there is no hit at T.

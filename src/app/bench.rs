@@ -26,11 +26,12 @@ pub struct BenchArgs {
     #[arg(long, value_name = "DIR")]
     pub corpus: Option<PathBuf>,
     /// Methods: reference, envmap, fragment, compute, ssr, reflection-point, bvh (comma-separated);
-    /// fragment runs its parameter grid (criteria x sampling x acceleration x steps) unless
-    /// --quick, and its bounded criterion always; compute the exact and the bounded criterion
-    /// on its hierarchy (`compute`, `compute-bounded`) and, unless --quick, its three lane
-    /// layouts beside the device's default (`compute-thesis`, `compute-one-lane`,
-    /// `compute-wave`: the same records, the cost of each), ssr its defaults
+    /// fragment runs its default, the bounded criterion (`fragment-bounded`), and its study
+    /// grid (the centre criterion x acceleration, the approximate criteria x sampling x steps)
+    /// unless --quick (then the centre criterion with the pyramid alone); compute the bounded
+    /// criterion, its default (`compute`), and the centre one (`compute-centre`) on its
+    /// hierarchy and, unless --quick, its three lane layouts beside the device's default
+    /// (`compute-thesis`, `compute-one-lane`, `compute-wave`: the same records, the cost of each), ssr its defaults
     /// (64 iterations, no thickness test), reflection-point its defaults (cap 256 steps, search
     /// scale 1) as is and with the other objects subdivided twice (`reflection-point-sub2`), bvh
     /// (exact GPU ray tracing) its one setting.
@@ -40,15 +41,16 @@ pub struct BenchArgs {
         default_value = "reference,envmap,fragment,compute,ssr,reflection-point,bvh"
     )]
     pub methods: Vec<String>,
-    /// fragment: only the default options (exact criterion, pyramid) and the bounded criterion
-    /// instead of its grid; compute: the device's lane layout only.
+    /// fragment: only its default (the bounded criterion) and the centre criterion with the
+    /// pyramid instead of its grid; compute: the device's lane layout only.
     #[arg(long)]
     pub quick: bool,
-    /// Every method of --methods in its default setting only: no fragment grid, no bounded
-    /// criterion, no subdivided reflection-point (the rows --model reads;
-    /// benches/model-measure.sh uses it).
-    #[arg(long, conflicts_with_all = ["quick", "scaling", "sequence", "glossy"])]
-    pub defaults_only: bool,
+    /// Every method of --methods in the one setting the cost model replays: the cube-map
+    /// tracers with the centre criterion (the pyramid, the device's lane layout), the others
+    /// their defaults; no grid, no subdivided reflection-point (the rows --model reads;
+    /// benches/model-measure.sh uses it). Formerly --defaults-only.
+    #[arg(long, alias = "defaults-only", conflicts_with_all = ["quick", "scaling", "sequence", "glossy"])]
+    pub model_rows: bool,
     /// Frame width in pixels.
     #[arg(long, default_value_t = 160)]
     pub width: u32,
@@ -86,8 +88,8 @@ pub struct BenchArgs {
     #[arg(long)]
     pub no_floor: bool,
     /// Reflections per path for the reference and the methods that trace several (compute,
-    /// fragment with the exact criterion, bvh; the others are skipped when N != 1). With N > 1
-    /// the grid (not --defaults-only) runs compute twice, its later reflections through its cube
+    /// fragment with the centre criterion, bvh; the others are skipped when N != 1). With N > 1
+    /// the grid (not --model-rows) runs compute twice, its later reflections through its cube
     /// maps and through the BVH (`compute-bvh-bounces`, render's --bvh-bounces), and bench.md
     /// gains a "Bounce rounds" table: each round's rays, what traced them, the fallback's share.
     /// Not used by --scaling.
@@ -107,7 +109,7 @@ pub struct BenchArgs {
           value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub compare_spp: u32,
     /// Cost curves instead of the grid: against cube size, screen size, CMO count and triangle
-    /// count (fragment, exact criterion with the pyramid); then the reflection-point method's
+    /// count (fragment, centre criterion with the pyramid); then the reflection-point method's
     /// error against the reference as the other objects are subdivided (the tessellation curve).
     #[arg(long)]
     pub scaling: bool,
@@ -324,7 +326,7 @@ fn run_scaling(
     bar: &indicatif::ProgressBar,
 ) -> Result<Vec<PathBuf>> {
     let cfg = bench::scaling::ScalingConfig {
-        method: bench::MethodSpec::plain(Method::SCALING),
+        method: bench::MethodSpec::centre(Method::SCALING),
         axes: bench::scaling::Axis::ALL.to_vec(),
         max_cube: args.max_cube,
         width: args.width,
@@ -473,10 +475,10 @@ pub fn grid_config(args: &BenchArgs, methods: &[Method]) -> bench::BenchConfig {
         } else {
             args.scenes.clone()
         },
-        methods: match (args.defaults_only, args.bounces > 1) {
+        methods: match (args.model_rows, args.bounces > 1) {
             (true, _) => methods
                 .iter()
-                .map(|m| bench::MethodSpec::plain(*m))
+                .map(|m| bench::MethodSpec::modelled(*m))
                 .collect(),
             (false, false) => bench::method_grid(methods, args.quick),
             // compute's later reflections through its cube maps and through the BVH, side by side.

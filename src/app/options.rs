@@ -13,15 +13,18 @@ use crate::vk::options::ListSize;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum CriterionArg {
-    /// Exact per-texel surface (sphere patches, continuity rule): a silhouette is never a hit.
-    Exact,
+    /// Sound per-texel bounds and candidate lists (the default): the hit is the nearest listed
+    /// triangle the ray meets where the list is complete, provably the first along the ray;
+    /// the exact fallback takes the rest.
+    Bounded,
+    /// The centre-sampled capture's per-texel surface (sphere patches, continuity rule): a
+    /// silhouette is never a hit, but geometry between texel centres is unseen, so a thin or
+    /// distant surface can be missed (a surface behind the first hit shows; kept for study).
+    Centre,
     /// The thesis's `|r - D| < eps` at samples.
     Threshold,
     /// The thesis's sign change of `r - D` between samples (fires at silhouettes too).
     SignChange,
-    /// Sound per-texel bounds and candidate lists: the hit is the nearest listed triangle the
-    /// ray meets where the list is complete, provably the first along the ray.
-    Bounded,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -98,11 +101,12 @@ pub fn positive_finite(s: &str) -> std::result::Result<f32, String> {
     }
 }
 
-/// Options of the cubemap tracer (`--method compute|fragment`; compute: the exact and bounded
+/// Options of the cubemap tracer (`--method compute|fragment`; compute: the bounded and centre
 /// criteria only).
 #[derive(clap::Args)]
 pub struct TraceArgs {
-    /// fragment, compute: intersection criterion [default: exact] (compute: exact or bounded).
+    /// fragment, compute: intersection criterion [default: bounded] (compute: bounded or
+    /// centre).
     #[arg(long, value_enum)]
     pub criterion: Option<CriterionArg>,
     /// compute: how rays are laid over a subgroup's lanes; every layout gives the same image
@@ -119,12 +123,12 @@ pub struct TraceArgs {
     /// per-texel].
     #[arg(long, value_enum)]
     pub sampling: Option<SamplingArg>,
-    /// fragment, exact criterion: turn off the min/max pyramid (walk every texel instead; same
+    /// fragment, --criterion centre: turn off the min/max pyramid (walk every texel instead; same
     /// result).
     #[arg(long)]
     pub no_accel: bool,
-    /// fragment, exact criterion: count a hit inside a texel only where the texel data decides it (the
-    /// ray gets behind the surface around the hit and no outline passes through the texel);
+    /// fragment, --criterion centre: count a hit inside a texel only where the texel data decides
+    /// it (the ray gets behind the surface around the hit and no outline passes through the texel);
     /// elsewhere the ray is handed on, so more pixels end unresolved.
     ///
     /// What the tests show (tests/hard_cases.rs): with verified hits the default mode has no
@@ -162,13 +166,13 @@ pub struct TraceArgs {
     /// Every GPU method but bvh: texels per cube face side (overrides the scene's; 1 to 4096).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub cube_size: Option<u32>,
-    /// fragment, compute with --criterion bounded: texels per face side of the per-texel lists
-    /// [default: auto]. The image does not depend on it (every hit is a listed triangle's exact
-    /// intersection, and the exact fallback takes the rays the lists leave); the cost and the
-    /// share of rays left to the fallback do. `auto` takes the smallest of 32, 64, 128, ... below
+    /// fragment, compute with the bounded criterion (the default): texels per face side of the
+    /// per-texel lists [default: auto]. The image does not depend on it (every hit is a listed
+    /// triangle's exact intersection, and the exact fallback takes the rays the lists leave);
+    /// the cost and the share of rays left to the fallback do. `auto` takes the smallest of 32, 64, 128, ... below
     /// the cube size whose lists hold at most 8 triangles per texel on average (by the capture's
     /// own bound), else the cube size; `cube` the cube size; a number that size. A glossy
-    /// reflector's cone pass reads a capture of its own at the cube size, as with the default
+    /// reflector's cone pass reads a capture of its own at the cube size, as with the centre
     /// criterion. `-v` logs the size taken.
     #[arg(long, value_parser = list_size)]
     pub list_size: Option<ListSize>,
@@ -213,7 +217,7 @@ impl TraceArgs {
             method,
             trace: TraceOptions {
                 criterion: self.criterion.map_or(trace.criterion, |c| match c {
-                    CriterionArg::Exact => TraceCriterion::Exact,
+                    CriterionArg::Centre => TraceCriterion::Centre,
                     CriterionArg::Threshold => TraceCriterion::Threshold,
                     CriterionArg::SignChange => TraceCriterion::SignChange,
                     CriterionArg::Bounded => TraceCriterion::Bounded,

@@ -53,8 +53,8 @@ pub struct RenderArgs {
     /// shows its own material colour (Blender's Cycles, whose glossy bounces count one fewer,
     /// shows black: its N bounces are --bounces N+1). So at 1, the few silhouette pixels of a
     /// smooth-shaded convex mirror whose ray, reflected about the interpolated normal, meets
-    /// the mirror's own facets show its colour. GPU methods: compute, bvh and fragment (exact
-    /// criterion).
+    /// the mirror's own facets show its colour. GPU methods: compute, bvh and fragment (bounded or
+    /// centre criterion).
     /// compute traces the reflections after the first with the cube maps too (the fallback
     /// finishes what they cannot answer; the placement search places CMOs for them); fragment
     /// hands them to the BVH.

@@ -39,7 +39,7 @@ pub struct BenchConfig {
     /// costs per ray).
     pub floor: Option<(u32, u32)>,
     /// Reflections per path (`--bounces`), for the reference and the GPU methods that trace
-    /// more than one (`compute`, `fragment` with the exact criterion, `bvh`); with N != 1 the
+    /// more than one (`compute`, `fragment` with the centre criterion, `bvh`); with N != 1 the
     /// others are skipped, and the error figures compare each path's last hit.
     pub bounces: u32,
     /// [`RenderOptions::reflector_check`] for the GPU runs (`--no-reflector-check`: off).

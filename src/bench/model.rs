@@ -2,8 +2,9 @@
 //! `cubetrace bench --model`: the SIMT cost model ([`crate::model`]) beside the measurements.
 //!
 //! Three parts, each labelled a model in every output:
-//! - **lavapipe check** ([`crate::model::validate`]): every run of a method's default setting
-//!   (compute, fragment-exact-mip, ssr, reflection-point, bvh) is replayed in lavapipe mode at
+//! - **lavapipe check** ([`crate::model::validate`]): every run of a method in the setting the
+//!   model replays ([`MethodSpec::modelled`]: compute-centre, fragment-centre-mip, ssr,
+//!   reflection-point, bvh) is replayed in lavapipe mode at
 //!   the device's subgroup size; two coefficients per method (ns per vector instruction, ns
 //!   per lane operation, [`crate::model::validate`]) are fitted on the training rows (scene
 //!   `default`, every cube size and subgroup size present) and every other row gets its
@@ -280,12 +281,24 @@ pub struct ModelReport {
     pub overtakes: Vec<Crossover>,
 }
 
-/// The measured rows of a report: each method's default setting, for the methods modelled.
+/// Whether a `bench.json` row (its label and `params`) is `kind` in the setting the model
+/// replays ([`MethodSpec::modelled`]). Files written before the centre criterion was renamed
+/// label it `compute` and `fragment-exact-mip`, with `criterion=exact` in `params`.
+fn is_modelled_row(kind: Method, label: &str, params: &str) -> bool {
+    let modelled = MethodSpec::modelled(kind).label();
+    let legacy = modelled
+        .replace("-centre-", "-exact-")
+        .replace("-centre", "");
+    label == modelled || (label == legacy && params.contains("criterion=exact"))
+}
+
+/// The measured rows of a report: each method in the setting the model replays, for the
+/// methods modelled.
 pub fn measured_of(report: &BenchReport) -> Vec<Measured> {
     report
         .runs
         .iter()
-        .filter(|r| METHODS.contains(&r.kind) && r.method == MethodSpec::plain(r.kind).label())
+        .filter(|r| METHODS.contains(&r.kind) && r.method == MethodSpec::modelled(r.kind).label())
         .map(|r| Measured {
             scene: r.source.clone(),
             method: r.kind,
@@ -327,10 +340,11 @@ pub fn measured_from_files(paths: &[PathBuf]) -> Result<Vec<Measured>> {
             let f = |k: &str| r[k].clone();
             let method = f("method");
             let label = method.as_str().unwrap_or_default();
-            // Only each method's default setting is modelled (not e.g. compute-bounded).
+            // Only the setting the model replays (not e.g. the bounded criterion).
+            let params = r["params"].as_str().unwrap_or_default();
             let Some(kind) = METHODS
                 .into_iter()
-                .find(|k| MethodSpec::plain(*k).label() == label)
+                .find(|k| is_modelled_row(*k, label, params))
             else {
                 continue;
             };
@@ -898,6 +912,41 @@ pub fn write(r: &ModelReport, dir: &Path) -> Result<Vec<PathBuf>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The model reads the centre criterion's rows, also from files that call it `exact`, and
+    /// never the bounded criterion's (now the default, labelled by the method alone).
+    #[test]
+    fn the_modelled_rows_are_the_centre_criterion() {
+        let exact = "criterion=exact sampling=per-texel accel=true";
+        let centre = "criterion=centre sampling=per-texel accel=true";
+        let bounded = "criterion=bounded sampling=per-texel accel=true";
+        assert!(is_modelled_row(Method::Compute, "compute-centre", centre));
+        assert!(is_modelled_row(Method::Compute, "compute", exact));
+        assert!(is_modelled_row(
+            Method::Fragment,
+            "fragment-exact-mip",
+            exact
+        ));
+        assert!(is_modelled_row(
+            Method::Fragment,
+            "fragment-centre-mip",
+            centre
+        ));
+        assert!(is_modelled_row(Method::Bvh, "bvh", ""));
+        // Negatives: the default (bounded) rows, another setting, another method.
+        assert!(!is_modelled_row(Method::Compute, "compute", bounded));
+        assert!(!is_modelled_row(
+            Method::Fragment,
+            "fragment-bounded",
+            bounded
+        ));
+        assert!(!is_modelled_row(
+            Method::Fragment,
+            "fragment-centre-walk",
+            centre
+        ));
+        assert!(!is_modelled_row(Method::Bvh, "compute-centre", centre));
+    }
 
     /// A method's figures with cost `cost` (static) and `2 * cost` (dynamic).
     fn figures(method: Method, layout: ComputeLanes, cost: f64) -> GpuMethod {

@@ -183,7 +183,7 @@ mod tests {
     #[test]
     fn scene_ratios_pair_the_default_settings_per_scene() {
         let mut strict = run("a", Method::Fragment, 1.0, 100, None);
-        strict.method = "fragment-exact-mip-strict".into();
+        strict.method = "fragment-centre-mip-strict".into();
         let runs = vec![
             run("a", Method::Reference, 1000.0, 100, None),
             strict,

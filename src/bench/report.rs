@@ -355,8 +355,8 @@ pub fn speed_error_svg(report: &BenchReport) -> Result<String> {
     )
 }
 
-/// One point per scene and GPU method at its default setting (`fragment` is
-/// fragment-exact-mip), labelled `method: scene`; no Pareto front, since the scenes differ.
+/// One point per scene and GPU method at its default setting (`compute` and `fragment-bounded`:
+/// the bounded criterion), labelled `method: scene`; no Pareto front, since the scenes differ.
 pub fn speed_error_scenes_svg(report: &BenchReport) -> Result<String> {
     let points: Vec<Point> = report
         .runs
@@ -518,7 +518,7 @@ pub fn markdown(report: &BenchReport) -> String {
          (`--compare-spp` samples at the pixel centre): a reflected ray's hit is one sample of the lobe there, so its hit figures \
          (wrong surface, angles, PSNR resolved, same triangle) are `-` and the summary pools them over the other scenes.\n\n## Cost per ray\n\n{}\nns/ray: the tracing pass's median time over the rays it traced (GPU: the method's mirror pixels; \
          reference: the CPU wall time of its reflected-ray phase over its first reflected rays, shading at the hit included). \
-         Default settings: `fragment` is fragment-exact-mip.\n\n## Runs\n\n{}\n## GPU time per pass\n\n{}\n\
+         Default settings: `compute` and `fragment-bounded` (the bounded criterion); `-centre` marks the centre-sampled criterion.\n\n## Runs\n\n{}\n## GPU time per pass\n\n{}\n\
          Heat maps (`heat/SCENE-METHOD.png`): grey = not a mirror pixel; black to red = angular error of the hit point, \
          0.01 to 10 degrees, logarithmic; white = wrong surface; magenta = unresolved; cyan = mirror pixel missed by the method's rasterisation; pink = mirror pixel of the method where the reference has none.\n{}",
         header(report),

@@ -28,6 +28,7 @@ pub struct MethodSpec {
 pub const RP_BENCH_SUBDIVIDE: u32 = 2;
 
 impl MethodSpec {
+    /// The method's default setting (for a cube-map tracer, the bounded criterion).
     pub fn plain(kind: Method) -> Self {
         MethodSpec {
             kind,
@@ -35,6 +36,27 @@ impl MethodSpec {
             subdivide: 0,
             layout: None,
             bvh_bounces: false,
+        }
+    }
+
+    /// The method with the centre-sampled criterion (its other options the defaults).
+    pub fn centre(kind: Method) -> Self {
+        MethodSpec {
+            trace: TraceOptions {
+                criterion: TraceCriterion::Centre,
+                ..TraceOptions::default()
+            },
+            ..MethodSpec::plain(kind)
+        }
+    }
+
+    /// The setting the cost model replays ([`crate::model`]): the centre criterion for a
+    /// cube-map tracer (the bounded criterion's list walk is not modelled), else the default.
+    pub fn modelled(kind: Method) -> Self {
+        if kind.traces_cubemaps() {
+            MethodSpec::centre(kind)
+        } else {
+            MethodSpec::plain(kind)
         }
     }
 
@@ -53,7 +75,8 @@ impl MethodSpec {
         }
     }
 
-    /// A short unique name, also used in file names: `fragment-exact-mip`,
+    /// A short unique name, also used in file names: `compute` (the default, bounded),
+    /// `compute-centre`, `fragment-bounded`, `fragment-centre-mip`,
     /// `fragment-threshold-step64`, `envmap`, ...
     pub fn label(&self) -> String {
         if self.bvh_bounces {
@@ -78,13 +101,13 @@ impl MethodSpec {
             return format!("{}-sub{}", plain.label(), self.subdivide);
         }
         // A cubemap tracer without the approximate criteria (compute) has two settings: the
-        // exact criterion (named by the method alone) and the bounded one.
+        // bounded criterion (the default, named by the method alone) and the centre one.
         let info = self.kind.info();
         if info.traces_cubemaps
             && !info.approximate_criteria
-            && self.trace.criterion == TraceCriterion::Bounded
+            && self.trace.criterion == TraceCriterion::Centre
         {
-            return format!("{}-bounded", self.kind.name());
+            return format!("{}-centre", self.kind.name());
         }
         if !info.traces_cubemaps || !info.approximate_criteria {
             return self.kind.name().into();
@@ -96,8 +119,8 @@ impl MethodSpec {
             TraceSampling::ConstantAngle => format!("angle{}", t.steps),
         };
         match t.criterion {
-            TraceCriterion::Exact => format!(
-                "{}-exact-{}{}",
+            TraceCriterion::Centre => format!(
+                "{}-centre-{}{}",
                 self.kind.name(),
                 if t.accel { "mip" } else { "walk" },
                 if t.strict { "-strict" } else { "" }
@@ -109,12 +132,13 @@ impl MethodSpec {
     }
 }
 
-/// The default parameter grid of a tracing method: the exact criterion with and without the
-/// min/max pyramid and in strict mode, and the threshold and sign-change criteria with per-texel,
+/// The study grid of a tracing method beside its default (the bounded criterion, which
+/// [`method_grid`] adds): the centre criterion with and without the min/max pyramid and in
+/// strict mode, and the threshold and sign-change criteria with per-texel,
 /// 64 and 256 constant steps, and 256 constant-angle steps (`eps` stays at its default, 0.05
 /// world units: the built-in scenes are a few metres across).
 pub fn fragment_grid(kind: Method) -> Vec<MethodSpec> {
-    let base = TraceOptions::default();
+    let base = MethodSpec::centre(kind).trace;
     let mut out = vec![
         TraceOptions {
             accel: true,
@@ -153,16 +177,15 @@ pub fn fragment_grid(kind: Method) -> Vec<MethodSpec> {
         .collect()
 }
 
-/// The full method list for the chosen kinds, in table order.
+/// The full method list for the chosen kinds, in table order. A cube-map tracer runs its
+/// default (the bounded criterion) first, then (unless `quick`) its lane layouts, then the
+/// centre criterion (`quick`, or a tracer without the approximate criteria) or the whole
+/// study grid ([`fragment_grid`]).
 pub fn method_grid(kinds: &[Method], quick: bool) -> Vec<MethodSpec> {
     let mut out = Vec::new();
     for &kind in kinds {
+        out.push(MethodSpec::plain(kind));
         if kind.traces_cubemaps() {
-            if quick || !kind.info().approximate_criteria {
-                out.push(MethodSpec::plain(kind));
-            } else {
-                out.extend(fragment_grid(kind));
-            }
             // The lane layouts side by side (compute's three: the same records; `--quick` runs
             // the device's default alone).
             if kind.has_lane_layouts() && !quick {
@@ -178,22 +201,17 @@ pub fn method_grid(kinds: &[Method], quick: bool) -> Vec<MethodSpec> {
                     }),
                 );
             }
-            // The bounded criterion (proven first hits) beside the exact one, in every grid.
+            // The centre-sampled criterion (and the approximate ones) beside the default.
+            if quick || !kind.info().approximate_criteria {
+                out.push(MethodSpec::centre(kind));
+            } else {
+                out.extend(fragment_grid(kind));
+            }
+        } else if kind.info().vertex_search {
             out.push(MethodSpec {
-                trace: TraceOptions {
-                    criterion: TraceCriterion::Bounded,
-                    ..TraceOptions::default()
-                },
+                subdivide: RP_BENCH_SUBDIVIDE,
                 ..MethodSpec::plain(kind)
             });
-        } else {
-            out.push(MethodSpec::plain(kind));
-            if kind.info().vertex_search {
-                out.push(MethodSpec {
-                    subdivide: RP_BENCH_SUBDIVIDE,
-                    ..MethodSpec::plain(kind)
-                });
-            }
         }
     }
     out
@@ -229,7 +247,16 @@ mod tests {
         labels.sort();
         labels.dedup();
         assert_eq!(labels.len(), n, "{labels:?}");
-        assert!(labels.contains(&"fragment-exact-mip".to_string()));
+        assert!(labels.contains(&"fragment-centre-mip".to_string()));
+        assert!(labels.contains(&"fragment-bounded".to_string()));
+        assert!(labels.contains(&"compute".to_string()));
+        assert!(labels.contains(&"compute-centre".to_string()));
+        assert_eq!(MethodSpec::plain(Method::Compute).label(), "compute");
+        assert_eq!(
+            MethodSpec::modelled(Method::Compute).label(),
+            "compute-centre"
+        );
+        assert_eq!(MethodSpec::modelled(Method::Bvh).label(), "bvh");
         assert!(labels.contains(&"fragment-sign-angle256".to_string()));
         assert!(labels.contains(&"compute-wave".to_string()));
         assert!(labels.contains(&"compute-thesis".to_string()));
@@ -238,6 +265,7 @@ mod tests {
         assert!(quick.iter().all(|s| s.layout.is_none()), "{quick:?}");
         // Negative: two specs differing only in steps must get different labels.
         let a = fragment_grid(Method::Fragment)[4];
+        assert_eq!(a.trace.criterion, TraceCriterion::Threshold);
         let mut b = a;
         b.trace.steps += 1;
         assert_ne!(a.label(), b.label());

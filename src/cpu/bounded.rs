@@ -197,7 +197,7 @@ fn inside([g1, g0]: [f32; 2], rb: (f32, f32)) -> bool {
     rb.0 > g0 && rb.1 < g1
 }
 
-/// The larger root of `|a + t d| = radius` (the same operations as the exact criterion's patch
+/// The larger root of `|a + t d| = radius` (the same operations as the centre criterion's patch
 /// hit in [`super::classify`]).
 fn larger_root(seg: &Segment, radius: f32) -> f32 {
     let dd = seg.d.x * seg.d.x + seg.d.y * seg.d.y + seg.d.z * seg.d.z;

@@ -85,7 +85,7 @@ pub struct HitShading<'a> {
     pub corners: &'a [[Vec3; 3]],
 }
 
-/// `fragment_trace` for one pixel as the GPU runs it: with the exact criterion every hit is
+/// `fragment_trace` for one pixel as the GPU runs it: with the centre criterion every hit is
 /// verified ([`trace_cmos_verified`]) and shaded at the verified point; the approximate
 /// criteria are [`trace_pixel`]. Also the compute path's twin (with `opts` giving the
 /// traversal: every traversal decides alike).

@@ -15,21 +15,24 @@ use super::{CmoTracer, TraceParams};
 /// Which intersection criterion decides a hit.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum TraceCriterion {
-    /// The exact per-texel sphere-patch model with the continuity rule ([`super`]); the only
-    /// one with a "behind" outcome and hence the several-CMO handoff.
+    /// The default. Sound per-texel bounds and candidate lists ([`crate::cubemap::bounds`]): a
+    /// hit is the nearest intersection with a listed triangle where the list is complete,
+    /// provably the first along the ray. Not approximate: [`TraceOptions::approx`] is `None`.
+    /// Its CPU twin is [`crate::cpu::bounded`], not [`trace_ray`].
     #[default]
-    Exact,
+    Bounded,
+    /// The centre-sampled capture's per-texel sphere-patch model with the continuity rule
+    /// ([`super`]): exact for the surface the texel centres saw, blind to geometry between
+    /// them (a thin or distant triangle can hide behind a hit). The only criterion with a
+    /// "behind" outcome and hence the several-CMO handoff.
+    Centre,
     /// `|r - D| < eps` at samples ([`Criterion::Threshold`]).
     Threshold,
     /// `r - D` changes sign between samples ([`Criterion::SignChange`]).
     SignChange,
-    /// Sound per-texel bounds and candidate lists ([`crate::cubemap::bounds`]): a hit is the
-    /// nearest intersection with a listed triangle where the list is complete, provably the
-    /// first along the ray. Not approximate: [`TraceOptions::approx`] is `None`.
-    Bounded,
 }
 
-/// Sample placement of the approximate criteria (ignored by [`TraceCriterion::Exact`]).
+/// Sample placement of the approximate criteria (ignored by the others).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum TraceSampling {
     /// `steps + 1` samples evenly spaced in `t`.
@@ -44,11 +47,11 @@ pub enum TraceSampling {
 /// Method options of the tracer (CPU and GPU).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TraceOptions {
-    /// Intersection criterion. Default: [`TraceCriterion::Exact`].
+    /// Intersection criterion. Default: [`TraceCriterion::Bounded`].
     pub criterion: TraceCriterion,
     /// Sampling of the approximate criteria. Default: [`TraceSampling::PerTexel`].
     pub sampling: TraceSampling,
-    /// Exact criterion: march the 2x2 min/max pyramid ([`super::mip`]) instead of walking every
+    /// Centre criterion: march the 2x2 min/max pyramid ([`super::mip`]) instead of walking every
     /// texel ([`super::walk`]). Same results either way; default `true` (faster).
     pub accel: bool,
     /// Sample intervals of constant-step / constant-angle sampling (`steps + 1` samples;
@@ -58,7 +61,7 @@ pub struct TraceOptions {
     pub eps: f32,
     /// `k` of the continuity rule ([`super::continuous`]). Default `tan(80 deg)`.
     pub continuity_k: f32,
-    /// Exact criterion: count a patch hit only when the texel data decides it (see
+    /// Centre criterion: count a patch hit only when the texel data decides it (see
     /// [`super`], "Decisive patch hits"); never a silent wrong hit, more unresolved pixels.
     /// Default `false`.
     pub strict: bool,
@@ -67,7 +70,7 @@ pub struct TraceOptions {
 impl Default for TraceOptions {
     fn default() -> Self {
         TraceOptions {
-            criterion: TraceCriterion::Exact,
+            criterion: TraceCriterion::Bounded,
             sampling: TraceSampling::PerTexel,
             accel: true,
             steps: 400,
@@ -87,7 +90,7 @@ impl TraceOptions {
         }
     }
 
-    /// The CPU traversal of the exact criterion.
+    /// The CPU traversal of the centre criterion.
     pub fn traversal(&self) -> Traversal {
         if self.accel {
             Traversal::Mip
@@ -96,10 +99,10 @@ impl TraceOptions {
         }
     }
 
-    /// The approximate criterion and sampling, or `None` for the exact criterion.
+    /// The approximate criterion and sampling, or `None` for the centre and bounded criteria.
     pub fn approx(&self) -> Option<(Criterion, Sampling)> {
         let criterion = match self.criterion {
-            TraceCriterion::Exact | TraceCriterion::Bounded => return None,
+            TraceCriterion::Centre | TraceCriterion::Bounded => return None,
             TraceCriterion::Threshold => Criterion::Threshold(self.eps),
             TraceCriterion::SignChange => Criterion::SignChange,
         };
@@ -114,7 +117,8 @@ impl TraceOptions {
 
 /// Traces the world ray `origin + t dir`, `t in [t_lo, t_hi]`, over the CMOs with the options:
 /// the CPU twin of the WGSL `trace_ray`. The CMOs' own [`TraceParams`] are used (build them
-/// with [`TraceOptions::params`]).
+/// with [`TraceOptions::params`]). Not for [`TraceCriterion::Bounded`], whose twin needs the
+/// candidate lists ([`crate::cpu::bounded`]).
 pub fn trace_ray(
     cmos: &[CmoTracer],
     origin: Vec3,
@@ -123,6 +127,10 @@ pub fn trace_ray(
     t_hi: f32,
     opts: &TraceOptions,
 ) -> MultiResult {
+    debug_assert!(
+        opts.criterion != TraceCriterion::Bounded,
+        "trace_ray is the centre and approximate criteria's twin; the bounded one is cpu::bounded"
+    );
     match opts.approx() {
         None => trace_cmos(cmos, origin, dir, t_lo, t_hi, opts.traversal()),
         Some((crit, sampling)) => trace_cmos_by(cmos, origin, dir, t_lo, t_hi, |tr, seg| {
@@ -136,8 +144,9 @@ mod tests {
     use super::*;
 
     #[test]
-    fn defaults_are_exact_with_the_pyramid() {
+    fn defaults_are_bounded_with_the_pyramid() {
         let o = TraceOptions::default();
+        assert_eq!(o.criterion, TraceCriterion::Bounded);
         assert_eq!(o.approx(), None);
         assert_eq!(o.traversal(), Traversal::Mip);
         assert_eq!(o.params(), TraceParams::default());

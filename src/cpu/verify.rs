@@ -1,7 +1,7 @@
 #![forbid(unsafe_code)]
 //! Verified hits: the rule that turns a texel's decision into a hit on
 //! a real triangle, in pure Rust. The tracers (fragment, compute and their CPU twins) call it, or
-//! its WGSL twin, where the exact criterion decides a hit at texel `T` (`super::multi`,
+//! its WGSL twin, where the centre criterion decides a hit at texel `T` (`super::multi`,
 //! "Verified hits"; `spirv/shared/trace_verified.wgsl`).
 //!
 //! # The rule

@@ -1,4 +1,4 @@
-//! `compute`: cubemap tracing in a compute pass (thesis alg. 3); the exact and bounded criteria
+//! `compute`: cubemap tracing in a compute pass (thesis alg. 3); the bounded and centre criteria
 //! only.
 use super::{GlossyLobe, MethodInfo, NamesHits};
 

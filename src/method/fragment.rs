@@ -10,7 +10,7 @@ pub(super) const INFO: MethodInfo = MethodInfo {
     reads_cmos: true,
     captures_cmos: true,
     can_leave_unresolved: true,
-    names_hits: NamesHits::ExactOrBounded,
+    names_hits: NamesHits::CentreOrBounded,
     glossy: GlossyLobe::ConeTracedFirst,
     known_limit: None,
     outcomes_in_records: false,

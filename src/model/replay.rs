@@ -29,7 +29,7 @@
 //! no latency hiding, no caches: sectors are transactions requested, not misses).
 //!
 //! # Where it stops
-//! - Only the default options of each method (exact criterion, pyramid, verified hits).
+//! - Only the default options of each method (centre criterion, pyramid, verified hits).
 //! - The retrace of `main_lanes1` (rays cut by lavapipe's loop limit) is not modelled: the
 //!   twins never cut a ray.
 //! - Divergence inside a block (an `if` within a callee) is folded into the block's weight.

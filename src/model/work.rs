@@ -20,7 +20,7 @@
 //!   compute queue's order (the append pass writes the records in pixel order on the CPU here;
 //!   a GPU's atomic append would interleave whole warps of the raster order).
 //! - The CMOs: `cpu::capture::capture` at the scene's CMO centres, default trace options (the
-//!   exact criterion, the pyramid, verified hits): the default `--method compute / fragment`.
+//!   centre criterion, the pyramid, verified hits): the default `--method compute / fragment`.
 //! - Addresses ([`Addr`]): every buffer starts at its own aligned base (per CMO and level),
 //!   so loads of different buffers never share a sector. [`TexelLayout::Linear`] is the GPU
 //!   buffers' actual layout (row-major per face, faces in order: `texel_index`, the flattened
@@ -38,7 +38,7 @@
 //!   tests/fragment.rs); the block a count stands for is the shader's. Where the shader's loop
 //!   shape differs from the twin's (the pyramid march's turns), the events are placed where the
 //!   shader runs them.
-//! - Only the default options are modelled (exact criterion, pyramid, verified hits; SSR's
+//! - Only the default options are modelled (centre criterion, pyramid, verified hits; SSR's
 //!   and reflection-point's default options).
 //! - SSR's Hi-Z pyramid and reflection-point's T_P / T_N are drawn by the reference tracer
 //!   (first surfaces; the reflectors alone), not rasterised: pixel-edge differences from the

@@ -178,7 +178,7 @@ impl Placement {
     }
 }
 
-/// Scores sets of CMOs on the sample: the exact criterion's CPU twin with verified hits.
+/// Scores sets of CMOs on the sample: the centre criterion's CPU twin with verified hits.
 struct Scorer<'a> {
     rays: &'a [Ray],
     corners: Vec<[Vec3; 3]>,

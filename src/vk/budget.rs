@@ -428,6 +428,22 @@ pub fn list_capture_bytes_of(plan: &FramePlan) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The centre criterion's tracer options (the default is bounded).
+    fn centre() -> TraceOptions {
+        TraceOptions {
+            criterion: crate::cpu::options::TraceCriterion::Centre,
+            ..TraceOptions::default()
+        }
+    }
+
+    /// The default render options with the centre criterion.
+    fn centre_options() -> RenderOptions {
+        RenderOptions {
+            trace: centre(),
+            ..RenderOptions::default()
+        }
+    }
     use crate::vk::options::{AUTO_LIST_LENGTH, AUTO_LIST_MIN, ListSize};
 
     /// A texture counts with its texels and is named first when it is the largest item.
@@ -484,7 +500,10 @@ mod tests {
 
     #[test]
     fn sizes_grow_with_what_they_depend_on() {
-        let exact = TraceOptions::default();
+        let exact = TraceOptions {
+            criterion: crate::cpu::options::TraceCriterion::Centre,
+            ..TraceOptions::default()
+        };
         let base = device_bytes(160, 120, Method::Fragment, 1, 256, false, &exact);
         // 6 * 256^2 texels of 16 bytes (distance and ID, each in the CMO and the capture's
         // target), plus the pyramid: about 6.3 MiB + 2.x MiB.
@@ -537,6 +556,7 @@ mod tests {
         (camera.width, camera.height) = (64, 48);
         let exact = RenderOptions {
             method: Method::Compute,
+            trace: centre(),
             ..RenderOptions::default()
         };
         // The lists at the cube size, where the pool below is bounded.
@@ -555,7 +575,7 @@ mod tests {
         assert!(pool >= cap.nodes * 16, "{pool} < {} nodes", cap.nodes);
         let grown = estimate(&scene, &camera, &bounded).total();
         assert!(grown >= estimate(&scene, &camera, &exact).total() + pool);
-        // Negative: the exact criterion has no pool, nor does a method without a capture.
+        // Negative: the centre criterion has no pool, nor does a method without a capture.
         assert_eq!(list_capture_bytes(&scene, &exact), 0);
         let bvh = RenderOptions {
             method: Method::Bvh,
@@ -606,8 +626,8 @@ mod tests {
         );
         let e = estimate(&scene, &camera, &bounded);
         assert!(e.cmo >= plan_bytes(&plain).cmo + targets, "{e:?}");
-        // Negative: the exact criterion's raster capture is no colour capture of the lists.
-        let exact = FramePlan::of(&scene, &camera, &RenderOptions::default());
+        // Negative: the centre criterion's raster capture is no colour capture of the lists.
+        let exact = FramePlan::of(&scene, &camera, &centre_options());
         assert!(
             exact.cmo.raster_capture() && !exact.cmo.lists(),
             "{exact:?}"
@@ -640,7 +660,7 @@ mod tests {
         let resolved = FramePlan::resolve_list_size(&scene, &camera, &bounded(ListSize::Auto));
         assert_eq!(resolved.list_size, ListSize::Fixed(AUTO_LIST_MIN));
         // Other criteria keep their options (and their cube size).
-        let exact = RenderOptions::default();
+        let exact = centre_options();
         assert_eq!(FramePlan::resolve_list_size(&scene, &camera, &exact), exact);
         // The rule: at 32 the bound's mean list exceeds 8 once the walls and floor are split
         // 64 ways; the size taken is the first where it holds, above 32.
@@ -668,13 +688,14 @@ mod tests {
         );
         let cone_cmo = u64::from(cube * cube) * 6 * glossy.cmo.count as u64 * (4 + 16 + 4);
         assert!(estimate(&scene, &camera, &bounded(ListSize::Auto)).cmo >= plain + cone_cmo);
-        // Negative: the exact criterion's cone pass reads the method's own CMOs.
-        let exact = FramePlan::of(&scene, &camera, &RenderOptions::default());
+        // Negative: the centre criterion's cone pass reads the method's own CMOs.
+        let exact = FramePlan::of(&scene, &camera, &centre_options());
         assert_eq!(exact.cmo.cone_size, None);
     }
 
     /// The scene-less estimate is the bytes of a plan by the same rules: one bounce, the
-    /// fallback queue where the method can leave a pixel unresolved, no reflector check.
+    /// fallback queue where the method can leave a pixel unresolved, no reflector check (with
+    /// the centre criterion: the bounded lists' size and pool depend on the scene).
     #[test]
     fn device_bytes_is_a_plan_of_the_same_rules() {
         let scene = crate::scene::builtin::by_name("default").unwrap();
@@ -682,7 +703,7 @@ mod tests {
         (camera.width, camera.height) = (32, 24);
         let options = RenderOptions {
             reflector_check: false,
-            ..RenderOptions::default()
+            ..centre_options()
         };
         let cmos = scene.cmo_centres().len() as u32;
         let bare = device_bytes(
@@ -697,7 +718,7 @@ mod tests {
         let e = estimate(&scene, &camera, &options);
         assert_eq!((bare.frame, bare.cmo), (e.frame, e.cmo));
         // Negative: the reflector check's queue is in the scene's plan only.
-        let checked = estimate(&scene, &camera, &RenderOptions::default());
+        let checked = estimate(&scene, &camera, &centre_options());
         assert_eq!(checked.frame, e.frame + reflector_check_bytes(32, 24, true));
     }
 

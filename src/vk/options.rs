@@ -1,5 +1,5 @@
 //! The options of a GPU render: the method and what it may use.
-use crate::cpu::options::TraceOptions;
+use crate::cpu::options::{TraceCriterion, TraceOptions};
 use crate::cpu::reflection_point::RpOptions;
 use crate::cpu::ssr::SsrOptions;
 use crate::method::Method;
@@ -86,7 +86,8 @@ pub const AUTO_LIST_LENGTH: u64 = 8;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderOptions {
     pub method: Method,
-    /// Tracer options (criterion, sampling, acceleration, steps); used by `Fragment`.
+    /// Tracer options (criterion, sampling, acceleration, steps); used by `Fragment` and
+    /// `Compute` (the criterion) alone.
     pub trace: TraceOptions,
     pub fallback: Fallback,
     /// Options of `Ssr` (iteration cap, thickness).
@@ -96,8 +97,8 @@ pub struct RenderOptions {
     /// Reflections per path, 0..=[`MAX_BOUNCES`](crate::vk::passes::bounce::MAX_BOUNCES) (the
     /// reference's `bounces`): the method traces the first, and `Compute` the rest too (unless
     /// [`RenderOptions::bvh_bounces`]), the BVH otherwise ([`crate::vk::passes::bounce`]); 0 shows
-    /// the mirrors' own material. `Compute`, `Fragment` (exact criterion) and `Bvh` only; the
-    /// other methods take 1.
+    /// the mirrors' own material. `Compute`, `Fragment` (bounded or centre criterion) and `Bvh`
+    /// only; the other methods take 1.
     pub bounces: u32,
     /// `Compute`: the BVH traces the reflections after the first (as for `Fragment`), not the
     /// cube maps (`--bvh-bounces`; for comparison).
@@ -110,6 +111,15 @@ pub struct RenderOptions {
     pub compute_layout: Option<ComputeLayout>,
     /// The `bounded` criterion's lists' face size ([`ListSize`]); ignored by other criteria.
     pub list_size: ListSize,
+}
+
+impl RenderOptions {
+    /// Whether the frame traces the bounded criterion's lists: a cube-map tracer with
+    /// [`TraceCriterion::Bounded`] (the default criterion); the other methods ignore the
+    /// criterion, so their frames are the same whatever it says.
+    pub fn bounded(&self) -> bool {
+        self.method.traces_cubemaps() && self.trace.criterion == TraceCriterion::Bounded
+    }
 }
 
 impl Default for RenderOptions {

@@ -9,7 +9,7 @@ use cubetrace::vk::frame::RoundCount;
 
 /// The full grid runs compute in its three lane layouts beside its default, labelled
 /// `compute-thesis`, `compute-one-lane` and `compute-wave`: the same cells and texels per ray, the
-/// same fallback share and error (the layouts write the same records). Negative: the bounded
+/// same fallback share and error (the layouts write the same records). Negative: the centre
 /// criterion's run differs in its counters.
 #[test]
 fn bench_sets_the_compute_layouts_side_by_side() {
@@ -26,7 +26,7 @@ fn bench_sets_the_compute_layouts_side_by_side() {
             "compute-thesis",
             "compute-one-lane",
             "compute-wave",
-            "compute-bounded"
+            "compute-centre"
         ]
     );
     let key = |r: &bench::RunResult| {
@@ -64,21 +64,28 @@ fn bench_reports_cost_per_ray_ratios_and_floor() {
     let report = bench::run(&ctx, &cfg, &indicatif::ProgressBar::hidden()).expect("bench");
     assert_eq!(report.runs.len(), cfg.methods.len());
     // One run per method, the reflection-point method subdivided too, and the two cubemap
-    // tracers with the bounded criterion as well.
+    // tracers with the centre criterion beside their default, the bounded one.
     assert_eq!(cfg.methods.len(), Method::ALL.len() + 3);
-    let bounded: Vec<_> = report
+    let centre: Vec<_> = report
         .runs
         .iter()
-        .filter(|r| r.method.ends_with("-bounded"))
+        .filter(|r| r.method.contains("-centre"))
         .map(|r| r.method.as_str())
         .collect();
-    assert_eq!(bounded, ["fragment-bounded", "compute-bounded"]);
+    assert_eq!(centre, ["fragment-centre-mip", "compute-centre"]);
     assert!(
         report
             .runs
             .iter()
-            .filter(|r| r.method.ends_with("-bounded"))
-            .all(|r| r.floor.is_none() && r.error.same_triangle >= 0.999)
+            .filter(|r| r.method.contains("-centre"))
+            .all(|r| r.floor.is_none())
+    );
+    assert!(
+        report
+            .runs
+            .iter()
+            .filter(|r| ["fragment-bounded", "compute"].contains(&r.method.as_str()))
+            .all(|r| r.error.same_triangle >= 0.999)
     );
     // The reflection-point method runs plain and subdivided (more triangles, same reference),
     // with its search steps per vertex in the counters.
@@ -138,7 +145,7 @@ fn bench_reports_cost_per_ray_ratios_and_floor() {
     // The floor is measured for each method's default setting only.
     for r in report.runs[1..]
         .iter()
-        .filter(|r| r.method != "reflection-point-sub2" && !r.method.ends_with("-bounded"))
+        .filter(|r| r.method != "reflection-point-sub2" && !r.method.contains("-centre"))
     {
         let f = r
             .floor
@@ -225,7 +232,7 @@ fn scaling_triangle_axis_sets_bvh_beside_the_cubemap_paths() {
     let ctx = common::gpu_context();
     let out = tempfile::tempdir().expect("temp dir");
     let cfg = ScalingConfig {
-        method: bench::MethodSpec::plain(Method::Fragment),
+        method: bench::MethodSpec::centre(Method::Fragment),
         axes: vec![Axis::Triangles],
         max_cube: 32,
         width: 24,
@@ -238,7 +245,7 @@ fn scaling_triangle_axis_sets_bvh_beside_the_cubemap_paths() {
     };
     let report = scaling::run(&ctx, &cfg, &indicatif::ProgressBar::hidden()).expect("scaling");
     let methods: Vec<&str> = report.points.iter().map(|p| p.method.as_str()).collect();
-    for m in ["fragment-exact-mip", "compute", "bvh"] {
+    for m in ["fragment-centre-mip", "compute-centre", "bvh"] {
         assert_eq!(
             methods.iter().filter(|x| **x == m).count(),
             4,
@@ -466,9 +473,12 @@ fn placement_axis_sets_the_search_beside_the_scenes_centres() {
     let mug = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/scenes/mug/scene.toml");
     let cfg = BenchConfig {
         scenes: vec![mug.into()],
-        methods: [Method::Compute, Method::Bvh]
-            .map(bench::MethodSpec::plain)
-            .to_vec(),
+        // The centre criterion, whose fallback share follows the placement (the default,
+        // bounded, leaves none of the mug's rays with either placement).
+        methods: vec![
+            bench::MethodSpec::centre(Method::Compute),
+            bench::MethodSpec::plain(Method::Bvh),
+        ],
         width: 48,
         height: 36,
         frames: 1,
@@ -505,7 +515,7 @@ fn placement_axis_sets_the_search_beside_the_scenes_centres() {
     let table = bench::report::placement_table(&report);
     assert!(
         table.contains("## CMO placement")
-            && table.contains(&format!("| {mug} [auto] | compute |")),
+            && table.contains(&format!("| {mug} [auto] | compute-centre |")),
         "{table}"
     );
     // Negative: one placement and no search (the scene's own centres) adds no table.
@@ -527,8 +537,8 @@ fn placement_axis_sets_the_search_beside_the_scenes_centres() {
 /// With `--bounces N > 1` the grid sets compute's later reflections through its cube maps beside
 /// the same runs with the BVH tracing them (`-bvh-bounces`), and the report's "Bounce rounds"
 /// table gives each round's rays, what traced them and the fallback's share. The second round
-/// starts from the same first round, so it queues the same rays either way; the bounded pair
-/// is exact, so every round matches. Negatives: at one bounce the grid has no such row and the
+/// starts from the same first round, so it queues the same rays either way; the default pair
+/// (bounded) is exact, so every round matches. Negatives: at one bounce the grid has no such row and the
 /// report no rounds, and the BVH's rounds leave nothing to the fallback.
 #[test]
 fn bench_sets_the_bounce_rounds_through_the_cube_maps_beside_the_bvhs() {
@@ -560,12 +570,12 @@ fn bench_sets_the_bounce_rounds_through_the_cube_maps_beside_the_bvhs() {
         [
             "compute",
             "compute-bvh-bounces",
-            "compute-bounded",
-            "compute-bounded-bvh-bounces",
+            "compute-centre",
+            "compute-centre-bvh-bounces",
             "bvh"
         ]
     );
-    assert_eq!(labels(&grid("1")), ["compute", "compute-bounded", "bvh"]);
+    assert_eq!(labels(&grid("1")), ["compute", "compute-centre", "bvh"]);
     let ctx = common::gpu_context();
     let out = tempfile::tempdir().expect("temp dir");
     let cfg = |bounces: u32, methods| small_teapot(out.path(), methods, bounces);
@@ -578,7 +588,7 @@ fn bench_sets_the_bounce_rounds_through_the_cube_maps_beside_the_bvhs() {
     };
     for (cubes, bvh) in [
         ("compute", "compute-bvh-bounces"),
-        ("compute-bounded", "compute-bounded-bvh-bounces"),
+        ("compute-centre", "compute-centre-bvh-bounces"),
     ] {
         let (c, b) = (&run(cubes).rounds, &run(bvh).rounds);
         eprintln!("{cubes}: {c:?}; {bvh}: {b:?}");
@@ -587,7 +597,7 @@ fn bench_sets_the_bounce_rounds_through_the_cube_maps_beside_the_bvhs() {
         assert!(b.iter().all(|r| r.fallback == 0), "{bvh}");
         assert!(c[0].rays > 0 && c[0].rays == b[0].rays, "{cubes}");
     }
-    let (c, b) = (run("compute-bounded"), run("compute-bounded-bvh-bounces"));
+    let (c, b) = (run("compute"), run("compute-bvh-bounces"));
     assert_eq!(
         c.rounds,
         b.rounds

@@ -10,7 +10,7 @@
 //!   one hit).
 //!
 //! Negatives: one pixel's triangle and one last bit of another's colour changed are counted;
-//! and the exact criterion's frames (centre-sampled captures) at the same two sizes name
+//! and the centre criterion's frames (centre-sampled captures) at the same two sizes name
 //! different triangles on some pixels (what a centre-sampled capture sees depends on its
 //! texels), so the comparison can tell real frames apart.
 
@@ -123,13 +123,13 @@ fn the_list_size_changes_the_cost_not_the_image() {
                 (1, 1),
                 "{scene} {method:?}: {d:?}"
             );
-            // The exact criterion reads the cube size itself.
+            // The centre criterion reads the cube size itself.
             let exact = |cube| {
                 frame(
                     &ctx,
                     (scene, cube),
                     method,
-                    TraceCriterion::Exact,
+                    TraceCriterion::Centre,
                     ListSize::Cube,
                 )
             };

@@ -143,7 +143,7 @@ fn stress_scenes_put_thin_geometry_in_the_mirror() {
     }
 }
 
-/// `(scene, cube size, CMOs)` runs of the exact and bounded checks: sizes 16 and 64 with 1 to
+/// `(scene, cube size, CMOs)` runs of the bounded and centre checks: sizes 16 and 64 with 1 to
 /// 3 CMOs on every scene, and 256 with one CMO on the fence, the wire grid and the edge-on fins.
 fn runs() -> Vec<(&'static str, &'static str, u32, u32)> {
     let mut v = Vec::new();
@@ -181,7 +181,7 @@ fn exact_capture_misses_thin_geometry() {
         if name != "bunny" && (name != "relief" || cube == 16) {
             assert!(
                 q.behind > 0,
-                "{name} N {cube} CMOs {cmos}: the exact criterion found every first hit"
+                "{name} N {cube} CMOs {cmos}: the centre criterion found every first hit"
             );
         }
     }

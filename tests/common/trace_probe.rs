@@ -113,7 +113,7 @@ pub fn trace_probe_entry(
     if entry == "main_exact_mip" && !config_exact_mip(data.config()) {
         return Err(VkError::Usage {
             what: "trace_probe".into(),
-            detail: "entry point main_exact_mip needs the exact criterion with accel".into(),
+            detail: "entry point main_exact_mip needs the centre criterion with accel".into(),
         });
     }
     let pipeline = ComputePipeline::new(ctx, &TRACE_PROBE, entry, ComputeOptions::default())?;

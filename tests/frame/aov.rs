@@ -149,7 +149,7 @@ fn bvh_ids_are_the_references_on_every_builtin() {
 }
 
 /// With more than one bounce the IDs (and `hit.*`) name the hit the pixel shows, its path's
-/// last, on the reference as in the GPU records; and a cubemap method (compute, exact criterion)
+/// last, on the reference as in the GPU records; and a cubemap method (compute, centre criterion)
 /// writes the same numbering as the BVH.
 #[test]
 fn ids_agree_with_bounces_and_on_the_cubemap_tracer() {

@@ -53,21 +53,21 @@ fn cases() -> Vec<(&'static str, Option<f32>, RenderOptions)> {
     use TraceCriterion::*;
     let glossy = Some(64.0);
     vec![
-        ("default", None, options(Compute, Exact)),
-        ("default", None, options(Fragment, Exact)),
+        ("default", None, options(Compute, Centre)),
+        ("default", None, options(Fragment, Centre)),
         ("default", None, options(Fragment, Threshold)),
         ("default", None, options(Fragment, Bounded)),
         ("default", None, options(Compute, Bounded)),
-        ("default", None, options(ReflectionPoint, Exact)),
+        ("default", None, options(ReflectionPoint, Centre)),
         ("sphere-room", glossy, options(Compute, Bounded)),
-        ("sphere-room", glossy, options(Fragment, Exact)),
-        ("sphere-room", glossy, options(Ssr, Exact)),
+        ("sphere-room", glossy, options(Fragment, Centre)),
+        ("sphere-room", glossy, options(Ssr, Centre)),
         (
             "teapot",
             None,
             RenderOptions {
                 fallback: Fallback::Envmap,
-                ..options(Envmap, Exact)
+                ..options(Envmap, Centre)
             },
         ),
         (
@@ -75,7 +75,7 @@ fn cases() -> Vec<(&'static str, Option<f32>, RenderOptions)> {
             None,
             RenderOptions {
                 bounces: 3,
-                ..options(Bvh, Exact)
+                ..options(Bvh, Centre)
             },
         ),
         (
@@ -84,7 +84,7 @@ fn cases() -> Vec<(&'static str, Option<f32>, RenderOptions)> {
             RenderOptions {
                 bounces: 0,
                 reflector_check: false,
-                ..options(Fragment, Exact)
+                ..options(Fragment, Centre)
             },
         ),
         (
@@ -92,7 +92,7 @@ fn cases() -> Vec<(&'static str, Option<f32>, RenderOptions)> {
             None,
             RenderOptions {
                 bounces: 2,
-                ..options(Compute, Exact)
+                ..options(Compute, Centre)
             },
         ),
     ]

@@ -398,7 +398,7 @@ fn later_rounds_by_cmo(frame: &GpuFrame) -> (usize, usize) {
 /// queue copied into its own, then the reflector check and the fallback over the same rays):
 /// on the facing mirrors at N = 3 most paths of 2 or more reflections end on a ray a CMO
 /// decided, and with the bounded criterion the frame is the reference's, bounce for bounce
-/// (the exact criterion's own error is that of its first round: `passes_cubemap`). Negatives:
+/// (the centre criterion's own error is that of its first round: `passes_cubemap`). Negatives:
 /// `bvh` and compute with `--bvh-bounces` decide no later ray with a CMO, and the compute frame
 /// fails against the reference of N = 2.
 #[test]
@@ -417,7 +417,7 @@ fn compute_traces_the_bounce_rounds_with_the_cube_maps() {
         .filter(|(r, m)| **m != 0 && r.cmo != u32::MAX)
         .count() as f64
         / f1.mirror_pixels().max(1) as f64;
-    for criterion in [TraceCriterion::Exact, TraceCriterion::Bounded] {
+    for criterion in [TraceCriterion::Centre, TraceCriterion::Bounded] {
         let options = RenderOptions {
             method: Method::Compute,
             bounces: 3,

@@ -55,10 +55,10 @@ fn vertex_colours_shade_every_pass_as_the_reference() {
     );
     let ctx = gpu_context();
     let runs = [
-        (Method::Compute, TraceCriterion::Exact),
+        (Method::Compute, TraceCriterion::Centre),
         (Method::Compute, TraceCriterion::Bounded),
-        (Method::Fragment, TraceCriterion::Exact),
-        (Method::Bvh, TraceCriterion::Exact),
+        (Method::Fragment, TraceCriterion::Centre),
+        (Method::Bvh, TraceCriterion::Centre),
     ];
     for (method, criterion) in runs {
         let what = format!("{method:?} {criterion:?}");

@@ -6,11 +6,13 @@
 //! - Every scene loads (its exporters' quirks are warnings, never refusals) and every GPU method
 //!   renders it: none is refused, the validation layer reports nothing, and each frame's mirror
 //!   mask is the reference's (a few pixels of rasteriser edges aside).
-//! - `bvh`, and `compute` with the bounded criterion (and the exact fallback), put no mirror
-//!   pixel on a surface behind the reference's first reflected hit ([`judge`]), and leave none
-//!   unresolved. `blender-mtl`'s hand is glossy (its MTL's `Ns`): rendered by every method at
-//!   the default criterion and by `compute` at the bounded one, not judged by hits. Negative: the `bvh` frame of a scene without the object its mirror shows most,
-//!   judged against the reference of the whole scene, is behind on those pixels.
+//! - `bvh`, and `compute` and `fragment` with the bounded criterion (the default; the exact
+//!   fallback takes what their lists leave), put no mirror pixel on a surface behind the
+//!   reference's first reflected hit ([`judge`]), and leave none unresolved; `compute` renders
+//!   every scene at the centre criterion too. `blender-mtl`'s hand is glossy (its MTL's `Ns`):
+//!   rendered, not judged by hits. Negative: the `bvh` frame of a scene without the object its
+//!   mirror shows most, judged against the reference of the whole scene, is behind on those
+//!   pixels.
 //!
 //! CI renders at 40x30 with 32-texel cube faces; `cubetrace bench --scenes
 //! tests/scenes/NAME/scene.toml` and `cubetrace render ... --compare` take them at full size.
@@ -137,9 +139,10 @@ fn mask_differences(reference: &Frame, frame: &GpuFrame) -> usize {
         .count()
 }
 
-/// Every scene loads and every GPU method renders it with the reference's mirror mask; `bvh`
-/// and bounded `compute` are never behind the reference's first hit and leave nothing
-/// unresolved.
+/// Every scene loads and every GPU method renders it at its defaults (the bounded criterion for
+/// `compute` and `fragment`), and `compute` at the centre criterion too, with the reference's
+/// mirror mask; `bvh` and bounded `compute` and `fragment` are never behind the reference's
+/// first hit and leave nothing unresolved.
 #[test]
 fn every_method_renders_every_corpus_scene() {
     let ctx = gpu_context();
@@ -153,37 +156,39 @@ fn every_method_renders_every_corpus_scene() {
             "{name}: the camera sees {} mirror pixels",
             reference.mirror_pixels()
         );
-        for method in Method::GPU {
-            let frame = render(&ctx, &scene, options(method, TraceCriterion::Exact));
+        let runs = Method::GPU
+            .into_iter()
+            .map(|m| (m, TraceCriterion::Bounded))
+            .chain([(Method::Compute, TraceCriterion::Centre)]);
+        let mut judged = Vec::new();
+        for (method, criterion) in runs {
+            let frame = render(&ctx, &scene, options(method, criterion));
             let masks = mask_differences(&reference, &frame);
             eprintln!(
-                "{name} {}: {} mirror pixels, {masks} mask differences",
+                "{name} {} {criterion:?}: {} mirror pixels, {masks} mask differences",
                 method.name(),
                 frame.mirror_pixels()
             );
-            assert!(masks <= 4, "{name} {}: {masks}", method.name());
-        }
-        if !scene.glossy_reflectors().is_empty() {
-            // A glossy reflector's ray is one lobe sample: no hit to judge (the glossy
-            // comparison is the converged reference's PSNR, tests/cli.rs and
-            // tests/glossy/glossy_cone.rs). The bounded criterion cone-traces it too, from the
-            // colour of a rasterised capture beside its lists.
-            let frame = render(
-                &ctx,
-                &scene,
-                options(Method::Compute, TraceCriterion::Bounded),
+            assert!(
+                masks <= 4,
+                "{name} {} {criterion:?}: {masks}",
+                method.name()
             );
-            let masks = mask_differences(&reference, &frame);
-            assert!(masks <= 4, "{name} compute bounded: {masks}");
+            let exact = method == Method::Bvh
+                || (method.traces_cubemaps() && criterion == TraceCriterion::Bounded);
+            if exact {
+                judged.push((method, frame));
+            }
+        }
+        // A glossy reflector's ray is one lobe sample: no hit to judge (the glossy comparison
+        // is the converged reference's PSNR, tests/cli.rs and tests/glossy/glossy_cone.rs).
+        if !scene.glossy_reflectors().is_empty() {
             continue;
         }
-        for (method, criterion) in [
-            (Method::Bvh, TraceCriterion::Exact),
-            (Method::Compute, TraceCriterion::Bounded),
-        ] {
-            let frame = render(&ctx, &scene, options(method, criterion));
-            let v = judge(&scene, &reference, &frame);
-            eprintln!("{name} {} {criterion:?}: {v:?}", method.name());
+        assert_eq!(judged.len(), 3, "{name}: bvh, compute and fragment");
+        for (method, frame) in &judged {
+            let v = judge(&scene, &reference, frame);
+            eprintln!("{name} {}: {v:?}", method.name());
             assert!(v.judged + 4 >= reference.mirror_pixels(), "{name}: {v:?}");
             assert_eq!((v.behind, v.unresolved), (0, 0), "{name} {}", method.name());
         }
@@ -221,13 +226,13 @@ fn a_frame_without_a_shown_object_is_judged_behind() {
         let (most, &count) = shown.iter().enumerate().max_by_key(|(_, c)| **c).unwrap();
         let mut without = scene.clone();
         let removed = without.meshes.remove(most).name;
-        let frame = render(&ctx, &without, options(Method::Bvh, TraceCriterion::Exact));
+        let frame = render(&ctx, &without, options(Method::Bvh, TraceCriterion::Centre));
         let v = judge(&scene, &reference, &frame);
         eprintln!("{name} without `{removed}` ({count} pixels showed it): {v:?}");
         assert!(count >= 10, "{name}: `{removed}` shows on {count} pixels");
         assert!(v.behind * 2 >= count, "{name}: {v:?} of {count}");
         // The same judge passes the frame of the whole scene.
-        let whole = render(&ctx, &scene, options(Method::Bvh, TraceCriterion::Exact));
+        let whole = render(&ctx, &scene, options(Method::Bvh, TraceCriterion::Centre));
         assert_eq!(judge(&scene, &reference, &whole).behind, 0, "{name}");
     }
     finish_gpu(ctx);

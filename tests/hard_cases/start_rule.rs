@@ -136,26 +136,26 @@ type FrameCase<'a> = (&'a str, (u32, u32), &'a [(Method, TraceCriterion)], bool)
 #[test]
 fn a_start_past_its_triangles_edge_ignores_only_the_neighbour_it_is_behind() {
     use Method::{Bvh, Compute, Fragment};
-    use TraceCriterion::{Bounded, Exact};
+    use TraceCriterion::{Bounded, Centre};
     let ctx = gpu_context();
     let frames: [FrameCase; 2] = [
         (
             "teapot",
             (96, 72),
             &[
-                (Bvh, Exact),
-                (Fragment, Exact),
-                (Compute, Exact),
+                (Bvh, Centre),
+                (Fragment, Centre),
+                (Compute, Centre),
                 (Fragment, Bounded),
                 (Compute, Bounded),
             ],
             true,
         ),
-        // The exact criterion's centre-sampled capture has wrong surfaces of its own here.
+        // The centre criterion's centre-sampled capture has wrong surfaces of its own here.
         (
             "default",
             (160, 120),
-            &[(Bvh, Exact), (Fragment, Bounded), (Compute, Bounded)],
+            &[(Bvh, Centre), (Fragment, Bounded), (Compute, Bounded)],
             false,
         ),
     ];

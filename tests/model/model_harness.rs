@@ -594,10 +594,12 @@ fn model_from_merges_a_rows_processes() {
     assert!(!out.join("model.json").exists());
 }
 
-/// `bench --defaults-only` runs each method's default setting alone (the rows --model reads):
-/// no `compute-bounded`, no `reflection-point-sub2`. Negative: without it both are there.
+/// `bench --model-rows` runs each method in the setting the model replays alone (the rows
+/// --model reads): `compute-centre`, not the default `compute` (bounded), no
+/// `reflection-point-sub2`. Negative: without it all three are there. The old name of the flag,
+/// `--defaults-only`, still runs the same rows.
 #[test]
-fn defaults_only_runs_the_default_settings() {
+fn model_rows_runs_the_modelled_settings() {
     let labels = |extra: &[&str]| {
         let d = tempfile::tempdir().unwrap();
         let v = bench_run(d.path(), "default", "compute,reflection-point", extra);
@@ -609,17 +611,22 @@ fn defaults_only_runs_the_default_settings() {
             .collect::<Vec<_>>()
     };
     assert_eq!(
+        labels(&["--model-rows"]),
+        ["compute-centre", "reflection-point"]
+    );
+    assert_eq!(
         labels(&["--defaults-only"]),
-        ["compute", "reflection-point"]
+        ["compute-centre", "reflection-point"]
     );
     let all = labels(&[]);
     assert!(
-        all.iter().any(|l| l == "compute-bounded")
+        all.iter().any(|l| l == "compute")
+            && all.iter().any(|l| l == "compute-centre")
             && all.iter().any(|l| l == "reflection-point-sub2"),
         "{all:?}"
     );
     // It does not combine with --quick.
-    let o = cli(&["bench", "--defaults-only", "--quick"]);
+    let o = cli(&["bench", "--model-rows", "--quick"]);
     assert!(!o.status.success());
 }
 
@@ -671,7 +678,7 @@ fn the_model_loads_a_scene_given_by_its_path() {
         d.path(),
         &scenes,
         "fragment,bvh",
-        &["--model", "--defaults-only"],
+        &["--model", "--model-rows"],
     );
     let runs = v["runs"].as_array().expect("runs");
     assert!(runs.iter().any(|r| r["source"] == path), "{runs:?}");

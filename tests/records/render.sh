@@ -28,13 +28,13 @@ variants=(
   "reference" "--method reference"
   "fragment-threshold" "--method fragment --criterion threshold"
   "fragment-sign-step" "--method fragment --criterion sign-change --sampling constant-step --steps 64"
-  "compute-bounded" "--method compute --criterion bounded"
-  "fragment-bounded" "--method fragment --criterion bounded"
+  "compute-centre" "--method compute --criterion centre"
+  "fragment-centre" "--method fragment --criterion centre"
   "compute-spp4-gaussian" "--method compute --spp 4 --filter gaussian"
   "bvh-spp4" "--method bvh --spp 4"
   "reference-spp4-gaussian" "--method reference --spp 4 --filter gaussian"
-  "fragment-walk" "--method fragment --no-accel"
-  "fragment-strict" "--method fragment --strict"
+  "fragment-walk" "--method fragment --criterion centre --no-accel"
+  "fragment-strict" "--method fragment --criterion centre --strict"
   "fragment-envmap-fallback" "--method fragment --fallback envmap"
   "compute-flag-fallback" "--method compute --fallback flag --no-reflector-check"
   "compute-bounces3" "--method compute --bounces 3"
@@ -46,8 +46,7 @@ variants=(
 for scene in $scenes; do
   for ((k = 0; k < ${#variants[@]}; k += 2)); do
     name=${variants[k]}
-    # A render the command refuses (the bounded criterion on a glossy reflector) writes no file
-    # and is not compared; it is named here.
+    # A render the command refuses writes no file and is not compared; it is named here.
     # shellcheck disable=SC2086
     if ! "$bin" render "$scene" "${size[@]}" ${variants[k + 1]} -o "$out/$scene-$name.exr" \
       >/dev/null 2>"$out/$scene-$name.err"; then

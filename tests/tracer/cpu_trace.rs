@@ -551,7 +551,7 @@ fn approximate_criteria() {
     let (hits, good, hidden) = table[0];
     assert!(hits > 1300 && good as f32 > 0.8 * hits as f32);
     // ...but also "hits" where the ray only passes behind the occluder (thesis fig. 3.2, C),
-    // which the exact criterion reports as behind (tested above with zero such hits).
+    // which the centre criterion reports as behind (tested above with zero such hits).
     assert!(hidden > 0);
     // The same metric on the exact model finds none.
     assert_eq!(approx_stats(&tr, &rs, |seg| trace_walk(&tr, seg)).2, 0);

@@ -11,7 +11,6 @@ use crate::common;
 use common::trace_probe::{ProbeRay, ProbeResult, trace_probe_entry};
 use common::{Rng, distance_cube, finish_gpu, gpu_context};
 
-use cubetrace::cpu::options::TraceOptions;
 use cubetrace::cpu::{FaceList, Segment, face_order, faces_crossed};
 use cubetrace::cubemap::frustum::Interval;
 use cubetrace::vk::passes::cmo::CmoData;
@@ -91,8 +90,12 @@ fn the_sorting_network_orders_every_key_tuple_as_the_cpu() {
         })
         .collect();
     let ctx = gpu_context();
-    let data = CmoData::upload(&ctx, &[distance_cube(2, 1, None)], &TraceOptions::default())
-        .unwrap_or_else(|e| panic!("{e}"));
+    let data = CmoData::upload(
+        &ctx,
+        &[distance_cube(2, 1, None)],
+        &common::render::centre(),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
     let gpu =
         trace_probe_entry(&ctx, &data, &rays, "main_face_order").unwrap_or_else(|e| panic!("{e}"));
     let mut bad = 0;
@@ -194,7 +197,7 @@ fn faces_crossed_match_the_cpu_bit_for_bit() {
         let data = CmoData::upload(
             &ctx,
             &[distance_cube(size, 3, None)],
-            &TraceOptions::default(),
+            &common::render::centre(),
         )
         .unwrap_or_else(|e| panic!("{e}"));
         let gpu =

@@ -36,8 +36,10 @@ fn default_scene(cube: u32) -> (Scene, Camera) {
 }
 
 fn render(ctx: &GpuContext, scene: &Scene, camera: &Camera, method: Method) -> GpuFrame {
+    // The centre criterion: these are its tracer's cases (the twins below are its CPU ones).
     let options = RenderOptions {
         method,
+        trace: common::render::centre(),
         fallback: Fallback::Flag,
         ..RenderOptions::default()
     };

@@ -11,7 +11,6 @@
 use glam::Vec3;
 
 use crate::camera::Camera;
-use crate::cpu::options::TraceCriterion;
 use crate::cubemap::bounds::PoolBound;
 use crate::method::Method;
 use crate::scene::Scene;
@@ -161,8 +160,7 @@ impl FramePlan {
         camera: &Camera,
         options: &RenderOptions,
     ) -> RenderOptions {
-        if options.trace.criterion != TraceCriterion::Bounded || options.list_size != ListSize::Auto
-        {
+        if !options.bounded() || options.list_size != ListSize::Auto {
             return *options;
         }
         let plan = Self::of(scene, camera, options);
@@ -280,7 +278,7 @@ impl CmoPlan {
             return placeholder;
         }
         let mut cone_size = None;
-        let (capture, size) = if options.trace.criterion == TraceCriterion::Bounded {
+        let (capture, size) = if options.bounded() {
             let colour = needs.contents.colour;
             let (views, size, capacity) = lists(options.list_size);
             // A glossy reflector's cone pass reads CMOs of its own, captured as the centre-sampled

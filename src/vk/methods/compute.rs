@@ -13,7 +13,7 @@
 //!   fragment path traces, so both paths trace bit-identical rays.
 //! - `compute_trace` writes `records[pixel]` for exactly the queued pixels, i.e. the mirror pixels
 //!   (`position.w == 1`, the composite pass's own test), and `ray_stats[pixel]` likewise.
-//! - The surface model and the classification are the fragment path's exact criterion
+//! - The surface model and the classification are the fragment path's centre criterion
 //!   (`classify` in spirv/shared/trace.wgsl), or with `--criterion bounded` its bounded one
 //!   (`classify_bounded_pick` in spirv/shared/trace_bounded.wgsl, through the `_bounded` twin of
 //!   each entry point, [`bounded_entry`]; the queued ray carries its G-buffer triangle for the

@@ -13,7 +13,7 @@
 //! cube maps and writes one `PixelRecord`. Its CPU twin is `cpu::fragment` (the same loops in Rust);
 //! the compute method makes the same decisions on every pixel through another traversal.
 //!
-//! Surface model (exact criterion, the default; `src/cpu/mod.rs` states it in full). Texel `i` of
+//! Surface model (centre criterion, the default; `src/cpu/mod.rs` states it in full). Texel `i` of
 //! a CMO is the piece of the sphere `|x| = D_i` around the CMO centre inside the texel's frustum.
 //! Along the ray, the first texel that is not entirely in front of that profile decides: a hit, or
 //! "went behind an occluder" where its neighbour's patch does not join it (a silhouette is never a
@@ -41,7 +41,7 @@
 //! distance) instead of a centre-sampled capture; the hit is the nearest listed triangle the
 //! ray meets where the list is complete (`spirv/shared/trace_bounded.wgsl`, CPU twin
 //! `cpu::bounded`), the ray leaving its G-buffer triangle (the start rule). It marches the 2x2
-//! pyramid of the texels' `lo` like the exact criterion (the march is shared, its
+//! pyramid of the texels' `lo` like the centre criterion (the march is shared, its
 //! classification is not: `fs_exact_mip`/`fs_main`'s bindings stay free of the lists; CPU twin
 //! `Traversal::Mip`); `--no-accel` and `--strict` do not apply to it.
 //!

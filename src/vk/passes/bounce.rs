@@ -57,7 +57,7 @@
 //! the bounces beyond their own first round (bowl: same triangle 91.6 % at N = 3, 90.1 % at N = 1,
 //! self-capture on). The compute path's later rounds from the cube maps
 //! (`compute_traces_the_bounce_rounds_with_the_cube_maps`, facing mirrors, N = 3, three CMOs):
-//! 922 of 1620 later rays decided by a CMO with the exact criterion (the first round: 71.5 %),
+//! 922 of 1620 later rays decided by a CMO with the centre criterion (the first round: 71.5 %),
 //! every one of 1615 with the bounded criterion, whose frame equals the reference's. Negative:
 //! each frame against the reference of another N, and the second mirror's normals turned by 0.5
 //! degrees, fail; `bvh` decides no ray with a CMO. At 320x240 (`render --compare`, lavapipe):

@@ -70,7 +70,7 @@ pub struct TraceConfig {
     pub criterion: u32,
     /// 0 constant step, 1 constant angle, 2 per texel.
     pub sampling: u32,
-    /// 0 per-texel walk, 1 mip march (exact criterion).
+    /// 0 per-texel walk, 1 mip march (centre criterion).
     pub accel: u32,
     /// Sample intervals of constant-step / constant-angle sampling.
     pub steps: u32,
@@ -82,7 +82,7 @@ pub struct TraceConfig {
     pub mip_top: u32,
     /// Cells per CMO in the mip buffer.
     pub mip_len: u32,
-    /// 1: exact criterion with decisive patch hits only (`TraceOptions::strict`).
+    /// 1: centre criterion with decisive patch hits only (`TraceOptions::strict`).
     pub strict: u32,
     /// Padding.
     pub pad1: u32,
@@ -132,7 +132,7 @@ impl TraceConfig {
             cmo_count,
             size,
             criterion: match opts.criterion {
-                TraceCriterion::Exact => 0,
+                TraceCriterion::Centre => 0,
                 TraceCriterion::Threshold => 1,
                 TraceCriterion::SignChange => 2,
                 TraceCriterion::Bounded => Self::CRITERION_BOUNDED,
@@ -155,11 +155,11 @@ impl TraceConfig {
     }
 }
 
-/// Whether `opts` select the exact criterion's mip march without `--strict`, the only method the
+/// Whether `opts` select the centre criterion's mip march without `--strict`, the only method the
 /// specialised entry points carry (`fs_exact_mip` of `fragment_trace`, `main_exact_mip` of
 /// `trace_probe`; WGSL `TRACE_EXACT_MIP`). Every other option set needs the generic entry point.
 pub fn exact_mip_only(opts: &TraceOptions) -> bool {
-    opts.criterion == TraceCriterion::Exact && opts.accel && !opts.strict
+    opts.criterion == TraceCriterion::Centre && opts.accel && !opts.strict
 }
 
 /// What the capture stores per texel besides the distance (and, with self-reflections, the

@@ -58,7 +58,7 @@ pub struct PixelRecord {
     pub traces: u32,
     pub t: f32,
     pub t_done: f32,
-    /// Verified hits (the exact criterion in the fragment and compute paths): the global
+    /// Verified hits (the centre criterion in the fragment and compute paths): the global
     /// triangle hit; `u32::MAX` otherwise and for methods that do not verify.
     pub triangle: u32,
     /// 1 where the compute path's step loop ended before the ray did (the driver's loop limit:
