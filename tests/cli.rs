@@ -898,6 +898,19 @@ fn the_summary_shows_the_fallback_share_and_warns_above_the_threshold() {
     assert!(traced.stderr.contains("likely cause"), "{}", traced.stderr);
     // Negative: the built-in default leaves under 10 %: no warning.
     let default = render("default", &[]);
+    // The summary names the criterion of a cube-map tracer: the one asked for, else the default.
+    assert!(
+        traced.stdout.contains("method compute (centre criterion)"),
+        "{}",
+        traced.stdout
+    );
+    assert!(
+        default
+            .stdout
+            .contains("method compute (bounded criterion)"),
+        "{}",
+        default.stdout
+    );
     assert!(
         !default.stderr.contains("resolved only"),
         "{}",

@@ -399,7 +399,7 @@ fn render_gpu(
         "{}",
         gpu_summary(
             &target.path,
-            args.method,
+            args,
             scene,
             &rendered,
             &count,
@@ -517,13 +517,23 @@ fn log_gpu_frame(frame: &GpuFrame, method: Method) {
 /// sample).
 fn gpu_summary(
     path: &Path,
-    method: Method,
+    args: &RenderArgs,
     scene: &Scene,
     rendered: &RenderedFrame,
     count: &FallbackCount,
     render_time: Duration,
     ctx: &GpuContext,
 ) -> String {
+    // A cube-map tracer names its criterion (the default is bounded; `centre` is asked for).
+    let method = args.method;
+    let criterion = args.trace.options(method).trace.criterion;
+    let label = match method.traces_cubemaps() {
+        true => format!(
+            "{method} ({} criterion)",
+            crate::method::criterion_name(criterion)
+        ),
+        false => method.to_string(),
+    };
     format!(
         "wrote {} ({}x{}{}, scene '{}', method {}, {}) in {:.2?} ({:.2} ms GPU on {})",
         path.display(),
@@ -531,7 +541,7 @@ fn gpu_summary(
         rendered.height,
         spp_note(rendered.spp),
         scene.name,
-        method,
+        label,
         summary::counts(method, count),
         render_time,
         rendered.gpu_ms,
