@@ -60,11 +60,11 @@ pub enum Method {
     /// vertex of the other objects, a local search over the reflector's position and normal
     /// textures; the virtual objects rasterised into the mirror; uncovered pixels get the fallback.
     ReflectionPoint,
-    /// Centre ray tracing of the reflected rays on the GPU: a compute pass over a compressed wide
+    /// Exact ray tracing of the reflected rays on the GPU: a compute pass over a compressed wide
     /// BVH (obvhs), the same triangles and shading as the reference. Glossy reflectors: one lobe
     /// sample per film sample (Monte Carlo, `--spp`).
     Bvh,
-    /// Centre CPU ray tracing against the scene's triangles: the ground truth.
+    /// Exact CPU ray tracing against the scene's triangles: the ground truth.
     Reference,
 }
 

@@ -29,7 +29,8 @@
 //! no latency hiding, no caches: sectors are transactions requested, not misses).
 //!
 //! # Where it stops
-//! - Only the default options of each method (centre criterion, pyramid, verified hits).
+//! - Only one setting of each method (the centre criterion, pyramid, verified hits; not the
+//!   bounded criterion, the default).
 //! - The retrace of `main_lanes1` (rays cut by lavapipe's loop limit) is not modelled: the
 //!   twins never cut a ray.
 //! - Divergence inside a block (an `if` within a callee) is folded into the block's weight.

@@ -19,8 +19,8 @@
 //!   found by the reference tracer (as the harness's twins do), in row-major pixel order: the
 //!   compute queue's order (the append pass writes the records in pixel order on the CPU here;
 //!   a GPU's atomic append would interleave whole warps of the raster order).
-//! - The CMOs: `cpu::capture::capture` at the scene's CMO centres, default trace options (the
-//!   centre criterion, the pyramid, verified hits): the default `--method compute / fragment`.
+//! - The CMOs: `cpu::capture::capture` at the scene's CMO centres, the centre criterion's trace
+//!   options (the pyramid, verified hits): `--method compute / fragment --criterion centre`.
 //! - Addresses ([`Addr`]): every buffer starts at its own aligned base (per CMO and level),
 //!   so loads of different buffers never share a sector. [`TexelLayout::Linear`] is the GPU
 //!   buffers' actual layout (row-major per face, faces in order: `texel_index`, the flattened
@@ -38,8 +38,8 @@
 //!   tests/fragment.rs); the block a count stands for is the shader's. Where the shader's loop
 //!   shape differs from the twin's (the pyramid march's turns), the events are placed where the
 //!   shader runs them.
-//! - Only the default options are modelled (centre criterion, pyramid, verified hits; SSR's
-//!   and reflection-point's default options).
+//! - Only one setting per method is modelled (the centre criterion, pyramid, verified hits;
+//!   SSR's and reflection-point's default options): not the bounded criterion, the default.
 //! - SSR's Hi-Z pyramid and reflection-point's T_P / T_N are drawn by the reference tracer
 //!   (first surfaces; the reflectors alone), not rasterised: pixel-edge differences from the
 //!   GPU's G-buffer are not modelled; open reflectors' closing triangles are left out of T_P.

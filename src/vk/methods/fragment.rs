@@ -13,7 +13,7 @@
 //! cube maps and writes one `PixelRecord`. Its CPU twin is `cpu::fragment` (the same loops in Rust);
 //! the compute method makes the same decisions on every pixel through another traversal.
 //!
-//! Surface model (centre criterion, the default; `src/cpu/mod.rs` states it in full). Texel `i` of
+//! Surface model (the centre criterion; `src/cpu/mod.rs` states it in full). Texel `i` of
 //! a CMO is the piece of the sphere `|x| = D_i` around the CMO centre inside the texel's frustum.
 //! Along the ray, the first texel that is not entirely in front of that profile decides: a hit, or
 //! "went behind an occluder" where its neighbour's patch does not join it (a silhouette is never a
