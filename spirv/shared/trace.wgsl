@@ -5,7 +5,7 @@
 //
 // Entry: `trace_ray(origin, dir, t_lo, t_hi)` on a world-space ray, over the `cmo_count` CMOs,
 // with any options; `trace_ray_variant(.., TRACE_EXACT_MIP)` carries only the centre criterion's
-// mip march (the production path), for options with `criterion` exact and `accel` set.
+// mip march (its usual path), for options with `criterion` centre and `accel` set.
 //
 // Data (all passes that import this file bind the same @group(1)):
 // - binding 0 `trace_config`: `TraceConfig` (Rust `cubetrace::vk::passes::cmo::TraceConfig`).
@@ -54,7 +54,7 @@ const SAMPLING_PER_TEXEL: u32 = 2u;
 // folds the constant and drops the code of the other methods (specialisation by entry point).
 // TRACE_ANY: every criterion, sampling and acceleration, chosen at run time by `trace_config`.
 const TRACE_ANY: u32 = 0u;
-// TRACE_EXACT_MIP: the centre criterion with the mip march only (`criterion` exact, `accel` 1,
+// TRACE_EXACT_MIP: the centre criterion with the mip march only (`criterion` centre, `accel` 1,
 // `strict` 0; the Rust side picks it only then: `vk::passes::cmo::exact_mip_only`).
 const TRACE_EXACT_MIP: u32 = 1u;
 

@@ -74,7 +74,7 @@ pub struct ProbeResult {
     pub pad1: u32,
 }
 
-/// The same test on a built config (`criterion` exact, `accel` set and `strict` off, as
+/// The same test on a built config (`criterion` centre, `accel` set and `strict` off, as
 /// `trace_one` and `classify` decide).
 fn config_exact_mip(config: &TraceConfig) -> bool {
     config.criterion == 0 && config.accel != 0 && config.strict == 0
