@@ -31,10 +31,10 @@ pub struct BenchArgs {
     /// unless --quick (then the centre criterion with the pyramid alone); compute the bounded
     /// criterion, its default (`compute`), and the centre one (`compute-centre`) on its
     /// hierarchy and, unless --quick, its three lane layouts beside the device's default
-    /// (`compute-thesis`, `compute-one-lane`, `compute-wave`: the same records, the cost of each), ssr its defaults
-    /// (64 iterations, no thickness test), reflection-point its defaults (cap 256 steps, search
-    /// scale 1) as is and with the other objects subdivided twice (`reflection-point-sub2`), bvh
-    /// (exact GPU ray tracing) its one setting.
+    /// (`compute-thesis`, `compute-one-lane`, `compute-wave`: the same records, the cost of
+    /// each), ssr its defaults (64 iterations, no thickness test), reflection-point its defaults
+    /// (cap 256 steps, search scale 1) as is and with the other objects subdivided twice
+    /// (`reflection-point-sub2`), bvh (exact GPU ray tracing) its one setting.
     #[arg(
         long,
         value_delimiter = ',',

@@ -23,8 +23,8 @@ pub enum TraceCriterion {
     Bounded,
     /// The centre-sampled capture's per-texel sphere-patch model with the continuity rule
     /// ([`super`]): exact for the surface the texel centres saw, blind to geometry between
-    /// them (a thin or distant triangle can hide behind a hit). The only criterion with a
-    /// "behind" outcome and hence the several-CMO handoff.
+    /// them (a thin or distant triangle can hide behind a hit). Like the bounded criterion,
+    /// unlike the approximate ones, it has a "behind" outcome and hence the several-CMO handoff.
     Centre,
     /// `|r - D| < eps` at samples ([`Criterion::Threshold`]).
     Threshold,
