@@ -954,6 +954,47 @@ fn the_summary_shows_the_fallback_share_and_warns_above_the_threshold() {
     assert!(!traced.stderr.contains("point inward"), "{}", traced.stderr);
 }
 
+/// The centre-sampled criterion is `centre` since the bounded one became the default: the old
+/// name `exact` is refused (it would name the unsound one), and the message lists both; a bare
+/// `--strict` (a centre-criterion option) names the criterion it needs. Negative: `centre` and
+/// `bounded` are taken.
+#[test]
+fn the_old_criterion_name_is_refused_with_the_new_ones() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = run(
+        &["render", "--criterion", "exact", "-o", "x.png"],
+        dir.path(),
+    );
+    assert_eq!(o.code, Some(2), "{}", o.stderr);
+    assert!(!o.stderr.contains("panicked"), "{}", o.stderr);
+    assert!(
+        o.stderr.contains("'exact'") && o.stderr.contains("bounded, centre"),
+        "{}",
+        o.stderr
+    );
+    let o = run(
+        &["render", "--method", "fragment", "--strict", "-o", "x.png"],
+        dir.path(),
+    );
+    assert_clean_failure(&o, &["--strict", "--criterion centre"]);
+    assert!(files(dir.path()).is_empty(), "{:?}", files(dir.path()));
+    for criterion in ["centre", "bounded"] {
+        let args = [
+            "render",
+            "--criterion",
+            criterion,
+            "--width",
+            "8",
+            "--height",
+            "6",
+            "-o",
+            "x.png",
+        ];
+        let o = run(&args, dir.path());
+        assert_eq!(o.code, Some(0), "{criterion}: {}", o.stderr);
+    }
+}
+
 /// Options the method ignores are refused before anything runs, in the CLI's words; the same
 /// options with a method that reads them run.
 #[test]
