@@ -658,10 +658,7 @@ mod tests {
     /// setting: refused exactly where its rule says the method ignores it.
     #[test]
     fn method_options_are_refused_where_ignored() {
-        let centre = TraceOptions {
-            criterion: TraceCriterion::Centre,
-            ..TraceOptions::default()
-        };
+        let centre = TraceOptions::centre();
         let e = Method::Compute
             .check_options(&["--ssr-iterations"], &centre)
             .unwrap_err();
@@ -750,10 +747,7 @@ mod tests {
 
     #[test]
     fn bounce_rule() {
-        let centre = TraceOptions {
-            criterion: TraceCriterion::Centre,
-            ..TraceOptions::default()
-        };
+        let centre = TraceOptions::centre();
         let threshold = TraceOptions {
             criterion: TraceCriterion::Threshold,
             ..centre

@@ -367,7 +367,7 @@ fn fallback_trace_finishes_every_unresolved_ray() {
         let render = |fallback| {
             let options = RenderOptions {
                 method: Method::Compute,
-                trace: common::render::centre(),
+                trace: cubetrace::cpu::options::TraceOptions::centre(),
                 fallback,
                 // The fallback alone: the reflector check also hands the fallback the rays whose
                 // cubemap hit is at their own start (tests/frame/reflector_check.rs).

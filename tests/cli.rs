@@ -779,7 +779,7 @@ fn gpu_estimate_covers_the_cmo_allocation() {
         // The centre criterion: the scene-less estimate cannot know the bounded lists' size.
         let options = RenderOptions {
             method,
-            trace: common::render::centre(),
+            trace: cubetrace::cpu::options::TraceOptions::centre(),
             fallback: Fallback::Envmap,
             ..RenderOptions::default()
         };

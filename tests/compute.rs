@@ -82,7 +82,7 @@ fn compute_render(
 ) -> (GpuFrame, Vec<CubeMap>) {
     let options = RenderOptions {
         method,
-        trace: common::render::centre(),
+        trace: TraceOptions::centre(),
         fallback: Fallback::Flag,
         // The twins model the tracing pass alone; the reflector check, which runs after it, is
         // judged in tests/frame/reflector_check.rs.

@@ -174,7 +174,7 @@ fn fragment_matches_cpu_twin_on_every_scene() {
             let opts = TraceOptions {
                 accel,
                 strict,
-                ..common::render::centre()
+                ..TraceOptions::centre()
             };
             let (frame, r) = render(&ctx, &scene, options(Method::Fragment, opts));
             let cmos = twins(&ctx, &r, &opts);
@@ -214,7 +214,7 @@ fn envmap_matches_cpu_twin() {
     let ctx = gpu_context();
     for name in ["default", "bowl"] {
         let scene = builtin::by_name(name).unwrap();
-        let opts = common::render::centre();
+        let opts = TraceOptions::centre();
         let (frame, r) = render(&ctx, &scene, options(Method::Envmap, opts));
         let cmos = twins(&ctx, &r, &opts);
         let bg = scene.background;
@@ -239,7 +239,7 @@ fn twin_comparison_detects_perturbed_data() {
     let ctx = gpu_context();
     let scene = builtin::sphere_room();
     let (_, _, t_hi) = scene_ranges(&scene, &camera(&scene));
-    let opts = common::render::centre();
+    let opts = TraceOptions::centre();
     let (frame, r) = render(&ctx, &scene, options(Method::Fragment, opts));
     let bg = scene.background;
     let tracer = Tracer::new(&scene);
@@ -368,12 +368,12 @@ fn fragment_accuracy_against_reference_with_envmap_for_contrast() {
         let (frag, _) = render(
             &ctx,
             &scene,
-            options(Method::Fragment, common::render::centre()),
+            options(Method::Fragment, TraceOptions::centre()),
         );
         let (env, _) = render(
             &ctx,
             &scene,
-            options(Method::Envmap, common::render::centre()),
+            options(Method::Envmap, TraceOptions::centre()),
         );
         let f = error_report(&scene, &frag, &reference);
         let e = error_report(&scene, &env, &reference);
@@ -453,7 +453,7 @@ fn accuracy_bounds_reject_perturbed_frames() {
     let (mut frame, _) = render(
         &ctx,
         &scene,
-        options(Method::Fragment, common::render::centre()),
+        options(Method::Fragment, TraceOptions::centre()),
     );
     assert!(within(&error_report(&scene, &frame, &reference), bounds));
     let centre = scene.cmo_centres()[0];
@@ -474,7 +474,7 @@ fn accuracy_bounds_reject_perturbed_frames() {
     let (coarse, _) = render(
         &ctx,
         &coarse_scene,
-        options(Method::Fragment, common::render::centre()),
+        options(Method::Fragment, TraceOptions::centre()),
     );
     // Measured against the fine footprint, as the bounds are.
     let coarse = error_report(&scene, &coarse, &reference);
@@ -595,7 +595,7 @@ fn gpu_reflected_rays_match_the_cpus_own() {
     for name in ["default", "sphere-room", "bowl", "teapot", "torus"] {
         let scene = builtin::by_name(name).unwrap();
         for method in [Method::Fragment, Method::Compute] {
-            let (frame, _) = render(&ctx, &scene, options(method, common::render::centre()));
+            let (frame, _) = render(&ctx, &scene, options(method, TraceOptions::centre()));
             let r = gpu_rays_against_cpu(&scene, &frame, &camera(&scene), (0, 0), false);
             eprintln!("{name} {method:?}: {r:?}");
             let mirror = frame.mask.iter().filter(|&&m| m != 0).count();
@@ -621,7 +621,7 @@ fn gpu_ray_comparison_rejects_a_shifted_pixel_and_face_normals() {
         let (frame, _) = render(
             &ctx,
             &scene,
-            options(Method::Fragment, common::render::centre()),
+            options(Method::Fragment, TraceOptions::centre()),
         );
         for (offset, flat) in [((1, 0), false), ((0, 0), true)] {
             let r = gpu_rays_against_cpu(&scene, &frame, &camera(&scene), offset, flat);
@@ -652,7 +652,7 @@ fn envmap_fallback_shades_from_triangle_ids_as_its_cpu_twin() {
         let scene = builtin::by_name(name).unwrap();
         let opts = RenderOptions {
             fallback: Fallback::Envmap,
-            ..options(method, common::render::centre())
+            ..options(method, TraceOptions::centre())
         };
         let (frame, r) = render(&ctx, &scene, opts);
         assert!(
@@ -721,7 +721,7 @@ fn exact_frames_take_no_more_cmo_memory_than_colour_and_distance() {
     for method in [Method::Compute, Method::Fragment] {
         let opts = RenderOptions {
             fallback: Fallback::Envmap,
-            ..options(method, common::render::centre())
+            ..options(method, TraceOptions::centre())
         };
         let (_, r) = render(&ctx, &scene, opts);
         let pyramid = method == Method::Fragment;
@@ -745,7 +745,7 @@ fn exact_frames_take_no_more_cmo_memory_than_colour_and_distance() {
         assert!(
             budget::cmo_bytes_per_texel_with(
                 s,
-                capture_contents(Method::Compute, &common::render::centre())
+                capture_contents(Method::Compute, &TraceOptions::centre())
             ) < budget::cmo_bytes_per_texel(s)
         );
     }
@@ -775,7 +775,7 @@ fn envmap_fallback_shades_what_the_colour_capture_stored() {
         let cube = cubetrace::cpu::capture::capture(&scene, &tracer, centre, size);
         let cmos = [CmoTracer::new(
             cube.clone(),
-            common::render::centre().params(),
+            TraceOptions::centre().params(),
         )];
         let bg = scene.background;
         let differ = |shift: u32| {

@@ -481,7 +481,7 @@ fn explain(
 
 /// The centre criterion as `cubetrace render --criterion centre` runs it (verified hits).
 fn exact() -> TraceOptions {
-    common::render::centre()
+    TraceOptions::centre()
 }
 
 /// The centre criterion in strict mode (`TraceOptions::strict`, `--strict`): a patch hit counts
@@ -489,7 +489,7 @@ fn exact() -> TraceOptions {
 fn strict() -> TraceOptions {
     TraceOptions {
         strict: true,
-        ..common::render::centre()
+        ..TraceOptions::centre()
     }
 }
 

@@ -42,10 +42,7 @@ impl MethodSpec {
     /// The method with the centre-sampled criterion (its other options the defaults).
     pub fn centre(kind: Method) -> Self {
         MethodSpec {
-            trace: TraceOptions {
-                criterion: TraceCriterion::Centre,
-                ..TraceOptions::default()
-            },
+            trace: TraceOptions::centre(),
             ..MethodSpec::plain(kind)
         }
     }

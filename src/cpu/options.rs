@@ -82,6 +82,14 @@ impl Default for TraceOptions {
 }
 
 impl TraceOptions {
+    /// The centre criterion's options, the others the defaults (`--criterion centre`).
+    pub fn centre() -> Self {
+        TraceOptions {
+            criterion: TraceCriterion::Centre,
+            ..TraceOptions::default()
+        }
+    }
+
     /// The per-CMO parameters to build [`CmoTracer`]s with.
     pub fn params(&self) -> TraceParams {
         TraceParams {

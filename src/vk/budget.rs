@@ -429,18 +429,10 @@ pub fn list_capture_bytes_of(plan: &FramePlan) -> u64 {
 mod tests {
     use super::*;
 
-    /// The centre criterion's tracer options (the default is bounded).
-    fn centre() -> TraceOptions {
-        TraceOptions {
-            criterion: crate::cpu::options::TraceCriterion::Centre,
-            ..TraceOptions::default()
-        }
-    }
-
-    /// The default render options with the centre criterion.
+    /// The default render options with the centre criterion (the default is bounded).
     fn centre_options() -> RenderOptions {
         RenderOptions {
-            trace: centre(),
+            trace: TraceOptions::centre(),
             ..RenderOptions::default()
         }
     }
@@ -500,10 +492,7 @@ mod tests {
 
     #[test]
     fn sizes_grow_with_what_they_depend_on() {
-        let exact = TraceOptions {
-            criterion: crate::cpu::options::TraceCriterion::Centre,
-            ..TraceOptions::default()
-        };
+        let exact = TraceOptions::centre();
         let base = device_bytes(160, 120, Method::Fragment, 1, 256, false, &exact);
         // 6 * 256^2 texels of 16 bytes (distance and ID, each in the CMO and the capture's
         // target), plus the pyramid: about 6.3 MiB + 2.x MiB.
@@ -556,7 +545,7 @@ mod tests {
         (camera.width, camera.height) = (64, 48);
         let exact = RenderOptions {
             method: Method::Compute,
-            trace: centre(),
+            trace: TraceOptions::centre(),
             ..RenderOptions::default()
         };
         // The lists at the cube size, where the pool below is bounded.

@@ -8,15 +8,6 @@ use cubetrace::scene::Scene;
 use cubetrace::vk::frame::{GpuFrame, GpuRenderer, RECORD_UNRESOLVED, RenderOptions};
 use cubetrace::vk::{GpuContext, VkResult};
 
-/// The tracer options of the centre-sampled criterion, the others the library's defaults: what
-/// the suites of that criterion's tracer and its CPU twins run (the default is bounded).
-pub fn centre() -> TraceOptions {
-    TraceOptions {
-        criterion: TraceCriterion::Centre,
-        ..TraceOptions::default()
-    }
-}
-
 /// The options of `method` under `criterion`, the others the library's defaults.
 pub fn criterion_options(method: Method, criterion: TraceCriterion) -> RenderOptions {
     RenderOptions {

@@ -49,7 +49,7 @@ fn render(
 ) -> (GpuFrame, Option<u32>) {
     let options = RenderOptions {
         method,
-        trace: common::render::centre(),
+        trace: cubetrace::cpu::options::TraceOptions::centre(),
         fallback: Fallback::Trace,
         reflector_check: check,
         ..RenderOptions::default()

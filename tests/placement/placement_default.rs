@@ -38,7 +38,7 @@ fn corpus(name: &str) -> Scene {
 fn fallback_share(ctx: &GpuContext, scene: &Scene) -> (f64, usize) {
     let options = RenderOptions {
         method: Method::Compute,
-        trace: common::render::centre(),
+        trace: cubetrace::cpu::options::TraceOptions::centre(),
         fallback: Fallback::Trace,
         ..RenderOptions::default()
     };

@@ -93,7 +93,7 @@ fn the_sorting_network_orders_every_key_tuple_as_the_cpu() {
     let data = CmoData::upload(
         &ctx,
         &[distance_cube(2, 1, None)],
-        &common::render::centre(),
+        &cubetrace::cpu::options::TraceOptions::centre(),
     )
     .unwrap_or_else(|e| panic!("{e}"));
     let gpu =
@@ -197,7 +197,7 @@ fn faces_crossed_match_the_cpu_bit_for_bit() {
         let data = CmoData::upload(
             &ctx,
             &[distance_cube(size, 3, None)],
-            &common::render::centre(),
+            &cubetrace::cpu::options::TraceOptions::centre(),
         )
         .unwrap_or_else(|e| panic!("{e}"));
         let gpu =

@@ -283,7 +283,7 @@ fn gpu_trace(ctx: &GpuContext, data: &CmoData, rays: &[TwinRay]) -> Vec<ProbeRes
 fn exact(accel: bool) -> TraceOptions {
     TraceOptions {
         accel,
-        ..common::render::centre()
+        ..TraceOptions::centre()
     }
 }
 
@@ -594,7 +594,7 @@ fn approximate_criteria_match_the_cpu() {
     let cubes = vec![twin_capture(Scene::BoxRoom, 32, CENTRE)];
     let rays = twin_rays(4242, 800, &[CENTRE]);
     let mut data =
-        CmoData::upload(&ctx, &cubes, &common::render::centre()).unwrap_or_else(|e| panic!("{e}"));
+        CmoData::upload(&ctx, &cubes, &TraceOptions::centre()).unwrap_or_else(|e| panic!("{e}"));
     let mut bad = 0;
     let mut total = 0;
     for criterion in [TraceCriterion::Threshold, TraceCriterion::SignChange] {
@@ -608,7 +608,7 @@ fn approximate_criteria_match_the_cpu() {
                 sampling,
                 steps: 300,
                 eps: 0.05,
-                ..common::render::centre()
+                ..TraceOptions::centre()
             };
             data.set_options(&ctx, &opts)
                 .unwrap_or_else(|e| panic!("{e}"));
@@ -647,12 +647,12 @@ fn approximate_criteria_match_the_cpu() {
 /// those options alone, and refused for any other config (it would trace them wrongly).
 #[test]
 fn specialised_entry_only_for_the_exact_mip_march() {
-    assert!(exact_mip_only(&common::render::centre()));
+    assert!(exact_mip_only(&TraceOptions::centre()));
     assert!(!exact_mip_only(&exact(false)));
     for criterion in [TraceCriterion::Threshold, TraceCriterion::SignChange] {
         let opts = TraceOptions {
             criterion,
-            ..common::render::centre()
+            ..TraceOptions::centre()
         };
         assert!(!exact_mip_only(&opts));
     }
@@ -661,7 +661,7 @@ fn specialised_entry_only_for_the_exact_mip_march() {
     let rays = twin_rays(77, 200, &[CENTRE]);
     let threshold = TraceOptions {
         criterion: TraceCriterion::Threshold,
-        ..common::render::centre()
+        ..TraceOptions::centre()
     };
     let data = CmoData::upload(&ctx, &cubes, &threshold).unwrap_or_else(|e| panic!("{e}"));
     let err = trace_probe_entry(&ctx, &data, &probe_rays(&rays), "main_exact_mip")
@@ -684,17 +684,17 @@ fn specialised_entry_only_for_the_exact_mip_march() {
 
 #[test]
 fn trace_config_refuses_what_the_shader_caps_would_cut() {
-    let ok = TraceConfig::new(2, 4096, &common::render::centre()).expect("4096 is accepted");
+    let ok = TraceConfig::new(2, 4096, &TraceOptions::centre()).expect("4096 is accepted");
     assert_eq!(ok.mip_top, 12);
     assert_eq!(ok.mip_levels[12][1..], [1, 1, 4096]);
-    assert!(TraceConfig::new(1, 4097, &common::render::centre()).is_err());
-    assert!(TraceConfig::new(1, 0, &common::render::centre()).is_err());
+    assert!(TraceConfig::new(1, 4097, &TraceOptions::centre()).is_err());
+    assert!(TraceConfig::new(1, 0, &TraceOptions::centre()).is_err());
     let many = TraceOptions {
         steps: 65537,
-        ..common::render::centre()
+        ..TraceOptions::centre()
     };
     assert!(TraceConfig::new(1, 16, &many).is_err());
     // N = 1: no pyramid; the cut radius comes from the texels.
-    let one = TraceConfig::new(1, 1, &common::render::centre()).expect("1 is accepted");
+    let one = TraceConfig::new(1, 1, &TraceOptions::centre()).expect("1 is accepted");
     assert_eq!((one.mip_top, one.mip_len), (0, 0));
 }

@@ -39,7 +39,7 @@ fn render(ctx: &GpuContext, scene: &Scene, camera: &Camera, method: Method) -> G
     // The centre criterion: these are its tracer's cases (the twins below are its CPU ones).
     let options = RenderOptions {
         method,
-        trace: common::render::centre(),
+        trace: cubetrace::cpu::options::TraceOptions::centre(),
         fallback: Fallback::Flag,
         ..RenderOptions::default()
     };

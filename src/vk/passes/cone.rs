@@ -190,11 +190,7 @@ pub fn upload_with_cone(
     background: Vec3,
 ) -> VkResult<CmoData> {
     // Rasterised cube maps: the centre criterion's data.
-    let centre = TraceOptions {
-        criterion: crate::cpu::options::TraceCriterion::Centre,
-        ..TraceOptions::default()
-    };
-    let mut data = CmoData::upload(ctx, cubes, &centre)?;
+    let mut data = CmoData::upload(ctx, cubes, &TraceOptions::centre())?;
     data.alloc_cone(ctx)?;
     let cone = data.cone().expect("allocated");
     let nan = vec![[f32::NAN; 4]; (cone.size() / 16) as usize];
