@@ -156,7 +156,8 @@ pub struct TraceArgs {
     /// Every GPU method but bvh: how the CMO centres are chosen (overrides the scene's). `auto`
     /// (the default of a scene without `[cmo]` centres) samples the camera's reflected rays (with
     /// --bounces N, their later reflections off reflectors too) and adds CMOs where they leave
-    /// the fewest unresolved, until at most 1 % of the sample is, within a budget of --cmos N
+    /// the fewest unresolved, until at most 1 % of the sample is (judged by the frame's
+    /// criterion: for bounded, its own lists, which resolve more), within a budget of --cmos N
     /// (else the scene's `[cmo]` count, else 8) CMOs and 512 MiB of them; it may also leave the
     /// reflectors out of the capture where that resolves more (the reflector check traces those
     /// rays exactly). `axis` spreads --cmos N (default 1) along the reflectors' longest axis.

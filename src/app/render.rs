@@ -229,6 +229,7 @@ pub fn scene_setup(args: &RenderArgs, search: bool) -> SceneSetup {
         height: args.height,
         search,
         bounces: args.bounces,
+        scoring: args.trace.options(args.method).scoring(),
         size_name: "--width/--height",
         ..SceneSetup::default()
     };

@@ -270,7 +270,12 @@ impl SequencePlacement {
         } else {
             &self.cameras[..]
         };
-        if let Some(p) = crate::placement::resolve_for(scene, cameras, args.bounces) {
+        if let Some(p) = crate::placement::resolve_for(
+            scene,
+            cameras,
+            args.bounces,
+            args.trace.options(args.method).scoring(),
+        ) {
             render::log_placement(&p);
         }
         self.last = Some((key, scene.cmo.placement.clone(), scene.self_reflections));

@@ -50,7 +50,7 @@ mod stats;
 pub use crate::render::checks::check_validation;
 pub use config::{BenchConfig, BenchPlacement, COMPARE_SPP, FLOOR_FRAME};
 pub use machine::{DeviceInfo, driver_threads, git_commit};
-pub use prepare::{check_memory, prepare_scene, prepare_scene_placed};
+pub use prepare::{check_memory, prepare_scene, prepare_scene_judged, prepare_scene_placed};
 pub use ratios::SceneRatios;
 pub use results::{FloorRun, RunResult};
 pub use runner::{BenchReport, run};

@@ -44,7 +44,7 @@ use serde::Serialize;
 
 use super::plot::{self, Point};
 use super::scaling::{TRIANGLE_SEGMENTS, tessellated_scene};
-use super::{BenchReport, Method, MethodSpec, prepare_scene};
+use super::{BenchReport, Method, MethodSpec, prepare_scene_judged};
 use crate::model::dynamic::{Counting, weights_by};
 use crate::model::methods::layouts;
 use crate::model::replay::{
@@ -54,6 +54,7 @@ use crate::model::validate::{self, Measured, Modelled, Training, Validation};
 use crate::model::weights;
 use crate::model::work::{self, Frame, blocks};
 use crate::output::write_atomic;
+use crate::placement::Scoring;
 
 /// The methods the model replays, in table order ([`crate::model::methods::MODELS`]).
 pub const METHODS: [Method; 5] = {
@@ -431,7 +432,13 @@ impl Recordings {
         if !self.recorded.contains_key(&key) {
             let fkey = (name.to_string(), cube);
             if !self.frames.contains_key(&fkey) {
-                let (scene, _) = prepare_scene(name, dims.0, dims.1, Some(cube), None)?;
+                let (scene, _) = prepare_scene_judged(
+                    name,
+                    dims.0,
+                    dims.1,
+                    (Some(cube), None),
+                    Scoring::Centre,
+                )?;
                 let settings = ModelSettings::new(cube, dims.0, dims.1);
                 self.frames
                     .insert(fkey.clone(), work::frame(&scene, &settings)?);
@@ -524,7 +531,7 @@ pub fn triangle_axis(dims: (u32, u32)) -> Result<Vec<TrianglePoint>> {
             camera.width = dims.0;
             camera.height = dims.1;
             // The model replays one reflection per path.
-            crate::placement::resolve(&mut scene, &camera, 1);
+            crate::placement::resolve(&mut scene, &camera, 1, Scoring::Centre);
         }
         let settings = ModelSettings::new(scene.cmo.resolution, dims.0, dims.1);
         let frame = work::frame(&scene, &settings)?;

@@ -9,13 +9,14 @@ use super::config::{BenchConfig, BenchPlacement};
 use super::spec::MethodSpec;
 use crate::camera::Camera;
 use crate::memory;
-use crate::placement::PlacementChoice;
+use crate::placement::{PlacementChoice, Scoring};
 use crate::render::scene::SceneSetup;
 use crate::scene::Scene;
 
 /// Loads a scene by name or path and applies the overrides of `cfg` and its frame size to its
 /// first camera ([`crate::render::scene::prepare`]); a placement search samples the first
-/// reflected rays alone (its callers follow one reflection per path).
+/// reflected rays alone (its callers follow one reflection per path), judged by the default
+/// criterion.
 pub fn prepare_scene(
     name: &str,
     width: u32,
@@ -23,30 +24,42 @@ pub fn prepare_scene(
     cube_size: Option<u32>,
     cmos: Option<u32>,
 ) -> Result<(Scene, Camera)> {
+    prepare_scene_judged(name, width, height, (cube_size, cmos), Scoring::default())
+}
+
+/// [`prepare_scene`] with a placement search judged by `scoring` (the criterion of the frames
+/// the caller renders).
+pub fn prepare_scene_judged(
+    name: &str,
+    width: u32,
+    height: u32,
+    (cube_size, cmos): (Option<u32>, Option<u32>),
+    scoring: Scoring,
+) -> Result<(Scene, Camera)> {
     let (scene, camera, _) = prepare_scene_placed(
         name,
         width,
         height,
         (cube_size, cmos),
         BenchPlacement::Scene,
-        true,
+        Some(scoring),
         1,
     )?;
     Ok((scene, camera))
 }
 
 /// [`prepare_scene`] with a placement of the bench's axis (`cube_size`, `cmos`: the overrides);
-/// also the placement search's result where one ran. `search`: whether a placement search runs
-/// at all (not where no method of the grid captures CMOs: the scene keeps its unresolved
-/// placement, which nothing reads). `bounces`: the run's reflections per path, whose later
-/// reflections the search samples too.
+/// also the placement search's result where one ran. `search`: the criterion that judges a
+/// placement search, `None` where none runs at all (no method of the grid captures CMOs: the
+/// scene keeps its unresolved placement, which nothing reads). `bounces`: the run's reflections
+/// per path, whose later reflections the search samples too.
 pub fn prepare_scene_placed(
     name: &str,
     width: u32,
     height: u32,
     (cube_size, cmos): (Option<u32>, Option<u32>),
     placement: BenchPlacement,
-    search: bool,
+    search: Option<Scoring>,
     bounces: u32,
 ) -> Result<(Scene, Camera, Option<crate::placement::Placement>)> {
     let choice = match placement {
@@ -62,8 +75,9 @@ pub fn prepare_scene_placed(
         cube_size,
         width: Some(width),
         height: Some(height),
-        search,
+        search: search.is_some(),
         bounces,
+        scoring: search.unwrap_or_default(),
         size_name: "frame size",
         ..SceneSetup::default()
     })

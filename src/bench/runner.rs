@@ -18,6 +18,7 @@ use super::stats::{Counters, Stats, frame_stats, optional_pass, pass_stats};
 use crate::camera::Camera;
 use crate::memory;
 use crate::metrics::{self, ErrorReport, PixelError, Traced};
+use crate::placement::Scoring;
 use crate::reference::Frame;
 use crate::render::checks::check_validation;
 use crate::scene::Scene;
@@ -65,7 +66,15 @@ pub fn run(
         cfg.placements.clone()
     };
     let several = placements.len() > 1;
-    let search = cfg.methods.iter().any(|m| m.kind.captures_cmos());
+    // The search (where a scene asks for one) is judged by the grid's first cube-map tracer's
+    // criterion (the grid puts each method's default first), else the default's.
+    let search = cfg.methods.iter().any(|m| m.kind.captures_cmos()).then(|| {
+        (cfg.methods.iter())
+            .find(|m| m.kind.traces_cubemaps())
+            .map_or_else(Scoring::default, |m| {
+                m.render_options(cfg.bounces, true).scoring()
+            })
+    });
     let mut labels = Vec::new();
     let mut prepared = Vec::new();
     let mut search_ms = Vec::new();

@@ -43,12 +43,13 @@ use serde::Serialize;
 use super::plot;
 use super::{
     Counters, DeviceInfo, MethodSpec, PassStats, Stats, frame_stats, git_commit, pass_stats,
-    prepare_scene, run_gpu, run_gpu_with, run_reference,
+    prepare_scene_judged, run_gpu, run_gpu_with, run_reference,
 };
 use crate::cpu::reflection_point::{RpOptions, SearchStats, subdivide_non_reflectors};
 use crate::method::Method;
 use crate::metrics::{self, ErrorReport, SameObject};
 use crate::output::write_atomic;
+use crate::placement::Scoring;
 use crate::scene::shapes::uv_sphere;
 use crate::scene::{Material, MeshInstance, Scene, Transform};
 use crate::vk::GpuContext;
@@ -212,20 +213,23 @@ fn plan(axis: Axis, cfg: &ScalingConfig) -> Result<Vec<PlanPoint>> {
         Axis::CubeSize => {
             let mut n = 32;
             while n <= cfg.max_cube {
-                let (s, _) = prepare_scene("sphere-room", w, h, Some(n), None)?;
+                let (s, _) =
+                    prepare_scene_judged("sphere-room", w, h, (Some(n), None), Scoring::Centre)?;
                 out.push((f64::from(n), s, w, h));
                 n *= 2;
             }
         }
         Axis::Screen => {
             for (sw, sh) in [(80, 60), (160, 120), (320, 240), (640, 480)] {
-                let (s, _) = prepare_scene("sphere-room", sw, sh, None, None)?;
+                let (s, _) =
+                    prepare_scene_judged("sphere-room", sw, sh, (None, None), Scoring::Centre)?;
                 out.push((f64::from(sw * sh), s, sw, sh));
             }
         }
         Axis::Cmos => {
             for k in [1, 2, 4, 8] {
-                let (s, _) = prepare_scene("default", w, h, None, Some(k))?;
+                let (s, _) =
+                    prepare_scene_judged("default", w, h, (None, Some(k)), Scoring::Centre)?;
                 out.push((f64::from(k), s, w, h));
             }
         }
@@ -338,7 +342,8 @@ fn tessellation_curve(
         .expect("a method searches per vertex");
     for (name, scale) in &cfg.tessellation_series {
         let (name, scale) = (name.as_str(), *scale);
-        let (scene, camera) = prepare_scene(name, cfg.width, cfg.height, None, None)?;
+        let (scene, camera) =
+            prepare_scene_judged(name, cfg.width, cfg.height, (None, None), Scoring::Centre)?;
         if reference.as_ref().is_none_or(|(n, _)| n != name) {
             bar.set_message(format!("tessellation: {name} reference"));
             reference = Some((name.to_string(), run_reference(&scene, &camera, 0, 1).frame));

@@ -604,6 +604,49 @@ pub fn texel_summary(kept: &[Entry], complete_to: f32) -> (f32, f32, f32) {
     (first.min(complete_to), hi, complete_to)
 }
 
+/// The face size of the `bounded` criterion's per-texel lists (`--list-size`). Every hit the
+/// lists give is a listed triangle's exact intersection, the first along the ray whatever the
+/// texels' size, and the exact fallback takes the rays they leave: the face size changes what
+/// the capture and the trace cost and how many rays reach the fallback, not the image (but for
+/// the last bits of a hit that one tracer finds and the other leaves; `lavapipe-list-size.md`
+/// in `benches/results`). A glossy reflector's cone pass reads CMOs of its own at the cube size
+/// (`CmoPlan::cone_size`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ListSize {
+    /// The first of [`AUTO_LIST_MIN`], twice that, ... below the cube size whose lists stay
+    /// short, at most [`AUTO_LIST_LENGTH`] nodes per texel by the node pool's bound, else the
+    /// cube size ([`auto_list_size`], `vk::passes::capture_lists::list_size`).
+    #[default]
+    Auto,
+    /// The cube size (`--cube-size`, else the scene's).
+    Cube,
+    /// This many texels per face side.
+    Fixed(u32),
+}
+
+/// `--list-size auto`'s smallest face size ([`auto_list_size`]).
+pub const AUTO_LIST_MIN: u32 = 32;
+/// `--list-size auto`'s longest mean list: nodes of the pool's bound per texel (the help of
+/// `--list-size` states it; [`auto_list_size`]).
+pub const AUTO_LIST_LENGTH: u64 = 8;
+
+/// `--list-size auto`'s rule for `cmos` CMOs of face size `cube_size`: the first of
+/// [`AUTO_LIST_MIN`], twice that, ... below `cube_size` at which `nodes(size)` (the node pool's
+/// bound summed over the CMOs, [`pool_bound`]) is at most [`AUTO_LIST_LENGTH`] per texel, else
+/// `cube_size`. The GPU's plan (`vk::passes::capture_lists::list_size`) and the placement
+/// search's bounded score both take it.
+pub fn auto_list_size(cube_size: u32, cmos: usize, mut nodes: impl FnMut(u32) -> u64) -> u32 {
+    let mut size = AUTO_LIST_MIN;
+    while size < cube_size {
+        let texels = cmos as u64 * 6 * u64::from(size) * u64::from(size);
+        if nodes(size) <= AUTO_LIST_LENGTH * texels {
+            return size;
+        }
+        size *= 2;
+    }
+    cube_size
+}
+
 /// Steps 1-6 for one CMO: every triangle `t` with `captured[t]`, every face.
 pub fn capture_lists(
     triangles: &[[Vec3; 3]],

@@ -19,17 +19,31 @@
 //! alone. Candidates: a small grid over the reflectors' bounding box grown by half its
 //! largest side every way (a flat mirror's box is flat; a centre in front of it is a candidate
 //! too; a non-convex reflector and facing reflectors get centres outside their hull) and clipped
-//! to the scene's box, plus the axis placements of one to three CMOs. A set of centres is scored
-//! by tracing the sample with the CPU twin of the GPU's exact tracer
+//! to the scene's box, plus the axis placements of one to three CMOs. The greedy steps score a
+//! set of centres by tracing the sample with the CPU twin of the centre criterion's tracer
 //! ([`crate::cpu::multi::trace_cmos_verified`]: the pyramid march, every hit verified against the
 //! captured triangle IDs, as `compute` and `fragment` do), over CPU captures
 //! ([`crate::cpu::capture::capture`]) of each centre at a small face size: the share of rays that
-//! end unresolved. Each step adds the candidate that lowers the share most (first in candidate
+//! end unresolved. Each step adds the candidate that lowers that share most (first in candidate
 //! order on ties), scoring only the rays the centres chosen so far leave unresolved, and stops
-//! when none lowers it. The final share is traced again over the whole sample. Before all this,
-//! the cheapest set is tried: one CMO on the reflectors' axis; where it meets the target, the
-//! search ends with it, after one capture instead of the candidates' (the corpus's slivers and
-//! the torus: 13-14 ms instead of 95-104). Deterministic.
+//! when none lowers it or the frame's criterion meets the target (below). Before all this, the
+//! cheapest set is tried: one CMO on the reflectors' axis; where it meets the target, the search
+//! ends with it, after one capture instead of the candidates' (the corpus's slivers and the
+//! torus: 13-14 ms instead of 95-104). Deterministic.
+//!
+//! The criterion ([`Scoring`]): whether a set meets the target is the frame's own criterion's
+//! share of the whole sample. For the centre criterion (and the approximate ones) that is the
+//! greedy steps' score. For the bounded criterion, the default, it is that criterion's CPU twin
+//! ([`crate::cpu::bounded`]) over lists captured on the CPU
+//! ([`crate::cubemap::bounds::capture_lists`]) at the frame's list size (for `--list-size auto`,
+//! the size its rule takes for the centre alone), built once per centre the search judges: the
+//! axis CMO, then the set after each step. The lists carry what a centre-sampled capture loses
+//! behind the first surface, so the bounded frame leaves far fewer rays to the fallback with the
+//! same centres, and a search judged by the centre criterion placed CMOs that only cost the
+//! bounded frame time (on the corpus at 320x240: robot-table 8 CMOs and a 242 ms frame where
+//! one CMO leaves 0.7 % in 69 ms; `benches/results/lavapipe-default-bounded.md`). The steps'
+//! order stays the centre criterion's: scoring every candidate with lists would build them for
+//! 67 centres.
 //!
 //! Under `self_reflections = "auto"` with a reflector that would be captured (not convex),
 //! [`resolve_for`] first searches with the reflectors left out of the capture and keeps that
@@ -61,9 +75,11 @@ use rayon::prelude::*;
 use crate::camera::Camera;
 use crate::cpu::CmoTracer;
 use crate::cpu::capture::capture_shaded;
+use crate::cpu::multi::WorldRay;
 use crate::cpu::multi::{MultiStatus, Traversal, Verify, trace_cmos_verified};
 use crate::cpu::options::TraceOptions;
 use crate::cpu::verify::triangle_corners;
+use crate::cubemap::bounds::{DEFAULT_DEPTH, ListSize, auto_list_size, capture_lists, pool_bound};
 use crate::reference::Tracer;
 use crate::scene::{CmoPlacement, Scene, SelfReflections};
 
@@ -115,6 +131,29 @@ pub struct PlacementOptions {
     /// samples the first reflected rays only; N adds each path's later reflections off
     /// reflectors, up to N in all (module docs).
     pub bounces: u32,
+    /// The frame's criterion, whose share of the sample the search stops on (module docs,
+    /// "The criterion").
+    pub scoring: Scoring,
+}
+
+/// Which CPU twin judges a set of centres: the frame's criterion (module docs, "The
+/// criterion").
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Scoring {
+    /// The centre criterion's, with verified hits (the frame's criterion is the centre one, or
+    /// an approximate one, which has no twin that reports rays it cannot resolve).
+    Centre,
+    /// The bounded criterion's ([`crate::cpu::bounded`]) over lists of the frame's face size
+    /// (`--list-size`; for `auto`, the size its rule takes for each centre alone at the scene's
+    /// cube size, [`auto_list_size`]).
+    Bounded(ListSize),
+}
+
+impl Default for Scoring {
+    /// The default criterion's (bounded) at the default list size.
+    fn default() -> Self {
+        Scoring::Bounded(ListSize::default())
+    }
 }
 
 impl Default for PlacementOptions {
@@ -125,6 +164,7 @@ impl Default for PlacementOptions {
             grid: 4,
             target: TARGET_SHARE,
             bounces: 1,
+            scoring: Scoring::default(),
         }
     }
 }
@@ -218,14 +258,6 @@ impl<'a> Scorer<'a> {
             .filter(|&i| self.unresolved(cmos, &self.rays[i]))
             .collect()
     }
-
-    fn share(&self, cmos: &[&CmoTracer]) -> f64 {
-        if self.rays.is_empty() {
-            return 0.0;
-        }
-        let all: Vec<usize> = (0..self.rays.len()).collect();
-        self.left(cmos, &all).len() as f64 / self.rays.len() as f64
-    }
 }
 
 /// Candidate centres: the grid over the grown reflector box, then the axis placements of one to
@@ -307,13 +339,14 @@ fn search_by(
     let scorer = Scorer::new(&tracer, &rays);
     let capture_tracer = shown.as_ref().unwrap_or(&tracer);
     let capture = |c: Vec3| scoring_capture(scene, capture_tracer, c, opts.cube_size);
+    let mut judge = Judge::new(scene, &scorer, opts);
     // The cheapest set first: one CMO on the reflectors' axis (the placement without a
     // search). Where it leaves at most the target unresolved, the search ends with it, at the
     // cost of one capture instead of the candidates'.
     let all: Vec<usize> = (0..rays.len()).collect();
     let axis_one = scene.axis_centres(1);
     if let [centre] = axis_one[..] {
-        let left = scorer.left(&[&capture(centre)], &all);
+        let left = judge.left(&axis_one, || scorer.left(&[&capture(centre)], &all));
         let share = left.len() as f64 / rays.len() as f64;
         if share <= opts.target {
             let left: Vec<&Ray> = left.iter().map(|&i| &rays[i]).collect();
@@ -340,9 +373,16 @@ fn search_by(
         opts.cube_size,
         start.elapsed()
     );
-    let (chosen, unresolved) = greedy(&scorer, &cmos, count, opts.target, shortcuts);
+    let mut share_of = |chosen: &[usize], open: &[usize]| {
+        let centres: Vec<Vec3> = chosen.iter().map(|&k| points[k]).collect();
+        let left = judge.left(&centres, || open.to_vec());
+        left.len() as f64 / rays.len() as f64
+    };
+    let (chosen, unresolved) = greedy(&scorer, &cmos, count, opts.target, shortcuts, &mut share_of);
+    let centres: Vec<Vec3> = chosen.iter().map(|&k| points[k]).collect();
     let set: Vec<&CmoTracer> = chosen.iter().map(|&k| &cmos[k]).collect();
-    let left: Vec<&Ray> = scorer.left(&set, &all).iter().map(|&i| &rays[i]).collect();
+    let left = judge.left(&centres, || scorer.left(&set, &all));
+    let left: Vec<&Ray> = left.iter().map(|&i| &rays[i]).collect();
     let mut unresolved = unresolved;
     if let Some(last) = unresolved.last_mut() {
         *last = left.len() as f64 / rays.len().max(1) as f64;
@@ -350,28 +390,115 @@ fn search_by(
     // The axis placement of as many CMOs; a centre that is a candidate (one to three CMOs) has
     // its capture already: the same centre gives the same capture.
     let axis_centres = scene.axis_centres(chosen.len().max(1) as u32);
-    let known = |c: &Vec3| {
-        let bits = |v: &Vec3| v.to_array().map(f32::to_bits);
-        (points.iter().position(|p| bits(p) == bits(c))).filter(|_| shortcuts)
-    };
-    let fresh: Vec<CmoTracer> = (axis_centres.iter())
-        .filter(|c| known(c).is_none())
-        .map(|&c| capture(c))
-        .collect();
-    let mut fresh_iter = fresh.iter();
-    let axis: Vec<&CmoTracer> = (axis_centres.iter())
-        .filter_map(|c| known(c).map(|k| &cmos[k]).or_else(|| fresh_iter.next()))
-        .collect();
-    let axis_unresolved = scorer.share(&axis);
+    let axis_left = judge.left(&axis_centres, || {
+        let known = |c: &Vec3| {
+            let bits = |v: &Vec3| v.to_array().map(f32::to_bits);
+            (points.iter().position(|p| bits(p) == bits(c))).filter(|_| shortcuts)
+        };
+        let fresh: Vec<CmoTracer> = (axis_centres.iter())
+            .filter(|c| known(c).is_none())
+            .map(|&c| capture(c))
+            .collect();
+        let mut fresh_iter = fresh.iter();
+        let axis: Vec<&CmoTracer> = (axis_centres.iter())
+            .filter_map(|c| known(c).map(|k| &cmos[k]).or_else(|| fresh_iter.next()))
+            .collect();
+        scorer.left(&axis, &all)
+    });
     Placement {
-        centres: chosen.iter().map(|&k| points[k]).collect(),
+        centres,
         unresolved,
-        axis_unresolved,
+        axis_unresolved: axis_left.len() as f64 / rays.len() as f64,
         rays: rays.len(),
         later_rays,
         left: classify(&tracer, &left),
         time: start.elapsed(),
         self_capture_off: false,
+    }
+}
+
+/// What the search stops on: the share of the sample that the frame's criterion leaves
+/// unresolved ([`PlacementOptions::criterion`]; module docs, "The criterion"). For the bounded
+/// criterion, its CPU twin over lists captured at the scoring face size, each centre's lists
+/// built once; for every other, the centre criterion's score that the greedy steps keep.
+struct Judge<'a> {
+    scorer: &'a Scorer<'a>,
+    /// The bounded criterion's: per global triangle whether the capture takes it, the lists'
+    /// face size (`Ok`) or the scene's cube size for [`auto_list_size`] (`Err`), and the CMOs
+    /// built so far.
+    bounded: Option<BoundedJudge>,
+}
+
+/// [`Judge::bounded`]'s parts.
+type BoundedJudge = (Vec<bool>, Result<u32, u32>, Vec<CmoTracer>);
+
+impl<'a> Judge<'a> {
+    fn new(scene: &Scene, scorer: &'a Scorer<'a>, opts: &PlacementOptions) -> Self {
+        let Scoring::Bounded(lists) = opts.scoring else {
+            return Judge {
+                scorer,
+                bounded: None,
+            };
+        };
+        let world = scene.world();
+        let captured = (world.triangle_object.iter())
+            .map(|&o| world.objects[o as usize].captured)
+            .collect();
+        let cube = scene.cmo.resolution;
+        let lists = match lists {
+            ListSize::Auto => Err(cube),
+            ListSize::Cube => Ok(cube),
+            ListSize::Fixed(n) => Ok(n),
+        };
+        let bounded = Some((captured, lists, Vec::new()));
+        Judge { scorer, bounded }
+    }
+
+    /// The sample's rays (indices) that CMOs at `centres` leave unresolved: `centre()` (the
+    /// centre criterion's, which the caller knows) unless the criterion is bounded.
+    fn left(&mut self, centres: &[Vec3], centre: impl FnOnce() -> Vec<usize>) -> Vec<usize> {
+        let Some((captured, lists, built)) = &mut self.bounded else {
+            return centre();
+        };
+        let bits = |v: &Vec3| v.to_array().map(f32::to_bits);
+        let missing: Vec<Vec3> = (centres.iter())
+            .filter(|c| !built.iter().any(|b| bits(&b.cube.centre) == bits(c)))
+            .copied()
+            .collect();
+        let corners = &self.scorer.corners;
+        let (captured, lists) = (&*captured, *lists);
+        built.par_extend(missing.into_par_iter().map(|c| {
+            let t0 = Instant::now();
+            let size = lists.unwrap_or_else(|cube| {
+                auto_list_size(cube, 1, |n| pool_bound(corners, captured, c, n).nodes)
+            });
+            let lists = capture_lists(corners, captured, c, size, DEFAULT_DEPTH);
+            log::debug!(
+                "cmo placement: lists at {size} for {c}: {:.2?}",
+                t0.elapsed()
+            );
+            CmoTracer::bounded(c, lists, corners.clone(), TraceOptions::default().params())
+        }));
+        let set: Vec<&CmoTracer> = (centres.iter())
+            .filter_map(|c| built.iter().find(|b| bits(&b.cube.centre) == bits(c)))
+            .collect();
+        let rays = self.scorer.rays;
+        (0..rays.len())
+            .into_par_iter()
+            .filter(|&i| {
+                let ray = WorldRay {
+                    origin: rays[i].origin,
+                    dir: rays[i].dir,
+                    from: rays[i].from.triangle,
+                    t_lo: 0.0,
+                    t_hi: self.scorer.t_hi,
+                };
+                let r = crate::cpu::multi::trace_world_ray(&set, &ray, None, |tr, s| {
+                    crate::cpu::multi::trace_one(tr, s, Traversal::Mip)
+                });
+                r.status == MultiStatus::Unresolved
+            })
+            .collect()
     }
 }
 
@@ -397,8 +524,9 @@ pub fn sample(
     rays.iter().map(|r| (r.origin, r.dir, r.from)).collect()
 }
 
-/// The share of [`sample`] that CMOs at `centres` leave unresolved, scored as [`search`] scores
-/// a set (captures at `opts.cube_size`, verified hits); 0 for an empty sample.
+/// The share of [`sample`] that CMOs at `centres` leave unresolved, judged as [`search`] judges
+/// a set against the target (`opts.scoring`: the centre criterion's twin over captures at
+/// `opts.cube_size`, or the bounded criterion's over lists); 0 for an empty sample.
 #[cfg(any(test, feature = "test-hooks"))]
 pub fn sample_share(
     scene: &Scene,
@@ -408,11 +536,19 @@ pub fn sample_share(
 ) -> f64 {
     let tracer = Tracer::new(scene);
     let (rays, _) = sample_rays(&tracer, cameras, opts);
+    if rays.is_empty() {
+        return 0.0;
+    }
     let scorer = Scorer::new(&tracer, &rays);
-    let cmos: Vec<CmoTracer> = (centres.iter())
-        .map(|&c| scoring_capture(scene, &tracer, c, opts.cube_size))
-        .collect();
-    scorer.share(&cmos.iter().collect::<Vec<_>>())
+    let mut judge = Judge::new(scene, &scorer, opts);
+    let all: Vec<usize> = (0..rays.len()).collect();
+    let left = judge.left(centres, || {
+        let cmos: Vec<CmoTracer> = (centres.iter())
+            .map(|&c| scoring_capture(scene, &tracer, c, opts.cube_size))
+            .collect();
+        scorer.left(&cmos.iter().collect::<Vec<_>>(), &all)
+    });
+    left.len() as f64 / rays.len() as f64
 }
 
 /// The CMO at `centre` as the search scores it: captured by `tracer` at face size `size`,
@@ -435,14 +571,16 @@ fn tracers(scene: &Scene) -> (Tracer, Option<Tracer>) {
 }
 
 /// The greedy steps: the chosen candidates (indices into `cmos`) and the sampled unresolved
-/// share after each. `cut`: whether a step stops counting a candidate known to lose
-/// ([`best_step`]); the same steps either way.
+/// share after each, as `share_of(chosen, open)` gives it (the frame criterion's, [`Judge`];
+/// `open`: the rays the centre criterion's score leaves). `cut`: whether a step stops counting
+/// a candidate known to lose ([`best_step`]); the same steps either way.
 fn greedy(
     scorer: &Scorer,
     cmos: &[CmoTracer],
     count: u32,
     target: f64,
     cut: bool,
+    share_of: &mut dyn FnMut(&[usize], &[usize]) -> f64,
 ) -> (Vec<usize>, Vec<f64>) {
     let n = scorer.rays.len();
     let mut open: Vec<usize> = (0..n).collect();
@@ -457,8 +595,9 @@ fn greedy(
         }
         chosen.push(k);
         open = left;
-        unresolved.push(open.len() as f64 / n.max(1) as f64);
-        if open.len() as f64 <= target * n as f64 {
+        let share = share_of(&chosen, &open);
+        unresolved.push(share);
+        if share <= target || open.len() as f64 <= target * n as f64 {
             break;
         }
     }
@@ -544,8 +683,13 @@ pub fn override_placement(scene: &mut Scene, choice: Option<PlacementChoice>, cm
 }
 
 /// Runs the search of [`CmoPlacement::Search`] once for `camera`; see [`resolve_for`].
-pub fn resolve(scene: &mut Scene, camera: &Camera, bounces: u32) -> Option<Placement> {
-    resolve_for(scene, std::slice::from_ref(camera), bounces)
+pub fn resolve(
+    scene: &mut Scene,
+    camera: &Camera,
+    bounces: u32,
+    scoring: Scoring,
+) -> Option<Placement> {
+    resolve_for(scene, std::slice::from_ref(camera), bounces, scoring)
 }
 
 /// Runs the search of [`CmoPlacement::Search`] once for the rays of `cameras` (a sequence's
@@ -554,15 +698,22 @@ pub fn resolve(scene: &mut Scene, camera: &Camera, bounces: u32) -> Option<Place
 /// metrics) read them; `None` (and the scene unchanged) for other placements. The count is
 /// capped by [`cmo_budget`] at the scene's face size. `bounces`: the render's reflections per
 /// path, whose later reflections the sample follows ([`PlacementOptions::bounces`]; 1 for the
-/// first reflected rays alone). A scene far from the origin is searched in coordinates relative
-/// to its anchor ([`crate::ranges::anchor`]), as the frame is traced.
-pub fn resolve_for(scene: &mut Scene, cameras: &[Camera], bounces: u32) -> Option<Placement> {
+/// first reflected rays alone); `scoring`: the frame's criterion, which judges the sample
+/// ([`PlacementOptions::scoring`]). A scene far from the origin is searched in coordinates
+/// relative to its anchor ([`crate::ranges::anchor`]), as the frame is traced.
+pub fn resolve_for(
+    scene: &mut Scene,
+    cameras: &[Camera],
+    bounces: u32,
+    scoring: Scoring,
+) -> Option<Placement> {
     let CmoPlacement::Search { count } = scene.cmo.placement else {
         return None;
     };
     let count = cmo_budget(count, scene.cmo.resolution);
     let opts = PlacementOptions {
         bounces,
+        scoring,
         ..PlacementOptions::default()
     };
     // Self-reflections left to `auto` and captured: the search first tries the reflectors left

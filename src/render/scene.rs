@@ -38,6 +38,9 @@ pub struct SceneSetup {
     /// too ([`crate::placement::PlacementOptions::bounces`]; 0 and 1: the first reflected rays
     /// alone).
     pub bounces: u32,
+    /// The frames' criterion, which judges the placement search's sample
+    /// ([`crate::placement::PlacementOptions::scoring`]).
+    pub scoring: crate::placement::Scoring,
     /// What names the frame size in a refusal (`--width/--height` on the command line).
     pub size_name: &'static str,
 }
@@ -84,7 +87,7 @@ pub fn prepare(setup: &SceneSetup) -> Result<(Scene, Camera, Option<Placement>)>
         .map_err(|e| anyhow::anyhow!("{}: {e}", setup.size_name))?;
     let placement = if setup.search {
         timed("CMO placement", || {
-            crate::placement::resolve(&mut scene, &camera, setup.bounces)
+            crate::placement::resolve(&mut scene, &camera, setup.bounces, setup.scoring)
         })
     } else {
         None

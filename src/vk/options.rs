@@ -3,6 +3,7 @@ use crate::cpu::options::{TraceCriterion, TraceOptions};
 use crate::cpu::reflection_point::RpOptions;
 use crate::cpu::ssr::SsrOptions;
 use crate::method::Method;
+use crate::placement::Scoring;
 
 /// What fills a mirror pixel whose ray no CMO could resolve.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -55,31 +56,7 @@ impl ComputeLayout {
     }
 }
 
-/// The face size of the `bounded` criterion's per-texel lists (`--list-size`). Every hit the
-/// lists give is a listed triangle's exact intersection, the first along the ray whatever the
-/// texels' size, and the exact fallback takes the rays they leave: the face size changes what
-/// the capture and the trace cost and how many rays reach the fallback, not the image (but for
-/// the last bits of a hit that one tracer finds and the other leaves; `lavapipe-list-size.md`
-/// in `benches/results`). A glossy reflector's cone pass reads CMOs of its own at the cube size
-/// (`CmoPlan::cone_size`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum ListSize {
-    /// The first of [`AUTO_LIST_MIN`], twice that, ... below the cube size whose lists stay
-    /// short, at most [`AUTO_LIST_LENGTH`] nodes per texel by the node pool's bound, else the
-    /// cube size ([`crate::vk::passes::capture_lists::list_size`]).
-    #[default]
-    Auto,
-    /// The cube size (`--cube-size`, else the scene's).
-    Cube,
-    /// This many texels per face side.
-    Fixed(u32),
-}
-
-/// [`ListSize::Auto`]'s smallest face size.
-pub const AUTO_LIST_MIN: u32 = 32;
-/// [`ListSize::Auto`]'s longest mean list: nodes of the pool's bound per texel (the help of
-/// `--list-size` states it).
-pub const AUTO_LIST_LENGTH: u64 = 8;
+pub use crate::cubemap::bounds::{AUTO_LIST_LENGTH, AUTO_LIST_MIN, ListSize};
 
 /// Options of a GPU render. [`RenderOptions::default`] is the one source of the defaults: the
 /// CLI (`cubetrace render`) and the bench start from it.
@@ -119,6 +96,16 @@ impl RenderOptions {
     /// criterion, so their frames are the same whatever it says.
     pub fn bounded(&self) -> bool {
         self.method.traces_cubemaps() && self.trace.criterion == TraceCriterion::Bounded
+    }
+
+    /// The placement search's judge for these frames: the bounded criterion's twin over lists
+    /// of the frame's size where [`RenderOptions::bounded`], the centre criterion's otherwise.
+    pub fn scoring(&self) -> Scoring {
+        if self.bounded() {
+            Scoring::Bounded(self.list_size)
+        } else {
+            Scoring::Centre
+        }
     }
 }
 

@@ -232,3 +232,13 @@ pub fn cone_gain(mirror: f64, cone: f64, min_gain: f64) -> Result<(), String> {
         ))
     }
 }
+
+/// The placement search's default options judged by the centre criterion's twin
+/// (`Scoring::Centre`): the checks of the search's steps, which that criterion scores, and of
+/// the share it reaches with them.
+pub fn centre_judged() -> cubetrace::placement::PlacementOptions {
+    cubetrace::placement::PlacementOptions {
+        scoring: cubetrace::placement::Scoring::Centre,
+        ..cubetrace::placement::PlacementOptions::default()
+    }
+}

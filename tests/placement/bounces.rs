@@ -6,7 +6,7 @@
 
 use crate::common;
 
-use cubetrace::placement::{self, PlacementOptions};
+use cubetrace::placement::{self, PlacementOptions, Scoring};
 use cubetrace::reference::{self, Hit, Tracer};
 use cubetrace::scene::{self, Scene, SelfReflections};
 use glam::Vec3;
@@ -17,7 +17,7 @@ type SampleRay = (Vec3, Vec3, Hit);
 fn opts(bounces: u32) -> PlacementOptions {
     PlacementOptions {
         bounces,
-        ..PlacementOptions::default()
+        ..common::centre_judged()
     }
 }
 
@@ -188,8 +188,8 @@ fn placing_for_the_bounces_resolves_them() {
     base.cmo.placement = scene::CmoPlacement::Search { count };
     let cams = base.cameras[..1].to_vec();
     let (mut one, mut three) = (base.clone(), base);
-    let p1 = placement::resolve_for(&mut one, &cams, 1).unwrap();
-    let p3 = placement::resolve_for(&mut three, &cams, 3).unwrap();
+    let p1 = placement::resolve_for(&mut one, &cams, 1, Scoring::Centre).unwrap();
+    let p3 = placement::resolve_for(&mut three, &cams, 3, Scoring::Centre).unwrap();
     assert!(p3.later_rays > 0);
     assert_eq!(one.self_reflections, three.self_reflections);
     let first_on_three = placement::sample_share(&one, &cams, &p1.centres, &opts(3));
@@ -216,8 +216,8 @@ fn one_reflection_keeps_the_placement() {
     for s in facing() {
         let cams = &s.cameras[..1];
         let count = scene::DEFAULT_SEARCH_CMOS;
-        let default = placement::search(&s, cams, count, &PlacementOptions::default());
-        assert_eq!(PlacementOptions::default().bounces, 1);
+        let default = placement::search(&s, cams, count, &common::centre_judged());
+        assert_eq!(common::centre_judged().bounces, 1);
         assert_eq!(placement::search(&s, cams, count, &opts(1)), default);
         assert_eq!(placement::search(&s, cams, count, &opts(0)), default);
         let slow = placement::search_exhaustive(&s, cams, count, &opts(1));
@@ -243,8 +243,8 @@ fn one_reflection_keeps_the_placement() {
     };
     let cams = base.cameras[..1].to_vec();
     let (mut a, mut b) = (base.clone(), base.clone());
-    let pa = placement::resolve_for(&mut a, &cams, 1).unwrap();
-    let pb = placement::resolve_for(&mut b, &cams, 0).unwrap();
+    let pa = placement::resolve_for(&mut a, &cams, 1, Scoring::Centre).unwrap();
+    let pb = placement::resolve_for(&mut b, &cams, 0, Scoring::Centre).unwrap();
     assert_eq!(pa, pb);
     assert_eq!(a, b);
     let want = if pa.self_capture_off {

@@ -1,10 +1,12 @@
 //! `[cmo] placement = "auto"`: the greedy search for CMO centres (`cubetrace::placement`), on a
 //! scene where the answer is known, and the scene-file field.
 
+use crate::common;
+
 use std::path::Path;
 
 use cubetrace::camera::Camera;
-use cubetrace::placement::{self, PlacementOptions, search};
+use cubetrace::placement::{self, PlacementOptions, Scoring, search};
 use cubetrace::scene::shapes::{self, SceneBuilder};
 use cubetrace::scene::{self, CmoPlacement, CmoSpec, Scene, SelfReflections, Transform, builtin};
 use cubetrace::shading::Shading;
@@ -88,7 +90,7 @@ fn occluded_mirror(with_box: bool) -> Scene {
 
 #[test]
 fn greedy_moves_the_cmo_out_of_the_occluders_shadow() {
-    let opts = PlacementOptions::default();
+    let opts = common::centre_judged();
     let scene = occluded_mirror(true);
     let axis = scene.axis_centres(1)[0];
     assert!((axis - Vec3::new(0.0, 1.5, -1.0)).length() < 1e-5, "{axis}");
@@ -136,9 +138,10 @@ fn resolve_stores_the_searched_centres() {
         &scene,
         std::slice::from_ref(&camera),
         2,
-        &PlacementOptions::default(),
+        &common::centre_judged(),
     );
-    let got = placement::resolve(&mut scene, &camera, 1).expect("a search placement");
+    let got =
+        placement::resolve(&mut scene, &camera, 1, Scoring::Centre).expect("a search placement");
     assert_eq!(got, want);
     assert_eq!(
         scene.cmo.placement,
@@ -149,7 +152,10 @@ fn resolve_stores_the_searched_centres() {
     assert_ne!(scene.cmo_centres(), scene.axis_centres(2));
     // Negative: a resolved (or any non-search) placement is left alone.
     let before = scene.clone();
-    assert_eq!(placement::resolve(&mut scene, &camera, 1), None);
+    assert_eq!(
+        placement::resolve(&mut scene, &camera, 1, Scoring::Centre),
+        None
+    );
     assert_eq!(scene, before);
 }
 
@@ -162,7 +168,7 @@ fn without_the_occluder_the_axis_centre_is_fine() {
         &scene,
         std::slice::from_ref(&scene.cameras[0]),
         1,
-        &PlacementOptions::default(),
+        &common::centre_judged(),
     );
     eprintln!("axis {:.3}; chosen {:?}", p.axis_unresolved, p.unresolved);
     assert!(p.axis_unresolved < 0.05, "{}", p.axis_unresolved);
@@ -177,7 +183,7 @@ fn the_axis_centre_ends_the_search_where_it_meets_the_target() {
     let camera = std::slice::from_ref(&scene.cameras[0]);
     let at = |target: f64| PlacementOptions {
         target,
-        ..PlacementOptions::default()
+        ..common::centre_judged()
     };
     // One CMO: `axis_unresolved` is then the axis centre's own share.
     let p = search(&scene, camera, 1, &at(placement::TARGET_SHARE));

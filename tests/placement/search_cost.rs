@@ -8,7 +8,7 @@
 use crate::common;
 
 use cubetrace::cpu::capture::capture_shaded;
-use cubetrace::placement::{self, PlacementOptions};
+use cubetrace::placement;
 use cubetrace::reference::Tracer;
 use cubetrace::scene::{self, Scene, SelfReflections};
 use glam::Vec3;
@@ -50,7 +50,7 @@ fn scenes() -> Vec<Scene> {
 
 #[test]
 fn the_shortcuts_keep_the_placement() {
-    let opts = PlacementOptions::default();
+    let opts = common::centre_judged();
     for s in scenes() {
         let cams = &s.cameras[..1];
         let fast = placement::search(&s, cams, scene::DEFAULT_SEARCH_CMOS, &opts);

@@ -58,7 +58,7 @@ use crate::vk::backend::sync::{
     ALL, ALL_READS, COMPUTE_READ, COMPUTE_WRITE, INDIRECT_READ, TRANSFER_WRITE,
 };
 use crate::vk::backend::timestamps::{Scope, Timestamps};
-use crate::vk::options::{AUTO_LIST_LENGTH, AUTO_LIST_MIN, ListSize};
+use crate::vk::options::ListSize;
 
 /// WGSL `ListsParams`.
 #[repr(C)]
@@ -218,15 +218,15 @@ pub fn capacity(data: &GpuSceneData, cmos: &[(Vec3, bool)], size: u32) -> PoolBo
 }
 
 /// The lists' face size for `cmos` of `data` as `choice` says (`cube_size`: the CMOs' face size
-/// otherwise), and the node pool's bound at it ([`capacity`]). [`ListSize::Auto`] takes the
-/// first of [`AUTO_LIST_MIN`], twice that, ... below `cube_size` whose bound holds at most
-/// [`AUTO_LIST_LENGTH`] nodes per texel, else `cube_size`. Why short lists: halving the face
-/// size quarters the texels the capture classifies and resolves and halves those a ray crosses,
-/// while each texel's list grows with the triangles its cone takes; where lists grow long, more
-/// of them pass the capture's `depth` (the ray goes behind there) and the trace walks them. On
-/// lavapipe (`benches/results/lavapipe-list-size.md`) 32 is the cheapest frame on the built-in
-/// scenes, with no ray left to the fallback, and the corpus's dense interiors need 128 to keep
-/// their fallback share at about 1 %.
+/// otherwise), and the node pool's bound at it ([`capacity`]). [`ListSize::Auto`] takes the first
+/// of [`bounds::AUTO_LIST_MIN`], twice that, ... below `cube_size` whose bound holds at most
+/// [`bounds::AUTO_LIST_LENGTH`] nodes per texel, else `cube_size` ([`bounds::auto_list_size`]). Why
+/// short lists: halving the face size quarters the texels the capture classifies and resolves and
+/// halves those a ray crosses, while each texel's list grows with the triangles its cone takes;
+/// where lists grow long, more of them pass the capture's `depth` (the ray goes behind there) and
+/// the trace walks them. On lavapipe (`benches/results/lavapipe-list-size.md`) 32 is the cheapest
+/// frame on the built-in scenes, with no ray left to the fallback, and the corpus's dense interiors
+/// need 128 to keep their fallback share at about 1 %.
 pub fn list_size(
     data: &GpuSceneData,
     cmos: &[(Vec3, bool)],
@@ -234,27 +234,25 @@ pub fn list_size(
     choice: ListSize,
 ) -> (u32, PoolBound) {
     let texels = |size: u32| cmos.len() as u64 * 6 * u64::from(size) * u64::from(size);
+    let mut last = None;
     let size = match choice {
         ListSize::Fixed(n) => n,
         ListSize::Cube => cube_size,
-        ListSize::Auto => {
-            let mut size = AUTO_LIST_MIN;
-            while size < cube_size {
-                let bound = capacity(data, cmos, size);
-                log::debug!(
-                    "bounded lists at {size}: a bound of {} nodes, {:.2} per texel",
-                    bound.nodes,
-                    bound.nodes as f64 / texels(size).max(1) as f64
-                );
-                if bound.nodes <= AUTO_LIST_LENGTH * texels(size) {
-                    return (size, bound);
-                }
-                size *= 2;
-            }
-            cube_size
-        }
+        ListSize::Auto => bounds::auto_list_size(cube_size, cmos.len(), |size| {
+            let bound = capacity(data, cmos, size);
+            log::debug!(
+                "bounded lists at {size}: a bound of {} nodes, {:.2} per texel",
+                bound.nodes,
+                bound.nodes as f64 / texels(size).max(1) as f64
+            );
+            last = Some((size, bound));
+            bound.nodes
+        }),
     };
-    (size, capacity(data, cmos, size))
+    match last {
+        Some((s, bound)) if s == size => (size, bound),
+        _ => (size, capacity(data, cmos, size)),
+    }
 }
 
 /// Invocations per dispatch row of `jobs` and `resolve` (`ListsParams::row`).
