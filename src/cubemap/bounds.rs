@@ -142,8 +142,14 @@ use super::texel_cone::{TexelCone, edges, texel_cone, tile_outside};
 /// depth: the depth bounds only the sorted prefix the tracer reads (and the resolve's
 /// `depth x list` selection), so it costs time, not memory. At 16, a texel crossing a fence or
 /// a dense mesh overflowed and the ray went unresolved (`tests/bounded/bounded_frame.rs` at cube
-/// size 32: 35 of 1027 fence pixels, 56 of 1102 bunny pixels); at 64, 0 and 9.
-pub const DEFAULT_DEPTH: u32 = 64;
+/// size 32: 35 of 1027 fence pixels, 56 of 1102 bunny pixels); at 64, 0 and 9. On the corpus's
+/// dense scenes 64 still cut lists that rays pass behind: one CMO at the placement search's
+/// first centre left 2.65 % of truck-garage's sample unresolved at 64, none at 1024, and the
+/// search placed three CMOs to make up for it (a 478-588 ms frame against 258-311 ms with the
+/// one CMO it places at 256). At 256 every corpus scene's fallback share is at most 1 % with
+/// one CMO (320x240, the files' cube size 64), and the capture at cube size 256 is the same on
+/// truck-garage and 30 % dearer on living-room (`benches/results/lavapipe-default-bounded.md`).
+pub const DEFAULT_DEPTH: u32 = 256;
 
 /// Vertices a clipped polygon holds (fixed arrays, as in a shader): a triangle clipped by four
 /// planes has at most 7; one more for rounding (module docs, "Capacity").
