@@ -133,6 +133,7 @@
 //! fallbacks above.
 
 use glam::Vec3;
+use rayon::prelude::*;
 
 use super::face::{FACE_COUNT, Texel, face_coord, to_face_local};
 pub use super::texel_cone::dot3;
@@ -673,40 +674,47 @@ fn capture_lists_with(
     margins: Margins,
 ) -> TexelLists {
     let n = size as usize;
-    let mut lists: Vec<Vec<Entry>> = vec![Vec::new(); 6 * n * n];
-    for (t, tri) in triangles.iter().enumerate() {
-        if !captured.get(t).copied().unwrap_or(false) {
-            continue;
-        }
-        for face in 0..FACE_COUNT {
-            let Some(rect) = face_rect_with(tri, centre, face, size, margins) else {
-                continue;
-            };
-            let local = face_local(tri, centre, face);
-            let g = edges(&local);
-            for ty in (rect.y0..=rect.y1).step_by(TILE as usize) {
-                for tx in (rect.x0..=rect.x1).step_by(TILE as usize) {
-                    let x1 = (tx + TILE - 1).min(rect.x1);
-                    let y1 = (ty + TILE - 1).min(rect.y1);
-                    if !rect.whole && tile_outside(&g, [tx, x1], [ty, y1], size, rect.m) {
-                        continue;
-                    }
-                    for y in ty..=y1 {
-                        for x in tx..=x1 {
-                            if let Some((lo, hi)) = texel_bound(&local, &rect, x, y, size) {
-                                let i = Texel { face, x, y }.index(size);
-                                lists[i].push(Entry {
-                                    triangle: t as u32,
-                                    lo,
-                                    hi,
-                                });
+    // The faces in parallel, each over every triangle in order: a texel's entries come in
+    // triangle order whatever the threads do, as one loop over the triangles gives them.
+    let faces: Vec<Vec<Vec<Entry>>> = (0..FACE_COUNT)
+        .into_par_iter()
+        .map(|face| {
+            let mut lists: Vec<Vec<Entry>> = vec![Vec::new(); n * n];
+            for (t, tri) in triangles.iter().enumerate() {
+                if !captured.get(t).copied().unwrap_or(false) {
+                    continue;
+                }
+                let Some(rect) = face_rect_with(tri, centre, face, size, margins) else {
+                    continue;
+                };
+                let local = face_local(tri, centre, face);
+                let g = edges(&local);
+                for ty in (rect.y0..=rect.y1).step_by(TILE as usize) {
+                    for tx in (rect.x0..=rect.x1).step_by(TILE as usize) {
+                        let x1 = (tx + TILE - 1).min(rect.x1);
+                        let y1 = (ty + TILE - 1).min(rect.y1);
+                        if !rect.whole && tile_outside(&g, [tx, x1], [ty, y1], size, rect.m) {
+                            continue;
+                        }
+                        for y in ty..=y1 {
+                            for x in tx..=x1 {
+                                if let Some((lo, hi)) = texel_bound(&local, &rect, x, y, size) {
+                                    lists[y as usize * n + x as usize].push(Entry {
+                                        triangle: t as u32,
+                                        lo,
+                                        hi,
+                                    });
+                                }
                             }
                         }
                     }
                 }
             }
-        }
-    }
+            lists
+        })
+        .collect();
+    let lists: Vec<Vec<Entry>> = faces.into_iter().flatten().collect();
+    debug_assert_eq!(lists.len(), 6 * n * n);
     let mut out = TexelLists {
         size,
         depth,
@@ -716,8 +724,10 @@ fn capture_lists_with(
         offsets: vec![0],
         entries: Vec::new(),
     };
-    for mut list in lists {
-        let (lo, hi, complete_to) = resolve_texel(&mut list, depth);
+    let resolved: Vec<((f32, f32, f32), Vec<Entry>)> = (lists.into_par_iter())
+        .map(|mut list| (resolve_texel(&mut list, depth), list))
+        .collect();
+    for ((lo, hi, complete_to), list) in resolved {
         out.lo.push(lo);
         out.hi.push(hi);
         out.complete_to.push(complete_to);
@@ -748,24 +758,31 @@ pub fn pool_bound(
     centre: Vec3,
     size: u32,
 ) -> PoolBound {
-    let mut b = PoolBound::default();
-    for (t, tri) in triangles.iter().enumerate() {
-        if !captured.get(t).copied().unwrap_or(false) {
-            continue;
-        }
-        for face in 0..FACE_COUNT {
-            if !face_missed(&face_local(tri, centre, face)) {
-                b.pairs += 1;
+    // Integer sums: the same whatever order the threads add them in.
+    (triangles.par_iter().enumerate())
+        .filter(|&(t, _)| captured.get(t).copied().unwrap_or(false))
+        .map(|(_, tri)| {
+            let mut b = PoolBound::default();
+            for face in 0..FACE_COUNT {
+                if !face_missed(&face_local(tri, centre, face)) {
+                    b.pairs += 1;
+                }
+                if let Some(rect) = face_rect(tri, centre, face, size) {
+                    b.jobs += rect.tiles();
+                    b.nodes += rect.steiner(size);
+                    b.clips += rect.boundary(size);
+                    b.rect_texels += rect.texels();
+                }
             }
-            if let Some(rect) = face_rect(tri, centre, face, size) {
-                b.jobs += rect.tiles();
-                b.nodes += rect.steiner(size);
-                b.clips += rect.boundary(size);
-                b.rect_texels += rect.texels();
-            }
-        }
-    }
-    b
+            b
+        })
+        .reduce(PoolBound::default, |a, b| PoolBound {
+            jobs: a.jobs + b.jobs,
+            nodes: a.nodes + b.nodes,
+            clips: a.clips + b.clips,
+            rect_texels: a.rect_texels + b.rect_texels,
+            pairs: a.pairs + b.pairs,
+        })
 }
 
 /// One candidate of a texel.
