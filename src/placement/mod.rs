@@ -36,8 +36,8 @@
 //! greedy steps' score. For the bounded criterion, the default, it is that criterion's CPU twin
 //! ([`crate::cpu::bounded`]) over lists captured on the CPU
 //! ([`crate::cubemap::bounds::capture_lists`]) at the frame's list size (for `--list-size auto`,
-//! the size its rule takes for the centre alone), built once per centre the search judges: the
-//! axis CMO, then the set after each step. The lists carry what a centre-sampled capture loses
+//! the size its rule takes for the centre alone; at most [`JUDGE_LISTS_MAX`]), built once per
+//! centre the search judges: the axis CMO, then the set after each step. The lists carry what a centre-sampled capture loses
 //! behind the first surface, so the bounded frame leaves far fewer rays to the fallback with the
 //! same centres, and a search judged by the centre criterion placed CMOs that only cost the
 //! bounded frame time (on the corpus at 320x240: robot-table 8 CMOs and a 242 ms frame where
@@ -115,6 +115,14 @@ pub fn cmo_budget(count: u32, size: u32) -> u32 {
     count.min(u32::try_from(fit).unwrap_or(u32::MAX)).max(1)
 }
 
+/// The largest face size of the lists the bounded judge builds on the CPU ([`Scoring`]): the
+/// frame's lists where they are at most this, else this. Coarser lists hold more entries per
+/// texel and cut more of them at the depth, so a capped judge leaves more of the sample
+/// unresolved, not less (truck-garage's first centre: 5.78 % at 32, 2.65 % at 64, 1.20 % at 128,
+/// depth 64); the cost grows about 2.5 times per doubling (truck-garage, 2 cores: 50 ms at 64,
+/// 78 at 128, 184 at 256, 515 at 512), and the search must stay cheap beside the capture.
+pub const JUDGE_LISTS_MAX: u32 = 128;
+
 /// How much work the search does.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PlacementOptions {
@@ -145,7 +153,7 @@ pub enum Scoring {
     Centre,
     /// The bounded criterion's ([`crate::cpu::bounded`]) over lists of the frame's face size
     /// (`--list-size`; for `auto`, the size its rule takes for each centre alone at the scene's
-    /// cube size, [`auto_list_size`]).
+    /// cube size, [`auto_list_size`]), at most [`JUDGE_LISTS_MAX`].
     Bounded(ListSize),
 }
 
@@ -444,11 +452,12 @@ impl<'a> Judge<'a> {
         let captured = (world.triangle_object.iter())
             .map(|&o| world.objects[o as usize].captured)
             .collect();
-        let cube = scene.cmo.resolution;
+        // At most JUDGE_LISTS_MAX: `auto`'s rule below it gives the frame's size, or the cap.
+        let cube = scene.cmo.resolution.min(JUDGE_LISTS_MAX);
         let lists = match lists {
             ListSize::Auto => Err(cube),
             ListSize::Cube => Ok(cube),
-            ListSize::Fixed(n) => Ok(n),
+            ListSize::Fixed(n) => Ok(n.min(JUDGE_LISTS_MAX)),
         };
         let bounded = Some((captured, lists, Vec::new()));
         Judge { scorer, bounded }
