@@ -19,7 +19,8 @@ fn corpus(name: &str) -> Scene {
 /// Each step's share is the bounded twin's share of the whole sample with the centres so far
 /// (`sample_share`, which builds its own lists), and the search stops at the first set that
 /// meets the target. The axis CMO passes on the corpus scenes at this size; truck-garage with
-/// 8-texel faces (lists of thousands of entries, cut at the depth) takes the greedy steps.
+/// 8-texel faces (each texel's cone takes a large part of the scene, and its list is cut at the
+/// depth) takes the greedy steps.
 #[test]
 fn the_bounded_search_stops_at_the_first_set_its_twin_accepts() {
     let opts = PlacementOptions::default();
