@@ -67,11 +67,12 @@ pub fn run(
     };
     let several = placements.len() > 1;
     // The search (where a scene asks for one) is judged by the grid's first cube-map tracer's
-    // criterion (the grid puts each method's default first), else the default's.
+    // criterion (the grid puts each method's default first), else by the centre criterion's
+    // twin, as `render` judges it for a method that captures without tracing (`envmap`).
     let search = cfg.methods.iter().any(|m| m.kind.captures_cmos()).then(|| {
         (cfg.methods.iter())
             .find(|m| m.kind.traces_cubemaps())
-            .map_or_else(Scoring::default, |m| {
+            .map_or(Scoring::Centre, |m| {
                 m.render_options(cfg.bounces, true).scoring()
             })
     });
