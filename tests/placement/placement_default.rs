@@ -389,7 +389,7 @@ fn searched_cmos(name: &str, extra: &[&str], out: &Path) -> usize {
 
 /// The command line's criterion reaches the search: robot-table's default (bounded) render
 /// places fewer CMOs than its `--criterion centre` render (measured at this size: 1 against 6),
-/// whose frames' criterion judges the search by the centre twin, as before.
+/// where the centre twin judges the search.
 #[test]
 fn the_render_criterion_judges_its_search() {
     let dir = tempfile::tempdir().unwrap();
