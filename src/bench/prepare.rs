@@ -105,7 +105,8 @@ pub fn check_memory(
     Ok(())
 }
 
-/// Whether a GPU spec runs at `bounces` ([`Method::check_bounces`]); the grid skips it otherwise.
+/// Whether a GPU spec runs at `bounces`
+/// ([`Method::check_bounces`](crate::method::Method::check_bounces)); the grid skips it otherwise.
 pub(super) fn runs_at(spec: &MethodSpec, bounces: u32) -> bool {
     spec.kind
         .check_bounces(bounces, crate::vk::passes::bounce::MAX_BOUNCES, &spec.trace)

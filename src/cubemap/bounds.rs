@@ -146,7 +146,7 @@ use super::texel_cone::{TexelCone, edges, texel_cone, tile_outside};
 /// size 32: 35 of 1027 fence pixels, 56 of 1102 bunny pixels); at 64, 0 and 9. On the corpus's
 /// dense scenes 64 still cut lists that rays pass behind: one CMO at the placement search's
 /// first centre left 2.65 % of truck-garage's sample unresolved at 64, none at 1024, and the
-/// search placed three CMOs to make up for it (a 478-588 ms frame against 258-311 ms with the
+/// search placed three CMOs to make up for it (a 477-588 ms frame against 258-311 ms with the
 /// one CMO it places at 256). At 256 every corpus scene's fallback share is at most 1 % with
 /// one CMO (320x240, the files' cube size 64), and the capture at cube size 256 is the same on
 /// truck-garage and 30 % dearer on living-room (`benches/results/lavapipe-default-bounded.md`).

@@ -2,48 +2,48 @@
 //! CMO placement, an algorithm over the scene (the scene itself is data and imports none):
 //! [`resolve_for`] runs the search of [`CmoPlacement::Search`] (the default without `[cmo]`
 //! centres, and `[cmo] placement = "auto"`) for the cameras a render uses and stores its centres
-//! in the scene; [`diagnose`] finds set-ups that load fine but cannot give a useful mirror image.
+//! in the scene; [`diagnose()`] finds set-ups that load fine but cannot give a useful mirror image.
 //!
 //! The search adds CMO centres greedily until the share of a sample of reflected rays that no
 //! CMO resolves falls to [`TARGET_SHARE`], within a budget of CMOs (the scene's `count`, else
 //! [`DEFAULT_SEARCH_CMOS`]) and of their memory at the scene's face size ([`MAX_CMO_BYTES`]).
 //!
 //! The sample: the cameras' mirror pixels on a coarse grid, a few hundred of them evenly spread,
-//! each reflected once about the interpolated normal at its primary hit (the exact
-//! [`Tracer`]); then, for `render --bounces N` ([`PlacementOptions::bounces`]), the later
-//! reflections of those paths: while a ray's exact nearest hit is on a reflector, the ray
-//! reflected there, up to N reflections per path (the reference's rule, along the mirror
-//! direction on a glossy reflector too). The first rays come first, as with one reflection, and
-//! the later ones after all of them, path by path; the sample budget counts the first rays only,
-//! and each adds at most N - 1. With N = 1 the sample, and so the placement, is the first rays'
-//! alone. Candidates: a small grid over the reflectors' bounding box grown by half its
-//! largest side every way (a flat mirror's box is flat; a centre in front of it is a candidate
-//! too; a non-convex reflector and facing reflectors get centres outside their hull) and clipped
-//! to the scene's box, plus the axis placements of one to three CMOs. The greedy steps score a
-//! set of centres by tracing the sample with the CPU twin of the centre criterion's tracer
-//! ([`crate::cpu::multi::trace_cmos_verified`]: the pyramid march, every hit verified against the
-//! captured triangle IDs, as `compute` and `fragment` do), over CPU captures
-//! ([`crate::cpu::capture::capture`]) of each centre at a small face size: the share of rays that
-//! end unresolved. Each step adds the candidate that lowers that share most (first in candidate
-//! order on ties), scoring only the rays the centres chosen so far leave unresolved, and stops
-//! when none lowers it or the frame's criterion meets the target (below). Before all this, the
-//! cheapest set is tried: one CMO on the reflectors' axis; where it meets the target, the search
-//! ends with it, after one capture instead of the candidates' (the corpus's slivers and the
-//! torus: 13-14 ms instead of 95-104). Deterministic.
+//! each reflected once about the interpolated normal at its primary hit (the exact [`Tracer`]);
+//! then, for `render --bounces N` ([`PlacementOptions::bounces`]), the later reflections of those
+//! paths: while a ray's exact nearest hit is on a reflector, the ray reflected there, up to N
+//! reflections per path (the reference's rule, along the mirror direction on a glossy reflector
+//! too). The first rays come first, as with one reflection, and the later ones after all of them,
+//! path by path; the sample budget counts the first rays only, and each adds at most N - 1. With
+//! N = 1 the sample, and so the placement, is the first rays' alone. Candidates: a small grid over
+//! the reflectors' bounding box grown by half its largest side every way (a flat mirror's box is
+//! flat; a centre in front of it is a candidate too; a non-convex reflector and facing reflectors
+//! get centres outside their hull) and clipped to the scene's box, plus the axis placements of one
+//! to three CMOs. The greedy steps score a set of centres by tracing the sample with the CPU twin
+//! of the centre criterion's tracer ([`crate::cpu::multi::trace_cmos_verified`]: the pyramid march,
+//! every hit verified against the captured triangle IDs, as `compute` and `fragment` do), over CPU
+//! captures ([`crate::cpu::capture::capture`]) of each centre at a small face size: the share of
+//! rays that end unresolved. Each step adds the candidate that lowers that share most (first in
+//! candidate order on ties), scoring only the rays the centres chosen so far leave unresolved, and
+//! stops when none lowers it or the frame's criterion meets the target (below); the final share is
+//! judged again over the whole sample. Before all this, the cheapest set is tried: one CMO on the
+//! reflectors' axis; where it meets the target, the search ends with it, after one capture instead
+//! of the candidates' (the corpus's slivers and the torus: 13-14 ms instead of 95-104).
+//! Deterministic.
 //!
-//! The criterion ([`Scoring`]): whether a set meets the target is the frame's own criterion's
-//! share of the whole sample. For the centre criterion (and the approximate ones) that is the
-//! greedy steps' score. For the bounded criterion, the default, it is that criterion's CPU twin
+//! The criterion ([`Scoring`]): whether a set meets the target is the frame's own criterion's share
+//! of the whole sample. For the centre criterion (and the approximate ones) that is the greedy
+//! steps' score. For the bounded criterion, the default, it is that criterion's CPU twin
 //! ([`crate::cpu::bounded`]) over lists captured on the CPU
 //! ([`crate::cubemap::bounds::capture_lists`]) at the frame's list size (for `--list-size auto`,
 //! the size its rule takes for the centre alone; at most [`JUDGE_LISTS_MAX`]), built once per
-//! centre the search judges: the axis CMO, then the set after each step. The lists carry what a centre-sampled capture loses
-//! behind the first surface, so the bounded frame leaves far fewer rays to the fallback with the
-//! same centres, and a search judged by the centre criterion placed CMOs that only cost the
-//! bounded frame time (on the corpus at 320x240: robot-table 8 CMOs and a 242 ms frame where
-//! one CMO leaves 0.7 % in 69 ms; `benches/results/lavapipe-default-bounded.md`). The steps'
-//! order stays the centre criterion's: scoring every candidate with lists would build them for
-//! 67 centres.
+//! centre the search judges: the axis CMO, then the set after each step. The lists carry what a
+//! centre-sampled capture loses behind the first surface, so the bounded frame leaves far fewer
+//! rays to the fallback with the same centres, and a search judged by the centre criterion placed
+//! CMOs that only cost the bounded frame time (on the corpus at 320x240: robot-table 8 CMOs and a
+//! 242 ms frame where one CMO leaves 0.7 % in 69 ms;
+//! `benches/results/lavapipe-default-bounded.md`). The steps' order stays the centre criterion's:
+//! scoring every candidate with lists would build them for 67 centres.
 //!
 //! Under `self_reflections = "auto"` with a reflector that would be captured (not convex),
 //! [`resolve_for`] first searches with the reflectors left out of the capture and keeps that
@@ -183,10 +183,11 @@ impl Default for PlacementOptions {
 pub struct Placement {
     /// In the order chosen.
     pub centres: Vec<Vec3>,
-    /// `unresolved[k]`: the unresolved share of the sample with the first `k + 1` centres.
+    /// `unresolved[k]`: the unresolved share of the sample with the first `k + 1` centres, as
+    /// the frame's criterion judges it ([`PlacementOptions::scoring`]).
     pub unresolved: Vec<f64>,
     /// The unresolved share with as many centres along the reflectors' longest axis (the
-    /// `placement = "axis"` of the same count; same sample).
+    /// `placement = "axis"` of the same count; same sample, same judge).
     pub axis_unresolved: f64,
     /// Reflected rays in the sample.
     pub rays: usize,
@@ -426,7 +427,7 @@ fn search_by(
 }
 
 /// What the search stops on: the share of the sample that the frame's criterion leaves
-/// unresolved ([`PlacementOptions::criterion`]; module docs, "The criterion"). For the bounded
+/// unresolved ([`PlacementOptions::scoring`]; module docs, "The criterion"). For the bounded
 /// criterion, its CPU twin over lists captured at the scoring face size, each centre's lists
 /// built once; for every other, the centre criterion's score that the greedy steps keep.
 struct Judge<'a> {
