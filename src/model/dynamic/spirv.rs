@@ -131,7 +131,7 @@ pub(super) struct Inst {
     pub(super) lane: bool,
     /// Removed as unused (its result feeds nothing).
     pub(super) dead: bool,
-    /// A register move ([`Lanes::register_move`]): walked (its values fold) but not counted.
+    /// A register move ([`LaneTrack::register_move`]): walked (its values fold) but not counted.
     pub(super) free: bool,
 }
 

@@ -76,11 +76,11 @@
 //! the field:
 //! - numbers finite, arrays of exactly the stated length;
 //! - colours (`background`, MTL `Kd`) and `light_intensity` in `[0, 65504]`
-//!   ([`MAX_COLOUR`](super::MAX_COLOUR)), `ambient` in `[0, 1]`, `light_direction` not zero;
+//!   ([`super::MAX_COLOUR`]), `ambient` in `[0, 1]`, `light_direction` not zero;
 //! - points (`eye`, `target`, `translate`, `cmo.centres`, OBJ vertices) within `±2^60`
-//!   ([`MAX_COORDINATE`](super::MAX_COORDINATE)); `rotate_deg` in `[-360, 360]`; `scale`
+//!   ([`super::MAX_COORDINATE`]); `rotate_deg` in `[-360, 360]`; `scale`
 //!   non-zero; `fov_y_deg` in `(0, 180)`; image sides 1 to 16384, `cmo.resolution` 1 to 4096,
-//!   1 to 16 CMOs ([`MAX_CMOS`](super::MAX_CMOS));
+//!   1 to 16 CMOs ([`super::MAX_CMOS`]);
 //! - each mesh after its transform within `±2^60` and at least `2^-21` of the largest
 //!   coordinate that meets it across ([`MIN_RELATIVE_SIZE`](super::MIN_RELATIVE_SIZE));
 //! - mesh and camera names unique (a mesh's name defaults to its OBJ's stem; the same OBJ placed

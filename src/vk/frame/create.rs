@@ -28,7 +28,8 @@ use crate::vk::passes::gbuffer::Gbuffer;
 use crate::vk::passes::lists::PackedLists;
 use crate::vk::passes::scene_buffers::SceneBuffers;
 
-/// Refuses what the method cannot do ([`Method::check_bounces`], [`Method::check_trace`]) and
+/// Refuses what the method cannot do ([`check_bounces`](crate::method::Method::check_bounces),
+/// [`check_trace`](crate::method::Method::check_trace)) and
 /// the reference, which is no GPU method.
 pub(super) fn check_method(options: &RenderOptions) -> VkResult<&'static dyn MethodSpec> {
     let refuse = |what: &str, detail: String| {
@@ -56,7 +57,7 @@ pub(super) fn check_method(options: &RenderOptions) -> VkResult<&'static dyn Met
 }
 
 /// [`FrameRanges::check`] for the method of `options`: the CMO centres' checks only where it
-/// captures CMOs ([`Needs::capture`]).
+/// captures CMOs ([`Needs::capture`](crate::vk::methods::technique::Needs::capture)).
 pub(super) fn check_ranges(
     ranges: &FrameRanges,
     scene: &Scene,

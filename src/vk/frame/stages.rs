@@ -1,6 +1,6 @@
-//! The shared stages [`GpuRenderer`]'s creation allocates around the method: the CMO stages (data,
-//! capture, pyramid) before the G-buffer, the cone stage, and the reflector check, fallback and
-//! bounce rounds after the method's passes.
+//! The shared stages [`GpuRenderer`](super::GpuRenderer)'s creation allocates around the method:
+//! the CMO stages (data, capture, pyramid) before the G-buffer, the cone stage, and the reflector
+//! check, fallback and bounce rounds after the method's passes.
 
 use glam::Vec3;
 
@@ -330,8 +330,9 @@ pub(super) fn round_passes<'a>(
     }
 }
 
-/// [`Fallback::Trace`]'s BVH passes, where the plan has them ([`FramePlan::fallback`]: the
-/// method can leave a record unresolved, [`Method::can_leave_unresolved`]).
+/// [`Fallback::Trace`]'s BVH passes, where the plan has them ([`FramePlan::fallback`]: the method
+/// can leave a record unresolved,
+/// [`Method::can_leave_unresolved`](crate::method::Method::can_leave_unresolved)).
 fn fallback_passes(inputs: &FrameInputs<'_>) -> VkResult<Option<BvhPasses>> {
     let kind = match inputs.options.fallback {
         Fallback::Trace => AppendKind::Unresolved,

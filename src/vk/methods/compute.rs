@@ -329,9 +329,9 @@ pub struct HierConfig {
     /// `hier32_len(N)`.
     pub hier_len: u32,
     /// `compute_trace`'s mode, read by `main_lanes1` and `main_wave`: 0 their first dispatch, 1
-    /// the retrace (each binds its own copy, [`ComputeBuffers::hier_configs`]).
+    /// the retrace (each binds its own copy, `ComputeBuffers::hier_configs`).
     pub mode: u32,
-    /// The first dispatch's step loop cap ([`step_cap`]).
+    /// The first dispatch's step loop cap (`step_cap`).
     pub step_cap: u32,
     /// Level l: `(offset in cells (l >= 1), width, height, 0)`.
     pub dims: [[u32; 4]; HIER_MAX_LEVELS],

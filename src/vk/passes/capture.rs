@@ -96,7 +96,7 @@ pub struct FaceLists {
 /// far above the rounding: no texel centre of the face is in the triangle, so it makes no
 /// fragment).
 ///
-/// Each list is cut into draws where [`may_clip`] changes, runs of fewer than [`CLEAN_RUN`]
+/// Each list is cut into draws where `may_clip` changes, runs of fewer than `CLEAN_RUN`
 /// triangles that do not clip joining those around them. The draws of a face follow each
 /// other in the list's order, so the depth test sees the triangles in the same order and the
 /// images are those of one draw per face; `near` (the faces' near plane) only decides where
