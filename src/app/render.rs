@@ -259,7 +259,7 @@ pub fn load_scene(args: &RenderArgs) -> Result<(Scene, Camera, Option<Placement>
 pub fn log_placement(p: &Placement) {
     log::info!(
         "cmo placement: {} CMOs for {} sampled reflected rays in {:.2?}{}: {:.2}% of them \
-         unresolved (target {:.0}%; {:.2}% with as many along the reflectors' axis){}",
+         unresolved by {} (target {:.0}%; {:.2}% with as many along the reflectors' axis){}",
         p.centres.len(),
         p.rays,
         p.time,
@@ -269,6 +269,7 @@ pub fn log_placement(p: &Placement) {
             String::new()
         },
         100.0 * p.share(),
+        p.judge.name(),
         100.0 * crate::placement::TARGET_SHARE,
         100.0 * p.axis_unresolved,
         if p.self_capture_off {

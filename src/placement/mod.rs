@@ -157,6 +157,16 @@ pub enum Scoring {
     Bounded(ListSize),
 }
 
+impl Scoring {
+    /// What judges the shares, in words (`render -v`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Scoring::Centre => "the centre criterion",
+            Scoring::Bounded(_) => "the bounded criterion's lists",
+        }
+    }
+}
+
 impl Default for Scoring {
     /// The default criterion's (bounded) at the default list size.
     fn default() -> Self {
@@ -201,6 +211,8 @@ pub struct Placement {
     /// Whether [`resolve_for`] left the reflectors out of the capture
     /// (`self_reflections = "auto"` set to off), where that left fewer rays unresolved.
     pub self_capture_off: bool,
+    /// The twin that judged the shares ([`PlacementOptions::scoring`]).
+    pub judge: Scoring,
 }
 
 impl PartialEq for Placement {
@@ -214,6 +226,7 @@ impl PartialEq for Placement {
                 p.later_rays,
                 p.left,
                 p.self_capture_off,
+                p.judge,
             )
         };
         key(self) == key(other)
@@ -343,6 +356,7 @@ fn search_by(
             left: Unresolved::default(),
             time: start.elapsed(),
             self_capture_off: false,
+            judge: opts.scoring,
         };
     }
     let scorer = Scorer::new(&tracer, &rays);
@@ -368,6 +382,7 @@ fn search_by(
                 left: classify(&tracer, &left),
                 time: start.elapsed(),
                 self_capture_off: false,
+                judge: opts.scoring,
             };
         }
     }
@@ -423,6 +438,7 @@ fn search_by(
         left: classify(&tracer, &left),
         time: start.elapsed(),
         self_capture_off: false,
+        judge: opts.scoring,
     }
 }
 
