@@ -444,58 +444,66 @@ fn search_by(
 
 /// What the search stops on: the share of the sample that the frame's criterion leaves
 /// unresolved ([`PlacementOptions::scoring`]; module docs, "The criterion"). For the bounded
-/// criterion, its CPU twin over lists captured at the scoring face size, each centre's lists
+/// criterion, its CPU twin over lists at the frame's list size (capped), each centre's lists
 /// built once; for every other, the centre criterion's score that the greedy steps keep.
 struct Judge<'a> {
     scorer: &'a Scorer<'a>,
-    /// The bounded criterion's: per global triangle whether the capture takes it, the lists'
-    /// face size (`Ok`) or the scene's cube size for [`auto_list_size`] (`Err`), and the CMOs
-    /// built so far.
+    /// The bounded criterion's parts; `None` for the centre criterion.
     bounded: Option<BoundedJudge>,
 }
 
-/// [`Judge::bounded`]'s parts.
-type BoundedJudge = (Vec<bool>, Result<u32, u32>, Vec<CmoTracer>);
+/// [`Judge`]'s state for the bounded criterion.
+struct BoundedJudge {
+    /// Per global triangle, whether the capture takes it.
+    captured: Vec<bool>,
+    /// The lists' face size; `None`: `--list-size auto`'s rule for each centre at `cube`.
+    size: Option<u32>,
+    /// The scene's cube size, at most [`JUDGE_LISTS_MAX`].
+    cube: u32,
+    /// The CMOs built so far.
+    built: Vec<CmoTracer>,
+}
 
 impl<'a> Judge<'a> {
     fn new(scene: &Scene, scorer: &'a Scorer<'a>, opts: &PlacementOptions) -> Self {
-        let Scoring::Bounded(lists) = opts.scoring else {
-            return Judge {
-                scorer,
-                bounded: None,
-            };
+        let bounded = match opts.scoring {
+            Scoring::Centre => None,
+            Scoring::Bounded(lists) => {
+                // At most JUDGE_LISTS_MAX: `auto`'s rule below it gives the frame's size, or
+                // the cap.
+                let cube = scene.cmo.resolution.min(JUDGE_LISTS_MAX);
+                let size = match lists {
+                    ListSize::Auto => None,
+                    ListSize::Cube => Some(cube),
+                    ListSize::Fixed(n) => Some(n.min(JUDGE_LISTS_MAX)),
+                };
+                Some(BoundedJudge {
+                    captured: scene.world().captured_triangles(),
+                    size,
+                    cube,
+                    built: Vec::new(),
+                })
+            }
         };
-        let world = scene.world();
-        let captured = (world.triangle_object.iter())
-            .map(|&o| world.objects[o as usize].captured)
-            .collect();
-        // At most JUDGE_LISTS_MAX: `auto`'s rule below it gives the frame's size, or the cap.
-        let cube = scene.cmo.resolution.min(JUDGE_LISTS_MAX);
-        let lists = match lists {
-            ListSize::Auto => Err(cube),
-            ListSize::Cube => Ok(cube),
-            ListSize::Fixed(n) => Ok(n.min(JUDGE_LISTS_MAX)),
-        };
-        let bounded = Some((captured, lists, Vec::new()));
         Judge { scorer, bounded }
     }
 
     /// The sample's rays (indices) that CMOs at `centres` leave unresolved: `centre()` (the
     /// centre criterion's, which the caller knows) unless the criterion is bounded.
     fn left(&mut self, centres: &[Vec3], centre: impl FnOnce() -> Vec<usize>) -> Vec<usize> {
-        let Some((captured, lists, built)) = &mut self.bounded else {
+        let Some(b) = &mut self.bounded else {
             return centre();
         };
         let bits = |v: &Vec3| v.to_array().map(f32::to_bits);
         let missing: Vec<Vec3> = (centres.iter())
-            .filter(|c| !built.iter().any(|b| bits(&b.cube.centre) == bits(c)))
+            .filter(|c| !b.built.iter().any(|t| bits(&t.cube.centre) == bits(c)))
             .copied()
             .collect();
         let corners = &self.scorer.corners;
-        let (captured, lists) = (&*captured, *lists);
-        built.par_extend(missing.into_par_iter().map(|c| {
+        let (captured, size, cube) = (&b.captured, b.size, b.cube);
+        b.built.par_extend(missing.into_par_iter().map(|c| {
             let t0 = Instant::now();
-            let size = lists.unwrap_or_else(|cube| {
+            let size = size.unwrap_or_else(|| {
                 auto_list_size(cube, 1, |n| pool_bound(corners, captured, c, n).nodes)
             });
             let lists = capture_lists(corners, captured, c, size, DEFAULT_DEPTH);
@@ -506,7 +514,7 @@ impl<'a> Judge<'a> {
             CmoTracer::bounded(c, lists, corners.clone(), TraceOptions::default().params())
         }));
         let set: Vec<&CmoTracer> = (centres.iter())
-            .filter_map(|c| built.iter().find(|b| bits(&b.cube.centre) == bits(c)))
+            .filter_map(|c| b.built.iter().find(|t| bits(&t.cube.centre) == bits(c)))
             .collect();
         let rays = self.scorer.rays;
         (0..rays.len())
@@ -590,9 +598,7 @@ fn scoring_capture(scene: &Scene, tracer: &Tracer, centre: Vec3, size: u32) -> C
 /// capture the same hits ([`Tracer::keeping`]), sooner.
 fn tracers(scene: &Scene) -> (Tracer, Option<Tracer>) {
     let world = scene.world();
-    let shown: Vec<bool> = (world.triangle_object.iter())
-        .map(|&o| world.objects[o as usize].captured)
-        .collect();
+    let shown = world.captured_triangles();
     Tracer::split(world, |g| shown[g as usize])
 }
 

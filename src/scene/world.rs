@@ -57,6 +57,14 @@ pub struct WorldGeometry {
 }
 
 impl WorldGeometry {
+    /// Per triangle, whether the cubemap capture draws it (its object's
+    /// [`ObjectInfo::captured`]).
+    pub fn captured_triangles(&self) -> Vec<bool> {
+        (self.triangle_object.iter())
+            .map(|&o| self.objects[o as usize].captured)
+            .collect()
+    }
+
     pub(super) fn build(scene: &Scene) -> Self {
         let mut w = WorldGeometry::default();
         let self_capture = scene.self_capture();

@@ -165,11 +165,7 @@ fn judge(scene: &Scene, reference: &Frame, frame: &GpuFrame) -> Judged {
 fn cpu_lists(scene: &Scene, drop: Option<&str>) -> Vec<TexelLists> {
     let world = scene.world();
     let corners = triangle_corners(&world);
-    let captured: Vec<bool> = world
-        .triangle_object
-        .iter()
-        .map(|&o| world.objects[o as usize].captured)
-        .collect();
+    let captured = world.captured_triangles();
     let range = drop.map(|name| {
         let objects: Vec<_> = world
             .objects

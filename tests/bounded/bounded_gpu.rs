@@ -196,11 +196,7 @@ fn resolve(mut lists: Vec<Vec<Entry>>, size: u32, depth: u32) -> TexelLists {
 fn scene_lists(scene: &Scene, depth: u32) -> Vec<TexelLists> {
     let world = scene.world();
     let tris = cubetrace::cpu::verify::triangle_corners(&world);
-    let captured: Vec<bool> = world
-        .triangle_object
-        .iter()
-        .map(|&o| world.objects[o as usize].captured)
-        .collect();
+    let captured = world.captured_triangles();
     scene
         .cmo_centres()
         .into_iter()
@@ -478,12 +474,7 @@ fn the_walk_budget_ends_rays_as_the_twin_does() {
 
 /// Whether each triangle is in the lists (what the CMOs capture).
 fn captured(scene: &Scene) -> Vec<bool> {
-    let world = scene.world();
-    world
-        .triangle_object
-        .iter()
-        .map(|&o| world.objects[o as usize].captured)
-        .collect()
+    scene.world().captured_triangles()
 }
 
 /// Wrong decisions against the f64 reference (`Tracer::nearest_accepting` over the listed

@@ -417,11 +417,7 @@ pub fn bounded_ray(bench: &Bench, cmos: &[CmoTracer], p: &Probe) -> MultiResult 
 /// Per global triangle, whether the capture takes it (design22, "Which triangles": every
 /// triangle of a captured object; a reflector's only when it captures itself).
 pub fn captured_flags(bench: &Bench) -> Vec<bool> {
-    let w = &bench.tracer.world;
-    w.triangle_object
-        .iter()
-        .map(|&o| w.objects[o as usize].captured)
-        .collect()
+    bench.tracer.world.captured_triangles()
 }
 
 /// A multi-CMO result as the harness reads it.

@@ -113,9 +113,7 @@ fn the_split_tracer_answers_as_the_whole_one() {
         s.self_reflections = SelfReflections::Off;
         let whole = Tracer::new(&s);
         let world = s.world();
-        let shown: Vec<bool> = (world.triangle_object.iter())
-            .map(|&o| world.objects[o as usize].captured)
-            .collect();
+        let shown = world.captured_triangles();
         let (full, kept) = Tracer::split(world.clone(), |g| shown[g as usize]);
         let kept = kept.unwrap_or_else(|| panic!("{name}: nothing left out"));
         let keeping = whole.keeping(|g| shown[g as usize]);
