@@ -155,7 +155,9 @@ pub struct TraceArgs {
     pub cmos: Option<u32>,
     /// Every GPU method but bvh: how the CMO centres are chosen (overrides the scene's). `auto`
     /// (the default of a scene without `[cmo]` centres) samples the camera's reflected rays (with
-    /// --bounces N, their later reflections off reflectors too) and adds CMOs where they leave
+    /// --bounces N, their later reflections off reflectors too). One CMO comes first, on the
+    /// reflectors' axis or just in front of the mirror points in view (taken where the sample's
+    /// rays test at most 3/4 of the texels there). Failing that, it adds CMOs where they leave
     /// the fewest unresolved, until at most 1 % of the sample is (judged by the frame's
     /// criterion: for bounded, its own lists, which resolve more), within a budget of --cmos N
     /// (else the scene's `[cmo]` count, else 8) CMOs and 512 MiB of them; it may also leave the

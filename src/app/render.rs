@@ -279,6 +279,29 @@ pub fn log_placement(p: &Placement) {
             ""
         }
     );
+    if let Some(n) = p.near {
+        log::info!(
+            "cmo placement: one CMO in front of the mirror points in view at [{:.3}, {:.3}, \
+             {:.3}] tests {:.1} texels and cells per ray, one on the reflectors' axis {:.1} \
+             (the pyramid march's twin on the sample); {}",
+            n.centre.x,
+            n.centre.y,
+            n.centre.z,
+            n.walk,
+            n.axis_walk,
+            if n.taken() {
+                format!(
+                    "the one in front is taken (at most {:.0}%)",
+                    100.0 * crate::placement::NEAR_WALK
+                )
+            } else {
+                format!(
+                    "the axis is kept (the one in front must be at most {:.0}%)",
+                    100.0 * crate::placement::NEAR_WALK
+                )
+            }
+        );
+    }
     for (k, (c, share)) in p.centres.iter().zip(&p.unresolved).enumerate() {
         log::info!(
             "cmo placement: CMO {k} at [{:.3}, {:.3}, {:.3}]: unresolved {:.2}%",

@@ -209,6 +209,7 @@ mod tests {
             time: std::time::Duration::ZERO,
             self_capture_off: false,
             judge: crate::placement::Scoring::Centre,
+            near: None,
         };
         let w = fallback_warning(Method::Compute, &scene, &count(300), Some(&p)).unwrap();
         assert!(
