@@ -27,7 +27,7 @@
 //! candidate order on ties), scoring only the rays the centres chosen so far leave unresolved, and
 //! stops when none lowers it or the frame's criterion meets the target (below); the final share is
 //! judged again over the whole sample. Before all this, the cheapest sets are tried: one CMO on
-//! the reflectors' axis, and one in front of the mirror points in view ([`near_centre`]: where the
+//! the reflectors' axis, and one in front of the mirror points in view (`near_centre`: where the
 //! first reflected rays leave in a common direction, as off a flat mirror); where one meets the
 //! target, the search ends with it, after a capture or two instead of the candidates' (the corpus's
 //! slivers and the torus: 13-14 ms instead of 95-104). Where both meet it, the one in front is
@@ -233,7 +233,7 @@ pub struct Placement {
     pub near: Option<NearChoice>,
 }
 
-/// One CMO in front of the mirror points in view ([`near_centre`]) weighed against one on the
+/// One CMO in front of the mirror points in view (`near_centre`) weighed against one on the
 /// reflectors' axis, both meeting the target: the texels and cells the pyramid march's twin
 /// tests per ray on the sample with each ([`NEAR_WALK`] decides).
 #[derive(Clone, Copy, Debug, PartialEq)]
