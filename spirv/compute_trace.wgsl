@@ -59,6 +59,9 @@ const NODE_LEVELS: u32 = 9u;
 const MAX_CELLS: u32 = 8u;
 // Children per lane with 1 lane per ray (`main_lanes1`).
 const MAX_CELLS_ONE: u32 = 32u;
+// Steps one turn of the hot loop may run with one lane per ray (`trace_queued`): more than the
+// 32 texels of a node, a backtrack per level and the face's end.
+const MERGED_STEPS: u32 = 48u;
 // Traversal steps of one subgroup over its rays. One step visits, descends into, classifies or
 // leaves one node; a single-CMO trace takes fewer than 4 * (2 pieces * 4 faces) * (sum over
 // levels of the cells a segment crosses, under 8 * N + 64) steps, about 2^21 for N = 4096, and a
@@ -570,6 +573,28 @@ fn advance(st: ptr<function, RayState>, pick: u32, bounded: bool) {
     (*st).descents += 1u;
 }
 
+// The first candidate along the ray with one lane per ray: among the set bits of `m` at level
+// `lvl`, in one pass in increasing j, a strictly smaller key, or the first key equal to +inf,
+// takes it (none: firstTrailingBit(m); all NaN: the lowest candidate). The keys are in
+// `keys_one` (every one-lane entry point is `big`).
+fn pick_one(lvl: u32, m: u32, cells: u32) -> u32 {
+    var pick = firstTrailingBit(m);
+    var kmin = f32_inf();
+    var found = false;
+    var rest = m;
+    for (var i = 0u; i < cells && rest != 0u; i++) {
+        let c = firstTrailingBit(rest);
+        rest &= rest - 1u;
+        let key = keys_one[lvl * MAX_CELLS_ONE + c];
+        if key < kmin || (!found && key == kmin) {
+            kmin = key;
+            pick = c;
+            found = true;
+        }
+    }
+    return pick;
+}
+
 // The 32 bits of one ray from a ballot: the ray whose lanes are `half * lanes ..` of the
 // subgroup (`lanes` <= 32 divides 32, so they lie in one 32-bit word of the ballot).
 fn ray_bits(b: vec4<u32>, half: u32, lanes: u32) -> u32 {
@@ -859,28 +884,13 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
                 st.mask[st.level] = mask;
                 st.need_mask = false;
             }
-            // The first candidate along the ray: min key over the ray's lanes, then the lowest j
-            // holding it (NaN keys never win; all NaN: the lowest candidate).
+            // The first candidate along the ray: with one lane per ray `pick_one`, in the turn's
+            // steps below; with more, the min key over the ray's lanes, then the lowest j holding
+            // it (NaN keys never win; all NaN: the lowest candidate).
             let lvl = st.level;
             let m = select(0u, st.mask[lvl], busy);
             var pick = firstTrailingBit(m);
-            if one {
-                // The same pick from the candidates' keys alone, in one pass over the set bits in
-                // increasing j: a strictly smaller key, or the first key equal to +inf, takes it.
-                var kmin = f32_inf();
-                var found = false;
-                var rest = m;
-                for (var i = 0u; i < cells && rest != 0u; i++) {
-                    let c = firstTrailingBit(rest);
-                    rest &= rest - 1u;
-                    let key = key_get(big, lvl, c);
-                    if key < kmin || (!found && key == kmin) {
-                        kmin = key;
-                        pick = c;
-                        found = true;
-                    }
-                }
-            } else {
+            if !one {
                 var kmin = f32_inf();
                 for (var c = 0u; c < cells; c++) {
                     let key = key_get(big, lvl, c);
@@ -906,7 +916,24 @@ fn trace_queued(valid: bool, index: u32, lane: u32, half: u32, lanes: u32, cells
             }
             if busy {
                 st.next_face = false;
-                advance(&st, pick, bounded);
+                // With one lane per ray the steps that test no node run on in this turn: a texel
+                // candidate that did not decide the trace, a backtrack, and the parent's pick after
+                // it, until a step descends (the next node's children are tested in the next
+                // turn), ends the trace or leaves the face. The same steps in the same order as
+                // one per turn (the pick is the one that turn would make, and a step that tests
+                // nothing runs no subgroup operation), in fewer turns of the loop whose every turn
+                // runs the node tests too (for all lanes on lavapipe, masked). At most 32 texels
+                // of one node, a backtrack per level (`NODE_LEVELS`) and the face's end:
+                // `MERGED_STEPS` is never reached (were it, the next turn would go on).
+                for (var i = 0u; i < MERGED_STEPS; i++) {
+                    if one {
+                        pick = pick_one(st.level, st.mask[st.level], cells);
+                    }
+                    advance(&st, pick, bounded);
+                    if !one || st.trace_done || st.next_face || st.need_mask {
+                        break;
+                    }
+                }
                 pending = st.trace_done || st.next_face;
             }
     

@@ -239,6 +239,60 @@ fn wave_layout_spreads_the_crossed_children_over_the_warp() {
     }
 }
 
+/// With one ray per lane a turn of compute's step loop runs the ray's steps that test no node
+/// after its first (`pick_one` before each), so a ray alone in its warp takes one turn (one
+/// `pick` issue) per run of steps, a run starting at each step with a node visit or after a
+/// settle phase, and `advance` and `pick_one` issue once per step. The negative: the thesis
+/// layout takes a turn per step, and the runs are strictly fewer than the steps on this scene.
+#[test]
+fn one_lane_turns_run_the_steps_that_test_no_node() {
+    let (mut all_steps, mut all_runs) = (0u64, 0u64);
+    for lanes in [ComputeLanes::One, ComputeLanes::Thesis] {
+        let rec = recorded(Method::Compute, lanes);
+        let FrameWork::Compute(rays) = &rec.work else {
+            panic!("compute work")
+        };
+        for ray in rays.iter().take(40) {
+            let steps = (ray.phases.iter())
+                .filter(|p| matches!(p, Phase::Step(_)))
+                .count() as u64;
+            let runs = (ray.phases.iter().enumerate())
+                .filter(|&(i, p)| match p {
+                    Phase::Step(s) => {
+                        s.visit.is_some() || i == 0 || !matches!(ray.phases[i - 1], Phase::Step(_))
+                    }
+                    _ => false,
+                })
+                .count() as u64;
+            let one = Recorded {
+                method: rec.method,
+                settings: rec.settings.clone(),
+                img: (1, 1),
+                ray_at: vec![Some(0)],
+                work: FrameWork::Compute(vec![ray.clone()]),
+            };
+            let st = replay(&one, 4, Mode::Gpu, default_assembly(Method::Compute)).expect("replay");
+            let issues = |b: usize| st.steps_per_ray[b].round() as u64;
+            if lanes == ComputeLanes::One {
+                assert_eq!(issues(work::C_PICK), runs);
+                assert_eq!(issues(work::C_PICK_ONE), steps);
+                assert_eq!(issues(work::C_ADVANCE), steps);
+                all_steps += steps;
+                all_runs += runs;
+            } else {
+                assert_eq!(issues(work::C_PICK), steps);
+                assert_eq!(issues(work::C_PICK_ONE), 0);
+                assert_eq!(issues(work::C_ADVANCE), steps);
+            }
+        }
+    }
+    eprintln!("{all_runs} runs of {all_steps} steps");
+    assert!(
+        all_runs < all_steps,
+        "no step ran on in its turn: the check tells nothing"
+    );
+}
+
 /// The texels and cells alg. 3's node visits test (children per visit, from the work log) equal
 /// the twin's own `Counters` (incremented by the traversal itself), ray by ray. The negative:
 /// dropping one visit from a ray breaks the equality.

@@ -411,20 +411,30 @@ fn replay_compute(
         if busy(&pos) == 0 {
             break;
         }
-        // The hot loop: one step per busy ray per turn, until a ray has `settle` due.
+        // The hot loop: per turn, a step per busy ray (with one lane per ray, its run of steps:
+        // the first and the steps after it that test no node), until a ray has `settle` due.
         loop {
-            let steps: Vec<&Step> = (0..slot.len())
-                .filter_map(|s| match phase(s, &pos) {
-                    Some(Phase::Step(st)) => Some(st),
-                    _ => None,
+            let runs: Vec<Vec<&Step>> = (0..slot.len())
+                .map(|s| {
+                    let mut run = Vec::new();
+                    let at = |k: usize| slot[s].and_then(|r| r.phases.get(pos[s] + k));
+                    while let Some(Phase::Step(st)) = at(run.len()) {
+                        if !run.is_empty() && (lanes > 1 || st.visit.is_some()) {
+                            break;
+                        }
+                        run.push(st);
+                    }
+                    run
                 })
                 .collect();
-            compute_step(&steps, lanes, wave, width, mode, acc);
-            for (s, p) in pos.iter_mut().enumerate() {
-                if matches!(slot[s].and_then(|r| r.phases.get(*p)), Some(Phase::Step(_))) {
-                    *p += 1;
-                }
+            for (s, run) in runs.iter().enumerate() {
+                pos[s] += run.len();
             }
+            let runs: Vec<&[&Step]> = (runs.iter())
+                .filter(|r| !r.is_empty())
+                .map(Vec::as_slice)
+                .collect();
+            compute_step(&runs, lanes, wave, width, mode, acc);
             let due = (0..slot.len()).any(|s| matches!(phase(s, &pos), Some(Phase::Settle(_))));
             if due || busy(&pos) == 0 {
                 break;
@@ -464,9 +474,10 @@ fn wave_tests(crossed: &[Vec<u64>], busy: u64, width: u32, lavapipe: bool, acc: 
     }
 }
 
-/// One turn of compute_trace's hot loop over the busy rays' `steps`.
+/// One turn of compute_trace's hot loop over the busy rays' `runs` (each ray's steps this turn:
+/// one, or with one lane per ray the steps after the first that test no node).
 fn compute_step(
-    steps: &[&work::Step],
+    runs: &[&[&work::Step]],
     lanes: u32,
     wave: bool,
     width: u32,
@@ -476,6 +487,7 @@ fn compute_step(
     use work::*;
     let lavapipe = mode == Mode::Lavapipe;
     let l = lanes as u64;
+    let steps: Vec<&Step> = runs.iter().map(|r| r[0]).collect();
     let testing: Vec<&Visit> = steps.iter().filter_map(|s| s.visit.as_ref()).collect();
     acc.issue_if(lavapipe, C_VISIT, width, testing.len() as u64 * l, &[]);
     if lanes == 1 {
@@ -540,16 +552,25 @@ fn compute_step(
             }
         }
     }
-    // The pick runs on every lane (uniform code), advance on the busy rays.
+    // The pick runs on every lane (uniform code), advance on the busy rays: once, or with one
+    // lane per ray once per step of each ray's run, `pick_one` before it, the turns of the
+    // longest run.
     acc.issue(C_PICK, width, steps.len() as u64 * l, &[]);
-    acc.issue(C_ADVANCE, width, steps.len() as u64 * l, &[]);
-    let loads: Vec<[u64; 1]> = steps
-        .iter()
-        .filter_map(|s| s.classify)
-        .map(|a| [a])
-        .collect();
-    let refs: Vec<&[u64]> = loads.iter().map(|a| a.as_slice()).collect();
-    acc.issue_if(lavapipe, C_CLASSIFY, width, refs.len() as u64 * l, &refs);
-    let deciding = steps.iter().filter(|s| s.decide).count() as u64;
-    acc.issue_if(lavapipe, C_DECIDE, width, deciding * l, &[]);
+    let trips = runs.iter().map(|r| r.len()).max().unwrap_or(0);
+    for t in 0..trips {
+        let steps: Vec<&Step> = runs.iter().filter_map(|r| r.get(t).copied()).collect();
+        if lanes == 1 {
+            acc.issue(C_PICK_ONE, width, steps.len() as u64, &[]);
+        }
+        acc.issue(C_ADVANCE, width, steps.len() as u64 * l, &[]);
+        let loads: Vec<[u64; 1]> = steps
+            .iter()
+            .filter_map(|s| s.classify)
+            .map(|a| [a])
+            .collect();
+        let refs: Vec<&[u64]> = loads.iter().map(|a| a.as_slice()).collect();
+        acc.issue_if(lavapipe, C_CLASSIFY, width, refs.len() as u64 * l, &refs);
+        let deciding = steps.iter().filter(|s| s.decide).count() as u64;
+        acc.issue_if(lavapipe, C_DECIDE, width, deciding * l, &[]);
+    }
 }

@@ -759,12 +759,10 @@ const NAMED_CALLERS: &[(&str, &str, &[&str])] = &[
     (COMP, "wave_items", &["wave_tests"]),
     (COMP, "wave_item", &["wave_tests"]),
     (COMP, "wave_collect", &["wave_tests"]),
-    (
-        COMP,
-        "key_get",
-        &["trace_queued", "trace_queued", "trace_queued"],
-    ),
+    // The thesis layout's pick (the one-lane pick is `pick_one`, which reads the keys itself).
+    (COMP, "key_get", &["trace_queued", "trace_queued"]),
     (COMP, "ray_bits", &["trace_queued", "trace_queued"]),
+    (COMP, "pick_one", &["trace_queued"]),
     (COMP, "advance", &["trace_queued"]),
     (COMP, "classify", &["advance", "trace_walk"]),
     (COMP, "classify_candidate", &["classify_with"]),

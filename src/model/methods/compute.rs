@@ -85,6 +85,9 @@ pub const COMPUTE_BLOCKS: &[Block] = &[
     b("wave_items", COMPUTE, &["wave_items"]),
     b("wave_item", COMPUTE, &["wave_item", "child_grid"]),
     b("wave_collect", COMPUTE, &["wave_collect"]),
+    // The pick of the first candidate with one ray per lane (`main_lanes1`, `main_wave`), before
+    // each step of a turn's run of steps that test no node.
+    b("pick_one", COMPUTE, &["pick_one"]),
 ];
 
 // Indices into COMPUTE_BLOCKS.
@@ -105,6 +108,7 @@ pub const C_DECIDE: usize = 13;
 pub const C_WAVE_ITEMS: usize = 14;
 pub const C_WAVE_ITEM: usize = 15;
 pub const C_WAVE_COLLECT: usize = 16;
+pub const C_PICK_ONE: usize = 17;
 
 /// A compute ray's work as `trace_queued` runs it (settle phases and steps).
 pub fn compute_ray(frame: &Frame, ray: &MirrorRay) -> ComputeRay {
