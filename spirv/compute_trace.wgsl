@@ -311,13 +311,13 @@ fn children_crossed(st: ptr<function, RayState>, nc: NodeCtx, keys: bool) -> u32
     let lvl = (*st).level;
     var bits = 0u;
     for (var l = 0u; l < 8u; l++) {
-        let c = axis_slab(start, long, la.z, ld.z, n, l);
+        let c = with_face(axis_slab(start, long, la.z, ld.z, n, l), z);
         let j = l * dl;
-        bits |= pair_keyed(c, s[0], z, texel, range, reach, keys, lvl, j & 31u);
-        bits |= pair_keyed(c, s[1], z, texel, range, reach, keys, lvl, (j + ds) & 31u);
-        bits |= pair_keyed(c, s[2], z, texel, range, reach, keys, lvl, (j + 2u * ds) & 31u);
-        bits |= pair_keyed(c, s[3], z, texel, range, reach, keys, lvl, (j + 3u * ds) & 31u);
-        bits |= pair_keyed(c, s[4], z, texel, range, reach, keys, lvl, (j + 4u * ds) & 31u);
+        bits |= pair_keyed(c, s[0], texel, range, reach, keys, lvl, j & 31u);
+        bits |= pair_keyed(c, s[1], texel, range, reach, keys, lvl, (j + ds) & 31u);
+        bits |= pair_keyed(c, s[2], texel, range, reach, keys, lvl, (j + 2u * ds) & 31u);
+        bits |= pair_keyed(c, s[3], texel, range, reach, keys, lvl, (j + 3u * ds) & 31u);
+        bits |= pair_keyed(c, s[4], texel, range, reach, keys, lvl, (j + 4u * ds) & 31u);
     }
     return bits;
 }
@@ -373,27 +373,36 @@ fn slab(start: Clip, a: f32, d: f32, az: f32, dz: f32, c: u32, span: u32, n: u32
     return Slab(r.iv.t0, r.iv.t1, exists && k0 < k1 && r.keep);
 }
 
+// The long side's slab `c` clipped by the face's plane `z` as well, once for its five pairs:
+// the largest entry and smallest exit bound of the two, and kept where both are. The bounds are
+// never NaN (`clip_plane` takes a bound only where it compares), so max and min give each pair's
+// bounds the same values in this order as in any other.
+fn with_face(c: Slab, z: Clip) -> Slab {
+    return Slab(max(c.t0, z.iv.t0), min(c.t1, z.iv.t1), c.ok && z.keep);
+}
+
 // `pair_bit` at bit `j`, keeping the child's key where it passes and `keys` (a constant) asks.
-fn pair_keyed(col: Slab, row: Slab, z: Clip, texel: bool, range: vec2<f32>, reach: f32, keys: bool, lvl: u32, j: u32) -> u32 {
-    let b = pair_bit(col, row, z, texel, range, reach);
+fn pair_keyed(col: Slab, row: Slab, texel: bool, range: vec2<f32>, reach: f32, keys: bool, lvl: u32, j: u32) -> u32 {
+    let b = pair_bit(col, row, texel, range, reach);
     if keys && b != 0u {
-        key_set(true, lvl, j, pair_key(col, row, z));
+        key_set(true, lvl, j, pair_key(col, row));
     }
     return b << j;
 }
 
-// The entry t of the child at (`col`, `row`): the largest of its planes' entry bounds.
-fn pair_key(col: Slab, row: Slab, z: Clip) -> f32 {
-    return max(max(col.t0, row.t0), z.iv.t0);
+// The entry t of the child at (`col`, `row`; `col` clipped by the face's plane, `with_face`):
+// the largest of its planes' entry bounds.
+fn pair_key(col: Slab, row: Slab) -> f32 {
+    return max(col.t0, row.t0);
 }
 
 // 1 where the child at (`col`, `row`) passes: `crosses` at the texel level, `inflated` above
-// (none where the face's plane `z` drops the interval).
-fn pair_bit(col: Slab, row: Slab, z: Clip, texel: bool, range: vec2<f32>, reach: f32) -> u32 {
-    let t0 = pair_key(col, row, z);
-    let t1 = min(min(col.t1, row.t1), z.iv.t1);
+// (none where a slab, or the face's plane in `col`, drops the interval).
+fn pair_bit(col: Slab, row: Slab, texel: bool, range: vec2<f32>, reach: f32) -> u32 {
+    let t0 = pair_key(col, row);
+    let t1 = min(col.t1, row.t1);
     let ok = select(inflated(Interval(t0, t1, SIDE_SEGMENT, SIDE_SEGMENT), range.x, range.y, reach).ok, t0 < t1, texel);
-    return select(0u, 1u, ok && col.ok && row.ok && z.keep);
+    return select(0u, 1u, ok && col.ok && row.ok);
 }
 
 // Sets up the search at the current (piece, face), advancing past exhausted ones; ends the
