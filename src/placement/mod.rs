@@ -512,6 +512,8 @@ fn one_cmo(
     let singles: Vec<Vec3> = (axis_one.iter().copied())
         .chain(near_centre(scene, first_rays).filter(|c| !axis_one.contains(c)))
         .collect();
+    // Both centres' lists at once (the bounded judge), where the two builds share the threads.
+    judge.build(&singles);
     let mut axis_share = None;
     let mut passing: Vec<(Vec3, Vec<usize>, Option<CmoTracer>)> = Vec::new();
     for &centre in &singles {
@@ -600,28 +602,14 @@ impl<'a> Judge<'a> {
     /// The sample's rays (indices) that CMOs at `centres` leave unresolved: `centre()` (the
     /// centre criterion's, which the caller knows) unless the criterion is bounded.
     fn left(&mut self, centres: &[Vec3], centre: impl FnOnce() -> Vec<usize>) -> Vec<usize> {
-        let Some(b) = &mut self.bounded else {
+        if self.bounded.is_none() {
+            return centre();
+        }
+        self.build(centres);
+        let Some(b) = &self.bounded else {
             return centre();
         };
         let bits = |v: &Vec3| v.to_array().map(f32::to_bits);
-        let missing: Vec<Vec3> = (centres.iter())
-            .filter(|c| !b.built.iter().any(|t| bits(&t.cube.centre) == bits(c)))
-            .copied()
-            .collect();
-        let corners = &self.scorer.corners;
-        let (captured, size, cube) = (&b.captured, b.size, b.cube);
-        b.built.par_extend(missing.into_par_iter().map(|c| {
-            let t0 = Instant::now();
-            let size = size.unwrap_or_else(|| {
-                auto_list_size(cube, 1, |n| pool_bound(corners, captured, c, n).nodes)
-            });
-            let lists = capture_lists(corners, captured, c, size, DEFAULT_DEPTH);
-            log::debug!(
-                "cmo placement: lists at {size} for {c}: {:.2?}",
-                t0.elapsed()
-            );
-            CmoTracer::bounded(c, lists, corners.clone(), TraceOptions::default().params())
-        }));
         let set: Vec<&CmoTracer> = (centres.iter())
             .filter_map(|c| b.built.iter().find(|t| bits(&t.cube.centre) == bits(c)))
             .collect();
@@ -642,6 +630,33 @@ impl<'a> Judge<'a> {
                 r.status == MultiStatus::Unresolved
             })
             .collect()
+    }
+
+    /// Builds the bounded criterion's lists of the `centres` not built yet, in parallel (none
+    /// for the centre criterion).
+    fn build(&mut self, centres: &[Vec3]) {
+        let Some(b) = &mut self.bounded else {
+            return;
+        };
+        let bits = |v: &Vec3| v.to_array().map(f32::to_bits);
+        let missing: Vec<Vec3> = (centres.iter())
+            .filter(|c| !b.built.iter().any(|t| bits(&t.cube.centre) == bits(c)))
+            .copied()
+            .collect();
+        let corners = &self.scorer.corners;
+        let (captured, size, cube) = (&b.captured, b.size, b.cube);
+        b.built.par_extend(missing.into_par_iter().map(|c| {
+            let t0 = Instant::now();
+            let size = size.unwrap_or_else(|| {
+                auto_list_size(cube, 1, |n| pool_bound(corners, captured, c, n).nodes)
+            });
+            let lists = capture_lists(corners, captured, c, size, DEFAULT_DEPTH);
+            log::debug!(
+                "cmo placement: lists at {size} for {c}: {:.2?}",
+                t0.elapsed()
+            );
+            CmoTracer::bounded(c, lists, corners.clone(), TraceOptions::default().params())
+        }));
     }
 
     /// The trace's work on the sample with CMOs at `centres`: the texels and cells that the
