@@ -7,6 +7,26 @@
 
 mod common;
 
+use cubetrace::scene::{self, CmoPlacement, Scene};
+
+/// Corpus scene `name` at 96x72 with 128-texel faces, the size the placement tests render.
+fn corpus(name: &str) -> Scene {
+    let mut scene = common::corpus_scene(name);
+    let c = &mut scene.cameras[0];
+    (c.width, c.height) = (96, 72);
+    scene.cmo.resolution = 128;
+    scene
+}
+
+/// [`corpus`] with its CMOs left to the search (as a file without `[cmo]` centres).
+fn corpus_searched(name: &str) -> Scene {
+    let mut scene = corpus(name);
+    scene.cmo.placement = CmoPlacement::Search {
+        count: scene::DEFAULT_SEARCH_CMOS,
+    };
+    scene
+}
+
 #[path = "placement/bounces.rs"]
 mod bounces;
 #[path = "placement/bounded_judge.rs"]

@@ -309,6 +309,18 @@ impl<'a> Scorer<'a> {
         r.status == MultiStatus::Unresolved
     }
 
+    /// Sampled ray `i` as the CPU twins trace it, over the whole of the scene's extent.
+    fn world_ray(&self, i: usize) -> WorldRay {
+        let r = &self.rays[i];
+        WorldRay {
+            origin: r.origin,
+            dir: r.dir,
+            from: r.from.triangle,
+            t_lo: 0.0,
+            t_hi: self.t_hi,
+        }
+    }
+
     /// The rays of `open` (indices into the sample) that `cmos` leave unresolved.
     fn left(&self, cmos: &[&CmoTracer], open: &[usize]) -> Vec<usize> {
         open.par_iter()
@@ -411,21 +423,25 @@ fn search_by(
         opts.target,
         &capture,
     );
-    if let Some((centre, left)) = one.chosen {
-        let share = left.len() as f64 / rays.len() as f64;
+    // The placement of `centres`, which leave the sample's rays `left` unresolved.
+    let placed = |centres, unresolved, axis_unresolved, left: &[usize], near| {
         let left: Vec<&Ray> = left.iter().map(|&i| &rays[i]).collect();
-        return Placement {
-            centres: vec![centre],
-            unresolved: vec![share],
-            axis_unresolved: one.axis_share,
+        Placement {
+            centres,
+            unresolved,
+            axis_unresolved,
             rays: rays.len(),
             later_rays,
             left: classify(&tracer, &left),
             time: start.elapsed(),
             self_capture_off: false,
             judge: opts.scoring,
-            near: one.near,
-        };
+            near,
+        }
+    };
+    if let Some((centre, left)) = one.chosen {
+        let share = left.len() as f64 / rays.len() as f64;
+        return placed(vec![centre], vec![share], one.axis_share, &left, one.near);
     }
     let points = candidates(scene, opts.grid);
     let cmos: Vec<CmoTracer> = points.par_iter().map(|&c| capture(c)).collect();
@@ -447,7 +463,6 @@ fn search_by(
     let centres: Vec<Vec3> = chosen.iter().map(|&k| points[k]).collect();
     let set: Vec<&CmoTracer> = chosen.iter().map(|&k| &cmos[k]).collect();
     let left = judge.left(&centres, || scorer.left(&set, &all));
-    let left: Vec<&Ray> = left.iter().map(|&i| &rays[i]).collect();
     let mut unresolved = unresolved;
     if let Some(last) = unresolved.last_mut() {
         *last = left.len() as f64 / rays.len().max(1) as f64;
@@ -470,18 +485,8 @@ fn search_by(
             .collect();
         scorer.left(&axis, &all)
     });
-    Placement {
-        centres,
-        unresolved,
-        axis_unresolved: axis_left.len() as f64 / rays.len() as f64,
-        rays: rays.len(),
-        later_rays,
-        left: classify(&tracer, &left),
-        time: start.elapsed(),
-        self_capture_off: false,
-        judge: opts.scoring,
-        near: None,
-    }
+    let axis_share = axis_left.len() as f64 / rays.len() as f64;
+    placed(centres, unresolved, axis_share, &left, None)
 }
 
 /// What [`one_cmo`] found: the centre that ends the search and the sample's rays it leaves
@@ -575,6 +580,16 @@ struct BoundedJudge {
     built: Vec<CmoTracer>,
 }
 
+impl BoundedJudge {
+    /// The built CMOs at `centres` (those built), in that order.
+    fn set(&self, centres: &[Vec3]) -> Vec<&CmoTracer> {
+        let bits = |v: &Vec3| v.to_array().map(f32::to_bits);
+        (centres.iter())
+            .filter_map(|c| self.built.iter().find(|t| bits(&t.cube.centre) == bits(c)))
+            .collect()
+    }
+}
+
 impl<'a> Judge<'a> {
     fn new(scene: &Scene, scorer: &'a Scorer<'a>, opts: &PlacementOptions) -> Self {
         let bounded = match opts.scoring {
@@ -609,21 +624,11 @@ impl<'a> Judge<'a> {
         let Some(b) = &self.bounded else {
             return centre();
         };
-        let bits = |v: &Vec3| v.to_array().map(f32::to_bits);
-        let set: Vec<&CmoTracer> = (centres.iter())
-            .filter_map(|c| b.built.iter().find(|t| bits(&t.cube.centre) == bits(c)))
-            .collect();
-        let rays = self.scorer.rays;
-        (0..rays.len())
+        let set = b.set(centres);
+        (0..self.scorer.rays.len())
             .into_par_iter()
             .filter(|&i| {
-                let ray = WorldRay {
-                    origin: rays[i].origin,
-                    dir: rays[i].dir,
-                    from: rays[i].from.triangle,
-                    t_lo: 0.0,
-                    t_hi: self.scorer.t_hi,
-                };
+                let ray = self.scorer.world_ray(i);
                 let r = crate::cpu::multi::trace_world_ray(&set, &ray, None, |tr, s| {
                     crate::cpu::multi::trace_one(tr, s, Traversal::Mip)
                 });
@@ -664,12 +669,9 @@ impl<'a> Judge<'a> {
     /// [`Judge::left`] built for the bounded criterion, else over `centre()` (one CMO, the
     /// centre criterion's capture, hits unverified).
     fn walk(&self, centres: &[Vec3], centre: impl FnOnce() -> CmoTracer) -> f64 {
-        let bits = |v: &Vec3| v.to_array().map(f32::to_bits);
         let own;
         let set: Vec<&CmoTracer> = match &self.bounded {
-            Some(b) => (centres.iter())
-                .filter_map(|c| b.built.iter().find(|t| bits(&t.cube.centre) == bits(c)))
-                .collect(),
+            Some(b) => b.set(centres),
             None => {
                 own = centre();
                 vec![&own]
@@ -679,13 +681,7 @@ impl<'a> Judge<'a> {
         let work: u64 = (0..rays.len())
             .into_par_iter()
             .map(|i| {
-                let ray = WorldRay {
-                    origin: rays[i].origin,
-                    dir: rays[i].dir,
-                    from: rays[i].from.triangle,
-                    t_lo: 0.0,
-                    t_hi: self.scorer.t_hi,
-                };
+                let ray = self.scorer.world_ray(i);
                 let work = Cell::new(0u64);
                 crate::cpu::multi::trace_world_ray(&set, &ray, None, |tr, s| {
                     let r = crate::cpu::multi::trace_one(tr, s, Traversal::Mip);

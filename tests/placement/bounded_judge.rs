@@ -5,16 +5,9 @@
 use crate::common;
 
 use cubetrace::placement::{self, PlacementOptions, Scoring, TARGET_SHARE};
-use cubetrace::scene::{self, Scene};
+use cubetrace::scene;
 
-/// Corpus scene `name` at 96x72 with 128-texel faces (as `placement_default` renders them).
-fn corpus(name: &str) -> Scene {
-    let mut scene = common::corpus_scene(name);
-    let c = &mut scene.cameras[0];
-    (c.width, c.height) = (96, 72);
-    scene.cmo.resolution = 128;
-    scene
-}
+use crate::corpus;
 
 /// Each step's share is the bounded twin's share of the whole sample with the centres so far
 /// (`sample_share`, which builds its own lists), and the search stops at the first set that

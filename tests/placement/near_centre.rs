@@ -14,17 +14,7 @@ use cubetrace::scene::{self, CmoPlacement, Scene};
 use cubetrace::vk::GpuContext;
 use cubetrace::vk::frame::RenderOptions;
 
-/// Corpus scene `name` at 96x72 with 128-texel faces, its CMOs left to the search.
-fn corpus(name: &str) -> Scene {
-    let mut scene = common::corpus_scene(name);
-    let c = &mut scene.cameras[0];
-    (c.width, c.height) = (96, 72);
-    scene.cmo.resolution = 128;
-    scene.cmo.placement = CmoPlacement::Search {
-        count: scene::DEFAULT_SEARCH_CMOS,
-    };
-    scene
-}
+use crate::corpus_searched as corpus;
 
 /// The default criterion's search on corpus scene `name`: the scene as placed, and the search.
 fn searched(name: &str) -> (Scene, Placement) {

@@ -20,18 +20,7 @@ use cubetrace::scene::{self, CmoPlacement, Scene, SelfReflections};
 use cubetrace::vk::GpuContext;
 use cubetrace::vk::frame::{Fallback, RenderOptions};
 
-/// Corpus scene `name` at 96x72 with 128-texel faces, its CMOs left to the search (as a file
-/// without `[cmo]` centres).
-fn corpus(name: &str) -> Scene {
-    let mut scene = common::corpus_scene(name);
-    let c = &mut scene.cameras[0];
-    (c.width, c.height) = (96, 72);
-    scene.cmo.resolution = 128;
-    scene.cmo.placement = CmoPlacement::Search {
-        count: scene::DEFAULT_SEARCH_CMOS,
-    };
-    scene
-}
+use crate::corpus_searched as corpus;
 
 /// The share of mirror pixels that `compute` (centre criterion, trace fallback) leaves to the
 /// fallback, and the mirror pixel count. The centre criterion, since its share follows the
