@@ -621,10 +621,7 @@ impl<'a> Judge<'a> {
             return centre();
         }
         self.build(centres);
-        let Some(b) = &self.bounded else {
-            return centre();
-        };
-        let set = b.set(centres);
+        let set = (self.bounded.as_ref()).map_or_else(Vec::new, |b| b.set(centres));
         (0..self.scorer.rays.len())
             .into_par_iter()
             .filter(|&i| {
@@ -666,7 +663,7 @@ impl<'a> Judge<'a> {
 
     /// The trace's work on the sample with CMOs at `centres`: the texels and cells that the
     /// pyramid march's twin tests per ray, summed over a ray's traces; over the lists
-    /// [`Judge::left`] built for the bounded criterion, else over `centre()` (one CMO, the
+    /// [`Judge::build`] built for the bounded criterion, else over `centre()` (one CMO, the
     /// centre criterion's capture, hits unverified).
     fn walk(&self, centres: &[Vec3], centre: impl FnOnce() -> CmoTracer) -> f64 {
         let own;
