@@ -89,7 +89,7 @@ use crate::cpu::options::TraceOptions;
 use crate::cpu::verify::triangle_corners;
 use crate::cubemap::bounds::{DEFAULT_DEPTH, ListSize, auto_list_size, capture_lists, pool_bound};
 use crate::reference::Tracer;
-use crate::scene::{CmoPlacement, Scene, SelfReflections};
+use crate::scene::{CmoPlacement, Scene, SelfReflections, WorldGeometry};
 
 mod diagnose;
 mod rays;
@@ -332,8 +332,7 @@ impl<'a> Scorer<'a> {
 
 /// Candidate centres: the grid over the grown reflector box, then the axis placements of one to
 /// three CMOs.
-fn candidates(scene: &Scene, grid: u32) -> Vec<Vec3> {
-    let world = scene.world();
+fn candidates(world: &WorldGeometry, grid: u32) -> Vec<Vec3> {
     let (lo, hi) = world.bounds(|o| o.reflector);
     let (lo, hi) = if lo.x > hi.x {
         world.bounds(|_| true)
@@ -355,7 +354,7 @@ fn candidates(scene: &Scene, grid: u32) -> Vec<Vec3> {
         }
     }
     for n in 1..=3 {
-        out.extend(scene.axis_centres(n));
+        out.extend(world.axis_centres(n));
     }
     out
 }
@@ -396,7 +395,7 @@ fn search_by(
     if rays.is_empty() {
         // No mirror pixel in view: nothing to score, one CMO on the reflectors' axis.
         return Placement {
-            centres: scene.axis_centres(1),
+            centres: tracer.world.axis_centres(1),
             unresolved: vec![0.0],
             axis_unresolved: 0.0,
             rays: 0,
@@ -411,12 +410,12 @@ fn search_by(
     let scorer = Scorer::new(&tracer, &rays);
     let capture_tracer = shown.as_ref().unwrap_or(&tracer);
     let capture = |c: Vec3| scoring_capture(scene, capture_tracer, c, opts.cube_size);
-    let mut judge = Judge::new(scene, &scorer, opts);
+    let mut judge = Judge::new(scene, &tracer.world, &scorer, opts);
     // The cheapest sets first: one CMO ([`one_cmo`]).
     let all: Vec<usize> = (0..rays.len()).collect();
     let first_rays = &rays[..rays.len() - later_rays];
     let one = one_cmo(
-        scene,
+        &tracer.world,
         &scorer,
         &mut judge,
         first_rays,
@@ -443,7 +442,7 @@ fn search_by(
         let share = left.len() as f64 / rays.len() as f64;
         return placed(vec![centre], vec![share], one.axis_share, &left, one.near);
     }
-    let points = candidates(scene, opts.grid);
+    let points = candidates(&tracer.world, opts.grid);
     let cmos: Vec<CmoTracer> = points.par_iter().map(|&c| capture(c)).collect();
     log::debug!(
         "cmo placement: {} rays sampled ({} of them later reflections), {} candidates captured at \
@@ -469,7 +468,7 @@ fn search_by(
     }
     // The axis placement of as many CMOs; a centre that is a candidate (one to three CMOs) has
     // its capture already: the same centre gives the same capture.
-    let axis_centres = scene.axis_centres(chosen.len().max(1) as u32);
+    let axis_centres = tracer.world.axis_centres(chosen.len().max(1) as u32);
     let axis_left = judge.left(&axis_centres, || {
         let known = |c: &Vec3| {
             let bits = |v: &Vec3| v.to_array().map(f32::to_bits);
@@ -505,7 +504,7 @@ struct OneCmo {
 /// front replaces the axis only where its rays walk clearly fewer texels and cells
 /// ([`NEAR_WALK`]): the capture costs about the same for either, the trace does not.
 fn one_cmo(
-    scene: &Scene,
+    world: &WorldGeometry,
     scorer: &Scorer,
     judge: &mut Judge,
     first_rays: &[Ray],
@@ -513,9 +512,9 @@ fn one_cmo(
     capture: &(dyn Fn(Vec3) -> CmoTracer + Sync),
 ) -> OneCmo {
     let all: Vec<usize> = (0..scorer.rays.len()).collect();
-    let axis_one = scene.axis_centres(1);
+    let axis_one = world.axis_centres(1);
     let singles: Vec<Vec3> = (axis_one.iter().copied())
-        .chain(near_centre(scene, first_rays).filter(|c| !axis_one.contains(c)))
+        .chain(near_centre(world, first_rays).filter(|c| !axis_one.contains(c)))
         .collect();
     // Both centres' lists at once (the bounded judge), where the two builds share the threads.
     judge.build(&singles);
@@ -591,7 +590,12 @@ impl BoundedJudge {
 }
 
 impl<'a> Judge<'a> {
-    fn new(scene: &Scene, scorer: &'a Scorer<'a>, opts: &PlacementOptions) -> Self {
+    fn new(
+        scene: &Scene,
+        world: &WorldGeometry,
+        scorer: &'a Scorer<'a>,
+        opts: &PlacementOptions,
+    ) -> Self {
         let bounded = match opts.scoring {
             Scoring::Centre => None,
             Scoring::Bounded(lists) => {
@@ -604,7 +608,7 @@ impl<'a> Judge<'a> {
                     ListSize::Fixed(n) => Some(n.min(JUDGE_LISTS_MAX)),
                 };
                 Some(BoundedJudge {
-                    captured: scene.world().captured_triangles(),
+                    captured: world.captured_triangles(),
                     size,
                     cube,
                     built: Vec::new(),
@@ -731,7 +735,7 @@ pub fn sample_share(
         return 0.0;
     }
     let scorer = Scorer::new(&tracer, &rays);
-    let mut judge = Judge::new(scene, &scorer, opts);
+    let mut judge = Judge::new(scene, &tracer.world, &scorer, opts);
     let all: Vec<usize> = (0..rays.len()).collect();
     let left = judge.left(centres, || {
         let cmos: Vec<CmoTracer> = (centres.iter())
@@ -755,7 +759,7 @@ fn scoring_capture(scene: &Scene, tracer: &Tracer, centre: Vec3, size: u32) -> C
 /// mean is shorter than a quarter: rays that leave every way, as off a convex mirror, whose axis
 /// centre already lies inside it) or the point lies nearer to any surface than a fifth of the
 /// step (a centre on a surface is refused as beyond f32 precision).
-fn near_centre(scene: &Scene, rays: &[Ray]) -> Option<Vec3> {
+fn near_centre(world: &WorldGeometry, rays: &[Ray]) -> Option<Vec3> {
     if rays.is_empty() {
         return None;
     }
@@ -768,7 +772,6 @@ fn near_centre(scene: &Scene, rays: &[Ray]) -> Option<Vec3> {
     if dir.length() < 0.25 {
         return None;
     }
-    let world = scene.world();
     let (lo, hi) = world.bounds(|o| o.reflector);
     let step = 0.05 * (hi - lo).max_element();
     let centre = origin + dir.normalize() * step;

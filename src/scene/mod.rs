@@ -459,29 +459,7 @@ impl Scene {
     /// `count` centres spread along the longest axis of the reflectors' bounding box (of the
     /// whole scene without reflectors): [`CmoPlacement::Auto`].
     pub fn axis_centres(&self, count: u32) -> Vec<Vec3> {
-        let world = self.world();
-        let (lo, hi) = world.bounds(|o| o.reflector);
-        let (lo, hi) = if lo.x > hi.x {
-            world.bounds(|_| true)
-        } else {
-            (lo, hi)
-        };
-        let ext = hi - lo;
-        let axis = if ext.x >= ext.y && ext.x >= ext.z {
-            Vec3::X
-        } else if ext.y >= ext.z {
-            Vec3::Y
-        } else {
-            Vec3::Z
-        };
-        let n = count.max(1);
-        let centre = 0.5 * (lo + hi);
-        (0..n)
-            .map(|i| {
-                let f = (i as f32 + 0.5) / n as f32 - 0.5;
-                centre + axis * (ext.dot(axis) * f)
-            })
-            .collect()
+        self.world().axis_centres(count)
     }
 
     /// Picks a camera by name or index (`None`: the first).

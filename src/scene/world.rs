@@ -128,6 +128,32 @@ impl WorldGeometry {
         }
     }
 
+    /// [`Scene::axis_centres`](super::Scene::axis_centres) of the scene flattened into this.
+    pub fn axis_centres(&self, count: u32) -> Vec<Vec3> {
+        let (lo, hi) = self.bounds(|o| o.reflector);
+        let (lo, hi) = if lo.x > hi.x {
+            self.bounds(|_| true)
+        } else {
+            (lo, hi)
+        };
+        let ext = hi - lo;
+        let axis = if ext.x >= ext.y && ext.x >= ext.z {
+            Vec3::X
+        } else if ext.y >= ext.z {
+            Vec3::Y
+        } else {
+            Vec3::Z
+        };
+        let n = count.max(1);
+        let centre = 0.5 * (lo + hi);
+        (0..n)
+            .map(|i| {
+                let f = (i as f32 + 0.5) / n as f32 - 0.5;
+                centre + axis * (ext.dot(axis) * f)
+            })
+            .collect()
+    }
+
     /// Bounding box of the objects selected by `keep` (empty: `lo > hi`).
     pub fn bounds(&self, keep: impl Fn(&ObjectInfo) -> bool) -> (Vec3, Vec3) {
         let mut lo = Vec3::splat(f32::INFINITY);
