@@ -246,9 +246,6 @@ pub fn load_scene(args: &RenderArgs) -> Result<(Scene, Camera, Option<Placement>
     if let Some(p) = &placement {
         log_placement(p);
     }
-    timed("reflector convexity", || {
-        scene.self_capture();
-    });
     for problem in timed("scene check", || crate::placement::diagnose(&scene)) {
         log::warn!("{problem}");
     }

@@ -221,7 +221,8 @@ pub struct Placement {
     pub later_rays: usize,
     /// What the rays the chosen centres leave unresolved really meet.
     pub left: Unresolved,
-    /// The search's wall-clock time.
+    /// The search's wall-clock time: from [`resolve_for`], all of it (both searches where it
+    /// tries the reflectors left out, the scene moved to its anchor and back).
     pub time: Duration,
     /// Whether [`resolve_for`] left the reflectors out of the capture
     /// (`self_reflections = "auto"` set to off), where that left fewer rays unresolved.
@@ -361,7 +362,7 @@ fn candidates(world: &WorldGeometry, grid: u32) -> Vec<Vec3> {
 
 /// Chooses up to `count` centres for the cameras' view of `scene` (see the module docs).
 pub fn search(scene: &Scene, cameras: &[Camera], count: u32, opts: &PlacementOptions) -> Placement {
-    search_by(scene, cameras, count, opts, true)
+    search_by(scene, scene.world(), cameras, count, opts, true)
 }
 
 /// [`search`] without its shortcuts (module docs, "Cost"): the captures over every triangle,
@@ -374,12 +375,13 @@ pub fn search_exhaustive(
     count: u32,
     opts: &PlacementOptions,
 ) -> Placement {
-    search_by(scene, cameras, count, opts, false)
+    search_by(scene, scene.world(), cameras, count, opts, false)
 }
 
-/// [`search`], with its shortcuts or without.
+/// [`search`] over `world` (the scene's, [`Scene::world`]), with its shortcuts or without.
 fn search_by(
     scene: &Scene,
+    world: WorldGeometry,
     cameras: &[Camera],
     count: u32,
     opts: &PlacementOptions,
@@ -387,9 +389,9 @@ fn search_by(
 ) -> Placement {
     let start = Instant::now();
     let (tracer, shown) = if shortcuts {
-        tracers(scene)
+        tracers(world)
     } else {
-        (Tracer::new(scene), None)
+        (Tracer::from_world(world), None)
     };
     let (rays, later_rays) = sample_rays(&tracer, cameras, opts);
     if rays.is_empty() {
@@ -780,12 +782,11 @@ fn near_centre(world: &WorldGeometry, rays: &[Ray]) -> Option<Vec3> {
     (step > 0.0 && centre.is_finite() && clear).then_some(centre)
 }
 
-/// The scene's tracer and one over the triangles a capture can show (`None` where that is all
+/// The world's tracer and one over the triangles a capture can show (`None` where that is all
 /// of them), built together ([`Tracer::split`]): the objects left out of the capture
 /// (reflectors without self-reflections) pass every ray on, so a BVH without them gives the
 /// capture the same hits ([`Tracer::keeping`]), sooner.
-fn tracers(scene: &Scene) -> (Tracer, Option<Tracer>) {
-    let world = scene.world();
+fn tracers(world: WorldGeometry) -> (Tracer, Option<Tracer>) {
     let shown = world.captured_triangles();
     Tracer::split(world, |g| shown[g as usize])
 }
@@ -930,6 +931,7 @@ pub fn resolve_for(
     let CmoPlacement::Search { count } = scene.cmo.placement else {
         return None;
     };
+    let start = Instant::now();
     let count = cmo_budget(count, scene.cmo.resolution);
     let opts = PlacementOptions {
         bounces,
@@ -941,9 +943,11 @@ pub fn resolve_for(
     // image is the same), and keeps that where it meets the target or leaves fewer rays
     // unresolved than the capture with them.
     let p = if scene.self_reflections == SelfReflections::Auto && scene.captures_reflectors() {
-        let mut off = scene.clone();
-        off.self_reflections = SelfReflections::Off;
-        let mut q = search_anchored(&off, cameras, count, &opts);
+        // Searched in place, the setting put back after (no copy of the scene's meshes and
+        // textures).
+        scene.self_reflections = SelfReflections::Off;
+        let mut q = search_anchored(scene, cameras, count, &opts);
+        scene.self_reflections = SelfReflections::Auto;
         // Left out only on the sample's evidence: with no mirror pixel in view, as the scene says.
         q.self_capture_off = q.rays > 0;
         if q.share() <= opts.target {
@@ -958,16 +962,18 @@ pub fn resolve_for(
                 100.0 * q.share(),
                 q.centres.len()
             );
-            let time = p.time + q.time;
-            let best = if (q.share(), q.centres.len()) <= (p.share(), p.centres.len()) {
+            if (q.share(), q.centres.len()) <= (p.share(), p.centres.len()) {
                 q
             } else {
                 p
-            };
-            Placement { time, ..best }
+            }
         }
     } else {
         search_anchored(scene, cameras, count, &opts)
+    };
+    let p = Placement {
+        time: start.elapsed(),
+        ..p
     };
     if p.self_capture_off {
         scene.self_reflections = SelfReflections::Off;
@@ -983,9 +989,11 @@ fn search_anchored(
     count: u32,
     opts: &PlacementOptions,
 ) -> Placement {
-    let anchor = crate::ranges::anchor(scene);
+    // The world flattened once: for the anchor, and for the search where it is zero.
+    let world = scene.world();
+    let anchor = crate::ranges::anchor_of(&world);
     if anchor == Vec3::ZERO {
-        return search(scene, cameras, count, opts);
+        return search_by(scene, world, cameras, count, opts, true);
     }
     let local = scene.rebased(anchor);
     let cams: Vec<Camera> = cameras.iter().map(|c| c.rebased(anchor)).collect();

@@ -85,6 +85,11 @@ pub fn prepare(setup: &SceneSetup) -> Result<(Scene, Camera, Option<Placement>)>
         frame_size((camera.width, camera.height), setup.width, setup.height);
     scene::check_resolution(camera.width, camera.height)
         .map_err(|e| anyhow::anyhow!("{}: {e}", setup.size_name))?;
+    // Every frame needs the reflectors' convexity (`Scene::self_capture`, kept per mesh): found
+    // first, so that the search's time is the search's.
+    timed("reflector convexity", || {
+        scene.self_capture();
+    });
     let placement = if setup.search {
         timed("CMO placement", || {
             crate::placement::resolve(&mut scene, &camera, setup.bounces, setup.scoring)
