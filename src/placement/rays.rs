@@ -70,7 +70,26 @@ pub(super) fn bounce_rays(tracer: &Tracer, first: &[Ray], bounces: u32) -> Vec<R
     paths.into_iter().flatten().collect()
 }
 
+/// The cameras' rays through the grid's pixels whose nearest hit is on a reflector, reflected
+/// there. A ray that misses the reflectors' box (grown by a margin) meets no reflector, and is
+/// not traced: the same rays as tracing them all, in a fraction of the time where the mirrors
+/// fill a small part of the view.
 fn camera_rays(tracer: &Tracer, camera: &Camera) -> Vec<Ray> {
+    let (lo, hi) = tracer.world.bounds(|o| o.reflector);
+    if lo.x > hi.x {
+        return Vec::new();
+    }
+    let margin = 1e-3 * (hi - lo).max_element() + 1e-4 * lo.abs().max(hi.abs()).max_element();
+    grid_rays(
+        tracer,
+        camera,
+        lo - Vec3::splat(margin),
+        hi + Vec3::splat(margin),
+    )
+}
+
+/// [`camera_rays`] with the box `[lo, hi]` in place of the reflectors' grown one.
+fn grid_rays(tracer: &Tracer, camera: &Camera, lo: Vec3, hi: Vec3) -> Vec<Ray> {
     let step = camera.width.div_ceil(GRID_COLUMNS).max(1);
     let pixels: Vec<(u32, u32)> = (0..camera.height)
         .step_by(step as usize)
@@ -84,6 +103,9 @@ fn camera_rays(tracer: &Tracer, camera: &Camera) -> Vec<Ray> {
         .par_iter()
         .filter_map(|&(i, j)| {
             let (eye, dir) = camera.ray(i, j);
+            if !meets_box(eye, dir, lo, hi) {
+                return None;
+            }
             let hit = tracer.nearest(eye, dir, None)?;
             if !tracer.is_reflector(hit.triangle) {
                 return None;
@@ -96,6 +118,24 @@ fn camera_rays(tracer: &Tracer, camera: &Camera) -> Vec<Ray> {
             })
         })
         .collect()
+}
+
+/// Whether the ray `eye + t dir`, `t >= 0`, may meet the box `[lo, hi]`: the slab test in f64
+/// (a direction component of 0 gives infinite slab ends, or a NaN where the eye lies on the
+/// slab's plane, which counts as meeting: the test errs only towards tracing).
+fn meets_box(eye: Vec3, dir: Vec3, lo: Vec3, hi: Vec3) -> bool {
+    let (o, d) = (eye.as_dvec3(), dir.as_dvec3());
+    let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
+    for k in 0..3 {
+        let a = (f64::from(lo[k]) - o[k]) / d[k];
+        let b = (f64::from(hi[k]) - o[k]) / d[k];
+        if a.is_nan() || b.is_nan() {
+            continue;
+        }
+        t0 = t0.max(a.min(b));
+        t1 = t1.min(a.max(b));
+    }
+    t0 <= t1
 }
 
 /// What the unresolved rays of a placement really meet (the exact tracer's first hit), so that
@@ -167,5 +207,41 @@ pub(super) fn classify(tracer: &Tracer, rays: &[&Ray]) -> Unresolved {
         own_reflector: count(0),
         other_reflector: count(1),
         elsewhere: count(2),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The box test drops only rays that meet no reflector: on every built-in scene the sample's
+    /// rays are those of tracing every pixel of the grid. Negative: a box that leaves out part
+    /// of the mirror loses rays.
+    #[test]
+    fn the_box_test_drops_no_mirror_ray() {
+        let all = Vec3::splat(f32::INFINITY);
+        let mut scenes = 0;
+        for (name, _) in crate::scene::builtin::NAMES {
+            let scene = crate::scene::load(name).unwrap();
+            let tracer = Tracer::new(&scene);
+            let Some(camera) = scene.cameras.first() else {
+                continue;
+            };
+            let culled = camera_rays(&tracer, camera);
+            let traced = grid_rays(&tracer, camera, -all, all);
+            let key = |r: &Ray| (r.from.triangle, r.origin.to_array().map(f32::to_bits));
+            assert_eq!(
+                culled.iter().map(key).collect::<Vec<_>>(),
+                traced.iter().map(key).collect::<Vec<_>>(),
+                "{name}"
+            );
+            if traced.len() > 10 {
+                scenes += 1;
+                let (lo, hi) = tracer.world.bounds(|o| o.reflector);
+                let half = grid_rays(&tracer, camera, lo, 0.5 * (lo + hi));
+                assert!(half.len() < traced.len(), "{name}: {} rays", half.len());
+            }
+        }
+        assert!(scenes >= 3, "{scenes} scenes with mirror pixels");
     }
 }
