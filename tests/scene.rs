@@ -6,11 +6,15 @@
 //! - `scene_limits`: the bounds a file's numbers must keep, and the CMO limit;
 //! - `scene_export`: every built-in, exported and loaded back, renders byte-identically;
 //! - `exporter_quirks`: what real exporters write that the loader once refused or read wrong;
+//! - `exporter_habits`: more of them (MTL keyword case, 8-bit vertex colours, `s off`, mesh
+//!   paths as users write them);
 //! - `fuzz_scene`: a fixed-seed fuzz pass over the loader;
 //! - `self_reflections`: the per-reflector `self_reflections` override and its `auto`.
 
 mod common;
 
+#[path = "scene/exporter_habits.rs"]
+mod exporter_habits;
 #[path = "scene/exporter_quirks.rs"]
 mod exporter_quirks;
 #[path = "scene/fuzz_scene.rs"]

@@ -47,14 +47,15 @@ pub enum WarningKind {
     NoMeshes,
     /// OBJ or MTL text (outside comments) that is not UTF-8, read as Latin-1.
     Latin1Text,
-    /// OBJ vertex colours (`v x y z r g b`) on only some of a file's vertices: all ignored.
+    /// OBJ vertex colours (`v x y z r g b`) on only some of a file's vertices: all ignored; or
+    /// all whole numbers from 0 to 255: read as 8-bit values.
     VertexColours,
     /// A part without texture coordinates whose material has a texture.
     TextureWithoutTexcoords,
     /// A material statement read leniently: a `Kd` of four numbers (RGBA: the alpha dropped)
     /// or with float noise below 0 (taken as 0), `Kd`/`Ns`/`map_Kd` before any `newmtl`
-    /// (ignored), a `usemtl` without a name (the default material) or an `mtllib` without one
-    /// (ignored).
+    /// (ignored), a `usemtl` without a name (the default material), an `mtllib` or a `map_Kd`
+    /// without one (ignored).
     LenientMaterial,
 }
 

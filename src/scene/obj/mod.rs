@@ -45,12 +45,16 @@
 //!   one more, empty-bodied library so that `tobj` splits parts at every change of name, as the
 //!   file does.)
 //! - MTL: `newmtl`, `Kd` (1 value = grey, or 3; it multiplies `map_Kd`; without it a textured
-//!   material shows its texture as it is, a plain one is grey 0.8), `map_Kd` (options such as `-s` are skipped
-//!   with a warning; any format the `image` crate reads, told by the file's first bytes, else
-//!   its extension: PNG, JPEG, BMP, TGA, GIF, TIFF, WebP, PNM, DDS) and `Ns` (the Phong
+//!   material shows its texture as it is, a plain one is grey 0.8), `map_Kd` (options such as
+//!   `-s` are skipped with a warning; where the words after those it knows name no file, the
+//!   shorter tails of the line are tried; without a file name it is ignored with a warning;
+//!   any format the `image` crate reads, told by the file's first bytes, else its extension:
+//!   PNG, JPEG, BMP, TGA, GIF, TIFF, WebP, PNM, DDS) and `Ns` (the Phong
 //!   specular power; a reflector uses it only where its scene file says
 //!   `specular_power = "mtl"`: a value below 0, as Blender 2.79 writes, is taken as 0, and one
 //!   that is not a number is ignored, each with a warning); other statements are ignored.
+//!   These keywords are read in any letter case (`KD`, `map_kd`), as Blender and three.js
+//!   read them.
 //!   Slips real files make are warnings naming the line: a `Kd` of four numbers (RGBA) drops
 //!   the alpha, a `Kd` component within 1e-3 below 0 is 0, a `Kd`, `Ns` or `map_Kd` before any
 //!   `newmtl` is ignored; in the OBJ, an empty `usemtl` gives the default material and an

@@ -50,7 +50,15 @@ fn validate_mtl<'a>(
 ) -> Result<Vec<MtlEntry<'a>>, SceneError> {
     let mut out: Vec<MtlEntry> = Vec::new();
     for (line, text) in text_lines(bytes, path)? {
-        let Some((key, args)) = keyword(text) else {
+        let Some((written, args)) = keyword(text) else {
+            continue;
+        };
+        // Keywords in any letter case (`KD`, `map_kd`), as Blender's and three.js's readers
+        // take them; messages name them in the MTL format's case.
+        let Some(key) = ["newmtl", "Kd", "map_Kd", "Ns"]
+            .into_iter()
+            .find(|k| k.eq_ignore_ascii_case(written))
+        else {
             continue;
         };
         if key == "newmtl" {
@@ -64,9 +72,6 @@ fn validate_mtl<'a>(
                 map: None,
                 shininess: None,
             });
-            continue;
-        }
-        if key != "Kd" && key != "map_Kd" && key != "Ns" {
             continue;
         }
         let Some(current) = out.last_mut() else {
@@ -145,7 +150,7 @@ fn validate_mtl<'a>(
                 }
             });
         } else {
-            current.map = map_kd_file(args, current.name, path, line, report)?;
+            current.map = map_kd_file(args, current.name, path, line, report);
         }
     }
     Ok(out)
@@ -153,14 +158,16 @@ fn validate_mtl<'a>(
 
 /// A `map_Kd` statement's texture file ([`find_beside`]), relative to the MTL's folder, its
 /// options skipped with a warning; a missing file is a warning and `None` (the material keeps
-/// its `Kd`).
+/// its `Kd`), and so is a `map_Kd` without a file name. Where the words after the options that
+/// [`map_option_arguments`] knows name no file, the shorter tails of the line are tried (an
+/// option it does not know, such as `-colorspace sRGB`, takes words of its own).
 fn map_kd_file(
     args: &str,
     material: &str,
     path: &Path,
     line: usize,
     report: &mut LoadReport,
-) -> Result<Option<String>, SceneError> {
+) -> Option<String> {
     let words: Vec<&str> = args.split_whitespace().collect();
     let mut k = 0;
     let mut options = false;
@@ -189,32 +196,41 @@ fn map_kd_file(
     }
     let file = words[k.min(words.len())..].join(" ");
     if file.is_empty() {
-        return Err(obj_err(path, line, "map_Kd needs a file name"));
+        report.warn(
+            WarningKind::LenientMaterial,
+            path,
+            Some(line),
+            format!("map_Kd without a file name ignored (material '{material}')"),
+        );
+        return None;
     }
     let dir = path.parent().unwrap_or(Path::new("."));
-    Ok(match find_beside(dir, &file) {
-        Some(found) => Some(
-            found
-                .strip_prefix(dir)
-                .map_or(found.clone(), Path::to_path_buf)
-                .to_string_lossy()
-                .into_owned(),
-        ),
-        None => {
-            report.warn(
-                WarningKind::MissingTexture,
-                path,
-                Some(line),
-                format!(
-                    "texture '{file}' of material '{}' not found beside {}: the \
-                     material uses its Kd",
-                    material,
-                    path.display()
-                ),
-            );
-            None
-        }
-    })
+    let tails = (k + 1..words.len())
+        .filter(|_| options)
+        .map(|j| words[j..].join(" "));
+    let Some(found) = std::iter::once(file.clone())
+        .chain(tails)
+        .find_map(|f| find_beside(dir, &f))
+    else {
+        report.warn(
+            WarningKind::MissingTexture,
+            path,
+            Some(line),
+            format!(
+                "texture '{file}' of material '{material}' not found beside {}: the material \
+                 uses its Kd",
+                path.display()
+            ),
+        );
+        return None;
+    };
+    Some(
+        found
+            .strip_prefix(dir)
+            .map_or(found.clone(), Path::to_path_buf)
+            .to_string_lossy()
+            .into_owned(),
+    )
 }
 
 /// An MTL `Ns` statement's value (a Phong specular power, which a reflector reads only where

@@ -1,0 +1,125 @@
+//! What real exporters and users write that the loader once read wrong without a word, or
+//! refused: MTL keywords in another letter case, a `map_Kd` with no file or an option it does
+//! not know, vertex colours as 8-bit numbers, faces under `s off` without normals, and mesh
+//! paths in a scene file as a Windows user or a shell user writes them. Each has its negative.
+
+use std::path::{Path, PathBuf};
+
+use cubetrace::scene::{self, LoadReport, Scene, WarningKind};
+use glam::Vec3;
+
+const MIRROR_OBJ: &str = "v -1 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+const CAMERA: &str = "[[camera]]\neye = [0, 0.5, 3]\ntarget = [0, 0.5, 0]\nresolution = [8, 8]\n";
+/// A textured unit quad at z = -1 with material `tex` of `lib.mtl`.
+const QUAD_OBJ: &str = "mtllib lib.mtl\nv 0 0 -1\nv 1 0 -1\nv 1 1 -1\nv 0 1 -1\n\
+                        vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nusemtl tex\nf 1/1 2/2 3/3 4/4\n";
+
+/// Writes `files` (name, bytes) into `dir`, a triangle mirror and a scene file placing the
+/// mirror and `obj` (a path as the scene file writes it, in TOML literal quotes); returns the
+/// scene file's path.
+fn write_placing(dir: &Path, files: &[(&str, &[u8])], obj: &str) -> PathBuf {
+    for (name, bytes) in files {
+        let path = dir.join(name);
+        std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+        std::fs::write(path, bytes).unwrap();
+    }
+    std::fs::write(dir.join("mirror.obj"), MIRROR_OBJ).unwrap();
+    let toml = format!(
+        "[[mesh]]\nobj = \"mirror.obj\"\nreflector = true\n\n\
+         [[mesh]]\nobj = '{obj}'\n\n{CAMERA}"
+    );
+    let path = dir.join("scene.toml");
+    std::fs::write(&path, toml).unwrap();
+    path
+}
+
+fn load(files: &[(&str, &[u8])]) -> Result<(Scene, LoadReport), String> {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write_placing(dir.path(), files, "mesh.obj");
+    scene::load_scene_file_report(&path).map_err(|e| e.to_string())
+}
+
+fn load_ok(files: &[(&str, &[u8])]) -> (Scene, LoadReport) {
+    load(files).unwrap_or_else(|e| panic!("load failed: {e}"))
+}
+
+/// The diffuse colour and texture of the test mesh's first part.
+fn material(scene: &Scene) -> (Vec3, Option<u32>) {
+    let m = &scene.materials[scene.meshes[1].parts[0].material as usize];
+    (m.diffuse, m.texture)
+}
+
+/// A PNG of one pixel of `rgb`.
+fn png(rgb: [u8; 3]) -> Vec<u8> {
+    let mut out = std::io::Cursor::new(Vec::new());
+    image::RgbImage::from_pixel(1, 1, image::Rgb(rgb))
+        .write_to(&mut out, image::ImageFormat::Png)
+        .unwrap();
+    out.into_inner()
+}
+
+/// MTL keywords in capitals or lower case (`KD`, `MAP_KD`, `map_kd`, `NEWMTL`) are read as
+/// Blender's and three.js's readers read them; they were skipped, leaving the material grey and
+/// untextured without a warning. Negative: a keyword that is no MTL keyword in any case is
+/// still skipped.
+#[test]
+fn mtl_keywords_in_any_letter_case_are_read() {
+    let red = png([255, 0, 0]);
+    for mtl in [
+        "NEWMTL tex\nKD 0.1 0.2 0.3\nMAP_KD tex.png\n",
+        "newmtl tex\nkd 0.1 0.2 0.3\nmap_kd tex.png\nns 10\n",
+    ] {
+        let (scene, report) = load_ok(&[
+            ("mesh.obj", QUAD_OBJ.as_bytes()),
+            ("lib.mtl", mtl.as_bytes()),
+            ("tex.png", &red),
+        ]);
+        assert!(report.warnings.is_empty(), "{mtl}: {:?}", report.warnings);
+        let (diffuse, texture) = material(&scene);
+        assert_eq!(diffuse, Vec3::new(0.1, 0.2, 0.3), "{mtl}");
+        assert!(texture.is_some(), "{mtl}");
+    }
+    let (scene, _) = load_ok(&[
+        ("mesh.obj", QUAD_OBJ.as_bytes()),
+        ("lib.mtl", b"newmtl tex\nKx 0.1 0.2 0.3\nmap_Kx tex.png\n"),
+        ("tex.png", &red),
+    ]);
+    assert_eq!(material(&scene), (Vec3::splat(0.8), None));
+}
+
+/// A `map_Kd` without a file name (exporters write one for a material whose texture slot is
+/// empty) is ignored with a warning naming the line; it refused the whole scene. An option the
+/// loader does not know, with a word of its own (`-colorspace sRGB`), no longer hides the file
+/// after it. Negative: with that file missing, the warning names what was looked for.
+#[test]
+fn map_kd_without_a_file_or_with_an_unknown_option_loads() {
+    let red = png([255, 0, 0]);
+    let files = |mtl: &'static str, tex: &'static str| {
+        [
+            ("mesh.obj", QUAD_OBJ.as_bytes()),
+            ("lib.mtl", mtl.as_bytes()),
+            (tex, red.as_slice()),
+        ]
+    };
+    let (scene, report) = load_ok(&files("newmtl tex\nKd 0.5 0.5 0.5\nmap_Kd\n", "tex.png"));
+    assert_eq!(material(&scene), (Vec3::splat(0.5), None));
+    assert_eq!(report.count(WarningKind::LenientMaterial), 1);
+    let w = report.warnings[0].to_string();
+    assert!(w.contains("lib.mtl") && w.contains("line 3"), "{w}");
+
+    let unknown = "newmtl tex\nmap_Kd -colorspace sRGB -bm 0.5 tex.png\n";
+    let (scene, report) = load_ok(&files(unknown, "tex.png"));
+    assert!(material(&scene).1.is_some());
+    assert_eq!(report.count(WarningKind::IgnoredMapOptions), 1);
+    assert_eq!(report.count(WarningKind::MissingTexture), 0);
+    let (scene, report) = load_ok(&files(unknown, "other.png"));
+    assert_eq!(material(&scene).1, None);
+    assert_eq!(report.count(WarningKind::MissingTexture), 1);
+    let w = report
+        .warnings
+        .iter()
+        .find(|w| w.kind == WarningKind::MissingTexture)
+        .unwrap()
+        .to_string();
+    assert!(w.contains("tex.png") && w.contains("line 2"), "{w}");
+}
