@@ -123,3 +123,119 @@ fn map_kd_without_a_file_or_with_an_unknown_option_loads() {
         .to_string();
     assert!(w.contains("tex.png") && w.contains("line 2"), "{w}");
 }
+
+/// The colours of `mesh.obj`'s first part.
+fn colours(scene: &Scene) -> Vec<Vec3> {
+    scene.meshes[1].parts[0].colours.clone()
+}
+
+/// Vertex colours written as whole numbers from 0 to 255 (as MeshLab reads them, and some
+/// point-cloud tools write them) are 8-bit values: divided by 255, with a warning naming the
+/// first line. They were read as floats and rendered white. Negatives: colours from 0 to 1,
+/// and floats above 1 (Blender's bright colours), are kept as written without a warning; a
+/// component that decodes beyond 65504 is refused naming its line (it made the colour
+/// infinite), also where another vertex's component is a whole number to 255.
+#[test]
+fn eight_bit_vertex_colours_are_divided_by_255() {
+    let tri = |c: [&str; 3]| {
+        format!(
+            "v 0 0 -1 {0}\nv 1 0 -1 {1}\nv 0 1 -1 {2}\nf 1 2 3\n",
+            c[0], c[1], c[2]
+        )
+    };
+    let bytes = tri(["255 128 0", "0 0 0", "51.000000 102 255"]);
+    let (scene, report) = load_ok(&[("mesh.obj", bytes.as_bytes())]);
+    let want = [
+        Vec3::new(1.0, 128.0 / 255.0, 0.0),
+        Vec3::ZERO,
+        Vec3::new(0.2, 0.4, 1.0),
+    ];
+    let got = colours(&scene);
+    assert_eq!(got.len(), 3);
+    for (g, w) in got.iter().zip(want) {
+        assert!((*g - w).abs().max_element() < 1e-6, "{got:?}");
+    }
+    assert_eq!(report.count(WarningKind::VertexColours), 1);
+    assert_eq!(report.warnings[0].lines, [1]);
+
+    for floats in [
+        ["1 0.5 0", "0 0 0", "0.2 0.4 1"],
+        ["1.5 0.5 0", "0 0 0", "0.2 0.4 2"],
+    ] {
+        let bytes = tri(floats);
+        let (scene, report) = load_ok(&[("mesh.obj", bytes.as_bytes())]);
+        assert!(report.warnings.is_empty(), "{:?}", report.warnings);
+        let x: f32 = floats[0].split(' ').next().unwrap().parse().unwrap();
+        assert_eq!(colours(&scene)[0], Vec3::new(x, 0.5, 0.0));
+    }
+
+    for (c, shown) in [
+        (["1 0 0", "0 1 1e30", "0 0 1"], "1e30"),
+        (["0.5 0 0", "0 200 0", "0 0 1"], "200"),
+    ] {
+        let e = load(&[("mesh.obj", tri(c).as_bytes())]).unwrap_err();
+        assert!(
+            e.contains("mesh.obj:2") && e.contains(&format!("component {shown} ")),
+            "{e}"
+        );
+    }
+}
+
+/// Each triangle's unit face normal, and the normals at its corners, of the test mesh.
+fn corner_normals(scene: &Scene) -> Vec<(Vec3, [Vec3; 3])> {
+    let mut out = Vec::new();
+    for p in &scene.meshes[1].parts {
+        for t in &p.triangles {
+            let [a, b, c] = t.map(|i| p.positions[i as usize]);
+            let face = (b - a).cross(c - a).normalize();
+            out.push((face, t.map(|i| p.normals[i as usize])));
+        }
+    }
+    out
+}
+
+/// Faces under `s off` (or `s 0`) without normals are flat, as the exporter meant: Blender with
+/// normals off, and SketchUp, write them for hard-edged models. They were smoothed with their
+/// neighbours (a cube shaded like a ball). Faces of different smoothing groups meet at a hard
+/// edge. Negatives: faces of one group are smoothed across their shared edge, and normals the
+/// file gives are kept under `s off`.
+#[test]
+fn faces_under_s_off_without_normals_are_flat() {
+    // Two quads folded at a right angle along the edge x = 1 (vertices 2 and 3).
+    let fold = |s1: &str, s2: &str| {
+        format!(
+            "v 0 0 -1\nv 1 0 -1\nv 1 1 -1\nv 0 1 -1\nv 1 0 -2\nv 1 1 -2\n\
+             s {s1}\nf 1 2 3 4\ns {s2}\nf 2 5 6 3\n"
+        )
+    };
+    let flat = |scene: &Scene| {
+        corner_normals(scene)
+            .iter()
+            .all(|(face, corners)| corners.iter().all(|n| (*n - *face).length() < 1e-6))
+    };
+    for (s1, s2) in [("off", "off"), ("0", "0"), ("1", "2"), ("off", "1")] {
+        let (scene, report) = load_ok(&[("mesh.obj", fold(s1, s2).as_bytes())]);
+        assert!(report.warnings.is_empty(), "{:?}", report.warnings);
+        assert_eq!(corner_normals(&scene).len(), 4);
+        assert!(
+            flat(&scene),
+            "s {s1} / s {s2}: {:?}",
+            corner_normals(&scene)
+        );
+    }
+    // One group: the shared edge's normal is the blend of both faces.
+    let (scene, _) = load_ok(&[("mesh.obj", fold("1", "1").as_bytes())]);
+    assert!(!flat(&scene));
+    let p = &scene.meshes[1].parts[0];
+    let edge = p
+        .positions
+        .iter()
+        .position(|&q| q == Vec3::new(1.0, 0.0, -1.0));
+    let n = p.normals[edge.unwrap()];
+    assert!(n.x > 0.1 && n.z > 0.1 && n.y.abs() < 1e-6, "{n}");
+    // Normals in the file are kept under `s off`.
+    let given = "v 0 0 -1\nv 1 0 -1\nv 0 1 -1\nvn 0.6 0 0.8\ns off\nf 1//1 2//1 3//1\n";
+    let (scene, _) = load_ok(&[("mesh.obj", given.as_bytes())]);
+    let n = &scene.meshes[1].parts[0].normals;
+    assert!(n.iter().all(|&n| n == Vec3::new(0.6, 0.0, 0.8)), "{n:?}");
+}

@@ -25,6 +25,8 @@ pub(super) struct RawPart {
     triangles: Vec<[u32; 3]>,
     /// The source line of each triangle's polygon.
     lines: Vec<u32>,
+    /// The smoothing group of each triangle's polygon ([`ObjPass::face_groups`]).
+    groups: Vec<u32>,
 }
 
 /// The items of `v` at `kept`; an empty `v` (texture coordinates or normals absent) stays empty.
@@ -47,7 +49,7 @@ pub(super) fn triangulate_models(
 ) -> Result<Vec<RawPart>, SceneError> {
     let mismatch = || tobj_failed(path, tobj::LoadError::GenericFailure);
     let mut parts = obj.parts.iter().enumerate().filter(|(_, p)| p.faces > 0);
-    let mut lines = obj.face_lines.iter();
+    let mut lines = obj.face_lines.iter().zip(&obj.face_groups);
     let mut out = Vec::new();
     for model in models {
         let m = model.mesh;
@@ -76,11 +78,12 @@ pub(super) fn triangulate_models(
         }
         let mut triangles = Vec::with_capacity(m.indices.len());
         let mut tri_lines: Vec<u32> = Vec::with_capacity(m.indices.len());
+        let mut tri_groups: Vec<u32> = Vec::with_capacity(m.indices.len());
         let mut start = 0;
         for &n in &arities {
             let face = &m.indices[start..start + n as usize];
             start += n as usize;
-            let line = *lines.next().ok_or_else(mismatch)?;
+            let (&line, &group) = lines.next().ok_or_else(mismatch)?;
             let points: Vec<Vec3> = face.iter().map(|&i| positions[i as usize]).collect();
             let tris = triangulate(&points).unwrap_or_else(|reason| {
                 report.warn(
@@ -97,6 +100,7 @@ pub(super) fn triangulate_models(
                 (1..n as usize - 1).map(|i| [0, i, i + 1]).collect()
             });
             tri_lines.extend(std::iter::repeat_n(line as u32, tris.len()));
+            tri_groups.extend(std::iter::repeat_n(group, tris.len()));
             triangles.extend(tris.into_iter().map(|t| t.map(|k| face[k])));
         }
         let uvs: Vec<Vec2> = m
@@ -142,6 +146,7 @@ pub(super) fn triangulate_models(
             colours: pick(&colours, &kept),
             triangles,
             lines: tri_lines,
+            groups: tri_groups,
         });
     }
     if parts.next().is_some() {
@@ -172,24 +177,110 @@ pub(super) fn finish_part(
             );
         }
     }
-    let positions = raw.positions;
     let mut triangles = Vec::with_capacity(raw.triangles.len());
     let mut lines = Vec::with_capacity(raw.triangles.len());
+    let mut groups = Vec::with_capacity(raw.triangles.len());
     let mut dropped = 0;
-    for (&t, &line) in raw.triangles.iter().zip(&raw.lines) {
+    for ((&t, &line), &group) in raw.triangles.iter().zip(&raw.lines).zip(&raw.groups) {
         // In f64: f32 overflows for sides over ~1e19 and underflows under ~1e-19, both of
         // which a valid vertex may give (coordinates reach 2^60).
-        let [a, b, c] = t.map(|i| positions[i as usize].as_dvec3());
+        let [a, b, c] = t.map(|i| raw.positions[i as usize].as_dvec3());
         let area2 = (b - a).cross(c - a).length_squared();
         if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || area2 == 0.0 || !area2.is_finite() {
             dropped += 1;
         } else {
             triangles.push(t);
             lines.push(line);
+            groups.push(group);
         }
     }
+    let mut v = Vertices {
+        positions: raw.positions,
+        uvs: raw.uvs,
+        normals: raw.normals,
+        colours: raw.colours,
+    };
     // Corners without a normal have the zero one here, replaced by the computed normal below.
-    let given = raw.normals;
+    let computed = v.normals.is_empty() || v.normals.contains(&Vec3::ZERO);
+    let one_group = groups.iter().all(|&g| g != 0 && g == groups[0]);
+    let vertex_groups = if computed && !one_group {
+        split_by_group(&mut v, &mut triangles, &groups)
+    } else {
+        Vec::new()
+    };
+    let normals = part_normals(&v.positions, &v.normals, &triangles, &vertex_groups);
+    (
+        MeshPart {
+            name: info.name.clone(),
+            positions: v.positions,
+            normals,
+            uvs: v.uvs,
+            // All white multiplies by one: the part is left without colours (the export writes
+            // white for the parts of a file with colours elsewhere).
+            colours: if v.colours.iter().all(|&c| c == Vec3::ONE) {
+                Vec::new()
+            } else {
+                v.colours
+            },
+            triangles,
+            material,
+            source: Some(crate::scene::PartSource {
+                file: path.to_path_buf(),
+                lines,
+            }),
+        },
+        dropped,
+    )
+}
+
+/// The per-vertex data of a part (`uvs`, `normals` and `colours` empty where it has none).
+struct Vertices {
+    positions: Vec<Vec3>,
+    uvs: Vec<Vec2>,
+    normals: Vec<Vec3>,
+    colours: Vec<Vec3>,
+}
+
+/// Gives each smoothing group its own copies of the vertices it shares with other groups, and
+/// each triangle of group 0 (`s off`) its own three vertices, renumbering `triangles`; returns
+/// the weld key of each vertex for [`smooth_normals`] (the group, or one key per flat
+/// triangle), so that normals are smoothed within a group only and flat faces get their own.
+fn split_by_group(v: &mut Vertices, triangles: &mut [[u32; 3]], groups: &[u32]) -> Vec<u64> {
+    let mut new_index: HashMap<(u32, u64), u32> = HashMap::new();
+    let mut kept: Vec<usize> = Vec::new();
+    let mut keys: Vec<u64> = Vec::new();
+    for (k, (t, &g)) in triangles.iter_mut().zip(groups).enumerate() {
+        let key = if g == 0 {
+            (1 << 32) | k as u64
+        } else {
+            u64::from(g)
+        };
+        for i in t.iter_mut() {
+            let next = kept.len() as u32;
+            let slot = *new_index.entry((*i, key)).or_insert(next);
+            if slot == next {
+                kept.push(*i as usize);
+                keys.push(key);
+            }
+            *i = slot;
+        }
+    }
+    v.positions = pick(&v.positions, &kept);
+    v.uvs = pick(&v.uvs, &kept);
+    v.normals = pick(&v.normals, &kept);
+    v.colours = pick(&v.colours, &kept);
+    keys
+}
+
+/// The normals of a part: those of the file (`given`; empty where it has none, zero at the
+/// corners without one) made unit length, the others computed ([`smooth_normals`], welded
+/// within `weld_keys`).
+fn part_normals(
+    positions: &[Vec3],
+    given: &[Vec3],
+    triangles: &[[u32; 3]],
+    weld_keys: &[u64],
+) -> Vec<Vec3> {
     // Normals already of unit length (to f32 precision) are kept bit for bit; others are
     // normalised in f32, or in f64 where their squared length leaves f32's normal range (a
     // `vn 1e30 0 0` gave the zero vector, a `vn 1e-30 0 0` was taken for a missing normal).
@@ -203,10 +294,10 @@ pub(super) fn finish_part(
             n.as_dvec3().normalize().as_vec3()
         }
     };
-    let normals = if given.is_empty() {
-        smooth_normals(&positions, &triangles)
+    if given.is_empty() {
+        smooth_normals(positions, triangles, weld_keys)
     } else if given.contains(&Vec3::ZERO) {
-        let smooth = smooth_normals(&positions, &triangles);
+        let smooth = smooth_normals(positions, triangles, weld_keys);
         given
             .iter()
             .zip(smooth)
@@ -214,42 +305,23 @@ pub(super) fn finish_part(
             .collect()
     } else {
         given.iter().map(|&n| unit(n)).collect()
-    };
-    (
-        MeshPart {
-            name: info.name.clone(),
-            positions,
-            normals,
-            uvs: raw.uvs,
-            // All white multiplies by one: the part is left without colours (the export writes
-            // white for the parts of a file with colours elsewhere).
-            colours: if raw.colours.iter().all(|&c| c == Vec3::ONE) {
-                Vec::new()
-            } else {
-                raw.colours
-            },
-            triangles,
-            material,
-            source: Some(crate::scene::PartSource {
-                file: path.to_path_buf(),
-                lines,
-            }),
-        },
-        dropped,
-    )
+    }
 }
 
-/// Area-weighted vertex normals over welded (bit-identical) positions.
-pub fn smooth_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> {
-    let key = |p: Vec3| {
-        p.to_array()
-            .map(|c| if c == 0.0 { 0u32 } else { c.to_bits() })
+/// Area-weighted vertex normals over welded positions: vertices at bit-identical positions
+/// with the same weld key (`weld_keys[i]`; all the same where it is empty) share one.
+pub fn smooth_normals(positions: &[Vec3], triangles: &[[u32; 3]], weld_keys: &[u64]) -> Vec<Vec3> {
+    let key = |i: usize, p: Vec3| {
+        let bits = p
+            .to_array()
+            .map(|c| if c == 0.0 { 0u32 } else { c.to_bits() });
+        (bits, weld_keys.get(i).copied().unwrap_or(0))
     };
-    let mut weld: HashMap<[u32; 3], usize> = HashMap::new();
+    let mut weld: HashMap<([u32; 3], u64), usize> = HashMap::new();
     let rep: Vec<usize> = positions
         .iter()
         .enumerate()
-        .map(|(i, &p)| *weld.entry(key(p)).or_insert(i))
+        .map(|(i, &p)| *weld.entry(key(i, p)).or_insert(i))
         .collect();
     // Summed in f32 (the normals of every mesh so far), and in f64 for the vertices where f32
     // overflows or underflows (sides over ~1e19 or under ~1e-19: coordinates reach 2^60).
@@ -291,7 +363,7 @@ mod tests {
             Vec3::new(0.0, 1.0, 0.0),
             Vec3::new(1.0, 1.0, 1.0),
         ];
-        let n = smooth_normals(&positions, &[[0, 1, 2], [3, 5, 4]]);
+        let n = smooth_normals(&positions, &[[0, 1, 2], [3, 5, 4]], &[]);
         // The seam vertices 1 and 3 (and 2 and 4) get the same, blended normal.
         assert_eq!(n[1], n[3]);
         assert_eq!(n[2], n[4]);

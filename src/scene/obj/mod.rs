@@ -20,13 +20,19 @@
 //!   it. A NUL byte (a binary file: FBX, STL, `.blend`) is an error naming the line and column,
 //!   and so is a NaN or infinity as Microsoft's C runtime printed them (`1.#QNAN0`,
 //!   `-1.#IND00`), which would otherwise read as a number and a comment.
-//! - `v`, `vt`, `vn`, `f`, `o`, `g`, `usemtl`, `mtllib`; other statements (`s`, curves, ...)
+//! - `v`, `vt`, `vn`, `f`, `o`, `g`, `s`, `usemtl`, `mtllib`; other statements (curves, ...)
 //!   are ignored. A `w` after `v x y z` is ignored. Vertex colours (`v x y z r g b`, which
 //!   MeshLab, Open3D, trimesh and Blender write, sRGB-encoded) multiply the material's colour
 //!   ([`crate::scene::MeshPart::colours`]) where every `v` of the file has one; where only
 //!   some have one, none is kept, with a warning naming the lines without. A part whose
-//!   colours are all white is left without them. A `vt` with one value gets v = 0. `l` and `p` elements and faces with fewer than 3
-//!   vertices are skipped with a warning that counts them and names their lines.
+//!   colours are all white is left without them. Colours that are all whole numbers from 0
+//!   to 255, some above 1, are 8-bit values, divided by 255 with a warning naming the first
+//!   line above 1; otherwise a component that decodes from sRGB above 65504 is an error
+//!   naming its line. A `vt` with one value gets v = 0. `l` and `p` elements and faces with
+//!   fewer than 3 vertices are skipped with a warning that counts them and names their lines.
+//! - Smoothing groups (`s`) decide the normals the loader computes (below): faces after
+//!   `s off` or `s 0` are flat, faces of a group `s N` are smoothed with that group's faces
+//!   only, and faces before any `s` are one group. Normals the file gives are kept.
 //! - Polygons: convex ones are fanned from their first vertex (the triangles `tobj`'s own
 //!   `triangulate` makes); others are ear-clipped (`earcut`) in the plane of their Newell
 //!   normal; a polygon whose triangles do not cover exactly its area (self-intersecting) is
@@ -76,7 +82,10 @@
 //! Hygiene on load, per part:
 //! - missing normals are computed: bit-identical positions are welded first (the teapot repeats
 //!   263 positions along its patch seams), then area-weighted face normals are summed per welded
-//!   vertex; zero-length normals in the file are replaced the same way;
+//!   vertex; zero-length normals in the file are replaced the same way. Where a part's faces
+//!   are in several smoothing groups, or some under `s off`, each group gets its own copies of
+//!   the vertices it shares and is welded on its own, and each flat triangle gets its own three
+//!   vertices with its face normal;
 //! - degenerate triangles (a repeated index, or zero area) are dropped and counted in a warning.
 
 mod lexer;

@@ -5,9 +5,12 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use super::find_beside;
-use super::lexer::{Corner, corner, keyword, numbers, text_lines, within_coordinate_bound};
-use crate::scene::SceneError;
+use super::lexer::{
+    Corner, corner, keyword, numbers, obj_err, text_lines, within_coordinate_bound,
+};
 use crate::scene::report::{LoadReport, WarningKind};
+use crate::scene::{MAX_COLOUR, SceneError};
+use crate::shading::srgb_decode;
 
 /// One OBJ statement the validation pass keeps, in file order, as the tokens `tobj` will read.
 pub(super) enum Statement<'a> {
@@ -62,15 +65,102 @@ pub(super) struct ObjPass<'a> {
     pub(super) parts: Vec<PartInfo>,
     /// The source line of each face, in file order (the order `tobj` keeps).
     pub(super) face_lines: Vec<usize>,
+    /// The smoothing group of each face, in file order ([`SMOOTH`] before any `s`, 0 after
+    /// `s off` or `s 0`).
+    pub(super) face_groups: Vec<u32>,
+    /// The smoothing group that faces get now.
+    group: u32,
     /// Material libraries and the line naming each (first mention).
     pub(super) libraries: Vec<(PathBuf, usize)>,
     /// Every `v` has a colour (`v x y z r g b`, as MeshLab, Open3D, trimesh and Blender write
     /// them): `tobj` reads them into the parts' vertex colours. Where only some have one, none
     /// is kept (with a warning naming the lines without).
     pub(super) colours: bool,
+    /// The colours are 8-bit (every component a whole number from 0 to 255, some above 1, as
+    /// some point-cloud and photogrammetry tools write them): divided by 255 for `tobj`.
+    pub(super) colours_8bit: bool,
+}
+
+/// What the vertex colours of a file hold, gathered line by line ([`ColourScan::check`]).
+#[derive(Default)]
+struct ColourScan {
+    /// The first line with a component above 1.
+    above_one: Option<usize>,
+    /// The first line with a component that is not a whole number from 0 to 255.
+    not_8bit: Option<usize>,
+    /// The first component that decodes (as sRGB) above [`MAX_COLOUR`], with its line: of
+    /// those that are not whole numbers up to 255, and of those that are (an error unless the
+    /// file's colours are 8-bit).
+    too_bright: [Option<(usize, String)>; 2],
+}
+
+impl ColourScan {
+    /// Notes what the colour of a `v` at `line` holds.
+    fn check(&mut self, rgb: [&str; 3], line: usize) {
+        for a in rgb {
+            let x: f32 = a.parse().unwrap_or(f32::NAN);
+            let byte = (0.0..=255.0).contains(&x) && x.fract() == 0.0;
+            if x > 1.0 {
+                self.above_one.get_or_insert(line);
+            }
+            if !byte {
+                self.not_8bit.get_or_insert(line);
+            }
+            if srgb_decode(x) > MAX_COLOUR {
+                self.too_bright[usize::from(byte)].get_or_insert((line, a.to_string()));
+            }
+        }
+    }
+
+    /// Whether the colours (every `v` has one) are 8-bit (see [`ObjPass::colours_8bit`]),
+    /// with a warning naming the first line above 1; an error naming the line of a component
+    /// that decodes above [`MAX_COLOUR`] as an sRGB-encoded float.
+    fn finish(&self, path: &Path, report: &mut LoadReport) -> Result<bool, SceneError> {
+        let Some(first) = self.above_one else {
+            return Ok(false);
+        };
+        let eight_bit = self.not_8bit.is_none();
+        let kinds = if eight_bit { 1 } else { 2 };
+        let bright = self.too_bright[..kinds]
+            .iter()
+            .flatten()
+            .min_by_key(|b| b.0);
+        if let Some((line, a)) = bright {
+            return Err(obj_err(
+                path,
+                *line,
+                format!(
+                    "vertex colour component {a} is brighter than {MAX_COLOUR} once decoded \
+                     from sRGB (colours are from 0 to 1, or all whole numbers from 0 to 255)"
+                ),
+            ));
+        }
+        if eight_bit {
+            report.warn(
+                WarningKind::VertexColours,
+                path,
+                Some(first),
+                "vertex colours (v x y z r g b) are whole numbers from 0 to 255: read as 8-bit \
+                 values (divided by 255)",
+            );
+        }
+        Ok(eight_bit)
+    }
 }
 
 const UNNAMED: &str = "unnamed_object";
+
+/// The smoothing group of faces before any `s` statement: smooth, as one group.
+pub(super) const SMOOTH: u32 = u32::MAX;
+
+/// The group an `s` statement starts: 0 (flat) for `off` or `0`, else its number (`s on` and
+/// words that are not numbers smooth, as [`SMOOTH`]).
+fn smoothing_group(args: &str) -> u32 {
+    if args.eq_ignore_ascii_case("off") {
+        return 0;
+    }
+    args.parse::<u32>().unwrap_or(SMOOTH)
+}
 /// The material name an empty `usemtl` stands for: one no MTL defines (a control character),
 /// so that its faces get the default material as an undefined name's do, without that warning.
 pub(super) const NO_MATERIAL: &str = "\u{1}default";
@@ -86,10 +176,14 @@ pub(super) fn validate_obj<'a>(
         statements: Vec::new(),
         parts: vec![PartInfo::new(UNNAMED.into(), None)],
         face_lines: Vec::new(),
+        face_groups: Vec::new(),
+        group: SMOOTH,
         libraries: Vec::new(),
         colours: false,
+        colours_8bit: false,
     };
     let mut counts = [0usize; 3];
+    let mut scan = ColourScan::default();
     // Lines of the `v` without a colour.
     let mut plain: Vec<usize> = Vec::new();
     for (line, text) in text_lines(bytes, path)? {
@@ -101,8 +195,9 @@ pub(super) fn validate_obj<'a>(
                 let v = numbers(args, 3, "vertex position (v)", path, line)?;
                 within_coordinate_bound(&v[..3], path, line)?;
                 let colour = (v.len() >= 6).then(|| [v[3], v[4], v[5]]);
-                if colour.is_none() {
-                    plain.push(line);
+                match colour {
+                    Some(rgb) => scan.check(rgb, line),
+                    None => plain.push(line),
                 }
                 obj.statements
                     .push(Statement::Position([v[0], v[1], v[2]], colour));
@@ -135,12 +230,14 @@ pub(super) fn validate_obj<'a>(
                 "point element (p) skipped",
             ),
             "o" | "g" => obj.name_part(key, args),
+            "s" => obj.group = smoothing_group(args),
             "usemtl" => obj.use_material(args, line, path, report),
             "mtllib" => obj.add_libraries(args, dir, path, line, report)?,
             _ => {}
         }
     }
     obj.colours = counts[0] > 0 && plain.is_empty();
+    obj.colours_8bit = obj.colours && scan.finish(path, report)?;
     if !obj.colours && plain.len() < counts[0] {
         for line in plain {
             report.warn(
@@ -198,6 +295,7 @@ impl<'a> ObjPass<'a> {
         info.corner_without_vn |= corners.iter().any(|c| c.2.is_none());
         info.any_vn |= corners.iter().any(|c| c.2.is_some());
         self.face_lines.push(line);
+        self.face_groups.push(self.group);
         self.statements.push(Statement::Face { corners, part });
         Ok(())
     }
@@ -310,6 +408,10 @@ pub(super) fn normalised_obj(obj: &ObjPass, libraries: usize) -> String {
     let (vt_base, vn_base) = (1 + need_vt as u32, 1 + need_vn as u32);
     for s in &obj.statements {
         let w = match s {
+            Statement::Position([x, y, z], Some(rgb)) if obj.colours_8bit => {
+                let [r, g, b] = rgb.map(|a| a.parse::<f32>().unwrap_or(0.0) / 255.0);
+                writeln!(out, "v {x} {y} {z} {r} {g} {b}")
+            }
             Statement::Position([x, y, z], Some([r, g, b])) if obj.colours => {
                 writeln!(out, "v {x} {y} {z} {r} {g} {b}")
             }
