@@ -5,6 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
+use crate::common::binary::{run, run_env};
 use cubetrace::scene::{self, LoadReport, Scene, WarningKind};
 use glam::Vec3;
 
@@ -238,4 +239,58 @@ fn faces_under_s_off_without_normals_are_flat() {
     let (scene, _) = load_ok(&[("mesh.obj", given.as_bytes())]);
     let n = &scene.meshes[1].parts[0].normals;
     assert!(n.iter().all(|&n| n == Vec3::new(0.6, 0.0, 0.8)), "{n:?}");
+}
+
+/// A mesh path in a scene file as a Windows user writes it (`Models\Mesh.OBJ` for
+/// `models/mesh.obj`) or from the home folder (`~/...`) loads; the OBJ's miscased library is
+/// found when the scene is named from its own folder (the folder of `scene.toml` is the empty
+/// path there, which the case-blind search could not list). A missing mesh is refused naming
+/// the scene file's line and field. Negative: a name no file has in any case warns, naming it.
+#[test]
+fn mesh_paths_as_users_write_them_load() {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = QUAD_OBJ.replace("mtllib lib.mtl", "mtllib LIB.MTL");
+    let files: [(&str, &[u8]); 2] = [
+        ("models/mesh.obj", obj.as_bytes()),
+        ("models/lib.mtl", b"newmtl tex\nKd 0.1 0.2 0.3\n"),
+    ];
+    let path = write_placing(dir.path(), &files, "Models\\Mesh.OBJ");
+    let (scene, report) = scene::load_scene_file_report(&path).unwrap();
+    assert!(report.warnings.is_empty(), "{:?}", report.warnings);
+    assert_eq!(material(&scene).0, Vec3::new(0.1, 0.2, 0.3));
+
+    write_placing(dir.path(), &files, "~/models/mesh.obj");
+    let home = dir.path().to_str().unwrap();
+    let args = [
+        "render",
+        "scene.toml",
+        "--method",
+        "reference",
+        "-o",
+        "x.png",
+    ];
+    let o = run_env(&args, dir.path(), &[("HOME", home)]);
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+    assert!(!o.stderr.contains("WARN"), "{}", o.stderr);
+
+    // The scene named from its folder: the OBJ's folder is the empty path.
+    let beside = |mtllib: &str| QUAD_OBJ.replace("mtllib lib.mtl", mtllib);
+    let obj = beside("mtllib LIB.MTL");
+    let root: [(&str, &[u8]); 2] = [("mesh.obj", obj.as_bytes()), ("lib.mtl", files[1].1)];
+    write_placing(dir.path(), &root, "mesh.obj");
+    let o = run(&args, dir.path());
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+    assert!(!o.stderr.contains("WARN"), "{}", o.stderr);
+    std::fs::write(dir.path().join("mesh.obj"), beside("mtllib LIBS.MTL")).unwrap();
+    let o = run(&args, dir.path());
+    assert!(o.stderr.contains("'LIBS.MTL' not found"), "{}", o.stderr);
+
+    let path = write_placing(dir.path(), &files, "Models\\Gone.obj");
+    let e = scene::load_scene_file_report(&path)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("scene.toml:6") && e.contains("mesh[1].obj") && e.contains("Gone.obj"),
+        "{e}"
+    );
 }

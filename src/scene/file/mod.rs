@@ -14,7 +14,7 @@
 //!
 //! [[mesh]]
 //! name = "sphere"
-//! obj = "sphere.obj"                # relative to this file
+//! obj = "sphere.obj"                # relative to this file, absolute, or from ~/
 //! reflector = true
 //! specular_power = 64               # optional, reflectors only: glossy (Phong power, 0 up;
 //!                                   # 1024 and above a mirror), or "mtl" for the MTL's Ns;
@@ -95,13 +95,13 @@
 mod animation_table;
 mod form;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 use toml::Spanned;
 
 use super::limits;
-use super::obj::load_obj_file;
+use super::obj::{find_beside, load_obj_file};
 use super::report::{LoadReport, WarningKind};
 use super::source::Source;
 use super::{
@@ -278,7 +278,16 @@ fn load_mesh(
         rotate_deg,
         scale,
     };
-    let obj_path = dir.join(m.obj.get_ref());
+    let obj_path = mesh_file(dir, m.obj.get_ref()).ok_or_else(|| {
+        src.invalid(
+            &m.obj,
+            &format!("mesh[{i}].obj"),
+            format!(
+                "{} not found (paths are relative to the scene file's folder)",
+                dir.join(m.obj.get_ref()).display()
+            ),
+        )
+    })?;
     let loaded = load_obj_file(&obj_path, report)?;
     let name = m
         .name
@@ -311,6 +320,23 @@ fn load_mesh(
     let gloss = gloss(src, i, m)?;
     merge(scene, name, loaded, transform, m.reflector, gloss);
     Ok(())
+}
+
+/// The OBJ file a mesh's `obj` names, relative to the scene file's folder `dir`: as written
+/// (a leading `~` read as the home folder, `$HOME`, as a shell reads it), then as
+/// [`find_beside`] looks for an exporter's file names (Windows separators, another letter
+/// case, the file name alone). `None` where none exists.
+fn mesh_file(dir: &Path, written: &Path) -> Option<PathBuf> {
+    let home = std::env::var_os("HOME").filter(|h| !h.is_empty());
+    let written = match (written.strip_prefix("~"), home) {
+        (Ok(rest), Some(home)) => Path::new(&home).join(rest),
+        _ => written.to_path_buf(),
+    };
+    let path = dir.join(&written);
+    if path.is_file() {
+        return Some(path);
+    }
+    find_beside(dir, &written.to_string_lossy())
 }
 
 /// Mesh `i`'s `specular_power`: on a reflector only; a finite number at least 0, or `"mtl"`.

@@ -159,7 +159,13 @@ fn any_case(dir: &Path, relative: &str) -> Option<PathBuf> {
             continue;
         }
         let wanted = name.to_lowercase();
-        let mut matches: Vec<PathBuf> = std::fs::read_dir(&at)
+        // An empty folder (a file named without one) is the working directory.
+        let listed = if at.as_os_str().is_empty() {
+            Path::new(".")
+        } else {
+            &at
+        };
+        let mut matches: Vec<PathBuf> = std::fs::read_dir(listed)
             .ok()?
             .filter_map(|e| e.ok())
             .filter(|e| e.file_name().to_string_lossy().to_lowercase() == wanted)
