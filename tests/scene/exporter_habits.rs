@@ -1,7 +1,8 @@
 //! What real exporters and users write that the loader once read wrong without a word, or
 //! refused: MTL keywords in another letter case, a `map_Kd` with no file or an option it does
-//! not know, vertex colours as 8-bit numbers, faces under `s off` without normals, and mesh
-//! paths in a scene file as a Windows user or a shell user writes them. Each has its negative.
+//! not know, files in UTF-16, vertex colours as 8-bit numbers, faces under `s off` without
+//! normals, and mesh paths in a scene file as a Windows user or a shell user writes them. Each
+//! has its negative.
 
 use std::path::{Path, PathBuf};
 
@@ -123,6 +124,41 @@ fn map_kd_without_a_file_or_with_an_unknown_option_loads() {
         .unwrap()
         .to_string();
     assert!(w.contains("tex.png") && w.contains("line 2"), "{w}");
+}
+
+/// `text` as UTF-16, little- or big-endian, with its byte order mark unless `bom` is false.
+fn utf16(text: &str, little: bool, bom: bool) -> Vec<u8> {
+    let mut out = Vec::new();
+    for u in bom.then_some(0xFEFF).into_iter().chain(text.encode_utf16()) {
+        out.extend(if little {
+            u.to_le_bytes()
+        } else {
+            u.to_be_bytes()
+        });
+    }
+    out
+}
+
+/// OBJ and MTL files saved as UTF-16 with a byte order mark (Windows Notepad's "Unicode",
+/// PowerShell 5's `>` and `Out-File`) load as the text they hold; they were refused as binary
+/// files. Negative: UTF-16 without the mark is still refused as binary, naming the file.
+#[test]
+fn utf16_files_with_a_byte_order_mark_load() {
+    let obj = "mtllib lib.mtl\r\nv 0 0 -1\r\nv 1 0 -1\r\nv 1 1 -1\r\nusemtl Caf\u{e9}\r\n\
+               f 1 2 3\r\n";
+    let mtl = "newmtl Caf\u{e9}\r\nKd 0.1 0.2 0.3\r\n";
+    for little in [true, false] {
+        let (scene, report) = load_ok(&[
+            ("mesh.obj", &utf16(obj, little, true)),
+            ("lib.mtl", &utf16(mtl, little, true)),
+        ]);
+        assert!(report.warnings.is_empty(), "{:?}", report.warnings);
+        assert_eq!(material(&scene).0, Vec3::new(0.1, 0.2, 0.3));
+        let m = &scene.materials[scene.meshes[1].parts[0].material as usize];
+        assert_eq!(m.name, "Caf\u{e9}");
+    }
+    let e = load(&[("mesh.obj", &utf16(obj, true, false))]).unwrap_err();
+    assert!(e.contains("mesh.obj:1") && e.contains("binary file"), "{e}");
 }
 
 /// The colours of `mesh.obj`'s first part.

@@ -17,10 +17,11 @@ pub(super) fn obj_err(path: &Path, line: usize, reason: impl Into<String>) -> Sc
 }
 
 /// Reads an OBJ or MTL file, refusing files over [`MAX_INPUT_BYTES`] and binary files (a NUL
-/// byte: an FBX, binary STL, `.blend` or glTF named where an OBJ was meant). A line whose text
-/// before its comment is not UTF-8 is read as Latin-1 (ISO 8859-1, which Windows exporters write
-/// names in), with a warning naming it; the bytes returned are then UTF-8 outside comments,
-/// with the lines that a `\` continues joined ([`join_continued_lines`]).
+/// byte: an FBX, binary STL, `.blend` or glTF named where an OBJ was meant); UTF-16 text with
+/// its byte order mark is read as text ([`utf16_as_utf8`]). A line whose text before its
+/// comment is not UTF-8 is read as Latin-1 (ISO 8859-1, which Windows exporters write names
+/// in), with a warning naming it; the bytes returned are then UTF-8 outside comments, with the
+/// lines that a `\` continues joined ([`join_continued_lines`]).
 pub(super) fn read_input(path: &Path, report: &mut LoadReport) -> Result<Vec<u8>, SceneError> {
     let len = std::fs::metadata(path)
         .map_err(|e| SceneError::io(path, e))?
@@ -33,7 +34,7 @@ pub(super) fn read_input(path: &Path, report: &mut LoadReport) -> Result<Vec<u8>
             ),
         });
     }
-    let bytes = std::fs::read(path).map_err(|e| SceneError::io(path, e))?;
+    let bytes = utf16_as_utf8(std::fs::read(path).map_err(|e| SceneError::io(path, e))?);
     if let Some((line, raw)) = split_lines(&bytes)
         .enumerate()
         .find(|(_, l)| l.contains(&0))
@@ -49,6 +50,29 @@ pub(super) fn read_input(path: &Path, report: &mut LoadReport) -> Result<Vec<u8>
         ));
     }
     Ok(join_continued_lines(latin1_as_utf8(bytes, path, report)))
+}
+
+/// `bytes` written as UTF-8 where they are UTF-16 text that starts with its byte order mark
+/// (little- or big-endian: what Windows Notepad saves as "Unicode" and PowerShell 5's `>` and
+/// `Out-File` write), without the mark; other bytes, and UTF-16 that does not decode, come
+/// back unchanged (its NUL bytes then refuse it as binary).
+fn utf16_as_utf8(bytes: Vec<u8>) -> Vec<u8> {
+    let unit: fn([u8; 2]) -> u16 = match bytes.get(..2) {
+        Some([0xFF, 0xFE]) => u16::from_le_bytes,
+        Some([0xFE, 0xFF]) => u16::from_be_bytes,
+        _ => return bytes,
+    };
+    if !bytes.len().is_multiple_of(2) {
+        return bytes;
+    }
+    let units: Vec<u16> = bytes[2..]
+        .chunks_exact(2)
+        .map(|c| unit([c[0], c[1]]))
+        .collect();
+    match String::from_utf16(&units) {
+        Ok(text) => text.into_bytes(),
+        Err(_) => bytes,
+    }
 }
 
 /// `bytes` with the text before each line's comment that is not UTF-8 read as Latin-1 (each

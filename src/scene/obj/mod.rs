@@ -13,7 +13,8 @@
 //! source line on failure.
 //!
 //! What the loader accepts:
-//! - UTF-8 text, with or without a byte order mark, LF, CRLF or CR (classic Mac OS) line ends,
+//! - UTF-8 text, with or without a byte order mark (or UTF-16 with one, as Windows Notepad
+//!   and PowerShell 5 write it), LF, CRLF or CR (classic Mac OS) line ends,
 //!   spaces or tabs; a line ending in `\` is continued on the next (errors name its first).
 //!   Comments (`#` to the end of the line) may hold any bytes; a line whose text outside its
 //!   comment is not UTF-8 is read as Latin-1 (Windows exporters' names), with a warning naming
