@@ -57,6 +57,9 @@ pub enum WarningKind {
     /// (ignored), a `usemtl` without a name (the default material), an `mtllib` or a `map_Kd`
     /// without one (ignored).
     LenientMaterial,
+    /// An OBJ normal (`vn`) with a NaN or infinite component (some CAD exporters write one
+    /// for a face without area): the corners that name it get a normal computed from the faces.
+    NonFiniteNormal,
 }
 
 /// One (merged) warning.

@@ -330,3 +330,33 @@ fn mesh_paths_as_users_write_them_load() {
         "{e}"
     );
 }
+
+/// A normal with a NaN component (some CAD exporters write one for a face without area) loads
+/// with a warning naming its line, and the corners that name it get the normal computed from
+/// the faces; a `vt`'s third component, which nothing reads, may be anything. Negatives: a NaN
+/// position is still refused naming its line, and so is a normal that is not a number.
+#[test]
+fn nan_normals_are_computed_and_unread_texture_components_ignored() {
+    let obj = "v 0 0 -1\nv 1 0 -1\nv 0 1 -1\nvt 0 0 nan\nvt 1 0 0\nvt 0 1 0\n\
+               vn nan nan nan\nvn 0 0 1\nf 1/1/1 2/2/2 3/3/2\n";
+    let (scene, report) = load_ok(&[("mesh.obj", obj.as_bytes())]);
+    assert_eq!(report.count(WarningKind::NonFiniteNormal), 1);
+    let w = (report.warnings.iter())
+        .find(|w| w.kind == WarningKind::NonFiniteNormal)
+        .unwrap();
+    assert_eq!(w.lines, vec![7]);
+    let normals = &scene.meshes[1].parts[0].normals;
+    assert!(!normals.is_empty());
+    for n in normals {
+        assert!((*n - Vec3::Z).length() < 1e-6, "{n}");
+    }
+    let nan_position = "v 0 0 -1\nv 1 nan -1\nv 0 1 -1\nf 1 2 3\n";
+    let e = load(&[("mesh.obj", nan_position.as_bytes())]).unwrap_err();
+    assert!(e.contains("mesh.obj:2") && e.contains("non-finite"), "{e}");
+    let word = "v 0 0 -1\nv 1 0 -1\nv 0 1 -1\nvn x 0 1\nf 1//1 2//1 3//1\n";
+    let e = load(&[("mesh.obj", word.as_bytes())]).unwrap_err();
+    assert!(
+        e.contains("mesh.obj:4") && e.contains("not a number"),
+        "{e}"
+    );
+}

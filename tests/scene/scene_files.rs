@@ -199,8 +199,8 @@ fn error_nan_in_obj() {
     let (dir, _) = exported();
     let obj = dir.path().join("column.obj");
     let text = std::fs::read_to_string(&obj).unwrap();
-    let bad = text.replacen("\nvn ", "\nvn 0 NaN 1\nvn ", 1);
-    let line = line_of(&bad, "vn 0 NaN 1");
+    let bad = text.replacen("\nvn ", "\nv 0 NaN 1\nvn ", 1);
+    let line = line_of(&bad, "v 0 NaN 1");
     std::fs::write(&obj, bad).unwrap();
     expect_failure(
         dir.path(),

@@ -204,7 +204,14 @@ pub(super) fn validate_obj<'a>(
                 counts[0] += 1;
             }
             "vt" => {
-                let v = numbers(args, 1, "texture coordinate (vt)", path, line)?;
+                // u and v only: the optional w is never read, whatever it holds.
+                let v = numbers(
+                    first_words(args, 2),
+                    1,
+                    "texture coordinate (vt)",
+                    path,
+                    line,
+                )?;
                 obj.statements.push(Statement::Texcoord([
                     v[0],
                     v.get(1).copied().unwrap_or("0"),
@@ -212,8 +219,8 @@ pub(super) fn validate_obj<'a>(
                 counts[1] += 1;
             }
             "vn" => {
-                let v = numbers(args, 3, "normal (vn)", path, line)?;
-                obj.statements.push(Statement::Normal([v[0], v[1], v[2]]));
+                let v = normal(args, path, line, report)?;
+                obj.statements.push(Statement::Normal(v));
                 counts[2] += 1;
             }
             "f" => obj.face(args, counts, path, line, report)?,
@@ -441,6 +448,41 @@ pub(super) fn normalised_obj(obj: &ObjPass, libraries: usize) -> String {
         w.expect("writing to a String");
     }
     out
+}
+
+/// The first `n` words of `args` (all of it where it has fewer), as a slice of it.
+fn first_words(args: &str, n: usize) -> &str {
+    let end = (args.split_whitespace().take(n).last()).map_or(0, |w| {
+        w.as_ptr() as usize - args.as_ptr() as usize + w.len()
+    });
+    &args[..end]
+}
+
+/// A `vn` statement's three components. One that parses to a NaN or an infinity (written
+/// `nan`, `inf`, `-nan(ind)`...) makes the normal zero, which the mesh replaces by one computed
+/// from the faces ([`super::mesh`]), with a warning naming the line; text that is not a number
+/// is an error naming the line, as everywhere.
+fn normal<'a>(
+    args: &'a str,
+    path: &Path,
+    line: usize,
+    report: &mut LoadReport,
+) -> Result<[&'a str; 3], SceneError> {
+    let parsed: Vec<Option<f32>> = (args.split_whitespace().take(3))
+        .map(|a| a.parse::<f32>().ok())
+        .collect();
+    let numbers_of = parsed.len() == 3 && parsed.iter().all(Option::is_some);
+    if numbers_of && parsed.iter().flatten().any(|x| !x.is_finite()) {
+        report.warn(
+            WarningKind::NonFiniteNormal,
+            path,
+            Some(line),
+            "normal (vn) with a NaN or infinite component: computed from the faces",
+        );
+        return Ok(["0", "0", "0"]);
+    }
+    let v = numbers(first_words(args, 3), 3, "normal (vn)", path, line)?;
+    Ok([v[0], v[1], v[2]])
 }
 
 #[cfg(test)]
