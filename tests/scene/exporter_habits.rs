@@ -4,61 +4,10 @@
 //! normals, and mesh paths in a scene file as a Windows user or a shell user writes them. Each
 //! has its negative.
 
-use std::path::{Path, PathBuf};
-
+use super::exporter_quirks::{QUAD_OBJ, load, load_ok, material, png, write_placing};
 use crate::common::binary::{run, run_env};
-use cubetrace::scene::{self, LoadReport, Scene, WarningKind};
+use cubetrace::scene::{self, Scene, WarningKind};
 use glam::Vec3;
-
-const MIRROR_OBJ: &str = "v -1 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
-const CAMERA: &str = "[[camera]]\neye = [0, 0.5, 3]\ntarget = [0, 0.5, 0]\nresolution = [8, 8]\n";
-/// A textured unit quad at z = -1 with material `tex` of `lib.mtl`.
-const QUAD_OBJ: &str = "mtllib lib.mtl\nv 0 0 -1\nv 1 0 -1\nv 1 1 -1\nv 0 1 -1\n\
-                        vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nusemtl tex\nf 1/1 2/2 3/3 4/4\n";
-
-/// Writes `files` (name, bytes) into `dir`, a triangle mirror and a scene file placing the
-/// mirror and `obj` (a path as the scene file writes it, in TOML literal quotes); returns the
-/// scene file's path.
-fn write_placing(dir: &Path, files: &[(&str, &[u8])], obj: &str) -> PathBuf {
-    for (name, bytes) in files {
-        let path = dir.join(name);
-        std::fs::create_dir_all(path.parent().unwrap()).unwrap();
-        std::fs::write(path, bytes).unwrap();
-    }
-    std::fs::write(dir.join("mirror.obj"), MIRROR_OBJ).unwrap();
-    let toml = format!(
-        "[[mesh]]\nobj = \"mirror.obj\"\nreflector = true\n\n\
-         [[mesh]]\nobj = '{obj}'\n\n{CAMERA}"
-    );
-    let path = dir.join("scene.toml");
-    std::fs::write(&path, toml).unwrap();
-    path
-}
-
-fn load(files: &[(&str, &[u8])]) -> Result<(Scene, LoadReport), String> {
-    let dir = tempfile::tempdir().unwrap();
-    let path = write_placing(dir.path(), files, "mesh.obj");
-    scene::load_scene_file_report(&path).map_err(|e| e.to_string())
-}
-
-fn load_ok(files: &[(&str, &[u8])]) -> (Scene, LoadReport) {
-    load(files).unwrap_or_else(|e| panic!("load failed: {e}"))
-}
-
-/// The diffuse colour and texture of the test mesh's first part.
-fn material(scene: &Scene) -> (Vec3, Option<u32>) {
-    let m = &scene.materials[scene.meshes[1].parts[0].material as usize];
-    (m.diffuse, m.texture)
-}
-
-/// A PNG of one pixel of `rgb`.
-fn png(rgb: [u8; 3]) -> Vec<u8> {
-    let mut out = std::io::Cursor::new(Vec::new());
-    image::RgbImage::from_pixel(1, 1, image::Rgb(rgb))
-        .write_to(&mut out, image::ImageFormat::Png)
-        .unwrap();
-    out.into_inner()
-}
 
 /// MTL keywords in capitals or lower case (`KD`, `MAP_KD`, `map_kd`, `NEWMTL`) are read as
 /// Blender's and three.js's readers read them; they were skipped, leaving the material grey and

@@ -12,12 +12,13 @@ use glam::Vec3;
 const MIRROR_OBJ: &str = "v -1 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
 const CAMERA: &str = "[[camera]]\neye = [0, 0.5, 3]\ntarget = [0, 0.5, 0]\nresolution = [8, 8]\n";
 /// A textured unit quad at z = -1 with material `tex` of `lib.mtl`.
-const QUAD_OBJ: &str = "mtllib lib.mtl\nv 0 0 -1\nv 1 0 -1\nv 1 1 -1\nv 0 1 -1\n\
+pub(super) const QUAD_OBJ: &str = "mtllib lib.mtl\nv 0 0 -1\nv 1 0 -1\nv 1 1 -1\nv 0 1 -1\n\
                         vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nusemtl tex\nf 1/1 2/2 3/3 4/4\n";
 
 /// Writes `files` (name, bytes) into `dir`, a triangle mirror and a scene file placing the
-/// mirror and `mesh.obj`; returns the scene file's path.
-fn write(dir: &Path, files: &[(&str, &[u8])]) -> PathBuf {
+/// mirror and `obj` (a path as the scene file writes it, in TOML literal quotes); returns the
+/// scene file's path.
+pub(super) fn write_placing(dir: &Path, files: &[(&str, &[u8])], obj: &str) -> PathBuf {
     for (name, bytes) in files {
         let path = dir.join(name);
         std::fs::create_dir_all(path.parent().unwrap()).unwrap();
@@ -26,19 +27,24 @@ fn write(dir: &Path, files: &[(&str, &[u8])]) -> PathBuf {
     std::fs::write(dir.join("mirror.obj"), MIRROR_OBJ).unwrap();
     let toml = format!(
         "[[mesh]]\nobj = \"mirror.obj\"\nreflector = true\n\n\
-         [[mesh]]\nobj = \"mesh.obj\"\n\n{CAMERA}"
+         [[mesh]]\nobj = '{obj}'\n\n{CAMERA}"
     );
     let path = dir.join("scene.toml");
     std::fs::write(&path, toml).unwrap();
     path
 }
 
-fn load(files: &[(&str, &[u8])]) -> Result<(Scene, LoadReport), String> {
+/// [`write_placing`] of `mesh.obj`.
+fn write(dir: &Path, files: &[(&str, &[u8])]) -> PathBuf {
+    write_placing(dir, files, "mesh.obj")
+}
+
+pub(super) fn load(files: &[(&str, &[u8])]) -> Result<(Scene, LoadReport), String> {
     let dir = tempfile::tempdir().unwrap();
     scene::load_scene_file_report(&write(dir.path(), files)).map_err(|e| e.to_string())
 }
 
-fn load_ok(files: &[(&str, &[u8])]) -> (Scene, LoadReport) {
+pub(super) fn load_ok(files: &[(&str, &[u8])]) -> (Scene, LoadReport) {
     load(files).unwrap_or_else(|e| panic!("load failed: {e}"))
 }
 
@@ -52,7 +58,7 @@ fn triangles(scene: &Scene) -> usize {
 }
 
 /// The diffuse colour and texture of the test mesh's first part.
-fn material(scene: &Scene) -> (Vec3, Option<u32>) {
+pub(super) fn material(scene: &Scene) -> (Vec3, Option<u32>) {
     let m = &scene.materials[scene.meshes[1].parts[0].material as usize];
     (m.diffuse, m.texture)
 }
@@ -159,7 +165,7 @@ fn first_texel(scene: &Scene) -> Option<[u8; 4]> {
 }
 
 /// A PNG of one pixel of `rgb`.
-fn png(rgb: [u8; 3]) -> Vec<u8> {
+pub(super) fn png(rgb: [u8; 3]) -> Vec<u8> {
     let mut out = std::io::Cursor::new(Vec::new());
     image::RgbImage::from_pixel(1, 1, image::Rgb(rgb))
         .write_to(&mut out, image::ImageFormat::Png)
