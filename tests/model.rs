@@ -293,6 +293,50 @@ fn one_lane_turns_run_the_steps_that_test_no_node() {
     );
 }
 
+/// A block's SIMD efficiency is its active lanes over its issued lanes: in the wave layout at
+/// width 32, `children_crossed` has one active lane per node visit (counted here from the work
+/// log), so its efficiency is the visits over 32 lanes per issue. The negatives: it is not the
+/// replay's overall efficiency, and with one lane per ray (`main_lanes1`: a ray's lane tests its
+/// own children) a ray alone in its warp has one lane of 32 in every block.
+#[test]
+fn a_blocks_efficiency_is_its_active_lanes_over_its_issued_ones() {
+    let rec = recorded(Method::Compute, ComputeLanes::Wave);
+    let FrameWork::Compute(rays) = &rec.work else {
+        panic!("compute work")
+    };
+    let visits: usize = (rays.iter().flat_map(|r| &r.phases))
+        .filter(|p| matches!(p, Phase::Step(s) if s.visit.is_some()))
+        .count();
+    let st = replay(&rec, 32, Mode::Gpu, default_assembly(Method::Compute)).expect("replay");
+    let b = work::C_CHILDREN_CROSSED;
+    let issues = st.steps_per_ray[b] * st.rays as f64;
+    let want = visits as f64 / (32.0 * issues);
+    assert!(
+        (st.block_efficiency[b] - want).abs() < 1e-9,
+        "{} against {want}",
+        st.block_efficiency[b]
+    );
+    assert!((st.block_efficiency[b] - st.simd_efficiency).abs() > 1e-3);
+    let one = recorded(Method::Compute, ComputeLanes::One);
+    let FrameWork::Compute(rays) = &one.work else {
+        panic!("compute work")
+    };
+    let alone = Recorded {
+        method: one.method,
+        settings: one.settings.clone(),
+        img: (1, 1),
+        ray_at: vec![Some(0)],
+        work: FrameWork::Compute(vec![rays[0].clone()]),
+    };
+    let st = replay(&alone, 32, Mode::Gpu, default_assembly(Method::Compute)).expect("replay");
+    for (i, e) in st.block_efficiency.iter().enumerate() {
+        assert!(
+            st.steps_per_ray[i] == 0.0 || (e - 1.0 / 32.0).abs() < 1e-9,
+            "block {i}: {e}"
+        );
+    }
+}
+
 /// The texels and cells alg. 3's node visits test (children per visit, from the work log) equal
 /// the twin's own `Counters` (incremented by the traversal itself), ray by ray. The negative:
 /// dropping one visit from a ray breaks the equality.

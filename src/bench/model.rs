@@ -103,6 +103,8 @@ pub struct GpuMethod {
     /// The block with the largest share of the dynamic cost, and that share.
     pub dominant_block: String,
     pub dominant_share: f64,
+    /// The dominant block's SIMD efficiency (its active lanes over its issued lanes).
+    pub dominant_efficiency: f64,
     /// Every block's share of the dynamic cost, largest first (`model.json` only).
     pub block_shares: Vec<(String, f64)>,
 }
@@ -134,6 +136,7 @@ impl GpuMethod {
             sectors_per_ray: stats.sectors_per_ray,
             dominant_block: blocks(method).get(i).map_or("-", |b| b.name).to_string(),
             dominant_share: share,
+            dominant_efficiency: stats.block_efficiency.get(i).copied().unwrap_or(0.0),
             block_shares,
         })
     }
@@ -831,7 +834,8 @@ fn scene_label(scene: &str) -> &str {
 pub fn per_ray_table(gpu: &[GpuPrediction]) -> String {
     let mut s = format!(
         "MODEL, per-ray work at width 32 (GPU mode; weighted issued warp-steps per ray, static \
-         and dynamic weights; the dominant block by its share of the dynamic cost).\n\n\
+         and dynamic weights; the dominant block by its share of the dynamic cost, and the share \
+         of its issued lanes that need it).\n\n\
          | scene | method | steps/ray static | dynamic | over {} static | dynamic | SIMD eff. | sectors/ray | dominant block (dynamic) |\n\
          |---|---|---:|---:|---:|---:|---:|---:|---|\n",
         Method::EXACT_GPU.name()
@@ -846,7 +850,7 @@ pub fn per_ray_table(gpu: &[GpuPrediction]) -> String {
                 l => format!("{}, {}", m.method.name(), l.label()),
             };
             s += &format!(
-                "| {} | {} | {:.0} | {:.0} | {:.2} | {:.2} | {:.2} | {:.1} | {} ({:.0} %) |\n",
+                "| {} | {} | {:.0} | {:.0} | {:.2} | {:.2} | {:.2} | {:.1} | {} ({:.0} %; lanes {:.2}) |\n",
                 scene_label(&g.scene),
                 label,
                 m.cost_per_ray,
@@ -857,6 +861,7 @@ pub fn per_ray_table(gpu: &[GpuPrediction]) -> String {
                 m.sectors_per_ray,
                 m.dominant_block,
                 100.0 * m.dominant_share,
+                m.dominant_efficiency,
             );
         }
     }
@@ -966,6 +971,7 @@ mod tests {
             sectors_per_ray: 3.0,
             dominant_block: "b".into(),
             dominant_share: 0.25,
+            dominant_efficiency: 0.5,
             block_shares: vec![("b".into(), 0.25)],
         }
     }

@@ -75,6 +75,9 @@ pub struct ReplayStats {
     pub steps_per_ray: Vec<f64>,
     /// Active lanes over issued lanes, over all issued blocks.
     pub simd_efficiency: f64,
+    /// Per block (as `steps_per_ray`): its active lanes over its issued lanes (0 where it never
+    /// issued). Where it is low, the block's lanes mostly wait for the few that need it.
+    pub block_efficiency: Vec<f64>,
     /// Distinct 32-byte sectors per warp load, summed, per ray.
     pub sectors_per_ray: f64,
     /// Per lavapipe work item ([`lavapipe_items`], in the order its threads take them): the
@@ -128,6 +131,8 @@ struct Acc {
     steps: Vec<u64>,
     active: u64,
     issued: u64,
+    /// Per block: active and issued lanes.
+    block_lanes: Vec<(u64, u64)>,
     sectors: u64,
     /// Per work item: the warp-steps of each block its warps issued.
     items: Vec<Vec<u64>>,
@@ -145,6 +150,11 @@ impl Acc {
         self.items[self.item][block] += 1;
         self.active += active;
         self.issued += width as u64;
+        if self.block_lanes.len() < self.steps.len() {
+            self.block_lanes.resize(self.steps.len(), (0, 0));
+        }
+        self.block_lanes[block].0 += active;
+        self.block_lanes[block].1 += width as u64;
         self.sectors += sectors(loads);
     }
 
@@ -260,6 +270,12 @@ pub fn replay(
         } else {
             acc.active as f64 / acc.issued as f64
         },
+        block_efficiency: (0..acc.steps.len())
+            .map(|b| match acc.block_lanes.get(b) {
+                Some(&(active, issued)) if issued > 0 => active as f64 / issued as f64,
+                _ => 0.0,
+            })
+            .collect(),
         sectors_per_ray: per(acc.sectors),
         item_steps: acc.items,
     })
