@@ -55,7 +55,7 @@ pub enum WarningKind {
     /// A material statement read leniently: a `Kd` of four numbers (RGBA: the alpha dropped)
     /// or with float noise below 0 (taken as 0), `Kd`/`Ns`/`map_Kd` before any `newmtl`
     /// (ignored), a `usemtl` without a name (the default material), an `mtllib` or a `map_Kd`
-    /// without one (ignored).
+    /// without one (ignored), a `Kd` above 1 (kept).
     LenientMaterial,
     /// An OBJ normal (`vn`) with a NaN or infinite component (some CAD exporters write one
     /// for a face without area): the corners that name it get a normal computed from the faces.

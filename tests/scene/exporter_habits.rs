@@ -309,3 +309,31 @@ fn nan_normals_are_computed_and_unread_texture_components_ignored() {
         "{e}"
     );
 }
+
+/// A `Kd` above 1 (8-bit values, `Kd 255 128 0`, render white) loads as written, with a warning
+/// naming its line and the value. Negative: a `Kd` within 0 to 1 has none.
+#[test]
+fn a_kd_above_one_is_named() {
+    let line_of_kd = |mtl: &str| {
+        let (scene, report) = load_ok(&[
+            ("mesh.obj", QUAD_OBJ.as_bytes()),
+            ("lib.mtl", mtl.as_bytes()),
+        ]);
+        let w = (report.warnings.iter())
+            .find(|w| w.kind == WarningKind::LenientMaterial && w.detail.contains("above 1"));
+        (
+            material(&scene).0,
+            w.map(|w| (w.lines.clone(), w.detail.clone())),
+        )
+    };
+    let (kd, w) = line_of_kd("newmtl tex\nKd 255 128 0\n");
+    assert_eq!(kd, Vec3::new(255.0, 128.0, 0.0));
+    let (lines, detail) = w.expect("a warning");
+    assert_eq!(lines, vec![2]);
+    assert!(
+        detail.contains("255") && detail.contains("'tex'"),
+        "{detail}"
+    );
+    let (kd, w) = line_of_kd("newmtl tex\nKd 1 0.5 0\n");
+    assert_eq!((kd, w), (Vec3::new(1.0, 0.5, 0.0), None));
+}

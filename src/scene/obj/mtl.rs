@@ -135,6 +135,20 @@ fn validate_mtl<'a>(
                     format!("diffuse colour (Kd) has {a}, outside [0, {MAX_COLOUR}] (linear RGB)"),
                 ));
             }
+            // Above 1 a surface sends back more light than reaches it: kept (light sources and
+            // HDR set-ups write them), but named, since 8-bit values (`Kd 255 128 0`) render white.
+            if let Some(a) = v.iter().find(|a| a.parse::<f32>().is_ok_and(|x| x > 1.0)) {
+                report.warn(
+                    WarningKind::LenientMaterial,
+                    path,
+                    Some(line),
+                    format!(
+                        "Kd of {a}, above 1: material '{}' sends back more light than reaches \
+                         it (MTL colours run from 0 to 1; 8-bit values need dividing by 255)",
+                        current.name
+                    ),
+                );
+            }
             current.diffuse = Some(match v[..] {
                 [g] => [g; 3],
                 [r, g, b] => [r, g, b],
