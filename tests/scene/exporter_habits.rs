@@ -337,3 +337,22 @@ fn a_kd_above_one_is_named() {
     let (kd, w) = line_of_kd("newmtl tex\nKd 1 0.5 0\n");
     assert_eq!((kd, w), (Vec3::new(1.0, 0.5, 0.0), None));
 }
+
+/// A texture named URL-encoded (`my%20tex.png`, as tools that write file URLs leave it) is found
+/// under its decoded name. Negatives: with no such file it is a missing texture, and a name
+/// whose `%` starts no escape is looked for as written.
+#[test]
+fn url_encoded_texture_names_are_decoded() {
+    let red = png([255, 0, 0]);
+    let mtl = "newmtl tex\nmap_Kd my%20tex.png\n";
+    let quad = ("mesh.obj", QUAD_OBJ.as_bytes());
+    let (scene, report) = load_ok(&[quad, ("lib.mtl", mtl.as_bytes()), ("my tex.png", &red)]);
+    assert!(material(&scene).1.is_some(), "{:?}", report.warnings);
+    assert_eq!(report.count(WarningKind::MissingTexture), 0);
+    let (scene, report) = load_ok(&[quad, ("lib.mtl", mtl.as_bytes())]);
+    assert!(material(&scene).1.is_none());
+    assert_eq!(report.count(WarningKind::MissingTexture), 1);
+    let literal = "newmtl tex\nmap_Kd 100%.png\n";
+    let (scene, _) = load_ok(&[quad, ("lib.mtl", literal.as_bytes()), ("100%.png", &red)]);
+    assert!(material(&scene).1.is_some());
+}

@@ -125,8 +125,20 @@ pub(crate) struct LoadedObj {
 /// (without a pair of double quotes around it); with Windows separators (`\`) read as `/`; the
 /// file name alone in `dir` (an absolute path from the exporter's machine, such as
 /// `E:\textures\wood.jpg`); then each of the last two with its letter case ignored (a Windows
-/// export on a case-sensitive file system: `Wood.JPG` for `wood.jpg`). `None` where none exists.
+/// export on a case-sensitive file system: `Wood.JPG` for `wood.jpg`); last, where the name
+/// holds a `%`, all of these with it URL-decoded (`my%20tex.png` for `my tex.png`, as tools that
+/// write file URLs leave it). `None` where none exists.
 pub(crate) fn find_beside(dir: &Path, name: &str) -> Option<PathBuf> {
+    find_as_written(dir, name).or_else(|| {
+        let decoded = percent_encoding::percent_decode_str(name)
+            .decode_utf8()
+            .ok()?;
+        (decoded != name).then(|| find_as_written(dir, &decoded))?
+    })
+}
+
+/// [`find_beside`] without the URL decoding.
+fn find_as_written(dir: &Path, name: &str) -> Option<PathBuf> {
     let name = name
         .strip_prefix('"')
         .and_then(|n| n.strip_suffix('"'))
