@@ -86,88 +86,97 @@ fn validate_mtl<'a>(
         if key == "Ns" {
             current.shininess = specular_exponent(args, current.name, path, line, report);
         } else if key == "Kd" {
-            let first = args.split_whitespace().next().unwrap_or("");
-            if first == "spectral" || first == "xyz" {
-                report.warn(
-                    WarningKind::UnsupportedColour,
-                    path,
-                    Some(line),
-                    format!(
-                        "'Kd {first}' is not supported: material '{}' keeps grey 0.8",
-                        current.name
-                    ),
-                );
-                continue;
+            if let Some(kd) = diffuse_colour(args, current.name, path, line, report)? {
+                current.diffuse = Some(kd);
             }
-            let mut v = numbers(args, 1, "diffuse colour (Kd)", path, line)?;
-            if v.len() == 4 {
-                report.warn(
-                    WarningKind::LenientMaterial,
-                    path,
-                    Some(line),
-                    format!(
-                        "Kd of four numbers (RGBA): material '{}' drops the alpha",
-                        current.name
-                    ),
-                );
-                v.truncate(3);
-            }
-            for a in &mut v {
-                // Float noise below 0 (an exporter's -0.000001) is 0.
-                let x: f32 = a.parse().unwrap_or(f32::NAN);
-                if (-KD_NOISE..0.0).contains(&x) {
-                    report.warn(
-                        WarningKind::LenientMaterial,
-                        path,
-                        Some(line),
-                        format!("Kd of {a} taken as 0 (material '{}')", current.name),
-                    );
-                    *a = "0";
-                }
-            }
-            if let Some(a) = v.iter().find(|a| {
-                let x: f32 = a.parse().unwrap_or(f32::NAN);
-                !(0.0..=MAX_COLOUR).contains(&x)
-            }) {
-                return Err(obj_err(
-                    path,
-                    line,
-                    format!("diffuse colour (Kd) has {a}, outside [0, {MAX_COLOUR}] (linear RGB)"),
-                ));
-            }
-            // Above 1 a surface sends back more light than reaches it: kept (light sources and
-            // HDR set-ups write them), but named, since 8-bit values (`Kd 255 128 0`) render white.
-            if let Some(a) = v.iter().find(|a| a.parse::<f32>().is_ok_and(|x| x > 1.0)) {
-                report.warn(
-                    WarningKind::LenientMaterial,
-                    path,
-                    Some(line),
-                    format!(
-                        "Kd of {a}, above 1: material '{}' sends back more light than reaches \
-                         it (MTL colours run from 0 to 1; 8-bit values need dividing by 255)",
-                        current.name
-                    ),
-                );
-            }
-            current.diffuse = Some(match v[..] {
-                [g] => [g; 3],
-                [r, g, b] => [r, g, b],
-                _ => {
-                    return Err(obj_err(
-                        path,
-                        line,
-                        format!(
-                            "diffuse colour (Kd) takes 1 number (grey) or 3 (r g b), found {}",
-                            v.len()
-                        ),
-                    ));
-                }
-            });
         } else {
             current.map = map_kd_file(args, current.name, path, line, report);
         }
     }
     Ok(out)
+}
+
+/// A `Kd` statement's colour (one grey or r g b), for material `name`; `None` for a colour form
+/// that is not supported (`spectral`, `xyz`: the default stays, with a warning). Leniencies
+/// (RGBA, float noise below 0, values above 1) are warnings naming the line; a value outside
+/// `[0, MAX_COLOUR]` or another count is an error naming it.
+fn diffuse_colour<'a>(
+    args: &'a str,
+    name: &str,
+    path: &Path,
+    line: usize,
+    report: &mut LoadReport,
+) -> Result<Option<[&'a str; 3]>, SceneError> {
+    let first = args.split_whitespace().next().unwrap_or("");
+    if first == "spectral" || first == "xyz" {
+        report.warn(
+            WarningKind::UnsupportedColour,
+            path,
+            Some(line),
+            format!("'Kd {first}' is not supported: material '{name}' keeps grey 0.8"),
+        );
+        return Ok(None);
+    }
+    let mut v = numbers(args, 1, "diffuse colour (Kd)", path, line)?;
+    if v.len() == 4 {
+        report.warn(
+            WarningKind::LenientMaterial,
+            path,
+            Some(line),
+            format!("Kd of four numbers (RGBA): material '{name}' drops the alpha"),
+        );
+        v.truncate(3);
+    }
+    for a in &mut v {
+        // Float noise below 0 (an exporter's -0.000001) is 0.
+        let x: f32 = a.parse().unwrap_or(f32::NAN);
+        if (-KD_NOISE..0.0).contains(&x) {
+            report.warn(
+                WarningKind::LenientMaterial,
+                path,
+                Some(line),
+                format!("Kd of {a} taken as 0 (material '{name}')"),
+            );
+            *a = "0";
+        }
+    }
+    if let Some(a) = v.iter().find(|a| {
+        let x: f32 = a.parse().unwrap_or(f32::NAN);
+        !(0.0..=MAX_COLOUR).contains(&x)
+    }) {
+        return Err(obj_err(
+            path,
+            line,
+            format!("diffuse colour (Kd) has {a}, outside [0, {MAX_COLOUR}] (linear RGB)"),
+        ));
+    }
+    // Above 1 a surface sends back more light than reaches it: kept (light sources and
+    // HDR set-ups write them), but named, since 8-bit values (`Kd 255 128 0`) render white.
+    if let Some(a) = v.iter().find(|a| a.parse::<f32>().is_ok_and(|x| x > 1.0)) {
+        report.warn(
+            WarningKind::LenientMaterial,
+            path,
+            Some(line),
+            format!(
+                "Kd of {a}, above 1: material '{name}' sends back more light than reaches it \
+                 (MTL colours run from 0 to 1; 8-bit values need dividing by 255)"
+            ),
+        );
+    }
+    Ok(Some(match v[..] {
+        [g] => [g; 3],
+        [r, g, b] => [r, g, b],
+        _ => {
+            return Err(obj_err(
+                path,
+                line,
+                format!(
+                    "diffuse colour (Kd) takes 1 number (grey) or 3 (r g b), found {}",
+                    v.len()
+                ),
+            ));
+        }
+    }))
 }
 
 /// A `map_Kd` statement's texture file ([`find_beside`]), relative to the MTL's folder, its
