@@ -131,7 +131,7 @@ struct Acc {
     steps: Vec<u64>,
     active: u64,
     issued: u64,
-    /// Per block: active and issued lanes.
+    /// Per block (as `steps`): active and issued lanes.
     block_lanes: Vec<(u64, u64)>,
     sectors: u64,
     /// Per work item: the warp-steps of each block its warps issued.
@@ -150,9 +150,6 @@ impl Acc {
         self.items[self.item][block] += 1;
         self.active += active;
         self.issued += width as u64;
-        if self.block_lanes.len() < self.steps.len() {
-            self.block_lanes.resize(self.steps.len(), (0, 0));
-        }
         self.block_lanes[block].0 += active;
         self.block_lanes[block].1 += width as u64;
         self.sectors += sectors(loads);
@@ -201,6 +198,7 @@ pub fn replay(
     let nblocks = work::blocks(rec.method).len();
     let mut acc = Acc {
         steps: vec![0; nblocks],
+        block_lanes: vec![(0, 0); nblocks],
         ..Acc::default()
     };
     let rays = rec.rays();
@@ -270,10 +268,13 @@ pub fn replay(
         } else {
             acc.active as f64 / acc.issued as f64
         },
-        block_efficiency: (0..acc.steps.len())
-            .map(|b| match acc.block_lanes.get(b) {
-                Some(&(active, issued)) if issued > 0 => active as f64 / issued as f64,
-                _ => 0.0,
+        block_efficiency: (acc.block_lanes.iter())
+            .map(|&(active, issued)| {
+                if issued == 0 {
+                    0.0
+                } else {
+                    active as f64 / issued as f64
+                }
             })
             .collect(),
         sectors_per_ray: per(acc.sectors),

@@ -334,12 +334,7 @@ impl<'a> Scorer<'a> {
 /// Candidate centres: the grid over the grown reflector box, then the axis placements of one to
 /// three CMOs.
 fn candidates(world: &WorldGeometry, grid: u32) -> Vec<Vec3> {
-    let (lo, hi) = world.bounds(|o| o.reflector);
-    let (lo, hi) = if lo.x > hi.x {
-        world.bounds(|_| true)
-    } else {
-        (lo, hi)
-    };
+    let (lo, hi) = world.reflector_bounds();
     let grow = Vec3::splat(0.5 * (hi - lo).max_element());
     // Grown, but not beyond the scene: a centre outside it sees nothing the rays meet.
     let (all_lo, all_hi) = world.bounds(|_| true);

@@ -130,12 +130,7 @@ impl WorldGeometry {
 
     /// [`Scene::axis_centres`](super::Scene::axis_centres) of the scene flattened into this.
     pub fn axis_centres(&self, count: u32) -> Vec<Vec3> {
-        let (lo, hi) = self.bounds(|o| o.reflector);
-        let (lo, hi) = if lo.x > hi.x {
-            self.bounds(|_| true)
-        } else {
-            (lo, hi)
-        };
+        let (lo, hi) = self.reflector_bounds();
         let ext = hi - lo;
         let axis = if ext.x >= ext.y && ext.x >= ext.z {
             Vec3::X
@@ -152,6 +147,16 @@ impl WorldGeometry {
                 centre + axis * (ext.dot(axis) * f)
             })
             .collect()
+    }
+
+    /// Bounding box of the reflectors; of the whole scene where it has none.
+    pub fn reflector_bounds(&self) -> (Vec3, Vec3) {
+        let (lo, hi) = self.bounds(|o| o.reflector);
+        if lo.x > hi.x {
+            self.bounds(|_| true)
+        } else {
+            (lo, hi)
+        }
     }
 
     /// Bounding box of the objects selected by `keep` (empty: `lo > hi`).

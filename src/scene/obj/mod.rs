@@ -73,9 +73,10 @@
 //!   still missing, or a texture that cannot be decoded, is a warning naming the file and
 //!   line: the material keeps its `Kd` (a missing library's materials are grey).
 //!
-//! Every error names the file and the line: numbers that do not parse or are not finite (NaN, inf;
-//! but for a normal's, a warning: the normal is computed from the faces), a vertex coordinate beyond 2^60 ([`MAX_COORDINATE`](crate::scene::MAX_COORDINATE): scale a mesh
-//! in its transform instead), a `Kd` outside `[0, 65504]`
+//! Every error names the file and the line: numbers that do not parse or are not finite (NaN,
+//! inf; but a normal's is a warning, the normal computed from the faces), a vertex coordinate
+//! beyond 2^60 ([`MAX_COORDINATE`](crate::scene::MAX_COORDINATE): scale a mesh in its
+//! transform instead), a `Kd` outside `[0, 65504]`
 //! ([`MAX_COLOUR`](crate::scene::MAX_COLOUR)), face indices out of range. Errors are found in this
 //! order: the OBJ pass, the MTL passes, then polygons (so of a bad index and a self-intersecting
 //! polygon, the index is named even when it comes later in the file).

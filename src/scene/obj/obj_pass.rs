@@ -161,6 +161,7 @@ fn smoothing_group(args: &str) -> u32 {
     }
     args.parse::<u32>().unwrap_or(SMOOTH)
 }
+
 /// The material name an empty `usemtl` stands for: one no MTL defines (a control character),
 /// so that its faces get the default material as an undefined name's do, without that warning.
 pub(super) const NO_MATERIAL: &str = "\u{1}default";
@@ -459,7 +460,7 @@ fn first_words(args: &str, n: usize) -> &str {
 }
 
 /// A `vn` statement's three components. One that parses to a NaN or an infinity (written
-/// `nan`, `inf`, `-nan(ind)`...) makes the normal zero, which the mesh replaces by one computed
+/// `nan`, `inf`, `-inf`) makes the normal zero, which the mesh replaces by one computed
 /// from the faces ([`super::mesh`]), with a warning naming the line; text that is not a number
 /// is an error naming the line, as everywhere.
 fn normal<'a>(
@@ -471,8 +472,8 @@ fn normal<'a>(
     let parsed: Vec<Option<f32>> = (args.split_whitespace().take(3))
         .map(|a| a.parse::<f32>().ok())
         .collect();
-    let numbers_of = parsed.len() == 3 && parsed.iter().all(Option::is_some);
-    if numbers_of && parsed.iter().flatten().any(|x| !x.is_finite()) {
+    let all_numbers = parsed.len() == 3 && parsed.iter().all(Option::is_some);
+    if all_numbers && parsed.iter().flatten().any(|x| !x.is_finite()) {
         report.warn(
             WarningKind::NonFiniteNormal,
             path,
