@@ -13,9 +13,9 @@
 //   `tile_jobs` / `small_jobs`. A job that does not fit the job buffer (or a rect of more than
 //   `LISTS_TILE_CAP` tiles) sets its face's `lists_face_overflow` to 0: every texel of that
 //   face is then unknown from distance 0 (sound).
-// - `texels`: workgroups of 64 over the jobs (grid-stride; dispatch sized by `texel_args`), 16
-//   lanes a job: four tile jobs (up to four texels a lane) or four small jobs (a texel a lane)
-//   per workgroup. An invocation runs the fast paths on its texels
+// - `texels`: workgroups of 64 over the jobs (grid-stride; dispatch sized by `texel_args`):
+//   four tile jobs of 16 lanes (up to four texels a lane) or 32 small jobs of 2 lanes (up to
+//   eight texels a lane) per workgroup. An invocation runs the fast paths on its texels
 //   (`cf_texel_cone_edges`): wholly inside the triangle, a node with the corner bounds;
 //   undecided, an entry of the clip queue (`lists_clips`). A node `{triangle, lo, hi, next}`
 //   goes onto the texel's list (`lists_heads`, atomicExchange). With the node pool full the
@@ -57,8 +57,8 @@ const LISTS_NIL: u32 = 0xffffffffu;
 // invocation): a whole face up to N = 1952; beyond, such a face is unknown (`tiles_capped`).
 const LISTS_TILE_CAP: u32 = 60000u;
 // A tile whose part of the rect holds at most this many texels is a small job: `texels` gives
-// it a lane per texel (so at most LISTS_JOB_LANES), where a tile job's lanes take up to four
-// texels each (a dense mesh's triangles cover a few texels each).
+// it LISTS_SMALL_LANES lanes, where a tile job takes LISTS_JOB_LANES (a dense mesh's triangles
+// cover a few texels each).
 const LISTS_SMALL: u32 = 16u;
 
 struct ListsParams {
@@ -321,16 +321,20 @@ fn lists_local(job: ListsJob) -> ListsLocal {
     );
 }
 
-// Lanes per job in `texels`: a small job's texels (at most LISTS_SMALL) a lane each, a tile job's
-// 64 texels four each (a turn per two rows of the tile).
+// Lanes per tile job in `texels`: its 64 texels four each (a turn per two rows of the tile).
 const LISTS_JOB_LANES: u32 = 16u;
+// Lanes per small job in `texels`: its texels (at most LISTS_SMALL, two on average on a dense
+// mesh) in turns. At 16 lanes, as a tile job, a subgroup of 8 lanes ran about two texels:
+// truck-garage's `texels` took 59.5 ms at N = 64, against 24.8 ms at 4 lanes, 17.4 at 2 and
+// 15.3 at 1 (cad-mm: 13.5, 7.9, 6.6, 7.1; benches/results/lavapipe-bounded-cost.md).
+const LISTS_SMALL_LANES: u32 = 2u;
 
-// The job loop is a grid-stride loop over the jobs the `jobs` pass appended, 64 /
-// LISTS_JOB_LANES of them per workgroup, LISTS_JOB_LANES lanes each: the tile jobs first (lane
-// `l` takes texels `l`, `l + 16`, ... of its 8x8 tile, one per turn, as many turns as the rect's
-// rows in the tile need, so that the job's load, its triangle in the face's frame and its edge
-// planes are made once for up to four texels), then the small jobs (lane `l` takes texel `l` of
-// its tile's part of the rect, row by row). Both kinds run the same per-texel code. No clip
+// The job loop is a grid-stride loop over the jobs the `jobs` pass appended: the tile jobs
+// first, LISTS_JOB_LANES lanes each (lane `l` takes texels `l`, `l + 16`, ... of its 8x8 tile,
+// one per turn, as many turns as the rect's rows in the tile need, so that the job's load, its
+// triangle in the face's frame and its edge planes are made once for up to four texels), then
+// the small jobs, LISTS_SMALL_LANES lanes each (lane `l` takes texels `l`, `l + 2`, ... of its
+// tile's part of the rect, row by row). Both kinds run the same per-texel code. No clip
 // runs here: lavapipe executes both arms of a divergent branch, so a clip in this loop would
 // cost every texel. A texel the fast paths leave goes to the clip queue; with the queue full it
 // gets the whole triangle's bounds (sound, looser; `clips_dropped`).
@@ -344,44 +348,48 @@ fn texels(
     let tile_jobs = min(atomicLoad(&lists_counters.tile_jobs), cap);
     let small_jobs = min(atomicLoad(&lists_counters.small_jobs), cap);
     let per_group = 64u / LISTS_JOB_LANES;
+    let small_per_group = 64u / LISTS_SMALL_LANES;
     let tile_groups = (tile_jobs + per_group - 1u) / per_group;
-    let count = tile_groups + (small_jobs + per_group - 1u) / per_group;
-    let slot = lane / LISTS_JOB_LANES;
-    let sub = lane % LISTS_JOB_LANES;
+    let count = tile_groups + (small_jobs + small_per_group - 1u) / small_per_group;
     let stride = nwg.x * nwg.y;
     var v = wid.x + wid.y * nwg.x;
     // The end is tested at the bottom, behind a guard (module docs).
     if v < count {
         loop {
             let tiles = v < tile_groups;
+            var lanes = LISTS_JOB_LANES;
+            var slot = lane / LISTS_JOB_LANES;
             var s = v * per_group + slot;
             var j = min(s, tile_jobs - 1u);
             var valid = s < tile_jobs;
-            var turns = 1u;
             if !tiles {
-                s = (v - tile_groups) * per_group + slot;
+                lanes = LISTS_SMALL_LANES;
+                slot = lane / LISTS_SMALL_LANES;
+                s = (v - tile_groups) * small_per_group + slot;
                 valid = s < small_jobs;
                 j = cap - 1u - min(s, small_jobs - 1u);
             }
+            let sub = lane % lanes;
             let job = lists_jobs[j];
             let tx = (job.rect_x & 0xffffu) + (job.tile & 0xffffu) * CB_TILE;
             let ty = (job.rect_y & 0xffffu) + (job.tile >> 16u) * CB_TILE;
             let x1 = min(tx + CB_TILE - 1u, job.rect_x >> 16u);
             let y1 = min(ty + CB_TILE - 1u, job.rect_y >> 16u);
             let w = x1 - tx + 1u;
-            // A small job's lanes past its texels skip the set-up, and a tile job takes only
-            // the turns its rows need (the set-up run for every lane made truck-garage's
+            // A small job's lanes past its texels skip the set-up, and a job takes only the
+            // turns its texels need (the set-up run for every lane made truck-garage's
             // `texels` 18 % slower, benches/results/lavapipe-shaders.md).
-            if tiles {
-                turns = ((y1 - ty + 1u) * CB_TILE + LISTS_JOB_LANES - 1u) / LISTS_JOB_LANES;
-            } else {
-                valid = valid && sub < w * (y1 - ty + 1u);
+            var n = (y1 - ty + 1u) * CB_TILE;
+            if !tiles {
+                n = w * (y1 - ty + 1u);
             }
+            valid = valid && sub < n;
+            let turns = (n - sub + lanes - 1u) / lanes;
             if valid {
                 let l = lists_local(job);
                 let g = cf_edges(l.l0, l.l1, l.l2, job.e);
                 for (var t = 0u; t < turns; t++) {
-                    let k = sub + t * LISTS_JOB_LANES;
+                    let k = sub + t * lanes;
                     var dx = k % CB_TILE;
                     var dy = k / CB_TILE;
                     if !tiles {
@@ -441,7 +449,8 @@ fn texel_args() {
     let per_group = 64u / LISTS_JOB_LANES;
     let small = min(atomicLoad(&lists_counters.small_jobs), cap);
     let tiles = min(atomicLoad(&lists_counters.tile_jobs), cap);
-    let n = (tiles + per_group - 1u) / per_group + (small + per_group - 1u) / per_group;
+    let small_per_group = 64u / LISTS_SMALL_LANES;
+    let n = (tiles + per_group - 1u) / per_group + (small + small_per_group - 1u) / small_per_group;
     lists_args[0] = ListsArgs(min(n, 65535u), 1u, 1u);
 }
 

@@ -7,8 +7,8 @@
 //!   in turn: step 0, [`bounds::face_missed`]; the pairs it keeps go to a queue), `jobs` (one
 //!   invocation per queued pair: one job per 8x8 tile of its texel rect that is not wholly
 //!   outside the triangle; a tile whose part of the rect holds at most 16 texels is a small job),
-//!   `texels` (16 lanes a job, four jobs to a workgroup, a tile job's lanes up to four texels
-//!   each; the fast paths per texel: a node per texel wholly inside the triangle, the texels
+//!   `texels` (a tile job 16 lanes of up to four texels each, a small job 2 lanes of up to
+//!   eight; the fast paths per texel: a node per texel wholly inside the triangle, the texels
 //!   they cannot decide queued for `clips`), `clips` (the four clips of
 //!   each queued texel, a node where the triangle touches it), `resolve` (the `depth` smallest
 //!   `(lo, triangle)` sorted at the head of each list, then the per-texel record and `lo`).
