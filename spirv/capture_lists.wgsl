@@ -29,15 +29,16 @@
 //   top cost a second turn that lavapipe ran, every lane masked: about a quarter of `texels`
 //   and a third of `clips`.
 // - `resolve`: one invocation per texel: selection of the `depth` smallest `(lo, triangle)` by
-//   payload swapping along the list, RESOLVE_K of them per scan (the first `count_kept` nodes
-//   from the head end up sorted),
+//   payload swapping along the list, RESOLVE_K of them per scan, or for a list of more than
+//   RESOLVE_LONG nodes a merge sort that relinks them (the first `count_kept` nodes from the
+//   head end up sorted),
 //   `complete_to = min(overflow, face overflow, smallest lo beyond depth)`, then the record
 //   `vec4(head, bits(complete_to), bits(hi), count_kept)`, the first gap into `lists_gap`, and
 //   `lo` into `lists_distance`
 //   (CMO-major, `(face N + y) N + x`, like the CMO distance buffer). The walk is capped at
 //   `walk_cap` node visits (lavapipe's 65535 back-edges per invocation): a capped texel gets
-//   `complete_to = 0` and is counted in `walks_capped`. Its two loops test their end at the
-//   bottom, so that a subgroup of 8 texels runs the turns of its longest list and no extra
+//   `complete_to = 0` and is counted in `walks_capped`. The scans' two loops test their end at
+//   the bottom, so that a subgroup of 8 texels runs the turns of its longest list and no extra
 //   turn with every lane masked.
 // Records and nodes are stored a word per binding (`lists_rec_*`, `lists_node_*`: one u32
 // per texel or node each, `src/vk/passes/lists.rs`), so that no binding exceeds
@@ -500,6 +501,11 @@ fn pack_gap(g1: f32, g0: f32) -> u32 {
 // and the nodes holding them; a slot no entry took holds LISTS_NIL keys, which sort after every
 // entry (an entry's lo is a non-negative float: never -0.0 or NaN, so its bits stay below).
 const RESOLVE_K: u32 = 4u;
+// Lists longer than this are sorted by merging (`resolve`). A dense scene's long lists are few
+// (truck-garage at N = 64: p99 248 nodes, max 2,924) but their subgroups set the pass's time:
+// at depth 256, scans alone took 47 ms there, merges above 32 nodes 22 ms (16, 64 and 128
+// within noise of 32; benches/results/lavapipe-bounded-cost.md).
+const RESOLVE_LONG: u32 = 32u;
 
 struct ResolveTop {
     lo: vec4<u32>,
@@ -522,6 +528,13 @@ fn resolve_insert(t: ResolveTop, lo: u32, tri: u32, at: u32) -> ResolveTop {
         select(t.tri, select(vec4<u32>(tri), vec4<u32>(tri, t.tri.xyz), shift), before),
         select(t.at, select(vec4<u32>(at), vec4<u32>(at, t.at.xyz), shift), before),
     );
+}
+
+// Whether the entry (lo bits `alo`, triangle `atri`) sorts before (`blo`, `btri`): by lo, then
+// triangle (an entry's lo is a non-negative float, never -0.0 or NaN, so its bits order as the
+// floats do; a texel's list holds a triangle once, so no two keys are equal).
+fn resolve_before(alo: u32, atri: u32, blo: u32, btri: u32) -> bool {
+    return alo < blo || (alo == blo && atri < btri);
 }
 
 @compute @workgroup_size(64)
@@ -552,6 +565,8 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
     var rest = f32_inf();
     let depth = lists_params.depth;
     let walk_cap = lists_params.walk_cap;
+    var long_list = false;
+    var first = head;
     // A list of one node (most texels of a smooth scene) is sorted: its entry is kept as it is
     // (depth >= 1), and the walk below is skipped.
     if node != LISTS_NIL {
@@ -606,6 +621,11 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
             if capped {
                 break;
             }
+            // A long list is sorted by the merge below instead (its first scan counted it).
+            if kept == 0u && seen > RESOLVE_LONG {
+                long_list = true;
+                break;
+            }
             let found = min(seen, RESOLVE_K);
             let placed = min(found, depth - kept);
             // The scan's entries in order go to its first nodes, each to the list's node at
@@ -650,6 +670,123 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
             }
         }
     }
+    // A long list (more than RESOLVE_LONG nodes, counted by its first scan, which placed
+    // nothing) is sorted whole by (lo, triangle) by relinking its nodes: a bottom-up merge sort
+    // of the linked list (runs of `width` nodes merged in pairs, `width` doubling per pass until
+    // one merge takes the whole list), about 1.5 n log2 n node visits where the scans take
+    // about n^2 / 8 up to the depth (at depth 256, a list of 300 nodes: 3,700 against 11,000;
+    // the scans stay below RESOLVE_LONG, where they cost less). The head is then the first node of
+    // the sorted list. Its visits are capped at half the walk cap: lavapipe's limiter counts the
+    // subgroup's turns of every loop, each as long as the lane that needs most. Its loops test
+    // their end at the top (spirv/README.md: a lane past a bottom break keeps writing).
+    if long_list {
+        var width = 1u;
+        loop {
+            var p = first;
+            var tail = LISTS_NIL;
+            var merges = 0u;
+            loop {
+                if p == LISTS_NIL || capped {
+                    break;
+                }
+                merges += 1u;
+                // The first run: up to `width` nodes from `p`; the second starts at `q`.
+                var q = p;
+                var psize = 0u;
+                loop {
+                    if psize == width || q == LISTS_NIL {
+                        break;
+                    }
+                    psize += 1u;
+                    q = lists_node_next[q];
+                }
+                var qsize = select(0u, width, q != LISTS_NIL);
+                var p_lo = lists_node_lo[p];
+                var p_tri = lists_node_triangle[p];
+                var q_lo = 0u;
+                var q_tri = 0u;
+                if qsize > 0u {
+                    q_lo = lists_node_lo[q];
+                    q_tri = lists_node_triangle[q];
+                }
+                steps += psize + 1u;
+                loop {
+                    if psize == 0u && qsize == 0u {
+                        break;
+                    }
+                    // One load site for the taken run's next node and its key (lavapipe runs
+                    // both arms of a divergent branch, each load lane by lane).
+                    let take_p = psize > 0u && (qsize == 0u || !resolve_before(q_lo, q_tri, p_lo, p_tri));
+                    let e = select(q, p, take_p);
+                    let after = lists_node_next[e];
+                    psize = select(psize, psize - 1u, take_p);
+                    qsize = select(select(0u, qsize - 1u, after != LISTS_NIL), qsize, take_p);
+                    var more = qsize > 0u;
+                    if take_p {
+                        p = after;
+                        more = psize > 0u;
+                    } else {
+                        q = after;
+                    }
+                    if more {
+                        let a_lo = lists_node_lo[after];
+                        let a_tri = lists_node_triangle[after];
+                        p_lo = select(p_lo, a_lo, take_p);
+                        p_tri = select(p_tri, a_tri, take_p);
+                        q_lo = select(a_lo, q_lo, take_p);
+                        q_tri = select(a_tri, q_tri, take_p);
+                    }
+                    if tail == LISTS_NIL {
+                        first = e;
+                    } else {
+                        lists_node_next[tail] = e;
+                    }
+                    tail = e;
+                    steps += 1u;
+                }
+                p = q;
+                capped = steps > walk_cap / 2u;
+            }
+            if capped {
+                break;
+            }
+            lists_node_next[tail] = LISTS_NIL;
+            if merges <= 1u {
+                break;
+            }
+            width *= 2u;
+        }
+    }
+    // The first `depth` entries count towards `hi` and the first gap (the end of the first run
+    // of overlapping entries, and the lo of the first entry past it:
+    // `cubemap::bounds::first_gap`); the next one's lo is `rest`.
+    if long_list && !capped {
+        node = first;
+        loop {
+            if node == LISTS_NIL {
+                break;
+            }
+            let lo = bitcast<f32>(lists_node_lo[node]);
+            if kept == depth {
+                rest = lo;
+                break;
+            }
+            let e_hi = bitcast<f32>(lists_node_hi[node]);
+            hi = max(hi, e_hi);
+            if kept == 0u {
+                gap_end = e_hi;
+            } else if !gap_found {
+                if lo > gap_end {
+                    gap_next = lo;
+                    gap_found = true;
+                } else {
+                    gap_end = max(gap_end, e_hi);
+                }
+            }
+            kept += 1u;
+            node = lists_node_next[node];
+        }
+    }
     if capped {
         complete = 0.0;
         atomicAdd(&lists_counters.walks_capped, 1u);
@@ -660,9 +797,9 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     var lo = complete;
     if kept > 0u {
-        lo = min(bitcast<f32>(lists_node_lo[head]), complete);
+        lo = min(bitcast<f32>(lists_node_lo[first]), complete);
     }
-    lists_rec_head[texel] = head;
+    lists_rec_head[texel] = first;
     lists_rec_complete[texel] = bitcast<u32>(complete);
     lists_rec_hi[texel] = bitcast<u32>(hi);
     lists_rec_count[texel] = kept;

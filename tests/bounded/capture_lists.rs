@@ -319,6 +319,7 @@ fn gpu_matches_the_cpu_twin_on_a_builtin_scene() {
 #[test]
 fn gpu_matches_the_cpu_twin_on_corpus_scenes() {
     let ctx = gpu_context();
+    let (mut longest, mut scanned) = (0, false);
     for name in ["slivers", "bunny", "cad-mm", "blender-mtl", "far-offset"] {
         let s = common::corpus_scene(name);
         let data = GpuSceneData::new(&s);
@@ -335,7 +336,16 @@ fn gpu_matches_the_cpu_twin_on_corpus_scenes() {
         assert!(c.tile_jobs > 0 && c.small_jobs > 0, "{name}: {c:?}");
         assert_eq!(c.tile_jobs + c.small_jobs, c.jobs, "{name}");
         compare_all(&g, &cpu_lists(&data, &cmos, size, 16));
+        // `resolve` scans lists of up to RESOLVE_LONG (32) nodes and merge-sorts longer ones:
+        // both kinds were compared.
+        let full = cpu_lists(&data, &cmos, size, u32::MAX);
+        let lens = full
+            .iter()
+            .flat_map(|c| c.offsets.windows(2).map(|w| w[1] - w[0]));
+        longest = longest.max(lens.clone().max().unwrap_or(0));
+        scanned |= lens.clone().any(|n| (9..=32).contains(&n));
     }
+    assert!(longest > 32 && scanned, "{longest}, {scanned}");
     finish_gpu(ctx);
 }
 
@@ -566,46 +576,65 @@ fn a_full_clip_queue_stays_sound() {
     finish_gpu(ctx);
 }
 
-/// A walk cap of 2 node visits: the capped texels are unknown from 0 (sound) and counted.
+/// A walk cap of 2 node visits on a built-in scene (the scans cut), and of 100 on a corpus
+/// scene whose lists of 33 to 100 nodes the merge sort takes (cut at half the cap): the capped
+/// texels are unknown from 0 (sound) and counted.
 #[test]
 fn capped_walks_stay_sound() {
     let ctx = gpu_context();
-    let (data, cmos) = builtin("sphere-room");
-    let size = 16;
-    let scene = SceneBuffers::new(&ctx, &data).unwrap();
-    let cap = full_capacity(&data, &cmos[..1], size);
-    let mut lists = CaptureLists::new(&ctx, &scene, size, 16, &cmos[..1], cap, None).unwrap();
-    lists.set_walk_cap(&ctx, 2).unwrap();
-    ctx.submit_and_wait("capture_lists", |rec| lists.record(rec))
-        .unwrap();
-    let g = lists.read_back(&ctx, None).unwrap();
-    eprintln!("walk cap 2: {:?}", g.counters);
-    assert!(g.counters.walks_capped > 0);
-    let full = cpu_lists(&data, &cmos[..1], size, u32::MAX);
-    check_sound(&g.cmos[0], &full[0]).unwrap();
-    let zeros = g.cmos[0].complete_to.iter().filter(|&&c| c == 0.0).count();
-    assert_eq!(zeros, g.counters.walks_capped as usize);
-    // Negative: the capped texels' complete_to back at +inf.
-    let mut bad = g.cmos[0].clone();
-    for c in bad.complete_to.iter_mut().filter(|c| **c == 0.0) {
-        *c = f32::INFINITY;
+    let scenes = [(builtin("sphere-room"), 16, 2), (corpus("cad-mm"), 32, 100)];
+    for ((data, cmos), size, walk_cap) in scenes {
+        let scene = SceneBuffers::new(&ctx, &data).unwrap();
+        let cap = full_capacity(&data, &cmos[..1], size);
+        let mut lists = CaptureLists::new(&ctx, &scene, size, 16, &cmos[..1], cap, None).unwrap();
+        lists.set_walk_cap(&ctx, walk_cap).unwrap();
+        ctx.submit_and_wait("capture_lists", |rec| lists.record(rec))
+            .unwrap();
+        let g = lists.read_back(&ctx, None).unwrap();
+        eprintln!("walk cap {walk_cap}: {:?}", g.counters);
+        assert!(g.counters.walks_capped > 0);
+        let full = cpu_lists(&data, &cmos[..1], size, u32::MAX);
+        check_sound(&g.cmos[0], &full[0]).unwrap();
+        let zeros = g.cmos[0].complete_to.iter().filter(|&&c| c == 0.0).count();
+        assert_eq!(zeros, g.counters.walks_capped as usize);
+        if walk_cap == 100 {
+            // A list the scans would not cut (at most 100 nodes) was cut in the merge.
+            let len = |i: usize| full[0].offsets[i + 1] - full[0].offsets[i];
+            let merged = (0..full[0].lo.len())
+                .any(|i| g.cmos[0].complete_to[i] == 0.0 && (33..=100).contains(&len(i)));
+            assert!(merged);
+        }
+        // Negative: the capped texels' complete_to back at +inf.
+        let mut bad = g.cmos[0].clone();
+        for c in bad.complete_to.iter_mut().filter(|c| **c == 0.0) {
+            *c = f32::INFINITY;
+        }
+        assert!(check_sound(&bad, &full[0]).is_err());
+        drop(lists);
+        drop(scene);
     }
-    assert!(check_sound(&bad, &full[0]).is_err());
-    drop(lists);
-    drop(scene);
     finish_gpu(ctx);
+}
+
+fn corpus(name: &str) -> (GpuSceneData, Vec<(Vec3, bool)>) {
+    let s = common::corpus_scene(name);
+    let cmos = cubetrace::vk::passes::capture_lists::scene_views(&s);
+    (GpuSceneData::new(&s), cmos)
 }
 
 #[test]
 fn capture_cost_on_a_builtin_scene() {
     let ctx = gpu_context();
-    // Another scene (a built-in name or a scene file) through CUBETRACE_COST_SCENE, and another
-    // depth through CUBETRACE_COST_DEPTH (the frame's is 64), to time the passes with
-    // `--nocapture`.
+    // Another scene (a built-in name or a scene file) through CUBETRACE_COST_SCENE, another
+    // depth through CUBETRACE_COST_DEPTH (the frame's is 256) and other face sizes through
+    // CUBETRACE_COST_SIZES (`64,128`), to time the passes with `--nocapture`.
     let name = std::env::var("CUBETRACE_COST_SCENE").unwrap_or("sphere-room".into());
     let (data, cmos) = builtin(&name);
     let scene = SceneBuffers::new(&ctx, &data).unwrap();
-    for size in [64, 256] {
+    let sizes: Vec<u32> = std::env::var("CUBETRACE_COST_SIZES")
+        .map(|s| s.split(',').map(|n| n.parse().unwrap()).collect())
+        .unwrap_or(vec![64, 256]);
+    for size in sizes {
         let t0 = Instant::now();
         let cap = full_capacity(&data, &cmos[..1], size);
         let cpu_bound = t0.elapsed().as_secs_f64();
