@@ -123,6 +123,8 @@ struct ListsCounters {
     // not fit (their face is then unknown).
     pairs: atomic<u32>,
     pairs_dropped: atomic<u32>,
+    // Of the pairs: those whose rect needs a clip, queued for `jobs_hard`.
+    hard_pairs: atomic<u32>,
 }
 
 // A dispatch's size (`vkCmdDispatchIndirect`).
@@ -152,8 +154,8 @@ struct ListsArgs {
 @group(1) @binding(15) var<storage, read_write> lists_node_next: array<u32>;
 // The clip queue: per entry the job index and the texel `x | y << 16`.
 @group(1) @binding(16) var<storage, read_write> lists_clips: array<vec2<u32>>;
-// The sizes of the `texels`, `clips` and `jobs` dispatches.
-@group(1) @binding(17) var<storage, read_write> lists_args: array<ListsArgs, 3>;
+// The sizes of the `texels`, `clips`, `jobs` and `jobs_hard` dispatches.
+@group(1) @binding(17) var<storage, read_write> lists_args: array<ListsArgs, 4>;
 // The texels' first gaps, packed (`resolve`; the tracers' `cmo_gap`, shared/trace.wgsl), as
 // `lists_distance`.
 @group(1) @binding(18) var<storage, read_write> lists_gap: array<u32>;
@@ -220,31 +222,64 @@ fn job_args() {
     lists_args[2] = ListsArgs(min(groups, 65535u), (groups + 65534u) / 65535u, 1u);
 }
 
-// Steps 1-4 and the tiles of every queued pair.
+// Steps 1-4 and the tiles of every queued pair that needs no clip (`cb_face_rect_unclipped`:
+// most of a dense mesh's); the others go to the back of the pair queue's buffer (the hard
+// queue, `hard_pairs`) for `jobs_hard`. Lavapipe runs a branch's code with every lane masked
+// (spirv/README.md), so the clips in `jobs` cost every pair: truck-garage's `jobs` took 16.7 ms
+// with its body never taken, 2.8 ms without the clips' code.
 @compute @workgroup_size(64)
 fn jobs(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
     let i = gid.x + gid.y * nwg.x * 64u;
     if i < min(atomicLoad(&lists_counters.pairs), lists_params.pair_capacity) {
         let pair = lists_clips[i];
-        lists_pair_jobs(pair.x, pair.y);
+        let l = lists_pair_local(pair.x, pair.y);
+        let r = cb_face_rect_unclipped(l.l0, l.l1, l.l2, lists_params.size);
+        if r.hit == 2u {
+            // The buffer holds twice the pair capacity (`clip_queue_bytes`): the hard queue,
+            // at most the pairs, stays clear of them.
+            let k = atomicAdd(&lists_counters.hard_pairs, 1u);
+            lists_clips[arrayLength(&lists_clips) - 1u - k] = pair;
+        } else {
+            lists_pair_tiles(pair.x, pair.y, l, r);
+        }
     }
 }
 
-// The jobs of triangle `t` on CMO face `cmo_face`.
-fn lists_pair_jobs(t: u32, cmo_face: u32) {
+// Sizes the `jobs_hard` dispatch as `job_args` sizes `jobs`.
+@compute @workgroup_size(1)
+fn hard_args() {
+    let groups = (atomicLoad(&lists_counters.hard_pairs) + 63u) / 64u;
+    lists_args[3] = ListsArgs(min(groups, 65535u), (groups + 65534u) / 65535u, 1u);
+}
+
+// Steps 1-4 with their clips (`cb_face_rect`) and the tiles of every pair in the hard queue.
+@compute @workgroup_size(64)
+fn jobs_hard(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) nwg: vec3<u32>) {
+    let i = gid.x + gid.y * nwg.x * 64u;
+    if i < atomicLoad(&lists_counters.hard_pairs) {
+        let pair = lists_clips[arrayLength(&lists_clips) - 1u - i];
+        let l = lists_pair_local(pair.x, pair.y);
+        lists_pair_tiles(pair.x, pair.y, l, cb_face_rect(l.l0, l.l1, l.l2, lists_params.size));
+    }
+}
+
+// Triangle `t` in the frame of CMO face `cmo_face`, CMO-local.
+fn lists_pair_local(t: u32, cmo_face: u32) -> ListsLocal {
     let face = cmo_face % 6u;
-    let view = lists_views[cmo_face / 6u];
-    let w0 = lists_vertex(t, 0u);
-    let w1 = lists_vertex(t, 1u);
-    let w2 = lists_vertex(t, 2u);
-    let l0 = to_face_local(face, w0 - view.centre);
-    let l1 = to_face_local(face, w1 - view.centre);
-    let l2 = to_face_local(face, w2 - view.centre);
-    let size = lists_params.size;
-    let r = cb_face_rect(l0, l1, l2, size);
+    let centre = lists_views[cmo_face / 6u].centre;
+    return ListsLocal(
+        to_face_local(face, lists_vertex(t, 0u) - centre),
+        to_face_local(face, lists_vertex(t, 1u) - centre),
+        to_face_local(face, lists_vertex(t, 2u) - centre),
+    );
+}
+
+// The jobs of triangle `t` (`l` in its face's frame) on CMO face `cmo_face`, whose rect is `r`.
+fn lists_pair_tiles(t: u32, cmo_face: u32, l: ListsLocal, r: CbRect) {
     if r.hit == 0u {
         return;
     }
+    let size = lists_params.size;
     let tiles_x = (r.x1 - r.x0) / CB_TILE + 1u;
     let tiles = tiles_x * ((r.y1 - r.y0) / CB_TILE + 1u);
     if tiles > LISTS_TILE_CAP {
@@ -254,7 +289,7 @@ fn lists_pair_jobs(t: u32, cmo_face: u32) {
     }
     // A tile wholly outside the triangle gets no job (`cf_tile_outside`; never for a `whole`
     // rect, whose texels all take the whole triangle's bounds).
-    let g = cf_edges(l0, l1, l2, r.e);
+    let g = cf_edges(l.l0, l.l1, l.l2, r.e);
     let cap = lists_params.job_capacity;
     for (var k = 0u; k < tiles; k++) {
         let tx = r.x0 + (k % tiles_x) * CB_TILE;

@@ -159,16 +159,23 @@ fn cb_then(a: u32, b: u32) -> u32 {
     return select(a, b, a == CB_KEEPS);
 }
 
+// The effect of the six box planes of `near_centre` in turn.
+fn cb_box_effect(l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>, e: f32) -> u32 {
+    let h = CB_NEAR_BOX * e;
+    var effect = CB_KEEPS;
+    for (var kind = CB_PLANE_BOX; kind < CB_PLANE_BOX + 6u; kind++) {
+        effect = cb_then(effect, cb_plane_effect(l0, l1, l2, kind, h));
+    }
+    return effect;
+}
+
 // `near_centre`. The triangle clipped by the six box planes in turn; where every plane keeps or
 // empties it (a triangle away from the three coordinate planes through the centre, the common
 // case), the clips' outcome is known without them: the triangle (3 vertices, no overflow) or
 // nothing. Only the rest run them.
 fn cb_near_centre(l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>, e: f32) -> bool {
     let h = CB_NEAR_BOX * e;
-    var effect = CB_KEEPS;
-    for (var kind = CB_PLANE_BOX; kind < CB_PLANE_BOX + 6u; kind++) {
-        effect = cb_then(effect, cb_plane_effect(l0, l1, l2, kind, h));
-    }
+    let effect = cb_box_effect(l0, l1, l2, e);
     if effect != CB_CUTS {
         return effect == CB_KEEPS;
     }
@@ -222,14 +229,14 @@ fn cb_face_rect(l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>, size: u32) -> CbRec
     let d = 1.0 + CB_FACE_DILATION;
     // The four clips run only where one of them cuts the triangle (as in `cb_near_centre`): a
     // triangle inside the face's frustum, most of them, is its own clipped polygon.
-    var effect = cb_plane_effect(l0, l1, l2, CB_PLANE_U_MIN, -d);
-    effect = cb_then(effect, cb_plane_effect(l0, l1, l2, CB_PLANE_U_MAX, d));
-    effect = cb_then(effect, cb_plane_effect(l0, l1, l2, CB_PLANE_V_MIN, -d));
-    effect = cb_then(effect, cb_plane_effect(l0, l1, l2, CB_PLANE_V_MAX, d));
+    let effect = cb_frustum_effect(l0, l1, l2);
+    if effect == CB_KEEPS {
+        return cb_corner_rect(l0, l1, l2, e, size);
+    }
     var p = cb_triangle(l0, l1, l2);
     if effect == CB_EMPTIES {
         p.n = 0u;
-    } else if effect == CB_CUTS {
+    } else {
         p = cb_clip(p, CB_PLANE_U_MIN, -d);
         p = cb_clip(p, CB_PLANE_U_MAX, d);
         p = cb_clip(p, CB_PLANE_V_MIN, -d);
@@ -239,16 +246,12 @@ fn cb_face_rect(l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>, size: u32) -> CbRec
         return cb_whole_face(size, e);
     }
     if p.n == 0u {
-        return CbRect(0u, 0u, 0u, 0u, 0.0, e, 0u, 0u);
+        return cb_no_rect(e);
     }
     var z_min = p.p[0].z;
     for (var i = 1u; i < p.n; i++) {
         z_min = min(z_min, p.p[i].z);
     }
-    if z_min <= 4.0 * e {
-        return cb_whole_face(size, e);
-    }
-    let m = CB_MARGIN_FLOOR + 4.0 * e / z_min;
     var u_lo = f32_inf();
     var u_hi = -f32_inf();
     var v_lo = f32_inf();
@@ -261,7 +264,65 @@ fn cb_face_rect(l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>, size: u32) -> CbRec
         v_lo = min(v_lo, v);
         v_hi = max(v_hi, v);
     }
+    return cb_rect_of(z_min, u_lo, u_hi, v_lo, v_hi, e, size);
+}
+
+// The rect of a face that the triangle misses.
+fn cb_no_rect(e: f32) -> CbRect {
+    return CbRect(0u, 0u, 0u, 0u, 0.0, e, 0u, 0u);
+}
+
+// The effect of the face frustum's four side planes (dilated) in turn.
+fn cb_frustum_effect(l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>) -> u32 {
+    let d = 1.0 + CB_FACE_DILATION;
+    var effect = cb_plane_effect(l0, l1, l2, CB_PLANE_U_MIN, -d);
+    effect = cb_then(effect, cb_plane_effect(l0, l1, l2, CB_PLANE_U_MAX, d));
+    effect = cb_then(effect, cb_plane_effect(l0, l1, l2, CB_PLANE_V_MIN, -d));
+    return cb_then(effect, cb_plane_effect(l0, l1, l2, CB_PLANE_V_MAX, d));
+}
+
+// The rect of a triangle that every frustum plane keeps (its own clipped polygon), in straight
+// code: the polygon loops' values in their order (the corners are finite here: a NaN plane
+// value cuts).
+fn cb_corner_rect(l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>, e: f32, size: u32) -> CbRect {
+    let z_min = min(min(l0.z, l1.z), l2.z);
+    let u = vec3<f32>(l0.x / l0.z, l1.x / l1.z, l2.x / l2.z);
+    let v = vec3<f32>(l0.y / l0.z, l1.y / l1.z, l2.y / l2.z);
+    let u_lo = min(min(min(f32_inf(), u.x), u.y), u.z);
+    let u_hi = max(max(max(-f32_inf(), u.x), u.y), u.z);
+    let v_lo = min(min(min(f32_inf(), v.x), v.y), v.z);
+    let v_hi = max(max(max(-f32_inf(), v.x), v.y), v.z);
+    return cb_rect_of(z_min, u_lo, u_hi, v_lo, v_hi, e, size);
+}
+
+// The texel rect of a polygon with nearest depth `z_min` and projections in
+// `[u_lo, u_hi] x [v_lo, v_hi]`, widened by the margin; the whole face where the polygon comes
+// within four error budgets of the centre's plane.
+fn cb_rect_of(z_min: f32, u_lo: f32, u_hi: f32, v_lo: f32, v_hi: f32, e: f32, size: u32) -> CbRect {
+    if z_min <= 4.0 * e {
+        return cb_whole_face(size, e);
+    }
+    let m = CB_MARGIN_FLOOR + 4.0 * e / z_min;
     return CbRect(cb_texel_floor(u_lo - m, size), cb_texel_floor(u_hi + m, size), cb_texel_floor(v_lo - m, size), cb_texel_floor(v_hi + m, size), m, e, 0u, 1u);
+}
+
+// `cb_face_rect` where it needs no clip (no box plane cuts the triangle, and no frustum plane
+// does, or the box keeps it: the whole face), else `hit` = 2: the caller runs `cb_face_rect`.
+// The rect is then the same bits.
+fn cb_face_rect_unclipped(l0: vec3<f32>, l1: vec3<f32>, l2: vec3<f32>, size: u32) -> CbRect {
+    let e = cb_error_budget(l0, l1, l2);
+    let near = cb_box_effect(l0, l1, l2, e);
+    let effect = cb_frustum_effect(l0, l1, l2);
+    if near == CB_KEEPS {
+        return cb_whole_face(size, e);
+    }
+    if near == CB_CUTS || effect == CB_CUTS {
+        return CbRect(0u, 0u, 0u, 0u, 0.0, e, 0u, 2u);
+    }
+    if effect == CB_EMPTIES {
+        return cb_no_rect(e);
+    }
+    return cb_corner_rect(l0, l1, l2, e, size);
 }
 
 // `texel_centre_unit`.

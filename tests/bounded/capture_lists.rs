@@ -319,7 +319,7 @@ fn gpu_matches_the_cpu_twin_on_a_builtin_scene() {
 #[test]
 fn gpu_matches_the_cpu_twin_on_corpus_scenes() {
     let ctx = gpu_context();
-    let (mut longest, mut scanned) = (0, false);
+    let (mut longest, mut scanned, mut hard) = (0, false, false);
     for name in ["slivers", "bunny", "cad-mm", "blender-mtl", "far-offset"] {
         let s = common::corpus_scene(name);
         let data = GpuSceneData::new(&s);
@@ -330,11 +330,15 @@ fn gpu_matches_the_cpu_twin_on_corpus_scenes() {
         eprintln!("{name} N = {size}: {cap:?}, {:?}, {secs:.3} s", g.counters);
         assert_nothing_dropped(&g);
         // Step 0 keeps the same (triangle, face) pairs on the GPU as on the CPU, and both kinds
-        // of job ran (tile jobs and small ones), so the bit-for-bit match below covers both.
+        // of job ran (tile jobs and small ones), so the bit-for-bit match below covers both;
+        // so do both kinds of pair (`jobs`, `jobs_hard`), over the scenes.
         let c = g.counters;
         assert_eq!(u64::from(c.pairs), cap.pairs, "{name}");
         assert!(c.tile_jobs > 0 && c.small_jobs > 0, "{name}: {c:?}");
         assert_eq!(c.tile_jobs + c.small_jobs, c.jobs, "{name}");
+        // `jobs` took the pairs whose rect needs no clip, `jobs_hard` the others.
+        hard |= c.hard_pairs > 0;
+        assert!(c.hard_pairs < c.pairs, "{name}: {c:?}");
         compare_all(&g, &cpu_lists(&data, &cmos, size, 16));
         // `resolve` scans lists of up to RESOLVE_LONG (32) nodes and merge-sorts longer ones:
         // both kinds were compared.
@@ -345,7 +349,10 @@ fn gpu_matches_the_cpu_twin_on_corpus_scenes() {
         longest = longest.max(lens.clone().max().unwrap_or(0));
         scanned |= lens.clone().any(|n| (9..=32).contains(&n));
     }
-    assert!(longest > 32 && scanned, "{longest}, {scanned}");
+    assert!(
+        longest > 32 && scanned && hard,
+        "{longest}, {scanned}, {hard}"
+    );
     finish_gpu(ctx);
 }
 

@@ -6,14 +6,16 @@
 //! - Dispatches over every CMO at once: `faces` (one invocation per (triangle, CMO), each face
 //!   in turn: step 0, [`bounds::face_missed`]; the pairs it keeps go to a queue), `jobs` (one
 //!   invocation per queued pair: one job per 8x8 tile of its texel rect that is not wholly
-//!   outside the triangle; a tile whose part of the rect holds at most 16 texels is a small job),
+//!   outside the triangle; a tile whose part of the rect holds at most 16 texels is a small job;
+//!   a pair whose rect needs a clip is queued again for `jobs_hard`, which clips, so that the
+//!   clips' code does not cost every pair),
 //!   `texels` (a tile job 16 lanes of up to four texels each, a small job 2 lanes of up to
 //!   eight; the fast paths per texel: a node per texel wholly inside the triangle, the texels
 //!   they cannot decide queued for `clips`), `clips` (the four clips of
 //!   each queued texel, a node where the triangle touches it), `resolve` (the `depth` smallest
 //!   `(lo, triangle)` sorted at the head of each list, then the per-texel record and `lo`).
-//!   `jobs`, `texels` and `clips` are indirect dispatches sized on the GPU from the queues and
-//!   the jobs (`job_args`, `texel_args`, `clip_args`): on lavapipe an idle workgroup, or a
+//!   `jobs`, `jobs_hard`, `texels` and `clips` are indirect dispatches sized on the GPU from the
+//!   queues and the jobs (`job_args`, `hard_args`, `texel_args`, `clip_args`): on lavapipe an idle workgroup, or a
 //!   branch no lane takes, still costs its instructions. Nodes are pushed onto each texel's
 //!   linked list. [`CaptureLists::record`] clears the heads, overflows and counters first and
 //!   records the barriers between the passes and one after (compute writes -> any shader read).
@@ -147,6 +149,8 @@ pub struct ListCounters {
     /// did not fit (their face is unknown).
     pub pairs: u32,
     pub pairs_dropped: u32,
+    /// Of the pairs: those whose rect needs a clip (`jobs_hard` takes them).
+    pub hard_pairs: u32,
 }
 
 /// Per texel: `[head, bits(complete_to), bits(hi), count_kept]`.
@@ -293,31 +297,34 @@ fn group1_resources<'a>(own: [&'a Buffer; 9], out: ListTargets<'a>) -> Vec<(u32,
     all
 }
 
-/// The `texels`, `clips` and `jobs` dispatch sizes (three `VkDispatchIndirectCommand`s).
+/// The `texels`, `clips`, `jobs` and `jobs_hard` dispatch sizes (four
+/// `VkDispatchIndirectCommand`s).
 fn args_buffer(ctx: &GpuContext) -> VkResult<Buffer> {
     Buffer::new(
         ctx.device(),
         "capture_lists dispatch args",
-        36,
+        48,
         vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::INDIRECT_BUFFER,
         gpu_allocator::MemoryLocation::GpuOnly,
     )
 }
 
 /// Bytes of the clip queue for `capacity`: two u32 per queued texel, or per queued (triangle,
-/// face) pair (the face queue uses the buffer first); the buffer itself holds at least one
-/// entry.
+/// face) pair twice (the face queue uses the buffer first, from its front, and the pairs that
+/// need a clip are queued again from its back); the buffer itself holds at least one entry.
 pub fn clip_queue_bytes(capacity: PoolBound) -> u64 {
-    capacity.clips.max(capacity.pairs) * 8
+    capacity.clips.max(2 * capacity.pairs) * 8
 }
 
 /// The passes' pipelines, in recording order.
-fn pipelines(ctx: &GpuContext) -> VkResult<[ComputePipeline; 8]> {
+fn pipelines(ctx: &GpuContext) -> VkResult<[ComputePipeline; 10]> {
     let pipe = |e| ComputePipeline::new(ctx, &CAPTURE_LISTS, e, ComputeOptions::default());
     Ok([
         pipe("faces")?,
         pipe("job_args")?,
         pipe("jobs")?,
+        pipe("hard_args")?,
+        pipe("jobs_hard")?,
         pipe("texel_args")?,
         pipe("texels")?,
         pipe("clip_args")?,
@@ -409,13 +416,13 @@ fn check_inputs(
     Ok((k, texels, triangles))
 }
 
-/// The eight passes' pipelines, their bindings and buffers for one scene and CMO set.
+/// The ten passes' pipelines, their bindings and buffers for one scene and CMO set.
 pub struct CaptureLists {
-    /// The passes in recording order (`pipelines`): `faces`, `job_args`, `jobs`,
-    /// `texel_args`, `texels`, `clip_args`, `clips`, `resolve`; `sets` holds their `@group(0)`
+    /// The passes in recording order (`pipelines`): `faces`, `job_args`, `jobs`, `hard_args`,
+    /// `jobs_hard`, `texel_args`, `texels`, `clip_args`, `clips`, `resolve`; `sets` holds their `@group(0)`
     /// and `@group(1)` sets in the same order.
-    passes: [ComputePipeline; 8],
-    sets: [(BindGroup, BindGroup); 8],
+    passes: [ComputePipeline; 10],
+    sets: [(BindGroup, BindGroup); 10],
     params_buf: Buffer,
     views_buf: Buffer,
     job_buf: Buffer,
@@ -646,7 +653,7 @@ impl CaptureLists {
     }
 
     /// Records the capture: the clears, then the passes in order (`faces`, `job_args`, `jobs`,
-    /// `texel_args`, `texels`, `clip_args`, `clips`, `resolve`), with barriers between them and
+    /// `hard_args`, `jobs_hard`, `texel_args`, `texels`, `clip_args`, `clips`, `resolve`), with barriers between them and
     /// one after (compute writes -> every later read). The barrier before (after whatever last
     /// read the buffers) is `ALL -> TRANSFER_WRITE`, recorded here too.
     pub fn record(&self, rec: &Recorder<'_>) -> VkResult<()> {
@@ -655,7 +662,8 @@ impl CaptureLists {
 
     /// [`CaptureLists::record`] with one timestamp scope per stage (`capture_lists.faces`,
     /// `capture_lists.jobs`, `capture_lists.texels`, `capture_lists.clips`,
-    /// `capture_lists.resolve`; the clears go with `faces`, `job_args` with `jobs`, `clip_args`
+    /// `capture_lists.resolve`; the clears go with `faces`, `job_args`, `hard_args` and
+    /// `jobs_hard` with `jobs`, `clip_args`
     /// with `clips`; `texel_args`, one invocation, is in none).
     pub fn record_timed(
         &self,
@@ -682,6 +690,8 @@ impl CaptureLists {
             faces,
             job_args,
             jobs,
+            hard_args,
+            jobs_hard,
             texel_args,
             texels,
             clip_args,
@@ -696,22 +706,26 @@ impl CaptureLists {
         job_args.dispatch(rec, &set(1), [1, 1, 1]);
         rec.memory_barrier(COMPUTE_WRITE, INDIRECT_READ);
         jobs.dispatch_indirect(rec, &set(2), &self.args_buf, 24)?;
+        rec.memory_barrier(COMPUTE_WRITE, rw);
+        hard_args.dispatch(rec, &set(3), [1, 1, 1]);
+        rec.memory_barrier(COMPUTE_WRITE, INDIRECT_READ);
+        jobs_hard.dispatch_indirect(rec, &set(4), &self.args_buf, 36)?;
         end(&mut ts, s);
         rec.memory_barrier(COMPUTE_WRITE, rw);
-        texel_args.dispatch(rec, &set(3), [1, 1, 1]);
+        texel_args.dispatch(rec, &set(5), [1, 1, 1]);
         rec.memory_barrier(COMPUTE_WRITE, INDIRECT_READ);
         let s = scope(&mut ts, "capture_lists.texels")?;
-        texels.dispatch_indirect(rec, &set(4), &self.args_buf, 0)?;
+        texels.dispatch_indirect(rec, &set(6), &self.args_buf, 0)?;
         end(&mut ts, s);
         rec.memory_barrier(COMPUTE_WRITE, rw);
         let s = scope(&mut ts, "capture_lists.clips")?;
-        clip_args.dispatch(rec, &set(5), [1, 1, 1]);
+        clip_args.dispatch(rec, &set(7), [1, 1, 1]);
         rec.memory_barrier(COMPUTE_WRITE, INDIRECT_READ);
-        clips.dispatch_indirect(rec, &set(6), &self.args_buf, 12)?;
+        clips.dispatch_indirect(rec, &set(8), &self.args_buf, 12)?;
         end(&mut ts, s);
         rec.memory_barrier(COMPUTE_WRITE, rw);
         let s = scope(&mut ts, "capture_lists.resolve")?;
-        resolve.dispatch(rec, &set(7), self.resolve_groups);
+        resolve.dispatch(rec, &set(9), self.resolve_groups);
         end(&mut ts, s);
         rec.memory_barrier(COMPUTE_WRITE, ALL_READS);
         Ok(())
