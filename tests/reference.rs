@@ -19,6 +19,7 @@ fn empty_scene(camera: Camera) -> SceneBuilder {
         cmo: CmoSpec {
             placement: CmoPlacement::Auto { count: 1 },
             resolution: 32,
+            lists: None,
         },
         background: Vec3::new(0.1, 0.2, 0.3),
         shading: Shading::default(),

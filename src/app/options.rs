@@ -173,9 +173,10 @@ pub struct TraceArgs {
     /// per-texel lists [default: auto]. The image does not depend on it (every hit is a listed
     /// triangle's exact intersection, and the exact fallback takes the rays the lists leave);
     /// the cost and the share of rays left to the fallback do. `auto` takes the smallest of 32,
-    /// 64, 128, ... below the cube size whose lists hold at most 8 triangles per texel on
-    /// average (by the capture's own bound), else the cube size; `cube` the cube size; a number
-    /// that size. A glossy reflector's cone pass reads a capture of its own at the cube size,
+    /// 64, 128, ... below the cube size whose lists hold at most 16 triangles per texel on
+    /// average (by the capture's own bound), else the cube size, or, where the placement search
+    /// found that one CMO meets its target only with shorter lists (at most 8), that size;
+    /// `cube` the cube size; a number that size. A glossy reflector's cone pass reads a capture of its own at the cube size,
     /// as with the centre criterion. `-v` logs the size taken.
     #[arg(long, value_parser = list_size)]
     pub list_size: Option<ListSize>,

@@ -276,6 +276,14 @@ pub fn log_placement(p: &Placement) {
             ""
         }
     );
+    if let Some(n) = p.list_size {
+        log::info!(
+            "cmo placement: one CMO on the reflectors' axis met the target with the bounded \
+             lists at {n} texels per face side (at most {} nodes per texel), not at --list-size \
+             auto's size: the frame takes {n}",
+            crate::cubemap::bounds::SHORT_LIST_LENGTH
+        );
+    }
     if let Some(n) = p.near {
         log::info!(
             "cmo placement: one CMO in front of the mirror points in view at [{:.3}, {:.3}, \

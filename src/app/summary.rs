@@ -210,6 +210,7 @@ mod tests {
             self_capture_off: false,
             judge: crate::placement::Scoring::Centre,
             near: None,
+            list_size: None,
         };
         let w = fallback_warning(Method::Compute, &scene, &count(300), Some(&p)).unwrap();
         assert!(

@@ -634,19 +634,36 @@ pub enum ListSize {
 /// `--list-size auto`'s smallest face size ([`auto_list_size`]).
 pub const AUTO_LIST_MIN: u32 = 32;
 /// `--list-size auto`'s longest mean list: nodes of the pool's bound per texel (the help of
-/// `--list-size` states it; [`auto_list_size`]).
-pub const AUTO_LIST_LENGTH: u64 = 8;
+/// `--list-size` states it; [`auto_list_size`]). At 8 the dense corpus scenes took lists of 128
+/// texels, whose capture cost more than the longer lists' walks saved: at 16 they take 32 or
+/// 64, and their frames cost 15-50 % less for a fallback share of at most 0.8 %
+/// (`benches/results/lavapipe-list-size.md`).
+pub const AUTO_LIST_LENGTH: u64 = 16;
+/// The placement search's shorter lists: where one CMO on the reflectors' axis misses the target
+/// with lists of `auto`'s size, the search judges it with lists of this mean length before it
+/// searches more centres (`placement`, [`Placement::list_size`](crate::placement::Placement)).
+pub const SHORT_LIST_LENGTH: u64 = 8;
 
 /// `--list-size auto`'s rule for `cmos` CMOs of face size `cube_size`: the first of
 /// [`AUTO_LIST_MIN`], twice that, ... below `cube_size` at which `nodes(size)` (the node pool's
 /// bound summed over the CMOs, [`pool_bound`]) is at most [`AUTO_LIST_LENGTH`] per texel, else
 /// `cube_size`. The GPU's plan (`vk::passes::capture_lists::list_size`) and the placement
 /// search's bounded score both take it.
-pub fn auto_list_size(cube_size: u32, cmos: usize, mut nodes: impl FnMut(u32) -> u64) -> u32 {
+pub fn auto_list_size(cube_size: u32, cmos: usize, nodes: impl FnMut(u32) -> u64) -> u32 {
+    list_size_for(cube_size, cmos, AUTO_LIST_LENGTH, nodes)
+}
+
+/// [`auto_list_size`]'s rule with lists of at most `length` nodes per texel.
+pub fn list_size_for(
+    cube_size: u32,
+    cmos: usize,
+    length: u64,
+    mut nodes: impl FnMut(u32) -> u64,
+) -> u32 {
     let mut size = AUTO_LIST_MIN;
     while size < cube_size {
         let texels = cmos as u64 * 6 * u64::from(size) * u64::from(size);
-        if nodes(size) <= AUTO_LIST_LENGTH * texels {
+        if nodes(size) <= length * texels {
             return size;
         }
         size *= 2;

@@ -87,7 +87,10 @@ use crate::cpu::multi::WorldRay;
 use crate::cpu::multi::{MultiStatus, Traversal, Verify, trace_cmos_verified};
 use crate::cpu::options::TraceOptions;
 use crate::cpu::verify::triangle_corners;
-use crate::cubemap::bounds::{DEFAULT_DEPTH, ListSize, auto_list_size, capture_lists, pool_bound};
+use crate::cubemap::bounds::{
+    DEFAULT_DEPTH, ListSize, SHORT_LIST_LENGTH, auto_list_size, capture_lists, list_size_for,
+    pool_bound,
+};
 use crate::reference::Tracer;
 use crate::scene::{CmoPlacement, Scene, SelfReflections, WorldGeometry};
 
@@ -232,6 +235,12 @@ pub struct Placement {
     /// Where one CMO on the reflectors' axis and one in front of the mirror points in view both
     /// met the target: the one in front and the two walks that chose between them.
     pub near: Option<NearChoice>,
+    /// The bounded lists' face size the shares were judged at, where it is not `--list-size
+    /// auto`'s rule: one CMO on the reflectors' axis missed the target with lists of the rule's
+    /// size and met it with shorter ones ([`SHORT_LIST_LENGTH`] nodes per texel), so the frame
+    /// takes that size ([`resolve_for`] sets `CmoSpec::lists`) instead of a search for more
+    /// centres. `None`: the rule's.
+    pub list_size: Option<u32>,
 }
 
 /// One CMO in front of the mirror points in view (`near_centre`) weighed against one on the
@@ -264,6 +273,7 @@ impl PartialEq for Placement {
                 p.self_capture_off,
                 p.judge,
                 p.near,
+                p.list_size,
             )
         };
         key(self) == key(other)
@@ -402,6 +412,7 @@ fn search_by(
             self_capture_off: false,
             judge: opts.scoring,
             near: None,
+            list_size: None,
         };
     }
     let scorer = Scorer::new(&tracer, &rays);
@@ -433,11 +444,16 @@ fn search_by(
             self_capture_off: false,
             judge: opts.scoring,
             near,
+            list_size: None,
         }
     };
     if let Some((centre, left)) = one.chosen {
         let share = left.len() as f64 / rays.len() as f64;
-        return placed(vec![centre], vec![share], one.axis_share, &left, one.near);
+        let p = placed(vec![centre], vec![share], one.axis_share, &left, one.near);
+        return Placement {
+            list_size: one.list_size,
+            ..p
+        };
     }
     let points = candidates(&tracer.world, opts.grid);
     let cmos: Vec<CmoTracer> = points.par_iter().map(|&c| capture(c)).collect();
@@ -492,6 +508,9 @@ struct OneCmo {
     chosen: Option<(Vec3, Vec<usize>)>,
     axis_share: f64,
     near: Option<NearChoice>,
+    /// The lists' face size where the axis CMO met the target only with shorter lists
+    /// ([`Judge::axis_with_short_lists`]; `axis_share` is then its share with them).
+    list_size: Option<u32>,
 }
 
 /// The cheapest sets: one CMO, on the reflectors' axis (the placement without a search) or in
@@ -499,7 +518,8 @@ struct OneCmo {
 /// reflected rays). Where one of them leaves at most `target` unresolved, the search ends with
 /// it, at the cost of a capture or two instead of the candidates'. Where both do, the one in
 /// front replaces the axis only where its rays walk clearly fewer texels and cells
-/// ([`NEAR_WALK`]): the capture costs about the same for either, the trace does not.
+/// ([`NEAR_WALK`]): the capture costs about the same for either, the trace does not. Where
+/// neither does, the axis CMO is judged with shorter lists ([`Judge::axis_with_short_lists`]).
 fn one_cmo(
     world: &WorldGeometry,
     scorer: &Scorer,
@@ -547,10 +567,20 @@ fn one_cmo(
         }
         near = Some(choice);
     }
+    let mut axis_share = axis_share.unwrap_or(1.0);
+    let mut chosen = passing.into_iter().next().map(|(c, left, _)| (c, left));
+    let mut list_size = None;
+    if chosen.is_none()
+        && let Some((size, left)) = judge.axis_with_short_lists(world, target, axis_share)
+    {
+        axis_share = left.len() as f64 / scorer.rays.len() as f64;
+        (chosen, list_size) = (Some((axis_one[0], left)), Some(size));
+    }
     OneCmo {
-        chosen: passing.into_iter().next().map(|(c, left, _)| (c, left)),
-        axis_share: axis_share.unwrap_or(1.0),
+        chosen,
+        axis_share,
         near,
+        list_size,
     }
 }
 
@@ -615,6 +645,49 @@ impl<'a> Judge<'a> {
         Judge { scorer, bounded }
     }
 
+    /// Under the bounded criterion with `--list-size auto`: where one CMO on the reflectors' axis
+    /// meets `target` with lists of at most [`SHORT_LIST_LENGTH`] nodes per texel, larger than
+    /// the rule's size (those of [`Judge::build`]), that size and the sample's rays it leaves;
+    /// else `None`. Shorter lists cost the capture more than the rule's but one CMO less than a
+    /// second, and the search for more centres (70 candidate captures) much more.
+    fn axis_with_short_lists(
+        &self,
+        world: &WorldGeometry,
+        target: f64,
+        axis_share: f64,
+    ) -> Option<(u32, Vec<usize>)> {
+        let b = self.bounded.as_ref().filter(|b| b.size.is_none())?;
+        let centre = world.axis_centres(1)[0];
+        let nodes = |n| pool_bound(&self.scorer.corners, &b.captured, centre, n).nodes;
+        let rule = auto_list_size(b.cube, 1, nodes);
+        let size = list_size_for(b.cube, 1, SHORT_LIST_LENGTH, nodes);
+        if size <= rule {
+            return None;
+        }
+        let lists = capture_lists(
+            &self.scorer.corners,
+            &b.captured,
+            centre,
+            size,
+            DEFAULT_DEPTH,
+        );
+        let cmo = CmoTracer::bounded(
+            centre,
+            lists,
+            self.scorer.corners.clone(),
+            TraceOptions::default().params(),
+        );
+        let left = self.unresolved(&[&cmo]);
+        let share = left.len() as f64 / self.scorer.rays.len().max(1) as f64;
+        log::debug!(
+            "cmo placement: one CMO on the reflectors' axis leaves {:.2}% of the sample with \
+             lists of auto's size, {:.2}% with lists at {size}",
+            100.0 * axis_share,
+            100.0 * share
+        );
+        (share <= target).then_some((size, left))
+    }
+
     /// The sample's rays (indices) that CMOs at `centres` leave unresolved: `centre()` (the
     /// centre criterion's, which the caller knows) unless the criterion is bounded.
     fn left(&mut self, centres: &[Vec3], centre: impl FnOnce() -> Vec<usize>) -> Vec<usize> {
@@ -623,11 +696,16 @@ impl<'a> Judge<'a> {
         }
         self.build(centres);
         let set = (self.bounded.as_ref()).map_or_else(Vec::new, |b| b.set(centres));
+        self.unresolved(&set)
+    }
+
+    /// The sample's rays (indices) that the bounded twin over `set` leaves unresolved.
+    fn unresolved(&self, set: &[&CmoTracer]) -> Vec<usize> {
         (0..self.scorer.rays.len())
             .into_par_iter()
             .filter(|&i| {
                 let ray = self.scorer.world_ray(i);
-                let r = crate::cpu::multi::trace_world_ray(&set, &ray, None, |tr, s| {
+                let r = crate::cpu::multi::trace_world_ray(set, &ray, None, |tr, s| {
                     crate::cpu::multi::trace_one(tr, s, Traversal::Mip)
                 });
                 r.status == MultiStatus::Unresolved
@@ -974,6 +1052,7 @@ pub fn resolve_for(
         scene.self_reflections = SelfReflections::Off;
     }
     scene.cmo.placement = CmoPlacement::Explicit(p.centres.clone());
+    scene.cmo.lists = p.list_size;
     Some(p)
 }
 

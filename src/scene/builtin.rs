@@ -88,6 +88,7 @@ fn empty(name: &str, camera: Camera, cmo: CmoPlacement) -> SceneBuilder {
         cmo: CmoSpec {
             placement: cmo,
             resolution: 256,
+            lists: None,
         },
         background: Vec3::new(0.05, 0.05, 0.08),
         shading: Shading::default(),

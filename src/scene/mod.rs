@@ -387,6 +387,10 @@ pub struct CmoSpec {
     pub placement: CmoPlacement,
     /// Texels per cube face side.
     pub resolution: u32,
+    /// The bounded lists' face size that `--list-size auto` takes instead of its rule: set by
+    /// the placement search where it judged its centres with shorter lists
+    /// ([`crate::placement::Placement::list_size`]); `None` in a scene file.
+    pub lists: Option<u32>,
 }
 
 #[derive(Clone, Debug, PartialEq)]

@@ -624,8 +624,9 @@ mod tests {
     }
 
     /// `--list-size auto` takes the smallest face size from 32 whose pool bound holds at most
-    /// 8 nodes per texel, below the cube size; the cube size where the frame reads the colour
-    /// (a glossy scene), or where the user fixes it; the resolved options keep it.
+    /// 16 nodes per texel, below the cube size, or the placement search's size where it set
+    /// one; the cube size where the frame reads the colour (a glossy scene), or where the user
+    /// fixes it; the resolved options keep it.
     #[test]
     fn bounded_lists_take_the_smallest_short_size() {
         let bounded = |list_size| RenderOptions {
@@ -651,8 +652,14 @@ mod tests {
         // Other criteria keep their options (and their cube size).
         let exact = centre_options();
         assert_eq!(FramePlan::resolve_list_size(&scene, &camera, &exact), exact);
-        // The rule: at 32 the bound's mean list exceeds 8 once the walls and floor are split
-        // 64 ways; the size taken is the first where it holds, above 32.
+        // The placement search's size replaces the rule's, and only the rule's.
+        let mut placed = scene.clone();
+        placed.cmo.lists = Some(64);
+        assert_eq!(size(&placed, ListSize::Auto), 64);
+        assert_eq!(size(&placed, ListSize::Cube), cube);
+        assert_eq!(size(&placed, ListSize::Fixed(48)), 48);
+        // The rule: at 32 the bound's mean list exceeds 16 once the walls and floor are split
+        // 256 ways; the size taken is the first where it holds, above 32.
         let data = |s: &Scene| GpuSceneData::new(s);
         let mean = |s: &Scene, n: u32| {
             let views = capture_lists::scene_views(s);
@@ -661,7 +668,7 @@ mod tests {
         };
         assert!(mean(&scene, 32) <= AUTO_LIST_LENGTH as f64);
         let mut dense = scene.clone();
-        crate::cpu::reflection_point::subdivide_non_reflectors(&mut dense, 3);
+        crate::cpu::reflection_point::subdivide_non_reflectors(&mut dense, 4);
         let taken = size(&dense, ListSize::Auto);
         assert!(taken > AUTO_LIST_MIN && taken < cube, "{taken}");
         assert!(mean(&dense, taken / 2) > AUTO_LIST_LENGTH as f64);

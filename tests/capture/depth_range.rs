@@ -51,6 +51,7 @@ fn span_scene(far: f32) -> Scene {
         cmo: CmoSpec {
             placement: CmoPlacement::Explicit(vec![centre]),
             resolution: 128,
+            lists: None,
         },
         background: Vec3::new(0.05, 0.05, 0.08),
         shading: Shading::default(),

@@ -96,6 +96,7 @@ pub fn frame(name: &str, width: u32, height: u32, cube: u32, cmos: u32) -> Scene
         cmo: CmoSpec {
             placement: CmoPlacement::Explicit(centres(cmos)),
             resolution: cube,
+            lists: None,
         },
         background: Vec3::new(0.05, 0.05, 0.08),
         shading: Shading::default(),
@@ -298,6 +299,7 @@ pub fn bunny_scene(width: u32, height: u32, cube: u32, cmos: u32) -> Scene {
     scene.cmo = CmoSpec {
         placement: CmoPlacement::Explicit(centres(cmos)),
         resolution: cube,
+        lists: None,
     };
     scene
 }

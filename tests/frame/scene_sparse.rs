@@ -46,6 +46,7 @@ fn scene(meshes: Vec<MeshInstance>) -> Scene {
         cmo: CmoSpec {
             placement: CmoPlacement::Auto { count: 1 },
             resolution: 16,
+            lists: None,
         },
         background: Vec3::new(0.2, 0.3, 0.4),
         shading: Shading::default(),

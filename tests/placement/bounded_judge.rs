@@ -4,6 +4,7 @@
 
 use crate::common;
 
+use cubetrace::cubemap::bounds::ListSize;
 use cubetrace::placement::{self, PlacementOptions, Scoring, TARGET_SHARE};
 use cubetrace::scene;
 
@@ -34,6 +35,14 @@ fn the_bounded_search_stops_at_the_first_set_its_twin_accepts() {
         );
         assert!(p.rays > 0, "{name}");
         assert_eq!(p.unresolved.len(), p.centres.len(), "{name}");
+        // Judged with shorter lists than the rule's where the search took them.
+        let opts = match p.list_size {
+            Some(n) => PlacementOptions {
+                scoring: Scoring::Bounded(ListSize::Fixed(n)),
+                ..opts
+            },
+            None => opts,
+        };
         for k in 1..=p.centres.len() {
             let share = placement::sample_share(&s, cams, &p.centres[..k], &opts);
             assert_eq!(share, p.unresolved[k - 1], "{name}: {k} CMOs");
@@ -102,4 +111,48 @@ fn the_judges_lists_are_capped() {
     eprintln!("truck-garage's axis CMO: {capped} at the cap, {huge} at 4096, {coarse} at 32");
     assert_eq!(huge, capped);
     assert_ne!(coarse, capped);
+}
+
+/// Where one CMO on the reflectors' axis misses the target with lists of `--list-size auto`'s
+/// size but meets it with shorter ones (at most `SHORT_LIST_LENGTH` nodes per texel), the search
+/// takes it with those lists instead of searching more centres, and `resolve_for` hands the size
+/// to the frame (`CmoSpec::lists`). robot-table at 320x240 does (its axis CMO leaves 1.11 % of
+/// the sample at 32 texels); the negatives: facing and cad-mm meet the target at the rule's
+/// size, and keep it.
+#[test]
+fn the_axis_cmo_with_shorter_lists_spares_the_search() {
+    let opts = PlacementOptions::default();
+    let mut s = common::corpus_scene("robot-table");
+    s.cmo.placement = scene::CmoPlacement::Search {
+        count: scene::DEFAULT_SEARCH_CMOS,
+    };
+    (s.cameras[0].width, s.cameras[0].height) = (320, 240);
+    let cams = s.cameras[..1].to_vec();
+    let p = placement::resolve_for(&mut s, &cams, 1, opts.scoring).unwrap();
+    eprintln!(
+        "robot-table: {:?}, {:?}, {:?}",
+        p.list_size, p.centres, p.unresolved
+    );
+    let n = p
+        .list_size
+        .expect("robot-table: the rule's lists met the target");
+    assert_eq!(s.cmo.lists, Some(n));
+    assert_eq!(p.centres.len(), 1);
+    let short = PlacementOptions {
+        scoring: Scoring::Bounded(ListSize::Fixed(n)),
+        ..opts
+    };
+    let at_rule = placement::sample_share(&s, &cams, &p.centres, &opts);
+    let at_short = placement::sample_share(&s, &cams, &p.centres, &short);
+    assert!(at_rule > TARGET_SHARE, "{at_rule}");
+    assert!(
+        at_short <= TARGET_SHARE && at_short == p.unresolved[0],
+        "{at_short}"
+    );
+    for name in ["facing", "cad-mm"] {
+        let mut s = crate::corpus_searched(name);
+        let cams = s.cameras[..1].to_vec();
+        let p = placement::resolve_for(&mut s, &cams, 1, opts.scoring).unwrap();
+        assert_eq!((p.list_size, s.cmo.lists), (None, None), "{name}");
+    }
 }

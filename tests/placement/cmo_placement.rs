@@ -36,6 +36,7 @@ fn occluded_mirror(with_box: bool) -> Scene {
         cmo: CmoSpec {
             placement: CmoPlacement::Auto { count: 1 },
             resolution: 32,
+            lists: None,
         },
         background: Vec3::new(0.1, 0.2, 0.3),
         shading: Shading::default(),

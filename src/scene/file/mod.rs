@@ -178,6 +178,7 @@ pub fn load_scene_file_report(path: &Path) -> Result<(Scene, LoadReport), SceneE
                 count: DEFAULT_SEARCH_CMOS,
             },
             resolution: 256,
+            lists: None,
         },
         background: src.colour(&file.background, "background")?,
         shading: shading(&src, &file.shading)?,
@@ -465,6 +466,7 @@ fn cmo_spec(src: &Source, cmo: &CmoFile) -> Result<CmoSpec, SceneError> {
     Ok(CmoSpec {
         placement,
         resolution: res,
+        lists: None,
     })
 }
 

@@ -143,8 +143,13 @@ impl FramePlan {
             glossy: has_glossy_reflector(data),
             check_triangles: !scene.check_triangles().is_empty(),
         };
-        // The bounded capture's views, face size and pool bound, computed only where it runs.
+        // The bounded capture's views, face size and pool bound, computed only where it runs;
+        // `auto` takes the placement search's size where it judged with shorter lists.
         let lists = |choice| {
+            let choice = match (choice, scene.cmo.lists) {
+                (ListSize::Auto, Some(n)) => ListSize::Fixed(n),
+                (c, _) => c,
+            };
             let views = capture_lists::scene_views(scene);
             let (size, capacity) = capture_lists::list_size(data, &views, facts.cube_size, choice);
             (views, size, capacity)

@@ -229,8 +229,9 @@ pub fn capacity(data: &GpuSceneData, cmos: &[(Vec3, bool)], size: u32) -> PoolBo
 /// halves those a ray crosses, while each texel's list grows with the triangles its cone takes;
 /// where lists grow long, more of them pass the capture's `depth` (the ray goes behind there) and
 /// the trace walks them. On lavapipe (`benches/results/lavapipe-list-size.md`) 32 is the cheapest
-/// frame on the built-in scenes, with no ray left to the fallback, and the corpus's dense interiors
-/// need 128 to keep their fallback share at about 1 %.
+/// frame on the built-in scenes, with no ray left to the fallback; the corpus's dense interiors
+/// take 32 or 64, with a fallback share of at most 0.8 % (at 128, the rule of at most 8 nodes per
+/// texel, their capture cost more than their shorter walks saved).
 pub fn list_size(
     data: &GpuSceneData,
     cmos: &[(Vec3, bool)],
@@ -957,7 +958,8 @@ mod tests {
                 tile_jobs,
                 small_jobs,
                 pairs,
-                pairs_dropped
+                pairs_dropped,
+                hard_pairs
             ]
         )
         .unwrap();
