@@ -137,7 +137,7 @@ use rayon::prelude::*;
 
 use super::face::{FACE_COUNT, Texel, face_coord, to_face_local};
 pub use super::texel_cone::dot3;
-use super::texel_cone::{TexelCone, edges, texel_cone, tile_outside};
+use super::texel_cone::{Edges, TexelCone, edges, texel_cone_edges, tile_outside};
 
 /// Entries kept per texel by default. Every entry is a node of the GPU's pool whatever the
 /// depth: the depth bounds only the sorted prefix the tracer reads (and the resolve's
@@ -272,11 +272,22 @@ pub fn clip(poly: &Poly, kind: u32, k: f32) -> Poly {
     if poly.n == 0 {
         return out;
     }
-    let mut a = poly.p[poly.n as usize - 1];
-    let mut fa = plane_value(a, kind, k);
-    for i in 0..poly.n as usize {
-        let b = poly.p[i];
-        let fb = plane_value(b, kind, k);
+    let n = poly.n as usize;
+    let mut f = [0.0f32; MAX_POLY];
+    for (fi, &p) in f.iter_mut().zip(&poly.p[..n]) {
+        *fi = plane_value(p, kind, k);
+    }
+    // Every vertex inside: the same vertices in the same order (each edge pushes its end
+    // alone); every one outside: none. What the loop below gives, without it.
+    if f[..n].iter().all(|&v| v >= 0.0) {
+        return *poly;
+    }
+    if f[..n].iter().all(|&v| v < 0.0) {
+        return out;
+    }
+    let mut a = poly.p[n - 1];
+    let mut fa = f[n - 1];
+    for (&b, &fb) in poly.p[..n].iter().zip(&f[..n]) {
         let a_in = fa >= 0.0;
         let b_in = fb >= 0.0;
         if a_in != b_in {
@@ -518,6 +529,18 @@ pub fn texel_bound(
     y: u32,
     size: u32,
 ) -> Option<(f32, f32)> {
+    texel_bound_edges(local, &edges(local), rect, x, y, size)
+}
+
+/// [`texel_bound`] with the triangle's [`edges`] `g` made once for its texels.
+fn texel_bound_edges(
+    local: &[Vec3; 3],
+    g: &Edges,
+    rect: &FaceRect,
+    x: u32,
+    y: u32,
+    size: u32,
+) -> Option<(f32, f32)> {
     let w = texel_centre_unit(x, y, size);
     let mut q = Poly::triangle(local);
     if !rect.whole {
@@ -528,7 +551,7 @@ pub fn texel_bound(
             face_coord(y, size) - m,
             face_coord(y + 1, size) + m,
         ];
-        match texel_cone(local, k, w, rect.e) {
+        match texel_cone_edges(g, k, w, rect.e) {
             TexelCone::Outside => return None,
             TexelCone::Inside(lo, hi) => return Some((lo, hi)),
             TexelCone::Clip => {}
@@ -715,7 +738,8 @@ fn capture_lists_with(
                         }
                         for y in ty..=y1 {
                             for x in tx..=x1 {
-                                if let Some((lo, hi)) = texel_bound(&local, &rect, x, y, size) {
+                                let b = texel_bound_edges(&local, &g, &rect, x, y, size);
+                                if let Some((lo, hi)) = b {
                                     lists[y as usize * n + x as usize].push(Entry {
                                         triangle: t as u32,
                                         lo,

@@ -153,10 +153,15 @@ fn classify(g: &Edges, k: [f32; 4]) -> u32 {
 /// `k = (u_min, u_max, v_min, v_max)`, with `w` the texel-centre direction and `e` the error
 /// budget `E` (module docs).
 pub fn texel_cone(l: &[Vec3; 3], k: [f32; 4], w: Vec3, e: f32) -> TexelCone {
-    let g = edges(l);
-    match classify(&g, k) {
+    texel_cone_edges(&edges(l), k, w, e)
+}
+
+/// [`texel_cone`] of the triangle whose [`edges`] are `g` (made once for its texels, as the
+/// GPU's `texels` makes them once per job).
+pub fn texel_cone_edges(g: &Edges, k: [f32; 4], w: Vec3, e: f32) -> TexelCone {
+    match classify(g, k) {
         1 | 3 => TexelCone::Outside,
-        2 if g.h.abs() >= CONDITION * g.d_h => inside_bounds(&g, k, w, e),
+        2 if g.h.abs() >= CONDITION * g.d_h => inside_bounds(g, k, w, e),
         _ => TexelCone::Clip,
     }
 }
