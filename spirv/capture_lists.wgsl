@@ -348,13 +348,7 @@ struct ListsLocal {
 }
 
 fn lists_local(job: ListsJob) -> ListsLocal {
-    let centre = lists_views[job.cmo_face / 6u].centre;
-    let face = job.cmo_face % 6u;
-    return ListsLocal(
-        to_face_local(face, lists_vertex(job.triangle, 0u) - centre),
-        to_face_local(face, lists_vertex(job.triangle, 1u) - centre),
-        to_face_local(face, lists_vertex(job.triangle, 2u) - centre),
-    );
+    return lists_pair_local(job.triangle, job.cmo_face);
 }
 
 // Lanes per tile job in `texels`: its 64 texels four each (a turn per two rows of the tile).

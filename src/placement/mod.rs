@@ -658,9 +658,18 @@ impl<'a> Judge<'a> {
     ) -> Option<(u32, Vec<usize>)> {
         let b = self.bounded.as_ref().filter(|b| b.size.is_none())?;
         let centre = world.axis_centres(1)[0];
-        let nodes = |n| pool_bound(&self.scorer.corners, &b.captured, centre, n).nodes;
-        let rule = auto_list_size(b.cube, 1, nodes);
-        let size = list_size_for(b.cube, 1, SHORT_LIST_LENGTH, nodes);
+        // Each size's pool bound once, for both rules.
+        let mut known: Vec<(u32, u64)> = Vec::new();
+        let mut nodes = |n| match known.iter().find(|k| k.0 == n) {
+            Some(k) => k.1,
+            None => {
+                let v = pool_bound(&self.scorer.corners, &b.captured, centre, n).nodes;
+                known.push((n, v));
+                v
+            }
+        };
+        let rule = auto_list_size(b.cube, 1, &mut nodes);
+        let size = list_size_for(b.cube, 1, SHORT_LIST_LENGTH, &mut nodes);
         if size <= rule {
             return None;
         }
