@@ -442,22 +442,75 @@ fn face_rect_with(
     margins: Margins,
 ) -> Option<FaceRect> {
     let l = face_local(tri, centre, face);
-    let sound = margins == Margins::Sound;
-    if sound && face_missed(&l) {
+    if margins == Margins::Sound && face_missed(&l) {
         return None;
     }
-    let e = if sound { error_budget(&l) } else { 0.0 };
-    if sound && near_centre(&l, e) {
-        return Some(whole_face(face, size, e));
+    face_extent(&l, margins).map(|x| x.rect(face, size))
+}
+
+/// Steps 1-4 of one (triangle, face) before step 4's rounding to texels, which alone depends on
+/// the face size: [`Extent::rect`] at a size is [`face_rect`] at it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Extent {
+    /// The bbox of P's `(x / z, y / z)`, unwidened (unused when `whole`).
+    u_lo: f32,
+    u_hi: f32,
+    v_lo: f32,
+    v_hi: f32,
+    m: f32,
+    e: f32,
+    whole: bool,
+    area: f32,
+    perimeter: f32,
+}
+
+impl Extent {
+    /// Step 4's rect at face size `size`.
+    fn rect(&self, face: u32, size: u32) -> FaceRect {
+        if self.whole {
+            return whole_face(face, size, self.e);
+        }
+        FaceRect {
+            face,
+            x0: texel_floor(self.u_lo - self.m, size),
+            x1: texel_floor(self.u_hi + self.m, size),
+            y0: texel_floor(self.v_lo - self.m, size),
+            y1: texel_floor(self.v_hi + self.m, size),
+            m: self.m,
+            e: self.e,
+            whole: false,
+            area: self.area,
+            perimeter: self.perimeter,
+        }
+    }
+}
+
+/// Steps 1-4 (no texels) of the face-local triangle `l`, which step 0 kept.
+fn face_extent(l: &[Vec3; 3], margins: Margins) -> Option<Extent> {
+    let sound = margins == Margins::Sound;
+    let e = if sound { error_budget(l) } else { 0.0 };
+    let whole = Extent {
+        u_lo: 0.0,
+        u_hi: 0.0,
+        v_lo: 0.0,
+        v_hi: 0.0,
+        m: 2.0,
+        e,
+        whole: true,
+        area: 0.0,
+        perimeter: 0.0,
+    };
+    if sound && near_centre(l, e) {
+        return Some(whole);
     }
     let d = if sound { 1.0 + FACE_DILATION } else { 1.0 };
-    let mut p = Poly::triangle(&l);
+    let mut p = Poly::triangle(l);
     p = clip(&p, PLANE_U_MIN, -d);
     p = clip(&p, PLANE_U_MAX, d);
     p = clip(&p, PLANE_V_MIN, -d);
     p = clip(&p, PLANE_V_MAX, d);
     if p.overflow {
-        return Some(whole_face(face, size, e));
+        return Some(whole);
     }
     if p.n == 0 {
         return None;
@@ -467,7 +520,7 @@ fn face_rect_with(
         z_min = z_min.min(p.p[i].z);
     }
     if z_min <= 4.0 * e {
-        return Some(whole_face(face, size, e));
+        return Some(whole);
     }
     let m = if sound {
         MARGIN_FLOOR + 4.0 * e / z_min
@@ -493,12 +546,11 @@ fn face_rect_with(
         perimeter += ((u - prev.0) * (u - prev.0) + (v - prev.1) * (v - prev.1)).sqrt();
         prev = (u, v);
     }
-    Some(FaceRect {
-        face,
-        x0: texel_floor(u_lo - m, size),
-        x1: texel_floor(u_hi + m, size),
-        y0: texel_floor(v_lo - m, size),
-        y1: texel_floor(v_hi + m, size),
+    Some(Extent {
+        u_lo,
+        u_hi,
+        v_lo,
+        v_hi,
         m,
         e,
         whole: false,
@@ -580,10 +632,17 @@ fn texel_bound_edges(
 /// Step 6 for one texel: sorts `list` by `(lo, triangle)`, keeps `depth`, returns
 /// `(lo, hi, complete_to)` of the texel (module docs).
 pub fn resolve_texel(list: &mut Vec<Entry>, depth: u32) -> (f32, f32, f32) {
+    let (summary, kept) = resolve_slice(list, depth);
+    list.truncate(kept);
+    summary
+}
+
+/// [`resolve_texel`] in place: the kept entries are the slice's first (returned) count.
+fn resolve_slice(list: &mut [Entry], depth: u32) -> ((f32, f32, f32), usize) {
     list.sort_by(|a, b| a.lo.total_cmp(&b.lo).then(a.triangle.cmp(&b.triangle)));
     let complete_to = list.get(depth as usize).map_or(f32::INFINITY, |e| e.lo);
-    list.truncate(depth as usize);
-    texel_summary(list, complete_to)
+    let kept = list.len().min(depth as usize);
+    (texel_summary(&list[..kept], complete_to), kept)
 }
 
 /// The first gap of a texel (module docs) from its kept entries, sorted by `(lo, triangle)`,
@@ -713,69 +772,192 @@ fn capture_lists_with(
     depth: u32,
     margins: Margins,
 ) -> TexelLists {
-    let n = size as usize;
-    // The faces in parallel, each over every triangle in order: a texel's entries come in
-    // triangle order whatever the threads do, as one loop over the triangles gives them.
-    let faces: Vec<Vec<Vec<Entry>>> = (0..FACE_COUNT)
-        .into_par_iter()
-        .map(|face| {
-            let mut lists: Vec<Vec<Entry>> = vec![Vec::new(); n * n];
-            for (t, tri) in triangles.iter().enumerate() {
-                if !captured.get(t).copied().unwrap_or(false) {
-                    continue;
-                }
-                let Some(rect) = face_rect_with(tri, centre, face, size, margins) else {
-                    continue;
-                };
-                let local = face_local(tri, centre, face);
-                let g = edges(&local);
-                for ty in (rect.y0..=rect.y1).step_by(TILE as usize) {
-                    for tx in (rect.x0..=rect.x1).step_by(TILE as usize) {
-                        let x1 = (tx + TILE - 1).min(rect.x1);
-                        let y1 = (ty + TILE - 1).min(rect.y1);
-                        if !rect.whole && tile_outside(&g, [tx, x1], [ty, y1], size, rect.m) {
+    FacePairs::with(triangles, captured, centre, margins).lists(size, depth)
+}
+
+/// One CMO's (triangle, face) pairs that step 0 keeps, each with its steps 1-4 at no face size:
+/// what [`pool_bound`] sums and [`capture_lists`] fills texels from, found once for both and for
+/// every face size (`--list-size auto`'s rule weighs several).
+pub struct FacePairs<'a> {
+    triangles: &'a [[Vec3; 3]],
+    centre: Vec3,
+    /// The pairs step 0 keeps ([`PoolBound::pairs`]).
+    kept: u64,
+    /// The kept pairs that step 2 leaves non-empty.
+    pairs: Vec<Pair>,
+}
+
+/// `(triangle, face, extent)` of a pair.
+type Pair = (u32, u32, Extent);
+
+impl<'a> FacePairs<'a> {
+    /// The pairs of every triangle `t` with `captured[t]`, every face, at `centre`.
+    pub fn new(triangles: &'a [[Vec3; 3]], captured: &[bool], centre: Vec3) -> Self {
+        Self::with(triangles, captured, centre, Margins::Sound)
+    }
+
+    fn with(triangles: &'a [[Vec3; 3]], captured: &[bool], centre: Vec3, margins: Margins) -> Self {
+        let sound = margins == Margins::Sound;
+        let per: Vec<(u64, Vec<Pair>)> = (triangles.par_chunks(PAIR_CHUNK))
+            .enumerate()
+            .map(|(c, chunk)| {
+                let (mut kept, mut pairs) = (0, Vec::new());
+                for (i, tri) in chunk.iter().enumerate() {
+                    let t = c * PAIR_CHUNK + i;
+                    if !captured.get(t).copied().unwrap_or(false) {
+                        continue;
+                    }
+                    for face in 0..FACE_COUNT {
+                        let l = face_local(tri, centre, face);
+                        if sound && face_missed(&l) {
                             continue;
                         }
-                        for y in ty..=y1 {
-                            for x in tx..=x1 {
-                                let b = texel_bound_edges(&local, &g, &rect, x, y, size);
-                                if let Some((lo, hi)) = b {
-                                    lists[y as usize * n + x as usize].push(Entry {
-                                        triangle: t as u32,
-                                        lo,
-                                        hi,
-                                    });
-                                }
-                            }
+                        kept += 1;
+                        if let Some(x) = face_extent(&l, margins) {
+                            pairs.push((t as u32, face, x));
                         }
                     }
                 }
-            }
-            lists
-        })
-        .collect();
-    let lists: Vec<Vec<Entry>> = faces.into_iter().flatten().collect();
-    debug_assert_eq!(lists.len(), 6 * n * n);
-    let mut out = TexelLists {
-        size,
-        depth,
-        lo: Vec::with_capacity(lists.len()),
-        hi: Vec::with_capacity(lists.len()),
-        complete_to: Vec::with_capacity(lists.len()),
-        offsets: vec![0],
-        entries: Vec::new(),
-    };
-    let resolved: Vec<((f32, f32, f32), Vec<Entry>)> = (lists.into_par_iter())
-        .map(|mut list| (resolve_texel(&mut list, depth), list))
-        .collect();
-    for ((lo, hi, complete_to), list) in resolved {
-        out.lo.push(lo);
-        out.hi.push(hi);
-        out.complete_to.push(complete_to);
-        out.entries.extend_from_slice(&list);
-        out.offsets.push(out.entries.len() as u32);
+                (kept, pairs)
+            })
+            .collect();
+        FacePairs {
+            triangles,
+            centre,
+            kept: per.iter().map(|p| p.0).sum(),
+            pairs: per.into_iter().flat_map(|p| p.1).collect(),
+        }
     }
-    out
+
+    /// [`pool_bound`] at face size `size`.
+    pub fn bound(&self, size: u32) -> PoolBound {
+        // Integer sums: the same whatever order the threads add them in.
+        let mut b = (self.pairs.par_iter())
+            .map(|&(_, face, x)| {
+                let rect = x.rect(face, size);
+                PoolBound {
+                    jobs: rect.tiles(),
+                    nodes: rect.steiner(size),
+                    clips: rect.boundary(size),
+                    rect_texels: rect.texels(),
+                    pairs: 0,
+                }
+            })
+            .reduce(PoolBound::default, |a, b| a + b);
+        b.pairs = self.kept;
+        b
+    }
+
+    /// Steps 5-6 at face size `size`, keeping `depth` entries per texel: [`capture_lists`].
+    pub fn lists(&self, size: u32, depth: u32) -> TexelLists {
+        let n = size as usize;
+        let texels = FACE_COUNT as usize * n * n;
+        // Step 5 over chunks of pairs in parallel: `(texel, entry)` in any order, since step 6
+        // sorts a texel's entries by `(lo, triangle)`, a total order (one entry per triangle).
+        let found: Vec<Vec<(u32, Entry)>> = (self.pairs.par_chunks(PAIR_CHUNK))
+            .map(|chunk| {
+                let mut out = Vec::new();
+                for &(t, face, x) in chunk {
+                    let rect = x.rect(face, size);
+                    let local = face_local(&self.triangles[t as usize], self.centre, face);
+                    let base = face as usize * n * n;
+                    rect_entries(&local, &rect, size, |x, y, lo, hi| {
+                        let texel = (base + y as usize * n + x as usize) as u32;
+                        out.push((
+                            texel,
+                            Entry {
+                                triangle: t,
+                                lo,
+                                hi,
+                            },
+                        ));
+                    });
+                }
+                out
+            })
+            .collect();
+        // Bucketed by texel (a counting sort).
+        let mut start = vec![0u32; texels + 1];
+        for &(texel, _) in found.iter().flatten() {
+            start[texel as usize + 1] += 1;
+        }
+        for i in 0..texels {
+            start[i + 1] += start[i];
+        }
+        let mut fill = start.clone();
+        let empty = Entry {
+            triangle: 0,
+            lo: 0.0,
+            hi: 0.0,
+        };
+        let mut all = vec![empty; start[texels] as usize];
+        for &(texel, e) in found.iter().flatten() {
+            all[fill[texel as usize] as usize] = e;
+            fill[texel as usize] += 1;
+        }
+        drop(found);
+        // Step 6 per texel, in parallel.
+        let mut slices: Vec<&mut [Entry]> = Vec::with_capacity(texels);
+        let mut rest = all.as_mut_slice();
+        for w in start.windows(2) {
+            let (head, tail) = rest.split_at_mut((w[1] - w[0]) as usize);
+            slices.push(head);
+            rest = tail;
+        }
+        let resolved: Vec<(f32, f32, f32)> = (slices.par_iter_mut())
+            .map(|list| resolve_slice(list, depth).0)
+            .collect();
+        let mut out = TexelLists {
+            size,
+            depth,
+            lo: Vec::with_capacity(texels),
+            hi: Vec::with_capacity(texels),
+            complete_to: Vec::with_capacity(texels),
+            offsets: Vec::with_capacity(texels + 1),
+            entries: Vec::new(),
+        };
+        out.offsets.push(0);
+        for (w, (lo, hi, complete_to)) in start.windows(2).zip(resolved) {
+            let kept = (w[1] - w[0]).min(depth) as usize;
+            out.lo.push(lo);
+            out.hi.push(hi);
+            out.complete_to.push(complete_to);
+            let from = w[0] as usize;
+            out.entries.extend_from_slice(&all[from..from + kept]);
+            out.offsets.push(out.entries.len() as u32);
+        }
+        out
+    }
+}
+
+/// Triangles (of [`FacePairs::new`]) or pairs (of its steps 5-6) per parallel task.
+const PAIR_CHUNK: usize = 1024;
+
+/// Step 5 for the face-local triangle `local` over `rect`: `f(x, y, lo, hi)` for every texel it
+/// touches, row by row within each 8x8 tile.
+fn rect_entries(
+    local: &[Vec3; 3],
+    rect: &FaceRect,
+    size: u32,
+    mut f: impl FnMut(u32, u32, f32, f32),
+) {
+    let g = edges(local);
+    for ty in (rect.y0..=rect.y1).step_by(TILE as usize) {
+        for tx in (rect.x0..=rect.x1).step_by(TILE as usize) {
+            let x1 = (tx + TILE - 1).min(rect.x1);
+            let y1 = (ty + TILE - 1).min(rect.y1);
+            if !rect.whole && tile_outside(&g, [tx, x1], [ty, y1], size, rect.m) {
+                continue;
+            }
+            for y in ty..=y1 {
+                for x in tx..=x1 {
+                    if let Some((lo, hi)) = texel_bound_edges(local, &g, rect, x, y, size) {
+                        f(x, y, lo, hi);
+                    }
+                }
+            }
+        }
+    }
 }
 
 /// Capacities one CMO's capture needs: GPU jobs (8x8 tiles of every rect) and nodes (the
@@ -792,6 +974,21 @@ pub struct PoolBound {
     pub pairs: u64,
 }
 
+/// The sum of two bounds (of two CMOs, or two parts of one).
+impl std::ops::Add for PoolBound {
+    type Output = PoolBound;
+
+    fn add(self, b: PoolBound) -> PoolBound {
+        PoolBound {
+            jobs: self.jobs + b.jobs,
+            nodes: self.nodes + b.nodes,
+            clips: self.clips + b.clips,
+            rect_texels: self.rect_texels + b.rect_texels,
+            pairs: self.pairs + b.pairs,
+        }
+    }
+}
+
 /// [`PoolBound`] of one CMO at `centre`.
 pub fn pool_bound(
     triangles: &[[Vec3; 3]],
@@ -799,31 +996,7 @@ pub fn pool_bound(
     centre: Vec3,
     size: u32,
 ) -> PoolBound {
-    // Integer sums: the same whatever order the threads add them in.
-    (triangles.par_iter().enumerate())
-        .filter(|&(t, _)| captured.get(t).copied().unwrap_or(false))
-        .map(|(_, tri)| {
-            let mut b = PoolBound::default();
-            for face in 0..FACE_COUNT {
-                if !face_missed(&face_local(tri, centre, face)) {
-                    b.pairs += 1;
-                }
-                if let Some(rect) = face_rect(tri, centre, face, size) {
-                    b.jobs += rect.tiles();
-                    b.nodes += rect.steiner(size);
-                    b.clips += rect.boundary(size);
-                    b.rect_texels += rect.texels();
-                }
-            }
-            b
-        })
-        .reduce(PoolBound::default, |a, b| PoolBound {
-            jobs: a.jobs + b.jobs,
-            nodes: a.nodes + b.nodes,
-            clips: a.clips + b.clips,
-            rect_texels: a.rect_texels + b.rect_texels,
-            pairs: a.pairs + b.pairs,
-        })
+    FacePairs::new(triangles, captured, centre).bound(size)
 }
 
 /// One candidate of a texel.

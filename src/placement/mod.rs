@@ -88,8 +88,7 @@ use crate::cpu::multi::{MultiStatus, Traversal, Verify, trace_cmos_verified};
 use crate::cpu::options::TraceOptions;
 use crate::cpu::verify::triangle_corners;
 use crate::cubemap::bounds::{
-    DEFAULT_DEPTH, ListSize, SHORT_LIST_LENGTH, auto_list_size, capture_lists, list_size_for,
-    pool_bound,
+    DEFAULT_DEPTH, FacePairs, ListSize, SHORT_LIST_LENGTH, auto_list_size, list_size_for,
 };
 use crate::reference::Tracer;
 use crate::scene::{CmoPlacement, Scene, SelfReflections, WorldGeometry};
@@ -393,11 +392,8 @@ fn search_by(
     shortcuts: bool,
 ) -> Placement {
     let start = Instant::now();
-    let (tracer, shown) = if shortcuts {
-        tracers(world)
-    } else {
-        (Tracer::from_world(world), None)
-    };
+    let bounded = BoundedJudge::new(scene, &world, opts);
+    let (tracer, shown, axis_cmo) = bvhs_and_axis(world, shortcuts, bounded.as_ref());
     let (rays, later_rays) = sample_rays(&tracer, cameras, opts);
     if rays.is_empty() {
         // No mirror pixel in view: nothing to score, one CMO on the reflectors' axis.
@@ -418,7 +414,13 @@ fn search_by(
     let scorer = Scorer::new(&tracer, &rays);
     let capture_tracer = shown.as_ref().unwrap_or(&tracer);
     let capture = |c: Vec3| scoring_capture(scene, capture_tracer, c, opts.cube_size);
-    let mut judge = Judge::new(scene, &tracer.world, &scorer, opts);
+    let mut judge = Judge {
+        scorer: &scorer,
+        bounded: bounded.map(|b| BoundedJudge {
+            built: axis_cmo.into_iter().collect(),
+            ..b
+        }),
+    };
     // The cheapest sets first: one CMO ([`one_cmo`]).
     let all: Vec<usize> = (0..rays.len()).collect();
     let first_rays = &rays[..rays.len() - later_rays];
@@ -499,6 +501,27 @@ fn search_by(
     });
     let axis_share = axis_left.len() as f64 / rays.len() as f64;
     placed(centres, unresolved, axis_share, &left, None)
+}
+
+/// The search's BVHs ([`tracers`] where `shortcuts`, else one over the world) and the `bounded`
+/// judge's CMO on the reflectors' axis, built at once: that CMO, the first the judge weighs (and
+/// on most scenes the last), needs the world but not the sample, so its lists are built while
+/// the BVHs that sample the rays are.
+fn bvhs_and_axis(
+    world: WorldGeometry,
+    shortcuts: bool,
+    bounded: Option<&BoundedJudge>,
+) -> (Tracer, Option<Tracer>, Option<CmoTracer>) {
+    let axis_cmo = || Some(bounded?.cmo(&triangle_corners(&world), world.axis_centres(1)[0]));
+    let bvhs = || {
+        if shortcuts {
+            tracers(world.clone())
+        } else {
+            (Tracer::from_world(world.clone()), None)
+        }
+    };
+    let ((tracer, shown), axis_cmo) = rayon::join(bvhs, axis_cmo);
+    (tracer, shown, axis_cmo)
 }
 
 /// What [`one_cmo`] found: the centre that ends the search and the sample's rays it leaves
@@ -616,33 +639,56 @@ impl BoundedJudge {
     }
 }
 
+impl BoundedJudge {
+    /// The bounded judge of `opts` for `scene` (its `world`), no CMO built; `None` for the
+    /// centre criterion.
+    fn new(scene: &Scene, world: &WorldGeometry, opts: &PlacementOptions) -> Option<Self> {
+        let Scoring::Bounded(lists) = opts.scoring else {
+            return None;
+        };
+        // At most JUDGE_LISTS_MAX: `auto`'s rule below it gives the frame's size, or the cap.
+        let cube = scene.cmo.resolution.min(JUDGE_LISTS_MAX);
+        let size = match lists {
+            ListSize::Auto => None,
+            ListSize::Cube => Some(cube),
+            ListSize::Fixed(n) => Some(n.min(JUDGE_LISTS_MAX)),
+        };
+        Some(BoundedJudge {
+            captured: world.captured_triangles(),
+            size,
+            cube,
+            built: Vec::new(),
+        })
+    }
+
+    /// The CMO at `c` over lists of the triangles `corners` ([`triangle_corners`]) at the
+    /// judge's size (for `auto`, its rule at `c`).
+    fn cmo(&self, corners: &[[Vec3; 3]], c: Vec3) -> CmoTracer {
+        let t0 = Instant::now();
+        let pairs = FacePairs::new(corners, &self.captured, c);
+        let size =
+            (self.size).unwrap_or_else(|| auto_list_size(self.cube, 1, |n| pairs.bound(n).nodes));
+        let lists = pairs.lists(size, DEFAULT_DEPTH);
+        log::debug!(
+            "cmo placement: lists at {size} for {c}: {:.2?}",
+            t0.elapsed()
+        );
+        CmoTracer::bounded(c, lists, corners.to_vec(), TraceOptions::default().params())
+    }
+}
+
 impl<'a> Judge<'a> {
+    #[cfg(any(test, feature = "test-hooks"))]
     fn new(
         scene: &Scene,
         world: &WorldGeometry,
         scorer: &'a Scorer<'a>,
         opts: &PlacementOptions,
     ) -> Self {
-        let bounded = match opts.scoring {
-            Scoring::Centre => None,
-            Scoring::Bounded(lists) => {
-                // At most JUDGE_LISTS_MAX: `auto`'s rule below it gives the frame's size, or
-                // the cap.
-                let cube = scene.cmo.resolution.min(JUDGE_LISTS_MAX);
-                let size = match lists {
-                    ListSize::Auto => None,
-                    ListSize::Cube => Some(cube),
-                    ListSize::Fixed(n) => Some(n.min(JUDGE_LISTS_MAX)),
-                };
-                Some(BoundedJudge {
-                    captured: world.captured_triangles(),
-                    size,
-                    cube,
-                    built: Vec::new(),
-                })
-            }
-        };
-        Judge { scorer, bounded }
+        Judge {
+            scorer,
+            bounded: BoundedJudge::new(scene, world, opts),
+        }
     }
 
     /// Under the bounded criterion with `--list-size auto`: where one CMO on the reflectors' axis
@@ -658,12 +704,13 @@ impl<'a> Judge<'a> {
     ) -> Option<(u32, Vec<usize>)> {
         let b = self.bounded.as_ref().filter(|b| b.size.is_none())?;
         let centre = world.axis_centres(1)[0];
+        let pairs = FacePairs::new(&self.scorer.corners, &b.captured, centre);
         // Each size's pool bound once, for both rules.
         let mut known: Vec<(u32, u64)> = Vec::new();
         let mut nodes = |n| match known.iter().find(|k| k.0 == n) {
             Some(k) => k.1,
             None => {
-                let v = pool_bound(&self.scorer.corners, &b.captured, centre, n).nodes;
+                let v = pairs.bound(n).nodes;
                 known.push((n, v));
                 v
             }
@@ -673,13 +720,7 @@ impl<'a> Judge<'a> {
         if size <= rule {
             return None;
         }
-        let lists = capture_lists(
-            &self.scorer.corners,
-            &b.captured,
-            centre,
-            size,
-            DEFAULT_DEPTH,
-        );
+        let lists = pairs.lists(size, DEFAULT_DEPTH);
         let cmo = CmoTracer::bounded(
             centre,
             lists,
@@ -734,19 +775,10 @@ impl<'a> Judge<'a> {
             .copied()
             .collect();
         let corners = &self.scorer.corners;
-        let (captured, size, cube) = (&b.captured, b.size, b.cube);
-        b.built.par_extend(missing.into_par_iter().map(|c| {
-            let t0 = Instant::now();
-            let size = size.unwrap_or_else(|| {
-                auto_list_size(cube, 1, |n| pool_bound(corners, captured, c, n).nodes)
-            });
-            let lists = capture_lists(corners, captured, c, size, DEFAULT_DEPTH);
-            log::debug!(
-                "cmo placement: lists at {size} for {c}: {:.2?}",
-                t0.elapsed()
-            );
-            CmoTracer::bounded(c, lists, corners.clone(), TraceOptions::default().params())
-        }));
+        let fresh: Vec<CmoTracer> = (missing.into_par_iter())
+            .map(|c| b.cmo(corners, c))
+            .collect();
+        b.built.extend(fresh);
     }
 
     /// The trace's work on the sample with CMOs at `centres`: the texels and cells that the

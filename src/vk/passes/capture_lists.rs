@@ -208,17 +208,20 @@ pub fn scene_views(scene: &crate::scene::Scene) -> Vec<(Vec3, bool)> {
 /// Job and node capacities of the capture of `cmos` (`(centre, reflectors)`) at face size
 /// `size`: [`bounds::pool_bound`] summed over the CMOs.
 pub fn capacity(data: &GpuSceneData, cmos: &[(Vec3, bool)], size: u32) -> PoolBound {
-    let mut sum = PoolBound::default();
+    capacity_at(data, cmos, &[size])[0]
+}
+
+/// [`capacity`] at each of `sizes`, each CMO's (triangle, face) pairs found once for them all.
+fn capacity_at(data: &GpuSceneData, cmos: &[(Vec3, bool)], sizes: &[u32]) -> Vec<PoolBound> {
+    let mut sums = vec![PoolBound::default(); sizes.len()];
     for &(centre, reflectors) in cmos {
         let (tris, flags) = scene_triangles(data, reflectors);
-        let b = bounds::pool_bound(&tris, &flags, centre, size);
-        sum.jobs += b.jobs;
-        sum.nodes += b.nodes;
-        sum.clips += b.clips;
-        sum.rect_texels += b.rect_texels;
-        sum.pairs += b.pairs;
+        let pairs = bounds::FacePairs::new(&tris, &flags, centre);
+        for (sum, &size) in sums.iter_mut().zip(sizes) {
+            *sum = *sum + pairs.bound(size);
+        }
     }
-    sum
+    sums
 }
 
 /// The lists' face size for `cmos` of `data` as `choice` says (`cube_size`: the CMOs' face size
@@ -238,26 +241,35 @@ pub fn list_size(
     cube_size: u32,
     choice: ListSize,
 ) -> (u32, PoolBound) {
-    let texels = |size: u32| cmos.len() as u64 * 6 * u64::from(size) * u64::from(size);
-    let mut last = None;
     let size = match choice {
         ListSize::Fixed(n) => n,
         ListSize::Cube => cube_size,
-        ListSize::Auto => bounds::auto_list_size(cube_size, cmos.len(), |size| {
-            let bound = capacity(data, cmos, size);
-            log::debug!(
-                "bounded lists at {size}: a bound of {} nodes, {:.2} per texel",
-                bound.nodes,
-                bound.nodes as f64 / texels(size).max(1) as f64
-            );
-            last = Some((size, bound));
-            bound.nodes
-        }),
+        ListSize::Auto => {
+            // Every size the rule may weigh, bounded at once (the pairs are most of the work).
+            let sizes: Vec<u32> = std::iter::successors(Some(bounds::AUTO_LIST_MIN), |s| {
+                Some(s * 2).filter(|&s| s < cube_size)
+            })
+            .filter(|&s| s < cube_size)
+            .chain([cube_size])
+            .collect();
+            let known = capacity_at(data, cmos, &sizes);
+            let bound_at = |size| {
+                (sizes.iter().position(|&s| s == size))
+                    .map_or_else(|| capacity(data, cmos, size), |i| known[i])
+            };
+            let texels = |size: u32| cmos.len() as u64 * 6 * u64::from(size) * u64::from(size);
+            let size = bounds::auto_list_size(cube_size, cmos.len(), |size| {
+                let nodes = bound_at(size).nodes;
+                log::debug!(
+                    "bounded lists at {size}: a bound of {nodes} nodes, {:.2} per texel",
+                    nodes as f64 / texels(size).max(1) as f64
+                );
+                nodes
+            });
+            return (size, bound_at(size));
+        }
     };
-    match last {
-        Some((s, bound)) if s == size => (size, bound),
-        _ => (size, capacity(data, cmos, size)),
-    }
+    (size, capacity(data, cmos, size))
 }
 
 /// Invocations per dispatch row of `jobs` and `resolve` (`ListsParams::row`).
