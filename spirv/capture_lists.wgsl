@@ -33,7 +33,7 @@
 //   RESOLVE_LONG nodes a merge sort that relinks them (the first `count_kept` nodes from the
 //   head end up sorted),
 //   `complete_to = min(overflow, face overflow, smallest lo beyond depth)`, then the record
-//   `vec4(head, bits(complete_to), bits(hi), count_kept)`, the first gap into `lists_gap`, and
+//   `vec4(head, bits(complete_to), bits(hi), count_kept)`, the gap into `lists_gap`, and
 //   `lo` into `lists_distance`
 //   (CMO-major, `(face N + y) N + x`, like the CMO distance buffer). The walk is capped at
 //   `walk_cap` node visits (lavapipe's 65535 back-edges per invocation): a capped texel gets
@@ -156,7 +156,7 @@ struct ListsArgs {
 @group(1) @binding(16) var<storage, read_write> lists_clips: array<vec2<u32>>;
 // The sizes of the `texels`, `clips`, `jobs` and `jobs_hard` dispatches.
 @group(1) @binding(17) var<storage, read_write> lists_args: array<ListsArgs, 4>;
-// The texels' first gaps, packed (`resolve`; the tracers' `cmo_gap`, shared/trace.wgsl), as
+// The texels' gaps, packed (`resolve`; the tracers' `cmo_gap`, shared/trace.wgsl), as
 // `lists_distance`.
 @group(1) @binding(18) var<storage, read_write> lists_gap: array<u32>;
 
@@ -566,6 +566,32 @@ fn resolve_before(alo: u32, atri: u32, blo: u32, btri: u32) -> bool {
     return alo < blo || (alo == blo && atri < btri);
 }
 
+// `resolve`'s gap so far (`cubemap::bounds::texel_gap`): the placed entries' end, the widest
+// gap `(lo, hi)` by ratio, and whether one opened.
+struct ResolveGap {
+    end: f32,
+    lo: f32,
+    hi: f32,
+    found: bool,
+}
+
+// The gap after placing the entry `(lo, e_hi)` as the `kept`-th (from 0): it opens a gap where
+// it starts past the end, kept where it is wider by ratio than the widest so far
+// (`g1 b0 > b1 g0`; the first of equals).
+fn resolve_gap(g: ResolveGap, kept: u32, lo: f32, e_hi: f32) -> ResolveGap {
+    if kept == 0u {
+        return ResolveGap(e_hi, g.lo, g.hi, g.found);
+    }
+    var out = g;
+    if lo > g.end && (!g.found || lo * g.lo > g.hi * g.end) {
+        out.lo = g.end;
+        out.hi = lo;
+        out.found = true;
+    }
+    out.end = max(g.end, e_hi);
+    return out;
+}
+
 @compute @workgroup_size(64)
 fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
     let texel = gid.x + gid.y * lists_params.row;
@@ -582,10 +608,12 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
     var top_tri = none;
     var top_at = none;
     var hi = -f32_inf();
-    // The first gap (`cubemap::bounds::first_gap`): the end of the first run of overlapping
-    // entries, and the lo of the first entry past it (`gap_found`).
+    // The gap (`cubemap::bounds::texel_gap`): the end (largest hi) of the entries placed so far,
+    // and the widest gap by ratio that an entry past that end opened, `(gap_lo, gap_hi)`, where
+    // one did (`gap_found`).
     var gap_end = 0.0;
-    var gap_next = f32_inf();
+    var gap_lo = 0.0;
+    var gap_hi = 0.0;
     var gap_found = false;
     var kept = 0u;
     var node = head;
@@ -660,7 +688,7 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
             // The scan's entries in order go to its first nodes, each to the list's node at
             // position `kept`: the payload there moves to the entry's node, and a later entry of
             // the scan held there is now found at that node. Then the entry counts towards `hi`
-            // and the first gap (`cubemap::bounds::first_gap`). The vectors turn by one after
+            // and the gap (`cubemap::bounds::texel_gap`). The vectors turn by one after
             // each placement, so that the next entry and node are always their first component.
             for (var m = 0u; m < placed; m++) {
                 let dst = pos.x;
@@ -673,16 +701,11 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
                     top_at = select(top_at, vec4<u32>(src), top_at == vec4<u32>(dst));
                 }
                 hi = max(hi, bitcast<f32>(e_hi));
-                if kept == 0u {
-                    gap_end = bitcast<f32>(e_hi);
-                } else if !gap_found {
-                    if bitcast<f32>(lo) > gap_end {
-                        gap_next = bitcast<f32>(lo);
-                        gap_found = true;
-                    } else {
-                        gap_end = max(gap_end, bitcast<f32>(e_hi));
-                    }
-                }
+                let g = resolve_gap(ResolveGap(gap_end, gap_lo, gap_hi, gap_found), kept, bitcast<f32>(lo), bitcast<f32>(e_hi));
+                gap_end = g.end;
+                gap_lo = g.lo;
+                gap_hi = g.hi;
+                gap_found = g.found;
                 kept += 1u;
                 pos = pos.yzwx;
                 top_at = top_at.yzwx;
@@ -786,9 +809,8 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
             width *= 2u;
         }
     }
-    // The first `depth` entries count towards `hi` and the first gap (the end of the first run
-    // of overlapping entries, and the lo of the first entry past it:
-    // `cubemap::bounds::first_gap`); the next one's lo is `rest`.
+    // The first `depth` entries count towards `hi` and the gap (`cubemap::bounds::texel_gap`);
+    // the next one's lo is `rest`.
     if long_list && !capped {
         node = first;
         loop {
@@ -802,16 +824,11 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
             }
             let e_hi = bitcast<f32>(lists_node_hi[node]);
             hi = max(hi, e_hi);
-            if kept == 0u {
-                gap_end = e_hi;
-            } else if !gap_found {
-                if lo > gap_end {
-                    gap_next = lo;
-                    gap_found = true;
-                } else {
-                    gap_end = max(gap_end, e_hi);
-                }
-            }
+            let g = resolve_gap(ResolveGap(gap_end, gap_lo, gap_hi, gap_found), kept, lo, e_hi);
+            gap_end = g.end;
+            gap_lo = g.lo;
+            gap_hi = g.hi;
+            gap_found = g.found;
             kept += 1u;
             node = lists_node_next[node];
         }
@@ -833,5 +850,13 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
     lists_rec_hi[texel] = bitcast<u32>(hi);
     lists_rec_count[texel] = kept;
     lists_distance[texel] = lo;
-    lists_gap[texel] = pack_gap(min(gap_next, complete), gap_end);
+    // The gap after the last entry, up to `complete`, where no other opened or where it is
+    // finite and wider.
+    var g0 = gap_end;
+    var g1 = complete;
+    if gap_found && !(complete < f32_inf() && complete > gap_end && complete * gap_lo > gap_hi * gap_end) {
+        g0 = gap_lo;
+        g1 = min(gap_hi, complete);
+    }
+    lists_gap[texel] = pack_gap(g1, g0);
 }

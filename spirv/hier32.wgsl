@@ -42,7 +42,7 @@ struct Hier32Params {
 @group(0) @binding(0) var<storage, read> params: Hier32Params;
 @group(0) @binding(1) var<storage, read> cmo_distance: array<f32>;
 @group(0) @binding(2) var<storage, read_write> cmo_hier: array<vec2<f32>>;
-// The `gaps` entry point's: the `bounded` criterion's packed first gaps (`[g1, g0]` in bfloat16
+// The `gaps` entry point's: the `bounded` criterion's packed gaps (`[g1, g0]` in bfloat16
 // halves, `cubemap::bounds::pack_gap`), laid out as `cmo_distance` and `cmo_hier`.
 @group(0) @binding(3) var<storage, read> gap_texels: array<u32>;
 @group(0) @binding(4) var<storage, read_write> gap_hier: array<u32>;

@@ -12,7 +12,7 @@
 // - binding 1 `cmo_centres`: CMO k's centre in `.xyz` (w unused).
 // - binding 2 `cmo_distance`: CMO k's texels at `k * 6 * N * N`, index `(face * N + y) * N + x`.
 // - binding 3 `cmo_mip`: CMO k's 2x2 pyramid (levels 1..) at `k * mip_len`, `[min, max]`.
-// - bindings 15, 16 `cmo_gap`, `cmo_gap_mip`: the `bounded` criterion's first gaps
+// - bindings 15, 16 `cmo_gap`, `cmo_gap_mip`: the `bounded` criterion's gaps
 //   (`cpu::bounded::Bounded::gaps`), a word per cell packing `[g1, g0]` rounded inwards to
 //   bfloat16 (`cubemap::bounds::pack_gap`): CMO k's texels at `k * 6 N N` (as `cmo_distance`),
 //   their 2x2 pyramid at `k * mip_len` (as `cmo_mip`; a cell the min of `g1` and the max of

@@ -19,7 +19,7 @@
 // The triangles' corners come from the scene (shared/hit.wgsl, @group(SCENE_GROUP)).
 //
 // Texel T crossed over [t0, t1] (`rmin, rmax` of r over it):
-// - `rmax < lo` or `rmin > hi`, or inside the texel's first gap (binding 15, shared/trace.wgsl's
+// - `rmax < lo` or `rmin > hi`, or inside the texel's gap (binding 15, shared/trace.wgsl's
 //   `in_gap`): nothing here (kind 0, the traversal goes on);
 // - complete_to finite: `r(t0) >= complete_to` is behind at t0; else the list is known up to
 //   t_known = the larger root of r(t) = complete_to, clamped to [t0, t1] (t1 when +inf);

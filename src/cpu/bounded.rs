@@ -8,8 +8,8 @@
 //! CMO's distance is the texel lower bound `lo`), and hand each remaining texel `T`, crossed over
 //! `[t0, t1]`, to [`classify_bounded`]:
 //! 1. `rmax < lo` or `rmin > hi` (`r_bounds` over `[t0, t1]`): the ray is in front of, or beyond,
-//!    everything `T` holds; or `g0 < rmin` and `rmax < g1` for `T`'s first gap `(g0, g1)`
-//!    ([`crate::cubemap::bounds::first_gap`]): it passes between two surfaces. Nothing here, the
+//!    everything `T` holds; or `g0 < rmin` and `rmax < g1` for `T`'s gap `(g0, g1)`
+//!    ([`crate::cubemap::bounds::texel_gap`]): it passes between two surfaces. Nothing here, the
 //!    traversal goes on. The fragment path's pyramid march skips whole cells the same way, over
 //!    the gaps' pyramid ([`Bounded::gaps`]: the largest `g0` and smallest `g1` of the cell), and
 //!    the compute path's over their 8x4/4x8 hierarchy ([`Bounded::gap_hier`]).
@@ -93,7 +93,7 @@ pub struct Bounded {
     pub corners: Vec<[Vec3; 3]>,
     /// The walk budget ([`WALK_BUDGET`]; the GPU's is that constant, tests may raise it).
     pub walk_budget: u32,
-    /// The lists' first gaps and their 2x2 pyramid (level 0 the texels' `[g1, g0]`,
+    /// The lists' gaps and their 2x2 pyramid (level 0 the texels' `[g1, g0]`,
     /// [`TexelLists::gaps`]; a cell keeps the min of `g1` and the max of `g0`), which the
     /// traversals skip through (module docs, step 1).
     pub gaps: MipPyramid,

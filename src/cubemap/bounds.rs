@@ -12,10 +12,11 @@
 //!   the cone is nearer. This is what the CMO's distance (and so its pyramids) holds.
 //! - `hi`: the largest kept `hi` when nothing was dropped, `+inf` when something was, `-inf`
 //!   for an empty texel.
-//! - the first gap `(g0, g1)` ([`first_gap`]): a range of distances that no surface in the cone
-//!   takes. Walking the kept entries in order, `g0` is the end (the largest `hi`) of the run of
-//!   entries that overlap the first one, and `g1` the `lo` of the first entry that starts past
-//!   it, or `complete_to` when it comes first. A ray whose distances over the texel lie strictly
+//! - the gap `(g0, g1)` ([`texel_gap`]): a range of distances that no surface in the cone
+//!   takes. Walking the kept entries in order, an entry whose `lo` lies past the end (the
+//!   largest `hi`) of the entries before it opens a gap from that end to its `lo`; the texel
+//!   keeps the widest by ratio, clamped to `complete_to` (the one after the last entry, up to
+//!   `complete_to`, where none opens). A ray whose distances over the texel lie strictly
 //!   inside `(g0, g1)` meets nothing there: every kept entry's `[lo, hi]` lies outside the
 //!   range, and a dropped one starts at or past `complete_to >= g1`. Behind a captured surface
 //!   and in front of the next one, a ray passes through such gaps texel after texel; the
@@ -645,25 +646,41 @@ fn resolve_slice(list: &mut [Entry], depth: u32) -> ((f32, f32, f32), usize) {
     (texel_summary(&list[..kept], complete_to), kept)
 }
 
-/// The first gap of a texel (module docs) from its kept entries, sorted by `(lo, triangle)`,
-/// and its `complete_to`, as `[g1, g0]` (the far end first: a pyramid over gaps keeps the min
-/// of the far ends and the max of the near ends, [`crate::cubemap::pyramid::MipPyramid::over_cells`]).
-/// An empty texel's gap is `(0, complete_to)`. The GPU's `resolve` (`spirv/capture_lists.wgsl`)
-/// computes the same while it sorts, with the same comparisons.
-pub fn first_gap(kept: &[Entry], complete_to: f32) -> [f32; 2] {
+/// The gap of a texel (module docs) from its kept entries, sorted by `(lo, triangle)`, and its
+/// `complete_to`, as `[g1, g0]` (the far end first: a pyramid over gaps keeps the min of the far
+/// ends and the max of the near ends, [`crate::cubemap::pyramid::MipPyramid::over_cells`]).
+/// Walking the entries in order, each entry that starts past the end (the largest `hi`) of those
+/// before it opens a gap between them; the texel keeps the widest by ratio (`g1 / g0`, the first
+/// of equals; compared as `c1 b0 > b1 c0`, products that round alike on every device), clamped to
+/// `complete_to`. The gap after the last entry, up to `complete_to`, competes when `complete_to`
+/// is finite, and is the gap where no other opens (an empty texel's is `(0, complete_to)`). The
+/// GPU's `resolve` (`spirv/capture_lists.wgsl`) computes the same while it sorts, with the same
+/// comparisons.
+///
+/// Why the widest and not the first: a ray leaving a captured reflector runs behind the
+/// reflector's own surfaces as the CMO sees them (an open mug's inner and outer walls, a
+/// teapot's body). The first gap is often the thin one between those surfaces; the wide one behind
+/// them is where such rays run, texel after texel.
+pub fn texel_gap(kept: &[Entry], complete_to: f32) -> [f32; 2] {
+    let wider = |c: [f32; 2], b: [f32; 2]| c[1] * b[0] > b[1] * c[0];
     let mut end = 0.0f32;
-    let mut next = f32::INFINITY;
+    let mut best: Option<[f32; 2]> = None;
     for (i, e) in kept.iter().enumerate() {
         if i == 0 {
             end = e.hi;
-        } else if e.lo > end {
-            next = e.lo;
-            break;
-        } else {
-            end = end.max(e.hi);
+            continue;
         }
+        if e.lo > end && best.is_none_or(|b| wider([end, e.lo], b)) {
+            best = Some([end, e.lo]);
+        }
+        end = end.max(e.hi);
     }
-    [next.min(complete_to), end]
+    let tail = [end, complete_to];
+    let [g0, g1] = match best {
+        Some(b) if !(complete_to < f32::INFINITY && complete_to > end && wider(tail, b)) => b,
+        _ => tail,
+    };
+    [g1.min(complete_to), g0]
 }
 
 /// A gap `[g1, g0]` in one word, as the GPU stores it (one word per texel, like the lists'
@@ -1036,18 +1053,18 @@ impl TexelLists {
         &self.entries[self.offsets[i] as usize..self.offsets[i + 1] as usize]
     }
 
-    /// Every texel's first gap packed into a word ([`first_gap`], [`pack_gap`]), in the texels'
+    /// Every texel's gap packed into a word ([`texel_gap`], [`pack_gap`]), in the texels'
     /// order: what the GPU's `resolve` writes.
     pub fn packed_gaps(&self) -> Vec<u32> {
         (0..self.lo.len())
             .map(|i| {
                 let kept = &self.entries[self.offsets[i] as usize..self.offsets[i + 1] as usize];
-                pack_gap(first_gap(kept, self.complete_to[i]))
+                pack_gap(texel_gap(kept, self.complete_to[i]))
             })
             .collect()
     }
 
-    /// Every texel's first gap `[g1, g0]` as the tracers read it: packed and unpacked
+    /// Every texel's gap `[g1, g0]` as the tracers read it: packed and unpacked
     /// ([`pack_gap`]: rounded inwards), in the texels' order.
     pub fn gaps(&self) -> Vec<[f32; 2]> {
         self.packed_gaps().into_iter().map(unpack_gap).collect()
@@ -1465,5 +1482,41 @@ mod tests {
             Vec3::new(0.0, 0.1, -1.0),
         ];
         assert!(face_missed(&behind));
+    }
+
+    /// The texel's gap is the widest by ratio that an entry opens past the end of those before
+    /// it, not the first; the one after the last entry competes only up to a finite
+    /// `complete_to`, and is the gap where no other opens. Negatives: an entry moved into the
+    /// wide gap, or a nearer `complete_to`, changes the gap.
+    #[test]
+    fn the_gap_is_the_widest_an_entry_opens() {
+        let e = |triangle, lo, hi| Entry { triangle, lo, hi };
+        // Runs [1, 1.1] and [1.2, 1.3] (a thin gap between a reflector's two walls), then [5, 6].
+        let walls = [e(0, 1.0, 1.1), e(1, 1.2, 1.3), e(2, 5.0, 6.0)];
+        let inf = f32::INFINITY;
+        assert_eq!(texel_gap(&walls, inf), [5.0, 1.3]);
+        // A finite `complete_to` past the last entry competes: 100 / 6 is wider than 5 / 1.3.
+        assert_eq!(texel_gap(&walls, 100.0), [100.0, 6.0]);
+        // One that is narrower does not; one nearer than the gap's far end clamps it.
+        assert_eq!(texel_gap(&walls, 7.0), [5.0, 1.3]);
+        assert_eq!(texel_gap(&walls, 4.0), [4.0, 1.3]);
+        // An entry that overlaps the run before it opens nothing; none opening: the tail.
+        let overlapping = [e(0, 1.0, 2.0), e(1, 1.5, 3.0)];
+        assert_eq!(texel_gap(&overlapping, inf), [inf, 3.0]);
+        assert_eq!(texel_gap(&[], 9.0), [9.0, 0.0]);
+        // Negatives: the far entry moved near makes the walls' gap the widest; moved into the
+        // wide gap, it splits it.
+        let near = [e(0, 1.0, 1.1), e(1, 1.2, 1.3), e(2, 1.31, 6.0)];
+        assert_eq!(texel_gap(&near, inf), [1.2, 1.1]);
+        let split = [
+            e(0, 1.0, 1.1),
+            e(1, 1.2, 1.3),
+            e(3, 2.0, 2.1),
+            e(2, 5.0, 6.0),
+        ];
+        assert_eq!(texel_gap(&split, inf), [5.0, 2.1]);
+        // Equal ratios: the first.
+        let equal = [e(0, 1.0, 1.0), e(1, 2.0, 2.0), e(2, 4.0, 4.0)];
+        assert_eq!(texel_gap(&equal, inf), [2.0, 1.0]);
     }
 }

@@ -1,6 +1,6 @@
-//! The `bounded` criterion's gaps: the distances between a texel's first run of overlapping
-//! entries and its next entry, where no surface in the texel's cone lies, which the traversals
-//! skip through (`cubemap::bounds::first_gap`, `cpu::bounded` step 1).
+//! The `bounded` criterion's gaps: the widest range of distances between a texel's entries
+//! where no surface in the texel's cone lies, which the traversals skip through
+//! (`cubemap::bounds::texel_gap`, `cpu::bounded` step 1).
 //! - **Sound on the CPU:** over random triangle soups captured by the CPU twin, every traversal
 //!   (walk, 2x2 pyramid, 8x4/4x8 hierarchy) gives a hit on the brute-force first triangle and an
 //!   escape only where nothing is hit; the gaps are used (the counters differ from a trace

@@ -464,7 +464,7 @@ pub struct ListTargets<'a> {
     pub records: &'a [Buffer; 4],
     /// `triangle`, `bits(lo)`, `bits(hi)`, `next`: a u32 per node each.
     pub nodes: &'a [Buffer; 4],
-    /// The texels' first gaps, a word per texel ([`bounds::pack_gap`]), laid out as `distance`.
+    /// The texels' gaps, a word per texel ([`bounds::pack_gap`]), laid out as `distance`.
     pub gaps: &'a Buffer,
 }
 
@@ -507,7 +507,7 @@ pub struct GpuLists {
     pub counters: ListCounters,
     /// The raw records (per texel, CMO-major).
     pub records: Vec<TexelRecord>,
-    /// Per CMO, its texels' first gaps as `resolve` packed them (the CPU's
+    /// Per CMO, its texels' gaps as `resolve` packed them (the CPU's
     /// [`TexelLists::packed_gaps`]).
     pub gaps: Vec<Vec<u32>>,
 }

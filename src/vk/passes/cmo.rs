@@ -11,7 +11,7 @@
 //! | 5 | `cmo_triangle` | `6 N N` u32 per CMO: global triangle index, `u32::MAX` where empty | with [`CaptureContents::triangle_ids`]; else a one-u32 placeholder (composite binds it; never read) |
 //! | 6 to 9 | `cmo_list_head`, `_complete`, `_hi`, `_count` | `6 N N` u32 per CMO each: the words of `[head, complete_to, hi, count]` ([`super::lists`]) | with [`CmoData::alloc_lists`]; else one-word placeholders (`compute_trace` binds them; only its `_bounded` entry points read them) |
 //! | 10 to 13 | `cmo_node_triangle`, `_lo`, `_hi`, `_next` | the lists' node pool, a u32 per node each ([`super::lists`]) | likewise |
-//! | 15, 16 | `cmo_gap`, `cmo_gap_mip` | the lists' first gaps, a packed word per texel (`6 N N` per CMO) and per cell of their pyramid (`mip_len(N)` per CMO, with a pyramid) ([`crate::cubemap::bounds::pack_gap`]) | with [`CmoData::alloc_lists`]; else one-word placeholders |
+//! | 15, 16 | `cmo_gap`, `cmo_gap_mip` | the lists' gaps, a packed word per texel (`6 N N` per CMO) and per cell of their pyramid (`mip_len(N)` per CMO, with a pyramid) ([`crate::cubemap::bounds::pack_gap`]) | with [`CmoData::alloc_lists`]; else one-word placeholders |
 //! | 14 | `cmo_cone` | `mip_len(N)` vec4 per CMO: the pre-filtered colour chain ([`crate::cpu::cone`], `spirv/shared/cone.wgsl`) | with [`CmoData::alloc_cone`] (a glossy scene); else absent (only the cone passes use it) |
 //!
 //! The capture pass writes distance, colour and normals; the pyramid pass writes `cmo_mip`.
@@ -208,7 +208,7 @@ pub struct CmoData {
     lists: [Buffer; 4],
     nodes: [Buffer; 4],
     pool_capacity: u64,
-    /// The lists' first gaps (bindings 15 and 16): a word per texel, and a word per cell of
+    /// The lists' gaps (bindings 15 and 16): a word per texel, and a word per cell of
     /// their pyramid where there is one; one-word placeholders without lists.
     gaps: [Buffer; 2],
 }

@@ -21,7 +21,7 @@
 //! `(lo, triangle)`; [`NO_NODE`] ends a chain (and is `head` of an empty texel). Node indices
 //! are global over the pool (one pool for every CMO). The upload writes each texel's entries
 //! as consecutive nodes; the GPU capture links them through its pool in any order.
-use crate::cubemap::bounds::{Entry, TexelLists, first_gap, pack_gap};
+use crate::cubemap::bounds::{Entry, TexelLists, pack_gap, texel_gap};
 
 /// No node (`BOUNDED_NO_NODE`).
 pub const NO_NODE: u32 = u32::MAX;
@@ -217,14 +217,14 @@ pub fn walk(records: &[[u32; 4]], nodes: &[[u32; 4]], i: usize) -> Result<Vec<En
     Ok(out)
 }
 
-/// Every texel's first gap, packed ([`crate::cubemap::bounds::first_gap`],
+/// Every texel's gap, packed ([`crate::cubemap::bounds::texel_gap`],
 /// [`crate::cubemap::bounds::pack_gap`]): what the GPU's capture writes beside the records,
 /// for lists uploaded from the CPU. A texel whose chain is malformed gets no gap (the word 0:
 /// `g1 = 0`).
 pub fn packed_gaps(packed: &PackedLists) -> Vec<u32> {
     (0..packed.records.len())
         .map(|i| match walk(&packed.records, &packed.nodes, i) {
-            Ok(entries) => pack_gap(first_gap(&entries, f32::from_bits(packed.records[i][1]))),
+            Ok(entries) => pack_gap(texel_gap(&entries, f32::from_bits(packed.records[i][1]))),
             Err(_) => 0,
         })
         .collect()
