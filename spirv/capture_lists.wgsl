@@ -447,12 +447,18 @@ fn lists_texel(j: u32, job: ListsJob, l: ListsLocal, g: CfEdges, x: u32, y: u32)
     let size = lists_params.size;
     let w = cb_texel_centre_unit(x, y, size);
     var b = CbBound(0.0, 0.0, false);
-    // A `whole` rect's texels, and a texel the full queue turned away: the whole triangle.
+    // A `whole` rect's texels, a small rect's texels that the fast paths leave, and a texel the
+    // full queue turned away: the whole triangle.
     var whole = job.whole != 0u;
     if !whole {
         let f = cf_texel_cone_edges(g, cb_texel_k(x, y, size, job.m), w, job.e);
         b = CbBound(f.lo, f.hi, f.kind == CF_INSIDE);
-        if f.kind == CF_CLIP {
+        // A small rect's texels take the whole triangle's bounds, not a clip
+        // (`cubemap::bounds::UNCLIPPED_TEXELS`).
+        let rect_texels = ((job.rect_x >> 16u) - (job.rect_x & 0xffffu) + 1u) * ((job.rect_y >> 16u) - (job.rect_y & 0xffffu) + 1u);
+        if f.kind == CF_CLIP && rect_texels <= CB_UNCLIPPED_TEXELS {
+            whole = true;
+        } else if f.kind == CF_CLIP {
             let q = atomicAdd(&lists_counters.clips, 1u);
             if q < lists_params.clip_capacity {
                 lists_clips[q] = vec2<u32>(j, x | (y << 16u));

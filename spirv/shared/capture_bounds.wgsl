@@ -11,6 +11,9 @@ const CB_FACE_DILATION: f32 = 0.0078125; // 2^-7
 const CB_MARGIN_FLOOR: f32 = 0.00000095367431640625; // 2^-20
 const CB_NEAR_BOX: f32 = 1024.0;
 const CB_TILE: u32 = 8u;
+// `cubemap::bounds::UNCLIPPED_TEXELS`: a rect of at most this many texels takes the whole
+// triangle's bounds where the fast paths leave a texel.
+const CB_UNCLIPPED_TEXELS: u32 = 4u;
 
 const CB_PLANE_U_MIN: u32 = 0u;
 const CB_PLANE_U_MAX: u32 = 1u;

@@ -49,7 +49,8 @@
 //!    widened cone wholly outside the triangle: not touched; wholly inside it: bounds from the
 //!    four corner rays, with their own derived slack); for the texels they leave, clip the
 //!    *triangle* (not P: four clips instead of eight, half the error) to the texel's cone
-//!    widened by `m` -> Q; empty: not touched.
+//!    widened by `m` -> Q; empty: not touched. In a rect of at most [`UNCLIPPED_TEXELS`]
+//!    texels, Q is the whole triangle instead (no clip; its bounds hold Q's).
 //!    With `w` the f32 unit texel-centre direction, `lo = max(0, min_i dot(q_i, w) - E)`
 //!    (written `lo > 0 ? lo : 0`),
 //!    `hi = max_i |q_i| + E`: `|p| >= dot(p, w)` (Cauchy-Schwarz, `|w| <= 1` up to 2 ulps),
@@ -381,6 +382,17 @@ impl FaceRect {
     }
 }
 
+/// Step 5's small rects: a (triangle, face) rect of at most this many texels gives each texel
+/// that the fast paths leave the whole triangle's bounds (`min_i dot(l_i, w) - E`,
+/// `max_i |l_i| + E`, the bounds of Q's superset) instead of clipping the triangle to the texel's
+/// cone. A triangle that small spans at most a few texels, so its whole extent is not much
+/// looser than its part in one texel, while the clips cost the GPU's capture most where the
+/// triangles are smallest: on truck-garage at N = 64, 263k of its 285k nodes took a clip; the
+/// `clips` pass was 20 ms of the 71 (benches/results/lavapipe-bounded-cost.md). A texel whose
+/// cone the triangle misses may keep its entry: sound (a list may hold more than its cone
+/// touches), and rare (5k of those clips came out empty).
+pub const UNCLIPPED_TEXELS: u64 = 4;
+
 /// Texels per side of a GPU job tile (the `texels` pass gives a tile job 16 lanes, up to four
 /// texels each).
 pub const TILE: u32 = 8;
@@ -607,6 +619,10 @@ fn texel_bound_edges(
         match texel_cone_edges(g, k, w, rect.e) {
             TexelCone::Outside => return None,
             TexelCone::Inside(lo, hi) => return Some((lo, hi)),
+            // A small rect's texels take the whole triangle's bounds ([`UNCLIPPED_TEXELS`]).
+            TexelCone::Clip if rect.texels() <= UNCLIPPED_TEXELS => {
+                return Some(poly_bound(&q, w, rect.e));
+            }
             TexelCone::Clip => {}
         }
         q = clip(&q, PLANE_U_MIN, k[0]);
@@ -619,6 +635,12 @@ fn texel_bound_edges(
             return None;
         }
     }
+    Some(poly_bound(&q, w, rect.e))
+}
+
+/// Step 5's `(lo, hi)` of the polygon `q` (the clipped Q, or the whole triangle) in the texel
+/// whose unit centre direction is `w`, with error budget `e`.
+fn poly_bound(q: &Poly, w: Vec3, e: f32) -> (f32, f32) {
     let mut d_min = f32::INFINITY;
     let mut r_max = 0.0f32;
     for i in 0..q.n as usize {
@@ -626,8 +648,8 @@ fn texel_bound_edges(
         r_max = r_max.max(dot3(q.p[i], q.p[i]).sqrt());
     }
     // `lo > 0 ? lo : 0`: no -0.0 (the GPU orders `lo` by its bits) and a NaN is 0.
-    let lo = d_min - rect.e;
-    Some((if lo > 0.0 { lo } else { 0.0 }, r_max + rect.e))
+    let lo = d_min - e;
+    (if lo > 0.0 { lo } else { 0.0 }, r_max + e)
 }
 
 /// Step 6 for one texel: sorts `list` by `(lo, triangle)`, keeps `depth`, returns
@@ -1518,5 +1540,49 @@ mod tests {
         // Equal ratios: the first.
         let equal = [e(0, 1.0, 1.0), e(1, 2.0, 2.0), e(2, 4.0, 4.0)];
         assert_eq!(texel_gap(&equal, inf), [2.0, 1.0]);
+    }
+
+    /// A small rect's texels that the fast paths leave take the whole triangle's bounds, not the
+    /// clip's ([`UNCLIPPED_TEXELS`]). Negative: the same triangle grown past the rule has texels
+    /// whose clipped `lo` lies above the whole triangle's.
+    #[test]
+    fn small_rects_take_the_whole_triangles_bounds() {
+        let (centre, size) = (Vec3::ZERO, 8);
+        // Tilted (its depth varies), across the texel column boundary at u = 0 on face +z.
+        let small = [
+            Vec3::new(-0.05, 0.02, 1.0),
+            Vec3::new(0.05, 0.03, 1.3),
+            Vec3::new(0.0, 0.06, 1.1),
+        ];
+        let whole = |tri: &[Vec3; 3], i: usize| {
+            let t = Texel::from_index(i, size);
+            let l = face_local(tri, centre, t.face);
+            let (w, e) = (texel_centre_unit(t.x, t.y, size), error_budget(&l));
+            let d_min = l.iter().fold(f32::INFINITY, |d, &p| d.min(dot3(p, w)));
+            let r_max = l.iter().fold(0.0f32, |r, &p| r.max(dot3(p, p).sqrt()));
+            let lo = d_min - e;
+            (if lo > 0.0 { lo } else { 0.0 }, r_max + e)
+        };
+        let rect = face_rect(&small, centre, 4, size).unwrap();
+        assert!((2..=UNCLIPPED_TEXELS).contains(&rect.texels()));
+        let lists = capture_lists(&[small], &[true], centre, size, u32::MAX);
+        let mut texels = 0;
+        for (i, w) in lists.offsets.windows(2).enumerate() {
+            for e in &lists.entries[w[0] as usize..w[1] as usize] {
+                assert_eq!((e.lo, e.hi), whole(&small, i), "texel {i}");
+                texels += 1;
+            }
+        }
+        assert!(texels >= 2, "{texels} texels");
+        let large = small.map(|v| Vec3::new(v.x * 12.0, v.y * 12.0, v.z));
+        assert!(face_rect(&large, centre, 4, size).unwrap().texels() > UNCLIPPED_TEXELS);
+        let lists = capture_lists(&[large], &[true], centre, size, u32::MAX);
+        let tighter = (lists.offsets.windows(2).enumerate())
+            .filter(|(i, w)| w[1] > w[0] && lists.entries[w[0] as usize].lo > whole(&large, *i).0)
+            .count();
+        assert!(
+            tighter > 0,
+            "no texel of the large triangle was clipped tighter"
+        );
     }
 }
