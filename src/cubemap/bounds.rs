@@ -367,10 +367,11 @@ impl FaceRect {
     /// The texels the fast paths ([`crate::cubemap::texel_cone`]) are expected to leave to the
     /// clips: those within `r` (as in [`FaceRect::steiner`]) of P's boundary, whose
     /// neighbourhood has area `<= 2 L r + pi r^2`, with a quarter more for rounding. Every texel
-    /// of a `whole` rect takes the whole triangle's bounds, none is clipped. Sizes the GPU's clip
-    /// queue only: a texel that finds it full takes the whole triangle's bounds (sound).
+    /// of a `whole` rect, or of one of at most [`UNCLIPPED_TEXELS`], takes the whole triangle's
+    /// bounds: none is clipped. Sizes the GPU's clip queue only: a texel that finds it full takes
+    /// the whole triangle's bounds (sound).
     pub fn boundary(&self, size: u32) -> u64 {
-        if self.whole {
+        if self.whole || self.texels() <= UNCLIPPED_TEXELS {
             return 0;
         }
         let n = f64::from(size);
