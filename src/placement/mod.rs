@@ -637,9 +637,7 @@ impl BoundedJudge {
             .filter_map(|c| self.built.iter().find(|t| bits(&t.cube.centre) == bits(c)))
             .collect()
     }
-}
 
-impl BoundedJudge {
     /// The bounded judge of `opts` for `scene` (its `world`), no CMO built; `None` for the
     /// centre criterion.
     fn new(scene: &Scene, world: &WorldGeometry, opts: &PlacementOptions) -> Option<Self> {
