@@ -581,15 +581,20 @@ struct ResolveGap {
     found: bool,
 }
 
+// Whether the gap `(c0, c1)` is wider by ratio than `(b0, b1)`: `c1 b0 > b1 c0` (products,
+// which round alike on every device; the first of equals stays).
+fn resolve_wider(c0: f32, c1: f32, b0: f32, b1: f32) -> bool {
+    return c1 * b0 > b1 * c0;
+}
+
 // The gap after placing the entry `(lo, e_hi)` as the `kept`-th (from 0): it opens a gap where
-// it starts past the end, kept where it is wider by ratio than the widest so far
-// (`g1 b0 > b1 g0`; the first of equals).
+// it starts past the end, kept where it is wider than the widest so far (`resolve_wider`).
 fn resolve_gap(g: ResolveGap, kept: u32, lo: f32, e_hi: f32) -> ResolveGap {
     if kept == 0u {
         return ResolveGap(e_hi, g.lo, g.hi, g.found);
     }
     var out = g;
-    if lo > g.end && (!g.found || lo * g.lo > g.hi * g.end) {
+    if lo > g.end && (!g.found || resolve_wider(g.end, lo, g.lo, g.hi)) {
         out.lo = g.end;
         out.hi = lo;
         out.found = true;
@@ -860,7 +865,7 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
     // finite and wider.
     var g0 = gap_end;
     var g1 = complete;
-    if gap_found && !(complete < f32_inf() && complete > gap_end && complete * gap_lo > gap_hi * gap_end) {
+    if gap_found && !(complete < f32_inf() && complete > gap_end && resolve_wider(gap_end, complete, gap_lo, gap_hi)) {
         g0 = gap_lo;
         g1 = min(gap_hi, complete);
     }

@@ -653,15 +653,8 @@ fn poly_bound(q: &Poly, w: Vec3, e: f32) -> (f32, f32) {
     (if lo > 0.0 { lo } else { 0.0 }, r_max + e)
 }
 
-/// Step 6 for one texel: sorts `list` by `(lo, triangle)`, keeps `depth`, returns
-/// `(lo, hi, complete_to)` of the texel (module docs).
-pub fn resolve_texel(list: &mut Vec<Entry>, depth: u32) -> (f32, f32, f32) {
-    let (summary, kept) = resolve_slice(list, depth);
-    list.truncate(kept);
-    summary
-}
-
-/// [`resolve_texel`] in place: the kept entries are the slice's first (returned) count.
+/// Step 6 for one texel, in place: sorts `list` by `(lo, triangle)` and keeps its first `depth`;
+/// returns `(lo, hi, complete_to)` of the texel (module docs) and how many it keeps.
 fn resolve_slice(list: &mut [Entry], depth: u32) -> ((f32, f32, f32), usize) {
     list.sort_by(|a, b| a.lo.total_cmp(&b.lo).then(a.triangle.cmp(&b.triangle)));
     let complete_to = list.get(depth as usize).map_or(f32::INFINITY, |e| e.lo);
@@ -1267,11 +1260,11 @@ mod tests {
             entries: Vec::new(),
         };
         for mut list in lists {
-            let (lo, hi, c) = resolve_texel(&mut list, 1000);
+            let ((lo, hi, c), kept) = resolve_slice(&mut list, 1000);
             out.lo.push(lo);
             out.hi.push(hi);
             out.complete_to.push(c);
-            out.entries.extend_from_slice(&list);
+            out.entries.extend_from_slice(&list[..kept]);
             out.offsets.push(out.entries.len() as u32);
         }
         out

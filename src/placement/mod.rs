@@ -295,10 +295,10 @@ struct Scorer<'a> {
 
 impl<'a> Scorer<'a> {
     /// Scores `rays` against the triangles of `tracer`'s scene.
-    fn new(tracer: &Tracer, rays: &'a [Ray]) -> Self {
+    fn new(tracer: &Tracer, rays: &'a [Ray], corners: Vec<[Vec3; 3]>) -> Self {
         Scorer {
             rays,
-            corners: triangle_corners(&tracer.world),
+            corners,
             t_hi: 2.0 * tracer.world.extent().max(f32::MIN_POSITIVE),
         }
     }
@@ -393,7 +393,7 @@ fn search_by(
 ) -> Placement {
     let start = Instant::now();
     let bounded = BoundedJudge::new(scene, &world, opts);
-    let (tracer, shown, axis_cmo) = bvhs_and_axis(world, shortcuts, bounded.as_ref());
+    let (tracer, shown, corners, axis_cmo) = bvhs_and_axis(world, shortcuts, bounded.as_ref());
     let (rays, later_rays) = sample_rays(&tracer, cameras, opts);
     if rays.is_empty() {
         // No mirror pixel in view: nothing to score, one CMO on the reflectors' axis.
@@ -411,7 +411,7 @@ fn search_by(
             list_size: None,
         };
     }
-    let scorer = Scorer::new(&tracer, &rays);
+    let scorer = Scorer::new(&tracer, &rays, corners);
     let capture_tracer = shown.as_ref().unwrap_or(&tracer);
     let capture = |c: Vec3| scoring_capture(scene, capture_tracer, c, opts.cube_size);
     let mut judge = Judge {
@@ -503,25 +503,27 @@ fn search_by(
     placed(centres, unresolved, axis_share, &left, None)
 }
 
-/// The search's BVHs ([`tracers`] where `shortcuts`, else one over the world) and the `bounded`
-/// judge's CMO on the reflectors' axis, built at once: that CMO, the first the judge weighs (and
-/// on most scenes the last), needs the world but not the sample, so its lists are built while
-/// the BVHs that sample the rays are.
+/// The search's BVHs over `world` ([`tracers`] where `shortcuts`, else one over it all), its
+/// triangles' corners ([`triangle_corners`]) and the `bounded` judge's CMO on the reflectors'
+/// axis, built at once: that CMO, the first the judge weighs (and on most scenes the last), needs
+/// the world but not the sample, so its lists are built while the BVHs that sample the rays are.
 fn bvhs_and_axis(
     world: WorldGeometry,
     shortcuts: bool,
     bounded: Option<&BoundedJudge>,
-) -> (Tracer, Option<Tracer>, Option<CmoTracer>) {
-    let axis_cmo = || Some(bounded?.cmo(&triangle_corners(&world), world.axis_centres(1)[0]));
-    let bvhs = || {
+) -> (Tracer, Option<Tracer>, Vec<[Vec3; 3]>, Option<CmoTracer>) {
+    let corners = triangle_corners(&world);
+    let axis = world.axis_centres(1)[0];
+    let bvhs = move || {
         if shortcuts {
-            tracers(world.clone())
+            tracers(world)
         } else {
-            (Tracer::from_world(world.clone()), None)
+            (Tracer::from_world(world), None)
         }
     };
+    let axis_cmo = || Some(bounded?.cmo(&corners, axis));
     let ((tracer, shown), axis_cmo) = rayon::join(bvhs, axis_cmo);
-    (tracer, shown, axis_cmo)
+    (tracer, shown, corners, axis_cmo)
 }
 
 /// What [`one_cmo`] found: the centre that ends the search and the sample's rays it leaves
@@ -848,7 +850,7 @@ pub fn sample_share(
     if rays.is_empty() {
         return 0.0;
     }
-    let scorer = Scorer::new(&tracer, &rays);
+    let scorer = Scorer::new(&tracer, &rays, triangle_corners(&tracer.world));
     let mut judge = Judge::new(scene, &tracer.world, &scorer, opts);
     let all: Vec<usize> = (0..rays.len()).collect();
     let left = judge.left(centres, || {
