@@ -30,6 +30,16 @@ pub enum SceneError {
     Mtl { path: PathBuf, reason: String },
     #[error("unknown scene '{name}'; built-in scenes: {} (or give a path to a .toml scene file)", known.join(", "))]
     UnknownScene { name: String, known: Vec<String> },
+    /// A mesh (OBJ, MTL, glTF, ...) given where a scene file goes.
+    #[error(
+        "{}: a scene is a .toml file, and this is a mesh file; write a scene file that names it \
+         (`[[mesh]]` with `obj = \"{}\"` and `reflector = true` on the mirror, a `[[camera]]` with \
+         `eye`, `target` and `fov_y_deg`); `cubetrace scene export default DIR` writes one to start \
+         from",
+        path.display(),
+        path.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned())
+    )]
+    NotASceneFile { path: PathBuf },
 }
 
 impl SceneError {

@@ -581,13 +581,27 @@ impl Scene {
     }
 }
 
+/// File extensions of meshes and their materials, which a scene file names but which are not one.
+const MESH_EXTENSIONS: [&str; 10] = [
+    "obj", "mtl", "gltf", "glb", "fbx", "ply", "stl", "dae", "blend", "usd",
+];
+
 /// Loads a scene given a built-in name or a path to a `.toml` scene file.
 pub fn load(name_or_path: &str) -> Result<Scene, SceneError> {
+    let path = Path::new(name_or_path);
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase());
+    if ext.is_some_and(|e| MESH_EXTENSIONS.contains(&e.as_str())) {
+        return Err(SceneError::NotASceneFile {
+            path: path.to_path_buf(),
+        });
+    }
     let looks_like_path = name_or_path.ends_with(".toml")
         || name_or_path.contains('/')
         || name_or_path.contains(std::path::MAIN_SEPARATOR);
     if looks_like_path {
-        return load_scene_file(Path::new(name_or_path));
+        return load_scene_file(path);
     }
     builtin::by_name(name_or_path).ok_or_else(|| SceneError::UnknownScene {
         name: name_or_path.to_string(),

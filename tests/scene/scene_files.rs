@@ -313,6 +313,43 @@ fn error_unknown_scene_name() {
 }
 
 #[test]
+fn error_a_mesh_file_given_as_the_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("panel.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    )
+    .unwrap();
+    // With or without a folder, any case of the extension: the message says what a scene is.
+    for scene in ["panel.obj", "./panel.obj", "Panel.OBJ"] {
+        expect_failure(
+            dir.path(),
+            scene,
+            &[],
+            &[
+                scene,
+                "a scene is a .toml file",
+                "[[mesh]]",
+                "cubetrace scene export",
+            ],
+        );
+    }
+    // Negative: a scene file that names the same OBJ renders past the loader (to its own error:
+    // it has no reflector), so the message above is the extension's, not the file's content's.
+    std::fs::write(
+        dir.path().join("panel.toml"),
+        "[[mesh]]\nobj = \"panel.obj\"\n[[camera]]\neye = [0, 0, 3]\ntarget = [0, 0, 0]\n",
+    )
+    .unwrap();
+    let o = run(&["render", "panel.toml", "-o", "out.png"], dir.path());
+    assert!(
+        !o.stderr.contains("a scene is a .toml file"),
+        "{}",
+        o.stderr
+    );
+}
+
+#[test]
 fn error_bad_output_extension() {
     let dir = tempfile::tempdir().unwrap();
     let o = run(&["render", "default", "-o", "x.jpg"], dir.path());
