@@ -33,7 +33,8 @@ pub fn diagnose(scene: &Scene) -> Vec<String> {
     }
     if reflectors == 0 {
         out.push(format!(
-            "scene '{}' has no reflector (no mesh has reflector = true): there is no mirror to trace",
+            "scene '{}' has no reflector (no mesh has reflector = true, or names its mirror \
+             objects: reflector = [\"Ball\"]): there is no mirror to trace",
             scene.name
         ));
         return out;

@@ -16,8 +16,8 @@ use toml::Spanned;
 use super::animation::Animation;
 use super::file::{
     AnimationFile, CameraFile, CameraKeyFile, CameraTrackFile, CmoFile, FilmFile, MeshFile,
-    MeshKeyFile, MeshTrackFile, ScaleFile, SceneFile, SelfReflectionsFile, ShadingFile,
-    ShadingModel, SpecularPowerFile, TransformFile,
+    MeshKeyFile, MeshTrackFile, ReflectorFile, ScaleFile, SceneFile, SelfReflectionsFile,
+    ShadingFile, ShadingModel, SpecularPowerFile, TransformFile,
 };
 use super::{CmoPlacement, CmoSpec, MeshInstance, Scene, SelfReflections};
 use crate::camera::Camera;
@@ -172,7 +172,7 @@ fn mesh_file(scene: &Scene, mesh: &MeshInstance, file: String) -> MeshFile {
     MeshFile {
         name: Some(sp(mesh.name.clone())),
         obj: sp(PathBuf::from(file)),
-        reflector: mesh.reflector,
+        reflector: sp(ReflectorFile::Whole(mesh.reflector)),
         specular_power: glossy.then(|| sp(SpecularPowerFile::Word("mtl".into()))),
         transform: TransformFile {
             translate: sp(t.translate.to_array()),

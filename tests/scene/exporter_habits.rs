@@ -356,3 +356,101 @@ fn url_encoded_texture_names_are_decoded() {
     let (scene, _) = load_ok(&[quad, ("lib.mtl", literal.as_bytes()), ("100%.png", &red)]);
     assert!(material(&scene).1.is_some());
 }
+
+/// A whole scene exported as one OBJ (Blender's default): a mirror ball, a floor and a box as
+/// objects `o`, the ball's material `Chrome`, the others' `Wall`.
+const WHOLE_SCENE_OBJ: &str = "mtllib lib.mtl\n\
+    o Ball\nv -1 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nusemtl Chrome\nf 1 2 3\nf 1 4 2\nf 2 4 3\n\
+    o Floor\nv -3 -1 -3\nv 3 -1 -3\nv 3 -1 3\nv -3 -1 3\nusemtl Wall\nf 5 6 7 8\n\
+    o Box\nv 2 0 -2\nv 3 0 -2\nv 3 1 -2\nusemtl Wall\nf 9 10 11\n";
+const WHOLE_SCENE_MTL: &str = "newmtl Chrome\nKd 0.9 0.9 0.9\nnewmtl Wall\nKd 0.5 0.4 0.3\n";
+
+/// [`WHOLE_SCENE_OBJ`] in a scene file whose mesh has `reflector` (a TOML value, or `None`
+/// for none) and `extra` after the camera; the loaded scene or the error's message.
+fn whole_scene(reflector: Option<&str>, extra: &str) -> Result<Scene, String> {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("all.obj"), WHOLE_SCENE_OBJ).unwrap();
+    std::fs::write(dir.path().join("lib.mtl"), WHOLE_SCENE_MTL).unwrap();
+    let line = reflector.map_or_else(String::new, |r| format!("reflector = {r}\n"));
+    let toml = format!(
+        "[[mesh]]\nname = \"all\"\nobj = \"all.obj\"\n{line}\n[[camera]]\neye = [0, 0.5, 4]\n\
+         target = [0, 0, 0]\nresolution = [8, 8]\n{extra}"
+    );
+    let path = dir.path().join("scene.toml");
+    std::fs::write(&path, toml).unwrap();
+    scene::load_scene_file(&path).map_err(|e| e.to_string())
+}
+
+/// The scene's meshes as (name, reflector, part names, triangles).
+fn meshes(scene: &Scene) -> Vec<(String, bool, Vec<String>, usize)> {
+    (scene.meshes.iter())
+        .map(|m| {
+            let parts = m.parts.iter().map(|p| p.name.clone()).collect();
+            let triangles = m.parts.iter().map(|p| p.triangles.len()).sum();
+            (m.name.clone(), m.reflector, parts, triangles)
+        })
+        .collect()
+}
+
+/// `reflector = ["Ball"]` makes the OBJ's object `Ball` the mirror and keeps its other objects
+/// as a mesh `all-rest` in the same place; a material's name (`["Chrome"]`) picks the same
+/// parts. Negatives: `true` makes the whole OBJ a mirror, no `reflector` none of it; a name that
+/// is in the file as neither is refused with the names there are, as is an empty list.
+#[test]
+fn a_mirror_named_among_the_objects_of_one_obj() {
+    let names = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+    let want = vec![
+        ("all".to_string(), true, names(&["Ball"]), 3),
+        ("all-rest".to_string(), false, names(&["Floor", "Box"]), 3),
+    ];
+    for name in ["Ball", "Chrome"] {
+        let scene = whole_scene(Some(&format!("[\"{name}\"]")), "").unwrap();
+        assert_eq!(meshes(&scene), want, "{name}");
+        assert_eq!(scene.meshes[0].transform, scene.meshes[1].transform);
+    }
+    let both = whole_scene(Some("[\"Ball\", \"Floor\"]"), "").unwrap();
+    assert_eq!(meshes(&both)[0].2, ["Ball", "Floor"]);
+    assert_eq!(meshes(&both)[1].2, ["Box"]);
+    // `true`: the whole file a mirror; no `reflector`: none of it.
+    let whole = whole_scene(Some("true"), "").unwrap();
+    assert_eq!(meshes(&whole).len(), 1);
+    assert!(meshes(&whole)[0].1);
+    let none = whole_scene(None, "").unwrap();
+    assert_eq!(meshes(&none).len(), 1);
+    assert!(!meshes(&none)[0].1);
+    // Refusals name the field and the names the file has.
+    let e = whole_scene(Some("[\"Bal\"]"), "").unwrap_err();
+    for needle in [
+        "mesh[0].reflector",
+        "'Bal'",
+        "'Ball'",
+        "'Floor'",
+        "'Chrome'",
+        "'Wall'",
+    ] {
+        assert!(e.contains(needle), "{needle} in: {e}");
+    }
+    let e = whole_scene(Some("[]"), "").unwrap_err();
+    assert!(
+        e.contains("mesh[0].reflector") && e.contains("'Ball'"),
+        "{e}"
+    );
+}
+
+/// A split mesh moves as one: an animation track of `all` moves `all-rest` too. Negative: a
+/// second track of `all-rest` is refused as animating it twice.
+#[test]
+fn a_split_mesh_is_animated_as_one() {
+    let track = "[animation]\nfps = 24\n[[animation.mesh]]\nmesh = \"all\"\n\
+                 [[animation.mesh.key]]\ntime = 0.0\ntranslate = [0, 1, 0]\n";
+    let scene = whole_scene(Some("[\"Ball\"]"), track).unwrap();
+    let mut moved: Vec<usize> = scene.animation.meshes.iter().map(|t| t.mesh).collect();
+    moved.sort_unstable();
+    assert_eq!(moved, [0, 1]);
+    let twice = format!(
+        "{track}[[animation.mesh]]\nmesh = \"all-rest\"\n[[animation.mesh.key]]\ntime = 0.0\n\
+         translate = [0, 2, 0]\n"
+    );
+    let e = whole_scene(Some("[\"Ball\"]"), &twice).unwrap_err();
+    assert!(e.contains("'all-rest' is animated twice"), "{e}");
+}

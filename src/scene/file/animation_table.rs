@@ -13,11 +13,13 @@ use crate::scene::{Scene, SceneError};
 
 /// `[animation]`: `fps` finite and positive, `frames` an ordered range of frame numbers,
 /// `interpolation` a known name, then each track (a known camera or mesh, animated once, its
-/// keys in strictly increasing time).
+/// keys in strictly increasing time). A mesh `split` in two (its mirror parts' mesh, its other
+/// parts') moves as one: a track of the first moves both.
 pub(super) fn animation(
     src: &Source,
     a: &AnimationFile,
     scene: &Scene,
+    split: &[(usize, usize)],
 ) -> Result<Animation, SceneError> {
     let mut out = Animation::default();
     if let Some(fps) = &a.fps {
@@ -106,6 +108,23 @@ pub(super) fn animation(
             ));
         }
         let keys = keys(src, &track.get_ref().keys, track, &field, mesh_key)?;
+        // A mesh split in two (some of its parts mirrors) moves as one.
+        if let Some(&(_, rest)) = split.iter().find(|s| s.0 == mesh) {
+            if out.meshes.iter().any(|m| m.mesh == rest) {
+                return Err(src.invalid(
+                    track,
+                    &field,
+                    format!(
+                        "mesh '{}' is animated twice (its mirrors' mesh moves it)",
+                        scene.meshes[rest].name
+                    ),
+                ));
+            }
+            out.meshes.push(MeshTrack {
+                mesh: rest,
+                keys: keys.clone(),
+            });
+        }
         out.meshes.push(MeshTrack { mesh, keys });
     }
     Ok(out)

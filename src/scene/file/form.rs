@@ -64,13 +64,55 @@ pub(crate) struct ShadingFile {
 pub(crate) struct MeshFile {
     pub name: Option<Spanned<String>>,
     pub obj: Spanned<PathBuf>,
-    #[serde(default)]
-    pub reflector: bool,
+    /// `true` (the whole OBJ is a mirror), `false`, or the names of the OBJ's objects, groups or
+    /// materials that are (checked on load).
+    #[serde(default = "not_reflector")]
+    pub reflector: Spanned<ReflectorFile>,
     /// A reflector's glossiness (see [`Gloss`](super::Gloss)): a Phong specular power, or `"mtl"`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub specular_power: Option<Spanned<SpecularPowerFile>>,
     #[serde(default)]
     pub transform: TransformFile,
+}
+
+/// `reflector`: a TOML boolean, or a list of names.
+#[derive(Debug, Serialize, Clone, PartialEq)]
+#[serde(untagged)]
+pub(crate) enum ReflectorFile {
+    Whole(bool),
+    Parts(Vec<String>),
+}
+
+/// Read by hand, so that a wrong value's message says what `reflector` takes (an untagged
+/// enum's names only itself).
+impl<'de> Deserialize<'de> for ReflectorFile {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Reflector;
+        impl<'de> serde::de::Visitor<'de> for Reflector {
+            type Value = ReflectorFile;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("true, false, or a list of the OBJ's object, group or material names")
+            }
+            fn visit_bool<E: serde::de::Error>(self, b: bool) -> Result<Self::Value, E> {
+                Ok(ReflectorFile::Whole(b))
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(
+                self,
+                mut seq: A,
+            ) -> Result<Self::Value, A::Error> {
+                let mut names = Vec::new();
+                while let Some(name) = seq.next_element::<String>()? {
+                    names.push(name);
+                }
+                Ok(ReflectorFile::Parts(names))
+            }
+        }
+        d.deserialize_any(Reflector)
+    }
+}
+
+fn not_reflector() -> Spanned<ReflectorFile> {
+    Spanned::new(0..0, ReflectorFile::Whole(false))
 }
 
 /// `specular_power`: a TOML number, or the string `"mtl"` (checked on load).

@@ -15,7 +15,9 @@
 //! [[mesh]]
 //! name = "sphere"
 //! obj = "sphere.obj"                # relative to this file, absolute, or from ~/
-//! reflector = true
+//! reflector = true                 # the whole OBJ; or the names of its objects, groups or
+//!                                   # materials that are mirrors: ["Ball", "Chrome"] (the
+//!                                   # other parts become a mesh "<name>-rest", moved with it)
 //! specular_power = 64               # optional, reflectors only: glossy (Phong power, 0 up;
 //!                                   # 1024 and above a mirror), or "mtl" for the MTL's Ns;
 //!                                   # without it a mirror, whatever the MTL's Ns
@@ -86,7 +88,8 @@
 //! - mesh and camera names unique (a mesh's name defaults to its OBJ's stem; the same OBJ placed
 //!   twice without names gives `ball`, `ball-2`).
 //!
-//! A reflector whose OBJ holds no triangles is an error (it would be an invisible mirror).
+//! A reflector whose OBJ holds no triangles is an error (it would be an invisible mirror), as is
+//! a `reflector` name that names no object, group (`o`, `g`) or material (`usemtl`) of its OBJ.
 //!
 //! The file's form (the tables as serde reads and writes them, and the readers of exact-length
 //! arrays) is in `form`, the `[animation]` table's check in `animation_table`; this module
@@ -101,20 +104,21 @@ use glam::Vec3;
 use toml::Spanned;
 
 use super::limits;
-use super::obj::{find_beside, load_obj_file};
+use super::obj::{LoadedObj, find_beside, load_obj_file};
 use super::report::{LoadReport, WarningKind};
 use super::source::Source;
 use super::{
     CmoPlacement, CmoSpec, DEFAULT_SEARCH_CMOS, MAX_CMOS, MAX_COLOUR, MAX_COORDINATE,
-    MAX_CUBE_SIZE, MAX_IMAGE_SIDE, MeshInstance, Scene, SceneError, SelfReflections, Transform,
+    MAX_CUBE_SIZE, MAX_IMAGE_SIDE, MeshInstance, MeshPart, Scene, SceneError, SelfReflections,
+    Transform,
 };
 use crate::camera::Camera;
 use crate::shading::Shading;
 use animation_table::animation;
 pub(crate) use form::{
     AnimationFile, CameraFile, CameraKeyFile, CameraTrackFile, CmoFile, FilmFile, MeshFile,
-    MeshKeyFile, MeshTrackFile, ScaleFile, SceneFile, SelfReflectionsFile, ShadingFile,
-    ShadingModel, SpecularPowerFile, TransformFile,
+    MeshKeyFile, MeshTrackFile, ReflectorFile, ScaleFile, SceneFile, SelfReflectionsFile,
+    ShadingFile, ShadingModel, SpecularPowerFile, TransformFile,
 };
 
 /// How a reflector of the scene file is glossy (its `specular_power`).
@@ -187,8 +191,16 @@ pub fn load_scene_file_report(path: &Path) -> Result<(Scene, LoadReport), SceneE
         animation: Default::default(),
     };
 
+    // The file's mesh each of the scene's comes from, and the meshes split in two (a mirror's,
+    // its other parts').
+    let mut origin = Vec::new();
+    let mut split = Vec::new();
     for (i, m) in file.meshes.iter().enumerate() {
-        load_mesh(&src, dir, i, m, &mut scene, &mut report)?;
+        let n = load_mesh(&src, dir, i, m, &mut scene, &mut report)?;
+        if n == 2 {
+            split.push((origin.len(), origin.len() + 1));
+        }
+        origin.extend(std::iter::repeat_n(i, n));
     }
     if scene.meshes.is_empty() {
         report.warn(WarningKind::NoMeshes, path, None, "the scene has no meshes");
@@ -209,10 +221,14 @@ pub fn load_scene_file_report(path: &Path) -> Result<(Scene, LoadReport), SceneE
         scene.cmo = cmo_spec(&src, cmo)?;
     }
     let given = |n: &Option<Spanned<String>>| n.as_ref().map(|n| n.span());
-    let meshes: Vec<_> = file.meshes.iter().map(|m| given(&m.name)).collect();
+    // A split mesh's other parts take a name derived from the given one.
+    let rest = |k: &usize| split.iter().any(|s| s.1 == *k);
+    let meshes: Vec<_> = (origin.iter().enumerate())
+        .map(|(k, &i)| given(&file.meshes[i].name).filter(|_| !rest(&k)))
+        .collect();
     let cameras: Vec<_> = file.cameras.iter().map(|c| given(&c.name)).collect();
     limits::check_names(&src, &meshes, &cameras, &mut scene)?;
-    let transforms: Vec<_> = (file.meshes.iter())
+    let transforms: Vec<_> = (origin.iter().map(|&i| &file.meshes[i]))
         .map(|m| (m.transform.scale.span(), m.transform.translate.span()))
         .collect();
     limits::check_mesh_sizes(&src, &transforms, &scene)?;
@@ -220,7 +236,7 @@ pub fn load_scene_file_report(path: &Path) -> Result<(Scene, LoadReport), SceneE
         scene.film = film(&src, f)?;
     }
     if let Some(a) = &file.animation {
-        scene.animation = animation(&src, a, &scene)?;
+        scene.animation = animation(&src, a, &scene, &split)?;
     }
     Ok((scene, report))
 }
@@ -253,7 +269,7 @@ fn load_mesh(
     m: &MeshFile,
     scene: &mut Scene,
     report: &mut LoadReport,
-) -> Result<(), SceneError> {
+) -> Result<usize, SceneError> {
     let t = &m.transform;
     let scale = match *t.scale.get_ref() {
         ScaleFile::Uniform(s) => Vec3::splat(s),
@@ -301,7 +317,7 @@ fn load_mesh(
                 .unwrap_or_else(|| format!("mesh{i}"))
         });
     if loaded.parts.is_empty() {
-        if m.reflector {
+        if is_reflector(m) {
             return Err(src.invalid(
                 &m.obj,
                 &format!("mesh[{i}].obj"),
@@ -319,8 +335,110 @@ fn load_mesh(
         );
     }
     let gloss = gloss(src, i, m)?;
-    merge(scene, name, loaded, transform, m.reflector, gloss);
-    Ok(())
+    let mirror = mirror_parts(src, i, m, &obj_path, &loaded)?;
+    if mirror.iter().all(|&b| b == mirror[0]) {
+        merge(scene, name, loaded, transform, is_reflector(m), gloss);
+        return Ok(1);
+    }
+    // Some parts are mirrors and some not: two meshes, the mirrors under the mesh's name.
+    let (mut mirrors, mut rest) = (Vec::new(), Vec::new());
+    for (part, is_mirror) in loaded.parts.into_iter().zip(mirror) {
+        if is_mirror {
+            mirrors.push(part);
+        } else {
+            rest.push(part);
+        }
+    }
+    let half = |parts| LoadedObj {
+        parts,
+        materials: loaded.materials.clone(),
+        textures: loaded.textures.clone(),
+    };
+    let rest_name = format!("{name}{REST_SUFFIX}");
+    merge(scene, name, half(mirrors), transform, true, gloss);
+    merge(scene, rest_name, half(rest), transform, false, gloss);
+    Ok(2)
+}
+
+/// The name of the other parts' mesh where a mesh's `reflector` lists some of its parts.
+pub(super) const REST_SUFFIX: &str = "-rest";
+
+/// Whether mesh `m` has a mirror: `reflector = true`, or a list of names.
+fn is_reflector(m: &MeshFile) -> bool {
+    match m.reflector.get_ref() {
+        ReflectorFile::Whole(b) => *b,
+        ReflectorFile::Parts(names) => !names.is_empty(),
+    }
+}
+
+/// Which of `loaded`'s parts (mesh `i`'s OBJ at `obj_path`) are mirrors: all or none for
+/// `reflector = true` or `false`; for a list of names, those whose OBJ object or group (`o`,
+/// `g`) or material (`usemtl`) it names. A name that names no part, and an empty list, are
+/// refused with the names there are.
+fn mirror_parts(
+    src: &Source,
+    i: usize,
+    m: &MeshFile,
+    obj_path: &Path,
+    loaded: &LoadedObj,
+) -> Result<Vec<bool>, SceneError> {
+    let names = match m.reflector.get_ref() {
+        ReflectorFile::Whole(b) => return Ok(vec![*b; loaded.parts.len().max(1)]),
+        ReflectorFile::Parts(names) => names,
+    };
+    let field = format!("mesh[{i}].reflector");
+    let material = |p: &MeshPart| loaded.materials.get(p.material as usize).map(|m| &m.name);
+    let named = |p: &MeshPart, n: &String| p.name == *n || material(p) == Some(n);
+    let listed = || {
+        let mut parts: Vec<&str> = loaded.parts.iter().map(|p| p.name.as_str()).collect();
+        parts.dedup();
+        let mut materials: Vec<&str> = (loaded.parts.iter())
+            .filter_map(|p| material(p).map(String::as_str))
+            .collect();
+        materials.sort_unstable();
+        materials.dedup();
+        format!(
+            "{} has objects or groups {} and materials {}",
+            obj_path.display(),
+            quoted(&parts),
+            quoted(&materials)
+        )
+    };
+    if names.is_empty() {
+        return Err(src.invalid(
+            &m.reflector,
+            &field,
+            format!(
+                "an empty list names no mirror (false, true, or names: {})",
+                listed()
+            ),
+        ));
+    }
+    if let Some(n) = names
+        .iter()
+        .find(|n| !loaded.parts.iter().any(|p| named(p, n)))
+    {
+        return Err(src.invalid(
+            &m.reflector,
+            &field,
+            format!(
+                "'{n}' names no object, group or material of the OBJ: {}",
+                listed()
+            ),
+        ));
+    }
+    Ok((loaded.parts.iter())
+        .map(|p| names.iter().any(|n| named(p, n)))
+        .collect())
+}
+
+/// `names` quoted and joined, or "none".
+fn quoted(names: &[&str]) -> String {
+    if names.is_empty() {
+        return "none".into();
+    }
+    let q: Vec<String> = names.iter().map(|n| format!("'{n}'")).collect();
+    q.join(", ")
 }
 
 /// The OBJ file a mesh's `obj` names, relative to the scene file's folder `dir`: as written
@@ -346,7 +464,7 @@ fn gloss(src: &Source, i: usize, m: &MeshFile) -> Result<Gloss, SceneError> {
         return Ok(Gloss::Mirror);
     };
     let field = format!("mesh[{i}].specular_power");
-    if !m.reflector {
+    if !is_reflector(m) {
         return Err(src.invalid(
             v,
             &field,
