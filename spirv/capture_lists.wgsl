@@ -603,6 +603,56 @@ fn resolve_gap(g: ResolveGap, kept: u32, lo: f32, e_hi: f32) -> ResolveGap {
     return out;
 }
 
+// Nodes per run that `resolve` sorts before its merges.
+const RESOLVE_RUN: u32 = 8u;
+
+// The RESOLVE_RUN entries of a run (`resolve`'s long lists), entries 0-3 in the first vector of
+// each pair and 4-7 in the second: keys (lo bits, triangle) and their nodes; LISTS_NIL keys
+// past the list's end sort last.
+struct ResolveRun {
+    lo0: vec4<u32>,
+    lo1: vec4<u32>,
+    tri0: vec4<u32>,
+    tri1: vec4<u32>,
+    at0: vec4<u32>,
+    at1: vec4<u32>,
+}
+
+// Entry `i` of `r`: (lo bits, triangle, node).
+fn resolve_run_get(r: ResolveRun, i: u32) -> vec3<u32> {
+    let k = i & 3u;
+    if i < 4u {
+        return vec3<u32>(r.lo0[k], r.tri0[k], r.at0[k]);
+    }
+    return vec3<u32>(r.lo1[k], r.tri1[k], r.at1[k]);
+}
+
+// `r` with entry `i` set to (lo bits, triangle, node).
+fn resolve_run_set(r: ResolveRun, i: u32, lo: u32, tri: u32, at: u32) -> ResolveRun {
+    var out = r;
+    let k = i & 3u;
+    if i < 4u {
+        out.lo0[k] = lo;
+        out.tri0[k] = tri;
+        out.at0[k] = at;
+    } else {
+        out.lo1[k] = lo;
+        out.tri1[k] = tri;
+        out.at1[k] = at;
+    }
+    return out;
+}
+
+// `r` with entries `a` < `b` in order (a compare-exchange of the sorting network).
+fn resolve_run_ce(r: ResolveRun, a: u32, b: u32) -> ResolveRun {
+    let x = resolve_run_get(r, a);
+    let y = resolve_run_get(r, b);
+    let swap = resolve_before(y.x, y.y, x.x, x.y);
+    let lo = select(x, y, swap);
+    let hi = select(y, x, swap);
+    return resolve_run_set(resolve_run_set(r, a, lo.x, lo.y, lo.z), b, hi.x, hi.y, hi.z);
+}
+
 @compute @workgroup_size(64)
 fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
     let texel = gid.x + gid.y * lists_params.row;
@@ -743,7 +793,60 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
     // subgroup's turns of every loop, each as long as the lane that needs most. Its loops test
     // their end at the top (spirv/README.md: a lane past a bottom break keeps writing).
     if long_list {
-        var width = 1u;
+        // Runs of RESOLVE_RUN nodes sorted first, each node read once and the run relinked in
+        // order (a sorting network on their keys), so that the merges start at runs of
+        // RESOLVE_RUN: three passes of the merge fewer, each of which walks the whole list twice.
+        var p = first;
+        var tail = LISTS_NIL;
+        loop {
+            if p == LISTS_NIL {
+                break;
+            }
+            let none = vec4<u32>(LISTS_NIL);
+            var r = ResolveRun(none, none, none, none, none, none);
+            var j = p;
+            var c = 0u;
+            for (var m = 0u; m < RESOLVE_RUN; m++) {
+                let ok = j != LISTS_NIL;
+                let jj = select(0u, j, ok);
+                r = resolve_run_set(r, m, select(LISTS_NIL, lists_node_lo[jj], ok), select(LISTS_NIL, lists_node_triangle[jj], ok), select(LISTS_NIL, jj, ok));
+                c += select(0u, 1u, ok);
+                j = select(j, lists_node_next[jj], ok);
+            }
+            // The optimal network for eight (19 compare-exchanges; Knuth, TAOCP 5.3.4).
+            r = resolve_run_ce(r, 0u, 2u);
+            r = resolve_run_ce(r, 1u, 3u);
+            r = resolve_run_ce(r, 4u, 6u);
+            r = resolve_run_ce(r, 5u, 7u);
+            r = resolve_run_ce(r, 0u, 4u);
+            r = resolve_run_ce(r, 1u, 5u);
+            r = resolve_run_ce(r, 2u, 6u);
+            r = resolve_run_ce(r, 3u, 7u);
+            r = resolve_run_ce(r, 0u, 1u);
+            r = resolve_run_ce(r, 2u, 3u);
+            r = resolve_run_ce(r, 4u, 5u);
+            r = resolve_run_ce(r, 6u, 7u);
+            r = resolve_run_ce(r, 2u, 4u);
+            r = resolve_run_ce(r, 3u, 5u);
+            r = resolve_run_ce(r, 1u, 4u);
+            r = resolve_run_ce(r, 3u, 6u);
+            r = resolve_run_ce(r, 1u, 2u);
+            r = resolve_run_ce(r, 3u, 4u);
+            r = resolve_run_ce(r, 5u, 6u);
+            for (var m = 0u; m < c; m++) {
+                let e = resolve_run_get(r, m).z;
+                if tail == LISTS_NIL {
+                    first = e;
+                } else {
+                    lists_node_next[tail] = e;
+                }
+                tail = e;
+            }
+            steps += c;
+            p = j;
+        }
+        lists_node_next[tail] = LISTS_NIL;
+        var width = RESOLVE_RUN;
         loop {
             var p = first;
             var tail = LISTS_NIL;
