@@ -539,7 +539,8 @@ const RESOLVE_K: u32 = 4u;
 // Lists longer than this are sorted by merging (`resolve`). A dense scene's long lists are few
 // (truck-garage at N = 64: p99 248 nodes, max 2,924) but their subgroups set the pass's time:
 // at depth 256, scans alone took 47 ms there, merges above 32 nodes 22 ms (16, 64 and 128
-// within noise of 32; benches/results/lavapipe-bounded-cost.md).
+// within noise of 32; benches/results/lavapipe-bounded-cost.md; the merges have since become
+// cheaper).
 const RESOLVE_LONG: u32 = 32u;
 
 struct ResolveTop {
@@ -726,7 +727,9 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
                 after = select(after, j, seen == RESOLVE_K && live);
                 seen += select(0u, 1u, live);
                 j = lists_node_next[j];
-                live = live && j != LISTS_NIL;
+                // The first scan stops at a long list's RESOLVE_LONG + 1st node: the merge
+                // below sorts it, and the scan's entries are not used.
+                live = live && j != LISTS_NIL && !(kept == 0u && seen > RESOLVE_LONG);
                 if !live {
                     break;
                 }
@@ -739,7 +742,8 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
             if capped {
                 break;
             }
-            // A long list is sorted by the merge below instead (its first scan counted it).
+            // A long list is sorted by the merge below instead (its first scan stopped past
+            // RESOLVE_LONG nodes).
             if kept == 0u && seen > RESOLVE_LONG {
                 long_list = true;
                 break;
@@ -785,17 +789,19 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     // A long list (more than RESOLVE_LONG nodes, counted by its first scan, which placed
     // nothing) is sorted whole by (lo, triangle) by relinking its nodes: a bottom-up merge sort
-    // of the linked list (runs of `width` nodes merged in pairs, `width` doubling per pass until
-    // one merge takes the whole list), about 1.5 n log2 n node visits where the scans take
-    // about n^2 / 8 up to the depth (at depth 256, a list of 300 nodes: 3,700 against 11,000;
-    // the scans stay below RESOLVE_LONG, where they cost less). The head is then the first node of
-    // the sorted list. Its visits are capped at half the walk cap: lavapipe's limiter counts the
+    // of the linked list (runs of RESOLVE_RUN nodes sorted first, then runs of `width` nodes
+    // merged four at a time, `width` growing fourfold per pass until one merge takes the whole
+    // list), about n (2 + 0.9 log2 (n / 8)) node visits where the scans take about n^2 / 8 up to
+    // the depth (the scans stay below RESOLVE_LONG, where they cost less). Runs of eight and
+    // merges of four took truck-garage's `resolve` at N = 64 from 21 ms (merges of two from runs
+    // of one) to 12 (benches/results/lavapipe-bounded-cost.md). The head is then the first node
+    // of the sorted list. Its visits are capped at half the walk cap: lavapipe's limiter counts the
     // subgroup's turns of every loop, each as long as the lane that needs most. Its loops test
     // their end at the top (spirv/README.md: a lane past a bottom break keeps writing).
     if long_list {
         // Runs of RESOLVE_RUN nodes sorted first, each node read once and the run relinked in
         // order (a sorting network on their keys), so that the merges start at runs of
-        // RESOLVE_RUN: three passes of the merge fewer, each of which walks the whole list twice.
+        // RESOLVE_RUN.
         var p = first;
         var tail = LISTS_NIL;
         loop {
@@ -846,62 +852,62 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
             p = j;
         }
         lists_node_next[tail] = LISTS_NIL;
+        // Then merges of four runs at a time: the first three runs walked to find their heads
+        // (the fourth ends at its count or the list's end), then the smallest of the runs'
+        // heads appended, one node at a time.
         var width = RESOLVE_RUN;
         loop {
-            var p = first;
-            var tail = LISTS_NIL;
+            var g = first;
+            tail = LISTS_NIL;
             var merges = 0u;
             loop {
-                if p == LISTS_NIL || capped {
+                if g == LISTS_NIL || capped {
                     break;
                 }
                 merges += 1u;
-                // The first run: up to `width` nodes from `p`; the second starts at `q`.
-                var q = p;
-                var psize = 0u;
+                var head = vec4<u32>(LISTS_NIL);
+                var left = vec4<u32>(0u);
+                var q = g;
+                for (var r = 0u; r < 3u; r++) {
+                    head[r] = q;
+                    var c = 0u;
+                    loop {
+                        if c == width || q == LISTS_NIL {
+                            break;
+                        }
+                        c += 1u;
+                        q = lists_node_next[q];
+                    }
+                    left[r] = c;
+                    steps += c;
+                }
+                head.w = q;
+                left.w = select(0u, width, q != LISTS_NIL);
+                var key_lo = vec4<u32>(LISTS_NIL);
+                var key_tri = vec4<u32>(LISTS_NIL);
+                for (var r = 0u; r < 4u; r++) {
+                    let h = select(0u, head[r], left[r] > 0u);
+                    key_lo[r] = select(LISTS_NIL, lists_node_lo[h], left[r] > 0u);
+                    key_tri[r] = select(LISTS_NIL, lists_node_triangle[h], left[r] > 0u);
+                }
+                steps += 1u;
                 loop {
-                    if psize == width || q == LISTS_NIL {
+                    if all(left == vec4<u32>(0u)) {
                         break;
                     }
-                    psize += 1u;
-                    q = lists_node_next[q];
-                }
-                var qsize = select(0u, width, q != LISTS_NIL);
-                var p_lo = lists_node_lo[p];
-                var p_tri = lists_node_triangle[p];
-                var q_lo = 0u;
-                var q_tri = 0u;
-                if qsize > 0u {
-                    q_lo = lists_node_lo[q];
-                    q_tri = lists_node_triangle[q];
-                }
-                steps += psize + 1u;
-                loop {
-                    if psize == 0u && qsize == 0u {
-                        break;
-                    }
-                    // One load site for the taken run's next node and its key (lavapipe runs
-                    // both arms of a divergent branch, each load lane by lane).
-                    let take_p = psize > 0u && (qsize == 0u || !resolve_before(q_lo, q_tri, p_lo, p_tri));
-                    let e = select(q, p, take_p);
+                    // The smallest head: a run with nodes left has a key below LISTS_NIL's, an
+                    // empty one LISTS_NIL's, which sorts last.
+                    let a = select(0u, 1u, resolve_before(key_lo.y, key_tri.y, key_lo.x, key_tri.x));
+                    let b = select(2u, 3u, resolve_before(key_lo.w, key_tri.w, key_lo.z, key_tri.z));
+                    let r = select(a, b, resolve_before(key_lo[b], key_tri[b], key_lo[a], key_tri[a]));
+                    let e = head[r];
                     let after = lists_node_next[e];
-                    psize = select(psize, psize - 1u, take_p);
-                    qsize = select(select(0u, qsize - 1u, after != LISTS_NIL), qsize, take_p);
-                    var more = qsize > 0u;
-                    if take_p {
-                        p = after;
-                        more = psize > 0u;
-                    } else {
-                        q = after;
-                    }
-                    if more {
-                        let a_lo = lists_node_lo[after];
-                        let a_tri = lists_node_triangle[after];
-                        p_lo = select(p_lo, a_lo, take_p);
-                        p_tri = select(p_tri, a_tri, take_p);
-                        q_lo = select(a_lo, q_lo, take_p);
-                        q_tri = select(a_tri, q_tri, take_p);
-                    }
+                    let n = select(left[r] - 1u, 0u, after == LISTS_NIL);
+                    left[r] = n;
+                    head[r] = after;
+                    let h = select(0u, after, n > 0u);
+                    key_lo[r] = select(LISTS_NIL, lists_node_lo[h], n > 0u);
+                    key_tri[r] = select(LISTS_NIL, lists_node_triangle[h], n > 0u);
                     if tail == LISTS_NIL {
                         first = e;
                     } else {
@@ -910,7 +916,8 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
                     tail = e;
                     steps += 1u;
                 }
-                p = q;
+                // The fourth run's last node is followed by the next group (or the end).
+                g = head.w;
                 capped = steps > walk_cap / 2u;
             }
             if capped {
@@ -920,7 +927,7 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>) {
             if merges <= 1u {
                 break;
             }
-            width *= 2u;
+            width *= 4u;
         }
     }
     // The first `depth` entries count towards `hi` and the gap (`cubemap::bounds::texel_gap`);
