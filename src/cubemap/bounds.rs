@@ -55,7 +55,7 @@
 //!    (written `lo > 0 ? lo : 0`),
 //!    `hi = max_i |q_i| + E`: `|p| >= dot(p, w)` (Cauchy-Schwarz, `|w| <= 1` up to 2 ulps),
 //!    a linear function's min over a polygon is at a vertex, and `|p|` is convex.
-//! 6. [`resolve_texel`]: sort by `(lo, triangle)`, keep `depth`, `complete_to` = the smallest
+//! 6. `resolve_slice`: sort by `(lo, triangle)`, keep `depth`, `complete_to` = the smallest
 //!    dropped `lo`.
 //!
 //! # Error budget (why `E = 2^-18 R`; the design's `2^-20 R` is too small for this chain)

@@ -138,10 +138,19 @@ impl Scene {
     /// (`RenderOptions::reflector_check` in `cubetrace::vk::frame`) traces its triangles exactly after
     /// the cubemap trace: every reflector, since a mirror ray can meet a reflector (another one,
     /// or itself: a non-convex one anywhere, a convex one where the ray leaves below its face,
-    /// [`Scene::check_below`]). Independent of `self_reflections`: the reference traces every
-    /// triangle whatever the capture draws.
-    pub fn check_reflectors(&self) -> Vec<bool> {
-        self.meshes.iter().map(|mesh| mesh.reflector).collect()
+    /// [`Scene::check_below`]), whatever the capture draws: the reference traces every triangle.
+    /// But where the frame traces the bounded criterion's lists (`lists`), a reflector that the
+    /// capture takes ([`Scene::self_capture`]) is in them with sound bounds, so the trace meets it
+    /// first where it is first, as every other captured triangle: only the others are checked.
+    pub fn check_reflectors(&self, lists: bool) -> Vec<bool> {
+        let captured = if lists {
+            self.self_capture()
+        } else {
+            vec![false; self.meshes.len()]
+        };
+        (self.meshes.iter().zip(captured))
+            .map(|(mesh, captured)| mesh.reflector && !captured)
+            .collect()
     }
 
     /// Which mirror rays the reflector check traces: those whose direction `d` has
@@ -171,11 +180,11 @@ impl Scene {
     }
 
     /// The global triangle indices (in [`WorldGeometry`] order: meshes, then their parts) of the
-    /// meshes [`Scene::check_reflectors`] selects; empty when none is.
-    pub fn check_triangles(&self) -> Vec<u32> {
+    /// meshes [`Scene::check_reflectors`] selects for `lists`; empty when none is.
+    pub fn check_triangles(&self, lists: bool) -> Vec<u32> {
         let mut triangles = Vec::new();
         let mut first = 0u32;
-        for (mesh, check) in self.meshes.iter().zip(self.check_reflectors()) {
+        for (mesh, check) in self.meshes.iter().zip(self.check_reflectors(lists)) {
             for part in &mesh.parts {
                 let n = part.triangles.len() as u32;
                 if check {

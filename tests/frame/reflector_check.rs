@@ -2,7 +2,8 @@
 //! the cubemap trace, each resolved mirror ray is traced exactly against the reflectors the CMOs
 //! do not capture (or capture only where they face a centre), and a nearer hit replaces the
 //! record's. Judged against the exact CPU reference at 96x72, on both cubemap paths with the
-//! centre criterion (the default, bounded, lists the teapot's own triangles: nothing to find):
+//! centre criterion (under the default, bounded, a reflector the capture takes is in the lists,
+//! and is not checked: the teapot's frame builds no check):
 //! - torus and teapot: same triangle as the reference on >= 99 % of the resolved mirror pixels
 //!   with the check, and measurably fewer without it (the negative test);
 //! - every record's hit triangle is met by the record's own ray (f64), and a perturbed triangle
@@ -111,7 +112,7 @@ fn reflector_check_finds_the_reflectors_the_cmos_miss() {
     let ctx = gpu_context();
     for name in ["torus", "teapot"] {
         let (scene, camera) = load(name);
-        assert!(!scene.check_triangles().is_empty(), "{name}");
+        assert!(!scene.check_triangles(false).is_empty(), "{name}");
         let tracer = Tracer::new(&scene);
         let refr = reference::render(&scene, &tracer, &camera, 1);
         for method in PATHS {
@@ -248,7 +249,7 @@ fn reflector_check_selection_rule() {
     let reflector = (0..world.triangles.len() as u32)
         .filter(|&t| world.objects[world.triangle_object[t as usize] as usize].reflector)
         .collect::<Vec<_>>();
-    assert_eq!(torus.check_triangles(), reflector);
+    assert_eq!(torus.check_triangles(false), reflector);
     assert_eq!(
         torus.check_below(),
         2.0,
@@ -256,7 +257,7 @@ fn reflector_check_selection_rule() {
     );
     // One convex reflector: every triangle, the grazing rays only.
     let (sphere, _) = load("sphere-room");
-    assert!(!sphere.check_triangles().is_empty());
+    assert!(!sphere.check_triangles(false).is_empty());
     assert!(sphere.check_below() < 0.2);
     // Two reflectors, both convex: each can see the other, so both are checked.
     let (mut two, _) = load("sphere-room");
@@ -276,8 +277,59 @@ fn reflector_check_selection_rule() {
             .filter(|m| m.reflector)
             .all(|m| m.is_convex())
     );
-    assert_eq!(two.check_triangles(), reflectors);
+    assert_eq!(two.check_triangles(false), reflectors);
     assert_eq!(two.check_below(), 2.0, "every ray: each can see the other");
+    // Under the bounded criterion's lists a reflector the capture takes is in the lists: not
+    // checked. The teapot sees itself (captured): nothing is checked; the torus's scene turns
+    // its self-reflections off: checked whole, as under the centre criterion; and so is the
+    // teapot with them off (the negative).
+    let (mut teapot, _) = load("teapot");
+    assert!(teapot.self_capture().iter().any(|&c| c));
+    assert!(!teapot.check_triangles(false).is_empty());
+    assert!(teapot.check_triangles(true).is_empty());
+    assert_eq!(torus.check_triangles(true), reflector);
+    teapot.self_reflections = cubetrace::scene::SelfReflections::Off;
+    assert_eq!(teapot.check_triangles(true), teapot.check_triangles(false));
+}
+
+/// Under the bounded criterion (the default) a frame builds no reflector check where every
+/// reflector is in the lists (teapot: it sees itself, so the capture takes it), and the frame
+/// still shows the reference's triangle on every resolved mirror pixel; where a reflector is
+/// left out of the capture (torus: self-reflections off) the check is built and finds hits.
+#[test]
+fn bounded_lists_with_the_reflector_need_no_check() {
+    let ctx = gpu_context();
+    let bounded = |scene: &Scene, camera: &Camera, method| {
+        let options = RenderOptions {
+            method,
+            fallback: Fallback::Trace,
+            ..RenderOptions::default()
+        };
+        assert!(options.bounded());
+        first_frame(&ctx, scene, camera, options, &scene.name)
+    };
+    let (teapot, camera) = load("teapot");
+    let tracer = Tracer::new(&teapot);
+    let refr = reference::render(&teapot, &tracer, &camera, 1);
+    for method in PATHS {
+        let (f, r) = bounded(&teapot, &camera, method);
+        assert!(r.reflector_check().is_none(), "teapot {method:?}");
+        assert_eq!(f.pass_ns(REFLECTOR_CHECK_PASS), 0.0, "teapot {method:?}");
+        let same = same_triangle(&teapot, &refr, &f);
+        assert!(same >= 0.999, "teapot {method:?}: {same}");
+        let (off, n) = off_triangle(&tracer, &f, 0, false);
+        assert_eq!(
+            off, 0,
+            "teapot {method:?}: {off} of {n} hits off their triangle"
+        );
+    }
+    // Negative: the torus's reflector is not captured, so its check is built and changes
+    // pixels.
+    let (torus, camera) = load("torus");
+    let (f, r) = bounded(&torus, &camera, Method::Compute);
+    assert!(r.reflector_check().is_some());
+    assert!(f.checked_pixels() > 0);
+    finish_gpu(ctx);
 }
 
 #[test]

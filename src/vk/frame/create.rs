@@ -202,7 +202,7 @@ impl GpuRenderer {
             mirror_rect: mirror_rect(&data, camera, ranges.near),
         };
         let method = methods::create(options.method, &inputs)?;
-        let check_triangles = scene.check_triangles();
+        let check_triangles = scene.check_triangles(options.bounded());
         let cone_cmo = stages.cone_cmo.as_ref().unwrap_or(&stages.cmo);
         let cone = cone_stage(ctx, plan.cone, cone_cmo, (&gbuffer, &params, &records))?;
         let after = AfterMethod::new(&inputs, &plan, &check_triangles, method.as_ref())?;

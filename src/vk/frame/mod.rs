@@ -79,7 +79,10 @@
 //! vertex normals (1 to 2 % of the rays of `default`). Measured on lavapipe (bench `--quick`,
 //! 320x240, compute, without -> with): same triangle torus 94.5 -> 100 %, teapot 96.4 -> 99.99 %;
 //! PSNR torus 24 -> 51 dB, teapot 25 -> 48 dB; cost 1 to 10 ms per frame on lavapipe. The CPU twins
-//! model the tracing pass alone: twin tests compare records with the check off.
+//! model the tracing pass alone: twin tests compare records with the check off. Under the
+//! bounded criterion a reflector that the capture takes is in the lists, with sound bounds, and
+//! is not checked (`Scene::check_reflectors`): the mug and the glossy corpus scene, 3.6 and 5.4
+//! ms of check on lavapipe, the 32 bounded EXRs the same without it.
 //!
 //! Self-reflections are decided per reflector (`self_reflections = "auto"`: exactly when it is not
 //! convex, some vertex in front of some face's plane). A captured reflector is captured only where

@@ -141,7 +141,7 @@ impl FramePlan {
             cube_size: scene.cmo.resolution,
             self_reflections: scene.captures_reflectors(),
             glossy: has_glossy_reflector(data),
-            check_triangles: !scene.check_triangles().is_empty(),
+            check_triangles: !scene.check_triangles(options.bounded()).is_empty(),
         };
         // The bounded capture's views, face size and pool bound, computed only where it runs;
         // `auto` takes the placement search's size where it judged with shorter lists.

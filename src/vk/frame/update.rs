@@ -216,7 +216,7 @@ impl GpuRenderer {
         if let Some(why) = SceneBuffers::in_place_blocker(&self.data, &data) {
             return Ok(Err(why));
         }
-        if scene.check_triangles() != self.check_triangles {
+        if scene.check_triangles(self.options.bounded()) != self.check_triangles {
             return Ok(Err("the reflector check's triangles changed".into()));
         }
         let lists = match &self.capture {
