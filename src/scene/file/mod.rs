@@ -361,7 +361,7 @@ fn load_mesh(
 }
 
 /// The name of the other parts' mesh where a mesh's `reflector` lists some of its parts.
-pub(super) const REST_SUFFIX: &str = "-rest";
+const REST_SUFFIX: &str = "-rest";
 
 /// Whether mesh `m` has a mirror: `reflector = true`, or a list of names.
 fn is_reflector(m: &MeshFile) -> bool {
