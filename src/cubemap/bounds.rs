@@ -656,7 +656,8 @@ fn poly_bound(q: &Poly, w: Vec3, e: f32) -> (f32, f32) {
 /// Step 6 for one texel, in place: sorts `list` by `(lo, triangle)` and keeps its first `depth`;
 /// returns `(lo, hi, complete_to)` of the texel (module docs) and how many it keeps.
 fn resolve_slice(list: &mut [Entry], depth: u32) -> ((f32, f32, f32), usize) {
-    list.sort_by(|a, b| a.lo.total_cmp(&b.lo).then(a.triangle.cmp(&b.triangle)));
+    // Unstable is the same order: a texel's list holds a triangle once, so no two keys are equal.
+    list.sort_unstable_by(|a, b| a.lo.total_cmp(&b.lo).then(a.triangle.cmp(&b.triangle)));
     let complete_to = list.get(depth as usize).map_or(f32::INFINITY, |e| e.lo);
     let kept = list.len().min(depth as usize);
     (texel_summary(&list[..kept], complete_to), kept)
