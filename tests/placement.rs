@@ -2,8 +2,9 @@
 //! (`cmo_placement`), placement by default on corpus scenes and sequences
 //! (`placement_default`), the search's shortcuts, which keep its result (`search_cost`), and its
 //! sample of the later reflections of `--bounces N` (`bounces`), and the bounded criterion's
-//! twin judging the search under the default criterion (`bounded_judge`), and one CMO in front of the
-//! mirror points in view weighed against the axis one (`near_centre`).
+//! twin judging the search under the default criterion (`bounded_judge`), and one CMO in front
+//! of the mirror points in view weighed against the axis one (`near_centre`), and the search's
+//! lists that a still frame uploads instead of capturing (`search_lists`).
 
 mod common;
 
@@ -39,3 +40,5 @@ mod near_centre;
 mod placement_default;
 #[path = "placement/search_cost.rs"]
 mod search_cost;
+#[path = "placement/search_lists.rs"]
+mod search_lists;

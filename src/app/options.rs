@@ -162,8 +162,10 @@ pub struct TraceArgs {
     /// criterion: for bounded, its own lists, which resolve more), within a budget of --cmos N
     /// (else the scene's `[cmo]` count, else 8) CMOs and 512 MiB of them; it may also leave the
     /// reflectors out of the capture where that resolves more (the reflector check traces those
-    /// rays exactly). `axis` spreads --cmos N (default 1) along the reflectors' longest axis.
-    /// `-v` logs the search: its time, the share it leaves, each centre.
+    /// rays exactly). Under the bounded criterion a still frame uploads the lists the search
+    /// judged with instead of capturing (the same frame, without a capture pass). `axis` spreads
+    /// --cmos N (default 1) along the reflectors' longest axis. `-v` logs the search: its time,
+    /// the share it leaves, each centre.
     #[arg(long, value_enum)]
     pub placement: Option<crate::placement::PlacementChoice>,
     /// Every GPU method but bvh: texels per cube face side (overrides the scene's; 1 to 4096).

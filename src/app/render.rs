@@ -401,7 +401,10 @@ fn render_gpu(
     start: Instant,
 ) -> Result<()> {
     let loaded = start.elapsed();
-    let mut renderer = FrameRenderer::open(&render_setup(args, scene)?, scene, camera)?;
+    // A still frame takes the placement search's lists where they are its capture's.
+    let lists = placement.and_then(|p| p.lists.as_deref());
+    let setup = render_setup(args, scene)?;
+    let mut renderer = FrameRenderer::open_with_lists(&setup, scene, camera, lists)?;
     let created = start.elapsed();
     let rendered = renderer.render(scene, camera)?;
     let render_time = start.elapsed();

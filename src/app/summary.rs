@@ -211,6 +211,7 @@ mod tests {
             judge: crate::placement::Scoring::Centre,
             near: None,
             list_size: None,
+            lists: None,
         };
         let w = fallback_warning(Method::Compute, &scene, &count(300), Some(&p)).unwrap();
         assert!(

@@ -1044,6 +1044,61 @@ pub struct Entry {
     pub hi: f32,
 }
 
+/// The lists of a set of CMOs built on the CPU, with what they were built from: the centres
+/// (in CMO order), every triangle's corners (global order) and whether the capture takes it.
+/// The GPU's capture is their twin bit for bit (`tests/bounded/capture_lists.rs`), so a frame
+/// whose capture has the same inputs may upload these instead of capturing
+/// ([`BuiltLists::same_inputs`]); the placement search's judge hands its lists on so.
+#[derive(Debug, Clone)]
+pub struct BuiltLists {
+    pub centres: Vec<Vec3>,
+    pub corners: Vec<[Vec3; 3]>,
+    pub captured: Vec<bool>,
+    /// One per centre, of one face size, [`DEFAULT_DEPTH`] entries deep.
+    pub lists: Vec<TexelLists>,
+}
+
+impl BuiltLists {
+    /// Whether a capture at face size `size` of the views `(centre, reflectors)`, each over
+    /// `triangles(reflectors)` (corners and the capture's flags), has these lists' inputs, bit
+    /// for bit; else what differs, in words.
+    pub fn same_inputs(
+        &self,
+        size: u32,
+        views: &[(Vec3, bool)],
+        triangles: impl Fn(bool) -> (Vec<[Vec3; 3]>, Vec<bool>),
+    ) -> Result<(), String> {
+        let bits = |v: &Vec3| v.to_array().map(f32::to_bits);
+        let corner_bits = |t: &[Vec3; 3]| t.map(|v| bits(&v));
+        if views.len() != self.lists.len() {
+            return Err(format!("{} CMOs, not {}", views.len(), self.lists.len()));
+        }
+        for (k, ((c, reflectors), l)) in views.iter().zip(&self.lists).enumerate() {
+            if (l.size, l.depth) != (size, DEFAULT_DEPTH) {
+                let d = DEFAULT_DEPTH;
+                return Err(format!(
+                    "CMO {k}: lists of face size {} and depth {}, not {size} and {d}",
+                    l.size, l.depth
+                ));
+            }
+            if bits(c) != bits(&self.centres[k]) {
+                return Err(format!("CMO {k}: centre {c}, not {}", self.centres[k]));
+            }
+            let (corners, flags) = triangles(*reflectors);
+            if flags != self.captured {
+                return Err(format!("CMO {k}: other triangles captured"));
+            }
+            let same = corners.len() == self.corners.len()
+                && (corners.iter().zip(&self.corners))
+                    .all(|(a, b)| corner_bits(a) == corner_bits(b));
+            if !same {
+                return Err(format!("CMO {k}: other triangle corners"));
+            }
+        }
+        Ok(())
+    }
+}
+
 /// One CMO's per-texel bounds and candidate lists (module docs). Texel order: [`Texel::index`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct TexelLists {

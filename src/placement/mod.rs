@@ -74,6 +74,7 @@
 //! small triangles). `render` states both shares under `-v`.
 
 use std::cell::Cell;
+use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
@@ -81,14 +82,15 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::camera::Camera;
-use crate::cpu::CmoTracer;
 use crate::cpu::capture::capture_shaded;
 use crate::cpu::multi::WorldRay;
 use crate::cpu::multi::{MultiStatus, Traversal, Verify, trace_cmos_verified};
 use crate::cpu::options::TraceOptions;
 use crate::cpu::verify::triangle_corners;
+use crate::cpu::{CmoTracer, bounded};
 use crate::cubemap::bounds::{
-    DEFAULT_DEPTH, FacePairs, ListSize, SHORT_LIST_LENGTH, auto_list_size, list_size_for,
+    BuiltLists, DEFAULT_DEPTH, FacePairs, ListSize, SHORT_LIST_LENGTH, auto_list_size,
+    list_size_for,
 };
 use crate::reference::Tracer;
 use crate::scene::{CmoPlacement, Scene, SelfReflections, WorldGeometry};
@@ -240,6 +242,11 @@ pub struct Placement {
     /// takes that size ([`resolve_for`] sets `CmoSpec::lists`) instead of a search for more
     /// centres. `None`: the rule's.
     pub list_size: Option<u32>,
+    /// The bounded judge's lists of the chosen centres (in the scene's coordinates relative to
+    /// its anchor, as the search built them), which a still frame uploads instead of capturing
+    /// where its capture has their inputs ([`BuiltLists::same_inputs`]); `None` for the centre
+    /// criterion.
+    pub lists: Option<Arc<BuiltLists>>,
 }
 
 /// One CMO in front of the mirror points in view (`near_centre`) weighed against one on the
@@ -280,6 +287,25 @@ impl PartialEq for Placement {
 }
 
 impl Placement {
+    /// The placement of `centres` where no ray was sampled (no mirror pixel in view), judged
+    /// by `judge`, the search started at `start`.
+    fn unsampled(centres: Vec<Vec3>, start: Instant, judge: Scoring) -> Placement {
+        Placement {
+            centres,
+            unresolved: vec![0.0],
+            axis_unresolved: 0.0,
+            rays: 0,
+            later_rays: 0,
+            left: Unresolved::default(),
+            time: start.elapsed(),
+            self_capture_off: false,
+            judge,
+            near: None,
+            list_size: None,
+            lists: None,
+        }
+    }
+
     /// The sampled unresolved share with every chosen centre.
     pub fn share(&self) -> f64 {
         self.unresolved.last().copied().unwrap_or(1.0)
@@ -397,19 +423,7 @@ fn search_by(
     let (rays, later_rays) = sample_rays(&tracer, cameras, opts);
     if rays.is_empty() {
         // No mirror pixel in view: nothing to score, one CMO on the reflectors' axis.
-        return Placement {
-            centres: tracer.world.axis_centres(1),
-            unresolved: vec![0.0],
-            axis_unresolved: 0.0,
-            rays: 0,
-            later_rays: 0,
-            left: Unresolved::default(),
-            time: start.elapsed(),
-            self_capture_off: false,
-            judge: opts.scoring,
-            near: None,
-            list_size: None,
-        };
+        return Placement::unsampled(tracer.world.axis_centres(1), start, opts.scoring);
     }
     let scorer = Scorer::new(&tracer, &rays, corners);
     let capture_tracer = shown.as_ref().unwrap_or(&tracer);
@@ -447,6 +461,7 @@ fn search_by(
             judge: opts.scoring,
             near,
             list_size: None,
+            lists: None,
         }
     };
     if let Some((centre, left)) = one.chosen {
@@ -454,6 +469,7 @@ fn search_by(
         let p = placed(vec![centre], vec![share], one.axis_share, &left, one.near);
         return Placement {
             list_size: one.list_size,
+            lists: judge.hand_on(&[centre], one.short_lists),
             ..p
         };
     }
@@ -500,7 +516,10 @@ fn search_by(
         scorer.left(&axis, &all)
     });
     let axis_share = axis_left.len() as f64 / rays.len() as f64;
-    placed(centres, unresolved, axis_share, &left, None)
+    Placement {
+        lists: judge.hand_on(&centres, None),
+        ..placed(centres, unresolved, axis_share, &left, None)
+    }
 }
 
 /// The search's BVHs over `world` ([`tracers`] where `shortcuts`, else one over it all), its
@@ -536,6 +555,8 @@ struct OneCmo {
     /// The lists' face size where the axis CMO met the target only with shorter lists
     /// ([`Judge::axis_with_short_lists`]; `axis_share` is then its share with them).
     list_size: Option<u32>,
+    /// That CMO, with those lists.
+    short_lists: Option<CmoTracer>,
 }
 
 /// The cheapest sets: one CMO, on the reflectors' axis (the placement without a search) or in
@@ -594,18 +615,20 @@ fn one_cmo(
     }
     let mut axis_share = axis_share.unwrap_or(1.0);
     let mut chosen = passing.into_iter().next().map(|(c, left, _)| (c, left));
-    let mut list_size = None;
+    let (mut list_size, mut short_lists) = (None, None);
     if chosen.is_none()
-        && let Some((size, left)) = judge.axis_with_short_lists(world, target, axis_share)
+        && let Some((size, left, cmo)) = judge.axis_with_short_lists(world, target, axis_share)
     {
         axis_share = left.len() as f64 / scorer.rays.len() as f64;
         (chosen, list_size) = (Some((axis_one[0], left)), Some(size));
+        short_lists = Some(cmo);
     }
     OneCmo {
         chosen,
         axis_share,
         near,
         list_size,
+        short_lists,
     }
 }
 
@@ -693,15 +716,15 @@ impl<'a> Judge<'a> {
 
     /// Under the bounded criterion with `--list-size auto`: where one CMO on the reflectors' axis
     /// meets `target` with lists of at most [`SHORT_LIST_LENGTH`] nodes per texel, larger than
-    /// the rule's size (those of [`Judge::build`]), that size and the sample's rays it leaves;
-    /// else `None`. Shorter lists cost the capture more than the rule's but one CMO less than a
+    /// the rule's size (those of [`Judge::build`]), that size, the sample's rays it leaves and
+    /// the CMO; else `None`. Shorter lists cost the capture more than the rule's but one CMO less than a
     /// second, and the search for more centres (70 candidate captures) much more.
     fn axis_with_short_lists(
         &self,
         world: &WorldGeometry,
         target: f64,
         axis_share: f64,
-    ) -> Option<(u32, Vec<usize>)> {
+    ) -> Option<(u32, Vec<usize>, CmoTracer)> {
         let b = self.bounded.as_ref().filter(|b| b.size.is_none())?;
         let centre = world.axis_centres(1)[0];
         let pairs = FacePairs::new(&self.scorer.corners, &b.captured, centre);
@@ -735,7 +758,32 @@ impl<'a> Judge<'a> {
             100.0 * axis_share,
             100.0 * share
         );
-        (share <= target).then_some((size, left))
+        (share <= target).then_some((size, left, cmo))
+    }
+
+    /// The bounded lists of `centres` for the frame ([`Placement::lists`]): `short`'s where
+    /// given (one CMO), else those [`Judge::build`] built, taken out of the judge; `None` for the
+    /// centre criterion or where one is missing.
+    fn hand_on(&mut self, centres: &[Vec3], short: Option<CmoTracer>) -> Option<Arc<BuiltLists>> {
+        let b = self.bounded.as_mut()?;
+        let bits = |v: &Vec3| v.to_array().map(f32::to_bits);
+        let mut taken: Vec<bounded::Bounded> = Vec::new();
+        match short {
+            Some(mut tr) => taken.push(*tr.bounded.take()?),
+            None => {
+                for c in centres {
+                    let tr = (b.built.iter_mut()).find(|t| bits(&t.cube.centre) == bits(c))?;
+                    taken.push(*tr.bounded.take()?);
+                }
+            }
+        }
+        let corners = std::mem::take(&mut taken.first_mut()?.corners);
+        Some(Arc::new(BuiltLists {
+            centres: centres.to_vec(),
+            corners,
+            captured: std::mem::take(&mut b.captured),
+            lists: taken.into_iter().map(|t| t.lists).collect(),
+        }))
     }
 
     /// The sample's rays (indices) that CMOs at `centres` leave unresolved: `centre()` (the

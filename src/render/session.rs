@@ -29,6 +29,7 @@ use glam::Vec3;
 
 use crate::Method;
 use crate::camera::Camera;
+use crate::cubemap::bounds::BuiltLists;
 use crate::film::FilmSettings;
 use crate::memory;
 use crate::metrics::Traced;
@@ -264,6 +265,19 @@ impl FrameRenderer {
     /// needs ([`checks`]), then the GPU renderer and its pipelines; the reference: the host
     /// memory, then its BVH); nothing rendered yet.
     pub fn open(setup: &RenderSetup, scene: &Scene, camera: &Camera) -> Result<Self> {
+        Self::open_with_lists(setup, scene, camera, None)
+    }
+
+    /// [`FrameRenderer::open`] whose first GPU renderer takes the bounded criterion's lists from
+    /// `lists` where given (the placement search's: [`GpuRenderer::with_built_lists`], which
+    /// captures where they are not the capture's). A later frame whose geometry moved rebuilds
+    /// the renderer with a capture of its own.
+    pub fn open_with_lists(
+        setup: &RenderSetup,
+        scene: &Scene,
+        camera: &Camera,
+        lists: Option<&BuiltLists>,
+    ) -> Result<Self> {
         let size = format!(
             "a {}x{} frame with --method {}",
             camera.width, camera.height, setup.method
@@ -304,17 +318,30 @@ impl FrameRenderer {
             keep_samples: setup.compare && setup.film.spp > 1,
             gpu,
         };
-        FrameRenderer::from_setup(frame_setup, scene, camera)
+        FrameRenderer::from_setup_with(frame_setup, scene, camera, lists)
     }
 
     /// The renderer of checked parts ([`FrameRenderer::open`] checks a [`RenderSetup`] and
     /// builds them): with a device, its GPU renderer and pipelines are built; without one, the
     /// reference's tracer. Nothing is rendered yet.
     pub fn from_setup(setup: FrameSetup, scene: &Scene, camera: &Camera) -> Result<Self> {
+        Self::from_setup_with(setup, scene, camera, None)
+    }
+
+    /// [`FrameRenderer::from_setup`] with the lists of [`FrameRenderer::open_with_lists`].
+    fn from_setup_with(
+        setup: FrameSetup,
+        scene: &Scene,
+        camera: &Camera,
+        lists: Option<&BuiltLists>,
+    ) -> Result<Self> {
         let start = Instant::now();
         let backend = match setup.gpu {
             Some((ctx, options)) => {
-                let renderer = GpuRenderer::new(&ctx, scene, camera, options)?;
+                let renderer = match lists {
+                    Some(l) => GpuRenderer::with_built_lists(&ctx, scene, camera, options, l)?,
+                    None => GpuRenderer::new(&ctx, scene, camera, options)?,
+                };
                 log::info!(
                     "GPU renderer (passes, pipelines, BVHs): {:.2?}",
                     start.elapsed()

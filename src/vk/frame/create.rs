@@ -1,6 +1,7 @@
-//! The renderer's creation: the checks it makes first, [`GpuRenderer::new`] and its two variants
-//! for tests, the one `create` that allocates every pass, and the helpers the camera and geometry
-//! updates share with it (frame params, rebasing on the anchor, the reflectors' screen rectangle).
+//! The renderer's creation: the checks it makes first, [`GpuRenderer::new`], its variant on the
+//! placement search's lists and two for tests, the one `create` that allocates every pass, and
+//! the helpers the camera and geometry updates share with it (frame params, rebasing on the
+//! anchor, the reflectors' screen rectangle).
 
 use std::borrow::Cow;
 
@@ -8,10 +9,11 @@ use ash::vk;
 use glam::Vec3;
 use gpu_allocator::MemoryLocation;
 
-use super::plan::FramePlan;
+use super::plan::{CapturePlan, FramePlan};
 use super::stages::{AfterMethod, CmoStages, cone_stage};
 use super::{FLAG_COLOUR, Fallback, FrameParams, GpuRenderer, PixelRecord, RenderOptions};
 use crate::camera::Camera;
+use crate::cubemap::bounds::BuiltLists;
 use crate::ranges::FrameRanges;
 use crate::scene::Scene;
 use crate::scene::gpu_data::GpuSceneData;
@@ -22,10 +24,11 @@ use crate::vk::backend::timestamps::Timestamps;
 use crate::vk::methods::{self, FrameInputs, MethodSpec};
 use crate::vk::options::ListSize;
 use crate::vk::passes::bounce::MAX_BOUNCES;
+use crate::vk::passes::capture_lists::scene_triangles;
 use crate::vk::passes::composite::Composite;
 use crate::vk::passes::cone::ConePrefilter;
 use crate::vk::passes::gbuffer::Gbuffer;
-use crate::vk::passes::lists::PackedLists;
+use crate::vk::passes::lists::{PackedLists, pack};
 use crate::vk::passes::scene_buffers::SceneBuffers;
 
 /// Refuses what the method cannot do ([`check_bounces`](crate::method::Method::check_bounces),
@@ -90,11 +93,40 @@ impl GpuRenderer {
         camera: &Camera,
         options: RenderOptions,
     ) -> VkResult<Self> {
+        Self::anchored(ctx, scene, camera, options, Lists::Captured)
+    }
+
+    /// [`GpuRenderer::new`] taking the bounded criterion's lists from `built` (the placement
+    /// search's, [`crate::placement::Placement::lists`], built in the scene's coordinates
+    /// relative to its anchor) instead of a capture, where the frame's capture would have their
+    /// inputs ([`BuiltLists::same_inputs`]), and runs no capture pass. The frame is the
+    /// captured one bit for bit where the capture cuts no list (`-v`: no walk capped, nothing
+    /// dropped); where it would, the rays past the cut resolve here by the whole list, not by
+    /// the next CMO or the fallback: the same triangles. Otherwise, or under another
+    /// criterion, it is [`GpuRenderer::new`]'s.
+    pub fn with_built_lists(
+        ctx: &GpuContext,
+        scene: &Scene,
+        camera: &Camera,
+        options: RenderOptions,
+        built: &BuiltLists,
+    ) -> VkResult<Self> {
+        Self::anchored(ctx, scene, camera, options, Lists::Built(built))
+    }
+
+    /// [`GpuRenderer::new`] with its lists from `lists`.
+    fn anchored(
+        ctx: &GpuContext,
+        scene: &Scene,
+        camera: &Camera,
+        options: RenderOptions,
+        lists: Lists<'_>,
+    ) -> VkResult<Self> {
         let anchor = crate::ranges::anchor(scene);
         let (local, local_camera) = rebased(anchor, scene, camera);
         let ranges = FrameRanges::new(&local, &local_camera);
         check_ranges(&ranges, &local, &options)?;
-        let mut r = Self::create(ctx, &local, &local_camera, options, &ranges, None)?;
+        let mut r = Self::create(ctx, &local, &local_camera, options, &ranges, lists)?;
         (r.anchor, r.camera) = (anchor, camera.clone());
         Ok(r)
     }
@@ -108,7 +140,7 @@ impl GpuRenderer {
         options: RenderOptions,
         ranges: &FrameRanges,
     ) -> VkResult<Self> {
-        Self::create(ctx, scene, camera, options, ranges, None)
+        Self::create(ctx, scene, camera, options, ranges, Lists::Captured)
     }
 
     /// [`GpuRenderer::new`] for `--criterion bounded` with the per-texel lists built on the
@@ -130,7 +162,7 @@ impl GpuRenderer {
             list_size: ListSize::Cube,
             ..options
         };
-        Self::create(ctx, scene, camera, options, &ranges, Some(lists))
+        Self::create(ctx, scene, camera, options, &ranges, Lists::Packed(lists))
     }
 
     fn create(
@@ -139,7 +171,7 @@ impl GpuRenderer {
         camera: &Camera,
         options: RenderOptions,
         ranges: &FrameRanges,
-        lists: Option<&PackedLists>,
+        lists: Lists<'_>,
     ) -> VkResult<Self> {
         if scene.cmo_centres().is_empty() {
             return Err(VkError::Usage {
@@ -151,6 +183,8 @@ impl GpuRenderer {
         let data = GpuSceneData::new(scene);
         // What the frame allocates: the one plan the memory estimate counts too.
         let mut plan = FramePlan::new(scene, &data, camera, &options);
+        let packed = lists.packed(&plan, &data);
+        let lists = packed.as_deref();
         if lists.is_some() {
             plan = plan.with_uploaded_lists();
         }
@@ -249,6 +283,56 @@ impl GpuRenderer {
             lists_uploaded: lists.is_some(),
             plan,
         })
+    }
+}
+
+/// Where a new renderer's bounded lists come from.
+#[derive(Clone, Copy)]
+enum Lists<'a> {
+    /// Its own capture (or no lists: another criterion).
+    Captured,
+    /// Uploaded, in the plan's face size ([`GpuRenderer::with_lists`]).
+    Packed(&'a PackedLists),
+    /// Uploaded where the capture has their inputs, else captured
+    /// ([`GpuRenderer::with_built_lists`]).
+    Built(&'a BuiltLists),
+}
+
+impl<'a> Lists<'a> {
+    /// The lists to upload for `plan`, if any.
+    fn packed(self, plan: &FramePlan, data: &GpuSceneData) -> Option<Cow<'a, PackedLists>> {
+        match self {
+            Lists::Captured => None,
+            Lists::Packed(p) => Some(Cow::Borrowed(p)),
+            Lists::Built(built) => built_lists(plan, data, built).map(Cow::Owned),
+        }
+    }
+}
+
+/// `built` in the GPU layout where the planned capture is of lists with `built`'s inputs, else
+/// `None` (the frame captures; `-v` says why).
+fn built_lists(plan: &FramePlan, data: &GpuSceneData, built: &BuiltLists) -> Option<PackedLists> {
+    let Some(CapturePlan::Lists { views, .. }) = &plan.cmo.capture else {
+        return None;
+    };
+    let same = built.same_inputs(plan.cmo.size, views, |reflectors| {
+        scene_triangles(data, reflectors)
+    });
+    let packed = same.and_then(|()| pack(&built.lists));
+    match packed {
+        Ok(p) => {
+            log::info!(
+                "bounded criterion: the placement search's lists ({} CMOs, {} texels per face \
+                 side) uploaded, no capture pass",
+                built.lists.len(),
+                plan.cmo.size
+            );
+            Some(p)
+        }
+        Err(why) => {
+            log::info!("bounded criterion: the placement search's lists not taken ({why})");
+            None
+        }
     }
 }
 
