@@ -71,6 +71,39 @@ struct Spliced {
 /// `test-hooks` feature.
 const TEST_HOOK_SHADERS: [&str; 4] = ["cone_probe", "hit_probe", "selftest", "trace_probe"];
 
+/// Sets `CUBETRACE_GIT_COMMIT` to the checkout's `git rev-parse HEAD`, the commit the bench
+/// records for its figures, and asks for a rerun when HEAD or its branch moves. Nothing where
+/// the folder is no git checkout (a packaged crate) or git is missing.
+fn git_commit(root: &Path) {
+    let git = root.join(".git");
+    if !git.is_dir() {
+        return;
+    }
+    let head = git.join("HEAD");
+    println!("cargo:rerun-if-changed={}", head.display());
+    if let Ok(text) = std::fs::read_to_string(&head)
+        && let Some(branch) = text.strip_prefix("ref: ")
+    {
+        for moved in [git.join(branch.trim()), git.join("packed-refs")] {
+            if moved.exists() {
+                println!("cargo:rerun-if-changed={}", moved.display());
+            }
+        }
+    }
+    let out = std::process::Command::new("git")
+        .args(["rev-parse", "HEAD"])
+        .current_dir(root)
+        .output();
+    if let Ok(out) = out
+        && out.status.success()
+    {
+        let commit = String::from_utf8_lossy(&out.stdout).trim().to_string();
+        if !commit.is_empty() {
+            println!("cargo:rustc-env=CUBETRACE_GIT_COMMIT={commit}");
+        }
+    }
+}
+
 fn main() {
     let root =
         PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"));
@@ -78,6 +111,7 @@ fn main() {
     let out_dir = PathBuf::from(std::env::var("OUT_DIR").expect("cargo sets OUT_DIR"));
     println!("cargo:rerun-if-changed=spirv");
     println!("cargo:rerun-if-changed=spirv/shared");
+    git_commit(&root);
 
     let mut errors = Vec::new();
 

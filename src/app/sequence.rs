@@ -221,12 +221,12 @@ struct SequencePlacement {
     /// The chosen camera at up to [`SAMPLED_FRAMES`] frames of the sequence.
     cameras: Vec<Camera>,
     /// The mesh transforms of the last search, and what it set in the scene.
-    last: Option<(
-        Vec<crate::scene::Transform>,
-        scene::CmoPlacement,
-        scene::SelfReflections,
-    )>,
+    last: Option<(Vec<crate::scene::Transform>, SearchResult)>,
 }
+
+/// What a placement search sets in the scene ([`crate::placement::resolve_for`]): the centres,
+/// the self-reflections and the lists' face size.
+type SearchResult = (scene::CmoPlacement, scene::SelfReflections, Option<u32>);
 
 /// Frames whose cameras the placement of a sequence samples.
 const SAMPLED_FRAMES: usize = 4;
@@ -258,11 +258,11 @@ impl SequencePlacement {
             return;
         }
         let key: Vec<crate::scene::Transform> = scene.meshes.iter().map(|m| m.transform).collect();
-        if let Some((k, placement, self_reflections)) = &self.last
+        if let Some((k, set)) = &self.last
             && *k == key
         {
-            scene.cmo.placement = placement.clone();
-            scene.self_reflections = *self_reflections;
+            (scene.cmo.placement, scene.self_reflections) = (set.0.clone(), set.1);
+            scene.cmo.lists = set.2;
             return;
         }
         let cameras = if self.cameras.is_empty() {
@@ -278,7 +278,12 @@ impl SequencePlacement {
         ) {
             render::log_placement(&p);
         }
-        self.last = Some((key, scene.cmo.placement.clone(), scene.self_reflections));
+        let set = (
+            scene.cmo.placement.clone(),
+            scene.self_reflections,
+            scene.cmo.lists,
+        );
+        self.last = Some((key, set));
     }
 }
 

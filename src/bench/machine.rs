@@ -55,10 +55,15 @@ pub fn driver_threads() -> usize {
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
 }
 
-/// The commit being measured: `git rev-parse HEAD` in the current folder, else the build-time
-/// environment variable `CUBETRACE_GIT_COMMIT`; `None` when neither is available (no failure).
+/// The commit being measured: the one the binary was built from (`CUBETRACE_GIT_COMMIT`, which
+/// `build.rs` sets from the checkout's `git rev-parse HEAD`; a working tree's changes beyond it
+/// are not told), else `git rev-parse HEAD` in the current folder; `None` when neither is
+/// available (no failure).
 pub fn git_commit() -> Option<String> {
-    let run = std::process::Command::new("git")
+    if let Some(built) = option_env!("CUBETRACE_GIT_COMMIT") {
+        return Some(built.to_string());
+    }
+    std::process::Command::new("git")
         .args(["rev-parse", "HEAD"])
         .stderr(std::process::Stdio::null())
         .output()
@@ -66,6 +71,32 @@ pub fn git_commit() -> Option<String> {
         .filter(|o| o.status.success())
         .and_then(|o| String::from_utf8(o.stdout).ok())
         .map(|s| s.trim().to_string())
-        .filter(|s| !s.is_empty());
-    run.or_else(|| option_env!("CUBETRACE_GIT_COMMIT").map(str::to_string))
+        .filter(|s| !s.is_empty())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::git_commit;
+
+    /// Built in a git checkout, the recorded commit is the checkout's HEAD at build time (the
+    /// test binary is built from it), a full object name; a folder without git changes nothing.
+    #[test]
+    fn the_recorded_commit_is_the_one_built() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let head = std::process::Command::new("git")
+            .args(["rev-parse", "HEAD"])
+            .current_dir(root)
+            .output()
+            .ok()
+            .filter(|o| o.status.success() && root.join(".git").is_dir());
+        let Some(head) = head else {
+            return;
+        };
+        let Some(built) = option_env!("CUBETRACE_GIT_COMMIT") else {
+            panic!("built in a git checkout without CUBETRACE_GIT_COMMIT");
+        };
+        assert_eq!(built, String::from_utf8_lossy(&head.stdout).trim());
+        assert!(built.len() == 40 && built.chars().all(|c| c.is_ascii_hexdigit()));
+        assert_eq!(git_commit().as_deref(), Some(built));
+    }
 }

@@ -247,6 +247,8 @@ pub fn classify(old: &Scene, new: &Scene) -> SceneChange {
     use crate::scene::CmoPlacement as P;
     match (&old.cmo.placement, &cmo.placement) {
         _ if old.cmo.resolution != cmo.resolution => return other("CMO resolution"),
+        // The lists' face size the placement search took (`auto`'s instead of its rule).
+        _ if old.cmo.lists != cmo.lists => return other("bounded lists' face size"),
         (P::Explicit(a), P::Explicit(b)) if a.len() == b.len() => placement |= a != b,
         (P::Auto { count: a }, P::Auto { count: b })
         | (P::Search { count: a }, P::Search { count: b })

@@ -238,7 +238,8 @@ fn a_topology_change_rebuilds() {
 }
 
 /// `classify`: cameras alone are no change; transforms and CMO centres are the placement;
-/// triangles, reflector flags, materials, CMO counts or resolutions are something else.
+/// triangles, reflector flags, materials, CMO counts or resolutions, or the lists' face size a
+/// placement search took are something else.
 #[test]
 fn the_scene_comparison_classifies() {
     let scene = moving_scene();
@@ -264,6 +265,9 @@ fn the_scene_comparison_classifies() {
     assert!(other(&one));
     let mut s = f0.clone();
     s.cmo.resolution += 1;
+    assert!(other(&s));
+    let mut s = f0.clone();
+    s.cmo.lists = Some(64);
     assert!(other(&s));
     let mut s = f0.clone();
     s.meshes[0].parts[0].positions[0] += Vec3::X;
