@@ -29,7 +29,7 @@ use crate::vk::frame::pass_name;
 #[derive(Clone, Debug, Serialize)]
 pub struct BenchReport {
     pub device: DeviceInfo,
-    /// `git rev-parse HEAD` at run time, else the build-time `CUBETRACE_GIT_COMMIT`, else null.
+    /// The commit the binary was built from ([`super::git_commit`]), else null.
     pub git_commit: Option<String>,
     pub cubetrace_version: &'static str,
     pub cpu_threads: usize,

@@ -466,14 +466,21 @@ impl FrameRenderer {
             ),
         };
         let (gpu, reference, samples, captured, gpu_ms) = frame;
-        let captures = match &self.backend {
-            Backend::Gpu { renderer, .. } => renderer.as_ref().is_some_and(|r| r.captures()),
-            Backend::Reference { .. } => false,
+        let (captures, uploaded) = match &self.backend {
+            Backend::Gpu { renderer, .. } => {
+                let r = renderer.as_deref();
+                (
+                    r.is_some_and(|r| r.captures()),
+                    r.is_some_and(|r| r.lists_uploaded()),
+                )
+            }
+            Backend::Reference { .. } => (false, false),
         };
         log::info!(
             "frame: {} sample(s) per pixel, {}{}",
             self.film.spp,
             match (captures, captured) {
+                (false, _) if uploaded => "no capture (the lists were uploaded)",
                 (false, _) => "no capture (--method reads no cube map)",
                 (true, true) => "captured",
                 (true, false) => "capture reused",

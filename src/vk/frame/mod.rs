@@ -306,6 +306,12 @@ impl GpuRenderer {
         self.capture.is_some()
     }
 
+    /// Whether the bounded criterion's lists were uploaded at creation instead of captured
+    /// ([`GpuRenderer::with_lists`], [`GpuRenderer::with_built_lists`]).
+    pub fn lists_uploaded(&self) -> bool {
+        self.lists_uploaded
+    }
+
     /// The camera the passes are set for (as the caller gave it, in world coordinates).
     pub fn camera(&self) -> &Camera {
         &self.camera
