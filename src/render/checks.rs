@@ -32,7 +32,7 @@ pub fn check_gpu_memory(
     device: &str,
     limits: &memory::Limits,
 ) -> Result<()> {
-    let estimate = crate::vk::budget::estimate(scene, camera, options);
+    let (estimate, items) = crate::vk::budget::estimate_with_items(scene, camera, options);
     let pixels = u64::from(camera.width) * u64::from(camera.height);
     let mut host = memory::gpu_host_bytes(pixels, format, compare);
     if limits.device_is_host {
@@ -45,7 +45,7 @@ pub fn check_gpu_memory(
         scene.cmo.resolution,
         memory::human(estimate.total())
     );
-    let advice = memory::advice(&crate::vk::budget::largest_items(scene, camera, options));
+    let advice = memory::advice(&items);
     memory::check_with(&gpu_size, host, limits.host.clone(), &advice)?;
     memory::check_with(
         &format!(

@@ -133,7 +133,16 @@ pub fn largest_items(
     camera: &Camera,
     options: &RenderOptions,
 ) -> Vec<(String, u64)> {
-    // [`estimate`], keeping its plan for the CMOs' size.
+    estimate_with_items(scene, camera, options).1
+}
+
+/// [`estimate`] and [`largest_items`] of one frame plan (a plan of the bounded criterion bounds
+/// its lists' pool over every triangle: planned once, not once each).
+pub fn estimate_with_items(
+    scene: &Scene,
+    camera: &Camera,
+    options: &RenderOptions,
+) -> (DeviceBytes, Vec<(String, u64)>) {
     let plan = FramePlan::of(scene, camera, options);
     let e = DeviceBytes {
         scene: scene_bytes(scene),
@@ -184,7 +193,7 @@ pub fn largest_items(
     ]);
     items.retain(|(_, b)| *b >= 1024);
     items.sort_by_key(|item| std::cmp::Reverse(item.1));
-    items
+    (e, items)
 }
 
 /// The device memory of one render of `width` x `height` pixels with `cmos` CMOs of
@@ -461,6 +470,10 @@ mod tests {
         assert!(after.total() - before.total() >= 256 << 20, "{after:?}");
         let items = largest_items(&scene, &camera, &options);
         assert_eq!(items[0], ("texture 'huge' 8192x8192".into(), 256 << 20));
+        // The estimate planned with the items is the estimate; negative: the one before.
+        let (with_items, _) = estimate_with_items(&scene, &camera, &options);
+        assert_eq!(with_items, after);
+        assert_ne!(with_items, before);
         // Negative: without the texture, the largest item is something else.
         scene.textures.pop();
         let items = largest_items(&scene, &camera, &options);
