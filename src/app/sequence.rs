@@ -22,10 +22,13 @@
 //!   line: frames rendered and skipped, wall time, frames per minute, the output pattern.
 //! - Each frame is the scene at that frame ([`Scene::at_frame`]) seen by the chosen camera at
 //!   the frame's time, rendered by one [`FrameRenderer`] for the whole run (the capture is
-//!   reused where only the camera moved); a frame within a sequence is byte-identical to the
-//!   same frame rendered alone (`tests/sequence/animation.rs`). `-v` logs whether each frame captured.
+//!   reused where only the camera moved; where a placement search ran for the frame, its bounded
+//!   lists are uploaded instead of captured); a frame within a sequence is byte-identical to the
+//!   same frame rendered alone (`tests/sequence/animation.rs`). `-v` logs how each frame filled
+//!   its CMO data.
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::{Context as _, Result};
@@ -34,6 +37,7 @@ use super::frames::{frame_path, output_pattern, parse_frames};
 use super::render::{self, RenderArgs};
 use super::shard;
 use crate::camera::Camera;
+use crate::cubemap::bounds::BuiltLists;
 use crate::output::{self, Format};
 use crate::render::{self as engine, FrameRenderer, RenderedFrame};
 use crate::scene::{self, Scene};
@@ -135,24 +139,23 @@ fn run_sequence(args: RenderArgs, given: Option<Vec<i64>>) -> Result<()> {
     let mut renderer: Option<FrameRenderer> = None;
     let mut placement = SequencePlacement::new(&args, &base, &frames)?;
     for job in &todo {
-        let (scene, camera) = frame_scene(&args, &base, job.frame, &mut placement)?;
+        let (scene, camera, lists) = frame_scene(&args, &base, job.frame, &mut placement)?;
+        let lists = lists.as_deref();
         bar.set_message(format!("frame {}", job.frame));
         let r = match &mut renderer {
             Some(r) => r,
             None => {
                 let setup = render::render_setup(&args, &scene)?;
-                renderer.insert(FrameRenderer::open(&setup, &scene, &camera)?)
+                renderer.insert(FrameRenderer::open_with_lists(
+                    &setup, &scene, &camera, lists,
+                )?)
             }
         };
         let frame = r
-            .render(&scene, &camera)
+            .render_with_lists(&scene, &camera, lists)
             .with_context(|| format!("frame {}", job.frame))?;
         frame.write(&job.path, format)?;
-        log::info!(
-            "frame {}: capture {}",
-            job.frame,
-            if frame.captured { "ran" } else { "reused" }
-        );
+        log::info!("frame {}: {}", job.frame, cmo_fill(&frame));
         bar.suspend(|| println!("{}", summary(&frame, &job.path, job.frame)));
         if args.compare {
             let lines = render::compare_with_reference(&args, &scene, &camera, r.film(), &frame);
@@ -250,12 +253,19 @@ impl SequencePlacement {
     }
 
     /// Sets `scene`'s CMO placement at this frame: the last search's where the meshes stand
-    /// where they stood then, else a new search.
-    fn apply(&mut self, args: &RenderArgs, scene: &mut Scene, camera: &Camera) {
+    /// where they stood then, else a new search. Returns a new search's bounded lists
+    /// ([`crate::placement::Placement::lists`]), which the frame uploads instead of capturing;
+    /// where the last search's placement is kept, the renderer keeps its CMO data.
+    fn apply(
+        &mut self,
+        args: &RenderArgs,
+        scene: &mut Scene,
+        camera: &Camera,
+    ) -> Option<Arc<BuiltLists>> {
         if !args.method.captures_cmos()
             || !matches!(scene.cmo.placement, scene::CmoPlacement::Search { .. })
         {
-            return;
+            return None;
         }
         let key: Vec<crate::scene::Transform> = scene.meshes.iter().map(|m| m.transform).collect();
         if let Some((k, set)) = &self.last
@@ -263,20 +273,21 @@ impl SequencePlacement {
         {
             (scene.cmo.placement, scene.self_reflections) = (set.0.clone(), set.1);
             scene.cmo.lists = set.2;
-            return;
+            return None;
         }
         let cameras = if self.cameras.is_empty() {
             std::slice::from_ref(camera)
         } else {
             &self.cameras[..]
         };
-        if let Some(p) = crate::placement::resolve_for(
+        let p = crate::placement::resolve_for(
             scene,
             cameras,
             args.bounces,
             args.trace.options(args.method).scoring(),
-        ) {
-            render::log_placement(&p);
+        );
+        if let Some(p) = &p {
+            render::log_placement(p);
         }
         let set = (
             scene.cmo.placement.clone(),
@@ -284,6 +295,7 @@ impl SequencePlacement {
             scene.cmo.lists,
         );
         self.last = Some((key, set));
+        p.and_then(|p| p.lists)
     }
 }
 
@@ -303,29 +315,39 @@ fn frame_camera(args: &RenderArgs, scene: &Scene, frame: i64) -> Result<Camera> 
 }
 
 /// The scene at `frame` and its camera (the chosen one, at the command's frame size), with the
-/// sequence's CMO placement ([`SequencePlacement`]).
+/// sequence's CMO placement ([`SequencePlacement`]) and the lists of a search run for it.
 fn frame_scene(
     args: &RenderArgs,
     base: &Scene,
     frame: i64,
     placement: &mut SequencePlacement,
-) -> Result<(Scene, Camera)> {
+) -> Result<(Scene, Camera, Option<Arc<BuiltLists>>)> {
     let mut scene = base.at_frame(frame);
     let camera = frame_camera(args, &scene, frame)?;
-    placement.apply(args, &mut scene, &camera);
-    Ok((scene, camera))
+    let lists = placement.apply(args, &mut scene, &camera);
+    Ok((scene, camera, lists))
+}
+
+/// How `frame` filled its CMO data: "capture ran", "lists uploaded" (the placement search's,
+/// no capture) or "capture reused".
+fn cmo_fill(frame: &RenderedFrame) -> &'static str {
+    match (frame.captured, frame.lists_uploaded) {
+        (true, _) => "capture ran",
+        (false, true) => "lists uploaded",
+        (false, false) => "capture reused",
+    }
 }
 
 /// The `wrote ...` line of one frame of a sequence.
 fn summary(frame: &RenderedFrame, path: &Path, number: i64) -> String {
     format!(
-        "wrote {} (frame {number}, {}x{}, {} sample(s), {} mirror pixels, capture {}) in {:.2?}{}",
+        "wrote {} (frame {number}, {}x{}, {} sample(s), {} mirror pixels, {}) in {:.2?}{}",
         path.display(),
         frame.width,
         frame.height,
         frame.spp,
         frame.mirror_pixels(),
-        if frame.captured { "ran" } else { "reused" },
+        cmo_fill(frame),
         frame.render_time,
         if frame.gpu.is_some() {
             format!(" ({:.2} ms GPU)", frame.gpu_ms)

@@ -1058,6 +1058,9 @@ pub struct BuiltLists {
     pub lists: Vec<TexelLists>,
 }
 
+/// A capture's triangles: each one's corners, and whether the capture takes it.
+type Triangles = (Vec<[Vec3; 3]>, Vec<bool>);
+
 impl BuiltLists {
     /// Whether a capture at face size `size` of the views `(centre, reflectors)`, each over
     /// `triangles(reflectors)` (corners and the capture's flags), has these lists' inputs, bit
@@ -1066,13 +1069,15 @@ impl BuiltLists {
         &self,
         size: u32,
         views: &[(Vec3, bool)],
-        triangles: impl Fn(bool) -> (Vec<[Vec3; 3]>, Vec<bool>),
+        triangles: impl Fn(bool) -> Triangles,
     ) -> Result<(), String> {
         let bits = |v: &Vec3| v.to_array().map(f32::to_bits);
         let corner_bits = |t: &[Vec3; 3]| t.map(|v| bits(&v));
         if views.len() != self.lists.len() {
             return Err(format!("{} CMOs, not {}", views.len(), self.lists.len()));
         }
+        // Each flag's triangles built once, not once per view.
+        let mut known: [Option<Triangles>; 2] = [None, None];
         for (k, ((c, reflectors), l)) in views.iter().zip(&self.lists).enumerate() {
             if (l.size, l.depth) != (size, DEFAULT_DEPTH) {
                 let d = DEFAULT_DEPTH;
@@ -1084,8 +1089,9 @@ impl BuiltLists {
             if bits(c) != bits(&self.centres[k]) {
                 return Err(format!("CMO {k}: centre {c}, not {}", self.centres[k]));
             }
-            let (corners, flags) = triangles(*reflectors);
-            if flags != self.captured {
+            let (corners, flags) =
+                known[usize::from(*reflectors)].get_or_insert_with(|| triangles(*reflectors));
+            if *flags != self.captured {
                 return Err(format!("CMO {k}: other triangles captured"));
             }
             let same = corners.len() == self.corners.len()

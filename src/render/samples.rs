@@ -94,14 +94,22 @@ pub fn reference_samples(
 }
 
 /// What a frame's sample loop gives: the GPU or reference AOV frame (filtered colour), the
-/// kept samples, whether it captured, and the GPU milliseconds.
+/// kept samples, how its CMO data was filled, and the GPU milliseconds.
 pub(super) type Samples = (
     Option<GpuFrame>,
     Option<reference::Frame>,
     Vec<SampleFrame>,
-    bool,
+    Filled,
     f64,
 );
+
+/// Whether any sample of a frame captured its CMO data, or ran its CMO stages on lists uploaded
+/// for it ([`GpuFrame::captured`], [`GpuFrame::lists_uploaded`]).
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct Filled {
+    pub captured: bool,
+    pub uploaded: bool,
+}
 
 /// The GPU frame at the film `film`: its samples ([`gpu_samples`]) filtered into the colour of
 /// the AOV sample's frame, every sample kept where `keep`.
@@ -116,11 +124,12 @@ pub(super) fn gpu_frame(
     let offsets = film.offsets();
     let aov = aov_sample(&offsets);
     let mut acc = Film::new(camera.width, camera.height, film.filter);
-    let (mut captured, mut gpu_ms) = (false, 0.0);
+    let (mut filled, mut gpu_ms) = (Filled::default(), 0.0);
     let mut kept = Vec::new();
     let mut aov_frame = None;
     let each = |s: usize, o: Vec2, frame: GpuFrame| {
-        captured |= frame.captured;
+        filled.captured |= frame.captured;
+        filled.uploaded |= frame.lists_uploaded;
         gpu_ms += frame.pass_times.iter().map(|(_, t)| t).sum::<f64>() * 1e-6;
         if keep {
             kept.push(SampleFrame {
@@ -138,7 +147,7 @@ pub(super) fn gpu_frame(
     )?;
     let mut frame = aov_frame.ok_or_else(|| anyhow::anyhow!("no sample rendered"))?;
     frame.colour = acc.resolve();
-    Ok((Some(frame), None, kept, captured, gpu_ms))
+    Ok((Some(frame), None, kept, filled, gpu_ms))
 }
 
 /// The reference's frame at the film `film`: the same offsets and filter as the GPU's
@@ -184,7 +193,7 @@ pub(super) fn reference_frame_samples(
     bar.finish_and_clear();
     let mut frame = aov_frame.unwrap_or_else(|| reference::Frame::new(camera.width, camera.height));
     frame.colour = acc.resolve();
-    (None, Some(frame), kept, false, 0.0)
+    (None, Some(frame), kept, Filled::default(), 0.0)
 }
 
 /// The reference's frame at the film `film` of scene and camera, every sample kept where

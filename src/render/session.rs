@@ -11,7 +11,9 @@
 //!   ([`GpuRenderer::set_camera`]) and keeps its capture unless the capture's near plane moved;
 //! - the geometry's placement changed (mesh transforms, CMO centres of the same count): the GPU
 //!   renderer is updated in place ([`GpuRenderer::update_geometry`]: vertices, BVHs, CMO
-//!   centres, ranges; its pipelines and buffers stay) and captures again;
+//!   centres, ranges; its pipelines and buffers stay) and captures again, or takes the
+//!   placement search's lists of the frame where given and taken
+//!   ([`FrameRenderer::render_with_lists`], [`GpuRenderer::update_geometry_with_lists`]);
 //! - anything else changed (a mesh's triangles, a material, the frame size, ...), or the
 //!   in-place update cannot take the new scene (it says why, logged at debug level): a new
 //!   renderer is built on the same device.
@@ -73,6 +75,9 @@ pub enum RendererUse {
 pub struct RenderedFrame {
     /// Whether any sample of the frame ran the capture (the CMO stages).
     pub captured: bool,
+    /// Whether the frame's CMO stages ran on the placement search's lists, uploaded for it
+    /// instead of a capture ([`FrameRenderer::render_with_lists`]).
+    pub lists_uploaded: bool,
     /// What the frame did with the renderer.
     pub renderer: RendererUse,
     pub width: u32,
@@ -273,7 +278,8 @@ impl FrameRenderer {
     /// [`FrameRenderer::open`] whose first GPU renderer takes the bounded criterion's lists from
     /// `lists` where given (the placement search's: [`GpuRenderer::with_built_lists`], which
     /// captures where they are not the capture's). A later frame whose geometry moved rebuilds
-    /// the renderer with a capture of its own.
+    /// the renderer with a capture of its own unless it comes with lists
+    /// ([`FrameRenderer::render_with_lists`]).
     pub fn open_with_lists(
         setup: &RenderSetup,
         scene: &Scene,
@@ -426,13 +432,27 @@ impl FrameRenderer {
     /// rebuilds it (same device) where anything else did or the update cannot take the scene
     /// (module docs). The result is byte-identical to rendering that frame alone.
     pub fn render(&mut self, scene: &Scene, camera: &Camera) -> Result<RenderedFrame> {
+        self.render_with_lists(scene, camera, None)
+    }
+
+    /// [`FrameRenderer::render`] where the GPU renderer, if its geometry is updated or it is
+    /// rebuilt for this frame, takes the bounded criterion's lists from `lists` (the placement
+    /// search's for `scene`: [`GpuRenderer::update_geometry_with_lists`],
+    /// [`GpuRenderer::with_built_lists`]) instead of capturing them. Where the renderer is kept,
+    /// its CMO data is that of `scene` already and `lists` is not read.
+    pub fn render_with_lists(
+        &mut self,
+        scene: &Scene,
+        camera: &Camera,
+        lists: Option<&BuiltLists>,
+    ) -> Result<RenderedFrame> {
         let change = if (camera.width, camera.height) != self.size {
             SceneChange::Other("the frame size changed".into())
         } else {
             classify(&self.scene, scene)
         };
         let start = Instant::now();
-        let used = self.prepare(&change, scene, camera)?;
+        let used = self.prepare(&change, scene, camera, lists)?;
         self.first = false;
         match change {
             SceneChange::None => {}
@@ -465,7 +485,8 @@ impl FrameRenderer {
                 self.keep_samples,
             ),
         };
-        let (gpu, reference, samples, captured, gpu_ms) = frame;
+        let (gpu, reference, samples, filled, gpu_ms) = frame;
+        let (captured, lists_uploaded) = (filled.captured, filled.uploaded);
         let (captures, uploaded) = match &self.backend {
             Backend::Gpu { renderer, .. } => {
                 let r = renderer.as_deref();
@@ -480,7 +501,8 @@ impl FrameRenderer {
             "frame: {} sample(s) per pixel, {}{}",
             self.film.spp,
             match (captures, captured) {
-                (false, _) if uploaded => "no capture (the lists were uploaded)",
+                _ if lists_uploaded => "no capture (the lists were uploaded)",
+                (false, _) if uploaded => "no capture (the uploaded lists reused)",
                 (false, _) => "no capture (--method reads no cube map)",
                 (true, true) => "captured",
                 (true, false) => "capture reused",
@@ -493,6 +515,7 @@ impl FrameRenderer {
         );
         Ok(RenderedFrame {
             captured,
+            lists_uploaded,
             renderer: used,
             width: camera.width,
             height: camera.height,
@@ -513,6 +536,7 @@ impl FrameRenderer {
         change: &SceneChange,
         scene: &Scene,
         camera: &Camera,
+        lists: Option<&BuiltLists>,
     ) -> Result<RendererUse> {
         let why = match change {
             SceneChange::None if self.first => return Ok(RendererUse::New),
@@ -530,7 +554,7 @@ impl FrameRenderer {
             } => {
                 if let (SceneChange::Placement, Some(r)) = (change, renderer.as_deref_mut()) {
                     let t = Instant::now();
-                    let refused = r.update_geometry_with(ctx, scene, camera, self.stale);
+                    let refused = r.update_geometry_with(ctx, scene, camera, self.stale, lists);
                     // A failed update may have left the renderer half written: drop it.
                     let refused = refused.inspect_err(|_| *renderer = None)?;
                     let Some(why) = refused else {
@@ -548,7 +572,10 @@ impl FrameRenderer {
                 // The old renderer's memory is freed before the new one's is allocated.
                 *renderer = None;
                 let t = Instant::now();
-                *renderer = Some(Box::new(GpuRenderer::new(ctx, scene, camera, *options)?));
+                *renderer = Some(Box::new(match lists {
+                    Some(l) => GpuRenderer::with_built_lists(ctx, scene, camera, *options, l)?,
+                    None => GpuRenderer::new(ctx, scene, camera, *options)?,
+                }));
                 log::info!("GPU renderer (rebuilt): {:.2?}", t.elapsed());
             }
             Backend::Reference { tracer } => {

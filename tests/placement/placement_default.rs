@@ -259,9 +259,9 @@ time = 1.0
 translate = [0.3, 1.2, 0]
 "#;
 
-/// Runs `render` on a sequence at `-v` and returns (searches run, frames whose capture was
-/// reused).
-fn sequence_searches(path: &Path, out: &Path) -> (usize, usize) {
+/// Runs `render` on a sequence at `-v` and returns (searches run, frames on a search's uploaded
+/// lists, frames whose CMO data was reused).
+fn sequence_searches(path: &Path, out: &Path) -> (usize, usize, usize) {
     let output = Command::new(env!("CARGO_BIN_EXE_cubetrace"))
         .args(["-v", "render"])
         .arg(path)
@@ -274,22 +274,38 @@ fn sequence_searches(path: &Path, out: &Path) -> (usize, usize) {
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(output.status.success(), "{stdout}\n{stderr}");
     let searches = stderr.matches("sampled reflected rays in").count();
+    let uploaded = stdout.matches("lists uploaded").count();
     let reused = stdout.matches("capture reused").count();
-    (searches, reused)
+    assert_eq!(stdout.matches("capture ran").count(), 0, "{stdout}");
+    (searches, uploaded, reused)
 }
 
 /// A sequence where only the camera moves searches once (for the cameras of frames spread over
-/// it) and reuses the capture on every later frame; the negative, a sequence whose reflector
-/// moves, searches on every frame.
+/// it), uploads that search's lists for its first frame and reuses them on every later frame; the
+/// negative, a sequence whose reflector moves, searches on every frame and uploads each search's
+/// lists (none captures).
 #[test]
 fn a_sequence_searches_again_only_where_geometry_moves() {
     let dir = tempfile::tempdir().unwrap();
     let camera = animated_scene(&dir.path().join("camera"), CAMERA_MOVES);
-    let (searches, reused) = sequence_searches(&camera, dir.path());
-    assert_eq!((searches, reused), (1, 2));
+    assert_eq!(sequence_searches(&camera, dir.path()), (1, 1, 2));
     let mesh = animated_scene(&dir.path().join("mesh"), MESH_MOVES);
-    let (searches, reused) = sequence_searches(&mesh, dir.path());
-    assert_eq!((searches, reused), (3, 0));
+    let out = dir.path().join("mesh-out");
+    assert_eq!(sequence_searches(&mesh, &out), (3, 3, 0));
+    // Frame 3 on the lists its update took is frame 3 rendered alone (on the lists its renderer
+    // was made with); frame 2 is another image.
+    let output = Command::new(env!("CARGO_BIN_EXE_cubetrace"))
+        .arg("render")
+        .arg(&mesh)
+        .args(["--width", "32", "--height", "24", "--frames", "3", "-o"])
+        .arg(out.join("alone.png"))
+        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+        .output()
+        .unwrap();
+    assert!(output.status.success(), "{output:?}");
+    let read = |name: &str| std::fs::read(out.join(name)).unwrap();
+    assert!(read("f-3.png") == read("alone.png"));
+    assert!(read("f-2.png") != read("alone.png"));
 }
 
 /// A camera that sees no mirror pixel gives the search nothing to score: it places one CMO on

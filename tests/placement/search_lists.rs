@@ -5,7 +5,9 @@
 //! the captured frame bit for bit, without a capture pass. Negatives: lists emptied (bounds
 //! kept) are taken and change the frame, so the frame reads what it was handed; lists whose
 //! inputs differ (a centre one ulp off, one triangle's flag flipped) are not taken, and the frame
-//! captures its own.
+//! captures its own. The same holds where a renderer's geometry moves and the search of the moved
+//! scene hands its lists to the update (`GpuRenderer::update_geometry_with_lists`), as a sequence
+//! whose meshes move does on every moved frame.
 
 use crate::common;
 
@@ -19,6 +21,7 @@ use cubetrace::cubemap::bounds::BuiltLists;
 use cubetrace::placement::{self, Scoring};
 use cubetrace::scene::Scene;
 use cubetrace::vk::GpuContext;
+use cubetrace::vk::VkResult;
 use cubetrace::vk::frame::{Fallback, GpuFrame, GpuRenderer, RenderOptions};
 use cubetrace::vk::options::ListSize;
 use glam::Vec3;
@@ -38,7 +41,12 @@ fn options(lists: ListSize) -> RenderOptions {
 
 /// Corpus scene `name`, placed by the search judged with lists of `lists`, and its lists.
 fn searched(name: &str, lists: ListSize) -> (Scene, Arc<BuiltLists>) {
-    let mut scene = corpus(name);
+    searched_scene(corpus(name), lists)
+}
+
+/// `scene`, placed by the search judged with lists of `lists`, and its lists.
+fn searched_scene(mut scene: Scene, lists: ListSize) -> (Scene, Arc<BuiltLists>) {
+    let name = scene.name.clone();
     let camera = scene.cameras[0].clone();
     let p = placement::resolve(&mut scene, &camera, 1, Scoring::Bounded(lists)).unwrap();
     let built = p
@@ -123,5 +131,103 @@ fn lists_of_other_inputs_are_not_taken() {
             "{what}"
         );
     }
+    finish_gpu(ctx);
+}
+
+/// Corpus scene `name` with its reflector moved by `by`, placed by the search, and its lists.
+fn moved(name: &str, by: Vec3) -> (Scene, Arc<BuiltLists>) {
+    let mut scene = corpus(name);
+    let mirror = scene.meshes.iter_mut().find(|m| m.reflector).unwrap();
+    mirror.transform.translate += by;
+    searched_scene(scene, ListSize::Auto)
+}
+
+/// The next frame after `update` ([`GpuRenderer::update_geometry_with_lists`] or a sibling)
+/// accepted the update.
+fn frame_after(
+    ctx: &GpuContext,
+    r: &mut GpuRenderer,
+    update: VkResult<Option<String>>,
+) -> GpuFrame {
+    let refused = update.unwrap();
+    assert_eq!(refused, None, "the update was refused");
+    r.render(ctx).unwrap()
+}
+
+/// A renderer that captured the mug, its reflector then moved: updated with the moved scene's
+/// search lists, the next frame runs no capture and is the moved scene's captured frame bit for
+/// bit. Negatives: the lists emptied (bounds kept) are taken and the frame moves; the unmoved
+/// scene's lists are not taken, and the frame captures.
+#[test]
+fn an_update_on_the_search_lists_is_the_captured_frame() {
+    let ctx = gpu_context();
+    let lists = ListSize::Auto;
+    let (a, built_a) = searched("mug", lists);
+    let (b, built_b) = moved("mug", Vec3::new(0.02, 0.01, 0.0));
+    assert_eq!(a.cmo_centres().len(), b.cmo_centres().len());
+    assert_ne!(
+        built_a.centres, built_b.centres,
+        "the move should move the searched centre"
+    );
+    let camera = &a.cameras[0];
+    let (fresh, _) = first_frame(&ctx, &b, camera, options(lists), "moved mug");
+    assert!(fresh.captured);
+    for (what, given, uploaded) in [
+        ("the moved scene's lists", (*built_b).clone(), true),
+        ("the unmoved scene's lists", (*built_a).clone(), false),
+    ] {
+        let (_, mut r) = first_frame(&ctx, &a, camera, options(lists), "mug");
+        let update = r.update_geometry_with_lists(&ctx, &b, camera, &given);
+        let f = frame_after(&ctx, &mut r, update);
+        assert_eq!(
+            (f.lists_uploaded, f.captured),
+            (uploaded, !uploaded),
+            "{what}"
+        );
+        assert!(frame_bits(&fresh, true) == frame_bits(&f, true), "{what}");
+    }
+    // The negative: every list emptied, its bounds kept; taken, and the frame moves.
+    let mut emptied = (*built_b).clone();
+    for l in &mut emptied.lists {
+        l.entries.clear();
+        l.offsets.fill(0);
+    }
+    let (_, mut r) = first_frame(&ctx, &a, camera, options(lists), "mug");
+    let update = r.update_geometry_with_lists(&ctx, &b, camera, &emptied);
+    let wrong = frame_after(&ctx, &mut r, update);
+    assert!(wrong.lists_uploaded);
+    assert!(frame_bits(&fresh, true) != frame_bits(&wrong, true));
+    finish_gpu(ctx);
+}
+
+/// A renderer made on the search's lists has no capture: its geometry moves only with lists
+/// that it takes. Given the moved scene's, the frame is the moved scene's captured frame bit for
+/// bit; without lists, or with the unmoved scene's, the update is refused (the caller rebuilds).
+#[test]
+fn a_renderer_on_uploaded_lists_moves_only_with_lists() {
+    let ctx = gpu_context();
+    let lists = ListSize::Auto;
+    let (a, built_a) = searched("mug", lists);
+    let (b, built_b) = moved("mug", Vec3::new(0.02, 0.01, 0.0));
+    let camera = &a.cameras[0];
+    let (fresh, _) = first_frame(&ctx, &b, camera, options(lists), "moved mug");
+    let made = GpuRenderer::with_built_lists(&ctx, &a, camera, options(lists), &built_a);
+    let (first, mut r) = first_frame_of(&ctx, made, "mug on lists");
+    assert!(!r.captures() && first.lists_uploaded && !first.captured);
+    let refused = r.update_geometry(&ctx, &b, camera).unwrap();
+    assert!(refused.is_some_and(|why| why.contains("none were given")));
+    let refused = r
+        .update_geometry_with_lists(&ctx, &b, camera, &built_a)
+        .unwrap();
+    assert!(refused.is_some_and(|why| why.contains("not taken")));
+    let update = r.update_geometry_with_lists(&ctx, &b, camera, &built_b);
+    let f = frame_after(&ctx, &mut r, update);
+    assert!(f.lists_uploaded && !f.captured);
+    assert!(frame_bits(&fresh, true) == frame_bits(&f, true));
+    // Kept, the next frame reuses the CMO data: nothing uploaded, nothing captured.
+    r.set_camera(&ctx, &b, camera).unwrap();
+    let again = r.render(&ctx).unwrap();
+    assert!(!again.lists_uploaded && !again.captured);
+    assert!(frame_bits(&fresh, true) == frame_bits(&again, true));
     finish_gpu(ctx);
 }

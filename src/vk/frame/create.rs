@@ -281,6 +281,7 @@ impl GpuRenderer {
             sample: 0,
             check_triangles,
             lists_uploaded: lists.is_some(),
+            lists_pending: lists.is_some(),
             plan,
         })
     }
@@ -304,20 +305,29 @@ impl<'a> Lists<'a> {
         match self {
             Lists::Captured => None,
             Lists::Packed(p) => Some(Cow::Borrowed(p)),
-            Lists::Built(built) => built_lists(plan, data, built).map(Cow::Owned),
+            Lists::Built(built) => planned_lists(plan, data, built).map(Cow::Owned),
         }
     }
 }
 
 /// `built` in the GPU layout where the planned capture is of lists with `built`'s inputs, else
 /// `None` (the frame captures; `-v` says why).
-fn built_lists(plan: &FramePlan, data: &GpuSceneData, built: &BuiltLists) -> Option<PackedLists> {
+fn planned_lists(plan: &FramePlan, data: &GpuSceneData, built: &BuiltLists) -> Option<PackedLists> {
     let Some(CapturePlan::Lists { views, .. }) = &plan.cmo.capture else {
         return None;
     };
-    let same = built.same_inputs(plan.cmo.size, views, |reflectors| {
-        scene_triangles(data, reflectors)
-    });
+    built_lists(plan.cmo.size, views, data, built)
+}
+
+/// `built` in the GPU layout where a capture of lists at face size `size` of `views` over
+/// `data` has `built`'s inputs, else `None` (`-v` says why).
+pub(super) fn built_lists(
+    size: u32,
+    views: &[(Vec3, bool)],
+    data: &GpuSceneData,
+    built: &BuiltLists,
+) -> Option<PackedLists> {
+    let same = built.same_inputs(size, views, |reflectors| scene_triangles(data, reflectors));
     let packed = same.and_then(|()| pack(&built.lists));
     match packed {
         Ok(p) => {
@@ -325,7 +335,7 @@ fn built_lists(plan: &FramePlan, data: &GpuSceneData, built: &BuiltLists) -> Opt
                 "bounded criterion: the placement search's lists ({} CMOs, {} texels per face \
                  side) uploaded, no capture pass",
                 built.lists.len(),
-                plan.cmo.size
+                size
             );
             Some(p)
         }

@@ -45,6 +45,11 @@ pub struct GpuFrame {
     /// depends on or [`GpuRenderer::update_geometry`](super::GpuRenderer::update_geometry) moved the geometry; never for a method
     /// that captures nothing (`bvh`) or uploaded lists.
     pub captured: bool,
+    /// Whether this frame's CMO stages ran on bounded lists uploaded since the last frame
+    /// ([`GpuRenderer::with_built_lists`](super::GpuRenderer::with_built_lists),
+    /// [`GpuRenderer::update_geometry_with_lists`](super::GpuRenderer::update_geometry_with_lists))
+    /// instead of the lists' capture.
+    pub lists_uploaded: bool,
 }
 
 impl GpuFrame {

@@ -31,7 +31,7 @@ impl GpuRenderer {
         camera: &Camera,
         stale: StaleUpdate,
     ) -> VkResult<Option<String>> {
-        self.update_geometry_with(ctx, scene, camera, Some(stale))
+        self.update_geometry_with(ctx, scene, camera, Some(stale), None)
     }
 
     /// Test hook: frames without (`true`) or with the `cone` pass, everything else the same

@@ -270,8 +270,12 @@ pub struct GpuRenderer {
     /// [`Scene::check_triangles`] at creation: the reflector check's BVH is built over them.
     check_triangles: Vec<u32>,
     /// Whether the bounded criterion's lists were uploaded at creation
-    /// ([`GpuRenderer::with_lists`]): they do not follow the geometry.
+    /// ([`GpuRenderer::with_lists`]): the renderer has no capture of its own, and its geometry
+    /// moves only with lists given ([`GpuRenderer::update_geometry_with_lists`]).
     lists_uploaded: bool,
+    /// Whether the CMO data holds lists uploaded since the last frame: its CMO stages run
+    /// without the lists' capture.
+    lists_pending: bool,
     /// What creation allocated ([`FramePlan`], the plan the memory estimate counts).
     plan: FramePlan,
 }

@@ -76,6 +76,7 @@ impl GpuRenderer {
             rounds,
             search: stats.search,
             captured: false,
+            lists_uploaded: false,
         })
     }
 }

@@ -43,8 +43,13 @@ impl GpuRenderer {
         self.timestamps = ts;
         recorded?;
         self.cmo_valid = true;
+        let uploaded = cmo_stages && self.lists_pending;
+        if cmo_stages {
+            self.lists_pending = false;
+        }
         let mut frame = self.read_back(ctx, pass_times)?;
-        frame.captured = cmo_stages && self.capture.is_some();
+        frame.captured = cmo_stages && self.capture.is_some() && !uploaded;
+        frame.lists_uploaded = uploaded;
         Ok(frame)
     }
 
@@ -77,6 +82,8 @@ impl GpuRenderer {
             Some(CmoCapture::Raster(c)) => {
                 scope("capture", &mut || c.record(rec, &self.cmo, self.background))?;
             }
+            // Lists uploaded in place of this capture: nothing to capture.
+            Some(CmoCapture::Lists(_)) if self.lists_pending => {}
             Some(CmoCapture::Lists(c)) => scope("capture", &mut || c.record(rec))?,
             None => {}
         }

@@ -101,14 +101,11 @@ impl CmoStages {
             None => None,
         };
         // The bounded criterion's lists keep no colour: where the frame reads it (the cone pass
-        // of a glossy scene), a rasterised capture fills the cone pass's own CMOs.
+        // of a glossy scene), a rasterised capture fills the cone pass's own CMOs, in the CMO
+        // stages (with uploaded lists too: it follows the capture's near plane).
         let colour_capture = match (capture, &cone_cmo) {
-            (CapturePlan::Lists { .. }, Some(c)) => Some(Box::new(raster(c.size(), colour_only)?)),
-            (CapturePlan::Uploaded { .. }, Some(c)) => {
-                // The lists are uploaded once: the colour is captured once, here.
-                let r = raster(c.size(), colour_only)?;
-                ctx.submit_and_wait("cmo colour", |rec| r.record(rec, c, scene.background))?;
-                None
+            (CapturePlan::Lists { .. } | CapturePlan::Uploaded { .. }, Some(c)) => {
+                Some(Box::new(raster(c.size(), colour_only)?))
             }
             _ => None,
         };

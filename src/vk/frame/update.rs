@@ -3,9 +3,10 @@
 
 use glam::Vec3;
 
-use super::create::{check_ranges, frame_params, mirror_rect, rebased};
+use super::create::{built_lists, check_ranges, frame_params, mirror_rect, rebased};
 use super::{CmoCapture, FrameParams, GpuRenderer, StaleUpdate};
 use crate::camera::Camera;
+use crate::cubemap::bounds::BuiltLists;
 use crate::ranges::FrameRanges;
 use crate::scene::Scene;
 use crate::scene::gpu_data::GpuSceneData;
@@ -15,6 +16,7 @@ use crate::vk::methods;
 use crate::vk::methods::GeometryInputs;
 use crate::vk::passes::capture_lists;
 use crate::vk::passes::capture_lists::ListTargets;
+use crate::vk::passes::lists::PackedLists;
 use crate::vk::passes::scene_buffers::SceneBuffers;
 
 /// What [`GpuRenderer::update_geometry`] writes (its `geometry_plan`): the scene as uploaded,
@@ -24,6 +26,9 @@ struct GeometryPlan {
     ranges: FrameRanges,
     centres: Vec<Vec3>,
     lists: Option<(Vec<(Vec3, bool)>, crate::cubemap::bounds::PoolBound)>,
+    /// The bounded lists given with the update, in the GPU layout, where taken: written in
+    /// place of the capture.
+    packed: Option<PackedLists>,
 }
 
 impl GpuRenderer {
@@ -147,7 +152,8 @@ impl GpuRenderer {
     ///
     /// `Ok(Some(why))` where it cannot (the frame size, the vertex count, the triangles, the
     /// objects' flags, the CMO count, self-reflections, the reflector check's triangles changed,
-    /// or the bounded criterion's lists were uploaded at creation): nothing was changed, and the
+    /// or the bounded criterion's lists were uploaded at creation and none are given: see
+    /// [`GpuRenderer::update_geometry_with_lists`]): nothing was changed, and the
     /// caller builds a new renderer. A bounded capture whose pool or job buffer the moved
     /// geometry outgrows gets larger ones, bound where the old ones were. An error where a new
     /// renderer would fail for the same reason (the depth range check, the device's limits).
@@ -157,20 +163,38 @@ impl GpuRenderer {
         scene: &Scene,
         camera: &Camera,
     ) -> VkResult<Option<String>> {
-        self.update_geometry_with(ctx, scene, camera, None)
+        self.update_geometry_with(ctx, scene, camera, None, None)
     }
 
-    /// [`GpuRenderer::update_geometry`] leaving `stale` as it was (`None`: the update itself;
-    /// `Some` only through the tests' hooks).
+    /// [`GpuRenderer::update_geometry`] taking the bounded criterion's lists from `built` (the
+    /// placement search's for `scene`, [`crate::placement::Placement::lists`]) instead of a
+    /// capture, where the capture would have their inputs bit for bit
+    /// ([`BuiltLists::same_inputs`], as [`GpuRenderer::with_built_lists`] takes them): the next
+    /// frame runs no capture pass and is the captured frame (where the capture cuts no list).
+    /// Otherwise the frame captures, and a renderer made on uploaded lists, which has no
+    /// capture, says why it cannot be updated.
+    pub fn update_geometry_with_lists(
+        &mut self,
+        ctx: &GpuContext,
+        scene: &Scene,
+        camera: &Camera,
+        built: &BuiltLists,
+    ) -> VkResult<Option<String>> {
+        self.update_geometry_with(ctx, scene, camera, None, Some(built))
+    }
+
+    /// [`GpuRenderer::update_geometry_with_lists`] (`built` where given) leaving `stale` as it
+    /// was (`None`: the update itself; `Some` only through the tests' hooks).
     pub(crate) fn update_geometry_with(
         &mut self,
         ctx: &GpuContext,
         scene: &Scene,
         camera: &Camera,
         stale: Option<StaleUpdate>,
+        built: Option<&BuiltLists>,
     ) -> VkResult<Option<String>> {
         let (local, local_camera) = rebased(self.anchor, scene, camera);
-        match self.geometry_plan(&local, &local_camera)? {
+        match self.geometry_plan(&local, &local_camera, built)? {
             Ok(plan) => {
                 self.write_geometry(ctx, &local, &local_camera, plan, stale)?;
                 self.camera = camera.clone();
@@ -186,13 +210,14 @@ impl GpuRenderer {
         &self,
         scene: &Scene,
         camera: &Camera,
+        built: Option<&BuiltLists>,
     ) -> VkResult<Result<GeometryPlan, String>> {
         if (camera.width, camera.height) != (self.width, self.height) {
             return Ok(Err("the frame size changed".into()));
         }
-        if self.lists_uploaded {
+        if self.lists_uploaded && built.is_none() {
             return Ok(Err(
-                "the bounded capture's lists were uploaded at creation".into()
+                "the bounded capture's lists were uploaded at creation, and none were given".into(),
             ));
         }
         let ranges = FrameRanges::new(scene, camera);
@@ -230,11 +255,26 @@ impl GpuRenderer {
             }
             _ => None,
         };
+        let packed = match built {
+            Some(b) if lists.is_some() || self.lists_uploaded => {
+                let views = capture_lists::scene_views(scene);
+                built_lists(self.cmo.size(), &views, &data, b)
+            }
+            _ => None,
+        };
+        if self.lists_uploaded && packed.is_none() {
+            return Ok(Err(
+                "the bounded capture's lists were uploaded at creation, and this frame's were not \
+                 taken"
+                    .into(),
+            ));
+        }
         Ok(Ok(GeometryPlan {
             data,
             ranges,
             centres,
             lists,
+            packed,
         }))
     }
 
@@ -253,6 +293,7 @@ impl GpuRenderer {
             ranges,
             centres,
             lists,
+            packed,
         } = plan;
         let t_hi = ranges.t_hi;
         if stale != Some(StaleUpdate::Vertices) {
@@ -271,16 +312,30 @@ impl GpuRenderer {
             }
             (Some(CmoCapture::Lists(c)), Some((views, capacity))) => {
                 // A pool too small for the moved geometry is allocated again, and rebound.
-                let grown = self.cmo.grow_pool(ctx, capacity.nodes)?;
+                let mut grown = self.cmo.grow_pool(ctx, capacity.nodes)?;
                 let targets = ListTargets::of(&self.cmo);
+                // Updated with lists uploaded too: a frame that captures again
+                // (`invalidate_capture`) captures these views.
                 c.update(ctx, &self._scene, &views, capacity, Some(targets))?;
+                if let Some(p) = &packed {
+                    grown |= self.cmo.write_lists(ctx, p)?;
+                }
                 if grown {
+                    self.method.rebind_cmo(ctx, &self.cmo)?;
+                    self.composite.rebind_cmo(&self.cmo)?;
+                }
+            }
+            (None, _) => {
+                if let Some(p) = &packed
+                    && self.cmo.write_lists(ctx, p)?
+                {
                     self.method.rebind_cmo(ctx, &self.cmo)?;
                     self.composite.rebind_cmo(&self.cmo)?;
                 }
             }
             _ => {}
         }
+        self.lists_pending = packed.is_some();
         let rebuild_bvh = stale != Some(StaleUpdate::Bvh);
         if rebuild_bvh {
             if let Some(f) = &mut self.fallback {

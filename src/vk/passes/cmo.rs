@@ -472,6 +472,25 @@ impl CmoData {
     /// passes' to build from the distances (or [`CmoData::upload`]'s on the CPU). Fails where
     /// the face size or the texel count is not the CMOs'.
     pub fn upload_lists(&mut self, ctx: &GpuContext, packed: &PackedLists) -> VkResult<()> {
+        self.check_packed(packed)?;
+        self.alloc_lists(ctx, packed.nodes.len() as u64)?;
+        self.write_packed(ctx, packed)
+    }
+
+    /// [`CmoData::upload_lists`] into the lists already allocated, the pool grown where it
+    /// holds fewer nodes ([`CmoData::grow_pool`]), in place of a capture: the buffers a
+    /// capture writes, written whole but for the pool's nodes past `packed`'s, which no record
+    /// names. Returns whether the pool's buffers are new (their bind groups must be made
+    /// again).
+    pub fn write_lists(&mut self, ctx: &GpuContext, packed: &PackedLists) -> VkResult<bool> {
+        self.check_packed(packed)?;
+        let grown = self.grow_pool(ctx, packed.nodes.len() as u64)?;
+        self.write_packed(ctx, packed)?;
+        Ok(grown)
+    }
+
+    /// Refuses `packed` where its face size or texel count is not the CMOs'.
+    fn check_packed(&self, packed: &PackedLists) -> VkResult<()> {
         let texels = self.count as usize * 6 * self.size as usize * self.size as usize;
         if packed.size != self.size || packed.records.len() != texels || packed.lo.len() != texels {
             return Err(VkError::Usage {
@@ -485,7 +504,11 @@ impl CmoData {
                 ),
             });
         }
-        self.alloc_lists(ctx, packed.nodes.len() as u64)?;
+        Ok(())
+    }
+
+    /// Writes `packed` into the allocated lists (the pool holding its nodes).
+    fn write_packed(&self, ctx: &GpuContext, packed: &PackedLists) -> VkResult<()> {
         ctx.write_buffer(&self.distance, &packed.lo)?;
         ctx.write_buffer(&self.gaps[0], &lists::packed_gaps(packed))?;
         for (b, c) in self.lists.iter().zip(lists::columns(&packed.records)) {
