@@ -246,7 +246,10 @@ pub fn load_scene(args: &RenderArgs) -> Result<(Scene, Camera, Option<Placement>
     if let Some(p) = &placement {
         log_placement(p);
     }
-    for problem in timed("scene check", || crate::placement::diagnose(&scene)) {
+    // Centres that a search judged on sampled rays need no line-of-sight check.
+    let sight = placement.as_ref().is_none_or(|p| p.rays == 0);
+    let check = || crate::placement::diagnose_with(&scene, sight);
+    for problem in timed("scene check", check) {
         log::warn!("{problem}");
     }
     Ok((scene, camera, placement))

@@ -20,6 +20,14 @@ const SAMPLES: usize = 512;
 ///   cubemap shows the blocking surfaces, every reflected ray starts behind them, and the mirror
 ///   pixels it serves end unresolved (filled by the fallback).
 pub fn diagnose(scene: &Scene) -> Vec<String> {
+    diagnose_with(scene, true)
+}
+
+/// [`diagnose`], the CMO centres' lines of sight checked only where `sight`. A placement search
+/// that sampled rays judged its centres by the rays they resolve (and the render warns where
+/// many are left), so its centres need no such check: on a large scene the check's BVH of the
+/// other geometry costs tens of milliseconds.
+pub fn diagnose_with(scene: &Scene, sight: bool) -> Vec<String> {
     let mut out = Vec::new();
     // Meshes without triangles (an empty OBJ) neither reflect nor get reflected.
     let meshes: Vec<_> = scene
@@ -53,6 +61,9 @@ pub fn diagnose(scene: &Scene) -> Vec<String> {
         ));
     }
 
+    if !sight {
+        return out;
+    }
     // Only the other geometry can block a line of sight: its BVH alone (a reflector of
     // millions of triangles is no blocker, and its BVH cost seconds here before the render).
     let others = Scene {

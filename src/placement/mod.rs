@@ -98,7 +98,7 @@ use crate::scene::{CmoPlacement, Scene, SelfReflections, WorldGeometry};
 mod diagnose;
 mod rays;
 
-pub use diagnose::diagnose;
+pub use diagnose::{diagnose, diagnose_with};
 pub use rays::Unresolved;
 use rays::{Ray, bounce_rays, classify, reflected_rays};
 

@@ -658,6 +658,11 @@ fn diagnose_a_cmo_centre_that_sees_no_reflector() {
         "{}",
         p[0]
     );
+    // Without the lines of sight (centres a search judged on sampled rays), the same scene
+    // gives no problem.
+    let (_dir, path, _) = diagnose_scene(&meshes, "[cmo]\ncentres = [[0, 0.3, 0], [3, 1, 0]]\n");
+    let scene = scene::load_scene_file(&path).unwrap();
+    assert!(cubetrace::placement::diagnose_with(&scene, false).is_empty());
     // Negative: the centre outside the box, beside it, sees the mirror.
     let (_, _, p) = diagnose_scene(&meshes, "[cmo]\ncentres = [[0, 0.3, 0], [1.5, 1, 0]]\n");
     assert!(p.is_empty(), "{p:?}");
