@@ -39,6 +39,7 @@ use crate::output::{self, Format};
 use crate::reference;
 use crate::scene::{Scene, WorldGeometry};
 use crate::vk::frame::{FramePlan, GpuFrame, GpuRenderer, RenderOptions, StaleUpdate};
+use crate::vk::options::ListSize;
 use crate::vk::{ContextOptions, GpuContext};
 
 use super::checks;
@@ -144,7 +145,12 @@ impl RenderedFrame {
 enum Backend {
     Gpu {
         ctx: Box<GpuContext>,
+        /// The renderer's options, its lists' face size resolved for its scene.
         options: RenderOptions,
+        /// The lists' face size as the setup asked for it: resolved again for each scene whose
+        /// geometry changed, as a frame alone resolves it (`auto` and the size a placement
+        /// search took depend on the scene).
+        requested: ListSize,
         renderer: Option<Box<GpuRenderer>>,
     },
     Reference {
@@ -277,9 +283,8 @@ impl FrameRenderer {
 
     /// [`FrameRenderer::open`] whose first GPU renderer takes the bounded criterion's lists from
     /// `lists` where given (the placement search's: [`GpuRenderer::with_built_lists`], which
-    /// captures where they are not the capture's). A later frame whose geometry moved rebuilds
-    /// the renderer with a capture of its own unless it comes with lists
-    /// ([`FrameRenderer::render_with_lists`]).
+    /// captures where they are not the capture's). A later frame whose geometry moved takes the
+    /// lists it comes with ([`FrameRenderer::render_with_lists`]), else captures.
     pub fn open_with_lists(
         setup: &RenderSetup,
         scene: &Scene,
@@ -291,9 +296,9 @@ impl FrameRenderer {
             camera.width, camera.height, setup.method
         );
         let gpu = match setup.gpu {
-            Some((context, options)) => {
+            Some((context, requested)) => {
                 let ctx = GpuContext::new(context)?;
-                let options = FramePlan::resolve_list_size(scene, camera, &options);
+                let options = FramePlan::resolve_list_size(scene, camera, &requested);
                 let report = ctx.report();
                 checks::check_textures(
                     scene,
@@ -312,40 +317,46 @@ impl FrameRenderer {
                     &report.name,
                     &limits,
                 )?;
-                Some((ctx, options))
+                Some((ctx, requested, options))
             }
             None => {
                 checks::check_reference_memory(&size, camera, setup.format)?;
                 None
             }
         };
+        let resolved = gpu.as_ref().map(|g| g.2);
         let frame_setup = FrameSetup {
             method: setup.method,
             bounces: setup.bounces,
             film: setup.film,
             keep_samples: setup.compare && setup.film.spp > 1,
-            gpu,
+            gpu: gpu.map(|(ctx, requested, _)| (ctx, requested)),
         };
-        FrameRenderer::from_setup_with(frame_setup, scene, camera, lists)
+        FrameRenderer::from_setup_with(frame_setup, scene, camera, lists, resolved)
     }
 
     /// The renderer of checked parts ([`FrameRenderer::open`] checks a [`RenderSetup`] and
     /// builds them): with a device, its GPU renderer and pipelines are built; without one, the
     /// reference's tracer. Nothing is rendered yet.
     pub fn from_setup(setup: FrameSetup, scene: &Scene, camera: &Camera) -> Result<Self> {
-        Self::from_setup_with(setup, scene, camera, None)
+        Self::from_setup_with(setup, scene, camera, None, None)
     }
 
-    /// [`FrameRenderer::from_setup`] with the lists of [`FrameRenderer::open_with_lists`].
+    /// [`FrameRenderer::from_setup`] with the lists of [`FrameRenderer::open_with_lists`], and
+    /// the setup's options with their list size resolved for `scene` where known already
+    /// ([`FramePlan::resolve_list_size`]).
     fn from_setup_with(
         setup: FrameSetup,
         scene: &Scene,
         camera: &Camera,
         lists: Option<&BuiltLists>,
+        resolved: Option<RenderOptions>,
     ) -> Result<Self> {
         let start = Instant::now();
         let backend = match setup.gpu {
-            Some((ctx, options)) => {
+            Some((ctx, requested)) => {
+                let options = resolved
+                    .unwrap_or_else(|| FramePlan::resolve_list_size(scene, camera, &requested));
                 let renderer = match lists {
                     Some(l) => GpuRenderer::with_built_lists(&ctx, scene, camera, options, l)?,
                     None => GpuRenderer::new(&ctx, scene, camera, options)?,
@@ -357,6 +368,7 @@ impl FrameRenderer {
                 Backend::Gpu {
                     ctx: Box::new(ctx),
                     options,
+                    requested: requested.list_size,
                     renderer: Some(Box::new(renderer)),
                 }
             }
@@ -550,9 +562,23 @@ impl FrameRenderer {
             Backend::Gpu {
                 ctx,
                 options,
+                requested,
                 renderer,
             } => {
-                if let (SceneChange::Placement, Some(r)) = (change, renderer.as_deref_mut()) {
+                let wanted = RenderOptions {
+                    list_size: *requested,
+                    ..*options
+                };
+                let wanted = FramePlan::resolve_list_size(scene, camera, &wanted);
+                let same_size = wanted.list_size == options.list_size;
+                if !same_size {
+                    log::debug!(
+                        "GPU renderer rebuilt: the bounded lists' face size changed ({:?} -> {:?})",
+                        options.list_size,
+                        wanted.list_size
+                    );
+                } else if let (SceneChange::Placement, Some(r)) = (change, renderer.as_deref_mut())
+                {
                     let t = Instant::now();
                     let refused = r.update_geometry_with(ctx, scene, camera, self.stale, lists);
                     // A failed update may have left the renderer half written: drop it.
@@ -571,6 +597,7 @@ impl FrameRenderer {
                 }
                 // The old renderer's memory is freed before the new one's is allocated.
                 *renderer = None;
+                *options = wanted;
                 let t = Instant::now();
                 *renderer = Some(Box::new(match lists {
                     Some(l) => GpuRenderer::with_built_lists(ctx, scene, camera, *options, l)?,

@@ -237,6 +237,37 @@ fn a_topology_change_rebuilds() {
     assert!(bits(&seq[2]) != bits(&alone(&line, &scene.at_frame(2))));
 }
 
+/// [`bits`] and the trace's counters (texels, cells, descents, backtracks) of the mirror pixels:
+/// the work that the lists' face size decides where the bounded criterion's image does not move.
+fn bits_and_work(f: &RenderedFrame) -> (Vec<u32>, Vec<[u32; 4]>) {
+    let g = f.gpu.as_ref().unwrap();
+    let work = (g.compute.as_ref()).map_or_else(Vec::new, |c| {
+        (c.per_pixel.iter().zip(&g.mask))
+            .filter(|(_, m)| **m != 0)
+            .map(|(w, _)| *w)
+            .collect()
+    });
+    (bits(f), work)
+}
+
+/// The lists' face size is resolved for each frame's scene, as for the frame alone: frame 1 with
+/// the face size a placement search took (8, where frame 0 resolved `auto`) is rebuilt at that
+/// size and is the frame alone, its trace's work included. Negative: frame 1 at `auto`'s size
+/// traces other work.
+#[test]
+fn a_face_size_a_search_took_is_the_frame_alone() {
+    let line = ["--method", "compute"];
+    let scene = moving_scene();
+    let mut frames: Vec<Scene> = (0..=1).map(|f| scene.at_frame(f)).collect();
+    frames[1].cmo.lists = Some(8);
+    let (seq, fr) = sequence(&line, &scene, &frames, None);
+    assert_eq!(fr.rebuilds(), 1);
+    let got = bits_and_work(&seq[1]);
+    assert!(!got.1.is_empty());
+    assert!(got == bits_and_work(&alone(&line, &frames[1])));
+    assert!(got != bits_and_work(&alone(&line, &scene.at_frame(1))));
+}
+
 /// `classify`: cameras alone are no change; transforms and CMO centres are the placement;
 /// triangles, reflector flags, materials, CMO counts or resolutions, or the lists' face size a
 /// placement search took are something else.
