@@ -56,6 +56,17 @@ fn searched_scene(mut scene: Scene, lists: ListSize) -> (Scene, Arc<BuiltLists>)
     (scene, built)
 }
 
+/// `built` with every list emptied, its bounds kept: lists a frame takes (their inputs are
+/// `built`'s) whose frame is not the captured one.
+fn emptied(built: &BuiltLists) -> BuiltLists {
+    let mut out = built.clone();
+    for l in &mut out.lists {
+        l.entries.clear();
+        l.offsets.fill(0);
+    }
+    out
+}
+
 /// The first frame on `built`'s lists, and whether the renderer runs a capture.
 fn frame_on(
     ctx: &GpuContext,
@@ -91,12 +102,7 @@ fn a_still_frame_on_the_search_lists_is_the_captured_frame() {
             "{name}"
         );
         // The negative: every list emptied, its bounds kept; taken, and the frame moves.
-        let mut emptied = (*built).clone();
-        for l in &mut emptied.lists {
-            l.entries.clear();
-            l.offsets.fill(0);
-        }
-        let (wrong, captures) = frame_on(&ctx, &scene, lists, &emptied);
+        let (wrong, captures) = frame_on(&ctx, &scene, lists, &emptied(&built));
         assert!(!captures, "{name}");
         assert!(
             frame_bits(&captured, true) != frame_bits(&wrong, true),
@@ -187,13 +193,8 @@ fn an_update_on_the_search_lists_is_the_captured_frame() {
         assert!(frame_bits(&fresh, true) == frame_bits(&f, true), "{what}");
     }
     // The negative: every list emptied, its bounds kept; taken, and the frame moves.
-    let mut emptied = (*built_b).clone();
-    for l in &mut emptied.lists {
-        l.entries.clear();
-        l.offsets.fill(0);
-    }
     let (_, mut r) = first_frame(&ctx, &a, camera, options(lists), "mug");
-    let update = r.update_geometry_with_lists(&ctx, &b, camera, &emptied);
+    let update = r.update_geometry_with_lists(&ctx, &b, camera, &emptied(&built_b));
     let wrong = frame_after(&ctx, &mut r, update);
     assert!(wrong.lists_uploaded);
     assert!(frame_bits(&fresh, true) != frame_bits(&wrong, true));
