@@ -569,7 +569,9 @@ impl FrameRenderer {
                     list_size: *requested,
                     ..*options
                 };
+                let t = Instant::now();
                 let wanted = FramePlan::resolve_list_size(scene, camera, &wanted);
+                log::debug!("lists' face size resolved: {:.2?}", t.elapsed());
                 let same_size = wanted.list_size == options.list_size;
                 if !same_size {
                     log::debug!(
