@@ -306,6 +306,45 @@ pub fn clip(poly: &Poly, kind: u32, k: f32) -> Poly {
     out
 }
 
+/// [`clip`] of the triangle `t` by each `(kind, k)` of `planes` in turn, the same polygon bit for
+/// bit: while a plane has every vertex inside, `clip` returns its input, so the triangle stays
+/// as it is (no copy); the first plane with every vertex outside gives the empty polygon (and
+/// so does every `clip` after it); only from the first plane that splits the triangle on is
+/// `clip` run.
+fn clip_triangle(t: &[Vec3; 3], planes: impl IntoIterator<Item = (u32, f32)>) -> Poly {
+    let mut planes = planes.into_iter();
+    while let Some((kind, k)) = planes.next() {
+        let f = t.map(|p| plane_value(p, kind, k));
+        if f.iter().all(|&v| v >= 0.0) {
+            continue;
+        }
+        if f.iter().all(|&v| v < 0.0) {
+            return Poly {
+                p: [Vec3::ZERO; MAX_POLY],
+                n: 0,
+                overflow: false,
+            };
+        }
+        let mut q = clip(&Poly::triangle(t), kind, k);
+        for (kind, k) in planes {
+            q = clip(&q, kind, k);
+        }
+        return q;
+    }
+    Poly::triangle(t)
+}
+
+/// The four side planes of the face-local rect `k = (u_min, u_max, v_min, v_max)` in [`clip`]'s
+/// order.
+fn rect_planes(k: [f32; 4]) -> [(u32, f32); 4] {
+    [
+        (PLANE_U_MIN, k[0]),
+        (PLANE_U_MAX, k[1]),
+        (PLANE_V_MIN, k[2]),
+        (PLANE_V_MAX, k[3]),
+    ]
+}
+
 fn max_abs(v: Vec3) -> f32 {
     v.x.abs().max(v.y.abs()).max(v.z.abs())
 }
@@ -421,10 +460,7 @@ pub fn error_budget(local: &[Vec3; 3]) -> f32 {
 /// its six planes; face-independent, the box is symmetric).
 pub fn near_centre(local: &[Vec3; 3], e: f32) -> bool {
     let h = NEAR_BOX * e;
-    let mut p = Poly::triangle(local);
-    for kind in PLANE_BOX..PLANE_BOX + 6 {
-        p = clip(&p, kind, h);
-    }
+    let p = clip_triangle(local, (PLANE_BOX..PLANE_BOX + 6).map(|kind| (kind, h)));
     p.n > 0 || p.overflow
 }
 
@@ -518,11 +554,7 @@ fn face_extent(l: &[Vec3; 3], margins: Margins) -> Option<Extent> {
         return Some(whole);
     }
     let d = if sound { 1.0 + FACE_DILATION } else { 1.0 };
-    let mut p = Poly::triangle(l);
-    p = clip(&p, PLANE_U_MIN, -d);
-    p = clip(&p, PLANE_U_MAX, d);
-    p = clip(&p, PLANE_V_MIN, -d);
-    p = clip(&p, PLANE_V_MAX, d);
+    let p = clip_triangle(l, rect_planes([-d, d, -d, d]));
     if p.overflow {
         return Some(whole);
     }
@@ -595,28 +627,60 @@ pub fn texel_bound(
     y: u32,
     size: u32,
 ) -> Option<(f32, f32)> {
-    texel_bound_edges(local, &edges(local), rect, x, y, size)
+    let f = [
+        face_coord(x, size),
+        face_coord(x + 1, size),
+        face_coord(y, size),
+        face_coord(y + 1, size),
+    ];
+    texel_bound_edges(local, &edges(local), rect, texel_centre_unit(x, y, size), f)
 }
 
-/// [`texel_bound`] with the triangle's [`edges`] `g` made once for its texels.
+/// A face size's texel values that step 5 reads for every (triangle, texel): each texel's
+/// unit centre direction ([`texel_centre_unit`]) and each texel edge's [`face_coord`], made once
+/// per list build and looked up, the same values bit for bit.
+struct TexelGrid {
+    size: u32,
+    /// `face_coord(k, size)`, `k = 0..=size`.
+    coord: Vec<f32>,
+    /// `texel_centre_unit(x, y, size)` at `y * size + x`.
+    w: Vec<Vec3>,
+}
+
+impl TexelGrid {
+    fn new(size: u32) -> Self {
+        let w = (0..size * size)
+            .map(|i| texel_centre_unit(i % size, i / size, size))
+            .collect();
+        TexelGrid {
+            size,
+            coord: (0..=size).map(|k| face_coord(k, size)).collect(),
+            w,
+        }
+    }
+
+    /// Texel `(x, y)`'s centre direction and its edges' face coordinates `(x0, x1, y0, y1)`.
+    fn texel(&self, x: u32, y: u32) -> (Vec3, [f32; 4]) {
+        let (c, i) = (&self.coord, (y * self.size + x) as usize);
+        let (x, y) = (x as usize, y as usize);
+        (self.w[i], [c[x], c[x + 1], c[y], c[y + 1]])
+    }
+}
+
+/// [`texel_bound`] with the triangle's [`edges`] `g` made once for its texels, for the texel
+/// whose unit centre direction is `w` and whose edges' face coordinates are `f`
+/// (`(x0, x1, y0, y1)`, [`TexelGrid::texel`]).
 fn texel_bound_edges(
     local: &[Vec3; 3],
     g: &Edges,
     rect: &FaceRect,
-    x: u32,
-    y: u32,
-    size: u32,
+    w: Vec3,
+    f: [f32; 4],
 ) -> Option<(f32, f32)> {
-    let w = texel_centre_unit(x, y, size);
     let mut q = Poly::triangle(local);
     if !rect.whole {
         let m = rect.m;
-        let k = [
-            face_coord(x, size) - m,
-            face_coord(x + 1, size) + m,
-            face_coord(y, size) - m,
-            face_coord(y + 1, size) + m,
-        ];
+        let k = [f[0] - m, f[1] + m, f[2] - m, f[3] + m];
         match texel_cone_edges(g, k, w, rect.e) {
             TexelCone::Outside => return None,
             TexelCone::Inside(lo, hi) => return Some((lo, hi)),
@@ -626,10 +690,7 @@ fn texel_bound_edges(
             }
             TexelCone::Clip => {}
         }
-        q = clip(&q, PLANE_U_MIN, k[0]);
-        q = clip(&q, PLANE_U_MAX, k[1]);
-        q = clip(&q, PLANE_V_MIN, k[2]);
-        q = clip(&q, PLANE_V_MAX, k[3]);
+        q = clip_triangle(local, rect_planes(k));
         if q.overflow {
             q = Poly::triangle(local);
         } else if q.n == 0 {
@@ -824,6 +885,22 @@ pub struct FacePairs<'a> {
 /// `(triangle, face, extent)` of a pair.
 type Pair = (u32, u32, Extent);
 
+/// [`FacePairs`] without its borrow of the triangles ([`FacePairs::into_parts`]): kept while the
+/// caller moves the triangles, and made whole again over the same triangles
+/// ([`FacePairs::from_parts`]) for another face size.
+pub struct PairParts {
+    centre: Vec3,
+    kept: u64,
+    pairs: Vec<Pair>,
+}
+
+impl PairParts {
+    /// The CMO centre the pairs were found at.
+    pub fn centre(&self) -> Vec3 {
+        self.centre
+    }
+}
+
 impl<'a> FacePairs<'a> {
     /// The pairs of every triangle `t` with `captured[t]`, every face, at `centre`.
     pub fn new(triangles: &'a [[Vec3; 3]], captured: &[bool], centre: Vec3) -> Self {
@@ -841,8 +918,11 @@ impl<'a> FacePairs<'a> {
                     if !captured.get(t).copied().unwrap_or(false) {
                         continue;
                     }
+                    // `face_local` of each face: the differences once, then each face's
+                    // exact permutation of them.
+                    let d = tri.map(|v| v - centre);
                     for face in 0..FACE_COUNT {
-                        let l = face_local(tri, centre, face);
+                        let l = d.map(|v| to_face_local(face, v));
                         if sound && face_missed(&l) {
                             continue;
                         }
@@ -860,6 +940,26 @@ impl<'a> FacePairs<'a> {
             centre,
             kept: per.iter().map(|p| p.0).sum(),
             pairs: per.into_iter().flat_map(|p| p.1).collect(),
+        }
+    }
+
+    /// The pairs without the triangles they were found on.
+    pub fn into_parts(self) -> PairParts {
+        PairParts {
+            centre: self.centre,
+            kept: self.kept,
+            pairs: self.pairs,
+        }
+    }
+
+    /// The pairs `parts` over `triangles`, which must be the triangles they were found on
+    /// ([`FacePairs::new`]): the pairs name triangles by index.
+    pub fn from_parts(triangles: &'a [[Vec3; 3]], parts: PairParts) -> Self {
+        FacePairs {
+            triangles,
+            centre: parts.centre,
+            kept: parts.kept,
+            pairs: parts.pairs,
         }
     }
 
@@ -886,6 +986,7 @@ impl<'a> FacePairs<'a> {
     pub fn lists(&self, size: u32, depth: u32) -> TexelLists {
         let n = size as usize;
         let texels = FACE_COUNT as usize * n * n;
+        let grid = TexelGrid::new(size);
         // Step 5 over chunks of pairs in parallel: `(texel, entry)` in any order, since step 6
         // sorts a texel's entries by `(lo, triangle)`, a total order (one entry per triangle).
         let found: Vec<Vec<(u32, Entry)>> = (self.pairs.par_chunks(PAIR_CHUNK))
@@ -895,7 +996,7 @@ impl<'a> FacePairs<'a> {
                     let rect = x.rect(face, size);
                     let local = face_local(&self.triangles[t as usize], self.centre, face);
                     let base = face as usize * n * n;
-                    rect_entries(&local, &rect, size, |x, y, lo, hi| {
+                    rect_entries(&local, &rect, &grid, |x, y, lo, hi| {
                         let texel = (base + y as usize * n + x as usize) as u32;
                         out.push((
                             texel,
@@ -972,9 +1073,10 @@ const PAIR_CHUNK: usize = 1024;
 fn rect_entries(
     local: &[Vec3; 3],
     rect: &FaceRect,
-    size: u32,
+    grid: &TexelGrid,
     mut f: impl FnMut(u32, u32, f32, f32),
 ) {
+    let size = grid.size;
     let g = edges(local);
     for ty in (rect.y0..=rect.y1).step_by(TILE as usize) {
         for tx in (rect.x0..=rect.x1).step_by(TILE as usize) {
@@ -985,7 +1087,8 @@ fn rect_entries(
             }
             for y in ty..=y1 {
                 for x in tx..=x1 {
-                    if let Some((lo, hi)) = texel_bound_edges(local, &g, rect, x, y, size) {
+                    let (w, fc) = grid.texel(x, y);
+                    if let Some((lo, hi)) = texel_bound_edges(local, &g, rect, w, fc) {
                         f(x, y, lo, hi);
                     }
                 }
@@ -1443,6 +1546,154 @@ mod tests {
         let mut bad = cut.clone();
         bad.entries[0].lo = f32::from_bits(bad.entries[0].lo.to_bits() + 1);
         assert!(check_truncation(&full, &bad).is_err());
+    }
+
+    #[test]
+    fn a_triangle_clipped_at_once_is_clipped_plane_by_plane() {
+        let bits = |p: &Poly| {
+            let v: Vec<[u32; 3]> = p.p.iter().map(|v| v.to_array().map(f32::to_bits)).collect();
+            (v, p.n, p.overflow)
+        };
+        let mut rng = Rng(57);
+        let (mut split, mut empty, mut whole) = (0, 0, 0);
+        for i in 0..4000 {
+            let a = rng.vec(1.0) + Vec3::Z * 2.0;
+            let t = match i % 3 {
+                // Collinear corners: a sliver.
+                0 => [a, a + Vec3::X * 0.3, a + Vec3::X * 0.6],
+                _ => [a, a + rng.vec(0.8), a + rng.vec(0.8)],
+            };
+            let k = [rng.range(-1.2, 0.4), rng.range(-0.4, 1.2)];
+            let planes: Vec<(u32, f32)> = match i % 2 {
+                0 => rect_planes([k[0], k[1], k[0], k[1]]).to_vec(),
+                _ => (PLANE_BOX..PLANE_BOX + 6)
+                    .map(|kind| (kind, k[1] + 1.5))
+                    .collect(),
+            };
+            let mut q = Poly::triangle(&t);
+            for &(kind, k) in &planes {
+                q = clip(&q, kind, k);
+            }
+            let p = clip_triangle(&t, planes.iter().copied());
+            assert_eq!(bits(&p), bits(&q), "triangle {i}");
+            match p.n {
+                0 => empty += 1,
+                3 if p == Poly::triangle(&t) => whole += 1,
+                _ => split += 1,
+            }
+        }
+        // Every case taken: whole, empty and split by a plane.
+        assert!(
+            split > 100 && empty > 100 && whole > 100,
+            "{split} {empty} {whole}"
+        );
+        // Negative: a plane left out gives another polygon.
+        let t = [
+            Vec3::new(-0.5, -0.5, 1.0),
+            Vec3::new(0.5, -0.5, 1.0),
+            Vec3::new(0.0, 0.5, 1.0),
+        ];
+        let all = clip_triangle(&t, rect_planes([-0.2, 0.2, -0.2, 0.2]));
+        let three = clip_triangle(&t, rect_planes([-0.2, 0.2, -0.2, 0.2]).into_iter().take(3));
+        assert_ne!(bits(&all), bits(&three));
+    }
+
+    #[test]
+    fn the_grid_holds_each_texels_values() {
+        let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+        for size in [8u32, 32, 48] {
+            let grid = TexelGrid::new(size);
+            for y in 0..size {
+                for x in 0..size {
+                    let (w, f) = grid.texel(x, y);
+                    let want = [x, x + 1, y, y + 1].map(|k| face_coord(k, size).to_bits());
+                    assert_eq!(
+                        bits(w),
+                        bits(texel_centre_unit(x, y, size)),
+                        "{x} {y} {size}"
+                    );
+                    assert_eq!(f.map(f32::to_bits), want, "{x} {y} {size}");
+                }
+            }
+        }
+        // Negative: a texel's values are not its transposed neighbour's.
+        let grid = TexelGrid::new(32);
+        assert_ne!(grid.texel(3, 5), grid.texel(5, 3));
+    }
+
+    /// The entries of `lists` in `(texel index, triangle, lo bits, hi bits)`, sorted.
+    fn entry_set(lists: &TexelLists) -> Vec<(usize, u32, u32, u32)> {
+        let mut out = Vec::new();
+        for (i, w) in lists.offsets.windows(2).enumerate() {
+            for e in &lists.entries[w[0] as usize..w[1] as usize] {
+                out.push((i, e.triangle, e.lo.to_bits(), e.hi.to_bits()));
+            }
+        }
+        out.sort_unstable();
+        out
+    }
+
+    #[test]
+    fn the_lists_hold_each_texels_own_bound() {
+        let mut rng = Rng(41);
+        let centre = Vec3::new(0.5, -2.0, 7.0);
+        let tris = test_triangles(&mut rng, centre, 40);
+        let size = 16u32;
+        let lists = capture_lists(&tris, &all(tris.len()), centre, size, u32::MAX);
+        // Each texel's bound found on its own ([`texel_bound`], no grid, no tiles), shifted
+        // `dx` texels along x (0: the texel itself).
+        let direct = |dx: u32| {
+            let mut out = Vec::new();
+            for (t, tri) in tris.iter().enumerate() {
+                for face in 0..FACE_COUNT {
+                    let Some(rect) = face_rect(tri, centre, face, size) else {
+                        continue;
+                    };
+                    let l = face_local(tri, centre, face);
+                    for y in rect.y0..=rect.y1 {
+                        for x in rect.x0..=rect.x1 {
+                            let xs = (x + dx).min(size - 1);
+                            if let Some((lo, hi)) = texel_bound(&l, &rect, xs, y, size) {
+                                let i = ((face * size + y) * size + x) as usize;
+                                out.push((i, t as u32, lo.to_bits(), hi.to_bits()));
+                            }
+                        }
+                    }
+                }
+            }
+            out.sort_unstable();
+            out
+        };
+        assert!(!lists.entries.is_empty());
+        assert_eq!(entry_set(&lists), direct(0));
+        // Negative: the neighbour's bounds are not the texel's.
+        assert_ne!(entry_set(&lists), direct(1));
+    }
+
+    #[test]
+    fn pairs_taken_apart_give_the_same_lists() {
+        let mut rng = Rng(31);
+        let centre = Vec3::new(0.5, -2.0, 7.0);
+        let tris = test_triangles(&mut rng, centre, 60);
+        let flags = all(tris.len());
+        let fresh = FacePairs::new(&tris, &flags, centre);
+        let parts = FacePairs::new(&tris, &flags, centre).into_parts();
+        assert_eq!(parts.centre(), centre);
+        let again = FacePairs::from_parts(&tris, parts);
+        for size in [8, 32] {
+            assert_eq!(again.bound(size), fresh.bound(size));
+            assert_eq!(
+                again.lists(size, DEFAULT_DEPTH),
+                fresh.lists(size, DEFAULT_DEPTH)
+            );
+        }
+        // Negative: the parts over other triangles give other lists.
+        let other = test_triangles(&mut rng, centre, 60);
+        let wrong = FacePairs::from_parts(&other, again.into_parts());
+        assert_ne!(
+            wrong.lists(32, DEFAULT_DEPTH),
+            fresh.lists(32, DEFAULT_DEPTH)
+        );
     }
 
     #[test]
