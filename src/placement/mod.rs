@@ -89,7 +89,7 @@ use crate::cpu::options::TraceOptions;
 use crate::cpu::verify::triangle_corners;
 use crate::cpu::{CmoTracer, bounded};
 use crate::cubemap::bounds::{
-    BuiltLists, DEFAULT_DEPTH, FacePairs, ListSize, SHORT_LIST_LENGTH, auto_list_size,
+    BuiltLists, DEFAULT_DEPTH, FacePairs, ListSize, PairParts, SHORT_LIST_LENGTH, auto_list_size,
     list_size_for,
 };
 use crate::reference::Tracer;
@@ -430,9 +430,13 @@ fn search_by(
     let capture = |c: Vec3| scoring_capture(scene, capture_tracer, c, opts.cube_size);
     let mut judge = Judge {
         scorer: &scorer,
-        bounded: bounded.map(|b| BoundedJudge {
-            built: axis_cmo.into_iter().collect(),
-            ..b
+        bounded: bounded.map(|b| {
+            let (built, axis_pairs) = axis_cmo.unzip();
+            BoundedJudge {
+                built: built.into_iter().collect(),
+                axis_pairs,
+                ..b
+            }
         }),
     };
     // The cheapest sets first: one CMO ([`one_cmo`]).
@@ -522,15 +526,25 @@ fn search_by(
     }
 }
 
+/// What [`bvhs_and_axis`] builds: the tracer, the one over what a capture shows, the triangles'
+/// corners and the axis CMO with its pairs.
+type SearchStart = (
+    Tracer,
+    Option<Tracer>,
+    Vec<[Vec3; 3]>,
+    Option<(CmoTracer, KnownPairs)>,
+);
+
 /// The search's BVHs over `world` ([`tracers`] where `shortcuts`, else one over it all), its
 /// triangles' corners ([`triangle_corners`]) and the `bounded` judge's CMO on the reflectors'
-/// axis, built at once: that CMO, the first the judge weighs (and on most scenes the last), needs
-/// the world but not the sample, so its lists are built while the BVHs that sample the rays are.
+/// axis with its pairs, built at once: that CMO, the first the judge weighs (and on most scenes
+/// the last), needs the world but not the sample, so its lists are built while the BVHs that
+/// sample the rays are.
 fn bvhs_and_axis(
     world: WorldGeometry,
     shortcuts: bool,
     bounded: Option<&BoundedJudge>,
-) -> (Tracer, Option<Tracer>, Vec<[Vec3; 3]>, Option<CmoTracer>) {
+) -> SearchStart {
     let corners = triangle_corners(&world);
     let axis = world.axis_centres(1)[0];
     let bvhs = move || {
@@ -540,7 +554,7 @@ fn bvhs_and_axis(
             (Tracer::from_world(world), None)
         }
     };
-    let axis_cmo = || Some(bounded?.cmo(&corners, axis));
+    let axis_cmo = || Some(bounded?.cmo_keeping(&corners, axis));
     let ((tracer, shown), axis_cmo) = rayon::join(bvhs, axis_cmo);
     (tracer, shown, corners, axis_cmo)
 }
@@ -652,6 +666,30 @@ struct BoundedJudge {
     cube: u32,
     /// The CMOs built so far.
     built: Vec<CmoTracer>,
+    /// The walks ([`Judge::walk`]) of the sets [`Judge::left`] traced, by their centres.
+    walked: Vec<(Vec<Vec3>, f64)>,
+    /// The axis CMO's pairs, kept for its lists at another size
+    /// ([`Judge::axis_with_short_lists`]).
+    axis_pairs: Option<KnownPairs>,
+}
+
+/// One CMO's (triangle, face) pairs ([`FacePairs`]) and the pool's node bounds weighed on them so
+/// far, `(face size, nodes)`: another face size's lists at the same centre start from them.
+struct KnownPairs {
+    parts: PairParts,
+    nodes: Vec<(u32, u64)>,
+}
+
+/// The node bound of `pairs` at face size `n`, from `known` where it holds it (added there).
+fn known_nodes(pairs: &FacePairs, known: &mut Vec<(u32, u64)>, n: u32) -> u64 {
+    match known.iter().find(|k| k.0 == n) {
+        Some(k) => k.1,
+        None => {
+            let v = pairs.bound(n).nodes;
+            known.push((n, v));
+            v
+        }
+    }
 }
 
 impl BoundedJudge {
@@ -681,22 +719,33 @@ impl BoundedJudge {
             size,
             cube,
             built: Vec::new(),
+            walked: Vec::new(),
+            axis_pairs: None,
         })
     }
 
     /// The CMO at `c` over lists of the triangles `corners` ([`triangle_corners`]) at the
     /// judge's size (for `auto`, its rule at `c`).
     fn cmo(&self, corners: &[[Vec3; 3]], c: Vec3) -> CmoTracer {
+        self.cmo_keeping(corners, c).0
+    }
+
+    /// [`BoundedJudge::cmo`] and the pairs and node bounds it weighed.
+    fn cmo_keeping(&self, corners: &[[Vec3; 3]], c: Vec3) -> (CmoTracer, KnownPairs) {
         let t0 = Instant::now();
         let pairs = FacePairs::new(corners, &self.captured, c);
-        let size =
-            (self.size).unwrap_or_else(|| auto_list_size(self.cube, 1, |n| pairs.bound(n).nodes));
+        let mut nodes = Vec::new();
+        let size = (self.size).unwrap_or_else(|| {
+            auto_list_size(self.cube, 1, |n| known_nodes(&pairs, &mut nodes, n))
+        });
         let lists = pairs.lists(size, DEFAULT_DEPTH);
         log::debug!(
             "cmo placement: lists at {size} for {c}: {:.2?}",
             t0.elapsed()
         );
-        CmoTracer::bounded(c, lists, corners.to_vec(), TraceOptions::default().params())
+        let cmo = CmoTracer::bounded(c, lists, corners.to_vec(), TraceOptions::default().params());
+        let parts = pairs.into_parts();
+        (cmo, KnownPairs { parts, nodes })
     }
 }
 
@@ -720,24 +769,23 @@ impl<'a> Judge<'a> {
     /// the CMO; else `None`. Shorter lists cost the capture more than the rule's but one CMO less than a
     /// second, and the search for more centres (70 candidate captures) much more.
     fn axis_with_short_lists(
-        &self,
+        &mut self,
         world: &WorldGeometry,
         target: f64,
         axis_share: f64,
     ) -> Option<(u32, Vec<usize>, CmoTracer)> {
-        let b = self.bounded.as_ref().filter(|b| b.size.is_none())?;
+        let corners = &self.scorer.corners;
+        let b = self.bounded.as_mut().filter(|b| b.size.is_none())?;
         let centre = world.axis_centres(1)[0];
-        let pairs = FacePairs::new(&self.scorer.corners, &b.captured, centre);
-        // Each size's pool bound once, for both rules.
-        let mut known: Vec<(u32, u64)> = Vec::new();
-        let mut nodes = |n| match known.iter().find(|k| k.0 == n) {
-            Some(k) => k.1,
-            None => {
-                let v = pairs.bound(n).nodes;
-                known.push((n, v));
-                v
-            }
+        // The pairs and bounds the axis CMO's lists weighed, where it was built at this centre.
+        let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+        let known = (b.axis_pairs.take()).filter(|k| bits(k.parts.centre()) == bits(centre));
+        let (pairs, mut known) = match known {
+            Some(k) => (FacePairs::from_parts(corners, k.parts), k.nodes),
+            None => (FacePairs::new(corners, &b.captured, centre), Vec::new()),
         };
+        // Each size's pool bound once, for both rules.
+        let mut nodes = |n| known_nodes(&pairs, &mut known, n);
         let rule = auto_list_size(b.cube, 1, &mut nodes);
         let size = list_size_for(b.cube, 1, SHORT_LIST_LENGTH, &mut nodes);
         if size <= rule {
@@ -794,21 +842,42 @@ impl<'a> Judge<'a> {
         }
         self.build(centres);
         let set = (self.bounded.as_ref()).map_or_else(Vec::new, |b| b.set(centres));
-        self.unresolved(&set)
+        let (left, walk) = self.traced(&set);
+        if let Some(b) = &mut self.bounded {
+            b.walked.push((centres.to_vec(), walk));
+        }
+        left
     }
 
     /// The sample's rays (indices) that the bounded twin over `set` leaves unresolved.
     fn unresolved(&self, set: &[&CmoTracer]) -> Vec<usize> {
-        (0..self.scorer.rays.len())
+        self.traced(set).0
+    }
+
+    /// The sample traced by the bounded twin over `set` once: the rays (indices) it leaves
+    /// unresolved, and the texels and cells its pyramid march tests per ray, summed over a ray's
+    /// traces ([`Judge::walk`]).
+    fn traced(&self, set: &[&CmoTracer]) -> (Vec<usize>, f64) {
+        let rays = self.scorer.rays.len();
+        let per: Vec<(bool, u64)> = (0..rays)
             .into_par_iter()
-            .filter(|&i| {
+            .map(|i| {
                 let ray = self.scorer.world_ray(i);
+                let work = Cell::new(0u64);
                 let r = crate::cpu::multi::trace_world_ray(set, &ray, None, |tr, s| {
-                    crate::cpu::multi::trace_one(tr, s, Traversal::Mip)
+                    let r = crate::cpu::multi::trace_one(tr, s, Traversal::Mip);
+                    let c = r.counters;
+                    work.set(work.get() + u64::from(c.texels) + u64::from(c.cells));
+                    r
                 });
-                r.status == MultiStatus::Unresolved
+                (r.status == MultiStatus::Unresolved, work.get())
             })
-            .collect()
+            .collect();
+        let left = (per.iter().enumerate())
+            .filter(|(_, p)| p.0)
+            .map(|(i, _)| i);
+        let work: u64 = per.iter().map(|p| p.1).sum();
+        (left.collect(), work as f64 / rays.max(1) as f64)
     }
 
     /// Builds the bounded criterion's lists of the `centres` not built yet, in parallel (none
@@ -834,30 +903,19 @@ impl<'a> Judge<'a> {
     /// [`Judge::build`] built for the bounded criterion, else over `centre()` (one CMO, the
     /// centre criterion's capture, hits unverified).
     fn walk(&self, centres: &[Vec3], centre: impl FnOnce() -> CmoTracer) -> f64 {
-        let own;
-        let set: Vec<&CmoTracer> = match &self.bounded {
-            Some(b) => b.set(centres),
-            None => {
-                own = centre();
-                vec![&own]
-            }
+        let Some(b) = &self.bounded else {
+            return self.traced(&[&centre()]).1;
         };
-        let rays = self.scorer.rays;
-        let work: u64 = (0..rays.len())
-            .into_par_iter()
-            .map(|i| {
-                let ray = self.scorer.world_ray(i);
-                let work = Cell::new(0u64);
-                crate::cpu::multi::trace_world_ray(&set, &ray, None, |tr, s| {
-                    let r = crate::cpu::multi::trace_one(tr, s, Traversal::Mip);
-                    let c = r.counters;
-                    work.set(work.get() + u64::from(c.texels) + u64::from(c.cells));
-                    r
-                });
-                work.get()
-            })
-            .sum();
-        work as f64 / rays.len().max(1) as f64
+        // A set [`Judge::left`] traced has its walk.
+        let bits = |v: &[Vec3]| {
+            v.iter()
+                .map(|c| c.to_array().map(f32::to_bits))
+                .collect::<Vec<_>>()
+        };
+        match b.walked.iter().find(|w| bits(&w.0) == bits(centres)) {
+            Some(w) => w.1,
+            None => self.traced(&b.set(centres)).1,
+        }
     }
 }
 
