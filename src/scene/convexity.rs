@@ -75,23 +75,20 @@ fn lock_memo() -> std::sync::MutexGuard<'static, Vec<(u128, Analysis)>> {
     MEMO.lock().unwrap_or_else(|e| e.into_inner())
 }
 
-/// Two independent 64-bit hashes of the mesh's bits (positions, normals, triangles, with their
-/// lengths): the key of [`MEMO`].
+/// The 128-bit XXH3 hash of the mesh's bits (positions, normals, triangles, each list after its
+/// length), streamed as three byte slices: the key of [`MEMO`]. A scene asks for it several
+/// times per frame and per placement search, so it must cost little beside the mesh's own
+/// transform (SipHash fed element by element took longer than the search's lists on a scanned
+/// reflector).
 fn content_key(positions: &[Vec3], normals: &[Vec3], triangles: &[[u32; 3]]) -> u128 {
-    use std::hash::{Hash, Hasher};
-    let hash = |seed: u64| {
-        let mut h = std::collections::hash_map::DefaultHasher::new();
-        seed.hash(&mut h);
-        for list in [positions, normals] {
-            list.len().hash(&mut h);
-            for p in list {
-                p.to_array().map(f32::to_bits).hash(&mut h);
-            }
-        }
-        triangles.hash(&mut h);
-        h.finish()
-    };
-    (u128::from(hash(0x9e37_79b9_7f4a_7c15)) << 64) | u128::from(hash(0x2545_f491_4f6c_dd1d))
+    let mut h = xxhash_rust::xxh3::Xxh3::new();
+    for list in [positions, normals] {
+        h.update(&(list.len() as u64).to_le_bytes());
+        h.update(bytemuck::cast_slice(list));
+    }
+    h.update(&(triangles.len() as u64).to_le_bytes());
+    h.update(bytemuck::cast_slice(triangles));
+    h.digest128()
 }
 
 /// Whether the vertex normals of a closed mesh point into it (common in exported files): the
@@ -502,6 +499,37 @@ pub fn max_normal_deviation(positions: &[Vec3], normals: &[Vec3], triangles: &[[
 mod tests {
     use super::*;
     use crate::scene::shapes;
+
+    #[test]
+    fn the_memo_key_tells_every_bit_of_the_mesh() {
+        let p = vec![Vec3::new(1.0, 2.0, 3.0), Vec3::new(-1.0, 0.5, 0.0), Vec3::Z];
+        let n = vec![Vec3::Y; 3];
+        let t = vec![[0u32, 1, 2]];
+        let key = content_key(&p, &n, &t);
+        assert_eq!(key, content_key(&p.clone(), &n.clone(), &t.clone()));
+        // One bit of a position, a normal or an index; a zero's sign; an element moved from one
+        // list to the next (the lengths are hashed too).
+        let mut q = p.clone();
+        q[1].x = f32::from_bits(q[1].x.to_bits() ^ 1);
+        let mut m = n.clone();
+        m[2].y += f32::EPSILON;
+        let mut z = p.clone();
+        z[1].z = -0.0;
+        let others = [
+            content_key(&q, &n, &t),
+            content_key(&p, &m, &t),
+            content_key(&p, &n, &[[0, 2, 1]]),
+            content_key(&z, &n, &t),
+            content_key(
+                &p[..2],
+                &[p[2]].iter().chain(&n).copied().collect::<Vec<_>>(),
+                &t,
+            ),
+        ];
+        for (i, k) in others.iter().enumerate() {
+            assert_ne!(*k, key, "change {i}");
+        }
+    }
 
     fn convex(part: &crate::scene::MeshPart) -> bool {
         is_convex(&part.positions, &part.normals, &part.triangles)
