@@ -854,9 +854,9 @@ impl<'a> Judge<'a> {
         self.traced(set).0
     }
 
-    /// The sample traced by the bounded twin over `set` once: the rays (indices) it leaves
-    /// unresolved, and the texels and cells its pyramid march tests per ray, summed over a ray's
-    /// traces ([`Judge::walk`]).
+    /// The sample traced once over the CMOs `set` by the pyramid march's twin: the rays
+    /// (indices) it leaves unresolved, and the texels and cells it tests per ray, summed over a
+    /// ray's traces ([`Judge::walk`]).
     fn traced(&self, set: &[&CmoTracer]) -> (Vec<usize>, f64) {
         let rays = self.scorer.rays.len();
         let per: Vec<(bool, u64)> = (0..rays)
