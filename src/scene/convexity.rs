@@ -78,8 +78,8 @@ fn lock_memo() -> std::sync::MutexGuard<'static, Vec<(u128, Analysis)>> {
 /// The 128-bit XXH3 hash of the mesh's bits (positions, normals, triangles, each list after its
 /// length), streamed as three byte slices: the key of [`MEMO`]. A scene asks for it several
 /// times per frame and per placement search, so it must cost little beside the mesh's own
-/// transform (SipHash fed element by element took longer than the search's lists on a scanned
-/// reflector).
+/// transform (two SipHashes fed one coordinate at a time were the largest item in a profile of
+/// blender-mtl's search).
 fn content_key(positions: &[Vec3], normals: &[Vec3], triangles: &[[u32; 3]]) -> u128 {
     let mut h = xxhash_rust::xxh3::Xxh3::new();
     for list in [positions, normals] {
