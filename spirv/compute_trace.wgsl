@@ -225,7 +225,7 @@ fn lane_test(tr: TestRay, nc: NodeCtx, j: u32, bounded: bool) -> LaneTest {
     if rect.x0 >= rect.x1 || rect.y0 >= rect.y1 {
         return none;
     }
-    let iv = cell_interval(tr.la, tr.ld, rect, range.x, range.y);
+    let iv = cell_interval_entry(tr.la, tr.ld, rect, range.x, range.y);
     // Then one r_max over the range that counts, against the texel's distance or the cell's
     // least distance: `texel_not_in_front` (crossed, `r_max >= D`) at the texel level, else the
     // inflated interval and `r_bounds(..).y < min` (skip iff entirely in front; a NaN keeps the
@@ -260,6 +260,15 @@ fn lane_test(tr: TestRay, nc: NodeCtx, j: u32, bounded: bool) -> LaneTest {
     return LaneTest(select(!(r_max < bound), r_max >= bound, cl == 0u), iv.t0);
 }
 
+// `cell_interval` without its exit side, which no reader here takes (`lane_test` reads the ends,
+// `advance`'s texel classification the ends and the entry side): `frustum_entry`.
+fn cell_interval_entry(la: vec3<f32>, ld: vec3<f32>, cell: CellRect, t_lo: f32, t_hi: f32) -> Interval {
+    let n = cell.size;
+    let inc = owned_sides(edge_inclusive_bits(cell.face), cell.x0, cell.x1, cell.y0, cell.y1, n);
+    let f = vec4<f32>(face_coord(cell.x0, n), face_coord(cell.x1, n), face_coord(cell.y0, n), face_coord(cell.y1, n));
+    return frustum_entry(la, ld, f, inc, t_lo, t_hi);
+}
+
 // The children of the ray's current node that pass `lane_test`'s interval test (all of its
 // conditions but the range test), as bits j: with one ray per lane (`main_lanes1`, `main_wave`)
 // `lane_test` runs on these alone.
@@ -268,15 +277,17 @@ fn lane_test(tr: TestRay, nc: NodeCtx, j: u32, bounded: bool) -> LaneTest {
 // leaves t0 = the largest entry bound and t1 = the smallest exit bound (comparisons skip a NaN
 // bound in every order; +0 and -0 compare equal) and drops the interval where any plane does.
 // So clipping [lo, hi] by each column's two planes and each row's two once, and combining them
-// per child with max / min, gives every comparison of `lane_test` the same outcome: 2 (8 + 5)
-// + 1 planes per node (the long side's 8 slabs and the short side's 5, below) instead of 5 per
-// child. The per-ray cost this saves:
+// per child with max / min, gives every comparison of `lane_test` the same outcome: the long
+// side's 8 slabs and the short side's 5 (below) and the face's plane per node instead of 5
+// planes per child. A slab's upper plane is the next slab's lower one negated, so each plane is
+// found once (`Bound`: 9 + 6 per node). The per-ray cost this saves:
 // `benches/results/lavapipe-shaders.md`, "What was kept".
 //
 // `keys` (a constant: the wave layout): each crossed child's key, the entry t that `lane_test`
-// would return (its interval's largest entry bound, here `pair_key`: the same bound values, so
-// equal to it, up to the sign of a zero, which no comparison of the pick tells apart), is kept at
-// `keys_one[level * MAX_CELLS_ONE + j]`, since the lane that tests the child may be another.
+// would return (its interval's largest entry bound, here the pair's t0: the same bound values,
+// so equal to it, up to the sign of a zero, which no comparison of the pick tells apart), is
+// kept at `keys_one[level * MAX_CELLS_ONE + j]`, since the lane that tests the child may be
+// another.
 fn children_crossed(st: ptr<function, RayState>, nc: NodeCtx, keys: bool) -> u32 {
     let n = trace_config.size;
     let la = (*st).la;
@@ -284,48 +295,67 @@ fn children_crossed(st: ptr<function, RayState>, nc: NodeCtx, keys: bool) -> u32
     let range = (*st).range;
     let edge = edge_inclusive_bits((*st).cur_face);
     let g = nc.g;
-    let start = Clip(Interval(range.x, range.y, SIDE_SEGMENT, SIDE_SEGMENT), true);
-    let z = clip_plane(start, la.z, ld.z, false, 4u);
+    let z = clip_entry(Entry(range.x, range.y, SIDE_SEGMENT, true), la.z, ld.z, false, SIDE_Z);
     // The grid's long side and its short side: at most 8 and 5 children (a node has at most 32
     // children and at most 8 on a side: 8x4 and 4x8 below the root, up to 5x5 at the root). So
     // 8 x 5 pairs cover every child, where 8 columns x 8 rows would take 64.
     let long_x = g.x >= g.y;
-    let x = Axis(la.x, ld.x, nc.nd.x * g.x, g.x, nc.cd.y, nc.span.x, edge, SIDE_X0);
-    let y = Axis(la.y, ld.y, nc.nd.y * g.y, g.y, nc.cd.z, nc.span.y, edge >> 2u, SIDE_Y0);
+    let x = Axis(la.x, ld.x, nc.nd.x * g.x, g.x, nc.cd.y, nc.span.x, (edge & 1u) != 0u, (edge & 2u) != 0u);
+    let y = Axis(la.y, ld.y, nc.nd.y * g.y, g.y, nc.cd.z, nc.span.y, (edge & 4u) != 0u, (edge & 8u) != 0u);
     let long = pick_axis(x, y, long_x);
     let short = pick_axis(y, x, long_x);
-    // The short side's slabs, written out (a loop would keep them in an array, read lane by lane).
+    // The short side's planes and slabs, written out (a loop would keep them in an array, read
+    // lane by lane).
+    let nf = f32(n);
+    let b0 = bound(short, la.z, ld.z, n, nf, 0u);
+    let b1 = bound(short, la.z, ld.z, n, nf, 1u);
+    let b2 = bound(short, la.z, ld.z, n, nf, 2u);
+    let b3 = bound(short, la.z, ld.z, n, nf, 3u);
+    let b4 = bound(short, la.z, ld.z, n, nf, 4u);
+    let b5 = bound(short, la.z, ld.z, n, nf, 5u);
     let s = array<Slab, 5>(
-        axis_slab(start, short, la.z, ld.z, n, 0u),
-        axis_slab(start, short, la.z, ld.z, n, 1u),
-        axis_slab(start, short, la.z, ld.z, n, 2u),
-        axis_slab(start, short, la.z, ld.z, n, 3u),
-        axis_slab(start, short, la.z, ld.z, n, 4u),
+        dropped_above(slab_between(range, short, b0, b1, 0u)),
+        dropped_above(slab_between(range, short, b1, b2, 1u)),
+        dropped_above(slab_between(range, short, b2, b3, 2u)),
+        dropped_above(slab_between(range, short, b3, b4, 3u)),
+        dropped_above(slab_between(range, short, b4, b5, 4u)),
     );
     // Child (column cx, row cy) is bit cx + cy * g.x: a step along the long side moves the bit
     // by `dl`, along the short side by `ds`.
     let dl = select(g.x, 1u, long_x);
     let ds = select(1u, g.x, long_x);
-    let texel = nc.cl == 0u;
-    let reach = seg_reach((*st).seg.a, (*st).seg.d);
-    let lvl = (*st).level;
+    let p = PairCtx(range.x, range.y, abs(range.x), seg_reach((*st).seg.a, (*st).seg.d), nc.cl == 0u, (*st).level * MAX_CELLS_ONE);
+    // The short side's slabs' bit offsets and bits (a slab past the grid's side, whose pairs
+    // never pass, may wrap; a child's bit j is below 32).
+    let o1 = ds;
+    let o2 = 2u * ds;
+    let o3 = 3u * ds;
+    let o4 = 4u * ds;
+    let r1 = 1u << (o1 & 31u);
+    let r2 = 1u << (o2 & 31u);
+    let r3 = 1u << (o3 & 31u);
+    let r4 = 1u << (o4 & 31u);
     var bits = 0u;
+    var lower = bound(long, la.z, ld.z, n, nf, 0u);
     for (var l = 0u; l < 8u; l++) {
-        let c = with_face(axis_slab(start, long, la.z, ld.z, n, l), z);
+        let upper = bound(long, la.z, ld.z, n, nf, l + 1u);
+        let c = dropped_above(with_face(slab_between(range, long, lower, upper, l), z));
+        lower = upper;
+        // Column l's first bit: l * dl is at most 28.
         let j = l * dl;
-        bits |= pair_keyed(c, s[0], texel, range, reach, keys, lvl, j & 31u);
-        bits |= pair_keyed(c, s[1], texel, range, reach, keys, lvl, (j + ds) & 31u);
-        bits |= pair_keyed(c, s[2], texel, range, reach, keys, lvl, (j + 2u * ds) & 31u);
-        bits |= pair_keyed(c, s[3], texel, range, reach, keys, lvl, (j + 3u * ds) & 31u);
-        bits |= pair_keyed(c, s[4], texel, range, reach, keys, lvl, (j + 4u * ds) & 31u);
+        bits |= pair_keyed(c, s[0], p, keys, j, 1u, 0u);
+        bits |= pair_keyed(c, s[1], p, keys, j, r1, o1);
+        bits |= pair_keyed(c, s[2], p, keys, j, r2, o2);
+        bits |= pair_keyed(c, s[3], p, keys, j, r3, o3);
+        bits |= pair_keyed(c, s[4], p, keys, j, r4, o4);
     }
     return bits;
 }
 
-// One side of a node's children grid as `slab` reads it: the face-local ray's components on
+// One side of a node's children grid as `bound` reads it: the face-local ray's components on
 // that axis, the node's first child index on it, the children on it, the level's size on it
-// (the child exists below it), the span in texels, the face's edge bits (`owned_sides`) and the
-// lower plane's side (SIDE_X0 or SIDE_Y0).
+// (the child exists below it), the span in texels, and whether the face owns its lower and its
+// upper edge on this axis (`edge_inclusive_bits`, as `owned_sides` reads them).
 struct Axis {
     a: f32,
     d: f32,
@@ -333,8 +363,8 @@ struct Axis {
     g: u32,
     size: u32,
     span: u32,
-    edge: u32,
-    side: u32,
+    own_lo: bool,
+    own_hi: bool,
 }
 
 fn pick_axis(a: Axis, b: Axis, take_a: bool) -> Axis {
@@ -344,10 +374,45 @@ fn pick_axis(a: Axis, b: Axis, take_a: bool) -> Axis {
     return b;
 }
 
-// The slab of child `i` along `ax`.
-fn axis_slab(start: Clip, ax: Axis, az: f32, dz: f32, n: u32, i: u32) -> Slab {
-    let c = ax.first + i;
-    return slab(start, ax.a, ax.d, az, dz, c, ax.span, n, ax.edge, ax.side, i < ax.g && c < ax.size);
+// The lower plane `al + t be >= 0` of column or row `i` on `ax` (`az`, `dz`: the face-local
+// ray's z components), at texel k = min((first + i) span, n), as `clip_plane` reads it: its
+// quotient `-al / be`, the signs of `be`, and whether the plane, where parallel, drops the
+// interval as the slab's lower side (`drop_lower`, `cell_interval`'s side rule: owned unless
+// it is the face's lower edge and the face does not own it) or as slab i - 1's upper side
+// (`drop_upper`: that plane is (-al, -be), owned only where it is the face's upper edge and the
+// face owns it).
+// The upper side's own operands, f a_z - a and f d_z - d, are exactly -al and -be (IEEE
+// rounding is symmetric; both are +0 where al or be is 0), so its quotient is this one up to the
+// sign of a zero, its `be > 0` is `neg` here, its `be < 0` is `pos`, its parallel case and NaN
+// are this plane's and its `al < 0` is `al > 0` here.
+struct Bound {
+    b: f32,
+    pos: bool,
+    neg: bool,
+    drop_lower: bool,
+    drop_upper: bool,
+    k: u32,
+}
+
+fn bound(ax: Axis, az: f32, dz: f32, n: u32, nf: f32, i: u32) -> Bound {
+    let k = min((ax.first + i) * ax.span, n);
+    // `face_coord(k, n)`, with f32(n) as `nf`.
+    let f = f32(2u * k) / nf - 1.0;
+    let al = ax.a - prod(f, az);
+    let be = ax.d - prod(f, dz);
+    let pos = be > 0.0;
+    let neg = be < 0.0;
+    let zero = al == 0.0;
+    // `owned_sides`: an interior lower side is owned, an interior upper side not, a face edge
+    // as the face owns it.
+    let inc_lower = (k != 0u) | ax.own_lo;
+    let inc_upper = (k == n) & ax.own_hi;
+    // `clip_plane`'s drop, `parallel & (al < 0 | (al == 0 & !inc) | is_nan(al))` with parallel
+    // = `!(be > 0) & !(be < 0)`, is `!(be > 0 | be < 0 | al > 0 | (al == 0 & inc))`: a NaN
+    // fails every comparison, and any other al is below, at or above 0.
+    let drop_lower = !(pos | neg | (al > 0.0) | (zero & inc_lower));
+    let drop_upper = !(pos | neg | (al < 0.0) | (zero & inc_upper));
+    return Bound(-al / be, pos, neg, drop_lower, drop_upper, k);
 }
 
 // One column's or row's part of `children_crossed`: [t0, t1] clipped by its two planes, and
@@ -358,51 +423,67 @@ struct Slab {
     ok: bool,
 }
 
-// Column or row `c` (of cells `span` texels wide) on the axis whose face-local ray components
-// are `a`, `d` (`az`, `dz`: the z ones), with `cell_interval`'s planes and side rules: `edge`'s
-// bits 0 and 1 say whether the face's lower and upper edges on this axis belong to it
-// (`owned_sides`), `side` is the lower plane's index (SIDE_X0 or SIDE_Y0); `exists`: the child
-// index is in the node and the level.
-fn slab(start: Clip, a: f32, d: f32, az: f32, dz: f32, c: u32, span: u32, n: u32, edge: u32, side: u32, exists: bool) -> Slab {
-    let k0 = min(c * span, n);
-    let k1 = min((c + 1u) * span, n);
-    let f0 = face_coord(k0, n);
-    let f1 = face_coord(k1, n);
-    var r = clip_plane(start, a - prod(f0, az), d - prod(f0, dz), select(true, (edge & 1u) != 0u, k0 == 0u), side);
-    r = clip_plane(r, prod(f1, az) - a, prod(f1, dz) - d, select(false, (edge & 2u) != 0u, k1 == n), side + 1u);
-    return Slab(r.iv.t0, r.iv.t1, exists && k0 < k1 && r.keep);
+// Column or row `i` on `ax`, between its lower plane `lo` and the next one `hi`: the piece's
+// `range` clipped by `lo` and then by `hi` negated, `clip_plane`'s comparisons and selects in
+// its order (an entering plane raises t0 where its bound is above it, a leaving one lowers t1),
+// kept where neither drops it, the child index is in the node and the level and the span is not
+// empty (k0 < k1).
+fn slab_between(range: vec2<f32>, ax: Axis, lo: Bound, hi: Bound, i: u32) -> Slab {
+    let t0 = select(range.x, lo.b, lo.pos & (lo.b > range.x));
+    let t1 = select(range.y, lo.b, lo.neg & (lo.b < range.y));
+    let u0 = select(t0, hi.b, hi.neg & (hi.b > t0));
+    let u1 = select(t1, hi.b, hi.pos & (hi.b < t1));
+    let exists = (i < ax.g) & (ax.first + i < ax.size) & (lo.k < hi.k);
+    return Slab(u0, u1, exists & !lo.drop_lower & !hi.drop_upper);
 }
 
 // The long side's slab `c` clipped by the face's plane `z` as well, once for its five pairs:
 // the largest entry and smallest exit bound of the two, and kept where both are. The bounds are
-// never NaN (`clip_plane` takes a bound only where it compares), so max and min give each pair's
+// never NaN (`clip_entry` takes a bound only where it compares), so max and min give each pair's
 // bounds the same values in this order as in any other.
-fn with_face(c: Slab, z: Clip) -> Slab {
-    return Slab(max(c.t0, z.iv.t0), min(c.t1, z.iv.t1), c.ok && z.keep);
+fn with_face(c: Slab, z: Entry) -> Slab {
+    return Slab(max(c.t0, z.t0), min(c.t1, z.t1), c.ok & z.keep);
 }
 
-// `pair_bit` at bit `j`, keeping the child's key where it passes and `keys` (a constant) asks.
-fn pair_keyed(col: Slab, row: Slab, texel: bool, range: vec2<f32>, reach: f32, keys: bool, lvl: u32, j: u32) -> u32 {
-    let b = pair_bit(col, row, texel, range, reach);
-    if keys && b != 0u {
-        key_set(true, lvl, j, pair_key(col, row));
-    }
-    return b << j;
+// A slab whose child range does not exist or is dropped, or whose t0 is above F32_MAX or t1
+// below -F32_MAX, with t0 = +inf. Each of its pairs' t0 is then +inf, which fails both of the
+// pair's tests, as `ok` false did (`crosses`: +inf < t1 is false; `inflated`: a bound beyond
+// F32_MAX is refused), so the pair test needs no `ok`, and `inflated`'s refusal (t0 above F32_MAX or t1
+// below -F32_MAX, the pair's t0 being its slabs' larger t0 and its t1 their smaller t1) is the
+// pair's t0 above F32_MAX.
+fn dropped_above(c: Slab) -> Slab {
+    let fine = c.ok & (c.t0 <= F32_MAX) & (c.t1 >= -F32_MAX);
+    return Slab(select(f32_inf(), c.t0, fine), c.t1, fine);
 }
 
-// The entry t of the child at (`col`, `row`; `col` clipped by the face's plane, `with_face`):
-// the largest of its planes' entry bounds.
-fn pair_key(col: Slab, row: Slab) -> f32 {
-    return max(col.t0, row.t0);
+// What each pair test of a node reads besides its two slabs: the piece's range, |range.x|, the
+// segment's reach (`seg_reach`), whether the children are texels, and where the node's keys go
+// in `keys_one` (level * MAX_CELLS_ONE).
+struct PairCtx {
+    lo: f32,
+    hi: f32,
+    abs_lo: f32,
+    reach: f32,
+    texel: bool,
+    keys_at: u32,
 }
 
-// 1 where the child at (`col`, `row`) passes: `crosses` at the texel level, `inflated` above
-// (none where a slab, or the face's plane in `col`, drops the interval).
-fn pair_bit(col: Slab, row: Slab, texel: bool, range: vec2<f32>, reach: f32) -> u32 {
-    let t0 = pair_key(col, row);
+// The child at (`col`, `row`; `col` clipped by the face's plane, `with_face`; both
+// `dropped_above`), bit j = `first` + `off` (`row_bit` = 1 << off), where it passes: `crosses`
+// at the texel level, `inflated` above; its key kept where `keys` (a constant) asks.
+// `inflated`'s operations in its order, its refusal of a bound beyond F32_MAX folded into the
+// outcome (the values it then skips are compared, never kept).
+fn pair_keyed(col: Slab, row: Slab, p: PairCtx, keys: bool, first: u32, row_bit: u32, off: u32) -> u32 {
+    let t0 = max(col.t0, row.t0);
     let t1 = min(col.t1, row.t1);
-    let ok = select(inflated(Interval(t0, t1, SIDE_SEGMENT, SIDE_SEGMENT), range.x, range.y, reach).ok, t0 < t1, texel);
-    return select(0u, 1u, ok && col.ok && row.ok);
+    let te = min(max(t0, t1), p.hi);
+    let e = CELL_INFLATE * ((((te - p.lo) + p.abs_lo) + abs(te)) + p.reach);
+    let inflated_ok = (t0 <= F32_MAX) & (max(t0 - e, p.lo) <= min(t1 + e, p.hi));
+    let ok = select(inflated_ok, t0 < t1, p.texel);
+    if keys && ok {
+        keys_one[p.keys_at + first + off] = t0;
+    }
+    return select(0u, row_bit << first, ok);
 }
 
 // Sets up the search at the current (piece, face), advancing past exhausted ones; ends the
@@ -557,7 +638,7 @@ fn advance(st: ptr<function, RayState>, pick: u32, bounded: bool) {
         let range = (*st).range;
         let face = (*st).cur_face;
         let tex = Texel(face, cx, cy);
-        let iv = cell_interval((*st).la, (*st).ld, cell_rect_texel(face, cx, cy, trace_config.size), range.x, range.y);
+        let iv = cell_interval_entry((*st).la, (*st).ld, cell_rect_texel(face, cx, cy, trace_config.size), range.x, range.y);
         var o: Outcome;
         if bounded {
             // Through a local: naga 30 cannot pass a pointer to a field behind a pointer.
@@ -568,7 +649,9 @@ fn advance(st: ptr<function, RayState>, pick: u32, bounded: bool) {
             (*st).triangle = b.pick.triangle;
             (*st).bary = b.pick.bary;
         } else {
-            o = classify((*st).k, (*st).seg, tex, iv);
+            // Without `--strict`'s code: compute never runs it (`method::METHOD_OPTIONS` refuses
+            // the flag, `ComputePath::new` a strict `TraceOptions`).
+            o = classify_with((*st).k, (*st).seg, tex, iv, false);
         }
         if o.kind != 0u {
             (*st).trace_done = true;

@@ -665,6 +665,33 @@ fn compute_refuses_approximate_criteria() {
     finish_gpu(ctx);
 }
 
+/// The kernel carries no strict code (`--strict` is the fragment pass's): a renderer asked for
+/// strict mode is refused with the flag named, and the same options without it are accepted (the
+/// negative).
+#[test]
+fn compute_refuses_strict_mode() {
+    let ctx = compute_context();
+    let (scene, camera) = compute_scene("default", 16);
+    let options = |strict: bool| RenderOptions {
+        method: Method::Compute,
+        trace: TraceOptions {
+            strict,
+            ..TraceOptions::centre()
+        },
+        ..RenderOptions::default()
+    };
+    let err = GpuRenderer::new(&ctx, &scene, &camera, options(true)).err();
+    assert!(
+        err.is_some_and(|e| e.to_string().contains("--strict")),
+        "strict mode was accepted"
+    );
+    assert!(
+        GpuRenderer::new(&ctx, &scene, &camera, options(false)).is_ok(),
+        "the centre criterion without strict mode was refused"
+    );
+    finish_gpu(ctx);
+}
+
 // ---------------------------------------------------------------------------------------------
 // Subgroup sizes, in child processes (the driver reads LP_NATIVE_VECTOR_WIDTH when it loads).
 // Every child runs with `GALLIUM_OVERRIDE_CPU_CAPS=sse4.1`: at 128 bits on a CPU with AVX2 or

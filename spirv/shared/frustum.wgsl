@@ -148,6 +148,42 @@ fn frustum_interval(la: vec3<f32>, ld: vec3<f32>, f: vec4<f32>, owned: vec4<bool
     return interval_empty();
 }
 
+// `frustum_interval` without the exit side, for readers that take only the ends and the entry
+// side: the same planes from the same operands in the same order, each by `clip_entry`;
+// `interval_empty()`'s ends and entry where a plane drops the interval. The exit is
+// SIDE_SEGMENT.
+fn frustum_entry(la: vec3<f32>, ld: vec3<f32>, f: vec4<f32>, owned: vec4<bool>, t_lo: f32, t_hi: f32) -> Interval {
+    var c = Entry(t_lo, t_hi, SIDE_SEGMENT, true);
+    c = clip_entry(c, la.x - prod(f.x, la.z), ld.x - prod(f.x, ld.z), owned.x, SIDE_X0);
+    c = clip_entry(c, prod(f.y, la.z) - la.x, prod(f.y, ld.z) - ld.x, owned.y, SIDE_X1);
+    c = clip_entry(c, la.y - prod(f.z, la.z), ld.y - prod(f.z, ld.z), owned.z, SIDE_Y0);
+    c = clip_entry(c, prod(f.w, la.z) - la.y, prod(f.w, ld.z) - ld.y, owned.w, SIDE_Y1);
+    c = clip_entry(c, la.z, ld.z, false, SIDE_Z);
+    return Interval(select(f32_inf(), c.t0, c.keep), select(-f32_inf(), c.t1, c.keep), select(SIDE_SEGMENT, c.entry, c.keep), SIDE_SEGMENT);
+}
+
+// An interval's ends and entry side being clipped, and whether every plane so far keeps it.
+struct Entry {
+    t0: f32,
+    t1: f32,
+    entry: u32,
+    keep: bool,
+}
+
+// `clip_plane` without the exit side: its comparisons and selects on the same quotient (an
+// entering plane, be > 0, raises t0 and sets the entry side where its bound is above t0, a
+// leaving one, be < 0, lowers t1 where below). Its drop, `parallel & (al < 0 | (al == 0 & !inc)
+// | is_nan(al))` with parallel = `!(be > 0) & !(be < 0)`, is `!(be > 0 | be < 0 | al > 0 | (al
+// == 0 & inc))`: a NaN fails every comparison, and any other al is below, at or above 0.
+fn clip_entry(c: Entry, al: f32, be: f32, inc: bool, k: u32) -> Entry {
+    let b = -al / be;
+    let pos = be > 0.0;
+    let neg = be < 0.0;
+    let enter = pos & (b > c.t0);
+    let drop = !(pos | neg | (al > 0.0) | ((al == 0.0) & inc));
+    return Entry(select(c.t0, b, enter), select(c.t1, b, neg & (b < c.t1)), select(c.entry, k, enter), c.keep & !drop);
+}
+
 // An interval being clipped by the planes `alpha + t beta >= 0` in turn.
 struct Clip {
     iv: Interval,

@@ -296,11 +296,12 @@ fn face_order(t0: array<f32, FACE_COUNT>) -> FaceList {
 // `cell_interval` of a whole face (`cell_rect_face`), without the rectangle's arithmetic: its
 // side planes at face coordinates -1 and 1 (`face_coord(0, n)` and `face_coord(n, n)`, exactly,
 // for every size) and its edges owned as `edge_inclusive_bits` says (`owned_sides` of the whole
-// face): the same operands in the same order, so the same bits.
+// face): the same operands in the same order, so the same bits. Its exit side is not kept
+// (`frustum_entry`): `faces_crossed`, its one reader, takes t0 and whether the face is crossed.
 fn face_interval(face: u32, la: vec3<f32>, ld: vec3<f32>, lo: f32, hi: f32) -> Interval {
     let e = edge_inclusive_bits(face);
     let owned = vec4<bool>((e & 1u) != 0u, (e & 2u) != 0u, (e & 4u) != 0u, (e & 8u) != 0u);
-    return frustum_interval(la, ld, vec4<f32>(-1.0, 1.0, -1.0, 1.0), owned, lo, hi);
+    return frustum_entry(la, ld, vec4<f32>(-1.0, 1.0, -1.0, 1.0), owned, lo, hi);
 }
 
 fn texel_interval(seg: Segment, t: Texel, size: u32, lo: f32, hi: f32) -> Interval {

@@ -764,7 +764,9 @@ const NAMED_CALLERS: &[(&str, &str, &[&str])] = &[
     (COMP, "ray_bits", &["trace_queued", "trace_queued"]),
     (COMP, "pick_one", &["trace_queued"]),
     (COMP, "advance", &["trace_queued"]),
-    (COMP, "classify", &["advance", "trace_walk"]),
+    // `advance` classifies without the strict code; `classify` and `trace_mip` are the shared
+    // tracer's, which no compute entry point reaches.
+    (COMP, "classify_with", &["advance", "classify", "trace_mip"]),
     (COMP, "classify_candidate", &["classify_with"]),
     (COMP, "hit_shade", &["trace_queued"]),
     (

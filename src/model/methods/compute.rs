@@ -70,7 +70,7 @@ pub const COMPUTE_BLOCKS: &[Block] = &[
     // One traversal step: descend, backtrack, next face, or classify.
     b("advance", COMPUTE, &["advance"]),
     // The exact classification of a texel candidate (inside `advance` at level 1).
-    b("classify", COMPUTE, &["classify"]),
+    b("classify", COMPUTE, &["classify_with"]),
     // Shading a hit for the record.
     b("shade", COMPUTE, &["hit_shade"]),
     // A piece's faces, found on its first visit inside `enter_face` (six frustum intervals and

@@ -625,6 +625,14 @@ impl ComputePath {
         let (ctx, cmo, scene, gbuffer) = (i.ctx, i.cmo, i.scene, i.gbuffer);
         let (params, records, (width, height)) = (i.params, i.records, i.gbuffer.extent());
         check_device(ctx)?;
+        if i.options.trace.strict {
+            // The kernel carries no strict code (`spirv/compute_trace.wgsl`, `advance`), and
+            // its twin would run it: refused as `--strict` is.
+            return Err(VkError::Usage {
+                what: COMPUTE_TRACE.name.to_string(),
+                detail: "strict mode (--strict) applies only to --method fragment".to_string(),
+            });
+        }
         let (lane_cap, entry) = ray_lanes(ctx, i.options.compute_layout)?;
         let entry = if bounded(cmo) {
             bounded_entry(entry)
